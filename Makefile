@@ -1,0 +1,44 @@
+# yore: `make test` and `make demo` do the whole set-up (Debian packages, .venv, the package)
+# and are incremental: the CMake build folder build/ is kept between runs.
+
+PYTHON ?= python3
+VENV := .venv
+VPY := $(VENV)/bin/python
+OUT ?= yore-out
+# Everything the installed package is built from; a change re-runs the (incremental) install.
+SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null) \
+           CMakeLists.txt pyproject.toml
+
+.PHONY: setup system test demo bench clean
+
+setup: system $(VENV)/.installed
+
+system:
+	@PYTHON=$(PYTHON) bash tools/install_system_deps.sh
+
+$(VPY):
+	$(PYTHON) -m venv $(VENV)
+
+# Build requirements live in the venv: the install below runs without build isolation so that
+# scikit-build-core reuses the persistent CMake folder.
+$(VENV)/.deps: $(VPY) pyproject.toml
+	$(VPY) -m pip install --quiet --upgrade pip
+	$(VPY) -m pip install --quiet "scikit-build-core>=0.10" "pybind11>=2.13" "numpy>=1.23" \
+	    "meshio>=5.3" "tqdm>=4.60" "pytest>=7" "matplotlib>=3.6"
+	@touch $@
+
+$(VENV)/.installed: $(VENV)/.deps $(SOURCES)
+	$(VPY) -m pip install --no-build-isolation --no-deps ".[test]"
+	@touch $@
+
+test: setup
+	$(VPY) -m pytest -q tests
+
+demo: setup
+	$(VPY) examples/hanging_cloth.py --out $(OUT)
+
+bench: setup
+	$(VPY) -m benchmarks.explicit_step --out bench-results
+
+clean:
+	rm -rf build $(VENV) $(OUT) bench-results

@@ -1,0 +1,220 @@
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "yore/cloth.hpp"
+
+#include <pybind11/stl.h>
+
+#include <sstream>
+#include <stdexcept>
+
+namespace yore::bindings {
+namespace {
+
+constexpr double kDefaultMass = 1e-3;  // kg per vertex
+
+/// Per-vertex masses from a scalar (uniform) or an (n,) array, or from an areal density.
+Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
+                              const Positions& positions, const Faces* faces) {
+  const Eigen::Index n = positions.rows();
+  if (!density.is_none()) {
+    if (!mass.is_none()) {
+      throw std::invalid_argument("give either mass (kg per vertex) or density (kg/m²), not both");
+    }
+    if (faces == nullptr) throw std::invalid_argument("density needs faces; give mass instead");
+    const double rho = density.cast<double>();
+    if (!std::isfinite(rho) || rho <= 0.0) {
+      std::ostringstream msg;
+      msg << "density must be finite and > 0 kg/m², got " << rho;
+      throw std::invalid_argument(msg.str());
+    }
+    validate_mesh(positions, *faces);  // lumping reads the faces
+    return rho * lumped_vertex_areas(positions, *faces);
+  }
+  if (mass.is_none()) return Eigen::VectorXd::Constant(n, kDefaultMass);
+  const auto array = as_float_array(mass, "mass");
+  if (array.ndim() == 0) return Eigen::VectorXd::Constant(n, *array.data());
+  return to_vector(mass, "mass", n);
+}
+
+/// The springs of a cloth, seen from Python (a view; keeps its cloth alive).
+struct SpringsView {
+  Cloth* cloth;
+};
+
+py::dict energy_dict(const EnergyTerms& terms) {
+  py::dict out;
+  out["kinetic"] = terms.kinetic;
+  out["spring"] = terms.spring;
+  out["gravity"] = terms.gravity;
+  out["total"] = terms.total();
+  return out;
+}
+
+std::vector<std::int32_t> vertices_in_state(const Cloth& cloth, VertexState state) {
+  std::vector<std::int32_t> out;
+  for (std::size_t i = 0; i < cloth.vertex_states().size(); ++i) {
+    if (cloth.vertex_states()[i] == state) out.push_back(static_cast<std::int32_t>(i));
+  }
+  return out;
+}
+
+}  // namespace
+
+void bind_cloth(py::module_& m) {
+  py::class_<SpringsView>(m, "Springs", "The springs of a cloth (structure of arrays).")
+      .def("__len__", [](const SpringsView& view) { return view.cloth->springs().size(); })
+      .def_property_readonly(
+          "ends",
+          [](const SpringsView& view) {
+            const SpringSet& springs = view.cloth->springs();
+            Edges ends(static_cast<Eigen::Index>(springs.size()), 2);
+            for (std::size_t s = 0; s < springs.size(); ++s) {
+              ends(static_cast<Eigen::Index>(s), 0) = springs.first[s];
+              ends(static_cast<Eigen::Index>(s), 1) = springs.second[s];
+            }
+            return read_only_copy(ends);
+          },
+          "s×2 int32 vertex indices of each spring's ends.")
+      .def_property(
+          "rest",
+          [](const SpringsView& view) { return read_only_copy(view.cloth->springs().rest_length); },
+          [](SpringsView& view, const py::handle& rest) {
+            view.cloth->set_rest_lengths(
+                to_vector(rest, "rest", static_cast<Eigen::Index>(view.cloth->springs().size())));
+          },
+          "(s,) rest lengths, metres; assignable (finite, > 0).")
+      .def_property_readonly(
+          "kind",
+          [](const SpringsView& view) {
+            const auto& kinds = view.cloth->springs().kind;
+            std::vector<std::int8_t> codes(kinds.size());
+            for (std::size_t s = 0; s < kinds.size(); ++s) {
+              codes[s] = static_cast<std::int8_t>(kinds[s]);
+            }
+            return read_only_copy(codes);
+          },
+          "(s,) int8 kind of each spring: 0 structural, 1 bending.")
+      .def_property_readonly(
+          "stiffness",
+          [](const SpringsView& view) { return read_only_copy(view.cloth->springs().stiffness); },
+          "(s,) stiffness, N/m.")
+      .def_property_readonly(
+          "damping",
+          [](const SpringsView& view) { return read_only_copy(view.cloth->springs().damping); },
+          "(s,) damping along each spring, N·s/m.");
+
+  py::class_<Cloth>(m, "Cloth", R"doc(
+A mass-spring cloth on a triangle mesh, wired as the paper's Fig. 1: structural springs on every
+edge, bending springs across every interior edge between the two opposite vertices.
+
+Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0, damping=0.0,
+      drag=0.0, density=None)
+  vertices n×3 (m); faces f×3 integer indices; mass kg per vertex, a scalar (uniform, the paper's
+  choice; 1e-3 when neither mass nor density is given) or an (n,) array; density kg/m² instead of
+  mass lumps mass by area (a third of each face to each corner); stiffnesses N/m per spring
+  (bend_stiffness=0 creates no bending springs); damping N·s/m along each spring; drag 1/s, a force
+  -drag·m·v on each vertex (still air). Raises ValueError on a bad mesh or value.)doc")
+      .def(py::init([](const py::handle& vertices, const py::handle& faces, const py::object& mass,
+                       double stretch_stiffness, double bend_stiffness, double damping,
+                       double drag, const py::object& density) {
+             const Positions v = to_rows3(vertices, "vertices");
+             const Faces f = to_faces(faces);
+             const Eigen::VectorXd masses = vertex_masses(mass, density, v, &f);
+             return Cloth(v, f, masses, stretch_stiffness, bend_stiffness, damping, drag);
+           }),
+           py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("mass") = py::none(),
+           py::arg("stretch_stiffness") = 100.0, py::arg("bend_stiffness") = 100.0,
+           py::arg("damping") = 0.0, py::arg("drag") = 0.0, py::arg("density") = py::none())
+      .def_static(
+          "from_springs",
+          [](const py::handle& vertices, const py::handle& edges, const py::object& rest_lengths,
+             const py::object& mass, double stiffness, double damping, double drag) {
+            const Positions v = to_rows3(vertices, "vertices");
+            const Edges e = to_edges(edges);
+            const Eigen::VectorXd rest = rest_lengths.is_none()
+                                             ? Eigen::VectorXd()
+                                             : to_vector(rest_lengths, "rest_lengths", e.rows());
+            const Eigen::VectorXd masses = vertex_masses(mass, py::none(), v, nullptr);
+            return Cloth::from_springs(v, e, rest, masses, stiffness, damping, drag);
+          },
+          py::arg("vertices"), py::arg("edges"), py::kw_only(),
+          py::arg("rest_lengths") = py::none(), py::arg("mass") = py::none(),
+          py::arg("stiffness") = 100.0, py::arg("damping") = 0.0, py::arg("drag") = 0.0,
+          R"doc(A plain spring network with no faces (chains, single springs).
+vertices n×3 (m); edges s×2 vertex indices; rest_lengths (s,) metres, default the distances in
+vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; drag 1/s.)doc")
+      .def_property(
+          "positions", [](const Cloth& cloth) { return read_only_copy(cloth.positions()); },
+          [](Cloth& cloth, const py::handle& value) {
+            cloth.set_positions(to_rows3(value, "positions", cloth.vertex_count()));
+          },
+          "n×3 positions, metres (a read-only copy; assign a whole array to change them).")
+      .def_property(
+          "velocities", [](const Cloth& cloth) { return read_only_copy(cloth.velocities()); },
+          [](Cloth& cloth, const py::handle& value) {
+            cloth.set_velocities(to_rows3(value, "velocities", cloth.vertex_count()));
+          },
+          "n×3 velocities, m/s (assignable; fixed and driven vertices keep theirs).")
+      .def_property_readonly("masses", [](const Cloth& cloth) { return read_only_copy(cloth.masses()); },
+                             "(n,) masses, kg.")
+      .def_property_readonly("faces", [](const Cloth& cloth) { return read_only_copy(cloth.faces()); },
+                             "f×3 int32 faces (empty for a spring network).")
+      .def_property_readonly(
+          "springs",
+          py::cpp_function([](Cloth& cloth) { return SpringsView{&cloth}; },
+                           py::keep_alive<0, 1>()),
+          "The springs (ends, rest, kind, ...); a view that keeps its cloth alive.")
+      .def_property_readonly("vertex_count", &Cloth::vertex_count)
+      .def_property_readonly("face_count", &Cloth::face_count)
+      .def_property_readonly("spring_count",
+                             [](const Cloth& cloth) { return cloth.springs().size(); })
+      .def_property_readonly("drag", &Cloth::drag, "Air drag coefficient, 1/s.")
+      .def_property_readonly("time", &Cloth::time, "Simulated time, s.")
+      .def_property_readonly("topology_version", &Cloth::topology_version,
+                             "Changes whenever vertices, springs or the constrained set change.")
+      .def_property_readonly(
+          "fixed_vertices",
+          [](const Cloth& cloth) {
+            return read_only_copy(vertices_in_state(cloth, VertexState::fixed));
+          },
+          "Indices of fixed vertices.")
+      .def_property_readonly(
+          "driven_vertices",
+          [](const Cloth& cloth) {
+            return read_only_copy(vertices_in_state(cloth, VertexState::driven));
+          },
+          "Indices of kinematic (driven) vertices.")
+      .def(
+          "fix",
+          [](Cloth& cloth, const py::handle& indices) {
+            cloth.fix(to_indices(indices, "indices"));
+          },
+          py::arg("indices"), "Fixes vertices: they never move.")
+      .def(
+          "drive_rotation",
+          [](Cloth& cloth, const py::handle& indices, const py::handle& center,
+             const py::handle& axis, double omega) {
+            cloth.drive_rotation(to_indices(indices, "indices"), to_vec3(center, "center"),
+                                 to_vec3(axis, "axis"), omega);
+          },
+          py::arg("indices"), py::arg("center"), py::arg("axis"), py::arg("omega"),
+          R"doc(Makes vertices kinematic: from the current time on they rotate about the axis
+through `center` (m) along `axis` at `omega` rad/s (right-handed), exactly.)doc")
+      .def(
+          "energy",
+          [](const Cloth& cloth, const py::handle& gravity) {
+            return energy_dict(cloth.energy(to_vec3(gravity, "gravity")));
+          },
+          py::arg("gravity"), "Kinetic, spring and gravitational energy (J) as a dict.")
+      .def("stable_time_step", &Cloth::stable_time_step,
+           "Estimated largest stable explicit time step, s (conservative).")
+      .def("__repr__", [](const Cloth& cloth) {
+        std::ostringstream text;
+        text << "<yore.Cloth: " << cloth.vertex_count() << " vertices, " << cloth.face_count()
+             << " faces, " << cloth.springs().size() << " springs, topology "
+             << cloth.topology_version() << ">";
+        return text.str();
+      });
+}
+
+}  // namespace yore::bindings

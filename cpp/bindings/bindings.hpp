@@ -1,0 +1,13 @@
+#pragma once
+// One bind_<topic> function per topic, all called from the single PYBIND11_MODULE in module.cpp.
+
+#include <pybind11/pybind11.h>
+
+namespace yore::bindings {
+
+void bind_springs(pybind11::module_& m);
+void bind_mesh(pybind11::module_& m);
+void bind_cloth(pybind11::module_& m);
+void bind_explicit(pybind11::module_& m);
+
+}  // namespace yore::bindings

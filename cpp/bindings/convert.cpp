@@ -1,0 +1,134 @@
+#include "convert.hpp"
+
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace yore::bindings {
+
+std::string shape_text(const py::array& array) {
+  std::ostringstream text;
+  text << "(";
+  for (py::ssize_t d = 0; d < array.ndim(); ++d) {
+    text << (d ? ", " : "") << array.shape(d);
+  }
+  text << (array.ndim() == 1 ? ",)" : ")");
+  return text.str();
+}
+
+py::array_t<double, py::array::c_style | py::array::forcecast> as_float_array(
+    const py::handle& object, const char* name) {
+  py::array numeric;
+  try {
+    numeric = py::module_::import("numpy").attr("asarray")(object);
+  } catch (const py::error_already_set& error) {
+    throw std::invalid_argument(std::string(name) + " is not an array: " + error.what());
+  }
+  const char kind = numeric.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u' && kind != 'b') {
+    throw std::invalid_argument(std::string(name) + " must be a numeric array, got dtype " +
+                                std::string(py::str(numeric.dtype())));
+  }
+  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(numeric);
+}
+
+Positions to_rows3(const py::handle& object, const char* name, Eigen::Index rows) {
+  const auto array = as_float_array(object, name);
+  if (array.ndim() != 2 || array.shape(1) != 3 || (rows >= 0 && array.shape(0) != rows)) {
+    std::ostringstream msg;
+    msg << name << " must have shape (" << (rows >= 0 ? std::to_string(rows) : std::string("n"))
+        << ", 3), got " << shape_text(array);
+    throw std::invalid_argument(msg.str());
+  }
+  Positions out(array.shape(0), 3);
+  std::copy(array.data(), array.data() + array.size(), out.data());
+  return out;
+}
+
+namespace {
+
+template <int Columns>
+Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> to_index_rows(
+    const py::handle& object, const char* name) {
+  py::array numeric = py::module_::import("numpy").attr("asarray")(object);
+  const char kind = numeric.dtype().kind();
+  if (kind != 'i' && kind != 'u' && !(kind == 'f' && numeric.size() == 0)) {
+    throw std::invalid_argument(std::string(name) + " must be an integer array, got dtype " +
+                                std::string(py::str(numeric.dtype())));
+  }
+  if (numeric.ndim() != 2 || numeric.shape(1) != Columns) {
+    std::ostringstream msg;
+    msg << name << " must have shape (n, " << Columns << "), got " << shape_text(numeric);
+    throw std::invalid_argument(msg.str());
+  }
+  const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
+      numeric);
+  Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> out(wide.shape(0),
+                                                                              Columns);
+  for (py::ssize_t k = 0; k < wide.size(); ++k) {
+    const std::int64_t value = wide.data()[k];
+    if (value < std::numeric_limits<std::int32_t>::min() ||
+        value > std::numeric_limits<std::int32_t>::max()) {
+      std::ostringstream msg;
+      msg << name << " holds the index " << value << ", outside the 32-bit range";
+      throw std::invalid_argument(msg.str());
+    }
+    out.data()[k] = static_cast<std::int32_t>(value);
+  }
+  return out;
+}
+
+}  // namespace
+
+Faces to_faces(const py::handle& object) { return to_index_rows<3>(object, "faces"); }
+
+Edges to_edges(const py::handle& object) { return to_index_rows<2>(object, "edges"); }
+
+Eigen::VectorXd to_vector(const py::handle& object, const char* name, Eigen::Index size) {
+  const auto array = as_float_array(object, name);
+  if (array.ndim() != 1 || (size >= 0 && array.shape(0) != size)) {
+    std::ostringstream msg;
+    msg << name << " must have shape (" << (size >= 0 ? std::to_string(size) : std::string("n"))
+        << ",), got " << shape_text(array);
+    throw std::invalid_argument(msg.str());
+  }
+  Eigen::VectorXd out(array.shape(0));
+  std::copy(array.data(), array.data() + array.size(), out.data());
+  return out;
+}
+
+Eigen::Vector3d to_vec3(const py::handle& object, const char* name) {
+  const Eigen::VectorXd values = to_vector(object, name, 3);
+  return values;
+}
+
+std::vector<std::int32_t> to_indices(const py::handle& object, const char* name) {
+  py::array numeric = py::module_::import("numpy").attr("atleast_1d")(
+      py::module_::import("numpy").attr("asarray")(object));
+  const char kind = numeric.dtype().kind();
+  if (numeric.size() > 0 && kind != 'i' && kind != 'u') {
+    throw std::invalid_argument(std::string(name) + " must be integer vertex indices, got dtype " +
+                                std::string(py::str(numeric.dtype())));
+  }
+  if (numeric.ndim() != 1) {
+    throw std::invalid_argument(std::string(name) + " must be a 1-D list of indices, got shape " +
+                                shape_text(numeric));
+  }
+  const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
+      numeric);
+  std::vector<std::int32_t> out;
+  out.reserve(static_cast<std::size_t>(wide.size()));
+  for (py::ssize_t k = 0; k < wide.size(); ++k) {
+    const std::int64_t value = wide.data()[k];
+    if (value < std::numeric_limits<std::int32_t>::min() ||
+        value > std::numeric_limits<std::int32_t>::max()) {
+      std::ostringstream msg;
+      msg << name << " holds the index " << value << ", outside the 32-bit range";
+      throw std::invalid_argument(msg.str());
+    }
+    out.push_back(static_cast<std::int32_t>(value));
+  }
+  return out;
+}
+
+}  // namespace yore::bindings

@@ -1,0 +1,46 @@
+#include "bindings.hpp"
+#include "yore/build_info.hpp"
+#include "yore/errors.hpp"
+#include "yore/geometry.hpp"
+
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "yore's C++ core (use the `yore` package, not this module)";
+
+  // SimulationDiverged is a RuntimeError that carries where the run failed and a stable dt.
+  // The type lives in the module (no static Python object to outlive the interpreter).
+  py::exception<yore::SimulationDiverged>(m, "SimulationDiverged", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr pointer) {
+    try {
+      if (pointer) std::rethrow_exception(pointer);
+    } catch (const yore::SimulationDiverged& error) {
+      py::object type = py::module_::import("yore._core").attr("SimulationDiverged");
+      py::object instance = type(error.what());
+      instance.attr("step") = error.step();
+      instance.attr("time") = error.time();
+      instance.attr("dt") = error.dt();
+      instance.attr("stable_dt") = error.stable_dt();
+      PyErr_SetObject(type.ptr(), instance.ptr());
+    }
+  });
+
+  m.def(
+      "build_info",
+      [] {
+        auto info = yore::build_info();
+        info["cgal"] = yore::cgal_version();
+        return info;
+      },
+      "Versions of the libraries the core was built and linked against.");
+  m.def("max_threads", &yore::max_threads, "Threads used by the core's parallel loops.");
+  m.def("set_max_threads", &yore::set_max_threads, py::arg("threads"),
+        "Sets the number of threads of the core's parallel loops (>= 1).");
+
+  yore::bindings::bind_springs(m);
+  yore::bindings::bind_mesh(m);
+  yore::bindings::bind_cloth(m);
+  yore::bindings::bind_explicit(m);
+}

@@ -1,0 +1,154 @@
+#pragma once
+/// @file cloth.hpp
+/// The cloth: topology, springs, masses, state, constraints — the one source of truth that every
+/// integrator reads and that strokes change.
+
+#include "yore/mesh.hpp"
+#include "yore/springs.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace yore {
+
+/// How a vertex moves.
+enum class VertexState : std::uint8_t {
+  free = 0,    ///< integrated by the dynamics
+  fixed = 1,   ///< never moves
+  driven = 2,  ///< position prescribed over time (kinematic)
+};
+
+/// Kinematic rotation of a set of vertices about an axis at a constant angular speed.
+struct RotationDriver {
+  std::vector<std::int32_t> vertices;  ///< k driven vertices
+  Positions reference;                 ///< k×3, their positions at start_time, metres
+  Vec3 center;                         ///< a point on the axis, metres
+  Vec3 axis;                           ///< unit axis direction
+  double omega = 0.0;                  ///< angular speed, rad/s (right-handed about axis)
+  double start_time = 0.0;             ///< simulated time when the driver was attached, s
+};
+
+/// Energy of the cloth, joules.
+struct EnergyTerms {
+  double kinetic = 0.0;  ///< ½ Σ m |v|²
+  double spring = 0.0;   ///< Σ ½ k (ℓ − L)²
+  double gravity = 0.0;  ///< −Σ m g·x (zero at the origin)
+  double total() const { return kinetic + spring + gravity; }
+};
+
+/// A mass-spring cloth (or a plain spring network when built by from_springs).
+class Cloth {
+ public:
+  /// Builds a cloth on a triangle mesh: structural springs on every unique edge, bending springs
+  /// across every interior edge between the two opposite vertices (none when bend_stiffness is 0),
+  /// rest lengths from `positions`.
+  /// positions n×3 (m), faces f×3, masses n (kg), stiffnesses N/m, damping N·s/m along each spring,
+  /// drag 1/s (force −drag·m·v on each vertex, still air).
+  /// Throws std::invalid_argument on a bad mesh, non-positive masses or stretch stiffness, or
+  /// negative/non-finite bend stiffness, damping or drag.
+  Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
+        double stretch_stiffness, double bend_stiffness, double damping, double drag);
+
+  /// Builds a plain spring network with no faces. edges s×2; rest_lengths s (m) or empty for the
+  /// distances in `positions`. Throws std::invalid_argument on bad indices, repeated pairs,
+  /// zero rest lengths and bad material values.
+  static Cloth from_springs(const Positions& positions, const Edges& edges,
+                           const Eigen::VectorXd& rest_lengths, const Eigen::VectorXd& masses,
+                           double stiffness, double damping, double drag);
+
+  std::int64_t vertex_count() const { return m_positions.rows(); }
+  std::int64_t face_count() const { return m_faces.rows(); }
+
+  /// n×3 positions, metres.
+  const Positions& positions() const { return m_positions; }
+  /// n×3 velocities, m/s.
+  const Positions& velocities() const { return m_velocities; }
+  /// Replaces all positions (n×3, finite). Throws std::invalid_argument on a bad shape or value.
+  void set_positions(const Positions& positions);
+  /// Replaces all velocities (n×3, finite); constrained vertices keep their prescribed velocity.
+  void set_velocities(const Positions& velocities);
+  /// Mutable state for integrators; does not count as an outside edit.
+  Positions& integrator_positions() { return m_positions; }
+  /// Mutable state for integrators; does not count as an outside edit.
+  Positions& integrator_velocities() { return m_velocities; }
+
+  /// n masses, kg.
+  const Eigen::VectorXd& masses() const { return m_masses; }
+  /// n inverse masses, 1/kg; zero for fixed and driven vertices (they do not respond to forces).
+  const Eigen::VectorXd& inverse_masses() const { return m_inverse_masses; }
+  const Faces& faces() const { return m_faces; }
+  const SpringSet& springs() const { return m_springs; }
+  /// Replaces all rest lengths (s, metres, finite and positive).
+  void set_rest_lengths(const Eigen::VectorXd& rest_lengths);
+  /// Air drag coefficient, 1/s.
+  double drag() const { return m_drag; }
+
+  /// Makes vertices fixed (they never move). Throws std::invalid_argument on an index out of
+  /// range or a vertex that is already driven.
+  void fix(const std::vector<std::int32_t>& vertices);
+  /// Makes vertices kinematic: from now on they rotate about the axis through `center` at omega
+  /// rad/s. Throws std::invalid_argument on bad indices, an already constrained vertex, a zero or
+  /// non-finite axis, or non-finite values.
+  void drive_rotation(const std::vector<std::int32_t>& vertices, const Vec3& center,
+                      const Vec3& axis, double omega);
+  const std::vector<VertexState>& vertex_states() const { return m_vertex_states; }
+  const std::vector<RotationDriver>& drivers() const { return m_drivers; }
+  /// Moves driven vertices to their prescribed positions and velocities at time t (s).
+  void apply_drivers(double time);
+
+  /// Simulated time, s.
+  double time() const { return m_time; }
+  void set_time(double time) { m_time = time; }
+
+  /// Changes whenever the structure of the system changes: vertices, springs or the set of
+  /// constrained vertices. Caches derived from the topology (sparsity patterns, factors) key on it.
+  std::uint64_t topology_version() const { return m_topology_version; }
+  /// Changes on every outside edit of the state or the model (positions, velocities, rest
+  /// lengths, constraints); integrators use it to re-baseline their divergence checks.
+  std::uint64_t edit_count() const { return m_edit_count; }
+
+  /// CSR incidence: the springs touching vertex i are incident_springs()[k] for k in
+  /// [incidence_offsets()[i], incidence_offsets()[i+1]); incident_signs()[k] is +1 where i is
+  /// the spring's first end and −1 where it is the second.
+  const std::vector<std::int32_t>& incidence_offsets() const { return m_incidence_offsets; }
+  const std::vector<std::int32_t>& incident_springs() const { return m_incident_springs; }
+  const std::vector<double>& incident_signs() const { return m_incident_signs; }
+
+  /// Kinetic, spring and gravitational energy for gravity g (m/s²).
+  EnergyTerms energy(const Vec3& gravity) const;
+
+  /// Largest time step (s) for which symplectic Euler is linearly stable, estimated from
+  /// Gershgorin bounds on M^{-1/2} K M^{-1/2} (ω²) and on the damping matrix plus drag (γ):
+  /// h < (√(γ² + 4ω²) − γ) / ω². A conservative estimate: the true limit is at most ~2× larger.
+  double stable_time_step() const;
+
+  /// Whether any spring has non-zero damping.
+  bool has_spring_damping() const;
+
+ private:
+  Cloth() = default;
+  void initialise_state(const Positions& positions, const Eigen::VectorXd& masses, double drag);
+  void rebuild_incidence();
+  void update_inverse_masses();
+  void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
+
+  Positions m_positions;
+  Positions m_velocities;
+  Eigen::VectorXd m_masses;
+  Eigen::VectorXd m_inverse_masses;
+  Faces m_faces;
+  SpringSet m_springs;
+  double m_drag = 0.0;
+  std::vector<VertexState> m_vertex_states;
+  std::vector<RotationDriver> m_drivers;
+  std::vector<std::int32_t> m_incidence_offsets;
+  std::vector<std::int32_t> m_incident_springs;
+  std::vector<double> m_incident_signs;
+  double m_time = 0.0;
+  std::uint64_t m_topology_version = 0;
+  std::uint64_t m_edit_count = 0;
+};
+
+}  // namespace yore

@@ -1,0 +1,32 @@
+#pragma once
+/// @file errors.hpp
+/// Numerical failures that are not bad input.
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace yore {
+
+/// Thrown when a run blows up (non-finite state, or energy growing past its bound). Carries where
+/// it happened and a time step that the stability estimate expects to be stable.
+class SimulationDiverged : public std::runtime_error {
+ public:
+  SimulationDiverged(const std::string& message, std::int64_t step, double time, double dt,
+                     double stable_dt)
+      : std::runtime_error(message), m_step(step), m_time(time), m_dt(dt), m_stable_dt(stable_dt) {}
+  /// Index of the failing step since the integrator was created (0-based).
+  std::int64_t step() const { return m_step; }
+  /// Simulated time at the end of the failing step, s.
+  double time() const { return m_time; }
+  /// Time step in use, s.
+  double dt() const { return m_dt; }
+  /// Estimated stable time step, s.
+  double stable_dt() const { return m_stable_dt; }
+
+ private:
+  std::int64_t m_step;
+  double m_time, m_dt, m_stable_dt;
+};
+
+}  // namespace yore

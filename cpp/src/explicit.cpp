@@ -1,0 +1,314 @@
+#include "yore/explicit.hpp"
+
+#include "yore/errors.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace yore {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Below these sizes a parallel region costs more than it saves (measured in
+// benchmarks/explicit_step.py).
+constexpr std::int64_t kParallelSprings = 20000;
+constexpr std::int64_t kParallelVertices = 4000;
+
+/// Force on each spring's first end (elastic, plus damping when Damped) into `out` (s×3);
+/// returns the total spring energy at the current positions.
+template <bool Damped>
+double spring_forces(const Cloth& cloth, Positions& out) {
+  const SpringSet& springs = cloth.springs();
+  const double* x = cloth.positions().data();
+  const double* v = cloth.velocities().data();
+  const std::int32_t* first = springs.first.data();
+  const std::int32_t* second = springs.second.data();
+  const double* rest = springs.rest_length.data();
+  const double* stiffness = springs.stiffness.data();
+  const double* damping = springs.damping.data();
+  double* f = out.data();
+  const auto count = static_cast<std::int64_t>(springs.size());
+  double energy = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : energy) if (count >= kParallelSprings)
+  for (std::int64_t s = 0; s < count; ++s) {
+    const double* xi = x + 3 * first[s];
+    const double* xj = x + 3 * second[s];
+    const double dx = xi[0] - xj[0], dy = xi[1] - xj[1], dz = xi[2] - xj[2];
+    const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double stretch = length - rest[s];
+    energy += 0.5 * stiffness[s] * stretch * stretch;
+    double* fs = f + 3 * s;
+    if (length == 0.0) {  // direction undefined: no force (see spring_gradient)
+      fs[0] = fs[1] = fs[2] = 0.0;
+      continue;
+    }
+    const double inverse_length = 1.0 / length;
+    double scale = -stiffness[s] * stretch * inverse_length;
+    if constexpr (Damped) {
+      const double* vi = v + 3 * first[s];
+      const double* vj = v + 3 * second[s];
+      const double closing =
+          ((vi[0] - vj[0]) * dx + (vi[1] - vj[1]) * dy + (vi[2] - vj[2]) * dz) * inverse_length;
+      scale -= damping[s] * closing * inverse_length;
+    }
+    fs[0] = scale * dx;
+    fs[1] = scale * dy;
+    fs[2] = scale * dz;
+  }
+  return energy;
+}
+
+}  // namespace
+
+ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options) : m_options(options) {
+  if (!std::isfinite(options.strain_limit) || options.strain_limit < 0.0 ||
+      (options.strain_limit > 0.0 && options.strain_limit < 1.0)) {
+    std::ostringstream msg;
+    msg << "strain_limit must be 0 (off) or a ratio >= 1 (e.g. 1.1), got "
+        << options.strain_limit;
+    throw std::invalid_argument(msg.str());
+  }
+  if (options.strain_limit_passes < 1) {
+    std::ostringstream msg;
+    msg << "strain_limit_passes must be >= 1, got " << options.strain_limit_passes;
+    throw std::invalid_argument(msg.str());
+  }
+  if (!std::isfinite(options.divergence_energy_factor) ||
+      options.divergence_energy_factor <= 0.0) {
+    std::ostringstream msg;
+    msg << "divergence_energy_factor must be finite and > 0, got "
+        << options.divergence_energy_factor;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+void ExplicitIntegrator::prepare(const Cloth& cloth, const Vec3& gravity, double dt) {
+  const Eigen::Index n = cloth.vertex_count();
+  const auto s = static_cast<Eigen::Index>(cloth.springs().size());
+  if (m_forces.rows() != n) m_forces.resize(n, 3);
+  if (m_spring_forces.rows() != s) m_spring_forces.resize(s, 3);
+  if (m_options.strain_limit > 0.0 && m_previous_positions.rows() != n) {
+    m_previous_positions.resize(n, 3);
+  }
+  m_with_spring_damping = cloth.has_spring_damping();
+
+  if (cloth.topology_version() == m_baseline_topology && cloth.edit_count() == m_baseline_edits &&
+      gravity == m_baseline_gravity && dt == m_baseline_dt) {
+    return;
+  }
+  // Re-baseline the divergence check (see advance()).
+  const EnergyTerms energy = cloth.energy(gravity);
+  const Eigen::Vector3d extent =
+      cloth.positions().colwise().maxCoeff() - cloth.positions().colwise().minCoeff();
+  const double diagonal = extent.norm();
+  const double total_mass = cloth.masses().sum();
+  double omega_max = 0.0;
+  for (const RotationDriver& driver : cloth.drivers()) {
+    omega_max = std::max(omega_max, std::abs(driver.omega));
+  }
+  double rest_energy = 0.0;
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    rest_energy += 0.5 * springs.stiffness[k] * springs.rest_length[k] * springs.rest_length[k];
+  }
+  const double scale = energy.kinetic + energy.spring + total_mass * gravity.norm() * diagonal +
+                       0.5 * total_mass * (omega_max * diagonal) * (omega_max * diagonal) +
+                       rest_energy;
+  // Monitored energy: spring energy plus kinetic and gravitational energy of the free vertices.
+  double monitored = energy.spring;
+  const Eigen::VectorXd& inverse_masses = cloth.inverse_masses();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (inverse_masses[i] == 0.0) continue;
+    const double m = cloth.masses()[i];
+    monitored += 0.5 * m * cloth.velocities().row(i).squaredNorm() -
+                 m * cloth.positions().row(i).dot(gravity);
+  }
+  m_energy_limit = monitored + m_options.divergence_energy_factor * scale;
+  m_baseline_topology = cloth.topology_version();
+  m_baseline_edits = cloth.edit_count();
+  m_baseline_gravity = gravity;
+  m_baseline_dt = dt;
+}
+
+double ExplicitIntegrator::compute_forces(const Cloth& cloth, const Vec3& gravity) {
+  const double energy = m_with_spring_damping ? spring_forces<true>(cloth, m_spring_forces)
+                                              : spring_forces<false>(cloth, m_spring_forces);
+  const Eigen::Index n = cloth.vertex_count();
+  const double* v = cloth.velocities().data();
+  const double* m = cloth.masses().data();
+  const double* inverse_mass = cloth.inverse_masses().data();
+  const std::int32_t* offsets = cloth.incidence_offsets().data();
+  const std::int32_t* incident = cloth.incident_springs().data();
+  const double* signs = cloth.incident_signs().data();
+  const double* fs = m_spring_forces.data();
+  double* f = m_forces.data();
+  const double drag = cloth.drag();
+  const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
+  // Gather per vertex instead of scattering per spring: no write conflicts between threads.
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
+  for (Eigen::Index i = 0; i < n; ++i) {
+    double* fi = f + 3 * i;
+    if (inverse_mass[i] == 0.0) {
+      fi[0] = fi[1] = fi[2] = 0.0;
+      continue;
+    }
+    double fx = m[i] * gx, fy = m[i] * gy, fz = m[i] * gz;
+    if (drag > 0.0) {
+      fx -= drag * m[i] * v[3 * i];
+      fy -= drag * m[i] * v[3 * i + 1];
+      fz -= drag * m[i] * v[3 * i + 2];
+    }
+    for (std::int32_t slot = offsets[i]; slot < offsets[i + 1]; ++slot) {
+      const double* fk = fs + 3 * incident[slot];
+      fx += signs[slot] * fk[0];
+      fy += signs[slot] * fk[1];
+      fz += signs[slot] * fk[2];
+    }
+    fi[0] = fx;
+    fi[1] = fy;
+    fi[2] = fz;
+  }
+  return energy;
+}
+
+void ExplicitIntegrator::limit_strain(Cloth& cloth) {
+  // Provot 1995: pull over-stretched structural springs back to the limit, splitting the
+  // correction by inverse mass (momentum-preserving between two free vertices; a fixed or driven
+  // end does not move). Gauss–Seidel, so sequential.
+  const SpringSet& springs = cloth.springs();
+  double* x = cloth.integrator_positions().data();
+  const double* inverse_mass = cloth.inverse_masses().data();
+  const double limit = m_options.strain_limit;
+  std::int64_t corrections = 0;
+  for (int pass = 0; pass < m_options.strain_limit_passes; ++pass) {
+    std::int64_t pass_corrections = 0;
+    for (std::size_t s = 0; s < springs.size(); ++s) {
+      if (springs.kind[s] != SpringKind::structural) continue;
+      const std::int32_t i = springs.first[s], j = springs.second[s];
+      const double wi = inverse_mass[i], wj = inverse_mass[j];
+      if (wi + wj == 0.0) continue;
+      double* xi = x + 3 * i;
+      double* xj = x + 3 * j;
+      const double dx = xi[0] - xj[0], dy = xi[1] - xj[1], dz = xi[2] - xj[2];
+      const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
+      const double longest = limit * springs.rest_length[s];
+      if (length <= longest) continue;
+      const double scale = (length - longest) / (length * (wi + wj));
+      xi[0] -= wi * scale * dx;
+      xi[1] -= wi * scale * dy;
+      xi[2] -= wi * scale * dz;
+      xj[0] += wj * scale * dx;
+      xj[1] += wj * scale * dy;
+      xj[2] += wj * scale * dz;
+      ++pass_corrections;
+    }
+    corrections += pass_corrections;
+    if (pass_corrections == 0) break;
+  }
+  m_statistics.strain_corrections += corrections;
+}
+
+void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
+                                 std::int64_t steps) {
+  if (!std::isfinite(dt) || dt <= 0.0) {
+    std::ostringstream msg;
+    msg << "dt must be finite and > 0, got " << dt;
+    throw std::invalid_argument(msg.str());
+  }
+  if (!gravity.allFinite()) throw std::invalid_argument("gravity must be finite");
+  if (steps < 0) {
+    std::ostringstream msg;
+    msg << "the number of steps must be >= 0, got " << steps;
+    throw std::invalid_argument(msg.str());
+  }
+  if (steps == 0) return;
+
+  auto start = Clock::now();
+  prepare(cloth, gravity, dt);
+  const Eigen::Index n = cloth.vertex_count();
+  m_checkpoint_positions = cloth.positions();  // same size every call: no reallocation
+  m_checkpoint_velocities = cloth.velocities();
+  const double checkpoint_time = cloth.time();
+  m_statistics.checks_seconds += seconds_since(start);
+
+  const bool limiting = m_options.strain_limit > 0.0;
+  const double* m = cloth.masses().data();
+  const double* inverse_mass = cloth.inverse_masses().data();
+  for (std::int64_t step = 0; step < steps; ++step) {
+    start = Clock::now();
+    const double spring_energy_before = compute_forces(cloth, gravity);
+    m_statistics.forces_seconds += seconds_since(start);
+
+    start = Clock::now();
+    double* x = cloth.integrator_positions().data();
+    double* v = cloth.integrator_velocities().data();
+    const double* f = m_forces.data();
+    if (limiting) m_previous_positions = cloth.positions();
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (inverse_mass[i] == 0.0) continue;
+      for (int c = 0; c < 3; ++c) {
+        v[3 * i + c] += dt * inverse_mass[i] * f[3 * i + c];
+        x[3 * i + c] += dt * v[3 * i + c];
+      }
+    }
+    const double new_time = cloth.time() + dt;
+    cloth.set_time(new_time);
+    cloth.apply_drivers(new_time);
+    m_statistics.update_seconds += seconds_since(start);
+
+    if (limiting) {
+      start = Clock::now();
+      limit_strain(cloth);
+      const double* previous = m_previous_positions.data();
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (inverse_mass[i] == 0.0) continue;
+        for (int c = 0; c < 3; ++c) v[3 * i + c] = (x[3 * i + c] - previous[3 * i + c]) / dt;
+      }
+      m_statistics.constraints_seconds += seconds_since(start);
+    }
+
+    start = Clock::now();
+    double monitored = spring_energy_before;
+    double position_sum = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      position_sum += x[3 * i] + x[3 * i + 1] + x[3 * i + 2];
+      if (inverse_mass[i] == 0.0) continue;
+      const double speed_squared =
+          v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
+      monitored += 0.5 * m[i] * speed_squared -
+                   m[i] * (x[3 * i] * gravity.x() + x[3 * i + 1] * gravity.y() +
+                           x[3 * i + 2] * gravity.z());
+    }
+    const bool finite = std::isfinite(monitored) && std::isfinite(position_sum);
+    if (!finite || monitored > m_energy_limit) {
+      const std::int64_t failed_step = m_statistics.steps;
+      cloth.integrator_positions() = m_checkpoint_positions;
+      cloth.integrator_velocities() = m_checkpoint_velocities;
+      cloth.set_time(checkpoint_time);
+      const double stable = cloth.stable_time_step();
+      std::ostringstream msg;
+      msg << "simulation diverged at step " << failed_step << " (t = " << new_time
+          << " s, dt = " << dt << " s): "
+          << (finite ? "the energy grew past its bound"
+                     : "positions or velocities became non-finite")
+          << ". The estimated stable time step of the explicit integrator is " << stable
+          << " s; use dt <= " << 0.9 * stable
+          << " s or an implicit integrator. The cloth was restored to t = " << checkpoint_time
+          << " s.";
+      throw SimulationDiverged(msg.str(), failed_step, new_time, dt, stable);
+    }
+    ++m_statistics.steps;
+    m_statistics.checks_seconds += seconds_since(start);
+  }
+}
+
+}  // namespace yore

@@ -1,0 +1,70 @@
+#include "yore/springs.hpp"
+
+#include <cmath>
+
+namespace yore {
+
+void SpringSet::reserve(std::size_t n) {
+  first.reserve(n);
+  second.reserve(n);
+  rest_length.reserve(n);
+  stiffness.reserve(n);
+  damping.reserve(n);
+  kind.reserve(n);
+}
+
+void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m,
+                    double stiffness_n_per_m, double damping_ns_per_m, SpringKind spring_kind) {
+  first.push_back(i);
+  second.push_back(j);
+  rest_length.push_back(rest_length_m);
+  stiffness.push_back(stiffness_n_per_m);
+  damping.push_back(damping_ns_per_m);
+  kind.push_back(spring_kind);
+}
+
+void SpringSet::clear() {
+  first.clear();
+  second.clear();
+  rest_length.clear();
+  stiffness.clear();
+  damping.clear();
+  kind.clear();
+}
+
+double spring_energy(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness) {
+  const double stretch = (xi - xj).norm() - rest_length;
+  return 0.5 * stiffness * stretch * stretch;
+}
+
+Vec3 spring_gradient(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness) {
+  const Vec3 d = xi - xj;
+  const double length = d.norm();
+  if (length == 0.0) return Vec3::Zero();
+  return (stiffness * (length - rest_length) / length) * d;
+}
+
+Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
+                    bool project_psd) {
+  const Vec3 d = xi - xj;
+  const double length = d.norm();
+  if (length == 0.0) return stiffness * Mat3::Identity();
+  const Vec3 n = d / length;
+  const Mat3 nn = n * n.transpose();
+  double transverse = 1.0 - rest_length / length;
+  // A compressed spring (ℓ < L) has a negative transverse stiffness: it buckles sideways. Clamping
+  // keeps the block PSD so an implicit system stays SPD.
+  if (project_psd && transverse < 0.0) transverse = 0.0;
+  return stiffness * (nn + transverse * (Mat3::Identity() - nn));
+}
+
+Vec3 spring_damping_force(const Vec3& xi, const Vec3& xj, const Vec3& vi, const Vec3& vj,
+                          double damping) {
+  const Vec3 d = xi - xj;
+  const double length = d.norm();
+  if (length == 0.0) return Vec3::Zero();
+  const Vec3 n = d / length;
+  return (-damping * (vi - vj).dot(n)) * n;
+}
+
+}  // namespace yore

@@ -1,0 +1,384 @@
+"""Reading and writing triangle meshes, and writing simulation frames for ParaView.
+
+File formats are handled by meshio and chosen from the file extension (``.obj``, ``.ply``,
+``.off``, ``.stl``, ``.vtu``, ``.vtk``, ``.msh``, ``.mesh``, ...). Positions are n×3 float64
+arrays in metres, faces f×3 int32 arrays of vertex indices.
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import numbers
+import os
+import sys
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from pathlib import Path
+
+import meshio
+import numpy as np
+from meshio._helpers import reader_map as _meshio_readers  # see _read_with_meshio
+
+__all__ = ["load_mesh", "save_mesh", "FrameSeries"]
+
+# Extensions whose meshio writer silently ignores point data; .obj keeps only the
+# "obj:vn" (normals) and "obj:vt" (texture coordinates) entries.
+_NO_POINT_DATA = {".off", ".stl"}
+_OBJ_POINT_DATA = {"obj:vn", "obj:vt"}
+
+
+def load_mesh(path):
+    """Read a triangle mesh from a file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Mesh file; the format is taken from the extension. Points stored in 2-D get z = 0.
+
+    Returns
+    -------
+    V : (n, 3) float64 C-contiguous array, metres
+        Vertex positions.
+    F : (f, 3) int32 C-contiguous array
+        Triangles as vertex indices, all triangle cell blocks of the file concatenated in
+        order. "vertex" cells are ignored.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If meshio cannot read the file (unknown format, corrupt content), if it holds cells
+        other than triangles (quads, polygons, lines, ...; the message names them) or no
+        triangles at all, or if the mesh is invalid (NaN or infinite positions, an index out
+        of range, a degenerate face, a non-manifold edge, ...), as checked by the core.
+    """
+    path = Path(os.fspath(path))
+    if not path.exists():
+        raise FileNotFoundError(errno.ENOENT, "mesh file not found", str(path))
+    mesh = _read_with_meshio(path)
+
+    triangles = []
+    other = {}
+    for block in mesh.cells:
+        if block.type == "triangle":
+            triangles.append(np.asarray(block.data))
+        elif block.type != "vertex":
+            other[block.type] = other.get(block.type, 0) + len(block.data)
+    if other:
+        found = ", ".join(f"{count} {kind}" for kind, count in sorted(other.items()))
+        raise ValueError(
+            f"{path} holds non-triangle cells ({found}); only triangle meshes are supported"
+        )
+    if not triangles:
+        raise ValueError(f"{path} holds no triangle cells")
+
+    points = np.asarray(mesh.points)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise ValueError(
+            f"{path}: expected 2-D or 3-D points, got an array of shape {points.shape}"
+        )
+    V = np.zeros((points.shape[0], 3), dtype=np.float64)
+    V[:, : points.shape[1]] = points
+
+    faces = np.concatenate(triangles, axis=0)
+    if faces.dtype.kind not in "iu":
+        raise ValueError(f"{path}: triangle indices have non-integer dtype {faces.dtype}")
+    limits = np.iinfo(np.int32)
+    if faces.size and (faces.min() < limits.min or faces.max() > limits.max):
+        # Checked before the cast so that a huge index cannot wrap into a valid one.
+        raise ValueError(
+            f"{path}: triangle indices span [{faces.min()}, {faces.max()}], beyond int32"
+        )
+    F = np.ascontiguousarray(faces, dtype=np.int32)
+
+    from ._core import validate_mesh
+
+    validate_mesh(V, F)
+    return V, F
+
+
+def _read_with_meshio(path: Path) -> meshio.Mesh:
+    """meshio.read without its exit: raise ValueError with meshio's reason instead.
+
+    meshio.read (5.3.5) prints the reader's ReadError and calls sys.exit(1) when no reader
+    for the extension accepts the file, so the readers are called here directly.
+    """
+    formats = []
+    suffix = ""
+    # Candidate formats as meshio deduces them: the last suffix first, then longer
+    # multi-dot extensions.
+    for part in reversed(path.suffixes):
+        suffix = (part + suffix).lower()
+        formats += meshio.extension_to_filetypes.get(suffix, [])
+    if not formats:
+        raise ValueError(
+            f"cannot read mesh file {path}: meshio knows no format for extension {path.suffix!r}"
+        )
+    reasons = []
+    for name in formats:
+        try:
+            return _meshio_readers[name](str(path))
+        except meshio.ReadError as error:
+            # Some readers raise a ReadError without a message; the parser's own exception,
+            # if it has text, is then the best reason there is.
+            inner = error.__cause__ or error.__context__
+            if str(error):
+                reasons.append(f"as {name}: {error}")
+            elif inner is not None and str(inner):
+                reasons.append(f"as {name}: {type(inner).__name__}: {inner}")
+            else:
+                reasons.append(f"as {name}: malformed file (meshio gave no detail)")
+        except OSError:
+            raise
+        except Exception as error:
+            # meshio's parsers raise whatever their tokenizer hits on a malformed file.
+            reasons.append(f"as {name}: {type(error).__name__}: {error}")
+    raise ValueError(f"cannot read mesh file {path}: " + "; ".join(reasons))
+
+
+def save_mesh(path, V, F, point_data=None):
+    """Write a triangle mesh to a file; the format is taken from the extension.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; its folder must exist. An existing file is overwritten.
+    V : (n, 3) array_like, metres
+        Vertex positions, all finite.
+    F : (f, 3) array_like of integers
+        Triangles as vertex indices in [0, n).
+    point_data : mapping of str to (n,) or (n, k) array_like, optional
+        Per-vertex fields (velocities in m/s, forces in N, ...), written as float64. In a
+        ``.ply`` file, whose meshio writer only stores scalar fields, an (n, k) field ``name``
+        is written as k scalar fields ``name_x``, ``name_y``, ``name_z`` when k == 3 and
+        ``name_0`` ... ``name_{k-1}`` otherwise.
+
+    Raises
+    ------
+    ValueError
+        If V is not an n×3 array of finite numbers, F is not an f×3 integer array with
+        entries in [0, n), a point-data field has the wrong length or is not numeric, the
+        format cannot store the given point data (``.off``, ``.stl``; ``.obj`` only stores
+        "obj:vn" and "obj:vt"), or meshio does not know or cannot write the format.
+    """
+    path = Path(os.fspath(path))
+    V = _as_positions(V)
+    F = _as_faces(F, V.shape[0])
+    fields = _as_point_data(point_data, V.shape[0])
+
+    extension = path.suffix.lower()
+    if fields and extension in _NO_POINT_DATA:
+        raise ValueError(
+            f"{extension} files cannot store point data, got fields {sorted(fields)}; "
+            "use .vtu, .vtk or .ply"
+        )
+    if extension == ".obj":
+        dropped = sorted(set(fields) - _OBJ_POINT_DATA)
+        if dropped:
+            raise ValueError(
+                f".obj files only store point data 'obj:vn' and 'obj:vt', got {dropped}; "
+                "use .vtu, .vtk or .ply"
+            )
+    if extension == ".ply":
+        fields = _split_vector_fields(fields)
+
+    mesh = meshio.Mesh(V, [("triangle", F)], point_data=fields)
+    try:
+        meshio.write(path, mesh)
+    except (meshio.ReadError, meshio.WriteError) as error:
+        # meshio reports an unknown extension as a ReadError even when writing.
+        raise ValueError(f"cannot write mesh file {path}: {error}") from error
+
+
+class FrameSeries:
+    """Numbered mesh files of a simulation run plus a ParaView collection that indexes them.
+
+    Frame k is written to ``folder/{stem}_{k:05d}.{fmt}`` (k = 0, 1, ...). Frames may differ
+    in vertex and face count, e.g. across a topology change. For the VTK formats ("vtu",
+    "vtk") the collection ``folder/{stem}.pvd`` lists every frame written so far with its
+    time (one ``<DataSet timestep=... file=...>`` per frame, paths relative to the .pvd) and
+    is rewritten after each frame, so an interrupted run can still be opened in ParaView.
+    For "ply" and "obj" no .pvd is written (``pvd_path`` is None): a .pvd collection is
+    meant for VTK XML/legacy files, and ParaView groups numbered files of other formats by
+    itself. An existing .pvd or frame file of the same name is overwritten.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        Output folder, created (with its parents) if missing.
+    stem : str
+        File name prefix; must be non-empty and contain no path separator.
+    fmt : {"vtu", "ply", "obj", "vtk"}
+        Frame file format. "obj" cannot store point data.
+
+    Attributes
+    ----------
+    frames : list of (float, pathlib.Path)
+        Time in seconds and path of every frame written, in order.
+    pvd_path : pathlib.Path or None
+        The collection file, or None for "ply" and "obj".
+
+    Raises
+    ------
+    ValueError
+        If fmt is not one of the formats above (the message lists them) or stem is invalid.
+
+    Examples
+    --------
+    >>> with FrameSeries("out") as series:          # doctest: +SKIP
+    ...     series.write(sim.time, cloth.positions, cloth.faces)
+    """
+
+    formats = ("vtu", "vtk", "ply", "obj")
+
+    def __init__(self, folder, stem="frame", fmt="vtu"):
+        if fmt not in self.formats:
+            raise ValueError(f"fmt must be one of {list(self.formats)}, got {fmt!r}")
+        if not isinstance(stem, str) or not stem or "/" in stem or os.sep in stem:
+            raise ValueError(f"stem must be a non-empty file name prefix, got {stem!r}")
+        self.folder = Path(os.fspath(folder))
+        self.stem = stem
+        self.fmt = fmt
+        self.frames: list[tuple[float, Path]] = []
+        self.pvd_path = self.folder / f"{stem}.pvd" if fmt in ("vtu", "vtk") else None
+        self._closed = False
+        self.folder.mkdir(parents=True, exist_ok=True)
+
+    def write(self, time, V, F, point_data=None) -> Path:
+        """Write the next frame and update the collection; return the frame's path.
+
+        Parameters
+        ----------
+        time : float
+            Simulation time of the frame in seconds, finite.
+        V, F, point_data
+            As for :func:`save_mesh`.
+
+        Raises
+        ------
+        ValueError
+            If time is not a finite number, the series is closed, or :func:`save_mesh`
+            rejects the mesh (no frame is recorded then).
+        """
+        if self._closed:
+            raise ValueError("cannot write to a closed FrameSeries")
+        if not isinstance(time, numbers.Real) or isinstance(time, bool) or not math.isfinite(time):
+            raise ValueError(f"time must be a finite number of seconds, got {time!r}")
+        path = self.folder / f"{self.stem}_{len(self.frames):05d}.{self.fmt}"
+        save_mesh(path, V, F, point_data)
+        self.frames.append((float(time), path))
+        if self.pvd_path is not None:
+            self._write_pvd()
+        return path
+
+    def close(self) -> None:
+        """Finish the series; later writes raise ValueError. The .pvd is already up to date."""
+        self._closed = True
+
+    def __enter__(self) -> FrameSeries:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def _write_pvd(self) -> None:
+        root = ET.Element(
+            "VTKFile",
+            type="Collection",
+            version="0.1",
+            byte_order="LittleEndian" if sys.byteorder == "little" else "BigEndian",
+        )
+        collection = ET.SubElement(root, "Collection")
+        for time, path in self.frames:
+            ET.SubElement(
+                collection,
+                "DataSet",
+                # repr gives the shortest text that reads back as the same float.
+                timestep=repr(time),
+                group="",
+                part="0",
+                file=path.relative_to(self.folder).as_posix(),
+            )
+        tree = ET.ElementTree(root)
+        ET.indent(tree)
+        # Write then rename, so a reader never sees a half-written collection.
+        partial = self.pvd_path.with_name(self.pvd_path.name + ".part")
+        tree.write(partial, encoding="utf-8", xml_declaration=True)
+        os.replace(partial, self.pvd_path)
+
+
+def _as_positions(V) -> np.ndarray:
+    """V as an (n, 3) float64 C-contiguous array of finite numbers, else ValueError."""
+    array = np.asarray(V)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f"V must be an (n, 3) array of positions, got shape {array.shape}")
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"V must hold real numbers, got dtype {array.dtype}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    if not np.isfinite(array).all():
+        row = int(np.flatnonzero(~np.isfinite(array).all(axis=1))[0])
+        raise ValueError(f"V must be finite, vertex {row} is {array[row].tolist()}")
+    return array
+
+
+def _as_faces(F, vertex_count: int) -> np.ndarray:
+    """F as an (f, 3) int32 C-contiguous array of indices in [0, vertex_count), else ValueError."""
+    array = np.asarray(F)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f"F must be an (f, 3) array of vertex indices, got shape {array.shape}")
+    if array.dtype.kind not in "iu":
+        raise ValueError(f"F must hold integers, got dtype {array.dtype}")
+    if array.size:
+        low, high = array.min(), array.max()
+        if low < 0 or high >= vertex_count:
+            bad = low if low < 0 else high
+            raise ValueError(f"F holds vertex index {bad}, outside [0, {vertex_count})")
+    return np.ascontiguousarray(array, dtype=np.int32)
+
+
+def _as_point_data(point_data, vertex_count: int) -> dict[str, np.ndarray]:
+    """Point data as a dict of float64 (n,) or (n, k) arrays, else ValueError."""
+    if point_data is None:
+        return {}
+    if not isinstance(point_data, Mapping):
+        raise ValueError(
+            f"point_data must be a mapping of names to arrays, got {type(point_data).__name__}"
+        )
+    fields = {}
+    for name, value in point_data.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"point_data names must be non-empty strings, got {name!r}")
+        array = np.asarray(value)
+        if array.dtype.kind not in "biuf":
+            raise ValueError(f"point_data[{name!r}] must be numeric, got dtype {array.dtype}")
+        if array.ndim not in (1, 2) or array.shape[0] != vertex_count:
+            raise ValueError(
+                f"point_data[{name!r}] must have shape ({vertex_count},) or ({vertex_count}, k), "
+                f"got {array.shape}"
+            )
+        fields[name] = np.ascontiguousarray(array, dtype=np.float64)
+    return fields
+
+
+def _split_vector_fields(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Replace every (n, k) field by k scalar fields, as PLY needs; reject clashing names."""
+    scalars = {}
+    for name, array in fields.items():
+        if array.ndim == 1:
+            parts = {name: array}
+        else:
+            suffixes = ("x", "y", "z") if array.shape[1] == 3 else range(array.shape[1])
+            parts = {f"{name}_{suffix}": array[:, k].copy() for k, suffix in enumerate(suffixes)}
+        for part in parts:
+            if part in scalars or part in ("x", "y", "z") or any(c.isspace() for c in part):
+                raise ValueError(
+                    f"point_data field {part!r} cannot be written to PLY: it clashes with another "
+                    "field or a coordinate, or contains whitespace"
+                )
+        scalars.update(parts)
+    return scalars

@@ -1,0 +1,182 @@
+"""Procedural triangle meshes used by the scenes and the tests.
+
+Every function returns ``(V, F)``: ``V`` is an n×3 C-contiguous float64 array of vertex
+positions in metres and ``F`` an f×3 C-contiguous int32 array of vertex indices, one row per
+triangle. Quads are split into two triangles with alternating (checkerboard) diagonals so the
+triangulation has no preferred shear direction, which would otherwise show up as anisotropic
+stiffness in a mass-spring cloth.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+__all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring"]
+
+
+def _check_count(name: str, value, minimum: int) -> int:
+    """Return ``value`` as an int, or raise ValueError unless it is an integer >= minimum."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_length(name: str, value) -> float:
+    """Return ``value`` as a float, or raise ValueError unless it is a finite number > 0."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    length = float(value)
+    if not math.isfinite(length) or length <= 0.0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return length
+
+
+def _split_quads(a, b, c, d, even) -> np.ndarray:
+    """Triangulate quads (a, b, c, d), given counter-clockwise, into an f×3 int32 array.
+
+    Quad k becomes triangles 2k and 2k+1. Where ``even`` holds the diagonal is a–c, otherwise
+    b–d; both triangles keep the quad's winding.
+    """
+    first = np.where(even[:, None], np.stack([a, b, c], axis=1), np.stack([a, b, d], axis=1))
+    second = np.where(even[:, None], np.stack([a, c, d], axis=1), np.stack([b, c, d], axis=1))
+    faces = np.stack([first, second], axis=1).reshape(-1, 3)
+    return np.ascontiguousarray(faces, dtype=np.int32)
+
+
+def grid_mesh(nx, ny, width=1.0, height=1.0):
+    """Flat triangulated rectangle in the z = 0 plane.
+
+    Parameters
+    ----------
+    nx, ny : int
+        Number of vertices along x and along y, each >= 2.
+    width, height : float
+        Size of the rectangle along x and y in metres, finite and > 0. The rectangle covers
+        x in [0, width], y in [0, height].
+
+    Returns
+    -------
+    V : (nx*ny, 3) float64 array, metres
+        Vertex (i, j) has index ``j*nx + i`` and position
+        ``(i*width/(nx-1), j*height/(ny-1), 0)``.
+    F : (2*(nx-1)*(ny-1), 3) int32 array
+        Triangles, counter-clockwise seen from +z (normals point to +z). Quad (i, j) is split
+        along the diagonal (i, j)–(i+1, j+1) when i+j is even and along (i+1, j)–(i, j+1)
+        otherwise; its two triangles are rows ``2*q`` and ``2*q+1`` with ``q = j*(nx-1) + i``.
+
+    Raises
+    ------
+    ValueError
+        If nx or ny is not an integer >= 2, or width or height is not finite and > 0.
+    """
+    nx = _check_count("nx", nx, 2)
+    ny = _check_count("ny", ny, 2)
+    width = _check_length("width", width)
+    height = _check_length("height", height)
+
+    # linspace pins the last coordinate to exactly width/height.
+    x, y = np.meshgrid(np.linspace(0.0, width, nx), np.linspace(0.0, height, ny), indexing="xy")
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(nx * ny)], axis=1)
+
+    i, j = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="xy")
+    i, j = i.ravel(), j.ravel()
+    a = j * nx + i
+    b = a + 1
+    c = a + nx + 1
+    d = a + nx
+    F = _split_quads(a, b, c, d, (i + j) % 2 == 0)
+    return np.ascontiguousarray(V, dtype=np.float64), F
+
+
+def cylinder_mesh(radius, height, rings, segments):
+    """Open triangulated tube (no caps) whose axis is the y axis.
+
+    Parameters
+    ----------
+    radius : float
+        Distance of every vertex from the y axis in metres, finite and > 0.
+    height : float
+        Length of the tube along y in metres, finite and > 0; it spans y in [0, height].
+    rings : int
+        Number of vertex rings, >= 2. Ring r lies at ``y = r*height/(rings-1)``: ring 0 is the
+        bottom rim, ring ``rings-1`` the top rim.
+    segments : int
+        Number of vertices per ring, >= 3. Vertex s of a ring is at angle
+        ``theta = 2*pi*s/segments`` with ``x = radius*cos(theta)``, ``z = radius*sin(theta)``.
+
+    Returns
+    -------
+    V : (rings*segments, 3) float64 array, metres
+        Vertex s of ring r has index ``r*segments + s``.
+    F : (2*segments*(rings-1), 3) int32 array
+        Triangles with outward normals (pointing away from the axis). The quad between
+        segments s, s+1 (wrapping around the seam) and rings r, r+1 is split with the same
+        checkerboard of diagonals as :func:`grid_mesh`, using parity of s+r; with an odd
+        number of segments two neighbouring quads at the seam share a diagonal direction.
+
+    Raises
+    ------
+    ValueError
+        If radius or height is not finite and > 0, rings is not an integer >= 2 or segments
+        is not an integer >= 3.
+    """
+    radius = _check_length("radius", radius)
+    height = _check_length("height", height)
+    rings = _check_count("rings", rings, 2)
+    segments = _check_count("segments", segments, 3)
+
+    theta = 2.0 * np.pi * np.arange(segments) / segments
+    y = np.linspace(0.0, height, rings)
+    V = np.empty((rings, segments, 3), dtype=np.float64)
+    V[:, :, 0] = radius * np.cos(theta)[None, :]
+    V[:, :, 1] = y[:, None]
+    V[:, :, 2] = radius * np.sin(theta)[None, :]
+    V = V.reshape(-1, 3)
+
+    s, r = np.meshgrid(np.arange(segments), np.arange(rings - 1), indexing="xy")
+    s, r = s.ravel(), r.ravel()
+    s_next = (s + 1) % segments
+    a = r * segments + s
+    b = r * segments + s_next
+    c = (r + 1) * segments + s_next
+    d = (r + 1) * segments + s
+    # (a, b, c, d) is counter-clockwise in the (theta, y) parameter plane, which on the tube
+    # faces the axis; reversing the winding makes the normals point outward.
+    F = _split_quads(a, b, c, d, (s + r) % 2 == 0)[:, [0, 2, 1]]
+    return np.ascontiguousarray(V), np.ascontiguousarray(F, dtype=np.int32)
+
+
+def cylinder_ring(rings, segments, which):
+    """Vertex indices of one ring of a :func:`cylinder_mesh` with the same rings and segments.
+
+    Parameters
+    ----------
+    rings, segments : int
+        As given to :func:`cylinder_mesh` (rings >= 2, segments >= 3).
+    which : int
+        Ring number, counted from the bottom (0) like a Python index: negative values count
+        from the top, so -1 is the top rim at y = height.
+
+    Returns
+    -------
+    (segments,) int32 array
+        Indices ``which*segments + s`` for s = 0 .. segments-1, in order of increasing angle.
+
+    Raises
+    ------
+    ValueError
+        If rings or segments is invalid, or which is not an integer in [-rings, rings).
+    """
+    rings = _check_count("rings", rings, 2)
+    segments = _check_count("segments", segments, 3)
+    if not isinstance(which, numbers.Integral) or isinstance(which, bool):
+        raise ValueError(f"which must be an integer ring number, got {which!r}")
+    if not -rings <= which < rings:
+        raise ValueError(f"which must be in [-{rings}, {rings}) for {rings} rings, got {which!r}")
+    ring = int(which) % rings
+    return np.arange(ring * segments, (ring + 1) * segments, dtype=np.int32)

@@ -1,0 +1,89 @@
+"""The paper's two experiments as ready-made simulations.
+
+Each function builds the cloth, its constraints and a `yore.Simulation`. Sizes and material are
+keywords; ``integrator``, ``dt`` and integrator options are passed on to `yore.Simulation`
+(without ``dt`` a stable default is chosen). The returned simulation carries a ``scene`` dict
+with the scene's name, its constrained vertex indices and the cloth's material (pattern)
+coordinates ``uv`` (n×2, metres).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._core import Cloth
+from .meshes import cylinder_mesh, cylinder_ring, grid_mesh
+from .simulation import Simulation
+
+__all__ = ["hanging_cloth", "rotating_cylinder"]
+
+# Default material of both scenes. The paper gives all springs the same constant; per-spring
+# stiffness in N/m is independent of the mesh resolution for the in-plane response of a
+# triangulated sheet, so these values keep their meaning when `resolution` changes.
+STIFFNESS = 200.0  # N/m, structural and bending alike (paper §3)
+DAMPING = 0.02  # N·s/m along each spring
+DRAG = 0.3  # 1/s, still air
+
+
+def hanging_cloth(size=1.0, resolution=21, mass=0.1, stretch_stiffness=STIFFNESS,
+                  bend_stiffness=STIFFNESS, damping=DAMPING, drag=DRAG, integrator="explicit",
+                  dt=None, gravity=(0.0, -9.81, 0.0), **options) -> Simulation:
+    """A square cloth hung from two points (paper §3.1, Fig. 3).
+
+    The cloth starts flat and horizontal (the x–z plane at y = 0) with the two corners of one
+    edge, (0, 0, 0) and (size, 0, 0), fixed; gravity pulls it down so it swings and hangs from
+    the two points, forming the folds near the top that the paper strokes along.
+
+    size : edge length, m. resolution : vertices per edge (>= 2). mass : total mass, kg,
+    spread uniformly over the vertices (the paper's choice). stretch_stiffness, bend_stiffness :
+    N/m per spring. damping : N·s/m per spring. drag : 1/s.
+    """
+    V, F = grid_mesh(resolution, resolution, width=size, height=size)
+    uv = V[:, :2].copy()
+    positions = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+    # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
+    # clockwise about +y, i.e. the cloth's front faces up.
+    cloth = Cloth(positions, F, mass=_per_vertex(mass, len(positions)),
+                  stretch_stiffness=stretch_stiffness, bend_stiffness=bend_stiffness,
+                  damping=damping, drag=drag)
+    pinned = np.array([0, resolution - 1], dtype=np.int32)  # corners (0, 0, 0) and (size, 0, 0)
+    cloth.fix(pinned)
+    sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
+    sim.scene = {"name": "hanging_cloth", "fixed": pinned, "uv": uv}
+    return sim
+
+
+def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=0.1,
+                      omega=2.0 * math.pi, stretch_stiffness=STIFFNESS,
+                      bend_stiffness=STIFFNESS, damping=DAMPING, drag=DRAG,
+                      integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
+                      **options) -> Simulation:
+    """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
+
+    The tube's axis is y, from y = 0 to y = height; the top rim is driven: it turns about the
+    axis through (0, height, 0) at ``omega`` rad/s (counter-clockwise seen from above, as in the
+    paper) from t = 0, and the rest of the tube is dragged round by its springs.
+
+    radius, height : m. rings : vertex rings (>= 2). segments : vertices per ring (>= 3).
+    mass : total mass, kg, uniform over the vertices. omega : rad/s. Material as hanging_cloth.
+    """
+    V, F = cylinder_mesh(radius, height, rings, segments)
+    cloth = Cloth(V, F, mass=_per_vertex(mass, len(V)), stretch_stiffness=stretch_stiffness,
+                  bend_stiffness=bend_stiffness, damping=damping, drag=drag)
+    rim = cylinder_ring(rings, segments, -1)
+    cloth.drive_rotation(rim, center=(0.0, height, 0.0), axis=(0.0, 1.0, 0.0), omega=omega)
+    sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
+    angle = np.arctan2(V[:, 2], V[:, 0]) % (2.0 * math.pi)
+    uv = np.column_stack([angle * radius, V[:, 1]])
+    sim.scene = {"name": "rotating_cylinder", "driven": rim, "uv": uv,
+                 "axis_center": np.array([0.0, height, 0.0]), "omega": omega}
+    return sim
+
+
+def _per_vertex(total_mass, count):
+    total_mass = float(total_mass)
+    if not math.isfinite(total_mass) or total_mass <= 0.0:
+        raise ValueError(f"mass (total, kg) must be finite and > 0, got {total_mass}")
+    return total_mass / count

@@ -1,0 +1,246 @@
+"""`yore.Simulation`: steps a `yore.Cloth` in time with a chosen integrator."""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+
+from . import _core
+from ._core import Cloth
+
+__all__ = ["Simulation", "INTEGRATORS"]
+
+#: Integrator names of the public API. Only those in ``_FACTORIES`` are built yet.
+INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global")
+
+#: Options each integrator accepts, with their defaults.
+_OPTIONS = {
+    "explicit": {
+        # Provot strain limiting: largest length / rest length of a structural spring (e.g. 1.1);
+        # None turns it off.
+        "strain_limit": None,
+        "strain_limit_passes": 4,
+        # Divergence bound, in multiples of the cloth's energy scale (see ExplicitIntegrator).
+        "divergence_energy_factor": 10.0,
+    },
+}
+
+
+def _make_explicit(options):
+    limit = options["strain_limit"]
+    return _core.ExplicitIntegrator(
+        strain_limit=0.0 if limit is None else float(limit),
+        strain_limit_passes=int(options["strain_limit_passes"]),
+        divergence_energy_factor=float(options["divergence_energy_factor"]),
+    )
+
+
+_FACTORIES = {"explicit": _make_explicit}
+
+# Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
+_BATCH_SECONDS = 0.1
+# A run expected to take longer than this shows a progress bar (when progress=None).
+_PROGRESS_AFTER_SECONDS = 2.0
+
+
+def default_explicit_dt(cloth: Cloth, safety: float = 0.5) -> float:
+    """A time step of ``safety`` × the stable estimate, rounded down to 1/N s (s)."""
+    stable = cloth.stable_time_step()
+    if not math.isfinite(stable):
+        return 1.0 / 60.0
+    return 1.0 / math.ceil(1.0 / (safety * stable))
+
+
+class Simulation:
+    """A cloth, an integrator, a time step and gravity.
+
+    Parameters
+    ----------
+    cloth : yore.Cloth
+        The cloth to simulate (the simulation steps it in place).
+    integrator : str
+        One of ``yore.simulation.INTEGRATORS``; ``"explicit"`` (symplectic Euler) is the
+        reference path and the only one built so far.
+    dt : float, optional
+        Time step, s. Default: half the stable-step estimate for the explicit integrator,
+        rounded down to 1/N s.
+    gravity : (3,) array_like
+        Gravitational acceleration, m/s².
+    **options
+        Integrator options; explicit: ``strain_limit`` (e.g. 1.1, default None = off),
+        ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10).
+
+    Raises
+    ------
+    ValueError
+        Unknown integrator or option name (the message lists the valid ones), bad dt or gravity.
+    NotImplementedError
+        An integrator of the API that this version does not build yet.
+    """
+
+    def __init__(self, cloth, integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
+                 **options):
+        if not isinstance(cloth, Cloth):
+            raise TypeError(f"cloth must be a yore.Cloth, got {type(cloth).__name__}")
+        if not isinstance(integrator, str) or integrator not in INTEGRATORS:
+            raise ValueError(
+                f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
+        if integrator not in _FACTORIES:
+            raise NotImplementedError(
+                f"integrator {integrator!r} is not built yet in this version of yore; "
+                f"available: {', '.join(_FACTORIES)}")
+        valid = _OPTIONS[integrator]
+        unknown = sorted(set(options) - set(valid))
+        if unknown:
+            raise ValueError(
+                f"unknown option(s) {', '.join(map(repr, unknown))} for integrator "
+                f"{integrator!r}; valid: {', '.join(sorted(valid)) or 'none'}")
+        self._options = {**valid, **options}
+        gravity = np.asarray(gravity, dtype=np.float64)
+        if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
+            raise ValueError(f"gravity must be 3 finite numbers (m/s²), got {gravity!r}")
+        self._gravity = gravity
+        self._cloth = cloth
+        self._integrator_name = integrator
+        self._integrator = _FACTORIES[integrator](self._options)
+        if dt is None:
+            dt = default_explicit_dt(cloth)
+        self._dt = _check_positive_seconds(dt, "dt")
+        self._wall_seconds = 0.0
+
+    # -- properties -----------------------------------------------------------------------
+    @property
+    def cloth(self) -> Cloth:
+        """The simulated cloth."""
+        return self._cloth
+
+    @property
+    def integrator(self) -> str:
+        """Name of the integrator."""
+        return self._integrator_name
+
+    @property
+    def options(self) -> dict:
+        """Integrator options in force (defaults filled in)."""
+        return dict(self._options)
+
+    @property
+    def dt(self) -> float:
+        """Time step, s."""
+        return self._dt
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravitational acceleration, m/s² (a copy)."""
+        return self._gravity.copy()
+
+    @property
+    def time(self) -> float:
+        """Simulated time, s."""
+        return self._cloth.time
+
+    # -- stepping ---------------------------------------------------------------------------
+    def step(self, n: int = 1, progress=None) -> None:
+        """Advances ``n`` steps of ``dt``.
+
+        Raises ``yore.SimulationDiverged`` (with ``.step``, ``.time``, ``.dt``, ``.stable_dt``)
+        if the run blows up; the cloth is then restored to its state at the start of the last
+        batch of steps, just before the failure. ``progress``: True/False forces a progress bar
+        on/off; None shows one when the run takes longer than a few seconds.
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n must be a non-negative integer, got {n!r}")
+        self._run(int(n), progress)
+
+    def advance(self, seconds: float, progress=None) -> int:
+        """Advances by ``seconds`` of simulated time (rounded to whole steps); returns the steps."""
+        seconds = float(seconds)
+        if not math.isfinite(seconds) or seconds < 0.0:
+            raise ValueError(f"seconds must be finite and >= 0, got {seconds}")
+        steps = int(round(seconds / self._dt))
+        self._run(steps, progress)
+        return steps
+
+    def _run(self, steps: int, progress) -> None:
+        done, batch, bar = 0, 1, None
+        started = _time.perf_counter()
+        try:
+            while done < steps:
+                count = min(batch, steps - done)
+                self._integrator.advance(self._cloth, self._gravity, self._dt, count)
+                done += count
+                elapsed = _time.perf_counter() - started
+                rate = done / max(elapsed, 1e-9)
+                batch = max(1, int(rate * _BATCH_SECONDS))
+                if bar is None and progress is not False and done < steps:
+                    remaining = (steps - done) / rate
+                    if progress or elapsed + remaining > _PROGRESS_AFTER_SECONDS:
+                        from tqdm.auto import tqdm
+
+                        bar = tqdm(total=steps, initial=done, unit="step", desc="yore",
+                                   leave=False, dynamic_ncols=True)
+                elif bar is not None:
+                    bar.update(count)
+                    bar.set_postfix_str(f"t={self.time:.3f} s")
+        finally:
+            self._wall_seconds += _time.perf_counter() - started
+            if bar is not None:
+                bar.close()
+
+    # -- measurements -----------------------------------------------------------------------
+    def energy(self) -> dict:
+        """Kinetic, spring and gravitational energy and their total, joules."""
+        return self._cloth.energy(self._gravity)
+
+    def stable_dt(self) -> float:
+        """Estimated largest stable explicit time step for the cloth as it is now, s."""
+        return self._cloth.stable_time_step()
+
+    @property
+    def stats(self) -> dict:
+        """Counters, wall time per phase (s) and the model terms that are active."""
+        cloth = self._cloth
+        phases = dict(self._integrator.statistics)
+        steps = phases.pop("steps")
+        kinds = cloth.springs.kind
+        damping = cloth.springs.damping
+        active = {
+            "gravity": bool(np.any(self._gravity != 0.0)),
+            "spring_damping": bool(np.any(damping > 0.0)),
+            "drag": cloth.drag > 0.0,
+            "bending_springs": int(np.count_nonzero(kinds == 1)),
+            "strain_limiting": self._options.get("strain_limit") is not None,
+            "fixed_vertices": int(cloth.fixed_vertices.size),
+            "driven_vertices": int(cloth.driven_vertices.size),
+        }
+        return {
+            "integrator": self._integrator_name,
+            "dt": self._dt,
+            "time": self.time,
+            "steps": steps,
+            "wall_seconds": self._wall_seconds,
+            "steps_per_second": steps / self._wall_seconds if self._wall_seconds > 0 else 0.0,
+            "phases": phases,
+            "active_terms": active,
+            "vertices": cloth.vertex_count,
+            "springs": cloth.spring_count,
+            "topology_version": cloth.topology_version,
+            "stable_dt_estimate": cloth.stable_time_step(),
+            "threads": _core.max_threads(),
+        }
+
+    def __repr__(self) -> str:
+        return (f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
+                f"t={self.time:.4g} s, {self._cloth!r}>")
+
+
+def _check_positive_seconds(value, name: str) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number of seconds, got {value!r}") from None
+    if not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name} must be finite and > 0 s, got {value}")
+    return value

@@ -1,0 +1,215 @@
+"""Mesh file I/O (yore.load_mesh, yore.save_mesh) and frame series (yore.io.FrameSeries)."""
+
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+import pytest
+
+import yore
+from yore.io import FrameSeries
+
+
+def bumpy_grid(nx=5, ny=4, seed=0):
+    """A grid with jittered, non-planar vertices whose coordinates have many significant digits."""
+    V, F = yore.grid_mesh(nx, ny, width=1.3, height=0.9)
+    rng = np.random.default_rng(seed)
+    V = V + rng.uniform(-0.05, 0.05, size=V.shape)
+    return np.ascontiguousarray(V), F
+
+
+def write_text(path, text):
+    path.write_text(text)
+    return path
+
+
+OBJ_TRIANGLE = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+
+
+@pytest.mark.parametrize("extension", ["obj", "ply", "vtu", "vtk", "off"])
+def test_round_trip_is_exact(tmp_path, extension):
+    V, F = bumpy_grid()
+    path = tmp_path / f"mesh.{extension}"
+    yore.save_mesh(path, V, F)
+    V2, F2 = yore.load_mesh(path)
+    assert V2.dtype == np.float64 and V2.flags.c_contiguous
+    assert F2.dtype == np.int32 and F2.flags.c_contiguous
+    assert np.array_equal(V2, V)
+    assert np.array_equal(F2, F)
+
+
+def test_load_accepts_str_path(tmp_path):
+    V, F = bumpy_grid(3, 3)
+    yore.save_mesh(str(tmp_path / "mesh.vtu"), V, F)
+    V2, F2 = yore.load_mesh(str(tmp_path / "mesh.vtu"))
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+
+
+def test_load_rejects_quads(tmp_path):
+    path = write_text(tmp_path / "quad.obj", OBJ_TRIANGLE + "v 1 1 0\nf 1 2 4 3\n")
+    with pytest.raises(ValueError, match="quad"):
+        yore.load_mesh(path)
+
+
+def test_load_rejects_mixed_triangles_and_quads(tmp_path):
+    text = OBJ_TRIANGLE + "v 1 1 0\nv 2 1 0\nv 2 0 0\nf 1 2 3\nf 2 6 5 4\n"
+    path = write_text(tmp_path / "mixed.obj", text)
+    with pytest.raises(ValueError, match="quad"):
+        yore.load_mesh(path)
+
+
+def test_load_pads_2d_points(tmp_path):
+    # Medit .mesh files can be 2-D; meshio then returns n×2 points.
+    text = (
+        "MeshVersionFormatted 2\nDimension 2\n"
+        "Vertices\n4\n0 0 1\n1.5 0 1\n0 2 1\n1.5 2 1\n"
+        "Triangles\n2\n1 2 4 0\n1 4 3 0\nEnd\n"
+    )
+    path = write_text(tmp_path / "flat.mesh", text)
+    assert meshio.read(path).points.shape == (4, 2)
+    V, F = yore.load_mesh(path)
+    assert V.shape == (4, 3) and V.dtype == np.float64 and V.flags.c_contiguous
+    np.testing.assert_array_equal(V, [[0, 0, 0], [1.5, 0, 0], [0, 2, 0], [1.5, 2, 0]])
+    np.testing.assert_array_equal(F, [[0, 1, 3], [0, 3, 2]])
+
+
+def test_load_validates_the_mesh(tmp_path):
+    good = write_text(tmp_path / "good.obj", OBJ_TRIANGLE + "f 1 2 3\n")
+    V, F = yore.load_mesh(good)
+    np.testing.assert_array_equal(F, [[0, 1, 2]])
+
+    out_of_range = write_text(tmp_path / "range.obj", OBJ_TRIANGLE + "f 1 2 9\n")
+    with pytest.raises(ValueError):
+        yore.load_mesh(out_of_range)
+
+    nan_point = write_text(tmp_path / "nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(ValueError):
+        yore.load_mesh(nan_point)
+
+
+def test_load_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        yore.load_mesh(tmp_path / "nowhere.obj")
+
+
+def test_load_unknown_or_corrupt_file(tmp_path):
+    unknown = write_text(tmp_path / "mesh.unknownformat", "hello")
+    with pytest.raises(ValueError, match="unknownformat"):
+        yore.load_mesh(unknown)
+    corrupt = write_text(tmp_path / "mesh.vtu", "this is not XML")
+    with pytest.raises(ValueError, match="mesh.vtu"):
+        yore.load_mesh(corrupt)
+
+
+@pytest.mark.parametrize(
+    "V, F",
+    [
+        (np.zeros((4, 2)), [[0, 1, 2]]),  # 2-D positions
+        (np.zeros(12), [[0, 1, 2]]),  # flat positions
+        (np.eye(3), [[0, 1, 2, 0]]),  # quads
+        (np.eye(3), [0, 1, 2]),  # flat faces
+        (np.eye(3), [[0.0, 1.0, 2.0]]),  # float indices
+        (np.eye(3), [[0, 1, 3]]),  # index past the end
+        (np.eye(3), [[0, -1, 2]]),  # negative index
+        ([[np.nan, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]),  # NaN position
+        ([[np.inf, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]),  # infinite position
+    ],
+)
+def test_save_rejects_bad_arrays(tmp_path, V, F):
+    path = tmp_path / "bad.vtu"
+    with pytest.raises(ValueError):
+        yore.save_mesh(path, V, F)
+    assert not path.exists()
+
+
+def test_save_rejects_bad_point_data(tmp_path):
+    V, F = bumpy_grid(3, 3)
+    with pytest.raises(ValueError, match="speed"):
+        yore.save_mesh(tmp_path / "a.vtu", V, F, point_data={"speed": np.zeros(len(V) + 1)})
+    with pytest.raises(ValueError, match="point data"):
+        yore.save_mesh(tmp_path / "a.obj", V, F, point_data={"speed": np.zeros(len(V))})
+    with pytest.raises(ValueError, match="unknownformat"):
+        yore.save_mesh(tmp_path / "a.unknownformat", V, F)
+
+
+def test_vtu_keeps_vector_point_data(tmp_path):
+    V, F = bumpy_grid()
+    velocity = np.random.default_rng(1).normal(size=V.shape)
+    yore.save_mesh(tmp_path / "mesh.vtu", V, F, point_data={"velocity": velocity})
+    mesh = meshio.read(tmp_path / "mesh.vtu")
+    np.testing.assert_array_equal(mesh.point_data["velocity"], velocity)
+
+
+def test_ply_splits_vector_point_data(tmp_path):
+    V, F = bumpy_grid()
+    rng = np.random.default_rng(2)
+    velocity = rng.normal(size=V.shape)
+    uv = rng.normal(size=(len(V), 2))
+    pressure = rng.normal(size=len(V))
+    path = tmp_path / "mesh.ply"
+    yore.save_mesh(path, V, F, point_data={"velocity": velocity, "uv": uv, "pressure": pressure})
+    mesh = meshio.read(path)
+    expected = {"velocity_x", "velocity_y", "velocity_z", "uv_0", "uv_1", "pressure"}
+    assert set(mesh.point_data) == expected
+    for k, axis in enumerate("xyz"):
+        np.testing.assert_array_equal(mesh.point_data[f"velocity_{axis}"], velocity[:, k])
+    np.testing.assert_array_equal(mesh.point_data["uv_1"], uv[:, 1])
+    np.testing.assert_array_equal(mesh.point_data["pressure"], pressure)
+    # The extra vertex properties do not disturb the geometry.
+    V2, F2 = yore.load_mesh(path)
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+
+
+@pytest.mark.parametrize("fmt", ["vtu", "vtk"])
+def test_frame_series_writes_a_collection(tmp_path, fmt):
+    folder = tmp_path / "run"
+    times = [0.0, 0.1, 1.0 / 3.0]  # 1/3 needs all 17 digits to read back
+    meshes = [bumpy_grid(3, 3, seed=0), bumpy_grid(4, 3, seed=1), bumpy_grid(5, 6, seed=2)]
+    with FrameSeries(folder, fmt=fmt) as series:
+        for k, (time, (V, F)) in enumerate(zip(times, meshes)):
+            velocity = np.full_like(V, float(k))
+            path = series.write(time, V, F, point_data={"velocity": velocity})
+            assert path == folder / f"frame_{k:05d}.{fmt}"
+            # The collection is usable after every frame, not only at the end.
+            listed = ET.parse(folder / "frame.pvd").getroot().findall("Collection/DataSet")
+            assert len(listed) == k + 1
+    assert series.frames == [(t, folder / f"frame_{k:05d}.{fmt}") for k, t in enumerate(times)]
+    assert series.pvd_path == folder / "frame.pvd"
+
+    root = ET.parse(folder / "frame.pvd").getroot()
+    assert root.tag == "VTKFile" and root.get("type") == "Collection"
+    datasets = root.findall("Collection/DataSet")
+    assert [d.get("file") for d in datasets] == [f"frame_{k:05d}.{fmt}" for k in range(3)]
+    assert [float(d.get("timestep")) for d in datasets] == times
+    for dataset, (V, F) in zip(datasets, meshes):
+        frame = folder / dataset.get("file")
+        assert frame.is_file()
+        V2, F2 = yore.load_mesh(frame)
+        assert np.array_equal(V2, V) and np.array_equal(F2, F)
+
+    with pytest.raises(ValueError):
+        series.write(1.0, *meshes[0])
+
+
+def test_frame_series_other_formats_have_no_pvd(tmp_path):
+    V, F = bumpy_grid(3, 3)
+    series = FrameSeries(tmp_path, stem="cloth", fmt="ply")
+    path = series.write(0.5, V, F, point_data={"velocity": np.zeros_like(V)})
+    assert path == tmp_path / "cloth_00000.ply" and path.is_file()
+    assert series.pvd_path is None and not (tmp_path / "cloth.pvd").exists()
+    V2, F2 = yore.load_mesh(path)
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+
+
+def test_frame_series_rejects_bad_input(tmp_path):
+    with pytest.raises(ValueError, match="vtu"):
+        FrameSeries(tmp_path, fmt="stl")
+    series = FrameSeries(tmp_path)
+    V, F = bumpy_grid(3, 3)
+    with pytest.raises(ValueError, match="time"):
+        series.write(float("nan"), V, F)
+    with pytest.raises(ValueError):
+        series.write(0.0, V[:, :2], F)
+    # A rejected frame leaves no trace in the series.
+    assert series.frames == []
+    assert series.write(0.0, V, F) == tmp_path / "frame_00000.vtu"
