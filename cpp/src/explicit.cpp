@@ -260,7 +260,8 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
         x[3 * i + c] += dt * v[3 * i + c];
       }
     }
-    const double new_time = cloth.time() + dt;
+    // Time from the call's start and a step count, so that round-off does not accumulate.
+    const double new_time = checkpoint_time + static_cast<double>(step + 1) * dt;
     cloth.set_time(new_time);
     cloth.apply_drivers(new_time);
     m_statistics.update_seconds += seconds_since(start);

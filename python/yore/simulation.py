@@ -176,7 +176,9 @@ class Simulation:
                 batch = max(1, int(rate * _BATCH_SECONDS))
                 if bar is None and progress is not False and done < steps:
                     remaining = (steps - done) / rate
-                    if progress or elapsed + remaining > _PROGRESS_AFTER_SECONDS:
+                    # The rate is trusted only after a few batches (the first step also prepares).
+                    if progress or (elapsed > 2.5 * _BATCH_SECONDS
+                                    and elapsed + remaining > _PROGRESS_AFTER_SECONDS):
                         from tqdm.auto import tqdm
 
                         bar = tqdm(total=steps, initial=done, unit="step", desc="yore",
