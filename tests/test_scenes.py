@@ -19,8 +19,11 @@ def test_hanging_cloth_pins_never_move_and_the_cloth_sags_below_them():
     assert X[:, 1].mean() < -0.3
     assert X[:, 1].min() < -0.5
     assert np.all(np.isfinite(X))
-    # the pins are the corners of one edge, a cloth width apart
-    assert np.linalg.norm(start[0] - start[1]) == 1.0
+    # the pins are the corners of one edge, pin_spacing × width apart
+    assert np.linalg.norm(start[0] - start[1]) == 0.8
+    # the slack between the pins sags: the top edge hangs below the pins between them
+    top = np.arange(13)
+    assert X[top[1:-1], 1].max() < 0.0
 
 
 def test_hanging_cloth_dissipates_towards_rest():

@@ -101,3 +101,11 @@ def test_thread_count_can_be_set_and_is_checked():
     yore.set_num_threads(before)
     with pytest.raises(ValueError):
         yore.set_num_threads(0)
+
+
+def test_repeated_advance_tracks_frame_times_without_drift(cloth):
+    dt = 1.0 / 1150.0  # does not divide a frame of 1/30 s
+    sim = yore.Simulation(cloth, dt=dt)
+    for frame in range(1, 91):
+        sim.advance(1.0 / 30.0)
+        assert abs(sim.time - frame / 30.0) <= 0.5 * dt + 1e-12

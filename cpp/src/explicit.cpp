@@ -19,8 +19,8 @@ double seconds_since(Clock::time_point start) {
 
 // Below these sizes a parallel region costs more than it saves (measured in
 // benchmarks/explicit_step.py).
-constexpr std::int64_t kParallelSprings = 20000;
-constexpr std::int64_t kParallelVertices = 4000;
+constexpr std::int64_t kParallelSprings = 2000;
+constexpr std::int64_t kParallelVertices = 500;
 
 /// Force on each spring's first end (elastic, plus damping when Damped) into `out` (s×3);
 /// returns the total spring energy at the current positions.

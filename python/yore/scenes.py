@@ -27,28 +27,38 @@ DAMPING = 0.02  # N·s/m along each spring
 DRAG = 0.3  # 1/s, still air
 
 
-def hanging_cloth(size=1.0, resolution=21, mass=0.1, stretch_stiffness=STIFFNESS,
-                  bend_stiffness=STIFFNESS, damping=DAMPING, drag=DRAG, integrator="explicit",
-                  dt=None, gravity=(0.0, -9.81, 0.0), **options) -> Simulation:
+def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
+                  stretch_stiffness=STIFFNESS, bend_stiffness=STIFFNESS, damping=DAMPING,
+                  drag=DRAG, integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
+                  **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
-    The cloth starts flat and horizontal (the x–z plane at y = 0) with the two corners of one
-    edge, (0, 0, 0) and (size, 0, 0), fixed; gravity pulls it down so it swings and hangs from
-    the two points, forming the folds near the top that the paper strokes along.
+    The cloth's pattern is a size × size square; its rest lengths come from the flat pattern.
+    It starts horizontal (the x–z plane at y = 0), gathered along x to ``pin_spacing`` of its
+    width, with the two corners of its edge z = 0 fixed, ``pin_spacing · size`` apart. Gravity
+    pulls it down: it swings, hangs from the two points, and the slack between them forms the
+    folds near the top that the paper strokes along.
 
-    size : edge length, m. resolution : vertices per edge (>= 2). mass : total mass, kg,
-    spread uniformly over the vertices (the paper's choice). stretch_stiffness, bend_stiffness :
-    N/m per spring. damping : N·s/m per spring. drag : 1/s.
+    size : edge length, m. resolution : vertices per edge (>= 2). pin_spacing : distance of the
+    two fixed corners as a fraction of the width, in (0, 1]. mass : total mass, kg, spread
+    uniformly over the vertices (the paper's choice). stretch_stiffness, bend_stiffness : N/m
+    per spring. damping : N·s/m per spring. drag : 1/s.
     """
+    pin_spacing = float(pin_spacing)
+    if not 0.0 < pin_spacing <= 1.0:
+        raise ValueError(f"pin_spacing must be in (0, 1], got {pin_spacing}")
     V, F = grid_mesh(resolution, resolution, width=size, height=size)
     uv = V[:, :2].copy()
-    positions = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+    pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
     # clockwise about +y, i.e. the cloth's front faces up.
-    cloth = Cloth(positions, F, mass=_per_vertex(mass, len(positions)),
+    cloth = Cloth(pattern, F, mass=_per_vertex(mass, len(pattern)),
                   stretch_stiffness=stretch_stiffness, bend_stiffness=bend_stiffness,
                   damping=damping, drag=drag)
-    pinned = np.array([0, resolution - 1], dtype=np.int32)  # corners (0, 0, 0) and (size, 0, 0)
+    gathered = pattern.copy()
+    gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
+    cloth.positions = gathered
+    pinned = np.array([0, resolution - 1], dtype=np.int32)  # the corners of the edge z = 0
     cloth.fix(pinned)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
     sim.scene = {"name": "hanging_cloth", "fixed": pinned, "uv": uv}

@@ -109,6 +109,7 @@ class Simulation:
             dt = default_explicit_dt(cloth)
         self._dt = _check_positive_seconds(dt, "dt")
         self._wall_seconds = 0.0
+        self._target_time = None  # the time the last advance() aimed at
 
     # -- properties -----------------------------------------------------------------------
     @property
@@ -155,12 +156,21 @@ class Simulation:
         self._run(int(n), progress)
 
     def advance(self, seconds: float, progress=None) -> int:
-        """Advances by ``seconds`` of simulated time (rounded to whole steps); returns the steps."""
+        """Advances by ``seconds`` of simulated time in whole steps; returns the number of steps.
+
+        Repeated calls aim at the sum of the requested durations, so a loop of
+        ``advance(1/30)`` stays within dt/2 of the frame times instead of drifting.
+        """
         seconds = float(seconds)
         if not math.isfinite(seconds) or seconds < 0.0:
             raise ValueError(f"seconds must be finite and >= 0, got {seconds}")
-        steps = int(round(seconds / self._dt))
+        start = self.time
+        if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
+            start = self._target_time
+        target = start + seconds
+        steps = max(0, int(round((target - self.time) / self._dt)))
         self._run(steps, progress)
+        self._target_time = target
         return steps
 
     def _run(self, steps: int, progress) -> None:

@@ -1,0 +1,99 @@
+"""Cost of one explicit (symplectic Euler) step against grid size, with 1 and 2 threads.
+
+    python -m benchmarks.explicit_step [--out bench-results] [--quick]
+
+Writes explicit_step.json (raw medians, machine info) and explicit_step.png. Each size is
+timed as the median of repeated batches of steps after a warm-up; the thread comparison is a
+ratio measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+import yore
+
+from .common import machine_info, median_seconds, write_json
+
+
+def grid_cloth(n: int) -> yore.Cloth:
+    V, F = yore.grid_mesh(n, n)
+    cloth = yore.Cloth(V, F, mass=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
+                       damping=0.02, drag=0.3)
+    cloth.fix([0, n - 1])
+    return cloth
+
+
+def measure(sizes, threads_list, target_seconds: float, repeats: int) -> list:
+    rows = []
+    default_threads = yore.build_info()["threads"]
+    for n in sizes:
+        for threads in threads_list:
+            yore.set_num_threads(threads)
+            sim = yore.Simulation(grid_cloth(n))
+            # batch size so that one timed batch takes about target_seconds
+            probe = median_seconds(lambda: sim.step(5, progress=False), repeats=1, warmup=1)
+            steps = max(1, int(target_seconds / (probe["median"] / 5)))
+            timing = median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)
+            rows.append({"grid": n, "vertices": n * n, "springs": sim.cloth.spring_count,
+                         "threads": threads, "steps_per_batch": steps,
+                         "step_seconds_median": timing["median"] / steps,
+                         "step_seconds_min": timing["min"] / steps,
+                         "step_seconds_max": timing["max"] / steps})
+    yore.set_num_threads(default_threads)
+    return rows
+
+
+def plot(rows, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for threads in sorted({r["threads"] for r in rows}):
+        sel = [r for r in rows if r["threads"] == threads]
+        ax.loglog([r["vertices"] for r in sel], [1e3 * r["step_seconds_median"] for r in sel],
+                  "o-", label=f"{threads} thread{'s' if threads > 1 else ''}")
+    ax.set_xlabel("vertices")
+    ax.set_ylabel("ms per explicit step (median)")
+    ax.set_title("yore: symplectic Euler step cost")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="bench-results", type=Path)
+    parser.add_argument("--quick", action="store_true", help="small sizes, few repeats")
+    args = parser.parse_args(argv)
+    sizes = [16, 32, 64] if args.quick else [16, 32, 64, 128, 256]
+    threads = sorted({1, min(2, yore.build_info()["threads"])} | {yore.build_info()["threads"]})
+    rows = measure(sizes, threads, target_seconds=0.02 if args.quick else 0.2,
+                   repeats=3 if args.quick else 7)
+    speedups = {}
+    for n in sizes:
+        one = next(r for r in rows if r["grid"] == n and r["threads"] == 1)
+        best = min((r for r in rows if r["grid"] == n), key=lambda r: r["step_seconds_median"])
+        speedups[str(n)] = one["step_seconds_median"] / best["step_seconds_median"]
+    payload = {"benchmark": "explicit_step", "machine": machine_info(), "rows": rows,
+               "speedup_best_threads_vs_1": speedups}
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_json(args.out / "explicit_step.json", payload)
+    plot(rows, args.out / "explicit_step.png")
+    print(f"{'grid':>6} {'threads':>7} {'ms/step':>10}")
+    for r in rows:
+        print(f"{r['grid']:>5}² {r['threads']:>7} {1e3 * r['step_seconds_median']:>10.4f}")
+    print("speed-up of the best thread count over 1 thread:",
+          {k: round(v, 2) for k, v in speedups.items()})
+    print(f"wrote {args.out / 'explicit_step.json'} and {args.out / 'explicit_step.png'}")
+
+
+if __name__ == "__main__":
+    main()
