@@ -8,16 +8,16 @@ import yore
 
 
 def test_hanging_cloth_pins_never_move_and_the_cloth_sags_below_them():
-    sim = yore.scenes.hanging_cloth(resolution=13)
+    sim = yore.scenes.hanging_cloth(resolution=13, drag=3.0)  # more drag: settles sooner
     pins = sim.scene["fixed"]
     assert sorted(pins) == sorted(sim.cloth.fixed_vertices)
     start = sim.cloth.positions[pins].copy()
-    sim.advance(2.0)  # default dt: must not diverge
+    sim.advance(3.0)  # default dt: must not diverge
     X = sim.cloth.positions
     assert np.array_equal(X[pins], start)
-    # it has swung down from the horizontal start and hangs below the pins
-    assert X[:, 1].mean() < -0.3
-    assert X[:, 1].min() < -0.5
+    # it has swung down from the horizontal start and hangs below the pins (1 m cloth)
+    assert X[:, 1].mean() < -0.4
+    assert X[:, 1].min() < -0.8
     assert np.all(np.isfinite(X))
     # the pins are the corners of one edge, pin_spacing × width apart
     assert np.linalg.norm(start[0] - start[1]) == 0.8

@@ -169,7 +169,16 @@ vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; dr
       .def_property_readonly("spring_count",
                              [](const Cloth& cloth) { return cloth.springs().size(); })
       .def_property_readonly("drag", &Cloth::drag, "Air drag coefficient, 1/s.")
-      .def_property_readonly("time", &Cloth::time, "Simulated time, s.")
+      .def_property(
+          "time", &Cloth::time,
+          [](Cloth& cloth, double time) {
+            if (!std::isfinite(time)) {
+              throw std::invalid_argument("time must be finite, got " + std::to_string(time));
+            }
+            cloth.set_time(time);
+            cloth.apply_drivers(time);  // driven vertices are where their drivers say at `time`
+          },
+          "Simulated time, s; assigning it also moves driven vertices to that time.")
       .def_property_readonly("topology_version", &Cloth::topology_version,
                              "Changes whenever vertices, springs or the constrained set change.")
       .def_property_readonly(

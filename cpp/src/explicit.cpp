@@ -303,8 +303,7 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                      : "positions or velocities became non-finite")
           << ". The estimated stable time step of the explicit integrator is " << stable
           << " s; use dt <= " << 0.9 * stable
-          << " s or an implicit integrator. The cloth was restored to t = " << checkpoint_time
-          << " s.";
+          << " s or an implicit integrator.";
       throw SimulationDiverged(msg.str(), failed_step, new_time, dt, stable);
     }
     ++m_statistics.steps;

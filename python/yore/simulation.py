@@ -8,7 +8,7 @@ import time as _time
 import numpy as np
 
 from . import _core
-from ._core import Cloth
+from ._core import Cloth, SimulationDiverged
 
 __all__ = ["Simulation", "INTEGRATORS"]
 
@@ -147,8 +147,8 @@ class Simulation:
         """Advances ``n`` steps of ``dt``.
 
         Raises ``yore.SimulationDiverged`` (with ``.step``, ``.time``, ``.dt``, ``.stable_dt``)
-        if the run blows up; the cloth is then restored to its state at the start of the last
-        batch of steps, just before the failure. ``progress``: True/False forces a progress bar
+        if the run blows up; the cloth is then restored to its state before this call.
+        ``progress``: True/False forces a progress bar
         on/off; None shows one when the run takes longer than a few seconds.
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
@@ -174,6 +174,10 @@ class Simulation:
         return steps
 
     def _run(self, steps: int, progress) -> None:
+        if steps == 0:
+            return
+        cloth = self._cloth
+        saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
         done, batch, bar = 0, 1, None
         started = _time.perf_counter()
         try:
@@ -196,6 +200,14 @@ class Simulation:
                 elif bar is not None:
                     bar.update(count)
                     bar.set_postfix_str(f"t={self.time:.3f} s")
+        except SimulationDiverged as error:
+            # Batches before the failing one may already hold a growing instability: go back to
+            # the state before this call, which the caller knows to be good.
+            cloth.positions, cloth.velocities = saved[0], saved[1]
+            cloth.time = saved[2]
+            error.args = (f"{error.args[0]} The cloth was restored to t = {saved[2]:.6g} s, "
+                          "its state before this call.",)
+            raise
         finally:
             self._wall_seconds += _time.perf_counter() - started
             if bar is not None:
