@@ -1,0 +1,43 @@
+"""The example scripts run (at reduced size) and write what they promise."""
+
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+import yore
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def run(script, *args):
+    result = subprocess.run([sys.executable, str(EXAMPLES / script), *args], capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def test_demo_writes_frames_a_collection_and_a_picture_and_says_where(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = run("hanging_cloth.py", "--out", str(tmp_path), "--seconds", "0.2", "--fps", "20",
+              "--resolution", "7")
+    pvd = tmp_path / "frames" / "hanging_cloth.pvd"
+    assert str(pvd.resolve()) in out
+    datasets = ET.parse(pvd).getroot().findall(".//DataSet")
+    assert len(datasets) == 5  # t = 0 and four frames
+    times = [float(d.get("timestep")) for d in datasets]
+    assert times == sorted(times) and abs(times[-1] - 0.2) < 1e-3
+    V, F = yore.load_mesh(pvd.parent / datasets[-1].get("file"))
+    assert V.shape == (49, 3) and F.shape == (72, 3)
+    assert V[:, 1].min() < -0.05  # it has fallen
+    picture = tmp_path / "hanging_cloth.png"
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cylinder_example_reports_the_rim_speed(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = run("rotating_cylinder.py", "--out", str(tmp_path), "--seconds", "0.2")
+    assert "ring 12:  6.283 rad/s" in out
+    assert len(list((tmp_path / "cylinder").glob("*.obj"))) == 6
