@@ -22,6 +22,8 @@ def _batch(xi, xj, *per_spring):
     xi2, xj2 = np.atleast_2d(xi), np.atleast_2d(xj)
     if xi2.shape != xj2.shape:
         raise ValueError(f"xi and xj must have the same shape, got {xi.shape} and {xj.shape}")
+    if not (np.all(np.isfinite(xi2)) and np.all(np.isfinite(xj2))):
+        raise ValueError("xi and xj must be finite")
     count = xi2.shape[0]
     scalars = []
     for name, value in per_spring:
