@@ -47,6 +47,22 @@ Positions to_rows3(const py::handle& object, const char* name, Eigen::Index rows
 
 namespace {
 
+/// Copies an integer array into `out` (numeric.size() entries) as int32, in C order.
+void narrow_to_int32(const py::array& numeric, const char* name, std::int32_t* out) {
+  const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
+      numeric);
+  for (py::ssize_t k = 0; k < wide.size(); ++k) {
+    const std::int64_t value = wide.data()[k];
+    if (value < std::numeric_limits<std::int32_t>::min() ||
+        value > std::numeric_limits<std::int32_t>::max()) {
+      std::ostringstream msg;
+      msg << name << " holds the index " << value << ", outside the 32-bit range";
+      throw std::invalid_argument(msg.str());
+    }
+    out[k] = static_cast<std::int32_t>(value);
+  }
+}
+
 template <int Columns>
 Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> to_index_rows(
     const py::handle& object, const char* name) {
@@ -61,20 +77,9 @@ Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> to_index_r
     msg << name << " must have shape (n, " << Columns << "), got " << shape_text(numeric);
     throw std::invalid_argument(msg.str());
   }
-  const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
-      numeric);
-  Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> out(wide.shape(0),
+  Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> out(numeric.shape(0),
                                                                               Columns);
-  for (py::ssize_t k = 0; k < wide.size(); ++k) {
-    const std::int64_t value = wide.data()[k];
-    if (value < std::numeric_limits<std::int32_t>::min() ||
-        value > std::numeric_limits<std::int32_t>::max()) {
-      std::ostringstream msg;
-      msg << name << " holds the index " << value << ", outside the 32-bit range";
-      throw std::invalid_argument(msg.str());
-    }
-    out.data()[k] = static_cast<std::int32_t>(value);
-  }
+  narrow_to_int32(numeric, name, out.data());
   return out;
 }
 
@@ -114,20 +119,8 @@ std::vector<std::int32_t> to_indices(const py::handle& object, const char* name)
     throw std::invalid_argument(std::string(name) + " must be a 1-D list of indices, got shape " +
                                 shape_text(numeric));
   }
-  const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
-      numeric);
-  std::vector<std::int32_t> out;
-  out.reserve(static_cast<std::size_t>(wide.size()));
-  for (py::ssize_t k = 0; k < wide.size(); ++k) {
-    const std::int64_t value = wide.data()[k];
-    if (value < std::numeric_limits<std::int32_t>::min() ||
-        value > std::numeric_limits<std::int32_t>::max()) {
-      std::ostringstream msg;
-      msg << name << " holds the index " << value << ", outside the 32-bit range";
-      throw std::invalid_argument(msg.str());
-    }
-    out.push_back(static_cast<std::int32_t>(value));
-  }
+  std::vector<std::int32_t> out(static_cast<std::size_t>(numeric.size()));
+  narrow_to_int32(numeric, name, out.data());
   return out;
 }
 

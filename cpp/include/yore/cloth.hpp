@@ -58,7 +58,9 @@ class Cloth {
                            const Eigen::VectorXd& rest_lengths, const Eigen::VectorXd& masses,
                            double stiffness, double damping, double drag);
 
+  /// Number of vertices (mass points).
   std::int64_t vertex_count() const { return m_positions.rows(); }
+  /// Number of triangles (0 for a spring network).
   std::int64_t face_count() const { return m_faces.rows(); }
 
   /// n×3 positions, metres.
@@ -78,7 +80,9 @@ class Cloth {
   const Eigen::VectorXd& masses() const { return m_masses; }
   /// n inverse masses, 1/kg; zero for fixed and driven vertices (they do not respond to forces).
   const Eigen::VectorXd& inverse_masses() const { return m_inverse_masses; }
+  /// f×3 vertex indices of the triangles.
   const Faces& faces() const { return m_faces; }
+  /// All springs, structure of arrays.
   const SpringSet& springs() const { return m_springs; }
   /// Replaces all rest lengths (s, metres, finite and positive).
   void set_rest_lengths(const Eigen::VectorXd& rest_lengths);
@@ -93,13 +97,16 @@ class Cloth {
   /// non-finite axis, or non-finite values.
   void drive_rotation(const std::vector<std::int32_t>& vertices, const Vec3& center,
                       const Vec3& axis, double omega);
+  /// n states: free, fixed or driven.
   const std::vector<VertexState>& vertex_states() const { return m_vertex_states; }
+  /// The kinematic drivers, in the order they were attached.
   const std::vector<RotationDriver>& drivers() const { return m_drivers; }
   /// Moves driven vertices to their prescribed positions and velocities at time t (s).
   void apply_drivers(double time);
 
   /// Simulated time, s.
   double time() const { return m_time; }
+  /// Sets the simulated time (s) without moving anything; see apply_drivers.
   void set_time(double time) { m_time = time; }
 
   /// Changes whenever the structure of the system changes: vertices, springs or the set of

@@ -48,7 +48,9 @@ class ExplicitIntegrator {
   /// Throws std::invalid_argument on dt <= 0, non-finite dt or gravity, or steps < 0.
   void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps);
 
+  /// The options this integrator was built with.
   const ExplicitOptions& options() const { return m_options; }
+  /// Cumulative counters and wall time per phase.
   const ExplicitStatistics& statistics() const { return m_statistics; }
 
  private:
