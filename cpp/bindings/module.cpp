@@ -13,6 +13,7 @@ PYBIND11_MODULE(_core, m) {
   // SimulationDiverged is a RuntimeError that carries where the run failed and a stable dt.
   // The type lives in the module (no static Python object to outlive the interpreter).
   py::exception<yore::SimulationDiverged>(m, "SimulationDiverged", PyExc_RuntimeError);
+  py::register_exception<yore::NotPositiveDefinite>(m, "NotPositiveDefinite", PyExc_RuntimeError);
   py::register_exception_translator([](std::exception_ptr pointer) {
     try {
       if (pointer) std::rethrow_exception(pointer);
@@ -43,4 +44,5 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_mesh(m);
   yore::bindings::bind_cloth(m);
   yore::bindings::bind_explicit(m);
+  yore::bindings::bind_implicit(m);
 }

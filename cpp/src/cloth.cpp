@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -13,6 +14,13 @@ namespace yore {
 namespace {
 
 [[noreturn]] void fail(const std::string& message) { throw std::invalid_argument(message); }
+
+/// Topology versions are unique across all cloths of the process, so a cache keyed by a version
+/// can never mistake one cloth (or an earlier topology) for another.
+std::uint64_t next_topology_version() {
+  static std::atomic<std::uint64_t> counter{0};
+  return ++counter;
+}
 
 void check_non_negative(double value, const char* name) {
   if (!std::isfinite(value) || value < 0.0) {
@@ -67,6 +75,7 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
   m_drag = drag;
   m_vertex_states.assign(static_cast<std::size_t>(n), VertexState::free);
   update_inverse_masses();
+  m_topology_version = next_topology_version();
 }
 
 Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
@@ -263,7 +272,7 @@ void Cloth::fix(const std::vector<std::int32_t>& vertices) {
     m_velocities.row(v).setZero();
   }
   update_inverse_masses();
-  ++m_topology_version;
+  m_topology_version = next_topology_version();
   ++m_edit_count;
 }
 
@@ -301,7 +310,7 @@ void Cloth::drive_rotation(const std::vector<std::int32_t>& vertices, const Vec3
   m_drivers.push_back(std::move(driver));
   update_inverse_masses();
   apply_drivers(m_time);
-  ++m_topology_version;
+  m_topology_version = next_topology_version();
   ++m_edit_count;
 }
 

@@ -1,6 +1,5 @@
 #include "yore/explicit.hpp"
 
-#include "yore/errors.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -68,7 +67,8 @@ double spring_forces(const Cloth& cloth, Positions& out) {
 
 }  // namespace
 
-ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options) : m_options(options) {
+ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options)
+    : m_options(options), m_monitor(options.divergence_energy_factor) {
   if (!std::isfinite(options.strain_limit) || options.strain_limit < 0.0 ||
       (options.strain_limit > 0.0 && options.strain_limit < 1.0)) {
     std::ostringstream msg;
@@ -81,16 +81,9 @@ ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options) : m_optio
     msg << "strain_limit_passes must be >= 1, got " << options.strain_limit_passes;
     throw std::invalid_argument(msg.str());
   }
-  if (!std::isfinite(options.divergence_energy_factor) ||
-      options.divergence_energy_factor <= 0.0) {
-    std::ostringstream msg;
-    msg << "divergence_energy_factor must be finite and > 0, got "
-        << options.divergence_energy_factor;
-    throw std::invalid_argument(msg.str());
-  }
 }
 
-void ExplicitIntegrator::prepare(const Cloth& cloth, const Vec3& gravity, double dt) {
+void ExplicitIntegrator::prepare(const Cloth& cloth) {
   const Eigen::Index n = cloth.vertex_count();
   const auto s = static_cast<Eigen::Index>(cloth.springs().size());
   if (m_forces.rows() != n) m_forces.resize(n, 3);
@@ -99,43 +92,6 @@ void ExplicitIntegrator::prepare(const Cloth& cloth, const Vec3& gravity, double
     m_previous_positions.resize(n, 3);
   }
   m_with_spring_damping = cloth.has_spring_damping();
-
-  if (cloth.topology_version() == m_baseline_topology && cloth.edit_count() == m_baseline_edits &&
-      gravity == m_baseline_gravity && dt == m_baseline_dt) {
-    return;
-  }
-  // Re-baseline the divergence check (see advance()).
-  const EnergyTerms energy = cloth.energy(gravity);
-  const Eigen::Vector3d extent =
-      cloth.positions().colwise().maxCoeff() - cloth.positions().colwise().minCoeff();
-  const double diagonal = extent.norm();
-  const double total_mass = cloth.masses().sum();
-  double omega_max = 0.0;
-  for (const RotationDriver& driver : cloth.drivers()) {
-    omega_max = std::max(omega_max, std::abs(driver.omega));
-  }
-  double rest_energy = 0.0;
-  const SpringSet& springs = cloth.springs();
-  for (std::size_t k = 0; k < springs.size(); ++k) {
-    rest_energy += 0.5 * springs.stiffness[k] * springs.rest_length[k] * springs.rest_length[k];
-  }
-  const double scale = energy.kinetic + energy.spring + total_mass * gravity.norm() * diagonal +
-                       0.5 * total_mass * (omega_max * diagonal) * (omega_max * diagonal) +
-                       rest_energy;
-  // Monitored energy: spring energy plus kinetic and gravitational energy of the free vertices.
-  double monitored = energy.spring;
-  const Eigen::VectorXd& inverse_masses = cloth.inverse_masses();
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (inverse_masses[i] == 0.0) continue;
-    const double m = cloth.masses()[i];
-    monitored += 0.5 * m * cloth.velocities().row(i).squaredNorm() -
-                 m * cloth.positions().row(i).dot(gravity);
-  }
-  m_energy_limit = monitored + m_options.divergence_energy_factor * scale;
-  m_baseline_topology = cloth.topology_version();
-  m_baseline_edits = cloth.edit_count();
-  m_baseline_gravity = gravity;
-  m_baseline_dt = dt;
 }
 
 double ExplicitIntegrator::compute_forces(const Cloth& cloth, const Vec3& gravity) {
@@ -232,7 +188,8 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   if (steps == 0) return;
 
   auto start = Clock::now();
-  prepare(cloth, gravity, dt);
+  prepare(cloth);
+  m_monitor.prepare(cloth, gravity, dt);
   const Eigen::Index n = cloth.vertex_count();
   m_checkpoint_positions = cloth.positions();  // same size every call: no reallocation
   m_checkpoint_velocities = cloth.velocities();
@@ -290,21 +247,12 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                            x[3 * i + 2] * gravity.z());
     }
     const bool finite = std::isfinite(monitored) && std::isfinite(position_sum);
-    if (!finite || monitored > m_energy_limit) {
+    if (!finite || monitored > m_monitor.limit()) {
       const std::int64_t failed_step = m_statistics.steps;
       cloth.integrator_positions() = m_checkpoint_positions;
       cloth.integrator_velocities() = m_checkpoint_velocities;
       cloth.set_time(checkpoint_time);
-      const double stable = cloth.stable_time_step();
-      std::ostringstream msg;
-      msg << "simulation diverged at step " << failed_step << " (t = " << new_time
-          << " s, dt = " << dt << " s): "
-          << (finite ? "the energy grew past its bound"
-                     : "positions or velocities became non-finite")
-          << ". The estimated stable time step of the explicit integrator is " << stable
-          << " s; use dt <= " << 0.9 * stable
-          << " s or an implicit integrator.";
-      throw SimulationDiverged(msg.str(), failed_step, new_time, dt, stable);
+      throw diverged_error(cloth, "explicit", failed_step, new_time, dt, finite);
     }
     ++m_statistics.steps;
     m_statistics.checks_seconds += seconds_since(start);

@@ -7,7 +7,7 @@ Cloth") with an explicit reference integrator; see README.md for the whole pictu
 from __future__ import annotations
 
 from . import scenes, springs
-from ._core import Cloth, SimulationDiverged
+from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
 from .simulation import INTEGRATORS, Simulation
@@ -18,6 +18,7 @@ __all__ = [
     "Cloth",
     "Simulation",
     "SimulationDiverged",
+    "NotPositiveDefinite",
     "INTEGRATORS",
     "grid_mesh",
     "cylinder_mesh",

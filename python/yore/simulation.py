@@ -25,7 +25,22 @@ _OPTIONS = {
         # Divergence bound, in multiples of the cloth's energy scale (see ExplicitIntegrator).
         "divergence_energy_factor": 10.0,
     },
+    "implicit": {
+        # One Newton step, no line search (Baraff & Witkin 1998).
+        "linearized": False,
+        # Newton stops when an iteration moves no vertex by more than newton_tol × the mean
+        # rest length.
+        "newton_tol": 1e-5,
+        "max_newton": 50,
+        "solver": "cholmod",  # "cholmod" | "eigen-ldlt" | "pcg"
+        "ordering": "amd",  # "amd" | "metis" | "natural" (cholmod)
+        "factorization": "supernodal",  # "supernodal" | "simplicial" (cholmod)
+        "pcg_tol": 1e-12,
+        "pcg_max_iterations": 20000,
+        "divergence_energy_factor": 10.0,
+    },
 }
+_OPTIONS["bdf2"] = dict(_OPTIONS["implicit"])
 
 
 def _make_explicit(options):
@@ -37,7 +52,29 @@ def _make_explicit(options):
     )
 
 
-_FACTORIES = {"explicit": _make_explicit}
+def _make_implicit(options, method="backward_euler"):
+    return _core.ImplicitIntegrator(
+        method=method,
+        linearized=bool(options["linearized"]),
+        newton_tol=float(options["newton_tol"]),
+        max_newton=int(options["max_newton"]),
+        solver=str(options["solver"]),
+        ordering=str(options["ordering"]),
+        factorization=str(options["factorization"]),
+        pcg_tol=float(options["pcg_tol"]),
+        pcg_max_iterations=int(options["pcg_max_iterations"]),
+        divergence_energy_factor=float(options["divergence_energy_factor"]),
+    )
+
+
+_FACTORIES = {
+    "explicit": _make_explicit,
+    "implicit": _make_implicit,
+    "bdf2": lambda options: _make_implicit(options, method="bdf2"),
+}
+
+#: Default time step of the implicit integrators, s.
+IMPLICIT_DT = 1.0 / 60.0
 
 # Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
 _BATCH_SECONDS = 0.1
@@ -61,16 +98,21 @@ class Simulation:
     cloth : yore.Cloth
         The cloth to simulate (the simulation steps it in place).
     integrator : str
-        One of ``yore.simulation.INTEGRATORS``; ``"explicit"`` (symplectic Euler) is the
-        reference path and the only one built so far.
+        One of ``yore.simulation.INTEGRATORS``: ``"explicit"`` (symplectic Euler, the
+        reference), ``"implicit"`` (backward Euler by Newton on a sparse Cholesky factorization),
+        ``"bdf2"`` (second order on the same machinery); ``"local-global"`` is not built yet.
     dt : float, optional
-        Time step, s. Default: half the stable-step estimate for the explicit integrator,
-        rounded down to 1/N s.
+        Time step, s. Default: explicit, half the stable-step estimate rounded down to 1/N s;
+        implicit and bdf2, 1/60 s.
     gravity : (3,) array_like
         Gravitational acceleration, m/s².
     **options
-        Integrator options; explicit: ``strain_limit`` (e.g. 1.1, default None = off),
-        ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10).
+        Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
+        ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
+        ``linearized`` (False), ``newton_tol`` (1e-5, relative to the mean rest length),
+        ``max_newton`` (50), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
+        ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
+        ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10).
 
     Raises
     ------
@@ -106,7 +148,7 @@ class Simulation:
         self._integrator_name = integrator
         self._integrator = _FACTORIES[integrator](self._options)
         if dt is None:
-            dt = default_explicit_dt(cloth)
+            dt = default_explicit_dt(cloth) if integrator == "explicit" else IMPLICIT_DT
         self._dt = _check_positive_seconds(dt, "dt")
         self._wall_seconds = 0.0
         self._target_time = None  # the time the last advance() aimed at
@@ -224,10 +266,17 @@ class Simulation:
 
     @property
     def stats(self) -> dict:
-        """Counters, wall time per phase (s) and the model terms that are active."""
+        """Counters, wall time per phase (s) and the model terms that are active.
+
+        ``phases``: cumulative wall time per phase (explicit: forces, update, constraints,
+        checks; implicit: assemble, analyze, factorize, solve). ``counters``: cumulative counts
+        and the last step's figures (implicit: newton_iterations, line_search_backtracks,
+        analyses, factorizations, factor_nonzeros, factor_flops, ordering, last_residual, ...).
+        """
         cloth = self._cloth
-        phases = dict(self._integrator.statistics)
-        steps = phases.pop("steps")
+        counters = dict(self._integrator.statistics)
+        steps = counters.pop("steps")
+        phases = {key: counters.pop(key) for key in list(counters) if key.endswith("_seconds")}
         kinds = cloth.springs.kind
         damping = cloth.springs.damping
         active = {
@@ -247,6 +296,7 @@ class Simulation:
             "wall_seconds": self._wall_seconds,
             "steps_per_second": steps / self._wall_seconds if self._wall_seconds > 0 else 0.0,
             "phases": phases,
+            "counters": counters,
             "active_terms": active,
             "vertices": cloth.vertex_count,
             "springs": cloth.spring_count,

@@ -110,7 +110,8 @@ class Cloth {
   void set_time(double time) { m_time = time; }
 
   /// Changes whenever the structure of the system changes: vertices, springs or the set of
-  /// constrained vertices. Caches derived from the topology (sparsity patterns, factors) key on it.
+  /// constrained vertices. Unique across all cloths of the process, so caches derived from the
+  /// topology (sparsity patterns, factors) key on it alone.
   std::uint64_t topology_version() const { return m_topology_version; }
   /// Changes on every outside edit of the state or the model (positions, velocities, rest
   /// lengths, constraints); integrators use it to re-baseline their divergence checks.

@@ -30,3 +30,14 @@ class SimulationDiverged : public std::runtime_error {
 };
 
 }  // namespace yore
+
+namespace yore {
+
+/// Thrown when a matrix that must be positive definite is not (e.g. CHOLMOD reports a
+/// non-positive pivot). Names the failing column.
+class NotPositiveDefinite : public std::runtime_error {
+ public:
+  explicit NotPositiveDefinite(const std::string& message) : std::runtime_error(message) {}
+};
+
+}  // namespace yore

@@ -3,6 +3,7 @@
 /// Symplectic Euler for the mass-spring cloth: the reference integrator.
 
 #include "yore/cloth.hpp"
+#include "yore/divergence.hpp"
 
 #include <cstdint>
 #include <limits>
@@ -40,11 +41,8 @@ class ExplicitIntegrator {
   explicit ExplicitIntegrator(const ExplicitOptions& options = {});
 
   /// Runs `steps` steps of size dt (s) under gravity (m/s²). The energy is checked after every
-  /// step: a non-finite state, or a total energy more than divergence_energy_factor × E_scale
-  /// above the value when the run was last re-baselined, throws SimulationDiverged and restores
-  /// the cloth to its state at the start of this call. E_scale = kinetic + spring energy +
-  /// M|g|D + ½M(ω_max D)² + ½Σ k L², with M the total mass and D the bounding-box diagonal; the
-  /// baseline is taken again whenever the cloth is edited, its topology changes, or g or dt change.
+  /// step (see DivergenceMonitor): a non-finite state or an energy past the bound throws
+  /// SimulationDiverged and restores the cloth to its state at the start of this call.
   /// Throws std::invalid_argument on dt <= 0, non-finite dt or gravity, or steps < 0.
   void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps);
 
@@ -54,7 +52,7 @@ class ExplicitIntegrator {
   const ExplicitStatistics& statistics() const { return m_statistics; }
 
  private:
-  void prepare(const Cloth& cloth, const Vec3& gravity, double dt);
+  void prepare(const Cloth& cloth);
   double compute_forces(const Cloth& cloth, const Vec3& gravity);
   void limit_strain(Cloth& cloth);
 
@@ -68,13 +66,7 @@ class ExplicitIntegrator {
   Positions m_checkpoint_positions;
   Positions m_checkpoint_velocities;
   bool m_with_spring_damping = false;
-
-  // Divergence baseline.
-  std::uint64_t m_baseline_topology = std::numeric_limits<std::uint64_t>::max();
-  std::uint64_t m_baseline_edits = std::numeric_limits<std::uint64_t>::max();
-  Vec3 m_baseline_gravity = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-  double m_baseline_dt = 0.0;
-  double m_energy_limit = 0.0;
+  DivergenceMonitor m_monitor;
 };
 
 }  // namespace yore

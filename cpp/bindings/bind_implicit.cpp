@@ -1,0 +1,120 @@
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "yore/implicit.hpp"
+
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace yore::bindings {
+namespace {
+
+template <typename Enum>
+Enum parse_choice(const std::string& value, const char* name,
+                  std::initializer_list<std::pair<const char*, Enum>> choices) {
+  std::string valid;
+  for (const auto& [text, code] : choices) {
+    if (value == text) return code;
+    valid += (valid.empty() ? "" : ", ") + std::string(text);
+  }
+  throw std::invalid_argument("unknown " + std::string(name) + " '" + value + "'; valid: " + valid);
+}
+
+py::array csc_array(const std::vector<std::int32_t>& values) { return read_only_copy(values); }
+
+}  // namespace
+
+void bind_implicit(py::module_& m) {
+  py::class_<ImplicitIntegrator>(m, "ImplicitIntegrator",
+                                 "Backward Euler / BDF2 by Newton's method on a sparse solver.")
+      .def(py::init([](const std::string& method, bool linearized, double newton_tol,
+                       int max_newton, const std::string& solver, const std::string& ordering,
+                       const std::string& factorization, double pcg_tol, int pcg_max_iterations,
+                       double divergence_energy_factor) {
+             ImplicitOptions options;
+             options.method = parse_choice<ImplicitMethod>(
+                 method, "method",
+                 {{"backward_euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}});
+             options.linearized = linearized;
+             options.newton_tol = newton_tol;
+             options.max_newton = max_newton;
+             options.solver.backend = solver;
+             options.solver.ordering = parse_choice<Ordering>(
+                 ordering, "ordering",
+                 {{"amd", Ordering::amd}, {"metis", Ordering::metis}, {"natural", Ordering::natural}});
+             options.solver.factor = parse_choice<FactorKind>(
+                 factorization, "factorization",
+                 {{"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}});
+             options.solver.pcg_tolerance = pcg_tol;
+             options.solver.pcg_max_iterations = pcg_max_iterations;
+             options.divergence_energy_factor = divergence_energy_factor;
+             return std::make_unique<ImplicitIntegrator>(options);
+           }),
+           py::kw_only(), py::arg("method") = "backward_euler", py::arg("linearized") = false,
+           py::arg("newton_tol") = 1e-5, py::arg("max_newton") = 50,
+           py::arg("solver") = "cholmod", py::arg("ordering") = "amd",
+           py::arg("factorization") = "supernodal", py::arg("pcg_tol") = 1e-12,
+           py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0)
+      .def(
+          "advance",
+          [](ImplicitIntegrator& integrator, Cloth& cloth, const py::handle& gravity, double dt,
+             std::int64_t steps) {
+            const Vec3 g = to_vec3(gravity, "gravity");
+            py::gil_scoped_release release;
+            integrator.advance(cloth, g, dt, steps);
+          },
+          py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("steps"),
+          "Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.")
+      .def(
+          "newton_system",
+          [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
+             double dt, const py::handle& positions) {
+            const NewtonSystem system = integrator.newton_system(
+                cloth, to_vec3(gravity, "gravity"), dt,
+                to_rows3(positions, "positions", cloth.vertex_count()));
+            py::dict out;
+            out["energy"] = system.energy;
+            out["gradient"] = read_only_copy(system.gradient);
+            out["hessian_data"] = read_only_copy(system.hessian);
+            out["hessian_indices"] = csc_array(system.pattern.row_indices);
+            out["hessian_indptr"] = csc_array(system.pattern.column_starts);
+            out["size"] = system.pattern.size;
+            out["direction"] = read_only_copy(system.direction);
+            out["free_vertices"] = read_only_copy(system.free_vertices);
+            return out;
+          },
+          py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("positions"),
+          R"doc(The backward-Euler incremental potential of the next step from the cloth's state,
+at `positions` (n×3; only free vertices are unknowns): energy (J), gradient (N), the Hessian's
+lower triangle in CSC (hessian_data, hessian_indices, hessian_indptr, size) and the solver's
+Newton direction.)doc")
+      .def_property_readonly("statistics", [](const ImplicitIntegrator& integrator) {
+        const ImplicitStatistics& s = integrator.statistics();
+        const SolverStatistics& solver = integrator.solver_statistics();
+        py::dict out;
+        out["steps"] = s.steps;
+        out["assemble_seconds"] = s.assemble_seconds;
+        out["analyze_seconds"] = s.analyze_seconds;
+        out["factorize_seconds"] = s.factorize_seconds;
+        out["solve_seconds"] = s.solve_seconds;
+        out["newton_iterations"] = s.newton_iterations;
+        out["line_search_backtracks"] = s.line_search_backtracks;
+        out["unconverged_steps"] = s.unconverged_steps;
+        out["last_newton_iterations"] = s.last_newton_iterations;
+        out["last_line_search_backtracks"] = s.last_line_search_backtracks;
+        out["last_residual"] = s.last_residual;
+        out["dofs"] = s.last_dofs;
+        out["analyses"] = solver.analyses;
+        out["factorizations"] = solver.factorizations;
+        out["solves"] = solver.solves;
+        out["factor_nonzeros"] = solver.factor_nonzeros;
+        out["factor_flops"] = solver.factor_flops;
+        out["ordering"] = solver.ordering;
+        out["pcg_iterations"] = solver.iterations;
+        out["pcg_unconverged"] = solver.unconverged;
+        return out;
+      });
+}
+
+}  // namespace yore::bindings

@@ -1,0 +1,45 @@
+#pragma once
+/// @file divergence.hpp
+/// The blow-up check shared by all integrators: a finite state whose energy stays below a bound.
+
+#include "yore/cloth.hpp"
+#include "yore/errors.hpp"
+
+#include <cstdint>
+#include <limits>
+
+namespace yore {
+
+/// Energy bound of a run. The monitored energy is the spring energy plus the kinetic and
+/// gravitational energy of the free vertices; the bound is its value at the baseline plus
+/// factor × E_scale, E_scale = kinetic + spring energy + M|g|D + ½M(ω_max D)² + ½Σ k L² (M total
+/// mass, D bounding-box diagonal, ω_max the fastest driver): the energy at which every spring
+/// would be compressed to nothing, plus what gravity and drivers can legitimately feed in.
+class DivergenceMonitor {
+ public:
+  /// factor > 0 (finite). Throws std::invalid_argument otherwise.
+  explicit DivergenceMonitor(double factor = 10.0);
+
+  /// Takes a new baseline if the cloth was edited or its topology, g or dt changed since the last.
+  void prepare(const Cloth& cloth, const Vec3& gravity, double dt);
+
+  /// Monitored energy, J, above which the run counts as diverged.
+  double limit() const { return m_limit; }
+
+  /// Spring energy plus kinetic and gravitational energy of the free vertices, J.
+  static double monitored_energy(const Cloth& cloth, const Vec3& gravity);
+
+ private:
+  double m_factor;
+  double m_limit = 0.0;
+  std::uint64_t m_topology = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t m_edits = std::numeric_limits<std::uint64_t>::max();
+  Vec3 m_gravity = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  double m_dt = 0.0;
+};
+
+/// The exception for a failed step: where it failed, why, and what the stability estimate says.
+SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
+                                  double time, double dt, bool finite);
+
+}  // namespace yore

@@ -1,0 +1,136 @@
+#pragma once
+/// @file implicit.hpp
+/// Implicit stepping (backward Euler, BDF2) as minimisation of the incremental potential, by
+/// Newton's method with a backtracking line search on a sparse SPD solver.
+
+#include "yore/cloth.hpp"
+#include "yore/divergence.hpp"
+#include "yore/linear_solver.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace yore {
+
+/// The time discretisation.
+enum class ImplicitMethod {
+  backward_euler,  ///< first order, unconditionally stable, dissipative
+  bdf2,            ///< second order; the first step (and the first after a change) is BE
+};
+
+/// Settings of the implicit integrator.
+struct ImplicitOptions {
+  ImplicitMethod method = ImplicitMethod::backward_euler;
+  /// One Newton step from the current state, no line search (Baraff & Witkin 1998).
+  bool linearized = false;
+  /// Newton stops when the largest vertex move of an iteration is below newton_tol × the mean
+  /// rest length.
+  double newton_tol = 1e-5;
+  int max_newton = 50;
+  LinearSolverOptions solver;
+  double divergence_energy_factor = 10.0;
+};
+
+/// Counters and wall time per phase, cumulative, plus the last step's figures.
+struct ImplicitStatistics {
+  std::int64_t steps = 0;
+  std::int64_t newton_iterations = 0;
+  std::int64_t line_search_backtracks = 0;
+  std::int64_t unconverged_steps = 0;  ///< steps that reached max_newton
+  double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
+  double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
+  double factorize_seconds = 0.0;
+  double solve_seconds = 0.0;
+  int last_newton_iterations = 0;
+  int last_line_search_backtracks = 0;
+  double last_residual = std::numeric_limits<double>::quiet_NaN();  ///< ‖∇E‖∞ at the end, N
+  std::int64_t last_dofs = 0;
+};
+
+/// The incremental potential's value, gradient and Hessian at a point, for tests and tools.
+struct NewtonSystem {
+  double energy = 0.0;          ///< J
+  Eigen::VectorXd gradient;     ///< N (3 per free vertex), newtons
+  SymmetricPattern pattern;     ///< lower-triangle CSC of the Hessian
+  std::vector<double> hessian;  ///< values in pattern order, N/m
+  Eigen::VectorXd direction;    ///< solution of H d = −g with the configured solver
+  std::vector<std::int32_t> free_vertices;  ///< vertex of each block of 3 unknowns
+};
+
+/// Backward Euler / BDF2 for the mass-spring cloth. The unknowns are the positions of the free
+/// vertices (fixed and driven ones are eliminated, not penalised). x⁺ minimises
+///   E(x) = ½‖x − x̂‖²_M / h̃² + U(x) + D(x) − Σ m g·x,
+/// with h̃ = h, x̄ = xₙ for BE and h̃ = 2h/3, x̄ = (4xₙ − xₙ₋₁)/3 for BDF2, x̂ = x̄ + h̃ v̄, and
+/// the damping potential D(x) = Σ c/(2h̃) ((Δxᵢ − Δxⱼ)·d̂)² + Σ drag·m/(2h̃)|Δx|², Δx = x − x̄, with
+/// d̂ frozen at the step's start (so −∇D is exactly the damping force at v = Δx/h̃). Spring
+/// Hessians are projected to PSD, so the system is SPD. v⁺ = (x⁺ − x̄)/h̃.
+/// The sparsity pattern and the symbolic analysis are rebuilt only when topology_version
+/// changes; every Newton iteration refills the values in place.
+class ImplicitIntegrator {
+ public:
+  /// Throws std::invalid_argument on bad options (unknown solver, negative tolerances, ...).
+  explicit ImplicitIntegrator(const ImplicitOptions& options = {});
+  ~ImplicitIntegrator();
+
+  /// Runs `steps` steps of dt (s) under gravity (m/s²). Throws SimulationDiverged (cloth
+  /// restored to its state at the start of the call) on a non-finite state or an energy past
+  /// the bound, NotPositiveDefinite if the solver rejects the matrix, std::invalid_argument on
+  /// bad dt, gravity or steps.
+  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps);
+
+  /// The backward-Euler incremental potential of the next step from the cloth's current state,
+  /// evaluated at free-vertex positions `positions` (n×3; rows of constrained vertices are
+  /// ignored), with the solver's Newton direction.
+  NewtonSystem newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
+                             const Positions& positions);
+
+  const ImplicitOptions& options() const { return m_options; }
+  const ImplicitStatistics& statistics() const { return m_statistics; }
+  /// The linear solver's counters (analyses, factorizations, nnz(L), flops, ordering).
+  const SolverStatistics& solver_statistics() const;
+
+ private:
+  void ensure_structure(const Cloth& cloth);
+  void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
+  double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian);
+  void step(Cloth& cloth, const Vec3& gravity, double dt);
+
+  ImplicitOptions m_options;
+  ImplicitStatistics m_statistics;
+  std::unique_ptr<LinearSolver> m_solver;
+  DivergenceMonitor m_monitor;
+
+  // Structure, rebuilt per topology version.
+  std::uint64_t m_topology = std::numeric_limits<std::uint64_t>::max();
+  std::vector<std::int32_t> m_dof_of_vertex;  // n, first unknown of a free vertex or −1
+  std::vector<std::int32_t> m_free_vertices;  // vertex of each block of unknowns
+  SymmetricPattern m_pattern;
+  std::vector<std::int64_t> m_spring_slots;   // s×3: slot of the (0,c) entry of the
+                                              // off-diagonal block, or −1
+  double m_mean_rest_length = 1.0;
+
+  // Per-step data and work buffers (sized per topology; no allocation per step).
+  double m_h = 0.0;        // h̃
+  Vec3 m_gravity = Vec3::Zero();
+  Positions m_anchor;      // x̄, n×3
+  Positions m_target;      // x̂, n×3
+  Positions m_directions;  // s×3, d̂ at the step's start
+  Positions m_trial;       // n×3
+  Positions m_iterate;     // n×3
+  Eigen::VectorXd m_gradient, m_direction, m_rhs;
+  std::vector<double> m_values;
+  Positions m_checkpoint_positions, m_checkpoint_velocities;
+
+  // BDF2 history: the state one step back, valid while nothing changed.
+  Positions m_previous_positions, m_previous_velocities;
+  bool m_history_valid = false;
+  std::uint64_t m_history_topology = 0, m_history_edits = 0;
+  double m_history_dt = 0.0;
+};
+
+}  // namespace yore

@@ -1,0 +1,74 @@
+#pragma once
+/// @file linear_solver.hpp
+/// Solvers for the symmetric positive-definite systems of implicit stepping, behind one interface
+/// with separate analyze (symbolic, once per sparsity pattern), factorize (numeric) and solve.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace yore {
+
+/// Lower triangle (row >= column) of a symmetric N×N matrix in compressed sparse columns; row
+/// indices increase within each column.
+struct SymmetricPattern {
+  std::int32_t size = 0;                    ///< N
+  std::vector<std::int32_t> column_starts;  ///< N + 1
+  std::vector<std::int32_t> row_indices;    ///< nnz
+  std::int64_t nonzeros() const { return static_cast<std::int64_t>(row_indices.size()); }
+};
+
+/// Fill-reducing orderings of the sparse Cholesky factorization.
+enum class Ordering { amd, metis, natural };
+/// Supernodal (BLAS-3 dense blocks) or simplicial (column by column) factorization.
+enum class FactorKind { supernodal, simplicial };
+
+/// What a solver reports about its work.
+struct SolverStatistics {
+  std::int64_t analyses = 0;        ///< symbolic analyses done
+  std::int64_t factorizations = 0;  ///< numeric factorizations done
+  std::int64_t solves = 0;
+  double factor_nonzeros = 0.0;  ///< nnz(L) of the last analysis (0 for an iterative solver)
+  double factor_flops = 0.0;     ///< flops of one factorization with the last analysis
+  std::string ordering;          ///< ordering used by the last analysis ("" if none)
+  std::int64_t iterations = 0;   ///< iterations of an iterative solver, cumulative
+  std::int64_t unconverged = 0;  ///< solves of an iterative solver that hit its iteration limit
+};
+
+/// Solves H x = b for a symmetric positive-definite H given by its lower triangle.
+class LinearSolver {
+ public:
+  virtual ~LinearSolver() = default;
+  /// Symbolic work for a pattern (ordering, elimination tree); the pattern must outlive the
+  /// solver's use of it until the next analyze.
+  virtual void analyze(const SymmetricPattern& pattern) = 0;
+  /// Numeric factorization (or preconditioner set-up) of the matrix with these values, one per
+  /// pattern entry. Throws NotPositiveDefinite when the matrix is not positive definite.
+  virtual void factorize(const double* values) = 0;
+  /// Writes H⁻¹ rhs into solution (both of length N). No allocation after the first call.
+  virtual void solve(const double* rhs, double* solution) = 0;
+  /// Counters and the factor's size.
+  virtual const SolverStatistics& statistics() const = 0;
+};
+
+/// Options of the solver backends.
+struct LinearSolverOptions {
+  std::string backend = "cholmod";  ///< "cholmod", "eigen-ldlt" or "pcg"
+  Ordering ordering = Ordering::amd;
+  FactorKind factor = FactorKind::supernodal;
+  double pcg_tolerance = 1e-12;  ///< relative residual of the Jacobi-preconditioned CG
+  int pcg_max_iterations = 20000;
+};
+
+/// The backend names make_linear_solver accepts.
+std::vector<std::string> linear_solver_backends();
+
+/// Whether CHOLMOD was built with METIS on this machine.
+bool cholmod_has_metis();
+
+/// Builds a solver. Throws std::invalid_argument for an unknown backend or an ordering the
+/// backend cannot do.
+std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options);
+
+}  // namespace yore

@@ -1,0 +1,32 @@
+#pragma once
+/// @file sparse_cholesky.hpp
+/// CHOLMOD's sparse Cholesky factorization behind RAII (cholmod.h stays in the .cpp).
+
+#include "yore/linear_solver.hpp"
+
+#include <memory>
+
+namespace yore {
+
+/// Sparse LLᵀ by CHOLMOD: analyze once per pattern, factorize per matrix, solve per right-hand
+/// side. Owns its cholmod_common and every CHOLMOD object; every CHOLMOD status is checked.
+class SparseCholesky final : public LinearSolver {
+ public:
+  /// Throws std::invalid_argument if METIS is asked for and CHOLMOD has none.
+  SparseCholesky(FactorKind factor, Ordering ordering);
+  ~SparseCholesky() override;
+  SparseCholesky(const SparseCholesky&) = delete;
+  SparseCholesky& operator=(const SparseCholesky&) = delete;
+
+  void analyze(const SymmetricPattern& pattern) override;
+  /// Throws NotPositiveDefinite naming the column where CHOLMOD met a non-positive pivot.
+  void factorize(const double* values) override;
+  void solve(const double* rhs, double* solution) override;
+  const SolverStatistics& statistics() const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace yore

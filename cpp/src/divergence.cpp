@@ -1,0 +1,76 @@
+#include "yore/divergence.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace yore {
+
+DivergenceMonitor::DivergenceMonitor(double factor) : m_factor(factor) {
+  if (!std::isfinite(factor) || factor <= 0.0) {
+    std::ostringstream msg;
+    msg << "divergence_energy_factor must be finite and > 0, got " << factor;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+double DivergenceMonitor::monitored_energy(const Cloth& cloth, const Vec3& gravity) {
+  const EnergyTerms all = cloth.energy(gravity);
+  double constrained = 0.0;  // kinetic and gravitational energy of fixed and driven vertices
+  for (Eigen::Index i = 0; i < cloth.vertex_count(); ++i) {
+    if (cloth.inverse_masses()[i] != 0.0) continue;
+    const double m = cloth.masses()[i];
+    constrained += 0.5 * m * cloth.velocities().row(i).squaredNorm() -
+                   m * cloth.positions().row(i).dot(gravity);
+  }
+  return all.total() - constrained;
+}
+
+void DivergenceMonitor::prepare(const Cloth& cloth, const Vec3& gravity, double dt) {
+  if (cloth.topology_version() == m_topology && cloth.edit_count() == m_edits &&
+      gravity == m_gravity && dt == m_dt) {
+    return;
+  }
+  const EnergyTerms energy = cloth.energy(gravity);
+  const double diagonal =
+      (cloth.positions().colwise().maxCoeff() - cloth.positions().colwise().minCoeff()).norm();
+  const double total_mass = cloth.masses().sum();
+  double omega_max = 0.0;
+  for (const RotationDriver& driver : cloth.drivers()) {
+    omega_max = std::max(omega_max, std::abs(driver.omega));
+  }
+  double rest_energy = 0.0;
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    rest_energy += 0.5 * springs.stiffness[k] * springs.rest_length[k] * springs.rest_length[k];
+  }
+  const double scale = energy.kinetic + energy.spring + total_mass * gravity.norm() * diagonal +
+                       0.5 * total_mass * (omega_max * diagonal) * (omega_max * diagonal) +
+                       rest_energy;
+  m_limit = monitored_energy(cloth, gravity) + m_factor * scale;
+  m_topology = cloth.topology_version();
+  m_edits = cloth.edit_count();
+  m_gravity = gravity;
+  m_dt = dt;
+}
+
+SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
+                                  double time, double dt, bool finite) {
+  const double stable = cloth.stable_time_step();
+  std::ostringstream msg;
+  msg << "simulation diverged at step " << step << " (t = " << time << " s, dt = " << dt
+      << " s, " << integrator << " integrator): "
+      << (finite ? "the energy grew past its bound" : "positions or velocities became non-finite")
+      << ". The estimated stable time step of the explicit integrator is " << stable << " s; ";
+  if (std::string(integrator) == "explicit") {
+    msg << "use dt <= " << 0.9 * stable << " s or an implicit integrator.";
+  } else {
+    msg << "an implicit step this far off points to a failed Newton solve: try dt <= " << dt / 4
+        << " s, or more Newton iterations (max_newton).";
+  }
+  return SimulationDiverged(msg.str(), step, time, dt, stable);
+}
+
+}  // namespace yore

@@ -1,0 +1,398 @@
+#include "yore/implicit.hpp"
+
+#include "yore/errors.hpp"
+#include "yore/springs.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace yore {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Backtracking line search: Armijo constant, halvings before giving up.
+constexpr double kArmijo = 1e-4;
+constexpr int kMaxBacktracks = 40;
+
+}  // namespace
+
+ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& options)
+    : m_options(options), m_monitor(options.divergence_energy_factor) {
+  if (!std::isfinite(options.newton_tol) || options.newton_tol <= 0.0) {
+    std::ostringstream msg;
+    msg << "newton_tol must be finite and > 0, got " << options.newton_tol;
+    throw std::invalid_argument(msg.str());
+  }
+  if (options.max_newton < 1) {
+    std::ostringstream msg;
+    msg << "max_newton must be >= 1, got " << options.max_newton;
+    throw std::invalid_argument(msg.str());
+  }
+  m_solver = make_linear_solver(options.solver);
+}
+
+ImplicitIntegrator::~ImplicitIntegrator() = default;
+
+const SolverStatistics& ImplicitIntegrator::solver_statistics() const {
+  return m_solver->statistics();
+}
+
+void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
+  if (cloth.topology_version() == m_topology) return;
+  const auto start = Clock::now();
+  const Eigen::Index n = cloth.vertex_count();
+  const SpringSet& springs = cloth.springs();
+  const std::size_t s = springs.size();
+
+  m_dof_of_vertex.assign(static_cast<std::size_t>(n), -1);
+  m_free_vertices.clear();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (cloth.inverse_masses()[i] == 0.0) continue;
+    m_dof_of_vertex[static_cast<std::size_t>(i)] =
+        static_cast<std::int32_t>(3 * m_free_vertices.size());
+    m_free_vertices.push_back(static_cast<std::int32_t>(i));
+  }
+  const auto blocks = static_cast<std::int32_t>(m_free_vertices.size());
+
+  // Off-diagonal blocks of the lower triangle: (row block > column block), one per spring
+  // between two free vertices.
+  std::vector<std::pair<std::int32_t, std::int32_t>> coupled;  // (column block, row block)
+  coupled.reserve(s);
+  for (std::size_t k = 0; k < s; ++k) {
+    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
+    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
+    if (a < 0 || b < 0) continue;
+    coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
+  }
+  std::sort(coupled.begin(), coupled.end());
+  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
+  std::vector<std::int32_t> first_neighbour(static_cast<std::size_t>(blocks) + 1, 0);
+  for (const auto& pair : coupled) ++first_neighbour[static_cast<std::size_t>(pair.first) + 1];
+  for (std::int32_t b = 0; b < blocks; ++b) {
+    first_neighbour[static_cast<std::size_t>(b) + 1] += first_neighbour[static_cast<std::size_t>(b)];
+  }
+
+  SymmetricPattern& pattern = m_pattern;
+  pattern.size = 3 * blocks;
+  pattern.column_starts.assign(static_cast<std::size_t>(pattern.size) + 1, 0);
+  pattern.row_indices.clear();
+  pattern.row_indices.reserve(static_cast<std::size_t>(blocks) * 6 + coupled.size() * 9);
+  for (std::int32_t b = 0; b < blocks; ++b) {
+    for (int c = 0; c < 3; ++c) {
+      const auto column = static_cast<std::size_t>(3 * b + c);
+      pattern.column_starts[column] = static_cast<std::int32_t>(pattern.row_indices.size());
+      for (int r = c; r < 3; ++r) pattern.row_indices.push_back(3 * b + r);
+      for (std::int32_t k = first_neighbour[static_cast<std::size_t>(b)];
+           k < first_neighbour[static_cast<std::size_t>(b) + 1]; ++k) {
+        const std::int32_t row_block = coupled[static_cast<std::size_t>(k)].second;
+        for (int r = 0; r < 3; ++r) pattern.row_indices.push_back(3 * row_block + r);
+      }
+    }
+  }
+  pattern.column_starts.back() = static_cast<std::int32_t>(pattern.row_indices.size());
+
+  m_spring_slots.assign(3 * s, -1);
+  double rest_sum = 0.0;
+  for (std::size_t k = 0; k < s; ++k) {
+    rest_sum += springs.rest_length[k];
+    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
+    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
+    if (a < 0 || b < 0) continue;
+    const std::int32_t column_block = std::min(a, b) / 3, row_block = std::max(a, b) / 3;
+    const auto begin = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+    const auto end = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+    const auto rank = std::lower_bound(begin, end, std::make_pair(column_block, row_block)) - begin;
+    for (int c = 0; c < 3; ++c) {
+      m_spring_slots[3 * k + static_cast<std::size_t>(c)] =
+          pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)] + (3 - c) +
+          3 * rank;
+    }
+  }
+  m_mean_rest_length = s ? rest_sum / static_cast<double>(s) : 1.0;
+
+  const auto dofs = static_cast<Eigen::Index>(pattern.size);
+  m_gradient.resize(dofs);
+  m_direction.resize(dofs);
+  m_rhs.resize(dofs);
+  m_values.assign(static_cast<std::size_t>(pattern.nonzeros()), 0.0);
+  m_anchor.resize(n, 3);
+  m_target.resize(n, 3);
+  m_trial.resize(n, 3);
+  m_iterate.resize(n, 3);
+  m_directions.resize(static_cast<Eigen::Index>(s), 3);
+  m_previous_positions.resize(n, 3);
+  m_previous_velocities.resize(n, 3);
+  m_history_valid = false;
+
+  if (pattern.size > 0) m_solver->analyze(pattern);
+  m_topology = cloth.topology_version();
+  m_statistics.analyze_seconds += seconds_since(start);
+}
+
+void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, double dt,
+                                    bool second_order) {
+  m_gravity = gravity;
+  const Positions& x = cloth.positions();
+  const Positions& v = cloth.velocities();
+  if (second_order) {
+    // BDF2: x⁺ = x̄ + h̃ v⁺, v⁺ = v̄ + h̃ a⁺ with x̄, v̄ the (4·now − previous)/3 blends, h̃ = 2h/3.
+    m_h = 2.0 * dt / 3.0;
+    m_anchor = (4.0 * x - m_previous_positions) / 3.0;
+    m_target = m_anchor + m_h * (4.0 * v - m_previous_velocities) / 3.0;
+  } else {
+    m_h = dt;
+    m_anchor = x;
+    m_target = x + dt * v;
+  }
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const Vec3 d = x.row(springs.first[k]) - x.row(springs.second[k]);
+    const double length = d.norm();
+    m_directions.row(static_cast<Eigen::Index>(k)) =
+        length > 0.0 ? Vec3(d / length) : Vec3::Zero();
+  }
+}
+
+double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
+                                    bool with_hessian) {
+  const auto start = Clock::now();
+  const double h = m_h;
+  const double drag = cloth.drag();
+  const Eigen::VectorXd& masses = cloth.masses();
+  double energy = 0.0;
+  if (with_gradient) m_gradient.setZero();
+  if (with_hessian) std::fill(m_values.begin(), m_values.end(), 0.0);
+
+  // Inertia, air drag and gravity of the free vertices.
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const std::int32_t i = m_free_vertices[b];
+    const double m = masses[i];
+    const Vec3 inertial = x.row(i) - m_target.row(i);
+    const Vec3 moved = x.row(i) - m_anchor.row(i);
+    const double inertia_weight = m / (h * h), drag_weight = drag * m / h;
+    energy += 0.5 * inertia_weight * inertial.squaredNorm() +
+              0.5 * drag_weight * moved.squaredNorm() - m * x.row(i).dot(m_gravity);
+    if (with_gradient) {
+      m_gradient.segment<3>(static_cast<Eigen::Index>(3 * b)) =
+          inertia_weight * inertial + drag_weight * moved - m * m_gravity;
+    }
+    if (with_hessian) {
+      // each column of a diagonal block starts with its diagonal entry
+      for (int c = 0; c < 3; ++c) {
+        m_values[static_cast<std::size_t>(m_pattern.column_starts[3 * b + c])] +=
+            inertia_weight + drag_weight;
+      }
+    }
+  }
+
+  // Springs: elasticity (PSD-projected Hessian) and damping with directions frozen at the start.
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    const Vec3 xi = x.row(i), xj = x.row(j);
+    const double rest = springs.rest_length[k], stiffness = springs.stiffness[k];
+    energy += spring_energy(xi, xj, rest, stiffness);
+    const double c = springs.damping[k];
+    const Vec3 n0 = m_directions.row(static_cast<Eigen::Index>(k));
+    double relative = 0.0;
+    if (c > 0.0) {
+      relative = (xi - m_anchor.row(i).transpose() - xj + m_anchor.row(j).transpose()).dot(n0);
+      energy += 0.5 * c / h * relative * relative;
+    }
+    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
+    if (with_gradient) {
+      Vec3 gradient = spring_gradient(xi, xj, rest, stiffness);
+      if (c > 0.0) gradient += (c / h * relative) * n0;
+      if (a >= 0) m_gradient.segment<3>(a) += gradient;
+      if (b >= 0) m_gradient.segment<3>(b) -= gradient;
+    }
+    if (with_hessian) {
+      Mat3 block = spring_hessian(xi, xj, rest, stiffness, /*project_psd=*/true);
+      if (c > 0.0) block += (c / h) * n0 * n0.transpose();
+      const auto& starts = m_pattern.column_starts;
+      for (const std::int32_t dof : {a, b}) {
+        if (dof < 0) continue;
+        for (int col = 0; col < 3; ++col) {
+          for (int row = col; row < 3; ++row) {
+            m_values[static_cast<std::size_t>(starts[static_cast<std::size_t>(dof + col)] +
+                                              (row - col))] += block(row, col);
+          }
+        }
+      }
+      if (a >= 0 && b >= 0) {
+        for (int col = 0; col < 3; ++col) {
+          const std::int64_t slot = m_spring_slots[3 * k + static_cast<std::size_t>(col)];
+          for (int row = 0; row < 3; ++row) {
+            m_values[static_cast<std::size_t>(slot + row)] -= block(row, col);
+          }
+        }
+      }
+    }
+  }
+  m_statistics.assemble_seconds += seconds_since(start);
+  return energy;
+}
+
+void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
+  ensure_structure(cloth);
+  const bool second_order = m_options.method == ImplicitMethod::bdf2 && m_history_valid &&
+                            m_history_topology == cloth.topology_version() &&
+                            m_history_edits == cloth.edit_count() && m_history_dt == dt;
+  begin_step(cloth, gravity, dt, second_order);
+  if (m_options.method == ImplicitMethod::bdf2) {
+    m_previous_positions = cloth.positions();  // same size: no allocation
+    m_previous_velocities = cloth.velocities();
+  }
+  const double new_time = cloth.time() + dt;
+  cloth.set_time(new_time);
+  cloth.apply_drivers(new_time);
+  m_iterate = cloth.positions();
+
+  const double tolerance = m_options.newton_tol * m_mean_rest_length;
+  int iterations = 0, backtracks = 0;
+  bool converged = m_pattern.size == 0;
+  while (!converged && iterations < m_options.max_newton) {
+    const double energy = evaluate(cloth, m_iterate, true, true);
+    auto start = Clock::now();
+    m_solver->factorize(m_values.data());
+    m_statistics.factorize_seconds += seconds_since(start);
+    start = Clock::now();
+    m_rhs = -m_gradient;
+    m_solver->solve(m_rhs.data(), m_direction.data());
+    m_statistics.solve_seconds += seconds_since(start);
+    ++iterations;
+
+    double alpha = 1.0;
+    if (!m_options.linearized) {
+      const double slope = m_gradient.dot(m_direction);
+      for (int halvings = 0;; ++halvings) {
+        m_trial = m_iterate;
+        for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+          m_trial.row(m_free_vertices[b]) +=
+              alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
+        }
+        const double trial_energy = evaluate(cloth, m_trial, false, false);
+        // Accept on sufficient decrease, or when the change is at round-off level (close to
+        // the minimum the energy difference carries no information).
+        if (trial_energy <= energy + kArmijo * alpha * slope ||
+            std::abs(trial_energy - energy) <= 1e-14 * std::abs(energy)) {
+          break;
+        }
+        if (halvings == kMaxBacktracks) break;  // take the tiny step and let Newton go on
+        alpha *= 0.5;
+        ++backtracks;
+      }
+    }
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      m_iterate.row(m_free_vertices[b]) +=
+          alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
+    }
+    const double move = alpha * m_direction.lpNorm<Eigen::Infinity>();
+    converged = m_options.linearized || move <= tolerance || !std::isfinite(move);
+  }
+  if (!converged) ++m_statistics.unconverged_steps;
+  if (m_pattern.size > 0) {
+    evaluate(cloth, m_iterate, true, false);
+    m_statistics.last_residual = m_gradient.lpNorm<Eigen::Infinity>();
+  } else {
+    m_statistics.last_residual = 0.0;
+  }
+
+  Positions& x = cloth.integrator_positions();
+  Positions& v = cloth.integrator_velocities();
+  for (const std::int32_t i : m_free_vertices) {
+    x.row(i) = m_iterate.row(i);
+    v.row(i) = (m_iterate.row(i) - m_anchor.row(i)) / m_h;
+  }
+  m_history_valid = m_options.method == ImplicitMethod::bdf2;
+  m_history_topology = cloth.topology_version();
+  m_history_edits = cloth.edit_count();
+  m_history_dt = dt;
+
+  ++m_statistics.steps;
+  m_statistics.newton_iterations += iterations;
+  m_statistics.line_search_backtracks += backtracks;
+  m_statistics.last_newton_iterations = iterations;
+  m_statistics.last_line_search_backtracks = backtracks;
+  m_statistics.last_dofs = m_pattern.size;
+}
+
+void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
+                                 std::int64_t steps) {
+  if (!std::isfinite(dt) || dt <= 0.0) {
+    std::ostringstream msg;
+    msg << "dt must be finite and > 0, got " << dt;
+    throw std::invalid_argument(msg.str());
+  }
+  if (!gravity.allFinite()) throw std::invalid_argument("gravity must be finite");
+  if (steps < 0) {
+    std::ostringstream msg;
+    msg << "the number of steps must be >= 0, got " << steps;
+    throw std::invalid_argument(msg.str());
+  }
+  if (steps == 0) return;
+  m_monitor.prepare(cloth, gravity, dt);
+  m_checkpoint_positions = cloth.positions();
+  m_checkpoint_velocities = cloth.velocities();
+  const double checkpoint_time = cloth.time();
+  auto restore = [&] {
+    cloth.integrator_positions() = m_checkpoint_positions;
+    cloth.integrator_velocities() = m_checkpoint_velocities;
+    cloth.set_time(checkpoint_time);
+    m_history_valid = false;
+  };
+  const char* name = m_options.method == ImplicitMethod::bdf2 ? "bdf2" : "implicit";
+  for (std::int64_t k = 0; k < steps; ++k) {
+    try {
+      step(cloth, gravity, dt);
+    } catch (...) {
+      restore();
+      throw;
+    }
+    const double energy = DivergenceMonitor::monitored_energy(cloth, gravity);
+    const bool finite = std::isfinite(energy) && cloth.positions().allFinite();
+    if (!finite || energy > m_monitor.limit()) {
+      const double failed_time = cloth.time();
+      restore();
+      throw diverged_error(cloth, name, m_statistics.steps - 1, failed_time, dt, finite);
+    }
+  }
+}
+
+NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity,
+                                               double dt, const Positions& positions) {
+  if (positions.rows() != cloth.vertex_count()) {
+    std::ostringstream msg;
+    msg << "positions must have shape (" << cloth.vertex_count() << ", 3), got ("
+        << positions.rows() << ", 3)";
+    throw std::invalid_argument(msg.str());
+  }
+  ensure_structure(cloth);
+  begin_step(cloth, gravity, dt, false);
+  m_iterate = cloth.positions();
+  for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = positions.row(i);
+  NewtonSystem system;
+  system.energy = evaluate(cloth, m_iterate, true, true);
+  system.gradient = m_gradient;
+  system.pattern = m_pattern;
+  system.hessian = m_values;
+  system.free_vertices = m_free_vertices;
+  system.direction = Eigen::VectorXd::Zero(m_pattern.size);
+  if (m_pattern.size > 0) {
+    m_solver->factorize(m_values.data());
+    m_rhs = -m_gradient;
+    m_solver->solve(m_rhs.data(), system.direction.data());
+  }
+  return system;
+}
+
+}  // namespace yore

@@ -1,0 +1,147 @@
+#include "yore/linear_solver.hpp"
+
+#include "yore/errors.hpp"
+#include "yore/sparse_cholesky.hpp"
+
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include <cstring>
+#include <sstream>
+#include <stdexcept>
+
+namespace yore {
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, std::int32_t>;
+
+/// An Eigen matrix with the pattern's structure; factorize() only overwrites its values.
+SparseMatrix matrix_with_pattern(const SymmetricPattern& pattern) {
+  SparseMatrix matrix(pattern.size, pattern.size);
+  matrix.resizeNonZeros(pattern.nonzeros());
+  std::memcpy(matrix.outerIndexPtr(), pattern.column_starts.data(),
+              pattern.column_starts.size() * sizeof(std::int32_t));
+  std::memcpy(matrix.innerIndexPtr(), pattern.row_indices.data(),
+              pattern.row_indices.size() * sizeof(std::int32_t));
+  std::memset(matrix.valuePtr(), 0, pattern.row_indices.size() * sizeof(double));
+  return matrix;
+}
+
+/// Eigen's SimplicialLDLT (AMD ordering), for comparison with CHOLMOD.
+class EigenLdlt final : public LinearSolver {
+ public:
+  explicit EigenLdlt(Ordering ordering) {
+    if (ordering != Ordering::amd) {
+      throw std::invalid_argument("backend 'eigen-ldlt' orders with AMD only; valid ordering: amd");
+    }
+  }
+  void analyze(const SymmetricPattern& pattern) override {
+    m_matrix = matrix_with_pattern(pattern);
+    m_solver.analyzePattern(m_matrix);
+    if (m_solver.info() != Eigen::Success) throw std::runtime_error("Eigen LDLT analysis failed");
+    ++m_statistics.analyses;
+    m_statistics.ordering = "amd";
+    m_factored = false;
+  }
+  void factorize(const double* values) override {
+    std::memcpy(m_matrix.valuePtr(), values, m_matrix.nonZeros() * sizeof(double));
+    m_solver.factorize(m_matrix);
+    ++m_statistics.factorizations;
+    // LDLᵀ also factors indefinite matrices: positive definiteness is D > 0.
+    if (m_solver.info() != Eigen::Success || !(m_solver.vectorD().minCoeff() > 0.0)) {
+      m_factored = false;
+      throw NotPositiveDefinite(
+          "the system matrix is not positive definite (Eigen LDLT found a pivot <= 0)");
+    }
+    const SparseMatrix& lower = m_solver.matrixL();
+    m_statistics.factor_nonzeros = static_cast<double>(lower.nonZeros() + m_matrix.rows());
+    m_factored = true;
+  }
+  void solve(const double* rhs, double* solution) override {
+    if (!m_factored) throw std::logic_error("EigenLdlt::solve without a valid factor");
+    Eigen::Map<const Eigen::VectorXd> b(rhs, m_matrix.rows());
+    Eigen::Map<Eigen::VectorXd> x(solution, m_matrix.rows());
+    x = m_solver.solve(b);
+    ++m_statistics.solves;
+  }
+  const SolverStatistics& statistics() const override { return m_statistics; }
+
+ private:
+  SparseMatrix m_matrix;
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<std::int32_t>> m_solver;
+  SolverStatistics m_statistics;
+  bool m_factored = false;
+};
+
+/// Conjugate gradients with a Jacobi (diagonal) preconditioner: no factorization at all.
+class JacobiPcg final : public LinearSolver {
+ public:
+  JacobiPcg(Ordering ordering, double tolerance, int max_iterations) {
+    if (ordering != Ordering::amd && ordering != Ordering::natural) {
+      throw std::invalid_argument("backend 'pcg' does not reorder; valid ordering: amd, natural");
+    }
+    if (!(tolerance > 0.0) || max_iterations < 1) {
+      std::ostringstream msg;
+      msg << "pcg_tol must be > 0 and pcg_max_iterations >= 1, got " << tolerance << " and "
+          << max_iterations;
+      throw std::invalid_argument(msg.str());
+    }
+    m_solver.setTolerance(tolerance);
+    m_solver.setMaxIterations(max_iterations);
+  }
+  void analyze(const SymmetricPattern& pattern) override {
+    m_matrix = matrix_with_pattern(pattern);
+    m_solver.analyzePattern(m_matrix);
+    ++m_statistics.analyses;
+  }
+  void factorize(const double* values) override {
+    std::memcpy(m_matrix.valuePtr(), values, m_matrix.nonZeros() * sizeof(double));
+    // The diagonal of an SPD matrix is positive; a non-positive one cannot be preconditioned.
+    for (std::int32_t column = 0; column < m_matrix.cols(); ++column) {
+      const double diagonal = m_matrix.valuePtr()[m_matrix.outerIndexPtr()[column]];
+      if (!(diagonal > 0.0)) {
+        std::ostringstream msg;
+        msg << "the system matrix is not positive definite: diagonal entry " << column << " is "
+            << diagonal;
+        throw NotPositiveDefinite(msg.str());
+      }
+    }
+    m_solver.factorize(m_matrix);  // the Jacobi preconditioner: reads the diagonal
+    ++m_statistics.factorizations;
+  }
+  void solve(const double* rhs, double* solution) override {
+    Eigen::Map<const Eigen::VectorXd> b(rhs, m_matrix.rows());
+    Eigen::Map<Eigen::VectorXd> x(solution, m_matrix.rows());
+    x = m_solver.solve(b);
+    m_statistics.iterations += m_solver.iterations();
+    if (m_solver.info() != Eigen::Success) ++m_statistics.unconverged;
+    ++m_statistics.solves;
+  }
+  const SolverStatistics& statistics() const override { return m_statistics; }
+
+ private:
+  SparseMatrix m_matrix;
+  Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower, Eigen::DiagonalPreconditioner<double>>
+      m_solver;
+  SolverStatistics m_statistics;
+};
+
+}  // namespace
+
+std::vector<std::string> linear_solver_backends() { return {"cholmod", "eigen-ldlt", "pcg"}; }
+
+std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options) {
+  if (options.backend == "cholmod") {
+    return std::make_unique<SparseCholesky>(options.factor, options.ordering);
+  }
+  if (options.backend == "eigen-ldlt") return std::make_unique<EigenLdlt>(options.ordering);
+  if (options.backend == "pcg") {
+    return std::make_unique<JacobiPcg>(options.ordering, options.pcg_tolerance,
+                                       options.pcg_max_iterations);
+  }
+  throw std::invalid_argument("unknown solver '" + options.backend +
+                              "'; valid: cholmod, eigen-ldlt, pcg");
+}
+
+}  // namespace yore

@@ -1,0 +1,153 @@
+#include "yore/sparse_cholesky.hpp"
+
+#include "yore/errors.hpp"
+
+#include <cholmod.h>
+
+#include <cstring>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace yore {
+namespace {
+
+const char* ordering_name(int code) {
+  switch (code) {
+    case CHOLMOD_NATURAL: return "natural";
+    case CHOLMOD_GIVEN: return "given";
+    case CHOLMOD_AMD: return "amd";
+    case CHOLMOD_METIS: return "metis";
+    case CHOLMOD_NESDIS: return "nesdis";
+    case CHOLMOD_COLAMD: return "colamd";
+    case CHOLMOD_POSTORDERED: return "natural-postordered";
+    default: return "unknown";
+  }
+}
+
+}  // namespace
+
+bool cholmod_has_metis() {
+#ifdef NPARTITION
+  return false;
+#else
+  return true;  // Debian's libcholmod links libmetis (checked by the tests through ordering "metis")
+#endif
+}
+
+struct SparseCholesky::Impl {
+  cholmod_common common{};
+  cholmod_sparse* matrix = nullptr;
+  cholmod_factor* factor = nullptr;
+  cholmod_dense* rhs = nullptr;
+  cholmod_dense* solution = nullptr;
+  cholmod_dense* work_y = nullptr;
+  cholmod_dense* work_e = nullptr;
+  SolverStatistics statistics;
+  bool factored = false;
+
+  Impl(FactorKind kind, Ordering ordering) {
+    cholmod_start(&common);
+    common.print = 0;  // errors are reported through common.status and exceptions
+    common.supernodal = kind == FactorKind::supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+    common.final_ll = 1;  // LLᵀ also for the simplicial factor
+    common.nmethods = 1;
+    switch (ordering) {
+      case Ordering::amd: common.method[0].ordering = CHOLMOD_AMD; break;
+      case Ordering::metis: common.method[0].ordering = CHOLMOD_METIS; break;
+      case Ordering::natural:
+        common.method[0].ordering = CHOLMOD_NATURAL;
+        common.postorder = 0;
+        break;
+    }
+  }
+
+  ~Impl() {
+    release();
+    cholmod_finish(&common);
+  }
+
+  void release() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    if (matrix) cholmod_free_sparse(&matrix, &common);
+    if (rhs) cholmod_free_dense(&rhs, &common);
+    if (solution) cholmod_free_dense(&solution, &common);
+    if (work_y) cholmod_free_dense(&work_y, &common);
+    if (work_e) cholmod_free_dense(&work_e, &common);
+    factored = false;
+  }
+
+  void check(const char* what) const {
+    if (common.status < CHOLMOD_OK) {
+      std::ostringstream msg;
+      msg << "CHOLMOD " << what << " failed with status " << common.status
+          << (common.status == CHOLMOD_OUT_OF_MEMORY ? " (out of memory)" : "");
+      throw std::runtime_error(msg.str());
+    }
+  }
+};
+
+SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering) {
+  if (ordering == Ordering::metis && !cholmod_has_metis()) {
+    throw std::invalid_argument("ordering 'metis' is not available: CHOLMOD was built without "
+                                "METIS; valid: amd, natural");
+  }
+  m_impl = std::make_unique<Impl>(factor, ordering);
+}
+
+SparseCholesky::~SparseCholesky() = default;
+
+void SparseCholesky::analyze(const SymmetricPattern& pattern) {
+  Impl& d = *m_impl;
+  d.release();
+  const auto n = static_cast<std::size_t>(pattern.size);
+  const auto nnz = static_cast<std::size_t>(pattern.nonzeros());
+  // stype −1: symmetric, lower triangle stored; sorted, packed.
+  d.matrix = cholmod_allocate_sparse(n, n, nnz, 1, 1, -1, CHOLMOD_REAL, &d.common);
+  d.check("allocate_sparse");
+  std::memcpy(d.matrix->p, pattern.column_starts.data(), (n + 1) * sizeof(std::int32_t));
+  std::memcpy(d.matrix->i, pattern.row_indices.data(), nnz * sizeof(std::int32_t));
+  std::memset(d.matrix->x, 0, nnz * sizeof(double));
+  d.factor = cholmod_analyze(d.matrix, &d.common);
+  d.check("analyze");
+  d.rhs = cholmod_zeros(n, 1, CHOLMOD_REAL, &d.common);
+  d.check("zeros");
+  ++d.statistics.analyses;
+  d.statistics.factor_nonzeros = d.common.lnz;
+  d.statistics.factor_flops = d.common.fl;
+  d.statistics.ordering = ordering_name(d.factor->ordering);
+}
+
+void SparseCholesky::factorize(const double* values) {
+  Impl& d = *m_impl;
+  if (!d.factor) throw std::logic_error("SparseCholesky::factorize before analyze");
+  std::memcpy(d.matrix->x, values, d.matrix->nzmax * sizeof(double));
+  cholmod_factorize(d.matrix, d.factor, &d.common);
+  d.check("factorize");
+  ++d.statistics.factorizations;
+  if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n) {
+    d.factored = false;
+    std::ostringstream msg;
+    msg << "the system matrix is not positive definite: CHOLMOD met a non-positive pivot at "
+           "column "
+        << d.factor->minor << " of " << d.factor->n;
+    throw NotPositiveDefinite(msg.str());
+  }
+  d.factored = true;
+}
+
+void SparseCholesky::solve(const double* rhs, double* solution) {
+  Impl& d = *m_impl;
+  if (!d.factored) throw std::logic_error("SparseCholesky::solve without a valid factor");
+  std::memcpy(d.rhs->x, rhs, d.rhs->nrow * sizeof(double));
+  // cholmod_solve2 reuses solution and workspace: no allocation after the first call.
+  cholmod_solve2(CHOLMOD_A, d.factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
+                 &d.common);
+  d.check("solve");
+  std::memcpy(solution, d.solution->x, d.rhs->nrow * sizeof(double));
+  ++d.statistics.solves;
+}
+
+const SolverStatistics& SparseCholesky::statistics() const { return m_impl->statistics; }
+
+}  // namespace yore

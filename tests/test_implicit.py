@@ -1,0 +1,265 @@
+"""Implicit stepping (backward Euler, BDF2) on sparse solvers."""
+
+import math
+
+import numpy as np
+import pytest
+
+import yore
+from yore import _core
+
+NO_GRAVITY = (0.0, 0.0, 0.0)
+
+
+def oscillator(mass=0.2, stiffness=50.0, amplitude=0.1):
+    V = np.array([[0.0, 0.0, 0.0], [0.0, -(1.0 + amplitude), 0.0]])
+    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[1.0], mass=mass,
+                                    stiffness=stiffness)
+    cloth.fix([0])
+    return cloth
+
+
+def displacement_and_velocity(cloth):
+    return -cloth.positions[1, 1] - 1.0, -cloth.velocities[1, 1]
+
+
+def test_backward_euler_amplitude_decays_by_exactly_one_over_sqrt_one_plus_omega_h_squared():
+    m, k = 0.2, 50.0
+    omega = math.sqrt(k / m)
+    for dt in (0.01, 0.05, 0.2):
+        sim = yore.Simulation(oscillator(m, k), integrator="implicit", dt=dt, gravity=NO_GRAVITY,
+                              newton_tol=1e-12)
+        factor = 1.0 / math.sqrt(1.0 + (omega * dt) ** 2)
+        u, v = displacement_and_velocity(sim.cloth)
+        amplitude = math.hypot(omega * u, v)
+        # stop while the amplitude is still far above the round-off of positions (~1e-16 m)
+        for _ in range(min(20, int(math.log(1e-4) / math.log(factor)))):
+            sim.step()
+            u, v = displacement_and_velocity(sim.cloth)
+            new_amplitude = math.hypot(omega * u, v)
+            assert new_amplitude / amplitude == pytest.approx(factor, abs=1e-9)
+            amplitude = new_amplitude
+
+
+def global_error(integrator, per_period, periods=1):
+    m, k, a = 0.2, 50.0, 0.1
+    omega = math.sqrt(k / m)
+    dt = 2 * math.pi / omega / per_period
+    sim = yore.Simulation(oscillator(m, k, a), integrator=integrator, dt=dt, gravity=NO_GRAVITY,
+                          newton_tol=1e-12)
+    error = 0.0
+    for n in range(1, per_period * periods + 1):
+        sim.step()
+        u, _ = displacement_and_velocity(sim.cloth)
+        error = max(error, abs(u - a * math.cos(omega * n * dt)))
+    return error
+
+
+@pytest.mark.parametrize("integrator, order", [("implicit", 1), ("bdf2", 2)])
+def test_error_falls_with_the_order_of_the_method(integrator, order):
+    errors = [global_error(integrator, n) for n in (200, 400, 800)]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    expected = 2.0**order
+    assert np.all(np.abs(ratios - expected) < 0.15 * expected), ratios
+
+
+def stiff_sheet(resolution=9):
+    # 1000 × the scenes' default stiffness, no damping: a hard case for explicit stepping
+    return yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0,
+                                     stretch_stiffness=200e3, bend_stiffness=200e3, damping=0.0,
+                                     drag=0.0, integrator="implicit", dt=1.0 / 30.0)
+
+
+def test_stiff_cloth_at_a_large_step_stays_finite_and_never_gains_energy_while_explicit_diverges():
+    sim = stiff_sheet()
+    energies = [sim.energy()["total"]]
+    for _ in range(60):
+        sim.step()
+        energies.append(sim.energy()["total"])
+    energies = np.array(energies)
+    assert np.all(np.isfinite(sim.cloth.positions))
+    # undamped backward Euler dissipates: the energy never rises (beyond round-off)
+    assert np.all(np.diff(energies) <= 1e-9 * np.abs(energies).max())
+    assert energies[-1] < energies[0]
+    explicit = yore.Simulation(stiff_sheet().cloth, integrator="explicit", dt=1.0 / 30.0)
+    with pytest.raises(yore.SimulationDiverged, match="stable time step"):
+        explicit.step(60)
+
+
+def test_compressed_springs_factor_and_step():
+    V, F = yore.grid_mesh(8, 8, width=0.4, height=0.4)
+    cloth = yore.Cloth(V, F, mass=0.005, stretch_stiffness=100.0, bend_stiffness=100.0)
+    cloth.springs.rest = 1.2 * cloth.springs.rest  # every spring starts compressed (paper eq. 1)
+    cloth.fix([0, 7])
+    for integrator in ("implicit", "bdf2"):
+        sim = yore.Simulation(cloth, integrator=integrator, dt=1.0 / 60.0)
+        sim.step(30)
+        assert np.all(np.isfinite(sim.cloth.positions))
+    # the cloth expanded towards its longer rest lengths
+    ends = cloth.springs.ends
+    lengths = np.linalg.norm(cloth.positions[ends[:, 0]] - cloth.positions[ends[:, 1]], axis=1)
+    original = np.linalg.norm(V[ends[:, 0]] - V[ends[:, 1]], axis=1)
+    assert np.mean(lengths / original) > 1.05
+
+
+def small_problem(stretched=True, seed=0):
+    V, F = yore.grid_mesh(4, 4, width=0.3, height=0.3)
+    cloth = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bend_stiffness=20.0,
+                       damping=0.1, drag=0.5)
+    rng = np.random.default_rng(seed)
+    scale = 1.3 if stretched else 0.8
+    cloth.positions = scale * V + rng.normal(0.0, 0.002, V.shape)
+    cloth.velocities = rng.normal(0.0, 0.3, V.shape)
+    cloth.fix([0, 3])
+    X = cloth.positions + rng.normal(0.0, 0.002, V.shape)
+    return cloth, X
+
+
+def dense_hessian(system):
+    n = system["size"]
+    H = np.zeros((n, n))
+    indptr, indices, data = system["hessian_indptr"], system["hessian_indices"], system["hessian_data"]
+    for column in range(n):
+        for p in range(indptr[column], indptr[column + 1]):
+            H[indices[p], column] = data[p]
+            H[column, indices[p]] = data[p]
+    return H
+
+
+def perturbed(X, free, k, h):
+    Y = X.copy()
+    Y[free[k // 3], k % 3] += h
+    return Y
+
+
+def test_assembled_gradient_and_hessian_match_finite_differences():
+    cloth, X = small_problem(stretched=True)
+    integrator = _core.ImplicitIntegrator()
+    g, dt, h = (0.0, -9.81, 0.0), 0.01, 1e-6
+    system = integrator.newton_system(cloth, g, dt, X)
+    free = system["free_vertices"]
+    assert len(free) == 14 and system["size"] == 42  # two fixed vertices are not unknowns
+
+    def energy(Y):
+        return integrator.newton_system(cloth, g, dt, Y)["energy"]
+
+    def gradient(Y):
+        return np.array(integrator.newton_system(cloth, g, dt, Y)["gradient"])
+
+    numeric_gradient = np.array([(energy(perturbed(X, free, k, h)) - energy(perturbed(X, free, k, -h)))
+                                 / (2 * h) for k in range(system["size"])])
+    assert np.abs(numeric_gradient - system["gradient"]).max() < 1e-7 * np.abs(system["gradient"]).max()
+    numeric_hessian = np.column_stack([(gradient(perturbed(X, free, k, h))
+                                        - gradient(perturbed(X, free, k, -h))) / (2 * h)
+                                       for k in range(system["size"])])
+    H = dense_hessian(system)
+    # every spring is stretched here, so the PSD projection changes nothing: H is exact
+    assert np.abs(numeric_hessian - H).max() < 1e-7 * np.abs(H).max()
+
+
+def test_hessian_is_spd_when_springs_are_compressed():
+    cloth, X = small_problem(stretched=False)
+    system = _core.ImplicitIntegrator().newton_system(cloth, (0, -9.81, 0), 0.05, X)
+    eigenvalues = np.linalg.eigvalsh(dense_hessian(system))
+    assert eigenvalues.min() > 0
+
+
+SOLVERS = [dict(solver="cholmod", factorization="supernodal", ordering="amd"),
+           dict(solver="cholmod", factorization="simplicial", ordering="amd"),
+           dict(solver="cholmod", factorization="supernodal", ordering="metis"),
+           dict(solver="cholmod", factorization="supernodal", ordering="natural"),
+           dict(solver="eigen-ldlt"),
+           dict(solver="pcg")]
+
+
+def test_every_backend_solves_the_newton_system_to_1e_10_and_agrees_to_1e_8():
+    cloth, X = small_problem(stretched=False, seed=3)
+    directions = []
+    for options in SOLVERS:
+        integrator = _core.ImplicitIntegrator(**options)
+        system = integrator.newton_system(cloth, (0, -9.81, 0), 0.02, X)
+        H, gradient, direction = dense_hessian(system), system["gradient"], system["direction"]
+        assert np.linalg.norm(H @ direction + gradient) / np.linalg.norm(gradient) < 1e-10, options
+        directions.append(direction)
+    scale = np.abs(directions[0]).max()
+    for options, direction in zip(SOLVERS[1:], directions[1:]):
+        assert np.abs(direction - directions[0]).max() < 1e-8 * scale, options
+
+
+def test_backends_give_the_same_steps():
+    states = []
+    for options in SOLVERS:
+        sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", dt=0.02,
+                                        newton_tol=1e-10, **options)
+        sim.step(5)
+        states.append(sim.cloth.positions)
+    for options, X in zip(SOLVERS[1:], states[1:]):
+        assert np.abs(X - states[0]).max() < 1e-8, options
+
+
+def test_symbolic_analysis_runs_once_per_topology():
+    sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit")
+    sim.step(100)
+    counters = sim.stats["counters"]
+    assert counters["analyses"] == 1
+    assert counters["factorizations"] == counters["newton_iterations"] >= 100
+    version = sim.cloth.topology_version
+    sim.cloth.fix([24])  # a change of the unknowns: a new topology version
+    assert sim.cloth.topology_version != version
+    sim.step(100)
+    assert sim.stats["counters"]["analyses"] == 2
+    assert sim.stats["counters"]["dofs"] == 3 * (49 - 3)
+
+
+def test_statistics_report_phases_and_the_factor():
+    sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit")
+    sim.step(3)
+    stats = sim.stats
+    for phase in ("assemble_seconds", "analyze_seconds", "factorize_seconds", "solve_seconds"):
+        assert stats["phases"][phase] > 0
+    counters = stats["counters"]
+    assert counters["ordering"] == "amd"
+    dofs = counters["dofs"]
+    # L holds at least the lower triangle of H (which has 6 entries per vertex block column)
+    assert dofs * 2 <= counters["factor_nonzeros"] <= dofs * (dofs + 1) / 2
+    assert counters["factor_flops"] > counters["factor_nonzeros"]
+    assert counters["last_newton_iterations"] >= 1 and counters["last_residual"] >= 0
+
+
+def test_linearized_takes_exactly_one_newton_step_per_time_step():
+    sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", linearized=True)
+    sim.step(10)
+    counters = sim.stats["counters"]
+    assert counters["newton_iterations"] == 10 and counters["line_search_backtracks"] == 0
+
+
+def settle(integrator, dt):
+    sim = yore.scenes.hanging_cloth(resolution=7, pin_spacing=1.0, damping=0.5, drag=4.0,
+                                    integrator=integrator, dt=dt)
+    sim.advance(15.0, progress=False)
+    return sim
+
+
+def test_heavily_damped_cloth_reaches_the_same_static_shape_explicitly_and_implicitly():
+    explicit = settle("explicit", None)
+    implicit = settle("implicit", 1.0 / 30.0)
+    for sim in (explicit, implicit):
+        assert np.abs(sim.cloth.velocities).max() < 1e-6  # at rest
+    # Both rest at a minimum of spring + gravity energy; 1e-6 m on a 1 m cloth is the residual
+    # motion above (1e-6 m/s) times the slowest decay time, far below the cloth's 0.3 m sag.
+    assert np.abs(explicit.cloth.positions - implicit.cloth.positions).max() < 1e-5
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"solver": "lu"}, "valid: cholmod, eigen-ldlt, pcg"),
+    ({"ordering": "rcm"}, "valid: amd, metis, natural"),
+    ({"factorization": "dense"}, "valid: supernodal, simplicial"),
+    ({"newton_tol": -1.0}, "newton_tol"),
+    ({"max_newton": 0}, "max_newton"),
+    ({"solver": "eigen-ldlt", "ordering": "metis"}, "amd"),
+    ({"linearised": True}, "valid: divergence_energy_factor, factorization, linearized"),
+])
+def test_bad_implicit_options_are_value_errors_listing_the_valid_ones(options, message):
+    cloth = yore.Cloth(*yore.grid_mesh(3, 3))
+    with pytest.raises(ValueError, match=message):
+        yore.Simulation(cloth, integrator="implicit", **options)
