@@ -59,3 +59,23 @@ def median_seconds(run, repeats: int, warmup: int = 1) -> dict:
 def write_json(path: Path, payload: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(payload, indent=2, default=float) + "\n")
+
+
+def grid_cloth(n: int) -> "yore.Cloth":
+    """The benchmarks' cloth: an n × n-vertex, 1 m square with the scenes' material (200 N/m
+    structural and bending springs, damping, drag, 0.1 kg), fixed at two corners."""
+    V, F = yore.grid_mesh(n, n)
+    cloth = yore.Cloth(V, F, mass=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
+                       damping=0.02, drag=0.3)
+    cloth.fix([0, n - 1])
+    return cloth
+
+
+def explicit_step_seconds(n: int, target_seconds: float, repeats: int) -> dict:
+    """Median wall time of one explicit step on grid_cloth(n), timed in batches."""
+    sim = yore.Simulation(grid_cloth(n))
+    probe = median_seconds(lambda: sim.step(5, progress=False), repeats=1, warmup=1)
+    steps = max(1, int(target_seconds / (probe["median"] / 5)))
+    timing = median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)
+    return {key: (value / steps if key != "repeats" else value) for key, value in timing.items()} | {
+        "steps_per_batch": steps}

@@ -16,15 +16,7 @@ import numpy as np
 
 import yore
 
-from .common import machine_info, median_seconds, write_json
-
-
-def grid_cloth(n: int) -> yore.Cloth:
-    V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, mass=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
-                       damping=0.02, drag=0.3)
-    cloth.fix([0, n - 1])
-    return cloth
+from .common import explicit_step_seconds, grid_cloth, machine_info, write_json
 
 
 def measure(sizes, threads_list, target_seconds: float, repeats: int) -> list:
@@ -33,16 +25,12 @@ def measure(sizes, threads_list, target_seconds: float, repeats: int) -> list:
     for n in sizes:
         for threads in threads_list:
             yore.set_num_threads(threads)
-            sim = yore.Simulation(grid_cloth(n))
-            # batch size so that one timed batch takes about target_seconds
-            probe = median_seconds(lambda: sim.step(5, progress=False), repeats=1, warmup=1)
-            steps = max(1, int(target_seconds / (probe["median"] / 5)))
-            timing = median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)
-            rows.append({"grid": n, "vertices": n * n, "springs": sim.cloth.spring_count,
-                         "threads": threads, "steps_per_batch": steps,
-                         "step_seconds_median": timing["median"] / steps,
-                         "step_seconds_min": timing["min"] / steps,
-                         "step_seconds_max": timing["max"] / steps})
+            timing = explicit_step_seconds(n, target_seconds, repeats)
+            rows.append({"grid": n, "vertices": n * n, "springs": grid_cloth(n).spring_count,
+                         "threads": threads, "steps_per_batch": timing["steps_per_batch"],
+                         "step_seconds_median": timing["median"],
+                         "step_seconds_min": timing["min"],
+                         "step_seconds_max": timing["max"]})
     yore.set_num_threads(default_threads)
     return rows
 
