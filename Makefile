@@ -37,8 +37,10 @@ test: setup
 demo: setup
 	$(VPY) examples/hanging_cloth.py --out $(OUT)
 
+# Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
 bench: setup
 	$(VPY) -m benchmarks.explicit_step --out bench-results
+	OPENBLAS_NUM_THREADS=1 $(VPY) -m benchmarks.implicit_step --out bench-results
 
 clean:
 	rm -rf build $(VENV) $(OUT) bench-results

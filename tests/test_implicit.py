@@ -263,3 +263,48 @@ def test_bad_implicit_options_are_value_errors_listing_the_valid_ones(options, m
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
     with pytest.raises(ValueError, match=message):
         yore.Simulation(cloth, integrator="implicit", **options)
+
+
+def lower_csc(H):
+    n = len(H)
+    indptr, indices, data = [0], [], []
+    for column in range(n):
+        for row in range(column, n):
+            if H[row, column] != 0.0:
+                indices.append(row)
+                data.append(H[row, column])
+        indptr.append(len(indices))
+    return n, np.array(indptr), np.array(indices), np.array(data)
+
+
+@pytest.mark.parametrize("solver", ["cholmod", "eigen-ldlt", "pcg"])
+def test_solvers_solve_spd_matrices_and_reject_indefinite_ones(solver):
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(12, 12))
+    spd = A @ A.T + 12 * np.eye(12)
+    b = rng.normal(size=12)
+    x = _core.solve_spd(*lower_csc(spd), b, solver=solver)
+    assert np.linalg.norm(spd @ x - b) / np.linalg.norm(b) < 1e-10
+    indefinite = spd - 40 * np.eye(12) if solver != "pcg" else spd - 100 * np.eye(12)
+    with pytest.raises(yore.NotPositiveDefinite, match="not positive definite"):
+        _core.solve_spd(*lower_csc(indefinite), b, solver=solver)
+
+
+@pytest.mark.parametrize("integrator", ["implicit", "bdf2"])
+def test_both_paper_scenes_run_implicitly_at_their_default_step(integrator):
+    hanging = yore.scenes.hanging_cloth(resolution=9, integrator=integrator)
+    assert hanging.dt == pytest.approx(1 / 60)
+    pins = hanging.cloth.positions[hanging.scene["fixed"]].copy()
+    hanging.advance(0.5, progress=False)
+    assert np.array_equal(hanging.cloth.positions[hanging.scene["fixed"]], pins)
+    assert hanging.cloth.positions[:, 1].mean() < -0.1
+    cylinder = yore.scenes.rotating_cylinder(rings=5, segments=12, omega=3.0,
+                                             integrator=integrator)
+    rim = cylinder.scene["driven"]
+    start = cylinder.cloth.positions[rim].copy()
+    cylinder.advance(0.5, progress=False)
+    angle = 3.0 * cylinder.time
+    c, s = math.cos(angle), math.sin(angle)
+    R = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])  # rotation by +angle about +y
+    assert np.abs(cylinder.cloth.positions[rim] - start @ R.T).max() < 1e-12
+    assert np.all(np.isfinite(cylinder.cloth.positions))

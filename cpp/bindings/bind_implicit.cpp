@@ -26,6 +26,55 @@ py::array csc_array(const std::vector<std::int32_t>& values) { return read_only_
 }  // namespace
 
 void bind_implicit(py::module_& m) {
+  m.def(
+      "solve_spd",
+      [](std::int32_t size, const py::handle& indptr, const py::handle& indices,
+         const py::handle& data, const py::handle& rhs, const std::string& solver,
+         const std::string& ordering, const std::string& factorization) {
+        LinearSolverOptions options;
+        options.backend = solver;
+        options.ordering = parse_choice<Ordering>(
+            ordering, "ordering",
+            {{"amd", Ordering::amd}, {"metis", Ordering::metis}, {"natural", Ordering::natural}});
+        options.factor = parse_choice<FactorKind>(
+            factorization, "factorization",
+            {{"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}});
+        SymmetricPattern pattern;
+        pattern.size = size;
+        for (const auto value : to_vector(indptr, "indptr", size + 1)) {
+          pattern.column_starts.push_back(static_cast<std::int32_t>(value));
+        }
+        const Eigen::VectorXd rows = to_vector(indices, "indices");
+        for (const auto value : rows) pattern.row_indices.push_back(static_cast<std::int32_t>(value));
+        if (pattern.column_starts.front() != 0 || pattern.column_starts.back() != rows.size()) {
+          throw std::invalid_argument("indptr must start at 0 and end at len(indices)");
+        }
+        for (std::int32_t c = 0; c < size; ++c) {
+          for (std::int32_t p = pattern.column_starts[c]; p < pattern.column_starts[c + 1]; ++p) {
+            const std::int32_t r = pattern.row_indices[static_cast<std::size_t>(p)];
+            const bool sorted = p == pattern.column_starts[c] ||
+                                r > pattern.row_indices[static_cast<std::size_t>(p) - 1];
+            if (r < c || r >= size || !sorted) {
+              throw std::invalid_argument(
+                  "indices must hold sorted rows of the lower triangle (row >= column)");
+            }
+          }
+        }
+        const Eigen::VectorXd values = to_vector(data, "data", rows.size());
+        const Eigen::VectorXd b = to_vector(rhs, "rhs", size);
+        auto linear_solver = make_linear_solver(options);
+        linear_solver->analyze(pattern);
+        linear_solver->factorize(values.data());
+        Eigen::VectorXd x(size);
+        linear_solver->solve(b.data(), x.data());
+        return read_only_copy(x);
+      },
+      py::arg("size"), py::arg("indptr"), py::arg("indices"), py::arg("data"), py::arg("rhs"),
+      py::kw_only(), py::arg("solver") = "cholmod", py::arg("ordering") = "amd",
+      py::arg("factorization") = "supernodal",
+      R"doc(Solves H x = rhs for a symmetric H given by its lower triangle in CSC (sorted rows)
+with one of the backends; raises NotPositiveDefinite when H is not positive definite.)doc");
+
   py::class_<ImplicitIntegrator>(m, "ImplicitIntegrator",
                                  "Backward Euler / BDF2 by Newton's method on a sparse solver.")
       .def(py::init([](const std::string& method, bool linearized, double newton_tol,
