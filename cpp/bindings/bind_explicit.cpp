@@ -5,9 +5,10 @@
 namespace yore::bindings {
 
 void bind_explicit(py::module_& m) {
-  py::class_<ExplicitIntegrator>(m, "ExplicitIntegrator",
-                                 "Symplectic Euler with optional Provot strain limiting.")
-      .def(py::init([](double strain_limit, int strain_limit_passes,
+  py::class_<ExplicitIntegrator> integrator_class(
+      m, "ExplicitIntegrator", "Symplectic Euler with optional Provot strain limiting.");
+  def_advance(integrator_class);
+  integrator_class.def(py::init([](double strain_limit, int strain_limit_passes,
                        double divergence_energy_factor) {
              ExplicitOptions options;
              options.strain_limit = strain_limit;
@@ -17,16 +18,6 @@ void bind_explicit(py::module_& m) {
            }),
            py::kw_only(), py::arg("strain_limit") = 0.0, py::arg("strain_limit_passes") = 4,
            py::arg("divergence_energy_factor") = 10.0)
-      .def(
-          "advance",
-          [](ExplicitIntegrator& integrator, Cloth& cloth, const py::handle& gravity, double dt,
-             std::int64_t steps) {
-            const Vec3 g = to_vec3(gravity, "gravity");
-            py::gil_scoped_release release;
-            integrator.advance(cloth, g, dt, steps);
-          },
-          py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("steps"),
-          "Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.")
       .def_property_readonly("statistics", [](const ExplicitIntegrator& integrator) {
         const ExplicitStatistics& s = integrator.statistics();
         py::dict out;

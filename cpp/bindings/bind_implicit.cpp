@@ -75,9 +75,10 @@ void bind_implicit(py::module_& m) {
       R"doc(Solves H x = rhs for a symmetric H given by its lower triangle in CSC (sorted rows)
 with one of the backends; raises NotPositiveDefinite when H is not positive definite.)doc");
 
-  py::class_<ImplicitIntegrator>(m, "ImplicitIntegrator",
-                                 "Backward Euler / BDF2 by Newton's method on a sparse solver.")
-      .def(py::init([](const std::string& method, bool linearized, double newton_tol,
+  py::class_<ImplicitIntegrator> integrator_class(
+      m, "ImplicitIntegrator", "Backward Euler / BDF2 by Newton's method on a sparse solver.");
+  def_advance(integrator_class);
+  integrator_class.def(py::init([](const std::string& method, bool linearized, double newton_tol,
                        int max_newton, const std::string& solver, const std::string& ordering,
                        const std::string& factorization, double pcg_tol, int pcg_max_iterations,
                        double divergence_energy_factor) {
@@ -105,16 +106,6 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
            py::arg("solver") = "cholmod", py::arg("ordering") = "amd",
            py::arg("factorization") = "supernodal", py::arg("pcg_tol") = 1e-12,
            py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0)
-      .def(
-          "advance",
-          [](ImplicitIntegrator& integrator, Cloth& cloth, const py::handle& gravity, double dt,
-             std::int64_t steps) {
-            const Vec3 g = to_vec3(gravity, "gravity");
-            py::gil_scoped_release release;
-            integrator.advance(cloth, g, dt, steps);
-          },
-          py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("steps"),
-          "Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.")
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,

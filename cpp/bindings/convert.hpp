@@ -2,6 +2,7 @@
 // Conversions between numpy arrays and the core's Eigen types, with checks that name the
 // offending argument, shape or value (std::invalid_argument → ValueError in Python).
 
+#include "yore/cloth.hpp"
 #include "yore/mesh.hpp"
 
 #include <pybind11/numpy.h>
@@ -64,6 +65,22 @@ py::array read_only_copy(const std::vector<T>& values) {
   std::copy(values.begin(), values.end(), out.mutable_data());
   out.attr("flags").attr("writeable") = false;
   return std::move(out);
+}
+
+/// Adds advance(cloth, gravity, dt, steps) to an integrator class; the GIL is released while
+/// it runs (the cloth must not be touched from another Python thread meanwhile).
+template <typename Integrator>
+void def_advance(py::class_<Integrator>& integrator_class) {
+  integrator_class.def(
+      "advance",
+      [](Integrator& integrator, Cloth& cloth, const py::handle& gravity, double dt,
+         std::int64_t steps) {
+        const Eigen::Vector3d g = to_vec3(gravity, "gravity");
+        py::gil_scoped_release release;
+        integrator.advance(cloth, g, dt, steps);
+      },
+      py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("steps"),
+      "Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.");
 }
 
 }  // namespace yore::bindings

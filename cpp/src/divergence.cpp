@@ -56,6 +56,20 @@ void DivergenceMonitor::prepare(const Cloth& cloth, const Vec3& gravity, double 
   m_dt = dt;
 }
 
+void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps) {
+  if (!std::isfinite(dt) || dt <= 0.0) {
+    std::ostringstream msg;
+    msg << "dt must be finite and > 0, got " << dt;
+    throw std::invalid_argument(msg.str());
+  }
+  if (!gravity.allFinite()) throw std::invalid_argument("gravity must be finite");
+  if (steps < 0) {
+    std::ostringstream msg;
+    msg << "the number of steps must be >= 0, got " << steps;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
 SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
                                   double time, double dt, bool finite) {
   const double stable = cloth.stable_time_step();

@@ -328,17 +328,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                  std::int64_t steps) {
-  if (!std::isfinite(dt) || dt <= 0.0) {
-    std::ostringstream msg;
-    msg << "dt must be finite and > 0, got " << dt;
-    throw std::invalid_argument(msg.str());
-  }
-  if (!gravity.allFinite()) throw std::invalid_argument("gravity must be finite");
-  if (steps < 0) {
-    std::ostringstream msg;
-    msg << "the number of steps must be >= 0, got " << steps;
-    throw std::invalid_argument(msg.str());
-  }
+  check_advance_arguments(dt, gravity, steps);
   if (steps == 0) return;
   m_monitor.prepare(cloth, gravity, dt);
   m_checkpoint_positions = cloth.positions();

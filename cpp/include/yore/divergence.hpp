@@ -38,6 +38,10 @@ class DivergenceMonitor {
   double m_dt = 0.0;
 };
 
+/// Checks the arguments every integrator's advance() takes: dt finite and > 0 (s), gravity
+/// finite, steps >= 0. Throws std::invalid_argument naming the bad one.
+void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps);
+
 /// The exception for a failed step: where it failed, why, and what the stability estimate says.
 SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
                                   double time, double dt, bool finite);
