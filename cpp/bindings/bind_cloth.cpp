@@ -95,6 +95,13 @@ void bind_cloth(py::module_& m) {
           },
           "(s,) int8 kind of each spring: 0 structural, 1 bending.")
       .def_property_readonly(
+          "reference",
+          [](const SpringsView& view) {
+            return read_only_copy(view.cloth->springs().reference_length);
+          },
+          "(s,) reference lengths, metres: what rest lengths are measured against (the input "
+          "length, or the length when a stroke created the spring).")
+      .def_property_readonly(
           "stiffness",
           [](const SpringsView& view) { return read_only_copy(view.cloth->springs().stiffness); },
           "(s,) stiffness, N/m.")
@@ -164,6 +171,24 @@ vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; dr
           py::cpp_function([](Cloth& cloth) { return SpringsView{&cloth}; },
                            py::keep_alive<0, 1>()),
           "The springs (ends, rest, kind, ...); a view that keeps its cloth alive.")
+      .def_property(
+          "material_coordinates",
+          [](const Cloth& cloth) -> py::object {
+            if (cloth.material_coordinates().rows() == 0) return py::none();
+            return read_only_copy(cloth.material_coordinates());
+          },
+          [](Cloth& cloth, const py::handle& value) {
+            const auto array = as_float_array(value, "material_coordinates");
+            if (array.ndim() != 2 || array.shape(1) != 2 || array.shape(0) != cloth.vertex_count()) {
+              throw std::invalid_argument("material_coordinates must have shape (" +
+                                          std::to_string(cloth.vertex_count()) + ", 2), got " +
+                                          shape_text(array));
+            }
+            Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> uv(array.shape(0), 2);
+            std::copy(array.data(), array.data() + array.size(), uv.data());
+            cloth.set_material_coordinates(uv);
+          },
+          "n×2 rest-pattern coordinates (m) or None; interpolated into split faces.")
       .def_property_readonly("vertex_count", &Cloth::vertex_count)
       .def_property_readonly("face_count", &Cloth::face_count)
       .def_property_readonly("spring_count",

@@ -10,5 +10,6 @@ void bind_mesh(pybind11::module_& m);
 void bind_cloth(pybind11::module_& m);
 void bind_explicit(pybind11::module_& m);
 void bind_implicit(pybind11::module_& m);
+void bind_stroke(pybind11::module_& m);
 
 }  // namespace yore::bindings

@@ -45,4 +45,5 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_cloth(m);
   yore::bindings::bind_explicit(m);
   yore::bindings::bind_implicit(m);
+  yore::bindings::bind_stroke(m);
 }

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 
 namespace yore {
 namespace {
@@ -86,6 +87,9 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
   check_non_negative(damping, "damping");
   initialise_state(positions, masses, drag);
   m_faces = faces;
+  m_stretch_stiffness = stretch_stiffness;
+  m_bend_stiffness = bend_stiffness;
+  m_spring_damping = damping;
 
   const MeshConnectivity connectivity = mesh_connectivity(faces);
   // Zero bend stiffness: the scene does not model bending, so no bending spring exists at all.
@@ -327,6 +331,215 @@ void Cloth::apply_drivers(double time) {
       m_velocities.row(driver.vertices[k]) = angular_velocity.cross(arm).transpose();
     }
   }
+}
+
+void Cloth::set_material_coordinates(
+    const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& uv) {
+  if (uv.rows() != vertex_count()) {
+    std::ostringstream msg;
+    msg << "material coordinates must have shape (" << vertex_count() << ", 2), got ("
+        << uv.rows() << ", 2)";
+    fail(msg.str());
+  }
+  if (!uv.allFinite()) fail("material coordinates must be finite");
+  m_material = uv;
+}
+
+namespace {
+
+/// Area of a triangle with these side lengths (Heron); 0 if they violate the triangle inequality.
+double area_from_sides(double a, double b, double c) {
+  const double s = 0.5 * (a + b + c);
+  const double product = s * (s - a) * (s - b) * (s - c);
+  return product > 0.0 ? std::sqrt(product) : 0.0;
+}
+
+/// Smallest interior angle of a triangle, degrees.
+double min_angle_degrees(const Vec3& a, const Vec3& b, const Vec3& c) {
+  auto angle = [](const Vec3& apex, const Vec3& p, const Vec3& q) {
+    const Vec3 u = p - apex, v = q - apex;
+    return std::atan2(u.cross(v).norm(), u.dot(v));
+  };
+  const double smallest = std::min({angle(a, b, c), angle(b, c, a), angle(c, a, b)});
+  return smallest * 180.0 / M_PI;
+}
+
+std::uint64_t pair_key(std::int32_t i, std::int32_t j) {
+  const auto lo = static_cast<std::uint64_t>(std::min(i, j));
+  const auto hi = static_cast<std::uint64_t>(std::max(i, j));
+  return (hi << 32) | lo;
+}
+
+}  // namespace
+
+SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
+                               const SplitOptions& options) {
+  if (face_count() == 0) fail("a spring network has no faces to split");
+  if (!std::isfinite(options.expansion) || options.expansion <= 0.0) {
+    std::ostringstream msg;
+    msg << "expansion must be finite and > 0, got " << options.expansion;
+    fail(msg.str());
+  }
+  if (!std::isfinite(options.mass_scale) || options.mass_scale <= 0.0) {
+    std::ostringstream msg;
+    msg << "mass_scale must be finite and > 0, got " << options.mass_scale;
+    fail(msg.str());
+  }
+  if (!(options.min_barycentric >= 0.0 && options.min_barycentric < 1.0 / 3.0)) {
+    fail("min_barycentric must be in [0, 1/3)");
+  }
+  std::vector<char> seen(static_cast<std::size_t>(face_count()), 0);
+  for (const FaceSplit& split : splits) {
+    if (split.face < 0 || split.face >= face_count()) {
+      std::ostringstream msg;
+      msg << "face " << split.face << " out of range [0, " << face_count() << ")";
+      fail(msg.str());
+    }
+    if (seen[static_cast<std::size_t>(split.face)]++) {
+      std::ostringstream msg;
+      msg << "face " << split.face << " is split twice in one call";
+      fail(msg.str());
+    }
+    if (!split.barycentric.allFinite() || split.barycentric.minCoeff() < -1e-9 ||
+        std::abs(split.barycentric.sum() - 1.0) > 1e-6) {
+      std::ostringstream msg;
+      msg << "barycentric weights of face " << split.face << " must be >= 0 and sum to 1";
+      fail(msg.str());
+    }
+  }
+
+  SplitReport report;
+  // Rest lengths of the structural springs by vertex pair, for rest areas.
+  std::unordered_map<std::uint64_t, double> structural_rest;
+  structural_rest.reserve(m_springs.size());
+  for (std::size_t k = 0; k < m_springs.size(); ++k) {
+    if (m_springs.kind[k] == SpringKind::structural) {
+      structural_rest[pair_key(m_springs.first[k], m_springs.second[k])] = m_springs.rest_length[k];
+    }
+  }
+  auto rest_of = [&](std::int32_t i, std::int32_t j) {
+    const auto it = structural_rest.find(pair_key(i, j));
+    return it == structural_rest.end() ? (m_positions.row(i) - m_positions.row(j)).norm()
+                                       : it->second;
+  };
+
+  // Choose the split points.
+  struct Planned {
+    std::int32_t face;
+    Vec3 weights;
+  };
+  std::vector<Planned> planned;
+  planned.reserve(splits.size());
+  for (const FaceSplit& split : splits) {
+    const std::int32_t a = m_faces(split.face, 0), b = m_faces(split.face, 1),
+                       c = m_faces(split.face, 2);
+    const Vec3 xa = m_positions.row(a), xb = m_positions.row(b), xc = m_positions.row(c);
+    Vec3 weights = split.barycentric.cwiseMax(0.0);
+    weights /= weights.sum();
+    const double smallest = weights.minCoeff();
+    if (smallest < options.min_barycentric) {
+      // Blend towards the centroid until the smallest weight is min_barycentric.
+      const double blend = (options.min_barycentric - smallest) / (1.0 / 3.0 - smallest);
+      weights = (1.0 - blend) * weights + Vec3::Constant(blend / 3.0);
+      ++report.moved_inward;
+    }
+    auto children_ok = [&](const Vec3& w) {
+      const Vec3 p = w[0] * xa + w[1] * xb + w[2] * xc;
+      return std::min({min_angle_degrees(xa, xb, p), min_angle_degrees(xb, xc, p),
+                       min_angle_degrees(xc, xa, p)}) >= options.min_angle_degrees;
+    };
+    if (!children_ok(weights)) weights = Vec3::Constant(1.0 / 3.0);
+    if (!children_ok(weights)) {
+      report.skipped_faces.push_back(split.face);
+      continue;
+    }
+    planned.push_back({split.face, weights});
+  }
+
+  // New vertices and faces.
+  const Eigen::Index old_vertices = vertex_count();
+  const Eigen::Index added = static_cast<Eigen::Index>(planned.size());
+  if (added == 0) return report;
+  const Eigen::Index old_faces = face_count();
+  m_positions.conservativeResize(old_vertices + added, 3);
+  m_velocities.conservativeResize(old_vertices + added, 3);
+  m_masses.conservativeResize(old_vertices + added);
+  if (m_material.rows() == old_vertices) m_material.conservativeResize(old_vertices + added, 2);
+  m_faces.conservativeResize(old_faces + 2 * added, 3);
+  for (Eigen::Index k = 0; k < added; ++k) {
+    const Planned& plan = planned[static_cast<std::size_t>(k)];
+    const std::int32_t a = m_faces(plan.face, 0), b = m_faces(plan.face, 1),
+                       c = m_faces(plan.face, 2);
+    const auto p = static_cast<std::int32_t>(old_vertices + k);
+    const Vec3& w = plan.weights;
+    m_positions.row(p) = w[0] * m_positions.row(a) + w[1] * m_positions.row(b) +
+                         w[2] * m_positions.row(c);
+    m_velocities.row(p) = w[0] * m_velocities.row(a) + w[1] * m_velocities.row(b) +
+                          w[2] * m_velocities.row(c);
+    m_masses[p] = options.mass_scale * (m_masses[a] + m_masses[b] + m_masses[c]) / 3.0;
+    if (m_material.rows() == old_vertices + added) {
+      m_material.row(p) =
+          w[0] * m_material.row(a) + w[1] * m_material.row(b) + w[2] * m_material.row(c);
+    }
+    report.rest_area_before +=
+        area_from_sides(rest_of(a, b), rest_of(b, c), rest_of(c, a));
+    // Children keep the parent's orientation: (a, b, p), (b, c, p), (c, a, p).
+    const auto second_child = static_cast<std::int32_t>(old_faces + 2 * k);
+    m_faces.row(plan.face) << a, b, p;
+    m_faces.row(second_child) << b, c, p;
+    m_faces.row(second_child + 1) << c, a, p;
+    report.split_faces.push_back(plan.face);
+    report.new_vertices.push_back(p);
+    report.region_faces.insert(report.region_faces.end(),
+                               {plan.face, second_child, second_child + 1});
+  }
+  m_vertex_states.resize(static_cast<std::size_t>(old_vertices + added), VertexState::free);
+  update_inverse_masses();
+
+  // Springs: keep every spring whose pair is still wired, drop the rest, add the new pairs with
+  // eq. (1) rest lengths.
+  const MeshConnectivity connectivity = mesh_connectivity(m_faces);
+  const bool with_bending = m_bend_stiffness > 0.0;
+  std::vector<char> keep(m_springs.size(), 0);
+  std::unordered_map<std::uint64_t, char> existing;
+  existing.reserve(m_springs.size());
+  for (std::size_t k = 0; k < m_springs.size(); ++k) {
+    const VertexPair pair{std::min(m_springs.first[k], m_springs.second[k]),
+                          std::max(m_springs.first[k], m_springs.second[k])};
+    const auto& wired = m_springs.kind[k] == SpringKind::structural ? connectivity.edges
+                                                                    : connectivity.bending_pairs;
+    keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
+    if (keep[k]) existing[pair_key(pair[0], pair[1])] = 1;
+  }
+  const std::size_t before = m_springs.size();
+  m_springs.keep(keep);
+  report.springs_removed = static_cast<std::int64_t>(before - m_springs.size());
+  auto add_new = [&](const VertexPair& pair, double stiffness, SpringKind kind) {
+    if (existing.count(pair_key(pair[0], pair[1]))) return;
+    const double length = (m_positions.row(pair[0]) - m_positions.row(pair[1])).norm();
+    m_springs.add(pair[0], pair[1], options.expansion * length, stiffness, m_spring_damping, kind,
+                  length);
+    if (kind == SpringKind::structural) {
+      structural_rest[pair_key(pair[0], pair[1])] = options.expansion * length;
+    }
+    ++report.springs_added;
+  };
+  for (const VertexPair& edge : connectivity.edges) {
+    add_new(edge, m_stretch_stiffness, SpringKind::structural);
+  }
+  if (with_bending) {
+    for (const VertexPair& pair : connectivity.bending_pairs) {
+      add_new(pair, m_bend_stiffness, SpringKind::bending);
+    }
+  }
+  for (const std::int32_t f : report.region_faces) {
+    const std::int32_t a = m_faces(f, 0), b = m_faces(f, 1), c = m_faces(f, 2);
+    report.rest_area_after += area_from_sides(rest_of(a, b), rest_of(b, c), rest_of(c, a));
+  }
+  rebuild_incidence();
+  m_topology_version = next_topology_version();
+  ++m_edit_count;
+  return report;
 }
 
 EnergyTerms Cloth::energy(const Vec3& gravity) const {

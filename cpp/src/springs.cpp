@@ -11,16 +11,46 @@ void SpringSet::reserve(std::size_t n) {
   stiffness.reserve(n);
   damping.reserve(n);
   kind.reserve(n);
+  reference_length.reserve(n);
 }
 
 void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m,
                     double stiffness_n_per_m, double damping_ns_per_m, SpringKind spring_kind) {
+  add(i, j, rest_length_m, stiffness_n_per_m, damping_ns_per_m, spring_kind, rest_length_m);
+}
+
+void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m,
+                    double stiffness_n_per_m, double damping_ns_per_m, SpringKind spring_kind,
+                    double reference_length_m) {
   first.push_back(i);
   second.push_back(j);
   rest_length.push_back(rest_length_m);
   stiffness.push_back(stiffness_n_per_m);
   damping.push_back(damping_ns_per_m);
   kind.push_back(spring_kind);
+  reference_length.push_back(reference_length_m);
+}
+
+void SpringSet::keep(const std::vector<char>& flags) {
+  std::size_t out = 0;
+  for (std::size_t s = 0; s < size(); ++s) {
+    if (!flags[s]) continue;
+    first[out] = first[s];
+    second[out] = second[s];
+    rest_length[out] = rest_length[s];
+    stiffness[out] = stiffness[s];
+    damping[out] = damping[s];
+    kind[out] = kind[s];
+    reference_length[out] = reference_length[s];
+    ++out;
+  }
+  first.resize(out);
+  second.resize(out);
+  rest_length.resize(out);
+  stiffness.resize(out);
+  damping.resize(out);
+  kind.resize(out);
+  reference_length.resize(out);
 }
 
 void SpringSet::clear() {
@@ -30,6 +60,7 @@ void SpringSet::clear() {
   stiffness.clear();
   damping.clear();
   kind.clear();
+  reference_length.clear();
 }
 
 double spring_energy(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness) {

@@ -6,11 +6,12 @@ Cloth") with an explicit reference integrator; see README.md for the whole pictu
 
 from __future__ import annotations
 
-from . import scenes, springs
+from . import metrics, scenes, springs, stroke
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
 from .simulation import INTEGRATORS, Simulation
+from .stroke import Camera, StrokeMissed, StrokeReport
 
 __version__ = "0.1.0"
 
@@ -19,6 +20,10 @@ __all__ = [
     "Simulation",
     "SimulationDiverged",
     "NotPositiveDefinite",
+    "StrokeMissed",
+    "StrokeReport",
+    "Camera",
+    "metrics",
     "INTEGRATORS",
     "grid_mesh",
     "cylinder_mesh",

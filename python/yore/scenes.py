@@ -3,8 +3,8 @@
 Each function builds the cloth, its constraints and a `yore.Simulation`. Sizes and material are
 keywords; ``integrator``, ``dt`` and integrator options are passed on to `yore.Simulation`
 (without ``dt`` a stable default is chosen). The returned simulation carries a ``scene`` dict
-with the scene's name, its constrained vertex indices and the cloth's material (pattern)
-coordinates ``uv`` (n×2, metres).
+with the scene's name and its constrained vertex indices (and, for the flat hanging cloth, its
+pattern coordinates ``uv``, n×2 metres, also set as ``cloth.material_coordinates``).
 """
 
 from __future__ import annotations
@@ -58,6 +58,7 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
     gathered = pattern.copy()
     gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
     cloth.positions = gathered
+    cloth.material_coordinates = uv  # the flat pattern, for sim.stroke_material
     pinned = np.array([0, resolution - 1], dtype=np.int32)  # the corners of the edge z = 0
     cloth.fix(pinned)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
@@ -85,9 +86,9 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=0.1,
     rim = cylinder_ring(rings, segments, -1)
     cloth.drive_rotation(rim, center=(0.0, height, 0.0), axis=(0.0, 1.0, 0.0), omega=omega)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
-    angle = np.arctan2(V[:, 2], V[:, 0]) % (2.0 * math.pi)
-    uv = np.column_stack([angle * radius, V[:, 1]])
-    sim.scene = {"name": "rotating_cylinder", "driven": rim, "uv": uv,
+    # A tube has no flat pattern without a seam, so it gets no material coordinates
+    # (sim.stroke_material needs them); use sim.stroke or sim.stroke_screen.
+    sim.scene = {"name": "rotating_cylinder", "driven": rim,
                  "axis_center": np.array([0.0, height, 0.0]), "omega": omega}
     return sim
 

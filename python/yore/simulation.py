@@ -9,6 +9,7 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
+from .stroke import Camera, apply_stroke, check_factor, check_stroke_points, mean_edge_length
 
 __all__ = ["Simulation", "INTEGRATORS"]
 
@@ -152,6 +153,8 @@ class Simulation:
         self._dt = _check_positive_seconds(dt, "dt")
         self._wall_seconds = 0.0
         self._target_time = None  # the time the last advance() aimed at
+        self._pending_reports = []  # stroke reports waiting for the next step's re-analysis time
+        self._last_stroke = None
 
     # -- properties -----------------------------------------------------------------------
     @property
@@ -220,12 +223,18 @@ class Simulation:
             return
         cloth = self._cloth
         saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
+        analyzed_before = self._integrator.statistics.get("analyze_seconds", 0.0)
         done, batch, bar = 0, 1, None
         started = _time.perf_counter()
         try:
             while done < steps:
                 count = min(batch, steps - done)
                 self._integrator.advance(self._cloth, self._gravity, self._dt, count)
+                if self._pending_reports:
+                    analyzed = self._integrator.statistics.get("analyze_seconds", 0.0)
+                    for report in self._pending_reports:
+                        report.reanalyze_seconds = analyzed - analyzed_before
+                    self._pending_reports = []
                 done += count
                 elapsed = _time.perf_counter() - started
                 rate = done / max(elapsed, 1e-9)
@@ -254,6 +263,115 @@ class Simulation:
             self._wall_seconds += _time.perf_counter() - started
             if bar is not None:
                 bar.close()
+
+    # -- strokes ----------------------------------------------------------------------------
+    def stroke(self, points_3d, expansion=1.1, mass_scale=0.95, max_distance=None):
+        """Adds wrinkles along a 3-D polyline near the cloth (the paper's stroke).
+
+        points_3d : (k, 3) metres. Each point goes to the closest point of the current surface;
+        the polyline is refined until no face it crosses is skipped. Points farther than
+        ``max_distance`` (default 5 % of the cloth's bounding-box diagonal) miss.
+        expansion : rest length of new springs over their current length (eq. (1): 1.1).
+        mass_scale : new vertex mass over its face corners' mean (paper: 0.95).
+        Returns a `yore.stroke.StrokeReport`; raises `yore.StrokeMissed` if nothing is hit,
+        ValueError on bad input.
+        """
+        points = check_stroke_points(points_3d, 3, "points_3d")
+        expansion = check_factor(expansion, "expansion")
+        mass_scale = check_factor(mass_scale, "mass_scale")
+        X = self._cloth.positions
+        if max_distance is None:
+            max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
+        max_distance = check_factor(max_distance, "max_distance")
+        spacing = 0.25 * mean_edge_length(X, self._cloth.faces)
+        start = _time.perf_counter()
+        trace = _core.trace_closest(self._cloth, points, max_distance, spacing)
+        return self._finish_stroke(trace, expansion, mass_scale, start)
+
+    def stroke_screen(self, points_px, camera, expansion=1.1, mass_scale=0.95):
+        """Adds wrinkles along a 2-D polyline drawn over a rendered view, as the paper's user
+        draws: points_px (k, 2) in pixels of `camera` (a `yore.Camera`); rays through the
+        current surface, nearest hit. Same report and errors as `stroke`."""
+        if not isinstance(camera, Camera):
+            raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
+        points = check_stroke_points(points_px, 2, "points_px")
+        expansion = check_factor(expansion, "expansion")
+        mass_scale = check_factor(mass_scale, "mass_scale")
+        d0, dx, dy = camera.pixel_rays()
+        start = _time.perf_counter()
+        trace = _core.trace_rays(self._cloth, points, np.asarray(camera.eye, float), d0, dx, dy,
+                                 0.5)
+        return self._finish_stroke(trace, expansion, mass_scale, start)
+
+    def stroke_material(self, points_uv, expansion=1.1, mass_scale=0.95):
+        """Adds wrinkles along a 2-D polyline in the cloth's rest-pattern coordinates
+        (``cloth.material_coordinates``, set by the scenes). Same report and errors as
+        `stroke`."""
+        points = check_stroke_points(points_uv, 2, "points_uv")
+        expansion = check_factor(expansion, "expansion")
+        mass_scale = check_factor(mass_scale, "mass_scale")
+        uv = self._cloth.material_coordinates
+        if uv is None:
+            raise ValueError("the cloth has no material coordinates; set "
+                             "cloth.material_coordinates (n×2) first")
+        flat = np.column_stack([uv, np.zeros(len(uv))])
+        spacing = 0.25 * mean_edge_length(flat, self._cloth.faces)
+        tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
+        start = _time.perf_counter()
+        trace = _core.trace_material(self._cloth, points, tolerance, spacing)
+        return self._finish_stroke(trace, expansion, mass_scale, start)
+
+    def _finish_stroke(self, trace, expansion, mass_scale, start):
+        report = apply_stroke(self._cloth, trace, expansion, mass_scale,
+                              _time.perf_counter() - start)
+        self._pending_reports.append(report)
+        self._last_stroke = report
+        return report
+
+    def smooth_rest_lengths(self, iterations=10, strength=0.5, region=None) -> dict:
+        """Laplacian smoothing of rest lengths (the paper's remedy for uneven surfaces).
+
+        The smoothed field is the ratio rest / reference length of each spring (1 for untouched
+        springs, ``expansion`` for a stroke's new ones); each iteration moves a spring's ratio by
+        ``strength`` towards the mean ratio around its two ends. ``region``: vertex indices whose
+        springs are smoothed, "all", or None for the last stroke's region and one ring around it.
+        No re-analysis follows (the topology is unchanged). Returns the ratio-field roughness
+        before and after (`yore.metrics.rest_ratio_roughness`).
+        """
+        from .metrics import _vertex_mean_of_springs, rest_ratio_roughness
+
+        iterations = int(iterations)
+        strength = float(strength)
+        if iterations < 0:
+            raise ValueError(f"iterations must be >= 0, got {iterations}")
+        if not 0.0 < strength <= 1.0:
+            raise ValueError(f"strength must be in (0, 1], got {strength}")
+        cloth = self._cloth
+        ends = cloth.springs.ends
+        if isinstance(region, str):
+            if region != "all":
+                raise ValueError(f"region must be vertex indices, 'all' or None, got {region!r}")
+            selected = np.ones(len(ends), dtype=bool)
+        else:
+            if region is None:
+                if self._last_stroke is None:
+                    raise ValueError("no stroke yet: give region (vertex indices or 'all')")
+                region_vertices = np.unique(cloth.faces[self._last_stroke.region_faces])
+                ring = np.isin(ends, region_vertices).any(axis=1)
+                region = np.unique(ends[ring])  # one ring around the stroke's region
+            region = np.asarray(region)
+            if region.size and (region.min() < 0 or region.max() >= cloth.vertex_count):
+                raise ValueError("region holds a vertex index out of range")
+            selected = np.isin(ends, region).any(axis=1)
+        reference = cloth.springs.reference
+        ratio = cloth.springs.rest / reference
+        before = rest_ratio_roughness(cloth, np.flatnonzero(selected))
+        for _ in range(iterations):
+            neighbour = _vertex_mean_of_springs(cloth, ratio)
+            ratio = np.where(selected, (1.0 - strength) * ratio + strength * neighbour, ratio)
+        cloth.springs.rest = ratio * reference
+        return {"springs": int(selected.sum()), "roughness_before": before,
+                "roughness_after": rest_ratio_roughness(cloth, np.flatnonzero(selected))}
 
     # -- measurements -----------------------------------------------------------------------
     def energy(self) -> dict:

@@ -38,6 +38,39 @@ struct EnergyTerms {
   double total() const { return kinetic + spring + gravity; }
 };
 
+/// Where to split one face: the new vertex at these barycentric weights of its corners.
+struct FaceSplit {
+  std::int32_t face = -1;
+  Vec3 barycentric = Vec3::Constant(1.0 / 3.0);
+};
+
+/// How faces are split (the paper's partial area expansion).
+struct SplitOptions {
+  /// Rest length of a new spring = expansion × its current length (eq. (1) of the paper: 1.1).
+  double expansion = 1.1;
+  /// Mass of a new vertex = mass_scale × the mean mass of the face's corners (paper: 0.95).
+  double mass_scale = 0.95;
+  /// A split point with a barycentric weight below this is moved towards the centroid until the
+  /// smallest weight equals it, so no child triangle has less than this fraction of the area.
+  double min_barycentric = 0.1;
+  /// A split whose children would have an angle below this (degrees) is tried at the centroid;
+  /// if the centroid too gives such a sliver, the face is skipped and reported.
+  double min_angle_degrees = 5.0;
+};
+
+/// What split_faces did.
+struct SplitReport {
+  std::vector<std::int32_t> split_faces;    ///< original indices of the faces split
+  std::vector<std::int32_t> skipped_faces;  ///< faces left whole (their children would be slivers)
+  std::vector<std::int32_t> new_vertices;
+  std::vector<std::int32_t> region_faces;   ///< the 3 children of every split face
+  std::int64_t springs_added = 0;
+  std::int64_t springs_removed = 0;  ///< bending springs across edges that changed neighbours
+  double rest_area_before = 0.0;     ///< m², of the split faces, from their edges' rest lengths
+  double rest_area_after = 0.0;      ///< m², of their children, likewise
+  std::int64_t moved_inward = 0;     ///< split points moved inward by the min_barycentric rule
+};
+
 /// A mass-spring cloth (or a plain spring network when built by from_springs).
 class Cloth {
  public:
@@ -124,6 +157,22 @@ class Cloth {
   const std::vector<std::int32_t>& incident_springs() const { return m_incident_springs; }
   const std::vector<double>& incident_signs() const { return m_incident_signs; }
 
+  /// Splits faces 1→3 (the paper's subdivision): per face, a new vertex at the given point of its
+  /// current triangle (moved inward by the documented rules), velocity interpolated, mass
+  /// mass_scale × its corners' mean; structural springs to the three corners and bending springs
+  /// across the changed edges get rest length expansion × current length (eq. (1)); bending
+  /// springs across edges whose neighbours changed are removed. Faces keep their orientation.
+  /// Gives a new topology_version. Throws std::invalid_argument on a spring network (no faces),
+  /// bad options, out-of-range or repeated faces, or non-finite weights.
+  SplitReport split_faces(const std::vector<FaceSplit>& splits, const SplitOptions& options);
+
+  /// Rest-pattern (material) coordinates, n×2 (m), or empty when the cloth has none.
+  const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& material_coordinates() const {
+    return m_material;
+  }
+  /// Sets rest-pattern coordinates (n×2, finite); they are interpolated into split faces.
+  void set_material_coordinates(const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& uv);
+
   /// Kinetic, spring and gravitational energy for gravity g (m/s²).
   EnergyTerms energy(const Vec3& gravity) const;
 
@@ -149,6 +198,9 @@ class Cloth {
   Faces m_faces;
   SpringSet m_springs;
   double m_drag = 0.0;
+  // The material new springs get when faces are split.
+  double m_stretch_stiffness = 0.0, m_bend_stiffness = 0.0, m_spring_damping = 0.0;
+  Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> m_material;
   std::vector<VertexState> m_vertex_states;
   std::vector<RotationDriver> m_drivers;
   std::vector<std::int32_t> m_incidence_offsets;

@@ -25,6 +25,10 @@ struct SpringSet {
   std::vector<double> stiffness;     ///< s, N/m
   std::vector<double> damping;       ///< s, N·s/m, along the spring
   std::vector<SpringKind> kind;      ///< s
+  /// s, metres: the length the rest length is measured against — the rest length itself for a
+  /// spring wired from the input mesh, the length at creation for one a stroke added. The ratio
+  /// rest / reference is the field that rest-length smoothing smooths.
+  std::vector<double> reference_length;
 
   /// Number of springs.
   std::size_t size() const { return first.size(); }
@@ -33,6 +37,11 @@ struct SpringSet {
   /// Appends one spring.
   void add(std::int32_t i, std::int32_t j, double rest_length_m, double stiffness_n_per_m,
            double damping_ns_per_m, SpringKind spring_kind);
+  /// Appends one spring whose reference length differs from its rest length.
+  void add(std::int32_t i, std::int32_t j, double rest_length_m, double stiffness_n_per_m,
+           double damping_ns_per_m, SpringKind spring_kind, double reference_length_m);
+  /// Keeps only the springs whose flag is set, in order.
+  void keep(const std::vector<char>& flags);
   /// Removes every spring.
   void clear();
 };

@@ -1,0 +1,95 @@
+#pragma once
+/// @file stroke.hpp
+/// Locating a user's stroke on the current cloth surface (target yore_geometry, CGAL AABB trees):
+/// the faces it crosses and where, for the paper's partial area expansion.
+
+#include "yore/mesh.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace yore {
+
+/// A point on a triangle of the surface.
+struct SurfaceHit {
+  std::int32_t face = -1;
+  Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();  ///< weights of the face's corners
+  double distance = 0.0;  ///< from the query point (closest-point queries) or ray origin, m
+};
+
+/// Closest-point and ray queries on a triangle mesh (an AABB tree over its faces). Built for
+/// one set of positions; rebuild after the surface moves.
+class SurfaceLocator {
+ public:
+  /// positions n×3 (m), faces f×3; the mesh must be valid (see validate_mesh).
+  SurfaceLocator(const Positions& positions, const Faces& faces);
+  ~SurfaceLocator();
+  SurfaceLocator(const SurfaceLocator&) = delete;
+  SurfaceLocator& operator=(const SurfaceLocator&) = delete;
+
+  /// The closest surface point to `point`.
+  SurfaceHit closest(const Eigen::Vector3d& point) const;
+  /// The first surface point along the ray, if any. direction need not be unit.
+  std::optional<SurfaceHit> first_hit(const Eigen::Vector3d& origin,
+                                      const Eigen::Vector3d& direction) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+/// Where a stroke crosses one face: the mean of its sample points in the face.
+struct StrokeCrossing {
+  std::int32_t face = -1;
+  Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();
+  std::int32_t samples = 0;  ///< how many stroke samples fell in the face
+};
+
+/// The faces a stroke crosses, in the order it first enters them.
+struct StrokeTrace {
+  std::vector<StrokeCrossing> crossings;
+  std::int64_t samples = 0;         ///< stroke samples evaluated (after refinement)
+  std::int64_t missed_samples = 0;  ///< samples that did not touch the surface
+};
+
+/// Traces a stroke given as a curve s ∈ [0, length] → hit (or none). Samples at `spacing`, then
+/// bisects between consecutive samples until they fall in the same or edge-adjacent faces (so no
+/// face the curve crosses is skipped) or are closer than `resolution`; also refines where the
+/// stroke leaves or enters the surface. faces is the mesh the hits refer to.
+StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
+                         double length, double spacing, double resolution, const Faces& faces);
+
+/// A polyline parametrised by arc length (2-D strokes are stored with z = 0).
+class Polyline {
+ public:
+  /// points k×3 (k >= 1, finite). Throws std::invalid_argument otherwise.
+  explicit Polyline(const Positions& points);
+  /// Total length.
+  double length() const { return m_lengths.back(); }
+  /// The point at arc length s (clamped to the ends).
+  Eigen::Vector3d at(double s) const;
+
+ private:
+  Positions m_points;
+  std::vector<double> m_lengths;
+};
+
+/// Traces a 3-D polyline near the surface: each point goes to the closest surface point; points
+/// farther than max_distance (m) miss. spacing: first sampling step along the stroke (m).
+StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
+                          const Positions& stroke, double max_distance, double spacing);
+
+/// Traces a polyline of pixels (k×3, z ignored) by casting rays from `eye` with direction
+/// base_direction + px · direction_per_pixel_x + py · direction_per_pixel_y (a pinhole camera
+/// is affine in pixel coordinates); the nearest hit counts. spacing_pixels: first sampling step.
+StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Positions& pixels,
+                       const Eigen::Vector3d& eye, const Eigen::Vector3d& base_direction,
+                       const Eigen::Vector3d& direction_per_pixel_x,
+                       const Eigen::Vector3d& direction_per_pixel_y, double spacing_pixels);
+
+}  // namespace yore

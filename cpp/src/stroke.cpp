@@ -1,0 +1,216 @@
+// The CGAL translation unit of yore_geometry: AABB trees for stroke location.
+#include "yore/stroke.hpp"
+
+#include <Eigen/Geometry>
+
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Simple_cartesian.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+namespace yore {
+namespace {
+
+using Kernel = CGAL::Simple_cartesian<double>;
+using Point = Kernel::Point_3;
+using Triangle = Kernel::Triangle_3;
+using TriangleIterator = std::vector<Triangle>::const_iterator;
+using Primitive = CGAL::AABB_triangle_primitive<Kernel, TriangleIterator>;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
+
+Eigen::Vector3d barycentric_of(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                               const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d e1 = b - a, e2 = c - a, d = p - a;
+  const double d11 = e1.dot(e1), d12 = e1.dot(e2), d22 = e2.dot(e2);
+  const double d1 = d.dot(e1), d2 = d.dot(e2);
+  const double denominator = d11 * d22 - d12 * d12;
+  double v = (d22 * d1 - d12 * d2) / denominator;
+  double w = (d11 * d2 - d12 * d1) / denominator;
+  // The point lies on the triangle (it came from a query on it): clamp round-off.
+  v = std::clamp(v, 0.0, 1.0);
+  w = std::clamp(w, 0.0, 1.0 - v);
+  return {1.0 - v - w, v, w};
+}
+
+Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
+
+bool edge_adjacent(const Faces& faces, std::int32_t f, std::int32_t g) {
+  int shared = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) shared += faces(f, i) == faces(g, j);
+  return shared >= 2;
+}
+
+}  // namespace
+
+struct SurfaceLocator::Impl {
+  Positions positions;  // copies: the locator does not depend on its inputs' lifetime
+  Faces faces;
+  std::vector<Triangle> triangles;
+  Tree tree;
+  Impl(const Positions& p, const Faces& f) : positions(p), faces(f) {}
+};
+
+SurfaceLocator::SurfaceLocator(const Positions& positions, const Faces& faces)
+    : m_impl(std::make_unique<Impl>(positions, faces)) {
+  if (faces.rows() == 0) throw std::invalid_argument("the surface has no faces");
+  auto point = [&](std::int32_t v) {
+    return Point(positions(v, 0), positions(v, 1), positions(v, 2));
+  };
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      if (faces(f, c) < 0 || faces(f, c) >= positions.rows()) {
+        throw std::invalid_argument("SurfaceLocator: face index out of range");
+      }
+    }
+  }
+  m_impl->triangles.reserve(static_cast<std::size_t>(faces.rows()));
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    m_impl->triangles.emplace_back(point(faces(f, 0)), point(faces(f, 1)), point(faces(f, 2)));
+  }
+  m_impl->tree.insert(m_impl->triangles.cbegin(), m_impl->triangles.cend());
+  m_impl->tree.accelerate_distance_queries();
+}
+
+SurfaceLocator::~SurfaceLocator() = default;
+
+SurfaceHit SurfaceLocator::closest(const Eigen::Vector3d& point) const {
+  const Point query(point.x(), point.y(), point.z());
+  const auto [closest, primitive] = m_impl->tree.closest_point_and_primitive(query);
+  SurfaceHit hit;
+  hit.face = static_cast<std::int32_t>(primitive - m_impl->triangles.cbegin());
+  const Eigen::Vector3d p = to_eigen(closest);
+  const Positions& x = m_impl->positions;
+  const Faces& f = m_impl->faces;
+  hit.barycentric = barycentric_of(p, x.row(f(hit.face, 0)), x.row(f(hit.face, 1)),
+                                   x.row(f(hit.face, 2)));
+  hit.distance = (p - point).norm();
+  return hit;
+}
+
+std::optional<SurfaceHit> SurfaceLocator::first_hit(const Eigen::Vector3d& origin,
+                                                    const Eigen::Vector3d& direction) const {
+  const Kernel::Ray_3 ray(Point(origin.x(), origin.y(), origin.z()),
+                          Kernel::Vector_3(direction.x(), direction.y(), direction.z()));
+  const auto primitive = m_impl->tree.first_intersected_primitive(ray);
+  if (!primitive) return std::nullopt;
+  SurfaceHit hit;
+  hit.face = static_cast<std::int32_t>(*primitive - m_impl->triangles.cbegin());
+  const Positions& x = m_impl->positions;
+  const Faces& f = m_impl->faces;
+  const Eigen::Vector3d a = x.row(f(hit.face, 0)), b = x.row(f(hit.face, 1)),
+                        c = x.row(f(hit.face, 2));
+  // Ray–plane intersection of the face CGAL found first.
+  const Eigen::Vector3d normal = (b - a).cross(c - a);
+  const double t = normal.dot(a - origin) / normal.dot(direction);
+  const Eigen::Vector3d p = origin + t * direction;
+  hit.barycentric = barycentric_of(p, a, b, c);
+  hit.distance = t * direction.norm();
+  return hit;
+}
+
+StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
+                         double length, double spacing, double resolution, const Faces& faces) {
+  if (!(length >= 0.0) || !(spacing > 0.0) || !(resolution > 0.0)) {
+    throw std::invalid_argument("trace_stroke: length >= 0, spacing > 0 and resolution > 0");
+  }
+  struct Sample {
+    double s;
+    std::optional<SurfaceHit> hit;
+  };
+  StrokeTrace trace;
+  std::vector<Sample> samples;
+  auto evaluate = [&](double s) {
+    ++trace.samples;
+    Sample sample{s, query(s)};
+    if (!sample.hit) ++trace.missed_samples;
+    return sample;
+  };
+  // Depth-first bisection keeps the samples in stroke order.
+  std::function<void(const Sample&, const Sample&)> refine = [&](const Sample& left,
+                                                                   const Sample& right) {
+    const bool settled =
+        (!left.hit && !right.hit) ||
+        (left.hit && right.hit &&
+         (left.hit->face == right.hit->face || edge_adjacent(faces, left.hit->face,
+                                                             right.hit->face)));
+    if (settled || right.s - left.s < resolution) return;
+    const Sample middle = evaluate(0.5 * (left.s + right.s));
+    refine(left, middle);
+    samples.push_back(middle);
+    refine(middle, right);
+  };
+  const auto intervals = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(length / spacing)));
+  Sample previous = evaluate(0.0);
+  samples.push_back(previous);
+  for (std::int64_t k = 1; k <= intervals; ++k) {
+    const Sample next = evaluate(length * static_cast<double>(k) / static_cast<double>(intervals));
+    refine(previous, next);
+    samples.push_back(next);
+    previous = next;
+  }
+  std::map<std::int32_t, std::size_t> slot_of_face;
+  for (const Sample& sample : samples) {
+    if (!sample.hit) continue;
+    const auto [it, inserted] = slot_of_face.emplace(sample.hit->face, trace.crossings.size());
+    if (inserted) trace.crossings.push_back({sample.hit->face, Eigen::Vector3d::Zero(), 0});
+    StrokeCrossing& crossing = trace.crossings[it->second];
+    crossing.barycentric += sample.hit->barycentric;
+    ++crossing.samples;
+  }
+  for (StrokeCrossing& crossing : trace.crossings) crossing.barycentric /= crossing.samples;
+  return trace;
+}
+
+Polyline::Polyline(const Positions& points) : m_points(points) {
+  if (points.rows() == 0) throw std::invalid_argument("the stroke has no points");
+  if (!points.allFinite()) throw std::invalid_argument("the stroke has non-finite points");
+  m_lengths.assign(static_cast<std::size_t>(points.rows()), 0.0);
+  for (Eigen::Index k = 1; k < points.rows(); ++k) {
+    m_lengths[static_cast<std::size_t>(k)] =
+        m_lengths[static_cast<std::size_t>(k) - 1] + (points.row(k) - points.row(k - 1)).norm();
+  }
+}
+
+Eigen::Vector3d Polyline::at(double s) const {
+  const auto upper = std::upper_bound(m_lengths.begin(), m_lengths.end(), s);
+  if (upper == m_lengths.begin()) return m_points.row(0);
+  if (upper == m_lengths.end()) return m_points.row(m_points.rows() - 1);
+  const auto k = static_cast<Eigen::Index>(upper - m_lengths.begin());
+  const double span = m_lengths[static_cast<std::size_t>(k)] - m_lengths[static_cast<std::size_t>(k) - 1];
+  const double t = span > 0.0 ? (s - m_lengths[static_cast<std::size_t>(k) - 1]) / span : 0.0;
+  return ((1.0 - t) * m_points.row(k - 1) + t * m_points.row(k)).transpose();
+}
+
+StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
+                          const Positions& stroke, double max_distance, double spacing) {
+  const SurfaceLocator locator(positions, faces);
+  const Polyline line(stroke);
+  auto query = [&](double s) -> std::optional<SurfaceHit> {
+    const SurfaceHit hit = locator.closest(line.at(s));
+    if (hit.distance > max_distance) return std::nullopt;
+    return hit;
+  };
+  return trace_stroke(query, line.length(), spacing, 1e-4 * spacing, faces);
+}
+
+StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Positions& pixels,
+                       const Eigen::Vector3d& eye, const Eigen::Vector3d& base_direction,
+                       const Eigen::Vector3d& direction_per_pixel_x,
+                       const Eigen::Vector3d& direction_per_pixel_y, double spacing_pixels) {
+  const SurfaceLocator locator(positions, faces);
+  const Polyline line(pixels);
+  auto query = [&](double s) {
+    const Eigen::Vector3d pixel = line.at(s);
+    return locator.first_hit(eye, base_direction + pixel.x() * direction_per_pixel_x +
+                                      pixel.y() * direction_per_pixel_y);
+  };
+  return trace_stroke(query, line.length(), spacing_pixels, 1e-4 * spacing_pixels, faces);
+}
+
+}  // namespace yore

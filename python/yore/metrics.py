@@ -1,0 +1,118 @@
+"""Measurements of a cloth's surface and of a stroke's region.
+
+Positions are n×3 arrays in metres, faces f×3 vertex indices; a "region" is a list of face
+indices (a stroke report's ``region_faces``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "roughness",
+           "rest_ratio_roughness"]
+
+
+def face_areas(V, F) -> np.ndarray:
+    """Area of every face, m² (f,)."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+
+
+def area(V, F, faces=None) -> float:
+    """Current area of the given faces (all by default), m²."""
+    areas = face_areas(V, F)
+    return float(areas.sum() if faces is None else areas[np.asarray(faces)].sum())
+
+
+def _structural_rest_lookup(cloth):
+    ends = np.sort(cloth.springs.ends[cloth.springs.kind == 0], axis=1).astype(np.int64)
+    keys = ends[:, 0] * (1 << 32) + ends[:, 1]
+    order = np.argsort(keys)
+    return keys[order], cloth.springs.rest[cloth.springs.kind == 0][order]
+
+
+def rest_area(cloth, faces=None) -> float:
+    """Rest area of faces (all by default), m²: Heron's formula on the rest lengths of each
+    face's three structural springs (0 for a face whose rest lengths violate the triangle
+    inequality)."""
+    F = cloth.faces if faces is None else cloth.faces[np.asarray(faces)]
+    keys, rest = _structural_rest_lookup(cloth)
+    sides = []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        pair = np.sort(F[:, [a, b]], axis=1).astype(np.int64)
+        sides.append(rest[np.searchsorted(keys, pair[:, 0] * (1 << 32) + pair[:, 1])])
+    s = 0.5 * (sides[0] + sides[1] + sides[2])
+    product = s * (s - sides[0]) * (s - sides[1]) * (s - sides[2])
+    return float(np.sqrt(np.clip(product, 0.0, None)).sum())
+
+
+def area_gain(V, F, region_faces, area_before) -> float:
+    """Current area of a stroke's region over its area before the stroke (1 = no gain)."""
+    return area(V, F, region_faces) / float(area_before)
+
+
+def wrinkle_amplitude(V, F, faces) -> float:
+    """Out-of-plane amplitude of a region, m: RMS distance of its vertices from their
+    least-squares plane. On a curved region this includes the surface's own curvature, so
+    compare a region before and after, or against a flat reference."""
+    V = np.asarray(V, dtype=float)
+    vertices = np.unique(np.asarray(F)[np.asarray(faces)])
+    points = V[vertices] - V[vertices].mean(axis=0)
+    if len(points) < 4:
+        return 0.0
+    normal = np.linalg.svd(points, full_matrices=False)[2][-1]
+    return float(np.sqrt(np.mean((points @ normal) ** 2)))
+
+
+def roughness(V, F, vertices=None) -> float:
+    """Surface roughness: RMS over vertices of the normal part of the umbrella Laplacian
+    (mean of neighbours minus the vertex), divided by the mean edge length. 0 for a plane;
+    a smooth curved surface gives a small value that falls with refinement; wrinkles and spikes
+    give large ones. Boundary vertices are left out."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    n = len(V)
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1),
+                      axis=0)
+    sums = np.zeros((n, 3))
+    counts = np.zeros(n)
+    for a, b in ((0, 1), (1, 0)):
+        np.add.at(sums, edges[:, a], V[edges[:, b]])
+        np.add.at(counts, edges[:, a], 1)
+    laplacian = sums / np.maximum(counts, 1)[:, None] - V
+    face_normals = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    normals = np.zeros((n, 3))
+    for c in range(3):
+        np.add.at(normals, F[:, c], face_normals)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
+    # boundary vertices: on an edge used by one face only
+    all_edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    unique, uses = np.unique(all_edges, axis=0, return_counts=True)
+    interior = np.ones(n, dtype=bool)
+    interior[unique[uses == 1].ravel()] = False
+    selected = interior if vertices is None else np.intersect1d(np.flatnonzero(interior),
+                                                                np.asarray(vertices))
+    mean_edge = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).mean()
+    normal_part = np.einsum("ij,ij->i", laplacian[selected], normals[selected])
+    return float(np.sqrt(np.mean(normal_part**2)) / mean_edge) if normal_part.size else 0.0
+
+
+def rest_ratio_roughness(cloth, springs=None) -> float:
+    """Roughness of the rest-length ratio field (rest / reference length) over the spring
+    graph: RMS difference between each spring's ratio and the mean ratio around its two ends.
+    Rest-length smoothing lowers it."""
+    ratio = cloth.springs.rest / cloth.springs.reference
+    neighbour = _vertex_mean_of_springs(cloth, ratio)
+    difference = ratio - neighbour
+    if springs is not None:
+        difference = difference[np.asarray(springs)]
+    return float(np.sqrt(np.mean(difference**2))) if difference.size else 0.0
+
+
+def _vertex_mean_of_springs(cloth, values):
+    """For each spring, the mean of `values` over the springs at its two ends."""
+    ends = cloth.springs.ends
+    n = cloth.vertex_count
+    sums = np.bincount(ends[:, 0], values, n) + np.bincount(ends[:, 1], values, n)
+    counts = np.bincount(ends[:, 0], None, n) + np.bincount(ends[:, 1], None, n)
+    at_vertex = sums / np.maximum(counts, 1)
+    return 0.5 * (at_vertex[ends[:, 0]] + at_vertex[ends[:, 1]])
