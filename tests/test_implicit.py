@@ -202,7 +202,10 @@ def test_symbolic_analysis_runs_once_per_topology():
     sim.step(100)
     counters = sim.stats["counters"]
     assert counters["analyses"] == 1
-    assert counters["factorizations"] == counters["newton_iterations"] >= 100
+    # one factorization per Newton iteration, plus the exact Hessians found indefinite
+    assert counters["factorizations"] == (counters["newton_iterations"]
+                                          + counters["exact_hessian_rejected"])
+    assert counters["newton_iterations"] >= 100
     version = sim.cloth.topology_version
     sim.cloth.fix([24])  # a change of the unknowns: a new topology version
     assert sim.cloth.topology_version != version
@@ -258,7 +261,7 @@ def test_heavily_damped_cloth_reaches_the_same_static_shape_explicitly_and_impli
     ({"newton_tol": -1.0}, "newton_tol"),
     ({"max_newton": 0}, "max_newton"),
     ({"solver": "eigen-ldlt", "ordering": "metis"}, "amd"),
-    ({"linearised": True}, "valid: divergence_energy_factor, factorization, linearized"),
+    ({"linearised": True}, "valid: adaptive_projection, divergence_energy_factor, factorization"),
 ])
 def test_bad_implicit_options_are_value_errors_listing_the_valid_ones(options, message):
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
@@ -309,3 +312,27 @@ def test_both_paper_scenes_run_implicitly_at_their_default_step(integrator):
     R = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])  # rotation by +angle about +y
     assert np.abs(cylinder.cloth.positions[rim] - start @ R.T).max() < 1e-12
     assert np.all(np.isfinite(cylinder.cloth.positions))
+
+
+def test_adaptive_projection_reaches_the_same_steps_in_fewer_iterations():
+    results = []
+    for adaptive in (False, None):  # always projected, then the default
+        sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", newton_tol=1e-10,
+                                        max_newton=1000, adaptive_projection=adaptive)
+        sim.step(5)
+        # a stroke's springs start compressed (rest = 1.1 × length): the projection matters
+        sim.stroke_material([[0.2, 0.35], [0.8, 0.4]])
+        sim.step(5)
+        results.append((sim.cloth.positions, sim.stats["counters"]))
+    (projected, p_counters), (adaptive, a_counters) = results
+    assert p_counters["unconverged_steps"] == 0 and a_counters["unconverged_steps"] == 0
+    # the same minimiser of the same energy each step (to the Newton tolerance, 1e-10 × 0.17 m)
+    assert np.abs(projected - adaptive).max() < 1e-8
+    assert a_counters["newton_iterations"] < 0.5 * p_counters["newton_iterations"]
+    assert p_counters["exact_hessian_rejected"] == 0
+
+
+def test_adaptive_projection_needs_a_cholesky_backend():
+    cloth = yore.Cloth(*yore.grid_mesh(3, 3))
+    with pytest.raises(ValueError, match="pcg"):
+        yore.Simulation(cloth, integrator="implicit", solver="pcg", adaptive_projection=True)

@@ -81,8 +81,9 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
   integrator_class.def(py::init([](const std::string& method, bool linearized, double newton_tol,
                        int max_newton, const std::string& solver, const std::string& ordering,
                        const std::string& factorization, double pcg_tol, int pcg_max_iterations,
-                       double divergence_energy_factor) {
+                       double divergence_energy_factor, bool adaptive_projection) {
              ImplicitOptions options;
+             options.adaptive_projection = adaptive_projection;
              options.method = parse_choice<ImplicitMethod>(
                  method, "method",
                  {{"backward_euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}});
@@ -105,7 +106,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
            py::arg("newton_tol") = 1e-5, py::arg("max_newton") = 50,
            py::arg("solver") = "cholmod", py::arg("ordering") = "amd",
            py::arg("factorization") = "supernodal", py::arg("pcg_tol") = 1e-12,
-           py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0)
+           py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0,
+           py::arg("adaptive_projection") = false)
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
@@ -141,6 +143,7 @@ Newton direction.)doc")
         out["newton_iterations"] = s.newton_iterations;
         out["line_search_backtracks"] = s.line_search_backtracks;
         out["unconverged_steps"] = s.unconverged_steps;
+        out["exact_hessian_rejected"] = s.exact_hessian_rejected;
         out["last_newton_iterations"] = s.last_newton_iterations;
         out["last_line_search_backtracks"] = s.last_line_search_backtracks;
         out["last_residual"] = s.last_residual;

@@ -36,6 +36,11 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& options)
     msg << "max_newton must be >= 1, got " << options.max_newton;
     throw std::invalid_argument(msg.str());
   }
+  if (options.adaptive_projection && options.solver.backend == "pcg") {
+    throw std::invalid_argument(
+        "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
+        "indefinite Hessian; pcg cannot");
+  }
   m_solver = make_linear_solver(options.solver);
 }
 
@@ -162,7 +167,7 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
 }
 
 double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
-                                    bool with_hessian) {
+                                    bool with_hessian, bool project) {
   const auto start = Clock::now();
   const double h = m_h;
   const double drag = cloth.drag();
@@ -216,7 +221,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       if (b >= 0) m_gradient.segment<3>(b) -= gradient;
     }
     if (with_hessian) {
-      Mat3 block = spring_hessian(xi, xj, rest, stiffness, /*project_psd=*/true);
+      Mat3 block = spring_hessian(xi, xj, rest, stiffness, project);
       if (c > 0.0) block += (c / h) * n0 * n0.transpose();
       const auto& starts = m_pattern.column_starts;
       for (const std::int32_t dof : {a, b}) {
@@ -261,10 +266,26 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   int iterations = 0, backtracks = 0;
   bool converged = m_pattern.size == 0;
   while (!converged && iterations < m_options.max_newton) {
-    const double energy = evaluate(cloth, m_iterate, true, true);
     auto start = Clock::now();
-    m_solver->factorize(m_values.data());
-    m_statistics.factorize_seconds += seconds_since(start);
+    double energy = 0.0;
+    bool factored = false;
+    if (m_options.adaptive_projection) {
+      energy = evaluate(cloth, m_iterate, true, true, /*project=*/false);
+      start = Clock::now();
+      try {
+        m_solver->factorize(m_values.data());
+        factored = true;
+      } catch (const NotPositiveDefinite&) {
+        ++m_statistics.exact_hessian_rejected;
+      }
+      m_statistics.factorize_seconds += seconds_since(start);
+    }
+    if (!factored) {
+      energy = evaluate(cloth, m_iterate, true, true, /*project=*/true);
+      start = Clock::now();
+      m_solver->factorize(m_values.data());
+      m_statistics.factorize_seconds += seconds_since(start);
+    }
     start = Clock::now();
     m_rhs = -m_gradient;
     m_solver->solve(m_rhs.data(), m_direction.data());

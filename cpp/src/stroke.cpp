@@ -115,7 +115,8 @@ std::optional<SurfaceHit> SurfaceLocator::first_hit(const Eigen::Vector3d& origi
 }
 
 StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
-                         double length, double spacing, double resolution, const Faces& faces) {
+                         double length, double spacing, double resolution, const Faces& faces,
+                         const std::vector<double>& breakpoints) {
   if (!(length >= 0.0) || !(spacing > 0.0) || !(resolution > 0.0)) {
     throw std::invalid_argument("trace_stroke: length >= 0, spacing > 0 and resolution > 0");
   }
@@ -145,11 +146,22 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
     samples.push_back(middle);
     refine(middle, right);
   };
-  const auto intervals = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(length / spacing)));
-  Sample previous = evaluate(0.0);
+  const auto intervals =
+      std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(length / spacing)));
+  std::vector<double> starts;
+  starts.reserve(static_cast<std::size_t>(intervals) + 1 + breakpoints.size());
+  for (std::int64_t k = 0; k <= intervals; ++k) {
+    starts.push_back(length * static_cast<double>(k) / static_cast<double>(intervals));
+  }
+  for (const double s : breakpoints) {
+    if (s > 0.0 && s < length) starts.push_back(s);
+  }
+  std::sort(starts.begin(), starts.end());
+  starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
+  Sample previous = evaluate(starts.front());
   samples.push_back(previous);
-  for (std::int64_t k = 1; k <= intervals; ++k) {
-    const Sample next = evaluate(length * static_cast<double>(k) / static_cast<double>(intervals));
+  for (std::size_t k = 1; k < starts.size(); ++k) {
+    const Sample next = evaluate(starts[k]);
     refine(previous, next);
     samples.push_back(next);
     previous = next;
@@ -196,7 +208,7 @@ StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
     if (hit.distance > max_distance) return std::nullopt;
     return hit;
   };
-  return trace_stroke(query, line.length(), spacing, 1e-4 * spacing, faces);
+  return trace_stroke(query, line.length(), spacing, 1e-4 * spacing, faces, line.corners());
 }
 
 StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Positions& pixels,
@@ -210,7 +222,8 @@ StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Pos
     return locator.first_hit(eye, base_direction + pixel.x() * direction_per_pixel_x +
                                       pixel.y() * direction_per_pixel_y);
   };
-  return trace_stroke(query, line.length(), spacing_pixels, 1e-4 * spacing_pixels, faces);
+  return trace_stroke(query, line.length(), spacing_pixels, 1e-4 * spacing_pixels, faces,
+                      line.corners());
 }
 
 }  // namespace yore

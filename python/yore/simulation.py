@@ -39,6 +39,10 @@ _OPTIONS = {
         "pcg_tol": 1e-12,
         "pcg_max_iterations": 20000,
         "divergence_energy_factor": 10.0,
+        # Try the exact Hessian first, fall back to the PSD projection when the factorization
+        # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
+        # tell). False: always project (linear convergence when many springs are compressed).
+        "adaptive_projection": None,
     },
 }
 _OPTIONS["bdf2"] = dict(_OPTIONS["implicit"])
@@ -65,6 +69,8 @@ def _make_implicit(options, method="backward_euler"):
         pcg_tol=float(options["pcg_tol"]),
         pcg_max_iterations=int(options["pcg_max_iterations"]),
         divergence_energy_factor=float(options["divergence_energy_factor"]),
+        adaptive_projection=(options["solver"] != "pcg" if options["adaptive_projection"] is None
+                             else bool(options["adaptive_projection"])),
     )
 
 
@@ -113,7 +119,10 @@ class Simulation:
         ``linearized`` (False), ``newton_tol`` (1e-5, relative to the mean rest length),
         ``max_newton`` (50), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
-        ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10).
+        ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
+        ``adaptive_projection`` (None = on for cholmod and eigen-ldlt: try the exact Hessian
+        first and project spring Hessians to PSD only when the factorization finds it
+        indefinite; False = always project). Every system solved is SPD either way.
 
     Raises
     ------
@@ -276,6 +285,7 @@ class Simulation:
         Returns a `yore.stroke.StrokeReport`; raises `yore.StrokeMissed` if nothing is hit,
         ValueError on bad input.
         """
+        self._require_faces()
         points = check_stroke_points(points_3d, 3, "points_3d")
         expansion = check_factor(expansion, "expansion")
         mass_scale = check_factor(mass_scale, "mass_scale")
@@ -294,6 +304,7 @@ class Simulation:
         current surface, nearest hit. Same report and errors as `stroke`."""
         if not isinstance(camera, Camera):
             raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
+        self._require_faces()
         points = check_stroke_points(points_px, 2, "points_px")
         expansion = check_factor(expansion, "expansion")
         mass_scale = check_factor(mass_scale, "mass_scale")
@@ -307,6 +318,7 @@ class Simulation:
         """Adds wrinkles along a 2-D polyline in the cloth's rest-pattern coordinates
         (``cloth.material_coordinates``, set by the scenes). Same report and errors as
         `stroke`."""
+        self._require_faces()
         points = check_stroke_points(points_uv, 2, "points_uv")
         expansion = check_factor(expansion, "expansion")
         mass_scale = check_factor(mass_scale, "mass_scale")
@@ -320,6 +332,10 @@ class Simulation:
         start = _time.perf_counter()
         trace = _core.trace_material(self._cloth, points, tolerance, spacing)
         return self._finish_stroke(trace, expansion, mass_scale, start)
+
+    def _require_faces(self):
+        if self._cloth.face_count == 0:
+            raise ValueError("a spring network has no faces to stroke")
 
     def _finish_stroke(self, trace, expansion, mass_scale, start):
         report = apply_stroke(self._cloth, trace, expansion, mass_scale,

@@ -28,6 +28,12 @@ struct ImplicitOptions {
   ImplicitMethod method = ImplicitMethod::backward_euler;
   /// One Newton step from the current state, no line search (Baraff & Witkin 1998).
   bool linearized = false;
+  /// false: every spring Hessian is projected to PSD (the default; always SPD). true: each
+  /// iteration first tries the exact Hessian and falls back to the projected one when the
+  /// Cholesky factorization reports it indefinite — quadratic convergence near a minimum, where
+  /// the exact Hessian is positive definite. Every system solved is still SPD. Cholesky
+  /// backends only (PCG cannot tell an indefinite matrix).
+  bool adaptive_projection = false;
   /// Newton stops when the largest vertex move of an iteration is below newton_tol × the mean
   /// rest length.
   double newton_tol = 1e-5;
@@ -42,6 +48,7 @@ struct ImplicitStatistics {
   std::int64_t newton_iterations = 0;
   std::int64_t line_search_backtracks = 0;
   std::int64_t unconverged_steps = 0;  ///< steps that reached max_newton
+  std::int64_t exact_hessian_rejected = 0;  ///< adaptive_projection: exact Hessians found indefinite
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
   double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
@@ -97,7 +104,8 @@ class ImplicitIntegrator {
  private:
   void ensure_structure(const Cloth& cloth);
   void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
-  double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian);
+  double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
+                  bool project = true);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;

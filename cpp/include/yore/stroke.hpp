@@ -57,12 +57,14 @@ struct StrokeTrace {
   std::int64_t missed_samples = 0;  ///< samples that did not touch the surface
 };
 
-/// Traces a stroke given as a curve s ∈ [0, length] → hit (or none). Samples at `spacing`, then
+/// Traces a stroke given as a curve s ∈ [0, length] → hit (or none). Samples at `spacing` and at
+/// every breakpoint (the polyline's corners, where the curve may turn back into a face), then
 /// bisects between consecutive samples until they fall in the same or edge-adjacent faces (so no
 /// face the curve crosses is skipped) or are closer than `resolution`; also refines where the
 /// stroke leaves or enters the surface. faces is the mesh the hits refer to.
 StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
-                         double length, double spacing, double resolution, const Faces& faces);
+                         double length, double spacing, double resolution, const Faces& faces,
+                         const std::vector<double>& breakpoints = {});
 
 /// A polyline parametrised by arc length (2-D strokes are stored with z = 0).
 class Polyline {
@@ -73,6 +75,8 @@ class Polyline {
   double length() const { return m_lengths.back(); }
   /// The point at arc length s (clamped to the ends).
   Eigen::Vector3d at(double s) const;
+  /// Arc length at each of the polyline's points.
+  const std::vector<double>& corners() const { return m_lengths; }
 
  private:
   Positions m_points;
