@@ -41,3 +41,19 @@ def test_cylinder_example_reports_the_rim_speed(tmp_path):
     out = run("rotating_cylinder.py", "--out", str(tmp_path), "--seconds", "0.2")
     assert "ring 12:  6.283 rad/s" in out
     assert len(list((tmp_path / "cylinder").glob("*.obj"))) == 6
+
+
+def test_stroke_experiments_write_frames_across_the_topology_change(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = run("stroke_experiments.py", "--out", str(tmp_path), "--before", "0.2", "--after",
+              "0.2", "--smooth", "5")
+    for name in ("hanging", "cylinder"):
+        pvd = tmp_path / name / f"{name}.pvd"
+        datasets = ET.parse(pvd).getroot().findall(".//DataSet")
+        assert len(datasets) == 1 + 5 + 1 + 5  # start, before, right after the stroke, after
+        first = yore.load_mesh(pvd.parent / datasets[0].get("file"))[0]
+        last = yore.load_mesh(pvd.parent / datasets[-1].get("file"))[0]
+        assert len(last) > len(first)  # the stroke added vertices mid-run
+        assert (tmp_path / f"{name}.png").exists()
+        assert f"{name} (explicit): stroke split" in out
+    assert "ratio roughness" in out
