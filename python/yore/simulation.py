@@ -285,10 +285,8 @@ class Simulation:
         Returns a `yore.stroke.StrokeReport`; raises `yore.StrokeMissed` if nothing is hit,
         ValueError on bad input.
         """
-        self._require_faces()
-        points = check_stroke_points(points_3d, 3, "points_3d")
-        expansion = check_factor(expansion, "expansion")
-        mass_scale = check_factor(mass_scale, "mass_scale")
+        points, expansion, mass_scale = self._stroke_arguments(
+            points_3d, 3, "points_3d", expansion, mass_scale)
         X = self._cloth.positions
         if max_distance is None:
             max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
@@ -304,10 +302,8 @@ class Simulation:
         current surface, nearest hit. Same report and errors as `stroke`."""
         if not isinstance(camera, Camera):
             raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
-        self._require_faces()
-        points = check_stroke_points(points_px, 2, "points_px")
-        expansion = check_factor(expansion, "expansion")
-        mass_scale = check_factor(mass_scale, "mass_scale")
+        points, expansion, mass_scale = self._stroke_arguments(
+            points_px, 2, "points_px", expansion, mass_scale)
         d0, dx, dy = camera.pixel_rays()
         start = _time.perf_counter()
         trace = _core.trace_rays(self._cloth, points, np.asarray(camera.eye, float), d0, dx, dy,
@@ -318,10 +314,8 @@ class Simulation:
         """Adds wrinkles along a 2-D polyline in the cloth's rest-pattern coordinates
         (``cloth.material_coordinates``, set by the scenes). Same report and errors as
         `stroke`."""
-        self._require_faces()
-        points = check_stroke_points(points_uv, 2, "points_uv")
-        expansion = check_factor(expansion, "expansion")
-        mass_scale = check_factor(mass_scale, "mass_scale")
+        points, expansion, mass_scale = self._stroke_arguments(
+            points_uv, 2, "points_uv", expansion, mass_scale)
         uv = self._cloth.material_coordinates
         if uv is None:
             raise ValueError("the cloth has no material coordinates; set "
@@ -333,9 +327,12 @@ class Simulation:
         trace = _core.trace_material(self._cloth, points, tolerance, spacing)
         return self._finish_stroke(trace, expansion, mass_scale, start)
 
-    def _require_faces(self):
+    def _stroke_arguments(self, points, dimension, name, expansion, mass_scale):
+        """Checked stroke points (k×3) and factors; ValueError naming what is wrong."""
         if self._cloth.face_count == 0:
             raise ValueError("a spring network has no faces to stroke")
+        return (check_stroke_points(points, dimension, name),
+                check_factor(expansion, "expansion"), check_factor(mass_scale, "mass_scale"))
 
     def _finish_stroke(self, trace, expansion, mass_scale, start):
         report = apply_stroke(self._cloth, trace, expansion, mass_scale,
