@@ -9,7 +9,7 @@ OUT ?= yore-out
 SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null) \
            CMakeLists.txt pyproject.toml
 
-.PHONY: setup system test demo bench clean
+.PHONY: setup system test demo bench bench-quick clean
 
 setup: system $(VENV)/.installed
 
@@ -38,9 +38,21 @@ demo: setup
 	$(VPY) examples/hanging_cloth.py --out $(OUT)
 
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
+BENCHMARKS := explicit_step implicit_step rebuild_cost speed_vs_error scaling newton_projection \
+              stability_map
+BENCH_ENV := OPENBLAS_NUM_THREADS=1
+
 bench: setup
-	$(VPY) -m benchmarks.explicit_step --out bench-results
-	OPENBLAS_NUM_THREADS=1 $(VPY) -m benchmarks.implicit_step --out bench-results
+	@for name in $(BENCHMARKS); do \
+	    echo "== $$name"; $(BENCH_ENV) $(VPY) -m benchmarks.$$name --out bench-results || exit 1; \
+	done
+	$(VPY) -m benchmarks.report --results bench-results --readme README.md
+
+bench-quick: setup
+	@for name in $(BENCHMARKS); do \
+	    echo "== $$name"; $(BENCH_ENV) $(VPY) -m benchmarks.$$name --quick --out bench-results \
+	        || exit 1; \
+	done
 
 clean:
 	rm -rf build $(VENV) $(OUT) bench-results

@@ -16,7 +16,23 @@ import numpy as np
 
 import yore
 
-from .common import explicit_step_seconds, grid_cloth, machine_info, write_json
+from .common import explicit_step_seconds, grid_cloth, machine_info, median_seconds, write_json
+
+# Least memory traffic of one explicit step, bytes: every array read or written once.
+# Per spring: ends (2 × 4), rest + stiffness + damping (3 × 8), its force written and read back
+# (2 × 24), two incidence entries (2 × (4 + 8)). Per vertex: position and velocity read and
+# written (4 × 24), mass and inverse mass (2 × 8), force written and read (2 × 24), offset (4).
+BYTES_PER_SPRING = 8 + 24 + 48 + 24
+BYTES_PER_VERTEX = 96 + 16 + 48 + 4
+
+
+def stream_bandwidth(elements=20_000_000, repeats=5):
+    """Memory bandwidth of numpy's c = a + b on arrays far larger than the caches, bytes/s
+    (3 arrays of 8-byte doubles moved; numpy runs it on one thread)."""
+    a, b = np.ones(elements), np.ones(elements)
+    c = np.empty(elements)
+    timing = median_seconds(lambda: np.add(a, b, out=c), repeats=repeats)
+    return 3 * 8 * elements / timing["median"]
 
 
 def measure(sizes, threads_list, target_seconds: float, repeats: int) -> list:
@@ -70,14 +86,24 @@ def main(argv=None) -> None:
         one = next(r for r in rows if r["grid"] == n and r["threads"] == 1)
         best = min((r for r in rows if r["grid"] == n), key=lambda r: r["step_seconds_median"])
         speedups[str(n)] = one["step_seconds_median"] / best["step_seconds_median"]
-    payload = {"benchmark": "explicit_step", "machine": machine_info(), "rows": rows,
-               "speedup_best_threads_vs_1": speedups}
+    bandwidth = stream_bandwidth(2_000_000 if args.quick else 20_000_000)
+    for row in rows:
+        row["bytes_per_step"] = (BYTES_PER_SPRING * row["springs"]
+                                 + BYTES_PER_VERTEX * row["vertices"])
+        row["bandwidth_bound_seconds"] = row["bytes_per_step"] / bandwidth
+        row["over_bandwidth_bound"] = row["step_seconds_median"] / row["bandwidth_bound_seconds"]
+    payload = {"benchmark": "explicit_step", "machine": machine_info(), "quick": args.quick,
+               "rows": rows,
+               "speedup_best_threads_vs_1": speedups, "stream_bandwidth_bytes_per_second":
+               bandwidth, "targets": {"over_bandwidth_bound_at_most": 2.0}}
     args.out.mkdir(parents=True, exist_ok=True)
     write_json(args.out / "explicit_step.json", payload)
     plot(rows, args.out / "explicit_step.png")
-    print(f"{'grid':>6} {'threads':>7} {'ms/step':>10}")
+    print(f"{'grid':>6} {'threads':>7} {'ms/step':>10} {'x bound':>8}")
     for r in rows:
-        print(f"{r['grid']:>5}² {r['threads']:>7} {1e3 * r['step_seconds_median']:>10.4f}")
+        print(f"{r['grid']:>5}² {r['threads']:>7} {1e3 * r['step_seconds_median']:>10.4f} "
+              f"{r['over_bandwidth_bound']:>8.2f}")
+    print(f"stream bandwidth (numpy a+b, same run): {bandwidth / 1e9:.1f} GB/s")
     print("speed-up of the best thread count over 1 thread:",
           {k: round(v, 2) for k, v in speedups.items()})
     print(f"wrote {args.out / 'explicit_step.json'} and {args.out / 'explicit_step.png'}")

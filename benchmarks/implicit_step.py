@@ -141,7 +141,7 @@ def main(argv=None) -> dict:
             row["analyze_over_explicit_step"] = row["analyze_seconds"] / explicit
             row["step_over_factorize"] = row["step_seconds"] / row["factorize_seconds"]
             rows.append(row)
-    payload = {"benchmark": "implicit_step", "machine": machine_info(),
+    payload = {"benchmark": "implicit_step", "machine": machine_info(), "quick": args.quick,
                "dense_matmul_gflops": dense, "rows": rows,
                "targets": {"step_over_factorize_at_most": 1.5,
                            "factorize_fraction_of_dense_at_least": 0.3,

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from benchmarks import report, schema
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -16,7 +18,9 @@ def run_benchmark(name, out, *args):
                             cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
     assert (out / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
-    return json.loads((out / f"{name}.json").read_text())
+    data = json.loads((out / f"{name}.json").read_text())
+    schema.check(data)  # the documented shape
+    return data
 
 
 def test_explicit_step_benchmark_smoke(tmp_path):
@@ -39,3 +43,75 @@ def test_implicit_step_benchmark_smoke(tmp_path):
             assert row[key] > 0, key
         assert row["analyze_over_factorize"] == pytest.approx(
             row["analyze_seconds"] / row["factorize_seconds"])
+
+
+def test_speed_vs_error_smoke(tmp_path):
+    data = run_benchmark("speed_vs_error", tmp_path, "--quick")
+    rows = [r for r in data["rows"] if r["method"] != "reference"]
+    assert {r["method"] for r in rows} == {"explicit", "explicit + strain limit", "BE linearized",
+                                           "BE Newton", "BDF2"}
+    # explicit runs far above the stability limit diverge; the implicit ones never do
+    assert any(r["diverged"] for r in rows if r["method"] == "explicit")
+    assert not any(r["diverged"] for r in rows if r["method"] in ("BE Newton", "BDF2"))
+    # the reference is converged far below the errors it measures
+    for reference in (r for r in data["rows"] if r["method"] == "reference"):
+        errors = [r["error"] for r in rows if r["scene"] == reference["scene"] and not r["diverged"]]
+        assert reference["reference_error"] < min(errors)
+    # BDF2 is second order: halving dt divides its error by more than backward Euler's
+    def ratio(method):
+        sel = sorted((r for r in rows if r["method"] == method
+                      and r["scene"] == "hanging cloth (soft)"), key=lambda r: -r["dt"])
+        return sel[0]["error"] / sel[1]["error"]
+    assert ratio("BDF2") > ratio("BE Newton")
+
+
+def test_rebuild_cost_smoke(tmp_path):
+    data = run_benchmark("rebuild_cost", tmp_path, "--quick")
+    for row in data["rows"]:
+        assert row["analyses"] == 1 + row["repeats"]  # one per stroke, plus the first
+        assert row["step_after_stroke_seconds"] > row["analyze_seconds"] > 0
+
+
+def test_scaling_smoke(tmp_path):
+    data = run_benchmark("scaling", tmp_path, "--quick")
+    assert set(data["slopes"]) >= {"explicit", "implicit_linearized"}
+    assert all(0.0 < slope < 3.0 for slope in data["slopes"].values())
+
+
+def test_stability_map_smoke(tmp_path):
+    data = run_benchmark("stability_map", tmp_path, "--quick")
+    cells = len(data["stiffness_values"]) * len(data["dt_values"])
+    for name in ("explicit", "BE Newton"):
+        assert sum(r["integrator"] == name for r in data["rows"]) == cells
+    # backward Euler with Newton never diverges; explicit does at the largest step
+    assert all(r["state"] != "diverged" for r in data["rows"] if r["integrator"] == "BE Newton")
+    assert any(r["state"] == "diverged" for r in data["rows"] if r["integrator"] == "explicit")
+
+
+def test_newton_projection_smoke(tmp_path):
+    data = run_benchmark("newton_projection", tmp_path, "--quick")
+    assert {r["adaptive_projection"] for r in data["rows"]} == {False, True}
+    assert all(r["rejected_per_step"] == 0 for r in data["rows"] if not r["adaptive_projection"])
+
+
+def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
+    results = tmp_path / "results"
+    for name in schema.SCHEMAS:
+        run_benchmark(name, results, "--quick", *(["--sizes", "6", "8"]
+                                                  if name == "implicit_step" else []))
+    readme = tmp_path / "README.md"
+    readme.write_text(f"intro\n{report.START}\nold\n{report.END}\nrest\n")
+    with pytest.raises(SystemExit, match="quick"):
+        report.main(["--results", str(results), "--readme", str(readme)])
+    for path in results.glob("*.json"):
+        data = json.loads(path.read_text())
+        data["quick"] = False
+        path.write_text(json.dumps(data))
+    report.main(["--results", str(results), "--readme", str(readme)])
+    text = readme.read_text()
+    assert text.startswith("intro\n") and text.endswith("rest\n") and "old" not in text
+    # every number in the section comes from the JSON: spot-check two
+    rebuild = json.loads((results / "rebuild_cost.json").read_text())
+    assert f"{rebuild['dense_matmul_gflops']:.1f} GFlop/s" in text
+    scaling = json.loads((results / "scaling.json").read_text())
+    assert f"explicit {scaling['slopes']['explicit']:.2f}" in text

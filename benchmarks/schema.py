@@ -1,0 +1,58 @@
+"""The shape of every benchmark's JSON: keys each file and each row must have. Checked by the
+tests (on smoke-size runs) and by benchmarks.report before it writes the README."""
+
+from __future__ import annotations
+
+MACHINE = {"cpu", "logical_cores", "python", "yore", "blas_loaded", "thread_environment"}
+
+SCHEMAS = {
+    "explicit_step": ({"benchmark", "machine", "rows", "speedup_best_threads_vs_1",
+                       "stream_bandwidth_bytes_per_second"},
+                      {"grid", "vertices", "springs", "threads", "step_seconds_median",
+                       "bytes_per_step", "bandwidth_bound_seconds", "over_bandwidth_bound"}),
+    "implicit_step": ({"benchmark", "machine", "rows", "dense_matmul_gflops", "targets"},
+                      {"grid", "dofs", "ordering_used", "factor_nonzeros", "factor_flops",
+                       "explicit_step_seconds", "assemble_seconds", "factorize_seconds",
+                       "solve_seconds", "analyze_seconds", "step_over_factorize",
+                       "analyze_over_factorize", "analyze_over_explicit_step",
+                       "factorize_gflops", "factorize_fraction_of_dense"}),
+    "speed_vs_error": ({"benchmark", "machine", "rows", "summary", "duration_seconds",
+                        "sample_times", "quick"},
+                       {"scene", "method", "dt"}),
+    "rebuild_cost": ({"benchmark", "machine", "rows", "dense_matmul_gflops", "quick"},
+                     {"case", "ordering_used", "dofs", "factor_nonzeros", "factor_flops",
+                      "explicit_step_seconds", "implicit_step_seconds", "factorize_seconds",
+                      "analyze_seconds", "step_after_stroke_seconds", "analyze_over_factorize",
+                      "analyze_over_implicit_step", "analyze_over_explicit_step",
+                      "factorize_gflops", "factorize_fraction_of_dense"}),
+    "scaling": ({"benchmark", "machine", "rows", "slopes", "quick"},
+                {"grid", "vertices", "explicit_step_seconds", "implicit_linearized_step_seconds"}),
+    "newton_projection": ({"benchmark", "machine", "rows", "quick"},
+                          {"scene", "adaptive_projection", "newton_iterations_per_step",
+                           "rejected_per_step", "unconverged_steps",
+                           "wall_seconds_per_simulated_second"}),
+    "stability_map": ({"benchmark", "machine", "rows", "stiffness_values", "dt_values", "quick"},
+                      {"integrator", "stiffness", "dt", "state"}),
+}
+
+
+def check(payload: dict) -> None:
+    """Raises ValueError naming the first missing key."""
+    name = payload.get("benchmark")
+    if name not in SCHEMAS:
+        raise ValueError(f"unknown benchmark {name!r}")
+    top, row_keys = SCHEMAS[name]
+    missing = top - set(payload)
+    if missing:
+        raise ValueError(f"{name}: missing keys {sorted(missing)}")
+    missing = MACHINE - set(payload["machine"])
+    if missing:
+        raise ValueError(f"{name}: machine info lacks {sorted(missing)}")
+    if not payload["rows"]:
+        raise ValueError(f"{name}: no rows")
+    for row in payload["rows"]:
+        if name == "speed_vs_error" and row.get("method") == "reference":
+            continue
+        missing = row_keys - set(row)
+        if missing:
+            raise ValueError(f"{name}: a row lacks {sorted(missing)}: {row}")
