@@ -58,6 +58,27 @@ def median_seconds(run, repeats: int, warmup: int = 1) -> dict:
             "repeats": repeats}
 
 
+def arguments(doc: str, argv=None, extra=None):
+    """The benchmarks' command line: --out DIR (default bench-results) and --quick, plus
+    whatever `extra(parser)` adds."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--out", default="bench-results", type=Path)
+    parser.add_argument("--quick", action="store_true", help="small sizes, few repeats")
+    if extra is not None:
+        extra(parser)
+    return parser.parse_args(argv)
+
+
+def save(out: Path, name: str, payload: dict, draw) -> None:
+    """Writes out/name.json and out/name.png (draw(path) makes the picture) and says so."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / f"{name}.json", payload)
+    draw(out / f"{name}.png")
+    print(f"wrote {out / f'{name}.json'} and {out / f'{name}.png'}")
+
+
 def write_json(path: Path, payload: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(payload, indent=2, default=float) + "\n")

@@ -9,14 +9,14 @@ ratio measured in the same run.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 import yore
 
-from .common import explicit_step_seconds, grid_cloth, machine_info, median_seconds, write_json
+from .common import (arguments, explicit_step_seconds, grid_cloth, machine_info, median_seconds,
+                     save)
 
 # Least memory traffic of one explicit step, bytes: every array read or written once.
 # Per spring: ends (2 × 4), rest + stiffness + damping (3 × 8), its force written and read back
@@ -73,10 +73,7 @@ def plot(rows, path: Path) -> None:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true", help="small sizes, few repeats")
-    args = parser.parse_args(argv)
+    args = arguments(__doc__, argv)
     sizes = [16, 32, 64] if args.quick else [16, 32, 64, 128, 256]
     threads = sorted({1, min(2, yore.build_info()["threads"])} | {yore.build_info()["threads"]})
     rows = measure(sizes, threads, target_seconds=0.02 if args.quick else 0.2,
@@ -96,9 +93,7 @@ def main(argv=None) -> None:
                "rows": rows,
                "speedup_best_threads_vs_1": speedups, "stream_bandwidth_bytes_per_second":
                bandwidth, "targets": {"over_bandwidth_bound_at_most": 2.0}}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "explicit_step.json", payload)
-    plot(rows, args.out / "explicit_step.png")
+    save(args.out, "explicit_step", payload, lambda path: plot(rows, path))
     print(f"{'grid':>6} {'threads':>7} {'ms/step':>10} {'x bound':>8}")
     for r in rows:
         print(f"{r['grid']:>5}² {r['threads']:>7} {1e3 * r['step_seconds_median']:>10.4f} "
@@ -106,7 +101,6 @@ def main(argv=None) -> None:
     print(f"stream bandwidth (numpy a+b, same run): {bandwidth / 1e9:.1f} GB/s")
     print("speed-up of the best thread count over 1 thread:",
           {k: round(v, 2) for k, v in speedups.items()})
-    print(f"wrote {args.out / 'explicit_step.json'} and {args.out / 'explicit_step.png'}")
 
 
 if __name__ == "__main__":

@@ -11,7 +11,6 @@ repeated runs; writes implicit_step.json and implicit_step.png.
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 from pathlib import Path
@@ -20,7 +19,8 @@ import numpy as np
 
 import yore
 
-from .common import explicit_step_seconds, grid_cloth, machine_info, median_seconds, write_json
+from .common import (arguments, explicit_step_seconds, grid_cloth, machine_info, median_seconds,
+                     save)
 
 PHASES = ("assemble_seconds", "analyze_seconds", "factorize_seconds", "solve_seconds")
 
@@ -120,11 +120,10 @@ def plot(rows, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true", help="small sizes, few repeats")
-    parser.add_argument("--sizes", type=int, nargs="*", help="grid sizes (vertices per side)")
-    args = parser.parse_args(argv)
+    def extra(parser):
+        parser.add_argument("--sizes", type=int, nargs="*", help="grid sizes (vertices per side)")
+
+    args = arguments(__doc__, argv, extra)
     sizes = args.sizes or ([16, 32] if args.quick else [32, 64, 128, 256])
     repeats = 3 if args.quick else 5
     dense = dense_gflops(size=500 if args.quick else 2000)
@@ -146,9 +145,7 @@ def main(argv=None) -> dict:
                "targets": {"step_over_factorize_at_most": 1.5,
                            "factorize_fraction_of_dense_at_least": 0.3,
                            "analyze_over_factorize_at_most": 1.0}}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "implicit_step.json", payload)
-    plot(rows, args.out / "implicit_step.png")
+    save(args.out, "implicit_step", payload, lambda path: plot(rows, path))
     header = (f"{'grid':>5} {'order':>6} {'dofs':>7} {'nnz(L)':>9} {'expl ms':>8} {'asm ms':>7} "
               f"{'fact ms':>8} {'solve ms':>8} {'anal ms':>8} {'step/fact':>9} {'anal/fact':>9} "
               f"{'anal/expl':>9} {'GF/s':>6} {'%dense':>6}")
@@ -162,7 +159,6 @@ def main(argv=None) -> dict:
               f"{r['factorize_gflops']:>6.2f} {100 * r['factorize_fraction_of_dense']:>5.0f}%")
     print(f"dense matmul (numpy, same run): {dense:.1f} GFlop/s; BLAS loaded: "
           f"{payload['machine']['blas_loaded']}")
-    print(f"wrote {args.out / 'implicit_step.json'} and {args.out / 'implicit_step.png'}")
     return payload
 
 

@@ -10,13 +10,11 @@ newton_projection.json and newton_projection.png.
 
 from __future__ import annotations
 
-import argparse
 import time
-from pathlib import Path
 
 import yore
 
-from .common import machine_info, write_json
+from .common import arguments, machine_info, save
 
 
 def scenes(quick):
@@ -41,10 +39,7 @@ def scenes(quick):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
+    args = arguments(__doc__, argv)
     seconds = 0.25 if args.quick else 1.0
     rows = []
     for scene, make in scenes(args.quick).items():
@@ -73,10 +68,7 @@ def main(argv=None):
                   f"unconverged, {r['wall_seconds_per_simulated_second']:.2f} s/s")
     payload = {"benchmark": "newton_projection", "machine": machine_info(), "quick": args.quick,
                "rows": rows, "max_newton": 200, "newton_tol": 1e-5, "dt": 1 / 60}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "newton_projection.json", payload)
-    plot(rows, args.out / "newton_projection.png")
-    print(f"wrote {args.out / 'newton_projection.json'} and {args.out / 'newton_projection.png'}")
+    save(args.out, "newton_projection", payload, lambda path: plot(rows, path))
     return payload
 
 

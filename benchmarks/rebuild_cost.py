@@ -12,16 +12,14 @@ repeated runs (each repeat is a new stroke). Writes rebuild_cost.json and rebuil
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
-from pathlib import Path
 
 import numpy as np
 
 import yore
 
-from .common import explicit_step_seconds, grid_cloth, machine_info, median_seconds, write_json
+from .common import arguments, grid_cloth, machine_info, median_seconds, save
 from .implicit_step import dense_gflops, phase_deltas
 
 
@@ -105,10 +103,7 @@ def measure(name, make, stroke, ordering, repeats, explicit):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
+    args = arguments(__doc__, argv)
     repeats = 3 if args.quick else 5
     cases = ([(f"grid {n}²", *grid_case(n)) for n in ((16, 32) if args.quick
                                                         else (32, 64, 128, 256))]
@@ -132,11 +127,8 @@ def main(argv=None):
     payload = {"benchmark": "rebuild_cost", "machine": machine_info(), "quick": args.quick,
                "dense_matmul_gflops": dense, "rows": rows,
                "targets": {"analyze_over_implicit_step_at_most": 1.0}}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "rebuild_cost.json", payload)
-    plot(rows, args.out / "rebuild_cost.png")
+    save(args.out, "rebuild_cost", payload, lambda path: plot(rows, path))
     print(f"dense matmul (numpy, same run): {dense:.1f} GFlop/s")
-    print(f"wrote {args.out / 'rebuild_cost.json'} and {args.out / 'rebuild_cost.png'}")
     return payload
 
 

@@ -11,16 +11,14 @@ of log(cost) against log(vertices) over the sizes measured. Writes scaling.json,
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
-from pathlib import Path
 
 import numpy as np
 
 import yore
 
-from .common import explicit_step_seconds, grid_cloth, machine_info, write_json
+from .common import arguments, explicit_step_seconds, grid_cloth, machine_info, save
 
 
 def implicit_step_seconds(n, repeats, **options):
@@ -40,10 +38,7 @@ def slope(vertices, seconds):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
+    args = arguments(__doc__, argv)
     sizes = [8, 16, 32] if args.quick else [16, 32, 64, 128, 256]
     repeats = 3 if args.quick else 5
     rows = []
@@ -71,11 +66,8 @@ def main(argv=None):
                                           [r["implicit_newton_step_seconds"] for r in newton_rows])
     payload = {"benchmark": "scaling", "machine": machine_info(), "quick": args.quick,
                "rows": rows, "slopes": slopes}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "scaling.json", payload)
-    plot(rows, slopes, args.out / "scaling.png")
+    save(args.out, "scaling", payload, lambda path: plot(rows, slopes, path))
     print("fitted slopes (cost ∝ vertices^slope):", {k: round(v, 2) for k, v in slopes.items()})
-    print(f"wrote {args.out / 'scaling.json'} and {args.out / 'scaling.png'}")
     return payload
 
 

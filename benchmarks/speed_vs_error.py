@@ -13,17 +13,15 @@ wall time per simulated second. Writes speed_vs_error.json and speed_vs_error.pn
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 
 import yore
 from yore import metrics
 
-from .common import machine_info, write_json
+from .common import arguments, machine_info, save
 
 BASE = 1.0 / 30.0  # every step of the ladders is BASE / 2^k, so the sample times are whole steps
 
@@ -96,10 +94,7 @@ def pareto(points):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true", help="small meshes, short runs")
-    args = parser.parse_args(argv)
+    args = arguments(__doc__, argv)
     duration = 0.2 if args.quick else 0.4
     sample_times = [duration / 2, duration]
     implicit_levels = range(0, 4 if args.quick else 6)  # BASE ... BASE/32
@@ -147,12 +142,9 @@ def main(argv=None):
     payload = {"benchmark": "speed_vs_error", "machine": machine_info(), "quick": args.quick,
                "duration_seconds": duration, "sample_times": sample_times, "rows": results,
                "summary": summary}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "speed_vs_error.json", payload)
-    plot(results, args.out / "speed_vs_error.png")
+    save(args.out, "speed_vs_error", payload, lambda path: plot(results, path))
     for line in summary["lines"]:
         print(line)
-    print(f"wrote {args.out / 'speed_vs_error.json'} and {args.out / 'speed_vs_error.png'}")
     return payload
 
 

@@ -12,14 +12,12 @@ heatmap per integrator, stability_map.png.
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
 
 import numpy as np
 
 import yore
 
-from .common import machine_info, write_json
+from .common import arguments, machine_info, save
 
 INTEGRATORS = {
     "explicit": {"integrator": "explicit"},
@@ -53,10 +51,7 @@ def classify(resolution, multiplier, dt, options, steps):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="bench-results", type=Path)
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
+    args = arguments(__doc__, argv)
     resolution, steps = (7, 60) if args.quick else (11, 200)
     multipliers = [1, 10, 100, 1000] if args.quick else [1, 10, 100, 1000, 10000]
     dts = ([1 / 30, 1 / 240, 1 / 1920] if args.quick
@@ -72,10 +67,7 @@ def main(argv=None):
     payload = {"benchmark": "stability_map", "machine": machine_info(), "quick": args.quick,
                "resolution": resolution, "steps": steps, "stiffness_values": [
                    BASE_STIFFNESS * m for m in multipliers], "dt_values": dts, "rows": rows}
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "stability_map.json", payload)
-    plot(payload, args.out / "stability_map.png")
-    print(f"wrote {args.out / 'stability_map.json'} and {args.out / 'stability_map.png'}")
+    save(args.out, "stability_map", payload, lambda path: plot(payload, path))
     return payload
 
 
