@@ -19,11 +19,6 @@ def test_unknown_integrator_and_option_names_list_the_valid_ones(cloth):
         yore.Simulation(cloth, strain_limt=1.1)
 
 
-def test_integrators_of_the_api_not_built_yet_say_so(cloth):
-    with pytest.raises(NotImplementedError, match="local-global"):
-        yore.Simulation(cloth, integrator="local-global")
-
-
 @pytest.mark.parametrize("dt", [-1e-3, 0.0, float("nan"), float("inf"), "fast"])
 def test_bad_dt_is_a_value_error(cloth, dt):
     with pytest.raises(ValueError, match="dt"):

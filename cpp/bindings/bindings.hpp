@@ -11,5 +11,6 @@ void bind_cloth(pybind11::module_& m);
 void bind_explicit(pybind11::module_& m);
 void bind_implicit(pybind11::module_& m);
 void bind_stroke(pybind11::module_& m);
+void bind_local_global(pybind11::module_& m);
 
 }  // namespace yore::bindings

@@ -46,4 +46,5 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_explicit(m);
   yore::bindings::bind_implicit(m);
   yore::bindings::bind_stroke(m);
+  yore::bindings::bind_local_global(m);
 }

@@ -5,6 +5,7 @@
 #include <cholmod.h>
 
 #include <cstring>
+#include <vector>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -98,7 +99,20 @@ SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering) {
 SparseCholesky::~SparseCholesky() = default;
 
 void SparseCholesky::analyze(const SymmetricPattern& pattern) {
+  analyze_with_permutation(pattern, {});
+}
+
+void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
+                                              const std::vector<std::int32_t>& permutation) {
   Impl& d = *m_impl;
+  if (!permutation.empty()) {
+    std::vector<char> seen(static_cast<std::size_t>(pattern.size), 0);
+    bool valid = permutation.size() == static_cast<std::size_t>(pattern.size);
+    for (const std::int32_t k : permutation) {
+      valid = valid && k >= 0 && k < pattern.size && !seen[static_cast<std::size_t>(k)]++;
+    }
+    if (!valid) throw std::invalid_argument("analyze_with_permutation: not a permutation");
+  }
   d.release();
   const auto n = static_cast<std::size_t>(pattern.size);
   const auto nnz = static_cast<std::size_t>(pattern.nonzeros());
@@ -108,7 +122,16 @@ void SparseCholesky::analyze(const SymmetricPattern& pattern) {
   std::memcpy(d.matrix->p, pattern.column_starts.data(), (n + 1) * sizeof(std::int32_t));
   std::memcpy(d.matrix->i, pattern.row_indices.data(), nnz * sizeof(std::int32_t));
   std::memset(d.matrix->x, 0, nnz * sizeof(double));
-  d.factor = cholmod_analyze(d.matrix, &d.common);
+  if (permutation.empty()) {
+    d.factor = cholmod_analyze(d.matrix, &d.common);
+  } else {
+    // One method, the given permutation (postordered by CHOLMOD as usual); restore afterwards.
+    const int saved = d.common.method[0].ordering;
+    d.common.method[0].ordering = CHOLMOD_GIVEN;
+    d.factor = cholmod_analyze_p(d.matrix, const_cast<std::int32_t*>(permutation.data()),
+                                 nullptr, 0, &d.common);
+    d.common.method[0].ordering = saved;
+  }
   d.check("analyze");
   d.rhs = cholmod_zeros(n, 1, CHOLMOD_REAL, &d.common);
   d.check("zeros");
@@ -149,5 +172,12 @@ void SparseCholesky::solve(const double* rhs, double* solution) {
 }
 
 const SolverStatistics& SparseCholesky::statistics() const { return m_impl->statistics; }
+
+std::vector<std::int32_t> SparseCholesky::permutation() const {
+  const cholmod_factor* factor = m_impl->factor;
+  if (!factor || !factor->Perm) return {};
+  const auto* perm = static_cast<const std::int32_t*>(factor->Perm);
+  return std::vector<std::int32_t>(perm, perm + factor->n);
+}
 
 }  // namespace yore

@@ -46,6 +46,22 @@ _OPTIONS = {
     },
 }
 _OPTIONS["bdf2"] = dict(_OPTIONS["implicit"])
+_OPTIONS["local-global"] = {
+    "iterations": 10,  # local/global iterations per step
+    "acceleration": "none",  # "none" | "chebyshev" (Wang 2015)
+    "chebyshev_rho": 0.7,  # spectral-radius estimate of the Chebyshev acceleration (per scene)
+    "ordering": "amd",
+    "factorization": "supernodal",
+    # after a stroke: "fresh" analysis + factorization, "reuse-ordering" (cholmod_analyze_p with
+    # the old ordering extended), or "stale-pcg" (CG preconditioned by the stale factor until
+    # it needs more than stale_pcg_max_iterations, then reuse-ordering)
+    "rebuild": "fresh",
+    "stale_pcg_max_iterations": 30,
+    "stale_pcg_tol": 1e-12,
+    "record_objective": False,  # keep the objective after every iteration (diagnostics)
+    "divergence_energy_factor": 10.0,
+}
+_ACCELERATIONS = ("none", "chebyshev")
 
 
 def _make_explicit(options):
@@ -74,8 +90,27 @@ def _make_implicit(options, method="backward_euler"):
     )
 
 
+def _make_local_global(options):
+    if options["acceleration"] not in _ACCELERATIONS:
+        raise ValueError(f"unknown acceleration {options['acceleration']!r}; valid: "
+                         f"{', '.join(_ACCELERATIONS)}")
+    return _core.LocalGlobalIntegrator(
+        iterations=int(options["iterations"]),
+        chebyshev_rho=(float(options["chebyshev_rho"]) if options["acceleration"] == "chebyshev"
+                       else 0.0),
+        ordering=str(options["ordering"]),
+        factorization=str(options["factorization"]),
+        rebuild=str(options["rebuild"]),
+        stale_pcg_max_iterations=int(options["stale_pcg_max_iterations"]),
+        stale_pcg_tol=float(options["stale_pcg_tol"]),
+        record_objective=bool(options["record_objective"]),
+        divergence_energy_factor=float(options["divergence_energy_factor"]),
+    )
+
+
 _FACTORIES = {
     "explicit": _make_explicit,
+    "local-global": _make_local_global,
     "implicit": _make_implicit,
     "bdf2": lambda options: _make_implicit(options, method="bdf2"),
 }

@@ -19,6 +19,13 @@ class SparseCholesky final : public LinearSolver {
   SparseCholesky& operator=(const SparseCholesky&) = delete;
 
   void analyze(const SymmetricPattern& pattern) override;
+  /// Symbolic analysis with a given fill-reducing permutation (cholmod_analyze_p with
+  /// CHOLMOD_GIVEN): permutation[k] is the k-th unknown eliminated. Throws std::invalid_argument
+  /// if it is not a permutation of 0..N-1.
+  void analyze_with_permutation(const SymmetricPattern& pattern,
+                                const std::vector<std::int32_t>& permutation);
+  /// The permutation of the current analysis (empty before the first).
+  std::vector<std::int32_t> permutation() const;
   /// Throws NotPositiveDefinite naming the column where CHOLMOD met a non-positive pivot.
   void factorize(const double* values) override;
   void solve(const double* rhs, double* solution) override;

@@ -1,0 +1,453 @@
+#include "yore/local_global.hpp"
+
+#include "yore/errors.hpp"
+#include "yore/springs.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace yore {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// A number that changes when any spring's stiffness or damping, or the drag, changes.
+double material_checksum(const Cloth& cloth) {
+  const SpringSet& springs = cloth.springs();
+  double sum = cloth.drag();
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    sum += springs.stiffness[s] * static_cast<double>(1 + s % 7) +
+           springs.damping[s] * static_cast<double>(2 + s % 5);
+  }
+  return sum;
+}
+
+/// y = Q x for a symmetric Q stored as its lower triangle.
+void symmetric_multiply(const SymmetricPattern& pattern, const std::vector<double>& values,
+                        const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+  y.setZero();
+  for (std::int32_t column = 0; column < pattern.size; ++column) {
+    for (std::int32_t p = pattern.column_starts[column]; p < pattern.column_starts[column + 1];
+         ++p) {
+      const std::int32_t row = pattern.row_indices[static_cast<std::size_t>(p)];
+      const double value = values[static_cast<std::size_t>(p)];
+      y[row] += value * x[column];
+      if (row != column) y[column] += value * x[row];
+    }
+  }
+}
+
+}  // namespace
+
+LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
+    : m_options(options), m_monitor(options.divergence_energy_factor) {
+  if (options.iterations < 1) {
+    std::ostringstream msg;
+    msg << "iterations must be >= 1, got " << options.iterations;
+    throw std::invalid_argument(msg.str());
+  }
+  if (!(options.chebyshev_rho >= 0.0 && options.chebyshev_rho < 1.0)) {
+    std::ostringstream msg;
+    msg << "chebyshev_rho must be in [0, 1), got " << options.chebyshev_rho;
+    throw std::invalid_argument(msg.str());
+  }
+  if (options.stale_pcg_max_iterations < 1 || !(options.stale_pcg_tolerance > 0.0)) {
+    throw std::invalid_argument("stale_pcg_max_iterations must be >= 1 and stale_pcg_tol > 0");
+  }
+  m_solver = std::make_unique<SparseCholesky>(options.factor, options.ordering);
+}
+
+LocalGlobalIntegrator::~LocalGlobalIntegrator() = default;
+
+const SolverStatistics& LocalGlobalIntegrator::solver_statistics() const {
+  return m_solver->statistics();
+}
+
+void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
+  const Eigen::Index n = cloth.vertex_count();
+  const SpringSet& springs = cloth.springs();
+  m_free_of_vertex.assign(static_cast<std::size_t>(n), -1);
+  m_free_vertices.clear();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (cloth.inverse_masses()[i] == 0.0) continue;
+    m_free_of_vertex[static_cast<std::size_t>(i)] =
+        static_cast<std::int32_t>(m_free_vertices.size());
+    m_free_vertices.push_back(static_cast<std::int32_t>(i));
+  }
+  const auto unknowns = static_cast<std::int32_t>(m_free_vertices.size());
+  std::vector<std::pair<std::int32_t, std::int32_t>> coupled;  // (column, row), row > column
+  coupled.reserve(springs.size());
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(springs.first[s])];
+    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(springs.second[s])];
+    if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b), std::max(a, b));
+  }
+  std::sort(coupled.begin(), coupled.end());
+  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
+  m_pattern.size = unknowns;
+  m_pattern.column_starts.assign(static_cast<std::size_t>(unknowns) + 1, 0);
+  m_pattern.row_indices.clear();
+  m_pattern.row_indices.reserve(static_cast<std::size_t>(unknowns) + coupled.size());
+  std::size_t next = 0;
+  for (std::int32_t column = 0; column < unknowns; ++column) {
+    m_pattern.column_starts[static_cast<std::size_t>(column)] =
+        static_cast<std::int32_t>(m_pattern.row_indices.size());
+    m_pattern.row_indices.push_back(column);  // the diagonal comes first
+    while (next < coupled.size() && coupled[next].first == column) {
+      m_pattern.row_indices.push_back(coupled[next++].second);
+    }
+  }
+  m_pattern.column_starts.back() = static_cast<std::int32_t>(m_pattern.row_indices.size());
+  m_spring_slot.assign(springs.size(), -1);
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(springs.first[s])];
+    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(springs.second[s])];
+    if (a < 0 || b < 0) continue;
+    const std::int32_t column = std::min(a, b), row = std::max(a, b);
+    const auto begin = m_pattern.row_indices.begin() + m_pattern.column_starts[column] + 1;
+    const auto end = m_pattern.row_indices.begin() + m_pattern.column_starts[column + 1];
+    m_spring_slot[s] = std::lower_bound(begin, end, row) - m_pattern.row_indices.begin();
+  }
+  m_values.assign(m_pattern.row_indices.size(), 0.0);
+  m_diagonal.resize(unknowns);
+  const Eigen::Index rows = unknowns;
+  m_base_rhs.resize(rows, 3);
+  m_rhs.resize(rows, 3);
+  m_unknowns.resize(rows, 3);
+  m_work_rhs.resize(rows);
+  m_work_x.resize(rows);
+  m_pcg_r.resize(rows);
+  m_pcg_z.resize(rows);
+  m_pcg_p.resize(rows);
+  m_pcg_q.resize(rows);
+  m_start.resize(n, 3);
+  m_target.resize(n, 3);
+  m_iterate.resize(n, 3);
+  m_previous_iterate.resize(n, 3);
+  m_solution.resize(n, 3);
+}
+
+void LocalGlobalIntegrator::fill_values(const Cloth& cloth, double dt) {
+  std::fill(m_values.begin(), m_values.end(), 0.0);
+  const double drag = cloth.drag();
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const double m = cloth.masses()[m_free_vertices[b]];
+    m_values[static_cast<std::size_t>(m_pattern.column_starts[b])] += m / (dt * dt) + drag * m / dt;
+  }
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const double weight = springs.stiffness[s] + springs.damping[s] / dt;
+    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(springs.first[s])];
+    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(springs.second[s])];
+    if (a >= 0) m_values[static_cast<std::size_t>(m_pattern.column_starts[a])] += weight;
+    if (b >= 0) m_values[static_cast<std::size_t>(m_pattern.column_starts[b])] += weight;
+    if (m_spring_slot[s] >= 0) m_values[static_cast<std::size_t>(m_spring_slot[s])] -= weight;
+  }
+  for (std::int32_t b = 0; b < m_pattern.size; ++b) {
+    m_diagonal[b] = m_values[static_cast<std::size_t>(m_pattern.column_starts[b])];
+  }
+}
+
+void LocalGlobalIntegrator::factor_fresh(bool keep_ordering) {
+  if (m_pattern.size == 0) {
+    m_factor_current = true;
+    return;
+  }
+  auto start = Clock::now();
+  m_solver = std::make_unique<SparseCholesky>(m_options.factor, m_options.ordering);
+  if (keep_ordering && !m_previous_permutation.empty() && m_previous_size <= m_pattern.size) {
+    // The old ordering, each new unknown placed right after the last of its old neighbours
+    // (eliminated after them, like a leaf): little extra fill, no ordering search.
+    const std::int32_t old_size = m_previous_size;
+    std::vector<std::int32_t> position(static_cast<std::size_t>(old_size));
+    for (std::int32_t k = 0; k < old_size; ++k) {
+      position[static_cast<std::size_t>(m_previous_permutation[static_cast<std::size_t>(k)])] = k;
+    }
+    std::vector<std::int32_t> after(static_cast<std::size_t>(m_pattern.size - old_size), -1);
+    for (std::int32_t column = 0; column < old_size; ++column) {
+      for (std::int32_t p = m_pattern.column_starts[column] + 1;
+           p < m_pattern.column_starts[column + 1]; ++p) {
+        const std::int32_t row = m_pattern.row_indices[static_cast<std::size_t>(p)];
+        if (row < old_size) continue;
+        auto& slot = after[static_cast<std::size_t>(row - old_size)];
+        slot = std::max(slot, position[static_cast<std::size_t>(column)]);
+      }
+    }
+    std::vector<std::vector<std::int32_t>> inserted(static_cast<std::size_t>(old_size) + 1);
+    for (std::size_t k = 0; k < after.size(); ++k) {
+      const std::int32_t at = after[k] < 0 ? old_size : after[k];
+      inserted[static_cast<std::size_t>(at)].push_back(old_size + static_cast<std::int32_t>(k));
+    }
+    std::vector<std::int32_t> permutation;
+    permutation.reserve(static_cast<std::size_t>(m_pattern.size));
+    for (std::int32_t k = 0; k <= old_size; ++k) {
+      if (k < old_size) permutation.push_back(m_previous_permutation[static_cast<std::size_t>(k)]);
+      for (const std::int32_t unknown : inserted[static_cast<std::size_t>(k)]) {
+        permutation.push_back(unknown);
+      }
+    }
+    m_solver->analyze_with_permutation(m_pattern, permutation);
+  } else {
+    m_solver->analyze(m_pattern);
+  }
+  m_statistics.analyze_seconds += seconds_since(start);
+  ++m_statistics.analyses;
+  start = Clock::now();
+  m_solver->factorize(m_values.data());
+  m_statistics.factorize_seconds += seconds_since(start);
+  ++m_statistics.factorizations;
+  m_previous_permutation = m_solver->permutation();
+  m_previous_size = m_pattern.size;
+  m_factor_current = true;
+  m_stale_solver.reset();
+  m_stale_size = 0;
+}
+
+void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
+  const double checksum = material_checksum(cloth);
+  if (cloth.topology_version() != m_topology) {
+    const std::vector<std::int32_t> old_free = m_free_vertices;
+    const bool had_factor = m_topology != std::numeric_limits<std::uint64_t>::max();
+    const auto start = Clock::now();
+    build_pattern(cloth);
+    fill_values(cloth, dt);
+    // Strokes only append vertices: the old unknowns keep their indices (a prefix).
+    const bool prefix =
+        had_factor && old_free.size() <= m_free_vertices.size() &&
+        std::equal(old_free.begin(), old_free.end(), m_free_vertices.begin());
+    if (!prefix || m_options.rebuild == RebuildStrategy::fresh) {
+      factor_fresh(false);
+    } else if (m_options.rebuild == RebuildStrategy::reuse_ordering || dt != m_dt) {
+      // (the material checksum changes with the stroke's new springs; only dt matters here)
+      factor_fresh(true);
+    } else {  // stale_pcg: keep the old factor as a preconditioner for now
+      if (m_factor_current) {
+        m_stale_solver = std::move(m_solver);
+        m_stale_size = static_cast<std::int32_t>(old_free.size());
+        m_solver = std::make_unique<SparseCholesky>(m_options.factor, m_options.ordering);
+      }
+      m_factor_current = false;
+    }
+    if (had_factor) {
+      ++m_statistics.rebuilds;
+      m_statistics.rebuild_seconds += seconds_since(start);
+    }
+    m_topology = cloth.topology_version();
+  } else if (dt != m_dt || checksum != m_material_checksum) {
+    fill_values(cloth, dt);
+    if (m_factor_current) {
+      const auto start = Clock::now();
+      if (m_pattern.size > 0) {
+        m_solver->factorize(m_values.data());
+        ++m_statistics.factorizations;
+      }
+      m_statistics.factorize_seconds += seconds_since(start);
+    } else {
+      factor_fresh(true);
+    }
+  }
+  m_dt = dt;
+  m_material_checksum = checksum;
+}
+
+void LocalGlobalIntegrator::global_solve() {
+  const auto start = Clock::now();
+  for (int c = 0; c < 3; ++c) {
+    m_work_rhs = m_rhs.col(c);
+    if (m_factor_current) {
+      m_solver->solve(m_work_rhs.data(), m_work_x.data());
+      m_unknowns.col(c) = m_work_x;
+      continue;
+    }
+    // CG on the current matrix, preconditioned by the stale factor on the old unknowns and by
+    // the diagonal on the new ones; warm-started from the previous iterate.
+    Eigen::VectorXd& x = m_work_x;
+    x = m_unknowns.col(c);
+    symmetric_multiply(m_pattern, m_values, x, m_pcg_q);
+    m_pcg_r = m_work_rhs - m_pcg_q;
+    const double target = m_options.stale_pcg_tolerance * m_work_rhs.norm();
+    auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+      m_stale_solver->solve(r.data(), z.data());
+      z.tail(m_pattern.size - m_stale_size) =
+          r.tail(m_pattern.size - m_stale_size).cwiseQuotient(
+              m_diagonal.tail(m_pattern.size - m_stale_size));
+    };
+    precondition(m_pcg_r, m_pcg_z);
+    m_pcg_p = m_pcg_z;
+    double rz = m_pcg_r.dot(m_pcg_z);
+    int iterations = 0;
+    while (m_pcg_r.norm() > target && iterations < m_options.stale_pcg_max_iterations) {
+      symmetric_multiply(m_pattern, m_values, m_pcg_p, m_pcg_q);
+      const double alpha = rz / m_pcg_p.dot(m_pcg_q);
+      x += alpha * m_pcg_p;
+      m_pcg_r -= alpha * m_pcg_q;
+      precondition(m_pcg_r, m_pcg_z);
+      const double next = m_pcg_r.dot(m_pcg_z);
+      m_pcg_p = m_pcg_z + (next / rz) * m_pcg_p;
+      rz = next;
+      ++iterations;
+    }
+    m_statistics.pcg_iterations += iterations;
+    ++m_statistics.stale_solves;
+    if (m_pcg_r.norm() > target) {
+      // The stale factor no longer helps enough: rebuild now (old ordering reused) and solve
+      // this column and the remaining ones directly.
+      const auto rebuild_start = Clock::now();
+      factor_fresh(true);
+      m_statistics.rebuild_seconds += seconds_since(rebuild_start);
+      m_solver->solve(m_work_rhs.data(), m_work_x.data());
+    }
+    m_unknowns.col(c) = m_work_x;
+  }
+  m_statistics.solve_seconds += seconds_since(start);
+}
+
+double LocalGlobalIntegrator::objective(const Cloth& cloth, const Positions& x) const {
+  double energy = 0.0;
+  const double h = m_h, drag = cloth.drag();
+  for (const std::int32_t i : m_free_vertices) {
+    const double m = cloth.masses()[i];
+    energy += 0.5 * m / (h * h) * (x.row(i) - m_target.row(i)).squaredNorm() +
+              0.5 * drag * m / h * (x.row(i) - m_start.row(i)).squaredNorm() -
+              m * x.row(i).dot(m_gravity);
+  }
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t i = springs.first[s], j = springs.second[s];
+    energy += spring_energy(x.row(i), x.row(j), springs.rest_length[s], springs.stiffness[s]);
+    const Vec3 moved = (x.row(i) - m_start.row(i)) - (x.row(j) - m_start.row(j));
+    energy += 0.5 * springs.damping[s] / h * moved.squaredNorm();
+  }
+  return energy;
+}
+
+void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
+  ensure_matrix(cloth, dt);
+  m_h = dt;
+  m_gravity = gravity;
+  m_start = cloth.positions();
+  m_target = m_start + dt * cloth.velocities();
+  const double new_time = cloth.time() + dt;
+  cloth.set_time(new_time);
+  cloth.apply_drivers(new_time);
+  m_iterate = cloth.positions();  // constrained rows: their prescribed positions at t + h
+  for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);
+
+  auto start = Clock::now();
+  const SpringSet& springs = cloth.springs();
+  const double drag = cloth.drag();
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const std::int32_t i = m_free_vertices[b];
+    const double m = cloth.masses()[i];
+    m_base_rhs.row(static_cast<Eigen::Index>(b)) =
+        m / (dt * dt) * m_target.row(i) + drag * m / dt * m_start.row(i) + m * gravity.transpose();
+  }
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t i = springs.first[s], j = springs.second[s];
+    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(i)];
+    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(j)];
+    const double damping = springs.damping[s] / dt;
+    const double weight = springs.stiffness[s] + damping;
+    const Eigen::RowVector3d previous = m_start.row(i) - m_start.row(j);
+    if (a >= 0) {
+      m_base_rhs.row(a) += damping * previous;
+      if (b < 0) m_base_rhs.row(a) += weight * m_iterate.row(j);
+    }
+    if (b >= 0) {
+      m_base_rhs.row(b) -= damping * previous;
+      if (a < 0) m_base_rhs.row(b) += weight * m_iterate.row(i);
+    }
+  }
+  m_statistics.assemble_seconds += seconds_since(start);
+
+  m_objective_history.clear();
+  const double rho = m_options.chebyshev_rho;
+  double omega = 1.0;
+  m_previous_iterate = m_iterate;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    m_unknowns.row(static_cast<Eigen::Index>(b)) = m_iterate.row(m_free_vertices[b]);
+  }
+  for (int iteration = 0; iteration < m_options.iterations && m_pattern.size > 0; ++iteration) {
+    start = Clock::now();
+    m_rhs = m_base_rhs;
+    for (std::size_t s = 0; s < springs.size(); ++s) {
+      const std::int32_t i = springs.first[s], j = springs.second[s];
+      const Eigen::RowVector3d d = m_iterate.row(i) - m_iterate.row(j);
+      const double length = d.norm();
+      if (length == 0.0) continue;
+      // local step: the spring's ideal vector, its current direction at its rest length
+      const Eigen::RowVector3d ideal = (springs.stiffness[s] * springs.rest_length[s] / length) * d;
+      const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(i)];
+      const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(j)];
+      if (a >= 0) m_rhs.row(a) += ideal;
+      if (b >= 0) m_rhs.row(b) -= ideal;
+    }
+    m_statistics.assemble_seconds += seconds_since(start);
+    global_solve();
+    // Chebyshev semi-iterative acceleration (Wang 2015): blend with the iterate two back.
+    if (rho > 0.0) {
+      omega = iteration == 0 ? 1.0 : (iteration == 1 ? 2.0 / (2.0 - rho * rho)
+                                                     : 4.0 / (4.0 - rho * rho * omega));
+    }
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      const std::int32_t i = m_free_vertices[b];
+      const Eigen::RowVector3d solved = m_unknowns.row(static_cast<Eigen::Index>(b));
+      const Eigen::RowVector3d blended =
+          omega * (solved - m_previous_iterate.row(i)) + m_previous_iterate.row(i);
+      m_previous_iterate.row(i) = m_iterate.row(i);
+      m_iterate.row(i) = blended;
+      m_unknowns.row(static_cast<Eigen::Index>(b)) = blended;
+    }
+    ++m_statistics.iterations;
+    if (m_options.record_objective) m_objective_history.push_back(objective(cloth, m_iterate));
+  }
+
+  Positions& x = cloth.integrator_positions();
+  Positions& v = cloth.integrator_velocities();
+  for (const std::int32_t i : m_free_vertices) {
+    x.row(i) = m_iterate.row(i);
+    v.row(i) = (m_iterate.row(i) - m_start.row(i)) / dt;
+  }
+  ++m_statistics.steps;
+  m_statistics.last_dofs = m_pattern.size;
+}
+
+void LocalGlobalIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
+                                    std::int64_t steps) {
+  check_advance_arguments(dt, gravity, steps);
+  if (steps == 0) return;
+  m_monitor.prepare(cloth, gravity, dt);
+  m_checkpoint_positions = cloth.positions();
+  m_checkpoint_velocities = cloth.velocities();
+  const double checkpoint_time = cloth.time();
+  auto restore = [&] {
+    cloth.integrator_positions() = m_checkpoint_positions;
+    cloth.integrator_velocities() = m_checkpoint_velocities;
+    cloth.set_time(checkpoint_time);
+  };
+  for (std::int64_t k = 0; k < steps; ++k) {
+    try {
+      step(cloth, gravity, dt);
+    } catch (...) {
+      restore();
+      throw;
+    }
+    const double energy = DivergenceMonitor::monitored_energy(cloth, gravity);
+    const bool finite = std::isfinite(energy) && cloth.positions().allFinite();
+    if (!finite || energy > m_monitor.limit()) {
+      const double failed_time = cloth.time();
+      restore();
+      throw diverged_error(cloth, "local-global", m_statistics.steps - 1, failed_time, dt,
+                           finite);
+    }
+  }
+}
+
+}  // namespace yore
