@@ -336,3 +336,28 @@ def test_adaptive_projection_needs_a_cholesky_backend():
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
     with pytest.raises(ValueError, match="pcg"):
         yore.Simulation(cloth, integrator="implicit", solver="pcg", adaptive_projection=True)
+
+
+def test_lagged_factorization_reaches_the_same_steps_with_fewer_factorizations():
+    results = []
+    for lagged in (False, True):
+        sim = yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, integrator="implicit",
+                                        adaptive_projection=False, newton_tol=1e-10,
+                                        max_newton=500, lagged_factorization=lagged)
+        sim.step(20)
+        results.append((sim.cloth.positions, sim.stats["counters"]))
+    (plain, plain_counters), (lagged, lagged_counters) = results
+    assert plain_counters["unconverged_steps"] == 0 == lagged_counters["unconverged_steps"]
+    # both solve each step's objective to newton_tol (1e-10 of a 0.125 m spring)
+    assert np.abs(plain - lagged).max() < 1e-8
+    assert lagged_counters["lagged_solves"] > 0
+    assert lagged_counters["factorizations"] < 0.5 * plain_counters["factorizations"]
+
+
+def test_lagged_factorization_needs_the_projected_hessian_and_a_cholesky_backend():
+    cloth = yore.Cloth(*yore.grid_mesh(3, 3))
+    with pytest.raises(ValueError, match="lagged"):
+        yore.Simulation(cloth, integrator="implicit", lagged_factorization=True,
+                        adaptive_projection=True)
+    with pytest.raises(ValueError, match="lagged"):
+        yore.Simulation(cloth, integrator="implicit", lagged_factorization=True, solver="pcg")

@@ -81,9 +81,13 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
   integrator_class.def(py::init([](const std::string& method, bool linearized, double newton_tol,
                        int max_newton, const std::string& solver, const std::string& ordering,
                        const std::string& factorization, double pcg_tol, int pcg_max_iterations,
-                       double divergence_energy_factor, bool adaptive_projection) {
+                       double divergence_energy_factor, bool adaptive_projection,
+                       bool lagged_factorization, int lag_max_cg_iterations, double lag_cg_tol) {
              ImplicitOptions options;
              options.adaptive_projection = adaptive_projection;
+             options.lagged_factorization = lagged_factorization;
+             options.lag_max_cg_iterations = lag_max_cg_iterations;
+             options.lag_cg_tolerance = lag_cg_tol;
              options.method = parse_choice<ImplicitMethod>(
                  method, "method",
                  {{"backward_euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}});
@@ -107,7 +111,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
            py::arg("solver") = "cholmod", py::arg("ordering") = "amd",
            py::arg("factorization") = "supernodal", py::arg("pcg_tol") = 1e-12,
            py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0,
-           py::arg("adaptive_projection") = false)
+           py::arg("adaptive_projection") = false, py::arg("lagged_factorization") = false,
+           py::arg("lag_max_cg_iterations") = 20, py::arg("lag_cg_tol") = 1e-10)
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
@@ -144,6 +149,8 @@ Newton direction.)doc")
         out["line_search_backtracks"] = s.line_search_backtracks;
         out["unconverged_steps"] = s.unconverged_steps;
         out["exact_hessian_rejected"] = s.exact_hessian_rejected;
+        out["lagged_solves"] = s.lagged_solves;
+        out["lagged_cg_iterations"] = s.lagged_cg_iterations;
         out["last_newton_iterations"] = s.last_newton_iterations;
         out["last_line_search_backtracks"] = s.last_line_search_backtracks;
         out["last_residual"] = s.last_residual;

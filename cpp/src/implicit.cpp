@@ -36,6 +36,15 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& options)
     msg << "max_newton must be >= 1, got " << options.max_newton;
     throw std::invalid_argument(msg.str());
   }
+  if (options.lagged_factorization &&
+      (options.solver.backend == "pcg" || options.adaptive_projection)) {
+    throw std::invalid_argument(
+        "lagged factorization needs a Cholesky backend and the projected Hessian "
+        "(adaptive_projection off)");
+  }
+  if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tolerance > 0.0)) {
+    throw std::invalid_argument("lag_max_cg_iterations must be >= 1 and lag_cg_tol > 0");
+  }
   if (options.adaptive_projection && options.solver.backend == "pcg") {
     throw std::invalid_argument(
         "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
@@ -136,6 +145,8 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_previous_positions.resize(n, 3);
   m_previous_velocities.resize(n, 3);
   m_history_valid = false;
+  m_factor_valid = false;
+  m_cg.resize(dofs);
 
   if (pattern.size > 0) m_solver->analyze(pattern);
   m_topology = cloth.topology_version();
@@ -280,16 +291,36 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       }
       m_statistics.factorize_seconds += seconds_since(start);
     }
+    bool solved = false;
     if (!factored) {
       energy = evaluate(cloth, m_iterate, true, true, /*project=*/true);
-      start = Clock::now();
-      m_solver->factorize(m_values.data());
-      m_statistics.factorize_seconds += seconds_since(start);
+      m_rhs = -m_gradient;
+      if (m_options.lagged_factorization && m_factor_valid) {
+        // CG on the current matrix, preconditioned by the lagged factor.
+        start = Clock::now();
+        m_direction.setZero();
+        bool converged = false;
+        m_statistics.lagged_cg_iterations += preconditioned_cg(
+            m_pattern, m_values.data(), m_rhs, m_direction,
+            [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
+            m_options.lag_cg_tolerance, m_options.lag_max_cg_iterations, m_cg, converged);
+        m_statistics.solve_seconds += seconds_since(start);
+        ++m_statistics.lagged_solves;
+        solved = converged;
+      }
+      if (!solved) {
+        start = Clock::now();
+        m_solver->factorize(m_values.data());
+        m_factor_valid = true;
+        m_statistics.factorize_seconds += seconds_since(start);
+      }
     }
-    start = Clock::now();
-    m_rhs = -m_gradient;
-    m_solver->solve(m_rhs.data(), m_direction.data());
-    m_statistics.solve_seconds += seconds_since(start);
+    if (!solved) {
+      start = Clock::now();
+      m_rhs = -m_gradient;
+      m_solver->solve(m_rhs.data(), m_direction.data());
+      m_statistics.solve_seconds += seconds_since(start);
+    }
     ++iterations;
 
     double alpha = 1.0;

@@ -129,6 +129,45 @@ class JacobiPcg final : public LinearSolver {
 
 }  // namespace
 
+void symmetric_multiply(const SymmetricPattern& pattern, const double* values,
+                        const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+  y.setZero();
+  for (std::int32_t column = 0; column < pattern.size; ++column) {
+    for (std::int32_t p = pattern.column_starts[column]; p < pattern.column_starts[column + 1];
+         ++p) {
+      const std::int32_t row = pattern.row_indices[static_cast<std::size_t>(p)];
+      y[row] += values[p] * x[column];
+      if (row != column) y[column] += values[p] * x[row];
+    }
+  }
+}
+
+int preconditioned_cg(const SymmetricPattern& pattern, const double* values,
+                      const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                      const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd&)>& precondition,
+                      double tolerance, int max_iterations, CgWorkspace& work, bool& converged) {
+  symmetric_multiply(pattern, values, x, work.product);
+  work.residual = b - work.product;
+  const double target = tolerance * b.norm();
+  precondition(work.residual, work.preconditioned);
+  work.direction = work.preconditioned;
+  double rz = work.residual.dot(work.preconditioned);
+  int iterations = 0;
+  while (work.residual.norm() > target && iterations < max_iterations) {
+    symmetric_multiply(pattern, values, work.direction, work.product);
+    const double alpha = rz / work.direction.dot(work.product);
+    x += alpha * work.direction;
+    work.residual -= alpha * work.product;
+    precondition(work.residual, work.preconditioned);
+    const double next = work.residual.dot(work.preconditioned);
+    work.direction = work.preconditioned + (next / rz) * work.direction;
+    rz = next;
+    ++iterations;
+  }
+  converged = work.residual.norm() <= target;
+  return iterations;
+}
+
 std::vector<std::string> linear_solver_backends() { return {"cholmod", "eigen-ldlt", "pcg"}; }
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options) {

@@ -29,21 +29,6 @@ double material_checksum(const Cloth& cloth) {
   return sum;
 }
 
-/// y = Q x for a symmetric Q stored as its lower triangle.
-void symmetric_multiply(const SymmetricPattern& pattern, const std::vector<double>& values,
-                        const Eigen::VectorXd& x, Eigen::VectorXd& y) {
-  y.setZero();
-  for (std::int32_t column = 0; column < pattern.size; ++column) {
-    for (std::int32_t p = pattern.column_starts[column]; p < pattern.column_starts[column + 1];
-         ++p) {
-      const std::int32_t row = pattern.row_indices[static_cast<std::size_t>(p)];
-      const double value = values[static_cast<std::size_t>(p)];
-      y[row] += value * x[column];
-      if (row != column) y[column] += value * x[row];
-    }
-  }
-}
-
 }  // namespace
 
 LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
@@ -123,10 +108,7 @@ void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
   m_unknowns.resize(rows, 3);
   m_work_rhs.resize(rows);
   m_work_x.resize(rows);
-  m_pcg_r.resize(rows);
-  m_pcg_z.resize(rows);
-  m_pcg_p.resize(rows);
-  m_pcg_q.resize(rows);
+  m_cg.resize(rows);
   m_start.resize(n, 3);
   m_target.resize(n, 3);
   m_iterate.resize(n, 3);
@@ -268,35 +250,18 @@ void LocalGlobalIntegrator::global_solve() {
     }
     // CG on the current matrix, preconditioned by the stale factor on the old unknowns and by
     // the diagonal on the new ones; warm-started from the previous iterate.
-    Eigen::VectorXd& x = m_work_x;
-    x = m_unknowns.col(c);
-    symmetric_multiply(m_pattern, m_values, x, m_pcg_q);
-    m_pcg_r = m_work_rhs - m_pcg_q;
-    const double target = m_options.stale_pcg_tolerance * m_work_rhs.norm();
+    m_work_x = m_unknowns.col(c);
     auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
       m_stale_solver->solve(r.data(), z.data());
-      z.tail(m_pattern.size - m_stale_size) =
-          r.tail(m_pattern.size - m_stale_size).cwiseQuotient(
-              m_diagonal.tail(m_pattern.size - m_stale_size));
+      const Eigen::Index fresh = m_pattern.size - m_stale_size;
+      z.tail(fresh) = r.tail(fresh).cwiseQuotient(m_diagonal.tail(fresh));
     };
-    precondition(m_pcg_r, m_pcg_z);
-    m_pcg_p = m_pcg_z;
-    double rz = m_pcg_r.dot(m_pcg_z);
-    int iterations = 0;
-    while (m_pcg_r.norm() > target && iterations < m_options.stale_pcg_max_iterations) {
-      symmetric_multiply(m_pattern, m_values, m_pcg_p, m_pcg_q);
-      const double alpha = rz / m_pcg_p.dot(m_pcg_q);
-      x += alpha * m_pcg_p;
-      m_pcg_r -= alpha * m_pcg_q;
-      precondition(m_pcg_r, m_pcg_z);
-      const double next = m_pcg_r.dot(m_pcg_z);
-      m_pcg_p = m_pcg_z + (next / rz) * m_pcg_p;
-      rz = next;
-      ++iterations;
-    }
-    m_statistics.pcg_iterations += iterations;
+    bool converged = false;
+    m_statistics.pcg_iterations += preconditioned_cg(
+        m_pattern, m_values.data(), m_work_rhs, m_work_x, precondition,
+        m_options.stale_pcg_tolerance, m_options.stale_pcg_max_iterations, m_cg, converged);
     ++m_statistics.stale_solves;
-    if (m_pcg_r.norm() > target) {
+    if (!converged) {
       // The stale factor no longer helps enough: rebuild now (old ordering reused) and solve
       // this column and the remaining ones directly.
       const auto rebuild_start = Clock::now();

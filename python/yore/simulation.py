@@ -43,6 +43,11 @@ _OPTIONS = {
         # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
         # tell). False: always project (linear convergence when many springs are compressed).
         "adaptive_projection": None,
+        # Keep the factor across Newton iterations and steps; CG preconditioned by it on the
+        # current matrix; refactor when CG needs more than lag_max_cg_iterations.
+        "lagged_factorization": False,
+        "lag_max_cg_iterations": 20,
+        "lag_cg_tol": 1e-10,
     },
 }
 _OPTIONS["bdf2"] = dict(_OPTIONS["implicit"])
@@ -85,8 +90,12 @@ def _make_implicit(options, method="backward_euler"):
         pcg_tol=float(options["pcg_tol"]),
         pcg_max_iterations=int(options["pcg_max_iterations"]),
         divergence_energy_factor=float(options["divergence_energy_factor"]),
-        adaptive_projection=(options["solver"] != "pcg" if options["adaptive_projection"] is None
-                             else bool(options["adaptive_projection"])),
+        adaptive_projection=(
+            options["solver"] != "pcg" and not options["lagged_factorization"]
+            if options["adaptive_projection"] is None else bool(options["adaptive_projection"])),
+        lagged_factorization=bool(options["lagged_factorization"]),
+        lag_max_cg_iterations=int(options["lag_max_cg_iterations"]),
+        lag_cg_tol=float(options["lag_cg_tol"]),
     )
 
 
@@ -142,7 +151,8 @@ class Simulation:
     integrator : str
         One of ``yore.simulation.INTEGRATORS``: ``"explicit"`` (symplectic Euler, the
         reference), ``"implicit"`` (backward Euler by Newton on a sparse Cholesky factorization),
-        ``"bdf2"`` (second order on the same machinery); ``"local-global"`` is not built yet.
+        ``"bdf2"`` (second order on the same machinery), ``"local-global"`` (prefactored
+        local/global backward Euler, Liu et al. 2013).
     dt : float, optional
         Time step, s. Default: explicit, half the stable-step estimate rounded down to 1/N s;
         implicit and bdf2, 1/60 s.
@@ -158,6 +168,13 @@ class Simulation:
         ``adaptive_projection`` (None = on for cholmod and eigen-ldlt: try the exact Hessian
         first and project spring Hessians to PSD only when the factorization finds it
         indefinite; False = always project). Every system solved is SPD either way.
+        ``lagged_factorization`` (False: keep the factor over iterations and steps, solve by CG
+        preconditioned with it, refactor when CG needs more than ``lag_max_cg_iterations`` (20)
+        to reach ``lag_cg_tol`` (1e-10); uses the projected Hessian).
+    local-global: ``iterations`` (10), ``acceleration`` ("none" | "chebyshev"),
+        ``chebyshev_rho`` (0.7), ``ordering``, ``factorization``, ``rebuild`` ("fresh" |
+        "reuse-ordering" | "stale-pcg"), ``stale_pcg_max_iterations`` (30), ``stale_pcg_tol``,
+        ``record_objective``, ``divergence_energy_factor``.
 
     Raises
     ------

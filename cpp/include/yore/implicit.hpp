@@ -34,6 +34,13 @@ struct ImplicitOptions {
   /// the exact Hessian is positive definite. Every system solved is still SPD. Cholesky
   /// backends only (PCG cannot tell an indefinite matrix).
   bool adaptive_projection = false;
+  /// Lagged factorization: keep the last factor across Newton iterations and steps and solve
+  /// with CG preconditioned by it on the current matrix; refactor only when CG needs more than
+  /// lag_max_cg_iterations to reach lag_cg_tolerance. Uses the projected Hessian (CG needs SPD);
+  /// Cholesky backends only.
+  bool lagged_factorization = false;
+  int lag_max_cg_iterations = 20;
+  double lag_cg_tolerance = 1e-10;
   /// Newton stops when the largest vertex move of an iteration is below newton_tol × the mean
   /// rest length.
   double newton_tol = 1e-5;
@@ -49,6 +56,8 @@ struct ImplicitStatistics {
   std::int64_t line_search_backtracks = 0;
   std::int64_t unconverged_steps = 0;  ///< steps that reached max_newton
   std::int64_t exact_hessian_rejected = 0;  ///< adaptive_projection: exact Hessians found indefinite
+  std::int64_t lagged_solves = 0;       ///< Newton solves done by CG on a lagged factor
+  std::int64_t lagged_cg_iterations = 0;
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
   double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
@@ -132,6 +141,8 @@ class ImplicitIntegrator {
   Positions m_iterate;     // n×3
   Eigen::VectorXd m_gradient, m_direction, m_rhs;
   std::vector<double> m_values;
+  bool m_factor_valid = false;  // the solver holds a factor of this topology (lagged mode)
+  CgWorkspace m_cg;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
 
   // BDF2 history: the state one step back, valid while nothing changed.

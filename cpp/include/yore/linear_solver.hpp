@@ -3,7 +3,10 @@
 /// Solvers for the symmetric positive-definite systems of implicit stepping, behind one interface
 /// with separate analyze (symbolic, once per sparsity pattern), factorize (numeric) and solve.
 
+#include <Eigen/Core>
+
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,6 +63,29 @@ struct LinearSolverOptions {
   double pcg_tolerance = 1e-12;  ///< relative residual of the Jacobi-preconditioned CG
   int pcg_max_iterations = 20000;
 };
+
+/// y = H x for a symmetric H stored as its lower triangle (values in pattern order).
+void symmetric_multiply(const SymmetricPattern& pattern, const double* values,
+                        const Eigen::VectorXd& x, Eigen::VectorXd& y);
+
+/// Work vectors of preconditioned_cg, sized once and reused (no allocation per solve).
+struct CgWorkspace {
+  Eigen::VectorXd residual, preconditioned, direction, product;
+  void resize(Eigen::Index n) {
+    residual.resize(n);
+    preconditioned.resize(n);
+    direction.resize(n);
+    product.resize(n);
+  }
+};
+
+/// Preconditioned conjugate gradients on H x = b (H symmetric positive definite, lower
+/// triangle), from the x given. precondition(r, z) writes z = P⁻¹ r for an SPD P. Stops when
+/// ‖r‖ ≤ tolerance ‖b‖ or after max_iterations; returns the iterations and sets converged.
+int preconditioned_cg(const SymmetricPattern& pattern, const double* values,
+                      const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                      const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd&)>& precondition,
+                      double tolerance, int max_iterations, CgWorkspace& work, bool& converged);
 
 /// The backend names make_linear_solver accepts.
 std::vector<std::string> linear_solver_backends();

@@ -121,7 +121,8 @@ class LocalGlobalIntegrator {
   Vec3 m_gravity = Vec3::Zero();
   Positions m_start, m_target, m_iterate, m_previous_iterate, m_solution;
   Eigen::Matrix<double, Eigen::Dynamic, 3> m_base_rhs, m_rhs, m_unknowns;
-  Eigen::VectorXd m_work_rhs, m_work_x, m_pcg_r, m_pcg_z, m_pcg_p, m_pcg_q, m_diagonal;
+  Eigen::VectorXd m_work_rhs, m_work_x, m_diagonal;
+  CgWorkspace m_cg;
   std::vector<double> m_objective_history;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
 };
