@@ -102,6 +102,37 @@ def measure(name, make, stroke, ordering, repeats, explicit):
     return row
 
 
+STRATEGIES = ("fresh", "reuse-ordering", "stale-pcg")
+
+
+def measure_local_global(name, make, stroke, repeats, after_steps=10):
+    """Ordinary local-global step, and the extra time a stroke causes over the next steps, per
+    rebuild strategy, in ordinary steps."""
+    rows = []
+    for strategy in STRATEGIES:
+        sim = make("local-global", rebuild=strategy)
+        sim.step(2, progress=False)
+        ordinary = statistics.median(phase_deltas(sim, lambda: sim.step(1, progress=False))
+                                     ["wall_seconds"] for _ in range(repeats))
+        extras = []
+        for k in range(repeats):
+            stroke(sim, k)
+            spent = sum(phase_deltas(sim, lambda: sim.step(1, progress=False))["wall_seconds"]
+                        for _ in range(after_steps))
+            extras.append(spent - after_steps * ordinary)
+        counters = sim.stats["counters"]
+        rows.append({"case": name, "strategy": strategy, "ordinary_step_seconds": ordinary,
+                     "rebuild_extra_seconds": statistics.median(extras),
+                     "rebuild_in_ordinary_steps": statistics.median(extras) / ordinary,
+                     "steps_observed_after_stroke": after_steps,
+                     "stale_solves": counters["stale_solves"],
+                     "factorizations": counters["factorizations"], "dofs": counters["dofs"]})
+        r = rows[-1]
+        print(f"{name:16s} local-global {strategy:15s} step {1e3 * ordinary:8.2f} ms, rebuild "
+              f"{r['rebuild_in_ordinary_steps']:6.1f} ordinary steps")
+    return rows
+
+
 def main(argv=None):
     args = arguments(__doc__, argv)
     repeats = 3 if args.quick else 5
@@ -124,9 +155,14 @@ def main(argv=None):
                   f"{1e3 * row['step_after_stroke_seconds']:9.2f} ms  analyze/factorize "
                   f"{row['analyze_over_factorize']:.2f}  analyze/explicit "
                   f"{row['analyze_over_explicit_step']:.0f}  {row['factorize_gflops']:.1f} GF/s")
+    local_global = []
+    for name, make, stroke in cases:
+        local_global += measure_local_global(name, make, stroke, repeats)
     payload = {"benchmark": "rebuild_cost", "machine": machine_info(), "quick": args.quick,
-               "dense_matmul_gflops": dense, "rows": rows,
-               "targets": {"analyze_over_implicit_step_at_most": 1.0}}
+               "dense_matmul_gflops": dense, "rows": rows, "local_global": local_global,
+               "targets": {"analyze_over_implicit_step_at_most": 1.0,
+                           "local_global_rebuild_in_steps_at_most_128": 10.0,
+                           "local_global_step_seconds_at_most_64": 0.005}}
     save(args.out, "rebuild_cost", payload, lambda path: plot(rows, path))
     print(f"dense matmul (numpy, same run): {dense:.1f} GFlop/s")
     return payload

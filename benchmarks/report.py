@@ -102,6 +102,26 @@ def section(data: dict, results: Path) -> str:
             f"{min(r['analyze_over_explicit_step'] for r in rebuild['rows']):.0f}–"
             f"{max(r['analyze_over_explicit_step'] for r in rebuild['rows']):.0f} explicit steps."]
 
+    lg = rebuild.get("local_global", [])
+    if lg:
+        out += ["", "Prefactored local-global (10 iterations per step), where the matrix is factored "
+                "once and a stroke's rebuild is the whole extra cost — extra time over the 10 "
+                "steps after a stroke, in ordinary steps:", "",
+                "| case | ordinary step | fresh | reuse-ordering | stale-pcg |", "|---|---|---|---|---|"]
+        for case in dict.fromkeys(r["case"] for r in lg):
+            sel = {r["strategy"]: r for r in lg if r["case"] == case}
+            out.append(f"| {case} | {duration(sel['fresh']['ordinary_step_seconds'])} | "
+                       + " | ".join(f"{sel[k]['rebuild_in_ordinary_steps']:.1f}"
+                                    for k in ("fresh", "reuse-ordering", "stale-pcg")) + " |")
+        at128 = [r for r in lg if r["case"] == "grid 128²"]
+        at64 = [r for r in lg if r["case"] == "grid 64²"]
+        if at128 and at64:
+            best = min(r["rebuild_in_ordinary_steps"] for r in at128)
+            step64 = min(r["ordinary_step_seconds"] for r in at64)
+            out += ["", f"Targets: a rebuild under 10 ordinary steps at 128² — {verdict(best < 10)} "
+                    f"(best strategy {best:.1f}); a local-global step at 64² under 5 ms — "
+                    f"{verdict(step64 < 0.005)} ({1e3 * step64:.1f} ms)."]
+
     imp = data["implicit_step"]
     big = [r for r in imp["rows"] if r["grid"] >= 128]
     out += ["", "From `implicit_step` (linearized step by phase, AMD and METIS): a linearized step "

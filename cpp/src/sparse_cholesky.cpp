@@ -44,6 +44,11 @@ struct SparseCholesky::Impl {
   cholmod_dense* solution = nullptr;
   cholmod_dense* work_y = nullptr;
   cholmod_dense* work_e = nullptr;
+  // the same for several right-hand sides at once
+  cholmod_dense* block_rhs = nullptr;
+  cholmod_dense* block_solution = nullptr;
+  cholmod_dense* block_y = nullptr;
+  cholmod_dense* block_e = nullptr;
   SolverStatistics statistics;
   bool factored = false;
 
@@ -75,6 +80,9 @@ struct SparseCholesky::Impl {
     if (solution) cholmod_free_dense(&solution, &common);
     if (work_y) cholmod_free_dense(&work_y, &common);
     if (work_e) cholmod_free_dense(&work_e, &common);
+    for (cholmod_dense** dense : {&block_rhs, &block_solution, &block_y, &block_e}) {
+      if (*dense) cholmod_free_dense(dense, &common);
+    }
     factored = false;
   }
 
@@ -169,6 +177,23 @@ void SparseCholesky::solve(const double* rhs, double* solution) {
   d.check("solve");
   std::memcpy(solution, d.solution->x, d.rhs->nrow * sizeof(double));
   ++d.statistics.solves;
+}
+
+void SparseCholesky::solve_columns(const double* rhs, double* solution, int columns) {
+  Impl& d = *m_impl;
+  if (!d.factored) throw std::logic_error("SparseCholesky::solve_columns without a valid factor");
+  const std::size_t n = d.factor->n;
+  if (!d.block_rhs || d.block_rhs->ncol != static_cast<std::size_t>(columns)) {
+    if (d.block_rhs) cholmod_free_dense(&d.block_rhs, &d.common);
+    d.block_rhs = cholmod_zeros(n, static_cast<std::size_t>(columns), CHOLMOD_REAL, &d.common);
+    d.check("zeros");
+  }
+  std::memcpy(d.block_rhs->x, rhs, n * static_cast<std::size_t>(columns) * sizeof(double));
+  cholmod_solve2(CHOLMOD_A, d.factor, d.block_rhs, nullptr, &d.block_solution, nullptr,
+                 &d.block_y, &d.block_e, &d.common);
+  d.check("solve");
+  std::memcpy(solution, d.block_solution->x, n * static_cast<std::size_t>(columns) * sizeof(double));
+  d.statistics.solves += columns;
 }
 
 const SolverStatistics& SparseCholesky::statistics() const { return m_impl->statistics; }

@@ -29,6 +29,9 @@ class SparseCholesky final : public LinearSolver {
   /// Throws NotPositiveDefinite naming the column where CHOLMOD met a non-positive pivot.
   void factorize(const double* values) override;
   void solve(const double* rhs, double* solution) override;
+  /// Solves for `columns` right-hand sides at once (N×columns, column-major): one pass over
+  /// the factor with dense blocks. No allocation after the first call with that many columns.
+  void solve_columns(const double* rhs, double* solution, int columns);
   const SolverStatistics& statistics() const override;
 
  private:
