@@ -8,9 +8,7 @@ cloth's bounding-box diagonal. The reference is symplectic Euler at a step 16–
 stability limit; the same at half that step shows how converged it is (reported as
 reference_error). On the cylinder, which gets a stroke at t = 0, the stroke region's wrinkle
 amplitude is compared with the reference's (implicit Euler is known to damp wrinkles). Cost:
-wall time per simulated second. The local-global method damps springs isotropically (its matrix
-must stay constant), a small model difference from the reference's damping along the springs.
-Writes speed_vs_error.json and speed_vs_error.png.
+wall time per simulated second. Writes speed_vs_error.json and speed_vs_error.png.
 """
 
 from __future__ import annotations

@@ -114,6 +114,7 @@ void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
   m_iterate.resize(n, 3);
   m_previous_iterate.resize(n, 3);
   m_solution.resize(n, 3);
+  m_directions.resize(static_cast<Eigen::Index>(springs.size()), 3);
 }
 
 void LocalGlobalIntegrator::fill_values(const Cloth& cloth, double dt) {
@@ -293,7 +294,8 @@ double LocalGlobalIntegrator::objective(const Cloth& cloth, const Positions& x) 
     const std::int32_t i = springs.first[s], j = springs.second[s];
     energy += spring_energy(x.row(i), x.row(j), springs.rest_length[s], springs.stiffness[s]);
     const Vec3 moved = (x.row(i) - m_start.row(i)) - (x.row(j) - m_start.row(j));
-    energy += 0.5 * springs.damping[s] / h * moved.squaredNorm();
+    const double along = moved.dot(m_directions.row(static_cast<Eigen::Index>(s)));
+    energy += 0.5 * springs.damping[s] / h * along * along;
   }
   return energy;
 }
@@ -337,6 +339,14 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   }
   m_statistics.assemble_seconds += seconds_since(start);
 
+  // Damping directions frozen at the step's start (as the Newton integrator's damping term).
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const Eigen::RowVector3d d = m_start.row(springs.first[s]) - m_start.row(springs.second[s]);
+    const double length = d.norm();
+    m_directions.row(static_cast<Eigen::Index>(s)) =
+        length > 0.0 ? Eigen::RowVector3d(d / length) : Eigen::RowVector3d::Zero();
+  }
+
   m_objective_history.clear();
   const double rho = m_options.chebyshev_rho;
   double omega = 1.0;
@@ -353,11 +363,22 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       const double length = d.norm();
       if (length == 0.0) continue;
       // local step: the spring's ideal vector, its current direction at its rest length
-      const Eigen::RowVector3d ideal = (springs.stiffness[s] * springs.rest_length[s] / length) * d;
+      const Eigen::RowVector3d ideal =
+          (springs.stiffness[s] * springs.rest_length[s] / length) * d;
+      Eigen::RowVector3d force = ideal;
+      if (springs.damping[s] > 0.0) {
+        // The matrix damps the whole relative motion (c/h); give back its part across the
+        // spring, at the current iterate, so that at convergence only the motion along the
+        // spring's start direction is damped — exactly the Newton integrator's damping.
+        const Eigen::RowVector3d moved =
+            (m_iterate.row(i) - m_start.row(i)) - (m_iterate.row(j) - m_start.row(j));
+        const Eigen::RowVector3d n0 = m_directions.row(static_cast<Eigen::Index>(s));
+        force += (springs.damping[s] / dt) * (moved - moved.dot(n0) * n0);
+      }
       const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(i)];
       const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(j)];
-      if (a >= 0) m_rhs.row(a) += ideal;
-      if (b >= 0) m_rhs.row(b) -= ideal;
+      if (a >= 0) m_rhs.row(a) += force;
+      if (b >= 0) m_rhs.row(b) -= force;
     }
     m_statistics.assemble_seconds += seconds_since(start);
     global_solve();

@@ -63,10 +63,10 @@ struct LocalGlobalStatistics {
 ///   E(x) = ½‖x − x̂‖²_M / h² + Σ ½ k (|xᵢ − xⱼ| − L)² + D(x) − Σ m g·x,
 /// written with auxiliary spring vectors d (|d| = L) as a quadratic in x, so the global matrix
 /// Q = M/h² + Σ (k + c/h) AᵀA + drag·M/h is constant: it is analysed per topology and factored
-/// per (topology, dt, stiffness), never per step. Damping here is isotropic in each spring
-/// (c/(2h)|Δxᵢ − Δxⱼ|², it also damps motion across the spring) so that Q stays constant; with
-/// c = 0 the objective is exactly the Newton integrator's. Fixed and driven vertices are
-/// eliminated; Q is scalar (n_free × n_free), solved for x, y and z.
+/// per (topology, dt, stiffness), never per step. Q damps each spring's whole relative motion;
+/// the local step hands back the part across the spring's start direction, so at convergence
+/// the damping is c/(2h)((Δxᵢ − Δxⱼ)·d̂)² — the Newton integrator's objective exactly. Fixed and
+/// driven vertices are eliminated; Q is scalar (n_free × n_free), solved for x, y and z.
 class LocalGlobalIntegrator {
  public:
   /// Throws std::invalid_argument on bad options.
@@ -120,6 +120,7 @@ class LocalGlobalIntegrator {
   double m_h = 0.0;
   Vec3 m_gravity = Vec3::Zero();
   Positions m_start, m_target, m_iterate, m_previous_iterate, m_solution;
+  Positions m_directions;  // s×3, spring directions at the step's start (damping)
   Eigen::Matrix<double, Eigen::Dynamic, 3> m_base_rhs, m_rhs, m_unknowns;
   Eigen::VectorXd m_work_rhs, m_work_x, m_diagonal;
   CgWorkspace m_cg;
