@@ -49,10 +49,12 @@ def test_speed_vs_error_smoke(tmp_path):
     data = run_benchmark("speed_vs_error", tmp_path, "--quick")
     rows = [r for r in data["rows"] if r["method"] != "reference"]
     assert {r["method"] for r in rows} == {"explicit", "explicit + strain limit", "BE linearized",
-                                           "BE Newton", "BDF2"}
+                                           "BE Newton", "BDF2", "BE Newton, lagged factor",
+                                           "local-global (10 it)", "local-global + Chebyshev"}
     # explicit runs far above the stability limit diverge; the implicit ones never do
     assert any(r["diverged"] for r in rows if r["method"] == "explicit")
-    assert not any(r["diverged"] for r in rows if r["method"] in ("BE Newton", "BDF2"))
+    assert not any(r["diverged"] for r in rows
+                   if r["method"] in ("BE Newton", "BDF2", "local-global (10 it)"))
     # the reference is converged far below the errors it measures
     for reference in (r for r in data["rows"] if r["method"] == "reference"):
         errors = [r["error"] for r in rows if r["scene"] == reference["scene"] and not r["diverged"]]
@@ -70,6 +72,14 @@ def test_rebuild_cost_smoke(tmp_path):
     for row in data["rows"]:
         assert row["analyses"] == 1 + row["repeats"]  # one per stroke, plus the first
         assert row["step_after_stroke_seconds"] > row["analyze_seconds"] > 0
+    strategies = {(r["case"], r["strategy"]) for r in data["local_global"]}
+    assert {s for _, s in strategies} == {"fresh", "reuse-ordering", "stale-pcg"}
+    for row in data["local_global"]:
+        assert row["ordinary_step_seconds"] > 0
+        # every strategy refactored at least once per stroke except stale-pcg, which may still
+        # be stepping on the stale factor
+        if row["strategy"] != "stale-pcg":
+            assert row["factorizations"] >= 1 + 3
 
 
 def test_scaling_smoke(tmp_path):
