@@ -70,6 +70,41 @@ void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps)
   }
 }
 
+void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps,
+                     DivergenceMonitor& monitor, const char* integrator,
+                     Positions& checkpoint_positions, Positions& checkpoint_velocities,
+                     const std::function<void()>& step,
+                     const std::function<std::int64_t()>& step_index,
+                     const std::function<void()>& on_restore) {
+  check_advance_arguments(dt, gravity, steps);
+  if (steps == 0) return;
+  monitor.prepare(cloth, gravity, dt);
+  checkpoint_positions = cloth.positions();  // same size call to call: no reallocation
+  checkpoint_velocities = cloth.velocities();
+  const double checkpoint_time = cloth.time();
+  auto restore = [&] {
+    cloth.integrator_positions() = checkpoint_positions;
+    cloth.integrator_velocities() = checkpoint_velocities;
+    cloth.set_time(checkpoint_time);
+    if (on_restore) on_restore();
+  };
+  for (std::int64_t k = 0; k < steps; ++k) {
+    try {
+      step();
+    } catch (...) {
+      restore();
+      throw;
+    }
+    const double energy = DivergenceMonitor::monitored_energy(cloth, gravity);
+    const bool finite = std::isfinite(energy) && cloth.positions().allFinite();
+    if (!finite || energy > monitor.limit()) {
+      const double failed_time = cloth.time();
+      restore();
+      throw diverged_error(cloth, integrator, step_index(), failed_time, dt, finite);
+    }
+  }
+}
+
 SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
                                   double time, double dt, bool finite) {
   const double stable = cloth.stable_time_step();

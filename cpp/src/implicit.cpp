@@ -299,14 +299,14 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
         // CG on the current matrix, preconditioned by the lagged factor.
         start = Clock::now();
         m_direction.setZero();
-        bool converged = false;
+        bool cg_converged = false;
         m_statistics.lagged_cg_iterations += preconditioned_cg(
             m_pattern, m_values.data(), m_rhs, m_direction,
             [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
-            m_options.lag_cg_tolerance, m_options.lag_max_cg_iterations, m_cg, converged);
+            m_options.lag_cg_tolerance, m_options.lag_max_cg_iterations, m_cg, cg_converged);
         m_statistics.solve_seconds += seconds_since(start);
         ++m_statistics.lagged_solves;
-        solved = converged;
+        solved = cg_converged;
       }
       if (!solved) {
         start = Clock::now();
@@ -380,34 +380,11 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                  std::int64_t steps) {
-  check_advance_arguments(dt, gravity, steps);
-  if (steps == 0) return;
-  m_monitor.prepare(cloth, gravity, dt);
-  m_checkpoint_positions = cloth.positions();
-  m_checkpoint_velocities = cloth.velocities();
-  const double checkpoint_time = cloth.time();
-  auto restore = [&] {
-    cloth.integrator_positions() = m_checkpoint_positions;
-    cloth.integrator_velocities() = m_checkpoint_velocities;
-    cloth.set_time(checkpoint_time);
-    m_history_valid = false;
-  };
   const char* name = m_options.method == ImplicitMethod::bdf2 ? "bdf2" : "implicit";
-  for (std::int64_t k = 0; k < steps; ++k) {
-    try {
-      step(cloth, gravity, dt);
-    } catch (...) {
-      restore();
-      throw;
-    }
-    const double energy = DivergenceMonitor::monitored_energy(cloth, gravity);
-    const bool finite = std::isfinite(energy) && cloth.positions().allFinite();
-    if (!finite || energy > m_monitor.limit()) {
-      const double failed_time = cloth.time();
-      restore();
-      throw diverged_error(cloth, name, m_statistics.steps - 1, failed_time, dt, finite);
-    }
-  }
+  advance_checked(
+      cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions,
+      m_checkpoint_velocities, [&] { step(cloth, gravity, dt); },
+      [&] { return m_statistics.steps - 1; }, [&] { m_history_valid = false; });
 }
 
 NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity,

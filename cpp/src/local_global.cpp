@@ -412,33 +412,10 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
 
 void LocalGlobalIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                     std::int64_t steps) {
-  check_advance_arguments(dt, gravity, steps);
-  if (steps == 0) return;
-  m_monitor.prepare(cloth, gravity, dt);
-  m_checkpoint_positions = cloth.positions();
-  m_checkpoint_velocities = cloth.velocities();
-  const double checkpoint_time = cloth.time();
-  auto restore = [&] {
-    cloth.integrator_positions() = m_checkpoint_positions;
-    cloth.integrator_velocities() = m_checkpoint_velocities;
-    cloth.set_time(checkpoint_time);
-  };
-  for (std::int64_t k = 0; k < steps; ++k) {
-    try {
-      step(cloth, gravity, dt);
-    } catch (...) {
-      restore();
-      throw;
-    }
-    const double energy = DivergenceMonitor::monitored_energy(cloth, gravity);
-    const bool finite = std::isfinite(energy) && cloth.positions().allFinite();
-    if (!finite || energy > m_monitor.limit()) {
-      const double failed_time = cloth.time();
-      restore();
-      throw diverged_error(cloth, "local-global", m_statistics.steps - 1, failed_time, dt,
-                           finite);
-    }
-  }
+  advance_checked(
+      cloth, gravity, dt, steps, m_monitor, "local-global", m_checkpoint_positions,
+      m_checkpoint_velocities, [&] { step(cloth, gravity, dt); },
+      [&] { return m_statistics.steps - 1; }, {});
 }
 
 }  // namespace yore

@@ -6,6 +6,7 @@
 #include "yore/errors.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 
 namespace yore {
@@ -41,6 +42,19 @@ class DivergenceMonitor {
 /// Checks the arguments every integrator's advance() takes: dt finite and > 0 (s), gravity
 /// finite, steps >= 0. Throws std::invalid_argument naming the bad one.
 void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps);
+
+/// Runs `steps` calls of step(cloth) (each advancing the cloth by dt), checking the state after
+/// each against the monitor (baselined here). On a blow-up, or on any exception from step(), the
+/// cloth goes back to its state at the start (kept in the two checkpoint buffers, reused across
+/// calls), on_restore() runs, and SimulationDiverged (naming step_index(), the failing step) or
+/// the exception is thrown. Used by the implicit integrators; the explicit one fuses the check
+/// into its own loop.
+void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps,
+                     DivergenceMonitor& monitor, const char* integrator,
+                     Positions& checkpoint_positions, Positions& checkpoint_velocities,
+                     const std::function<void()>& step,
+                     const std::function<std::int64_t()>& step_index,
+                     const std::function<void()>& on_restore);
 
 /// The exception for a failed step: where it failed, why, and what the stability estimate says.
 SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
