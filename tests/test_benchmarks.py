@@ -125,3 +125,13 @@ def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
     assert f"{rebuild['dense_matmul_gflops']:.1f} GFlop/s" in text
     scaling = json.loads((results / "scaling.json").read_text())
     assert f"explicit {scaling['slopes']['explicit']:.2f}" in text
+
+
+def test_stream_bandwidth_probe_is_plausible():
+    import yore
+
+    bandwidth = yore._core.stream_triad_bandwidth(1_000_000, 3)
+    # between a very slow laptop (1 GB/s) and a large server (1 TB/s)
+    assert 1e9 < bandwidth < 1e12
+    with pytest.raises(ValueError):
+        yore._core.stream_triad_bandwidth(0, 3)

@@ -1,4 +1,5 @@
 #include "bindings.hpp"
+#include "yore/bandwidth.hpp"
 #include "yore/build_info.hpp"
 #include "yore/errors.hpp"
 #include "yore/geometry.hpp"
@@ -37,6 +38,10 @@ PYBIND11_MODULE(_core, m) {
       },
       "Versions of the libraries the core was built and linked against.");
   m.def("max_threads", &yore::max_threads, "Threads used by the core's parallel loops.");
+  m.def("stream_triad_bandwidth", &yore::stream_triad_bandwidth, py::arg("elements"),
+        py::arg("repeats"),
+        "Memory bandwidth (bytes/s) of a[i] = b[i] + s·c[i] with the core's threads, best of "
+        "repeats (STREAM triad).");
   m.def("set_max_threads", &yore::set_max_threads, py::arg("threads"),
         "Sets the number of threads of the core's parallel loops (>= 1).");
 
