@@ -211,7 +211,7 @@ class Simulation:
         self._integrator = _FACTORIES[integrator](self._options)
         if dt is None:
             dt = default_explicit_dt(cloth) if integrator == "explicit" else IMPLICIT_DT
-        self._dt = _check_positive_seconds(dt, "dt")
+        self._dt = check_factor(dt, "dt", "s")
         self._wall_seconds = 0.0
         self._target_time = None  # the time the last advance() aimed at
         self._pending_reports = []  # stroke reports waiting for the next step's re-analysis time
@@ -491,13 +491,3 @@ class Simulation:
     def __repr__(self) -> str:
         return (f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
                 f"t={self.time:.4g} s, {self._cloth!r}>")
-
-
-def _check_positive_seconds(value, name: str) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number of seconds, got {value!r}") from None
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0 s, got {value}")
-    return value

@@ -141,11 +141,15 @@ def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:
     return np.ascontiguousarray(array)
 
 
-def check_factor(value, name: str) -> float:
-    value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0, got {value}")
-    return value
+def check_factor(value, name: str, unit: str = "") -> float:
+    """`value` as a finite float > 0; ValueError naming `name` otherwise."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number{unit and f' ({unit})'}, got {value!r}") from None
+    if not math.isfinite(number) or number <= 0.0:
+        raise ValueError(f"{name} must be finite and > 0{unit and f' ({unit})'}, got {number}")
+    return number
 
 
 def mean_edge_length(V, F) -> float:
