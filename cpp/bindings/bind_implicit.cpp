@@ -158,9 +158,7 @@ Newton direction.)doc")
         out["analyses"] = solver.analyses;
         out["factorizations"] = solver.factorizations;
         out["solves"] = solver.solves;
-        out["factor_nonzeros"] = solver.factor_nonzeros;
-        out["factor_flops"] = solver.factor_flops;
-        out["ordering"] = solver.ordering;
+        add_factor_statistics(out, solver);
         out["pcg_iterations"] = solver.iterations;
         out["pcg_unconverged"] = solver.unconverged;
         return out;

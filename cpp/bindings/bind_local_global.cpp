@@ -69,9 +69,7 @@ void bind_local_global(py::module_& m) {
         out["dofs"] = s.last_dofs;
         out["analyses"] = s.analyses;
         out["factorizations"] = s.factorizations;
-        out["factor_nonzeros"] = solver.factor_nonzeros;
-        out["factor_flops"] = solver.factor_flops;
-        out["ordering"] = solver.ordering;
+        add_factor_statistics(out, solver);
         return out;
       });
 }

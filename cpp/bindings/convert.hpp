@@ -3,6 +3,7 @@
 // offending argument, shape or value (std::invalid_argument → ValueError in Python).
 
 #include "yore/cloth.hpp"
+#include "yore/linear_solver.hpp"
 #include "yore/mesh.hpp"
 
 #include <pybind11/numpy.h>
@@ -81,6 +82,13 @@ void def_advance(py::class_<Integrator>& integrator_class) {
       },
       py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("steps"),
       "Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.");
+}
+
+/// Adds the factor's size, flops and ordering (as every integrator's statistics report them).
+inline void add_factor_statistics(py::dict& out, const SolverStatistics& solver) {
+  out["factor_nonzeros"] = solver.factor_nonzeros;
+  out["factor_flops"] = solver.factor_flops;
+  out["ordering"] = solver.ordering;
 }
 
 }  // namespace yore::bindings
