@@ -136,6 +136,35 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
 at `positions` (n×3; only free vertices are unknowns): energy (J), gradient (N), the Hessian's
 lower triangle in CSC (hessian_data, hessian_indices, hessian_indptr, size) and the solver's
 Newton direction.)doc")
+      .def(
+          "history",
+          [](const ImplicitIntegrator& integrator, const Cloth& cloth) -> py::object {
+            const ImplicitIntegrator::History history = integrator.history(cloth);
+            if (!history.valid) return py::none();
+            py::dict out;
+            out["positions"] = read_only_copy(history.positions);
+            out["velocities"] = read_only_copy(history.velocities);
+            out["dt"] = history.dt;
+            return out;
+          },
+          py::arg("cloth"),
+          R"doc(BDF2's state one step back for the next step of `cloth`: a dict with positions
+(n×3, m), velocities (n×3, m/s) and dt (s), or None when the next step starts afresh.)doc")
+      .def(
+          "set_history",
+          [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::object& history) {
+            ImplicitIntegrator::History restored;
+            if (!history.is_none()) {
+              const py::dict values = history.cast<py::dict>();
+              restored.valid = true;
+              restored.positions = to_rows3(values["positions"], "history positions");
+              restored.velocities = to_rows3(values["velocities"], "history velocities");
+              restored.dt = values["dt"].cast<double>();
+            }
+            integrator.set_history(cloth, restored);
+          },
+          py::arg("cloth"), py::arg("history"),
+          "Restores a history taken by history() (None forgets it) for `cloth` as it is now.")
       .def_property_readonly("statistics", [](const ImplicitIntegrator& integrator) {
         const ImplicitStatistics& s = integrator.statistics();
         const SolverStatistics& solver = integrator.solver_statistics();

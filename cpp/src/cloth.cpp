@@ -172,6 +172,164 @@ Cloth Cloth::from_springs(const Positions& positions, const Edges& edges,
   return network;
 }
 
+double Cloth::advance_time(double dt) {
+  if (dt != m_clock.dt) m_clock = SimulationClock{m_clock.time(), 0, dt};
+  ++m_clock.steps;
+  return m_clock.time();
+}
+
+ClothState Cloth::state() const {
+  ClothState state;
+  state.positions = m_positions;
+  state.velocities = m_velocities;
+  state.masses = m_masses;
+  state.faces = m_faces;
+  state.springs = m_springs;
+  state.drag = m_drag;
+  state.stretch_stiffness = m_stretch_stiffness;
+  state.bend_stiffness = m_bend_stiffness;
+  state.spring_damping = m_spring_damping;
+  state.material = m_material;
+  state.vertex_states = m_vertex_states;
+  state.drivers = m_drivers;
+  state.clock = m_clock;
+  return state;
+}
+
+namespace {
+
+void check_state_springs(const SpringSet& springs, Eigen::Index n) {
+  const std::size_t s = springs.size();
+  if (springs.second.size() != s || springs.rest_length.size() != s ||
+      springs.stiffness.size() != s || springs.damping.size() != s || springs.kind.size() != s ||
+      springs.reference_length.size() != s) {
+    fail("state: the spring arrays differ in length");
+  }
+  for (std::size_t k = 0; k < s; ++k) {
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    if (i < 0 || i >= n || j < 0 || j >= n || i == j) {
+      std::ostringstream msg;
+      msg << "state: spring " << k << " has ends (" << i << ", " << j
+          << "); they must be two different vertices in [0, " << n << ")";
+      fail(msg.str());
+    }
+    const double values[] = {springs.rest_length[k], springs.reference_length[k],
+                             springs.stiffness[k]};
+    if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
+          values[1] > 0.0 && std::isfinite(values[2]) && values[2] > 0.0)) {
+      std::ostringstream msg;
+      msg << "state: spring " << k << " needs finite, positive rest length, reference length "
+          << "and stiffness, got " << values[0] << ", " << values[1] << ", " << values[2];
+      fail(msg.str());
+    }
+    if (!std::isfinite(springs.damping[k]) || springs.damping[k] < 0.0) {
+      std::ostringstream msg;
+      msg << "state: spring " << k << " has damping " << springs.damping[k]
+          << "; it must be finite and >= 0";
+      fail(msg.str());
+    }
+    const auto kind = static_cast<int>(springs.kind[k]);
+    if (kind != 0 && kind != 1) {
+      std::ostringstream msg;
+      msg << "state: spring " << k << " has kind " << kind << " (0 structural, 1 bending)";
+      fail(msg.str());
+    }
+  }
+}
+
+void check_state_constraints(const ClothState& state, Eigen::Index n) {
+  if (static_cast<Eigen::Index>(state.vertex_states.size()) != n) {
+    std::ostringstream msg;
+    msg << "state: vertex_states has " << state.vertex_states.size() << " entries for " << n
+        << " vertices";
+    fail(msg.str());
+  }
+  std::vector<int> driven_by(static_cast<std::size_t>(n), 0);
+  for (std::size_t d = 0; d < state.drivers.size(); ++d) {
+    const RotationDriver& driver = state.drivers[d];
+    if (driver.reference.rows() != static_cast<Eigen::Index>(driver.vertices.size()) ||
+        !driver.reference.allFinite() || !driver.center.allFinite() ||
+        !std::isfinite(driver.omega) || !std::isfinite(driver.start_time) ||
+        !(std::abs(driver.axis.norm() - 1.0) < 1e-9)) {
+      std::ostringstream msg;
+      msg << "state: driver " << d << " needs one finite reference row per vertex, a finite "
+          << "center, omega and start time, and a unit axis";
+      fail(msg.str());
+    }
+    for (const std::int32_t v : driver.vertices) {
+      if (v < 0 || v >= n) {
+        std::ostringstream msg;
+        msg << "state: driver " << d << " drives vertex " << v << ", out of range [0, " << n
+            << ")";
+        fail(msg.str());
+      }
+      ++driven_by[static_cast<std::size_t>(v)];
+    }
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto code = static_cast<int>(state.vertex_states[static_cast<std::size_t>(i)]);
+    const bool driven = code == static_cast<int>(VertexState::driven);
+    if (code < 0 || code > 2 || driven != (driven_by[static_cast<std::size_t>(i)] == 1) ||
+        driven_by[static_cast<std::size_t>(i)] > 1) {
+      std::ostringstream msg;
+      msg << "state: vertex " << i << " has state " << code << " (0 free, 1 fixed, 2 driven) "
+          << "but " << driven_by[static_cast<std::size_t>(i)]
+          << " driver(s); a driven vertex needs exactly one";
+      fail(msg.str());
+    }
+  }
+}
+
+}  // namespace
+
+Cloth Cloth::from_state(const ClothState& state) {
+  const Eigen::Index n = state.positions.rows();
+  if (state.faces.rows() > 0) validate_mesh(state.positions, state.faces);
+  Cloth cloth;
+  cloth.initialise_state(state.positions, state.masses, state.drag);
+  if (state.velocities.rows() != n) {
+    std::ostringstream msg;
+    msg << "state: velocities has " << state.velocities.rows() << " rows for " << n
+        << " vertices";
+    fail(msg.str());
+  }
+  check_finite_rows(state.velocities, "velocity");
+  check_state_springs(state.springs, n);
+  if (state.springs.size() == 0) fail("state: the cloth has no springs");
+  check_state_constraints(state, n);
+  if (state.material.rows() != 0 && state.material.rows() != n) {
+    std::ostringstream msg;
+    msg << "state: material coordinates have " << state.material.rows() << " rows for " << n
+        << " vertices";
+    fail(msg.str());
+  }
+  if (!state.material.allFinite()) fail("state: material coordinates must be finite");
+  if (state.faces.rows() > 0) check_positive(state.stretch_stiffness, "state: stretch_stiffness");
+  check_non_negative(state.bend_stiffness, "state: bend_stiffness");
+  check_non_negative(state.spring_damping, "state: spring_damping");
+  const SimulationClock& clock = state.clock;
+  if (!std::isfinite(clock.origin) || clock.steps < 0 || !std::isfinite(clock.dt) ||
+      clock.dt < 0.0 || !std::isfinite(clock.time())) {
+    std::ostringstream msg;
+    msg << "state: bad clock (origin " << clock.origin << " s, " << clock.steps
+        << " steps of " << clock.dt << " s)";
+    fail(msg.str());
+  }
+  cloth.m_velocities = state.velocities;
+  cloth.m_faces = state.faces;
+  cloth.m_springs = state.springs;
+  cloth.m_stretch_stiffness = state.stretch_stiffness;
+  cloth.m_bend_stiffness = state.bend_stiffness;
+  cloth.m_spring_damping = state.spring_damping;
+  cloth.m_material = state.material;
+  cloth.m_vertex_states = state.vertex_states;
+  cloth.m_drivers = state.drivers;
+  cloth.m_clock = clock;
+  cloth.update_inverse_masses();
+  cloth.rebuild_incidence();
+  return cloth;
+}
+
 void Cloth::rebuild_incidence() {
   const std::size_t n = static_cast<std::size_t>(vertex_count());
   const std::size_t s = m_springs.size();
@@ -310,10 +468,10 @@ void Cloth::drive_rotation(const std::vector<std::int32_t>& vertices, const Vec3
   driver.center = center;
   driver.axis = axis / axis_length;
   driver.omega = omega;
-  driver.start_time = m_time;
+  driver.start_time = time();
   m_drivers.push_back(std::move(driver));
   update_inverse_masses();
-  apply_drivers(m_time);
+  apply_drivers(time());
   m_topology_version = next_topology_version();
   ++m_edit_count;
 }

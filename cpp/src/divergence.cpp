@@ -81,11 +81,11 @@ void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t 
   monitor.prepare(cloth, gravity, dt);
   checkpoint_positions = cloth.positions();  // same size call to call: no reallocation
   checkpoint_velocities = cloth.velocities();
-  const double checkpoint_time = cloth.time();
+  const SimulationClock checkpoint_clock = cloth.clock();
   auto restore = [&] {
     cloth.integrator_positions() = checkpoint_positions;
     cloth.integrator_velocities() = checkpoint_velocities;
-    cloth.set_time(checkpoint_time);
+    cloth.set_clock(checkpoint_clock);
     if (on_restore) on_restore();
   };
   for (std::int64_t k = 0; k < steps; ++k) {

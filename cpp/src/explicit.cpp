@@ -183,7 +183,7 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   const Eigen::Index n = cloth.vertex_count();
   m_checkpoint_positions = cloth.positions();  // same size every call: no reallocation
   m_checkpoint_velocities = cloth.velocities();
-  const double checkpoint_time = cloth.time();
+  const SimulationClock checkpoint_clock = cloth.clock();
   m_statistics.checks_seconds += seconds_since(start);
 
   const bool limiting = m_options.strain_limit > 0.0;
@@ -207,9 +207,7 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
         x[3 * i + c] += dt * v[3 * i + c];
       }
     }
-    // Time from the call's start and a step count, so that round-off does not accumulate.
-    const double new_time = checkpoint_time + static_cast<double>(step + 1) * dt;
-    cloth.set_time(new_time);
+    const double new_time = cloth.advance_time(dt);
     cloth.apply_drivers(new_time);
     m_statistics.update_seconds += seconds_since(start);
 
@@ -241,7 +239,7 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
       const std::int64_t failed_step = m_statistics.steps;
       cloth.integrator_positions() = m_checkpoint_positions;
       cloth.integrator_velocities() = m_checkpoint_velocities;
-      cloth.set_time(checkpoint_time);
+      cloth.set_clock(checkpoint_clock);
       throw diverged_error(cloth, "explicit", failed_step, new_time, dt, finite);
     }
     ++m_statistics.steps;

@@ -142,9 +142,12 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_trial.resize(n, 3);
   m_iterate.resize(n, 3);
   m_directions.resize(static_cast<Eigen::Index>(s), 3);
-  m_previous_positions.resize(n, 3);
-  m_previous_velocities.resize(n, 3);
-  m_history_valid = false;
+  // A history restored by set_history for this very topology survives the first step's setup.
+  if (m_history_topology != cloth.topology_version()) {
+    m_previous_positions.resize(n, 3);
+    m_previous_velocities.resize(n, 3);
+    m_history_valid = false;
+  }
   m_factor_valid = false;
   m_cg.resize(dofs);
 
@@ -268,8 +271,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     m_previous_positions = cloth.positions();  // same size: no allocation
     m_previous_velocities = cloth.velocities();
   }
-  const double new_time = cloth.time() + dt;
-  cloth.set_time(new_time);
+  const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(new_time);
   m_iterate = cloth.positions();
 
@@ -376,6 +378,50 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   m_statistics.last_newton_iterations = iterations;
   m_statistics.last_line_search_backtracks = backtracks;
   m_statistics.last_dofs = m_pattern.size;
+}
+
+ImplicitIntegrator::History ImplicitIntegrator::history(const Cloth& cloth) const {
+  History out;
+  out.valid = m_options.method == ImplicitMethod::bdf2 && m_history_valid &&
+              m_history_topology == cloth.topology_version() &&
+              m_history_edits == cloth.edit_count();
+  if (out.valid) {
+    out.positions = m_previous_positions;
+    out.velocities = m_previous_velocities;
+    out.dt = m_history_dt;
+  }
+  return out;
+}
+
+void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history) {
+  if (m_options.method != ImplicitMethod::bdf2) {
+    throw std::invalid_argument("only a BDF2 integrator has a history to restore");
+  }
+  if (!history.valid) {
+    m_history_valid = false;
+    return;
+  }
+  const Eigen::Index n = cloth.vertex_count();
+  if (history.positions.rows() != n || history.velocities.rows() != n) {
+    std::ostringstream msg;
+    msg << "history must have " << n << " rows (the cloth's vertices), got "
+        << history.positions.rows() << " and " << history.velocities.rows();
+    throw std::invalid_argument(msg.str());
+  }
+  if (!history.positions.allFinite() || !history.velocities.allFinite()) {
+    throw std::invalid_argument("history positions and velocities must be finite");
+  }
+  if (!std::isfinite(history.dt) || history.dt <= 0.0) {
+    std::ostringstream msg;
+    msg << "history dt must be finite and > 0, got " << history.dt;
+    throw std::invalid_argument(msg.str());
+  }
+  m_previous_positions = history.positions;
+  m_previous_velocities = history.velocities;
+  m_history_dt = history.dt;
+  m_history_topology = cloth.topology_version();
+  m_history_edits = cloth.edit_count();
+  m_history_valid = true;
 }
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,

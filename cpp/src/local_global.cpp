@@ -306,8 +306,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   m_gravity = gravity;
   m_start = cloth.positions();
   m_target = m_start + dt * cloth.velocities();
-  const double new_time = cloth.time() + dt;
-  cloth.set_time(new_time);
+  const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(new_time);
   m_iterate = cloth.positions();  // constrained rows: their prescribed positions at t + h
   for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);

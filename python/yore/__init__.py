@@ -11,6 +11,7 @@ from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
 from .simulation import INTEGRATORS, Simulation
+from .state import load_state, save_state
 from .stroke import Camera, StrokeMissed, StrokeReport
 
 __version__ = "0.1.0"
@@ -30,6 +31,8 @@ __all__ = [
     "load_mesh",
     "save_mesh",
     "scenes",
+    "save_state",
+    "load_state",
     "springs",
     "build_info",
     "set_num_threads",

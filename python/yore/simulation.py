@@ -248,6 +248,39 @@ class Simulation:
         """Simulated time, s."""
         return self._cloth.time
 
+    # -- saving and restoring -----------------------------------------------------------------
+    def state(self) -> dict:
+        """Everything needed to continue this simulation exactly: the cloth's state
+        (`yore.Cloth.state`), integrator name and options, dt, gravity and BDF2's history.
+        `Simulation.from_state` rebuilds it; `yore.save_state` writes it to a file."""
+        history = None
+        if self._integrator_name == "bdf2":
+            history = self._integrator.history(self._cloth)
+        return {"cloth": self._cloth.state(), "integrator": self._integrator_name,
+                "options": dict(self._options), "dt": self._dt,
+                "gravity": self._gravity.copy(), "history": history,
+                "target_time": self._target_time}
+
+    @classmethod
+    def from_state(cls, state) -> Simulation:
+        """Rebuilds a simulation from `state`'s dict; the next step gives the same numbers, bit
+        for bit, as the next step of the simulation it was taken from (see `yore.state` for the
+        two options that keep a factor across steps and so continue only to solver
+        tolerance). Raises ValueError on a malformed state."""
+        expected = {"cloth", "integrator", "options", "dt", "gravity", "history", "target_time"}
+        if not isinstance(state, dict) or set(state) != expected:
+            got = sorted(state) if isinstance(state, dict) else type(state).__name__
+            raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, "
+                             f"got {got}")
+        cloth = Cloth.from_state(state["cloth"])
+        sim = cls(cloth, integrator=state["integrator"], dt=state["dt"],
+                  gravity=state["gravity"], **state["options"])
+        if state["history"] is not None:
+            sim._integrator.set_history(cloth, state["history"])
+        target = state["target_time"]
+        sim._target_time = None if target is None else float(target)
+        return sim
+
     # -- stepping ---------------------------------------------------------------------------
     def step(self, n: int = 1, progress=None) -> None:
         """Advances ``n`` steps of ``dt``.

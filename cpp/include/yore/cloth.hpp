@@ -38,6 +38,34 @@ struct EnergyTerms {
   double total() const { return kinetic + spring + gravity; }
 };
 
+/// Simulated time kept as origin + steps × dt: it neither drifts with round-off nor depends on
+/// how a run is split into calls (so a resumed run reproduces a straight one bit for bit).
+struct SimulationClock {
+  double origin = 0.0;     ///< s, the time when the step size last changed or time was set
+  std::int64_t steps = 0;  ///< steps of dt taken since origin
+  double dt = 0.0;         ///< s, the step size since origin (0 before the first step)
+  /// The current time, s.
+  double time() const { return origin + static_cast<double>(steps) * dt; }
+};
+
+/// Everything that defines a cloth, for saving and restoring it exactly (Cloth::state /
+/// Cloth::from_state). Arrays are as the Cloth's accessors describe them.
+struct ClothState {
+  Positions positions;   ///< n×3, m
+  Positions velocities;  ///< n×3, m/s
+  Eigen::VectorXd masses;  ///< n, kg
+  Faces faces;             ///< f×3 (empty for a spring network)
+  SpringSet springs;       ///< in the cloth's order (summation order, hence round-off, follows it)
+  double drag = 0.0;       ///< 1/s
+  double stretch_stiffness = 0.0;  ///< N/m, given to structural springs a stroke adds
+  double bend_stiffness = 0.0;     ///< N/m, given to bending springs a stroke adds
+  double spring_damping = 0.0;     ///< N·s/m, given to springs a stroke adds
+  Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> material;  ///< n×2 or empty, m
+  std::vector<VertexState> vertex_states;  ///< n
+  std::vector<RotationDriver> drivers;
+  SimulationClock clock;
+};
+
 /// Where to split one face: the new vertex at these barycentric weights of its corners.
 struct FaceSplit {
   std::int32_t face = -1;
@@ -138,9 +166,24 @@ class Cloth {
   void apply_drivers(double time);
 
   /// Simulated time, s.
-  double time() const { return m_time; }
+  double time() const { return m_clock.time(); }
   /// Sets the simulated time (s) without moving anything; see apply_drivers.
-  void set_time(double time) { m_time = time; }
+  void set_time(double time) { m_clock = SimulationClock{time, 0, 0.0}; }
+  /// Advances the clock by one step of dt (s) and returns the new time. Integrators call this
+  /// once per step; the time is origin + steps × dt while dt stays the same.
+  double advance_time(double dt);
+  /// The clock behind time(): for checkpoints that must restore time exactly.
+  const SimulationClock& clock() const { return m_clock; }
+  /// Restores a clock taken by clock().
+  void set_clock(const SimulationClock& clock) { m_clock = clock; }
+
+  /// A copy of everything that defines this cloth (see ClothState).
+  ClothState state() const;
+  /// Rebuilds a cloth from a state, exactly (same spring order, same clock). Gives a new
+  /// topology_version. Throws std::invalid_argument naming the first inconsistency (shapes,
+  /// indices out of range, non-finite or non-positive values, constraints and drivers that
+  /// disagree).
+  static Cloth from_state(const ClothState& state);
 
   /// Changes whenever the structure of the system changes: vertices, springs or the set of
   /// constrained vertices. Unique across all cloths of the process, so caches derived from the
@@ -206,7 +249,7 @@ class Cloth {
   std::vector<std::int32_t> m_incidence_offsets;
   std::vector<std::int32_t> m_incident_springs;
   std::vector<double> m_incident_signs;
-  double m_time = 0.0;
+  SimulationClock m_clock;
   std::uint64_t m_topology_version = 0;
   std::uint64_t m_edit_count = 0;
 };

@@ -105,6 +105,21 @@ class ImplicitIntegrator {
   NewtonSystem newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
                              const Positions& positions);
 
+  /// BDF2's memory: the state one step back (n×3 positions in m, velocities in m/s) and the step
+  /// size it was taken with, s. `valid` is false when the next step of `cloth` would start
+  /// BDF2 afresh with a backward-Euler step (no history yet, or the cloth was edited since).
+  struct History {
+    bool valid = false;
+    Positions positions, velocities;
+    double dt = 0.0;
+  };
+  /// The history the next step of `cloth` would use (always invalid for backward Euler).
+  History history(const Cloth& cloth) const;
+  /// Restores a history taken by history(), for `cloth` as it is now (a resumed run).
+  /// Throws std::invalid_argument on shapes that do not match the cloth, non-finite values,
+  /// a non-positive dt, or a backward-Euler integrator.
+  void set_history(const Cloth& cloth, const History& history);
+
   const ImplicitOptions& options() const { return m_options; }
   const ImplicitStatistics& statistics() const { return m_statistics; }
   /// The linear solver's counters (analyses, factorizations, nnz(L), flops, ordering).
