@@ -24,7 +24,7 @@ $(VPY):
 $(VENV)/.deps: $(VPY) pyproject.toml
 	$(VPY) -m pip install --quiet --upgrade pip
 	$(VPY) -m pip install --quiet "scikit-build-core>=0.10" "pybind11>=2.13" "numpy>=1.23" \
-	    "meshio>=5.3,<6" "tqdm>=4.60" "pytest>=7" "hypothesis>=6" "matplotlib>=3.6"
+	    "meshio>=5.3,<6" "tqdm>=4.60" "pillow>=9" "pytest>=7" "hypothesis>=6" "matplotlib>=3.6"
 	@touch $@
 
 $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
@@ -35,7 +35,7 @@ test: setup
 	$(VPY) -m pytest -q tests
 
 demo: setup
-	$(VPY) examples/hanging_cloth.py --out $(OUT)
+	$(VENV)/bin/yore demo -o $(OUT)
 
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
 BENCHMARKS := explicit_step implicit_step rebuild_cost speed_vs_error scaling newton_projection \

@@ -12,6 +12,9 @@ from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
 from .simulation import INTEGRATORS, Simulation
 from .state import load_state, save_state
+from .scene_file import SceneError, load_scene
+from .runner import RunError, resume_run, run_scene
+from . import render, scene_file
 from .stroke import Camera, StrokeMissed, StrokeReport
 
 __version__ = "0.1.0"
@@ -32,6 +35,12 @@ __all__ = [
     "save_mesh",
     "scenes",
     "save_state",
+    "load_scene",
+    "SceneError",
+    "run_scene",
+    "resume_run",
+    "RunError",
+    "render",
     "load_state",
     "springs",
     "build_info",

@@ -212,6 +212,9 @@ class FrameSeries:
         File name prefix; must be non-empty and contain no path separator.
     fmt : {"vtu", "ply", "obj", "vtk"}
         Frame file format. "obj" cannot store point data.
+    frames : list of (float, path), optional
+        Frames already written (e.g. by the run a resumed run continues, possibly in another
+        folder): they stay in the collection and numbering continues after them.
 
     Attributes
     ----------
@@ -233,7 +236,7 @@ class FrameSeries:
 
     formats = ("vtu", "vtk", "ply", "obj")
 
-    def __init__(self, folder, stem="frame", fmt="vtu"):
+    def __init__(self, folder, stem="frame", fmt="vtu", frames=None):
         if fmt not in self.formats:
             raise ValueError(f"fmt must be one of {list(self.formats)}, got {fmt!r}")
         if not isinstance(stem, str) or not stem or "/" in stem or os.sep in stem:
@@ -241,7 +244,8 @@ class FrameSeries:
         self.folder = Path(os.fspath(folder))
         self.stem = stem
         self.fmt = fmt
-        self.frames: list[tuple[float, Path]] = []
+        self.frames: list[tuple[float, Path]] = [(float(t), Path(os.fspath(p)))
+                                                 for t, p in (frames or [])]
         self.pvd_path = self.folder / f"{stem}.pvd" if fmt in ("vtu", "vtk") else None
         self._closed = False
         self.folder.mkdir(parents=True, exist_ok=True)
@@ -302,7 +306,7 @@ class FrameSeries:
                 timestep=repr(time),
                 group="",
                 part="0",
-                file=path.relative_to(self.folder).as_posix(),
+                file=Path(os.path.relpath(path, self.folder)).as_posix(),
             )
         tree = ET.ElementTree(root)
         ET.indent(tree)

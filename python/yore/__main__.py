@@ -1,0 +1,7 @@
+"""``python -m yore`` is the ``yore`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,218 @@
+"""The ``yore`` command.
+
+    yore run SCENE.toml [-o OUT] [--set KEY=VALUE ...] [--until SECONDS] [--quiet]
+    yore run --resume OUT/state.npz [-o OUT2] [--until SECONDS] [--quiet]
+    yore check SCENE.toml [--set KEY=VALUE ...]
+    yore demo [-o OUT] [--quiet]
+    yore render FRAME|RUN_DIR [-o OUT] [--width W] [--height H] [--color-by expansion]
+                [--animation gif|mp4|none] [--no-pictures] [--eye X Y Z] [--target X Y Z]
+
+Exit codes: 0 success; 1 the run failed (it diverged, or a stroke missed at its time; the
+state before the failure is saved); 2 bad input (command line, scene file, missing file),
+reported before anything runs; 130 interrupted. Errors are one line on stderr, starting
+with "yore: error:".
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from importlib import resources
+from pathlib import Path
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors as one line and exit code 2 (as argparse does)."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"yore: error: {message} (see `yore {self.prog.split()[-1]} "
+                                  "--help`)\n" if " " in self.prog else
+                  f"yore: error: {message} (see `yore --help`)\n")
+
+
+def _parser():
+    parser = _Parser(prog="yore", description="Cloth simulation with stroke-driven wrinkles "
+                     "(Shi & Saito): run scene files, render pictures.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    commands.required = True
+
+    run = commands.add_parser("run", help="run a scene file (or resume a run)",
+                              description="Run a TOML scene file, writing frames, a ParaView "
+                              "collection, summary.json, state.npz and pictures into OUT.")
+    run.add_argument("scene", nargs="?", type=Path, help="the scene file (.toml)")
+    run.add_argument("-o", "--out", type=Path, help="output folder (default: yore-out/SCENE; "
+                     "with --resume: the state's folder)")
+    run.add_argument("--resume", type=Path, metavar="STATE",
+                     help="continue the run saved in STATE (a run's state.npz)")
+    run.add_argument("--until", type=float, metavar="SECONDS",
+                     help="stop at this simulated time instead of the scene's duration")
+    _add_set(run)
+    run.add_argument("--no-render", action="store_true",
+                     help="skip the pictures and animation the scene asks for")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no report")
+
+    check = commands.add_parser("check", help="check a scene file without running it",
+                                description="Check a scene file (keys, types, values, vertex "
+                                "selections, strokes that can be tried at t = 0).")
+    check.add_argument("scene", type=Path)
+    _add_set(check)
+
+    demo = commands.add_parser("demo", help="the paper's hanging cloth with a stroke",
+                               description="The paper's hanging-cloth experiment with a stroke "
+                               "(examples/hanging.toml), writing frames, before/after "
+                               "pictures and an animation into OUT.")
+    demo.add_argument("-o", "--out", type=Path, default=Path("yore-out"))
+    _add_set(demo)
+    demo.add_argument("-q", "--quiet", action="store_true")
+
+    render = commands.add_parser("render", help="pictures of a frame or a run",
+                                 description="PNG pictures of a frame file, or of a run folder "
+                                 "(before/after side by side, last frame, animation).")
+    render.add_argument("path", type=Path, help="a frame file or a run folder")
+    render.add_argument("-o", "--out", type=Path, help="PNG file (frame) or folder (run)")
+    render.add_argument("--width", type=int, help="image width, pixels")
+    render.add_argument("--height", type=int, help="image height, pixels")
+    render.add_argument("--color-by", choices=("none", "expansion"), default="none",
+                        help="colour faces by rest-length expansion")
+    render.add_argument("--animation", choices=("gif", "mp4", "none"), default="gif",
+                        help="animation of a run's frames (default gif)")
+    render.add_argument("--no-pictures", action="store_true",
+                        help="a run: only the animation")
+    render.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"))
+    render.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"))
+    render.add_argument("-q", "--quiet", action="store_true")
+    return parser
+
+
+def _add_set(parser):
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE", help="override a scene key, e.g. --set mesh.nx=9 "
+                        "--set simulation.duration=0.5 (VALUE is read as TOML)")
+
+
+def _overrides(arguments):
+    from .scene_file import parse_override
+
+    return dict(parse_override(text) for text in arguments.overrides)
+
+
+def demo_scene_text() -> str:
+    """The demo's scene file (the same text as examples/hanging.toml)."""
+    return resources.files("yore").joinpath("data/hanging.toml").read_text(encoding="utf-8")
+
+
+def _report(summary, out, quiet):
+    if quiet:
+        return
+    counters = summary["counters"]
+    print(f"simulated {summary['time']:.3f} s in {summary['steps']} {summary['integrator']} "
+          f"steps of {summary['dt']:.4g} s ({summary['wall_seconds']:.1f} s wall)")
+    for stroke in summary["strokes"]:
+        print(f"stroke {stroke['stroke']} at t = {stroke['time']:.3f} s: "
+              f"{stroke['faces_split']} faces split, {stroke['vertices_added']} vertices added")
+    if counters.get("analyses") is not None:
+        print(f"symbolic analyses: {counters['analyses']}, factorizations: "
+              f"{counters.get('factorizations')}")
+    outputs = summary["outputs"]
+    where = {"frames": "frames", "pvd": "ParaView collection", "before_after": "before/after",
+             "last": "last frame picture", "animation": "animation", "summary": "summary",
+             "state": "state (yore run --resume)"}
+    for key, label in where.items():
+        if key in outputs:
+            print(f"{label + ':':28s}{(out / outputs[key]).resolve()}")
+
+
+def _run(arguments):
+    from .runner import resume_run, run_scene
+    from .scene_file import load_scene
+
+    if arguments.resume is not None:
+        if arguments.scene is not None or arguments.overrides:
+            raise ValueError("--resume continues a saved run: give no scene file and no --set")
+        summary = resume_run(arguments.resume, out=arguments.out, until=arguments.until,
+                             quiet=arguments.quiet, render=not arguments.no_render)
+        out = arguments.out or arguments.resume.parent
+    else:
+        if arguments.scene is None:
+            raise ValueError("give a scene file (yore run SCENE.toml) or --resume STATE")
+        scene = load_scene(arguments.scene, overrides=_overrides(arguments))
+        out = arguments.out or Path("yore-out") / arguments.scene.stem
+        summary = run_scene(scene, out, until=arguments.until, quiet=arguments.quiet,
+                            render=not arguments.no_render)
+    _report(summary, Path(out), arguments.quiet)
+
+
+def _check(arguments):
+    from .scene_file import load_scene
+
+    scene = load_scene(arguments.scene, overrides=_overrides(arguments))
+    scene.check_strokes()
+    sim, _ = scene.build()
+    print(f"{arguments.scene}: OK ({sim.cloth.vertex_count} vertices, {sim.integrator}, "
+          f"dt = {sim.dt:.4g} s, {len(scene.data['strokes'])} stroke(s))")
+
+
+def _demo(arguments):
+    from .runner import run_scene
+    from .scene_file import load_scene
+
+    scene = load_scene(Path("hanging.toml"), text=demo_scene_text(),
+                       overrides=_overrides(arguments))
+    summary = run_scene(scene, arguments.out, quiet=arguments.quiet)
+    _report(summary, arguments.out, arguments.quiet)
+
+
+def _render(arguments):
+    from .render_run import render_frame, render_run
+
+    path = arguments.path
+    if path.is_dir():
+        written = render_run(path, pictures=not arguments.no_pictures,
+                             animation=None if arguments.animation == "none"
+                             else arguments.animation,
+                             color_by=arguments.color_by, width=arguments.width,
+                             height=arguments.height, out=arguments.out, eye=arguments.eye,
+                             target=arguments.target, quiet=arguments.quiet)
+        base = path if arguments.out is None else Path(".")
+        if not arguments.quiet:
+            for name, file in written.items():
+                print(f"{name + ':':14s}{(base / file).resolve()}")
+    else:
+        written = render_frame(path, out=arguments.out, width=arguments.width,
+                               height=arguments.height, color_by=arguments.color_by,
+                               eye=arguments.eye, target=arguments.target)
+        if not arguments.quiet:
+            print(f"picture:      {written.resolve()}")
+
+
+def main(argv=None) -> int:
+    """Runs the command line; returns the exit code (see the module docstring)."""
+    arguments = _parser().parse_args(argv)
+    from .runner import RunError
+
+    handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render}
+    try:
+        handlers[arguments.command](arguments)
+    except KeyboardInterrupt:
+        print("yore: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except RunError as error:
+        _fail(error)
+        return EXIT_FAILED
+    except (ValueError, OSError) as error:
+        _fail(error)
+        return EXIT_BAD_INPUT
+    return EXIT_OK
+
+
+def _fail(error):
+    message = " ".join(str(error).split())  # one line, whatever the message holds
+    print(f"yore: error: {message}", file=sys.stderr)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,195 @@
+"""The `yore` command: example scenes, outputs, exit codes, render, exact resume, .pvd."""
+
+import json
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+from PIL import Image
+
+import yore
+from yore.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+# Reduced sizes: a few hundred vertices, 0.3 s, the stroke at 0.1 s — every output still made.
+SMALL = {
+    "hanging": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "simulation.duration=0.3",
+                "--set", "strokes.0.time=0.1", "--set", "strokes.0.material="
+                "[[0.1, 0.2], [0.9, 0.2]]", "--set", "output.fps=20",
+                "--set", "camera.width=160", "--set", "camera.height=120"],
+    "cylinder": ["--set", "mesh.rings=6", "--set", "mesh.segments=12",
+                 "--set", "simulation.duration=0.3", "--set", "strokes.0.time=0.1",
+                 "--set", "output.fps=20", "--set", "camera.width=160",
+                 "--set", "camera.height=120"],
+    "stiff": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "simulation.duration=0.3",
+              "--set", "strokes.0.time=0.1", "--set", "strokes.0.material="
+              "[[0.1, 0.2], [0.9, 0.2]]", "--set", "fixed.1.indices=[8]"],
+}
+
+
+def run(name, out, *extra):
+    code = main(["run", str(EXAMPLES / f"{name}.toml"), "-o", str(out), "--quiet",
+                 *SMALL[name], *extra])
+    assert code == 0
+    return json.loads((out / "summary.json").read_text())
+
+
+def pvd_entries(path):
+    root = ET.parse(path).getroot()
+    return [(float(d.get("timestep")), d.get("file")) for d in root.iter("DataSet")]
+
+
+@pytest.mark.parametrize("name", ["hanging", "cylinder", "stiff"])
+def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tmp_path, name):
+    summary = run(name, tmp_path)
+    scene = yore.scene_file.load_scene(EXAMPLES / f"{name}.toml")
+    output = scene.data["output"]
+    assert summary["finished"] and summary["time"] == pytest.approx(0.3, abs=summary["dt"])
+    assert summary["integrator"] == scene.data["simulation"]["integrator"]
+    # frames: the first, one per interval, and the last when it falls between
+    written = summary["settings"]["output"]
+    every = written.get("every_steps") or max(1, round(1.0 / (written["fps"] * summary["dt"])))
+    steps = summary["steps"]
+    assert len(summary["frames"]) == steps // every + 1 + (steps % every != 0)
+    for frame in summary["frames"]:
+        assert (tmp_path / frame["file"]).is_file()
+    assert [f for _, f in pvd_entries(tmp_path / "frames" / "frame.pvd")] == \
+        [str(Path(f["file"]).relative_to("frames")) for f in summary["frames"]]
+    # records per frame; energies and areas are finite numbers
+    assert len(summary["records"]) == len(summary["frames"])
+    assert all(np.isfinite(r["total"]) and r["area"] > 0 for r in summary["records"])
+    # the stroke split faces and is reported; the rest area grew by the expansion
+    (stroke,) = summary["strokes"]
+    assert stroke["faces_split"] > 0 and len(stroke["new_vertices"]) == stroke["vertices_added"]
+    assert stroke["rest_area_after"] > stroke["rest_area_before"]
+    assert summary["records"][-1]["vertices"] == summary["records"][0]["vertices"] + \
+        stroke["vertices_added"]
+    # timings per phase and the settings actually used
+    assert summary["phases"] and all(v >= 0 for v in summary["phases"].values())
+    assert summary["settings"]["simulation"]["dt"] == summary["dt"]
+    # the state file continues the run; pictures as asked
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    assert sim.time == summary["time"] and record["step"] == summary["steps"]
+    if output["pictures"]:
+        with Image.open(tmp_path / "before_after.png") as image:
+            camera = summary["camera"]
+            assert image.size == (2 * camera["width"] + 8, camera["height"] + 28)
+    assert (tmp_path / "animation.gif").exists() == (output["animation"] == "gif")
+
+
+def test_the_python_scripting_example_runs(tmp_path):
+    completed = subprocess.run(
+        [sys.executable, str(EXAMPLES / "scripted_scene.py"), "--out", str(tmp_path),
+         "--resolution", "7", "--seconds", "0.2"], capture_output=True, text=True, timeout=300)
+    assert completed.returncode == 0, completed.stderr
+    assert (tmp_path / "summary.json").is_file() and (tmp_path / "frames" / "frame.pvd").is_file()
+
+
+def test_bad_scenes_fail_before_simulating_with_exit_code_2_and_one_line(tmp_path, capsys):
+    scene = tmp_path / "bad.toml"
+    text = (EXAMPLES / "hanging.toml").read_text()
+    cases = {
+        "material.stifness": text.replace("stretch_stiffness = 200.0", "stifness = 200.0"),
+        "mesh.nx": text.replace("nx = 21", 'nx = "21"'),
+        "strokes[0].material": text.replace("[[0.15, 0.075], [0.85, 0.075]]",
+                                            "[[3.0, 3.0], [4.0, 3.0]]"),
+    }
+    for key, body in cases.items():
+        scene.write_text(body)
+        out = tmp_path / f"out-{key}"
+        assert main(["run", str(scene), "-o", str(out)]) == 2
+        message = capsys.readouterr().err
+        assert message.startswith("yore: error:") and message.count("\n") == 1
+        assert key in message and "bad.toml:" in message
+        assert not out.exists()  # nothing ran, nothing was written
+
+
+def test_the_console_script_exits_non_zero_on_errors_and_zero_on_check(tmp_path):
+    yore_command = Path(sys.executable).with_name("yore")
+    completed = subprocess.run([str(yore_command), "run", str(tmp_path / "missing.toml")],
+                               capture_output=True, text=True)
+    assert completed.returncode == 2 and "cannot read the scene file" in completed.stderr
+    completed = subprocess.run([sys.executable, "-m", "yore", "check",
+                                str(EXAMPLES / "hanging.toml")], capture_output=True, text=True)
+    assert completed.returncode == 0 and "OK" in completed.stdout
+    completed = subprocess.run([str(yore_command), "run", "--bogus"], capture_output=True,
+                               text=True)
+    assert completed.returncode == 2 and completed.stderr.startswith("yore: error:")
+
+
+def test_a_diverging_run_exits_1_saying_when_and_suggesting_a_step(tmp_path, capsys):
+    code = main(["run", str(EXAMPLES / "stiff.toml"), "-o", str(tmp_path), "--quiet",
+                 *SMALL["stiff"], "--set", 'simulation.integrator="explicit"',
+                 "--set", "simulation.dt=0.01", "--set", "integrator={}"])
+    assert code == 1
+    message = capsys.readouterr().err
+    assert "diverged at step" in message and "stable time step" in message
+    assert (tmp_path / "state.npz").is_file()  # the last good state is kept
+
+
+def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, capsys):
+    run("hanging", tmp_path)
+    frame = tmp_path / "frames" / "frame_00003.vtu"
+    picture = tmp_path / "picture.png"
+    assert main(["render", str(frame), "-o", str(picture), "--width", "320", "--height", "200",
+                 "--color-by", "expansion"]) == 0
+    with Image.open(picture) as image:
+        assert image.size == (320, 200)
+        pixels = np.asarray(image.convert("RGB")).reshape(-1, 3)
+    background = np.all(pixels == 255, axis=1)
+    # the cloth covers a real part of the picture, and not all of it (fitted with a margin)
+    assert 0.05 < 1.0 - background.mean() < 0.95
+    # the stroke of the run is drawn in red over the cloth
+    red = (pixels[:, 0] > 200) & (pixels[:, 1] < 80) & (pixels[:, 2] < 80)
+    assert red.sum() > 10
+    # a whole run: before/after side by side and the animation
+    assert main(["render", str(tmp_path), "-o", str(tmp_path / "pictures"), "--quiet"]) == 0
+    with Image.open(tmp_path / "pictures" / "before_after.png") as image:
+        assert image.size[0] == 2 * 160 + 8 and image.size[1] == 120 + 28
+    with Image.open(tmp_path / "pictures" / "animation.gif") as gif:
+        assert gif.n_frames >= 2
+
+
+@pytest.mark.parametrize("name, stroke_time", [("hanging", 0.1), ("hanging", 0.25),
+                                               ("cylinder", 0.1), ("stiff", 0.1)])
+def test_run_straight_equals_run_save_resume_bit_for_bit(tmp_path, name, stroke_time):
+    # 0.3 s straight vs 0.15 s, save, resume to 0.3 s — the stroke before or after the split.
+    extra = ["--set", f"strokes.0.time={stroke_time}", "--no-render"]
+    run(name, tmp_path / "straight", *extra)
+    run(name, tmp_path / "split", *extra, "--until", "0.15")
+    assert main(["run", "--resume", str(tmp_path / "split" / "state.npz"), "--quiet",
+                 "--no-render"]) == 0
+    straight, _ = yore.load_state(tmp_path / "straight" / "state.npz")
+    resumed, record = yore.load_state(tmp_path / "split" / "state.npz")
+    assert record["resumed_from"]
+    assert resumed.time == straight.time
+    a, b = straight.cloth.state(), resumed.cloth.state()
+    for key in ("positions", "velocities", "masses", "spring_rest", "spring_ends", "faces"):
+        assert a[key].shape == b[key].shape and np.array_equal(a[key], b[key]), key
+
+
+def test_pvd_lists_every_frame_across_a_stroke_and_a_resume(tmp_path):
+    run("hanging", tmp_path, "--until", "0.15", "--no-render")
+    assert main(["run", "--resume", str(tmp_path / "state.npz"), "--quiet"]) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    entries = pvd_entries(tmp_path / "frames" / "frame.pvd")
+    assert len(entries) == len(summary["frames"]) == len(summary["records"])
+    times = [t for t, _ in entries]
+    assert times == sorted(times) and len(set(times)) == len(times)
+    assert times[-1] == pytest.approx(0.3, abs=summary["dt"])
+    counts = []
+    for _, file in entries:
+        mesh = meshio.read(tmp_path / "frames" / file)
+        counts.append(len(mesh.points))
+    # the stroke at 0.1 s adds vertices: frames before and after it differ, both are listed
+    stroke = summary["strokes"][0]
+    assert counts[0] < counts[-1] == counts[0] + stroke["vertices_added"]
+    assert sorted(set(counts)) == [counts[0], counts[-1]]
+    assert os.path.samefile(tmp_path / "frames" / entries[-1][1],
+                            tmp_path / summary["frames"][-1]["file"])

@@ -1,0 +1,133 @@
+"""Scene files: checking (key named, line, expected), overrides, and what build() makes."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import yore
+from yore.scene_file import SceneError, load_scene, parse_override
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+MINIMAL = """\
+[mesh]
+generator = "grid"
+nx = 5
+ny = 4
+
+[simulation]
+duration = 0.1
+"""
+
+
+def error_of(text, **kwargs):
+    with pytest.raises(SceneError) as caught:
+        load_scene(Path("scene.toml"), text=text, **kwargs).check_strokes()
+    return caught.value
+
+
+def test_the_toml_hanging_cloth_is_the_python_scene_exactly():
+    # An independent construction of the same cloth: yore.scenes.hanging_cloth's defaults.
+    sim, sets = load_scene(EXAMPLES / "hanging.toml").build()
+    reference = yore.scenes.hanging_cloth()
+    a, b = sim.cloth.state(), reference.cloth.state()
+    for key in ("positions", "velocities", "masses", "faces", "spring_ends", "spring_rest",
+                "spring_stiffness", "spring_damping", "vertex_states", "material_coordinates"):
+        assert np.array_equal(a[key], b[key]), key
+    assert sim.dt == reference.dt and sim.integrator == reference.integrator
+    assert list(sets["bottom corners"]) == [0, 20]
+
+
+def test_the_demo_scene_is_examples_hanging_toml():
+    from yore.cli import demo_scene_text
+
+    assert demo_scene_text() == (EXAMPLES / "hanging.toml").read_text(encoding="utf-8")
+
+
+def test_defaults_are_filled_in_and_named_sets_select_the_right_vertices():
+    scene = load_scene(text=MINIMAL + '[[fixed]]\nset = "top edge"\n')
+    data = scene.data
+    assert data["material"]["mass"] == 0.1 and data["simulation"]["integrator"] == "explicit"
+    assert data["output"]["format"] == "vtu" and scene.frame_interval(1 / 300) == 10
+    sim, sets = scene.build()
+    assert list(sim.cloth.fixed_vertices) == [15, 16, 17, 18, 19]  # row j = 3 of a 5×4 grid
+    assert np.allclose(sim.cloth.masses, 0.1 / 20)
+    assert list(sets["left edge"]) == [0, 5, 10, 15]
+
+
+def test_a_misspelt_key_is_named_with_its_line_and_a_suggestion():
+    error = error_of(MINIMAL.replace("ny = 4", "ny = 4\nwidht = 2.0"))
+    assert error.key == "mesh.widht" and error.line == 5
+    assert "did you mean 'width'" in str(error) and "scene.toml:5" in str(error)
+    error = error_of(MINIMAL + "[material]\nstifness = 3\n")
+    assert error.key == "material.stifness" and error.line == 9
+    assert "stretch_stiffness" in error.expected  # what was expected: the valid keys
+    error = error_of(MINIMAL + "[outptu]\nformat = 'vtu'\n")
+    assert error.key == "outptu" and "did you mean 'output'" in str(error)
+
+
+def test_a_wrong_type_or_range_is_named_with_what_was_expected():
+    error = error_of(MINIMAL.replace("nx = 5", 'nx = "five"'))
+    assert error.key == "mesh.nx" and error.line == 3 and error.expected == "an integer >= 2"
+    error = error_of(MINIMAL + "[material]\ndamping = -1.0\n")
+    assert error.key == "material.damping" and ">= 0" in error.expected
+    error = error_of(MINIMAL.replace("duration = 0.1", "duration = 0.1\ngravity = [0, -9.81]"))
+    assert error.key == "simulation.gravity" and "3 numbers" in error.expected
+    error = error_of(MINIMAL + "[integrator]\nstrain_limit = 'tight'\n")
+    assert error.key == "integrator.strain_limit"
+    error = error_of(MINIMAL + "[integrator]\nnewton_tol = 1e-6\n")  # not an explicit option
+    assert error.key == "integrator.newton_tol" and "strain_limit" in error.expected
+
+
+def test_missing_tables_and_keys_and_contradictions_are_named():
+    assert error_of('[mesh]\ngenerator = "grid"\n').key == "simulation"
+    assert error_of("[mesh]\nnx = 3\n[simulation]\nduration = 1.0\n").key == "mesh.generator"
+    error = error_of(MINIMAL + "[material]\nmass = 1.0\ndensity = 0.2\n")
+    assert error.key == "material.density"
+    error = error_of(MINIMAL + "[[strokes]]\ntime = 0.05\n")
+    assert error.key == "strokes[0]" and "exactly one" in error.expected
+    error = error_of(MINIMAL + "[[strokes]]\ntime = 0.5\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n")
+    assert error.key == "strokes[0].time" and "not before the end" in error.problem
+
+
+def test_selections_out_of_range_or_empty_fail_before_running():
+    error = error_of(MINIMAL + "[[fixed]]\nindices = [3, 20]\n")
+    assert error.key == "fixed[0].indices" and "vertex 20" in error.problem
+    error = error_of(MINIMAL + "[[fixed]]\nbox = { min = [5, 5, 5], max = [6, 6, 6] }\n")
+    assert error.key == "fixed[0].box" and "no vertex" in error.problem
+    error = error_of(MINIMAL + '[[fixed]]\nset = "top rim"\n')
+    assert error.key == "fixed[0].set" and "top edge" in error.expected
+    error = error_of(MINIMAL + '[[fixed]]\nset = "top edge"\n'
+                     '[[driven]]\nset = "top edge"\ncenter = [0, 0, 0]\naxis = [0, 1, 0]\n'
+                     "omega = 1.0\n")
+    assert error.key == "driven[0]" and "fixed" in error.problem
+
+
+def test_a_stroke_that_misses_fails_before_simulating_naming_the_stroke():
+    miss = MINIMAL + "[[strokes]]\ntime = 0.05\nmaterial = [[5.0, 5.0], [6.0, 5.0]]\n"
+    error = error_of(miss)
+    assert error.key == "strokes[0].material" and error.line == 10
+    assert "misses" in error.problem
+    # a 3-D stroke at t = 0 is tried on the initial cloth too
+    miss3d = MINIMAL + "[[strokes]]\ntime = 0.0\npoints = [[0.5, 0.5, 3.0], [0.6, 0.5, 3.0]]\n"
+    assert error_of(miss3d).key == "strokes[0].points"
+    # a screen stroke needs a camera with an eye
+    screen = MINIMAL + "[[strokes]]\ntime = 0.0\nscreen = [[10, 10], [50, 50]]\n"
+    assert error_of(screen).key == "strokes[0].screen"
+
+
+def test_overrides_replace_values_and_are_checked_like_the_file():
+    scene = load_scene(text=MINIMAL, overrides={"mesh.nx": 7, "output.fps": 10.0})
+    assert scene.data["mesh"]["nx"] == 7 and scene.data["output"]["fps"] == 10.0
+    error = error_of(MINIMAL, overrides={"mesh.nx": 1})
+    assert error.key == "mesh.nx" and error.line is None and "command line" in str(error)
+    assert parse_override("simulation.dt=1e-3") == ("simulation.dt", 1e-3)
+    assert parse_override("mesh.generator=grid") == ("mesh.generator", "grid")
+    assert parse_override("strokes.0.material=[[0.1, 0.2], [0.3, 0.4]]")[1] == \
+        [[0.1, 0.2], [0.3, 0.4]]
+
+
+def test_invalid_toml_reports_the_line():
+    error = error_of(MINIMAL + "[material\nmass = 1\n")
+    assert error.line == 8 and "not valid TOML" in str(error)
