@@ -193,3 +193,47 @@ def test_pvd_lists_every_frame_across_a_stroke_and_a_resume(tmp_path):
     assert sorted(set(counts)) == [counts[0], counts[-1]]
     assert os.path.samefile(tmp_path / "frames" / entries[-1][1],
                             tmp_path / summary["frames"][-1]["file"])
+
+
+def test_yore_demo_writes_frames_pictures_and_an_animation_and_says_where(tmp_path, capsys):
+    out = tmp_path / "yore-out"
+    assert main(["demo", "-o", str(out), *SMALL["hanging"]]) == 0
+    printed = capsys.readouterr().out
+    for name in ("frames/frame.pvd", "before_after.png", "animation.gif", "summary.json",
+                 "state.npz"):
+        assert (out / name).is_file(), name
+        assert str((out / name).resolve()) in printed  # the report says where it went
+
+
+@pytest.mark.parametrize("fmt", ["ply", "obj"])
+def test_ply_and_obj_frames_are_written_and_rendered(tmp_path, fmt):
+    summary = run("hanging", tmp_path, "--set", f'output.format="{fmt}"', "--no-render")
+    files = [tmp_path / f["file"] for f in summary["frames"]]
+    assert all(f.suffix == f".{fmt}" and f.is_file() for f in files)
+    V, F = yore.load_mesh(files[-1])
+    sim, _ = yore.load_state(tmp_path / "state.npz")
+    assert np.allclose(V, sim.cloth.positions) and np.array_equal(F, sim.cloth.faces)
+    assert main(["render", str(tmp_path), "--quiet", "--animation", "none"]) == 0
+    assert (tmp_path / "before_after.png").is_file()
+    colour = main(["render", str(files[-1]), "--color-by", "expansion"])
+    assert colour == (0 if fmt == "ply" else 2)  # OBJ holds no point data to colour by
+
+
+def test_a_scene_on_a_mesh_file_with_box_and_index_selections(tmp_path):
+    V, F = yore.grid_mesh(6, 6, width=0.5, height=0.5)
+    yore.save_mesh(tmp_path / "patch.obj", V, F)
+    (tmp_path / "patch.toml").write_text(
+        '[mesh]\ngenerator = "file"\npath = "patch.obj"\nscale = 2.0\n'
+        "[[fixed]]\nbox = { min = [-0.01, 0.99, -0.01], max = [1.01, 1.01, 0.01] }\n"
+        "[simulation]\nintegrator = \"implicit\"\nduration = 0.05\n"
+        "[[strokes]]\ntime = 0.0\npoints = [[0.1, 0.5, 0.0], [0.9, 0.5, 0.0]]\n"
+        '[output]\nformat = "none"\n')
+    assert main(["run", str(tmp_path / "patch.toml"), "-o", str(tmp_path / "out"),
+                 "--quiet"]) == 0
+    sim, _ = yore.load_state(tmp_path / "out" / "state.npz")
+    assert list(sim.cloth.fixed_vertices) == list(range(30, 36))  # the scaled top row, y = 1
+    assert sim.cloth.vertex_count > 36  # the stroke added vertices
+    (tmp_path / "broken.toml").write_text(
+        '[mesh]\ngenerator = "file"\npath = "nowhere.obj"\n[simulation]\nduration = 1.0\n')
+    with pytest.raises(yore.SceneError, match="mesh.path"):
+        yore.load_scene(tmp_path / "broken.toml").build()

@@ -621,7 +621,7 @@ def _build(scene):
             path = scene.base_dir / path
         try:
             pattern, F = load_mesh(path)
-        except ValueError as error:
+        except (ValueError, OSError) as error:
             raise scene.error("mesh.path", str(error), "a readable triangle mesh file") from None
         pattern = pattern * mesh["scale"]
         sets = {}
