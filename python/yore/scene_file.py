@@ -560,8 +560,8 @@ def _check_integrator(scene, options, integrator):
 
 
 def _did_you_mean(key, candidates):
-    close = difflib.get_close_matches(str(key), [str(c) for c in candidates], n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    close = difflib.get_close_matches(str(key), [str(c) for c in candidates], n=2, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 
 def _find_line(text, key):
