@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .stroke import Camera
+from .stroke import Camera, check_factor
 
 __all__ = [
     "fit_camera",
@@ -137,8 +137,8 @@ def fit_camera(points, width=800, height=600, direction=(0.35, 0.45, 1.0), up=(0
     sine = np.linalg.norm(np.cross(direction, up)) / np.linalg.norm(direction) / np.linalg.norm(up)
     if sine <= 1e-12:
         raise ValueError(f"direction {tuple(direction)} must not be parallel to up {tuple(up)}")
-    margin = _check_positive(margin, "margin")
-    fov_degrees = _check_positive(fov_degrees, "fov_degrees")
+    margin = check_factor(margin, "margin")
+    fov_degrees = check_factor(fov_degrees, "fov_degrees")
     if fov_degrees >= 180.0:
         raise ValueError(f"fov_degrees must be in (0, 180), got {fov_degrees}")
     width, height = _check_size(width, "width"), _check_size(height, "height")
@@ -678,7 +678,7 @@ def save_animation(path, images, fps=15.0) -> Path:
         if frame.shape != frames[0].shape:
             raise ValueError(f"images[{i}] has shape {frame.shape}, but images[0] has "
                              f"{frames[0].shape}; all frames must have the same size")
-    fps = _check_positive(fps, "fps")
+    fps = check_factor(fps, "fps")
     if suffix == ".gif":
         _save_gif(path, frames, fps)
     else:
@@ -839,16 +839,6 @@ def _check_vector(vector, name):
     if value.shape != (3,) or not np.all(np.isfinite(value)) or not np.any(value):
         raise ValueError(f"{name} must be 3 finite numbers, not all zero, got {vector!r}")
     return value
-
-
-def _check_positive(value, name):
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0, got {number}")
-    return number
 
 
 def _check_size(value, name):

@@ -54,7 +54,7 @@ class SceneError(ValueError):
 
 
 # -- the schema ----------------------------------------------------------------------------------
-# Each key maps to (checker, default, description). A checker takes (value, context) and returns
+# Each key maps to (checker, default, description). A checker takes a value and returns
 # the checked value or raises _Invalid(problem, expected). A default of _REQUIRED means the key
 # must be given; None means "absent unless given".
 
@@ -81,7 +81,7 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
     expected = "a number" + (f" {' and '.join(bounds)}" if bounds else "") + \
         (f" ({unit})" if unit else "")
 
-    def check(value, _context=None):
+    def check(value):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise _Invalid(f"got {_describe(value)}", expected)
         value = float(value)
@@ -99,7 +99,7 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
 def _integer(minimum):
     expected = f"an integer >= {minimum}"
 
-    def check(value, _context=None):
+    def check(value):
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
             raise _Invalid(f"got {_describe(value)}", expected)
         return value
@@ -107,7 +107,7 @@ def _integer(minimum):
     return check
 
 
-def _boolean(value, _context=None):
+def _boolean(value):
     if not isinstance(value, bool):
         raise _Invalid(f"got {_describe(value)}", "true or false")
     return value
@@ -116,7 +116,7 @@ def _boolean(value, _context=None):
 _boolean.expected = "true or false"
 
 
-def _string(value, _context=None):
+def _string(value):
     if not isinstance(value, str):
         raise _Invalid(f"got {_describe(value)}", "a string")
     return value
@@ -128,7 +128,7 @@ _string.expected = "a string"
 def _choice(*choices):
     expected = "one of " + ", ".join(repr(c) for c in choices)
 
-    def check(value, _context=None):
+    def check(value):
         if value not in choices:
             raise _Invalid(f"got {_describe(value)}", expected)
         return value
@@ -136,12 +136,10 @@ def _choice(*choices):
     return check
 
 
-def _points(dimension, unit):
-    expected = f"a list of [{', '.join('xyz'[:dimension] if dimension == 3 else 'uv')}] " \
-               f"points ({unit})" if dimension != 2 or unit != "pixels" else \
-               "a list of [x, y] pixel points"
+def _points(dimension, what):
+    expected = f"a list of {what} points"
 
-    def check(value, _context=None):
+    def check(value):
         if not isinstance(value, list) or not value:
             raise _Invalid(f"got {_describe(value)}", expected)
         for point in value:
@@ -154,7 +152,7 @@ def _points(dimension, unit):
     return check
 
 
-def _vector3(value, _context=None):
+def _vector3(value):
     if (not isinstance(value, list) or len(value) != 3 or
             any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
                 for c in value)):
@@ -165,7 +163,7 @@ def _vector3(value, _context=None):
 _vector3.expected = "3 numbers [x, y, z]"
 
 
-def _indices(value, _context=None):
+def _indices(value):
     expected = "a list of vertex indices (integers >= 0)"
     if (not isinstance(value, list) or not value or
             any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in value)):
@@ -246,9 +244,9 @@ SCHEMA = {
     "integrator": (None, "table"),  # options of the chosen integrator, checked separately
     "strokes": ({
         "time": (_number(0, unit="s"), _REQUIRED, "when the stroke is drawn"),
-        "points": (_points(3, "m"), None, "3-D polyline near the surface"),
-        "material": (_points(2, "m"), None, "polyline in rest-pattern coordinates"),
-        "screen": (_points(2, "pixels"), None, "polyline in pixels of [camera]"),
+        "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
+        "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
+        "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
         "expansion": (_number(0, strict_minimum=True), 1.1, "rest length / current length of "
                       "new springs (eq. (1))"),
         "mass_scale": (_number(0, strict_minimum=True), 0.95, "new vertex mass / corners' mean"),
