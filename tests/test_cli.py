@@ -175,9 +175,14 @@ def test_run_straight_equals_run_save_resume_bit_for_bit(tmp_path, name, stroke_
 
 
 def test_pvd_lists_every_frame_across_a_stroke_and_a_resume(tmp_path):
-    run("hanging", tmp_path, "--until", "0.15", "--no-render")
+    first = run("hanging", tmp_path, "--until", "0.15", "--no-render")
     assert main(["run", "--resume", str(tmp_path / "state.npz"), "--quiet"]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
+    # wall time per phase is summed over both parts
+    assert summary["phases"].keys() == first["phases"].keys()
+    assert all(summary["phases"][k] >= first["phases"][k] for k in first["phases"])
+    assert summary["phases"]["forces_seconds"] > first["phases"]["forces_seconds"]
+    assert summary["wall_seconds"] > first["wall_seconds"]
     entries = pvd_entries(tmp_path / "frames" / "frame.pvd")
     assert len(entries) == len(summary["frames"]) == len(summary["records"])
     times = [t for t, _ in entries]

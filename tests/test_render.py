@@ -153,6 +153,23 @@ def test_stroke_is_drawn_in_red_along_its_polyline():
     assert b > r
 
 
+def test_a_stroke_behind_the_cloth_is_hidden_and_one_on_it_shows():
+    V, F = square(n=5)  # the square in z = 0, seen from +z
+    camera = head_on_camera()
+    behind = np.array([[-0.3, -0.2, -0.2], [0.3, -0.2, -0.2]])  # 0.2 m behind the cloth
+    on_it = np.array([[-0.3, 0.2, 0.0], [0.3, 0.2, 0.0]])  # exactly on the surface
+    image = render.render_image(V, F, camera, strokes=[behind, on_it])
+    for x in np.linspace(-0.25, 0.25, 11):
+        r, g, b = pixel_at(image, camera, [x, -0.2, -0.2])
+        assert b > r  # the cloth's colour: the stroke is occluded
+        r, g, b = pixel_at(image, camera, [x, 0.2, 0.0])
+        assert r > 200 and g < 80 and b < 80
+    # with nothing in front, the same stroke shows
+    alone = render.render_image(V[:0], F[:0], camera, strokes=[behind])
+    r, g, b = pixel_at(alone, camera, [0.0, -0.2, -0.2])
+    assert r > 200 and g < 80 and b < 80
+
+
 def test_stroke_points_behind_the_camera_are_clipped_away():
     V, F = square()
     camera = head_on_camera(z=3.0)

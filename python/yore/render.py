@@ -16,7 +16,10 @@ How an image is made (:func:`render_image`):
 3. All triangles are scan-converted at once: every (triangle, pixel row) pair gives the span of
    pixel centres inside the triangle, spans are expanded to fragments, and a z-buffer on inverse
    depth (which, unlike depth, is affine in screen space) keeps the nearest fragment per pixel.
-4. Strokes are drawn on top, unoccluded, as ``STROKE_COLOR`` polylines about 2.5 px wide.
+4. Strokes are drawn as ``STROKE_COLOR`` polylines about 2.5 px wide, depth-tested against the
+   surface with a relative tolerance ``STROKE_DEPTH_TOLERANCE`` (a stroke lies on the cloth, but
+   its straight chords between vertices dip slightly into it): the part of a stroke that runs
+   behind the cloth is hidden.
 
 Pixel (x, y) is the unit square centred on (x, y) in the coordinates of :meth:`Camera.project`
 (x right, y down). A triangle covers the pixels whose centres lie inside it or on its edges;
@@ -57,6 +60,8 @@ EDGE_SHADE = 0.6
 #: Strokes: RGB colour (0–255) and half-width in pixels.
 STROKE_COLOR = (220, 30, 30)
 STROKE_RADIUS = 1.25
+#: A stroke pixel shows unless the surface there is nearer than its depth / (1 + this).
+STROKE_DEPTH_TOLERANCE = 0.02
 #: Near clipping plane as a fraction of the farthest depth: small enough to be invisible, large
 #: enough that clipped vertices project to finite, float-safe pixel coordinates.
 NEAR_FRACTION = 1e-3
@@ -206,7 +211,7 @@ def _to_pixels(camera_points, frame, width, height):
 def render_image(V, F, camera, *, face_values=None, value_range=None, colormap="coolwarm",
                  strokes=(), color=(0.44, 0.66, 0.86), background=(1.0, 1.0, 1.0),
                  edges=False) -> np.ndarray:
-    """Renders a triangle mesh, flat shaded, with optional strokes drawn on top.
+    """Renders a triangle mesh, flat shaded, with optional strokes drawn over it.
 
     Parameters
     ----------
@@ -266,6 +271,7 @@ def render_image(V, F, camera, *, face_values=None, value_range=None, colormap="
 
     image = np.empty((height * width, 3))
     image[:] = background
+    depth_buffer = np.full(height * width, -np.inf)
     camera_vertices = _to_camera_space(V, frame)
     camera_strokes = [_to_camera_space(points, frame) for points in polylines]
     farthest = max([0.0] + [float(points[:, 2].max())
@@ -273,7 +279,8 @@ def render_image(V, F, camera, *, face_values=None, value_range=None, colormap="
     near = NEAR_FRACTION * farthest
     if len(F) and farthest > 0.0:
         triangles, parent, real_edges = _clip_near(camera_vertices[F], near)
-        owner, edge_distance = _rasterize(triangles, real_edges, frame, width, height)
+        owner, edge_distance, depth_buffer = _rasterize(triangles, real_edges, frame, width,
+                                                        height)
         covered = owner >= 0
         image[covered] = face_colors[parent[owner[covered]]]
         if edges:
@@ -283,7 +290,7 @@ def render_image(V, F, camera, *, face_values=None, value_range=None, colormap="
     image = np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
     if farthest > 0.0:
         for points in camera_strokes:
-            _draw_polyline(image, points, near, frame, width, height)
+            _draw_polyline(image, points, near, frame, width, height, depth_buffer)
     return image.reshape(height, width, 3)
 
 
@@ -352,9 +359,10 @@ def _runs(counts):
 def _rasterize(triangles, real_edges, frame, width, height):
     """Z-buffered scan conversion of camera-space triangles (m×3×3, all depths > 0).
 
-    Returns (owner, edge_distance): owner is the (height·width,) index of the triangle seen at
-    each pixel (−1 for none); edge_distance(mask) gives, for the pixels where mask holds, the
-    distance in pixels to the nearest real edge of the owner triangle.
+    Returns (owner, edge_distance, depth_buffer): owner is the (height·width,) index of the
+    triangle seen at each pixel (−1 for none); edge_distance(mask) gives, for the pixels where
+    mask holds, the distance in pixels to the nearest real edge of the owner triangle;
+    depth_buffer holds the inverse depth (1/m) seen at each pixel (−inf for none).
     """
     screen = _to_pixels(triangles.reshape(-1, 3), frame, width, height).reshape(-1, 3, 2)
     inverse_depth = 1.0 / triangles[:, :, 2]
@@ -418,7 +426,7 @@ def _rasterize(triangles, real_edges, frame, width, height):
         distance = a[seen] * px + b[seen] * py + c[seen]
         return np.min(np.where(real_edges[seen], distance, np.inf), axis=1)
 
-    return owner, edge_distance
+    return owner, edge_distance, depth_buffer
 
 
 def _resolve_depth(span_count, span_pixel, span_depth, span_slope, span_triangle, owner,
@@ -444,8 +452,10 @@ def _resolve_depth(span_count, span_pixel, span_depth, span_slope, span_triangle
         start = stop
 
 
-def _draw_polyline(image, points, near, frame, width, height):
-    """Paints a camera-space polyline (k×3) into the flat (height·width, 3) uint8 image."""
+def _draw_polyline(image, points, near, frame, width, height, depth_buffer):
+    """Paints a camera-space polyline (k×3) into the flat (height·width, 3) uint8 image where
+    it is not behind the surface (``depth_buffer``: inverse depth per pixel) by more than
+    STROKE_DEPTH_TOLERANCE."""
     if len(points) == 1:
         start, end = points, points
     else:
@@ -461,6 +471,8 @@ def _draw_polyline(image, points, near, frame, width, height):
         return
     p = _to_pixels(start, frame, width, height)
     q = _to_pixels(end, frame, width, height)
+    # Inverse depth is affine along the projected segment (as across a projected triangle).
+    inverse_p, inverse_q = 1.0 / start[:, 2], 1.0 / end[:, 2]
     # Clip to a rectangle a little larger than the image (Liang–Barsky), so a segment passing
     # near the eye, which projects enormously long, is not subdivided into millions of pieces.
     pad = STROKE_RADIUS + 1.0
@@ -480,6 +492,9 @@ def _draw_polyline(image, points, near, frame, width, height):
     p, q = p[keep] + t0[keep, None] * d[keep], p[keep] + t1[keep, None] * d[keep]
     if len(p) == 0:
         return
+    inverse_change = (inverse_q - inverse_p)[keep]
+    inverse_p, inverse_q = (inverse_p[keep] + t0[keep] * inverse_change,
+                            inverse_p[keep] + t1[keep] * inverse_change)
     # Pieces of at most 8 px keep each bounding box, the pixels tested, small.
     piece_count = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / 8.0), 1).astype(np.int64)
     segment, index = _runs(piece_count)
@@ -498,8 +513,14 @@ def _draw_polyline(image, points, near, frame, width, height):
     t = np.clip(np.divide(np.einsum("ij,ij->i", relative, direction), length_squared,
                           out=np.zeros(len(piece)), where=length_squared > 0), 0.0, 1.0)
     distance = np.linalg.norm(relative - t[:, None] * direction, axis=1)
-    hit = distance <= STROKE_RADIUS
-    image[(py[hit] * width + px[hit]).astype(np.int64)] = STROKE_COLOR
+    pixel = (py * width + px).astype(np.int64)
+    inverse_a = inverse_p[segment] + fraction[:, 0] * (inverse_q - inverse_p)[segment]
+    inverse_b = inverse_p[segment] + fraction[:, 1] * (inverse_q - inverse_p)[segment]
+    inverse_depth = inverse_a[piece] + t * (inverse_b - inverse_a)[piece]
+    # A stroke runs over the surface through its vertices; its chords may dip slightly below.
+    in_front = inverse_depth * (1.0 + STROKE_DEPTH_TOLERANCE) >= depth_buffer[pixel]
+    hit = (distance <= STROKE_RADIUS) & in_front
+    image[pixel[hit]] = STROKE_COLOR
 
 
 # --------------------------------------------------------------------------------------------

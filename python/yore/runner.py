@@ -61,7 +61,7 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True) -> dict:
               "scene_path": str(scene.path) if scene.path is not None else None,
               "overrides": scene.overrides, "step": 0, "next_stroke": 0, "frames": [],
               "records": [], "strokes": [], "before": None, "wall_seconds": 0.0,
-              "resumed_from": []}
+              "resumed_from": [], "phases": {}}
     return _run(scene, sim, record, Path(os.fspath(out)), until, quiet, render)
 
 
@@ -100,6 +100,7 @@ def _run(scene, sim, record, out, until, quiet, render):
         frames = FrameSeries(out / "frames", stem="frame", fmt=fmt,
                              frames=[(t, p) for t, p in record["frames"]])
     camera = None
+    previous_phases = dict(record.get("phases", {}))  # wall time per phase of earlier parts
     live_reports = []  # (record entry, StrokeReport): re-analysis time arrives with the next step
     step = record["step"]
     if step == 0 and not record["frames"]:
@@ -138,11 +139,11 @@ def _run(scene, sim, record, out, until, quiet, render):
     except SimulationDiverged as error:
         bar.close()
         record["wall_seconds"] += _time.perf_counter() - started
-        state = _save(out, sim, record)
+        state = _save(out, sim, record, previous_phases)
         raise RunError(f"{error} State before the failing steps: {state}", state) from None
     except SceneError:  # a stroke missed at its time: keep what was computed
         bar.close()
-        _save(out, sim, record)
+        _save(out, sim, record, previous_phases)
         raise
     except Exception:
         bar.close()
@@ -151,7 +152,7 @@ def _run(scene, sim, record, out, until, quiet, render):
     record["wall_seconds"] += _time.perf_counter() - started
     for entry, report in live_reports:
         entry["reanalyze_seconds"] = report.reanalyze_seconds
-    state_path = _save(out, sim, record)
+    state_path = _save(out, sim, record, previous_phases)
     summary = _summary(scene, sim, record, out, state_path, until)
     summary_path = out / SUMMARY_NAME
     _write_json(summary_path, summary)
@@ -220,7 +221,10 @@ def _stroke_record(index, time, report):
             "new_vertices": [int(v) for v in report.new_vertices]}
 
 
-def _save(out, sim, record):
+def _save(out, sim, record, previous_phases):
+    phases = sim.stats["phases"]
+    record["phases"] = {name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
+                        for name in set(previous_phases) | set(phases)}
     return save_state(out / STATE_NAME, sim, metadata=record)
 
 
@@ -254,8 +258,8 @@ def _summary(scene, sim, record, out, state_path, until):
         "dt": sim.dt,
         "integrator": sim.integrator,
         "wall_seconds": record["wall_seconds"],
-        # per-phase timings and counters of this process's part of the run
-        "phases": stats["phases"],
+        # wall time per phase over the whole run (all resumed parts); counters of the last part
+        "phases": record["phases"],
         "counters": _jsonable(stats["counters"]),
         "active_terms": stats["active_terms"],
         "vertices": stats["vertices"],
