@@ -131,3 +131,21 @@ def test_overrides_replace_values_and_are_checked_like_the_file():
 def test_invalid_toml_reports_the_line():
     error = error_of(MINIMAL + "[material\nmass = 1\n")
     assert error.line == 8 and "not valid TOML" in str(error)
+
+
+def test_a_screen_stroke_through_the_scene_camera_splits_the_faces_under_it(tmp_path):
+    camera = yore.Camera(eye=(0.5, 0.5, 2.0), target=(0.5, 0.5, 0.0), width=400, height=300)
+    pixels = camera.project([[0.2, 0.45, 0.0], [0.8, 0.45, 0.0]])
+    text = MINIMAL + (
+        "[camera]\neye = [0.5, 0.5, 2.0]\ntarget = [0.5, 0.5, 0.0]\nwidth = 400\nheight = 300\n"
+        f"[[strokes]]\ntime = 0.0\nscreen = {pixels.tolist()}\n"
+        '[output]\nformat = "none"\n')
+    scene = load_scene(text=text)
+    scene.check_strokes()
+    summary = yore.run_scene(scene, tmp_path, quiet=True)
+    (stroke,) = summary["strokes"]
+    # the line y = 0.45 runs inside the middle row of quads of the 5×4 grid (y from 1/3 to
+    # 2/3): it crosses both triangles of the inner quads
+    assert stroke["faces_split"] >= 4 and stroke["missed_fraction"] == 0.0
+    sim, _ = yore.load_state(tmp_path / "state.npz")
+    assert sim.cloth.vertex_count == 20 + stroke["vertices_added"]
