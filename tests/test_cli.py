@@ -242,3 +242,30 @@ def test_a_scene_on_a_mesh_file_with_box_and_index_selections(tmp_path):
         '[mesh]\ngenerator = "file"\npath = "nowhere.obj"\n[simulation]\nduration = 1.0\n')
     with pytest.raises(yore.SceneError, match="mesh.path"):
         yore.load_scene(tmp_path / "broken.toml").build()
+
+
+def test_an_interrupted_run_saves_its_state_and_resumes_exactly(tmp_path, monkeypatch, capsys):
+    run("hanging", tmp_path / "straight", "--no-render")
+    original_step = yore.Simulation.step
+    calls = {"count": 0}
+
+    def interrupted_step(self, n=1, progress=None):
+        calls["count"] += 1
+        if calls["count"] == 4:  # Ctrl-C in the middle of the run (after the stroke)
+            original_step(self, n // 2, progress=False)
+            raise KeyboardInterrupt
+        original_step(self, n, progress)
+
+    monkeypatch.setattr(yore.Simulation, "step", interrupted_step)
+    code = main(["run", str(EXAMPLES / "hanging.toml"), "-o", str(tmp_path / "split"),
+                 "--quiet", "--no-render", *SMALL["hanging"]])
+    assert code == 130 and "--resume" in capsys.readouterr().err
+    monkeypatch.setattr(yore.Simulation, "step", original_step)
+    assert main(["run", "--resume", str(tmp_path / "split" / "state.npz"), "--quiet",
+                 "--no-render"]) == 0
+    straight, _ = yore.load_state(tmp_path / "straight" / "state.npz")
+    resumed, _ = yore.load_state(tmp_path / "split" / "state.npz")
+    assert np.array_equal(straight.cloth.positions, resumed.cloth.positions)
+    a = json.loads((tmp_path / "straight" / "summary.json").read_text())
+    b = json.loads((tmp_path / "split" / "summary.json").read_text())
+    assert [f["time"] for f in a["frames"]] == [f["time"] for f in b["frames"]]

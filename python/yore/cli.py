@@ -9,7 +9,8 @@
 
 Exit codes: 0 success; 1 the run failed (it diverged, or a stroke missed at its time; the
 state before the failure is saved); 2 bad input (command line, scene file, missing file),
-reported before anything runs; 130 interrupted. Errors are one line on stderr, starting
+reported before anything runs; 130 interrupted (a run saves its state first, so
+``yore run --resume`` continues it exactly). Errors are one line on stderr, starting
 with "yore: error:".
 """
 
@@ -197,8 +198,10 @@ def main(argv=None) -> int:
     handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render}
     try:
         handlers[arguments.command](arguments)
-    except KeyboardInterrupt:
-        print("yore: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as interruption:
+        state = getattr(interruption, "state_path", None)
+        print(f"yore: {interruption}; `yore run --resume {state}` continues" if state
+              else "yore: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except RunError as error:
         _fail(error)

@@ -31,11 +31,21 @@ from .io import FrameSeries, save_mesh
 from .scene_file import Scene, SceneError, apply_scene_stroke, load_scene, scene_camera
 from .state import load_state, save_state
 
-__all__ = ["run_scene", "resume_run", "RunError", "SUMMARY_NAME", "STATE_NAME"]
+__all__ = ["run_scene", "resume_run", "RunError", "RunInterrupted", "SUMMARY_NAME",
+           "STATE_NAME"]
 
 SUMMARY_NAME = "summary.json"
 STATE_NAME = "state.npz"
 BEFORE_NAME = "before.vtu"
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The run was interrupted (Ctrl-C); the state reached is saved at ``state_path`` and
+    ``yore run --resume`` continues it exactly."""
+
+    def __init__(self, state_path, time):
+        super().__init__(f"interrupted at t = {time:.6g} s; state saved in {state_path}")
+        self.state_path, self.time = state_path, time
 
 
 class RunError(RuntimeError):
@@ -103,7 +113,9 @@ def _run(scene, sim, record, out, until, quiet, render):
     previous_phases = dict(record.get("phases", {}))  # wall time per phase of earlier parts
     live_reports = []  # (record entry, StrokeReport): re-analysis time arrives with the next step
     step = record["step"]
-    if step == 0 and not record["frames"]:
+    last_time = record["records"][-1]["time"] if record["records"] else None
+    if last_time is None or (step % every == 0 and last_time < sim.time - 0.5 * dt):
+        # the first frame, or the frame an interruption came before
         _write_frame(sim, frames, record, fmt)
 
     from tqdm.auto import tqdm
@@ -141,6 +153,14 @@ def _run(scene, sim, record, out, until, quiet, render):
         record["wall_seconds"] += _time.perf_counter() - started
         state = _save(out, sim, record, previous_phases)
         raise RunError(f"{error} State before the failing steps: {state}", state) from None
+    except KeyboardInterrupt:
+        bar.close()
+        record["wall_seconds"] += _time.perf_counter() - started
+        # Steps completed so far, from the step-counting clock (the interruption may come
+        # between batches of a call).
+        record["step"] = _steps(sim.time, dt)
+        state = _save(out, sim, record, previous_phases)
+        raise RunInterrupted(state, sim.time) from None
     except SceneError:  # a stroke missed at its time: keep what was computed
         bar.close()
         _save(out, sim, record, previous_phases)
