@@ -108,11 +108,23 @@ def rest_ratio_roughness(cloth, springs=None) -> float:
     return float(np.sqrt(np.mean(difference**2))) if difference.size else 0.0
 
 
-def _vertex_mean_of_springs(cloth, values):
-    """For each spring, the mean of `values` over the springs at its two ends."""
+def vertex_mean_of_springs(cloth, values) -> np.ndarray:
+    """(n,) mean of per-spring ``values`` (s,) over the springs at each vertex (0 where none)."""
     ends = cloth.springs.ends
     n = cloth.vertex_count
     sums = np.bincount(ends[:, 0], values, n) + np.bincount(ends[:, 1], values, n)
     counts = np.bincount(ends[:, 0], None, n) + np.bincount(ends[:, 1], None, n)
-    at_vertex = sums / np.maximum(counts, 1)
+    return sums / np.maximum(counts, 1)
+
+
+def vertex_expansion(cloth) -> np.ndarray:
+    """(n,) mean rest / reference length ratio of each vertex's springs: 1 where untouched,
+    about the stroke's expansion around a stroke (what frames store and pictures colour)."""
+    return vertex_mean_of_springs(cloth, cloth.springs.rest / cloth.springs.reference)
+
+
+def _vertex_mean_of_springs(cloth, values):
+    """For each spring, the mean of `values` over the springs at its two ends."""
+    at_vertex = vertex_mean_of_springs(cloth, values)
+    ends = cloth.springs.ends
     return 0.5 * (at_vertex[ends[:, 0]] + at_vertex[ends[:, 1]])

@@ -24,7 +24,7 @@ import numpy as np
 from .render import fit_camera, render_image, save_animation, save_png, side_by_side
 from .stroke import Camera
 
-__all__ = ["render_run", "render_frame"]
+__all__ = ["render_run", "render_frame", "camera_from_settings"]
 
 #: Longest animation, in frames; longer runs use every k-th frame.
 MAX_ANIMATION_FRAMES = 300
@@ -68,17 +68,18 @@ def _stroke_lines(strokes, V):
     return lines
 
 
-def _camera(summary, points, width, height, eye=None, target=None):
-    """The scene's camera where it gave one, else one fitted to every point; size overridden
-    by width/height when given."""
-    given = (summary or {}).get("camera") or {}
-    width = int(width or given.get("width", 800))
-    height = int(height or given.get("height", 600))
-    up = tuple(given.get("up", (0.0, 1.0, 0.0)))
-    fov = float(given.get("fov_degrees", 35.0))
+def camera_from_settings(settings, points, width=None, height=None, eye=None, target=None):
+    """A camera from [camera] settings (a scene's table, or a run summary's copy of it):
+    eye and target as given, else fitted to ``points`` (one (k, 3) array or a list of them);
+    the arguments, when given, override the settings."""
+    settings = settings or {}
+    width = int(width or settings.get("width", 800))
+    height = int(height or settings.get("height", 600))
+    up = tuple(settings.get("up", (0.0, 1.0, 0.0)))
+    fov = float(settings.get("fov_degrees", 35.0))
     fitted = fit_camera(points, width=width, height=height, up=up, fov_degrees=fov)
-    eye = eye if eye is not None else given.get("eye")
-    target = target if target is not None else given.get("target")
+    eye = eye if eye is not None else settings.get("eye")
+    target = target if target is not None else settings.get("target")
     return Camera(eye=tuple(fitted.eye if eye is None else eye),
                   target=tuple(fitted.target if target is None else target), up=up,
                   fov_degrees=fov, width=width, height=height)
@@ -98,7 +99,7 @@ def render_frame(frame, out=None, width=None, height=None, color_by="none", eye=
     frame = Path(os.fspath(frame))
     V, F, point_data = _read_frame(frame)
     summary = _load_summary(frame.parent) or _load_summary(frame.parent.parent)
-    camera = _camera(summary, V, width, height, eye, target)
+    camera = camera_from_settings((summary or {}).get("camera"), V, width, height, eye, target)
     image = render_image(V, F, camera, face_values=_face_values(F, point_data, color_by, frame),
                          strokes=_stroke_lines((summary or {}).get("strokes", []), V))
     return save_png(frame.with_suffix(".png") if out is None else Path(os.fspath(out)), image)
@@ -142,8 +143,9 @@ def render_run(run_dir, pictures=True, animation="gif", color_by="none", width=N
     written = {}
     if pictures:
         # fitted to the two states shown, so they fill the picture
-        camera = _camera(summary, [before_mesh[0], loaded[len(paths) - 1][0]], width, height,
-                         eye, target)
+        camera = camera_from_settings(summary.get("camera"),
+                                      [before_mesh[0], loaded[len(paths) - 1][0]], width,
+                                      height, eye, target)
         last = picture(loaded[len(paths) - 1], paths[-1], camera)
         first = picture(before_mesh, run_dir / before["file"] if before else paths[0], camera)
         first_title = (f"before the stroke, t = {before['time']:.2f} s" if before
@@ -156,8 +158,9 @@ def render_run(run_dir, pictures=True, animation="gif", color_by="none", width=N
         from tqdm.auto import tqdm
 
         # one camera for every frame, so nothing jumps
-        camera = _camera(summary, [mesh[0] for mesh in loaded.values()], width, height, eye,
-                         target)
+        camera = camera_from_settings(summary.get("camera"),
+                                      [mesh[0] for mesh in loaded.values()], width, height,
+                                      eye, target)
         images = [picture(loaded[k], paths[k], camera)
                   for k in tqdm(chosen, desc="yore render", unit="frame", leave=False,
                                 disable=quiet or None, delay=2.0)]

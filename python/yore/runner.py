@@ -65,8 +65,8 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True) -> dict:
     animation the scene's [output] asks for. Raises SceneError before anything runs when the
     scene is wrong, RunError when the run stops early (state saved).
     """
-    scene.check_strokes()
     sim, _ = scene.build()
+    scene.check_strokes(sim)
     record = {"scene_text": scene.text,
               "scene_path": str(scene.path) if scene.path is not None else None,
               "overrides": scene.overrides, "step": 0, "next_stroke": 0, "frames": [],
@@ -173,7 +173,7 @@ def _run(scene, sim, record, out, until, quiet, render):
     for entry, report in live_reports:
         entry["reanalyze_seconds"] = report.reanalyze_seconds
     state_path = _save(out, sim, record, previous_phases)
-    summary = _summary(scene, sim, record, out, state_path, until)
+    summary = _summary(scene, sim, record, out, state_path)
     summary_path = out / SUMMARY_NAME
     _write_json(summary_path, summary)
     if render and frames is not None:
@@ -193,16 +193,6 @@ def _steps(seconds, dt):
     return int(round(seconds / dt))
 
 
-def _vertex_expansion(cloth):
-    """Per vertex, the mean rest/reference ratio of its springs (1 = untouched)."""
-    ends = cloth.springs.ends
-    ratio = cloth.springs.rest / cloth.springs.reference
-    n = cloth.vertex_count
-    sums = np.bincount(ends[:, 0], ratio, n) + np.bincount(ends[:, 1], ratio, n)
-    counts = np.bincount(ends[:, 0], None, n) + np.bincount(ends[:, 1], None, n)
-    return sums / np.maximum(counts, 1)
-
-
 def _write_frame(sim, frames, record, fmt):
     cloth = sim.cloth
     V, F = cloth.positions, cloth.faces
@@ -215,7 +205,7 @@ def _write_frame(sim, frames, record, fmt):
     if frames is None:
         return
     point_data = None if fmt == "obj" else {"velocity": cloth.velocities,
-                                            "expansion": _vertex_expansion(cloth)}
+                                            "expansion": metrics.vertex_expansion(cloth)}
     path = frames.write(sim.time, V, F, point_data=point_data)
     record["frames"].append((sim.time, str(path.resolve())))
 
@@ -224,7 +214,7 @@ def _save_before(sim, out, record):
     cloth = sim.cloth
     path = out / BEFORE_NAME
     save_mesh(path, cloth.positions, cloth.faces,
-              point_data={"expansion": _vertex_expansion(cloth)})
+              point_data={"expansion": metrics.vertex_expansion(cloth)})
     record["before"] = {"time": sim.time, "file": str(path.resolve())}
 
 
@@ -248,7 +238,7 @@ def _save(out, sim, record, previous_phases):
     return save_state(out / STATE_NAME, sim, metadata=record)
 
 
-def _summary(scene, sim, record, out, state_path, until):
+def _summary(scene, sim, record, out, state_path):
     from . import build_info
 
     stats = sim.stats
@@ -272,7 +262,7 @@ def _summary(scene, sim, record, out, state_path, until):
         "scene": record["scene_path"],
         "overrides": record["overrides"],
         "resumed_from": record["resumed_from"],
-        "finished": until is None or sim.time >= scene.data["simulation"]["duration"] - 0.5 * sim.dt,
+        "finished": sim.time >= scene.data["simulation"]["duration"] - 0.5 * sim.dt,
         "time": sim.time,
         "steps": record["step"],
         "dt": sim.dt,

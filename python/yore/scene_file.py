@@ -322,11 +322,13 @@ class Scene:
         options the integrator rejects, a mesh file that cannot be read."""
         return _build(self)
 
-    def check_strokes(self) -> None:
-        """Tries the strokes that can be tried before the run on a copy of the cloth: material
-        strokes at any time, 3-D and screen strokes at time 0 (later ones depend on the motion,
-        which only the run knows). Raises SceneError naming the stroke that misses."""
-        sim, _ = self.build()
+    def check_strokes(self, sim=None) -> None:
+        """Tries the strokes that can be tried before the run on a copy of the cloth (of
+        ``sim``, a simulation this scene built, or of a new one): material strokes at any time,
+        3-D and screen strokes at time 0 (later ones depend on the motion, which only the run
+        knows). Raises SceneError naming the stroke that misses."""
+        if sim is None:
+            sim, _ = self.build()
         probe = Simulation(Cloth.from_state(sim.cloth.state()), integrator="explicit",
                            dt=sim.dt, gravity=sim.gravity)
         for index, stroke in sorted(enumerate(self.data["strokes"]), key=lambda s: s[1]["time"]):
@@ -711,18 +713,10 @@ def _select(scene, where, entry, sets, positions):
 # -- strokes --------------------------------------------------------------------------------------
 def scene_camera(scene, positions) -> Camera:
     """The scene's [camera]: as given, with eye/target fitted to ``positions`` when absent."""
-    from .render import fit_camera
+    from .render_run import camera_from_settings
 
-    camera = scene.data["camera"]
-    fitted = fit_camera(positions, width=camera["width"], height=camera["height"],
-                        up=tuple(camera["up"]), fov_degrees=camera["fov_degrees"])
-    eye = camera.get("eye")
-    target = camera.get("target")
     try:
-        return Camera(eye=tuple(fitted.eye if eye is None else eye),
-                      target=tuple(fitted.target if target is None else target),
-                      up=tuple(camera["up"]), fov_degrees=camera["fov_degrees"],
-                      width=camera["width"], height=camera["height"])
+        return camera_from_settings(scene.data["camera"], positions)
     except ValueError as error:
         raise scene.error("camera", str(error)) from None
 
