@@ -68,7 +68,7 @@ const char* const kStateKeys[] = {
     "drivers",          "clock_origin",     "clock_steps",      "clock_dt"};
 
 py::dict state_dict(const Cloth& cloth) {
-  const ClothState state = cloth.state();
+  const ClothState state = idle(cloth).state();
   const SpringSet& springs = state.springs;
   const std::size_t s = springs.size();
   Edges ends(static_cast<Eigen::Index>(s), 2);
@@ -163,10 +163,10 @@ Cloth cloth_from_state(const py::dict& values) {
   springs.stiffness = double_list(values["spring_stiffness"], "state spring_stiffness", s);
   springs.damping = double_list(values["spring_damping"], "state spring_damping", s);
   for (const double code : double_list(values["spring_kind"], "state spring_kind", s)) {
-    springs.kind.push_back(static_cast<SpringKind>(static_cast<int>(code)));
-    if (code != 0.0 && code != 1.0) {
+    if (code != 0.0 && code != 1.0) {  // before the cast: NaN or 1e300 to int is undefined
       throw std::invalid_argument("state spring_kind must hold 0 (structural) or 1 (bending)");
     }
+    springs.kind.push_back(static_cast<SpringKind>(static_cast<int>(code)));
   }
   state.drag = values["drag"].cast<double>();
   state.stretch_stiffness = values["stretch_stiffness"].cast<double>();
@@ -210,11 +210,11 @@ Cloth cloth_from_state(const py::dict& values) {
 
 void bind_cloth(py::module_& m) {
   py::class_<SpringsView>(m, "Springs", "The springs of a cloth (structure of arrays).")
-      .def("__len__", [](const SpringsView& view) { return view.cloth->springs().size(); })
+      .def("__len__", [](const SpringsView& view) { return idle(*view.cloth).springs().size(); })
       .def_property_readonly(
           "ends",
           [](const SpringsView& view) {
-            const SpringSet& springs = view.cloth->springs();
+            const SpringSet& springs = idle(*view.cloth).springs();
             Edges ends(static_cast<Eigen::Index>(springs.size()), 2);
             for (std::size_t s = 0; s < springs.size(); ++s) {
               ends(static_cast<Eigen::Index>(s), 0) = springs.first[s];
@@ -225,16 +225,19 @@ void bind_cloth(py::module_& m) {
           "s×2 int32 vertex indices of each spring's ends.")
       .def_property(
           "rest",
-          [](const SpringsView& view) { return read_only_copy(view.cloth->springs().rest_length); },
+          [](const SpringsView& view) {
+            return read_only_copy(idle(*view.cloth).springs().rest_length);
+          },
           [](SpringsView& view, const py::handle& rest) {
-            view.cloth->set_rest_lengths(
-                to_vector(rest, "rest", static_cast<Eigen::Index>(view.cloth->springs().size())));
+            Cloth& cloth = idle(*view.cloth);
+            cloth.set_rest_lengths(
+                to_vector(rest, "rest", static_cast<Eigen::Index>(cloth.springs().size())));
           },
           "(s,) rest lengths, metres; assignable (finite, > 0).")
       .def_property_readonly(
           "kind",
           [](const SpringsView& view) {
-            const auto& kinds = view.cloth->springs().kind;
+            const auto& kinds = idle(*view.cloth).springs().kind;
             std::vector<std::int8_t> codes(kinds.size());
             for (std::size_t s = 0; s < kinds.size(); ++s) {
               codes[s] = static_cast<std::int8_t>(kinds[s]);
@@ -245,17 +248,21 @@ void bind_cloth(py::module_& m) {
       .def_property_readonly(
           "reference",
           [](const SpringsView& view) {
-            return read_only_copy(view.cloth->springs().reference_length);
+            return read_only_copy(idle(*view.cloth).springs().reference_length);
           },
           "(s,) reference lengths, metres: what rest lengths are measured against (the input "
           "length, or the length when a stroke created the spring).")
       .def_property_readonly(
           "stiffness",
-          [](const SpringsView& view) { return read_only_copy(view.cloth->springs().stiffness); },
+          [](const SpringsView& view) {
+            return read_only_copy(idle(*view.cloth).springs().stiffness);
+          },
           "(s,) stiffness, N/m.")
       .def_property_readonly(
           "damping",
-          [](const SpringsView& view) { return read_only_copy(view.cloth->springs().damping); },
+          [](const SpringsView& view) {
+            return read_only_copy(idle(*view.cloth).springs().damping);
+          },
           "(s,) damping along each spring, N·s/m.");
 
   py::class_<Cloth>(m, "Cloth", R"doc(
@@ -299,33 +306,39 @@ Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0,
 vertices n×3 (m); edges s×2 vertex indices; rest_lengths (s,) metres, default the distances in
 vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; drag 1/s.)doc")
       .def_property(
-          "positions", [](const Cloth& cloth) { return read_only_copy(cloth.positions()); },
+          "positions", [](const Cloth& cloth) { return read_only_copy(idle(cloth).positions()); },
           [](Cloth& cloth, const py::handle& value) {
+            idle(cloth);
             cloth.set_positions(to_rows3(value, "positions", cloth.vertex_count()));
           },
           "n×3 positions, metres (a read-only copy; assign a whole array to change them).")
       .def_property(
-          "velocities", [](const Cloth& cloth) { return read_only_copy(cloth.velocities()); },
+          "velocities", [](const Cloth& cloth) { return read_only_copy(idle(cloth).velocities()); },
           [](Cloth& cloth, const py::handle& value) {
+            idle(cloth);
             cloth.set_velocities(to_rows3(value, "velocities", cloth.vertex_count()));
           },
           "n×3 velocities, m/s (assignable; fixed and driven vertices keep theirs).")
-      .def_property_readonly("masses", [](const Cloth& cloth) { return read_only_copy(cloth.masses()); },
-                             "(n,) masses, kg.")
-      .def_property_readonly("faces", [](const Cloth& cloth) { return read_only_copy(cloth.faces()); },
-                             "f×3 int32 faces (empty for a spring network).")
+      .def_property_readonly(
+          "masses", [](const Cloth& cloth) { return read_only_copy(idle(cloth).masses()); },
+          "(n,) masses, kg.")
+      .def_property_readonly(
+          "faces", [](const Cloth& cloth) { return read_only_copy(idle(cloth).faces()); },
+          "f×3 int32 faces (empty for a spring network).")
       .def_property_readonly(
           "springs",
-          py::cpp_function([](Cloth& cloth) { return SpringsView{&cloth}; },
+          py::cpp_function([](Cloth& cloth) { return SpringsView{&idle(cloth)}; },
                            py::keep_alive<0, 1>()),
           "The springs (ends, rest, kind, ...); a view that keeps its cloth alive.")
       .def_property(
           "material_coordinates",
           [](const Cloth& cloth) -> py::object {
+            idle(cloth);
             if (cloth.material_coordinates().rows() == 0) return py::none();
             return read_only_copy(cloth.material_coordinates());
           },
           [](Cloth& cloth, const py::handle& value) {
+            idle(cloth);
             const auto array = as_float_array(value, "material_coordinates");
             if (array.ndim() != 2 || array.shape(1) != 2 || array.shape(0) != cloth.vertex_count()) {
               throw std::invalid_argument("material_coordinates must have shape (" +
@@ -337,14 +350,19 @@ vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; dr
             cloth.set_material_coordinates(uv);
           },
           "n×2 rest-pattern coordinates (m) or None; interpolated into split faces.")
-      .def_property_readonly("vertex_count", &Cloth::vertex_count)
-      .def_property_readonly("face_count", &Cloth::face_count)
+      .def_property_readonly("vertex_count",
+                             [](const Cloth& cloth) { return idle(cloth).vertex_count(); })
+      .def_property_readonly("face_count",
+                             [](const Cloth& cloth) { return idle(cloth).face_count(); })
       .def_property_readonly("spring_count",
-                             [](const Cloth& cloth) { return cloth.springs().size(); })
-      .def_property_readonly("drag", &Cloth::drag, "Air drag coefficient, 1/s.")
+                             [](const Cloth& cloth) { return idle(cloth).springs().size(); })
+      .def_property_readonly(
+          "drag", [](const Cloth& cloth) { return idle(cloth).drag(); },
+          "Air drag coefficient, 1/s.")
       .def_property(
-          "time", &Cloth::time,
+          "time", [](const Cloth& cloth) { return idle(cloth).time(); },
           [](Cloth& cloth, double time) {
+            idle(cloth);
             if (!std::isfinite(time)) {
               throw std::invalid_argument("time must be finite, got " + std::to_string(time));
             }
@@ -352,23 +370,27 @@ vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; dr
             cloth.apply_drivers(time);  // driven vertices are where their drivers say at `time`
           },
           "Simulated time, s; assigning it also moves driven vertices to that time.")
-      .def_property_readonly("topology_version", &Cloth::topology_version,
-                             "Changes whenever vertices, springs or the constrained set change.")
+      .def_property_readonly(
+          "topology_version", [](const Cloth& cloth) { return idle(cloth).topology_version(); },
+          "Changes whenever vertices, springs or the constrained set change.")
       .def_property_readonly(
           "fixed_vertices",
           [](const Cloth& cloth) {
+            idle(cloth);
             return read_only_copy(vertices_in_state(cloth, VertexState::fixed));
           },
           "Indices of fixed vertices.")
       .def_property_readonly(
           "driven_vertices",
           [](const Cloth& cloth) {
+            idle(cloth);
             return read_only_copy(vertices_in_state(cloth, VertexState::driven));
           },
           "Indices of kinematic (driven) vertices.")
       .def(
           "fix",
           [](Cloth& cloth, const py::handle& indices) {
+            idle(cloth);
             cloth.fix(to_indices(indices, "indices"));
           },
           py::arg("indices"), "Fixes vertices: they never move.")
@@ -376,6 +398,7 @@ vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; dr
           "drive_rotation",
           [](Cloth& cloth, const py::handle& indices, const py::handle& center,
              const py::handle& axis, double omega) {
+            idle(cloth);
             cloth.drive_rotation(to_indices(indices, "indices"), to_vec3(center, "center"),
                                  to_vec3(axis, "axis"), omega);
           },
@@ -385,6 +408,7 @@ through `center` (m) along `axis` at `omega` rad/s (right-handed), exactly.)doc"
       .def(
           "energy",
           [](const Cloth& cloth, const py::handle& gravity) {
+            idle(cloth);
             return energy_dict(cloth.energy(to_vec3(gravity, "gravity")));
           },
           py::arg("gravity"), "Kinetic, spring and gravitational energy (J) as a dict.")
@@ -397,9 +421,15 @@ Cloth.from_state(cloth.state()) is the same cloth, bit for bit (pickle uses this
 unknown or missing key or the first inconsistent value.)doc")
       .def(py::pickle([](const Cloth& cloth) { return state_dict(cloth); },
                       [](const py::dict& values) { return cloth_from_state(values); }))
-      .def("stable_time_step", &Cloth::stable_time_step,
-           "Estimated largest stable explicit time step, s (conservative).")
+      .def(
+          "stable_time_step", [](const Cloth& cloth) { return idle(cloth).stable_time_step(); },
+          "Estimated largest stable explicit time step, s (conservative).")
+      .def_property_readonly(
+          "busy", [](const Cloth& cloth) { return is_busy(&cloth); },
+          "Whether a call that released the GIL (an integrator's advance, a stroke trace) is "
+          "working on this cloth; meanwhile every other use raises RuntimeError.")
       .def("__repr__", [](const Cloth& cloth) {
+        if (is_busy(&cloth)) return std::string("<yore.Cloth (in use by another thread)>");
         std::ostringstream text;
         text << "<yore.Cloth: " << cloth.vertex_count() << " vertices, " << cloth.face_count()
              << " faces, " << cloth.springs().size() << " springs, topology "

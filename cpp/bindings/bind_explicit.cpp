@@ -8,17 +8,18 @@ void bind_explicit(py::module_& m) {
   py::class_<ExplicitIntegrator> integrator_class(
       m, "ExplicitIntegrator", "Symplectic Euler with optional Provot strain limiting.");
   def_advance(integrator_class);
-  integrator_class.def(py::init([](double strain_limit, int strain_limit_passes,
+  integrator_class.def(py::init([](double strain_limit, std::int64_t strain_limit_passes,
                        double divergence_energy_factor) {
              ExplicitOptions options;
              options.strain_limit = strain_limit;
-             options.strain_limit_passes = strain_limit_passes;
+             options.strain_limit_passes = to_int32(strain_limit_passes, "strain_limit_passes");
              options.divergence_energy_factor = divergence_energy_factor;
              return ExplicitIntegrator(options);
            }),
            py::kw_only(), py::arg("strain_limit") = 0.0, py::arg("strain_limit_passes") = 4,
            py::arg("divergence_energy_factor") = 10.0)
       .def_property_readonly("statistics", [](const ExplicitIntegrator& integrator) {
+        check_idle(&integrator, "the integrator");
         const ExplicitStatistics& s = integrator.statistics();
         py::dict out;
         out["steps"] = s.steps;

@@ -28,7 +28,7 @@ py::array csc_array(const std::vector<std::int32_t>& values) { return read_only_
 void bind_implicit(py::module_& m) {
   m.def(
       "solve_spd",
-      [](std::int32_t size, const py::handle& indptr, const py::handle& indices,
+      [](std::int64_t requested_size, const py::handle& indptr, const py::handle& indices,
          const py::handle& data, const py::handle& rhs, const std::string& solver,
          const std::string& ordering, const std::string& factorization) {
         LinearSolverOptions options;
@@ -39,15 +39,25 @@ void bind_implicit(py::module_& m) {
         options.factor = parse_choice<FactorKind>(
             factorization, "factorization",
             {{"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}});
+        const std::int32_t size = to_int32(requested_size, "size");
+        if (size < 0) throw std::invalid_argument("size must be >= 0, got " + std::to_string(size));
         SymmetricPattern pattern;
         pattern.size = size;
-        for (const auto value : to_vector(indptr, "indptr", size + 1)) {
-          pattern.column_starts.push_back(static_cast<std::int32_t>(value));
+        pattern.column_starts = to_indices(indptr, "indptr");
+        if (static_cast<std::int64_t>(pattern.column_starts.size()) != std::int64_t{size} + 1) {
+          throw std::invalid_argument("indptr must have size + 1 = " + std::to_string(size + 1) +
+                                      " entries, got " +
+                                      std::to_string(pattern.column_starts.size()));
         }
-        const Eigen::VectorXd rows = to_vector(indices, "indices");
-        for (const auto value : rows) pattern.row_indices.push_back(static_cast<std::int32_t>(value));
-        if (pattern.column_starts.front() != 0 || pattern.column_starts.back() != rows.size()) {
+        pattern.row_indices = to_indices(indices, "indices");
+        const auto nonzeros = static_cast<std::int64_t>(pattern.row_indices.size());
+        if (pattern.column_starts.front() != 0 || pattern.column_starts.back() != nonzeros) {
           throw std::invalid_argument("indptr must start at 0 and end at len(indices)");
+        }
+        for (std::int32_t c = 0; c < size; ++c) {
+          if (pattern.column_starts[c + 1] < pattern.column_starts[c]) {
+            throw std::invalid_argument("indptr must be non-decreasing");
+          }
         }
         for (std::int32_t c = 0; c < size; ++c) {
           for (std::int32_t p = pattern.column_starts[c]; p < pattern.column_starts[c + 1]; ++p) {
@@ -60,7 +70,7 @@ void bind_implicit(py::module_& m) {
             }
           }
         }
-        const Eigen::VectorXd values = to_vector(data, "data", rows.size());
+        const Eigen::VectorXd values = to_vector(data, "data", nonzeros);
         const Eigen::VectorXd b = to_vector(rhs, "rhs", size);
         auto linear_solver = make_linear_solver(options);
         linear_solver->analyze(pattern);
@@ -79,21 +89,21 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
       m, "ImplicitIntegrator", "Backward Euler / BDF2 by Newton's method on a sparse solver.");
   def_advance(integrator_class);
   integrator_class.def(py::init([](const std::string& method, bool linearized, double newton_tol,
-                       int max_newton, const std::string& solver, const std::string& ordering,
-                       const std::string& factorization, double pcg_tol, int pcg_max_iterations,
+                       std::int64_t max_newton, const std::string& solver, const std::string& ordering,
+                       const std::string& factorization, double pcg_tol, std::int64_t pcg_max_iterations,
                        double divergence_energy_factor, bool adaptive_projection,
-                       bool lagged_factorization, int lag_max_cg_iterations, double lag_cg_tol) {
+                       bool lagged_factorization, std::int64_t lag_max_cg_iterations, double lag_cg_tol) {
              ImplicitOptions options;
              options.adaptive_projection = adaptive_projection;
              options.lagged_factorization = lagged_factorization;
-             options.lag_max_cg_iterations = lag_max_cg_iterations;
+             options.lag_max_cg_iterations = to_int32(lag_max_cg_iterations, "lag_max_cg_iterations");
              options.lag_cg_tolerance = lag_cg_tol;
              options.method = parse_choice<ImplicitMethod>(
                  method, "method",
                  {{"backward_euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}});
              options.linearized = linearized;
              options.newton_tol = newton_tol;
-             options.max_newton = max_newton;
+             options.max_newton = to_int32(max_newton, "max_newton");
              options.solver.backend = solver;
              options.solver.ordering = parse_choice<Ordering>(
                  ordering, "ordering",
@@ -102,7 +112,7 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
                  factorization, "factorization",
                  {{"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}});
              options.solver.pcg_tolerance = pcg_tol;
-             options.solver.pcg_max_iterations = pcg_max_iterations;
+             options.solver.pcg_max_iterations = to_int32(pcg_max_iterations, "pcg_max_iterations");
              options.divergence_energy_factor = divergence_energy_factor;
              return std::make_unique<ImplicitIntegrator>(options);
            }),
@@ -117,6 +127,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
              double dt, const py::handle& positions) {
+            check_idle(&integrator, "the integrator");
+            idle(cloth);
             const NewtonSystem system = integrator.newton_system(
                 cloth, to_vec3(gravity, "gravity"), dt,
                 to_rows3(positions, "positions", cloth.vertex_count()));
@@ -139,6 +151,8 @@ Newton direction.)doc")
       .def(
           "history",
           [](const ImplicitIntegrator& integrator, const Cloth& cloth) -> py::object {
+            check_idle(&integrator, "the integrator");
+            idle(cloth);
             const ImplicitIntegrator::History history = integrator.history(cloth);
             if (!history.valid) return py::none();
             py::dict out;
@@ -153,6 +167,8 @@ Newton direction.)doc")
       .def(
           "set_history",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::object& history) {
+            check_idle(&integrator, "the integrator");
+            idle(cloth);
             ImplicitIntegrator::History restored;
             if (!history.is_none()) {
               const py::dict values = history.cast<py::dict>();
@@ -166,6 +182,7 @@ Newton direction.)doc")
           py::arg("cloth"), py::arg("history"),
           "Restores a history taken by history() (None forgets it) for `cloth` as it is now.")
       .def_property_readonly("statistics", [](const ImplicitIntegrator& integrator) {
+        check_idle(&integrator, "the integrator");
         const ImplicitStatistics& s = integrator.statistics();
         const SolverStatistics& solver = integrator.solver_statistics();
         py::dict out;

@@ -14,12 +14,12 @@ void bind_local_global(py::module_& m) {
       m, "LocalGlobalIntegrator", "Prefactored local/global backward Euler (Liu et al. 2013).");
   def_advance(integrator_class);
   integrator_class
-      .def(py::init([](int iterations, double chebyshev_rho, const std::string& ordering,
+      .def(py::init([](std::int64_t iterations, double chebyshev_rho, const std::string& ordering,
                        const std::string& factorization, const std::string& rebuild,
-                       int stale_pcg_max_iterations, double stale_pcg_tol, bool record_objective,
+                       std::int64_t stale_pcg_max_iterations, double stale_pcg_tol, bool record_objective,
                        double divergence_energy_factor) {
              LocalGlobalOptions options;
-             options.iterations = iterations;
+             options.iterations = to_int32(iterations, "iterations");
              options.chebyshev_rho = chebyshev_rho;
              if (ordering == "amd") options.ordering = Ordering::amd;
              else if (ordering == "metis") options.ordering = Ordering::metis;
@@ -35,7 +35,8 @@ void bind_local_global(py::module_& m) {
              else if (rebuild == "stale-pcg") options.rebuild = RebuildStrategy::stale_pcg;
              else throw std::invalid_argument("unknown rebuild '" + rebuild +
                                               "'; valid: fresh, reuse-ordering, stale-pcg");
-             options.stale_pcg_max_iterations = stale_pcg_max_iterations;
+             options.stale_pcg_max_iterations =
+                 to_int32(stale_pcg_max_iterations, "stale_pcg_max_iterations");
              options.stale_pcg_tolerance = stale_pcg_tol;
              options.record_objective = record_objective;
              options.divergence_energy_factor = divergence_energy_factor;
@@ -49,10 +50,12 @@ void bind_local_global(py::module_& m) {
       .def_property_readonly(
           "objective_history",
           [](const LocalGlobalIntegrator& integrator) {
+            check_idle(&integrator, "the integrator");
             return read_only_copy(integrator.objective_history());
           },
           "The objective (J) after each iteration of the last step (record_objective only).")
       .def_property_readonly("statistics", [](const LocalGlobalIntegrator& integrator) {
+        check_idle(&integrator, "the integrator");
         const LocalGlobalStatistics& s = integrator.statistics();
         const SolverStatistics& solver = integrator.solver_statistics();
         py::dict out;

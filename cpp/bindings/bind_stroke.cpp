@@ -38,17 +38,17 @@ void bind_stroke(py::module_& m) {
       "trace_closest",
       [](const Cloth& cloth, const py::handle& points, double max_distance, double spacing) {
         const Positions stroke = to_rows3(points, "points");
-        py::gil_scoped_release release;
-        const StrokeTrace trace =
-            trace_closest(cloth.positions(), cloth.faces(), stroke, max_distance, spacing);
-        py::gil_scoped_acquire acquire;
-        return trace_dict(trace);
+        const BusyGuard busy(&cloth, "the Cloth", "a stroke is being traced on it");
+        return trace_dict(run_without_gil([&] {
+          return trace_closest(cloth.positions(), cloth.faces(), stroke, max_distance, spacing);
+        }));
       },
       py::arg("cloth"), py::arg("points"), py::arg("max_distance"), py::arg("spacing"),
       "Faces a 3-D polyline (k×3, m) crosses on the cloth's current surface, closest-point.");
   m.def(
       "trace_material",
       [](const Cloth& cloth, const py::handle& points, double tolerance, double spacing) {
+        idle(cloth);
         if (cloth.material_coordinates().rows() == 0) {
           throw std::invalid_argument(
               "the cloth has no material coordinates; set cloth.material_coordinates (n×2)");
@@ -56,10 +56,9 @@ void bind_stroke(py::module_& m) {
         Positions flat = Positions::Zero(cloth.vertex_count(), 3);
         flat.leftCols<2>() = cloth.material_coordinates();
         const Positions stroke = to_rows3(points, "points");
-        py::gil_scoped_release release;
-        const StrokeTrace trace = trace_closest(flat, cloth.faces(), stroke, tolerance, spacing);
-        py::gil_scoped_acquire acquire;
-        return trace_dict(trace);
+        const BusyGuard busy(&cloth, "the Cloth", "a stroke is being traced on it");
+        return trace_dict(run_without_gil(
+            [&] { return trace_closest(flat, cloth.faces(), stroke, tolerance, spacing); }));
       },
       py::arg("cloth"), py::arg("points"), py::arg("tolerance"), py::arg("spacing"),
       "Faces a polyline in rest-pattern coordinates (k×3 with z = 0) crosses.");
@@ -72,11 +71,10 @@ void bind_stroke(py::module_& m) {
         const Vec3 origin = to_vec3(eye, "eye"), d0 = to_vec3(base, "base_direction"),
                    dx = to_vec3(per_x, "direction_per_pixel_x"),
                    dy = to_vec3(per_y, "direction_per_pixel_y");
-        py::gil_scoped_release release;
-        const StrokeTrace trace =
-            trace_rays(cloth.positions(), cloth.faces(), stroke, origin, d0, dx, dy, spacing);
-        py::gil_scoped_acquire acquire;
-        return trace_dict(trace);
+        const BusyGuard busy(&cloth, "the Cloth", "a stroke is being traced on it");
+        return trace_dict(run_without_gil([&] {
+          return trace_rays(cloth.positions(), cloth.faces(), stroke, origin, d0, dx, dy, spacing);
+        }));
       },
       py::arg("cloth"), py::arg("pixels"), py::arg("eye"), py::arg("base_direction"),
       py::arg("direction_per_pixel_x"), py::arg("direction_per_pixel_y"), py::arg("spacing"),
@@ -85,6 +83,7 @@ void bind_stroke(py::module_& m) {
       "split_faces",
       [](Cloth& cloth, const py::handle& faces, const py::handle& barycentric, double expansion,
          double mass_scale, double min_barycentric, double min_angle_degrees) {
+        idle(cloth);
         const std::vector<std::int32_t> ids = to_indices(faces, "faces");
         const Positions weights =
             to_rows3(barycentric, "barycentric", static_cast<Eigen::Index>(ids.size()));

@@ -1,10 +1,89 @@
 #include "convert.hpp"
 
+#include <atomic>
 #include <limits>
+#include <mutex>
+#include <unordered_map>
 #include <sstream>
 #include <stdexcept>
 
 namespace yore::bindings {
+namespace {
+
+/// The objects BusyGuards hold, with the call that holds each. Bindings take and release marks
+/// with the GIL held; the mutex keeps the table sound without it (free-threaded builds).
+struct BusyTable {
+  std::mutex mutex;
+  std::unordered_map<const void*, const char*> calls;
+  std::atomic<std::size_t> size{0};  // lock-free fast path of check_idle
+};
+
+BusyTable& busy_table() {
+  static BusyTable* table = new BusyTable();  // never destroyed: no exit-order issues
+  return *table;
+}
+
+}  // namespace
+
+BusyGuard::BusyGuard(const void* object, const char* what, const char* call) : m_object(object) {
+  BusyTable& table = busy_table();
+  const std::lock_guard<std::mutex> lock(table.mutex);
+  const auto [it, inserted] = table.calls.emplace(object, call);
+  if (!inserted) {
+    throw std::runtime_error(std::string(what) + " is in use by another thread (" + it->second +
+                             "); wait for that call to finish");
+  }
+  table.size.store(table.calls.size(), std::memory_order_release);
+}
+
+BusyGuard::~BusyGuard() {
+  BusyTable& table = busy_table();
+  const std::lock_guard<std::mutex> lock(table.mutex);
+  table.calls.erase(m_object);
+  table.size.store(table.calls.size(), std::memory_order_release);
+}
+
+void check_idle(const void* object, const char* what) {
+  BusyTable& table = busy_table();
+  if (table.size.load(std::memory_order_acquire) == 0) return;
+  const std::lock_guard<std::mutex> lock(table.mutex);
+  const auto it = table.calls.find(object);
+  if (it != table.calls.end()) {
+    throw std::runtime_error(std::string(what) + " is in use by another thread (" + it->second +
+                             "); wait for that call to finish");
+  }
+}
+
+bool is_busy(const void* object) {
+  BusyTable& table = busy_table();
+  if (table.size.load(std::memory_order_acquire) == 0) return false;
+  const std::lock_guard<std::mutex> lock(table.mutex);
+  return table.calls.count(object) > 0;
+}
+
+PendingPythonError::~PendingPythonError() {
+  // Only reached with the GIL held (run_without_gil's frame).
+  Py_XDECREF(m_type);
+  Py_XDECREF(m_value);
+  Py_XDECREF(m_traceback);
+}
+
+bool PendingPythonError::check_signals() {
+  if (PyErr_CheckSignals() == 0) return false;
+  PyErr_Fetch(&m_type, &m_value, &m_traceback);
+  return true;
+}
+
+void PendingPythonError::raise() {
+  if (m_type == nullptr) {
+    PyErr_SetNone(PyExc_KeyboardInterrupt);
+  } else {
+    PyErr_Restore(m_type, m_value, m_traceback);  // steals the references
+    m_type = m_value = m_traceback = nullptr;
+  }
+  throw py::error_already_set();
+}
+
 
 std::string shape_text(const py::array& array) {
   std::ostringstream text;
@@ -49,6 +128,20 @@ namespace {
 
 /// Copies an integer array into `out` (numeric.size() entries) as int32, in C order.
 void narrow_to_int32(const py::array& numeric, const char* name, std::int32_t* out) {
+  if (numeric.dtype().kind() == 'u') {  // uint64 above 2^63 would wrap to negative int64
+    const auto wide = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(
+        numeric);
+    for (py::ssize_t k = 0; k < wide.size(); ++k) {
+      const std::uint64_t value = wide.data()[k];
+      if (value > static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max())) {
+        std::ostringstream msg;
+        msg << name << " holds the index " << value << ", outside the 32-bit range";
+        throw std::invalid_argument(msg.str());
+      }
+      out[k] = static_cast<std::int32_t>(value);
+    }
+    return;
+  }
   const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
       numeric);
   for (py::ssize_t k = 0; k < wide.size(); ++k) {
@@ -84,6 +177,16 @@ Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> to_index_r
 }
 
 }  // namespace
+
+std::int32_t to_int32(std::int64_t value, const char* name) {
+  if (value < std::numeric_limits<std::int32_t>::min() ||
+      value > std::numeric_limits<std::int32_t>::max()) {
+    std::ostringstream msg;
+    msg << name << " = " << value << " is outside the 32-bit range";
+    throw std::invalid_argument(msg.str());
+  }
+  return static_cast<std::int32_t>(value);
+}
 
 Faces to_faces(const py::handle& object) { return to_index_rows<3>(object, "faces"); }
 

@@ -3,6 +3,7 @@
 // offending argument, shape or value (std::invalid_argument → ValueError in Python).
 
 #include "yore/cloth.hpp"
+#include "yore/interrupt.hpp"
 #include "yore/linear_solver.hpp"
 #include "yore/mesh.hpp"
 
@@ -42,6 +43,9 @@ Eigen::Vector3d to_vec3(const py::handle& object, const char* name);
 /// 1-D list of vertex indices (any integer dtype); range is checked by the core.
 std::vector<std::int32_t> to_indices(const py::handle& object, const char* name);
 
+/// `value` as int32; ValueError naming `name` outside the 32-bit range (counts, sizes).
+std::int32_t to_int32(std::int64_t value, const char* name);
+
 /// A read-only numpy copy (the core's storage may move when the topology changes).
 template <typename Matrix>
 py::array read_only_copy(const Matrix& matrix) {
@@ -68,8 +72,79 @@ py::array read_only_copy(const std::vector<T>& values) {
   return std::move(out);
 }
 
-/// Adds advance(cloth, gravity, dt, steps) to an integrator class; the GIL is released while
-/// it runs (the cloth must not be touched from another Python thread meanwhile).
+/// Marks an object (a Cloth, an integrator) as in use while a binding works on it with the GIL
+/// released, so that another Python thread cannot read or change it meanwhile (a stroke would
+/// reallocate the arrays an integrator is writing). Every binding that touches a Cloth or an
+/// integrator calls check_idle() first, holding the GIL. Exception-safe (RAII); the mark is set
+/// and cleared while the GIL is held.
+class BusyGuard {
+ public:
+  /// Marks `object` busy; throws std::runtime_error (RuntimeError) naming `what` if it already is.
+  BusyGuard(const void* object, const char* what, const char* call);
+  ~BusyGuard();
+  BusyGuard(const BusyGuard&) = delete;
+  BusyGuard& operator=(const BusyGuard&) = delete;
+
+ private:
+  const void* m_object;
+};
+
+/// Throws std::runtime_error (RuntimeError) "<what> is in use by another thread (<call>)" if a
+/// BusyGuard holds `object`. One relaxed atomic load when nothing is busy.
+void check_idle(const void* object, const char* what);
+
+/// Whether a BusyGuard holds `object`.
+bool is_busy(const void* object);
+
+/// `cloth` after check_idle (for bindings that read or change it).
+inline const Cloth& idle(const Cloth& cloth) {
+  check_idle(&cloth, "the Cloth");
+  return cloth;
+}
+inline Cloth& idle(Cloth& cloth) {
+  check_idle(&cloth, "the Cloth");
+  return cloth;
+}
+
+/// A Python error taken out of the interpreter by an InterruptScope check, put back later.
+class PendingPythonError {
+ public:
+  PendingPythonError() = default;
+  ~PendingPythonError();
+  PendingPythonError(const PendingPythonError&) = delete;
+  PendingPythonError& operator=(const PendingPythonError&) = delete;
+  /// Runs the interpreter's signal handlers (GIL held); true (error kept) if one raised.
+  bool check_signals();
+  /// Raises the kept error (KeyboardInterrupt if none) as py::error_already_set; GIL held.
+  [[noreturn]] void raise();
+
+ private:
+  PyObject* m_type = nullptr;
+  PyObject* m_value = nullptr;
+  PyObject* m_traceback = nullptr;
+};
+
+/// Runs f() with the GIL released, answering Ctrl-C: about every 50 ms the core's interrupt
+/// polls briefly take the GIL and run the signal handlers; when one raises (KeyboardInterrupt),
+/// the core unwinds (integrators undo the interrupted advance() call) and the handler's
+/// exception is raised here.
+template <typename Function>
+auto run_without_gil(Function&& function) {
+  PendingPythonError pending;
+  try {
+    py::gil_scoped_release release;
+    const InterruptScope scope([&pending] {
+      py::gil_scoped_acquire acquire;
+      return pending.check_signals();
+    });
+    return function();
+  } catch (const Interrupted&) {
+    pending.raise();
+  }
+}
+
+/// Adds advance(cloth, gravity, dt, steps) and busy to an integrator class; the GIL is
+/// released while advance runs, and the cloth and the integrator are marked busy meanwhile.
 template <typename Integrator>
 void def_advance(py::class_<Integrator>& integrator_class) {
   integrator_class.def(
@@ -77,11 +152,17 @@ void def_advance(py::class_<Integrator>& integrator_class) {
       [](Integrator& integrator, Cloth& cloth, const py::handle& gravity, double dt,
          std::int64_t steps) {
         const Eigen::Vector3d g = to_vec3(gravity, "gravity");
-        py::gil_scoped_release release;
-        integrator.advance(cloth, g, dt, steps);
+        const BusyGuard cloth_busy(&cloth, "the Cloth", "an integrator's advance is running");
+        const BusyGuard integrator_busy(&integrator, "the integrator", "its advance is running");
+        run_without_gil([&] { integrator.advance(cloth, g, dt, steps); });
       },
       py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("steps"),
-      "Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.");
+      R"doc(Runs `steps` steps of dt seconds; raises SimulationDiverged (cloth restored) on blow-up.
+Answers Ctrl-C: KeyboardInterrupt, the cloth back at its state before this call. Raises
+RuntimeError if the cloth or the integrator is in use by another thread.)doc");
+  integrator_class.def_property_readonly(
+      "busy", [](const Integrator& integrator) { return is_busy(&integrator); },
+      "Whether an advance call (possibly on another thread) is running on this integrator.");
 }
 
 /// Adds the factor's size, flops and ordering (as every integrator's statistics report them).

@@ -63,9 +63,12 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
     fail(msg.str());
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!std::isfinite(masses[i]) || masses[i] <= 0.0) {
+    // A subnormal (or smaller) mass has no finite inverse mass or stable step to go with it.
+    if (!std::isfinite(masses[i]) || !(masses[i] >= std::numeric_limits<double>::min())) {
       std::ostringstream msg;
-      msg << "mass of vertex " << i << " must be finite and > 0, got " << masses[i];
+      msg << "mass of vertex " << i << " must be finite and >= "
+          << std::numeric_limits<double>::min() << " kg (a normal number > 0), got "
+          << masses[i];
       fail(msg.str());
     }
   }
@@ -613,6 +616,17 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
     }
     planned.push_back({split.face, weights});
   }
+  for (const Planned& plan : planned) {  // checked before anything changes
+    const double mass = options.mass_scale *
+                        (m_masses[m_faces(plan.face, 0)] + m_masses[m_faces(plan.face, 1)] +
+                         m_masses[m_faces(plan.face, 2)]) / 3.0;
+    if (!(mass >= std::numeric_limits<double>::min()) || !std::isfinite(mass)) {
+      std::ostringstream msg;
+      msg << "mass_scale " << options.mass_scale << " gives face " << plan.face
+          << "'s new vertex the mass " << mass << " kg, not a normal number > 0";
+      fail(msg.str());
+    }
+  }
 
   // New vertices and faces.
   const Eigen::Index old_vertices = vertex_count();
@@ -635,6 +649,7 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
     m_velocities.row(p) = w[0] * m_velocities.row(a) + w[1] * m_velocities.row(b) +
                           w[2] * m_velocities.row(c);
     m_masses[p] = options.mass_scale * (m_masses[a] + m_masses[b] + m_masses[c]) / 3.0;
+
     if (m_material.rows() == old_vertices + added) {
       m_material.row(p) =
           w[0] * m_material.row(a) + w[1] * m_material.row(b) + w[2] * m_material.row(c);
@@ -741,6 +756,8 @@ double Cloth::stable_time_step() const {
     gamma = std::max(gamma, damping_row);
   }
   gamma += m_drag;
+  // Masses are normal numbers, but k / m can still overflow: then no step is stable.
+  if (!std::isfinite(omega_squared) || !std::isfinite(gamma)) return 0.0;
   if (omega_squared == 0.0) {
     // Nothing elastic moves: only damping limits the step (h γ < 2), if anything.
     return gamma > 0.0 ? 2.0 / gamma : std::numeric_limits<double>::infinity();

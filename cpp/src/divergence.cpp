@@ -1,5 +1,7 @@
 #include "yore/divergence.hpp"
 
+#include "yore/interrupt.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -90,6 +92,7 @@ void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t 
   };
   for (std::int64_t k = 0; k < steps; ++k) {
     try {
+      poll_interrupt();  // a long multi-step call answers Ctrl-C between steps
       step();
     } catch (...) {
       restore();
@@ -113,7 +116,10 @@ SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, st
       << " s, " << integrator << " integrator): "
       << (finite ? "the energy grew past its bound" : "positions or velocities became non-finite")
       << ". The estimated stable time step of the explicit integrator is " << stable << " s; ";
-  if (std::string(integrator) == "explicit") {
+  if (!(stable > 0.0) || !std::isfinite(stable)) {
+    msg << (stable > 0.0 ? "nothing elastic limits the step: check the forces and drivers."
+                         : "no step is stable: check for tiny masses or huge stiffnesses.");
+  } else if (std::string(integrator) == "explicit") {
     msg << "use dt <= " << 0.9 * stable << " s or an implicit integrator.";
   } else {
     msg << "an implicit step this far off points to a failed Newton solve: try dt <= " << dt / 4

@@ -1,6 +1,7 @@
 #include "yore/implicit.hpp"
 
 #include "yore/errors.hpp"
+#include "yore/interrupt.hpp"
 #include "yore/springs.hpp"
 
 #include <algorithm>
@@ -279,6 +280,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   int iterations = 0, backtracks = 0;
   bool converged = m_pattern.size == 0;
   while (!converged && iterations < m_options.max_newton) {
+    poll_interrupt();  // max_newton is user-typed
     auto start = Clock::now();
     double energy = 0.0;
     bool factored = false;

@@ -1,6 +1,7 @@
 #include "yore/linear_solver.hpp"
 
 #include "yore/errors.hpp"
+#include "yore/interrupt.hpp"
 #include "yore/sparse_cholesky.hpp"
 
 #include <Eigen/IterativeLinearSolvers>
@@ -74,6 +75,48 @@ class EigenLdlt final : public LinearSolver {
   bool m_factored = false;
 };
 
+/// Eigen's DiagonalPreconditioner, same arithmetic, plus an interrupt poll per application
+/// (once per CG iteration): pcg_max_iterations is user-typed and Eigen's loop has no hook.
+class PollingJacobi {
+ public:
+  using StorageIndex = std::int32_t;
+  enum { ColsAtCompileTime = Eigen::Dynamic, MaxColsAtCompileTime = Eigen::Dynamic };
+  PollingJacobi() = default;
+  template <typename Matrix>
+  explicit PollingJacobi(const Matrix& matrix) {
+    compute(matrix);
+  }
+  Eigen::Index rows() const { return m_inverse_diagonal.size(); }
+  Eigen::Index cols() const { return m_inverse_diagonal.size(); }
+  template <typename Matrix>
+  PollingJacobi& analyzePattern(const Matrix&) {
+    return *this;
+  }
+  template <typename Matrix>
+  PollingJacobi& factorize(const Matrix& matrix) {
+    m_inverse_diagonal.resize(matrix.cols());
+    for (Eigen::Index j = 0; j < matrix.outerSize(); ++j) {
+      typename Matrix::InnerIterator it(matrix, j);
+      while (it && it.index() != j) ++it;
+      m_inverse_diagonal(j) = it && it.index() == j && it.value() != 0.0 ? 1.0 / it.value() : 1.0;
+    }
+    return *this;
+  }
+  template <typename Matrix>
+  PollingJacobi& compute(const Matrix& matrix) {
+    return factorize(matrix);
+  }
+  template <typename Rhs>
+  Eigen::VectorXd solve(const Eigen::MatrixBase<Rhs>& b) const {
+    poll_interrupt();
+    return (m_inverse_diagonal.array() * b.derived().array()).matrix();
+  }
+  Eigen::ComputationInfo info() const { return Eigen::Success; }
+
+ private:
+  Eigen::VectorXd m_inverse_diagonal;
+};
+
 /// Conjugate gradients with a Jacobi (diagonal) preconditioner: no factorization at all.
 class JacobiPcg final : public LinearSolver {
  public:
@@ -122,8 +165,7 @@ class JacobiPcg final : public LinearSolver {
 
  private:
   SparseMatrix m_matrix;
-  Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower, Eigen::DiagonalPreconditioner<double>>
-      m_solver;
+  Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower, PollingJacobi> m_solver;
   SolverStatistics m_statistics;
 };
 
@@ -154,6 +196,7 @@ int preconditioned_cg(const SymmetricPattern& pattern, const double* values,
   double rz = work.residual.dot(work.preconditioned);
   int iterations = 0;
   while (work.residual.norm() > target && iterations < max_iterations) {
+    poll_interrupt();  // max_iterations is user-typed
     symmetric_multiply(pattern, values, work.direction, work.product);
     const double alpha = rz / work.direction.dot(work.product);
     x += alpha * work.direction;

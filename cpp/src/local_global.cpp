@@ -1,6 +1,7 @@
 #include "yore/local_global.hpp"
 
 #include "yore/errors.hpp"
+#include "yore/interrupt.hpp"
 #include "yore/springs.hpp"
 
 #include <algorithm>
@@ -354,6 +355,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     m_unknowns.row(static_cast<Eigen::Index>(b)) = m_iterate.row(m_free_vertices[b]);
   }
   for (int iteration = 0; iteration < m_options.iterations && m_pattern.size > 0; ++iteration) {
+    poll_interrupt();  // iterations is user-typed
     start = Clock::now();
     m_rhs = m_base_rhs;
     for (std::size_t s = 0; s < springs.size(); ++s) {

@@ -1,6 +1,8 @@
 // The CGAL translation unit of yore_geometry: AABB trees for stroke location.
 #include "yore/stroke.hpp"
 
+#include "yore/interrupt.hpp"
+
 #include <Eigen/Geometry>
 
 #include <CGAL/AABB_traits.h>
@@ -10,7 +12,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 
 namespace yore {
@@ -116,10 +120,25 @@ std::optional<SurfaceHit> SurfaceLocator::first_hit(const Eigen::Vector3d& origi
 
 StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
                          double length, double spacing, double resolution, const Faces& faces,
-                         const std::vector<double>& breakpoints) {
-  if (!(length >= 0.0) || !(spacing > 0.0) || !(resolution > 0.0)) {
-    throw std::invalid_argument("trace_stroke: length >= 0, spacing > 0 and resolution > 0");
+                         const std::vector<double>& breakpoints, std::int64_t max_samples) {
+  if (!(length >= 0.0) || !std::isfinite(length) || !(spacing > 0.0) || !(resolution > 0.0)) {
+    throw std::invalid_argument(
+        "trace_stroke: length finite and >= 0, spacing > 0 and resolution > 0");
   }
+  auto too_many = [&](double needed) {
+    std::ostringstream msg;
+    msg << "the stroke needs more than " << max_samples << " samples (the limit; ";
+    if (needed > 0.0) {
+      msg << "about " << needed << " at a spacing of " << spacing << " over " << length
+          << " of its length near the cloth";
+    } else {
+      msg << "reached while refining where it crosses faces";
+    }
+    msg << "); draw a shorter stroke or split it";
+    return std::invalid_argument(msg.str());
+  };
+  const double needed = std::ceil(length / spacing) + 1.0 + static_cast<double>(breakpoints.size());
+  if (!(needed <= static_cast<double>(max_samples))) throw too_many(needed);
   struct Sample {
     double s;
     std::optional<SurfaceHit> hit;
@@ -127,6 +146,8 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
   StrokeTrace trace;
   std::vector<Sample> samples;
   auto evaluate = [&](double s) {
+    if (trace.samples >= max_samples) throw too_many(0.0);
+    if (trace.samples % 64 == 0) poll_interrupt();
     ++trace.samples;
     Sample sample{s, query(s)};
     if (!sample.hit) ++trace.missed_samples;
@@ -179,6 +200,56 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
   return trace;
 }
 
+std::vector<Positions> clip_polyline(const Positions& points, const Eigen::Vector3d& lower,
+                                     const Eigen::Vector3d& upper) {
+  std::vector<Positions> parts;
+  std::vector<Eigen::Vector3d> open;  // the part being built; empty when the last one closed
+  auto close = [&] {
+    if (open.empty()) return;
+    Positions part(static_cast<Eigen::Index>(open.size()), 3);
+    for (std::size_t k = 0; k < open.size(); ++k) {
+      part.row(static_cast<Eigen::Index>(k)) = open[k].transpose();
+    }
+    parts.push_back(std::move(part));
+    open.clear();
+  };
+  auto inside = [&](const Eigen::Vector3d& p) {
+    return (p.array() >= lower.array()).all() && (p.array() <= upper.array()).all();
+  };
+  if (points.rows() == 1) {
+    if (inside(points.row(0).transpose())) parts.push_back(points);
+    return parts;
+  }
+  for (Eigen::Index k = 0; k + 1 < points.rows(); ++k) {
+    const Eigen::Vector3d a = points.row(k).transpose(), b = points.row(k + 1).transpose();
+    const Eigen::Vector3d d = b - a;
+    // Liang–Barsky: the parameter interval [enter, leave] of a + t d inside the box.
+    double enter = 0.0, leave = 1.0;
+    for (int axis = 0; axis < 3 && enter <= leave; ++axis) {
+      if (d[axis] == 0.0) {
+        if (a[axis] < lower[axis] || a[axis] > upper[axis]) enter = 2.0;  // parallel, outside
+        continue;
+      }
+      double t0 = (lower[axis] - a[axis]) / d[axis], t1 = (upper[axis] - a[axis]) / d[axis];
+      if (t0 > t1) std::swap(t0, t1);
+      enter = std::max(enter, t0);
+      leave = std::min(leave, t1);
+    }
+    if (!(enter <= leave)) {
+      close();
+      continue;
+    }
+    const Eigen::Vector3d first = enter == 0.0 ? a : Eigen::Vector3d(a + enter * d);
+    const Eigen::Vector3d last = leave == 1.0 ? b : Eigen::Vector3d(a + leave * d);
+    if (enter > 0.0) close();  // entering from outside starts a new part
+    if (open.empty()) open.push_back(first);
+    open.push_back(last);
+    if (leave < 1.0) close();
+  }
+  close();
+  return parts;
+}
+
 Polyline::Polyline(const Positions& points) : m_points(points) {
   if (points.rows() == 0) throw std::invalid_argument("the stroke has no points");
   if (!points.allFinite()) throw std::invalid_argument("the stroke has non-finite points");
@@ -186,6 +257,9 @@ Polyline::Polyline(const Positions& points) : m_points(points) {
   for (Eigen::Index k = 1; k < points.rows(); ++k) {
     m_lengths[static_cast<std::size_t>(k)] =
         m_lengths[static_cast<std::size_t>(k) - 1] + (points.row(k) - points.row(k - 1)).norm();
+  }
+  if (!std::isfinite(m_lengths.back())) {
+    throw std::invalid_argument("the stroke is too long to measure (its length overflows)");
   }
 }
 
@@ -199,16 +273,77 @@ Eigen::Vector3d Polyline::at(double s) const {
   return ((1.0 - t) * m_points.row(k - 1) + t * m_points.row(k)).transpose();
 }
 
+namespace {
+
+/// Traces the parts of a clipped stroke one after another as one stroke: crossings in the order
+/// the stroke first enters their faces, a face's barycentric point the mean over all its samples.
+StrokeTrace trace_parts(const std::vector<Positions>& parts, double spacing, const Faces& faces,
+                        const std::function<std::optional<SurfaceHit>(const Eigen::Vector3d&)>&
+                            query) {
+  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
+    std::ostringstream msg;
+    msg << "the stroke's sampling spacing must be finite and > 0, got " << spacing;
+    throw std::invalid_argument(msg.str());
+  }
+  std::vector<Polyline> lines;
+  double needed = 0.0;
+  for (const Positions& part : parts) {
+    lines.emplace_back(part);
+    needed += std::ceil(lines.back().length() / spacing) + 1.0 + static_cast<double>(part.rows());
+  }
+  if (!(needed <= static_cast<double>(kMaxStrokeSamples))) {
+    std::ostringstream msg;
+    msg << "the stroke needs about " << needed << " samples, more than the limit of "
+        << kMaxStrokeSamples << " (a spacing of " << spacing << " along the parts of the stroke "
+        << "near the cloth); draw a shorter stroke or split it";
+    throw std::invalid_argument(msg.str());
+  }
+  StrokeTrace merged;
+  std::map<std::int32_t, std::size_t> slot_of_face;
+  for (const Polyline& line : lines) {
+    const StrokeTrace trace = trace_stroke(
+        [&](double s) { return query(line.at(s)); }, line.length(), spacing, 1e-4 * spacing, faces,
+        line.corners(), kMaxStrokeSamples - merged.samples);
+    merged.samples += trace.samples;
+    merged.missed_samples += trace.missed_samples;
+    for (const StrokeCrossing& crossing : trace.crossings) {
+      const auto [it, inserted] = slot_of_face.emplace(crossing.face, merged.crossings.size());
+      if (inserted) {
+        merged.crossings.push_back(crossing);
+        continue;
+      }
+      StrokeCrossing& into = merged.crossings[it->second];
+      into.barycentric = (into.barycentric * into.samples + crossing.barycentric * crossing.samples) /
+                         (into.samples + crossing.samples);
+      into.samples += crossing.samples;
+    }
+  }
+  return merged;
+}
+
+}  // namespace
+
 StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
                           const Positions& stroke, double max_distance, double spacing) {
+  if (!(max_distance >= 0.0) || !std::isfinite(max_distance)) {
+    std::ostringstream msg;
+    msg << "max_distance must be finite and >= 0, got " << max_distance;
+    throw std::invalid_argument(msg.str());
+  }
   const SurfaceLocator locator(positions, faces);
-  const Polyline line(stroke);
-  auto query = [&](double s) -> std::optional<SurfaceHit> {
-    const SurfaceHit hit = locator.closest(line.at(s));
-    if (hit.distance > max_distance) return std::nullopt;
-    return hit;
-  };
-  return trace_stroke(query, line.length(), spacing, 1e-4 * spacing, faces, line.corners());
+  (void)Polyline(stroke);  // checks the points before clipping
+  // Farther than max_distance from the surface's bounding box is farther from the surface.
+  const Eigen::Vector3d lower = positions.colwise().minCoeff().transpose();
+  const Eigen::Vector3d upper = positions.colwise().maxCoeff().transpose();
+  const double margin = max_distance * (1.0 + 1e-9) + 1e-12 * (upper - lower).norm();
+  const std::vector<Positions> parts = clip_polyline(
+      stroke, lower.array() - margin, upper.array() + margin);
+  return trace_parts(parts, spacing, faces,
+                     [&](const Eigen::Vector3d& point) -> std::optional<SurfaceHit> {
+                       const SurfaceHit hit = locator.closest(point);
+                       if (hit.distance > max_distance) return std::nullopt;
+                       return hit;
+                     });
 }
 
 StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Positions& pixels,
@@ -216,14 +351,42 @@ StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Pos
                        const Eigen::Vector3d& direction_per_pixel_x,
                        const Eigen::Vector3d& direction_per_pixel_y, double spacing_pixels) {
   const SurfaceLocator locator(positions, faces);
-  const Polyline line(pixels);
-  auto query = [&](double s) {
-    const Eigen::Vector3d pixel = line.at(s);
+  (void)Polyline(pixels);  // checks the points before clipping
+  // The pixel (px, py) of a point p solves λ (p − eye) = d0 + px dx + py dy; a ray outside the
+  // pixel bounding box of the vertices misses every triangle, as long as all vertices lie in
+  // front of the image plane (otherwise a triangle's projection is unbounded: no clipping).
+  const Eigen::Vector3d normal = direction_per_pixel_x.cross(direction_per_pixel_y);
+  const double depth_scale = base_direction.dot(normal);
+  Eigen::Vector3d lower = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d upper = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  bool clip = depth_scale != 0.0 && std::isfinite(depth_scale);
+  Eigen::Vector2d pixel_min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d pixel_max = -pixel_min;
+  Eigen::Matrix<double, 3, 2> plane;
+  plane << direction_per_pixel_x, direction_per_pixel_y;
+  const auto solve = plane.colPivHouseholderQr();
+  for (Eigen::Index i = 0; i < positions.rows() && clip; ++i) {
+    const Eigen::Vector3d q = positions.row(i).transpose() - eye;
+    const double along = q.dot(normal);
+    const double lambda = depth_scale / along;  // q's ray meets the image plane at λ q
+    if (!(lambda > 0.0) || !std::isfinite(lambda)) {
+      clip = false;
+      break;
+    }
+    const Eigen::Vector2d pixel = solve.solve(lambda * q - base_direction);
+    pixel_min = pixel_min.cwiseMin(pixel);
+    pixel_max = pixel_max.cwiseMax(pixel);
+  }
+  if (clip && pixel_min.allFinite() && pixel_max.allFinite()) {
+    const double margin = 2.0 + 0.01 * (pixel_max - pixel_min).norm();
+    lower.head<2>() = pixel_min.array() - margin;
+    upper.head<2>() = pixel_max.array() + margin;
+  }
+  const std::vector<Positions> parts = clip_polyline(pixels, lower, upper);
+  return trace_parts(parts, spacing_pixels, faces, [&](const Eigen::Vector3d& pixel) {
     return locator.first_hit(eye, base_direction + pixel.x() * direction_per_pixel_x +
                                       pixel.y() * direction_per_pixel_y);
-  };
-  return trace_stroke(query, line.length(), spacing_pixels, 1e-4 * spacing_pixels, faces,
-                      line.corners());
+  });
 }
 
 }  // namespace yore

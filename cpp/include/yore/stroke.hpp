@@ -57,14 +57,27 @@ struct StrokeTrace {
   std::int64_t missed_samples = 0;  ///< samples that did not touch the surface
 };
 
+/// Most samples one stroke may take (its parts near the cloth, after clipping; ~1 s and ~100 MB).
+inline constexpr std::int64_t kMaxStrokeSamples = 1'000'000;
+
 /// Traces a stroke given as a curve s ∈ [0, length] → hit (or none). Samples at `spacing` and at
 /// every breakpoint (the polyline's corners, where the curve may turn back into a face), then
 /// bisects between consecutive samples until they fall in the same or edge-adjacent faces (so no
 /// face the curve crosses is skipped) or are closer than `resolution`; also refines where the
 /// stroke leaves or enters the surface. faces is the mesh the hits refer to.
+/// Throws std::invalid_argument naming the limit when the stroke needs more than max_samples
+/// samples (before sampling, from length / spacing, or while refining); polls for interrupts.
 StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
                          double length, double spacing, double resolution, const Faces& faces,
-                         const std::vector<double>& breakpoints = {});
+                         const std::vector<double>& breakpoints = {},
+                         std::int64_t max_samples = kMaxStrokeSamples);
+
+/// The parts of a polyline (k×3) inside the closed box [lower, upper] (bounds may be
+/// infinite), in order; consecutive parts that meet at a corner inside the box are one part.
+/// A stroke's samples outside a box that bounds everything a query can hit would all miss:
+/// clipping first keeps the sampling cost bounded by the box, not by the polyline's length.
+std::vector<Positions> clip_polyline(const Positions& points, const Eigen::Vector3d& lower,
+                                     const Eigen::Vector3d& upper);
 
 /// A polyline parametrised by arc length (2-D strokes are stored with z = 0).
 class Polyline {
@@ -84,13 +97,19 @@ class Polyline {
 };
 
 /// Traces a 3-D polyline near the surface: each point goes to the closest surface point; points
-/// farther than max_distance (m) miss. spacing: first sampling step along the stroke (m).
+/// farther than max_distance (m) miss. spacing: first sampling step along the stroke (m). The
+/// polyline is first clipped to the surface's bounding box grown by max_distance (outside it
+/// everything misses); throws std::invalid_argument if what remains needs more than
+/// kMaxStrokeSamples samples, or on bad max_distance or spacing.
 StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
                           const Positions& stroke, double max_distance, double spacing);
 
 /// Traces a polyline of pixels (k×3, z ignored) by casting rays from `eye` with direction
 /// base_direction + px · direction_per_pixel_x + py · direction_per_pixel_y (a pinhole camera
 /// is affine in pixel coordinates); the nearest hit counts. spacing_pixels: first sampling step.
+/// When every vertex is in front of the camera the polyline is first clipped to the pixel
+/// bounding box of the projected vertices plus a margin (outside it no ray hits); throws
+/// std::invalid_argument if what remains needs more than kMaxStrokeSamples samples.
 StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Positions& pixels,
                        const Eigen::Vector3d& eye, const Eigen::Vector3d& base_direction,
                        const Eigen::Vector3d& direction_per_pixel_x,
