@@ -177,3 +177,57 @@ def test_bad_spring_network_input(edges, kwargs, message):
     V = np.array([[0.0, 0, 0], [0, -1, 0], [0, -2, 0]])
     with pytest.raises(ValueError, match=message):
         yore.Cloth.from_springs(V, np.asarray(edges), **kwargs)
+
+
+def _grid_cloth(**kwargs):
+    V, F = yore.grid_mesh(3, 3)
+    return yore.Cloth(V, F, **kwargs)
+
+
+def test_subnormal_zero_and_nan_masses_are_value_errors_and_the_stable_dt_is_never_nan():
+    for mass in (5e-324, 1e-310, 0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="mass of vertex 0"):
+            _grid_cloth(mass=mass)
+    cloth = _grid_cloth(mass=1e-300, stretch_stiffness=1e300)  # k/m overflows
+    assert cloth.stable_time_step() == 0.0
+    state = _grid_cloth(mass=1e-3).state()
+    state["masses"] = np.full(len(state["masses"]), 1e-310)
+    with pytest.raises(ValueError, match="mass of vertex 0"):
+        yore.Cloth.from_state(state)
+
+
+def test_indices_beyond_32_bits_are_value_errors_naming_the_argument():
+    V, F = yore.grid_mesh(3, 3)
+    for big in (np.array([[0, 1, 2**31]]), np.array([[0, 1, 2**64 - 1]], dtype=np.uint64)):
+        with pytest.raises(ValueError, match="faces holds the index"):
+            yore.Cloth(V, big)
+    cloth = yore.Cloth(V, F)
+    for index in (2**31, 2**40, np.uint64(2**64 - 1)):
+        with pytest.raises(ValueError, match="indices holds the index"):
+            cloth.fix([index])
+    with pytest.raises(ValueError, match="edges holds the index"):
+        yore.Cloth.from_springs(V, np.array([[0, 2**33]]))
+
+
+def test_tampered_states_are_value_errors_naming_the_field():
+    good = _grid_cloth(mass=1e-3).state()
+    n, s = len(good["masses"]), len(good["spring_rest"])
+    cases = [
+        ("positions", np.zeros((n + 1, 3)), "velocities"),
+        ("masses", -np.ones(n), "mass of vertex"),
+        ("masses", np.full(n, np.nan), "mass of vertex"),
+        ("masses", np.ones(n + 1), "masses"),
+        ("spring_ends", np.full((s, 2), n + 5, dtype=np.int32), "spring 0 has ends"),
+        ("spring_ends", np.full((s, 2), 2**40), "spring_ends holds the index"),
+        ("spring_kind", np.full(s, np.nan), "spring_kind"),
+        ("spring_kind", np.full(s, 1e300), "spring_kind"),
+        ("spring_rest", np.ones(s + 1), "spring_rest"),
+        ("faces", np.array([[0, 1, n + 3]], dtype=np.int32), "face|vert|index"),
+        ("vertex_states", np.full(n, 7, dtype=np.uint8), "vertex_states"),
+        ("clock_dt", float("nan"), "clock"),
+    ]
+    for key, value, message in cases:
+        state = dict(good)
+        state[key] = value
+        with pytest.raises(ValueError, match=message):
+            yore.Cloth.from_state(state)

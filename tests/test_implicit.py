@@ -361,3 +361,24 @@ def test_lagged_factorization_needs_the_projected_hessian_and_a_cholesky_backend
                         adaptive_projection=True)
     with pytest.raises(ValueError, match="lagged"):
         yore.Simulation(cloth, integrator="implicit", lagged_factorization=True, solver="pcg")
+
+
+def test_iteration_counts_beyond_32_bits_are_value_errors_naming_the_option():
+    V, F = yore.grid_mesh(3, 3)
+    cloth = yore.Cloth(V, F)
+    for option in ("max_newton", "pcg_max_iterations", "lag_max_cg_iterations"):
+        with pytest.raises(ValueError, match=option):
+            yore.Simulation(cloth, integrator="implicit", **{option: 2**31})
+    with pytest.raises(ValueError, match="strain_limit_passes"):
+        yore.Simulation(cloth, integrator="explicit", strain_limit=1.1, strain_limit_passes=2**32)
+
+
+def test_solve_spd_rejects_out_of_range_sizes_and_indices():
+    indptr, indices = np.array([0, 1]), np.array([0])
+    with pytest.raises(ValueError, match="size"):
+        _core.solve_spd(2**31, indptr, indices, [1.0], [1.0])
+    with pytest.raises(ValueError, match="indices holds the index"):
+        _core.solve_spd(1, indptr, np.array([2**40]), [1.0], [1.0])
+    with pytest.raises(ValueError, match="indptr"):
+        _core.solve_spd(1, np.array([0, 2]), indices, [1.0], [1.0])
+    assert _core.solve_spd(1, indptr, indices, [2.0], [1.0])[0] == pytest.approx(0.5)

@@ -130,3 +130,9 @@ def test_stiff_sheet_at_a_large_step_stays_finite_and_dissipative():
 def test_bad_local_global_options(options, message):
     with pytest.raises(ValueError, match=message):
         yore.Simulation(small_cloth(), integrator="local-global", **options)
+
+
+def test_iteration_counts_beyond_32_bits_are_value_errors_naming_the_option():
+    for option in ("iterations", "stale_pcg_max_iterations"):
+        with pytest.raises(ValueError, match=option):
+            yore.Simulation(small_cloth(), integrator="local-global", **{option: 10**10})

@@ -296,3 +296,54 @@ def test_random_strokes_never_break_the_mesh(strokes):
         assert cloth.vertex_count == V0 + k and cloth.face_count == F0 + 2 * k
         assert np.count_nonzero(cloth.springs.kind == 0) == S0 + 3 * k
         check_invariants(cloth, 1)
+
+
+def test_far_stroke_points_are_clipped_to_the_cloths_reach_before_sampling():
+    # one point 1e6 m (or 1e9 m) away used to cost 17.6 M samples, 18 s and 2 GB (or MemoryError)
+    for far in (1e6, 1e9):
+        sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
+        near = sim.stroke([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0]], max_distance=0.01)
+        sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
+        report = sim.stroke([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0], [far, 0.5, 0.0]],
+                            max_distance=0.01)
+        # the part near the cloth is sampled as before; the clipped-away part counts as missed
+        assert report.faces_split == near.faces_split
+        evaluated = report.samples - (report.missed_samples - near.missed_samples)
+        assert evaluated < 10 * near.samples
+        assert report.missed_fraction > 0.99
+        with pytest.raises(yore.StrokeMissed):
+            sim.stroke([[far, 0.5, 0.0], [far, -far, 0.0]])
+    for uv in ([[0.2, 0.5], [0.8, 0.5], [1e9, 0.5]], [[-1e9, 0.5], [1e9, 0.5]]):
+        sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
+        assert sim.stroke_material(uv).faces_split > 0
+    with pytest.raises(yore.StrokeMissed):
+        sim.stroke_material([[1e9, 0.5], [1e9, 1e9]])
+
+
+def test_far_screen_strokes_are_clipped_to_the_projected_cloth():
+    sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
+    camera = yore.Camera(eye=(0.5, 0.5, 2.0), target=(0.5, 0.5, 0.0), width=200, height=200)
+    a, b = camera.project([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0]])
+    report = sim.stroke_screen([a, b, [1e9, b[1]]], camera)
+    assert report.faces_split > 0 and report.missed_fraction > 0.99
+    assert report.samples - report.missed_samples < 10_000
+
+
+def test_a_stroke_needing_too_many_samples_is_refused_naming_the_limit():
+    sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
+    # a huge max_distance keeps the whole polyline within reach: the cap applies
+    with pytest.raises(ValueError, match="1000000"):
+        sim.stroke([[0.2, 0.5, 0.0], [1e6, 0.5, 0.0]], max_distance=1e7)
+    assert sim.cloth.vertex_count == 25
+    for bad in ([[1e13, 0.0, 0.0]], [[0.0, -1e300, 0.0]]):
+        with pytest.raises(ValueError, match="beyond"):
+            sim.stroke(bad)
+
+
+def test_clip_keeps_strokes_inside_unchanged_and_splits_at_exits():
+    sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
+    # in and out and in again: both passes over the cloth are found, in order
+    report = sim.stroke([[0.1, 0.3, 0.0], [5.0, 0.3, 0.0], [5.0, 0.7, 0.0], [0.1, 0.7, 0.0]],
+                        max_distance=0.01)
+    centres = sim.cloth.positions[report.new_vertices]
+    assert np.any(centres[:, 1] < 0.4) and np.any(centres[:, 1] > 0.6)

@@ -148,8 +148,8 @@ Cloth cloth_from_state(const py::dict& values) {
   state.velocities = to_rows3(values["velocities"], "state velocities", n);
   state.masses = to_vector(values["masses"], "state masses", n);
   const auto faces = as_float_array(values["faces"], "state faces");
-  if (faces.size() > 0) state.faces = to_faces(values["faces"]);
-  const Edges ends = to_edges(values["spring_ends"]);
+  if (faces.size() > 0) state.faces = to_faces(values["faces"], "state faces");
+  const Edges ends = to_edges(values["spring_ends"], "state spring_ends");
   const Eigen::Index s = ends.rows();
   SpringSet& springs = state.springs;
   springs.first.resize(static_cast<std::size_t>(s));

@@ -188,9 +188,13 @@ std::int32_t to_int32(std::int64_t value, const char* name) {
   return static_cast<std::int32_t>(value);
 }
 
-Faces to_faces(const py::handle& object) { return to_index_rows<3>(object, "faces"); }
+Faces to_faces(const py::handle& object, const char* name) {
+  return to_index_rows<3>(object, name);
+}
 
-Edges to_edges(const py::handle& object) { return to_index_rows<2>(object, "edges"); }
+Edges to_edges(const py::handle& object, const char* name) {
+  return to_index_rows<2>(object, name);
+}
 
 Eigen::VectorXd to_vector(const py::handle& object, const char* name, Eigen::Index size) {
   const auto array = as_float_array(object, name);

@@ -29,10 +29,10 @@ py::array_t<double, py::array::c_style | py::array::forcecast> as_float_array(
 Positions to_rows3(const py::handle& object, const char* name, Eigen::Index rows = -1);
 
 /// f×3 int32 faces; rejects non-integer dtypes and values outside int32.
-Faces to_faces(const py::handle& object);
+Faces to_faces(const py::handle& object, const char* name = "faces");
 
 /// s×2 int32 vertex pairs.
-Edges to_edges(const py::handle& object);
+Edges to_edges(const py::handle& object, const char* name = "edges");
 
 /// 1-D float64 vector; size == -1 accepts any size.
 Eigen::VectorXd to_vector(const py::handle& object, const char* name, Eigen::Index size = -1);

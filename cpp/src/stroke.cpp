@@ -277,7 +277,8 @@ namespace {
 
 /// Traces the parts of a clipped stroke one after another as one stroke: crossings in the order
 /// the stroke first enters their faces, a face's barycentric point the mean over all its samples.
-StrokeTrace trace_parts(const std::vector<Positions>& parts, double spacing, const Faces& faces,
+StrokeTrace trace_parts(const Polyline& stroke, const std::vector<Positions>& parts,
+                        double spacing, const Faces& faces,
                         const std::function<std::optional<SurfaceHit>(const Eigen::Vector3d&)>&
                             query) {
   if (!(spacing > 0.0) || !std::isfinite(spacing)) {
@@ -299,6 +300,12 @@ StrokeTrace trace_parts(const std::vector<Positions>& parts, double spacing, con
     throw std::invalid_argument(msg.str());
   }
   StrokeTrace merged;
+  // The clipped-away length counts as missed samples at `spacing` (counted, not evaluated), so
+  // missed_samples / samples still tells how much of the stroke missed.
+  double inside = 0.0;
+  for (const Polyline& line : lines) inside += line.length();
+  const double outside = std::max(0.0, stroke.length() - inside) / spacing;
+  const auto clipped = static_cast<std::int64_t>(std::min(std::round(outside), 1e18));
   std::map<std::int32_t, std::size_t> slot_of_face;
   for (const Polyline& line : lines) {
     const StrokeTrace trace = trace_stroke(
@@ -318,6 +325,8 @@ StrokeTrace trace_parts(const std::vector<Positions>& parts, double spacing, con
       into.samples += crossing.samples;
     }
   }
+  merged.samples += clipped;
+  merged.missed_samples += clipped;
   return merged;
 }
 
@@ -331,14 +340,14 @@ StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
     throw std::invalid_argument(msg.str());
   }
   const SurfaceLocator locator(positions, faces);
-  (void)Polyline(stroke);  // checks the points before clipping
+  const Polyline line(stroke);  // checks the points before clipping
   // Farther than max_distance from the surface's bounding box is farther from the surface.
   const Eigen::Vector3d lower = positions.colwise().minCoeff().transpose();
   const Eigen::Vector3d upper = positions.colwise().maxCoeff().transpose();
   const double margin = max_distance * (1.0 + 1e-9) + 1e-12 * (upper - lower).norm();
   const std::vector<Positions> parts = clip_polyline(
       stroke, lower.array() - margin, upper.array() + margin);
-  return trace_parts(parts, spacing, faces,
+  return trace_parts(line, parts, spacing, faces,
                      [&](const Eigen::Vector3d& point) -> std::optional<SurfaceHit> {
                        const SurfaceHit hit = locator.closest(point);
                        if (hit.distance > max_distance) return std::nullopt;
@@ -351,7 +360,7 @@ StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Pos
                        const Eigen::Vector3d& direction_per_pixel_x,
                        const Eigen::Vector3d& direction_per_pixel_y, double spacing_pixels) {
   const SurfaceLocator locator(positions, faces);
-  (void)Polyline(pixels);  // checks the points before clipping
+  const Polyline line(pixels);  // checks the points before clipping
   // The pixel (px, py) of a point p solves λ (p − eye) = d0 + px dx + py dy; a ray outside the
   // pixel bounding box of the vertices misses every triangle, as long as all vertices lie in
   // front of the image plane (otherwise a triangle's projection is unbounded: no clipping).
@@ -383,7 +392,7 @@ StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Pos
     upper.head<2>() = pixel_max.array() + margin;
   }
   const std::vector<Positions> parts = clip_polyline(pixels, lower, upper);
-  return trace_parts(parts, spacing_pixels, faces, [&](const Eigen::Vector3d& pixel) {
+  return trace_parts(line, parts, spacing_pixels, faces, [&](const Eigen::Vector3d& pixel) {
     return locator.first_hit(eye, base_direction + pixel.x() * direction_per_pixel_x +
                                       pixel.y() * direction_per_pixel_y);
   });

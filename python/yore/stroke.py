@@ -124,8 +124,15 @@ class StrokeReport:
         return self.missed_samples / self.samples if self.samples else 0.0
 
 
+#: Largest stroke coordinate accepted (m or px): far beyond any cloth, small enough that the
+#: polyline's length and its clipping to the cloth's reach stay exact to well under a sample.
+#: Beyond the clipping, a stroke takes at most `_core` kMaxStrokeSamples (10^6) samples.
+MAX_STROKE_COORDINATE = 1e12
+
+
 def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:
-    """A k×dimension float array of finite points (k >= 1), as k×3 (2-D padded with z = 0)."""
+    """A k×dimension float array of finite points (k >= 1, |coordinate| <= 1e12), as k×3 (2-D
+    padded with z = 0)."""
     try:
         array = np.asarray(points, dtype=np.float64)
     except (TypeError, ValueError):
@@ -136,6 +143,9 @@ def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:
         raise ValueError(f"{name} is empty: a stroke needs at least one point")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} holds non-finite values")
+    if np.abs(array).max() > MAX_STROKE_COORDINATE:
+        raise ValueError(f"{name} holds a coordinate of magnitude {np.abs(array).max():.3g}, "
+                         f"beyond ±{MAX_STROKE_COORDINATE:g} (metres or pixels)")
     if dimension == 2:
         array = np.column_stack([array, np.zeros(len(array))])
     return np.ascontiguousarray(array)

@@ -53,8 +53,10 @@ struct StrokeCrossing {
 /// The faces a stroke crosses, in the order it first enters them.
 struct StrokeTrace {
   std::vector<StrokeCrossing> crossings;
-  std::int64_t samples = 0;         ///< stroke samples evaluated (after refinement)
-  std::int64_t missed_samples = 0;  ///< samples that did not touch the surface
+  std::int64_t samples = 0;         ///< samples evaluated (after refinement) + counted
+  /// samples that did not touch the surface, including those of the parts of a stroke clipped
+  /// away before sampling (counted at the sampling spacing, not evaluated)
+  std::int64_t missed_samples = 0;
 };
 
 /// Most samples one stroke may take (its parts near the cloth, after clipping; ~1 s and ~100 MB).
