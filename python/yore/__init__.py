@@ -6,6 +6,14 @@ Cloth") with an explicit reference integrator; see README.md for the whole pictu
 
 from __future__ import annotations
 
+import numbers
+import os as _os
+
+# OpenMP reads its wait policy once, when libgomp loads (with _core, just below, unless another
+# module loaded it first). See "Threads" in README.md for the measurements; a user's own
+# setting wins.
+_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 from . import metrics, scenes, springs, stroke
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
@@ -59,7 +67,17 @@ def build_info() -> dict:
 
 
 def set_num_threads(threads: int) -> None:
-    """Sets the number of threads of the core's parallel loops (>= 1)."""
+    """Sets the threads of yore's parallel loops and of the BLAS that CHOLMOD calls (OpenBLAS),
+    for the whole process: the one place the thread count is set (``yore --threads N`` and a
+    scene's ``[simulation] threads`` call it). Raises ValueError unless `threads` is an int >= 1
+    (bool is refused).
+
+    The explicit step still runs a block of steps on one thread when that is faster (small
+    cloths, or a machine busy with other processes); ``Simulation.stats["threads"]`` says what
+    its loops used.
+    """
     from . import _core
 
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise ValueError(f"the number of threads must be an int >= 1, got {threads!r}")
     _core.set_max_threads(int(threads))
