@@ -40,6 +40,8 @@ PYBIND11_MODULE(_core, m) {
       "Versions of the libraries the core was built and linked against.");
   m.def("max_threads", &yore::max_threads,
         "Threads the core's parallel loops may use (set_max_threads, else OpenMP's default).");
+  m.def("set_blas_threads", &yore::set_blas_threads, py::arg("threads"),
+        "Sets the threads of the loaded OpenBLAS alone (>= 1); False when it is not OpenBLAS.");
   m.def("blas_threads", &yore::blas_threads,
         "Threads of the loaded OpenBLAS that CHOLMOD calls (0 when the BLAS is not OpenBLAS).");
   m.def("stream_triad_bandwidth", &yore::stream_triad_bandwidth, py::arg("elements"),

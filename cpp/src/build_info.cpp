@@ -88,10 +88,20 @@ void set_max_threads(int threads) {
 #ifdef _OPENMP
   omp_set_num_threads(threads);  // for OpenMP loops that do not pass num_threads themselves
 #endif
-  using SetThreads = void (*)(int);
-  if (auto set = reinterpret_cast<SetThreads>(openblas_symbol("openblas_set_num_threads"))) {
-    set(threads);
+  set_blas_threads(threads);
+}
+
+bool set_blas_threads(int threads) {
+  if (threads < 1) {
+    std::ostringstream msg;
+    msg << "the number of BLAS threads must be >= 1, got " << threads;
+    throw std::invalid_argument(msg.str());
   }
+  using SetThreads = void (*)(int);
+  auto set = reinterpret_cast<SetThreads>(openblas_symbol("openblas_set_num_threads"));
+  if (set == nullptr) return false;
+  set(threads);
+  return true;
 }
 
 int blas_threads() {

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 
@@ -19,16 +18,14 @@ double seconds_since(Clock::time_point start) {
 }
 
 // Below these sizes a loop runs on one thread even when more are configured: forking and
-// joining would cost more than the loop (break-even measured per loop with
-// benchmarks/threads.py --thresholds on the 2-core machine of the README).
-std::int64_t env_or(const char* name, std::int64_t fallback) {  // TEMPORARY: measurement
-  const char* text = std::getenv(name);
-  return text != nullptr ? std::atoll(text) : fallback;
-}
-const std::int64_t kParallelSprings = env_or("YORE_T_SPRINGS", 2000);
-const std::int64_t kParallelVertices = env_or("YORE_T_VERTICES", 500);
-const std::int64_t kParallelCheckVertices = env_or("YORE_T_CHECK", 500);
-const bool kChooser = env_or("YORE_T_CHOOSER", 1) != 0;
+// joining would cost more than the loop. Break-even measured per loop on the 2-core machine of
+// the README (phase times of stats, every loop forced parallel, 1 against 2 threads, idle):
+// spring forces pay from about 1000 springs (16²: 3.2 µs against 5.1 µs), the fused
+// gather + update from about 500 vertices (16²: 2.9 against 2.5 µs, 24²: 3.6 against 5.3 µs),
+// the energy check from about 1000 (24²: 1.06 against 1.22 µs, 16²: 0.84 against 0.72 µs).
+constexpr std::int64_t kParallelSprings = 1000;
+constexpr std::int64_t kParallelVertices = 500;
+constexpr std::int64_t kParallelCheckVertices = 1000;
 
 // Dynamic schedule in chunks of about an eighth of a thread's share: a thread that starts late
 // (woken, or descheduled by another process) leaves its chunks to the others instead of
@@ -294,28 +291,34 @@ int StepThreadChooser::threads_for_next_step(int configured) {
 }
 
 bool StepThreadChooser::record(double seconds) {
-  if (m_configured <= 1 || !kChooser) return false;
+  if (m_configured <= 1) return false;
   m_block_seconds += seconds;
   ++m_block_steps;
-  if (m_block_steps < kMinBlockSteps || m_block_seconds < kBlockSeconds) return false;
+  const bool probing = m_running != m_preferred;
+  // A re-timing that is already losing by 2× ends at once: on a busy machine one parallel step
+  // can cost as much as hundreds of serial ones.
+  const bool lost_already =
+      probing && m_block_seconds > 2.0 * m_preferred_seconds_per_step * m_block_steps;
+  if (!lost_already && (m_block_steps < kMinBlockSteps || m_block_seconds < kBlockSeconds)) {
+    return false;
+  }
   const double seconds_per_step = m_block_seconds / m_block_steps;
   m_block_steps = 0;
   m_block_seconds = 0.0;
-  const int other = m_preferred == 1 ? m_configured : 1;
-  if (m_running != m_preferred) {  // a re-timing block of the other choice just ended
+  if (probing) {
     if (seconds_per_step < m_preferred_seconds_per_step) {
       m_preferred = m_running;  // it won: keep it, and re-time the loser soon
       m_preferred_seconds_per_step = seconds_per_step;
       m_interval = 1;
     } else {
-      m_interval = std::min(2 * m_interval, kMaxInterval);
+      m_interval = std::min((lost_already ? 4 : 2) * m_interval, kMaxInterval);
     }
     m_running = m_preferred;
     m_blocks_until_probe = m_interval;
     return true;
   }
   m_preferred_seconds_per_step = seconds_per_step;
-  if (--m_blocks_until_probe <= 0) m_running = other;
+  if (--m_blocks_until_probe <= 0) m_running = m_preferred == 1 ? m_configured : 1;
   return false;
 }
 

@@ -9,11 +9,6 @@ from __future__ import annotations
 import numbers
 import os as _os
 
-# OpenMP reads its wait policy once, when libgomp loads (with _core, just below, unless another
-# module loaded it first). See "Threads" in README.md for the measurements; a user's own
-# setting wins.
-_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
 from . import metrics, scenes, springs, stroke
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
@@ -24,6 +19,14 @@ from .scene_file import SceneError, load_scene
 from .runner import RunError, resume_run, run_scene
 from . import render, scene_file
 from .stroke import Camera, StrokeMissed, StrokeReport
+from . import _core as _threads_core
+
+# OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
+# re-times them: one thread unless the user asked (README, "Threads": on a busy machine two
+# made a linearized implicit step 3× slower). set_num_threads(n) sets n here too.
+if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
+                                            "OMP_NUM_THREADS")):
+    _threads_core.set_blas_threads(1)
 
 __version__ = "0.1.0"
 

@@ -20,6 +20,10 @@ int max_threads();
 /// Throws std::invalid_argument for threads < 1.
 void set_max_threads(int threads);
 
+/// Sets the threads of the loaded OpenBLAS alone (threads >= 1); returns false when the loaded
+/// BLAS is not OpenBLAS. Throws std::invalid_argument for threads < 1.
+bool set_blas_threads(int threads);
+
 /// Threads of the loaded OpenBLAS (what CHOLMOD's supernodal factorization uses), 0 when the
 /// loaded BLAS is not OpenBLAS.
 int blas_threads();

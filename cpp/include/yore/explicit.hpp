@@ -37,7 +37,7 @@ struct ExplicitStatistics {
 
 /// Chooses, block of steps by block, whether the step's loops run on all the configured threads
 /// or on one: whichever ran its last block faster per step. The other choice is re-timed after
-/// 1, 2, 4, ... up to kMaxInterval blocks while it keeps losing. On a busy machine a parallel
+/// 1, 2, 4, ... up to kMaxInterval blocks (about half a second) while it keeps losing. On a busy machine a parallel
 /// region waits for its slowest, possibly descheduled, thread, and one thread wins; on an idle
 /// one the parallel step does. The choice itself allocates nothing.
 class StepThreadChooser {
@@ -51,7 +51,8 @@ class StepThreadChooser {
   int preferred() const { return m_preferred; }
 
   /// A block lasts at least this long (s) and kMinBlockSteps steps, so that a timer tick or
-  /// one interruption does not decide.
+  /// one interruption does not decide. A re-timing that is already 2× slower per step ends
+  /// early, and then waits 4× longer for the next.
   static constexpr double kBlockSeconds = 2e-3;
   static constexpr int kMinBlockSteps = 2;
   /// Largest number of blocks between two re-timings of the losing choice.
