@@ -25,8 +25,8 @@ struct ExplicitOptions {
 /// Wall time per phase and counters, cumulative over the integrator's life.
 struct ExplicitStatistics {
   std::int64_t steps = 0;
-  double forces_seconds = 0.0;       ///< spring, damping, gravity and drag forces
-  double update_seconds = 0.0;       ///< velocity and position update, drivers
+  double forces_seconds = 0.0;       ///< spring forces (elastic and damping) per spring
+  double update_seconds = 0.0;       ///< per-vertex gather, gravity, drag, update, drivers
   double constraints_seconds = 0.0;  ///< strain limiting
   double checks_seconds = 0.0;       ///< divergence checks and checkpoints
   std::int64_t strain_corrections = 0;  ///< spring corrections made by strain limiting
