@@ -188,6 +188,21 @@ def section(data: dict, results: Path) -> str:
             f"of the bound at the largest size ({largest}²) — {verdict(best <= 2.0)} "
             f"({best:.2f}×)."
             + (" Below 1, the cloth's arrays still fit in the caches." if best < 1.0 else "")]
+    # -- threads -------------------------------------------------------------------------------
+    threads = data["threads"]
+    out += ["", "### Threads", "", f"![threads]({results}/threads.png)", "",
+            "Default threads against one thread, each run a fresh process (medians; busy: a "
+            "process burning the last core):", "",
+            "| cell | one thread | default | default / one |", "|---|---|---|---|"]
+    for cell in threads["cells"]:
+        modes = {r["mode"]: r for r in threads["rows"]
+                 if r["scene"] == cell["scene"] and r["load"] == cell["load"]}
+        out.append(f"| {cell['scene']}, {cell['load']} | "
+                   f"{duration(modes['one']['step_seconds_median'])} | "
+                   f"{duration(modes['default']['step_seconds_median'])} | "
+                   f"{cell['default_over_one_thread']:.2f} |")
+    out += ["", f"Target: the default at most {threads['target_ratio']}× one thread in every "
+            f"cell — {verdict(threads['target_met'])}."]
     return "\n".join(line for line in out if line is not None)
 
 

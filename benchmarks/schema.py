@@ -32,6 +32,9 @@ SCHEMAS = {
                           {"scene", "adaptive_projection", "newton_iterations_per_step",
                            "rejected_per_step", "unconverged_steps",
                            "wall_seconds_per_simulated_second"}),
+    "threads": ({"benchmark", "machine", "rows", "cells", "target_ratio", "target_met", "quick"},
+                {"scene", "load", "mode", "threads_configured", "threads_used",
+                 "step_seconds_median", "repeats"}),
     "stability_map": ({"benchmark", "machine", "rows", "stiffness_values", "dt_values", "quick"},
                       {"integrator", "stiffness", "dt", "state"}),
 }

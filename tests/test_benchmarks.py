@@ -1,6 +1,13 @@
-"""The benchmarks still run (at smoke size) and write JSON of the documented shape and a PNG."""
+"""The benchmarks still run (at smoke size) and write JSON of the documented shape and a PNG.
+
+No assertion here may depend on wall time (a slope, a ratio, one timing against another or a
+bound): on a loaded machine any of them can fail. Timings are checked for their type; counted
+quantities (steps, factorizations, sizes) for their values. Timings belong in the reports.
+"""
 
 import json
+import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,13 +30,19 @@ def run_benchmark(name, out, *args):
     return data
 
 
+def is_timing(value):
+    """A wall time as the benchmarks write it: a finite float (its value is not checked)."""
+    return isinstance(value, float) and math.isfinite(value)
+
+
 def test_explicit_step_benchmark_smoke(tmp_path):
     data = run_benchmark("explicit_step", tmp_path, "--quick")
     assert data["benchmark"] == "explicit_step"
     assert {"cpu", "logical_cores", "yore", "blas_loaded", "thread_environment"} <= set(data["machine"])
     for row in data["rows"]:
-        assert row["step_seconds_min"] <= row["step_seconds_median"] <= row["step_seconds_max"]
-        assert row["springs"] > row["vertices"]
+        assert all(is_timing(row[k]) for k in ("step_seconds_min", "step_seconds_median",
+                                                "step_seconds_max"))
+        assert row["vertices"] == row["grid"] ** 2 and row["springs"] > row["vertices"]
 
 
 def test_implicit_step_benchmark_smoke(tmp_path):
@@ -39,10 +52,9 @@ def test_implicit_step_benchmark_smoke(tmp_path):
     for row in data["rows"]:
         assert row["dofs"] == 3 * (row["vertices"] - 2 - row["analyses"] + 1)  # pins + extra fixes
         for key in ("assemble_seconds", "factorize_seconds", "solve_seconds", "analyze_seconds",
-                    "explicit_step_seconds", "factor_nonzeros", "factor_flops"):
-            assert row[key] > 0, key
-        assert row["analyze_over_factorize"] == pytest.approx(
-            row["analyze_seconds"] / row["factorize_seconds"])
+                    "explicit_step_seconds"):
+            assert is_timing(row[key]), key
+        assert row["factor_flops"] > row["factor_nonzeros"] >= row["dofs"]
 
 
 def test_speed_vs_error_smoke(tmp_path):
@@ -71,11 +83,11 @@ def test_rebuild_cost_smoke(tmp_path):
     data = run_benchmark("rebuild_cost", tmp_path, "--quick")
     for row in data["rows"]:
         assert row["analyses"] == 1 + row["repeats"]  # one per stroke, plus the first
-        assert row["step_after_stroke_seconds"] > row["analyze_seconds"] > 0
+        assert is_timing(row["step_after_stroke_seconds"]) and is_timing(row["analyze_seconds"])
     strategies = {(r["case"], r["strategy"]) for r in data["local_global"]}
     assert {s for _, s in strategies} == {"fresh", "reuse-ordering", "stale-pcg"}
     for row in data["local_global"]:
-        assert row["ordinary_step_seconds"] > 0
+        assert is_timing(row["ordinary_step_seconds"])
         # every strategy refactored at least once per stroke except stale-pcg, which may still
         # be stepping on the stale factor
         if row["strategy"] != "stale-pcg":
@@ -83,9 +95,13 @@ def test_rebuild_cost_smoke(tmp_path):
 
 
 def test_scaling_smoke(tmp_path):
+    # the slopes are fitted to wall times: their names and types are checked, not their values
     data = run_benchmark("scaling", tmp_path, "--quick")
     assert set(data["slopes"]) >= {"explicit", "implicit_linearized"}
-    assert all(0.0 < slope < 3.0 for slope in data["slopes"].values())
+    assert all(is_timing(slope) for slope in data["slopes"].values())
+    assert [r["grid"] for r in data["rows"]] == [8, 16, 32]
+    assert all(r["vertices"] == r["grid"] ** 2 for r in data["rows"])
+    assert all(r["newton_iterations_per_step"] >= 1 for r in data["rows"])
 
 
 def test_stability_map_smoke(tmp_path):
@@ -102,6 +118,29 @@ def test_newton_projection_smoke(tmp_path):
     data = run_benchmark("newton_projection", tmp_path, "--quick")
     assert {r["adaptive_projection"] for r in data["rows"]} == {False, True}
     assert all(r["rejected_per_step"] == 0 for r in data["rows"] if not r["adaptive_projection"])
+
+
+def test_threads_benchmark_smoke(tmp_path):
+    data = run_benchmark("threads", tmp_path, "--quick")
+    scenes = {"demo", "grid128", "grid64-implicit"}
+    assert {(c["scene"], c["load"]) for c in data["cells"]} == {
+        (s, load) for s in scenes for load in ("idle", "busy")}
+    assert len(data["rows"]) == 2 * len(data["cells"])  # one thread and the default, per cell
+    assert data["target_ratio"] == 1.2
+    assert data["target_met"] == all(c["met"] for c in data["cells"])
+    for cell in data["cells"]:
+        assert is_timing(cell["default_over_one_thread"])
+    for row in data["rows"]:
+        assert is_timing(row["step_seconds_median"]) and row["repeats"] == 1
+        used = row["threads_used"]
+        if row["mode"] == "one":
+            assert used["configured"] == 1 and used["blas"] in (0, 1)
+            if "last_step" in used:  # explicit: every step ran on one thread
+                assert used["last_step"] == 1 and used["parallel_steps"] == 0
+        else:
+            assert used["configured"] == len(os.sched_getaffinity(0))  # OpenMP's default
+            if "last_step" in used:
+                assert 1 <= used["last_step"] <= used["configured"]
 
 
 def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
@@ -131,7 +170,7 @@ def test_stream_bandwidth_probe_is_plausible():
     import yore
 
     bandwidth = yore._core.stream_triad_bandwidth(1_000_000, 3)
-    # between a very slow laptop (1 GB/s) and a large server (1 TB/s)
-    assert 1e9 < bandwidth < 1e12
+    # bytes over the best wall time: only its type is checked (its value depends on the load)
+    assert is_timing(bandwidth) and bandwidth > 0
     with pytest.raises(ValueError):
         yore._core.stream_triad_bandwidth(0, 3)

@@ -218,9 +218,12 @@ def test_statistics_report_phases_and_the_factor():
     sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit")
     sim.step(3)
     stats = sim.stats
-    for phase in ("assemble_seconds", "analyze_seconds", "factorize_seconds", "solve_seconds"):
-        assert stats["phases"][phase] > 0
+    # phases are wall time: check their names; what ran is in the counters
+    assert {"assemble_seconds", "analyze_seconds", "factorize_seconds",
+            "solve_seconds"} <= set(stats["phases"])
     counters = stats["counters"]
+    assert counters["analyses"] == 1 and counters["factorizations"] >= 3
+    assert counters["solves"] >= 3
     assert counters["ordering"] == "amd"
     dofs = counters["dofs"]
     # L holds at least the lower triangle of H (which has 6 entries per vertex block column)

@@ -68,7 +68,10 @@ def test_stats_report_active_terms_and_phase_times(cloth):
         "gravity": False, "spring_damping": False, "drag": False,
         "bending_springs": int(np.count_nonzero(cloth.springs.kind == 1)),
         "strain_limiting": False, "fixed_vertices": 1, "driven_vertices": 0}
-    assert stats["phases"]["forces_seconds"] > 0 and stats["phases"]["constraints_seconds"] == 0
+    # phases are wall time: check their names, never their values (they vary with load)
+    assert set(stats["phases"]) == {"forces_seconds", "update_seconds", "constraints_seconds",
+                                    "checks_seconds"}
+    assert stats["steps"] == 100 and stats["counters"]["strain_corrections"] == 0
     assert stats["vertices"] == 16 and stats["springs"] == cloth.spring_count
 
 

@@ -2,6 +2,7 @@
 #include "yore/bandwidth.hpp"
 #include "yore/build_info.hpp"
 #include "yore/errors.hpp"
+#include "yore/explicit.hpp"
 #include "yore/geometry.hpp"
 
 #include <pybind11/stl.h>
@@ -37,13 +38,19 @@ PYBIND11_MODULE(_core, m) {
         return info;
       },
       "Versions of the libraries the core was built and linked against.");
-  m.def("max_threads", &yore::max_threads, "Threads used by the core's parallel loops.");
+  m.def("max_threads", &yore::max_threads,
+        "Threads the core's parallel loops may use (set_max_threads, else OpenMP's default).");
+  m.def("set_blas_threads", &yore::set_blas_threads, py::arg("threads"),
+        "Sets the threads of the loaded OpenBLAS alone (>= 1); False when it is not OpenBLAS.");
+  m.def("blas_threads", &yore::blas_threads,
+        "Threads of the loaded OpenBLAS that CHOLMOD calls (0 when the BLAS is not OpenBLAS).");
   m.def("stream_triad_bandwidth", &yore::stream_triad_bandwidth, py::arg("elements"),
         py::arg("repeats"),
         "Memory bandwidth (bytes/s) of a[i] = b[i] + s·c[i] with the core's threads, best of "
         "repeats (STREAM triad).");
   m.def("set_max_threads", &yore::set_max_threads, py::arg("threads"),
-        "Sets the number of threads of the core's parallel loops (>= 1).");
+        "Sets the threads of the core's parallel loops and of OpenBLAS (>= 1); raises "
+        "ValueError for fewer than 1.");
 
   yore::bindings::bind_springs(m);
   yore::bindings::bind_mesh(m);
@@ -52,4 +59,21 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_implicit(m);
   yore::bindings::bind_stroke(m);
   yore::bindings::bind_local_global(m);
+
+  // Thread use of the explicit step, next to the thread count it reports on. (Its natural home
+  // is bind_explicit's statistics dict; kept here while that file has another owner.)
+  py::reinterpret_borrow<py::class_<yore::ExplicitIntegrator>>(m.attr("ExplicitIntegrator"))
+      .def_property_readonly(
+          "thread_usage",
+          [](const yore::ExplicitIntegrator& integrator) {
+            const yore::ExplicitStatistics& s = integrator.statistics();
+            py::dict out;
+            out["last_step"] = s.last_step_threads;
+            out["parallel_steps"] = s.parallel_steps;
+            out["serial_steps"] = s.steps - s.parallel_steps;
+            out["probes"] = s.thread_probes;
+            return out;
+          },
+          "Threads the last step's loops ran on (0 before any step), steps run on more than one "
+          "thread and on one, and blocks run to re-time the other choice.");
 }

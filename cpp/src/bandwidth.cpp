@@ -1,5 +1,7 @@
 #include "yore/bandwidth.hpp"
 
+#include "yore/build_info.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -14,10 +16,11 @@ double stream_triad_bandwidth(std::size_t elements, int repeats) {
     throw std::invalid_argument("stream_triad_bandwidth: elements and repeats must be >= 1");
   }
   const auto n = static_cast<std::int64_t>(elements);
+  const int threads = max_threads();
   std::unique_ptr<double[]> a(new double[elements]), b(new double[elements]),
       c(new double[elements]);
   // First touch by the threads that will use the pages.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static)
   for (std::int64_t i = 0; i < n; ++i) {
     a[i] = 0.0;
     b[i] = 1.0;
@@ -27,7 +30,7 @@ double stream_triad_bandwidth(std::size_t elements, int repeats) {
   const double scale = 3.0;
   for (int r = 0; r < repeats; ++r) {
     const auto start = std::chrono::steady_clock::now();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static)
     for (std::int64_t i = 0; i < n; ++i) a[i] = b[i] + scale * c[i];
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

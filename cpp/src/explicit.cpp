@@ -1,5 +1,6 @@
 #include "yore/explicit.hpp"
 
+#include "yore/build_info.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -16,15 +17,27 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Below these sizes a parallel region costs more than it saves (measured in
-// benchmarks/explicit_step.py).
-constexpr std::int64_t kParallelSprings = 2000;
+// Below these sizes a loop runs on one thread even when more are configured: forking and
+// joining would cost more than the loop. Break-even measured per loop on the 2-core machine of
+// the README (phase times of stats, every loop forced parallel, 1 against 2 threads, idle):
+// spring forces pay from about 1000 springs (16²: 3.2 µs against 5.1 µs), the fused
+// gather + update from about 500 vertices (16²: 2.9 against 2.5 µs, 24²: 3.6 against 5.3 µs),
+// the energy check from about 1000 (24²: 1.06 against 1.22 µs, 16²: 0.84 against 0.72 µs).
+constexpr std::int64_t kParallelSprings = 1000;
 constexpr std::int64_t kParallelVertices = 500;
+constexpr std::int64_t kParallelCheckVertices = 1000;
+
+// Dynamic schedule in chunks of about an eighth of a thread's share: a thread that starts late
+// (woken, or descheduled by another process) leaves its chunks to the others instead of
+// holding up the loop's end by a whole static share.
+std::int64_t chunk_size(std::int64_t count, int threads) {
+  return std::max<std::int64_t>(256, count / (8 * static_cast<std::int64_t>(threads)));
+}
 
 /// Force on each spring's first end (elastic, plus damping when Damped) into `out` (s×3);
 /// returns the total spring energy at the current positions.
 template <bool Damped>
-double spring_forces(const Cloth& cloth, Positions& out) {
+double spring_forces(const Cloth& cloth, Positions& out, int threads) {
   const SpringSet& springs = cloth.springs();
   const double* x = cloth.positions().data();
   const double* v = cloth.velocities().data();
@@ -36,7 +49,9 @@ double spring_forces(const Cloth& cloth, Positions& out) {
   double* f = out.data();
   const auto count = static_cast<std::int64_t>(springs.size());
   double energy = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : energy) if (count >= kParallelSprings)
+  const std::int64_t chunk = chunk_size(count, threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) reduction(+ : energy) \
+    if (threads > 1 && count >= kParallelSprings)
   for (std::int64_t s = 0; s < count; ++s) {
     const double* xi = x + 3 * first[s];
     const double* xj = x + 3 * second[s];
@@ -86,7 +101,6 @@ ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options)
 void ExplicitIntegrator::prepare(const Cloth& cloth) {
   const Eigen::Index n = cloth.vertex_count();
   const auto s = static_cast<Eigen::Index>(cloth.springs().size());
-  if (m_forces.rows() != n) m_forces.resize(n, 3);
   if (m_spring_forces.rows() != s) m_spring_forces.resize(s, 3);
   if (m_options.strain_limit > 0.0 && m_previous_positions.rows() != n) {
     m_previous_positions.resize(n, 3);
@@ -94,33 +108,43 @@ void ExplicitIntegrator::prepare(const Cloth& cloth) {
   m_with_spring_damping = cloth.has_spring_damping();
 }
 
-double ExplicitIntegrator::compute_forces(const Cloth& cloth, const Vec3& gravity) {
-  const double energy = m_with_spring_damping ? spring_forces<true>(cloth, m_spring_forces)
-                                              : spring_forces<false>(cloth, m_spring_forces);
+double ExplicitIntegrator::compute_spring_forces(const Cloth& cloth, int threads) {
+  return m_with_spring_damping ? spring_forces<true>(cloth, m_spring_forces, threads)
+                               : spring_forces<false>(cloth, m_spring_forces, threads);
+}
+
+void ExplicitIntegrator::update_velocities_and_positions(Cloth& cloth, const Vec3& gravity,
+                                                         double dt, int threads) {
   const Eigen::Index n = cloth.vertex_count();
-  const double* v = cloth.velocities().data();
+  double* x = cloth.integrator_positions().data();
+  double* v = cloth.integrator_velocities().data();
+  double* previous = m_options.strain_limit > 0.0 ? m_previous_positions.data() : nullptr;
   const double* m = cloth.masses().data();
   const double* inverse_mass = cloth.inverse_masses().data();
   const std::int32_t* offsets = cloth.incidence_offsets().data();
   const std::int32_t* incident = cloth.incident_springs().data();
   const double* signs = cloth.incident_signs().data();
   const double* fs = m_spring_forces.data();
-  double* f = m_forces.data();
   const double drag = cloth.drag();
   const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
+  const std::int64_t chunk = chunk_size(n, threads);
   // Gather per vertex instead of scattering per spring: no write conflicts between threads.
-#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
+  // Vertex i's force needs only the spring forces and its own velocity, so the update fuses
+  // with the gather: one parallel loop instead of two, and no n×3 force buffer.
+#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) \
+    if (threads > 1 && n >= kParallelVertices)
   for (Eigen::Index i = 0; i < n; ++i) {
-    double* fi = f + 3 * i;
-    if (inverse_mass[i] == 0.0) {
-      fi[0] = fi[1] = fi[2] = 0.0;
-      continue;
+    double* xi = x + 3 * i;
+    double* vi = v + 3 * i;
+    if (previous != nullptr) {
+      for (int c = 0; c < 3; ++c) previous[3 * i + c] = xi[c];
     }
+    if (inverse_mass[i] == 0.0) continue;
     double fx = m[i] * gx, fy = m[i] * gy, fz = m[i] * gz;
     if (drag > 0.0) {
-      fx -= drag * m[i] * v[3 * i];
-      fy -= drag * m[i] * v[3 * i + 1];
-      fz -= drag * m[i] * v[3 * i + 2];
+      fx -= drag * m[i] * vi[0];
+      fy -= drag * m[i] * vi[1];
+      fz -= drag * m[i] * vi[2];
     }
     for (std::int32_t slot = offsets[i]; slot < offsets[i + 1]; ++slot) {
       const double* fk = fs + 3 * incident[slot];
@@ -128,11 +152,12 @@ double ExplicitIntegrator::compute_forces(const Cloth& cloth, const Vec3& gravit
       fy += signs[slot] * fk[1];
       fz += signs[slot] * fk[2];
     }
-    fi[0] = fx;
-    fi[1] = fy;
-    fi[2] = fz;
+    const double f[3] = {fx, fy, fz};
+    for (int c = 0; c < 3; ++c) {
+      vi[c] += dt * inverse_mass[i] * f[c];
+      xi[c] += dt * vi[c];
+    }
   }
-  return energy;
 }
 
 void ExplicitIntegrator::limit_strain(Cloth& cloth) {
@@ -189,28 +214,27 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   const bool limiting = m_options.strain_limit > 0.0;
   const double* m = cloth.masses().data();
   const double* inverse_mass = cloth.inverse_masses().data();
+  const auto spring_count = static_cast<std::int64_t>(cloth.springs().size());
+  // Small cloths never fork: nothing to choose, nothing to re-time.
+  const bool parallel_pays = spring_count >= kParallelSprings || n >= kParallelVertices ||
+                             n >= kParallelCheckVertices;
+  const int configured = parallel_pays ? max_threads() : 1;
+  const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
   for (std::int64_t step = 0; step < steps; ++step) {
-    start = Clock::now();
-    const double spring_energy_before = compute_forces(cloth, gravity);
+    const auto step_start = Clock::now();
+    const int threads = m_thread_chooser.threads_for_next_step(configured);
+    start = step_start;
+    const double spring_energy_before = compute_spring_forces(cloth, threads);
     m_statistics.forces_seconds += seconds_since(start);
 
     start = Clock::now();
-    double* x = cloth.integrator_positions().data();
-    double* v = cloth.integrator_velocities().data();
-    const double* f = m_forces.data();
-    if (limiting) m_previous_positions = cloth.positions();
-#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      if (inverse_mass[i] == 0.0) continue;
-      for (int c = 0; c < 3; ++c) {
-        v[3 * i + c] += dt * inverse_mass[i] * f[3 * i + c];
-        x[3 * i + c] += dt * v[3 * i + c];
-      }
-    }
+    update_velocities_and_positions(cloth, gravity, dt, threads);
     const double new_time = cloth.advance_time(dt);
     cloth.apply_drivers(new_time);
     m_statistics.update_seconds += seconds_since(start);
 
+    double* x = cloth.integrator_positions().data();
+    double* v = cloth.integrator_velocities().data();
     if (limiting) {
       start = Clock::now();
       limit_strain(cloth);
@@ -223,17 +247,20 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     }
 
     start = Clock::now();
-    double monitored = spring_energy_before;
+    double monitored = 0.0;
     double position_sum = 0.0;
+    const std::int64_t chunk = chunk_size(n, threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) \
+    reduction(+ : monitored, position_sum) if (threads > 1 && n >= kParallelCheckVertices)
     for (Eigen::Index i = 0; i < n; ++i) {
       position_sum += x[3 * i] + x[3 * i + 1] + x[3 * i + 2];
       if (inverse_mass[i] == 0.0) continue;
       const double speed_squared =
           v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
       monitored += 0.5 * m[i] * speed_squared -
-                   m[i] * (x[3 * i] * gravity.x() + x[3 * i + 1] * gravity.y() +
-                           x[3 * i + 2] * gravity.z());
+                   m[i] * (x[3 * i] * gx + x[3 * i + 1] * gy + x[3 * i + 2] * gz);
     }
+    monitored += spring_energy_before;
     const bool finite = std::isfinite(monitored) && std::isfinite(position_sum);
     if (!finite || monitored > m_monitor.limit()) {
       const std::int64_t failed_step = m_statistics.steps;
@@ -244,7 +271,55 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     }
     ++m_statistics.steps;
     m_statistics.checks_seconds += seconds_since(start);
+    if (m_thread_chooser.record(seconds_since(step_start))) ++m_statistics.thread_probes;
+    m_statistics.last_step_threads = threads;
+    if (threads > 1) ++m_statistics.parallel_steps;
   }
+}
+
+int StepThreadChooser::threads_for_next_step(int configured) {
+  if (configured != m_configured) {  // first step, or set_max_threads since: start over
+    m_configured = configured;
+    m_preferred = m_running = configured;
+    m_block_steps = 0;
+    m_block_seconds = 0.0;
+    m_preferred_seconds_per_step = 0.0;
+    m_interval = 1;
+    m_blocks_until_probe = 1;
+  }
+  return m_running;
+}
+
+bool StepThreadChooser::record(double seconds) {
+  if (m_configured <= 1) return false;
+  m_block_seconds += seconds;
+  ++m_block_steps;
+  const bool probing = m_running != m_preferred;
+  // A re-timing that is already losing by 2× ends at once: on a busy machine one parallel step
+  // can cost as much as hundreds of serial ones.
+  const bool lost_already =
+      probing && m_block_seconds > 2.0 * m_preferred_seconds_per_step * m_block_steps;
+  if (!lost_already && (m_block_steps < kMinBlockSteps || m_block_seconds < kBlockSeconds)) {
+    return false;
+  }
+  const double seconds_per_step = m_block_seconds / m_block_steps;
+  m_block_steps = 0;
+  m_block_seconds = 0.0;
+  if (probing) {
+    if (seconds_per_step < m_preferred_seconds_per_step) {
+      m_preferred = m_running;  // it won: keep it, and re-time the loser soon
+      m_preferred_seconds_per_step = seconds_per_step;
+      m_interval = 1;
+    } else {
+      m_interval = std::min((lost_already ? 4 : 2) * m_interval, kMaxInterval);
+    }
+    m_running = m_preferred;
+    m_blocks_until_probe = m_interval;
+    return true;
+  }
+  m_preferred_seconds_per_step = seconds_per_step;
+  if (--m_blocks_until_probe <= 0) m_running = m_preferred == 1 ? m_configured : 1;
+  return false;
 }
 
 }  // namespace yore

@@ -6,6 +6,9 @@ Cloth") with an explicit reference integrator; see README.md for the whole pictu
 
 from __future__ import annotations
 
+import numbers
+import os as _os
+
 from . import metrics, scenes, springs, stroke
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
@@ -16,6 +19,14 @@ from .scene_file import SceneError, load_scene
 from .runner import RunError, resume_run, run_scene
 from . import render, scene_file
 from .stroke import Camera, StrokeMissed, StrokeReport
+from . import _core as _threads_core
+
+# OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
+# re-times them: one thread unless the user asked (README, "Threads": on a busy machine two
+# made a linearized implicit step 3× slower). set_num_threads(n) sets n here too.
+if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
+                                            "OMP_NUM_THREADS")):
+    _threads_core.set_blas_threads(1)
 
 __version__ = "0.1.0"
 
@@ -59,7 +70,17 @@ def build_info() -> dict:
 
 
 def set_num_threads(threads: int) -> None:
-    """Sets the number of threads of the core's parallel loops (>= 1)."""
+    """Sets the threads of yore's parallel loops and of the BLAS that CHOLMOD calls (OpenBLAS),
+    for the whole process: the one place the thread count is set (``yore --threads N`` and a
+    scene's ``[simulation] threads`` call it). Raises ValueError unless `threads` is an int >= 1
+    (bool is refused).
+
+    The explicit step still runs a block of steps on one thread when that is faster (small
+    cloths, or a machine busy with other processes); ``Simulation.stats["threads"]`` says what
+    its loops used.
+    """
     from . import _core
 
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise ValueError(f"the number of threads must be an int >= 1, got {threads!r}")
     _core.set_max_threads(int(threads))

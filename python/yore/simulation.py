@@ -518,7 +518,8 @@ class Simulation:
             "springs": cloth.spring_count,
             "topology_version": cloth.topology_version,
             "stable_dt_estimate": cloth.stable_time_step(),
-            "threads": _core.max_threads(),
+            "threads": {"configured": _core.max_threads(), "blas": _core.blas_threads(),
+                        **getattr(self._integrator, "thread_usage", {})},
         }
 
     def __repr__(self) -> str:

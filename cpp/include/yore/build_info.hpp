@@ -1,6 +1,6 @@
 #pragma once
 /// @file build_info.hpp
-/// Versions of the libraries yore was built and linked against, and threading facts.
+/// Versions of the libraries yore was built and linked against, and the core's thread count.
 
 #include <map>
 #include <string>
@@ -8,13 +8,24 @@
 namespace yore {
 
 /// Versions and build facts of the physics core as name → text ("eigen", "cholmod", "compiler",
-/// "openmp", "build_type").
+/// "openmp", "build_type", "blas").
 std::map<std::string, std::string> build_info();
 
-/// Threads OpenMP will use in the core's parallel loops (1 without OpenMP).
+/// Threads the core's parallel loops may use: the last set_max_threads, else OpenMP's default
+/// (OMP_NUM_THREADS, else the logical cores); 1 without OpenMP.
 int max_threads();
 
-/// Sets the number of OpenMP threads (n >= 1). Throws std::invalid_argument for n < 1.
+/// Sets the threads of the core's parallel loops and of the BLAS that CHOLMOD calls (OpenBLAS,
+/// when it is the loaded libblas.so.3) to `threads` (>= 1), for every thread of the process.
+/// Throws std::invalid_argument for threads < 1.
 void set_max_threads(int threads);
+
+/// Sets the threads of the loaded OpenBLAS alone (threads >= 1); returns false when the loaded
+/// BLAS is not OpenBLAS. Throws std::invalid_argument for threads < 1.
+bool set_blas_threads(int threads);
+
+/// Threads of the loaded OpenBLAS (what CHOLMOD's supernodal factorization uses), 0 when the
+/// loaded BLAS is not OpenBLAS.
+int blas_threads();
 
 }  // namespace yore

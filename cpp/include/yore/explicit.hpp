@@ -25,11 +25,48 @@ struct ExplicitOptions {
 /// Wall time per phase and counters, cumulative over the integrator's life.
 struct ExplicitStatistics {
   std::int64_t steps = 0;
-  double forces_seconds = 0.0;       ///< spring, damping, gravity and drag forces
-  double update_seconds = 0.0;       ///< velocity and position update, drivers
+  double forces_seconds = 0.0;       ///< spring forces (elastic and damping) per spring
+  double update_seconds = 0.0;       ///< per-vertex gather, gravity, drag, update, drivers
   double constraints_seconds = 0.0;  ///< strain limiting
   double checks_seconds = 0.0;       ///< divergence checks and checkpoints
   std::int64_t strain_corrections = 0;  ///< spring corrections made by strain limiting
+  std::int64_t parallel_steps = 0;      ///< steps whose loops ran on more than one thread
+  std::int64_t thread_probes = 0;       ///< blocks of steps run to re-time the other choice
+  int last_step_threads = 0;            ///< threads the last step's loops ran on (0: no step)
+};
+
+/// Chooses, block of steps by block, whether the step's loops run on all the configured threads
+/// or on one: whichever ran its last block faster per step. The other choice is re-timed after
+/// 1, 2, 4, ... up to kMaxInterval blocks (about half a second) while it keeps losing. On a busy machine a parallel
+/// region waits for its slowest, possibly descheduled, thread, and one thread wins; on an idle
+/// one the parallel step does. The choice itself allocates nothing.
+class StepThreadChooser {
+ public:
+  /// Threads for the next step: 1 or `configured` (>= 1).
+  int threads_for_next_step(int configured);
+  /// Records the wall time (s) of the step just run; returns true when it ended a re-timing
+  /// block.
+  bool record(double seconds);
+  /// Threads the chooser currently prefers (0 before the first step).
+  int preferred() const { return m_preferred; }
+
+  /// A block lasts at least this long (s) and kMinBlockSteps steps, so that a timer tick or
+  /// one interruption does not decide. A re-timing that is already 2× slower per step ends
+  /// early, and then waits 4× longer for the next.
+  static constexpr double kBlockSeconds = 2e-3;
+  static constexpr int kMinBlockSteps = 2;
+  /// Largest number of blocks between two re-timings of the losing choice.
+  static constexpr int kMaxInterval = 256;
+
+ private:
+  int m_configured = 0;
+  int m_preferred = 0;           // threads of the winning choice
+  int m_running = 0;             // threads of the current block (the preferred or a probe)
+  int m_block_steps = 0;
+  double m_block_seconds = 0.0;
+  double m_preferred_seconds_per_step = 0.0;  // of the preferred choice's last block
+  int m_interval = 1;            // blocks between re-timings
+  int m_blocks_until_probe = 1;
 };
 
 /// Symplectic (semi-implicit) Euler: v⁺ = v + h M⁻¹ f(x, v), x⁺ = x + h v⁺, then optional strain
@@ -53,7 +90,8 @@ class ExplicitIntegrator {
 
  private:
   void prepare(const Cloth& cloth);
-  double compute_forces(const Cloth& cloth, const Vec3& gravity);
+  double compute_spring_forces(const Cloth& cloth, int threads);
+  void update_velocities_and_positions(Cloth& cloth, const Vec3& gravity, double dt, int threads);
   void limit_strain(Cloth& cloth);
 
   ExplicitOptions m_options;
@@ -61,12 +99,12 @@ class ExplicitIntegrator {
 
   // Buffers sized once per topology; the step itself allocates nothing.
   Positions m_spring_forces;  // s×3, force on each spring's first end
-  Positions m_forces;         // n×3, total force per vertex
   Positions m_previous_positions;
   Positions m_checkpoint_positions;
   Positions m_checkpoint_velocities;
   bool m_with_spring_damping = false;
   DivergenceMonitor m_monitor;
+  StepThreadChooser m_thread_chooser;
 };
 
 }  // namespace yore

@@ -1,0 +1,109 @@
+"""yore.set_num_threads is the one place the thread count is set; the explicit step's result
+does not depend on it; stats report the threads used. (No test here depends on wall time.)"""
+
+import numpy as np
+import pytest
+
+import yore
+from yore import _core
+
+
+@pytest.fixture
+def restore_threads():
+    before, blas = yore.build_info()["threads"], _core.blas_threads()
+    yield
+    yore.set_num_threads(before)
+    if blas:
+        _core.set_blas_threads(blas)
+
+
+def grid_simulation(n):
+    V, F = yore.grid_mesh(n, n)
+    cloth = yore.Cloth(V, F, mass=0.1, stretch_stiffness=200.0, bend_stiffness=200.0,
+                       damping=0.02, drag=0.3)
+    cloth.fix([0, n - 1])
+    return yore.Simulation(cloth)
+
+
+@pytest.mark.parametrize("bad", [0, -1, True, False, 1.5, 2.0, "2", None])
+def test_set_num_threads_refuses_anything_but_an_int_of_at_least_one(bad, restore_threads):
+    with pytest.raises(ValueError, match="threads"):
+        yore.set_num_threads(bad)
+
+
+def test_set_num_threads_sets_the_core_and_openblas(restore_threads):
+    yore.set_num_threads(np.int64(3))  # any integral type
+    assert yore.build_info()["threads"] == 3
+    if yore.build_info()["blas"].startswith("OpenBLAS"):
+        assert _core.blas_threads() == 3
+    yore.set_num_threads(1)
+    assert yore.build_info()["threads"] == 1 and _core.blas_threads() in (0, 1)
+
+
+def test_openblas_defaults_to_one_thread_unless_asked():
+    import os
+
+    if any(name in os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
+                                           "OMP_NUM_THREADS")):
+        pytest.skip("the environment sets the BLAS threads")
+    if not yore.build_info()["blas"].startswith("OpenBLAS"):
+        pytest.skip("the loaded BLAS is not OpenBLAS")
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", "import yore; print(yore._core.blas_threads())"],
+                         capture_output=True, text=True, check=True).stdout
+    assert int(out) == 1
+
+
+def test_one_thread_runs_every_step_serially_and_reports_it(restore_threads):
+    yore.set_num_threads(1)
+    sim = grid_simulation(48)  # large enough that its loops would fork with more threads
+    sim.step(30, progress=False)
+    threads = sim.stats["threads"]
+    assert threads["configured"] == 1
+    assert threads["last_step"] == 1
+    assert threads["parallel_steps"] == 0 and threads["serial_steps"] == 30
+    assert threads["probes"] == 0
+
+
+def test_small_cloths_never_fork(restore_threads):
+    yore.set_num_threads(2)
+    sim = grid_simulation(8)  # 64 vertices: below every loop's threshold
+    sim.step(200, progress=False)
+    threads = sim.stats["threads"]
+    assert threads["configured"] == 2
+    assert threads["parallel_steps"] == 0 and threads["probes"] == 0
+    assert threads["last_step"] == 1
+
+
+def test_large_cloths_may_use_every_configured_thread(restore_threads):
+    yore.set_num_threads(2)
+    sim = grid_simulation(48)
+    sim.step(300, progress=False)
+    threads = sim.stats["threads"]
+    # which choice wins depends on the load; that both are counted does not
+    assert threads["parallel_steps"] + threads["serial_steps"] == 300
+    assert threads["parallel_steps"] >= 1  # the first block runs on every thread
+    assert threads["last_step"] in (1, 2)
+
+
+def test_positions_do_not_depend_on_the_thread_count(restore_threads):
+    results = []
+    for threads in (1, 2, 3):
+        yore.set_num_threads(threads)
+        sim = grid_simulation(40)
+        sim.step(200, progress=False)
+        results.append((sim.cloth.positions.copy(), sim.cloth.velocities.copy()))
+    for positions, velocities in results[1:]:
+        assert np.array_equal(positions, results[0][0])
+        assert np.array_equal(velocities, results[0][1])
+
+
+def test_implicit_stats_report_the_blas_threads(restore_threads):
+    yore.set_num_threads(1)
+    sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit")
+    sim.step(1, progress=False)
+    threads = sim.stats["threads"]
+    assert threads["configured"] == 1 and threads["blas"] in (0, 1)
+    assert "last_step" not in threads  # the implicit step's parallelism is the BLAS's
