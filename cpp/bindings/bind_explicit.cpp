@@ -29,7 +29,21 @@ void bind_explicit(py::module_& m) {
         out["checks_seconds"] = s.checks_seconds;
         out["strain_corrections"] = s.strain_corrections;
         return out;
-      });
+      })
+      .def_property_readonly(
+          "thread_usage",
+          [](const ExplicitIntegrator& integrator) {
+            check_idle(&integrator, "the integrator");
+            const ExplicitStatistics& s = integrator.statistics();
+            py::dict out;
+            out["last_step"] = s.last_step_threads;
+            out["parallel_steps"] = s.parallel_steps;
+            out["serial_steps"] = s.steps - s.parallel_steps;
+            out["probes"] = s.thread_probes;
+            return out;
+          },
+          "Threads the last step's loops ran on (0 before any step), steps run on more than one "
+          "thread and on one, and blocks run to re-time the other choice.");
 }
 
 }  // namespace yore::bindings

@@ -59,21 +59,4 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_implicit(m);
   yore::bindings::bind_stroke(m);
   yore::bindings::bind_local_global(m);
-
-  // Thread use of the explicit step, next to the thread count it reports on. (Its natural home
-  // is bind_explicit's statistics dict; kept here while that file has another owner.)
-  py::reinterpret_borrow<py::class_<yore::ExplicitIntegrator>>(m.attr("ExplicitIntegrator"))
-      .def_property_readonly(
-          "thread_usage",
-          [](const yore::ExplicitIntegrator& integrator) {
-            const yore::ExplicitStatistics& s = integrator.statistics();
-            py::dict out;
-            out["last_step"] = s.last_step_threads;
-            out["parallel_steps"] = s.parallel_steps;
-            out["serial_steps"] = s.steps - s.parallel_steps;
-            out["probes"] = s.thread_probes;
-            return out;
-          },
-          "Threads the last step's loops ran on (0 before any step), steps run on more than one "
-          "thread and on one, and blocks run to re-time the other choice.");
 }

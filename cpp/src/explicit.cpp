@@ -1,6 +1,7 @@
 #include "yore/explicit.hpp"
 
 #include "yore/build_info.hpp"
+#include "yore/interrupt.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -221,6 +222,14 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   const int configured = parallel_pays ? max_threads() : 1;
   const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
   for (std::int64_t step = 0; step < steps; ++step) {
+    try {
+      poll_interrupt();  // a long multi-step call answers Ctrl-C between steps
+    } catch (...) {
+      cloth.integrator_positions() = m_checkpoint_positions;  // undo the call, as on divergence
+      cloth.integrator_velocities() = m_checkpoint_velocities;
+      cloth.set_clock(checkpoint_clock);
+      throw;
+    }
     const auto step_start = Clock::now();
     const int threads = m_thread_chooser.threads_for_next_step(configured);
     start = step_start;

@@ -69,6 +69,10 @@ def build_info() -> dict:
     return info
 
 
+#: Most threads `set_num_threads` accepts (each OpenMP thread is an operating-system thread).
+MAX_THREADS = 256
+
+
 def set_num_threads(threads: int) -> None:
     """Sets the threads of yore's parallel loops and of the BLAS that CHOLMOD calls (OpenBLAS),
     for the whole process: the one place the thread count is set (``yore --threads N`` and a
@@ -81,6 +85,8 @@ def set_num_threads(threads: int) -> None:
     """
     from . import _core
 
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
-        raise ValueError(f"the number of threads must be an int >= 1, got {threads!r}")
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or \
+            not 1 <= threads <= MAX_THREADS:
+        raise ValueError(f"the number of threads must be an int in [1, {MAX_THREADS}], got "
+                         f"{threads!r}")
     _core.set_max_threads(int(threads))

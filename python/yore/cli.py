@@ -1,11 +1,14 @@
 """The ``yore`` command.
 
-    yore run SCENE.toml [-o OUT] [--set KEY=VALUE ...] [--until SECONDS] [--quiet]
+    yore run SCENE.toml [-o OUT] [--set KEY=VALUE ...] [--until SECONDS] [--overwrite] [--quiet]
     yore run --resume OUT/state.npz [-o OUT2] [--until SECONDS] [--quiet]
     yore check SCENE.toml [--set KEY=VALUE ...]
-    yore demo [-o OUT] [--quiet]
+    yore demo [-o OUT] [--overwrite] [--quiet]
     yore render FRAME|RUN_DIR [-o OUT] [--width W] [--height H] [--color-by expansion]
                 [--animation gif|mp4|none] [--no-pictures] [--eye X Y Z] [--target X Y Z]
+    yore --version
+Every command takes --threads N (the threads of the core's loops and of BLAS, see
+`yore.set_num_threads`; default: the scene's [simulation] threads, else the machine's cores).
 
 Exit codes: 0 success; 1 the run failed (it diverged, or a stroke missed at its time; the
 state before the failure is saved); 2 bad input (command line, scene file, missing file),
@@ -36,8 +39,11 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser():
+    from . import __version__
+
     parser = _Parser(prog="yore", description="Cloth simulation with stroke-driven wrinkles "
                      "(Shi & Saito): run scene files, render pictures.")
+    parser.add_argument("--version", action="version", version=f"yore {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     commands.required = True
 
@@ -52,40 +58,52 @@ def _parser():
     run.add_argument("--until", type=float, metavar="SECONDS",
                      help="stop at this simulated time instead of the scene's duration")
     _add_set(run)
+    _add_overwrite(run)
     run.add_argument("--no-render", action="store_true",
                      help="skip the pictures and animation the scene asks for")
-    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no report")
+    _add_common(run)
 
     check = commands.add_parser("check", help="check a scene file without running it",
                                 description="Check a scene file (keys, types, values, vertex "
-                                "selections, strokes that can be tried at t = 0).")
-    check.add_argument("scene", type=Path)
+                                "selections, strokes that can be tried at t = 0) and build "
+                                "its simulation, without running it.")
+    check.add_argument("scene", type=Path, help="the scene file (.toml)")
     _add_set(check)
+    _add_common(check, quiet=False)
 
     demo = commands.add_parser("demo", help="the paper's hanging cloth with a stroke",
                                description="The paper's hanging-cloth experiment with a stroke "
                                "(examples/hanging.toml), writing frames, before/after "
                                "pictures and an animation into OUT.")
-    demo.add_argument("-o", "--out", type=Path, default=Path("yore-out"))
+    demo.add_argument("-o", "--out", type=Path, default=Path("yore-out"),
+                      help="output folder (default: yore-out)")
     _add_set(demo)
-    demo.add_argument("-q", "--quiet", action="store_true")
+    _add_overwrite(demo)
+    _add_common(demo)
 
     render = commands.add_parser("render", help="pictures of a frame or a run",
                                  description="PNG pictures of a frame file, or of a run folder "
                                  "(before/after side by side, last frame, animation).")
     render.add_argument("path", type=Path, help="a frame file or a run folder")
-    render.add_argument("-o", "--out", type=Path, help="PNG file (frame) or folder (run)")
-    render.add_argument("--width", type=int, help="image width, pixels")
-    render.add_argument("--height", type=int, help="image height, pixels")
-    render.add_argument("--color-by", choices=("none", "expansion"), default="none",
-                        help="colour faces by rest-length expansion")
+    render.add_argument("-o", "--out", type=Path, help="PNG file (frame) or folder (run); "
+                        "default: next to the frame, or the run folder")
+    render.add_argument("--width", type=int, help="image width, pixels (default: the scene's "
+                        "[camera] width, 800)")
+    render.add_argument("--height", type=int, help="image height, pixels (default: the "
+                        "scene's [camera] height, 600)")
+    render.add_argument("--color-by", choices=("none", "expansion"), default=None,
+                        help="colour faces by rest-length expansion (default: the scene's "
+                        "[output] color_by, else none)")
     render.add_argument("--animation", choices=("gif", "mp4", "none"), default="gif",
-                        help="animation of a run's frames (default gif)")
+                        help="animation of a run's frames (default gif; mp4 needs ffmpeg)")
     render.add_argument("--no-pictures", action="store_true",
                         help="a run: only the animation")
-    render.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"))
-    render.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"))
-    render.add_argument("-q", "--quiet", action="store_true")
+    render.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="camera position, m (default: the scene's, else fitted)")
+    render.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="point the camera looks at, m (default: the scene's, else the "
+                        "cloth's centre)")
+    _add_common(render)
     return parser
 
 
@@ -93,6 +111,22 @@ def _add_set(parser):
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE", help="override a scene key, e.g. --set mesh.nx=9 "
                         "--set simulation.duration=0.5 (VALUE is read as TOML)")
+
+
+def _add_overwrite(parser):
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the run OUT already holds (its frames, pictures, summary "
+                        "and state; nothing else); without it a folder holding another or an "
+                        "unfinished run is refused")
+
+
+def _add_common(parser, quiet=True):
+    parser.add_argument("--threads", type=int, metavar="N",
+                        help="threads of the core's loops and of BLAS (default: the scene's "
+                        "[simulation] threads, else the machine's cores)")
+    if quiet:
+        parser.add_argument("-q", "--quiet", action="store_true",
+                            help="no progress bar, no report")
 
 
 def _overrides(arguments):
@@ -135,7 +169,8 @@ def _run(arguments):
         if arguments.scene is not None or arguments.overrides:
             raise ValueError("--resume continues a saved run: give no scene file and no --set")
         summary = resume_run(arguments.resume, out=arguments.out, until=arguments.until,
-                             quiet=arguments.quiet, render=not arguments.no_render)
+                             quiet=arguments.quiet, render=not arguments.no_render,
+                             overwrite=arguments.overwrite, threads=arguments.threads)
         out = arguments.out or arguments.resume.parent
     else:
         if arguments.scene is None:
@@ -143,7 +178,8 @@ def _run(arguments):
         scene = load_scene(arguments.scene, overrides=_overrides(arguments))
         out = arguments.out or Path("yore-out") / arguments.scene.stem
         summary = run_scene(scene, out, until=arguments.until, quiet=arguments.quiet,
-                            render=not arguments.no_render)
+                            render=not arguments.no_render, overwrite=arguments.overwrite,
+                            threads=arguments.threads)
     _report(summary, Path(out), arguments.quiet)
 
 
@@ -163,7 +199,8 @@ def _demo(arguments):
 
     scene = load_scene(Path("hanging.toml"), text=demo_scene_text(),
                        overrides=_overrides(arguments))
-    summary = run_scene(scene, arguments.out, quiet=arguments.quiet)
+    summary = run_scene(scene, arguments.out, quiet=arguments.quiet,
+                        overwrite=arguments.overwrite, threads=arguments.threads)
     _report(summary, arguments.out, arguments.quiet)
 
 
@@ -197,6 +234,10 @@ def main(argv=None) -> int:
 
     handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render}
     try:
+        if arguments.threads is not None:
+            from . import set_num_threads
+
+            set_num_threads(arguments.threads)
         handlers[arguments.command](arguments)
     except KeyboardInterrupt as interruption:
         state = getattr(interruption, "state_path", None)

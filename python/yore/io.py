@@ -185,11 +185,18 @@ def save_mesh(path, V, F, point_data=None):
         fields = _split_vector_fields(fields)
 
     mesh = meshio.Mesh(V, [("triangle", F)], point_data=fields)
+    # Written under a hidden temporary name (same extension, so meshio picks the same format)
+    # and renamed: a reader, or a run interrupted mid-write, never sees half a file.
+    partial = path.with_name(f".{path.stem}.part{path.suffix}")
     try:
-        meshio.write(path, mesh)
+        meshio.write(partial, mesh)
+        os.replace(partial, path)
     except (meshio.ReadError, meshio.WriteError) as error:
         # meshio reports an unknown extension as a ReadError even when writing.
         raise ValueError(f"cannot write mesh file {path}: {error}") from error
+    finally:
+        if partial.exists():
+            partial.unlink()
 
 
 class FrameSeries:

@@ -39,6 +39,7 @@ import numpy as np
 from .stroke import Camera, check_factor
 
 __all__ = [
+    "check_ffmpeg",
     "fit_camera",
     "render_image",
     "side_by_side",
@@ -716,11 +717,17 @@ def _save_gif(path, frames, fps):
                      duration=max(int(round(1000.0 / fps)), 1), loop=0)
 
 
-def _save_mp4(path, frames, fps):
+def check_ffmpeg() -> str:
+    """The path of ``ffmpeg`` (what MP4 animations need); ValueError when it is not on PATH."""
     ffmpeg = shutil.which("ffmpeg")
     if ffmpeg is None:
-        raise ValueError(f"writing {str(path)!r} needs ffmpeg, which is not on PATH; install "
-                         "ffmpeg or save the animation as .gif instead")
+        raise ValueError("an MP4 animation needs ffmpeg, which is not on PATH; install ffmpeg "
+                         "or save the animation as .gif instead")
+    return ffmpeg
+
+
+def _save_mp4(path, frames, fps):
+    ffmpeg = check_ffmpeg()
     height, width = frames[0].shape[:2]
     pad = ((0, height % 2), (0, width % 2), (0, 0))
     command = [ffmpeg, "-y", "-loglevel", "error",

@@ -21,7 +21,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from .render import fit_camera, render_image, save_animation, save_png, side_by_side
+from .render import (check_ffmpeg, fit_camera, render_image, save_animation, save_png,
+                     side_by_side)
 from .stroke import Camera
 
 __all__ = ["render_run", "render_frame", "camera_from_settings"]
@@ -85,6 +86,12 @@ def camera_from_settings(settings, points, width=None, height=None, eye=None, ta
                   fov_degrees=fov, width=width, height=height)
 
 
+def _scene_color_by(summary):
+    """The [output] color_by of the run a summary describes ("none" without one)."""
+    output = ((summary or {}).get("settings") or {}).get("output") or {}
+    return output.get("color_by", "none")
+
+
 def _load_summary(folder):
     path = Path(folder) / "summary.json"
     if not path.is_file():
@@ -92,30 +99,36 @@ def _load_summary(folder):
     return json.loads(path.read_text(encoding="utf-8"))
 
 
-def render_frame(frame, out=None, width=None, height=None, color_by="none", eye=None,
+def render_frame(frame, out=None, width=None, height=None, color_by=None, eye=None,
                  target=None) -> Path:
     """One PNG of a frame file (default: next to it, same name, .png). Strokes of the run are
-    drawn when the frame lies in a run folder (its summary.json beside it or one level up)."""
+    drawn when the frame lies in a run folder (its summary.json beside it or one level up);
+    ``color_by`` None takes the run's [output] color_by ("none" outside a run)."""
     frame = Path(os.fspath(frame))
     V, F, point_data = _read_frame(frame)
     summary = _load_summary(frame.parent) or _load_summary(frame.parent.parent)
+    color_by = _scene_color_by(summary) if color_by is None else color_by
     camera = camera_from_settings((summary or {}).get("camera"), V, width, height, eye, target)
     image = render_image(V, F, camera, face_values=_face_values(F, point_data, color_by, frame),
                          strokes=_stroke_lines((summary or {}).get("strokes", []), V))
     return save_png(frame.with_suffix(".png") if out is None else Path(os.fspath(out)), image)
 
 
-def render_run(run_dir, pictures=True, animation="gif", color_by="none", width=None,
+def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=None,
                height=None, out=None, eye=None, target=None, quiet=False) -> dict:
     """Pictures of a run folder: before_after.png and last.png (``pictures``) and
-    animation.<gif|mp4> (``animation``, None for none) into ``out`` (default the run folder).
-    Returns {name: path relative to the run folder or absolute}. Raises ValueError when the
-    folder holds no run."""
+    animation.<gif|mp4> (``animation``, None for none) into ``out`` (default the run folder);
+    ``color_by`` None takes the run's [output] color_by. Returns {name: path relative to the
+    run folder or absolute}. Raises ValueError when the folder holds no run, or before any
+    work when an MP4 is asked for and ffmpeg is not on the PATH."""
     run_dir = Path(os.fspath(run_dir))
+    if animation == "mp4":
+        check_ffmpeg()
     summary = _load_summary(run_dir)
     if summary is None:
         raise ValueError(f"{run_dir} is not a run folder (no summary.json); give a frame file "
                          "or the -o folder of `yore run`")
+    color_by = _scene_color_by(summary) if color_by is None else color_by
     frames = summary.get("frames") or []
     if not frames:
         raise ValueError(f"the run in {run_dir} wrote no frames (output.format = 'none')")

@@ -17,9 +17,12 @@ So a run split by ``until`` and resumed takes exactly the steps a straight run t
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import signal
+import threading
 import time as _time
 from pathlib import Path
 
@@ -29,7 +32,8 @@ from . import metrics
 from ._core import SimulationDiverged
 from .io import FrameSeries, save_mesh
 from .scene_file import Scene, SceneError, apply_scene_stroke, load_scene, scene_camera
-from .state import load_state, save_state
+from .simulation import Simulation
+from .state import load_metadata, load_state, save_state
 
 __all__ = ["run_scene", "resume_run", "RunError", "RunInterrupted", "SUMMARY_NAME",
            "STATE_NAME"]
@@ -57,14 +61,20 @@ class RunError(RuntimeError):
         self.state_path = state_path
 
 
-def run_scene(scene: Scene, out, until=None, quiet=False, render=True) -> dict:
+def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
+              overwrite=False, threads=None) -> dict:
     """Runs ``scene`` from t = 0 into folder ``out`` (created); returns the summary dict.
 
     until : stop at this simulated time (s) instead of the scene's duration (the state file
     then continues the run). quiet : no progress bar. render : write the pictures and the
-    animation the scene's [output] asks for. Raises SceneError before anything runs when the
-    scene is wrong, RunError when the run stops early (state saved).
+    animation the scene's [output] asks for. overwrite : replace a run that ``out`` already
+    holds (without it, a folder holding another run, or an unfinished one, is refused: see
+    `claim_folder`). threads : `yore.set_num_threads` for the run (default: the scene's
+    [simulation] threads, else left as it is). Raises SceneError before anything runs when the
+    scene is wrong, ValueError when ``out`` holds another run, RunError when the run stops early
+    (state saved).
     """
+    _set_threads(scene, threads)
     sim, _ = scene.build()
     scene.check_strokes(sim)
     record = {"scene_text": scene.text,
@@ -72,24 +82,155 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True) -> dict:
               "overrides": scene.overrides, "step": 0, "next_stroke": 0, "frames": [],
               "records": [], "strokes": [], "before": None, "wall_seconds": 0.0,
               "resumed_from": [], "phases": {}}
-    return _run(scene, sim, record, Path(os.fspath(out)), until, quiet, render)
+    out = Path(os.fspath(out))
+    claim_folder(out, record, overwrite)
+    return _run(scene, sim, record, out, until, quiet, render)
 
 
-def resume_run(state_path, out=None, until=None, quiet=False, render=True) -> dict:
+def resume_run(state_path, out=None, until=None, quiet=False, render=True,
+               overwrite=False, threads=None) -> dict:
     """Continues a run from its state file into ``out`` (default: the state's folder, whose
     frames and collection then simply grow); returns the summary of the whole run so far.
-    The result is bit for bit that of a run that never stopped (see `yore.state` for the two
-    solver options where it is only equal to solver tolerance)."""
+    The result is bit for bit that of a run that never stopped (see `yore.state` for the
+    solver options where it is only equal to solver tolerance). Every frame the run's record
+    lists must still exist (ValueError otherwise). An ``out`` other than the state's folder is
+    claimed as by `run_scene` (``overwrite`` replaces a run it holds); ``threads`` as there."""
     state_path = Path(os.fspath(state_path))
     sim, record = load_state(state_path)
     if not isinstance(record, dict) or "scene_text" not in record:
         raise ValueError(f"{state_path} is a simulation state but not a run's: it has no scene "
                          "(write run states with `yore run`)")
+    missing = [path for _, path in record["frames"] if not Path(path).is_file()]
+    if record["before"] is not None and not Path(record["before"]["file"]).is_file():
+        missing.insert(0, record["before"]["file"])
+    if missing:
+        raise ValueError(f"{state_path}: the run's record lists {len(missing)} file(s) that no "
+                         f"longer exist, e.g. {missing[0]}; put them back, or start the run "
+                         "again with --overwrite")
     scene_path = record["scene_path"]
     scene = load_scene(scene_path, text=record["scene_text"], overrides=record["overrides"])
+    _set_threads(scene, threads)
     record["resumed_from"] = record["resumed_from"] + [str(state_path)]
-    out = state_path.parent if out is None else Path(os.fspath(out))
+    if out is None or Path(os.fspath(out)).resolve() == state_path.parent.resolve():
+        out = state_path.parent
+    else:
+        out = Path(os.fspath(out))
+        claim_folder(out, record, overwrite)
     return _run(scene, sim, record, out, until, quiet, render)
+
+
+def _set_threads(scene, threads):
+    threads = scene.data["simulation"].get("threads") if threads is None else threads
+    if threads is not None:
+        from . import set_num_threads
+
+        set_num_threads(threads)
+
+
+#: Files a run writes into its folder (besides frames/).
+RUN_FILES = (SUMMARY_NAME, STATE_NAME, BEFORE_NAME, "before_after.png", "last.png",
+             "animation.gif", "animation.mp4")
+FRAMES_DIR = "frames"
+
+
+def run_files(out) -> list:
+    """The files of a yore run in folder ``out`` (its summary, state, frames, pictures), as
+    paths; empty when the folder holds no run."""
+    out = Path(os.fspath(out))
+    found = [out / name for name in RUN_FILES if (out / name).is_file()]
+    frames = out / FRAMES_DIR
+    if frames.is_dir():
+        found += sorted(p for p in frames.iterdir()
+                        if p.is_file() and (p.name.startswith("frame_") or p.name == "frame.pvd"
+                                            or p.name.startswith(".frame_")))
+    return found
+
+
+def claim_folder(out, record, overwrite=False) -> None:
+    """Makes ``out`` ready for the run ``record`` describes (a new run, or a resumed one
+    writing elsewhere). A folder holding no run is used as it is. A folder holding a run is
+    cleared of that run's files (nothing else) when ``overwrite`` is true, or when it holds a
+    finished run of the very same scene (scene text and overrides): running it again repeats
+    it. Anything else raises ValueError saying how to continue or replace it, so frames of two
+    runs never mix."""
+    out = Path(os.fspath(out))
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"output folder {out} is a file")
+    found = run_files(out)
+    if not found:
+        return
+    if not overwrite:
+        previous = _previous_run(out)
+        same = (previous is not None and previous.get("status") == "finished"
+                and previous.get("scene_text") == record["scene_text"]
+                and previous.get("overrides") == record["overrides"])
+        if not same:
+            what = ("an unfinished run of the same scene" if previous is not None
+                    and previous.get("scene_text") == record["scene_text"]
+                    and previous.get("overrides") == record["overrides"]
+                    else "another run")
+            hint = (f"continue it with `yore run --resume {out / STATE_NAME}`, "
+                    if (out / STATE_NAME).is_file() else "")
+            raise ValueError(f"output folder {out} already holds {what} ({len(found)} files, "
+                             f"e.g. {found[0].name}); {hint}replace it with --overwrite, or "
+                             "choose another folder with -o")
+    for path in found:
+        path.unlink()
+    frames = out / FRAMES_DIR
+    if frames.is_dir() and not any(frames.iterdir()):
+        frames.rmdir()
+
+
+def _previous_run(out):
+    """{"status", "scene_text", "overrides"} of the run in ``out``, or None if unreadable."""
+    try:
+        summary = json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8"))
+        metadata = load_metadata(out / STATE_NAME)
+        return {"status": summary.get("status"), "scene_text": metadata.get("scene_text"),
+                "overrides": metadata.get("overrides")}
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+class _Checkpoint:
+    """A point the run can go back to: the simulation's state and the extent of its record
+    (lists are only appended to, so their lengths say what was recorded by then)."""
+
+    _LISTS = ("frames", "records", "strokes")
+    _SCALARS = ("step", "next_stroke", "before")
+
+    def __init__(self, sim, record, live_reports):
+        self.state = sim.state()
+        self.time = sim.time
+        self.lengths = {key: len(record[key]) for key in self._LISTS}
+        self.scalars = {key: record[key] for key in self._SCALARS}
+        self.live_reports = len(live_reports)
+
+    def restore(self, record, live_reports):
+        """Puts ``record`` back as it was; returns a new simulation in the saved state."""
+        for key, length in self.lengths.items():
+            del record[key][length:]
+        record.update(self.scalars)
+        del live_reports[self.live_reports:]
+        return Simulation.from_state(self.state)
+
+
+@contextlib.contextmanager
+def _deferred_interrupt():
+    """Ctrl-C inside the block is held back until the block is done, so bookkeeping that must
+    not be split (a frame and its record, a saved state) completes. Main thread only; elsewhere
+    the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda number, frame: caught.append(number))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
 
 
 def _run(scene, sim, record, out, until, quiet, render):
@@ -107,35 +248,59 @@ def _run(scene, sim, record, out, until, quiet, render):
     fmt = data["output"]["format"]
     frames = None
     if fmt != "none":
-        frames = FrameSeries(out / "frames", stem="frame", fmt=fmt,
+        frames = FrameSeries(out / FRAMES_DIR, stem="frame", fmt=fmt,
                              frames=[(t, p) for t, p in record["frames"]])
     camera = None
     previous_phases = dict(record.get("phases", {}))  # wall time per phase of earlier parts
     live_reports = []  # (record entry, StrokeReport): re-analysis time arrives with the next step
     step = record["step"]
     last_time = record["records"][-1]["time"] if record["records"] else None
-    if last_time is None or (step % every == 0 and last_time < sim.time - 0.5 * dt):
-        # the first frame, or the frame an interruption came before
-        _write_frame(sim, frames, record, fmt)
+    if last_time is None:
+        bad = _non_finite(_measure(sim))
+        if bad:
+            raise ValueError(f"the scene's initial state is not finite ({bad}): a value in "
+                             "[material], [[driven]] or [simulation] is too large")
+    if (step % every == 0 or step == last_step) and \
+            (last_time is None or last_time < sim.time - 0.5 * dt):
+        # the first frame, or a frame an interruption came before
+        _write_frame(sim, frames, record, fmt, _measure(sim))
+    good = _Checkpoint(sim, record, live_reports)  # the last recorded frame
 
     from tqdm.auto import tqdm
 
     bar = tqdm(total=last_step, initial=min(step, last_step), unit="step", desc="yore run",
                disable=quiet or None, delay=2.0, dynamic_ncols=True, leave=False)
     started = _time.perf_counter()
+    status, message = None, None  # None: ran to its last step
+    missed = None  # the SceneError of a stroke that missed at its time
+    phases = None  # the live simulation's phases, when a rollback replaced it
     try:
         while step < last_step:
             while record["next_stroke"] < len(schedule) and \
                     schedule[record["next_stroke"]][0] <= step:
                 index = schedule[record["next_stroke"]][1]
-                if record["before"] is None:
-                    _save_before(sim, out, record)
-                if camera is None and "screen" in data["strokes"][index]:
-                    camera = scene_camera(scene, sim.cloth.positions)
-                report = apply_scene_stroke(scene, sim, index, camera)
-                record["strokes"].append(_stroke_record(index, sim.time, report))
-                live_reports.append((record["strokes"][-1], report))
-                record["next_stroke"] += 1
+                # A stroke and its record are one step: whatever stops it half-way (Ctrl-C,
+                # a miss, an error) puts the cloth and the record back as they were before it.
+                before_stroke = _Checkpoint(sim, record, live_reports)
+                try:
+                    if record["before"] is None:
+                        _save_before(sim, out, record)
+                    if camera is None and "screen" in data["strokes"][index]:
+                        camera = scene_camera(scene, sim.cloth.positions)
+                    report = apply_scene_stroke(scene, sim, index, camera)
+                    bad = _non_finite(_measure(sim))
+                    if bad:
+                        raise _NonFinite(f"stroke {index} at t = {sim.time:.6g} s made the "
+                                         f"cloth's energy or area non-finite ({bad}); check "
+                                         "its expansion. The stroke was undone")
+                    with _deferred_interrupt():
+                        record["strokes"].append(_stroke_record(index, sim.time, report))
+                        live_reports.append((record["strokes"][-1], report))
+                        record["next_stroke"] += 1
+                except BaseException:
+                    phases = sim.stats["phases"]
+                    sim = before_stroke.restore(record, live_reports)
+                    raise
             next_stroke = schedule[record["next_stroke"]][0] \
                 if record["next_stroke"] < len(schedule) else last_step
             next_frame = (step // every + 1) * every
@@ -147,35 +312,46 @@ def _run(scene, sim, record, out, until, quiet, render):
                 step = target
                 record["step"] = step
             if step % every == 0 or step == last_step:
-                _write_frame(sim, frames, record, fmt)
-    except SimulationDiverged as error:
-        bar.close()
-        record["wall_seconds"] += _time.perf_counter() - started
-        state = _save(out, sim, record, previous_phases)
-        raise RunError(f"{error} State before the failing steps: {state}", state) from None
+                entry = _measure(sim)
+                bad = _non_finite(entry)
+                if bad:
+                    failed = sim.time
+                    phases = sim.stats["phases"]
+                    sim = good.restore(record, live_reports)
+                    raise _NonFinite(
+                        f"simulation diverged between t = {good.time:.6g} s and "
+                        f"t = {failed:.6g} s (dt = {dt:.6g} s, {sim.integrator} integrator): the "
+                        f"cloth's energy or area became non-finite ({bad}). "
+                        f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s")
+                _write_frame(sim, frames, record, fmt, entry)
+                good = _Checkpoint(sim, record, live_reports)
+    except (SimulationDiverged, _NonFinite) as error:
+        status, message = "diverged", str(error)
     except KeyboardInterrupt:
-        bar.close()
-        record["wall_seconds"] += _time.perf_counter() - started
+        status, message = "interrupted", None
         # Steps completed so far, from the step-counting clock (the interruption may come
         # between batches of a call).
         record["step"] = _steps(sim.time, dt)
-        state = _save(out, sim, record, previous_phases)
-        raise RunInterrupted(state, sim.time) from None
-    except SceneError:  # a stroke missed at its time: keep what was computed
+    except SceneError as error:  # a stroke missed at its time: keep what was computed
+        status, message, missed = "stroke missed", str(error), error
+    finally:
         bar.close()
-        _save(out, sim, record, previous_phases)
-        raise
-    except Exception:
-        bar.close()
-        raise
-    bar.close()
-    record["wall_seconds"] += _time.perf_counter() - started
-    for entry, report in live_reports:
-        entry["reanalyze_seconds"] = report.reanalyze_seconds
-    state_path = _save(out, sim, record, previous_phases)
-    summary = _summary(scene, sim, record, out, state_path)
-    summary_path = out / SUMMARY_NAME
-    _write_json(summary_path, summary)
+        record["wall_seconds"] += _time.perf_counter() - started
+    if status is None:
+        status = ("finished" if sim.time >= duration - 0.5 * dt else "stopped at --until")
+        for entry, report in live_reports:
+            entry["reanalyze_seconds"] = report.reanalyze_seconds
+    with _deferred_interrupt():
+        state_path = _save(out, sim, record, previous_phases, phases)
+        summary = _summary(scene, sim, record, out, state_path, status, message)
+        summary_path = out / SUMMARY_NAME
+        _write_json(summary_path, summary)
+    if status == "interrupted":
+        raise RunInterrupted(state_path, sim.time)
+    if missed is not None:
+        raise missed
+    if status == "diverged":
+        raise RunError(f"{message} State kept: {state_path}", state_path)
     if render and frames is not None:
         from .render_run import render_run
 
@@ -189,25 +365,51 @@ def _run(scene, sim, record, out, until, quiet, render):
     return summary
 
 
+class _NonFinite(Exception):
+    """The cloth's energy or area became non-finite: a divergence the integrators' own bound
+    cannot see, because the bound itself is then infinite."""
+
+
+def _stable_advice(sim):
+    stable = sim.stable_dt()
+    if sim.integrator == "explicit" and math.isfinite(stable) and stable > 0:
+        return (f"The estimated stable time step is {stable:.3g} s: use dt <= "
+                f"{0.9 * stable:.3g} s or an implicit integrator.")
+    return f"Try a smaller dt, e.g. {sim.dt / 4:.3g} s."
+
+
 def _steps(seconds, dt):
     return int(round(seconds / dt))
 
 
-def _write_frame(sim, frames, record, fmt):
+def _measure(sim):
+    """The record of a frame: time, energies (J), area and rest area (m²), counts."""
     cloth = sim.cloth
-    V, F = cloth.positions, cloth.faces
     energy = sim.energy()
-    record["records"].append({
-        "time": sim.time, "kinetic": energy["kinetic"], "spring": energy["spring"],
-        "gravity": energy["gravity"], "total": energy["total"],
-        "area": metrics.area(V, F), "rest_area": metrics.rest_area(cloth),
-        "vertices": cloth.vertex_count, "faces": cloth.face_count})
-    if frames is None:
-        return
-    point_data = None if fmt == "obj" else {"velocity": cloth.velocities,
-                                            "expansion": metrics.vertex_expansion(cloth)}
-    path = frames.write(sim.time, V, F, point_data=point_data)
-    record["frames"].append((sim.time, str(path.resolve())))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported, not warned
+        area, rest_area = metrics.area(cloth.positions, cloth.faces), metrics.rest_area(cloth)
+    return {"time": sim.time, "kinetic": energy["kinetic"], "spring": energy["spring"],
+            "gravity": energy["gravity"], "total": energy["total"],
+            "area": area, "rest_area": rest_area, "vertices": cloth.vertex_count, "faces": cloth.face_count}
+
+
+def _non_finite(entry):
+    """'name value, ...' of the non-finite quantities of a `_measure` record ('' if none)."""
+    return ", ".join(f"{name} {value}" for name, value in entry.items()
+                     if isinstance(value, float) and not math.isfinite(value))
+
+
+def _write_frame(sim, frames, record, fmt, entry):
+    """Writes the frame file (atomically), then records it: an interruption before the record
+    is complete leaves no trace in the record, and the resumed run writes the frame again."""
+    cloth = sim.cloth
+    with _deferred_interrupt():
+        if frames is not None:
+            point_data = None if fmt == "obj" else {
+                "velocity": cloth.velocities, "expansion": metrics.vertex_expansion(cloth)}
+            path = frames.write(sim.time, cloth.positions, cloth.faces, point_data=point_data)
+            record["frames"].append((sim.time, str(path.resolve())))
+        record["records"].append(entry)
 
 
 def _save_before(sim, out, record):
@@ -231,14 +433,16 @@ def _stroke_record(index, time, report):
             "new_vertices": [int(v) for v in report.new_vertices]}
 
 
-def _save(out, sim, record, previous_phases):
-    phases = sim.stats["phases"]
+def _save(out, sim, record, previous_phases, phases=None):
+    """Saves the state with the record; ``phases``: this part's wall time per phase (default:
+    ``sim``'s, unless a rollback replaced the simulation that ran)."""
+    phases = sim.stats["phases"] if phases is None else phases
     record["phases"] = {name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
                         for name in set(previous_phases) | set(phases)}
-    return save_state(out / STATE_NAME, sim, metadata=record)
+    return save_state(out / STATE_NAME, sim, metadata=_finite_json(record)[0])
 
 
-def _summary(scene, sim, record, out, state_path):
+def _summary(scene, sim, record, out, state_path, status, message):
     from . import build_info
 
     stats = sim.stats
@@ -257,8 +461,11 @@ def _summary(scene, sim, record, out, state_path):
         before = {"time": record["before"]["time"],
                   "file": _relative(record["before"]["file"], out)}
         outputs["before"] = before["file"]
-    return {
+    summary = {
         "yore": build_info(),
+        # finished | stopped at --until | interrupted | diverged | stroke missed
+        "status": status,
+        "message": message,
         "scene": record["scene_path"],
         "overrides": record["overrides"],
         "resumed_from": record["resumed_from"],
@@ -282,6 +489,10 @@ def _summary(scene, sim, record, out, state_path):
         "camera": _jsonable(scene.data["camera"]),
         "outputs": outputs,
     }
+    summary, non_finite = _finite_json(summary)
+    # JSON has no inf or nan: such a number is written as null, and listed here with its value
+    summary["non_finite"] = non_finite
+    return summary
 
 
 def _relative(path, folder):
@@ -298,6 +509,25 @@ def _jsonable(value):
     if isinstance(value, np.generic):
         return value.item()
     return value
+
+
+def _finite_json(value, where=""):
+    """(copy of ``value`` with every non-finite float replaced by None, [{"field": dotted
+    name, "value": "inf" | "-inf" | "nan"}, ...])."""
+    found = []
+
+    def visit(item, name):
+        if isinstance(item, dict):
+            return {key: visit(child, f"{name}.{key}" if name else str(key))
+                    for key, child in item.items()}
+        if isinstance(item, (list, tuple)):
+            return [visit(child, f"{name}.{index}") for index, child in enumerate(item)]
+        if isinstance(item, float) and not math.isfinite(item):
+            found.append({"field": name, "value": repr(item)})
+            return None
+        return item
+
+    return visit(value, where), found
 
 
 def _write_json(path, document):

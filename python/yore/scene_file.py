@@ -240,6 +240,8 @@ SCHEMA = {
                "time step; default: below the stable step (explicit) or 1/60 s"),
         "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
+        "threads": (_integer(1), None, "threads of the core's loops and of BLAS "
+                    "(yore.set_num_threads); default: the machine's cores"),
     }, "table"),
     "integrator": (None, "table"),  # options of the chosen integrator, checked separately
     "strokes": ({

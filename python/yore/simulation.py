@@ -340,8 +340,10 @@ class Simulation:
                                     and elapsed + remaining > _PROGRESS_AFTER_SECONDS):
                         from tqdm.auto import tqdm
 
+                        # unasked, a bar shows on a terminal only (never in a log file)
                         bar = tqdm(total=steps, initial=done, unit="step", desc="yore",
-                                   leave=False, dynamic_ncols=True)
+                                   leave=False, dynamic_ncols=True,
+                                   disable=None if progress is None else False)
                 elif bar is not None:
                     bar.update(count)
                     bar.set_postfix_str(f"t={self.time:.3f} s")

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .simulation import Simulation
 
-__all__ = ["save_state", "load_state", "STATE_FORMAT"]
+__all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT"]
 
 STATE_FORMAT = "yore-state"
 STATE_VERSION = 1
@@ -83,6 +84,20 @@ def load_state(path):
         arrays = {name: archive[name] for name in archive.files if name != _DOCUMENT}
     simulation = Simulation.from_state(_join(document["simulation"], arrays))
     return simulation, _join(document["metadata"], arrays)
+
+
+def load_metadata(path):
+    """The ``metadata`` a state file was saved with, without building its simulation.
+    Raises ValueError as `load_state`."""
+    path = Path(os.fspath(path))
+    if not path.is_file():
+        raise ValueError(f"state file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            document = json.loads(str(archive[_DOCUMENT]))
+            return _join(document["metadata"], archive)  # arrays read only when referenced
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as error:
+        raise ValueError(f"{path} is not a readable yore state file: {error}") from None
 
 
 def _split(value, name, arrays):

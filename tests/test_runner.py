@@ -1,0 +1,250 @@
+"""`yore run` as a transaction: interrupts injected at chosen points (never by timing) lose and
+double nothing, non-finite runs stop with their last good state, folders never mix two runs."""
+
+import json
+import signal
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+import yore
+import yore.io
+import yore.runner
+from yore.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+# The demo scene at a few hundred vertices: a stroke (at 0.1 s) with rest-length smoothing,
+# and frames every 0.05 s.
+HANGING = ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "simulation.duration=0.3",
+           "--set", "strokes.0.time=0.1", "--set", "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
+           "--set", "strokes.0.smooth={iterations = 5, strength = 0.5}",
+           "--set", "output.fps=20", "--no-render", "--quiet"]
+
+
+def strict_json(path):
+    """The JSON document at path; fails on NaN/Infinity, which strict JSON does not have."""
+    def refuse(name):
+        raise AssertionError(f"{path} holds {name}")
+    return json.loads(Path(path).read_text(), parse_constant=refuse)
+
+
+def run_hanging(out, *extra):
+    return main(["run", str(EXAMPLES / "hanging.toml"), "-o", str(out), *HANGING, *extra])
+
+
+def resume(out):
+    return main(["run", "--resume", str(out / "state.npz"), "--quiet", "--no-render"])
+
+
+@pytest.fixture(scope="module")
+def straight(tmp_path_factory):
+    out = tmp_path_factory.mktemp("straight")
+    assert run_hanging(out) == 0
+    return out
+
+
+def assert_same_run(straight, split):
+    """Same final state bit for bit, same frames (times, files, contents) and records."""
+    a, _ = yore.load_state(straight / "state.npz")
+    b, _ = yore.load_state(split / "state.npz")
+    assert b.cloth.vertex_count == a.cloth.vertex_count
+    assert np.array_equal(a.cloth.positions, b.cloth.positions)
+    sa, sb = strict_json(straight / "summary.json"), strict_json(split / "summary.json")
+    assert [f["time"] for f in sa["frames"]] == [f["time"] for f in sb["frames"]]
+    assert [f["file"] for f in sa["frames"]] == [f["file"] for f in sb["frames"]]
+    keys = ("time", "kinetic", "spring", "gravity", "total", "vertices")
+    assert [[r[k] for k in keys] for r in sa["records"]] == \
+        [[r[k] for k in keys] for r in sb["records"]]
+    assert len(sb["strokes"]) == len(sa["strokes"]) == 1
+    for fa, fb in zip(sa["frames"], sb["frames"]):
+        assert np.array_equal(meshio.read(straight / fa["file"]).points,
+                              meshio.read(split / fb["file"]).points)
+    frame_files = sorted(p.name for p in (split / "frames").iterdir())
+    assert frame_files == sorted(p.name for p in (straight / "frames").iterdir())
+    assert sb["status"] == "finished"
+
+
+def interrupt_on_call(monkeypatch, owner, name, number, before=False, by_signal=False):
+    """Makes call `number` of owner.name raise KeyboardInterrupt, after (or before) doing its
+    work; with by_signal, SIGINT is sent to the process instead, inside the call."""
+    original = getattr(owner, name)
+    calls = {"count": 0}
+
+    def wrapper(*args, **kwargs):
+        calls["count"] += 1
+        hit = calls["count"] == number
+        if hit and before:
+            raise KeyboardInterrupt
+        result = original(*args, **kwargs)
+        if hit:
+            if by_signal:
+                signal.raise_signal(signal.SIGINT)
+            else:
+                raise KeyboardInterrupt
+        return result
+
+    monkeypatch.setattr(owner, name, wrapper)
+    return calls
+
+
+@pytest.mark.parametrize("point", ["file written, before its record", "before the rename",
+                                   "Ctrl-C while the frame is written"])
+def test_an_interrupt_while_a_frame_is_written_loses_no_frame(tmp_path, monkeypatch, straight,
+                                                               capsys, point):
+    if point == "before the rename":
+        # meshio has written the temporary file; the rename to the frame's name never happens
+        interrupt_on_call(monkeypatch, yore.io.meshio, "write", 3)
+    else:
+        interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 3,
+                          by_signal=point.startswith("Ctrl-C"))
+    assert run_hanging(tmp_path) == 130
+    assert "--resume" in capsys.readouterr().err
+    monkeypatch.undo()
+    summary = strict_json(tmp_path / "summary.json")
+    assert summary["status"] == "interrupted"
+    # the record lists only frames that exist, and no temporary file is left behind
+    assert all((tmp_path / f["file"]).is_file() for f in summary["frames"])
+    assert not list((tmp_path / "frames").glob(".*"))
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
+
+
+@pytest.mark.parametrize("point", ["during the stroke's smoothing", "before it is counted",
+                                   "Ctrl-C during the stroke"])
+def test_an_interrupt_during_a_stroke_applies_it_exactly_once(tmp_path, monkeypatch, straight,
+                                                               point):
+    # call 1 of the stroke functions is the check before the run (on a copy of the cloth)
+    if point == "during the stroke's smoothing":
+        interrupt_on_call(monkeypatch, yore.Simulation, "smooth_rest_lengths", 2)
+    elif point == "before it is counted":
+        interrupt_on_call(monkeypatch, yore.runner, "_stroke_record", 1, before=True)
+    else:
+        interrupt_on_call(monkeypatch, yore.Simulation, "stroke_material", 2, by_signal=True)
+    assert run_hanging(tmp_path) == 130
+    monkeypatch.undo()
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    # the stroke is undone as a whole: the saved cloth and record are those before it
+    assert record["next_stroke"] == 0 and record["strokes"] == []
+    assert sim.cloth.vertex_count == 81
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
+
+
+def test_a_non_finite_stroke_stops_the_run_and_keeps_the_state_before_it(tmp_path, capsys):
+    code = run_hanging(tmp_path, "--set", "strokes.0.expansion=1e100")
+    assert code == 1
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error:") and "\n" not in error
+    assert "non-finite" in error and "stroke 0" in error and "expansion" in error
+    summary = strict_json(tmp_path / "summary.json")
+    assert summary["status"] == "diverged" and summary["strokes"] == []
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    assert sim.cloth.vertex_count == 81 and record["next_stroke"] == 0
+    assert np.isfinite(sim.cloth.positions).all()
+    assert sim.time == pytest.approx(0.1, abs=1e-3)  # the step the stroke came before
+
+
+def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(tmp_path,
+                                                                          monkeypatch, capsys):
+    # The integrators' own bound cannot see an energy that overflows (the bound overflows with
+    # it); the run checks every frame. The frame at t = 0.2 s (after the stroke) is made to overflow.
+    original = yore.runner._measure
+    calls = {"count": 0}
+
+    def overflowing(sim):
+        calls["count"] += 1
+        entry = original(sim)
+        # the initial check, frames at 0, 0.05, 0.1, the stroke's check, frames at 0.15, 0.2
+        if calls["count"] == 7:
+            entry["spring"] = entry["total"] = float("inf")
+        return entry
+
+    monkeypatch.setattr(yore.runner, "_measure", overflowing)
+    assert run_hanging(tmp_path) == 1
+    error = capsys.readouterr().err
+    assert "non-finite" in error and "spring inf" in error and "dt" in error
+    summary = strict_json(tmp_path / "summary.json")
+    assert summary["status"] == "diverged"
+    assert [f["time"] for f in summary["frames"]] == pytest.approx([0.0, 0.05, 0.1, 0.15], abs=1e-3)
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    assert sim.time == pytest.approx(0.15, abs=1e-3) and len(record["records"]) == 4
+    assert len(record["strokes"]) == 1 and sim.cloth.vertex_count > 81
+
+
+def test_a_scene_that_starts_non_finite_is_bad_input(tmp_path, capsys):
+    scene = tmp_path / "spin.toml"
+    scene.write_text('[mesh]\ngenerator = "cylinder"\nrings = 4\nsegments = 8\n'
+                     '[[driven]]\nset = "top rim"\nmotion = "rotation"\ncenter = [0, 0, 0]\n'
+                     'axis = [0, 1, 0]\nomega = 1e300\n'
+                     '[simulation]\nduration = 0.1\n[output]\nformat = "none"\n')
+    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "--quiet"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error:") and "\n" not in error
+    assert not (tmp_path / "out" / "state.npz").exists()
+
+
+def test_non_finite_numbers_reach_json_as_null_with_the_reason():
+    document, found = yore.runner._finite_json(
+        {"records": [{"area": 1.0, "rest_area": float("inf")}], "x": float("nan")})
+    assert document == {"records": [{"area": 1.0, "rest_area": None}], "x": None}
+    assert found == [{"field": "records.0.rest_area", "value": "inf"},
+                     {"field": "x", "value": "nan"}]
+
+
+@pytest.mark.parametrize("scene", ["stiff", "hanging"])
+def test_resuming_a_finished_run_changes_nothing(tmp_path, scene):
+    small = {"stiff": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "fixed.1.indices=[8]",
+                       "--set", "simulation.duration=0.1", "--set", "strokes.0.time=0.05",
+                       "--set", "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
+                       "--no-render", "--quiet"],
+             "hanging": HANGING}[scene]
+    assert main(["run", str(EXAMPLES / f"{scene}.toml"), "-o", str(tmp_path), *small]) == 0
+    before, _ = yore.load_state(tmp_path / "state.npz")
+    first = strict_json(tmp_path / "summary.json")
+    assert resume(tmp_path) == 0
+    after, _ = yore.load_state(tmp_path / "state.npz")
+    assert np.array_equal(before.cloth.positions, after.cloth.positions)
+    second = strict_json(tmp_path / "summary.json")
+    assert second["status"] == "finished" and second["steps"] == first["steps"]
+    assert second["frames"] == first["frames"]
+
+
+def test_a_folder_holding_another_run_is_refused_unless_overwrite(tmp_path, capsys):
+    assert run_hanging(tmp_path) == 0
+    stale = tmp_path / "frames" / "frame_00099.vtu"  # a frame the next run would not write
+    stale.write_bytes((tmp_path / "frames" / "frame_00000.vtu").read_bytes())
+    other = ["run", str(EXAMPLES / "cylinder.toml"), "-o", str(tmp_path), "--quiet",
+             "--no-render", "--set", "mesh.rings=4", "--set", "mesh.segments=8",
+             "--set", "simulation.duration=0.05", "--set", "strokes=[]"]
+    assert main(other) == 2
+    error = capsys.readouterr().err
+    assert "already holds another run" in error and "--overwrite" in error
+    mine = tmp_path / "notes.txt"
+    mine.write_text("not yore's")
+    assert main(other + ["--overwrite"]) == 0
+    summary = strict_json(tmp_path / "summary.json")
+    listed = sorted(Path(f["file"]).name for f in summary["frames"])
+    assert sorted(p.name for p in (tmp_path / "frames").glob("frame_*")) == listed
+    assert mine.read_text() == "not yore's"  # only the run's own files are removed
+
+
+def test_the_same_finished_run_repeats_but_an_unfinished_one_is_kept(tmp_path, capsys):
+    assert run_hanging(tmp_path) == 0
+    assert run_hanging(tmp_path) == 0  # the same scene, finished: running it again repeats it
+    other = tmp_path / "part"
+    assert run_hanging(other, "--until", "0.15") == 0
+    assert run_hanging(other) == 2
+    error = capsys.readouterr().err
+    assert "unfinished run of the same scene" in error and "--resume" in error
+
+
+def test_a_resume_checks_that_the_frames_it_lists_exist(tmp_path, capsys):
+    assert run_hanging(tmp_path, "--until", "0.15") == 0
+    frames = strict_json(tmp_path / "summary.json")["frames"]
+    (tmp_path / frames[1]["file"]).unlink()
+    assert resume(tmp_path) == 2
+    error = capsys.readouterr().err
+    assert "no longer exist" in error and Path(frames[1]["file"]).name in error
