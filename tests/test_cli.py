@@ -267,3 +267,95 @@ def test_an_interrupted_run_saves_its_state_and_resumes_exactly(tmp_path, monkey
     a = json.loads((tmp_path / "straight" / "summary.json").read_text())
     b = json.loads((tmp_path / "split" / "summary.json").read_text())
     assert [f["time"] for f in a["frames"]] == [f["time"] for f in b["frames"]]
+
+
+def test_version_and_help_for_every_argument(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0 and capsys.readouterr().out.strip() == f"yore {yore.__version__}"
+    from yore.cli import _parser
+
+    parser = _parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    for name, command in commands.items():
+        for action in command._actions:
+            assert action.help, f"yore {name} {action.option_strings or action.dest}: no help"
+        assert any("--threads" in a.option_strings for a in command._actions), name
+
+
+@pytest.mark.parametrize("where", ["--threads", "scene"])
+def test_threads_are_set_by_the_command_line_or_the_scene(tmp_path, where):
+    before = yore._core.max_threads()
+    try:
+        extra = ["--threads", "1"] if where == "--threads" else ["--set", "simulation.threads=1"]
+        yore.set_num_threads(2)
+        summary = run("hanging", tmp_path, "--no-render", *extra)
+        assert yore._core.max_threads() == 1
+        assert summary["yore"]["threads"] == 1
+    finally:
+        yore.set_num_threads(before)
+
+
+def test_bad_thread_counts_are_bad_input(tmp_path, capsys):
+    assert main(["check", str(EXAMPLES / "hanging.toml"), "--threads", "0"]) == 2
+    assert "threads" in capsys.readouterr().err
+    assert main(["check", str(EXAMPLES / "hanging.toml"), "--set", "simulation.threads=0"]) == 2
+    assert "simulation.threads" in capsys.readouterr().err
+
+
+def test_the_command_in_the_stiff_example_header_runs_and_diverges_as_it_says(tmp_path, capsys):
+    header = [line.lstrip("# ") for line in (EXAMPLES / "stiff.toml").read_text().splitlines()
+              if line.startswith("#   yore run")]
+    assert len(header) == 1
+    import shlex
+
+    words = shlex.split(header[0])
+    assert words[:3] == ["yore", "run", "examples/stiff.toml"]
+    code = main(["run", str(EXAMPLES / "stiff.toml"), *words[3:], "-o", str(tmp_path),
+                 "--quiet", "--no-render", "--set", "simulation.duration=0.5",
+                 "--set", "strokes=[]"])
+    error = capsys.readouterr().err
+    assert code == 1 and "diverged" in error and "use dt <=" in error
+
+
+def test_render_mp4_without_ffmpeg_fails_before_touching_the_run(tmp_path, monkeypatch, capsys):
+    run("hanging", tmp_path, "--no-render")
+    import shutil
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    assert main(["render", str(tmp_path), "--animation", "mp4", "--quiet"]) == 2
+    assert "ffmpeg" in capsys.readouterr().err
+    assert not (tmp_path / "before_after.png").exists() and not (tmp_path / "last.png").exists()
+
+
+def test_render_colours_by_the_scene_unless_told_otherwise(tmp_path, monkeypatch):
+    run("hanging", tmp_path, "--no-render", "--set", 'output.color_by="expansion"')
+    import yore.render_run
+
+    seen = []
+    original = yore.render_run.render_image
+
+    def recording(V, F, camera, face_values=None, **kwargs):
+        seen.append(face_values is not None)
+        return original(V, F, camera, face_values=face_values, **kwargs)
+
+    monkeypatch.setattr(yore.render_run, "render_image", recording)
+    assert main(["render", str(tmp_path), "--animation", "none", "--quiet"]) == 0
+    assert seen and all(seen)
+    seen.clear()
+    assert main(["render", str(tmp_path), "--animation", "none", "--quiet",
+                 "--color-by", "none"]) == 0
+    assert seen and not any(seen)
+
+
+def test_no_progress_bar_reaches_a_log_file(monkeypatch, capsys):
+    import yore.simulation
+
+    # a bar is due at once (every batch is "slow"); stderr here is not a terminal
+    monkeypatch.setattr(yore.simulation, "_PROGRESS_AFTER_SECONDS", 0.0)
+    monkeypatch.setattr(yore.simulation, "_BATCH_SECONDS", 0.0)
+    sim = yore.scenes.hanging_cloth(resolution=7)
+    sim.step(40)
+    assert capsys.readouterr().err == ""
+    sim.step(5, progress=True)  # asked for: shown anyway
+    assert "yore" in capsys.readouterr().err
