@@ -78,6 +78,15 @@ MAX_SOLVER_ITERATIONS = 1_000_000  # per linear solve: pcg_max_iterations
 MAX_SMOOTHING_ITERATIONS = 100_000
 
 
+class OptionError(ValueError):
+    """An integrator option of the wrong type or out of range: ``option`` its name, ``got`` a
+    description of the value, ``expected`` what would be accepted."""
+
+    def __init__(self, option, got, expected):
+        self.option, self.got, self.expected = option, got, expected
+        super().__init__(f"option {option}: got {got}; expected {expected}")
+
+
 class _Rule:
     """How one option is checked: ``check(value)`` returns the value (as int, float, bool, str
     or None) or raises ValueError naming the option, the value and ``expected``."""
@@ -91,7 +100,7 @@ class _Rule:
         except (TypeError, ValueError, OverflowError):
             ok, checked = False, None
         if not ok:
-            raise ValueError(f"option {name}: got {_show(value)}; expected {self.expected}")
+            raise OptionError(name, _show(value), self.expected)
         return checked
 
 
