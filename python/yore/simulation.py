@@ -144,7 +144,7 @@ def _real(low, high=None, low_open=True, high_open=False):
 
 
 def _one_of(*choices):
-    return _Rule("one of " + ", ".join(map(repr, choices)),
+    return _Rule(f"a name (valid: {', '.join(choices)})",
                  lambda v: (isinstance(v, str) and v in choices, v))
 
 
