@@ -2,7 +2,7 @@
 refuses every other use with RuntimeError, and long core calls answer Ctrl-C.
 
 Synchronisation is by state, never by time: the main thread runs a step that cannot finish on
-its own (10**9 local/global iterations); a helper thread waits until the cloth reports busy,
+its own (2**31 - 1 local/global iterations); a helper thread waits until the cloth reports busy,
 tries everything, then interrupts the main thread as Ctrl-C would.
 """
 
@@ -24,11 +24,16 @@ def small_cloth():
 
 
 def endless_simulation(integrator="local-global"):
-    options = {"local-global": {"iterations": 10**9},
-               # a Newton solve that never converges by its own tolerance
-               "implicit": {"max_newton": 10**9, "newton_tol": 1e-300,
-                            "adaptive_projection": False}}[integrator]
-    return yore.Simulation(small_cloth(), integrator=integrator, dt=1 / 60, **options)
+    sim = yore.Simulation(small_cloth(), integrator=integrator, dt=1 / 60)
+    # Past the Python API's cap on iterations per step (MAX_STEP_ITERATIONS), up to the core's
+    # own int32 limit: a step that cannot finish on its own, which only Ctrl-C ends.
+    sim._integrator = {
+        "local-global": lambda: yore._core.LocalGlobalIntegrator(iterations=2**31 - 1),
+        # a Newton solve that never converges by its own tolerance
+        "implicit": lambda: yore._core.ImplicitIntegrator(
+            max_newton=2**31 - 1, newton_tol=1e-300, adaptive_projection=False),
+    }[integrator]()
+    return sim
 
 
 def wait_until(condition):

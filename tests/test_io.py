@@ -1,5 +1,6 @@
 """Mesh file I/O (yore.load_mesh, yore.save_mesh) and frame series (yore.io.FrameSeries)."""
 
+import os
 import xml.etree.ElementTree as ET
 
 import meshio
@@ -213,3 +214,53 @@ def test_frame_series_rejects_bad_input(tmp_path):
     # A rejected frame leaves no trace in the series.
     assert series.frames == []
     assert series.write(0.0, V, F) == tmp_path / "frame_00000.vtu"
+
+
+# -- mesh files are checked before they are read -----------------------------------------------
+
+
+def test_a_fifo_as_mesh_path_is_refused_without_blocking(tmp_path):
+    fifo = tmp_path / "mesh.obj"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match="mesh.obj: it is a FIFO, not a regular file"):
+        yore.load_mesh(fifo)
+
+
+def test_a_link_to_dev_zero_is_refused_without_reading(tmp_path):
+    link = tmp_path / "mesh.ply"
+    link.symlink_to("/dev/zero")
+    with pytest.raises(ValueError, match="mesh.ply: it is a device, not a regular file"):
+        yore.load_mesh(link)
+
+
+def test_a_sparse_file_beyond_the_size_limit_is_refused_before_reading(tmp_path):
+    big = tmp_path / "big.ply"
+    with open(big, "wb") as handle:  # sparse: no disk space, no memory
+        handle.truncate(yore.io.MAX_MESH_FILE_BYTES + 1)
+    with pytest.raises(ValueError, match=f"{yore.io.MAX_MESH_FILE_BYTES + 1} bytes is more "
+                                         "than the limit"):
+        yore.load_mesh(big)
+
+
+@pytest.mark.parametrize("extension", [".vtu", ".ply", ".vtk", ".obj"])
+def test_a_truncated_mesh_or_frame_is_one_value_error_naming_it(tmp_path, extension):
+    V, F = bumpy_grid()
+    path = tmp_path / f"mesh{extension}"
+    yore.save_mesh(path, V, F, point_data=None)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    for load in (yore.load_mesh, yore.io.load_frame):
+        with pytest.raises(ValueError) as caught:
+            load(path)
+        assert str(path) in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_load_frame_returns_point_data_and_checks_its_length(tmp_path):
+    V, F = bumpy_grid()
+    path = tmp_path / "frame.vtu"
+    yore.save_mesh(path, V, F, point_data={"expansion": np.ones(len(V))})
+    V2, F2, data = yore.io.load_frame(path)
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+    assert np.array_equal(data["expansion"], np.ones(len(V)))
+    with pytest.raises(FileNotFoundError):
+        yore.io.load_frame(tmp_path / "missing.vtu")

@@ -364,3 +364,28 @@ def test_invalid_input_raises_value_error_naming_the_argument(change, message):
     arguments.update(change)
     with pytest.raises(ValueError, match=message):
         render.render_image(**arguments)
+
+
+# -- image sizes are bounded before anything is allocated --------------------------------------
+
+
+@pytest.mark.parametrize("width, height", [(30000, 600), (16000, 16000), (0, 10), (2.5, 10),
+                                           (True, 10), ("800", 600)])
+def test_a_camera_too_large_or_of_the_wrong_type_is_refused(width, height):
+    with pytest.raises(ValueError, match="camera (width|height|image size)") as caught:
+        yore.Camera(eye=(0, 0, 3), target=(0, 0, 0), width=width, height=height)
+    assert "\n" not in str(caught.value)
+
+
+def test_fit_camera_refuses_a_30000_pixel_image_before_rendering():
+    V, F = yore.grid_mesh(3, 3)
+    with pytest.raises(ValueError, match="fit_camera width: got int 30000"):
+        yore.render.fit_camera(V, width=30000, height=600)
+    with pytest.raises(ValueError, match="more than the limit of 8388608 pixels"):
+        yore.render.fit_camera(V, width=4000, height=4000)
+
+
+def test_side_by_side_refuses_a_huge_title_band():
+    image = np.zeros((4, 4, 3), dtype=np.uint8)
+    with pytest.raises(ValueError, match="side_by_side"):
+        yore.render.side_by_side([image], titles=["a"], title_height=10**9)

@@ -1,5 +1,6 @@
 """Scene files: checking (key named, line, expected), overrides, and what build() makes."""
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -149,3 +150,73 @@ def test_a_screen_stroke_through_the_scene_camera_splits_the_faces_under_it(tmp_
     assert stroke["faces_split"] >= 4 and stroke["missed_fraction"] == 0.0
     sim, _ = yore.load_state(tmp_path / "state.npz")
     assert sim.cloth.vertex_count == 20 + stroke["vertices_added"]
+
+
+# -- limits: every bad input is one SceneError line, before anything is allocated ---------------
+
+
+@pytest.mark.parametrize("nested", ["[" * 1000 + "]" * 1000, "{a = " * 1000 + "1" + "}" * 1000])
+def test_toml_nested_a_thousand_levels_is_a_scene_error(nested):
+    error = error_of(MINIMAL + f"[scene]\nname = {nested}\n")
+    assert "nested too deeply" in str(error) and "\n" not in str(error)
+
+
+def test_a_set_value_nested_a_thousand_levels_is_a_scene_error():
+    with pytest.raises(SceneError, match="mesh.nx: the value is nested too deeply"):
+        parse_override("mesh.nx=" + "[" * 1000 + "]" * 1000)
+
+
+@pytest.mark.parametrize("nx", [2**63 - 1, 2**31])
+def test_an_integer_beyond_int32_is_refused_naming_the_key(nx):
+    error = error_of(MINIMAL.replace("nx = 5", f"nx = {nx}"))
+    assert error.key == "mesh.nx" and "more than the limit 2147483647" in error.problem
+
+
+def test_a_generated_mesh_too_large_is_refused_before_it_is_built():
+    error = error_of(MINIMAL.replace("nx = 5", "nx = 100000").replace("ny = 4", "ny = 21"))
+    assert error.key == "mesh.nx" and "2100000 vertices" in error.problem
+    assert error.expected == f"at most {yore.meshes.MAX_MESH_VERTICES} vertices"
+    error = error_of('[mesh]\ngenerator = "cylinder"\nrings = 2000\nsegments = 2000\n'
+                     '[simulation]\nduration = 0.1\n')
+    assert error.key in ("mesh.rings", "mesh.segments")
+
+
+def test_a_vertex_index_above_2_31_is_named():
+    error = error_of(MINIMAL + "[[fixed]]\nindices = [1, 2147483648]\n")
+    assert error.key == "fixed[0].indices" and "2147483648" in error.problem
+
+
+def test_a_camera_too_large_is_refused():
+    error = error_of(MINIMAL + "[camera]\nwidth = 30000\n")
+    assert error.key == "camera.width" and "30000" in error.problem
+    error = error_of(MINIMAL + "[camera]\nwidth = 16000\nheight = 16000\n")
+    assert error.key == "camera.width" and "256000000 pixels" in error.problem
+
+
+@pytest.mark.parametrize("option, value", [("max_newton", "2.9"), ("max_newton", "1000000000"),
+                                           ("linearized", '"no"'), ("linearized", "1"),
+                                           ("lag_cg_tol", "inf"), ("newton_tol", "nan"),
+                                           ("solver", '"cholesky"')])
+def test_integrator_options_are_checked_by_the_simulation_rules(option, value):
+    text = MINIMAL.replace("duration = 0.1", 'duration = 0.1\nintegrator = "implicit"')
+    error = error_of(text + f"[integrator]\n{option} = {value}\n")
+    assert error.key == f"integrator.{option}" and error.line is not None
+
+
+def test_non_finite_numbers_are_refused_where_they_make_no_sense():
+    for text in (MINIMAL.replace("duration = 0.1", "duration = inf"),
+                 MINIMAL + "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, nan], [0.5, 0.5]]\n",
+                 MINIMAL + "[material]\nmass = nan\n"):
+        assert "\n" not in str(error_of(text))
+
+
+def test_a_fifo_as_scene_path_is_refused_without_blocking(tmp_path):
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(SceneError, match="not a regular file"):
+        load_scene(fifo)
+
+
+def test_a_generator_of_the_wrong_type_is_a_scene_error():
+    error = error_of(MINIMAL.replace('generator = "grid"', "generator = [1]"))
+    assert error.key == "mesh.generator"

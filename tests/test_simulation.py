@@ -107,3 +107,55 @@ def test_repeated_advance_tracks_frame_times_without_drift(cloth):
     for frame in range(1, 91):
         sim.advance(1.0 / 30.0)
         assert abs(sim.time - frame / 30.0) <= 0.5 * dt + 1e-12
+
+
+# -- options are type-checked, not coerced ------------------------------------------------------
+
+
+@pytest.mark.parametrize("integrator, option, value", [
+    ("implicit", "linearized", "no"), ("implicit", "linearized", 0),
+    ("implicit", "max_newton", 2.9), ("implicit", "max_newton", True),
+    ("implicit", "max_newton", 10**9), ("implicit", "lag_cg_tol", float("inf")),
+    ("implicit", "newton_tol", float("nan")), ("implicit", "solver", "cholesky"),
+    ("implicit", "pcg_max_iterations", 10**7), ("implicit", "adaptive_projection", "yes"),
+    ("local-global", "iterations", 10**9), ("local-global", "iterations", 10.0),
+    ("local-global", "chebyshev_rho", 1.0), ("local-global", "record_objective", 1),
+    ("explicit", "strain_limit", 0.9), ("explicit", "strain_limit", "1.1"),
+    ("explicit", "divergence_energy_factor", float("inf")),
+])
+def test_an_option_of_the_wrong_type_or_range_is_refused_naming_it(cloth, integrator, option,
+                                                                   value):
+    with pytest.raises(ValueError, match=f"option {option}: got {type(value).__name__} ") as e:
+        yore.Simulation(cloth, integrator=integrator, **{option: value})
+    assert "expected" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_options_given_correctly_are_kept_as_given(cloth):
+    sim = yore.Simulation(cloth, integrator="implicit", linearized=True, max_newton=np.int64(3),
+                          newton_tol=1, adaptive_projection=None)
+    options = sim.state()["options"]
+    assert options["linearized"] is True and options["max_newton"] == 3
+    assert type(options["max_newton"]) is int and type(options["newton_tol"]) is float
+
+
+@pytest.mark.parametrize("arguments, match", [
+    ({"region": [0.5, 1.7]}, "region: got list"), ({"region": True}, "region: got bool"),
+    ({"region": "some"}, "region"), ({"region": [[0, 1]]}, "region: got an array of shape"),
+    ({"region": [10**6]}, "region: vertex 1000000 is out of range"),
+    ({"region": "all", "iterations": 2.9}, "iterations: got float 2.9"),
+    ({"region": "all", "iterations": 10**9}, "iterations: got int"),
+    ({"region": "all", "iterations": True}, "iterations: got bool"),
+    ({"region": "all", "strength": float("nan")}, "strength: got float nan"),
+    ({"region": "all", "strength": "0.5"}, "strength: got str"),
+])
+def test_smooth_rest_lengths_refuses_what_it_would_have_coerced(cloth, arguments, match):
+    sim = yore.Simulation(cloth)
+    with pytest.raises(ValueError, match=match):
+        sim.smooth_rest_lengths(**arguments)
+
+
+def test_smooth_rest_lengths_takes_integer_regions(cloth):
+    sim = yore.Simulation(cloth)
+    assert sim.smooth_rest_lengths(iterations=1, region=np.array([0, 1], dtype=np.uint8))[
+        "springs"] > 0
+    assert sim.smooth_rest_lengths(iterations=0, region=[])["springs"] == 0

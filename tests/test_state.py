@@ -1,5 +1,6 @@
 """Saving and restoring: Cloth.state / from_state, pickle, state files, and bit-exact resume."""
 
+import os
 import pickle
 
 import numpy as np
@@ -107,3 +108,122 @@ def test_bad_states_and_files_are_value_errors_naming_the_problem(tmp_path):
         yore.load_state(tmp_path / "other.npz")
     with pytest.raises(ValueError, match="JSON"):
         yore.save_state(tmp_path / "s.npz", stroked_hanging(), metadata={"f": object()})
+
+
+# -- a state file is checked field by field before the core sees it ---------------------------
+
+
+@pytest.fixture
+def state_file(tmp_path):
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), mass=0.01), integrator="bdf2")
+    sim.step(2)
+    return yore.save_state(tmp_path / "state.npz", sim, metadata={"step": 2})
+
+
+def tampered(path, change):
+    import json
+
+    with np.load(path, allow_pickle=False) as archive:
+        arrays = {name: archive[name] for name in archive.files}
+    document = json.loads(str(arrays.pop("__document__")))
+    change(arrays, document)
+    np.savez(path, **arrays, __document__=np.array(json.dumps(document)))
+    return path
+
+
+def one_line_error(path, match):
+    with pytest.raises(ValueError, match=match) as caught:
+        yore.load_state(path)
+    assert "\n" not in str(caught.value) and str(path) in str(caught.value)
+
+
+@pytest.mark.parametrize("keep", [0.1, 0.5, 0.9, 0.999])
+def test_a_truncated_state_file_is_one_value_error(state_file, keep):
+    data = state_file.read_bytes()
+    state_file.write_bytes(data[:int(len(data) * keep)])
+    one_line_error(state_file, "not a readable yore state file")
+
+
+def test_a_corrupted_state_file_is_one_value_error(state_file):
+    data = bytearray(state_file.read_bytes())
+    middle = len(data) // 2
+    data[middle:middle + 8] = b"\xff" * 8  # inside an array: the CRC no longer matches
+    state_file.write_bytes(bytes(data))
+    one_line_error(state_file, "not a readable yore state file")
+
+
+def test_a_state_document_that_is_not_json_is_named(state_file):
+    def change(arrays, document):
+        document.clear()
+
+    tampered(state_file, change)
+    one_line_error(state_file, "field document")
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("spring_ends", np.array([[0, 99]] * 24, dtype=np.int32), "spring_ends: entry .* is 99"),
+    ("masses", np.full(9, -1.0), "masses: entry 0 is -1.0"),
+    ("masses", np.full(9, 1e-320), "masses: entry 0 is"),
+    ("positions", np.full((9, 3), np.nan), "positions: entry .* is nan"),
+    ("positions", np.zeros((9, 3), dtype=np.float32), "positions: got an array of dtype float32"),
+    ("faces", np.full((8, 3), 2**31 - 1, dtype=np.int32), "faces: entry .* is 2147483647"),
+    ("velocities", np.zeros((4, 3)), "velocities: got an array of dtype float64 and shape"),
+    ("spring_kind", np.full(24, 7, dtype=np.int8), "spring_kind: entry 0 is 7"),
+])
+def test_a_tampered_cloth_array_is_named(state_file, field, value, match):
+    tampered(state_file, lambda arrays, document: arrays.__setitem__(
+        f"simulation/cloth/{field}", value))
+    one_line_error(state_file, f"field simulation.cloth.{match}")
+
+
+@pytest.mark.parametrize("path, value, match", [
+    (("simulation", "options", "max_newton"), 2.9, "options.max_newton"),
+    (("simulation", "options", "linearized"), "no", "options.linearized"),
+    (("simulation", "dt"), -1.0, "simulation.dt"),
+    (("simulation", "integrator"), "rk4", "simulation.integrator"),
+    (("simulation", "cloth", "clock_steps"), 2**70, "clock_steps"),
+    (("simulation", "cloth", "drivers"), [{"vertices": 1}], r"drivers\[0\]"),
+    (("simulation", "cloth", "positions"), {"$array": "nowhere"}, "missing array"),
+    (("version",), 2, "field version"),
+])
+def test_a_tampered_document_field_is_named(state_file, path, value, match):
+    def change(arrays, document):
+        node = document
+        for part in path[:-1]:
+            node = node[part]
+        node[path[-1]] = value
+
+    tampered(state_file, change)
+    one_line_error(state_file, match)
+
+
+def test_a_pickled_object_array_is_never_loaded(state_file):
+    import zipfile
+
+    with zipfile.ZipFile(state_file, "a") as archive:
+        import io as _io
+
+        buffer = _io.BytesIO()
+        np.save(buffer, np.array([object()], dtype=object), allow_pickle=True)
+        archive.writestr("evil.npy", buffer.getvalue())
+    one_line_error(state_file, "field evil: ValueError: holds Python objects")
+
+
+def test_a_header_announcing_more_data_than_stored_allocates_nothing(state_file):
+    import zipfile
+
+    with zipfile.ZipFile(state_file) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    member = "simulation/cloth/positions.npy"
+    # Same length, so the header stays well formed; the CRC is rewritten with it.
+    members[member] = members[member].replace(b"'shape': (9, 3)", b"'shape':(999,3)", 1)
+    with zipfile.ZipFile(state_file, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    one_line_error(state_file, "positions: ValueError: the header announces shape \\(999, 3\\)")
+
+
+def test_a_fifo_as_state_path_does_not_block(tmp_path):
+    fifo = tmp_path / "state.npz"
+    os.mkfifo(fifo)
+    one_line_error(fifo, "not a regular file")

@@ -11,6 +11,7 @@ import errno
 import math
 import numbers
 import os
+import stat
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
@@ -20,7 +21,12 @@ import meshio
 import numpy as np
 from meshio._helpers import reader_map as _meshio_readers  # see _read_with_meshio
 
-__all__ = ["load_mesh", "save_mesh", "FrameSeries"]
+__all__ = ["load_mesh", "load_frame", "save_mesh", "FrameSeries", "MAX_MESH_FILE_BYTES"]
+
+#: Largest mesh (or frame) file read, bytes (512 MiB, some ten million triangles as binary
+#: PLY): meshio reads a file whole, and parsing takes a few times its size in memory, so a
+#: larger file is refused before it is opened.
+MAX_MESH_FILE_BYTES = 512 * 2**20
 
 # Extensions whose meshio writer silently ignores point data; .obj keeps only the
 # "obj:vn" (normals) and "obj:vt" (texture coordinates) entries.
@@ -52,18 +58,87 @@ def load_mesh(path):
         If meshio cannot read the file (unknown format, corrupt content), if it holds cells
         other than triangles (quads, polygons, lines, ...; the message names them) or no
         triangles at all, or if the mesh is invalid (NaN or infinite positions, an index out
-        of range, a degenerate face, a non-manifold edge, ...), as checked by the core.
+        of range, a degenerate face, a non-manifold edge, ...), as checked by the core; also
+        before reading, if ``path`` is not a regular file (a FIFO, a device, a directory) or
+        is larger than `MAX_MESH_FILE_BYTES`. The message is one line naming the file.
     """
     path = Path(os.fspath(path))
-    if not path.exists():
-        raise FileNotFoundError(errno.ENOENT, "mesh file not found", str(path))
-    mesh = _read_with_meshio(path)
+    mesh = _read_with_meshio(_check_mesh_file(path))
+    V, F = _triangles(path, mesh)
 
+    from ._core import validate_mesh
+
+    try:
+        validate_mesh(V, F)
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None
+    return V, F
+
+
+def load_frame(path):
+    """Read a frame file as written by `FrameSeries` (or any triangle mesh file) with its point
+    data: ``(V, F, point_data)``, V (n, 3) float64, F (f, 3) int32 with indices in [0, n),
+    point_data a dict of float64 arrays with n rows.
+
+    Unlike `load_mesh` the mesh is not validated as a cloth (a frame may hold any triangles);
+    it is checked only so far that it can be drawn. Raises FileNotFoundError if ``path`` does
+    not exist and ValueError naming the file for anything else: not a regular file, larger
+    than `MAX_MESH_FILE_BYTES`, unreadable or corrupt, non-triangle cells, non-finite
+    positions, indices out of range, point data of the wrong length.
+    """
+    path = Path(os.fspath(path))
+    mesh = _read_with_meshio(_check_mesh_file(path))
+    V, F = _triangles(path, mesh)
+    if not np.isfinite(V).all():
+        raise ValueError(f"{path}: vertex positions are not all finite")
+    if F.size and (F.min() < 0 or F.max() >= len(V)):
+        raise ValueError(f"{path}: triangle indices span [{F.min()}, {F.max()}], outside "
+                         f"[0, {len(V)})")
+    point_data = {}
+    for name, values in mesh.point_data.items():
+        try:
+            array = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{path}: point data {name!r} is not numeric") from None
+        if array.ndim == 0 or array.shape[0] != len(V):
+            raise ValueError(f"{path}: point data {name!r} has shape {array.shape}, expected "
+                             f"{len(V)} rows")
+        point_data[name] = array
+    return V, F, point_data
+
+
+def _check_mesh_file(path: Path) -> Path:
+    """``path`` if it names a regular file of at most MAX_MESH_FILE_BYTES; FileNotFoundError
+    if it does not exist, ValueError naming it otherwise. Uses stat, never open, so a FIFO or
+    a device (a link to /dev/zero) is refused without blocking or reading."""
+    try:
+        info = os.stat(path)  # follows symbolic links: a link to /dev/zero is a device
+    except FileNotFoundError:
+        raise FileNotFoundError(errno.ENOENT, "mesh file not found", str(path)) from None
+    except OSError as error:
+        raise ValueError(f"cannot read mesh file {path}: {error.strerror}") from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = ("a directory" if stat.S_ISDIR(info.st_mode) else
+                "a FIFO" if stat.S_ISFIFO(info.st_mode) else
+                "a device" if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode) else
+                "a socket" if stat.S_ISSOCK(info.st_mode) else "not a regular file")
+        raise ValueError(f"cannot read mesh file {path}: it is {kind}, not a regular file")
+    if info.st_size > MAX_MESH_FILE_BYTES:
+        raise ValueError(f"cannot read mesh file {path}: {info.st_size} bytes is more than the "
+                         f"limit of {MAX_MESH_FILE_BYTES} bytes ({MAX_MESH_FILE_BYTES >> 20} MiB)")
+    return path
+
+
+def _triangles(path, mesh):
+    """(V, F) of a meshio mesh: V (n, 3) float64, F (f, 3) int32; ValueError naming ``path``."""
     triangles = []
     other = {}
     for block in mesh.cells:
         if block.type == "triangle":
-            triangles.append(np.asarray(block.data))
+            data = np.asarray(block.data)
+            if data.ndim != 2 or data.shape[1] != 3:
+                raise ValueError(f"{path}: a triangle block has shape {data.shape}")
+            triangles.append(data)
         elif block.type != "vertex":
             other[block.type] = other.get(block.type, 0) + len(block.data)
     if other:
@@ -79,6 +154,8 @@ def load_mesh(path):
         raise ValueError(
             f"{path}: expected 2-D or 3-D points, got an array of shape {points.shape}"
         )
+    if points.dtype.kind not in "iuf":
+        raise ValueError(f"{path}: point coordinates have non-numeric dtype {points.dtype}")
     V = np.zeros((points.shape[0], 3), dtype=np.float64)
     V[:, : points.shape[1]] = points
 
@@ -92,10 +169,6 @@ def load_mesh(path):
             f"{path}: triangle indices span [{faces.min()}, {faces.max()}], beyond int32"
         )
     F = np.ascontiguousarray(faces, dtype=np.int32)
-
-    from ._core import validate_mesh
-
-    validate_mesh(V, F)
     return V, F
 
 
@@ -130,12 +203,22 @@ def _read_with_meshio(path: Path) -> meshio.Mesh:
                 reasons.append(f"as {name}: {type(inner).__name__}: {inner}")
             else:
                 reasons.append(f"as {name}: malformed file (meshio gave no detail)")
-        except OSError:
-            raise
+        except OSError as error:
+            # Readers raise OSError for truncated content as well as for unreadable files.
+            reasons.append(f"as {name}: {error.strerror or error}")
+        except (MemoryError, RecursionError) as error:
+            reasons.append(f"as {name}: {type(error).__name__} (the file's content is too "
+                           "large or too deeply nested)")
+        except SystemExit:
+            # Some meshio readers exit on a malformed header instead of raising.
+            reasons.append(f"as {name}: malformed file (meshio gave up)")
         except Exception as error:
             # meshio's parsers raise whatever their tokenizer hits on a malformed file.
             reasons.append(f"as {name}: {type(error).__name__}: {error}")
-    raise ValueError(f"cannot read mesh file {path}: " + "; ".join(reasons))
+    text = " ".join("; ".join(reasons).split())  # one line, however meshio formats its reasons
+    if len(text) > 400:
+        text = text[:397] + "..."
+    raise ValueError(f"cannot read mesh file {path}: {text}")
 
 
 def save_mesh(path, V, F, point_data=None):

@@ -14,7 +14,17 @@ import numbers
 
 import numpy as np
 
-__all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring"]
+__all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring", "MAX_MESH_VERTICES"]
+
+#: Most vertices a generated mesh may have (e.g. 1000×1000), checked before anything is
+#: allocated: a cloth of a million vertices already needs some GB for its springs and factor.
+MAX_MESH_VERTICES = 1_000_000
+
+
+def _check_vertex_count(count: int, what: str) -> None:
+    if count > MAX_MESH_VERTICES:
+        raise ValueError(f"{what} gives {count} vertices, more than the limit of "
+                         f"{MAX_MESH_VERTICES}")
 
 
 def _check_count(name: str, value, minimum: int) -> int:
@@ -72,12 +82,14 @@ def grid_mesh(nx, ny, width=1.0, height=1.0):
     Raises
     ------
     ValueError
-        If nx or ny is not an integer >= 2, or width or height is not finite and > 0.
+        If nx or ny is not an integer >= 2, nx·ny is more than `MAX_MESH_VERTICES`, or width
+        or height is not finite and > 0.
     """
     nx = _check_count("nx", nx, 2)
     ny = _check_count("ny", ny, 2)
     width = _check_length("width", width)
     height = _check_length("height", height)
+    _check_vertex_count(nx * ny, f"nx × ny = {nx} × {ny}")
 
     # linspace pins the last coordinate to exactly width/height.
     x, y = np.meshgrid(np.linspace(0.0, width, nx), np.linspace(0.0, height, ny), indexing="xy")
@@ -122,13 +134,14 @@ def cylinder_mesh(radius, height, rings, segments):
     Raises
     ------
     ValueError
-        If radius or height is not finite and > 0, rings is not an integer >= 2 or segments
-        is not an integer >= 3.
+        If radius or height is not finite and > 0, rings is not an integer >= 2, segments
+        is not an integer >= 3, or rings·segments is more than `MAX_MESH_VERTICES`.
     """
     radius = _check_length("radius", radius)
     height = _check_length("height", height)
     rings = _check_count("rings", rings, 2)
     segments = _check_count("segments", segments, 3)
+    _check_vertex_count(rings * segments, f"rings × segments = {rings} × {segments}")
 
     theta = 2.0 * np.pi * np.arange(segments) / segments
     y = np.linspace(0.0, height, rings)

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .stroke import Camera, check_factor
+from .stroke import MAX_IMAGE_PIXELS, Camera, check_factor, check_image_size
 
 __all__ = [
     "check_ffmpeg",
@@ -147,7 +147,7 @@ def fit_camera(points, width=800, height=600, direction=(0.35, 0.45, 1.0), up=(0
     fov_degrees = check_factor(fov_degrees, "fov_degrees")
     if fov_degrees >= 180.0:
         raise ValueError(f"fov_degrees must be in (0, 180), got {fov_degrees}")
-    width, height = _check_size(width, "width"), _check_size(height, "height")
+    width, height = check_image_size(width, height, "fit_camera")
 
     centre = (stacked.min(axis=0) + stacked.max(axis=0)) / 2.0
     radius = float(np.max(np.linalg.norm(stacked - centre, axis=1)))
@@ -258,7 +258,9 @@ def render_image(V, F, camera, *, face_values=None, value_range=None, colormap="
     V = _check_points(V, "V")
     F = _check_faces(F, len(V))
     frame = _camera_frame(camera)
-    width, height = int(camera.width), int(camera.height)
+    # A Camera checks its size too; checked again here because everything below is allocated
+    # per pixel.
+    width, height = check_image_size(camera.width, camera.height)
     base_color = _check_unit_rgb(color, "color")
     background = _check_unit_rgb(background, "background")
     polylines = _check_strokes(strokes)
@@ -616,6 +618,10 @@ def side_by_side(images, titles=None, gap=8, title_height=28,
     band = title_height if titles is not None else 0
     height = images[0].shape[0]
     total_width = sum(image.shape[1] for image in images) + gap * (len(images) - 1)
+    if (band + height) * total_width > len(images) * MAX_IMAGE_PIXELS:
+        raise ValueError(f"side_by_side: a {total_width}×{band + height} canvas is more than "
+                         f"{MAX_IMAGE_PIXELS} pixels per image (gap {gap}, title_height "
+                         f"{title_height})")
     canvas = np.empty((band + height, total_width, 3), dtype=np.uint8)
     canvas[:] = background
     lefts = np.cumsum([0] + [image.shape[1] + gap for image in images[:-1]])
@@ -867,12 +873,6 @@ def _check_vector(vector, name):
     if value.shape != (3,) or not np.all(np.isfinite(value)) or not np.any(value):
         raise ValueError(f"{name} must be 3 finite numbers, not all zero, got {vector!r}")
     return value
-
-
-def _check_size(value, name):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be an integer >= 1 (pixels), got {value!r}")
-    return int(value)
 
 
 def _check_count(value, name):

@@ -18,9 +18,9 @@ import json
 import os
 from pathlib import Path
 
-import meshio
 import numpy as np
 
+from .io import load_frame
 from .render import (check_ffmpeg, fit_camera, render_image, save_animation, save_png,
                      side_by_side)
 from .stroke import Camera
@@ -32,19 +32,13 @@ MAX_ANIMATION_FRAMES = 300
 
 
 def _read_frame(path):
-    """(V, F, point_data) of a mesh file; ValueError naming the file when it cannot be read."""
+    """(V, F, point_data) of a mesh file; ValueError naming the file when it cannot be read
+    (`yore.io.load_frame`: regular files of bounded size only, any meshio failure caught)."""
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"frame file {path} does not exist")
     try:
-        mesh = meshio.read(path)
-    except Exception as error:  # meshio raises many kinds; all mean "not a mesh we can read"
-        raise ValueError(f"cannot read frame {path}: {error}") from None
-    triangles = [block.data for block in mesh.cells if block.type == "triangle"]
-    if not triangles:
-        raise ValueError(f"frame {path} holds no triangles")
-    return (np.asarray(mesh.points, dtype=np.float64)[:, :3],
-            np.vstack(triangles).astype(np.int32), dict(mesh.point_data))
+        return load_frame(path)
+    except FileNotFoundError:
+        raise ValueError(f"frame file {path} does not exist") from None
 
 
 def _face_values(F, point_data, color_by, path):

@@ -11,6 +11,15 @@ type, a value out of range, a missing required key, vertex indices out of range,
 that selects nothing and a stroke that misses the cloth (material strokes at any time, 3-D and
 screen strokes at time 0 — later ones depend on the motion) raise `SceneError`, which names the
 key, its line in the file and what was expected.
+
+Limits, checked before anything is built or allocated: a scene file is a regular file of at
+most `MAX_SCENE_FILE_BYTES`; TOML nested deeper than Python can parse is refused (in the file
+and in ``--set`` values); every integer is at most `MAX_INTEGER` (2^31 - 1, so vertex indices
+fit the core's int32); a generated mesh has at most `yore.meshes.MAX_MESH_VERTICES` vertices
+(nx·ny or rings·segments); the camera image at most `yore.stroke.MAX_IMAGE_SIDE` pixels a side
+and `yore.stroke.MAX_IMAGE_PIXELS` in all; integrator options follow
+`yore.simulation.check_option` (iteration counts up to `MAX_STEP_ITERATIONS`); smoothing
+iterations at most `MAX_SMOOTHING_ITERATIONS`; floats are finite.
 """
 
 from __future__ import annotations
@@ -19,6 +28,7 @@ import difflib
 import math
 import os
 import re
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,11 +41,17 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from ._core import Cloth
 from .io import load_mesh
-from .meshes import cylinder_mesh, cylinder_ring, grid_mesh
-from .simulation import _OPTIONS, INTEGRATORS, Simulation
-from .stroke import Camera, StrokeMissed
+from .meshes import MAX_MESH_VERTICES, cylinder_mesh, cylinder_ring, grid_mesh
+from .simulation import (_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, OptionError,
+                         Simulation, check_option)
+from .stroke import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, Camera, StrokeMissed
 
 __all__ = ["Scene", "SceneError", "load_scene", "parse_override"]
+
+#: Largest scene file read, bytes.
+MAX_SCENE_FILE_BYTES = 16 * 2**20
+#: Largest integer any key takes (vertex indices, sizes, counts): the core's int32 range.
+MAX_INTEGER = 2**31 - 1
 
 
 class SceneError(ValueError):
@@ -68,8 +84,12 @@ class _Invalid(Exception):
 
 
 def _describe(value):
-    return f"{type(value).__name__} {value!r}" if not isinstance(value, (dict, list)) else \
-        f"a {'table' if isinstance(value, dict) else 'list'}"
+    if isinstance(value, (dict, list)):
+        return f"a {'table' if isinstance(value, dict) else 'list'}"
+    text = repr(value)
+    if len(text) > 60:  # one readable line, whatever was given
+        text = text[:57] + "..."
+    return f"{type(value).__name__} {text}"
 
 
 def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
@@ -96,12 +116,15 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
     return check
 
 
-def _integer(minimum):
-    expected = f"an integer >= {minimum}"
+def _integer(minimum, maximum=MAX_INTEGER):
+    expected = (f"an integer >= {minimum}" if maximum == MAX_INTEGER else
+                f"an integer in [{minimum}, {maximum}]")
 
     def check(value):
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
             raise _Invalid(f"got {_describe(value)}", expected)
+        if value > maximum:
+            raise _Invalid(f"got {_describe(value)}, more than the limit {maximum}", expected)
         return value
     check.expected = expected
     return check
@@ -164,14 +187,16 @@ _vector3.expected = "3 numbers [x, y, z]"
 
 
 def _indices(value):
-    expected = "a list of vertex indices (integers >= 0)"
-    if (not isinstance(value, list) or not value or
-            any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in value)):
+    expected = _indices.expected
+    if not isinstance(value, list) or not value:
         raise _Invalid(f"got {_describe(value)}", expected)
+    for i in value:
+        if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i <= MAX_INTEGER:
+            raise _Invalid(f"got the index {_describe(i)}", expected)
     return np.asarray(value, dtype=np.int32)
 
 
-_indices.expected = "a list of vertex indices (integers >= 0)"
+_indices.expected = "a list of vertex indices (integers in [0, 2147483647])"
 
 _GENERATOR_KEYS = {
     "grid": {
@@ -262,8 +287,8 @@ SCHEMA = {
         "target": (_vector3, None, "m; default: the cloth's centre at t = 0"),
         "up": (_vector3, [0.0, 1.0, 0.0], "up direction"),
         "fov_degrees": (_number(0, 180, strict_minimum=True), 35.0, "vertical field of view"),
-        "width": (_integer(16), 800, "image width, pixels"),
-        "height": (_integer(16), 600, "image height, pixels"),
+        "width": (_integer(16, MAX_IMAGE_SIDE), 800, "image width, pixels"),
+        "height": (_integer(16, MAX_IMAGE_SIDE), 600, "image height, pixels"),
     }, "table"),
     "output": ({
         "format": (_choice("vtu", "vtk", "ply", "obj", "none"), "vtu", "frame file format"),
@@ -278,7 +303,7 @@ SCHEMA = {
 }
 
 _SMOOTH = {
-    "iterations": (_integer(0), 10, "smoothing iterations"),
+    "iterations": (_integer(0, MAX_SMOOTHING_ITERATIONS), 10, "smoothing iterations"),
     "strength": (_number(0, 1, strict_minimum=True), 0.5, "fraction moved per iteration"),
     "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
 }
@@ -353,25 +378,46 @@ def load_scene(path=None, text=None, overrides=None) -> Scene:
         if path is None:
             raise ValueError("give a scene file path or its text")
         path = Path(os.fspath(path))
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as error:
-            raise SceneError(path, None, f"cannot read the scene file ({error.strerror})") \
-                from None
+        text = _read_scene_text(path)
     elif path is not None:
         path = Path(os.fspath(path))
     source = str(path) if path is not None else "<scene>"
+    if not isinstance(text, str):
+        raise ValueError(f"scene text must be a str, got {type(text).__name__}")
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         match = re.search(r"line (\d+)", str(error))
-        raise SceneError(source, None, f"not valid TOML: {error}",
+        raise SceneError(source, None, f"not valid TOML: {' '.join(str(error).split())}",
                          line=int(match.group(1)) if match else None) from None
+    except RecursionError:
+        raise SceneError(source, None, "not readable TOML: arrays or tables are nested too "
+                         "deeply", "a scene file (no key takes values nested more than 2 "
+                         "levels deep)") from None
     scene = Scene(data={}, text=text, path=path)
     for dotted, value in (overrides or {}).items():
         _apply_override(scene, raw, dotted, value)
     scene.data = _check(scene, raw)
     return scene
+
+
+def _read_scene_text(path):
+    """The text of scene file ``path``; SceneError if it is not a regular file (a FIFO would
+    block), is larger than MAX_SCENE_FILE_BYTES or is not UTF-8."""
+    try:
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):
+            raise SceneError(path, None, "cannot read the scene file: not a regular file")
+        if info.st_size > MAX_SCENE_FILE_BYTES:
+            raise SceneError(path, None, f"cannot read the scene file: {info.st_size} bytes "
+                             f"is more than the limit of {MAX_SCENE_FILE_BYTES} bytes")
+        return path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise SceneError(path, None, f"cannot read the scene file ({error.strerror})") \
+            from None
+    except UnicodeDecodeError as error:
+        raise SceneError(path, None, f"cannot read the scene file: not UTF-8 text (byte "
+                         f"{error.start})") from None
 
 
 def parse_override(text: str):
@@ -385,6 +431,9 @@ def parse_override(text: str):
         parsed = tomllib.loads(f"value = {value.strip()}")["value"]
     except tomllib.TOMLDecodeError:
         parsed = value.strip()
+    except RecursionError:
+        raise SceneError("--set", key, "the value is nested too deeply",
+                         "a number, boolean, string or a list of them") from None
     return key, parsed
 
 
@@ -451,9 +500,13 @@ def _check(scene, raw):
                     raise scene.error("mesh.generator", "missing",
                                       _SCHEMA_GENERATOR_EXPECTED)
                 keys = dict(keys)
-                if generator in _GENERATOR_KEYS:
+                if isinstance(generator, str) and generator in _GENERATOR_KEYS:
                     keys.update(_GENERATOR_KEYS[generator])
             data[name] = _check_table(scene, name, value, keys)
+            if name == "mesh":
+                _check_mesh_size(scene, data[name])
+            if name == "camera":
+                _check_camera_size(scene, data[name])
     material = data["material"]
     given = [k for k in ("mass", "mass_per_vertex", "density") if k in material]
     if len(given) > 1:
@@ -489,6 +542,27 @@ def _check(scene, raw):
     data["integrator"] = _check_integrator(scene, raw.get("integrator", {}),
                                            data["simulation"]["integrator"])
     return data
+
+
+def _check_mesh_size(scene, mesh):
+    """The generated mesh's vertex count, estimated before anything is built."""
+    sizes = {"grid": ("nx", "ny"), "cylinder": ("rings", "segments")}.get(mesh["generator"])
+    if sizes is None:
+        return
+    count = mesh[sizes[0]] * mesh[sizes[1]]
+    if count > MAX_MESH_VERTICES:
+        key = sizes[0] if mesh[sizes[0]] >= mesh[sizes[1]] else sizes[1]
+        raise scene.error(f"mesh.{key}", f"{sizes[0]} × {sizes[1]} = {mesh[sizes[0]]} × "
+                          f"{mesh[sizes[1]]} = {count} vertices",
+                          f"at most {MAX_MESH_VERTICES} vertices")
+
+
+def _check_camera_size(scene, camera):
+    pixels = camera["width"] * camera["height"]
+    if pixels > MAX_IMAGE_PIXELS:
+        key = "width" if camera["width"] >= camera["height"] else "height"
+        raise scene.error(f"camera.{key}", f"{camera['width']} × {camera['height']} = "
+                          f"{pixels} pixels", f"at most {MAX_IMAGE_PIXELS} pixels in all")
 
 
 def _check_table(scene, where, table, keys):
@@ -545,19 +619,11 @@ def _check_integrator(scene, options, integrator):
                               f"unknown option of the {integrator!r} integrator"
                               f"{_did_you_mean(key, table)}",
                               "one of " + (", ".join(sorted(table)) or "no options"))
-        default = table[key]
-        if isinstance(default, bool) or key == "adaptive_projection":
-            checker = _boolean
-        elif isinstance(default, int):
-            checker = _integer(0)
-        elif isinstance(default, float) or default is None:
-            checker = _number(0, strict_minimum=True)
-        else:
-            checker = _string
         try:
-            checked[key] = checker(value)
-        except _Invalid as invalid:
-            raise scene.error(f"integrator.{key}", invalid.problem, invalid.expected) from None
+            checked[key] = check_option(integrator, key, value)
+        except OptionError as invalid:
+            raise scene.error(f"integrator.{key}", f"got {invalid.got}",
+                              invalid.expected) from None
     return checked
 
 

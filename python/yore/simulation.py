@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 import time as _time
 
 import numpy as np
@@ -67,6 +68,135 @@ _OPTIONS["local-global"] = {
     "divergence_energy_factor": 10.0,
 }
 _ACCELERATIONS = ("none", "chebyshev")
+
+#: Largest iteration counts an option may ask for. One step runs its iterations inside the C++
+#: core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be refused rather
+#: than run for days.
+MAX_STEP_ITERATIONS = 10_000  # per step: newton, local-global, lagged/stale CG, strain passes
+MAX_SOLVER_ITERATIONS = 1_000_000  # per linear solve: pcg_max_iterations
+#: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
+MAX_SMOOTHING_ITERATIONS = 100_000
+
+
+class OptionError(ValueError):
+    """An integrator option of the wrong type or out of range: ``option`` its name, ``got`` a
+    description of the value, ``expected`` what would be accepted."""
+
+    def __init__(self, option, got, expected):
+        self.option, self.got, self.expected = option, got, expected
+        super().__init__(f"option {option}: got {got}; expected {expected}")
+
+
+class _Rule:
+    """How one option is checked: ``check(value)`` returns the value (as int, float, bool, str
+    or None) or raises ValueError naming the option, the value and ``expected``."""
+
+    def __init__(self, expected, test):
+        self.expected, self._test = expected, test
+
+    def check(self, name, value):
+        try:
+            ok, checked = self._test(value)
+        except (TypeError, ValueError, OverflowError):
+            ok, checked = False, None
+        if not ok:
+            raise OptionError(name, _show(value), self.expected)
+        return checked
+
+
+def _show(value):
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{type(value).__name__} {text}"
+
+
+def _is_integer(value):
+    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_real(value):
+    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+            and math.isfinite(value))
+
+
+def _flag():
+    return _Rule("True or False", lambda v: (isinstance(v, (bool, np.bool_)), bool(v)))
+
+
+def _count(low, high):
+    return _Rule(f"an integer in [{low}, {high}]",
+                 lambda v: (_is_integer(v) and low <= v <= high, int(v)))
+
+
+def _real(low, high=None, low_open=True, high_open=False):
+    bounds = ("(" if low_open else "[") + f"{low:g}, " + \
+        ("inf)" if high is None else f"{high:g}" + (")" if high_open else "]"))
+
+    def test(v):
+        if not _is_real(v):
+            return False, None
+        v = float(v)
+        above = v > low if low_open else v >= low
+        below = high is None or (v < high if high_open else v <= high)
+        return above and below, v
+    return _Rule(f"a finite number in {bounds}", test)
+
+
+def _one_of(*choices):
+    return _Rule(f"a name (valid: {', '.join(choices)})",
+                 lambda v: (isinstance(v, str) and v in choices, v))
+
+
+def _or_none(rule):
+    return _Rule(f"None or {rule.expected}",
+                 lambda v: (True, None) if v is None else (True, rule.check("", v)))
+
+
+#: How each option is checked (one rule per name, whichever integrator takes it); the defaults
+#: are in `_OPTIONS`. `check_option` applies them.
+_RULES = {
+    "strain_limit": _or_none(_real(1.0, low_open=False)),
+    "strain_limit_passes": _count(1, MAX_STEP_ITERATIONS),
+    "divergence_energy_factor": _real(0.0),
+    "linearized": _flag(),
+    "newton_tol": _real(0.0),
+    "max_newton": _count(1, MAX_STEP_ITERATIONS),
+    "solver": _one_of("cholmod", "eigen-ldlt", "pcg"),
+    "ordering": _one_of("amd", "metis", "natural"),
+    "factorization": _one_of("supernodal", "simplicial"),
+    "pcg_tol": _real(0.0, 1.0, high_open=True),
+    "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
+    "adaptive_projection": _or_none(_flag()),
+    "lagged_factorization": _flag(),
+    "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
+    "lag_cg_tol": _real(0.0, 1.0, high_open=True),
+    "iterations": _count(1, MAX_STEP_ITERATIONS),
+    "acceleration": _one_of(*_ACCELERATIONS),
+    "chebyshev_rho": _real(0.0, 1.0, low_open=False, high_open=True),
+    "rebuild": _one_of("fresh", "reuse-ordering", "stale-pcg"),
+    "stale_pcg_max_iterations": _count(1, MAX_STEP_ITERATIONS),
+    "stale_pcg_tol": _real(0.0, 1.0, high_open=True),
+    "record_objective": _flag(),
+}
+assert all(set(table) <= set(_RULES) for table in _OPTIONS.values())
+
+
+def check_option(integrator, name, value):
+    """``value`` of option ``name`` of ``integrator`` as stored (int, float, bool, str or None);
+    ValueError naming the option, the value and what is expected (an unknown name lists the
+    valid ones). Types are checked, not coerced: ``linearized="no"``, ``max_newton=2.9`` and
+    ``lag_cg_tol=inf`` are errors."""
+    valid = _OPTIONS[integrator]
+    if name not in valid:
+        raise ValueError(f"unknown option {name!r} for integrator {integrator!r}; valid: "
+                         f"{', '.join(sorted(valid)) or 'none'}")
+    return _RULES[name].check(name, value)
+
+
+def option_expected(name) -> str:
+    """What option ``name`` accepts, in words (for error messages elsewhere)."""
+    return _RULES[name].expected
 
 
 def _make_explicit(options):
@@ -179,7 +309,9 @@ class Simulation:
     Raises
     ------
     ValueError
-        Unknown integrator or option name (the message lists the valid ones), bad dt or gravity.
+        Unknown integrator or option name (the message lists the valid ones), an option of the
+        wrong type or out of range (see `check_option`: booleans must be True/False, counts
+        integers up to `MAX_STEP_ITERATIONS`, tolerances finite), bad dt or gravity.
     NotImplementedError
         An integrator of the API that this version does not build yet.
     """
@@ -201,7 +333,8 @@ class Simulation:
             raise ValueError(
                 f"unknown option(s) {', '.join(map(repr, unknown))} for integrator "
                 f"{integrator!r}; valid: {', '.join(sorted(valid)) or 'none'}")
-        self._options = {**valid, **options}
+        self._options = {**valid, **{name: check_option(integrator, name, value)
+                                     for name, value in options.items()}}
         gravity = np.asarray(gravity, dtype=np.float64)
         if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
             raise ValueError(f"gravity must be 3 finite numbers (m/s²), got {gravity!r}")
@@ -437,15 +570,21 @@ class Simulation:
         springs are smoothed, "all", or None for the last stroke's region and one ring around it.
         No re-analysis follows (the topology is unchanged). Returns the ratio-field roughness
         before and after (`yore.metrics.rest_ratio_roughness`).
+
+        Raises ValueError unless ``iterations`` is an integer in [0, `MAX_SMOOTHING_ITERATIONS`],
+        ``strength`` a number in (0, 1] and ``region`` None, "all" or integer vertex indices in
+        range (floats and booleans are refused, not rounded).
         """
         from .metrics import _vertex_mean_of_springs, rest_ratio_roughness
 
+        if not _is_integer(iterations) or not 0 <= iterations <= MAX_SMOOTHING_ITERATIONS:
+            raise ValueError(f"smooth_rest_lengths iterations: got {_show(iterations)}; expected "
+                             f"an integer in [0, {MAX_SMOOTHING_ITERATIONS}]")
         iterations = int(iterations)
+        if not _is_real(strength) or not 0.0 < strength <= 1.0:
+            raise ValueError(f"smooth_rest_lengths strength: got {_show(strength)}; expected a "
+                             "number in (0, 1]")
         strength = float(strength)
-        if iterations < 0:
-            raise ValueError(f"iterations must be >= 0, got {iterations}")
-        if not 0.0 < strength <= 1.0:
-            raise ValueError(f"strength must be in (0, 1], got {strength}")
         cloth = self._cloth
         ends = cloth.springs.ends
         if isinstance(region, str):
@@ -459,9 +598,7 @@ class Simulation:
                 region_vertices = np.unique(cloth.faces[self._last_stroke.region_faces])
                 ring = np.isin(ends, region_vertices).any(axis=1)
                 region = np.unique(ends[ring])  # one ring around the stroke's region
-            region = np.asarray(region)
-            if region.size and (region.min() < 0 or region.max() >= cloth.vertex_count):
-                raise ValueError("region holds a vertex index out of range")
+            region = _region_indices(region, cloth.vertex_count)
             selected = np.isin(ends, region).any(axis=1)
         reference = cloth.springs.reference
         ratio = cloth.springs.rest / reference
@@ -527,3 +664,28 @@ class Simulation:
     def __repr__(self) -> str:
         return (f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
                 f"t={self.time:.4g} s, {self._cloth!r}>")
+
+
+def _region_indices(region, vertex_count):
+    """``region`` of `Simulation.smooth_rest_lengths` as a 1-D int64 array of vertex indices in
+    [0, vertex_count); ValueError otherwise (floats, booleans, nested lists, out of range)."""
+    expected = f"None, 'all' or vertex indices (integers in [0, {vertex_count}))"
+    if isinstance(region, (bool, np.bool_, float, dict, set)):
+        raise ValueError(f"smooth_rest_lengths region: got {_show(region)}; expected {expected}")
+    try:
+        array = np.asarray(region)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"smooth_rest_lengths region: got {_show(region)}; expected "
+                         f"{expected}") from None
+    if array.dtype.kind not in "iu" and not (array.size == 0 and array.dtype.kind == "f"):
+        raise ValueError(f"smooth_rest_lengths region: got {_show(region)} (dtype "
+                         f"{array.dtype}); expected {expected}")
+    if array.ndim > 1:
+        raise ValueError(f"smooth_rest_lengths region: got an array of shape {array.shape}; "
+                         f"expected {expected}")
+    array = array.reshape(-1)
+    if array.size and (array.min() < 0 or array.max() >= vertex_count):
+        bad = array.min() if array.min() < 0 else array.max()
+        raise ValueError(f"smooth_rest_lengths region: vertex {int(bad)} is out of range; "
+                         f"expected {expected}")
+    return array.astype(np.int64)

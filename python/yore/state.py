@@ -20,15 +20,20 @@ result at the level of their solver tolerance.
 from __future__ import annotations
 
 import json
+import math
 import os
+import stat
+import struct
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 
-from .simulation import Simulation
+from .simulation import _OPTIONS, INTEGRATORS, Simulation, check_option
 
-__all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT"]
+__all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
+           "MAX_STATE_FILE_BYTES"]
 
 STATE_FORMAT = "yore-state"
 STATE_VERSION = 1
@@ -62,42 +67,319 @@ def save_state(path, sim: Simulation, metadata=None) -> Path:
 def load_state(path):
     """Reads a state file written by `save_state`; returns ``(simulation, metadata)``.
 
-    Raises ValueError if the file is missing, is not a yore state, or holds an inconsistent
-    cloth (the message names what is wrong).
+    The file is checked field by field against the schema of `STATE_VERSION` before anything
+    is built (see `_check_simulation`): names, types, dtypes, shapes, ranges, finiteness and
+    consistent sizes (springs, faces, constraints and drivers against the vertex count). Raises
+    ValueError, in one line naming the file and the field, if the file is missing, not a
+    regular file, larger than `MAX_STATE_FILE_BYTES`, truncated or corrupt (bad zip, bad CRC,
+    bad .npy header, object arrays, bad JSON), not a yore state, of another version, or holds a
+    field of the wrong kind.
     """
     path = Path(os.fspath(path))
-    if not path.is_file():
-        raise ValueError(f"state file {path} does not exist")
+    arrays, document = _read_archive(path)
+    field = _FieldChecker(path)
+    if not isinstance(document, dict) or set(document) != {"format", "version", "simulation",
+                                                           "metadata"}:
+        raise field.error("document", "is not a yore state document",
+                          "keys format, version, simulation, metadata")
+    if document["format"] != STATE_FORMAT:
+        raise field.error("format", f"got {_show(document['format'])}", repr(STATE_FORMAT))
+    if document["version"] != STATE_VERSION or isinstance(document["version"], bool):
+        raise field.error("version", f"got {_show(document['version'])}; this yore reads "
+                          f"version {STATE_VERSION}", str(STATE_VERSION))
+    simulation = field.join(document["simulation"], arrays, "simulation")
+    metadata = field.join(document["metadata"], arrays, "metadata")
+    if metadata is not None and not isinstance(metadata, dict):
+        raise field.error("metadata", f"got {_show(metadata)}", "a table or null")
+    _check_simulation(field, simulation)
     try:
-        archive = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as error:
-        raise ValueError(f"{path} is not a yore state file (.npz): {error}") from None
-    with archive:
-        if _DOCUMENT not in archive.files:
-            raise ValueError(f"{path} is not a yore state file (no {_DOCUMENT} entry)")
-        document = json.loads(str(archive[_DOCUMENT]))
-        if document.get("format") != STATE_FORMAT:
-            raise ValueError(f"{path} is not a yore state file")
-        if document.get("version") != STATE_VERSION:
-            raise ValueError(f"{path} has state version {document.get('version')}; this yore "
-                             f"reads version {STATE_VERSION}")
-        arrays = {name: archive[name] for name in archive.files if name != _DOCUMENT}
-    simulation = Simulation.from_state(_join(document["simulation"], arrays))
-    return simulation, _join(document["metadata"], arrays)
+        sim = Simulation.from_state(simulation)
+    except (ValueError, TypeError, RuntimeError) as error:
+        # The schema above should leave nothing for the core to refuse; if it does, the
+        # message still names the file.
+        raise ValueError(f"{path}: not a consistent yore state: "
+                         f"{' '.join(str(error).split())}") from None
+    return sim, metadata
+
+
+#: Largest state file read, bytes (a state of a million vertices is some hundreds of MB).
+MAX_STATE_FILE_BYTES = 2 * 2**30
+#: Largest JSON document in a state file, characters.
+_MAX_DOCUMENT_CHARS = 64 * 2**20
+
+
+def _show(value):
+    if isinstance(value, np.ndarray):
+        return f"an array of dtype {value.dtype} and shape {value.shape}"
+    if isinstance(value, (dict, list)):
+        return f"a {'table' if isinstance(value, dict) else 'list'}"
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
+
+
+def _read_archive(path):
+    """(arrays, document) of a state file, read with zipfile and the .npy header parser (so a
+    tampered header cannot make numpy allocate what the file does not hold, and no pickle is
+    ever loaded); ValueError naming the file and the member otherwise."""
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise ValueError(f"state file {path} does not exist") from None
+    except OSError as error:
+        raise ValueError(f"cannot read state file {path}: {error.strerror}") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError(f"cannot read state file {path}: not a regular file")
+    if info.st_size > MAX_STATE_FILE_BYTES:
+        raise ValueError(f"cannot read state file {path}: {info.st_size} bytes is more than the "
+                         f"limit of {MAX_STATE_FILE_BYTES} bytes")
+    arrays = {}
+    member = None
+    try:
+        with zipfile.ZipFile(path) as archive:
+            for entry in archive.infolist():
+                member = entry.filename
+                if not member.endswith(".npy") or entry.is_dir():
+                    raise ValueError("not a .npy array")
+                if entry.file_size > MAX_STATE_FILE_BYTES:
+                    raise ValueError(f"{entry.file_size} bytes uncompressed is too large")
+                with archive.open(entry) as stream:
+                    arrays[member[:-4]] = _read_npy(stream, entry.file_size)
+    except zipfile.BadZipFile as error:
+        where = f" (member {member})" if member else ""
+        raise ValueError(f"{path} is not a readable yore state file (.npz){where}: "
+                         f"{error}") from None
+    except (ValueError, EOFError, OSError, zlib.error, KeyError, NotImplementedError,
+            RuntimeError, MemoryError, struct.error, SyntaxError) as error:
+        where = f"field {member[:-4] if member.endswith('.npy') else member}" if member \
+            else "archive"
+        raise ValueError(f"{path} is not a readable yore state file: {where}: "
+                         f"{type(error).__name__}: {' '.join(str(error).split())}"[:400]) \
+            from None
+    text = arrays.pop(_DOCUMENT, None)
+    if text is None:
+        raise ValueError(f"{path} is not a yore state file (no {_DOCUMENT} entry)")
+    if text.dtype.kind != "U" or text.shape != () or text.dtype.itemsize > 4 * _MAX_DOCUMENT_CHARS:
+        raise ValueError(f"{path}: field {_DOCUMENT}: got {_show(text)}; expected a JSON text")
+    try:
+        document = json.loads(str(text[()]))
+    except (ValueError, RecursionError) as error:
+        problem = "nested too deeply" if isinstance(error, RecursionError) else \
+            f"not valid JSON ({' '.join(str(error).split())})"
+        raise ValueError(f"{path}: field {_DOCUMENT}: {problem}") from None
+    return arrays, document
+
+
+def _read_npy(stream, size):
+    """One .npy member: header checked against the member's size before the data is read."""
+    version = np.lib.format.read_magic(stream)
+    if version == (1, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
+    elif version == (2, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
+    else:
+        raise ValueError(f".npy format version {version} is not one yore writes")
+    if dtype.hasobject:
+        raise ValueError("holds Python objects (a pickle), which a state file never does")
+    count = math.prod(shape)
+    if count * dtype.itemsize > size:
+        raise ValueError(f"the header announces shape {shape} of {dtype}, more than the "
+                         f"{size} bytes stored")
+    data = stream.read(count * dtype.itemsize)
+    if len(data) != count * dtype.itemsize:
+        raise ValueError(f"truncated: {len(data)} of {count * dtype.itemsize} bytes")
+    if stream.read(1):
+        raise ValueError("more bytes than its header announces")
+    array = np.frombuffer(data, dtype=dtype, count=count)
+    return array.reshape(shape, order="F" if fortran else "C").copy()
+
+
+class _FieldChecker:
+    """Checks of one state file's fields; every error names the file and the dotted field."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def error(self, field, problem, expected=None):
+        text = f"{self.path}: field {field}: {problem}"
+        return ValueError(text + (f"; expected {expected}" if expected else ""))
+
+    def join(self, value, arrays, field):
+        """Inverse of `_split`, with every ``{"$array": name}`` naming an array of the file."""
+        if isinstance(value, dict):
+            if set(value) == {"$array"}:
+                name = value["$array"]
+                if not isinstance(name, str) or name not in arrays:
+                    raise self.error(field, f"refers to a missing array {_show(name)}",
+                                     "an array stored in the file")
+                return arrays[name]
+            return {str(key): self.join(item, arrays, f"{field}.{key}")
+                    for key, item in value.items()}
+        if isinstance(value, list):
+            return [self.join(item, arrays, f"{field}[{k}]") for k, item in enumerate(value)]
+        return value
+
+    def keys(self, value, field, required, optional=()):
+        if not isinstance(value, dict):
+            raise self.error(field, f"got {_show(value)}", "a table")
+        missing = sorted(set(required) - set(value))
+        unknown = sorted(set(value) - set(required) - set(optional))
+        if missing:
+            raise self.error(f"{field}.{missing[0]}", "missing")
+        if unknown:
+            raise self.error(f"{field}.{unknown[0]}", "unknown field",
+                             "one of " + ", ".join(sorted(set(required) | set(optional))))
+        return value
+
+    def real(self, value, field, low=None, low_open=False, high=None):
+        if (isinstance(value, bool) or not isinstance(value, (int, float))
+                or not math.isfinite(value) or (low is not None and (
+                    value < low or (low_open and value == low)))
+                or (high is not None and value > high)):
+            bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
+            raise self.error(field, f"got {_show(value)}", f"a finite number{bounds}")
+        return float(value)
+
+    def integer(self, value, field, low, high):
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise self.error(field, f"got {_show(value)}", f"an integer in [{low}, {high}]")
+        return value
+
+    def array(self, value, field, dtype, shape, low=None, high=None, low_open=False,
+              allowed=None):
+        """An ndarray of exactly ``dtype``; ``shape`` with None for any length; float arrays
+        finite; values in [low, high] (or (low, high] with low_open) or in ``allowed``."""
+        expected = f"an array of dtype {np.dtype(dtype)} and shape " + \
+            "(" + ", ".join("k" if d is None else str(d) for d in shape) + \
+            ("," if len(shape) == 1 else "") + ")"
+        if (not isinstance(value, np.ndarray) or value.dtype != np.dtype(dtype)
+                or value.ndim != len(shape)
+                or any(d is not None and d != got for d, got in zip(shape, value.shape))):
+            raise self.error(field, f"got {_show(value)}", expected)
+        if value.size == 0:
+            return value
+        if value.dtype.kind == "f":
+            bad = ~np.isfinite(value)
+            if bad.any():
+                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
+                                 "finite numbers")
+        if allowed is not None:
+            bad = ~np.isin(value, allowed)
+            if bad.any():
+                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
+                                 "values in {" + ", ".join(map(str, allowed)) + "}")
+        if low is not None:
+            bad = (value <= low) if low_open else (value < low)
+            if bad.any():
+                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
+                                 f"values {'>' if low_open else '>='} {low}")
+        if high is not None:
+            bad = value > high
+            if bad.any():
+                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
+                                 f"values <= {high}")
+        return value
+
+
+def _index(mask):
+    where = np.argwhere(mask)[0]
+    return int(where[0]) if len(where) == 1 else tuple(int(i) for i in where)
+
+
+_CLOTH_FIELDS = ("positions", "velocities", "masses", "faces", "spring_ends", "spring_rest",
+                 "spring_reference", "spring_stiffness", "spring_damping", "spring_kind", "drag",
+                 "stretch_stiffness", "bend_stiffness", "damping", "material_coordinates",
+                 "vertex_states", "drivers", "clock_origin", "clock_steps", "clock_dt")
+_SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
+                      "target_time")
+_DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
+#: Smallest positive normal double: a mass below it is refused (1/m would overflow).
+_TINY = float(np.finfo(np.float64).tiny)
+
+
+def _check_simulation(field, simulation):
+    """The schema of a version-1 state (`Simulation.state`, `yore.Cloth.state`)."""
+    field.keys(simulation, "simulation", _SIMULATION_FIELDS)
+    integrator = simulation["integrator"]
+    if not isinstance(integrator, str) or integrator not in INTEGRATORS:
+        raise field.error("simulation.integrator", f"got {_show(integrator)}",
+                          "one of " + ", ".join(INTEGRATORS))
+    options = field.keys(simulation["options"], "simulation.options", (),
+                         tuple(_OPTIONS[integrator]))
+    for name, value in options.items():
+        try:
+            check_option(integrator, name, value)
+        except ValueError as error:
+            raise field.error(f"simulation.options.{name}", str(error)) from None
+    field.real(simulation["dt"], "simulation.dt", 0.0, low_open=True)
+    field.array(simulation["gravity"], "simulation.gravity", np.float64, (3,))
+    if simulation["target_time"] is not None:
+        field.real(simulation["target_time"], "simulation.target_time")
+
+    cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS)
+    where = "simulation.cloth."
+    positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))
+    n = len(positions)
+    if n == 0:
+        raise field.error(where + "positions", "holds no vertex", "at least one vertex")
+    field.array(cloth["velocities"], where + "velocities", np.float64, (n, 3))
+    field.array(cloth["masses"], where + "masses", np.float64, (n,), low=_TINY)
+    field.array(cloth["faces"], where + "faces", np.int32, (None, 3), low=0, high=n - 1)
+    ends = field.array(cloth["spring_ends"], where + "spring_ends", np.int32, (None, 2), low=0,
+                       high=n - 1)
+    s = len(ends)
+    if s and (ends[:, 0] == ends[:, 1]).any():
+        k = int(np.flatnonzero(ends[:, 0] == ends[:, 1])[0])
+        raise field.error(where + "spring_ends", f"spring {k} joins vertex {ends[k, 0]} to "
+                          "itself", "two different vertices per spring")
+    for name in ("spring_rest", "spring_reference", "spring_stiffness", "spring_damping"):
+        field.array(cloth[name], where + name, np.float64, (s,), low=0.0)
+    field.array(cloth["spring_kind"], where + "spring_kind", np.int8, (s,), allowed=(0, 1))
+    for name in ("drag", "stretch_stiffness", "bend_stiffness", "damping"):
+        field.real(cloth[name], where + name, 0.0)
+    if cloth["material_coordinates"] is not None:
+        field.array(cloth["material_coordinates"], where + "material_coordinates", np.float64,
+                    (n, 2))
+    field.array(cloth["vertex_states"], where + "vertex_states", np.uint8, (n,),
+                allowed=(0, 1, 2))
+    drivers = cloth["drivers"]
+    if not isinstance(drivers, list):
+        raise field.error(where + "drivers", f"got {_show(drivers)}", "a list of drivers")
+    for k, driver in enumerate(drivers):
+        at = f"{where}drivers[{k}]."
+        field.keys(driver, at[:-1], _DRIVER_FIELDS)
+        vertices = field.array(driver["vertices"], at + "vertices", np.int32, (None,), low=0,
+                               high=n - 1)
+        field.array(driver["reference"], at + "reference", np.float64, (len(vertices), 3))
+        field.array(driver["center"], at + "center", np.float64, (3,))
+        axis = field.array(driver["axis"], at + "axis", np.float64, (3,))
+        if not axis.any():
+            raise field.error(at + "axis", "is zero", "a direction")
+        field.real(driver["omega"], at + "omega")
+        field.real(driver["start_time"], at + "start_time")
+    field.real(cloth["clock_origin"], where + "clock_origin")
+    field.integer(cloth["clock_steps"], where + "clock_steps", 0, 2**62)
+    field.real(cloth["clock_dt"], where + "clock_dt", 0.0)
+
+    history = simulation["history"]
+    if history is not None:
+        if integrator != "bdf2":
+            raise field.error("simulation.history", f"given for integrator {integrator!r}",
+                              "null (only bdf2 keeps a history)")
+        field.keys(history, "simulation.history", ("positions", "velocities", "dt"))
+        field.array(history["positions"], "simulation.history.positions", np.float64, (n, 3))
+        field.array(history["velocities"], "simulation.history.velocities", np.float64, (n, 3))
+        field.real(history["dt"], "simulation.history.dt", 0.0, low_open=True)
 
 
 def load_metadata(path):
-    """The ``metadata`` a state file was saved with, without building its simulation.
-    Raises ValueError as `load_state`."""
+    """The ``metadata`` a state file was saved with (a dict or None), without building its
+    simulation. Raises ValueError as `load_state` for a file that cannot be read."""
     path = Path(os.fspath(path))
-    if not path.is_file():
-        raise ValueError(f"state file {path} does not exist")
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            document = json.loads(str(archive[_DOCUMENT]))
-            return _join(document["metadata"], archive)  # arrays read only when referenced
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as error:
-        raise ValueError(f"{path} is not a readable yore state file: {error}") from None
+    arrays, document = _read_archive(path)
+    if not isinstance(document, dict) or "metadata" not in document:
+        raise _FieldChecker(path).error("document", "is not a yore state document",
+                                        "keys format, version, simulation, metadata")
+    return _FieldChecker(path).join(document["metadata"], arrays, "metadata")
 
 
 def _split(value, name, arrays):
@@ -111,15 +393,4 @@ def _split(value, name, arrays):
         return [_split(item, f"{name}/{index}", arrays) for index, item in enumerate(value)]
     if isinstance(value, np.generic):
         return value.item()
-    return value
-
-
-def _join(value, arrays):
-    """Inverse of `_split`."""
-    if isinstance(value, dict):
-        if set(value) == {"$array"}:
-            return arrays[value["$array"]]
-        return {key: _join(item, arrays) for key, item in value.items()}
-    if isinstance(value, list):
-        return [_join(item, arrays) for item in value]
     return value

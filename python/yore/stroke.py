@@ -15,6 +15,7 @@ tried, and if that too gives a sliver the face is left whole and reported in
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 
@@ -23,11 +24,35 @@ import numpy as np
 from . import _core
 from .metrics import face_areas
 
-__all__ = ["Camera", "StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES"]
+__all__ = ["Camera", "StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
+           "MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS"]
 
 #: The degenerate-case rules (see the module docstring).
 MIN_BARYCENTRIC = 0.1
 MIN_ANGLE_DEGREES = 5.0
+
+
+#: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
+#: MAX_IMAGE_PIXELS pixels in all (2^23, e.g. 3840×2160), checked before anything is allocated
+#: (the renderer needs some 60 bytes per pixel).
+MAX_IMAGE_SIDE = 16384
+MAX_IMAGE_PIXELS = 1 << 23
+
+
+def check_image_size(width, height, what="camera"):
+    """(width, height) as ints if both are integers in [1, MAX_IMAGE_SIDE] whose product is at
+    most MAX_IMAGE_PIXELS; ValueError naming the side, its value and the limit otherwise."""
+    for name, value in (("width", width), ("height", height)):
+        if (isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral)
+                or not 1 <= value <= MAX_IMAGE_SIDE):
+            text = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
+            raise ValueError(f"{what} {name}: got {type(value).__name__} {text}; expected an "
+                             f"integer number of pixels in [1, {MAX_IMAGE_SIDE}]")
+    if int(width) * int(height) > MAX_IMAGE_PIXELS:
+        raise ValueError(f"{what} image size: {int(width)}×{int(height)} = "
+                         f"{int(width) * int(height)} pixels is more than the limit of "
+                         f"{MAX_IMAGE_PIXELS} pixels")
+    return int(width), int(height)
 
 
 class StrokeMissed(ValueError):
@@ -48,13 +73,19 @@ class Camera:
 
     def __post_init__(self):
         for name in ("eye", "target", "up"):
-            value = np.asarray(getattr(self, name), dtype=float)
+            try:
+                value = np.asarray(getattr(self, name), dtype=float)
+            except (TypeError, ValueError):
+                value = np.full(0, np.nan)
             if value.shape != (3,) or not np.all(np.isfinite(value)):
                 raise ValueError(f"camera {name} must be 3 finite numbers, got {getattr(self, name)!r}")
-        if not 0.0 < float(self.fov_degrees) < 180.0:
+        if (isinstance(self.fov_degrees, (bool, np.bool_))
+                or not isinstance(self.fov_degrees, numbers.Real)
+                or not 0.0 < float(self.fov_degrees) < 180.0):
             raise ValueError(f"camera fov_degrees must be in (0, 180), got {self.fov_degrees}")
-        if int(self.width) < 1 or int(self.height) < 1:
-            raise ValueError(f"camera image size must be positive, got {self.width}×{self.height}")
+        width, height = check_image_size(self.width, self.height)
+        object.__setattr__(self, "width", width)
+        object.__setattr__(self, "height", height)
         forward = np.asarray(self.target, float) - np.asarray(self.eye, float)
         if np.linalg.norm(forward) == 0 or np.linalg.norm(np.cross(forward, self.up)) == 0:
             raise ValueError("camera target must differ from eye and not lie along up")
