@@ -248,3 +248,20 @@ def test_a_resume_checks_that_the_frames_it_lists_exist(tmp_path, capsys):
     assert resume(tmp_path) == 2
     error = capsys.readouterr().err
     assert "no longer exist" in error and Path(frames[1]["file"]).name in error
+
+
+@pytest.mark.parametrize("field, value", [
+    ("step", -1), ("step", 3.5), ("step", 10**6), ("next_stroke", 7), ("frames", [[0.0]]),
+    ("records", "x"), ("before", {"time": "now"}), ("wall_seconds", -1.0), ("phases", []),
+    ("overrides", [1]), ("scene_text", None)])
+def test_a_tampered_run_record_is_refused_naming_the_field(tmp_path, capsys, field, value):
+    assert run_hanging(tmp_path, "--until", "0.15") == 0
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    record[field] = value
+    if field == "next_stroke":  # consistent with its list, but more than the scene has
+        record["strokes"] = [{}] * value
+    yore.save_state(tmp_path / "state.npz", sim, metadata=record)
+    assert resume(tmp_path) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error:") and "\n" not in error
+    assert f"metadata.{field}" in error

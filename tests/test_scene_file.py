@@ -220,3 +220,10 @@ def test_a_fifo_as_scene_path_is_refused_without_blocking(tmp_path):
 def test_a_generator_of_the_wrong_type_is_a_scene_error():
     error = error_of(MINIMAL.replace('generator = "grid"', "generator = [1]"))
     assert error.key == "mesh.generator"
+
+
+def test_a_subnormal_mass_is_named_in_material_and_no_nan_step_is_suggested():
+    scene = load_scene(EXAMPLES / "hanging.toml", overrides={"material.mass": 1e-320})
+    with pytest.raises(SceneError, match=r"material: mass of vertex 0") as info:
+        scene.build()
+    assert "nan" not in str(info.value)

@@ -100,6 +100,7 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
     if not isinstance(record, dict) or "scene_text" not in record:
         raise ValueError(f"{state_path} is a simulation state but not a run's: it has no scene "
                          "(write run states with `yore run`)")
+    _check_record(state_path, record)
     missing = [path for _, path in record["frames"] if not Path(path).is_file()]
     if record["before"] is not None and not Path(record["before"]["file"]).is_file():
         missing.insert(0, record["before"]["file"])
@@ -109,6 +110,12 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
                          "again with --overwrite")
     scene_path = record["scene_path"]
     scene = load_scene(scene_path, text=record["scene_text"], overrides=record["overrides"])
+    if record["step"] != _steps(sim.time, sim.dt):
+        raise ValueError(f"{state_path}: field metadata.step: {record['step']} does not match "
+                         f"the state's clock ({_steps(sim.time, sim.dt)} steps)")
+    if record["next_stroke"] > len(scene.data["strokes"]):
+        raise ValueError(f"{state_path}: field metadata.next_stroke: {record['next_stroke']} "
+                         f"strokes done, but the scene has {len(scene.data['strokes'])}")
     _set_threads(scene, threads)
     record["resumed_from"] = record["resumed_from"] + [str(state_path)]
     if out is None or Path(os.fspath(out)).resolve() == state_path.parent.resolve():
@@ -117,6 +124,57 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
         out = Path(os.fspath(out))
         claim_folder(out, record, overwrite)
     return _run(scene, sim, record, out, until, quiet, render)
+
+
+def _check_record(state_path, record):
+    """The run's record in a state file (its metadata), checked field by field: ValueError
+    naming the field, so a tampered record can only be refused, never half-used."""
+    def fail(field, expected):
+        raise ValueError(f"{state_path}: field metadata.{field}: expected {expected}")
+
+    def count(value):
+        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+    def number(value):
+        return isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value)
+
+    expected_keys = {"scene_text", "scene_path", "overrides", "step", "next_stroke", "frames",
+                     "records", "strokes", "before", "wall_seconds", "resumed_from", "phases"}
+    if set(record) != expected_keys:
+        fail("(keys)", f"the keys {sorted(expected_keys)} of a run's record")
+    if not isinstance(record["scene_text"], str):
+        fail("scene_text", "the scene file's text")
+    if record["scene_path"] is not None and not isinstance(record["scene_path"], str):
+        fail("scene_path", "a path or null")
+    if not isinstance(record["overrides"], dict) or \
+            not all(isinstance(key, str) for key in record["overrides"]):
+        fail("overrides", "a table of dotted keys")
+    for field in ("step", "next_stroke"):
+        if not count(record[field]):
+            fail(field, "an integer >= 0")
+    if not isinstance(record["frames"], list) or not all(
+            isinstance(f, list) and len(f) == 2 and number(f[0]) and isinstance(f[1], str)
+            for f in record["frames"]):
+        fail("frames", "a list of [time, path] pairs")
+    for field in ("records", "strokes"):
+        if not isinstance(record[field], list) or \
+                not all(isinstance(entry, dict) for entry in record[field]):
+            fail(field, "a list of tables")
+    if len(record["strokes"]) != record["next_stroke"]:
+        fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
+    before = record["before"]
+    if before is not None and not (isinstance(before, dict) and number(before.get("time"))
+                                   and isinstance(before.get("file"), str)):
+        fail("before", "null or a table with time and file")
+    if not number(record["wall_seconds"]) or record["wall_seconds"] < 0:
+        fail("wall_seconds", "a number >= 0")
+    if not isinstance(record["resumed_from"], list) or \
+            not all(isinstance(path, str) for path in record["resumed_from"]):
+        fail("resumed_from", "a list of paths")
+    if not isinstance(record["phases"], dict) or not all(
+            isinstance(k, str) and number(v) for k, v in record["phases"].items()):
+        fail("phases", "a table of seconds per phase")
 
 
 def _set_threads(scene, threads):

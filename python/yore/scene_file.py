@@ -708,6 +708,10 @@ def _build(scene):
                       bend_stiffness=material["bend_stiffness"], damping=material["damping"],
                       drag=material["drag"], **mass_arguments)
     except ValueError as error:
+        # The core checks the mesh and the per-vertex masses; name the table the value came from.
+        if "mass" in str(error):
+            raise scene.error("material", str(error), "masses that are normal numbers > 0 per "
+                              "vertex") from None
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
     if generator == "grid" and mesh["gather"] != 1.0:
         gathered = pattern.copy()
