@@ -265,3 +265,31 @@ def test_a_tampered_run_record_is_refused_naming_the_field(tmp_path, capsys, fie
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error:") and "\n" not in error
     assert f"metadata.{field}" in error
+
+
+def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(tmp_path, monkeypatch,
+                                                                    straight, capsys):
+    # A state file after every frame; the process then "dies" (SystemExit, which the run does
+    # not catch, like a kill) while writing the 5th frame, after the stroke.
+    monkeypatch.setattr(yore.runner, "CHECKPOINT_SECONDS", 0.0)
+    original = yore.io.FrameSeries.write
+    calls = {"count": 0}
+
+    def dying(self, *args, **kwargs):
+        calls["count"] += 1
+        path = original(self, *args, **kwargs)
+        if calls["count"] == 5:
+            raise SystemExit("killed")
+        return path
+
+    monkeypatch.setattr(yore.io.FrameSeries, "write", dying)
+    with pytest.raises(SystemExit):
+        run_hanging(tmp_path)
+    monkeypatch.undo()
+    assert not (tmp_path / "summary.json").exists()
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    assert len(record["frames"]) == 4 and len(record["strokes"]) == 1
+    assert run_hanging(tmp_path) == 2  # an unfinished run: resume it, or overwrite
+    assert "--resume" in capsys.readouterr().err
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)

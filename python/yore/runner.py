@@ -185,6 +185,9 @@ def _set_threads(scene, threads):
         set_num_threads(threads)
 
 
+#: Wall time between the state files a run saves at its frames (besides the one at its end).
+CHECKPOINT_SECONDS = 10.0
+
 #: Files a run writes into its folder (besides frames/).
 RUN_FILES = (SUMMARY_NAME, STATE_NAME, BEFORE_NAME, "before_after.png", "last.png",
              "animation.gif", "animation.mp4")
@@ -242,8 +245,10 @@ def claim_folder(out, record, overwrite=False) -> None:
 def _previous_run(out):
     """{"status", "scene_text", "overrides"} of the run in ``out``, or None if unreadable."""
     try:
-        summary = json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8"))
         metadata = load_metadata(out / STATE_NAME)
+        # no summary: the run stopped without one (killed after a periodic state save)
+        summary = json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8")) \
+            if (out / SUMMARY_NAME).is_file() else {"status": "unfinished"}
         return {"status": summary.get("status"), "scene_text": metadata.get("scene_text"),
                 "overrides": metadata.get("overrides")}
     except (OSError, ValueError, AttributeError):
@@ -328,7 +333,7 @@ def _run(scene, sim, record, out, until, quiet, render):
 
     bar = tqdm(total=last_step, initial=min(step, last_step), unit="step", desc="yore run",
                disable=quiet or None, delay=2.0, dynamic_ncols=True, leave=False)
-    started = _time.perf_counter()
+    started = saved_at = _time.perf_counter()
     status, message = None, None  # None: ran to its last step
     missed = None  # the SceneError of a stroke that missed at its time
     phases = None  # the live simulation's phases, when a rollback replaced it
@@ -383,6 +388,11 @@ def _run(scene, sim, record, out, until, quiet, render):
                         f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s")
                 _write_frame(sim, frames, record, fmt, entry)
                 good = _Checkpoint(sim, record, live_reports)
+                if _time.perf_counter() - saved_at > CHECKPOINT_SECONDS:
+                    # a crash (or a kill) then costs at most this much of the run
+                    with _deferred_interrupt():
+                        _save(out, sim, _with_wall_time(record, started), previous_phases)
+                    saved_at = _time.perf_counter()
     except (SimulationDiverged, _NonFinite) as error:
         status, message = "diverged", str(error)
     except KeyboardInterrupt:
@@ -438,6 +448,11 @@ def _stable_advice(sim):
 
 def _steps(seconds, dt):
     return int(round(seconds / dt))
+
+
+def _with_wall_time(record, started):
+    """The record as it would be saved now (its wall time including this part so far)."""
+    return {**record, "wall_seconds": record["wall_seconds"] + _time.perf_counter() - started}
 
 
 def _measure(sim):
