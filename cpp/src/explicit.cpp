@@ -289,12 +289,14 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
 int StepThreadChooser::threads_for_next_step(int configured) {
   if (configured != m_configured) {  // first step, or set_max_threads since: start over
     m_configured = configured;
-    m_preferred = m_running = configured;
+    // One thread first: on a busy machine a first parallel step can stall for a whole time
+    // slice, and on an idle one the parallel re-timing comes after one block anyway.
+    m_preferred = m_running = 1;
     m_block_steps = 0;
     m_block_seconds = 0.0;
     m_preferred_seconds_per_step = 0.0;
-    m_interval = 1;
-    m_blocks_until_probe = 1;
+    m_wait_seconds = 0.0;
+    m_seconds_until_probe = 0.0;
   }
   return m_running;
 }
@@ -312,22 +314,32 @@ bool StepThreadChooser::record(double seconds) {
     return false;
   }
   const double seconds_per_step = m_block_seconds / m_block_steps;
+  const double block_seconds = m_block_seconds;
+  const int block_steps = m_block_steps;
   m_block_steps = 0;
   m_block_seconds = 0.0;
   if (probing) {
     if (seconds_per_step < m_preferred_seconds_per_step) {
       m_preferred = m_running;  // it won: keep it, and re-time the loser soon
       m_preferred_seconds_per_step = seconds_per_step;
-      m_interval = 1;
+      m_wait_seconds = kBlockSeconds;
     } else {
-      m_interval = std::min((lost_already ? 4 : 2) * m_interval, kMaxInterval);
+      // The first re-timing of all threads also starts the thread pool: it is tried again
+      // soon rather than judged by that one-time cost.
+      const bool first = m_wait_seconds == 0.0;
+      const double lost = block_seconds - m_preferred_seconds_per_step * block_steps;
+      m_wait_seconds = first ? kBlockSeconds
+                             : std::min(std::max({2.0 * m_wait_seconds, kOverheadFactor * lost,
+                                                  kBlockSeconds}),
+                                        kMaxWaitSeconds);
     }
     m_running = m_preferred;
-    m_blocks_until_probe = m_interval;
+    m_seconds_until_probe = m_wait_seconds;
     return true;
   }
   m_preferred_seconds_per_step = seconds_per_step;
-  if (--m_blocks_until_probe <= 0) m_running = m_preferred == 1 ? m_configured : 1;
+  m_seconds_until_probe -= block_seconds;
+  if (m_seconds_until_probe <= 0.0) m_running = m_preferred == 1 ? m_configured : 1;
   return false;
 }
 

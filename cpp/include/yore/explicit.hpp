@@ -36,10 +36,11 @@ struct ExplicitStatistics {
 };
 
 /// Chooses, block of steps by block, whether the step's loops run on all the configured threads
-/// or on one: whichever ran its last block faster per step. The other choice is re-timed after
-/// 1, 2, 4, ... up to kMaxInterval blocks (about half a second) while it keeps losing. On a busy machine a parallel
-/// region waits for its slowest, possibly descheduled, thread, and one thread wins; on an idle
-/// one the parallel step does. The choice itself allocates nothing.
+/// or on one: whichever ran its last block faster per step, starting with one. The other choice
+/// is re-timed after a wait that grows while it keeps losing and is at least kOverheadFactor ×
+/// what the last re-timing lost, so re-timing costs a bounded fraction of the run. On a busy
+/// machine a parallel region waits for its slowest, possibly descheduled, thread, and one
+/// thread wins; on an idle one the parallel step does. The choice itself allocates nothing.
 class StepThreadChooser {
  public:
   /// Threads for the next step: 1 or `configured` (>= 1).
@@ -52,11 +53,16 @@ class StepThreadChooser {
 
   /// A block lasts at least this long (s) and kMinBlockSteps steps, so that a timer tick or
   /// one interruption does not decide. A re-timing that is already 2× slower per step ends
-  /// early, and then waits 4× longer for the next.
+  /// early.
   static constexpr double kBlockSeconds = 2e-3;
   static constexpr int kMinBlockSteps = 2;
-  /// Largest number of blocks between two re-timings of the losing choice.
-  static constexpr int kMaxInterval = 256;
+  /// After a lost re-timing, the winner runs for at least kOverheadFactor × the time the
+  /// re-timing lost (and at least twice the previous wait) before the loser is tried again:
+  /// re-timings cost at most 1 / kOverheadFactor of the run, however long a step on a thread
+  /// that the machine has descheduled takes.
+  static constexpr double kOverheadFactor = 50.0;
+  /// Longest wait between two re-timings of the losing choice, s.
+  static constexpr double kMaxWaitSeconds = 30.0;
 
  private:
   int m_configured = 0;
@@ -65,8 +71,8 @@ class StepThreadChooser {
   int m_block_steps = 0;
   double m_block_seconds = 0.0;
   double m_preferred_seconds_per_step = 0.0;  // of the preferred choice's last block
-  int m_interval = 1;            // blocks between re-timings
-  int m_blocks_until_probe = 1;
+  double m_wait_seconds = 0.0;   // the winner's running time between re-timings
+  double m_seconds_until_probe = 0.0;
 };
 
 /// Symplectic (semi-implicit) Euler: v⁺ = v + h M⁻¹ f(x, v), x⁺ = x + h v⁺, then optional strain
