@@ -37,6 +37,9 @@ SCHEMAS = {
                  "step_seconds_median", "repeats"}),
     "stability_map": ({"benchmark", "machine", "rows", "stiffness_values", "dt_values", "quick"},
                       {"integrator", "stiffness", "dt", "state"}),
+    "stable_dt": ({"benchmark", "machine", "rows", "steps", "safety", "quick"},
+                  {"scene", "stiffness", "damped", "gershgorin_dt", "bound_dt", "estimate_dt",
+                   "found_dt", "default_dt", "default_ratio"}),
 }
 
 

@@ -423,7 +423,23 @@ unknown or missing key or the first inconsistent value.)doc")
                       [](const py::dict& values) { return cloth_from_state(values); }))
       .def(
           "stable_time_step", [](const Cloth& cloth) { return idle(cloth).stable_time_step(); },
-          "Estimated largest stable explicit time step, s (conservative).")
+          R"doc(Largest stable symplectic-Euler time step at the current state, s: Lanczos on the
+mass-scaled PSD-projected spring Hessian (fixed and driven vertices eliminated), damping of the
+top mode plus drag, h = (sqrt(g^2 + 4 lambda) - g) / lambda. Tight (an estimate from above at
+this state: stretching or a stroke can lower the limit, so take a safety factor; the default
+explicit dt takes 0.85). 0 when k/m overflows; 2/g or inf when nothing elastic moves.)doc")
+      .def(
+          "stable_time_step_bound",
+          [](const Cloth& cloth) { return idle(cloth).stable_time_step_bound(); },
+          R"doc(State-independent stable time step, s: as stable_time_step on the spring graph
+Laplacian (x I3) of stiffness and damping, which bounds the Hessian whatever the cloth's shape.
+Lower than stable_time_step, and stays valid as the cloth stretches.)doc")
+      .def(
+          "gershgorin_time_step",
+          [](const Cloth& cloth) { return idle(cloth).gershgorin_time_step(); },
+          R"doc(Cheapest, most conservative stable time step, s: Gershgorin bounds on the
+mass-scaled stiffness and damping Laplacians. Never above stable_time_step_bound; exact for one
+spring, up to ~1.8x low on a cloth.)doc")
       .def_property_readonly(
           "busy", [](const Cloth& cloth) { return is_busy(&cloth); },
           "Whether a call that released the GIL (an integrator's advance, a stroke trace) is "

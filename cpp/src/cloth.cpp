@@ -1,5 +1,6 @@
 #include "yore/cloth.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -734,7 +735,7 @@ bool Cloth::has_spring_damping() const {
                      [](double c) { return c > 0.0; });
 }
 
-double Cloth::stable_time_step() const {
+double Cloth::gershgorin_time_step() const {
   // Row sums of |M^{-1/2} A M^{-1/2}| over free vertices bound the largest eigenvalue of the
   // mass-scaled stiffness (A = K, each spring block has norm <= k while the spring is not
   // compressed) and damping (A = C) matrices.
@@ -756,12 +757,124 @@ double Cloth::stable_time_step() const {
     gamma = std::max(gamma, damping_row);
   }
   gamma += m_drag;
+  return symplectic_euler_step_limit(omega_squared, gamma);
+}
+
+double Cloth::stable_time_step() const { return lanczos_time_step(false); }
+
+double Cloth::stable_time_step_bound() const { return lanczos_time_step(true); }
+
+double Cloth::lanczos_time_step(bool every_state) const {
+  const double gershgorin = gershgorin_time_step();
+  // Overflowing k / m (no step is stable) or nothing elastic moving (only damping limits the
+  // step): the Gershgorin answer is exact, and Lanczos would only see zeros or non-finite values.
+  if (!(gershgorin > 0.0) || !std::isfinite(gershgorin) || m_springs.size() == 0) return gershgorin;
+  bool any_free = false;
+  for (Eigen::Index i = 0; i < vertex_count(); ++i) any_free = any_free || m_inverse_masses[i] > 0.0;
+  if (!any_free) return gershgorin;
+
+  // Per-spring 3×3 stiffness and damping blocks. every_state: k·I and c·I, which bound the
+  // spring's Hessian k[d̂d̂ᵀ + (1 − L/ℓ)(I − d̂d̂ᵀ)] (ℓ >= 0) and its damping c d̂d̂ᵀ whatever
+  // the cloth's shape. Otherwise the Hessian at the current positions, projected to PSD (the
+  // transverse factor clamped to [0, 1]), and the damping along the current directions.
+  const std::size_t spring_count = m_springs.size();
+  std::vector<Mat3> stiffness_blocks(spring_count), damping_blocks(spring_count);
+  for (std::size_t s = 0; s < spring_count; ++s) {
+    const double k = m_springs.stiffness[s], c = m_springs.damping[s];
+    const Vec3 d = m_positions.row(m_springs.first[s]) - m_positions.row(m_springs.second[s]);
+    const double length = d.norm();
+    if (every_state || !(length > 0.0) || !std::isfinite(length)) {
+      stiffness_blocks[s] = k * Mat3::Identity();
+      damping_blocks[s] = c * Mat3::Identity();
+      continue;
+    }
+    const Vec3 direction = d / length;
+    const Mat3 along = direction * direction.transpose();
+    const double transverse = std::clamp(1.0 - m_springs.rest_length[s] / length, 0.0, 1.0);
+    stiffness_blocks[s] = k * (along + transverse * (Mat3::Identity() - along));
+    damping_blocks[s] = c * along;
+  }
+  // Constrained (fixed or driven) vertices have zero inverse mass, so S = M^{-1/2} eliminates
+  // their rows and columns.
+  const Eigen::VectorXd scale = m_inverse_masses.cwiseSqrt();
+  const Eigen::Index n = vertex_count();
+  auto apply = [&](const std::vector<Mat3>& blocks, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+    y.setZero(3 * n);
+    for (std::size_t s = 0; s < spring_count; ++s) {
+      const std::int32_t i = m_springs.first[s], j = m_springs.second[s];
+      const Vec3 f = blocks[s] * (scale[i] * x.segment<3>(3 * i) - scale[j] * x.segment<3>(3 * j));
+      y.segment<3>(3 * i) += scale[i] * f;
+      y.segment<3>(3 * j) -= scale[j] * f;
+    }
+  };
+
+  // Lanczos with full reorthogonalization on S K S. Ritz values approach λ_max from below; the
+  // top one usually converges in a few dozen iterations (the top of the spectrum is where
+  // Krylov methods are fastest). A fixed deterministic start vector keeps the estimate
+  // reproducible.
+  const Eigen::Index dim = 3 * n;
+  const int max_iterations = static_cast<int>(std::min<Eigen::Index>(dim, kLanczosMaxIterations));
+  Eigen::MatrixXd basis(dim, max_iterations);
+  Eigen::VectorXd q(dim), w(dim);
+  std::uint64_t seed = 0x9E3779B97F4A7C15ULL;
+  for (Eigen::Index r = 0; r < dim; ++r) {
+    seed ^= seed >> 12; seed ^= seed << 25; seed ^= seed >> 27;  // xorshift64*
+    const double u = static_cast<double>((seed * 0x2545F4914F6CDD1DULL) >> 11) * 0x1.0p-53;
+    q[r] = scale[r / 3] > 0.0 ? 2.0 * u - 1.0 : 0.0;
+  }
+  q.normalize();
+  std::vector<double> alpha, beta;
+  double top = 0.0, previous_top = -1.0;
+  Eigen::VectorXd ritz_coefficients;
+  int steps = 0;
+  for (int it = 0; it < max_iterations; ++it) {
+    basis.col(it) = q;
+    apply(stiffness_blocks, q, w);
+    alpha.push_back(q.dot(w));
+    // Two passes of classical Gram–Schmidt against the whole basis.
+    for (int pass = 0; pass < 2; ++pass) {
+      w -= basis.leftCols(it + 1) * (basis.leftCols(it + 1).transpose() * w);
+    }
+    steps = it + 1;
+    const double b = w.norm();
+    const bool last = it + 1 == max_iterations || !(b > 1e-12 * std::abs(alpha.front()) + 1e-300);
+    if ((it + 1) % 5 == 0 || last) {
+      Eigen::MatrixXd tridiagonal = Eigen::MatrixXd::Zero(steps, steps);
+      for (int r = 0; r < steps; ++r) {
+        tridiagonal(r, r) = alpha[static_cast<std::size_t>(r)];
+        if (r + 1 < steps) {
+          tridiagonal(r, r + 1) = tridiagonal(r + 1, r) = beta[static_cast<std::size_t>(r)];
+        }
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(tridiagonal);
+      if (eigen.info() != Eigen::Success) break;
+      top = eigen.eigenvalues()[steps - 1];
+      ritz_coefficients = eigen.eigenvectors().col(steps - 1);
+      if (!std::isfinite(top)) return 0.0;
+      if (last || std::abs(top - previous_top) <= kLanczosRelativeTolerance * top) break;
+      previous_top = top;
+    }
+    beta.push_back(b);
+    q = w / b;
+  }
+  if (!(top > 0.0) || ritz_coefficients.size() != steps) return gershgorin;
+  // Damping of the top mode: the Rayleigh quotient of S C S at its Ritz vector (exact when the
+  // damping is proportional to the stiffness, as with the scenes' uniform springs), plus drag.
+  const Eigen::VectorXd mode = (basis.leftCols(steps) * ritz_coefficients).normalized();
+  apply(damping_blocks, mode, w);
+  const double gamma = std::max(0.0, mode.dot(w)) + m_drag;
+  return symplectic_euler_step_limit(top, gamma);
+}
+
+double symplectic_euler_step_limit(double omega_squared, double gamma) {
   // Masses are normal numbers, but k / m can still overflow: then no step is stable.
   if (!std::isfinite(omega_squared) || !std::isfinite(gamma)) return 0.0;
   if (omega_squared == 0.0) {
     // Nothing elastic moves: only damping limits the step (h γ < 2), if anything.
     return gamma > 0.0 ? 2.0 / gamma : std::numeric_limits<double>::infinity();
   }
+  // The mode x'' = −ω² x − γ x' under v⁺ = v + h a(x, v), x⁺ = x + h v⁺ is stable while
+  // h² ω² + 2 h γ < 4 (and h γ < 2, implied).
   return (std::sqrt(gamma * gamma + 4.0 * omega_squared) - gamma) / omega_squared;
 }
 

@@ -219,10 +219,27 @@ class Cloth {
   /// Kinetic, spring and gravitational energy for gravity g (m/s²).
   EnergyTerms energy(const Vec3& gravity) const;
 
-  /// Largest time step (s) for which symplectic Euler is linearly stable, estimated from
-  /// Gershgorin bounds on M^{-1/2} K M^{-1/2} (ω²) and on the damping matrix plus drag (γ):
-  /// h < (√(γ² + 4ω²) − γ) / ω². A conservative estimate: the true limit is at most ~2× larger.
+  /// Largest time step (s) for which symplectic Euler is linearly stable at the current state:
+  /// λ_max of M^{-1/2} H M^{-1/2} (H the PSD-projected spring Hessian at the current positions,
+  /// fixed and driven vertices eliminated) by Lanczos (at most 60 iterations, stopped when the
+  /// top Ritz value changes by < 1e-6 relative over 5), damping γ of that mode (Rayleigh
+  /// quotient of the damping matrix, plus drag), h = (√(γ² + 4λ) − γ) / λ. Tight (within ~5 % of
+  /// the limit found by trying on the scenes); Lanczos approaches λ from below, so it is an
+  /// estimate from above at this state, and stretching or a stroke can lower the limit later:
+  /// take a safety factor (the default explicit dt takes 0.85). Returns 0 when k/m overflows,
+  /// 2/γ or +inf when nothing elastic moves. O(springs) per iteration; computed on each call.
   double stable_time_step() const;
+
+  /// A state-independent stable time step (s): as stable_time_step but on the graph Laplacian
+  /// of the spring stiffnesses (⊗ I₃) and of the damping, which bound every spring's Hessian and
+  /// damping whatever the cloth's shape (ℓ >= 0). Lower than stable_time_step (~0.72-0.92 of
+  /// the limit found by trying on the scenes), and stays valid as the cloth stretches.
+  double stable_time_step_bound() const;
+
+  /// The cheapest and most conservative stable time step (s): Gershgorin bounds on the
+  /// Laplacian of M^{-1/2} K M^{-1/2} (ω²) and of the damping plus drag (γ), h = (√(γ² + 4ω²) −
+  /// γ) / ω². Never above stable_time_step_bound; exact for one spring, up to ~1.8× low on cloth.
+  double gershgorin_time_step() const;
 
   /// Whether any spring has non-zero damping.
   bool has_spring_damping() const;
@@ -232,6 +249,9 @@ class Cloth {
   void initialise_state(const Positions& positions, const Eigen::VectorXd& masses, double drag);
   void rebuild_incidence();
   void update_inverse_masses();
+  double lanczos_time_step(bool every_state) const;
+  static constexpr int kLanczosMaxIterations = 60;
+  static constexpr double kLanczosRelativeTolerance = 1e-6;
   void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
 
   Positions m_positions;
@@ -253,5 +273,9 @@ class Cloth {
   std::uint64_t m_topology_version = 0;
   std::uint64_t m_edit_count = 0;
 };
+
+/// Largest step h (s) for which symplectic Euler keeps the damped mode x'' = −ω² x − γ x'
+/// bounded: (√(γ² + 4ω²) − γ) / ω²; 2/γ (or +inf) at ω² = 0; 0 if either is non-finite.
+double symplectic_euler_step_limit(double omega_squared, double gamma);
 
 }  // namespace yore
