@@ -55,7 +55,7 @@ def test_step_and_advance_check_their_arguments_and_count_time(cloth):
 
 def test_default_dt_is_stable_and_a_whole_fraction_of_a_second(cloth):
     sim = yore.Simulation(cloth)
-    assert sim.dt <= 0.5 * cloth.stable_time_step()
+    assert sim.dt <= 0.98 * cloth.stable_time_step_bound()
     assert abs(1.0 / sim.dt - round(1.0 / sim.dt)) < 1e-9
 
 

@@ -426,8 +426,8 @@ unknown or missing key or the first inconsistent value.)doc")
           R"doc(Largest stable symplectic-Euler time step at the current state, s: Lanczos on the
 mass-scaled PSD-projected spring Hessian (fixed and driven vertices eliminated), damping of the
 top mode plus drag, h = (sqrt(g^2 + 4 lambda) - g) / lambda. Tight (an estimate from above at
-this state: stretching or a stroke can lower the limit, so take a safety factor; the default
-explicit dt takes 0.85). 0 when k/m overflows; 2/g or inf when nothing elastic moves.)doc")
+this state: stretching or a stroke can lower the limit; the default explicit dt uses
+stable_time_step_bound). 0 when k/m overflows; 2/g or inf when nothing elastic moves.)doc")
       .def(
           "stable_time_step_bound",
           [](const Cloth& cloth) { return idle(cloth).stable_time_step_bound(); },

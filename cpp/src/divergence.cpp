@@ -120,9 +120,9 @@ SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, st
     msg << (stable > 0.0 ? "nothing elastic limits the step: check the forces and drivers."
                          : "no step is stable: check for tiny masses or huge stiffnesses.");
   } else if (std::string(integrator) == "explicit") {
-    // The same safety as the default explicit dt: the estimate is tight at the state the run
-    // restored to, and stretching or a stroke can lower the limit by up to ~15 %.
-    msg << "use dt <= " << 0.85 * stable << " s or an implicit integrator.";
+    // The state-independent bound, as the default explicit dt: the tight estimate above holds at
+    // the state the run restored to, and stretching can lower the limit below it.
+    msg << "use dt <= " << 0.98 * cloth.stable_time_step_bound() << " s or an implicit integrator.";
   } else {
     msg << "an implicit step this far off points to a failed Newton solve: try dt <= " << dt / 4
         << " s, or more Newton iterations (max_newton).";

@@ -226,7 +226,7 @@ class Cloth {
   /// quotient of the damping matrix, plus drag), h = (√(γ² + 4λ) − γ) / λ. Tight (within ~5 % of
   /// the limit found by trying on the scenes); Lanczos approaches λ from below, so it is an
   /// estimate from above at this state, and stretching or a stroke can lower the limit later:
-  /// take a safety factor (the default explicit dt takes 0.85). Returns 0 when k/m overflows,
+  /// use stable_time_step_bound for a step that must stay stable. Returns 0 when k/m overflows,
   /// 2/γ or +inf when nothing elastic moves. O(springs) per iteration; computed on each call.
   double stable_time_step() const;
 
