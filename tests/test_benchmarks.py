@@ -114,6 +114,15 @@ def test_stability_map_smoke(tmp_path):
     assert any(r["state"] == "diverged" for r in data["rows"] if r["integrator"] == "explicit")
 
 
+def test_stable_dt_smoke(tmp_path):
+    data = run_benchmark("stable_dt", tmp_path, "--quick")
+    assert {r["scene"] for r in data["rows"]} == {"hanging_cloth", "rotating_cylinder"}
+    for r in data["rows"]:
+        # Gershgorin <= Laplacian bound <= found limit; the default is below the limit
+        assert r["gershgorin_dt"] <= r["bound_dt"] * (1 + 1e-12) <= r["found_dt"]
+        assert r["default_dt"] < r["found_dt"]
+
+
 def test_newton_projection_smoke(tmp_path):
     data = run_benchmark("newton_projection", tmp_path, "--quick")
     assert {r["adaptive_projection"] for r in data["rows"]} == {False, True}
