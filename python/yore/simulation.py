@@ -310,8 +310,11 @@ class Simulation:
         ``lagged_factorization`` (False: keep the factor over iterations and steps, solve by CG
         preconditioned with it, refactor when CG needs more than ``lag_max_cg_iterations`` (20)
         to reach ``lag_cg_tol`` (1e-10); uses the projected Hessian).
-    local-global: ``iterations`` (10), ``acceleration`` ("none" | "chebyshev"),
-        ``chebyshev_rho`` (0.7), ``ordering``, ``factorization``, ``rebuild`` ("fresh" |
+    local-global: ``iterations`` (300: the cap per step), ``tolerance`` (1e-3: a step stops
+        once its estimated distance to the backward-Euler solution is below this × the mean
+        rest length; 0 = no test; a step at the cap is counted in ``unconverged_steps`` and a
+        call with any warns once), ``acceleration`` ("chebyshev" | "none"),
+        ``chebyshev_rho`` (0.997), ``ordering``, ``factorization``, ``rebuild`` ("fresh" |
         "reuse-ordering" | "stale-pcg"), ``stale_pcg_max_iterations`` (30), ``stale_pcg_tol``,
         ``record_objective``, ``divergence_energy_factor``.
 
@@ -459,7 +462,9 @@ class Simulation:
             return
         cloth = self._cloth
         saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
-        analyzed_before = self._integrator.statistics.get("analyze_seconds", 0.0)
+        before = self._integrator.statistics
+        analyzed_before = before.get("analyze_seconds", 0.0)
+        unconverged_before = before.get("unconverged_steps", 0)
         done, batch, bar = 0, 1, None
         started = _time.perf_counter()
         try:
@@ -501,6 +506,16 @@ class Simulation:
             self._wall_seconds += _time.perf_counter() - started
             if bar is not None:
                 bar.close()
+        after = self._integrator.statistics
+        unconverged = after.get("unconverged_steps", 0) - unconverged_before
+        if unconverged and self._integrator_name == "local-global":
+            import warnings
+
+            warnings.warn(f"local-global: {unconverged} of {steps} steps reached the iteration "
+                          f"cap (iterations={self._options['iterations']}) before the tolerance "
+                          f"({self._options['tolerance']:g}); last error estimate "
+                          f"{after['last_error_estimate']:.3g} mean rest lengths",
+                          RuntimeWarning, stacklevel=3)
 
     # -- strokes ----------------------------------------------------------------------------
     def stroke(self, points_3d, expansion=1.1, mass_scale=0.95, max_distance=None):
