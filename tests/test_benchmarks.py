@@ -62,7 +62,7 @@ def test_speed_vs_error_smoke(tmp_path):
     rows = [r for r in data["rows"] if r["method"] != "reference"]
     assert {r["method"] for r in rows} == {"explicit", "explicit + strain limit", "BE linearized",
                                            "BE Newton", "BDF2", "BE Newton, lagged factor",
-                                           "local-global (10 it)", "local-global + Chebyshev"}
+                                           "local-global (10 it)", "local-global (defaults)"}
     # explicit runs far above the stability limit diverge; the implicit ones never do
     assert any(r["diverged"] for r in rows if r["method"] == "explicit")
     assert not any(r["diverged"] for r in rows

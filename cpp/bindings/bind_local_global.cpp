@@ -14,12 +14,13 @@ void bind_local_global(py::module_& m) {
       m, "LocalGlobalIntegrator", "Prefactored local/global backward Euler (Liu et al. 2013).");
   def_advance(integrator_class);
   integrator_class
-      .def(py::init([](std::int64_t iterations, double chebyshev_rho, const std::string& ordering,
+      .def(py::init([](std::int64_t iterations, double tolerance, double chebyshev_rho, const std::string& ordering,
                        const std::string& factorization, const std::string& rebuild,
                        std::int64_t stale_pcg_max_iterations, double stale_pcg_tol, bool record_objective,
                        double divergence_energy_factor) {
              LocalGlobalOptions options;
              options.iterations = to_int32(iterations, "iterations");
+             options.tolerance = tolerance;
              options.chebyshev_rho = chebyshev_rho;
              if (ordering == "amd") options.ordering = Ordering::amd;
              else if (ordering == "metis") options.ordering = Ordering::metis;
@@ -42,7 +43,8 @@ void bind_local_global(py::module_& m) {
              options.divergence_energy_factor = divergence_energy_factor;
              return std::make_unique<LocalGlobalIntegrator>(options);
            }),
-           py::kw_only(), py::arg("iterations") = 10, py::arg("chebyshev_rho") = 0.0,
+           py::kw_only(), py::arg("iterations") = LocalGlobalOptions{}.iterations,
+           py::arg("tolerance") = LocalGlobalOptions{}.tolerance, py::arg("chebyshev_rho") = 0.0,
            py::arg("ordering") = "amd", py::arg("factorization") = "supernodal",
            py::arg("rebuild") = "fresh", py::arg("stale_pcg_max_iterations") = 30,
            py::arg("stale_pcg_tol") = 1e-12, py::arg("record_objective") = false,
@@ -66,6 +68,10 @@ void bind_local_global(py::module_& m) {
         out["solve_seconds"] = s.solve_seconds;
         out["rebuild_seconds"] = s.rebuild_seconds;
         out["iterations"] = s.iterations;
+        out["unconverged_steps"] = s.unconverged_steps;
+        out["last_iterations"] = s.last_iterations;
+        out["last_residual"] = s.last_residual;
+        out["last_error_estimate"] = s.last_error_estimate;
         out["rebuilds"] = s.rebuilds;
         out["stale_solves"] = s.stale_solves;
         out["pcg_iterations"] = s.pcg_iterations;

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "roughness",
-           "rest_ratio_roughness"]
+__all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "wrinkle_measure",
+           "taubin_smooth", "roughness", "rest_ratio_roughness"]
 
 
 def face_areas(V, F) -> np.ndarray:
@@ -62,6 +62,80 @@ def wrinkle_amplitude(V, F, faces) -> float:
         return 0.0
     normal = np.linalg.svd(points, full_matrices=False)[2][-1]
     return float(np.sqrt(np.mean((points @ normal) ** 2)))
+
+
+def _umbrella_neighbours(F, n):
+    """Edges (e×2, each once) of faces F, the boundary flag of every vertex, and the pairs
+    (vertex, neighbour) Taubin smoothing averages over: all edges at an interior vertex, only
+    the boundary edges at a boundary vertex (so a boundary is smoothed along itself)."""
+    all_edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    edges, uses = np.unique(all_edges, axis=0, return_counts=True)
+    boundary_edges = edges[uses == 1]
+    on_boundary = np.zeros(n, dtype=bool)
+    on_boundary[boundary_edges.ravel()] = True
+    pairs = np.concatenate([edges, edges[:, ::-1]])
+    keep = ~on_boundary[pairs[:, 0]]
+    boundary_pairs = np.concatenate([boundary_edges, boundary_edges[:, ::-1]])
+    pairs = np.concatenate([pairs[keep], boundary_pairs])
+    return pairs, on_boundary
+
+
+def taubin_smooth(V, F, iterations=10, lam=0.5, mu=-0.53) -> np.ndarray:
+    """Taubin λ/μ smoothing (Taubin 1995) of a triangle mesh, uniform (umbrella) weights: each
+    iteration moves every vertex by λ, then by μ (< −λ), times the mean of its neighbours
+    minus itself. The pair is a low-pass filter with pass-band frequency 1/λ + 1/μ (0.11 of
+    the umbrella operator's range here): wrinkles a few edges long are removed, the shape
+    (a plane, a cylinder's curvature) kept without Laplacian smoothing's shrinkage. Boundary
+    vertices are smoothed along the boundary only (their boundary-edge neighbours), so a
+    straight border stays straight and a circular one stays a circle. V n×3 (m), F f×3;
+    returns n×3 (m)."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    n = len(V)
+    pairs, _ = _umbrella_neighbours(F, n)
+    counts = np.maximum(np.bincount(pairs[:, 0], minlength=n), 1).astype(float)
+    X = V.copy()
+    for _ in range(int(iterations)):
+        for factor in (lam, mu):
+            mean = np.zeros((n, 3))
+            for c in range(3):
+                mean[:, c] = np.bincount(pairs[:, 0], X[pairs[:, 1], c], n)
+            X = X + factor * (mean / counts[:, None] - X)
+    return X
+
+
+def vertex_normals(V, F) -> np.ndarray:
+    """Unit vertex normals, n×3: area-weighted means of the face normals (0 where no face)."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    face_normals = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    normals = np.zeros((len(V), 3))
+    for c in range(3):
+        np.add.at(normals, F[:, c], face_normals)
+    length = np.linalg.norm(normals, axis=1)
+    return normals / np.where(length > 0.0, length, 1.0)[:, None]
+
+
+def wrinkle_measure(V, F, region=None, iterations=10, lam=0.5, mu=-0.53) -> float:
+    """Wrinkle size, m: RMS over the region's vertices of the normal component of (vertex −
+    Taubin-smoothed surface). The smoothed surface (`taubin_smooth` of the whole mesh, with
+    ``iterations``, ``lam``, ``mu``) keeps the cloth's large-scale shape and drops its
+    wrinkles; the normal is the smoothed surface's vertex normal. Zero on a plane; on a
+    cylinder ≈ 9e-3 × its radius at 24 segments, 2.5e-3 at 48 (discretisation: the
+    filter's pass band is not flat, the error falls ~1/segments²); linear in the amplitude of
+    a ripple z = A sin(2πx/λ) on a flat grid: 0.442 A at λ = 4 edges, 0.129 A at 6, 0.037 A at
+    8 (iterations = 10; more iterations reach longer wrinkles, 50 give 0.69, 0.43, 0.15 A, at
+    the cost of a 4× larger cylinder value). Invariant to rigid motions.
+
+    V n×3 (m), F f×3 vertex indices; region: face indices (a stroke report's
+    ``region_faces``; their vertices are measured) or None for every vertex."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    smooth = taubin_smooth(V, F, iterations, lam, mu)
+    normals = vertex_normals(smooth, F)
+    vertices = (np.unique(F) if region is None
+                else np.unique(F[np.asarray(region, dtype=np.int64)]))
+    if vertices.size == 0:
+        return 0.0
+    height = np.einsum("ij,ij->i", V[vertices] - smooth[vertices], normals[vertices])
+    return float(np.sqrt(np.mean(height**2)))
 
 
 def roughness(V, F, vertices=None) -> float:

@@ -29,7 +29,13 @@ enum class RebuildStrategy {
 
 /// Settings of the local-global integrator.
 struct LocalGlobalOptions {
-  int iterations = 10;  ///< local/global iterations per step
+  /// Cap on the local/global iterations (global solves) of one step; a step that reaches it
+  /// before the tolerance is counted in unconverged_steps.
+  int iterations = 300;
+  /// A step's iterations stop once the estimated distance to the step's solution,
+  /// ρ/(1 − ρ) ‖x_k − x_{k−1}‖∞ (ρ the observed contraction), is at most tolerance × the mean
+  /// rest length; 0 turns the test off (always run `iterations`, never counted unconverged).
+  double tolerance = 1e-3;
   /// Chebyshev semi-iterative acceleration (Wang 2015) with this spectral-radius estimate, or 0
   /// for none.
   double chebyshev_rho = 0.0;
@@ -45,7 +51,14 @@ struct LocalGlobalOptions {
 /// Counters and wall time per phase, cumulative.
 struct LocalGlobalStatistics {
   std::int64_t steps = 0;
-  std::int64_t iterations = 0;
+  std::int64_t iterations = 0;       ///< global solves, over all steps
+  std::int64_t unconverged_steps = 0;  ///< steps that reached the iteration cap (tolerance > 0)
+  std::int64_t last_iterations = 0;  ///< global solves of the last step
+  /// ‖h² M⁻¹ ∇E‖∞ / mean rest length at the end of the last step (dimensionless; the
+  /// objective's gradient in displacement units, the Newton integrator's measure).
+  double last_residual = std::numeric_limits<double>::quiet_NaN();
+  /// The convergence test's error estimate / mean rest length at the end of the last step.
+  double last_error_estimate = std::numeric_limits<double>::quiet_NaN();
   std::int64_t rebuilds = 0;         ///< changes of topology handled
   std::int64_t analyses = 0;         ///< symbolic analyses, over the integrator's life
   std::int64_t factorizations = 0;   ///< numeric factorizations, over the integrator's life
@@ -64,9 +77,12 @@ struct LocalGlobalStatistics {
 /// written with auxiliary spring vectors d (|d| = L) as a quadratic in x, so the global matrix
 /// Q = M/h² + Σ (k + c/h) AᵀA + drag·M/h is constant: it is analysed per topology and factored
 /// per (topology, dt, stiffness), never per step. Q damps each spring's whole relative motion;
-/// the local step hands back the part across the spring's start direction, so at convergence
-/// the damping is c/(2h)((Δxᵢ − Δxⱼ)·d̂)² — the Newton integrator's objective exactly. Fixed and
-/// driven vertices are eliminated; Q is scalar (n_free × n_free), solved for x, y and z.
+/// the local step hands back the part across the spring's damping direction d̂ (normalised
+/// x̃ᵢ − x̃ⱼ of the predictor x̃ = xₙ + h vₙ, an O(h²) extrapolation of the direction that keeps
+/// the damping quadratic), so at convergence the damping is c/(2h)((Δxᵢ − Δxⱼ)·d̂)² — the
+/// Newton integrator's objective exactly. Iterations stop at `tolerance` or the `iterations`
+/// cap. Fixed and driven vertices are eliminated; Q is scalar (n_free × n_free), solved for
+/// x, y and z.
 class LocalGlobalIntegrator {
  public:
   /// Throws std::invalid_argument on bad options.
@@ -120,8 +136,8 @@ class LocalGlobalIntegrator {
   double m_h = 0.0;
   Vec3 m_gravity = Vec3::Zero();
   Positions m_start, m_target, m_iterate, m_previous_iterate, m_solution;
-  Positions m_directions;  // s×3, spring directions at the step's start (damping)
-  Eigen::Matrix<double, Eigen::Dynamic, 3> m_base_rhs, m_rhs, m_unknowns;
+  Positions m_directions;  // s×3, damping directions, from the predictor xₙ + h vₙ
+  Eigen::Matrix<double, Eigen::Dynamic, 3> m_base_rhs, m_rhs, m_unknowns, m_gradient;
   Eigen::VectorXd m_work_rhs, m_work_x, m_diagonal;
   CgWorkspace m_cg;
   std::vector<double> m_objective_history;
