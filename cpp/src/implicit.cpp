@@ -22,9 +22,9 @@ double seconds_since(Clock::time_point start) {
 // Backtracking line search: Armijo constant, halvings before giving up.
 constexpr double kArmijo = 1e-4;
 constexpr int kMaxBacktracks = 40;
-// Relative size of energy changes that round-off can hide (the objective sums terms of both
-// signs, so it is kept well above machine epsilon).
-constexpr double kRoundoff = 1e-11;
+// Relative size, against the sum of the objective's terms' magnitudes (gravity's is large and
+// of the other sign), of the energy changes that round-off can hide.
+constexpr double kRoundoff = 1e-12;
 
 }  // namespace
 
@@ -199,7 +199,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
   const double h = m_h;
   const double drag = cloth.drag();
   const Eigen::VectorXd& masses = cloth.masses();
-  double energy = 0.0;
+  double energy = 0.0, magnitude = 0.0;  // the sum and the sum of the terms' magnitudes
   if (with_gradient) m_gradient.setZero();
   if (with_hessian) std::fill(m_values.begin(), m_values.end(), 0.0);
 
@@ -210,8 +210,11 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     const Vec3 inertial = x.row(i) - m_target.row(i);
     const Vec3 moved = x.row(i) - m_anchor.row(i);
     const double inertia_weight = m / (h * h), drag_weight = drag * m / h;
-    energy += 0.5 * inertia_weight * inertial.squaredNorm() +
-              0.5 * drag_weight * moved.squaredNorm() - m * x.row(i).dot(m_gravity);
+    const double gravity_energy = m * x.row(i).dot(m_gravity);
+    const double positive = 0.5 * inertia_weight * inertial.squaredNorm() +
+                            0.5 * drag_weight * moved.squaredNorm();
+    energy += positive - gravity_energy;
+    magnitude += positive + std::abs(gravity_energy);
     if (with_gradient) {
       m_gradient.segment<3>(static_cast<Eigen::Index>(3 * b)) =
           inertia_weight * inertial + drag_weight * moved - m * m_gravity;
@@ -231,13 +234,16 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     const std::int32_t i = springs.first[k], j = springs.second[k];
     const Vec3 xi = x.row(i), xj = x.row(j);
     const double rest = springs.rest_length[k], stiffness = springs.stiffness[k];
-    energy += spring_energy(xi, xj, rest, stiffness);
+    const double elastic = spring_energy(xi, xj, rest, stiffness);
+    energy += elastic;
+    magnitude += elastic;
     const double c = springs.damping[k];
     const Vec3 n0 = m_directions.row(static_cast<Eigen::Index>(k));
     double relative = 0.0;
     if (c > 0.0) {
       relative = (xi - m_anchor.row(i).transpose() - xj + m_anchor.row(j).transpose()).dot(n0);
       energy += 0.5 * c / h * relative * relative;
+      magnitude += 0.5 * c / h * relative * relative;
     }
     const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
     const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
@@ -270,6 +276,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       }
     }
   }
+  m_energy_magnitude = magnitude;
   m_statistics.assemble_seconds += seconds_since(start);
   return energy;
 }
@@ -382,13 +389,14 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       break;  // Baraff–Witkin: one step, by definition
     }
     double trial_energy = energy;
+    const double magnitude = m_energy_magnitude;  // of the objective at the iterate
     for (int halvings = 0;; ++halvings) {
       m_trial = m_iterate;
       for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
         m_trial.row(m_free_vertices[b]) +=
             alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
       }
-      if (-alpha * slope <= kRoundoff * std::abs(energy)) {
+      if (-alpha * slope <= kRoundoff * magnitude) {
         // Close to the minimum the energy cannot resolve the decrease the model predicts (an
         // Armijo test there accepts noise or halves forever): accept on a smaller residual.
         trial_energy = evaluate(cloth, m_trial, true, false);

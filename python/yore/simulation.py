@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import time as _time
+import warnings
 
 import numpy as np
 
@@ -323,8 +324,12 @@ class Simulation:
     **options
         Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
         ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
-        ``linearized`` (False), ``newton_tol`` (1e-5, relative to the mean rest length),
-        ``max_newton`` (50), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
+        ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when max |∇ᵢE|·h̃²/mᵢ, the
+        gradient as a displacement, is below newton_tol × the mean rest length; a step that
+        reaches ``max_newton`` (50) is accepted, counted in ``unconverged_steps`` and warned
+        about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
+        "exact" | "trust-region", see `_OPTIONS`), ``predictor`` (None | "start" |
+        "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
         ``adaptive_projection`` (None = on for cholmod and eigen-ldlt: try the exact Hessian
@@ -483,6 +488,7 @@ class Simulation:
         cloth = self._cloth
         saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
         analyzed_before = self._integrator.statistics.get("analyze_seconds", 0.0)
+        unconverged_before = self._integrator.statistics.get("unconverged_steps", 0)
         done, batch, bar = 0, 1, None
         started = _time.perf_counter()
         try:
@@ -512,6 +518,15 @@ class Simulation:
                 elif bar is not None:
                     bar.update(count)
                     bar.set_postfix_str(f"t={self.time:.3f} s")
+            unconverged = self._integrator.statistics.get("unconverged_steps", 0) \
+                - unconverged_before
+            if unconverged:
+                # once per call: the steps were taken (at the last iterate), never silently
+                warnings.warn(
+                    f"{unconverged} of {steps} {self._integrator_name} steps reached max_newton = "
+                    f"{self._options['max_newton']} before Newton's residual met newton_tol = "
+                    f"{self._options['newton_tol']:g}; they were accepted unconverged (see "
+                    "stats['counters']['unconverged_steps'])", RuntimeWarning, stacklevel=3)
         except SimulationDiverged as error:
             # Batches before the failing one may already hold a growing instability: go back to
             # the state before this call, which the caller knows to be good.

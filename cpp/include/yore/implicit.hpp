@@ -187,6 +187,7 @@ class ImplicitIntegrator {
   Positions m_iterate;     // n×3
   Eigen::VectorXd m_gradient, m_direction, m_rhs;
   std::vector<double> m_values;
+  double m_energy_magnitude = 0.0;  // Σ |terms| of the last evaluate(): its round-off scale
   bool m_factor_valid = false;  // the solver holds a factor of this topology (lagged mode)
   // projection exact: steps still to take projected after a rejection, and the next back-off
   int m_exact_skip = 0, m_exact_backoff = 1;
