@@ -307,6 +307,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     try_exact = false;
   }
   bool rejected_this_step = false, use_abs = false;
+  double residual_at_rejection = 0.0;
 
   const double tolerance = m_options.newton_tol * m_mean_rest_length;
   int iterations = 0, backtracks = 0;
@@ -326,6 +327,12 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     if (iterations == m_options.max_newton) break;
     auto start = Clock::now();
     bool factored = false;
+    // Within a step, the exact Hessian is tried again once the projected iterations have cut the
+    // residual tenfold since it was rejected: near a stable minimum it is positive definite
+    // again, and the clamp alone converges only linearly.
+    if (rejected_this_step && !try_exact && residual < 0.1 * residual_at_rejection) {
+      try_exact = true;
+    }
     if (try_exact) {
       energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
       start = Clock::now();
@@ -337,6 +344,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
         ++m_statistics.exact_hessian_rejected;
         try_exact = false;
         rejected_this_step = true;
+        residual_at_rejection = residual;
       }
       m_statistics.factorize_seconds += seconds_since(start);
     }
