@@ -92,8 +92,17 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
                        std::int64_t max_newton, const std::string& solver, const std::string& ordering,
                        const std::string& factorization, double pcg_tol, std::int64_t pcg_max_iterations,
                        double divergence_energy_factor, bool adaptive_projection,
-                       bool lagged_factorization, std::int64_t lag_max_cg_iterations, double lag_cg_tol) {
+                       bool lagged_factorization, std::int64_t lag_max_cg_iterations, double lag_cg_tol,
+                       const std::string& projection, const std::string& predictor) {
              ImplicitOptions options;
+             options.projection = parse_choice<HessianProjection>(
+                 projection, "projection",
+                 {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
+                  {"exact", HessianProjection::exact},
+                  {"trust-region", HessianProjection::trust_region}});
+             options.predictor = parse_choice<NewtonPredictor>(
+                 predictor, "predictor",
+                 {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}});
              options.adaptive_projection = adaptive_projection;
              options.lagged_factorization = lagged_factorization;
              options.lag_max_cg_iterations = to_int32(lag_max_cg_iterations, "lag_max_cg_iterations");
@@ -122,7 +131,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
            py::arg("factorization") = "supernodal", py::arg("pcg_tol") = 1e-12,
            py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0,
            py::arg("adaptive_projection") = false, py::arg("lagged_factorization") = false,
-           py::arg("lag_max_cg_iterations") = 20, py::arg("lag_cg_tol") = 1e-10)
+           py::arg("lag_max_cg_iterations") = 20, py::arg("lag_cg_tol") = 1e-10,
+           py::arg("projection") = "clamp", py::arg("predictor") = "start")
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
@@ -195,6 +205,9 @@ Newton direction.)doc")
         out["line_search_backtracks"] = s.line_search_backtracks;
         out["unconverged_steps"] = s.unconverged_steps;
         out["exact_hessian_rejected"] = s.exact_hessian_rejected;
+        out["exact_hessian_accepted"] = s.exact_hessian_accepted;
+        out["abs_projections"] = s.abs_projections;
+        out["last_scaled_residual"] = s.last_scaled_residual;
         out["lagged_solves"] = s.lagged_solves;
         out["lagged_cg_iterations"] = s.lagged_cg_iterations;
         out["last_newton_iterations"] = s.last_newton_iterations;

@@ -22,11 +22,17 @@ double seconds_since(Clock::time_point start) {
 // Backtracking line search: Armijo constant, halvings before giving up.
 constexpr double kArmijo = 1e-4;
 constexpr int kMaxBacktracks = 40;
+// Relative size, against the sum of the objective's terms' magnitudes (gravity's is large and
+// of the other sign), of the energy changes that round-off can hide.
+constexpr double kRoundoff = 1e-12;
 
 }  // namespace
 
-ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& options)
-    : m_options(options), m_monitor(options.divergence_energy_factor) {
+ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
+    : m_options(given), m_monitor(given.divergence_energy_factor) {
+  if (m_options.adaptive_projection) m_options.projection = HessianProjection::exact;
+  m_options.adaptive_projection = m_options.projection == HessianProjection::exact;
+  const ImplicitOptions& options = m_options;
   if (!std::isfinite(options.newton_tol) || options.newton_tol <= 0.0) {
     std::ostringstream msg;
     msg << "newton_tol must be finite and > 0, got " << options.newton_tol;
@@ -172,9 +178,12 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
     m_anchor = x;
     m_target = x + dt * v;
   }
+  // Damping directions of the inertial prediction x̂ (constrained vertices included: x̂ − x̄ is
+  // their velocity times h̃ too), an O(h̃²) extrapolation of the end-of-step directions: frozen at
+  // xₙ they would be O(h) off, which costs BDF2 its order and damps a rigid rotation.
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
-    const Vec3 d = x.row(springs.first[k]) - x.row(springs.second[k]);
+    const Vec3 d = m_target.row(springs.first[k]) - m_target.row(springs.second[k]);
     const double length = d.norm();
     m_directions.row(static_cast<Eigen::Index>(k)) =
         length > 0.0 ? Vec3(d / length) : Vec3::Zero();
@@ -182,12 +191,15 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
 }
 
 double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
-                                    bool with_hessian, bool project) {
+                                    bool with_hessian, HessianProjection projection) {
+  const TransverseFilter filter = projection == HessianProjection::exact ? TransverseFilter::exact
+                                  : projection == HessianProjection::abs ? TransverseFilter::abs
+                                                                         : TransverseFilter::clamp;
   const auto start = Clock::now();
   const double h = m_h;
   const double drag = cloth.drag();
   const Eigen::VectorXd& masses = cloth.masses();
-  double energy = 0.0;
+  double energy = 0.0, magnitude = 0.0;  // the sum and the sum of the terms' magnitudes
   if (with_gradient) m_gradient.setZero();
   if (with_hessian) std::fill(m_values.begin(), m_values.end(), 0.0);
 
@@ -198,8 +210,11 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     const Vec3 inertial = x.row(i) - m_target.row(i);
     const Vec3 moved = x.row(i) - m_anchor.row(i);
     const double inertia_weight = m / (h * h), drag_weight = drag * m / h;
-    energy += 0.5 * inertia_weight * inertial.squaredNorm() +
-              0.5 * drag_weight * moved.squaredNorm() - m * x.row(i).dot(m_gravity);
+    const double gravity_energy = m * x.row(i).dot(m_gravity);
+    const double positive = 0.5 * inertia_weight * inertial.squaredNorm() +
+                            0.5 * drag_weight * moved.squaredNorm();
+    energy += positive - gravity_energy;
+    magnitude += positive + std::abs(gravity_energy);
     if (with_gradient) {
       m_gradient.segment<3>(static_cast<Eigen::Index>(3 * b)) =
           inertia_weight * inertial + drag_weight * moved - m * m_gravity;
@@ -213,19 +228,22 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     }
   }
 
-  // Springs: elasticity (PSD-projected Hessian) and damping with directions frozen at the start.
+  // Springs: elasticity (Hessian filtered as asked) and damping along the predicted directions.
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const std::int32_t i = springs.first[k], j = springs.second[k];
     const Vec3 xi = x.row(i), xj = x.row(j);
     const double rest = springs.rest_length[k], stiffness = springs.stiffness[k];
-    energy += spring_energy(xi, xj, rest, stiffness);
+    const double elastic = spring_energy(xi, xj, rest, stiffness);
+    energy += elastic;
+    magnitude += elastic;
     const double c = springs.damping[k];
     const Vec3 n0 = m_directions.row(static_cast<Eigen::Index>(k));
     double relative = 0.0;
     if (c > 0.0) {
       relative = (xi - m_anchor.row(i).transpose() - xj + m_anchor.row(j).transpose()).dot(n0);
       energy += 0.5 * c / h * relative * relative;
+      magnitude += 0.5 * c / h * relative * relative;
     }
     const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
     const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
@@ -236,7 +254,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       if (b >= 0) m_gradient.segment<3>(b) -= gradient;
     }
     if (with_hessian) {
-      Mat3 block = spring_hessian(xi, xj, rest, stiffness, project);
+      Mat3 block = spring_hessian(xi, xj, rest, stiffness, filter);
       if (c > 0.0) block += (c / h) * n0 * n0.transpose();
       const auto& starts = m_pattern.column_starts;
       for (const std::int32_t dof : {a, b}) {
@@ -258,6 +276,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       }
     }
   }
+  m_energy_magnitude = magnitude;
   m_statistics.assemble_seconds += seconds_since(start);
   return energy;
 }
@@ -275,29 +294,70 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(new_time);
   m_iterate = cloth.positions();
+  if (m_options.predictor == NewtonPredictor::inertial) {
+    for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);
+  }
+
+  // Projection exact: after a rejection the step stays projected, and the next steps skip the
+  // exact attempt with a doubling back-off (1, 2, 4, … up to 32 steps), so an indefinite phase
+  // costs at most one thrown-away factorization per back-off period.
+  bool try_exact = m_options.projection == HessianProjection::exact;
+  if (try_exact && m_exact_skip > 0) {
+    --m_exact_skip;
+    try_exact = false;
+  }
+  bool rejected_this_step = false, use_abs = false;
+  double residual_at_rejection = 0.0;
 
   const double tolerance = m_options.newton_tol * m_mean_rest_length;
   int iterations = 0, backtracks = 0;
   bool converged = m_pattern.size == 0;
-  while (!converged && iterations < m_options.max_newton) {
+  double energy = 0.0, residual = 0.0;
+  if (!converged) {
+    energy = evaluate(cloth, m_iterate, true, false);
+    residual = scaled_residual(cloth);
+  }
+  while (!converged) {
     poll_interrupt();  // max_newton is user-typed
+    if (!std::isfinite(energy) || !std::isfinite(residual)) break;  // diverged: state checked
+    if (!m_options.linearized && residual <= tolerance) {
+      converged = true;
+      break;
+    }
+    if (iterations == m_options.max_newton) break;
     auto start = Clock::now();
-    double energy = 0.0;
     bool factored = false;
-    if (m_options.adaptive_projection) {
-      energy = evaluate(cloth, m_iterate, true, true, /*project=*/false);
+    // Within a step, the exact Hessian is tried again once the projected iterations have cut the
+    // residual tenfold since it was rejected: near a stable minimum it is positive definite
+    // again, and the clamp alone converges only linearly.
+    if (rejected_this_step && !try_exact && residual < 0.1 * residual_at_rejection) {
+      try_exact = true;
+    }
+    if (try_exact) {
+      energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
       start = Clock::now();
       try {
         m_solver->factorize(m_values.data());
         factored = true;
+        ++m_statistics.exact_hessian_accepted;
       } catch (const NotPositiveDefinite&) {
         ++m_statistics.exact_hessian_rejected;
+        try_exact = false;
+        rejected_this_step = true;
+        residual_at_rejection = residual;
       }
       m_statistics.factorize_seconds += seconds_since(start);
     }
     bool solved = false;
     if (!factored) {
-      energy = evaluate(cloth, m_iterate, true, true, /*project=*/true);
+      const HessianProjection projection =
+          use_abs || m_options.projection == HessianProjection::abs ? HessianProjection::abs
+                                                                    : HessianProjection::clamp;
+      if (projection == HessianProjection::abs &&
+          m_options.projection == HessianProjection::trust_region) {
+        ++m_statistics.abs_projections;
+      }
+      energy = evaluate(cloth, m_iterate, true, true, projection);
       m_rhs = -m_gradient;
       if (m_options.lagged_factorization && m_factor_valid) {
         // CG on the current matrix, preconditioned by the lagged factor.
@@ -328,39 +388,67 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     ++iterations;
 
     double alpha = 1.0;
-    if (!m_options.linearized) {
-      const double slope = m_gradient.dot(m_direction);
-      for (int halvings = 0;; ++halvings) {
-        m_trial = m_iterate;
-        for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-          m_trial.row(m_free_vertices[b]) +=
-              alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
-        }
-        const double trial_energy = evaluate(cloth, m_trial, false, false);
-        // Accept on sufficient decrease, or when the change is at round-off level (close to
-        // the minimum the energy difference carries no information).
-        if (trial_energy <= energy + kArmijo * alpha * slope ||
-            std::abs(trial_energy - energy) <= 1e-14 * std::abs(energy)) {
-          break;
-        }
-        if (halvings == kMaxBacktracks) break;  // take the tiny step and let Newton go on
-        alpha *= 0.5;
-        ++backtracks;
+    const double slope = m_gradient.dot(m_direction);
+    if (m_options.linearized) {
+      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+        m_iterate.row(m_free_vertices[b]) +=
+            m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
       }
+      break;  // Baraff–Witkin: one step, by definition
+    }
+    double trial_energy = energy;
+    const double magnitude = m_energy_magnitude;  // of the objective at the iterate
+    for (int halvings = 0;; ++halvings) {
+      m_trial = m_iterate;
+      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+        m_trial.row(m_free_vertices[b]) +=
+            alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
+      }
+      if (-alpha * slope <= kRoundoff * magnitude) {
+        // Close to the minimum the energy cannot resolve the decrease the model predicts (an
+        // Armijo test there accepts noise or halves forever): accept on a smaller residual.
+        trial_energy = evaluate(cloth, m_trial, true, false);
+        if (std::isfinite(trial_energy) && scaled_residual(cloth) < residual) break;
+      } else {
+        trial_energy = evaluate(cloth, m_trial, false, false);
+        if (trial_energy <= energy + kArmijo * alpha * slope) break;  // sufficient decrease
+      }
+      if (halvings == kMaxBacktracks) break;  // take the tiny step; the residual decides
+      alpha *= 0.5;
+      ++backtracks;
+    }
+    if (m_options.projection == HessianProjection::trust_region) {
+      // Chen et al. 2024: the fit ρ of the quadratic model −(g·d + ½ dᵀHd) = −½ g·d (H d = −g)
+      // to the actual decrease at the full step picks the next filter: a poor fit (ρ < 0.01,
+      // here: the full step was not accepted) calls for |λ|, a good one for the clamp.
+      const double predicted = -0.5 * slope;
+      const double actual = energy - trial_energy;
+      use_abs = alpha < 1.0 || !(predicted > 0.0) || actual < 0.01 * predicted;
     }
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
       m_iterate.row(m_free_vertices[b]) +=
           alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
     }
-    const double move = alpha * m_direction.lpNorm<Eigen::Infinity>();
-    converged = m_options.linearized || move <= tolerance || !std::isfinite(move);
+    energy = evaluate(cloth, m_iterate, true, false);
+    residual = scaled_residual(cloth);
   }
+  if (m_options.linearized) converged = true;
   if (!converged) ++m_statistics.unconverged_steps;
+  if (m_options.projection == HessianProjection::exact) {
+    if (rejected_this_step) {
+      m_exact_skip = m_exact_backoff;
+      m_exact_backoff = std::min(2 * m_exact_backoff, 32);
+    } else if (m_exact_skip == 0 && iterations > 0 && try_exact) {
+      m_exact_backoff = 1;
+    }
+  }
   if (m_pattern.size > 0) {
     evaluate(cloth, m_iterate, true, false);
     m_statistics.last_residual = m_gradient.lpNorm<Eigen::Infinity>();
+    m_statistics.last_scaled_residual = scaled_residual(cloth) / m_mean_rest_length;
   } else {
     m_statistics.last_residual = 0.0;
+    m_statistics.last_scaled_residual = 0.0;
   }
 
   Positions& x = cloth.integrator_positions();
@@ -380,6 +468,21 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   m_statistics.last_newton_iterations = iterations;
   m_statistics.last_line_search_backtracks = backtracks;
   m_statistics.last_dofs = m_pattern.size;
+}
+
+double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
+  // The gradient as a displacement: h̃²/m ∇E is how far the inertia term alone would move a
+  // vertex to balance it, so the test scales with h̃ and the mass like the positions do.
+  const Eigen::VectorXd& masses = cloth.masses();
+  double largest = 0.0;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const double scale = m_h * m_h / masses[m_free_vertices[b]];
+    const double value =
+        scale * m_gradient.segment<3>(static_cast<Eigen::Index>(3 * b)).lpNorm<Eigen::Infinity>();
+    if (std::isnan(value)) return value;  // a non-finite gradient is divergence, not convergence
+    largest = std::max(largest, value);
+  }
+  return largest;
 }
 
 ImplicitIntegrator::History ImplicitIntegrator::history(const Cloth& cloth) const {

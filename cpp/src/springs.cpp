@@ -77,6 +77,12 @@ Vec3 spring_gradient(const Vec3& xi, const Vec3& xj, double rest_length, double 
 
 Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
                     bool project_psd) {
+  return spring_hessian(xi, xj, rest_length, stiffness,
+                        project_psd ? TransverseFilter::clamp : TransverseFilter::exact);
+}
+
+Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
+                    TransverseFilter filter) {
   const Vec3 d = xi - xj;
   const double length = d.norm();
   if (length == 0.0) return stiffness * Mat3::Identity();
@@ -85,7 +91,10 @@ Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double s
   double transverse = 1.0 - rest_length / length;
   // A compressed spring (ℓ < L) has a negative transverse stiffness: it buckles sideways. Clamping
   // keeps the block PSD so an implicit system stays SPD.
-  if (project_psd && transverse < 0.0) transverse = 0.0;
+  if (transverse < 0.0) {
+    if (filter == TransverseFilter::clamp) transverse = 0.0;
+    if (filter == TransverseFilter::abs) transverse = -transverse;
+  }
   return stiffness * (nn + transverse * (Mat3::Identity() - nn));
 }
 

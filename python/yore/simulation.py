@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import time as _time
+import warnings
 
 import numpy as np
 
@@ -30,8 +31,9 @@ _OPTIONS = {
     "implicit": {
         # One Newton step, no line search (Baraff & Witkin 1998).
         "linearized": False,
-        # Newton stops when an iteration moves no vertex by more than newton_tol × the mean
-        # rest length.
+        # Newton stops when the residual max |∇ᵢE|·h̃²/mᵢ (the gradient as a displacement) is at
+        # most newton_tol × the mean rest length; a step that reaches max_newton is counted in
+        # stats (unconverged_steps) and warned about.
         "newton_tol": 1e-5,
         "max_newton": 50,
         "solver": "cholmod",  # "cholmod" | "eigen-ldlt" | "pcg"
@@ -44,6 +46,15 @@ _OPTIONS = {
         # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
         # tell). False: always project (linear convergence when many springs are compressed).
         "adaptive_projection": None,
+        # How compressed springs' Hessians are made PSD: "clamp" | "abs" | "exact" (exact Hessian,
+        # the clamp where the factorization finds it indefinite, decision kept across iterations
+        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp).
+        # None: adaptive_projection decides if given, else "clamp" for linearized, pcg or
+        # lagged factorization and "exact" otherwise.
+        "projection": None,
+        # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
+        # linearized (Baraff–Witkin's step), "inertial" otherwise.
+        "predictor": None,
         # Keep the factor across Newton iterations and steps; CG preconditioned by it on the
         # current matrix; refactor when CG needs more than lag_max_cg_iterations.
         "lagged_factorization": False,
@@ -175,6 +186,8 @@ _RULES = {
     "pcg_tol": _real(0.0, 1.0, high_open=True),
     "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
     "adaptive_projection": _or_none(_flag()),
+    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region")),
+    "predictor": _or_none(_one_of("start", "inertial")),
     "lagged_factorization": _flag(),
     "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
     "lag_cg_tol": _real(0.0, 1.0, high_open=True),
@@ -216,8 +229,30 @@ def _make_explicit(options):
     )
 
 
+def _projection(options):
+    """The projection option in force: explicit, else mapped from adaptive_projection, else
+    the clamp where the exact Hessian cannot be used (linearized, pcg, lagged factorization)."""
+    if options["projection"] is not None:
+        return options["projection"]
+    if options["adaptive_projection"] is not None:
+        return "exact" if options["adaptive_projection"] else "clamp"
+    if options["linearized"] or options["solver"] == "pcg" or options["lagged_factorization"]:
+        return "clamp"
+    return "exact"
+
+
 def _make_implicit(options, method="backward_euler"):
+    projection = _projection(options)
+    if options["adaptive_projection"] is not None and options["projection"] is not None and \
+            options["adaptive_projection"] != (projection == "exact"):
+        raise ValueError(f"adaptive_projection={options['adaptive_projection']} contradicts "
+                         f"projection={projection!r}; give one of them")
+    predictor = options["predictor"]
+    if predictor is None:
+        predictor = "start" if options["linearized"] else "inertial"
     return _core.ImplicitIntegrator(
+        projection=projection,
+        predictor=predictor,
         method=method,
         linearized=bool(options["linearized"]),
         newton_tol=float(options["newton_tol"]),
@@ -228,9 +263,7 @@ def _make_implicit(options, method="backward_euler"):
         pcg_tol=float(options["pcg_tol"]),
         pcg_max_iterations=int(options["pcg_max_iterations"]),
         divergence_energy_factor=float(options["divergence_energy_factor"]),
-        adaptive_projection=(
-            options["solver"] != "pcg" and not options["lagged_factorization"]
-            if options["adaptive_projection"] is None else bool(options["adaptive_projection"])),
+        adaptive_projection=False,  # mapped into projection above
         lagged_factorization=bool(options["lagged_factorization"]),
         lag_max_cg_iterations=int(options["lag_max_cg_iterations"]),
         lag_cg_tol=float(options["lag_cg_tol"]),
@@ -312,8 +345,12 @@ class Simulation:
     **options
         Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
         ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
-        ``linearized`` (False), ``newton_tol`` (1e-5, relative to the mean rest length),
-        ``max_newton`` (50), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
+        ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when max |∇ᵢE|·h̃²/mᵢ, the
+        gradient as a displacement, is below newton_tol × the mean rest length; a step that
+        reaches ``max_newton`` (50) is accepted, counted in ``unconverged_steps`` and warned
+        about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
+        "exact" | "trust-region", see `_OPTIONS`), ``predictor`` (None | "start" |
+        "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
         ``adaptive_projection`` (None = on for cholmod and eigen-ldlt: try the exact Hessian
@@ -520,14 +557,19 @@ class Simulation:
                 bar.close()
         after = self._integrator.statistics
         unconverged = after.get("unconverged_steps", 0) - unconverged_before
-        if unconverged and self._integrator_name == "local-global":
-            import warnings
-
-            warnings.warn(f"local-global: {unconverged} of {steps} steps reached the iteration "
-                          f"cap (iterations={self._options['iterations']}) before the tolerance "
-                          f"({self._options['tolerance']:g}); last error estimate "
-                          f"{after['last_error_estimate']:.3g} mean rest lengths",
-                          RuntimeWarning, stacklevel=3)
+        if unconverged:
+            # once per call: the steps were taken at their last iterate, never silently
+            if self._integrator_name == "local-global":
+                detail = (f"reached the iteration cap (iterations={self._options['iterations']}) "
+                          f"before the tolerance ({self._options['tolerance']:g}; last error "
+                          f"estimate {after['last_error_estimate']:.3g} mean rest lengths)")
+            else:
+                detail = (f"reached max_newton = {self._options['max_newton']} before Newton's "
+                          f"residual met newton_tol = {self._options['newton_tol']:g}")
+            warnings.warn(f"{self._integrator_name}: {unconverged} of {steps} steps {detail}; "
+                          "they were accepted unconverged "
+                          "(stats['counters']['unconverged_steps'])", RuntimeWarning,
+                          stacklevel=3)
 
     # -- strokes ----------------------------------------------------------------------------
     def stroke(self, points_3d, expansion=1.1, mass_scale=0.95, max_distance=None):

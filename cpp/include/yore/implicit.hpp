@@ -23,6 +23,23 @@ enum class ImplicitMethod {
   bdf2,            ///< second order; the first step (and the first after a change) is BE
 };
 
+/// How the Hessian of a compressed spring (ℓ < L, transverse factor 1 − L/ℓ < 0) is made
+/// positive semidefinite; stretched springs are exact in every mode.
+enum class HessianProjection {
+  clamp,         ///< transverse factor clamped at 0 (always SPD)
+  abs,           ///< |λ| filtering: transverse factor |1 − L/ℓ| (always SPD)
+  exact,         ///< exact Hessian; the clamp when the factorization finds it indefinite, and the
+                 ///< decision kept for the rest of the step and (with back-off) later steps
+  trust_region,  ///< Chen et al. 2024: abs after an iteration whose quadratic model fit poorly
+                 ///< (trust-region ratio ρ < 0.01), the clamp otherwise (always SPD)
+};
+
+/// Where Newton starts each step.
+enum class NewtonPredictor {
+  start,     ///< xₙ (BE) or x̄ (BDF2): the step's start; linearized mode's Baraff–Witkin step
+  inertial,  ///< x̂ = x̄ + h̃ v̄, the inertial (free-flight, no gravity) prediction
+};
+
 /// Settings of the implicit integrator.
 struct ImplicitOptions {
   ImplicitMethod method = ImplicitMethod::backward_euler;
@@ -34,6 +51,10 @@ struct ImplicitOptions {
   /// the exact Hessian is positive definite. Every system solved is still SPD. Cholesky
   /// backends only (PCG cannot tell an indefinite matrix).
   bool adaptive_projection = false;
+  /// The projection of compressed springs' Hessians. adaptive_projection = true means exact
+  /// (kept for compatibility: the constructor maps it).
+  HessianProjection projection = HessianProjection::clamp;
+  NewtonPredictor predictor = NewtonPredictor::start;
   /// Lagged factorization: keep the last factor across Newton iterations and steps and solve
   /// with CG preconditioned by it on the current matrix; refactor only when CG needs more than
   /// lag_max_cg_iterations to reach lag_cg_tolerance. Uses the projected Hessian (CG needs SPD);
@@ -41,8 +62,10 @@ struct ImplicitOptions {
   bool lagged_factorization = false;
   int lag_max_cg_iterations = 20;
   double lag_cg_tolerance = 1e-10;
-  /// Newton stops when the largest vertex move of an iteration is below newton_tol × the mean
-  /// rest length.
+  /// Newton stops when the residual max_i |∇ᵢE| h̃²/mᵢ (the gradient as a displacement, m) is
+  /// at most newton_tol × the mean rest length, at a finite objective. A step cut short by the
+  /// line search is not converged; a step that reaches max_newton is counted in
+  /// ImplicitStatistics::unconverged_steps.
   double newton_tol = 1e-5;
   int max_newton = 50;
   LinearSolverOptions solver;
@@ -55,7 +78,9 @@ struct ImplicitStatistics {
   std::int64_t newton_iterations = 0;
   std::int64_t line_search_backtracks = 0;
   std::int64_t unconverged_steps = 0;  ///< steps that reached max_newton
-  std::int64_t exact_hessian_rejected = 0;  ///< adaptive_projection: exact Hessians found indefinite
+  std::int64_t exact_hessian_rejected = 0;  ///< projection exact: exact Hessians found indefinite
+  std::int64_t exact_hessian_accepted = 0;  ///< projection exact: exact Hessians factorized
+  std::int64_t abs_projections = 0;     ///< trust_region: iterations that used |λ| filtering
   std::int64_t lagged_solves = 0;       ///< Newton solves done by CG on a lagged factor
   std::int64_t lagged_cg_iterations = 0;
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
@@ -65,6 +90,8 @@ struct ImplicitStatistics {
   int last_newton_iterations = 0;
   int last_line_search_backtracks = 0;
   double last_residual = std::numeric_limits<double>::quiet_NaN();  ///< ‖∇E‖∞ at the end, N
+  /// The stopping residual at the end of the last step: max_i |∇ᵢE| h̃²/mᵢ / mean rest length.
+  double last_scaled_residual = std::numeric_limits<double>::quiet_NaN();
   std::int64_t last_dofs = 0;
 };
 
@@ -83,8 +110,11 @@ struct NewtonSystem {
 ///   E(x) = ½‖x − x̂‖²_M / h̃² + U(x) + D(x) − Σ m g·x,
 /// with h̃ = h, x̄ = xₙ for BE and h̃ = 2h/3, x̄ = (4xₙ − xₙ₋₁)/3 for BDF2, x̂ = x̄ + h̃ v̄, and
 /// the damping potential D(x) = Σ c/(2h̃) ((Δxᵢ − Δxⱼ)·d̂)² + Σ drag·m/(2h̃)|Δx|², Δx = x − x̄, with
-/// d̂ frozen at the step's start (so −∇D is exactly the damping force at v = Δx/h̃). Spring
-/// Hessians are projected to PSD, so the system is SPD. v⁺ = (x⁺ − x̄)/h̃.
+/// d̂ the spring directions of the inertial prediction x̂ (an O(h²) extrapolation of the
+/// end-of-step directions: −∇D is the damping force at v = Δx/h̃ along them, D stays quadratic,
+/// BDF2 stays second order, and a rigid rotation is barely damped). Compressed springs'
+/// Hessians are projected as ImplicitOptions::projection says; every system solved is SPD.
+/// v⁺ = (x⁺ − x̄)/h̃.
 /// The sparsity pattern and the symbolic analysis are rebuilt only when topology_version
 /// changes; every Newton iteration refills the values in place.
 class ImplicitIntegrator {
@@ -129,7 +159,8 @@ class ImplicitIntegrator {
   void ensure_structure(const Cloth& cloth);
   void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
   double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
-                  bool project = true);
+                  HessianProjection projection = HessianProjection::clamp);
+  double scaled_residual(const Cloth& cloth) const;
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
@@ -151,12 +182,15 @@ class ImplicitIntegrator {
   Vec3 m_gravity = Vec3::Zero();
   Positions m_anchor;      // x̄, n×3
   Positions m_target;      // x̂, n×3
-  Positions m_directions;  // s×3, d̂ at the step's start
+  Positions m_directions;  // s×3, d̂ of the inertial prediction x̂
   Positions m_trial;       // n×3
   Positions m_iterate;     // n×3
   Eigen::VectorXd m_gradient, m_direction, m_rhs;
   std::vector<double> m_values;
+  double m_energy_magnitude = 0.0;  // Σ |terms| of the last evaluate(): its round-off scale
   bool m_factor_valid = false;  // the solver holds a factor of this topology (lagged mode)
+  // projection exact: steps still to take projected after a rejection, and the next back-off
+  int m_exact_skip = 0, m_exact_backoff = 1;
   CgWorkspace m_cg;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
 

@@ -64,6 +64,17 @@ Vec3 spring_gradient(const Vec3& xi, const Vec3& xj, double rest_length, double 
 Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
                     bool project_psd);
 
+/// How spring_hessian treats a negative transverse factor 1 − L/ℓ (a compressed spring).
+enum class TransverseFilter {
+  exact,  ///< keep it (the true Hessian, indefinite when compressed)
+  clamp,  ///< clamp it at 0 (eigenvalue clamping)
+  abs,    ///< take its absolute value (|λ| eigenvalue filtering)
+};
+
+/// spring_hessian with the transverse eigenvalue k(1 − L/ℓ) filtered as `filter` says, N/m.
+Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
+                    TransverseFilter filter);
+
 /// Damping force on xi, −c ((vi − vj)·d̂) d̂, newtons (the force on xj is its negative).
 Vec3 spring_damping_force(const Vec3& xi, const Vec3& xj, const Vec3& vi, const Vec3& vj,
                           double damping);
