@@ -227,3 +227,26 @@ def test_a_fifo_as_state_path_does_not_block(tmp_path):
     fifo = tmp_path / "state.npz"
     os.mkfifo(fifo)
     one_line_error(fifo, "not a regular file")
+
+
+def test_newtons_projection_memory_is_saved_so_a_resume_decides_the_same():
+    # The gathered cloth rejects the exact Hessian in its first step; the next step then waits,
+    # projected, as the memory the state carries says.
+    def gathered():
+        return yore.scenes.hanging_cloth(resolution=7, integrator="implicit", projection="exact")
+
+    straight = gathered()
+    straight.step(8)
+    sim = gathered()
+    sim.step(1)
+    state = sim.state()
+    assert state["projection_memory"] == {"exact_skip": 1, "exact_backoff": 2}
+    resumed = yore.Simulation.from_state(state)
+    resumed.step(7)
+    assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)
+    forgetful = yore.Simulation.from_state({**state, "projection_memory": None})
+    forgetful.step(7)
+    assert not np.array_equal(forgetful.cloth.positions, straight.cloth.positions)
+    bad = {**state, "projection_memory": {"exact_skip": -1, "exact_backoff": 1}}
+    with pytest.raises(ValueError, match="exact_skip"):
+        yore.Simulation.from_state(bad)

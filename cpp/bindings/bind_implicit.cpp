@@ -191,6 +191,27 @@ Newton direction.)doc")
           },
           py::arg("cloth"), py::arg("history"),
           "Restores a history taken by history() (None forgets it) for `cloth` as it is now.")
+      .def(
+          "projection_memory",
+          [](const ImplicitIntegrator& integrator) {
+            check_idle(&integrator, "the integrator");
+            const ImplicitIntegrator::ProjectionMemory memory = integrator.projection_memory();
+            py::dict out;
+            out["exact_skip"] = memory.exact_skip;
+            out["exact_backoff"] = memory.exact_backoff;
+            return out;
+          },
+          "The exact projection's memory across steps: a dict with exact_skip (steps still to "
+          "take projected) and exact_backoff (the next wait after a rejection).")
+      .def(
+          "set_projection_memory",
+          [](ImplicitIntegrator& integrator, std::int64_t exact_skip, std::int64_t exact_backoff) {
+            check_idle(&integrator, "the integrator");
+            integrator.set_projection_memory(
+                {to_int32(exact_skip, "exact_skip"), to_int32(exact_backoff, "exact_backoff")});
+          },
+          py::arg("exact_skip"), py::arg("exact_backoff"),
+          "Restores a memory taken by projection_memory(); ValueError out of range.")
       .def_property_readonly("statistics", [](const ImplicitIntegrator& integrator) {
         check_idle(&integrator, "the integrator");
         const ImplicitStatistics& s = integrator.statistics();

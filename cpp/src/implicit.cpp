@@ -13,6 +13,9 @@
 namespace yore {
 namespace {
 
+// Most steps the exact projection waits, projected, after repeated rejections.
+constexpr int kMaxExactBackoff = 32;
+
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point start) {
@@ -437,7 +440,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   if (m_options.projection == HessianProjection::exact) {
     if (rejected_this_step) {
       m_exact_skip = m_exact_backoff;
-      m_exact_backoff = std::min(2 * m_exact_backoff, 32);
+      m_exact_backoff = std::min(2 * m_exact_backoff, kMaxExactBackoff);
     } else if (m_exact_skip == 0 && iterations > 0 && try_exact) {
       m_exact_backoff = 1;
     }
@@ -496,6 +499,19 @@ ImplicitIntegrator::History ImplicitIntegrator::history(const Cloth& cloth) cons
     out.dt = m_history_dt;
   }
   return out;
+}
+
+void ImplicitIntegrator::set_projection_memory(const ProjectionMemory& memory) {
+  if (memory.exact_skip < 0 || memory.exact_skip > kMaxExactBackoff || memory.exact_backoff < 1 ||
+      memory.exact_backoff > kMaxExactBackoff) {
+    std::ostringstream msg;
+    msg << "projection memory must have exact_skip in [0, " << kMaxExactBackoff
+        << "] and exact_backoff in [1, " << kMaxExactBackoff << "], got " << memory.exact_skip
+        << " and " << memory.exact_backoff;
+    throw std::invalid_argument(msg.str());
+  }
+  m_exact_skip = memory.exact_skip;
+  m_exact_backoff = memory.exact_backoff;
 }
 
 void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history) {

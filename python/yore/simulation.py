@@ -445,15 +445,18 @@ class Simulation:
     # -- saving and restoring -----------------------------------------------------------------
     def state(self) -> dict:
         """Everything needed to continue this simulation exactly: the cloth's state
-        (`yore.Cloth.state`), integrator name and options, dt, gravity and BDF2's history.
+        (`yore.Cloth.state`), integrator name and options, dt, gravity, BDF2's history and
+        Newton's projection memory (which steps try the exact Hessian).
         `Simulation.from_state` rebuilds it; `yore.save_state` writes it to a file."""
-        history = None
+        history = memory = None
         if self._integrator_name == "bdf2":
             history = self._integrator.history(self._cloth)
+        if self._integrator_name in ("implicit", "bdf2"):
+            memory = self._integrator.projection_memory()
         return {"cloth": self._cloth.state(), "integrator": self._integrator_name,
                 "options": dict(self._options), "dt": self._dt,
                 "gravity": self._gravity.copy(), "history": history,
-                "target_time": self._target_time}
+                "projection_memory": memory, "target_time": self._target_time}
 
     @classmethod
     def from_state(cls, state) -> Simulation:
@@ -462,7 +465,9 @@ class Simulation:
         two options that keep a factor across steps and so continue only to solver
         tolerance). Raises ValueError on a malformed state."""
         expected = {"cloth", "integrator", "options", "dt", "gravity", "history", "target_time"}
-        if not isinstance(state, dict) or set(state) != expected:
+        # projection_memory: absent from states saved before it existed (then: none yet)
+        if not isinstance(state, dict) or not expected <= set(state) <= expected | {
+                "projection_memory"}:
             got = sorted(state) if isinstance(state, dict) else type(state).__name__
             raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, "
                              f"got {got}")
@@ -471,6 +476,12 @@ class Simulation:
                   gravity=state["gravity"], **state["options"])
         if state["history"] is not None:
             sim._integrator.set_history(cloth, state["history"])
+        memory = state.get("projection_memory")
+        if memory is not None:
+            if not isinstance(memory, dict) or set(memory) != {"exact_skip", "exact_backoff"}:
+                raise ValueError("projection_memory must be a dict with exact_skip and "
+                                 f"exact_backoff, got {memory!r}")
+            sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"])
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
         return sim

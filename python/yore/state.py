@@ -298,7 +298,7 @@ _TINY = float(np.finfo(np.float64).tiny)
 
 def _check_simulation(field, simulation):
     """The schema of a version-1 state (`Simulation.state`, `yore.Cloth.state`)."""
-    field.keys(simulation, "simulation", _SIMULATION_FIELDS)
+    field.keys(simulation, "simulation", _SIMULATION_FIELDS, optional=("projection_memory",))
     integrator = simulation["integrator"]
     if not isinstance(integrator, str) or integrator not in INTEGRATORS:
         raise field.error("simulation.integrator", f"got {_show(integrator)}",
@@ -360,6 +360,15 @@ def _check_simulation(field, simulation):
     field.integer(cloth["clock_steps"], where + "clock_steps", 0, 2**62)
     field.real(cloth["clock_dt"], where + "clock_dt", 0.0)
 
+    memory = simulation.get("projection_memory")
+    if memory is not None:
+        if integrator not in ("implicit", "bdf2"):
+            raise field.error("simulation.projection_memory", f"given for integrator "
+                              f"{integrator!r}", "null (only Newton keeps one)")
+        field.keys(memory, "simulation.projection_memory", ("exact_skip", "exact_backoff"))
+        field.integer(memory["exact_skip"], "simulation.projection_memory.exact_skip", 0, 32)
+        field.integer(memory["exact_backoff"], "simulation.projection_memory.exact_backoff",
+                      1, 32)
     history = simulation["history"]
     if history is not None:
         if integrator != "bdf2":

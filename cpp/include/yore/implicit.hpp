@@ -150,6 +150,17 @@ class ImplicitIntegrator {
   /// a non-positive dt, or a backward-Euler integrator.
   void set_history(const Cloth& cloth, const History& history);
 
+  /// The exact projection's memory across steps: steps still to take projected after a
+  /// rejection, and the back-off the next rejection starts (both 1..32, skip may be 0). Part of
+  /// a saved state, so a resumed run makes the same projection decisions.
+  struct ProjectionMemory {
+    int exact_skip = 0;
+    int exact_backoff = 1;
+  };
+  ProjectionMemory projection_memory() const { return {m_exact_skip, m_exact_backoff}; }
+  /// Restores a memory taken by projection_memory(); throws std::invalid_argument out of range.
+  void set_projection_memory(const ProjectionMemory& memory);
+
   const ImplicitOptions& options() const { return m_options; }
   const ImplicitStatistics& statistics() const { return m_statistics; }
   /// The linear solver's counters (analyses, factorizations, nnz(L), flops, ordering).
