@@ -197,14 +197,22 @@ def test_a_state_file_with_flipped_or_cut_bytes_loads_or_is_a_value_error(
         pass
 
 
-def rewrite(state_bytes, change):
-    """A state file whose arrays and JSON document went through ``change(arrays, document)``."""
+def changed(state_bytes, change):
+    """The arrays and JSON document of a state file after ``change(arrays, document)``."""
     import json
 
     with np.load(io.BytesIO(state_bytes), allow_pickle=False) as archive:
         arrays = {name: archive[name] for name in archive.files}
     document = json.loads(str(arrays.pop("__document__")))
     change(arrays, document)
+    return arrays, document
+
+
+def rewrite(state_bytes, change):
+    """A state file whose arrays and JSON document went through ``change(arrays, document)``."""
+    import json
+
+    arrays, document = changed(state_bytes, change)
     out = io.BytesIO()
     np.savez(out, **arrays, __document__=np.array(json.dumps(document)))
     return out.getvalue()
@@ -265,10 +273,7 @@ def test_a_state_file_with_a_pickled_object_array_is_refused(tmp_path, state_byt
 def rewrite_with_pickle(state_bytes, change):
     import json
 
-    with np.load(io.BytesIO(state_bytes), allow_pickle=False) as archive:
-        arrays = {name: archive[name] for name in archive.files}
-    document = json.loads(str(arrays.pop("__document__")))
-    change(arrays, document)
+    arrays, document = changed(state_bytes, change)
     out = io.BytesIO()
     with zipfile.ZipFile(out, "w") as archive:
         for name, array in {**arrays, "__document__": np.array(json.dumps(document))}.items():

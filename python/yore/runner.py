@@ -519,9 +519,9 @@ def _summary(scene, sim, record, out, state_path, status, message):
     from . import build_info
 
     stats = sim.stats
-    settings = _jsonable(scene.data)
-    settings["simulation"]["dt"] = sim.dt
-    settings["integrator"] = _jsonable(sim.options)
+    # the scene as run (copied into JSON types by _finite_json below)
+    settings = {**scene.data, "simulation": {**scene.data["simulation"], "dt": sim.dt},
+                "integrator": sim.options}
     # Paths in the summary are relative to the run folder, so the folder can be moved.
     outputs = {"state": _relative(state_path, out), "summary": SUMMARY_NAME}
     if record["frames"]:
@@ -550,7 +550,7 @@ def _summary(scene, sim, record, out, state_path, status, message):
         "wall_seconds": record["wall_seconds"],
         # wall time per phase over the whole run (all resumed parts); counters of the last part
         "phases": record["phases"],
-        "counters": _jsonable(stats["counters"]),
+        "counters": stats["counters"],
         "active_terms": stats["active_terms"],
         "vertices": stats["vertices"],
         "springs": stats["springs"],
@@ -559,7 +559,7 @@ def _summary(scene, sim, record, out, state_path, status, message):
         "strokes": record["strokes"],
         "before": before,
         "frames": [{"time": t, "file": _relative(p, out)} for t, p in record["frames"]],
-        "camera": _jsonable(scene.data["camera"]),
+        "camera": scene.data["camera"],
         "outputs": outputs,
     }
     summary, non_finite = _finite_json(summary)
@@ -572,27 +572,20 @@ def _relative(path, folder):
     return Path(os.path.relpath(os.path.abspath(path), os.path.abspath(folder))).as_posix()
 
 
-def _jsonable(value):
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
 def _finite_json(value, where=""):
-    """(copy of ``value`` with every non-finite float replaced by None, [{"field": dotted
-    name, "value": "inf" | "-inf" | "nan"}, ...])."""
+    """(a copy of ``value`` in JSON types — numpy arrays and scalars as lists and numbers, keys
+    as text — with every non-finite float replaced by None, [{"field": dotted name, "value":
+    "inf" | "-inf" | "nan"}, ...])."""
     found = []
 
     def visit(item, name):
         if isinstance(item, dict):
-            return {key: visit(child, f"{name}.{key}" if name else str(key))
+            return {str(key): visit(child, f"{name}.{key}" if name else str(key))
                     for key, child in item.items()}
+        if isinstance(item, np.ndarray):
+            item = item.tolist()
+        elif isinstance(item, np.generic):
+            item = item.item()
         if isinstance(item, (list, tuple)):
             return [visit(child, f"{name}.{index}") for index, child in enumerate(item)]
         if isinstance(item, float) and not math.isfinite(item):
