@@ -93,8 +93,13 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
                        const std::string& factorization, double pcg_tol, std::int64_t pcg_max_iterations,
                        double divergence_energy_factor, bool adaptive_projection,
                        bool lagged_factorization, std::int64_t lag_max_cg_iterations, double lag_cg_tol,
-                       const std::string& projection, const std::string& predictor) {
+                       const std::string& projection, const std::string& predictor,
+                       const std::string& minimizer, std::int64_t lbfgs_history) {
              ImplicitOptions options;
+             options.minimizer = parse_choice<ImplicitMinimizer>(
+                 minimizer, "minimizer",
+                 {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}});
+             options.lbfgs_history = to_int32(lbfgs_history, "lbfgs_history");
              options.projection = parse_choice<HessianProjection>(
                  projection, "projection",
                  {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
@@ -132,7 +137,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
            py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0,
            py::arg("adaptive_projection") = false, py::arg("lagged_factorization") = false,
            py::arg("lag_max_cg_iterations") = 20, py::arg("lag_cg_tol") = 1e-10,
-           py::arg("projection") = "clamp", py::arg("predictor") = "start")
+           py::arg("projection") = "clamp", py::arg("predictor") = "start",
+           py::arg("minimizer") = "newton", py::arg("lbfgs_history") = 8)
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
@@ -231,6 +237,7 @@ Newton direction.)doc")
         out["last_scaled_residual"] = s.last_scaled_residual;
         out["lagged_solves"] = s.lagged_solves;
         out["lagged_cg_iterations"] = s.lagged_cg_iterations;
+        out["lbfgs_skipped_updates"] = s.lbfgs_skipped_updates;
         out["last_newton_iterations"] = s.last_newton_iterations;
         out["last_line_search_backtracks"] = s.last_line_search_backtracks;
         out["last_residual"] = s.last_residual;

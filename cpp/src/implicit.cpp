@@ -60,12 +60,30 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
         "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
         "indefinite Hessian; pcg cannot");
   }
+  if (options.minimizer == ImplicitMinimizer::lbfgs) {
+    if (options.linearized || options.lagged_factorization) {
+      throw std::invalid_argument(
+          "quasi-Newton (lbfgs) takes neither linearized nor lagged_factorization");
+    }
+    if (options.lbfgs_history < 1 || options.lbfgs_history > 1000) {
+      std::ostringstream msg;
+      msg << "lbfgs_history must be in [1, 1000], got " << options.lbfgs_history;
+      throw std::invalid_argument(msg.str());
+    }
+    // the projection never applies (no Hessian is factored); clamp keeps the exact
+    // projection's memory untouched
+    m_options.projection = HessianProjection::clamp;
+    m_options.adaptive_projection = false;
+    m_scalar_solver = std::make_unique<SparseCholesky>(options.solver.factor,
+                                                       options.solver.ordering);
+  }
   m_solver = make_linear_solver(options.solver);
 }
 
 ImplicitIntegrator::~ImplicitIntegrator() = default;
 
 const SolverStatistics& ImplicitIntegrator::solver_statistics() const {
+  if (m_scalar_solver) return m_scalar_solver->statistics();  // lbfgs: Q's factor
   return m_solver->statistics();
 }
 
@@ -146,7 +164,9 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_gradient.resize(dofs);
   m_direction.resize(dofs);
   m_rhs.resize(dofs);
-  m_values.assign(static_cast<std::size_t>(pattern.nonzeros()), 0.0);
+  const bool newton = m_options.minimizer == ImplicitMinimizer::newton;
+  // quasi-Newton never assembles the 3n×3n Hessian: no values, no analysis of it
+  m_values.assign(newton ? static_cast<std::size_t>(pattern.nonzeros()) : 0, 0.0);
   m_anchor.resize(n, 3);
   m_target.resize(n, 3);
   m_trial.resize(n, 3);
@@ -161,7 +181,7 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_factor_valid = false;
   m_cg.resize(dofs);
 
-  if (pattern.size > 0) m_solver->analyze(pattern);
+  if (pattern.size > 0 && newton) m_solver->analyze(pattern);
   m_topology = cloth.topology_version();
   m_statistics.analyze_seconds += seconds_since(start);
 }
@@ -320,7 +340,11 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
   }
-  while (!converged) {
+  const bool quasi_newton = m_options.minimizer == ImplicitMinimizer::lbfgs;
+  if (quasi_newton && !converged) {
+    quasi_newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
+  }
+  while (!converged && !quasi_newton) {
     poll_interrupt();  // max_newton is user-typed
     if (!std::isfinite(energy) || !std::isfinite(residual)) break;  // diverged: state checked
     if (!m_options.linearized && residual <= tolerance) {
@@ -390,7 +414,6 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     }
     ++iterations;
 
-    double alpha = 1.0;
     const double slope = m_gradient.dot(m_direction);
     if (m_options.linearized) {
       for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
@@ -400,26 +423,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       break;  // Baraff–Witkin: one step, by definition
     }
     double trial_energy = energy;
-    const double magnitude = m_energy_magnitude;  // of the objective at the iterate
-    for (int halvings = 0;; ++halvings) {
-      m_trial = m_iterate;
-      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-        m_trial.row(m_free_vertices[b]) +=
-            alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
-      }
-      if (-alpha * slope <= kRoundoff * magnitude) {
-        // Close to the minimum the energy cannot resolve the decrease the model predicts (an
-        // Armijo test there accepts noise or halves forever): accept on a smaller residual.
-        trial_energy = evaluate(cloth, m_trial, true, false);
-        if (std::isfinite(trial_energy) && scaled_residual(cloth) < residual) break;
-      } else {
-        trial_energy = evaluate(cloth, m_trial, false, false);
-        if (trial_energy <= energy + kArmijo * alpha * slope) break;  // sufficient decrease
-      }
-      if (halvings == kMaxBacktracks) break;  // take the tiny step; the residual decides
-      alpha *= 0.5;
-      ++backtracks;
-    }
+    const double alpha = line_search(cloth, energy, slope, backtracks, trial_energy);
     if (m_options.projection == HessianProjection::trust_region) {
       // Chen et al. 2024: the fit ρ of the quadratic model −(g·d + ½ dᵀHd) = −½ g·d (H d = −g)
       // to the actual decrease at the full step picks the next filter: a poor fit (ρ < 0.01,
@@ -471,6 +475,39 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   m_statistics.last_newton_iterations = iterations;
   m_statistics.last_line_search_backtracks = backtracks;
   m_statistics.last_dofs = m_pattern.size;
+}
+
+double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double slope,
+                                       int& backtracks, double& trial_energy,
+                                       bool trial_gradient) {
+  double alpha = 1.0;
+  const double magnitude = m_energy_magnitude;  // of the objective at the iterate
+  for (int halvings = 0;; ++halvings) {
+    m_trial = m_iterate;
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      m_trial.row(m_free_vertices[b]) +=
+          alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
+    }
+    if (-alpha * slope <= kRoundoff * magnitude) {
+      // Close to the minimum the energy cannot resolve the decrease the model predicts (an
+      // Armijo test on it accepts noise or halves forever). The trapezoid rule on the
+      // directional derivatives, ΔE ≈ α/2 (∇E(x)·d + ∇E(x + αd)·d), measures the change without
+      // cancellation; Armijo is tested on it. (m_gradient is the trial's afterwards.)
+      trial_energy = evaluate(cloth, m_trial, true, false);
+      const double change = 0.5 * alpha * (slope + m_gradient.dot(m_direction));
+      if (std::isfinite(trial_energy) && std::isfinite(change) &&
+          change <= kArmijo * alpha * slope) {
+        break;
+      }
+    } else {
+      trial_energy = evaluate(cloth, m_trial, trial_gradient, false);
+      if (trial_energy <= energy + kArmijo * alpha * slope) break;  // sufficient decrease
+    }
+    if (halvings == kMaxBacktracks) break;  // take the tiny step; the residual decides
+    alpha *= 0.5;
+    ++backtracks;
+  }
+  return alpha;
 }
 
 double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
@@ -561,6 +598,9 @@ NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& g
     msg << "positions must have shape (" << cloth.vertex_count() << ", 3), got ("
         << positions.rows() << ", 3)";
     throw std::invalid_argument(msg.str());
+  }
+  if (m_options.minimizer != ImplicitMinimizer::newton) {
+    throw std::invalid_argument("newton_system needs a Newton integrator (minimizer newton)");
   }
   ensure_structure(cloth);
   begin_step(cloth, gravity, dt, false);

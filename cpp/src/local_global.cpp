@@ -2,6 +2,7 @@
 
 #include "yore/errors.hpp"
 #include "yore/interrupt.hpp"
+#include "yore/spring_matrix.hpp"
 #include "yore/springs.hpp"
 
 #include <algorithm>
@@ -17,17 +18,6 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-/// A number that changes when any spring's stiffness or damping, or the drag, changes.
-double material_checksum(const Cloth& cloth) {
-  const SpringSet& springs = cloth.springs();
-  double sum = cloth.drag();
-  for (std::size_t s = 0; s < springs.size(); ++s) {
-    sum += springs.stiffness[s] * static_cast<double>(1 + s % 7) +
-           springs.damping[s] * static_cast<double>(2 + s % 5);
-  }
-  return sum;
 }
 
 }  // namespace
@@ -64,48 +54,8 @@ const SolverStatistics& LocalGlobalIntegrator::solver_statistics() const {
 void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
   const Eigen::Index n = cloth.vertex_count();
   const SpringSet& springs = cloth.springs();
-  m_free_of_vertex.assign(static_cast<std::size_t>(n), -1);
-  m_free_vertices.clear();
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (cloth.inverse_masses()[i] == 0.0) continue;
-    m_free_of_vertex[static_cast<std::size_t>(i)] =
-        static_cast<std::int32_t>(m_free_vertices.size());
-    m_free_vertices.push_back(static_cast<std::int32_t>(i));
-  }
-  const auto unknowns = static_cast<std::int32_t>(m_free_vertices.size());
-  std::vector<std::pair<std::int32_t, std::int32_t>> coupled;  // (column, row), row > column
-  coupled.reserve(springs.size());
-  for (std::size_t s = 0; s < springs.size(); ++s) {
-    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(springs.first[s])];
-    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(springs.second[s])];
-    if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b), std::max(a, b));
-  }
-  std::sort(coupled.begin(), coupled.end());
-  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
-  m_pattern.size = unknowns;
-  m_pattern.column_starts.assign(static_cast<std::size_t>(unknowns) + 1, 0);
-  m_pattern.row_indices.clear();
-  m_pattern.row_indices.reserve(static_cast<std::size_t>(unknowns) + coupled.size());
-  std::size_t next = 0;
-  for (std::int32_t column = 0; column < unknowns; ++column) {
-    m_pattern.column_starts[static_cast<std::size_t>(column)] =
-        static_cast<std::int32_t>(m_pattern.row_indices.size());
-    m_pattern.row_indices.push_back(column);  // the diagonal comes first
-    while (next < coupled.size() && coupled[next].first == column) {
-      m_pattern.row_indices.push_back(coupled[next++].second);
-    }
-  }
-  m_pattern.column_starts.back() = static_cast<std::int32_t>(m_pattern.row_indices.size());
-  m_spring_slot.assign(springs.size(), -1);
-  for (std::size_t s = 0; s < springs.size(); ++s) {
-    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(springs.first[s])];
-    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(springs.second[s])];
-    if (a < 0 || b < 0) continue;
-    const std::int32_t column = std::min(a, b), row = std::max(a, b);
-    const auto begin = m_pattern.row_indices.begin() + m_pattern.column_starts[column] + 1;
-    const auto end = m_pattern.row_indices.begin() + m_pattern.column_starts[column + 1];
-    m_spring_slot[s] = std::lower_bound(begin, end, row) - m_pattern.row_indices.begin();
-  }
+  build_scalar_spring_pattern(cloth, m_scalar);
+  const auto unknowns = m_pattern.size;
   m_values.assign(m_pattern.row_indices.size(), 0.0);
   m_diagonal.resize(unknowns);
   const Eigen::Index rows = unknowns;
@@ -125,21 +75,7 @@ void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
 }
 
 void LocalGlobalIntegrator::fill_values(const Cloth& cloth, double dt) {
-  std::fill(m_values.begin(), m_values.end(), 0.0);
-  const double drag = cloth.drag();
-  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-    const double m = cloth.masses()[m_free_vertices[b]];
-    m_values[static_cast<std::size_t>(m_pattern.column_starts[b])] += m / (dt * dt) + drag * m / dt;
-  }
-  const SpringSet& springs = cloth.springs();
-  for (std::size_t s = 0; s < springs.size(); ++s) {
-    const double weight = springs.stiffness[s] + springs.damping[s] / dt;
-    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(springs.first[s])];
-    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(springs.second[s])];
-    if (a >= 0) m_values[static_cast<std::size_t>(m_pattern.column_starts[a])] += weight;
-    if (b >= 0) m_values[static_cast<std::size_t>(m_pattern.column_starts[b])] += weight;
-    if (m_spring_slot[s] >= 0) m_values[static_cast<std::size_t>(m_spring_slot[s])] -= weight;
-  }
+  fill_scalar_spring_matrix(cloth, dt, m_scalar, m_values);
   for (std::int32_t b = 0; b < m_pattern.size; ++b) {
     m_diagonal[b] = m_values[static_cast<std::size_t>(m_pattern.column_starts[b])];
   }
@@ -201,7 +137,7 @@ void LocalGlobalIntegrator::factor_fresh(bool keep_ordering) {
 }
 
 void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
-  const double checksum = material_checksum(cloth);
+  const double checksum = spring_material_checksum(cloth);
   if (cloth.topology_version() != m_topology) {
     const std::vector<std::int32_t> old_free = m_free_vertices;
     const bool had_factor = m_topology != std::numeric_limits<std::uint64_t>::max();

@@ -371,9 +371,12 @@ def _check_simulation(field, simulation):
                       1, 32)
     history = simulation["history"]
     if history is not None:
-        if integrator != "bdf2":
+        bdf2 = integrator == "bdf2" or (integrator == "quasi-newton" and
+                                        simulation["options"].get("method") == "bdf2")
+        if not bdf2:
             raise field.error("simulation.history", f"given for integrator {integrator!r}",
-                              "null (only bdf2 keeps a history)")
+                              "null (only bdf2 and quasi-newton with method bdf2 keep a "
+                              "history)")
         field.keys(history, "simulation.history", ("positions", "velocities", "dt"))
         field.array(history["positions"], "simulation.history.positions", np.float64, (n, 3))
         field.array(history["velocities"], "simulation.history.velocities", np.float64, (n, 3))

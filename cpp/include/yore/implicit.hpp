@@ -6,6 +6,8 @@
 #include "yore/cloth.hpp"
 #include "yore/divergence.hpp"
 #include "yore/linear_solver.hpp"
+#include "yore/sparse_cholesky.hpp"
+#include "yore/spring_matrix.hpp"
 
 #include <Eigen/Core>
 
@@ -40,9 +42,20 @@ enum class NewtonPredictor {
   inertial,  ///< x̂ = x̄ + h̃ v̄, the inertial (free-flight, no gravity) prediction
 };
 
+/// How each step's incremental potential is minimised.
+enum class ImplicitMinimizer {
+  newton,  ///< Newton's method on the 3n×3n Hessian (projected as `projection` says)
+  lbfgs,   ///< quasi-Newton (Liu, Bouaziz & Kavan 2017): L-BFGS whose initial Hessian is the
+           ///< constant scalar matrix Q of spring_matrix.hpp, analysed once per topology and
+           ///< factored once per (topology, h̃, stiffness); the same line search and residual test
+};
+
 /// Settings of the implicit integrator.
 struct ImplicitOptions {
   ImplicitMethod method = ImplicitMethod::backward_euler;
+  ImplicitMinimizer minimizer = ImplicitMinimizer::newton;
+  /// lbfgs: correction pairs kept within a step (the history starts empty every step).
+  int lbfgs_history = 8;
   /// One Newton step from the current state, no line search (Baraff & Witkin 1998).
   bool linearized = false;
   /// false: every spring Hessian is projected to PSD (the default; always SPD). true: each
@@ -83,6 +96,7 @@ struct ImplicitStatistics {
   std::int64_t abs_projections = 0;     ///< trust_region: iterations that used |λ| filtering
   std::int64_t lagged_solves = 0;       ///< Newton solves done by CG on a lagged factor
   std::int64_t lagged_cg_iterations = 0;
+  std::int64_t lbfgs_skipped_updates = 0;  ///< lbfgs: pairs with sᵀy ≤ 0, not stored
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
   double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
@@ -172,6 +186,17 @@ class ImplicitIntegrator {
   double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
                   HessianProjection projection = HessianProjection::clamp);
   double scaled_residual(const Cloth& cloth) const;
+  /// Backtracking (Armijo) line search along m_direction from m_iterate (energy at it; slope =
+  /// ∇E·d < 0); returns the step length, leaves the last trial's energy in trial_energy and
+  /// counts halvings in backtracks. May overwrite m_gradient; with trial_gradient it is the
+  /// last trial's on return (m_trial holds that trial).
+  double line_search(const Cloth& cloth, double energy, double slope, int& backtracks,
+                     double& trial_energy, bool trial_gradient = false);
+  /// lbfgs: refactors Q if the topology, h̃ or the material changed since the last factor.
+  void ensure_scalar_matrix(const Cloth& cloth);
+  /// lbfgs: minimises from m_iterate until the residual test or max_newton (quasi_newton.cpp).
+  void quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
+                            int& iterations, int& backtracks, bool& converged);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
@@ -204,6 +229,18 @@ class ImplicitIntegrator {
   int m_exact_skip = 0, m_exact_backoff = 1;
   CgWorkspace m_cg;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
+
+  // lbfgs: the scalar matrix Q, its factor and the correction pairs (sized per topology).
+  ScalarSpringPattern m_scalar;
+  std::vector<double> m_scalar_values;
+  std::unique_ptr<SparseCholesky> m_scalar_solver;
+  std::uint64_t m_scalar_topology = std::numeric_limits<std::uint64_t>::max();
+  double m_scalar_h = 0.0;
+  double m_scalar_checksum = std::numeric_limits<double>::quiet_NaN();
+  bool m_scalar_factored = false;
+  Eigen::MatrixXd m_pairs_s, m_pairs_y;  // dofs × lbfgs_history, circular
+  Eigen::VectorXd m_pairs_rho, m_pairs_alpha, m_previous_gradient;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> m_scalar_rhs, m_scalar_solution;
 
   // BDF2 history: the state one step back, valid while nothing changed.
   Positions m_previous_positions, m_previous_velocities;

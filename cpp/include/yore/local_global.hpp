@@ -7,6 +7,7 @@
 #include "yore/cloth.hpp"
 #include "yore/divergence.hpp"
 #include "yore/sparse_cholesky.hpp"
+#include "yore/spring_matrix.hpp"
 
 #include <Eigen/Core>
 
@@ -116,10 +117,11 @@ class LocalGlobalIntegrator {
 
   // Structure, per topology.
   std::uint64_t m_topology = std::numeric_limits<std::uint64_t>::max();
-  std::vector<std::int32_t> m_free_of_vertex;  // n: index among the unknowns, or −1
-  std::vector<std::int32_t> m_free_vertices;
-  SymmetricPattern m_pattern;
-  std::vector<std::int64_t> m_spring_slot;  // s: slot of the off-diagonal entry, or −1
+  ScalarSpringPattern m_scalar;  // unknowns, pattern and spring slots of Q
+  const std::vector<std::int32_t>& m_free_of_vertex = m_scalar.free_of_vertex;
+  const std::vector<std::int32_t>& m_free_vertices = m_scalar.free_vertices;
+  const SymmetricPattern& m_pattern = m_scalar.pattern;
+  const std::vector<std::int64_t>& m_spring_slot = m_scalar.spring_slot;
   std::vector<double> m_values;
   // Matrix key besides the topology.
   double m_dt = 0.0;

@@ -1,0 +1,88 @@
+#include "yore/spring_matrix.hpp"
+
+#include <algorithm>
+#include <utility>
+
+namespace yore {
+
+void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
+  const Eigen::Index n = cloth.vertex_count();
+  const SpringSet& springs = cloth.springs();
+  out.free_of_vertex.assign(static_cast<std::size_t>(n), -1);
+  out.free_vertices.clear();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (cloth.inverse_masses()[i] == 0.0) continue;
+    out.free_of_vertex[static_cast<std::size_t>(i)] =
+        static_cast<std::int32_t>(out.free_vertices.size());
+    out.free_vertices.push_back(static_cast<std::int32_t>(i));
+  }
+  const auto unknowns = static_cast<std::int32_t>(out.free_vertices.size());
+  std::vector<std::pair<std::int32_t, std::int32_t>> coupled;  // (column, row), row > column
+  coupled.reserve(springs.size());
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t a = out.free_of_vertex[static_cast<std::size_t>(springs.first[s])];
+    const std::int32_t b = out.free_of_vertex[static_cast<std::size_t>(springs.second[s])];
+    if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b), std::max(a, b));
+  }
+  std::sort(coupled.begin(), coupled.end());
+  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
+  SymmetricPattern& pattern = out.pattern;
+  pattern.size = unknowns;
+  pattern.column_starts.assign(static_cast<std::size_t>(unknowns) + 1, 0);
+  pattern.row_indices.clear();
+  pattern.row_indices.reserve(static_cast<std::size_t>(unknowns) + coupled.size());
+  std::size_t next = 0;
+  for (std::int32_t column = 0; column < unknowns; ++column) {
+    pattern.column_starts[static_cast<std::size_t>(column)] =
+        static_cast<std::int32_t>(pattern.row_indices.size());
+    pattern.row_indices.push_back(column);  // the diagonal comes first
+    while (next < coupled.size() && coupled[next].first == column) {
+      pattern.row_indices.push_back(coupled[next++].second);
+    }
+  }
+  pattern.column_starts.back() = static_cast<std::int32_t>(pattern.row_indices.size());
+  out.spring_slot.assign(springs.size(), -1);
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t a = out.free_of_vertex[static_cast<std::size_t>(springs.first[s])];
+    const std::int32_t b = out.free_of_vertex[static_cast<std::size_t>(springs.second[s])];
+    if (a < 0 || b < 0) continue;
+    const std::int32_t column = std::min(a, b), row = std::max(a, b);
+    const auto begin = pattern.row_indices.begin() + pattern.column_starts[column] + 1;
+    const auto end = pattern.row_indices.begin() + pattern.column_starts[column + 1];
+    out.spring_slot[s] = std::lower_bound(begin, end, row) - pattern.row_indices.begin();
+  }
+}
+
+void fill_scalar_spring_matrix(const Cloth& cloth, double h, const ScalarSpringPattern& structure,
+                               std::vector<double>& values) {
+  const SymmetricPattern& pattern = structure.pattern;
+  values.assign(pattern.row_indices.size(), 0.0);
+  const double drag = cloth.drag();
+  for (std::size_t b = 0; b < structure.free_vertices.size(); ++b) {
+    const double m = cloth.masses()[structure.free_vertices[b]];
+    values[static_cast<std::size_t>(pattern.column_starts[b])] += m / (h * h) + drag * m / h;
+  }
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const double weight = springs.stiffness[s] + springs.damping[s] / h;
+    const std::int32_t a = structure.free_of_vertex[static_cast<std::size_t>(springs.first[s])];
+    const std::int32_t b = structure.free_of_vertex[static_cast<std::size_t>(springs.second[s])];
+    if (a >= 0) values[static_cast<std::size_t>(pattern.column_starts[a])] += weight;
+    if (b >= 0) values[static_cast<std::size_t>(pattern.column_starts[b])] += weight;
+    if (structure.spring_slot[s] >= 0) {
+      values[static_cast<std::size_t>(structure.spring_slot[s])] -= weight;
+    }
+  }
+}
+
+double spring_material_checksum(const Cloth& cloth) {
+  const SpringSet& springs = cloth.springs();
+  double sum = cloth.drag();
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    sum += springs.stiffness[s] * static_cast<double>(1 + s % 7) +
+           springs.damping[s] * static_cast<double>(2 + s % 5);
+  }
+  return sum;
+}
+
+}  // namespace yore
