@@ -5,8 +5,9 @@
 For grid cloths of n × n vertices (structural + bending springs) and the AMD and METIS orderings:
 one explicit step; one linearized implicit step split into assemble / factorize / solve; one
 symbolic analysis (after a change of topology); nnz(L) and the factorization's flops and
-GFlop/s beside the dense matrix-multiply GFlop/s of numpy measured in the same run. Medians of
-repeated runs; writes implicit_step.json and implicit_step.png.
+GFlop/s beside the dense matrix-multiply GFlop/s of numpy measured in the same run; one Newton
+iteration against one quasi-Newton iteration at the defaults. Medians of repeated runs; writes
+implicit_step.json and implicit_step.png.
 """
 
 from __future__ import annotations
@@ -119,6 +120,29 @@ def plot(rows, path: Path) -> None:
     plt.close(fig)
 
 
+def iteration_seconds(n: int, integrator: str, repeats: int) -> dict:
+    """Wall time of one iteration of a minimiser at its defaults (Newton: assemble the Hessian,
+    factorize, solve, line search; quasi-Newton: gradient, two-loop recursion with one scalar
+    solve of three right-hand sides, line search) on the hanging grid, median over repeated
+    steps of 8 iterations each (tolerance out of reach, so every step takes exactly 8)."""
+    import warnings
+
+    sim = yore.Simulation(grid_cloth(n), integrator=integrator, dt=1.0 / 60.0,
+                          newton_tol=1e-300, max_newton=8)
+    samples = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # every step is at its cap on purpose
+        sim.step(1, progress=False)  # analysis and first factorization
+        for _ in range(repeats):
+            before = sim.stats["counters"]["newton_iterations"]
+            start = time.perf_counter()
+            sim.step(1, progress=False)
+            samples.append((time.perf_counter() - start)
+                           / (sim.stats["counters"]["newton_iterations"] - before))
+    return {"median": statistics.median(samples), "min": min(samples), "max": max(samples),
+            "repeats": repeats}
+
+
 def main(argv=None) -> dict:
     def extra(parser):
         parser.add_argument("--sizes", type=int, nargs="*", help="grid sizes (vertices per side)")
@@ -140,11 +164,23 @@ def main(argv=None) -> dict:
             row["analyze_over_explicit_step"] = row["analyze_seconds"] / explicit
             row["step_over_factorize"] = row["step_seconds"] / row["factorize_seconds"]
             rows.append(row)
+    iterations = []
+    for n in sizes:
+        newton = iteration_seconds(n, "implicit", repeats)
+        quasi = iteration_seconds(n, "quasi-newton", repeats)
+        iterations.append({"grid": n, "newton_iteration_seconds": newton["median"],
+                           "quasi_newton_iteration_seconds": quasi["median"],
+                           "quasi_over_newton": quasi["median"] / newton["median"],
+                           "repeats": repeats})
+        print(f"{n:>4}² one Newton iteration {1e3 * newton['median']:.2f} ms, one quasi-Newton "
+              f"iteration {1e3 * quasi['median']:.3f} ms: ratio "
+              f"{iterations[-1]['quasi_over_newton']:.3f}")
     payload = {"benchmark": "implicit_step", "machine": machine_info(), "quick": args.quick,
-               "dense_matmul_gflops": dense, "rows": rows,
+               "dense_matmul_gflops": dense, "rows": rows, "iterations": iterations,
                "targets": {"step_over_factorize_at_most": 1.5,
                            "factorize_fraction_of_dense_at_least": 0.3,
-                           "analyze_over_factorize_at_most": 1.0}}
+                           "analyze_over_factorize_at_most": 1.0,
+                           "quasi_over_newton_iteration_at_64_at_most": 0.1}}
     save(args.out, "implicit_step", payload, lambda path: plot(rows, path))
     header = (f"{'grid':>5} {'order':>6} {'dofs':>7} {'nnz(L)':>9} {'expl ms':>8} {'asm ms':>7} "
               f"{'fact ms':>8} {'solve ms':>8} {'anal ms':>8} {'step/fact':>9} {'anal/fact':>9} "

@@ -7,7 +7,9 @@ orderings: one explicit step; one implicit (linearized backward-Euler) step by p
 implicit step right after a stroke, which re-analyses (its analysis time is the rebuild); the
 ratios analyze/factorize and analyze/explicit-step; nnz(L), flops and the factorization's
 GFlop/s beside numpy's dense matrix-multiply GFlop/s measured in the same run. Medians of
-repeated runs (each repeat is a new stroke). Writes rebuild_cost.json and rebuild_cost.png.
+repeated runs (each repeat is a new stroke). Local-global per rebuild strategy and quasi-Newton
+(whose stroke rebuilds only the scalar matrix): the extra cost of a stroke in ordinary steps.
+Writes rebuild_cost.json and rebuild_cost.png.
 """
 
 from __future__ import annotations
@@ -136,6 +138,43 @@ def measure_local_global(name, make, stroke, repeats, after_steps=10):
     return rows
 
 
+def measure_quasi_newton(name, make, stroke, repeats):
+    """Quasi-Newton at its defaults: an ordinary step, and what a stroke makes it rebuild (the
+    scalar matrix's analysis and factorization, the only work a stroke adds), in ordinary
+    steps and in iterations."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # steps at the cap are counted below
+        sim = make("quasi-newton")
+        sim.step(2, progress=False)
+        steady = [phase_deltas(sim, lambda: sim.step(1, progress=False)) for _ in range(repeats)]
+        iterations_before = sim.stats["counters"]["newton_iterations"]
+        steps_before = sim.stats["steps"]
+        rebuilds = []
+        for k in range(repeats):
+            stroke(sim, k)
+            after = phase_deltas(sim, lambda: sim.step(1, progress=False))
+            rebuilds.append(after["analyze_seconds"] + after["factorize_seconds"])
+    counters = sim.stats["counters"]
+    ordinary = statistics.median(d["wall_seconds"] for d in steady)
+    per_iteration = ordinary / max(1.0, (counters["newton_iterations"] - iterations_before)
+                                   / (sim.stats["steps"] - steps_before))
+    rebuild = statistics.median(rebuilds)
+    row = {"case": name, "ordinary_step_seconds": ordinary,
+           "seconds_per_iteration": per_iteration, "rebuild_seconds": rebuild,
+           "rebuild_in_ordinary_steps": rebuild / ordinary,
+           "rebuild_in_iterations": rebuild / per_iteration,
+           "iterations_per_step": counters["newton_iterations"] / sim.stats["steps"],
+           "unconverged_steps": counters["unconverged_steps"], "steps": sim.stats["steps"],
+           "analyses": counters["analyses"], "factorizations": counters["factorizations"],
+           "factor_nonzeros": counters["factor_nonzeros"], "dofs": counters["dofs"]}
+    print(f"{name:16s} quasi-newton step {1e3 * ordinary:8.2f} ms "
+          f"({row['iterations_per_step']:.0f} it, {1e3 * per_iteration:.3f} ms/it), rebuild "
+          f"{1e3 * rebuild:.2f} ms = {row['rebuild_in_ordinary_steps']:.3f} ordinary steps")
+    return row
+
+
 def main(argv=None):
     args = arguments(__doc__, argv)
     repeats = 3 if args.quick else 5
@@ -161,8 +200,11 @@ def main(argv=None):
     local_global = []
     for name, make, stroke in cases:
         local_global += measure_local_global(name, make, stroke, repeats)
+    quasi_newton = [measure_quasi_newton(name, make, stroke, repeats)
+                    for name, make, stroke in cases]
     payload = {"benchmark": "rebuild_cost", "machine": machine_info(), "quick": args.quick,
                "dense_matmul_gflops": dense, "rows": rows, "local_global": local_global,
+               "quasi_newton": quasi_newton,
                "targets": {"analyze_over_implicit_step_at_most": 1.0,
                            "local_global_rebuild_in_steps_at_most_128": 10.0,
                            "local_global_step_seconds_at_most_64": 0.005}}

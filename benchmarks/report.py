@@ -122,6 +122,18 @@ def section(data: dict, results: Path) -> str:
                     f"(best strategy {best:.1f}); a local-global step at 64² under 5 ms — "
                     f"{verdict(step64 < 0.005)} ({1e3 * step64:.1f} ms)."]
 
+    qn = rebuild.get("quasi_newton", [])
+    if qn:
+        out += ["", "Quasi-Newton at its defaults: a stroke re-analyses and refactors only the "
+                "scalar matrix (n×n); its cost in ordinary steps and in L-BFGS iterations:", "",
+                "| case | ordinary step | iterations per step | per iteration | rebuild | "
+                "rebuild in steps | rebuild in iterations |", "|---|---|---|---|---|---|---|"]
+        for r in qn:
+            out.append(f"| {r['case']} | {duration(r['ordinary_step_seconds'])} | "
+                       f"{r['iterations_per_step']:.0f} | {duration(r['seconds_per_iteration'])} | "
+                       f"{duration(r['rebuild_seconds'])} | {r['rebuild_in_ordinary_steps']:.3f} | "
+                       f"{r['rebuild_in_iterations']:.1f} |")
+
     imp = data["implicit_step"]
     big = [r for r in imp["rows"] if r["grid"] >= 128]
     out += ["", "From `implicit_step` (linearized step by phase, AMD and METIS): a linearized step "
@@ -135,6 +147,12 @@ def section(data: dict, results: Path) -> str:
             f"{max(r['factorize_fraction_of_dense'] for r in big):.0%} of the dense multiply rate "
             f"(target ≥ 30 %: {verdict(min(r['factorize_fraction_of_dense'] for r in big) >= 0.3)})."
             if big else ""]
+    for r in imp.get("iterations", []):
+        if r["grid"] == 64:
+            out += ["", f"One quasi-Newton iteration at 64² costs {r['quasi_over_newton']:.3f} of a "
+                    f"Newton iteration ({duration(r['quasi_newton_iteration_seconds'])} against "
+                    f"{duration(r['newton_iteration_seconds'])}; target ≤ 0.1: "
+                    f"{verdict(r['quasi_over_newton'] <= 0.1)})."]
 
     # -- scaling --------------------------------------------------------------------------------
     scaling = data["scaling"]

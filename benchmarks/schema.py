@@ -20,7 +20,7 @@ SCHEMAS = {
                         "sample_times", "quick"},
                        {"scene", "method", "dt"}),
     "rebuild_cost": ({"benchmark", "machine", "rows", "dense_matmul_gflops", "quick",
-                      "local_global"},
+                      "local_global", "quasi_newton"},
                      {"case", "ordering_used", "dofs", "factor_nonzeros", "factor_flops",
                       "explicit_step_seconds", "implicit_step_seconds", "factorize_seconds",
                       "analyze_seconds", "step_after_stroke_seconds", "analyze_over_factorize",

@@ -55,6 +55,10 @@ def test_implicit_step_benchmark_smoke(tmp_path):
                     "explicit_step_seconds"):
             assert is_timing(row[key]), key
         assert row["factor_flops"] > row["factor_nonzeros"] >= row["dofs"]
+    assert [r["grid"] for r in data["iterations"]] == [6, 8]
+    for row in data["iterations"]:
+        assert is_timing(row["newton_iteration_seconds"])
+        assert is_timing(row["quasi_newton_iteration_seconds"])
 
 
 def test_speed_vs_error_smoke(tmp_path):
@@ -92,6 +96,10 @@ def test_rebuild_cost_smoke(tmp_path):
         # be stepping on the stale factor
         if row["strategy"] != "stale-pcg":
             assert row["factorizations"] >= 1 + 3
+    for row in data["quasi_newton"]:
+        # one scalar analysis per topology (the first and one per stroke), refactored with it
+        assert row["analyses"] == 1 + 3 and row["factorizations"] == 1 + 3
+        assert is_timing(row["ordinary_step_seconds"]) and is_timing(row["rebuild_seconds"])
 
 
 def test_scaling_smoke(tmp_path):
