@@ -33,12 +33,8 @@ void bind_implicit(py::module_& m) {
          const std::string& ordering, const std::string& factorization) {
         LinearSolverOptions options;
         options.backend = solver;
-        options.ordering = parse_choice<Ordering>(
-            ordering, "ordering",
-            {{"amd", Ordering::amd}, {"metis", Ordering::metis}, {"natural", Ordering::natural}});
-        options.factor = parse_choice<FactorKind>(
-            factorization, "factorization",
-            {{"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}});
+        options.ordering = parse_ordering(ordering);
+        options.factor = parse_factor_kind(factorization);
         const std::int32_t size = to_int32(requested_size, "size");
         if (size < 0) throw std::invalid_argument("size must be >= 0, got " + std::to_string(size));
         SymmetricPattern pattern;
@@ -119,12 +115,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
              options.newton_tol = newton_tol;
              options.max_newton = to_int32(max_newton, "max_newton");
              options.solver.backend = solver;
-             options.solver.ordering = parse_choice<Ordering>(
-                 ordering, "ordering",
-                 {{"amd", Ordering::amd}, {"metis", Ordering::metis}, {"natural", Ordering::natural}});
-             options.solver.factor = parse_choice<FactorKind>(
-                 factorization, "factorization",
-                 {{"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}});
+             options.solver.ordering = parse_ordering(ordering);
+             options.solver.factor = parse_factor_kind(factorization);
              options.solver.pcg_tolerance = pcg_tol;
              options.solver.pcg_max_iterations = to_int32(pcg_max_iterations, "pcg_max_iterations");
              options.divergence_energy_factor = divergence_energy_factor;

@@ -22,15 +22,8 @@ void bind_local_global(py::module_& m) {
              options.iterations = to_int32(iterations, "iterations");
              options.tolerance = tolerance;
              options.chebyshev_rho = chebyshev_rho;
-             if (ordering == "amd") options.ordering = Ordering::amd;
-             else if (ordering == "metis") options.ordering = Ordering::metis;
-             else if (ordering == "natural") options.ordering = Ordering::natural;
-             else throw std::invalid_argument("unknown ordering '" + ordering +
-                                              "'; valid: amd, metis, natural");
-             if (factorization == "supernodal") options.factor = FactorKind::supernodal;
-             else if (factorization == "simplicial") options.factor = FactorKind::simplicial;
-             else throw std::invalid_argument("unknown factorization '" + factorization +
-                                              "'; valid: supernodal, simplicial");
+             options.ordering = parse_ordering(ordering);
+             options.factor = parse_factor_kind(factorization);
              if (rebuild == "fresh") options.rebuild = RebuildStrategy::fresh;
              else if (rebuild == "reuse-ordering") options.rebuild = RebuildStrategy::reuse_ordering;
              else if (rebuild == "stale-pcg") options.rebuild = RebuildStrategy::stale_pcg;

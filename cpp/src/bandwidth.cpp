@@ -1,9 +1,9 @@
 #include "yore/bandwidth.hpp"
 
 #include "yore/build_info.hpp"
+#include "yore/timer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -29,11 +29,10 @@ double stream_triad_bandwidth(std::size_t elements, int repeats) {
   double best = std::numeric_limits<double>::infinity();
   const double scale = 3.0;
   for (int r = 0; r < repeats; ++r) {
-    const auto start = std::chrono::steady_clock::now();
+    const Stopwatch watch;
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (std::int64_t i = 0; i < n; ++i) a[i] = b[i] + scale * c[i];
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = watch.seconds();
     best = std::min(best, seconds);
   }
   // Keep the result observable so the loop is not optimised away.

@@ -2,21 +2,15 @@
 
 #include "yore/build_info.hpp"
 #include "yore/interrupt.hpp"
+#include "yore/timer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
 namespace yore {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Below these sizes a loop runs on one thread even when more are configured: forking and
 // joining would cost more than the loop. Break-even measured per loop on the 2-core machine of
@@ -203,14 +197,14 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   check_advance_arguments(dt, gravity, steps);
   if (steps == 0) return;
 
-  auto start = Clock::now();
+  Stopwatch start;
   prepare(cloth);
   m_monitor.prepare(cloth, gravity, dt);
   const Eigen::Index n = cloth.vertex_count();
   m_checkpoint_positions = cloth.positions();  // same size every call: no reallocation
   m_checkpoint_velocities = cloth.velocities();
   const SimulationClock checkpoint_clock = cloth.clock();
-  m_statistics.checks_seconds += seconds_since(start);
+  m_statistics.checks_seconds += start.seconds();
 
   const bool limiting = m_options.strain_limit > 0.0;
   const double* m = cloth.masses().data();
@@ -230,32 +224,32 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
       cloth.set_clock(checkpoint_clock);
       throw;
     }
-    const auto step_start = Clock::now();
+    const Stopwatch step_start;
     const int threads = m_thread_chooser.threads_for_next_step(configured);
     start = step_start;
     const double spring_energy_before = compute_spring_forces(cloth, threads);
-    m_statistics.forces_seconds += seconds_since(start);
+    m_statistics.forces_seconds += start.seconds();
 
-    start = Clock::now();
+    start.restart();
     update_velocities_and_positions(cloth, gravity, dt, threads);
     const double new_time = cloth.advance_time(dt);
     cloth.apply_drivers(new_time);
-    m_statistics.update_seconds += seconds_since(start);
+    m_statistics.update_seconds += start.seconds();
 
     double* x = cloth.integrator_positions().data();
     double* v = cloth.integrator_velocities().data();
     if (limiting) {
-      start = Clock::now();
+      start.restart();
       limit_strain(cloth);
       const double* previous = m_previous_positions.data();
       for (Eigen::Index i = 0; i < n; ++i) {
         if (inverse_mass[i] == 0.0) continue;
         for (int c = 0; c < 3; ++c) v[3 * i + c] = (x[3 * i + c] - previous[3 * i + c]) / dt;
       }
-      m_statistics.constraints_seconds += seconds_since(start);
+      m_statistics.constraints_seconds += start.seconds();
     }
 
-    start = Clock::now();
+    start.restart();
     double monitored = 0.0;
     double position_sum = 0.0;
     const std::int64_t chunk = chunk_size(n, threads);
@@ -279,8 +273,8 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
       throw diverged_error(cloth, "explicit", failed_step, new_time, dt, finite);
     }
     ++m_statistics.steps;
-    m_statistics.checks_seconds += seconds_since(start);
-    if (m_thread_chooser.record(seconds_since(step_start))) ++m_statistics.thread_probes;
+    m_statistics.checks_seconds += start.seconds();
+    if (m_thread_chooser.record(step_start.seconds())) ++m_statistics.thread_probes;
     m_statistics.last_step_threads = threads;
     if (threads > 1) ++m_statistics.parallel_steps;
   }

@@ -13,6 +13,20 @@
 #include <stdexcept>
 
 namespace yore {
+
+Ordering parse_ordering(const std::string& name) {
+  if (name == "amd") return Ordering::amd;
+  if (name == "metis") return Ordering::metis;
+  if (name == "natural") return Ordering::natural;
+  throw std::invalid_argument("unknown ordering '" + name + "'; valid: amd, metis, natural");
+}
+
+FactorKind parse_factor_kind(const std::string& name) {
+  if (name == "supernodal") return FactorKind::supernodal;
+  if (name == "simplicial") return FactorKind::simplicial;
+  throw std::invalid_argument("unknown factorization '" + name +
+                              "'; valid: supernodal, simplicial");
+}
 namespace {
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, std::int32_t>;

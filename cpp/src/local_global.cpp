@@ -4,23 +4,14 @@
 #include "yore/interrupt.hpp"
 #include "yore/spring_matrix.hpp"
 #include "yore/springs.hpp"
+#include "yore/timer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
 namespace yore {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-}  // namespace
 
 LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
     : m_options(options), m_monitor(options.divergence_energy_factor) {
@@ -86,7 +77,7 @@ void LocalGlobalIntegrator::factor_fresh(bool keep_ordering) {
     m_factor_current = true;
     return;
   }
-  auto start = Clock::now();
+  Stopwatch start;
   m_solver = std::make_unique<SparseCholesky>(m_options.factor, m_options.ordering);
   if (keep_ordering && !m_previous_permutation.empty() && m_previous_size <= m_pattern.size) {
     // The old ordering, each new unknown placed right after the last of its old neighbours
@@ -123,11 +114,11 @@ void LocalGlobalIntegrator::factor_fresh(bool keep_ordering) {
   } else {
     m_solver->analyze(m_pattern);
   }
-  m_statistics.analyze_seconds += seconds_since(start);
+  m_statistics.analyze_seconds += start.seconds();
   ++m_statistics.analyses;
-  start = Clock::now();
+  start.restart();
   m_solver->factorize(m_values.data());
-  m_statistics.factorize_seconds += seconds_since(start);
+  m_statistics.factorize_seconds += start.seconds();
   ++m_statistics.factorizations;
   m_previous_permutation = m_solver->permutation();
   m_previous_size = m_pattern.size;
@@ -141,7 +132,7 @@ void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
   if (cloth.topology_version() != m_topology) {
     const std::vector<std::int32_t> old_free = m_free_vertices;
     const bool had_factor = m_topology != std::numeric_limits<std::uint64_t>::max();
-    const auto start = Clock::now();
+    const Stopwatch start;
     build_pattern(cloth);
     fill_values(cloth, dt);
     // Strokes only append vertices: the old unknowns keep their indices (a prefix).
@@ -163,18 +154,18 @@ void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
     }
     if (had_factor) {
       ++m_statistics.rebuilds;
-      m_statistics.rebuild_seconds += seconds_since(start);
+      m_statistics.rebuild_seconds += start.seconds();
     }
     m_topology = cloth.topology_version();
   } else if (dt != m_dt || checksum != m_material_checksum) {
     fill_values(cloth, dt);
     if (m_factor_current) {
-      const auto start = Clock::now();
+      const Stopwatch start;
       if (m_pattern.size > 0) {
         m_solver->factorize(m_values.data());
         ++m_statistics.factorizations;
       }
-      m_statistics.factorize_seconds += seconds_since(start);
+      m_statistics.factorize_seconds += start.seconds();
     } else {
       factor_fresh(true);
     }
@@ -184,10 +175,10 @@ void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
 }
 
 void LocalGlobalIntegrator::global_solve() {
-  const auto start = Clock::now();
+  const Stopwatch start;
   if (m_factor_current) {  // x, y and z in one pass over the factor
     m_solver->solve_columns(m_rhs.data(), m_unknowns.data(), 3);
-    m_statistics.solve_seconds += seconds_since(start);
+    m_statistics.solve_seconds += start.seconds();
     return;
   }
   for (int c = 0; c < 3; ++c) {
@@ -213,14 +204,14 @@ void LocalGlobalIntegrator::global_solve() {
     if (!converged) {
       // The stale factor no longer helps enough: rebuild now (old ordering reused) and solve
       // this column and the remaining ones directly.
-      const auto rebuild_start = Clock::now();
+      const Stopwatch rebuild_start;
       factor_fresh(true);
-      m_statistics.rebuild_seconds += seconds_since(rebuild_start);
+      m_statistics.rebuild_seconds += rebuild_start.seconds();
       m_solver->solve(m_work_rhs.data(), m_work_x.data());
     }
     m_unknowns.col(c) = m_work_x;
   }
-  m_statistics.solve_seconds += seconds_since(start);
+  m_statistics.solve_seconds += start.seconds();
 }
 
 double LocalGlobalIntegrator::objective(const Cloth& cloth, const Positions& x) const {
@@ -257,7 +248,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     m_iterate.row(i) = m_target.row(i) + dt * dt * gravity.transpose();
   }
 
-  auto start = Clock::now();
+  Stopwatch start;
   const SpringSet& springs = cloth.springs();
   const double drag = cloth.drag();
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
@@ -296,7 +287,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   const double mean_rest_length =
       springs.size() > 0 ? rest_sum / static_cast<double>(springs.size()) : 1.0;
   const double tolerance = m_options.tolerance * mean_rest_length;
-  m_statistics.assemble_seconds += seconds_since(start);
+  m_statistics.assemble_seconds += start.seconds();
 
   m_objective_history.clear();
   const double rho = m_options.chebyshev_rho;
@@ -312,7 +303,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   bool converged = m_pattern.size == 0;
   for (int iteration = 0; m_pattern.size > 0; ++iteration) {
     poll_interrupt();  // iterations is user-typed
-    start = Clock::now();
+    start.restart();
     // The local step and, in the same pass, the objective's gradient at the iterate.
     m_rhs = m_base_rhs;
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
@@ -362,7 +353,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       residual = std::max(residual,
                           scale * m_gradient.row(static_cast<Eigen::Index>(b)).lpNorm<Eigen::Infinity>());
     }
-    m_statistics.assemble_seconds += seconds_since(start);
+    m_statistics.assemble_seconds += start.seconds();
     if (m_options.tolerance > 0.0 && error_estimate <= tolerance) {
       converged = true;
       break;

@@ -27,6 +27,11 @@ enum class Ordering { amd, metis, natural };
 /// Supernodal (BLAS-3 dense blocks) or simplicial (column by column) factorization.
 enum class FactorKind { supernodal, simplicial };
 
+/// The ordering named "amd", "metis" or "natural"; std::invalid_argument listing the valid names.
+Ordering parse_ordering(const std::string& name);
+/// The factorization named "supernodal" or "simplicial"; std::invalid_argument otherwise.
+FactorKind parse_factor_kind(const std::string& name);
+
 /// What a solver reports about its work.
 struct SolverStatistics {
   std::int64_t analyses = 0;        ///< symbolic analyses done
