@@ -118,7 +118,7 @@ def test_a_saved_bdf2_state_continues_bit_for_bit(tmp_path):
 
 
 @pytest.mark.parametrize("options, message", [
-    ({"history": 0}, "history"),
+    ({"lbfgs_history": 0}, "lbfgs_history"),
     ({"method": "rk4"}, "method"),
     ({"linearized": True}, r"unknown option\(s\) 'linearized'"),
     ({"max_newton": 2.5}, "max_newton"),

@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "options.hpp"
 #include "yore/explicit.hpp"
 
 namespace yore::bindings {
@@ -8,16 +9,16 @@ void bind_explicit(py::module_& m) {
   py::class_<ExplicitIntegrator> integrator_class(
       m, "ExplicitIntegrator", "Symplectic Euler with optional Provot strain limiting.");
   def_advance(integrator_class);
-  integrator_class.def(py::init([](double strain_limit, std::int64_t strain_limit_passes,
-                       double divergence_energy_factor) {
-             ExplicitOptions options;
-             options.strain_limit = strain_limit;
-             options.strain_limit_passes = to_int32(strain_limit_passes, "strain_limit_passes");
-             options.divergence_energy_factor = divergence_energy_factor;
-             return ExplicitIntegrator(options);
+  static const OptionTable<ExplicitOptions> table = {
+      plain_option("strain_limit", &ExplicitOptions::strain_limit),
+      plain_option("strain_limit_passes", &ExplicitOptions::strain_limit_passes),
+      plain_option("divergence_energy_factor", &ExplicitOptions::divergence_energy_factor),
+  };
+  integrator_class.attr("defaults") = option_values(table, ExplicitOptions{});
+  integrator_class.def(py::init([](const py::kwargs& kwargs) {
+             return ExplicitIntegrator(options_from_kwargs(table, kwargs));
            }),
-           py::kw_only(), py::arg("strain_limit") = 0.0, py::arg("strain_limit_passes") = 4,
-           py::arg("divergence_energy_factor") = 10.0)
+           "Keyword options as in `defaults` (strain_limit 0 = off).")
       .def_property_readonly("statistics", [](const ExplicitIntegrator& integrator) {
         check_idle(&integrator, "the integrator");
         const ExplicitStatistics& s = integrator.statistics();

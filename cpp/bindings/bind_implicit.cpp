@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "options.hpp"
 #include "yore/implicit.hpp"
 
 #include <pybind11/stl.h>
@@ -9,17 +10,6 @@
 
 namespace yore::bindings {
 namespace {
-
-template <typename Enum>
-Enum parse_choice(const std::string& value, const char* name,
-                  std::initializer_list<std::pair<const char*, Enum>> choices) {
-  std::string valid;
-  for (const auto& [text, code] : choices) {
-    if (value == text) return code;
-    valid += (valid.empty() ? "" : ", ") + std::string(text);
-  }
-  throw std::invalid_argument("unknown " + std::string(name) + " '" + value + "'; valid: " + valid);
-}
 
 py::array csc_array(const std::vector<std::int32_t>& values) { return read_only_copy(values); }
 
@@ -84,53 +74,46 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
   py::class_<ImplicitIntegrator> integrator_class(
       m, "ImplicitIntegrator", "Backward Euler / BDF2 by Newton's method on a sparse solver.");
   def_advance(integrator_class);
-  integrator_class.def(py::init([](const std::string& method, bool linearized, double newton_tol,
-                       std::int64_t max_newton, const std::string& solver, const std::string& ordering,
-                       const std::string& factorization, double pcg_tol, std::int64_t pcg_max_iterations,
-                       double divergence_energy_factor, bool adaptive_projection,
-                       bool lagged_factorization, std::int64_t lag_max_cg_iterations, double lag_cg_tol,
-                       const std::string& projection, const std::string& predictor,
-                       const std::string& minimizer, std::int64_t lbfgs_history) {
-             ImplicitOptions options;
-             options.minimizer = parse_choice<ImplicitMinimizer>(
-                 minimizer, "minimizer",
-                 {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}});
-             options.lbfgs_history = to_int32(lbfgs_history, "lbfgs_history");
-             options.projection = parse_choice<HessianProjection>(
-                 projection, "projection",
-                 {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
-                  {"exact", HessianProjection::exact},
-                  {"trust-region", HessianProjection::trust_region}});
-             options.predictor = parse_choice<NewtonPredictor>(
-                 predictor, "predictor",
-                 {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}});
-             options.adaptive_projection = adaptive_projection;
-             options.lagged_factorization = lagged_factorization;
-             options.lag_max_cg_iterations = to_int32(lag_max_cg_iterations, "lag_max_cg_iterations");
-             options.lag_cg_tolerance = lag_cg_tol;
-             options.method = parse_choice<ImplicitMethod>(
-                 method, "method",
-                 {{"backward_euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}});
-             options.linearized = linearized;
-             options.newton_tol = newton_tol;
-             options.max_newton = to_int32(max_newton, "max_newton");
-             options.solver.backend = solver;
-             options.solver.ordering = parse_ordering(ordering);
-             options.solver.factor = parse_factor_kind(factorization);
-             options.solver.pcg_tolerance = pcg_tol;
-             options.solver.pcg_max_iterations = to_int32(pcg_max_iterations, "pcg_max_iterations");
-             options.divergence_energy_factor = divergence_energy_factor;
-             return std::make_unique<ImplicitIntegrator>(options);
-           }),
-           py::kw_only(), py::arg("method") = "backward_euler", py::arg("linearized") = false,
-           py::arg("newton_tol") = 1e-5, py::arg("max_newton") = 50,
-           py::arg("solver") = "cholmod", py::arg("ordering") = "amd",
-           py::arg("factorization") = "supernodal", py::arg("pcg_tol") = 1e-12,
-           py::arg("pcg_max_iterations") = 20000, py::arg("divergence_energy_factor") = 10.0,
-           py::arg("adaptive_projection") = false, py::arg("lagged_factorization") = false,
-           py::arg("lag_max_cg_iterations") = 20, py::arg("lag_cg_tol") = 1e-10,
-           py::arg("projection") = "clamp", py::arg("predictor") = "start",
-           py::arg("minimizer") = "newton", py::arg("lbfgs_history") = 8)
+  using O = ImplicitOptions;
+  static const OptionTable<O> table = {
+      choice_option<O, ImplicitMethod>(
+          "method", [](O& o) -> ImplicitMethod& { return o.method; },
+          {{"backward-euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}}),
+      choice_option<O, ImplicitMinimizer>(
+          "minimizer", [](O& o) -> ImplicitMinimizer& { return o.minimizer; },
+          {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}}),
+      plain_option("lbfgs_history", &O::lbfgs_history),
+      plain_option("linearized", &O::linearized),
+      plain_option("adaptive_projection", &O::adaptive_projection),
+      choice_option<O, HessianProjection>(
+          "projection", [](O& o) -> HessianProjection& { return o.projection; },
+          {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
+           {"exact", HessianProjection::exact},
+           {"trust-region", HessianProjection::trust_region}}),
+      choice_option<O, NewtonPredictor>(
+          "predictor", [](O& o) -> NewtonPredictor& { return o.predictor; },
+          {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}}),
+      plain_option("lagged_factorization", &O::lagged_factorization),
+      plain_option("lag_max_cg_iterations", &O::lag_max_cg_iterations),
+      plain_option("lag_cg_tol", &O::lag_cg_tolerance),
+      plain_option("newton_tol", &O::newton_tol),
+      plain_option("max_newton", &O::max_newton),
+      plain_option("solver", &O::solver, &LinearSolverOptions::backend),
+      choice_option<O, Ordering>(
+          "ordering", [](O& o) -> Ordering& { return o.solver.ordering; }, ordering_choices()),
+      choice_option<O, FactorKind>(
+          "factorization", [](O& o) -> FactorKind& { return o.solver.factor; },
+          factor_kind_choices()),
+      plain_option("pcg_tol", &O::solver, &LinearSolverOptions::pcg_tolerance),
+      plain_option("pcg_max_iterations", &O::solver, &LinearSolverOptions::pcg_max_iterations),
+      plain_option("divergence_energy_factor", &O::divergence_energy_factor),
+  };
+  integrator_class.attr("defaults") = option_values(table, O{});
+  integrator_class.def(py::init([](const py::kwargs& kwargs) {
+                         return std::make_unique<ImplicitIntegrator>(
+                             options_from_kwargs(table, kwargs));
+                       }),
+                       "Keyword options as in `defaults`.")
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,

@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "options.hpp"
 #include "yore/local_global.hpp"
 
 #include <pybind11/stl.h>
@@ -13,35 +14,31 @@ void bind_local_global(py::module_& m) {
   py::class_<LocalGlobalIntegrator> integrator_class(
       m, "LocalGlobalIntegrator", "Prefactored local/global backward Euler (Liu et al. 2013).");
   def_advance(integrator_class);
+  using O = LocalGlobalOptions;
+  static const OptionTable<O> table = {
+      plain_option("iterations", &O::iterations),
+      plain_option("tolerance", &O::tolerance),
+      plain_option("chebyshev_rho", &O::chebyshev_rho),
+      choice_option<O, Ordering>("ordering", [](O& o) -> Ordering& { return o.ordering; },
+                                 ordering_choices()),
+      choice_option<O, FactorKind>("factorization", [](O& o) -> FactorKind& { return o.factor; },
+                                   factor_kind_choices()),
+      choice_option<O, RebuildStrategy>(
+          "rebuild", [](O& o) -> RebuildStrategy& { return o.rebuild; },
+          {{"fresh", RebuildStrategy::fresh},
+           {"reuse-ordering", RebuildStrategy::reuse_ordering},
+           {"stale-pcg", RebuildStrategy::stale_pcg}}),
+      plain_option("stale_pcg_max_iterations", &O::stale_pcg_max_iterations),
+      plain_option("stale_pcg_tol", &O::stale_pcg_tolerance),
+      plain_option("record_objective", &O::record_objective),
+      plain_option("divergence_energy_factor", &O::divergence_energy_factor),
+  };
+  integrator_class.attr("defaults") = option_values(table, O{});
   integrator_class
-      .def(py::init([](std::int64_t iterations, double tolerance, double chebyshev_rho, const std::string& ordering,
-                       const std::string& factorization, const std::string& rebuild,
-                       std::int64_t stale_pcg_max_iterations, double stale_pcg_tol, bool record_objective,
-                       double divergence_energy_factor) {
-             LocalGlobalOptions options;
-             options.iterations = to_int32(iterations, "iterations");
-             options.tolerance = tolerance;
-             options.chebyshev_rho = chebyshev_rho;
-             options.ordering = parse_ordering(ordering);
-             options.factor = parse_factor_kind(factorization);
-             if (rebuild == "fresh") options.rebuild = RebuildStrategy::fresh;
-             else if (rebuild == "reuse-ordering") options.rebuild = RebuildStrategy::reuse_ordering;
-             else if (rebuild == "stale-pcg") options.rebuild = RebuildStrategy::stale_pcg;
-             else throw std::invalid_argument("unknown rebuild '" + rebuild +
-                                              "'; valid: fresh, reuse-ordering, stale-pcg");
-             options.stale_pcg_max_iterations =
-                 to_int32(stale_pcg_max_iterations, "stale_pcg_max_iterations");
-             options.stale_pcg_tolerance = stale_pcg_tol;
-             options.record_objective = record_objective;
-             options.divergence_energy_factor = divergence_energy_factor;
-             return std::make_unique<LocalGlobalIntegrator>(options);
+      .def(py::init([](const py::kwargs& kwargs) {
+             return std::make_unique<LocalGlobalIntegrator>(options_from_kwargs(table, kwargs));
            }),
-           py::kw_only(), py::arg("iterations") = LocalGlobalOptions{}.iterations,
-           py::arg("tolerance") = LocalGlobalOptions{}.tolerance, py::arg("chebyshev_rho") = 0.0,
-           py::arg("ordering") = "amd", py::arg("factorization") = "supernodal",
-           py::arg("rebuild") = "fresh", py::arg("stale_pcg_max_iterations") = 30,
-           py::arg("stale_pcg_tol") = 1e-12, py::arg("record_objective") = false,
-           py::arg("divergence_energy_factor") = 10.0)
+           "Keyword options as in `defaults` (chebyshev_rho 0 = no acceleration).")
       .def_property_readonly(
           "objective_history",
           [](const LocalGlobalIntegrator& integrator) {

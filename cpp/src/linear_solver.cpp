@@ -14,18 +14,39 @@
 
 namespace yore {
 
+namespace {
+
+template <typename Enum>
+Enum parse_named(const std::string& name, const char* what,
+                 const std::vector<std::pair<std::string, Enum>>& choices) {
+  std::string valid;
+  for (const auto& [text, code] : choices) {
+    if (text == name) return code;
+    valid += (valid.empty() ? "" : ", ") + text;
+  }
+  throw std::invalid_argument("unknown " + std::string(what) + " '" + name + "'; valid: " + valid);
+}
+
+}  // namespace
+
+const std::vector<std::pair<std::string, Ordering>>& ordering_choices() {
+  static const std::vector<std::pair<std::string, Ordering>> choices = {
+      {"amd", Ordering::amd}, {"metis", Ordering::metis}, {"natural", Ordering::natural}};
+  return choices;
+}
+
+const std::vector<std::pair<std::string, FactorKind>>& factor_kind_choices() {
+  static const std::vector<std::pair<std::string, FactorKind>> choices = {
+      {"supernodal", FactorKind::supernodal}, {"simplicial", FactorKind::simplicial}};
+  return choices;
+}
+
 Ordering parse_ordering(const std::string& name) {
-  if (name == "amd") return Ordering::amd;
-  if (name == "metis") return Ordering::metis;
-  if (name == "natural") return Ordering::natural;
-  throw std::invalid_argument("unknown ordering '" + name + "'; valid: amd, metis, natural");
+  return parse_named(name, "ordering", ordering_choices());
 }
 
 FactorKind parse_factor_kind(const std::string& name) {
-  if (name == "supernodal") return FactorKind::supernodal;
-  if (name == "simplicial") return FactorKind::simplicial;
-  throw std::invalid_argument("unknown factorization '" + name +
-                              "'; valid: supernodal, simplicial");
+  return parse_named(name, "factorization", factor_kind_choices());
 }
 namespace {
 

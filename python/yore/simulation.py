@@ -18,30 +18,33 @@ __all__ = ["Simulation", "INTEGRATORS"]
 #: Integrator names of the public API. Only those in ``_FACTORIES`` are built yet.
 INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
 
-#: Options each integrator accepts, with their defaults.
+#: Options each integrator accepts, with their defaults. Names and defaults come from the C++
+#: option structs (``_core.*Integrator.defaults``); written here are only the options that
+#: exist on the Python side alone (None = decide from the others, ``acceleration``) and the
+#: defaults that differ by integrator.
+_CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
+_CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
+_CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
+#: Options of Newton's method that quasi-Newton does not take.
+_NEWTON_ONLY = ("linearized", "adaptive_projection", "projection", "lagged_factorization",
+                "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
+                "pcg_max_iterations")
 _OPTIONS = {
-    "explicit": {
-        # Provot strain limiting: largest length / rest length of a structural spring (e.g. 1.1);
-        # None turns it off.
-        "strain_limit": None,
-        "strain_limit_passes": 4,
-        # Divergence bound, in multiples of the cloth's energy scale (see ExplicitIntegrator).
-        "divergence_energy_factor": 10.0,
-    },
+    # strain_limit: Provot strain limiting, largest length / rest length of a structural spring
+    # (e.g. 1.1); None turns it off (the core's 0). divergence_energy_factor: the divergence
+    # bound in multiples of the cloth's energy scale (see ExplicitIntegrator).
+    "explicit": {**_CORE_EXPLICIT, "strain_limit": None},
     "implicit": {
-        # One Newton step, no line search (Baraff & Witkin 1998).
-        "linearized": False,
-        # Newton stops when the residual max |∇ᵢE|·h̃²/mᵢ (the gradient as a displacement) is at
-        # most newton_tol × the mean rest length; a step that reaches max_newton is counted in
-        # stats (unconverged_steps) and warned about.
-        "newton_tol": 1e-5,
-        "max_newton": 50,
-        "solver": "cholmod",  # "cholmod" | "eigen-ldlt" | "pcg"
-        "ordering": "amd",  # "amd" | "metis" | "natural" (cholmod)
-        "factorization": "supernodal",  # "supernodal" | "simplicial" (cholmod)
-        "pcg_tol": 1e-12,
-        "pcg_max_iterations": 20000,
-        "divergence_energy_factor": 10.0,
+        # linearized: one Newton step, no line search (Baraff & Witkin 1998). Newton stops when
+        # the residual max |∇ᵢE|·h̃²/mᵢ (the gradient as a displacement) is at most newton_tol ×
+        # the mean rest length; a step that reaches max_newton is counted in stats
+        # (unconverged_steps) and warned about. solver: "cholmod" | "eigen-ldlt" | "pcg";
+        # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
+        # lagged_factorization: keep the factor across Newton iterations and steps, CG
+        # preconditioned by it on the current matrix, refactor when CG needs more than
+        # lag_max_cg_iterations.
+        **{name: value for name, value in _CORE_IMPLICIT.items()
+           if name not in ("method", "minimizer", "lbfgs_history")},
         # Try the exact Hessian first, fall back to the PSD projection when the factorization
         # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
         # tell). False: always project (linear convergence when many springs are compressed).
@@ -55,57 +58,41 @@ _OPTIONS = {
         # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
         # linearized (Baraff–Witkin's step), "inertial" otherwise.
         "predictor": None,
-        # Keep the factor across Newton iterations and steps; CG preconditioned by it on the
-        # current matrix; refactor when CG needs more than lag_max_cg_iterations.
-        "lagged_factorization": False,
-        "lag_max_cg_iterations": 20,
-        "lag_cg_tol": 1e-10,
     },
 }
 _OPTIONS["bdf2"] = dict(_OPTIONS["implicit"])
 _OPTIONS["local-global"] = {
-    # Iterations of a step stop once ‖h² M⁻¹ ∇E‖∞ <= tolerance × the mean rest length (0: no
-    # test, always `iterations`), or at the cap `iterations` (counted in unconverged_steps).
-    # Defaults measured on a stiff hanging sheet (32², k = 2e4 N/m, dt 1/60 s): its slow
-    # modes contract at ρ ≈ 0.997 per plain iteration, so plain iterations cannot get close in
-    # any affordable number; Chebyshev with ρ = 0.997 falls within 0.3 % of explicit in 300.
-    # Overestimating ρ only slows Chebyshev; underestimating it can make it diverge.
-    "iterations": 300,
-    "tolerance": 1e-3,
-    "acceleration": "chebyshev",  # "none" | "chebyshev" (Wang 2015)
-    "chebyshev_rho": 0.997,  # spectral-radius estimate of the Chebyshev acceleration
-    "ordering": "amd",
-    "factorization": "supernodal",
-    # after a stroke: "fresh" analysis + factorization, "reuse-ordering" (cholmod_analyze_p with
-    # the old ordering extended), or "stale-pcg" (CG preconditioned by the stale factor until
-    # it needs more than stale_pcg_max_iterations, then reuse-ordering)
-    "rebuild": "fresh",
-    "stale_pcg_max_iterations": 30,
-    "stale_pcg_tol": 1e-12,
-    "record_objective": False,  # keep the objective after every iteration (diagnostics)
-    "divergence_energy_factor": 10.0,
+    # Iterations of a step stop once the estimated distance to the step's solution is at most
+    # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
+    # `iterations` (counted in unconverged_steps). chebyshev_rho: the spectral-radius estimate
+    # of Chebyshev acceleration (LocalGlobalOptions says how it was measured). rebuild, after
+    # a stroke: "fresh" analysis + factorization, "reuse-ordering" (cholmod_analyze_p with the
+    # old ordering extended) or "stale-pcg" (CG preconditioned by the stale factor until it
+    # needs more than stale_pcg_max_iterations, then reuse-ordering). record_objective: keep
+    # the objective after every iteration (diagnostics).
+    **_CORE_LOCAL_GLOBAL,
+    "acceleration": "chebyshev",  # "none" | "chebyshev" (Wang 2015); "none" passes rho 0
 }
 _OPTIONS["quasi-newton"] = {
     # The potential minimised: backward Euler's or BDF2's, as "implicit" and "bdf2" do.
     "method": "backward-euler",  # "backward-euler" | "bdf2"
-    # L-BFGS correction pairs kept within a step (the initial Hessian is the constant
-    # local-global matrix, factored once per topology, step size and material).
-    "history": 8,
-    # Newton's residual test: max |∇ᵢE|·h̃²/mᵢ <= newton_tol × the mean rest length; a step that
-    # reaches max_newton iterations is counted (unconverged_steps) and warned about. Quasi-Newton
-    # iterations are cheap (one scalar solve with three right-hand sides) but many.
-    "newton_tol": 1e-5,
+    # lbfgs_history: L-BFGS correction pairs kept within a step (the initial Hessian is the
+    # constant local-global matrix, factored once per topology, step size and material);
+    # Newton's residual test (newton_tol) and cap (max_newton), predictor, ordering,
+    # factorization, divergence bound.
+    **{name: value for name, value in _CORE_IMPLICIT.items()
+       if name not in _NEWTON_ONLY + ("minimizer", "method")},
+    # Quasi-Newton iterations are cheap (one scalar solve with three right-hand sides) but
+    # many: its cap is twenty times Newton's.
     "max_newton": 1000,
     "predictor": "inertial",  # "start" | "inertial", as for Newton
-    "ordering": "amd",
     # Q is factored once and solved every iteration: the simplicial factor solves faster
     # (0.41 against 0.63 ms per iteration at 64², one thread, three right-hand sides).
     "factorization": "simplicial",
-    "divergence_energy_factor": 10.0,
 }
 _ACCELERATIONS = ("none", "chebyshev")
-#: The quasi-Newton potentials, by the names of `_OPTIONS["quasi-newton"]["method"]`.
-_QUASI_NEWTON_METHODS = {"backward-euler": "backward_euler", "bdf2": "bdf2"}
+#: The quasi-Newton potentials (`_OPTIONS["quasi-newton"]["method"]`).
+_QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
 
 #: Largest iteration counts an option may ask for. One step runs its iterations inside the C++
 #: core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be refused rather
@@ -220,7 +207,7 @@ _RULES = {
     "stale_pcg_tol": _real(0.0, 1.0, high_open=True),
     "record_objective": _flag(),
     "method": _one_of(*_QUASI_NEWTON_METHODS),
-    "history": _count(1, 1000),
+    "lbfgs_history": _count(1, 1000),
 }
 assert all(set(table) <= set(_RULES) for table in _OPTIONS.values())
 
@@ -263,7 +250,7 @@ def _projection(options):
     return "exact"
 
 
-def _make_implicit(options, method="backward_euler"):
+def _make_implicit(options, method="backward-euler"):
     projection = _projection(options)
     if options["adaptive_projection"] is not None and options["projection"] is not None and \
             options["adaptive_projection"] != (projection == "exact"):
@@ -272,57 +259,25 @@ def _make_implicit(options, method="backward_euler"):
     predictor = options["predictor"]
     if predictor is None:
         predictor = "start" if options["linearized"] else "inertial"
-    return _core.ImplicitIntegrator(
-        projection=projection,
-        predictor=predictor,
-        method=method,
-        linearized=bool(options["linearized"]),
-        newton_tol=float(options["newton_tol"]),
-        max_newton=int(options["max_newton"]),
-        solver=str(options["solver"]),
-        ordering=str(options["ordering"]),
-        factorization=str(options["factorization"]),
-        pcg_tol=float(options["pcg_tol"]),
-        pcg_max_iterations=int(options["pcg_max_iterations"]),
-        divergence_energy_factor=float(options["divergence_energy_factor"]),
-        adaptive_projection=False,  # mapped into projection above
-        lagged_factorization=bool(options["lagged_factorization"]),
-        lag_max_cg_iterations=int(options["lag_max_cg_iterations"]),
-        lag_cg_tol=float(options["lag_cg_tol"]),
-    )
+    core = {name: options[name] for name in _CORE_IMPLICIT if name in options}
+    core.update(projection=projection, predictor=predictor, method=method,
+                adaptive_projection=False)  # mapped into projection above
+    return _core.ImplicitIntegrator(**core)
 
 
 def _make_local_global(options):
     if options["acceleration"] not in _ACCELERATIONS:
         raise ValueError(f"unknown acceleration {options['acceleration']!r}; valid: "
                          f"{', '.join(_ACCELERATIONS)}")
-    return _core.LocalGlobalIntegrator(
-        iterations=int(options["iterations"]),
-        tolerance=float(options["tolerance"]),
-        chebyshev_rho=(float(options["chebyshev_rho"]) if options["acceleration"] == "chebyshev"
-                       else 0.0),
-        ordering=str(options["ordering"]),
-        factorization=str(options["factorization"]),
-        rebuild=str(options["rebuild"]),
-        stale_pcg_max_iterations=int(options["stale_pcg_max_iterations"]),
-        stale_pcg_tol=float(options["stale_pcg_tol"]),
-        record_objective=bool(options["record_objective"]),
-        divergence_energy_factor=float(options["divergence_energy_factor"]),
-    )
+    core = {name: options[name] for name in _CORE_LOCAL_GLOBAL}
+    if options["acceleration"] == "none":
+        core["chebyshev_rho"] = 0.0
+    return _core.LocalGlobalIntegrator(**core)
 
 
 def _make_quasi_newton(options):
-    return _core.ImplicitIntegrator(
-        minimizer="lbfgs",
-        method=_QUASI_NEWTON_METHODS[options["method"]],
-        lbfgs_history=int(options["history"]),
-        predictor=str(options["predictor"]),
-        newton_tol=float(options["newton_tol"]),
-        max_newton=int(options["max_newton"]),
-        ordering=str(options["ordering"]),
-        factorization=str(options["factorization"]),
-        divergence_energy_factor=float(options["divergence_energy_factor"]),
-    )
+    core = {name: options[name] for name in _CORE_IMPLICIT if name in options}
+    return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
 
 
 _FACTORIES = {
@@ -405,7 +360,7 @@ class Simulation:
         ``chebyshev_rho`` (0.997), ``ordering``, ``factorization``, ``rebuild`` ("fresh" |
         "reuse-ordering" | "stale-pcg"), ``stale_pcg_max_iterations`` (30), ``stale_pcg_tol``,
         ``record_objective``, ``divergence_energy_factor``.
-    quasi-newton: ``method`` ("backward-euler" | "bdf2"), ``history`` (8 L-BFGS pairs, kept
+    quasi-newton: ``method`` ("backward-euler" | "bdf2"), ``lbfgs_history`` (8 pairs, kept
         within a step), ``newton_tol`` (1e-5, Newton's residual test), ``max_newton`` (1000: the
         iteration cap, counted and warned about as for Newton), ``predictor`` ("inertial" |
         "start"), ``ordering``, ``factorization`` ("simplicial": it solves faster),

@@ -9,6 +9,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace yore {
@@ -27,9 +28,13 @@ enum class Ordering { amd, metis, natural };
 /// Supernodal (BLAS-3 dense blocks) or simplicial (column by column) factorization.
 enum class FactorKind { supernodal, simplicial };
 
-/// The ordering named "amd", "metis" or "natural"; std::invalid_argument listing the valid names.
+/// The names of the orderings ("amd", "metis", "natural") and of the factorizations
+/// ("supernodal", "simplicial"): the one list the parsers and the bindings use.
+const std::vector<std::pair<std::string, Ordering>>& ordering_choices();
+const std::vector<std::pair<std::string, FactorKind>>& factor_kind_choices();
+/// The ordering of that name; std::invalid_argument listing the valid names.
 Ordering parse_ordering(const std::string& name);
-/// The factorization named "supernodal" or "simplicial"; std::invalid_argument otherwise.
+/// The factorization of that name; std::invalid_argument listing the valid names.
 FactorKind parse_factor_kind(const std::string& name);
 
 /// What a solver reports about its work.
