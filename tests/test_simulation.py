@@ -159,3 +159,29 @@ def test_smooth_rest_lengths_takes_integer_regions(cloth):
     assert sim.smooth_rest_lengths(iterations=1, region=np.array([0, 1], dtype=np.uint8))[
         "springs"] > 0
     assert sim.smooth_rest_lengths(iterations=0, region=[])["springs"] == 0
+
+
+@pytest.mark.parametrize("core", ["ExplicitIntegrator", "ImplicitIntegrator",
+                                  "LocalGlobalIntegrator"])
+def test_core_option_tables_round_trip_and_name_unknown_options(core):
+    from yore import _core
+
+    cls = getattr(_core, core)
+    defaults = dict(cls.defaults)
+    cls(**defaults)  # every name the table lists is accepted with its own default
+    with pytest.raises(ValueError, match="unknown option 'no_such_option'; valid: .*"
+                       + next(iter(defaults))):
+        cls(no_such_option=1)
+
+
+def test_python_option_defaults_come_from_the_core_structs():
+    from yore import _core
+    from yore.simulation import _OPTIONS
+
+    core = _core.ImplicitIntegrator.defaults
+    # Newton's numbers are the struct's; quasi-Newton overrides only its cap and factorization
+    for name in ("newton_tol", "max_newton", "pcg_tol", "lag_cg_tol", "ordering"):
+        assert _OPTIONS["implicit"][name] == core[name]
+    assert _OPTIONS["quasi-newton"]["lbfgs_history"] == core["lbfgs_history"]
+    assert _OPTIONS["local-global"]["chebyshev_rho"] == \
+        _core.LocalGlobalIntegrator.defaults["chebyshev_rho"]
