@@ -3,9 +3,9 @@
 #include "yore/errors.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/springs.hpp"
+#include "yore/timer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -15,12 +15,6 @@ namespace {
 
 // Most steps the exact projection waits, projected, after repeated rejections.
 constexpr int kMaxExactBackoff = 32;
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Backtracking line search: Armijo constant, halvings before giving up.
 constexpr double kArmijo = 1e-4;
@@ -89,7 +83,7 @@ const SolverStatistics& ImplicitIntegrator::solver_statistics() const {
 
 void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   if (cloth.topology_version() == m_topology) return;
-  const auto start = Clock::now();
+  const Stopwatch start;
   const Eigen::Index n = cloth.vertex_count();
   const SpringSet& springs = cloth.springs();
   const std::size_t s = springs.size();
@@ -183,7 +177,7 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
 
   if (pattern.size > 0 && newton) m_solver->analyze(pattern);
   m_topology = cloth.topology_version();
-  m_statistics.analyze_seconds += seconds_since(start);
+  m_statistics.analyze_seconds += start.seconds();
 }
 
 void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, double dt,
@@ -218,7 +212,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
   const TransverseFilter filter = projection == HessianProjection::exact ? TransverseFilter::exact
                                   : projection == HessianProjection::abs ? TransverseFilter::abs
                                                                          : TransverseFilter::clamp;
-  const auto start = Clock::now();
+  const Stopwatch start;
   const double h = m_h;
   const double drag = cloth.drag();
   const Eigen::VectorXd& masses = cloth.masses();
@@ -300,7 +294,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     }
   }
   m_energy_magnitude = magnitude;
-  m_statistics.assemble_seconds += seconds_since(start);
+  m_statistics.assemble_seconds += start.seconds();
   return energy;
 }
 
@@ -352,7 +346,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       break;
     }
     if (iterations == m_options.max_newton) break;
-    auto start = Clock::now();
+    Stopwatch start;
     bool factored = false;
     // Within a step, the exact Hessian is tried again once the projected iterations have cut the
     // residual tenfold since it was rejected: near a stable minimum it is positive definite
@@ -362,7 +356,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     }
     if (try_exact) {
       energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
-      start = Clock::now();
+      start.restart();
       try {
         m_solver->factorize(m_values.data());
         factored = true;
@@ -373,7 +367,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
         rejected_this_step = true;
         residual_at_rejection = residual;
       }
-      m_statistics.factorize_seconds += seconds_since(start);
+      m_statistics.factorize_seconds += start.seconds();
     }
     bool solved = false;
     if (!factored) {
@@ -388,29 +382,29 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       m_rhs = -m_gradient;
       if (m_options.lagged_factorization && m_factor_valid) {
         // CG on the current matrix, preconditioned by the lagged factor.
-        start = Clock::now();
+        start.restart();
         m_direction.setZero();
         bool cg_converged = false;
         m_statistics.lagged_cg_iterations += preconditioned_cg(
             m_pattern, m_values.data(), m_rhs, m_direction,
             [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
             m_options.lag_cg_tolerance, m_options.lag_max_cg_iterations, m_cg, cg_converged);
-        m_statistics.solve_seconds += seconds_since(start);
+        m_statistics.solve_seconds += start.seconds();
         ++m_statistics.lagged_solves;
         solved = cg_converged;
       }
       if (!solved) {
-        start = Clock::now();
+        start.restart();
         m_solver->factorize(m_values.data());
         m_factor_valid = true;
-        m_statistics.factorize_seconds += seconds_since(start);
+        m_statistics.factorize_seconds += start.seconds();
       }
     }
     if (!solved) {
-      start = Clock::now();
+      start.restart();
       m_rhs = -m_gradient;
       m_solver->solve(m_rhs.data(), m_direction.data());
-      m_statistics.solve_seconds += seconds_since(start);
+      m_statistics.solve_seconds += start.seconds();
     }
     ++iterations;
 
