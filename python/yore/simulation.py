@@ -186,7 +186,7 @@ _RULES = {
     "pcg_tol": _real(0.0, 1.0, high_open=True),
     "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
     "adaptive_projection": _or_none(_flag()),
-    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region")),
+    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted")),
     "predictor": _or_none(_one_of("start", "inertial")),
     "lagged_factorization": _flag(),
     "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
@@ -478,10 +478,12 @@ class Simulation:
             sim._integrator.set_history(cloth, state["history"])
         memory = state.get("projection_memory")
         if memory is not None:
-            if not isinstance(memory, dict) or set(memory) != {"exact_skip", "exact_backoff"}:
-                raise ValueError("projection_memory must be a dict with exact_skip and "
-                                 f"exact_backoff, got {memory!r}")
-            sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"])
+            keys = {"exact_skip", "exact_backoff"}
+            if not isinstance(memory, dict) or not keys <= set(memory) <= keys | {"shift"}:
+                raise ValueError("projection_memory must be a dict with exact_skip, "
+                                 f"exact_backoff and (optional) shift, got {memory!r}")
+            sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"],
+                                                  memory.get("shift", 0.0))
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
         return sim
