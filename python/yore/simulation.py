@@ -48,8 +48,9 @@ _OPTIONS = {
         "adaptive_projection": None,
         # How compressed springs' Hessians are made PSD: "clamp" | "abs" | "exact" (exact Hessian,
         # the clamp where the factorization finds it indefinite, decision kept across iterations
-        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp).
-        # None: adaptive_projection decides if given, else "clamp" for linearized, pcg or
+        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp)
+        # | "shifted" (Levenberg–Marquardt: exact Hessian + μ M/h², μ raised when indefinite or
+        # on a poor model fit, lowered on a good one, carried across steps). None: adaptive_projection decides if given, else "clamp" for linearized, pcg or
         # lagged factorization and "exact" otherwise.
         "projection": None,
         # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
@@ -349,7 +350,7 @@ class Simulation:
         gradient as a displacement, is below newton_tol × the mean rest length; a step that
         reaches ``max_newton`` (50) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region", see `_OPTIONS`), ``predictor`` (None | "start" |
+        "exact" | "trust-region" | "shifted", see `_OPTIONS`), ``predictor`` (None | "start" |
         "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
