@@ -133,8 +133,14 @@ def test_stable_dt_smoke(tmp_path):
 
 def test_newton_projection_smoke(tmp_path):
     data = run_benchmark("newton_projection", tmp_path, "--quick")
-    assert {r["adaptive_projection"] for r in data["rows"]} == {False, True}
-    assert all(r["rejected_per_step"] == 0 for r in data["rows"] if not r["adaptive_projection"])
+    assert {r["projection"] for r in data["rows"]} == {"clamp", "abs", "exact", "trust-region",
+                                                        "shifted"}
+    # only the projections that try the exact Hessian can have it rejected
+    assert all(r["rejected_per_step"] == 0 for r in data["rows"]
+               if r["projection"] not in ("exact", "shifted"))
+    assert all(r["median_iterations"] <= r["max_iterations"] <= 50 for r in data["rows"])
+    assert all(0.0 <= r["deviation"] < 1.0 for r in data["rows"])
+    assert set(data["target_met"]) == {r["projection"] for r in data["rows"]}
 
 
 def test_threads_benchmark_smoke(tmp_path):

@@ -89,7 +89,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
           "projection", [](O& o) -> HessianProjection& { return o.projection; },
           {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
            {"exact", HessianProjection::exact},
-           {"trust-region", HessianProjection::trust_region}}),
+           {"trust-region", HessianProjection::trust_region},
+           {"shifted", HessianProjection::shifted}}),
       choice_option<O, NewtonPredictor>(
           "predictor", [](O& o) -> NewtonPredictor& { return o.predictor; },
           {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}}),
@@ -180,18 +181,21 @@ Newton direction.)doc")
             py::dict out;
             out["exact_skip"] = memory.exact_skip;
             out["exact_backoff"] = memory.exact_backoff;
+            out["shift"] = memory.shift;
             return out;
           },
           "The exact projection's memory across steps: a dict with exact_skip (steps still to "
-          "take projected) and exact_backoff (the next wait after a rejection).")
+          "take projected), exact_backoff (the next wait after a rejection) and shift (the "
+          "shifted projection's μ, in units of M/h̃²).")
       .def(
           "set_projection_memory",
-          [](ImplicitIntegrator& integrator, std::int64_t exact_skip, std::int64_t exact_backoff) {
+          [](ImplicitIntegrator& integrator, std::int64_t exact_skip, std::int64_t exact_backoff,
+             double shift) {
             check_idle(&integrator, "the integrator");
-            integrator.set_projection_memory(
-                {to_int32(exact_skip, "exact_skip"), to_int32(exact_backoff, "exact_backoff")});
+            integrator.set_projection_memory({to_int32(exact_skip, "exact_skip"),
+                                              to_int32(exact_backoff, "exact_backoff"), shift});
           },
-          py::arg("exact_skip"), py::arg("exact_backoff"),
+          py::arg("exact_skip"), py::arg("exact_backoff"), py::arg("shift") = 0.0,
           "Restores a memory taken by projection_memory(); ValueError out of range.")
       .def_property_readonly("statistics", [](const ImplicitIntegrator& integrator) {
         check_idle(&integrator, "the integrator");
@@ -209,6 +213,7 @@ Newton direction.)doc")
         out["exact_hessian_rejected"] = s.exact_hessian_rejected;
         out["exact_hessian_accepted"] = s.exact_hessian_accepted;
         out["abs_projections"] = s.abs_projections;
+        out["shifted_factorizations"] = s.shifted_factorizations;
         out["last_scaled_residual"] = s.last_scaled_residual;
         out["lagged_solves"] = s.lagged_solves;
         out["lagged_cg_iterations"] = s.lagged_cg_iterations;

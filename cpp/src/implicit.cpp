@@ -23,6 +23,14 @@ constexpr int kMaxBacktracks = 40;
 // of the other sign), of the energy changes that round-off can hide.
 constexpr double kRoundoff = 1e-12;
 
+// Projection shifted (Levenberg–Marquardt on the exact Hessian, μ in units of M/h̃²): the
+// smallest μ > 0, the factor μ grows by on an indefinite matrix or a poor model fit, the factor
+// it shrinks by on a good fit, and the largest μ tried before giving up.
+constexpr double kMinShift = 1e-3;
+constexpr double kShiftGrowth = 4.0;
+constexpr double kShiftShrink = 4.0;
+constexpr double kMaxShift = 1e12;
+
 }  // namespace
 
 ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
@@ -53,6 +61,12 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     throw std::invalid_argument(
         "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
         "indefinite Hessian; pcg cannot");
+  }
+  if (options.projection == HessianProjection::shifted &&
+      (options.solver.backend == "pcg" || options.lagged_factorization)) {
+    throw std::invalid_argument(
+        "the shifted projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
+        "indefinite Hessian, and no lagged factorization");
   }
   if (options.minimizer == ImplicitMinimizer::lbfgs) {
     if (options.linearized || options.lagged_factorization) {
@@ -209,7 +223,9 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
 
 double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
                                     bool with_hessian, HessianProjection projection) {
-  const TransverseFilter filter = projection == HessianProjection::exact ? TransverseFilter::exact
+  const TransverseFilter filter = projection == HessianProjection::exact ||
+                                          projection == HessianProjection::shifted
+                                      ? TransverseFilter::exact
                                   : projection == HessianProjection::abs ? TransverseFilter::abs
                                                                          : TransverseFilter::clamp;
   const Stopwatch start;
@@ -354,7 +370,13 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     if (rejected_this_step && !try_exact && residual < 0.1 * residual_at_rejection) {
       try_exact = true;
     }
-    if (try_exact) {
+    if (m_options.projection == HessianProjection::shifted) {
+      energy = evaluate(cloth, m_iterate, true, true, HessianProjection::shifted);
+      start.restart();
+      factorize_shifted(cloth);
+      m_statistics.factorize_seconds += start.seconds();
+      factored = true;
+    } else if (try_exact) {
       energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
       start.restart();
       try {
@@ -417,6 +439,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       break;  // Baraff–Witkin: one step, by definition
     }
     double trial_energy = energy;
+    const double magnitude = m_energy_magnitude;  // of the objective at the iterate
     const double alpha = line_search(cloth, energy, slope, backtracks, trial_energy);
     if (m_options.projection == HessianProjection::trust_region) {
       // Chen et al. 2024: the fit ρ of the quadratic model −(g·d + ½ dᵀHd) = −½ g·d (H d = −g)
@@ -425,6 +448,25 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       const double predicted = -0.5 * slope;
       const double actual = energy - trial_energy;
       use_abs = alpha < 1.0 || !(predicted > 0.0) || actual < 0.01 * predicted;
+    }
+    if (m_options.projection == HessianProjection::shifted) {
+      // The trust-region ratio of the unshifted model, −(g·d + ½ dᵀHd) = −½ g·d + ½ μ dᵀ(M/h̃²)d
+      // (since (H + μ M/h̃²) d = −g), to the actual decrease at the full step steers μ.
+      double inertia_norm = 0.0;  // dᵀ(M/h̃²)d
+      const Eigen::VectorXd& masses = cloth.masses();
+      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+        inertia_norm += masses[m_free_vertices[b]] / (m_h * m_h) *
+                        m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).squaredNorm();
+      }
+      const double predicted = -0.5 * slope + 0.5 * m_shift * inertia_norm;
+      const double actual = energy - trial_energy;
+      const bool unresolved = -slope <= kRoundoff * magnitude;  // round-off: no fit to judge
+      if (!unresolved && (alpha < 1.0 || !(actual >= 0.25 * predicted))) {
+        m_shift = std::max(kShiftGrowth * m_shift, kMinShift);
+      } else if (unresolved || actual >= 0.75 * predicted) {
+        m_shift /= kShiftShrink;
+        if (m_shift < kMinShift) m_shift = 0.0;
+      }
     }
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
       m_iterate.row(m_free_vertices[b]) +=
@@ -504,6 +546,38 @@ double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double
   return alpha;
 }
 
+bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
+  // m_values holds the exact Hessian; add μ M/h̃² to its diagonal, raising μ until the
+  // factorization succeeds. Each failure is one thrown-away factorization.
+  const Eigen::VectorXd& masses = cloth.masses();
+  double applied = 0.0;
+  for (;;) {
+    const double extra = m_shift - applied;
+    if (extra != 0.0) {
+      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+        const double weight = extra * masses[m_free_vertices[b]] / (m_h * m_h);
+        for (int c = 0; c < 3; ++c) {
+          m_values[static_cast<std::size_t>(m_pattern.column_starts[3 * b + c])] += weight;
+        }
+      }
+      applied = m_shift;
+    }
+    try {
+      m_solver->factorize(m_values.data());
+      if (m_shift > 0.0) {
+        ++m_statistics.shifted_factorizations;
+      } else {
+        ++m_statistics.exact_hessian_accepted;
+      }
+      return true;
+    } catch (const NotPositiveDefinite&) {
+      ++m_statistics.exact_hessian_rejected;
+      if (m_shift >= kMaxShift) throw;
+      m_shift = std::max(kShiftGrowth * m_shift, kMinShift);
+    }
+  }
+}
+
 double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
   // The gradient as a displacement: h̃²/m ∇E is how far the inertia term alone would move a
   // vertex to balance it, so the test scales with h̃ and the mass like the positions do.
@@ -541,8 +615,14 @@ void ImplicitIntegrator::set_projection_memory(const ProjectionMemory& memory) {
         << " and " << memory.exact_backoff;
     throw std::invalid_argument(msg.str());
   }
+  if (!std::isfinite(memory.shift) || memory.shift < 0.0 || memory.shift > kMaxShift) {
+    std::ostringstream msg;
+    msg << "projection memory must have shift in [0, " << kMaxShift << "], got " << memory.shift;
+    throw std::invalid_argument(msg.str());
+  }
   m_exact_skip = memory.exact_skip;
   m_exact_backoff = memory.exact_backoff;
+  m_shift = memory.shift;
 }
 
 void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history) {

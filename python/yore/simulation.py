@@ -51,8 +51,9 @@ _OPTIONS = {
         "adaptive_projection": None,
         # How compressed springs' Hessians are made PSD: "clamp" | "abs" | "exact" (exact Hessian,
         # the clamp where the factorization finds it indefinite, decision kept across iterations
-        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp).
-        # None: adaptive_projection decides if given, else "clamp" for linearized, pcg or
+        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp)
+        # | "shifted" (Levenberg–Marquardt: exact Hessian + μ M/h², μ raised when indefinite or
+        # on a poor model fit, lowered on a good one, carried across steps). None: adaptive_projection decides if given, else "clamp" for linearized, pcg or
         # lagged factorization and "exact" otherwise.
         "projection": None,
         # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
@@ -193,7 +194,7 @@ _RULES = {
     "pcg_tol": _real(0.0, 1.0, high_open=True),
     "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
     "adaptive_projection": _or_none(_flag()),
-    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region")),
+    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted")),
     "predictor": _or_none(_one_of("start", "inertial")),
     "lagged_factorization": _flag(),
     "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
@@ -343,7 +344,7 @@ class Simulation:
         gradient as a displacement, is below newton_tol × the mean rest length; a step that
         reaches ``max_newton`` (50) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region", see `_OPTIONS`), ``predictor`` (None | "start" |
+        "exact" | "trust-region" | "shifted", see `_OPTIONS`), ``predictor`` (None | "start" |
         "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
@@ -482,10 +483,12 @@ class Simulation:
             sim._integrator.set_history(cloth, state["history"])
         memory = state.get("projection_memory")
         if memory is not None:
-            if not isinstance(memory, dict) or set(memory) != {"exact_skip", "exact_backoff"}:
-                raise ValueError("projection_memory must be a dict with exact_skip and "
-                                 f"exact_backoff, got {memory!r}")
-            sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"])
+            keys = {"exact_skip", "exact_backoff"}
+            if not isinstance(memory, dict) or not keys <= set(memory) <= keys | {"shift"}:
+                raise ValueError("projection_memory must be a dict with exact_skip, "
+                                 f"exact_backoff and (optional) shift, got {memory!r}")
+            sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"],
+                                                  memory.get("shift", 0.0))
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
         return sim

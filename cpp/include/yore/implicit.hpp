@@ -34,6 +34,9 @@ enum class HessianProjection {
                  ///< decision kept for the rest of the step and (with back-off) later steps
   trust_region,  ///< Chen et al. 2024: abs after an iteration whose quadratic model fit poorly
                  ///< (trust-region ratio ρ < 0.01), the clamp otherwise (always SPD)
+  shifted,       ///< Levenberg–Marquardt: the exact Hessian plus μ M/h̃², μ ≥ 0 raised when the
+                 ///< factorization finds it indefinite or the quadratic model fits poorly and
+                 ///< lowered when it fits well; μ carries over to the next step
 };
 
 /// Where Newton starts each step.
@@ -94,6 +97,7 @@ struct ImplicitStatistics {
   std::int64_t exact_hessian_rejected = 0;  ///< projection exact: exact Hessians found indefinite
   std::int64_t exact_hessian_accepted = 0;  ///< projection exact: exact Hessians factorized
   std::int64_t abs_projections = 0;     ///< trust_region: iterations that used |λ| filtering
+  std::int64_t shifted_factorizations = 0;  ///< shifted: factorizations with μ > 0 that succeeded
   std::int64_t lagged_solves = 0;       ///< Newton solves done by CG on a lagged factor
   std::int64_t lagged_cg_iterations = 0;
   std::int64_t lbfgs_skipped_updates = 0;  ///< lbfgs: pairs with sᵀy ≤ 0, not stored
@@ -170,8 +174,11 @@ class ImplicitIntegrator {
   struct ProjectionMemory {
     int exact_skip = 0;
     int exact_backoff = 1;
+    double shift = 0.0;  ///< projection shifted: the μ the next iteration starts with (≥ 0)
   };
-  ProjectionMemory projection_memory() const { return {m_exact_skip, m_exact_backoff}; }
+  ProjectionMemory projection_memory() const {
+    return {m_exact_skip, m_exact_backoff, m_shift};
+  }
   /// Restores a memory taken by projection_memory(); throws std::invalid_argument out of range.
   void set_projection_memory(const ProjectionMemory& memory);
 
@@ -197,6 +204,7 @@ class ImplicitIntegrator {
   /// lbfgs: minimises from m_iterate until the residual test or max_newton (quasi_newton.cpp).
   void quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
                             int& iterations, int& backtracks, bool& converged);
+  bool factorize_shifted(const Cloth& cloth);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
@@ -227,6 +235,7 @@ class ImplicitIntegrator {
   bool m_factor_valid = false;  // the solver holds a factor of this topology (lagged mode)
   // projection exact: steps still to take projected after a rejection, and the next back-off
   int m_exact_skip = 0, m_exact_backoff = 1;
+  double m_shift = 0.0;  // projection shifted: μ, in units of the inertia M/h̃²
   CgWorkspace m_cg;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
 
