@@ -36,7 +36,9 @@ of explicit's ladder. Cost: CPU seconds
 REPEAT_MARGIN of the cheapest single run); other runs (dominated, or erring above 1 %) are run
 once, and say so (`repeats`). A run is aborted once its CPU time, or its time extrapolated from
 the steps done, exceeds min(--max-run-seconds, --max-ratio × explicit's cost) (`aborted`, with
-the extrapolated cost); a family's ladder stops after two aborted runs in a row. On the stroke
+the extrapolated cost); a family's ladder stops after two aborted runs in a row. A cell whose
+explicit runs alone (limit, repeats, reference pair) would exceed --max-cell-seconds, predicted
+from the trials, is skipped and says so; so are 128² cells above --max-128-stiffness. On the stroke
 scenes, wrinkle retention = `yore.metrics.wrinkle_measure` of the stroke region at T over the
 reference's.
 
@@ -213,12 +215,15 @@ def rms_error(snapshots, reference, scale):
 
 
 def is_stable(make, dt):
+    """Whether SEARCH_STEPS explicit steps at dt stay bounded, and their CPU seconds per step."""
     sim, _ = make(dt=dt, integrator="explicit")
+    start = time.process_time()
     try:
         sim.step(SEARCH_STEPS, progress=False)
-    except yore.SimulationDiverged:
-        return False
-    return bool(np.isfinite(sim.cloth.positions).all())
+    except yore.SimulationDiverged as error:
+        return False, (time.process_time() - start) / max(1, getattr(error, "step", 1))
+    return (bool(np.isfinite(sim.cloth.positions).all()),
+            (time.process_time() - start) / SEARCH_STEPS)
 
 
 def trial_limit(make, estimate):
@@ -227,8 +232,8 @@ def trial_limit(make, estimate):
     trials = []
 
     def trial(dt):
-        stable = is_stable(make, dt)
-        trials.append({"dt": dt, "stable": stable})
+        stable, cpu_per_step = is_stable(make, dt)
+        trials.append({"dt": dt, "stable": stable, "cpu_per_step": cpu_per_step})
         return stable
 
     low = high = estimate
@@ -263,6 +268,15 @@ def measure_cell(cell, make, families, args, log):
     limit, trials = trial_limit(make, estimate)
     explicit = {"integrator": "explicit"}
     steps_limit = even_steps(duration, limit)
+    # explicit's least work in this cell: the run at the limit, its repeats, the reference pair
+    per_step = statistics.median(t["cpu_per_step"] for t in trials)
+    predicted = per_step * steps_limit * (args.repeats + 2 + 4)
+    if predicted > args.max_cell_seconds:
+        log(f"{describe(cell)}: explicit's runs would take ~{predicted:.0f} CPU s > "
+            f"--max-cell-seconds {args.max_cell_seconds:g}; cell skipped")
+        return [], dict(cell, skipped=f"explicit's runs and reference ~{predicted:.0f} CPU s > "
+                                      f"--max-cell-seconds {args.max_cell_seconds:g}",
+                        stable_dt_estimate=estimate, trial_limit_dt=limit)
     # reference chain: steps_limit × 2, × 4, ... until the last two agree or the budget ends
     chain = [(2 * steps_limit, simulate(make, explicit, 2 * steps_limit, duration))]
     info = dict(cell, stable_dt_estimate=estimate, trial_limit_dt=limit, stability_trials=trials,
@@ -558,6 +572,10 @@ def options(parser):
                         help="cap of one implicit run over explicit's cost (default 8)")
     parser.add_argument("--max-reference-seconds", type=float, default=240.0,
                         help="CPU budget of one more reference halving (default 240)")
+    parser.add_argument("--max-cell-seconds", type=float, default=600.0,
+                        help="skip a cell whose explicit runs (limit, repeats, reference pair) "
+                             "would take more CPU seconds, predicted from the stability trials "
+                             "(default 600)")
     parser.add_argument("--no-extend", action="store_true",
                         help="do not add 2e7 N/m where explicit wins at the largest stiffness")
     parser.add_argument("--max-128-stiffness", type=float, default=2e5,
@@ -586,7 +604,7 @@ def main(argv=None):
                 continue
             rows, info = measure_cell(cell, make, families, args, print)
             all_rows.extend(rows)
-            summaries.append(summarize_cell(info, rows, families))
+            summaries.append(info if "skipped" in info else summarize_cell(info, rows, families))
 
     run_cells(cells(args))
     if not args.no_extend and "sheet" in args.scenes and not args.quick:
