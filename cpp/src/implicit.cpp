@@ -1,5 +1,6 @@
 #include "yore/implicit.hpp"
 
+#include "implicit_detail.hpp"
 #include "yore/errors.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/springs.hpp"
@@ -11,27 +12,7 @@
 #include <stdexcept>
 
 namespace yore {
-namespace {
-
-// Most steps the exact projection waits, projected, after repeated rejections.
-constexpr int kMaxExactBackoff = 32;
-
-// Backtracking line search: Armijo constant, halvings before giving up.
-constexpr double kArmijo = 1e-4;
-constexpr int kMaxBacktracks = 40;
-// Relative size, against the sum of the objective's terms' magnitudes (gravity's is large and
-// of the other sign), of the energy changes that round-off can hide.
-constexpr double kRoundoff = 1e-12;
-
-// Projection shifted (Levenberg–Marquardt on the exact Hessian, μ in units of M/h̃²): the
-// smallest μ > 0, the factor μ grows by on an indefinite matrix or a poor model fit, the factor
-// it shrinks by on a good fit, and the largest μ tried before giving up.
-constexpr double kMinShift = 1e-3;
-constexpr double kShiftGrowth = 4.0;
-constexpr double kShiftShrink = 4.0;
-constexpr double kMaxShift = 1e12;
-
-}  // namespace
+using namespace implicit_detail;
 
 ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     : m_options(given), m_monitor(given.divergence_energy_factor) {
@@ -331,160 +312,19 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);
   }
 
-  // Projection exact: after a rejection the step stays projected, and the next steps skip the
-  // exact attempt with a doubling back-off (1, 2, 4, … up to 32 steps), so an indefinite phase
-  // costs at most one thrown-away factorization per back-off period.
-  bool try_exact = m_options.projection == HessianProjection::exact;
-  if (try_exact && m_exact_skip > 0) {
-    --m_exact_skip;
-    try_exact = false;
-  }
-  bool rejected_this_step = false, use_abs = false;
-  double residual_at_rejection = 0.0;
-
-  const double tolerance = m_options.newton_tol * m_mean_rest_length;
   int iterations = 0, backtracks = 0;
   bool converged = m_pattern.size == 0;
   double energy = 0.0, residual = 0.0;
   if (!converged) {
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
+    if (m_options.minimizer == ImplicitMinimizer::lbfgs) {
+      quasi_newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
+    } else {
+      newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
+    }
   }
-  const bool quasi_newton = m_options.minimizer == ImplicitMinimizer::lbfgs;
-  if (quasi_newton && !converged) {
-    quasi_newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
-  }
-  while (!converged && !quasi_newton) {
-    poll_interrupt();  // max_newton is user-typed
-    if (!std::isfinite(energy) || !std::isfinite(residual)) break;  // diverged: state checked
-    if (!m_options.linearized && residual <= tolerance) {
-      converged = true;
-      break;
-    }
-    if (iterations == m_options.max_newton) break;
-    Stopwatch start;
-    bool factored = false;
-    // Within a step, the exact Hessian is tried again once the projected iterations have cut the
-    // residual tenfold since it was rejected: near a stable minimum it is positive definite
-    // again, and the clamp alone converges only linearly.
-    if (rejected_this_step && !try_exact && residual < 0.1 * residual_at_rejection) {
-      try_exact = true;
-    }
-    if (m_options.projection == HessianProjection::shifted) {
-      energy = evaluate(cloth, m_iterate, true, true, HessianProjection::shifted);
-      start.restart();
-      factorize_shifted(cloth);
-      m_statistics.factorize_seconds += start.seconds();
-      factored = true;
-    } else if (try_exact) {
-      energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
-      start.restart();
-      try {
-        m_solver->factorize(m_values.data());
-        factored = true;
-        ++m_statistics.exact_hessian_accepted;
-      } catch (const NotPositiveDefinite&) {
-        ++m_statistics.exact_hessian_rejected;
-        try_exact = false;
-        rejected_this_step = true;
-        residual_at_rejection = residual;
-      }
-      m_statistics.factorize_seconds += start.seconds();
-    }
-    bool solved = false;
-    if (!factored) {
-      const HessianProjection projection =
-          use_abs || m_options.projection == HessianProjection::abs ? HessianProjection::abs
-                                                                    : HessianProjection::clamp;
-      if (projection == HessianProjection::abs &&
-          m_options.projection == HessianProjection::trust_region) {
-        ++m_statistics.abs_projections;
-      }
-      energy = evaluate(cloth, m_iterate, true, true, projection);
-      m_rhs = -m_gradient;
-      if (m_options.lagged_factorization && m_factor_valid) {
-        // CG on the current matrix, preconditioned by the lagged factor.
-        start.restart();
-        m_direction.setZero();
-        bool cg_converged = false;
-        m_statistics.lagged_cg_iterations += preconditioned_cg(
-            m_pattern, m_values.data(), m_rhs, m_direction,
-            [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
-            m_options.lag_cg_tolerance, m_options.lag_max_cg_iterations, m_cg, cg_converged);
-        m_statistics.solve_seconds += start.seconds();
-        ++m_statistics.lagged_solves;
-        solved = cg_converged;
-      }
-      if (!solved) {
-        start.restart();
-        m_solver->factorize(m_values.data());
-        m_factor_valid = true;
-        m_statistics.factorize_seconds += start.seconds();
-      }
-    }
-    if (!solved) {
-      start.restart();
-      m_rhs = -m_gradient;
-      m_solver->solve(m_rhs.data(), m_direction.data());
-      m_statistics.solve_seconds += start.seconds();
-    }
-    ++iterations;
-
-    const double slope = m_gradient.dot(m_direction);
-    if (m_options.linearized) {
-      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-        m_iterate.row(m_free_vertices[b]) +=
-            m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
-      }
-      break;  // Baraff–Witkin: one step, by definition
-    }
-    double trial_energy = energy;
-    const double magnitude = m_energy_magnitude;  // of the objective at the iterate
-    const double alpha = line_search(cloth, energy, slope, backtracks, trial_energy);
-    if (m_options.projection == HessianProjection::trust_region) {
-      // Chen et al. 2024: the fit ρ of the quadratic model −(g·d + ½ dᵀHd) = −½ g·d (H d = −g)
-      // to the actual decrease at the full step picks the next filter: a poor fit (ρ < 0.01,
-      // here: the full step was not accepted) calls for |λ|, a good one for the clamp.
-      const double predicted = -0.5 * slope;
-      const double actual = energy - trial_energy;
-      use_abs = alpha < 1.0 || !(predicted > 0.0) || actual < 0.01 * predicted;
-    }
-    if (m_options.projection == HessianProjection::shifted) {
-      // The trust-region ratio of the unshifted model, −(g·d + ½ dᵀHd) = −½ g·d + ½ μ dᵀ(M/h̃²)d
-      // (since (H + μ M/h̃²) d = −g), to the actual decrease at the full step steers μ.
-      double inertia_norm = 0.0;  // dᵀ(M/h̃²)d
-      const Eigen::VectorXd& masses = cloth.masses();
-      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-        inertia_norm += masses[m_free_vertices[b]] / (m_h * m_h) *
-                        m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).squaredNorm();
-      }
-      const double predicted = -0.5 * slope + 0.5 * m_shift * inertia_norm;
-      const double actual = energy - trial_energy;
-      const bool unresolved = -slope <= kRoundoff * magnitude;  // round-off: no fit to judge
-      if (!unresolved && (alpha < 1.0 || !(actual >= 0.25 * predicted))) {
-        m_shift = std::max(kShiftGrowth * m_shift, kMinShift);
-      } else if (unresolved || actual >= 0.75 * predicted) {
-        m_shift /= kShiftShrink;
-        if (m_shift < kMinShift) m_shift = 0.0;
-      }
-    }
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      m_iterate.row(m_free_vertices[b]) +=
-          alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
-    }
-    energy = evaluate(cloth, m_iterate, true, false);
-    residual = scaled_residual(cloth);
-  }
-  if (m_options.linearized) converged = true;
   if (!converged) ++m_statistics.unconverged_steps;
-  if (m_options.projection == HessianProjection::exact) {
-    if (rejected_this_step) {
-      m_exact_skip = m_exact_backoff;
-      m_exact_backoff = std::min(2 * m_exact_backoff, kMaxExactBackoff);
-    } else if (m_exact_skip == 0 && iterations > 0 && try_exact) {
-      m_exact_backoff = 1;
-    }
-  }
   if (m_pattern.size > 0) {
     evaluate(cloth, m_iterate, true, false);
     m_statistics.last_residual = m_gradient.lpNorm<Eigen::Infinity>();
@@ -546,36 +386,15 @@ double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double
   return alpha;
 }
 
-bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
-  // m_values holds the exact Hessian; add μ M/h̃² to its diagonal, raising μ until the
-  // factorization succeeds. Each failure is one thrown-away factorization.
-  const Eigen::VectorXd& masses = cloth.masses();
-  double applied = 0.0;
-  for (;;) {
-    const double extra = m_shift - applied;
-    if (extra != 0.0) {
-      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-        const double weight = extra * masses[m_free_vertices[b]] / (m_h * m_h);
-        for (int c = 0; c < 3; ++c) {
-          m_values[static_cast<std::size_t>(m_pattern.column_starts[3 * b + c])] += weight;
-        }
-      }
-      applied = m_shift;
-    }
-    try {
-      m_solver->factorize(m_values.data());
-      if (m_shift > 0.0) {
-        ++m_statistics.shifted_factorizations;
-      } else {
-        ++m_statistics.exact_hessian_accepted;
-      }
-      return true;
-    } catch (const NotPositiveDefinite&) {
-      ++m_statistics.exact_hessian_rejected;
-      if (m_shift >= kMaxShift) throw;
-      m_shift = std::max(kShiftGrowth * m_shift, kMinShift);
-    }
-  }
+ImplicitIntegrator::IterationVerdict ImplicitIntegrator::verdict(double energy, double residual,
+                                                                int iterations) const {
+  // A non-finite objective or gradient is divergence (advance_checked restores the state and
+  // reports it), never convergence; the residual test comes before the cap, so a step that
+  // converges on its last allowed iteration counts as converged.
+  if (!std::isfinite(energy) || !std::isfinite(residual)) return IterationVerdict::diverged;
+  if (residual <= m_options.newton_tol * m_mean_rest_length) return IterationVerdict::converged;
+  if (iterations >= m_options.max_newton) return IterationVerdict::at_cap;
+  return IterationVerdict::go_on;
 }
 
 double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {

@@ -53,17 +53,13 @@ void ImplicitIntegrator::quasi_newton_iterate(const Cloth& cloth, double& energy
   ensure_scalar_matrix(cloth);
   // Q's unknowns are the free vertices in increasing order, as the blocks of the gradient.
   const auto unknowns = static_cast<Eigen::Index>(m_free_vertices.size());
-  const double tolerance = m_options.newton_tol * m_mean_rest_length;
   const int capacity = m_options.lbfgs_history;
   int stored = 0, newest = -1;  // the history starts empty every step
   while (true) {
     poll_interrupt();  // max_newton is user-typed
-    if (!std::isfinite(energy) || !std::isfinite(residual)) return;  // diverged: state checked
-    if (residual <= tolerance) {
-      converged = true;
-      return;
-    }
-    if (iterations == m_options.max_newton) return;
+    const IterationVerdict now = verdict(energy, residual, iterations);
+    if (now == IterationVerdict::converged) converged = true;
+    if (now != IterationVerdict::go_on) return;  // diverged: the state is checked after the step
     {
       // Two-loop recursion: d = −H g with H the L-BFGS inverse Hessian built on Q⁻¹.
       ScopedTimer timer(m_statistics.solve_seconds);

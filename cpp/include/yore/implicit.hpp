@@ -204,6 +204,34 @@ class ImplicitIntegrator {
   /// lbfgs: minimises from m_iterate until the residual test or max_newton (quasi_newton.cpp).
   void quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
                             int& iterations, int& backtracks, bool& converged);
+  /// The stopping verdict Newton and quasi-Newton share: diverged on a non-finite objective
+  /// or gradient, converged when the scaled residual is at most newton_tol × the mean rest
+  /// length, at the cap after max_newton iterations.
+  enum class IterationVerdict { go_on, converged, at_cap, diverged };
+  IterationVerdict verdict(double energy, double residual, int iterations) const;
+
+  // Newton, in parts (newton.cpp).
+  /// The projection decisions of one step (exact: whether this iteration tries the exact
+  /// Hessian, whether one was rejected this step and at what residual; trust_region: whether
+  /// the next iteration filters by |λ|). The decisions kept across steps live in members.
+  struct ProjectionChoice {
+    bool try_exact = false;
+    bool rejected = false;
+    double residual_at_rejection = 0.0;
+    bool use_abs = false;
+  };
+  ProjectionChoice begin_projection();
+  void end_projection(const ProjectionChoice& choice, int iterations);
+  /// Assembles the Hessian the projection picks at m_iterate and leaves the Newton direction
+  /// (H d = −∇E) in m_direction; returns the objective there.
+  double newton_direction(const Cloth& cloth, ProjectionChoice& choice, double residual);
+  /// After a line search: the trust-region filter choice and the shift μ, from the fit of the
+  /// quadratic model to the actual decrease.
+  void adapt_projection(const Cloth& cloth, ProjectionChoice& choice, double energy,
+                        double trial_energy, double slope, double alpha, double magnitude);
+  /// Minimises from m_iterate by Newton until the verdict stops it (one iteration, linearized).
+  void newton_iterate(const Cloth& cloth, double& energy, double& residual, int& iterations,
+                      int& backtracks, bool& converged);
   bool factorize_shifted(const Cloth& cloth);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
