@@ -92,3 +92,75 @@ def test_wrinkle_measure_ignores_rigid_motions_and_measures_a_region_only():
     flat_faces = np.flatnonzero(V[F][:, :, 0].max(axis=1) < 0.3)
     assert metrics.wrinkle_measure(half, F, flat_faces) < 1e-6
     assert metrics.wrinkle_measure(half, F) > 1e-4
+
+
+def _ring_neighbours(F, v):
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    return np.unique(np.concatenate([edges[edges[:, 0] == v, 1], edges[edges[:, 1] == v, 0]]))
+
+
+def test_spike_index_is_zero_on_a_plane_and_measures_a_lifted_vertex():
+    V, F = yore.grid_mesh(9, 9, width=1.0, height=1.0)
+    interior = [i for i in range(len(V)) if 0 < V[i, 0] < 1 and 0 < V[i, 1] < 1]
+    assert yore.metrics.spike_index(V, F, interior) < 1e-12
+    assert yore.metrics.spike_index(V, F) < 1e-12  # boundary vertices too (collinear rings)
+    # A tent: one vertex lifted by t·h out of its flat ring; independently, its distance from
+    # the ring's plane is t·h and its edges have length √(dᵢ² + (t h)²).
+    v = 40  # the centre
+    h = 1.0 / 8
+    for t in (0.1, 0.46):
+        lifted = V.copy()
+        lifted[v, 2] += t * h
+        ring = _ring_neighbours(F, v)
+        lengths = np.linalg.norm(lifted[ring] - lifted[v], axis=1)
+        expected = t * h / lengths.mean()
+        assert yore.metrics.spike_index(lifted, F, [v]) == pytest.approx(expected, rel=1e-12)
+    # rigid motions and uniform scaling leave it unchanged
+    R = np.linalg.qr(np.random.default_rng(3).normal(size=(3, 3)))[0]
+    moved = 2.5 * lifted @ R.T + np.array([0.3, -1.0, 2.0])
+    assert yore.metrics.spike_index(moved, F, [v]) == pytest.approx(
+        yore.metrics.spike_index(lifted, F, [v]), rel=1e-9)
+
+
+def test_spike_index_of_a_smooth_tube_is_small_and_falls_with_refinement():
+    # A cylinder of radius R at edge length h: a vertex sits ~h²/(2R) off its ring's plane, so
+    # the index is ~h/(2R) — below 0.05 at 48 segments and halving when the segments double.
+    values = []
+    for segments in (48, 96):
+        V, F = yore.cylinder_mesh(0.25, 0.25, segments // 4 + 1, segments)
+        rings = V[:, 1]
+        inner = np.flatnonzero((rings > rings.min() + 1e-9) & (rings < rings.max() - 1e-9))
+        values.append(yore.metrics.spike_index(V, F, inner))
+    assert values[0] < 0.05
+    assert values[1] == pytest.approx(values[0] / 2, rel=0.15)
+
+
+def test_spike_index_rejects_vertices_it_cannot_measure():
+    V, F = yore.grid_mesh(3, 3)
+    with pytest.raises(ValueError, match="vertices must be in"):
+        yore.metrics.spike_index(V, F, [99])
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    with pytest.raises(ValueError, match="three or more neighbours"):
+        yore.metrics.spike_index(V, np.array([[0, 1, 2]]))
+
+
+def test_radius_profile_of_a_cylinder_and_of_a_cone():
+    V, F = yore.cylinder_mesh(0.3, 0.5, 11, 64)
+    heights, radii = yore.metrics.radius_profile(V, bins=5)
+    assert np.allclose(radii, 0.3, rtol=1e-12)
+    assert heights[0] < heights[-1] and heights[0] > 0.0 and heights[-1] < 0.5
+    # A cone r(y) = 0.1 + 0.4 y: each slice's mean radius is r at the mean height of its
+    # vertices (linear), and the hem slice is the widest.
+    cone = V.copy()
+    scale = (0.1 + 0.4 * V[:, 1]) / 0.3
+    cone[:, 0] *= scale
+    cone[:, 2] *= scale
+    heights, radii = yore.metrics.radius_profile(cone, bins=7)
+    assert np.allclose(radii, 0.1 + 0.4 * heights, atol=1e-12)
+    # an axis elsewhere, and rigid motion with it
+    shifted = V + np.array([1.0, 0.0, -2.0])
+    assert np.allclose(yore.metrics.radial_distance(shifted, center=(1.0, 5.0, -2.0)), 0.3)
+    with pytest.raises(ValueError, match="axis must be"):
+        yore.metrics.radial_distance(V, axis=(0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="bins"):
+        yore.metrics.radius_profile(V, bins=0)

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "wrinkle_measure",
-           "taubin_smooth", "roughness", "rest_ratio_roughness"]
+           "taubin_smooth", "roughness", "rest_ratio_roughness", "spike_index", "radial_distance",
+           "radius_profile"]
 
 
 def face_areas(V, F) -> np.ndarray:
@@ -136,6 +137,91 @@ def wrinkle_measure(V, F, region=None, iterations=10, lam=0.5, mu=-0.53) -> floa
         return 0.0
     height = np.einsum("ij,ij->i", V[vertices] - smooth[vertices], normals[vertices])
     return float(np.sqrt(np.mean(height**2)))
+
+
+def spike_index(V, F, vertices=None) -> float:
+    """How spiky a set of vertices is, dimensionless: RMS over ``vertices`` of each one's
+    distance from the least-squares plane of its one-ring (its edge neighbours, itself left
+    out), over the mean length of the edges at those vertices. A plane gives 0; a smooth
+    surface of curvature radius R about h/(2R) at edge length h (a vertex sits h²/(2R) off
+    its ring's plane); a tent — a vertex lifted out of its ring by t times its edge length —
+    gives ≈ t. The paper's 1→3 split with expansion 1.1 on a flat face makes a tent of height
+    √(1.1² − 1) ≈ 0.46 of the distance to the corners: 0.42 for that vertex.
+
+    V n×3 (m), F f×3 vertex indices, vertices: indices (a stroke report's new vertices) or
+    None for all. Vertices with fewer than three neighbours (no plane) are left out; a
+    ValueError if none is left."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    n = len(V)
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
+                              axis=1), axis=0)
+    pairs = np.concatenate([edges, edges[:, ::-1]])
+    pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
+    starts = np.searchsorted(pairs[:, 0], np.arange(n + 1))
+    chosen = np.arange(n) if vertices is None else np.unique(np.asarray(vertices, dtype=np.int64))
+    if chosen.size and (chosen.min() < 0 or chosen.max() >= n):
+        raise ValueError(f"vertices must be in [0, {n}), got {chosen.min()}..{chosen.max()}")
+    distances, lengths = [], []
+    for v in chosen:
+        ring = pairs[starts[v]:starts[v + 1], 1]
+        if len(ring) < 3:
+            continue
+        points = V[ring]
+        centre = points.mean(axis=0)
+        normal = np.linalg.svd(points - centre, full_matrices=False)[2][-1]
+        distances.append(abs(float((V[v] - centre) @ normal)))
+        lengths.extend(np.linalg.norm(points - V[v], axis=1))
+    if not distances:
+        raise ValueError("spike_index needs at least one vertex with three or more neighbours")
+    mean_length = float(np.mean(lengths))
+    if mean_length == 0.0:
+        return 0.0
+    return float(np.sqrt(np.mean(np.square(distances)))) / mean_length
+
+
+def radial_distance(V, center=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """(n,) distance of every vertex from the line through ``center`` along ``axis``, m (a
+    tube's local radius; the rotating cylinder's axis is y through the origin)."""
+    V = np.asarray(V, dtype=float)
+    axis = np.asarray(axis, dtype=float)
+    length = np.linalg.norm(axis)
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise ValueError(f"V must have shape (n, 3), got {V.shape}")
+    if axis.shape != (3,) or not np.isfinite(length) or length == 0.0:
+        raise ValueError(f"axis must be a non-zero 3-vector, got {axis!r}")
+    axis = axis / length
+    offset = V - np.asarray(center, dtype=float)
+    return np.linalg.norm(offset - np.outer(offset @ axis, axis), axis=1)
+
+
+def radius_profile(V, center=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0), bins=16, vertices=None):
+    """A tube's radius along its axis: (heights (bins,), radii (bins,)), the mean
+    `radial_distance` of the vertices in each of ``bins`` equal slices of their extent along
+    the axis (heights: the slice's vertices' mean position along the axis from ``center``,
+    m; NaN for an empty slice). vertices: indices or None for all. A cylinder of radius r gives r in
+    every slice; a skirt flaring at its hem, a larger radius in the lowest slices."""
+    V = np.asarray(V, dtype=float)
+    radius = radial_distance(V, center, axis)
+    chosen = np.arange(len(V)) if vertices is None else np.asarray(vertices, dtype=np.int64)
+    bins = int(bins)
+    if bins < 1:
+        raise ValueError(f"bins must be >= 1, got {bins}")
+    if chosen.size == 0:
+        raise ValueError("radius_profile needs at least one vertex")
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    height = (V[chosen] - np.asarray(center, dtype=float)) @ axis
+    low, high = float(height.min()), float(height.max())
+    edges = np.linspace(low, high, bins + 1) if high > low else np.array([low - 0.5, low + 0.5])
+    if high <= low:
+        bins = 1
+    which = np.clip(np.searchsorted(edges, height, side="right") - 1, 0, bins - 1)
+    counts = np.bincount(which, minlength=bins)
+    sums = np.bincount(which, radius[chosen], minlength=bins)
+    levels = np.bincount(which, height, minlength=bins)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radii = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+        heights = np.where(counts > 0, levels / np.maximum(counts, 1), np.nan)
+    return heights, radii
 
 
 def roughness(V, F, vertices=None) -> float:
