@@ -31,7 +31,7 @@ SCHEMAS = {
     "newton_projection": ({"benchmark", "machine", "rows", "quick", "target", "target_met"},
                           {"scene", "projection", "median_iterations", "mean_iterations",
                            "max_iterations", "rejected_per_step", "unconverged_steps",
-                           "cpu_seconds_per_simulated_second", "deviation"}),
+                           "cpu_seconds_per_simulated_second", "deviation", "step_deviation"}),
     "threads": ({"benchmark", "machine", "rows", "cells", "target_ratio", "target_met", "quick"},
                 {"scene", "load", "mode", "threads_configured", "threads_used",
                  "step_seconds_median", "repeats"}),

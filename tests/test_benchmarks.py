@@ -160,6 +160,8 @@ def test_newton_projection_smoke(tmp_path):
                if r["projection"] not in ("exact", "shifted"))
     assert all(r["median_iterations"] <= r["max_iterations"] <= 50 for r in data["rows"])
     assert all(0.0 <= r["deviation"] < 1.0 for r in data["rows"])
+    # the step's own error, probed from the run's states, is finite and below the size
+    assert all(0.0 <= r["step_deviation"] < 1.0 for r in data["rows"])
     assert set(data["target_met"]) == {r["projection"] for r in data["rows"]}
 
 
