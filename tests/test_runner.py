@@ -253,7 +253,7 @@ def test_a_resume_checks_that_the_frames_it_lists_exist(tmp_path, capsys):
 @pytest.mark.parametrize("field, value", [
     ("step", -1), ("step", 3.5), ("step", 10**6), ("next_stroke", 7), ("frames", [[0.0]]),
     ("records", "x"), ("before", {"time": "now"}), ("wall_seconds", -1.0), ("phases", []),
-    ("overrides", [1]), ("scene_text", None)])
+    ("overrides", [1]), ("scene_text", None), ("settle", {"seconds": "long"})])
 def test_a_tampered_run_record_is_refused_naming_the_field(tmp_path, capsys, field, value):
     assert run_hanging(tmp_path, "--until", "0.15") == 0
     sim, record = yore.load_state(tmp_path / "state.npz")
@@ -293,3 +293,21 @@ def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(tmp_path, mon
     assert "--resume" in capsys.readouterr().err
     assert resume(tmp_path) == 0
     assert_same_run(straight, tmp_path)
+
+
+def test_a_settled_run_starts_at_rest_at_time_zero_and_says_so(tmp_path, capsys):
+    assert run_hanging(tmp_path, "--set", "simulation.settle=8", "--until", "0.15") == 0
+    summary = strict_json(tmp_path / "summary.json")
+    settle = summary["settle"]
+    assert settle["converged"] and settle["residual_acceleration"] <= 0.02
+    first = summary["records"][0]
+    assert first["time"] == 0.0 and first["kinetic"] == 0.0
+    # the record with its settle entry resumes, and the resumed part does not settle again
+    assert resume(tmp_path) == 0
+    resumed = strict_json(tmp_path / "summary.json")
+    assert resumed["settle"] == settle and resumed["finished"]
+    # a driven scene has no rest: one error line, exit code 2
+    assert main(["run", str(EXAMPLES / "cylinder.toml"), "-o", str(tmp_path / "c"), "--quiet",
+                 "--no-render", "--set", "simulation.settle=1"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error:") and "\n" not in error and "settle" in error

@@ -185,3 +185,55 @@ def test_python_option_defaults_come_from_the_core_structs():
     assert _OPTIONS["quasi-newton"]["lbfgs_history"] == core["lbfgs_history"]
     assert _OPTIONS["local-global"]["chebyshev_rho"] == \
         _core.LocalGlobalIntegrator.defaults["chebyshev_rho"]
+
+
+def _hanging(integrator="explicit", **options):
+    return yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **options)
+
+
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator):
+    sim = _hanging(integrator)
+    before = sim.energy()
+    info = sim.settle(max_seconds=10.0, tolerance=0.02)
+    assert info["converged"] and info["residual_acceleration"] <= 0.02
+    assert info["resets"] >= 1 and 0.0 < info["seconds"] <= 10.0 + sim.dt
+    assert sim.time == 0.0 and not np.any(sim.cloth.velocities)
+    after = sim.energy()
+    # it fell and stretched to rest: the potential dropped, nothing is moving
+    assert after["gravity"] + after["spring"] < before["gravity"] + before["spring"]
+    assert after["kinetic"] == 0.0
+    # At rest near equilibrium the cloth stays put: one check interval from rest gains at
+    # most tolerance·interval of RMS speed (the stopping test, re-measured independently),
+    # while the cloth as built swings off by tens of centimetres.
+    x0 = sim.cloth.positions.copy()
+    interval = max(1, round(yore.simulation.SETTLE_CHECK_SECONDS / sim.dt))
+    sim.step(interval)
+    v = sim.cloth.velocities
+    m = sim.cloth.masses
+    rms = np.sqrt((m[:, None] * v**2).sum() / m.sum())
+    assert rms <= 0.02 * interval * sim.dt * (1 + 1e-9)
+    sim.advance(0.5)
+    unsettled = _hanging(integrator)
+    start = unsettled.cloth.positions.copy()
+    unsettled.advance(0.5)
+    assert np.abs(sim.cloth.positions - x0).max() < 0.02 * np.abs(
+        unsettled.cloth.positions - start).max()
+
+
+def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
+    sim = _hanging()
+    for bad in (-1.0, float("nan")):
+        with pytest.raises(ValueError, match="max_seconds"):
+            sim.settle(max_seconds=bad)
+    with pytest.raises(ValueError, match="tolerance"):
+        sim.settle(tolerance=0.0)
+    spinning = yore.scenes.rotating_cylinder(rings=4, segments=8)
+    with pytest.raises(ValueError, match="driven"):
+        spinning.settle()
+    # zero seconds: nothing but the velocities (already zero) changes
+    x = sim.cloth.positions.copy()
+    info = sim.settle(max_seconds=0.0)
+    assert info == {"seconds": 0.0, "resets": 0, "converged": False,
+                    "residual_acceleration": float("inf")}
+    assert np.array_equal(sim.cloth.positions, x)

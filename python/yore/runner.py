@@ -77,11 +77,15 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     _set_threads(scene, threads)
     sim, _ = scene.build()
     scene.check_strokes(sim)
+    settle = None
+    if scene.data["simulation"]["settle"] > 0.0:
+        # before t = 0 and before the folder is claimed: an interrupted settle leaves nothing
+        settle = sim.settle(scene.data["simulation"]["settle"], progress=False if quiet else None)
     record = {"scene_text": scene.text,
               "scene_path": str(scene.path) if scene.path is not None else None,
               "overrides": scene.overrides, "step": 0, "next_stroke": 0, "frames": [],
               "records": [], "strokes": [], "before": None, "wall_seconds": 0.0,
-              "resumed_from": [], "phases": {}}
+              "resumed_from": [], "phases": {}, "settle": settle}
     out = Path(os.fspath(out))
     claim_folder(out, record, overwrite)
     return _run(scene, sim, record, out, until, quiet, render)
@@ -141,8 +145,18 @@ def _check_record(state_path, record):
 
     expected_keys = {"scene_text", "scene_path", "overrides", "step", "next_stroke", "frames",
                      "records", "strokes", "before", "wall_seconds", "resumed_from", "phases"}
-    if set(record) != expected_keys:
-        fail("(keys)", f"the keys {sorted(expected_keys)} of a run's record")
+    # settle: absent from records written before it existed
+    if not expected_keys <= set(record) <= expected_keys | {"settle"}:
+        fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
+    settle = record.get("settle")
+    if settle is not None and not (
+            isinstance(settle, dict) and set(settle) == {"seconds", "resets", "converged",
+                                                         "residual_acceleration"}
+            and number(settle["seconds"]) and count(settle["resets"])
+            and isinstance(settle["converged"], bool)
+            and isinstance(settle["residual_acceleration"], (int, float))):
+        fail("settle", "null or a table with seconds, resets, converged and "
+             "residual_acceleration")
     if not isinstance(record["scene_text"], str):
         fail("scene_text", "the scene file's text")
     if record["scene_path"] is not None and not isinstance(record["scene_path"], str):
@@ -557,6 +571,8 @@ def _summary(scene, sim, record, out, state_path, status, message):
         "settings": settings,
         "records": record["records"],
         "strokes": record["strokes"],
+        # kinetic-damping relaxation before t = 0 ([simulation] settle), or null
+        "settle": record.get("settle"),
         "before": before,
         "frames": [{"time": t, "file": _relative(p, out)} for t, p in record["frames"]],
         "camera": scene.data["camera"],

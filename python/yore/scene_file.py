@@ -265,6 +265,9 @@ SCHEMA = {
                "time step; default: below the stable step (explicit) or 1/60 s"),
         "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
+        "settle": (_number(0, unit="s"), 0.0, "at most this much simulated time of "
+                   "kinetic-damping relaxation to rest before t = 0 (Simulation.settle; no "
+                   "driven vertices); 0: start as built"),
         "threads": (_integer(1), None, "threads of the core's loops and of BLAS "
                     "(yore.set_num_threads); default: the machine's cores"),
     }, "table"),
@@ -539,6 +542,9 @@ def _check(scene, raw):
     if output["animation"] != "none" and output["format"] == "none":
         raise scene.error("output.animation", "an animation needs frames, but output.format "
                           "is 'none'", "format = 'vtu', 'vtk', 'ply' or 'obj'")
+    if data["simulation"]["settle"] > 0.0 and data["driven"]:
+        raise scene.error("simulation.settle", "given for a scene with [[driven]] vertices, "
+                          "which keep moving and have no rest to settle to", "settle = 0")
     data["integrator"] = _check_integrator(scene, raw.get("integrator", {}),
                                            data["simulation"]["integrator"])
     return data

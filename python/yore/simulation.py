@@ -292,6 +292,9 @@ _FACTORIES = {
 #: Default time step of the implicit integrators, s.
 IMPLICIT_DT = 1.0 / 60.0
 
+#: Simulated time between two kinetic-energy checks of `Simulation.settle`, s.
+SETTLE_CHECK_SECONDS = 0.004
+
 # Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
 _BATCH_SECONDS = 0.1
 # A run expected to take longer than this shows a progress bar (when progress=None).
@@ -523,6 +526,85 @@ class Simulation:
         self._run(steps, progress)
         self._target_time = target
         return steps
+
+    def settle(self, max_seconds: float = 10.0, tolerance: float = 0.02, progress=None) -> dict:
+        """Brings the cloth to rest near its static equilibrium before an experiment, by kinetic
+        damping (dynamic relaxation): it steps with this simulation's integrator and dt and
+        zeroes every velocity whenever the kinetic energy has fallen since the last check
+        (a peak has passed: the motion is about to turn back), so energy leaves the cloth at
+        each swing's peak without any change to the model. A check comes every
+        `SETTLE_CHECK_SECONDS` of simulated time. It stops when, over one check interval
+        started at rest, the cloth's RMS speed gained stays below ``tolerance`` ×
+        the interval (the residual acceleration, m/s², of a cloth at rest: 0.02 is 0.2 % of
+        gravity), or after ``max_seconds`` of simulated time. Afterwards the velocities are
+        zero and the clock is back where it was, so strokes and outputs keep their times;
+        BDF2 starts afresh (the velocities were edited).
+
+        Returns {"seconds": simulated time spent, "resets": velocity resets, "converged":
+        bool, "residual_acceleration": the last check's, m/s²}. Raises ValueError for bad
+        arguments or a cloth with driven vertices (a driven cloth has no rest to settle to),
+        SimulationDiverged as `step`."""
+        max_seconds, tolerance = float(max_seconds), float(tolerance)
+        if not math.isfinite(max_seconds) or max_seconds < 0.0:
+            raise ValueError(f"max_seconds must be finite and >= 0, got {max_seconds}")
+        if not math.isfinite(tolerance) or tolerance <= 0.0:
+            raise ValueError(f"tolerance must be finite and > 0, got {tolerance}")
+        cloth = self._cloth
+        if cloth.driven_vertices.size:
+            raise ValueError("settle needs a cloth without driven vertices (a driven cloth "
+                             "keeps moving: it has no rest to settle to)")
+        start_time = cloth.time
+        masses = cloth.masses
+        total_mass = float(masses.sum())
+        chunk = max(1, int(round(SETTLE_CHECK_SECONDS / self._dt)))
+        interval = chunk * self._dt
+        checks = max(1, int(math.ceil(max_seconds / interval))) if max_seconds > 0 else 0
+        resets, converged, acceleration = 0, False, math.inf
+        previous_kinetic = 0.0
+        started_at_rest = True
+        cloth.velocities = np.zeros_like(cloth.velocities)
+        bar, started = None, _time.perf_counter()
+        unconverged_before = self._integrator.statistics.get("unconverged_steps", 0)
+        for check in range(checks):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # one summary below
+                self._run(chunk, False)
+            if bar is None and progress is not False and (
+                    progress or _time.perf_counter() - started > _PROGRESS_AFTER_SECONDS / 2):
+                from tqdm.auto import tqdm
+
+                # unasked, a bar shows on a terminal only (never in a log file)
+                bar = tqdm(total=checks, initial=check + 1, unit="check", desc="yore settle",
+                           leave=False, dynamic_ncols=True,
+                           disable=None if progress is None else False)
+            elif bar is not None:
+                bar.update(1)
+            velocities = cloth.velocities
+            kinetic = 0.5 * float(np.einsum("i,ij,ij->", masses, velocities, velocities))
+            if started_at_rest:
+                acceleration = math.sqrt(2.0 * kinetic / total_mass) / interval
+                if acceleration <= tolerance:
+                    converged = True
+                    break
+            if kinetic < previous_kinetic:
+                cloth.velocities = np.zeros_like(velocities)
+                resets += 1
+                previous_kinetic, started_at_rest = 0.0, True
+            else:
+                previous_kinetic, started_at_rest = kinetic, False
+        if bar is not None:
+            bar.close()
+        unconverged = self._integrator.statistics.get("unconverged_steps", 0) - unconverged_before
+        if unconverged:
+            warnings.warn(f"{self._integrator_name}: {unconverged} settling steps were accepted "
+                          "unconverged (stats['counters']['unconverged_steps'])",
+                          RuntimeWarning, stacklevel=2)
+        spent = cloth.time - start_time
+        cloth.velocities = np.zeros_like(cloth.velocities)
+        cloth.time = start_time
+        self._target_time = None
+        return {"seconds": float(spent), "resets": resets, "converged": converged,
+                "residual_acceleration": float(acceleration)}
 
     def _run(self, steps: int, progress) -> None:
         if steps == 0:
