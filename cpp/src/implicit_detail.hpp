@@ -17,10 +17,14 @@ constexpr double kRoundoff = 1e-12;
 
 // Projection shifted (Levenberg–Marquardt on the exact Hessian, μ in units of M/h̃²): the
 // smallest μ > 0, the factor μ grows by on an indefinite matrix or a poor model fit, the factor
-// it shrinks by on a good fit, and the largest μ tried before giving up.
-constexpr double kMinShift = 1e-3;
-constexpr double kShiftGrowth = 4.0;
-constexpr double kShiftShrink = 4.0;
+// it shrinks by on a good fit, and the largest μ tried before giving up. Measured on the 32²
+// gathered hanging cloth (120 steps at 1/60 s): from (1e-3, ×4, /4) to (1, ×10, /2) the
+// thrown-away factorizations fell from 7.2 to 2.4 per step, the iterations rose from 11.8 to
+// 12.7 per step (median 10 both): 15.1 factorizations per step instead of 18.9. A μ below the
+// inertia itself hardly changes an indefinite matrix, so climbing from 1e-3 wasted tries.
+constexpr double kMinShift = 1.0;
+constexpr double kShiftGrowth = 10.0;
+constexpr double kShiftShrink = 2.0;
 constexpr double kMaxShift = 1e12;
 
 }  // namespace yore::implicit_detail
