@@ -825,10 +825,14 @@ void Cloth::update_quadratic_bending() const {
         const Vec3 rest_center = rest.rowwise().mean();
         current.colwise() -= current_center;
         rest.colwise() -= rest_center;
-        const Eigen::MatrixXd inverse =
-            Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(current).pseudoInverse();
+        // The centred neighbours are rank deficient by construction (rank 2 for a face's three
+        // corners); a threshold far above round-off keeps the solve from inverting noise.
+        Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fit;
+        fit.setThreshold(1e-9);
+        fit.compute(current);
         const Vec3 offset = m_positions.row(v).transpose() - current_center;
-        m_bending_rest.row(v) = (rest_center + rest * (inverse * offset)).transpose();
+        const Eigen::VectorXd weights = fit.solve(Eigen::VectorXd(offset));
+        m_bending_rest.row(v) = (rest_center + rest * weights).transpose();
         has_rest[static_cast<std::size_t>(v)] = 1;
         progress = true;
       }
