@@ -497,7 +497,9 @@ through `center` (m) along `axis` at `omega` rad/s (right-handed), exactly.)doc"
             idle(cloth);
             return energy_dict(cloth.energy(to_vec3(gravity, "gravity")));
           },
-          py::arg("gravity"), "Kinetic, spring and gravitational energy (J) as a dict.")
+          py::arg("gravity"),
+          "Kinetic, spring, gravitational and (quadratic) bending energy and their total (J) "
+          "as a dict.")
       .def("state", &state_dict,
            R"doc(Everything that defines the cloth, as a dict of numbers and numpy arrays: state,
 springs in their order, masses, constraints, drivers, material coordinates and the clock.
