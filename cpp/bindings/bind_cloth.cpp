@@ -12,6 +12,7 @@ namespace yore::bindings {
 namespace {
 
 constexpr double kDefaultMass = 1e-3;  // kg per vertex
+constexpr double kDefaultBendStiffness = 100.0;  // N/m per bending spring
 
 /// Per-vertex masses from a scalar (uniform) or an (n,) array, or from an areal density.
 Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
@@ -47,6 +48,7 @@ py::dict energy_dict(const EnergyTerms& terms) {
   out["kinetic"] = terms.kinetic;
   out["spring"] = terms.spring;
   out["gravity"] = terms.gravity;
+  out["bending"] = terms.bending;
   out["total"] = terms.total();
   return out;
 }
@@ -65,7 +67,24 @@ const char* const kStateKeys[] = {
     "spring_ends",      "spring_rest",      "spring_reference", "spring_stiffness",
     "spring_damping",   "spring_kind",      "drag",             "stretch_stiffness",
     "bend_stiffness",   "damping",          "material_coordinates", "vertex_states",
-    "drivers",          "clock_origin",     "clock_steps",      "clock_dt"};
+    "drivers",          "clock_origin",     "clock_steps",      "clock_dt",
+    "bending",          "bending_modulus",  "bending_rest"};
+/// Keys a state may lack: states saved before quadratic bending existed are bending springs.
+bool optional_state_key(const std::string& key) {
+  return key == "bending" || key == "bending_modulus" || key == "bending_rest";
+}
+
+/// The bending model named in Python, or std::invalid_argument listing the valid names.
+BendingModel bending_model(const std::string& name) {
+  if (name == "springs") return BendingModel::springs;
+  if (name == "quadratic") return BendingModel::quadratic;
+  throw std::invalid_argument("bending must be \"springs\" or \"quadratic\", got \"" + name +
+                              "\"");
+}
+
+const char* bending_name(BendingModel model) {
+  return model == BendingModel::quadratic ? "quadratic" : "springs";
+}
 
 py::dict state_dict(const Cloth& cloth) {
   const ClothState state = idle(cloth).state();
@@ -115,6 +134,10 @@ py::dict state_dict(const Cloth& cloth) {
   out["clock_origin"] = state.clock.origin;
   out["clock_steps"] = state.clock.steps;
   out["clock_dt"] = state.clock.dt;
+  out["bending"] = bending_name(state.bending);
+  out["bending_modulus"] = state.bending_modulus;
+  out["bending_rest"] =
+      state.bending_rest.rows() ? py::object(read_only_copy(state.bending_rest)) : py::none();
   return out;
 }
 
@@ -134,7 +157,9 @@ Cloth cloth_from_state(const py::dict& values) {
   }
   std::string missing;
   for (const char* key : kStateKeys) {
-    if (!values.contains(key)) missing += (missing.empty() ? "" : ", ") + std::string(key);
+    if (!values.contains(key) && !optional_state_key(key)) {
+      missing += (missing.empty() ? "" : ", ") + std::string(key);
+    }
   }
   if (!unknown.empty() || !missing.empty()) {
     throw std::invalid_argument("not a cloth state: " +
@@ -203,6 +228,13 @@ Cloth cloth_from_state(const py::dict& values) {
   state.clock.origin = values["clock_origin"].cast<double>();
   state.clock.steps = values["clock_steps"].cast<std::int64_t>();
   state.clock.dt = values["clock_dt"].cast<double>();
+  if (values.contains("bending")) state.bending = bending_model(values["bending"].cast<std::string>());
+  if (values.contains("bending_modulus") && !values["bending_modulus"].is_none()) {
+    state.bending_modulus = values["bending_modulus"].cast<double>();
+  }
+  if (values.contains("bending_rest") && !values["bending_rest"].is_none()) {
+    state.bending_rest = to_rows3(values["bending_rest"], "state bending_rest", n);
+  }
   return Cloth::from_state(state);
 }
 
@@ -270,23 +302,52 @@ A mass-spring cloth on a triangle mesh, wired as the paper's Fig. 1: structural 
 edge, bending springs across every interior edge between the two opposite vertices.
 
 Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0, damping=0.0,
-      drag=0.0, density=None)
+      drag=0.0, density=None, bending="springs", bending_modulus=None)
   vertices n×3 (m); faces f×3 integer indices; mass kg per vertex, a scalar (uniform, the paper's
   choice; 1e-3 when neither mass nor density is given) or an (n,) array; density kg/m² instead of
   mass lumps mass by area (a third of each face to each corner); stiffnesses N/m per spring
   (bend_stiffness=0 creates no bending springs); damping N·s/m along each spring; drag 1/s, a force
-  -drag·m·v on each vertex (still air). Raises ValueError on a bad mesh or value.)doc")
+  -drag·m·v on each vertex (still air).
+  bending="springs" (the paper's bending springs, default) or "quadratic": Bergou et al. 2006's
+  quadratic bending energy ½ κ Σ_c x_cᵀ Q x_c with modulus κ = bending_modulus (N·m, required,
+  >= 0; 0 adds no term) and Q from the rest shape of the faces in `vertices`; it creates no
+  bending springs (bend_stiffness must then be left out or 0). Raises ValueError on a bad mesh or
+  value.)doc")
       .def(py::init([](const py::handle& vertices, const py::handle& faces, const py::object& mass,
-                       double stretch_stiffness, double bend_stiffness, double damping,
-                       double drag, const py::object& density) {
+                       double stretch_stiffness, const py::object& bend_stiffness, double damping,
+                       double drag, const py::object& density, const std::string& bending,
+                       const py::object& bending_modulus) {
+             const BendingModel model = bending_model(bending);
+             if (model == BendingModel::springs && !bending_modulus.is_none()) {
+               throw std::invalid_argument(
+                   "bending_modulus is for bending=\"quadratic\"; bending springs take "
+                   "bend_stiffness (N/m)");
+             }
+             if (model == BendingModel::quadratic && bending_modulus.is_none()) {
+               throw std::invalid_argument(
+                   "bending=\"quadratic\" needs bending_modulus (N·m, >= 0)");
+             }
+             double stiffness = kDefaultBendStiffness;
+             if (!bend_stiffness.is_none()) stiffness = bend_stiffness.cast<double>();
+             if (model == BendingModel::quadratic) {
+               if (!bend_stiffness.is_none() && stiffness != 0.0) {
+                 throw std::invalid_argument(
+                     "bending=\"quadratic\" creates no bending springs: leave bend_stiffness out "
+                     "(or 0), got " + std::to_string(stiffness));
+               }
+               stiffness = 0.0;
+             }
+             const double modulus = bending_modulus.is_none() ? 0.0 : bending_modulus.cast<double>();
              const Positions v = to_rows3(vertices, "vertices");
              const Faces f = to_faces(faces);
              const Eigen::VectorXd masses = vertex_masses(mass, density, v, &f);
-             return Cloth(v, f, masses, stretch_stiffness, bend_stiffness, damping, drag);
+             return Cloth(v, f, masses, stretch_stiffness, stiffness, damping, drag, model,
+                          modulus);
            }),
            py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("mass") = py::none(),
-           py::arg("stretch_stiffness") = 100.0, py::arg("bend_stiffness") = 100.0,
-           py::arg("damping") = 0.0, py::arg("drag") = 0.0, py::arg("density") = py::none())
+           py::arg("stretch_stiffness") = 100.0, py::arg("bend_stiffness") = py::none(),
+           py::arg("damping") = 0.0, py::arg("drag") = 0.0, py::arg("density") = py::none(),
+           py::arg("bending") = "springs", py::arg("bending_modulus") = py::none())
       .def_static(
           "from_springs",
           [](const py::handle& vertices, const py::handle& edges, const py::object& rest_lengths,
@@ -359,6 +420,31 @@ vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; dr
       .def_property_readonly(
           "drag", [](const Cloth& cloth) { return idle(cloth).drag(); },
           "Air drag coefficient, 1/s.")
+      .def_property_readonly(
+          "bending", [](const Cloth& cloth) { return bending_name(idle(cloth).bending_model()); },
+          "The bending model: \"springs\" or \"quadratic\".")
+      .def_property_readonly(
+          "bending_modulus", [](const Cloth& cloth) { return idle(cloth).bending_modulus(); },
+          "Modulus of quadratic bending, N·m (0 with bending springs).")
+      .def_property_readonly(
+          "quadratic_bending",
+          [](const Cloth& cloth) -> py::object {
+            idle(cloth);
+            if (cloth.bending_model() != BendingModel::quadratic) return py::none();
+            const QuadraticBendingMatrix& q = cloth.quadratic_bending();
+            py::dict out;
+            out["size"] = q.size;
+            out["hinges"] = q.hinge_count;
+            out["indptr"] = read_only_copy(q.row_starts);
+            out["indices"] = read_only_copy(q.columns);
+            out["data"] = read_only_copy(q.values);
+            out["rest_positions"] = read_only_copy(cloth.bending_rest_positions());
+            return out;
+          },
+          R"doc(Quadratic bending's matrix Q for the current faces (None with bending springs):
+a dict with the symmetric n×n scalar matrix in CSR (indptr, indices, data; both triangles; per
+unit modulus, the energy is ½ κ Σ_c x_cᵀ Q x_c), size n, hinges (interior edges) and
+rest_positions (n×3, m, the rest state Q is built from).)doc")
       .def_property(
           "time", [](const Cloth& cloth) { return idle(cloth).time(); },
           [](Cloth& cloth, double time) {
@@ -411,7 +497,9 @@ through `center` (m) along `axis` at `omega` rad/s (right-handed), exactly.)doc"
             idle(cloth);
             return energy_dict(cloth.energy(to_vec3(gravity, "gravity")));
           },
-          py::arg("gravity"), "Kinetic, spring and gravitational energy (J) as a dict.")
+          py::arg("gravity"),
+          "Kinetic, spring, gravitational and (quadratic) bending energy and their total (J) "
+          "as a dict.")
       .def("state", &state_dict,
            R"doc(Everything that defines the cloth, as a dict of numbers and numpy arrays: state,
 springs in their order, masses, constraints, drivers, material coordinates and the clock.

@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <atomic>
@@ -84,12 +85,33 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
 }
 
 Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
-             double stretch_stiffness, double bend_stiffness, double damping, double drag) {
+             double stretch_stiffness, double bend_stiffness, double damping, double drag,
+             BendingModel bending, double bending_modulus) {
   validate_mesh(positions, faces);
   check_positive(stretch_stiffness, "stretch_stiffness");
   check_non_negative(bend_stiffness, "bend_stiffness");
   check_non_negative(damping, "damping");
+  check_non_negative(bending_modulus, "bending_modulus");
+  if (bending != BendingModel::springs && bending != BendingModel::quadratic) {
+    fail("bending must be springs (0) or quadratic (1)");
+  }
+  if (bending == BendingModel::springs && bending_modulus != 0.0) {
+    fail("bending_modulus is for quadratic bending; with bending springs use bend_stiffness");
+  }
+  if (bending == BendingModel::quadratic && bend_stiffness != 0.0) {
+    std::ostringstream msg;
+    msg << "quadratic bending creates no bending springs: bend_stiffness must be 0, got "
+        << bend_stiffness;
+    fail(msg.str());
+  }
   initialise_state(positions, masses, drag);
+  m_bending = bending;
+  m_bending_modulus = bending_modulus;
+  if (bending == BendingModel::quadratic) {
+    m_bending_rest = positions;  // the rest state: the shape of each face as given
+    m_faces = faces;
+    update_quadratic_bending();  // throws on a face with no rest area
+  }
   m_faces = faces;
   m_stretch_stiffness = stretch_stiffness;
   m_bend_stiffness = bend_stiffness;
@@ -197,6 +219,9 @@ ClothState Cloth::state() const {
   state.vertex_states = m_vertex_states;
   state.drivers = m_drivers;
   state.clock = m_clock;
+  state.bending = m_bending;
+  state.bending_modulus = m_bending_modulus;
+  state.bending_rest = bending_rest_positions();
   return state;
 }
 
@@ -329,6 +354,29 @@ Cloth Cloth::from_state(const ClothState& state) {
   cloth.m_vertex_states = state.vertex_states;
   cloth.m_drivers = state.drivers;
   cloth.m_clock = clock;
+  if (state.bending != BendingModel::springs && state.bending != BendingModel::quadratic) {
+    fail("state: bending must be 0 (springs) or 1 (quadratic)");
+  }
+  check_non_negative(state.bending_modulus, "state: bending_modulus");
+  cloth.m_bending = state.bending;
+  cloth.m_bending_modulus = state.bending_modulus;
+  if (state.bending == BendingModel::springs) {
+    if (state.bending_modulus != 0.0 || state.bending_rest.rows() != 0) {
+      fail("state: bending springs take no bending_modulus or bending rest positions");
+    }
+  } else {
+    if (state.faces.rows() == 0) fail("state: quadratic bending needs faces");
+    if (state.bend_stiffness != 0.0) fail("state: quadratic bending needs bend_stiffness 0");
+    if (state.bending_rest.rows() != n) {
+      std::ostringstream msg;
+      msg << "state: bending rest positions have " << state.bending_rest.rows() << " rows for "
+          << n << " vertices";
+      fail(msg.str());
+    }
+    check_finite_rows(state.bending_rest, "state: bending rest position");
+    cloth.m_bending_rest = state.bending_rest;
+    cloth.update_quadratic_bending();
+  }
   cloth.update_inverse_masses();
   cloth.rebuild_incidence();
   return cloth;
@@ -713,7 +761,90 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
   rebuild_incidence();
   m_topology_version = next_topology_version();
   ++m_edit_count;
+  if (m_bending == BendingModel::quadratic) update_quadratic_bending();  // rest at split time
   return report;
+}
+
+const QuadraticBendingMatrix& Cloth::quadratic_bending() const {
+  if (m_bending == BendingModel::quadratic && m_quadratic_topology != m_topology_version) {
+    update_quadratic_bending();
+  }
+  return m_quadratic;
+}
+
+void Cloth::update_quadratic_bending() const {
+  // Rest positions of vertices added since the last build (strokes append vertices). A new
+  // vertex gets the point of the rest state that corresponds to where it is now, by the affine
+  // map that best takes its neighbours' current positions to their rest positions (least
+  // squares, minimum norm): for the paper's 1→3 split, whose new vertex lies in its parent
+  // face, this is the same barycentric point of the parent's rest triangle, so the children
+  // tile the parent's rest shape exactly and a stroke changes no rest curvature or area of the
+  // bending term (the stroke's growth acts through the springs' rest lengths). Called at the
+  // end of split_faces, the current positions are those at split time.
+  const Eigen::Index n = vertex_count();
+  Eigen::Index known = m_bending_rest.rows();
+  if (known < n) {
+    std::vector<std::vector<std::int32_t>> neighbours(static_cast<std::size_t>(n));
+    for (Eigen::Index f = 0; f < m_faces.rows(); ++f) {
+      for (int c = 0; c < 3; ++c) {
+        const std::int32_t v = m_faces(f, c);
+        if (v < known) continue;
+        for (int d = 1; d < 3; ++d) {
+          neighbours[static_cast<std::size_t>(v)].push_back(m_faces(f, (c + d) % 3));
+        }
+      }
+    }
+    m_bending_rest.conservativeResize(n, 3);
+    std::vector<char> has_rest(static_cast<std::size_t>(n), 0);
+    std::fill(has_rest.begin(), has_rest.begin() + known, 1);
+    // Passes until every new vertex is placed: one that touches only new vertices waits for
+    // them (a vertex with no placed neighbour at all keeps its current position).
+    for (bool progress = true; progress;) {
+      progress = false;
+      bool waiting = false;
+      for (Eigen::Index v = known; v < n; ++v) {
+        if (has_rest[static_cast<std::size_t>(v)]) continue;
+        std::vector<std::int32_t> placed;
+        for (const std::int32_t u : neighbours[static_cast<std::size_t>(v)]) {
+          if (has_rest[static_cast<std::size_t>(u)] &&
+              std::find(placed.begin(), placed.end(), u) == placed.end()) {
+            placed.push_back(u);
+          }
+        }
+        if (placed.empty()) {
+          waiting = true;
+          continue;
+        }
+        const auto m = static_cast<Eigen::Index>(placed.size());
+        Eigen::Matrix3Xd current(3, m), rest(3, m);
+        for (Eigen::Index k = 0; k < m; ++k) {
+          current.col(k) = m_positions.row(placed[static_cast<std::size_t>(k)]).transpose();
+          rest.col(k) = m_bending_rest.row(placed[static_cast<std::size_t>(k)]).transpose();
+        }
+        const Vec3 current_center = current.rowwise().mean();
+        const Vec3 rest_center = rest.rowwise().mean();
+        current.colwise() -= current_center;
+        rest.colwise() -= rest_center;
+        // The centred neighbours are rank deficient by construction (rank 2 for a face's three
+        // corners); a threshold far above round-off keeps the solve from inverting noise.
+        Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fit;
+        fit.setThreshold(1e-9);
+        fit.compute(current);
+        const Vec3 offset = m_positions.row(v).transpose() - current_center;
+        const Eigen::VectorXd weights = fit.solve(Eigen::VectorXd(offset));
+        m_bending_rest.row(v) = (rest_center + rest * weights).transpose();
+        has_rest[static_cast<std::size_t>(v)] = 1;
+        progress = true;
+      }
+      if (!progress && waiting) {
+        for (Eigen::Index v = known; v < n; ++v) {
+          if (!has_rest[static_cast<std::size_t>(v)]) m_bending_rest.row(v) = m_positions.row(v);
+        }
+      }
+    }
+  }
+  m_quadratic = quadratic_bending_matrix(m_bending_rest, m_faces);
+  m_quadratic_topology = m_topology_version;
 }
 
 EnergyTerms Cloth::energy(const Vec3& gravity) const {
@@ -726,6 +857,9 @@ EnergyTerms Cloth::energy(const Vec3& gravity) const {
     terms.spring += spring_energy(m_positions.row(m_springs.first[k]),
                                   m_positions.row(m_springs.second[k]),
                                   m_springs.rest_length[k], m_springs.stiffness[k]);
+  }
+  if (has_quadratic_bending()) {
+    terms.bending = quadratic_bending_energy(quadratic_bending(), m_bending_modulus, m_positions);
   }
   return terms;
 }
@@ -741,6 +875,7 @@ double Cloth::gershgorin_time_step() const {
   // compressed) and damping (A = C) matrices.
   double omega_squared = 0.0;
   double gamma = 0.0;
+  const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
   for (Eigen::Index i = 0; i < vertex_count(); ++i) {
     if (m_inverse_masses[i] == 0.0) continue;
     double stiffness_row = 0.0, damping_row = 0.0;
@@ -752,6 +887,15 @@ double Cloth::gershgorin_time_step() const {
           m_inverse_masses[i] + std::sqrt(m_inverse_masses[i] * m_inverse_masses[other]);
       stiffness_row += m_springs.stiffness[s] * coupling;
       damping_row += m_springs.damping[s] * coupling;
+    }
+    if (bending != nullptr) {
+      // κ Q ⊗ I₃ adds κ Σ_j |Q_ij| √(wᵢ wⱼ) to the row (constrained j have w = 0).
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        stiffness_row += m_bending_modulus * std::abs(bending->values[static_cast<std::size_t>(k)]) *
+                         std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
+      }
     }
     omega_squared = std::max(omega_squared, stiffness_row);
     gamma = std::max(gamma, damping_row);
@@ -798,6 +942,8 @@ double Cloth::lanczos_time_step(bool every_state) const {
   // their rows and columns.
   const Eigen::VectorXd scale = m_inverse_masses.cwiseSqrt();
   const Eigen::Index n = vertex_count();
+  // Quadratic bending's κ Q ⊗ I₃ is constant: the same in both modes, added to the stiffness.
+  const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
   auto apply = [&](const std::vector<Mat3>& blocks, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     y.setZero(3 * n);
     for (std::size_t s = 0; s < spring_count; ++s) {
@@ -805,6 +951,18 @@ double Cloth::lanczos_time_step(bool every_state) const {
       const Vec3 f = blocks[s] * (scale[i] * x.segment<3>(3 * i) - scale[j] * x.segment<3>(3 * j));
       y.segment<3>(3 * i) += scale[i] * f;
       y.segment<3>(3 * j) -= scale[j] * f;
+    }
+    if (bending != nullptr && &blocks == &stiffness_blocks) {
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (scale[i] == 0.0) continue;
+        Vec3 sum = Vec3::Zero();
+        for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+             k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+          const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+          sum += bending->values[static_cast<std::size_t>(k)] * scale[j] * x.segment<3>(3 * j);
+        }
+        y.segment<3>(3 * i) += m_bending_modulus * scale[i] * sum;
+      }
     }
   };
 

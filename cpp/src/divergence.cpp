@@ -48,9 +48,13 @@ void DivergenceMonitor::prepare(const Cloth& cloth, const Vec3& gravity, double 
   for (std::size_t k = 0; k < springs.size(); ++k) {
     rest_energy += 0.5 * springs.stiffness[k] * springs.rest_length[k] * springs.rest_length[k];
   }
+  // Quadratic bending's analogue of a spring compressed to nothing: every hinge folded flat.
+  if (cloth.has_quadratic_bending()) {
+    rest_energy += cloth.bending_modulus() * cloth.quadratic_bending().fold_energy;
+  }
   const double scale = energy.kinetic + energy.spring + total_mass * gravity.norm() * diagonal +
                        0.5 * total_mass * (omega_max * diagonal) * (omega_max * diagonal) +
-                       rest_energy;
+                       rest_energy + energy.bending;
   m_limit = monitored_energy(cloth, gravity) + m_factor * scale;
   m_topology = cloth.topology_version();
   m_edits = cloth.edit_count();

@@ -101,6 +101,8 @@ void ExplicitIntegrator::prepare(const Cloth& cloth) {
     m_previous_positions.resize(n, 3);
   }
   m_with_spring_damping = cloth.has_spring_damping();
+  m_with_bending = cloth.has_quadratic_bending();
+  if (m_with_bending && m_bending_gradient.rows() != n) m_bending_gradient.resize(n, 3);
 }
 
 double ExplicitIntegrator::compute_spring_forces(const Cloth& cloth, int threads) {
@@ -120,6 +122,7 @@ void ExplicitIntegrator::update_velocities_and_positions(Cloth& cloth, const Vec
   const std::int32_t* incident = cloth.incident_springs().data();
   const double* signs = cloth.incident_signs().data();
   const double* fs = m_spring_forces.data();
+  const double* bending = m_with_bending ? m_bending_gradient.data() : nullptr;
   const double drag = cloth.drag();
   const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
   const std::int64_t chunk = chunk_size(n, threads);
@@ -146,6 +149,11 @@ void ExplicitIntegrator::update_velocities_and_positions(Cloth& cloth, const Vec
       fx += signs[slot] * fk[0];
       fy += signs[slot] * fk[1];
       fz += signs[slot] * fk[2];
+    }
+    if (bending != nullptr) {  // quadratic bending: −κ (Q x)ᵢ
+      fx -= bending[3 * i];
+      fy -= bending[3 * i + 1];
+      fz -= bending[3 * i + 2];
     }
     const double f[3] = {fx, fy, fz};
     for (int c = 0; c < 3; ++c) {
@@ -227,7 +235,11 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     const Stopwatch step_start;
     const int threads = m_thread_chooser.threads_for_next_step(configured);
     start = step_start;
-    const double spring_energy_before = compute_spring_forces(cloth, threads);
+    double spring_energy_before = compute_spring_forces(cloth, threads);
+    if (m_with_bending) {  // a sparse product with the constant Q; its energy is monitored too
+      spring_energy_before += quadratic_bending_gradient(
+          cloth.quadratic_bending(), cloth.bending_modulus(), cloth.positions(), m_bending_gradient);
+    }
     m_statistics.forces_seconds += start.seconds();
 
     start.restart();

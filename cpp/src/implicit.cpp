@@ -103,6 +103,21 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
     if (a < 0 || b < 0) continue;
     coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
   }
+  // Quadratic bending couples every pair of a hinge's four vertices (more than the springs).
+  const QuadraticBendingMatrix* bending =
+      cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
+  if (bending != nullptr) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+      if (a < 0) continue;
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
+        if (j > i && b >= 0) coupled.emplace_back(a / 3, b / 3);
+      }
+    }
+  }
   std::sort(coupled.begin(), coupled.end());
   coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
   std::vector<std::int32_t> first_neighbour(static_cast<std::size_t>(blocks) + 1, 0);
@@ -148,6 +163,39 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
     }
   }
   m_mean_rest_length = s ? rest_sum / static_cast<double>(s) : 1.0;
+  m_bending_slots.clear();
+  if (bending != nullptr) {
+    m_bending_slots.assign(3 * bending->columns.size(), -1);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+      if (a < 0) continue;
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
+        if (j < i || b < 0) continue;  // the lower triangle holds each pair once
+        const std::int32_t column_block = a / 3;
+        std::int64_t base = -1;
+        if (j > i) {
+          const std::int32_t row_block = b / 3;
+          const auto begin =
+              coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+          const auto end =
+              coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+          base = 3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) -
+                      begin);
+        }
+        for (int c = 0; c < 3; ++c) {
+          // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
+          // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
+          const std::int64_t column_start =
+              pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
+          m_bending_slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
+              j == i ? column_start : column_start + (3 - c) + base + c;
+        }
+      }
+    }
+  }
 
   const auto dofs = static_cast<Eigen::Index>(pattern.size);
   m_gradient.resize(dofs);
@@ -286,6 +334,35 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
           for (int row = 0; row < 3; ++row) {
             m_values[static_cast<std::size_t>(slot + row)] -= block(row, col);
           }
+        }
+      }
+    }
+  }
+  if (cloth.has_quadratic_bending()) {
+    // Quadratic bending: ½ κ xᵀ Q x per coordinate, gradient κ Q x, constant Hessian κ Q ⊗ I₃.
+    const QuadraticBendingMatrix& bending = cloth.quadratic_bending();
+    const double modulus = cloth.bending_modulus();
+    double twice_bending = 0.0;
+    for (Eigen::Index i = 0; i < x.rows(); ++i) {
+      Vec3 product = Vec3::Zero();
+      for (std::int32_t k = bending.row_starts[static_cast<std::size_t>(i)];
+           k < bending.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        product += bending.values[static_cast<std::size_t>(k)] *
+                   x.row(bending.columns[static_cast<std::size_t>(k)]).transpose();
+      }
+      product *= modulus;
+      twice_bending += x.row(i).dot(product);
+      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+      if (with_gradient && a >= 0) m_gradient.segment<3>(a) += product;
+    }
+    energy += 0.5 * twice_bending;
+    magnitude += std::abs(0.5 * twice_bending);
+    if (with_hessian) {
+      for (std::size_t k = 0; k < bending.columns.size(); ++k) {
+        const double value = modulus * bending.values[k];
+        for (std::size_t c = 0; c < 3; ++c) {
+          const std::int64_t slot = m_bending_slots[3 * k + c];
+          if (slot >= 0) m_values[static_cast<std::size_t>(slot)] += value;
         }
       }
     }

@@ -231,6 +231,9 @@ double LocalGlobalIntegrator::objective(const Cloth& cloth, const Positions& x) 
     const double along = moved.dot(m_directions.row(static_cast<Eigen::Index>(s)));
     energy += 0.5 * springs.damping[s] / h * along * along;
   }
+  if (cloth.has_quadratic_bending()) {
+    energy += quadratic_bending_energy(cloth.quadratic_bending(), cloth.bending_modulus(), x);
+  }
   return energy;
 }
 
@@ -282,6 +285,23 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     const double length = d.norm();
     m_directions.row(static_cast<Eigen::Index>(s)) =
         length > 0.0 ? Eigen::RowVector3d(d / length) : Eigen::RowVector3d::Zero();
+  }
+  // Quadratic bending is quadratic in x: all of it is in the global matrix (κ Q over the free
+  // unknowns); the right-hand side takes its coupling to constrained vertices, −κ Q_fc x_c.
+  const bool with_bending = cloth.has_quadratic_bending();
+  const QuadraticBendingMatrix* bending = with_bending ? &cloth.quadratic_bending() : nullptr;
+  const double modulus = cloth.bending_modulus();
+  if (with_bending) {
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      const std::int32_t i = m_free_vertices[b];
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        if (m_free_of_vertex[static_cast<std::size_t>(j)] >= 0) continue;
+        m_base_rhs.row(static_cast<Eigen::Index>(b)) -=
+            modulus * bending->values[static_cast<std::size_t>(k)] * m_iterate.row(j);
+      }
+    }
   }
   // Tolerances and residuals are relative to the mean rest length, as the Newton integrator's.
   const double mean_rest_length =
@@ -345,6 +365,18 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
       if (b >= 0) {
         m_rhs.row(b) -= force;
         m_gradient.row(b) -= gradient;
+      }
+    }
+    if (with_bending) {  // ∇ of ½ κ xᵀ Q x: κ (Q x)ᵢ
+      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+        const std::int32_t i = m_free_vertices[b];
+        Eigen::RowVector3d product = Eigen::RowVector3d::Zero();
+        for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+             k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+          product += bending->values[static_cast<std::size_t>(k)] *
+                     m_iterate.row(bending->columns[static_cast<std::size_t>(k)]);
+        }
+        m_gradient.row(static_cast<Eigen::Index>(b)) += modulus * product;
       }
     }
     residual = 0.0;

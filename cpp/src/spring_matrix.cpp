@@ -24,6 +24,20 @@ void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
     const std::int32_t b = out.free_of_vertex[static_cast<std::size_t>(springs.second[s])];
     if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b), std::max(a, b));
   }
+  const QuadraticBendingMatrix* bending =
+      cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
+  if (bending != nullptr) {  // a hinge couples all four of its vertices
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const std::int32_t a = out.free_of_vertex[static_cast<std::size_t>(i)];
+      if (a < 0) continue;
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        const std::int32_t b = out.free_of_vertex[static_cast<std::size_t>(j)];
+        if (j > i && b >= 0) coupled.emplace_back(a, b);
+      }
+    }
+  }
   std::sort(coupled.begin(), coupled.end());
   coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
   SymmetricPattern& pattern = out.pattern;
@@ -51,6 +65,29 @@ void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
     const auto end = pattern.row_indices.begin() + pattern.column_starts[column + 1];
     out.spring_slot[s] = std::lower_bound(begin, end, row) - pattern.row_indices.begin();
   }
+  out.bending_slot.clear();
+  if (bending != nullptr) {
+    out.bending_slot.assign(bending->columns.size(), -1);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const std::int32_t a = out.free_of_vertex[static_cast<std::size_t>(i)];
+      if (a < 0) continue;
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        const std::int32_t b = out.free_of_vertex[static_cast<std::size_t>(j)];
+        if (j < i || b < 0) continue;
+        if (j == i) {
+          out.bending_slot[static_cast<std::size_t>(k)] = pattern.column_starts[a];
+          continue;
+        }
+        // free unknowns are numbered in vertex order, so j > i gives b > a: row b of column a
+        const auto begin = pattern.row_indices.begin() + pattern.column_starts[a] + 1;
+        const auto end = pattern.row_indices.begin() + pattern.column_starts[a + 1];
+        out.bending_slot[static_cast<std::size_t>(k)] =
+            std::lower_bound(begin, end, b) - pattern.row_indices.begin();
+      }
+    }
+  }
 }
 
 void fill_scalar_spring_matrix(const Cloth& cloth, double h, const ScalarSpringPattern& structure,
@@ -73,6 +110,14 @@ void fill_scalar_spring_matrix(const Cloth& cloth, double h, const ScalarSpringP
       values[static_cast<std::size_t>(structure.spring_slot[s])] -= weight;
     }
   }
+  if (!structure.bending_slot.empty()) {
+    const QuadraticBendingMatrix& bending = cloth.quadratic_bending();
+    for (std::size_t k = 0; k < structure.bending_slot.size(); ++k) {
+      if (structure.bending_slot[k] < 0) continue;
+      values[static_cast<std::size_t>(structure.bending_slot[k])] +=
+          cloth.bending_modulus() * bending.values[k];
+    }
+  }
 }
 
 double spring_material_checksum(const Cloth& cloth) {
@@ -82,7 +127,7 @@ double spring_material_checksum(const Cloth& cloth) {
     sum += springs.stiffness[s] * static_cast<double>(1 + s % 7) +
            springs.damping[s] * static_cast<double>(2 + s % 5);
   }
-  return sum;
+  return sum + 3.0 * cloth.bending_modulus();
 }
 
 }  // namespace yore

@@ -247,7 +247,12 @@ SCHEMA = {
                     "areal density, lumped to the vertices by area"),
         "stretch_stiffness": (_number(0, strict_minimum=True, unit="N/m"), 200.0,
                               "structural springs"),
-        "bend_stiffness": (_number(0, unit="N/m"), 200.0, "bending springs (0: none)"),
+        "bend_stiffness": (_number(0, unit="N/m"), None,
+                           "bending springs (default 200; 0: none; not with quadratic bending)"),
+        "bending": (_choice("springs", "quadratic"), "springs",
+                    "bending model: the paper's springs or Bergou et al. 2006's quadratic energy"),
+        "bending_modulus": (_number(0, unit="N·m"), None,
+                            "quadratic bending's modulus (required with bending = quadratic)"),
         "damping": (_number(0, unit="N·s/m"), 0.02, "along each spring"),
         "drag": (_number(0, unit="1/s"), 0.3, "still air"),
     }, "table"),
@@ -517,6 +522,19 @@ def _check(scene, raw):
                           "one of mass (total), mass_per_vertex or density")
     if not given:
         material["mass"] = 0.1
+    if material["bending"] == "quadratic":
+        if "bending_modulus" not in material:
+            raise scene.error("material.bending_modulus", "missing with bending = \"quadratic\"",
+                              "a number >= 0 (N·m)")
+        if material.get("bend_stiffness", 0.0) != 0.0:
+            raise scene.error("material.bend_stiffness", "given with bending = \"quadratic\", "
+                              "which creates no bending springs", "no bend_stiffness (or 0)")
+        material.pop("bend_stiffness", None)
+    else:
+        if "bending_modulus" in material:
+            raise scene.error("material.bending_modulus", "given with bending = \"springs\"",
+                              "bending = \"quadratic\", or bend_stiffness for the springs")
+        material.setdefault("bend_stiffness", 200.0)
     for k, entry in enumerate(data["fixed"]):
         _check_selection(scene, f"fixed[{k}]", entry)
     for k, entry in enumerate(data["driven"]):
@@ -710,9 +728,13 @@ def _build(scene):
     else:
         mass_arguments = {"mass": material["mass"] / n}
     try:
+        bending_arguments = (
+            {"bending": "quadratic", "bending_modulus": material["bending_modulus"]}
+            if material["bending"] == "quadratic"
+            else {"bend_stiffness": material["bend_stiffness"]})
         cloth = Cloth(pattern, F, stretch_stiffness=material["stretch_stiffness"],
-                      bend_stiffness=material["bend_stiffness"], damping=material["damping"],
-                      drag=material["drag"], **mass_arguments)
+                      damping=material["damping"], drag=material["drag"], **mass_arguments,
+                      **bending_arguments)
     except ValueError as error:
         # The core checks the mesh and the per-vertex masses; name the table the value came from.
         if "mass" in str(error):

@@ -27,10 +27,21 @@ DAMPING = 0.02  # N·s/m along each spring
 DRAG = 0.3  # 1/s, still air
 
 
+def _bending_arguments(bending, bend_stiffness, bending_modulus):
+    """Cloth keywords of the scenes' bending choice: bending springs of bend_stiffness (default
+    STIFFNESS), or quadratic bending of bending_modulus (N·m); Cloth checks the combination."""
+    if bending == "springs" and bending_modulus is None:
+        return {"bend_stiffness": STIFFNESS if bend_stiffness is None else bend_stiffness}
+    arguments = {"bending": bending, "bending_modulus": bending_modulus}
+    if bend_stiffness is not None:
+        arguments["bend_stiffness"] = bend_stiffness
+    return arguments
+
+
 def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
-                  stretch_stiffness=STIFFNESS, bend_stiffness=STIFFNESS, damping=DAMPING,
+                  stretch_stiffness=STIFFNESS, bend_stiffness=None, damping=DAMPING,
                   drag=DRAG, integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
-                  **options) -> Simulation:
+                  bending="springs", bending_modulus=None, **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
     The cloth's pattern is a size × size square; its rest lengths come from the flat pattern.
@@ -42,7 +53,9 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
     size : edge length, m. resolution : vertices per edge (>= 2). pin_spacing : distance of the
     two fixed corners as a fraction of the width, in (0, 1]. mass : total mass, kg, spread
     uniformly over the vertices (the paper's choice). stretch_stiffness, bend_stiffness : N/m
-    per spring. damping : N·s/m per spring. drag : 1/s.
+    per spring (bend_stiffness default 200; not with quadratic bending). damping : N·s/m per
+    spring. drag : 1/s. bending : "springs" (the paper's, default) or "quadratic" (Bergou et
+    al. 2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern.
     """
     pin_spacing = float(pin_spacing)
     if not 0.0 < pin_spacing <= 1.0:
@@ -53,8 +66,8 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
     # clockwise about +y, i.e. the cloth's front faces up.
     cloth = Cloth(pattern, F, mass=_per_vertex(mass, len(pattern)),
-                  stretch_stiffness=stretch_stiffness, bend_stiffness=bend_stiffness,
-                  damping=damping, drag=drag)
+                  stretch_stiffness=stretch_stiffness, damping=damping, drag=drag,
+                  **_bending_arguments(bending, bend_stiffness, bending_modulus))
     gathered = pattern.copy()
     gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
     cloth.positions = gathered
@@ -68,9 +81,9 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
 
 def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=0.1,
                       omega=2.0 * math.pi, stretch_stiffness=STIFFNESS,
-                      bend_stiffness=STIFFNESS, damping=DAMPING, drag=DRAG,
+                      bend_stiffness=None, damping=DAMPING, drag=DRAG,
                       integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
-                      **options) -> Simulation:
+                      bending="springs", bending_modulus=None, **options) -> Simulation:
     """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
 
     The tube's axis is y, from y = 0 to y = height; the top rim is driven: it turns about the
@@ -78,11 +91,14 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=0.1,
     paper) from t = 0, and the rest of the tube is dragged round by its springs.
 
     radius, height : m. rings : vertex rings (>= 2). segments : vertices per ring (>= 3).
-    mass : total mass, kg, uniform over the vertices. omega : rad/s. Material as hanging_cloth.
+    mass : total mass, kg, uniform over the vertices. omega : rad/s. Material (and bending)
+    as hanging_cloth; quadratic bending takes the tube's faces as the rest shape, so, like a
+    tube sewn from flat cloth, it has bending energy at rest (the model's rest state is flat).
     """
     V, F = cylinder_mesh(radius, height, rings, segments)
     cloth = Cloth(V, F, mass=_per_vertex(mass, len(V)), stretch_stiffness=stretch_stiffness,
-                  bend_stiffness=bend_stiffness, damping=damping, drag=drag)
+                  damping=damping, drag=drag,
+                  **_bending_arguments(bending, bend_stiffness, bending_modulus))
     rim = cylinder_ring(rings, segments, -1)
     cloth.drive_rotation(rim, center=(0.0, height, 0.0), axis=(0.0, 1.0, 0.0), omega=omega)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)

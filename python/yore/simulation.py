@@ -790,7 +790,7 @@ class Simulation:
 
     # -- measurements -----------------------------------------------------------------------
     def energy(self) -> dict:
-        """Kinetic, spring and gravitational energy and their total, joules."""
+        """Kinetic, spring, gravitational and (quadratic) bending energy and their total, J."""
         return self._cloth.energy(self._gravity)
 
     def stable_dt(self) -> float:
@@ -821,6 +821,11 @@ class Simulation:
             "fixed_vertices": int(cloth.fixed_vertices.size),
             "driven_vertices": int(cloth.driven_vertices.size),
         }
+        if cloth.bending == "quadratic":
+            # Bergou et al.'s term, reported for cloths that chose it: the number of hinges
+            # (interior edges) it couples, 0 when the modulus is 0 (no term at all)
+            active["quadratic_bending"] = (int(cloth.quadratic_bending["hinges"])
+                                           if cloth.bending_modulus > 0.0 else 0)
         return {
             "integrator": self._integrator_name,
             "dt": self._dt,

@@ -6,7 +6,9 @@ where each array goes. JSON writes floats as the shortest text that reads back a
 double, so scalars survive exactly too.
 
 What is saved: the cloth (`yore.Cloth.state`: positions, velocities, springs in their order,
-masses, constraints, drivers, material coordinates, the clock), the integrator's name, options,
+masses, constraints, drivers, material coordinates, the clock, the bending model with its
+modulus and rest positions; files written before quadratic bending load as bending springs),
+the integrator's name, options,
 dt and gravity, BDF2's one-step history, and any JSON-able ``metadata`` the caller adds (the
 ``yore run`` command keeps its step counter, frames and records there).
 
@@ -289,6 +291,7 @@ _CLOTH_FIELDS = ("positions", "velocities", "masses", "faces", "spring_ends", "s
                  "spring_reference", "spring_stiffness", "spring_damping", "spring_kind", "drag",
                  "stretch_stiffness", "bend_stiffness", "damping", "material_coordinates",
                  "vertex_states", "drivers", "clock_origin", "clock_steps", "clock_dt")
+_CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest")
 _SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
                       "target_time")
 _DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
@@ -315,7 +318,9 @@ def _check_simulation(field, simulation):
     if simulation["target_time"] is not None:
         field.real(simulation["target_time"], "simulation.target_time")
 
-    cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS)
+    # The bending fields came with quadratic bending: a file without them is bending springs.
+    cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS,
+                       optional=_CLOTH_BENDING_FIELDS)
     where = "simulation.cloth."
     positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))
     n = len(positions)
@@ -341,6 +346,19 @@ def _check_simulation(field, simulation):
                     (n, 2))
     field.array(cloth["vertex_states"], where + "vertex_states", np.uint8, (n,),
                 allowed=(0, 1, 2))
+    bending = cloth.get("bending", "springs")
+    if bending not in ("springs", "quadratic"):
+        raise field.error(where + "bending", f"got {_show(bending)}", '"springs" or "quadratic"')
+    if bending == "quadratic":
+        field.real(cloth.get("bending_modulus"), where + "bending_modulus", 0.0)
+        field.array(cloth.get("bending_rest"), where + "bending_rest", np.float64, (n, 3))
+    else:
+        for name in ("bending_modulus", "bending_rest"):
+            value = cloth.get(name)
+            zero = isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0
+            if value is not None and not zero:
+                raise field.error(where + name, f"got {_show(value)}",
+                                  "none (0 or null) with bending springs")
     drivers = cloth["drivers"]
     if not isinstance(drivers, list):
         raise field.error(where + "drivers", f"got {_show(drivers)}", "a list of drivers")

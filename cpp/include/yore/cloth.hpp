@@ -4,6 +4,7 @@
 /// integrator reads and that strokes change.
 
 #include "yore/mesh.hpp"
+#include "yore/quadratic_bending.hpp"
 #include "yore/springs.hpp"
 
 #include <Eigen/Core>
@@ -30,12 +31,19 @@ struct RotationDriver {
   double start_time = 0.0;             ///< simulated time when the driver was attached, s
 };
 
+/// How a cloth resists bending.
+enum class BendingModel : std::uint8_t {
+  springs = 0,    ///< the paper's bending springs across interior edges (bend_stiffness, N/m)
+  quadratic = 1,  ///< Bergou et al. 2006's quadratic energy (bending_modulus, N·m); no springs
+};
+
 /// Energy of the cloth, joules.
 struct EnergyTerms {
   double kinetic = 0.0;  ///< ½ Σ m |v|²
   double spring = 0.0;   ///< Σ ½ k (ℓ − L)²
   double gravity = 0.0;  ///< −Σ m g·x (zero at the origin)
-  double total() const { return kinetic + spring + gravity; }
+  double bending = 0.0;  ///< ½ κ Σ_c x_cᵀ Q x_c (quadratic bending; 0 with bending springs)
+  double total() const { return kinetic + spring + gravity + bending; }
 };
 
 /// Simulated time kept as origin + steps × dt: it neither drifts with round-off nor depends on
@@ -64,6 +72,9 @@ struct ClothState {
   std::vector<VertexState> vertex_states;  ///< n
   std::vector<RotationDriver> drivers;
   SimulationClock clock;
+  BendingModel bending = BendingModel::springs;
+  double bending_modulus = 0.0;  ///< N·m (quadratic bending only)
+  Positions bending_rest;        ///< n×3 rest positions of quadratic bending (m), else empty
 };
 
 /// Where to split one face: the new vertex at these barycentric weights of its corners.
@@ -107,10 +118,14 @@ class Cloth {
   /// rest lengths from `positions`.
   /// positions n×3 (m), faces f×3, masses n (kg), stiffnesses N/m, damping N·s/m along each spring,
   /// drag 1/s (force −drag·m·v on each vertex, still air).
-  /// Throws std::invalid_argument on a bad mesh, non-positive masses or stretch stiffness, or
-  /// negative/non-finite bend stiffness, damping or drag.
+  /// bending: BendingModel::springs (bend_stiffness) or BendingModel::quadratic (bending_modulus,
+  /// N·m, rest geometry = `positions`; no bending springs, so bend_stiffness must be 0).
+  /// Throws std::invalid_argument on a bad mesh, non-positive masses or stretch stiffness,
+  /// negative/non-finite bend stiffness, bending modulus, damping or drag, or a bending modulus
+  /// with bending springs / a bend stiffness with quadratic bending.
   Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
-        double stretch_stiffness, double bend_stiffness, double damping, double drag);
+        double stretch_stiffness, double bend_stiffness, double damping, double drag,
+        BendingModel bending = BendingModel::springs, double bending_modulus = 0.0);
 
   /// Builds a plain spring network with no faces. edges s×2; rest_lengths s (m) or empty for the
   /// distances in `positions`. Throws std::invalid_argument on bad indices, repeated pairs,
@@ -216,8 +231,28 @@ class Cloth {
   /// Sets rest-pattern coordinates (n×2, finite); they are interpolated into split faces.
   void set_material_coordinates(const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& uv);
 
-  /// Kinetic, spring and gravitational energy for gravity g (m/s²).
+  /// Kinetic, spring, gravitational and bending energy for gravity g (m/s²).
   EnergyTerms energy(const Vec3& gravity) const;
+
+  /// The bending model chosen at construction.
+  BendingModel bending_model() const { return m_bending; }
+  /// Modulus κ of quadratic bending, N·m (0 with bending springs).
+  double bending_modulus() const { return m_bending_modulus; }
+  /// Whether the quadratic bending term exists (quadratic model and κ > 0): integrators add
+  /// κ Q ⊗ I₃ only then.
+  bool has_quadratic_bending() const {
+    return m_bending == BendingModel::quadratic && m_bending_modulus > 0.0;
+  }
+  /// Q of quadratic bending for the current faces (see quadratic_bending.hpp), rebuilt when the
+  /// topology version changed since it was last built; empty (size 0) with bending springs.
+  const QuadraticBendingMatrix& quadratic_bending() const;
+  /// n×3 rest positions (m) Q is built from (quadratic bending only, else empty): the positions
+  /// at construction; a vertex added later gets the point of the rest state that corresponds
+  /// to where it was added (see update_quadratic_bending in cloth.cpp).
+  const Positions& bending_rest_positions() const {
+    quadratic_bending();
+    return m_bending_rest;
+  }
 
   /// Largest time step (s) for which symplectic Euler is linearly stable at the current state:
   /// λ_max of M^{-1/2} H M^{-1/2} (H the PSD-projected spring Hessian at the current positions,
@@ -253,6 +288,7 @@ class Cloth {
   static constexpr int kLanczosMaxIterations = 60;
   static constexpr double kLanczosRelativeTolerance = 1e-6;
   void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
+  void update_quadratic_bending() const;
 
   Positions m_positions;
   Positions m_velocities;
@@ -272,6 +308,13 @@ class Cloth {
   SimulationClock m_clock;
   std::uint64_t m_topology_version = 0;
   std::uint64_t m_edit_count = 0;
+  BendingModel m_bending = BendingModel::springs;
+  double m_bending_modulus = 0.0;
+  // Derived from the faces and the rest state, rebuilt lazily per topology version (const
+  // accessors extend and rebuild them).
+  mutable Positions m_bending_rest;
+  mutable QuadraticBendingMatrix m_quadratic;
+  mutable std::uint64_t m_quadratic_topology = 0;
 };
 
 /// Largest step h (s) for which symplectic Euler keeps the damped mode x'' = −ω² x − γ x'

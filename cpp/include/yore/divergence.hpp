@@ -11,11 +11,13 @@
 
 namespace yore {
 
-/// Energy bound of a run. The monitored energy is the spring energy plus the kinetic and
-/// gravitational energy of the free vertices; the bound is its value at the baseline plus
-/// factor × E_scale, E_scale = kinetic + spring energy + M|g|D + ½M(ω_max D)² + ½Σ k L² (M total
-/// mass, D bounding-box diagonal, ω_max the fastest driver): the energy at which every spring
-/// would be compressed to nothing, plus what gravity and drivers can legitimately feed in.
+/// Energy bound of a run. The monitored energy is the spring (and quadratic bending) energy plus
+/// the kinetic and gravitational energy of the free vertices; the bound is its value at the
+/// baseline plus factor × E_scale, E_scale = kinetic + spring + bending energy + M|g|D +
+/// ½M(ω_max D)² + ½Σ k L² + κ Σ_e 6|e|²/A_e (M total mass, D bounding-box diagonal, ω_max the
+/// fastest driver, the last term quadratic bending with every hinge folded flat): the energy at
+/// which every spring would be compressed to nothing and every hinge folded, plus what gravity
+/// and drivers can legitimately feed in.
 class DivergenceMonitor {
  public:
   /// factor > 0 (finite). Throws std::invalid_argument otherwise.

@@ -105,6 +105,8 @@ class ExplicitIntegrator {
 
   // Buffers sized once per topology; the step itself allocates nothing.
   Positions m_spring_forces;  // s×3, force on each spring's first end
+  Positions m_bending_gradient;  // n×3, κ Q x of quadratic bending (when the cloth has it)
+  bool m_with_bending = false;
   Positions m_previous_positions;
   Positions m_checkpoint_positions;
   Positions m_checkpoint_velocities;

@@ -247,6 +247,8 @@ class ImplicitIntegrator {
   SymmetricPattern m_pattern;
   std::vector<std::int64_t> m_spring_slots;   // s×3: slot of the (0,c) entry of the
                                               // off-diagonal block, or −1
+  std::vector<std::int64_t> m_bending_slots;  // nnz(Q)×3: slot of quadratic bending's entry
+                                              // (i, j), j >= i, coordinate c; or −1
   double m_mean_rest_length = 1.0;
 
   // Per-step data and work buffers (sized per topology; no allocation per step).

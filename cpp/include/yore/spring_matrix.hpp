@@ -1,7 +1,8 @@
 #pragma once
 /// @file spring_matrix.hpp
 /// The constant scalar matrix of the prefactored methods (local-global and quasi-Newton):
-///   Q = M/h² + drag·M/h + Σ_springs (k + c/h) AᵀA
+///   Q = M/h² + drag·M/h + Σ_springs (k + c/h) AᵀA (+ κ Q_bending, quadratic bending's constant
+///   Hessian per coordinate, entering exactly as the springs' elastic Hessian k AᵀA does)
 /// over the free vertices (fixed and driven ones eliminated), one unknown per vertex and shared
 /// by x, y and z: a ninth of the nonzeros of the 3n×3n Newton Hessian. Its pattern depends on
 /// the topology only; its values on h, masses, stiffness, damping and drag.
@@ -20,6 +21,9 @@ struct ScalarSpringPattern {
   std::vector<std::int32_t> free_vertices;   ///< per unknown: its vertex (increasing)
   SymmetricPattern pattern;                  ///< each column starts with its diagonal entry
   std::vector<std::int64_t> spring_slot;     ///< per spring: its off-diagonal entry, or −1
+  /// per entry (i, j) of the cloth's quadratic bending matrix: Q's entry it adds to (the
+  /// diagonal for i = j; j > i once per pair), or −1; empty without quadratic bending
+  std::vector<std::int64_t> bending_slot;
 };
 
 /// Builds the unknowns and the pattern of Q for the cloth's current topology.
@@ -29,7 +33,8 @@ void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out);
 void fill_scalar_spring_matrix(const Cloth& cloth, double h, const ScalarSpringPattern& structure,
                                std::vector<double>& values);
 
-/// A number that changes when any spring's stiffness or damping, or the drag, changes: with
+/// A number that changes when any spring's stiffness or damping, the drag or the bending
+/// modulus changes: with
 /// the topology and h it decides when Q must be refactored.
 double spring_material_checksum(const Cloth& cloth);
 

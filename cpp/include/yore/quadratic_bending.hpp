@@ -1,0 +1,50 @@
+#pragma once
+/// @file quadratic_bending.hpp
+/// The isometric quadratic bending energy of Bergou, Wardetzky, Harmon, Zorin & Grinspun 2006
+/// ("A Quadratic Bending Model for Inextensible Surfaces"): per interior edge (a hinge) a 4-vector
+/// of cotangent weights K_e from the rest geometry, and the constant n×n matrix
+///   Q = Σ_e 3 / (A₀ + A₁) K_e K_eᵀ
+/// (A₀, A₁ the rest areas of the hinge's two faces), so that the bending energy of positions x is
+///   E(x) = ½ κ Σ_{c ∈ x,y,z} x_cᵀ Q x_c,   gradient κ Q x (per coordinate),   Hessian κ Q ⊗ I₃,
+/// κ the bending modulus (N·m). |K_e x| = 2 |e| sin(θ/2) for a hinge bent by the dihedral angle θ
+/// (0 when flat), so E vanishes on every flat state, is invariant under rigid motion, and is
+/// exact for isometric bending from a flat rest state. Pure functions; Cloth stores the matrix.
+
+#include "yore/mesh.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace yore {
+
+/// Q of one topology, a symmetric n×n scalar matrix as full CSR (both triangles; the diagonal
+/// first in every row, then the other columns in increasing order), structure of arrays.
+struct QuadraticBendingMatrix {
+  std::int64_t size = 0;                 ///< n, the vertices
+  std::vector<std::int32_t> row_starts;  ///< n + 1
+  std::vector<std::int32_t> columns;     ///< nnz
+  std::vector<double> values;            ///< nnz, 1/m² · m² = dimensionless per unit modulus
+  std::int64_t hinge_count = 0;          ///< interior edges, each one term of Q
+  /// Σ_e 6 |e|² / (A₀ + A₁): the energy per unit modulus (J per N·m) with every hinge folded
+  /// flat (θ = π), a scale for the divergence check.
+  double fold_energy = 0.0;
+};
+
+/// Builds Q from rest positions (n×3, m; only the shape of each face matters) and faces (f×3, a
+/// mesh that passed validate_mesh). Throws std::invalid_argument on a face whose rest area is
+/// zero or not finite, or a shape mismatch.
+QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
+                                                const Faces& faces);
+
+/// ½ κ Σ_c x_cᵀ Q x_c, joules, for positions x (n×3, m) and modulus κ (N·m).
+double quadratic_bending_energy(const QuadraticBendingMatrix& matrix, double modulus,
+                                const Positions& positions);
+
+/// κ Q x into gradient (n×3, N; resized), the gradient of quadratic_bending_energy; returns the
+/// energy (J) computed in the same pass.
+double quadratic_bending_gradient(const QuadraticBendingMatrix& matrix, double modulus,
+                                  const Positions& positions, Positions& gradient);
+
+}  // namespace yore

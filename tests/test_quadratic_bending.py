@@ -1,0 +1,390 @@
+"""Quadratic bending (Bergou, Wardetzky, Harmon, Zorin & Grinspun 2006): the kernel against finite
+differences, invariants and a closed form on a cylinder, every integrator with the term, the
+stable-step estimates, saved states, strokes and the argument checks."""
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+import yore
+from yore import _core
+from yore.scene_file import SceneError, load_scene
+from yore.state import load_state, save_state
+
+NO_GRAVITY = (0.0, 0.0, 0.0)
+
+
+def dense_q(cloth):
+    """Q (n×n, per unit modulus) from the cloth's CSR view."""
+    q = cloth.quadratic_bending
+    n = q["size"]
+    Q = np.zeros((n, n))
+    for row in range(n):
+        for p in range(q["indptr"][row], q["indptr"][row + 1]):
+            Q[row, q["indices"][p]] += q["data"][p]
+    return Q
+
+
+def on_cylinder(V, radius):
+    """The flat sheet V (z = 0) rolled, isometrically, onto a cylinder of axis ∥ y."""
+    u = V[:, 0]
+    return np.column_stack([radius * np.sin(u / radius), V[:, 1],
+                            radius * (1.0 - np.cos(u / radius))])
+
+
+def strip(modulus=1e-3, nx=9, ny=5, radius=0.3, stretch_stiffness=50.0):
+    """A 0.4 m × 0.2 m strip, rest flat, started bent onto a cylinder of `radius`."""
+    V, F = yore.grid_mesh(nx, ny, width=0.4, height=0.2)
+    cloth = yore.Cloth(V, F, mass=1e-3, stretch_stiffness=stretch_stiffness,
+                       bending="quadratic", bending_modulus=modulus)
+    cloth.positions = on_cylinder(V, radius)
+    return cloth
+
+
+def test_q_is_symmetric_psd_kills_translations_and_gives_the_cloths_energy():
+    cloth = strip()
+    Q = dense_q(cloth)
+    assert np.array_equal(Q, Q.T)
+    # rows sum to zero (K_e's weights do): a translation has no bending energy; round-off of
+    # the cotangent sums, relative to the largest entry
+    assert np.abs(Q.sum(axis=1)).max() <= 1e-12 * np.abs(Q).max()
+    assert np.linalg.eigvalsh(Q).min() >= -1e-10 * np.abs(Q).max()
+    X = cloth.positions
+    energy = cloth.energy(NO_GRAVITY)
+    expected = 0.5 * cloth.bending_modulus * np.einsum("ic,ij,jc->", X, Q, X)
+    assert energy["bending"] == pytest.approx(expected, rel=1e-12)
+    assert energy["total"] == pytest.approx(energy["kinetic"] + energy["spring"] +
+                                            energy["gravity"] + energy["bending"])
+    # interior edges of a 9 × 5 grid: all edges minus the boundary ones
+    assert cloth.quadratic_bending["hinges"] == (8 * 5 + 9 * 4 + 8 * 4) - 2 * (8 + 4)
+    assert cloth.spring_count == 8 * 5 + 9 * 4 + 8 * 4  # structural springs only
+
+
+def _newton_system(cloth, integrator, X):
+    return integrator.newton_system(cloth, NO_GRAVITY, 0.01, X)
+
+
+def _dense(system):
+    n = system["size"]
+    H = np.zeros((n, n))
+    indptr, indices, data = (system["hessian_indptr"], system["hessian_indices"],
+                             system["hessian_data"])
+    for column in range(n):
+        for p in range(indptr[column], indptr[column + 1]):
+            H[indices[p], column] = H[column, indices[p]] = data[p]
+    return H
+
+
+def test_the_implicit_gradient_and_hessian_of_the_term_match_finite_differences():
+    # The same cloth with and without the term: their incremental potentials differ by the
+    # bending term alone, so the differences isolate its energy, gradient and Hessian.
+    V, F = yore.grid_mesh(4, 4, width=0.3, height=0.3)
+    rng = np.random.default_rng(1)
+    X = on_cylinder(V, 0.2) + rng.normal(0.0, 0.003, V.shape)
+    with_term = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bending="quadratic",
+                           bending_modulus=0.02)
+    without = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bend_stiffness=0.0)
+    for cloth in (with_term, without):
+        cloth.positions = X
+        cloth.fix([0, 3])
+    a, b = _core.ImplicitIntegrator(), _core.ImplicitIntegrator()
+    free = _newton_system(with_term, a, X)["free_vertices"]
+    assert len(free) == 14
+
+    def bending(Y):
+        sa, sb = _newton_system(with_term, a, Y), _newton_system(without, b, Y)
+        return (sa["energy"] - sb["energy"], np.asarray(sa["gradient"]) - sb["gradient"],
+                _dense(sa) - _dense(sb))
+
+    energy, gradient, hessian = bending(X)
+    assert energy == pytest.approx(with_term.energy(NO_GRAVITY)["bending"], rel=1e-9)
+    h = 1e-5
+    numeric_gradient, numeric_hessian = [], []
+    for k in range(3 * len(free)):
+        up, down = X.copy(), X.copy()
+        up[free[k // 3], k % 3] += h
+        down[free[k // 3], k % 3] -= h
+        e_up, g_up, _ = bending(up)
+        e_down, g_down, _ = bending(down)
+        numeric_gradient.append((e_up - e_down) / (2 * h))
+        numeric_hessian.append((g_up - g_down) / (2 * h))
+    # The term is quadratic: central differences are exact but for round-off, which the
+    # subtraction of two potentials (~1e-3 J) amplifies to ~1e-16/h relative: 1e-7 is safe.
+    assert np.abs(np.array(numeric_gradient) - gradient).max() <= 1e-7 * np.abs(gradient).max()
+    numeric_hessian = np.column_stack(numeric_hessian)
+    assert np.abs(numeric_hessian - hessian).max() <= 1e-7 * np.abs(hessian).max()
+    # and the assembled Hessian is κ Q ⊗ I₃ on the free vertices
+    expected = np.kron(0.02 * dense_q(with_term)[np.ix_(free, free)], np.eye(3))
+    assert np.abs(hessian - expected).max() <= 1e-9 * np.abs(expected).max()
+
+
+def test_a_flat_sheet_has_no_bending_energy_or_force_in_any_rigid_or_planar_affine_pose():
+    V, F = yore.grid_mesh(7, 6, width=0.5, height=0.4)
+    cloth = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.1)
+    Q = dense_q(cloth)
+    rng = np.random.default_rng(2)
+    rotation, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    stretch = np.diag([1.3, 0.7, 1.0])  # a planar affine map keeps every hinge flat
+    for X in (V, V @ rotation.T + [0.3, -1.0, 2.0], V @ stretch.T @ rotation.T):
+        cloth.positions = X
+        # zero up to the round-off of Q's entries (~|Q|·|x|·1e-16 per row)
+        scale = np.abs(Q).max() * np.abs(X).max() * 1e-13
+        assert np.abs(0.1 * Q @ X).max() <= scale
+        assert abs(cloth.energy(NO_GRAVITY)["bending"]) <= scale * np.abs(X).max() * len(X)
+    # so a flat sheet at rest stays where it is (springs at rest too, no gravity)
+    cloth.positions = V
+    sim = yore.Simulation(cloth, integrator="explicit", dt=1e-4, gravity=NO_GRAVITY)
+    sim.step(20)
+    assert np.abs(cloth.positions - V).max() <= 1e-14
+
+
+@pytest.mark.parametrize("n", [9, 17])
+def test_a_strip_rolled_onto_a_cylinder_has_the_closed_form_discrete_energy(n):
+    # Rolled along x, only the hinges of the edges along y bend: their two faces lie in planes
+    # parallel to the axis whose normals differ by θ = h_x/R; both faces are shortened across
+    # the edge by the chord ratio c = 2R sin(h_x/2R)/h_x, so |K_e x| = 2 h_y c sin(θ/2). The
+    # diagonal and x-edges join faces of one plane (the strip between two rulings). Per bent
+    # hinge ½ κ 3/(h_x h_y) |K_e x|², over the (n − 2)(n − 1) interior y-edges.
+    radius, modulus, size = 0.5, 2e-3, 1.0
+    V, F = yore.grid_mesh(n, n, width=size, height=size)
+    cloth = yore.Cloth(V, F, bending="quadratic", bending_modulus=modulus)
+    cloth.positions = on_cylinder(V, radius)
+    h = size / (n - 1)
+    chord = 2 * radius * np.sin(h / (2 * radius)) / h
+    per_hinge = 0.5 * modulus * 3.0 / (h * h) * (2 * h * chord * np.sin(h / (2 * radius))) ** 2
+    expected = (n - 2) * (n - 1) * per_hinge
+    # the kernel sums ~n² terms of similar size: round-off ~1e-13 relative
+    assert cloth.energy(NO_GRAVITY)["bending"] == pytest.approx(expected, rel=1e-11)
+
+
+def test_the_cylinder_energy_approaches_the_continuum_value_with_refinement():
+    # Continuum: E = ½ · 3κ ∫ κ_c² dA = (3/2) κ A / R² for bending across the grid's y-lines
+    # (κ_c = 1/R, i.e. 6κ∫H² dA with H = 1/(2R) the mean curvature). Bergou's edge-based sum
+    # weighs each hinge by 3/(A₀ + A₁), a third of its faces' area each, but on this mesh only
+    # one edge of three carries the curvature, so the paper's constant gives 3 × ½κ∫(2H)² dA
+    # here (README, Limitations: the factor depends on the triangulation's orientation; 4.5 at
+    # 45°). The error is the missing boundary columns (2/(n − 1)) plus O(h²) from the chords:
+    # it must fall, about halving per refinement.
+    radius, modulus = 0.5, 2e-3
+    continuum = 1.5 * modulus * 1.0 / radius**2
+    errors = []
+    for n in (9, 17, 33):
+        V, F = yore.grid_mesh(n, n)
+        cloth = yore.Cloth(V, F, bending="quadratic", bending_modulus=modulus)
+        cloth.positions = on_cylinder(V, radius)
+        errors.append(abs(cloth.energy(NO_GRAVITY)["bending"] - continuum) / continuum)
+    assert errors[0] < 0.15 and errors[2] < 0.04
+    assert errors[1] < 0.6 * errors[0] and errors[2] < 0.6 * errors[1], errors
+
+
+def test_explicit_and_implicit_agree_on_a_short_run_and_converge_at_first_order():
+    # A rolled strip springs open under its bending (no gravity), 0.02 s. Backward Euler and
+    # BDF2 (started by a backward-Euler step) differ from symplectic Euler by O(dt): halving dt
+    # must about halve the gap, and at dt = 5e-5 s it is below 3 % of the motion (measured
+    # 1.4 % for backward Euler, 0.25 % for BDF2).
+    gaps = {}
+    for dt in (1e-4, 5e-5):
+        steps = int(round(0.02 / dt))
+        finals = {}
+        for integrator, options in (("explicit", {}),
+                                    ("implicit", dict(newton_tol=1e-12, max_newton=100)),
+                                    ("bdf2", dict(newton_tol=1e-12, max_newton=100))):
+            cloth = strip()
+            start = cloth.positions
+            yore.Simulation(cloth, integrator=integrator, dt=dt, gravity=NO_GRAVITY,
+                            **options).step(steps)
+            finals[integrator] = cloth.positions
+        motion = np.abs(finals["explicit"] - start).max()
+        assert motion > 1e-3  # the strip does move (the term acts)
+        gaps[dt] = {name: np.abs(finals[name] - finals["explicit"]).max() / motion
+                    for name in ("implicit", "bdf2")}
+    for name in ("implicit", "bdf2"):
+        assert gaps[5e-5][name] < 0.03, gaps
+        assert gaps[5e-5][name] < 0.6 * gaps[1e-4][name], gaps
+
+
+@pytest.mark.parametrize("integrator, options, tolerance", [
+    # a residual of 1e-10 mean rest lengths as a displacement: far below 1e-7 m
+    ("quasi-newton", dict(newton_tol=1e-10, max_newton=5000), 1e-7),
+    # plain local-global, 3000 iterations: measured 1.8e-9 m from Newton's step
+    ("local-global", dict(iterations=3000, tolerance=0.0, acceleration="none"), 1e-7),
+])
+def test_quasi_newton_and_local_global_converge_to_newtons_step_with_the_term(
+        integrator, options, tolerance):
+    def scene(name, **kwargs):
+        return yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, bending="quadratic",
+                                         bending_modulus=1e-3, integrator=name, **kwargs)
+
+    reference = scene("implicit", newton_tol=1e-12, max_newton=200)
+    reference.step(3)
+    sim = scene(integrator, **options)
+    sim.step(3)
+    assert sim.stats["active_terms"]["quadratic_bending"] == reference.cloth.quadratic_bending[
+        "hinges"]
+    moved = np.abs(reference.cloth.positions - scene("implicit").cloth.positions).max()
+    assert moved > 1e-3
+    assert np.abs(sim.cloth.positions - reference.cloth.positions).max() <= tolerance
+
+
+def test_every_stable_step_estimate_falls_as_the_modulus_grows():
+    V, F = yore.grid_mesh(9, 9)
+    steps = []
+    for modulus in (0.0, 1e-3, 1e-2, 1e-1):
+        cloth = yore.Cloth(V, F, mass=1e-3, stretch_stiffness=100.0, bending="quadratic",
+                           bending_modulus=modulus)
+        steps.append([cloth.gershgorin_time_step(), cloth.stable_time_step_bound(),
+                      cloth.stable_time_step()])
+    steps = np.array(steps)
+    assert np.all(np.diff(steps, axis=0) < 0), steps
+    assert np.all(steps[:, 0] <= steps[:, 1])  # Gershgorin stays the most conservative
+    # at κ = 0.1 N·m bending dominates: the explicit default step (below the bound) is stable,
+    # 1.5× the tight estimate is not
+    cloth = strip(modulus=0.1)
+    bound = cloth.stable_time_step_bound()
+    yore.Simulation(cloth, integrator="explicit", dt=0.9 * bound, gravity=NO_GRAVITY).step(300)
+    assert np.isfinite(cloth.energy(NO_GRAVITY)["total"])
+    cloth = strip(modulus=0.1)
+    with pytest.raises(yore.SimulationDiverged):
+        yore.Simulation(cloth, integrator="explicit", dt=1.5 * cloth.stable_time_step(),
+                        gravity=NO_GRAVITY).step(2000)
+
+
+def test_the_state_round_trips_and_a_saved_quadratic_run_resumes_bit_for_bit(tmp_path):
+    sim = yore.scenes.hanging_cloth(resolution=7, bending="quadratic", bending_modulus=1e-3,
+                                    integrator="implicit")
+    sim.step(2)
+    state = sim.cloth.state()
+    assert state["bending"] == "quadratic" and state["bending_modulus"] == 1e-3
+    copy = yore.Cloth.from_state(state)
+    assert copy.bending == "quadratic" and copy.bending_modulus == 1e-3
+    assert np.array_equal(dense_q(copy), dense_q(sim.cloth))
+    path = save_state(tmp_path / "run.npz", sim)
+    loaded, _ = load_state(path)
+    sim.step(3)
+    loaded.step(3)
+    assert np.array_equal(loaded.cloth.positions, sim.cloth.positions)
+    assert loaded.cloth.bending == "quadratic"
+
+
+def test_a_state_file_from_before_quadratic_bending_loads_as_bending_springs(tmp_path):
+    sim = yore.scenes.hanging_cloth(resolution=5)
+    path = save_state(tmp_path / "new.npz", sim)
+    with zipfile.ZipFile(path) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    document = json.loads(str(np.load(path)["__document__"][()]))
+    for key in ("bending", "bending_modulus", "bending_rest"):
+        document["simulation"]["cloth"].pop(key)
+    old = tmp_path / "old.npz"
+    np.savez(tmp_path / "doc.npz", __document__=np.array(json.dumps(document)))
+    with zipfile.ZipFile(tmp_path / "doc.npz") as archive:
+        members["__document__.npy"] = archive.read("__document__.npy")
+    with zipfile.ZipFile(old, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    loaded, _ = load_state(old)
+    assert loaded.cloth.bending == "springs" and loaded.cloth.bending_modulus == 0.0
+    assert np.array_equal(loaded.cloth.springs.kind, sim.cloth.springs.kind)
+    state = sim.cloth.state()
+    for key in ("bending", "bending_modulus", "bending_rest"):
+        state.pop(key)
+    assert yore.Cloth.from_state(state).bending == "springs"
+
+
+@pytest.mark.parametrize("integrator", ["implicit", "explicit", "local-global", "quasi-newton"])
+def test_a_stroke_rebuilds_q_and_the_term_keeps_working(integrator):
+    sim = yore.scenes.hanging_cloth(resolution=9, bending="quadratic", bending_modulus=1e-3,
+                                    integrator=integrator)
+    sim.step(2)
+    before = sim.cloth.quadratic_bending
+    report = sim.stroke_material([[0.2, 0.5], [0.8, 0.5]])
+    after = sim.cloth.quadratic_bending
+    added = len(report.new_vertices)
+    assert added > 0
+    # a 1→3 split adds three interior edges per face: the hinges grow by 3 per new vertex
+    assert after["hinges"] == before["hinges"] + 3 * added
+    assert after["size"] == sim.cloth.vertex_count
+    # new vertices' rest points are where they were added in the flat pattern (u, 0, v): the
+    # rest state stays flat, so Q still has no energy at rest (Q · rest = 0)
+    rest = after["rest_positions"]
+    assert np.abs(rest[:, 1]).max() <= 1e-12
+    uv = sim.cloth.material_coordinates
+    assert np.abs(rest[:, [0, 2]] - uv).max() <= 1e-12
+    cloth_at_rest = yore.Cloth.from_state(sim.cloth.state())
+    cloth_at_rest.positions = rest
+    # zero but for the cancellation in ½κ Σ x·Qx: ~1e-16 of κ |Q|max |x|² per stored entry
+    scale = 1e-3 * np.abs(after["data"]).max() * len(after["data"]) * np.abs(rest).max() ** 2
+    assert abs(cloth_at_rest.energy(NO_GRAVITY)["bending"]) <= 1e-15 * scale
+    assert sim.stats["active_terms"]["quadratic_bending"] == after["hinges"]
+    assert not np.any(sim.cloth.springs.kind == 1)  # still no bending springs
+    sim.step(5)
+    energy = sim.energy()
+    assert np.isfinite(energy["total"]) and energy["bending"] > 0.0
+
+
+def test_a_zero_modulus_is_no_term_and_the_default_stays_bending_springs():
+    V, F = yore.grid_mesh(6, 5)
+    default, springs = yore.Cloth(V, F), yore.Cloth(V, F, bending="springs")
+    assert default.bending == "springs" and default.quadratic_bending is None
+    a, b = default.state(), springs.state()
+    for key in a:
+        if isinstance(a[key], np.ndarray):
+            assert np.array_equal(a[key], b[key]), key
+        else:
+            assert a[key] == b[key], key
+    # κ = 0: exactly the springs-free run (structural springs only)
+    zero = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0)
+    plain = yore.Cloth(V, F, bend_stiffness=0.0)
+    runs = []
+    for cloth in (zero, plain):
+        cloth.fix([0, 5])
+        sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 120)
+        sim.step(3)
+        runs.append(cloth.positions)
+    assert np.array_equal(runs[0], runs[1])
+    assert sim.stats["active_terms"]["bending_springs"] == 0
+    zero_sim = yore.Simulation(zero, dt=1e-4)
+    assert zero_sim.stats["active_terms"]["quadratic_bending"] == 0
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(bending="curvature"), '"springs" or "quadratic"'),
+    (dict(bending="quadratic"), "needs bending_modulus"),
+    (dict(bending="quadratic", bending_modulus=-1.0), "bending_modulus"),
+    (dict(bending="quadratic", bending_modulus=float("nan")), "bending_modulus"),
+    (dict(bending="quadratic", bending_modulus=float("inf")), "bending_modulus"),
+    (dict(bending_modulus=1.0), "bending_modulus is for"),
+    (dict(bending="springs", bending_modulus=0.0), "bending_modulus is for"),
+    (dict(bending="quadratic", bending_modulus=1.0, bend_stiffness=5.0), "no bending springs"),
+])
+def test_bad_bending_arguments_are_value_errors(kwargs, message):
+    V, F = yore.grid_mesh(4, 4)
+    with pytest.raises(ValueError, match=message):
+        yore.Cloth(V, F, **kwargs)
+
+
+def test_scene_functions_and_scene_files_pass_the_bending_choice_on():
+    sim = yore.scenes.rotating_cylinder(rings=5, segments=8, bending="quadratic",
+                                        bending_modulus=2e-4)
+    assert sim.cloth.bending == "quadratic" and sim.cloth.bending_modulus == 2e-4
+    with pytest.raises(ValueError, match="no bending springs"):
+        yore.scenes.hanging_cloth(resolution=5, bending="quadratic", bending_modulus=1e-3,
+                                  bend_stiffness=10.0)
+    base = '[mesh]\ngenerator = "grid"\nnx = 5\nny = 4\n\n[simulation]\nduration = 0.1\n\n'
+    scene = load_scene(text=base + '[material]\nbending = "quadratic"\nbending_modulus = 1e-3\n')
+    sim, _ = scene.build()
+    assert sim.cloth.bending == "quadratic" and sim.cloth.bending_modulus == 1e-3
+    assert not np.any(sim.cloth.springs.kind == 1)
+    sim, _ = load_scene(text=base).build()
+    assert sim.cloth.bending == "springs" and np.any(sim.cloth.springs.kind == 1)
+    for material, key in (('bending = "quadratic"\n', "material.bending_modulus"),
+                          ('bending_modulus = 1e-3\n', "material.bending_modulus"),
+                          ('bending = "quadratic"\nbending_modulus = 1e-3\nbend_stiffness = 5\n',
+                           "material.bend_stiffness"),
+                          ('bending = "hinge"\n', "material.bending"),
+                          ('bending = "quadratic"\nbending_modulus = -1\n',
+                           "material.bending_modulus")):
+        with pytest.raises(SceneError) as caught:
+            load_scene(text=base + "[material]\n" + material).build()
+        assert caught.value.key == key, material
