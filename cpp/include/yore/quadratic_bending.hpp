@@ -3,8 +3,10 @@
 /// The isometric quadratic bending energy of Bergou, Wardetzky, Harmon, Zorin & Grinspun 2006
 /// ("A Quadratic Bending Model for Inextensible Surfaces"): per interior edge (a hinge) a 4-vector
 /// of cotangent weights K_e from the rest geometry, and the constant n×n matrix
-///   Q = Σ_e 3 / (A₀ + A₁) K_e K_eᵀ
-/// (A₀, A₁ the rest areas of the hinge's two faces), so that the bending energy of positions x is
+///   Q = Σ_e 1 / (A₀ + A₁) K_e K_eᵀ
+/// (A₀, A₁ the rest areas of the hinge's two faces; the paper's weight is 3/(A₀ + A₁), which
+/// makes the energy three times ½ κ ∫ (2H)² dA; with 1 it tends to that, so κ is the plate's
+/// bending rigidity), so that the bending energy of positions x is
 ///   E(x) = ½ κ Σ_{c ∈ x,y,z} x_cᵀ Q x_c,   gradient κ Q x (per coordinate),   Hessian κ Q ⊗ I₃,
 /// κ the bending modulus (N·m). |K_e x| = 2 |e| sin(θ/2) for a hinge bent by the dihedral angle θ
 /// (0 when flat), so E vanishes on every flat state, is invariant under rigid motion, and is
@@ -27,7 +29,7 @@ struct QuadraticBendingMatrix {
   std::vector<std::int32_t> columns;     ///< nnz
   std::vector<double> values;            ///< nnz, 1/m² · m² = dimensionless per unit modulus
   std::int64_t hinge_count = 0;          ///< interior edges, each one term of Q
-  /// Σ_e 6 |e|² / (A₀ + A₁): the energy per unit modulus (J per N·m) with every hinge folded
+  /// Σ_e 2 |e|² / (A₀ + A₁): the energy per unit modulus (J per N·m) with every hinge folded
   /// flat (θ = π), a scale for the divergence check.
   double fold_energy = 0.0;
 };
