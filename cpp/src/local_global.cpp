@@ -237,8 +237,10 @@ double LocalGlobalIntegrator::objective(const Cloth& cloth, const Positions& x) 
   return energy;
 }
 
-void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
-  ensure_matrix(cloth, dt);
+double LocalGlobalIntegrator::begin_step(Cloth& cloth, const Vec3& gravity, double dt) {
+  // The step's constants: the predictor, the right-hand side's constant part (inertia, drag,
+  // gravity, damping, constrained neighbours, quadratic bending's coupling to them) and the
+  // damping directions. Returns the mean rest length, the unit of the tolerances.
   m_h = dt;
   m_gravity = gravity;
   m_start = cloth.positions();
@@ -306,126 +308,155 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   // Tolerances and residuals are relative to the mean rest length, as the Newton integrator's.
   const double mean_rest_length =
       springs.size() > 0 ? rest_sum / static_cast<double>(springs.size()) : 1.0;
-  const double tolerance = m_options.tolerance * mean_rest_length;
   m_statistics.assemble_seconds += start.seconds();
+  return mean_rest_length;
+
+}
+
+double LocalGlobalIntegrator::local_step(const Cloth& cloth) {
+  // The local step (every spring's ideal vector into m_rhs) and, in the same pass, the
+  // objective's gradient at the iterate (m_gradient); returns the Newton-style residual
+  // max |∇ᵢE| h²/mᵢ, reported but not the test.
+  const double dt = m_h;
+  const Vec3& gravity = m_gravity;
+  const SpringSet& springs = cloth.springs();
+  const double drag = cloth.drag();
+  const bool with_bending = cloth.has_quadratic_bending();
+  const QuadraticBendingMatrix* bending = with_bending ? &cloth.quadratic_bending() : nullptr;
+  const double modulus = cloth.bending_modulus();
+  ScopedTimer timer(m_statistics.assemble_seconds);
+  m_rhs = m_base_rhs;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const std::int32_t i = m_free_vertices[b];
+    const double m = cloth.masses()[i];
+    m_gradient.row(static_cast<Eigen::Index>(b)) =
+        m / (dt * dt) * (m_iterate.row(i) - m_target.row(i)) +
+        drag * m / dt * (m_iterate.row(i) - m_start.row(i)) - m * gravity.transpose();
+  }
+  for (std::size_t s = 0; s < springs.size(); ++s) {
+    const std::int32_t i = springs.first[s], j = springs.second[s];
+    const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(i)];
+    const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(j)];
+    if (a < 0 && b < 0) continue;
+    const Eigen::RowVector3d d = m_iterate.row(i) - m_iterate.row(j);
+    const double length = d.norm();
+    Eigen::RowVector3d force = Eigen::RowVector3d::Zero();     // into the right-hand side
+    Eigen::RowVector3d gradient = Eigen::RowVector3d::Zero();  // ∂E/∂xᵢ of this spring
+    if (length > 0.0) {
+      // local step: the spring's ideal vector, its current direction at its rest length
+      force = (springs.stiffness[s] * springs.rest_length[s] / length) * d;
+      gradient = (springs.stiffness[s] * (length - springs.rest_length[s]) / length) * d;
+    }
+    if (springs.damping[s] > 0.0) {
+      // The matrix damps the whole relative motion (c/h); give back its part across the
+      // damping direction, at the current iterate, so that at convergence only the motion
+      // along that direction is damped — exactly the Newton integrator's damping.
+      const Eigen::RowVector3d moved =
+          (m_iterate.row(i) - m_start.row(i)) - (m_iterate.row(j) - m_start.row(j));
+      const Eigen::RowVector3d n0 = m_directions.row(static_cast<Eigen::Index>(s));
+      const double along = moved.dot(n0);
+      force += (springs.damping[s] / dt) * (moved - along * n0);
+      gradient += (springs.damping[s] / dt * along) * n0;
+    }
+    if (a >= 0) {
+      m_rhs.row(a) += force;
+      m_gradient.row(a) += gradient;
+    }
+    if (b >= 0) {
+      m_rhs.row(b) -= force;
+      m_gradient.row(b) -= gradient;
+    }
+  }
+  if (with_bending) {  // ∇ of ½ κ xᵀ Q x: κ (Q x)ᵢ
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      const std::int32_t i = m_free_vertices[b];
+      Eigen::RowVector3d product = Eigen::RowVector3d::Zero();
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        product += bending->values[static_cast<std::size_t>(k)] *
+                   m_iterate.row(bending->columns[static_cast<std::size_t>(k)]);
+      }
+      m_gradient.row(static_cast<Eigen::Index>(b)) += modulus * product;
+    }
+  }
+  double residual = 0.0;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const double scale = dt * dt * cloth.inverse_masses()[m_free_vertices[b]];
+    residual = std::max(residual,
+                        scale * m_gradient.row(static_cast<Eigen::Index>(b)).lpNorm<Eigen::Infinity>());
+  }
+  return residual;
+}
+
+double LocalGlobalIntegrator::global_step(int iteration, double& omega) {
+  // The global solve, blended with the iterate two back by Chebyshev acceleration (Wang 2015);
+  // returns ‖Q⁻¹ ∇E(x_k)‖∞, the plain global step before any blending.
+  const double rho = m_options.chebyshev_rho;
+  global_solve();
+  if (rho > 0.0) {
+    omega = iteration == 0 ? 1.0 : (iteration == 1 ? 2.0 / (2.0 - rho * rho)
+                                                   : 4.0 / (4.0 - rho * rho * omega));
+  }
+  double change = 0.0;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    const std::int32_t i = m_free_vertices[b];
+    const Eigen::RowVector3d solved = m_unknowns.row(static_cast<Eigen::Index>(b));
+    change = std::max(change, (solved - m_iterate.row(i)).lpNorm<Eigen::Infinity>());
+    const Eigen::RowVector3d blended =
+        omega * (solved - m_previous_iterate.row(i)) + m_previous_iterate.row(i);
+    m_previous_iterate.row(i) = m_iterate.row(i);
+    m_iterate.row(i) = blended;
+    m_unknowns.row(static_cast<Eigen::Index>(b)) = blended;
+  }
+  return change;
+}
+
+double LocalGlobalIntegrator::ErrorEstimate::update(double change, int iteration, double rho) {
+  // The error left, estimated from the plain step p = Q⁻¹∇E and the contraction ρ of the
+  // plain iteration (slow modes: p ≈ (1 − ρ) e): without acceleration ρ is the largest of
+  // the last three ratios of successive steps and the new iterate's error is at most
+  // ρ/(1 − ρ) p; with Chebyshev, ρ is chebyshev_rho and the estimate p/(1 − ρ). (p alone
+  // would stop a stiff sheet far from the solution: its slow modes converge at ρ ≈ 0.997;
+  // ‖h² M⁻¹ ∇E‖∞, the Newton measure, is ~k h²/m ≈ 10⁴× the error there, so it cannot be
+  // the test.)
+  ratios[iteration % 3] = previous_change > 0.0 ? change / previous_change : 0.0;
+  previous_change = change;
+  if (rho > 0.0) {
+    error = change / (1.0 - rho);
+  } else if (iteration >= 2) {
+    const double rho_estimate = std::min(0.9999, std::max({ratios[0], ratios[1], ratios[2]}));
+    error = change * rho_estimate / (1.0 - rho_estimate);
+  }
+  return error;
+}
+
+void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
+  ensure_matrix(cloth, dt);
+  const double mean_rest_length = begin_step(cloth, gravity, dt);
+  const double tolerance = m_options.tolerance * mean_rest_length;
 
   m_objective_history.clear();
-  const double rho = m_options.chebyshev_rho;
   double omega = 1.0;
   m_previous_iterate = m_iterate;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
     m_unknowns.row(static_cast<Eigen::Index>(b)) = m_iterate.row(m_free_vertices[b]);
   }
-  double residual = 0.0, error_estimate = std::numeric_limits<double>::infinity();
-  double ratios[3] = {0.0, 0.0, 0.0};  // of successive iterate changes, the latest three
-  double previous_change = 0.0;
+  double residual = 0.0;
+  ErrorEstimate estimate;
   int solves = 0;
   bool converged = m_pattern.size == 0;
   for (int iteration = 0; m_pattern.size > 0; ++iteration) {
     poll_interrupt();  // iterations is user-typed
-    start.restart();
-    // The local step and, in the same pass, the objective's gradient at the iterate.
-    m_rhs = m_base_rhs;
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      const std::int32_t i = m_free_vertices[b];
-      const double m = cloth.masses()[i];
-      m_gradient.row(static_cast<Eigen::Index>(b)) =
-          m / (dt * dt) * (m_iterate.row(i) - m_target.row(i)) +
-          drag * m / dt * (m_iterate.row(i) - m_start.row(i)) - m * gravity.transpose();
-    }
-    for (std::size_t s = 0; s < springs.size(); ++s) {
-      const std::int32_t i = springs.first[s], j = springs.second[s];
-      const std::int32_t a = m_free_of_vertex[static_cast<std::size_t>(i)];
-      const std::int32_t b = m_free_of_vertex[static_cast<std::size_t>(j)];
-      if (a < 0 && b < 0) continue;
-      const Eigen::RowVector3d d = m_iterate.row(i) - m_iterate.row(j);
-      const double length = d.norm();
-      Eigen::RowVector3d force = Eigen::RowVector3d::Zero();     // into the right-hand side
-      Eigen::RowVector3d gradient = Eigen::RowVector3d::Zero();  // ∂E/∂xᵢ of this spring
-      if (length > 0.0) {
-        // local step: the spring's ideal vector, its current direction at its rest length
-        force = (springs.stiffness[s] * springs.rest_length[s] / length) * d;
-        gradient = (springs.stiffness[s] * (length - springs.rest_length[s]) / length) * d;
-      }
-      if (springs.damping[s] > 0.0) {
-        // The matrix damps the whole relative motion (c/h); give back its part across the
-        // damping direction, at the current iterate, so that at convergence only the motion
-        // along that direction is damped — exactly the Newton integrator's damping.
-        const Eigen::RowVector3d moved =
-            (m_iterate.row(i) - m_start.row(i)) - (m_iterate.row(j) - m_start.row(j));
-        const Eigen::RowVector3d n0 = m_directions.row(static_cast<Eigen::Index>(s));
-        const double along = moved.dot(n0);
-        force += (springs.damping[s] / dt) * (moved - along * n0);
-        gradient += (springs.damping[s] / dt * along) * n0;
-      }
-      if (a >= 0) {
-        m_rhs.row(a) += force;
-        m_gradient.row(a) += gradient;
-      }
-      if (b >= 0) {
-        m_rhs.row(b) -= force;
-        m_gradient.row(b) -= gradient;
-      }
-    }
-    if (with_bending) {  // ∇ of ½ κ xᵀ Q x: κ (Q x)ᵢ
-      for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-        const std::int32_t i = m_free_vertices[b];
-        Eigen::RowVector3d product = Eigen::RowVector3d::Zero();
-        for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
-             k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-          product += bending->values[static_cast<std::size_t>(k)] *
-                     m_iterate.row(bending->columns[static_cast<std::size_t>(k)]);
-        }
-        m_gradient.row(static_cast<Eigen::Index>(b)) += modulus * product;
-      }
-    }
-    residual = 0.0;
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      const double scale = dt * dt * cloth.inverse_masses()[m_free_vertices[b]];
-      residual = std::max(residual,
-                          scale * m_gradient.row(static_cast<Eigen::Index>(b)).lpNorm<Eigen::Infinity>());
-    }
-    m_statistics.assemble_seconds += start.seconds();
-    if (m_options.tolerance > 0.0 && error_estimate <= tolerance) {
+    residual = local_step(cloth);
+    if (m_options.tolerance > 0.0 && estimate.error <= tolerance) {
       converged = true;
       break;
     }
     if (!std::isfinite(residual)) break;  // the divergence monitor reports it
     if (iteration == m_options.iterations) break;
-    global_solve();
+    const double change = global_step(iteration, omega);
     ++solves;
-    // Chebyshev semi-iterative acceleration (Wang 2015): blend with the iterate two back.
-    if (rho > 0.0) {
-      omega = iteration == 0 ? 1.0 : (iteration == 1 ? 2.0 / (2.0 - rho * rho)
-                                                     : 4.0 / (4.0 - rho * rho * omega));
-    }
-    double change = 0.0;  // ‖Q⁻¹ ∇E(x_k)‖∞: the plain global step, before any blending
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      const std::int32_t i = m_free_vertices[b];
-      const Eigen::RowVector3d solved = m_unknowns.row(static_cast<Eigen::Index>(b));
-      change = std::max(change, (solved - m_iterate.row(i)).lpNorm<Eigen::Infinity>());
-      const Eigen::RowVector3d blended =
-          omega * (solved - m_previous_iterate.row(i)) + m_previous_iterate.row(i);
-      m_previous_iterate.row(i) = m_iterate.row(i);
-      m_iterate.row(i) = blended;
-      m_unknowns.row(static_cast<Eigen::Index>(b)) = blended;
-    }
-    // The error left, estimated from the plain step p = Q⁻¹∇E and the contraction ρ of the
-    // plain iteration (slow modes: p ≈ (1 − ρ) e): without acceleration ρ is the largest of
-    // the last three ratios of successive steps and the new iterate's error is at most
-    // ρ/(1 − ρ) p; with Chebyshev, ρ is chebyshev_rho and the estimate p/(1 − ρ). (p alone
-    // would stop a stiff sheet far from the solution: its slow modes converge at ρ ≈ 0.997;
-    // ‖h² M⁻¹ ∇E‖∞, the Newton measure, is ~k h²/m ≈ 10⁴× the error there, so it cannot be
-    // the test.)
-    ratios[iteration % 3] = previous_change > 0.0 ? change / previous_change : 0.0;
-    previous_change = change;
-    if (rho > 0.0) {
-      error_estimate = change / (1.0 - rho);
-    } else if (iteration >= 2) {
-      const double rho_estimate =
-          std::min(0.9999, std::max({ratios[0], ratios[1], ratios[2]}));
-      error_estimate = change * rho_estimate / (1.0 - rho_estimate);
-    }
+    estimate.update(change, iteration, m_options.chebyshev_rho);
     ++m_statistics.iterations;
     if (m_options.record_objective) m_objective_history.push_back(objective(cloth, m_iterate));
   }
@@ -433,7 +464,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   m_statistics.last_iterations = solves;
   m_statistics.last_residual = residual / mean_rest_length;
   m_statistics.last_error_estimate =
-      m_pattern.size == 0 ? 0.0 : error_estimate / mean_rest_length;
+      m_pattern.size == 0 ? 0.0 : estimate.error / mean_rest_length;
 
   Positions& x = cloth.integrator_positions();
   Positions& v = cloth.integrator_velocities();

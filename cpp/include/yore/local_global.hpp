@@ -110,6 +110,18 @@ class LocalGlobalIntegrator {
   void factor_fresh(bool keep_ordering);
   void global_solve();
   double objective(const Cloth& cloth, const Positions& x) const;
+  // One step, in its parts.
+  double begin_step(Cloth& cloth, const Vec3& gravity, double dt);
+  double local_step(const Cloth& cloth);
+  double global_step(int iteration, double& omega);
+  /// The convergence test's estimate of the error left after an iteration, from the plain
+  /// global step and the contraction of the iteration (see local_global.cpp).
+  struct ErrorEstimate {
+    double ratios[3] = {0.0, 0.0, 0.0};  // of successive plain steps, the latest three
+    double previous_change = 0.0;
+    double error = std::numeric_limits<double>::infinity();
+    double update(double change, int iteration, double rho);
+  };
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   LocalGlobalOptions m_options;
