@@ -190,8 +190,9 @@ def test_every_backend_solves_the_newton_system_to_1e_10_and_agrees_to_1e_8():
 def test_backends_give_the_same_steps():
     states = []
     for options in SOLVERS:
+        # one projection for all (pcg cannot tell an indefinite matrix, so it takes the clamp)
         sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", dt=0.02,
-                                        newton_tol=1e-10, **options)
+                                        newton_tol=1e-10, projection="clamp", **options)
         sim.step(5)
         states.append(sim.cloth.positions)
     for options, X in zip(SOLVERS[1:], states[1:]):
@@ -323,7 +324,7 @@ def test_both_paper_scenes_run_implicitly_at_their_default_step(integrator):
 
 def test_adaptive_projection_reaches_the_same_steps_in_fewer_iterations():
     results = []
-    for adaptive in (False, None):  # always projected, then the default
+    for adaptive in (False, True):  # always projected (clamp), then exact
         sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", newton_tol=1e-10,
                                         max_newton=1000, adaptive_projection=adaptive)
         sim.step(5)
