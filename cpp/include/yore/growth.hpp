@@ -48,9 +48,16 @@ double falloff_weight(double distance, double half_width);
 struct StrokeBand {
   Eigen::VectorXd vertex_distance;  ///< n, m, to the stroke's path (+inf where not measured)
   Eigen::VectorXd vertex_weight;    ///< n in [0, 1]; 1 on every corner of a crossed face
-  Positions vertex_tangent;         ///< n×3, unit tangent of the nearest path segment (or 0)
+  Positions vertex_tangent;         ///< n×3, unit tangent of the path at the nearest point (or 0)
   std::vector<std::int32_t> faces;  ///< the band: crossed faces and faces with a corner within
                                     ///< width/2, sorted
+  Positions path;                       ///< m×3, the path it was made from, metres
+  std::vector<std::int32_t> path_part;  ///< m
+  /// m, the span over which the path's tangent is taken: the mean edge length of the crossed
+  /// faces (a chord of the path that long, centred on the nearest point, so sampling noise
+  /// and the bisection's tiny steps do not turn it)
+  double tangent_span = 0.0;
+  double reach = 0.0;  ///< m, distances are measured within this of the path's bounding box
 };
 
 /// The band of a stroke whose path on the surface is the polyline `path` (m×3, metres, points
@@ -72,8 +79,8 @@ struct Growth {
 };
 
 /// The rest lengths of `springs` after the growth rule of `mode` with this expansion (> 0) over
-/// the band's weights; spring directions from `positions` (n×3, metres), the tangent of the end
-/// nearer the path. The paper mode changes nothing here (its growth is the split's eq. (1)).
+/// the band's weights; spring directions from `positions` (n×3, metres) against the path's
+/// tangent at the point nearest the spring's midpoint. The paper mode changes nothing here (its growth is the split's eq. (1)).
 /// Throws std::invalid_argument on a non-positive or non-finite expansion or mismatched sizes.
 Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
                          const StrokeBand& band, GrowthMode mode, double expansion);
