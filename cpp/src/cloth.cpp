@@ -789,11 +789,6 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
     }
   }
   const Eigen::VectorXd masses = conserving_masses(mesh);  // checked before anything changes
-  const double mass_before = m_masses.sum();
-  adopt_subdivision(mesh);
-  m_masses = masses;
-  update_inverse_masses();
-  report.mass_added = m_masses.sum() - mass_before;
   for (Eigen::Index k = 0; k < mesh.new_vertex_corners.rows(); ++k) {
     report.new_vertices.push_back(static_cast<std::int32_t>(old_vertices + k));
   }
@@ -805,30 +800,32 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   }
 
   // Springs: keep every spring whose pair is still wired, add the new pairs in the rest metric.
-  const MeshConnectivity connectivity = mesh_connectivity(m_faces);
-  std::vector<char> keep(m_springs.size(), 0);
+  // Built aside and committed with the vertices at the end, so a failure leaves the cloth as it was.
+  SpringSet springs = m_springs;
+  const MeshConnectivity connectivity = mesh_connectivity(mesh.faces);
+  std::vector<char> keep(springs.size(), 0);
   std::unordered_map<std::uint64_t, char> existing;
-  for (std::size_t k = 0; k < m_springs.size(); ++k) {
-    const VertexPair pair{std::min(m_springs.first[k], m_springs.second[k]),
-                          std::max(m_springs.first[k], m_springs.second[k])};
-    const auto& wired = m_springs.kind[k] == SpringKind::structural ? connectivity.edges
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const VertexPair pair{std::min(springs.first[k], springs.second[k]),
+                          std::max(springs.first[k], springs.second[k])};
+    const auto& wired = springs.kind[k] == SpringKind::structural ? connectivity.edges
                                                                     : connectivity.bending_pairs;
     keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
     if (keep[k]) existing[pair_key(pair[0], pair[1])] = 1;
   }
-  const std::size_t before = m_springs.size();
-  m_springs.keep(keep);
-  report.springs_removed = static_cast<std::int64_t>(before - m_springs.size());
-  const std::size_t kept = m_springs.size();
+  const std::size_t before = springs.size();
+  springs.keep(keep);
+  report.springs_removed = static_cast<std::int64_t>(before - springs.size());
+  const std::size_t kept = springs.size();
 
   // A face of the new mesh around each edge, and the apexes on either side of each edge.
   std::unordered_map<std::uint64_t, std::int32_t> face_of_edge;
   std::unordered_map<std::uint64_t, std::vector<std::int32_t>> apexes;
-  for (Eigen::Index g = 0; g < m_faces.rows(); ++g) {
+  for (Eigen::Index g = 0; g < mesh.faces.rows(); ++g) {
     for (int c = 0; c < 3; ++c) {
-      const std::uint64_t key = pair_key(m_faces(g, c), m_faces(g, (c + 1) % 3));
+      const std::uint64_t key = pair_key(mesh.faces(g, c), mesh.faces(g, (c + 1) % 3));
       face_of_edge[key] = static_cast<std::int32_t>(g);
-      apexes[key].push_back(m_faces(g, (c + 2) % 3));
+      apexes[key].push_back(mesh.faces(g, (c + 2) % 3));
     }
   }
   // Barycentric weights of a vertex in an old face: a corner, or the midpoint of two corners.
@@ -854,15 +851,15 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
         metric_distance(u, v, side(rest, a, b), side(rest, b, c), side(rest, c, a));
     const double reference_length = metric_distance(
         u, v, side(reference, a, b), side(reference, b, c), side(reference, c, a));
-    m_springs.add(edge[0], edge[1], rest_length, m_stretch_stiffness, m_spring_damping,
+    springs.add(edge[0], edge[1], rest_length, m_stretch_stiffness, m_spring_damping,
                   SpringKind::structural, reference_length);
     ++report.springs_added;
   }
   // The new structural springs are the sides of the triangles the bending springs hinge on.
-  for (std::size_t k = kept; k < m_springs.size(); ++k) {
-    const std::uint64_t key = pair_key(m_springs.first[k], m_springs.second[k]);
-    rest[key] = m_springs.rest_length[k];
-    reference[key] = m_springs.reference_length[k];
+  for (std::size_t k = kept; k < springs.size(); ++k) {
+    const std::uint64_t key = pair_key(springs.first[k], springs.second[k]);
+    rest[key] = springs.rest_length[k];
+    reference[key] = springs.reference_length[k];
   }
   if (m_bend_stiffness > 0.0) {
     std::unordered_map<std::uint64_t, VertexPair> hinge_of;  // bending pair → the edge it crosses
@@ -877,9 +874,9 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
       if (existing.count(key)) continue;
       const VertexPair hinge = hinge_of.at(key);
       const std::int32_t u = hinge[0], v = hinge[1], p = pair[0], q = pair[1];
-      const Vec3 xu = m_positions.row(u), xv = m_positions.row(v);
+      const Vec3 xu = mesh.positions.row(u), xv = mesh.positions.row(v);
       const Vec3 axis = (xv - xu).normalized();
-      Vec3 arm_p = Vec3(m_positions.row(p)) - xu, arm_q = Vec3(m_positions.row(q)) - xu;
+      Vec3 arm_p = Vec3(mesh.positions.row(p)) - xu, arm_q = Vec3(mesh.positions.row(q)) - xu;
       arm_p -= arm_p.dot(axis) * axis;
       arm_q -= arm_q.dot(axis) * axis;
       const double norms = arm_p.norm() * arm_q.norm();
@@ -895,15 +892,21 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
             << ") a zero rest length: degenerate rest triangles";
         fail(msg.str());
       }
-      m_springs.add(p, q, rest_length, m_bend_stiffness, m_spring_damping, SpringKind::bending,
+      springs.add(p, q, rest_length, m_bend_stiffness, m_spring_damping, SpringKind::bending,
                     hinged(reference));
       ++report.springs_added;
     }
   }
   for (const std::int32_t g : report.region_faces) {
-    const std::int32_t a = m_faces(g, 0), b = m_faces(g, 1), c = m_faces(g, 2);
+    const std::int32_t a = mesh.faces(g, 0), b = mesh.faces(g, 1), c = mesh.faces(g, 2);
     report.rest_area_after += area_from_sides(side(rest, a, b), side(rest, b, c), side(rest, c, a));
   }
+  const double mass_before = m_masses.sum();
+  adopt_subdivision(mesh);
+  m_masses = masses;
+  m_springs = std::move(springs);
+  update_inverse_masses();
+  report.mass_added = m_masses.sum() - mass_before;
   rebuild_incidence();
   m_topology_version = next_topology_version();
   ++m_edit_count;
