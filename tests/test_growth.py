@@ -68,6 +68,7 @@ def test_default_options_are_the_paper_mode_bit_for_bit():
     assert np.array_equal(a.cloth.springs.rest, cloth.springs.rest)
     assert np.array_equal(a.cloth.springs.ends, cloth.springs.ends)
     assert report.growth == "paper" and report.refine == 0 and report.width is None
+    assert np.array_equal(report.line_vertices, report.new_vertices)  # pictures as before
     assert report.faces_split == len(trace["faces"]) and report.springs_grown == 0
     # the report's added rest length is eq. (1)'s: (1.1 − 1) × the new springs' lengths
     new = slice(len(cloth.springs.rest) - report.springs_added, None)
@@ -113,6 +114,10 @@ def test_isotropic_growth_scales_every_spring_of_the_band_by_its_weight():
     assert report.rest_length_added == pytest.approx(np.sum(rest * 0.2 * w), rel=1e-12)
     assert report.rest_area_after > report.rest_area_before
     assert report.topology_version == cloth.topology_version  # no re-analysis needed
+    # the line pictures draw: vertices next to the path, in stroke order (x grows along it)
+    line = cloth.positions[report.line_vertices]
+    assert len(line) >= N and np.all(np.abs(line[:, 1] - STROKE_Y) <= 1 / (N - 1))
+    assert np.all(np.diff(line[:, 0]) >= 0)
 
 
 @pytest.mark.parametrize("growth", ["along", "across"])

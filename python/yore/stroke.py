@@ -191,6 +191,9 @@ class StrokeReport:
     rest_length_added: float = 0.0
     #: kg, total mass after the stroke minus before
     mass_added: float = 0.0
+    #: vertices that trace the stroke on the cloth, in stroke order (for pictures): the split's
+    #: new vertices in paper mode, else the corner nearest each sample of the path
+    line_vertices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
 
     @property
     def missed_fraction(self) -> float:
@@ -333,7 +336,8 @@ def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds, width=None
             locate_seconds=locate_seconds, subdivide_seconds=subdivide,
             topology_version=cloth.topology_version,
             rest_length_added=float(np.sum(added - reference)),
-            mass_added=float(cloth.masses.sum()) - mass_before, **options)
+            mass_added=float(cloth.masses.sum()) - mass_before,
+            line_vertices=np.array(split["new_vertices"]), **options)
     path, part = surface_path(cloth, trace)
     grown = _core.grown_rest_lengths(cloth, path, part, trace["faces"], band_width, growth,
                                      expansion)
@@ -354,7 +358,17 @@ def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds, width=None
         springs_grown=grown["springs_grown"], rest_length_added=grown["rest_added"],
         mass_added=float(cloth.masses.sum()) - mass_before,
         extra={"spring_weights": grown["spring_weights"],
-               "vertex_weights": grown["vertex_weight"]}, **options)
+               "vertex_weights": grown["vertex_weight"]},
+        line_vertices=_nearest_corners(cloth, trace), **options)
+
+
+def _nearest_corners(cloth, trace):
+    """Per path sample the corner of its face with the largest weight, repeats dropped."""
+    corners = cloth.faces[trace["path_faces"], np.argmax(trace["path_barycentric"], axis=1)]
+    if len(corners) == 0:
+        return corners.astype(np.int32)
+    keep = np.concatenate([[True], corners[1:] != corners[:-1]])
+    return corners[keep].astype(np.int32)
 
 
 def _rest_area(cloth, faces, rest):
