@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -767,6 +768,8 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
 
   // Structural rest and reference lengths by pair: the rest metric the new springs inherit.
   std::unordered_map<std::uint64_t, double> rest, reference;
+  rest.reserve(2 * m_springs.size());
+  reference.reserve(2 * m_springs.size());
   for (std::size_t k = 0; k < m_springs.size(); ++k) {
     if (m_springs.kind[k] != SpringKind::structural) continue;
     const std::uint64_t key = pair_key(m_springs.first[k], m_springs.second[k]);
@@ -805,6 +808,7 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   const MeshConnectivity connectivity = mesh_connectivity(mesh.faces);
   std::vector<char> keep(springs.size(), 0);
   std::unordered_map<std::uint64_t, char> existing;
+  existing.reserve(springs.size());
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const VertexPair pair{std::min(springs.first[k], springs.second[k]),
                           std::max(springs.first[k], springs.second[k])};
@@ -819,13 +823,19 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   const std::size_t kept = springs.size();
 
   // A face of the new mesh around each edge, and the apexes on either side of each edge.
-  std::unordered_map<std::uint64_t, std::int32_t> face_of_edge;
-  std::unordered_map<std::uint64_t, std::vector<std::int32_t>> apexes;
+  struct EdgeFaces {
+    std::int32_t face = -1;  // a face of the new mesh around the edge
+    std::array<std::int32_t, 2> apexes{-1, -1};
+    int count = 0;
+  };
+  std::unordered_map<std::uint64_t, EdgeFaces> around_edge;
+  around_edge.reserve(static_cast<std::size_t>(2 * mesh.faces.rows()));
   for (Eigen::Index g = 0; g < mesh.faces.rows(); ++g) {
     for (int c = 0; c < 3; ++c) {
-      const std::uint64_t key = pair_key(mesh.faces(g, c), mesh.faces(g, (c + 1) % 3));
-      face_of_edge[key] = static_cast<std::int32_t>(g);
-      apexes[key].push_back(mesh.faces(g, (c + 2) % 3));
+      EdgeFaces& entry = around_edge[pair_key(mesh.faces(g, c), mesh.faces(g, (c + 1) % 3))];
+      entry.face = static_cast<std::int32_t>(g);
+      if (entry.count < 2) entry.apexes[static_cast<std::size_t>(entry.count)] = mesh.faces(g, (c + 2) % 3);
+      ++entry.count;
     }
   }
   // Barycentric weights of a vertex in an old face: a corner, or the midpoint of two corners.
@@ -844,7 +854,7 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   for (const VertexPair& edge : connectivity.edges) {
     const std::uint64_t key = pair_key(edge[0], edge[1]);
     if (existing.count(key)) continue;
-    const std::int32_t parent = mesh.parents[static_cast<std::size_t>(face_of_edge.at(key))];
+    const std::int32_t parent = mesh.parents[static_cast<std::size_t>(around_edge.at(key).face)];
     const std::int32_t a = old_faces(parent, 0), b = old_faces(parent, 1), c = old_faces(parent, 2);
     const Vec3 u = weights_in(edge[0], parent), v = weights_in(edge[1], parent);
     const double rest_length =
@@ -863,11 +873,12 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   }
   if (m_bend_stiffness > 0.0) {
     std::unordered_map<std::uint64_t, VertexPair> hinge_of;  // bending pair → the edge it crosses
-    for (const auto& entry : apexes) {
-      if (entry.second.size() != 2) continue;
+    hinge_of.reserve(around_edge.size());
+    for (const auto& entry : around_edge) {
+      if (entry.second.count != 2) continue;
       const std::int32_t u = static_cast<std::int32_t>(entry.first & 0xffffffffu);
       const std::int32_t v = static_cast<std::int32_t>(entry.first >> 32);
-      hinge_of.emplace(pair_key(entry.second[0], entry.second[1]), VertexPair{u, v});
+      hinge_of.emplace(pair_key(entry.second.apexes[0], entry.second.apexes[1]), VertexPair{u, v});
     }
     for (const VertexPair& pair : connectivity.bending_pairs) {
       const std::uint64_t key = pair_key(pair[0], pair[1]);

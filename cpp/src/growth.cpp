@@ -6,6 +6,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace yore {
 namespace {
@@ -42,16 +43,19 @@ double falloff_weight(double distance, double half_width) {
 
 namespace {
 
-/// A stroke's path as polyline parts, for nearest-point and tangent queries.
+/// A stroke's path as polyline parts, for nearest-point and tangent queries within `reach`:
+/// segments are bucketed in a grid of cells `reach` wide, so a query looks at its cell and the
+/// 26 around it (every segment within reach of the point overlaps one of them).
 class PathGeometry {
  public:
   struct Nearest {
-    double distance = std::numeric_limits<double>::infinity();
+    double distance = std::numeric_limits<double>::infinity();  ///< +inf: nothing within reach
     std::size_t part = 0;  ///< index into m_parts
     double arc = 0.0;      ///< arc length along that part, m
   };
 
-  PathGeometry(const Positions& path, const std::vector<std::int32_t>& labels) {
+  PathGeometry(const Positions& path, const std::vector<std::int32_t>& labels, double reach)
+      : m_cell(reach) {
     for (Eigen::Index k = 0; k < path.rows(); ++k) {
       if (k == 0 || labels[static_cast<std::size_t>(k)] != labels[static_cast<std::size_t>(k) - 1]) {
         m_parts.emplace_back();
@@ -62,25 +66,48 @@ class PathGeometry {
                                              : part.arc.back() + (point - part.points.back()).norm());
       part.points.push_back(point);
     }
+    for (std::size_t p = 0; p < m_parts.size(); ++p) {
+      const Part& part = m_parts[p];
+      const std::size_t count = std::max<std::size_t>(1, part.points.size() - 1);
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t next = std::min(k + 1, part.points.size() - 1);
+        const auto id = static_cast<std::int32_t>(m_segments.size());
+        m_segments.push_back({part.points[k], part.points[next], p, part.arc[k], part.arc[next]});
+        if (!(m_cell > 0.0)) continue;
+        const Eigen::RowVector3d lower = part.points[k].cwiseMin(part.points[next]);
+        const Eigen::RowVector3d upper = part.points[k].cwiseMax(part.points[next]);
+        const Cell lo = cell_of(lower), hi = cell_of(upper);
+        for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+          for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+            for (std::int64_t z = lo[2]; z <= hi[2]; ++z) m_grid[key({x, y, z})].push_back(id);
+      }
+    }
   }
 
   Nearest nearest(const Eigen::RowVector3d& x) const {
     Nearest best;
-    for (std::size_t p = 0; p < m_parts.size(); ++p) {
-      const Part& part = m_parts[p];
-      if (part.points.size() == 1) {
-        const double d = (x - part.points[0]).norm();
-        if (d < best.distance) best = {d, p, 0.0};
-        continue;
+    auto consider = [&](const Segment& segment) {
+      const Eigen::RowVector3d along = segment.b - segment.a;
+      const double length2 = along.squaredNorm();
+      const double t = length2 > 0.0 ? std::clamp((x - segment.a).dot(along) / length2, 0.0, 1.0) : 0.0;
+      const double d = (x - segment.a - t * along).norm();
+      if (d < best.distance) {
+        best = {d, segment.part, segment.arc_a + t * (segment.arc_b - segment.arc_a)};
       }
-      for (std::size_t k = 0; k + 1 < part.points.size(); ++k) {
-        const Eigen::RowVector3d a = part.points[k], segment = part.points[k + 1] - a;
-        const double length2 = segment.squaredNorm();
-        const double t = length2 > 0.0 ? std::clamp((x - a).dot(segment) / length2, 0.0, 1.0) : 0.0;
-        const double d = (x - a - t * segment).norm();
-        if (d < best.distance) best = {d, p, part.arc[k] + t * (part.arc[k + 1] - part.arc[k])};
-      }
+    };
+    if (!(m_cell > 0.0)) {
+      for (const Segment& segment : m_segments) consider(segment);
+      return best;
     }
+    const Cell c = cell_of(x);
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const auto it = m_grid.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
+          if (it == m_grid.end()) continue;
+          for (const std::int32_t id : it->second) consider(m_segments[static_cast<std::size_t>(id)]);
+        }
+    if (best.distance > m_cell) best = Nearest{};  // beyond reach: not measured
     return best;
   }
 
@@ -100,6 +127,22 @@ class PathGeometry {
     std::vector<Eigen::RowVector3d> points;
     std::vector<double> arc;
   };
+  struct Segment {
+    Eigen::RowVector3d a, b;
+    std::size_t part;
+    double arc_a, arc_b;
+  };
+  using Cell = std::array<std::int64_t, 3>;
+  Cell cell_of(const Eigen::RowVector3d& x) const {
+    return {static_cast<std::int64_t>(std::floor(x[0] / m_cell)),
+            static_cast<std::int64_t>(std::floor(x[1] / m_cell)),
+            static_cast<std::int64_t>(std::floor(x[2] / m_cell))};
+  }
+  static std::uint64_t key(const Cell& c) {
+    // Cells of one stroke span far fewer than 2^21 per axis: pack 21 bits each.
+    const auto bits = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1fffffu; };
+    return bits(c[0]) | (bits(c[1]) << 21) | (bits(c[2]) << 42);
+  }
   static Eigen::RowVector3d at(const Part& part, double s) {
     const auto upper = std::upper_bound(part.arc.begin(), part.arc.end(), s);
     if (upper == part.arc.begin()) return part.points.front();
@@ -109,7 +152,10 @@ class PathGeometry {
     const double t = span > 0.0 ? (s - part.arc[k - 1]) / span : 0.0;
     return (1.0 - t) * part.points[k - 1] + t * part.points[k];
   }
+  double m_cell;
   std::vector<Part> m_parts;
+  std::vector<Segment> m_segments;
+  std::unordered_map<std::uint64_t, std::vector<std::int32_t>> m_grid;
 };
 
 bool outside(const Eigen::RowVector3d& x, const Eigen::RowVector3d& lower,
@@ -155,7 +201,7 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
   band.reach = reach;
   band.tangent_span = crossed_faces.empty() ? 0.0 : edge_sum / (3.0 * static_cast<double>(crossed_faces.size()));
   if (path.rows() > 0) {
-    const PathGeometry geometry(path, path_part);
+    const PathGeometry geometry(path, path_part, reach);
     const Eigen::RowVector3d lower = path.colwise().minCoeff().array() - reach;
     const Eigen::RowVector3d upper = path.colwise().maxCoeff().array() + reach;
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -199,7 +245,7 @@ Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
     throw std::invalid_argument("grow_rest_lengths: the band was made for another mesh");
   }
   const GrowthRule& rule = growth_rule(mode);
-  const PathGeometry geometry(band.path, band.path_part);
+  const PathGeometry geometry(band.path, band.path_part, band.reach);
   const auto count = static_cast<Eigen::Index>(springs.size());
   Growth growth;
   growth.rest_lengths = Eigen::Map<const Eigen::VectorXd>(springs.rest_length.data(), count);

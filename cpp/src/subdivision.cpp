@@ -133,14 +133,21 @@ Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
     check_face_index(f, face_count);
     red[static_cast<std::size_t>(f)] = 1;
   }
-  // Faces around each edge, for the closure.
-  std::map<VertexPair, std::vector<std::int32_t>> faces_of_edge;
+  // Faces around each edge, for the closure: (edge, face) sorted by edge.
+  std::vector<std::pair<VertexPair, std::int32_t>> faces_of_edge;
+  faces_of_edge.reserve(static_cast<std::size_t>(3 * face_count));
   for (Eigen::Index f = 0; f < face_count; ++f) {
     for (int c = 0; c < 3; ++c) {
-      faces_of_edge[sorted_pair(faces(f, c), faces(f, (c + 1) % 3))].push_back(
-          static_cast<std::int32_t>(f));
+      faces_of_edge.emplace_back(sorted_pair(faces(f, c), faces(f, (c + 1) % 3)),
+                                 static_cast<std::int32_t>(f));
     }
   }
+  std::sort(faces_of_edge.begin(), faces_of_edge.end());
+  auto around = [&](const VertexPair& edge) {
+    return std::equal_range(faces_of_edge.begin(), faces_of_edge.end(),
+                            std::pair<VertexPair, std::int32_t>{edge, -1},
+                            [](const auto& x, const auto& y) { return x.first < y.first; });
+  };
   std::map<VertexPair, char> split;  // edges with a midpoint
   std::vector<std::int32_t> queue;
   for (Eigen::Index f = 0; f < face_count; ++f) {
@@ -160,7 +167,9 @@ Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
     for (int c = 0; c < 3; ++c) {
       const VertexPair edge = sorted_pair(faces(f, c), faces(f, (c + 1) % 3));
       if (!split.emplace(edge, 1).second) continue;
-      for (const std::int32_t g : faces_of_edge[edge]) {
+      const auto range = around(edge);
+      for (auto it = range.first; it != range.second; ++it) {
+        const std::int32_t g = it->second;
         if (!red[static_cast<std::size_t>(g)] && split_count(g) >= 2) {
           red[static_cast<std::size_t>(g)] = 1;
           queue.push_back(g);

@@ -46,7 +46,7 @@ double falloff_weight(double distance, double half_width);
 
 /// The region a stroke affects, per vertex.
 struct StrokeBand {
-  Eigen::VectorXd vertex_distance;  ///< n, m, to the stroke's path (+inf where not measured)
+  Eigen::VectorXd vertex_distance;  ///< n, m, to the stroke's path (+inf beyond `reach`)
   Eigen::VectorXd vertex_weight;    ///< n in [0, 1]; 1 on every corner of a crossed face
   Positions vertex_tangent;         ///< n×3, unit tangent of the path at the nearest point (or 0)
   std::vector<std::int32_t> faces;  ///< the band: crossed faces and faces with a corner within
@@ -57,7 +57,7 @@ struct StrokeBand {
   /// faces (a chord of the path that long, centred on the nearest point, so sampling noise
   /// and the bisection's tiny steps do not turn it)
   double tangent_span = 0.0;
-  double reach = 0.0;  ///< m, distances are measured within this of the path's bounding box
+  double reach = 0.0;  ///< m, distances are measured up to this: max(width/2, longest crossed edge)
 };
 
 /// The band of a stroke whose path on the surface is the polyline `path` (m×3, metres, points
