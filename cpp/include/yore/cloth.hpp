@@ -230,8 +230,9 @@ class Cloth {
   /// the distance between its ends in the parent triangle laid out with its structural rest
   /// (reference) lengths as sides; a new bending spring's, across the two rest triangles hinged
   /// at the current dihedral angle. Masses are redistributed so the total is unchanged: each
-  /// corner's share of a changed face (its mass × face area / its faces' area) moves to the
-  /// face, which gives it to its children by area and each child a third to each corner.
+  /// corner's share of a changed face (its mass × face area / its faces' area, current areas)
+  /// moves to the face, which gives it to its children by area, each child a third to each
+  /// corner.
   /// Gives a new topology_version (unless nothing is refined). Throws std::invalid_argument on
   /// a spring network or faces out of range.
   RefineReport refine_faces(const std::vector<std::int32_t>& faces);
