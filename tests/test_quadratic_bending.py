@@ -422,3 +422,25 @@ def test_scene_functions_and_scene_files_pass_the_bending_choice_on():
         with pytest.raises(SceneError) as caught:
             load_scene(text=base + "[material]\n" + material).build()
         assert caught.value.key == key, material
+
+
+def test_refining_a_quadratic_cloth_keeps_its_flat_rest_and_rebuilds_q():
+    # 1→4 refinement puts midpoints into the rest state by the affine fit of their
+    # neighbours: on a flat cloth they land on the rest midpoints, so the refined cloth still
+    # has no bending energy at rest, and Q gains the new hinges.
+    V, F = yore.grid_mesh(7, 7)
+    cloth = yore.Cloth(V, F, mass=1e-3, bending="quadratic", bending_modulus=1e-3)
+    cloth.material_coordinates = V[:, :2]
+    sim = yore.Simulation(cloth, integrator="implicit", gravity=NO_GRAVITY)
+    hinges = cloth.quadratic_bending["hinges"]
+    report = sim.stroke_material([[0.2, 0.5], [0.8, 0.5]], growth="isotropic", refine=1,
+                                 width=0.2, expansion=1.0)
+    assert report.faces_refined > 0
+    assert cloth.quadratic_bending["hinges"] > hinges
+    rest = cloth.quadratic_bending["rest_positions"]
+    assert np.abs(rest[:, 2]).max() < 1e-12  # the new rest points lie in the flat rest plane
+    assert abs(cloth.energy(NO_GRAVITY)["bending"]) < 1e-12
+    sim.step(2)
+    assert np.isfinite(cloth.positions).all()
+    # flat, unloaded and not grown: nothing moves
+    assert np.abs(cloth.positions[:, 2]).max() < 1e-9

@@ -18,7 +18,19 @@ py::dict trace_dict(const StrokeTrace& trace) {
     faces[k] = trace.crossings[static_cast<std::size_t>(k)].face;
     barycentric.row(k) = trace.crossings[static_cast<std::size_t>(k)].barycentric.transpose();
   }
+  const auto points = static_cast<Eigen::Index>(trace.path.size());
+  Eigen::Matrix<std::int32_t, Eigen::Dynamic, 1> path_faces(points), path_part(points);
+  Positions path_barycentric(points, 3);
+  for (Eigen::Index k = 0; k < points; ++k) {
+    const StrokePoint& point = trace.path[static_cast<std::size_t>(k)];
+    path_faces[k] = point.face;
+    path_part[k] = point.part;
+    path_barycentric.row(k) = point.barycentric.transpose();
+  }
   py::dict out;
+  out["path_faces"] = read_only_copy(path_faces);
+  out["path_barycentric"] = read_only_copy(path_barycentric);
+  out["path_part"] = read_only_copy(path_part);
   out["faces"] = read_only_copy(faces);
   out["barycentric"] = read_only_copy(barycentric);
   out["samples"] = trace.samples;
@@ -82,7 +94,8 @@ void bind_stroke(py::module_& m) {
   m.def(
       "split_faces",
       [](Cloth& cloth, const py::handle& faces, const py::handle& barycentric, double expansion,
-         double mass_scale, double min_barycentric, double min_angle_degrees) {
+         double mass_scale, double min_barycentric, double min_angle_degrees,
+         bool conserve_mass) {
         idle(cloth);
         const std::vector<std::int32_t> ids = to_indices(faces, "faces");
         const Positions weights =
@@ -97,6 +110,7 @@ void bind_stroke(py::module_& m) {
         options.mass_scale = mass_scale;
         options.min_barycentric = min_barycentric;
         options.min_angle_degrees = min_angle_degrees;
+        options.conserve_mass = conserve_mass;
         const SplitReport report = cloth.split_faces(splits, options);
         py::dict out;
         out["split_faces"] = read_only_copy(report.split_faces);
@@ -108,12 +122,14 @@ void bind_stroke(py::module_& m) {
         out["rest_area_before"] = report.rest_area_before;
         out["rest_area_after"] = report.rest_area_after;
         out["moved_inward"] = report.moved_inward;
+        out["mass_added"] = report.mass_added;
         return out;
       },
       py::arg("cloth"), py::arg("faces"), py::arg("barycentric"), py::kw_only(),
       py::arg("expansion") = 1.1, py::arg("mass_scale") = 0.95, py::arg("min_barycentric") = 0.1,
-      py::arg("min_angle_degrees") = 5.0,
-      "Splits faces 1→3 at barycentric points (the paper's subdivision); returns a report.");
+      py::arg("min_angle_degrees") = 5.0, py::arg("conserve_mass") = false,
+      "Splits faces 1→3 at barycentric points (the paper's subdivision); returns a report. "
+      "conserve_mass: the new vertices take their mass from the corners (mass_scale unused).");
 }
 
 }  // namespace yore::bindings

@@ -12,5 +12,7 @@ void bind_explicit(pybind11::module_& m);
 void bind_implicit(pybind11::module_& m);
 void bind_stroke(pybind11::module_& m);
 void bind_local_global(pybind11::module_& m);
+void bind_subdivision(pybind11::module_& m);
+void bind_growth(pybind11::module_& m);
 
 }  // namespace yore::bindings

@@ -59,4 +59,6 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_implicit(m);
   yore::bindings::bind_stroke(m);
   yore::bindings::bind_local_global(m);
+  yore::bindings::bind_subdivision(m);
+  yore::bindings::bind_growth(m);
 }

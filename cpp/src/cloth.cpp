@@ -5,6 +5,7 @@
 #include <Eigen/QR>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -564,23 +565,118 @@ double area_from_sides(double a, double b, double c) {
   return product > 0.0 ? std::sqrt(product) : 0.0;
 }
 
-/// Smallest interior angle of a triangle, degrees.
-double min_angle_degrees(const Vec3& a, const Vec3& b, const Vec3& c) {
-  auto angle = [](const Vec3& apex, const Vec3& p, const Vec3& q) {
-    const Vec3 u = p - apex, v = q - apex;
-    return std::atan2(u.cross(v).norm(), u.dot(v));
-  };
-  const double smallest = std::min({angle(a, b, c), angle(b, c, a), angle(c, a, b)});
-  return smallest * 180.0 / M_PI;
-}
-
 std::uint64_t pair_key(std::int32_t i, std::int32_t j) {
   const auto lo = static_cast<std::uint64_t>(std::min(i, j));
   const auto hi = static_cast<std::uint64_t>(std::max(i, j));
   return (hi << 32) | lo;
 }
 
+double triangle_area(const Positions& x, std::int32_t a, std::int32_t b, std::int32_t c) {
+  const Vec3 xa = x.row(a), xb = x.row(b), xc = x.row(c);
+  return 0.5 * (xb - xa).cross(xc - xa).norm();
+}
+
+/// Distance between two points of a triangle given by barycentric weights, in the metric of
+/// its side lengths: |d|² = −(d_a d_b |ab|² + d_b d_c |bc|² + d_c d_a |ca|²) for d = u − v
+/// (Σ d = 0), so no embedding is needed.
+double metric_distance(const Vec3& u, const Vec3& v, double ab, double bc, double ca) {
+  const Vec3 d = u - v;
+  const double squared = -(d[0] * d[1] * ab * ab + d[1] * d[2] * bc * bc + d[2] * d[0] * ca * ca);
+  return std::sqrt(std::max(squared, 0.0));
+}
+
+/// Distance between the apexes p and q of two triangles (u, v, p) and (v, u, q) with these side
+/// lengths, hinged along (u, v) at the dihedral angle whose cosine is cos_dihedral (−1: flat).
+double hinge_distance(double uv, double up, double vp, double uq, double vq,
+                      double cos_dihedral) {
+  auto foot = [uv](double to_u, double to_v) { return (to_u * to_u - to_v * to_v + uv * uv) / (2.0 * uv); };
+  const double xp = foot(up, vp), xq = foot(uq, vq);
+  const double hp = std::sqrt(std::max(up * up - xp * xp, 0.0));
+  const double hq = std::sqrt(std::max(uq * uq - xq * xq, 0.0));
+  const double squared = (xp - xq) * (xp - xq) + hp * hp + hq * hq - 2.0 * hp * hq * cos_dihedral;
+  return std::sqrt(std::max(squared, 0.0));
+}
+
 }  // namespace
+
+void Cloth::adopt_subdivision(const Subdivision& mesh) {
+  const Eigen::Index old_vertices = vertex_count();
+  const Eigen::Index added = mesh.new_vertex_corners.rows();
+  const bool with_material = m_material.rows() == old_vertices;
+  m_velocities.conservativeResize(old_vertices + added, 3);
+  if (with_material) m_material.conservativeResize(old_vertices + added, 2);
+  for (Eigen::Index k = 0; k < added; ++k) {
+    const std::int32_t a = mesh.new_vertex_corners(k, 0), b = mesh.new_vertex_corners(k, 1),
+                       c = mesh.new_vertex_corners(k, 2);
+    const Vec3 w = mesh.new_vertex_weights.row(k).transpose();
+    const Eigen::Index p = old_vertices + k;
+    m_velocities.row(p) = w[0] * m_velocities.row(a) + w[1] * m_velocities.row(b) +
+                          w[2] * m_velocities.row(c);
+    if (with_material) {
+      m_material.row(p) =
+          w[0] * m_material.row(a) + w[1] * m_material.row(b) + w[2] * m_material.row(c);
+    }
+  }
+  m_positions = mesh.positions;
+  m_faces = mesh.faces;
+  m_vertex_states.resize(static_cast<std::size_t>(old_vertices + added), VertexState::free);
+}
+
+Eigen::VectorXd Cloth::conserving_masses(const Subdivision& mesh) const {
+  const Eigen::Index old_vertices = vertex_count(), old_faces = face_count();
+  // Each vertex's mass is spread over its faces by area; a changed face collects its corners'
+  // shares and hands them to its children by area, a third to each child's corner.
+  Eigen::VectorXd face_area(old_faces), vertex_area = Eigen::VectorXd::Zero(old_vertices);
+  Eigen::VectorXd vertex_faces = Eigen::VectorXd::Zero(old_vertices);
+  for (Eigen::Index f = 0; f < old_faces; ++f) {
+    face_area[f] = triangle_area(m_positions, m_faces(f, 0), m_faces(f, 1), m_faces(f, 2));
+    for (int c = 0; c < 3; ++c) {
+      vertex_area[m_faces(f, c)] += face_area[f];
+      vertex_faces[m_faces(f, c)] += 1.0;
+    }
+  }
+  const auto new_faces = static_cast<Eigen::Index>(mesh.parents.size());
+  std::vector<std::vector<std::int32_t>> children(static_cast<std::size_t>(old_faces));
+  for (Eigen::Index g = 0; g < new_faces; ++g) {
+    children[static_cast<std::size_t>(mesh.parents[static_cast<std::size_t>(g)])].push_back(
+        static_cast<std::int32_t>(g));
+  }
+  Eigen::VectorXd masses = Eigen::VectorXd::Zero(mesh.positions.rows());
+  masses.head(old_vertices) = m_masses;
+  for (Eigen::Index f = 0; f < old_faces; ++f) {
+    const auto& kids = children[static_cast<std::size_t>(f)];
+    if (kids.size() < 2) continue;  // unchanged face
+    double face_mass = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const std::int32_t i = m_faces(f, c);
+      // A collapsed neighbourhood (zero area) shares by face count instead.
+      const double share = vertex_area[i] > 0.0 ? m_masses[i] * face_area[f] / vertex_area[i]
+                                                : m_masses[i] / vertex_faces[i];
+      masses[i] -= share;
+      face_mass += share;
+    }
+    std::vector<double> areas;
+    double total = 0.0;
+    for (const std::int32_t g : kids) {
+      areas.push_back(triangle_area(mesh.positions, mesh.faces(g, 0), mesh.faces(g, 1),
+                                    mesh.faces(g, 2)));
+      total += areas.back();
+    }
+    for (std::size_t k = 0; k < kids.size(); ++k) {
+      const double fraction = total > 0.0 ? areas[k] / total : 1.0 / static_cast<double>(kids.size());
+      for (int c = 0; c < 3; ++c) masses[mesh.faces(kids[k], c)] += face_mass * fraction / 3.0;
+    }
+  }
+  for (Eigen::Index i = 0; i < masses.size(); ++i) {
+    if (!(masses[i] >= std::numeric_limits<double>::min()) || !std::isfinite(masses[i])) {
+      std::ostringstream msg;
+      msg << "redistributing masses gives vertex " << i << " the mass " << masses[i]
+          << " kg, not a normal number > 0 (degenerate faces?)";
+      fail(msg.str());
+    }
+  }
+  return masses;
+}
 
 SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
                                const SplitOptions& options) {
@@ -590,35 +686,17 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
     msg << "expansion must be finite and > 0, got " << options.expansion;
     fail(msg.str());
   }
-  if (!std::isfinite(options.mass_scale) || options.mass_scale <= 0.0) {
+  if (!options.conserve_mass && (!std::isfinite(options.mass_scale) || options.mass_scale <= 0.0)) {
     std::ostringstream msg;
     msg << "mass_scale must be finite and > 0, got " << options.mass_scale;
     fail(msg.str());
   }
-  if (!(options.min_barycentric >= 0.0 && options.min_barycentric < 1.0 / 3.0)) {
-    fail("min_barycentric must be in [0, 1/3)");
-  }
-  std::vector<char> seen(static_cast<std::size_t>(face_count()), 0);
-  for (const FaceSplit& split : splits) {
-    if (split.face < 0 || split.face >= face_count()) {
-      std::ostringstream msg;
-      msg << "face " << split.face << " out of range [0, " << face_count() << ")";
-      fail(msg.str());
-    }
-    if (seen[static_cast<std::size_t>(split.face)]++) {
-      std::ostringstream msg;
-      msg << "face " << split.face << " is split twice in one call";
-      fail(msg.str());
-    }
-    if (!split.barycentric.allFinite() || split.barycentric.minCoeff() < -1e-9 ||
-        std::abs(split.barycentric.sum() - 1.0) > 1e-6) {
-      std::ostringstream msg;
-      msg << "barycentric weights of face " << split.face << " must be >= 0 and sum to 1";
-      fail(msg.str());
-    }
-  }
+  const Split1to3 surgery = split_faces_1to3(m_positions, m_faces, splits,
+                                             options.min_barycentric, options.min_angle_degrees);
 
   SplitReport report;
+  report.skipped_faces = surgery.skipped_faces;
+  report.moved_inward = surgery.moved_inward;
   // Rest lengths of the structural springs by vertex pair, for rest areas.
   std::unordered_map<std::uint64_t, double> structural_rest;
   structural_rest.reserve(m_springs.size());
@@ -632,91 +710,54 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
     return it == structural_rest.end() ? (m_positions.row(i) - m_positions.row(j)).norm()
                                        : it->second;
   };
-
-  // Choose the split points.
-  struct Planned {
-    std::int32_t face;
-    Vec3 weights;
-  };
-  std::vector<Planned> planned;
-  planned.reserve(splits.size());
-  for (const FaceSplit& split : splits) {
-    const std::int32_t a = m_faces(split.face, 0), b = m_faces(split.face, 1),
-                       c = m_faces(split.face, 2);
-    const Vec3 xa = m_positions.row(a), xb = m_positions.row(b), xc = m_positions.row(c);
-    Vec3 weights = split.barycentric.cwiseMax(0.0);
-    weights /= weights.sum();
-    const double smallest = weights.minCoeff();
-    if (smallest < options.min_barycentric) {
-      // Blend towards the centroid until the smallest weight is min_barycentric.
-      const double blend = (options.min_barycentric - smallest) / (1.0 / 3.0 - smallest);
-      weights = (1.0 - blend) * weights + Vec3::Constant(blend / 3.0);
-      ++report.moved_inward;
-    }
-    auto children_ok = [&](const Vec3& w) {
-      const Vec3 p = w[0] * xa + w[1] * xb + w[2] * xc;
-      return std::min({min_angle_degrees(xa, xb, p), min_angle_degrees(xb, xc, p),
-                       min_angle_degrees(xc, xa, p)}) >= options.min_angle_degrees;
-    };
-    if (!children_ok(weights)) weights = Vec3::Constant(1.0 / 3.0);
-    if (!children_ok(weights)) {
-      report.skipped_faces.push_back(split.face);
-      continue;
-    }
-    planned.push_back({split.face, weights});
-  }
-  for (const Planned& plan : planned) {  // checked before anything changes
-    const double mass = options.mass_scale *
-                        (m_masses[m_faces(plan.face, 0)] + m_masses[m_faces(plan.face, 1)] +
-                         m_masses[m_faces(plan.face, 2)]) / 3.0;
-    if (!(mass >= std::numeric_limits<double>::min()) || !std::isfinite(mass)) {
-      std::ostringstream msg;
-      msg << "mass_scale " << options.mass_scale << " gives face " << plan.face
-          << "'s new vertex the mass " << mass << " kg, not a normal number > 0";
-      fail(msg.str());
+  Eigen::VectorXd conserved;
+  if (options.conserve_mass) {
+    conserved = conserving_masses(surgery.mesh);  // checked before anything changes
+  } else {
+    for (const std::int32_t face : surgery.split_faces) {  // checked before anything changes
+      const double mass = options.mass_scale *
+                          (m_masses[m_faces(face, 0)] + m_masses[m_faces(face, 1)] +
+                           m_masses[m_faces(face, 2)]) / 3.0;
+      if (!(mass >= std::numeric_limits<double>::min()) || !std::isfinite(mass)) {
+        std::ostringstream msg;
+        msg << "mass_scale " << options.mass_scale << " gives face " << face
+            << "'s new vertex the mass " << mass << " kg, not a normal number > 0";
+        fail(msg.str());
+      }
     }
   }
 
   // New vertices and faces.
   const Eigen::Index old_vertices = vertex_count();
-  const Eigen::Index added = static_cast<Eigen::Index>(planned.size());
+  const auto added = static_cast<Eigen::Index>(surgery.split_faces.size());
   if (added == 0) return report;
   const Eigen::Index old_faces = face_count();
-  m_positions.conservativeResize(old_vertices + added, 3);
-  m_velocities.conservativeResize(old_vertices + added, 3);
-  m_masses.conservativeResize(old_vertices + added);
-  if (m_material.rows() == old_vertices) m_material.conservativeResize(old_vertices + added, 2);
-  m_faces.conservativeResize(old_faces + 2 * added, 3);
-  for (Eigen::Index k = 0; k < added; ++k) {
-    const Planned& plan = planned[static_cast<std::size_t>(k)];
-    const std::int32_t a = m_faces(plan.face, 0), b = m_faces(plan.face, 1),
-                       c = m_faces(plan.face, 2);
-    const auto p = static_cast<std::int32_t>(old_vertices + k);
-    const Vec3& w = plan.weights;
-    m_positions.row(p) = w[0] * m_positions.row(a) + w[1] * m_positions.row(b) +
-                         w[2] * m_positions.row(c);
-    m_velocities.row(p) = w[0] * m_velocities.row(a) + w[1] * m_velocities.row(b) +
-                          w[2] * m_velocities.row(c);
-    m_masses[p] = options.mass_scale * (m_masses[a] + m_masses[b] + m_masses[c]) / 3.0;
-
-    if (m_material.rows() == old_vertices + added) {
-      m_material.row(p) =
-          w[0] * m_material.row(a) + w[1] * m_material.row(b) + w[2] * m_material.row(c);
-    }
-    report.rest_area_before +=
-        area_from_sides(rest_of(a, b), rest_of(b, c), rest_of(c, a));
-    // Children keep the parent's orientation: (a, b, p), (b, c, p), (c, a, p).
-    const auto second_child = static_cast<std::int32_t>(old_faces + 2 * k);
-    m_faces.row(plan.face) << a, b, p;
-    m_faces.row(second_child) << b, c, p;
-    m_faces.row(second_child + 1) << c, a, p;
-    report.split_faces.push_back(plan.face);
-    report.new_vertices.push_back(p);
-    report.region_faces.insert(report.region_faces.end(),
-                               {plan.face, second_child, second_child + 1});
+  const double mass_before = m_masses.sum();
+  for (const std::int32_t face : surgery.split_faces) {
+    report.rest_area_before += area_from_sides(rest_of(m_faces(face, 0), m_faces(face, 1)),
+                                               rest_of(m_faces(face, 1), m_faces(face, 2)),
+                                               rest_of(m_faces(face, 2), m_faces(face, 0)));
   }
-  m_vertex_states.resize(static_cast<std::size_t>(old_vertices + added), VertexState::free);
+  if (options.conserve_mass) {
+    m_masses = conserved;
+  } else {
+    m_masses.conservativeResize(old_vertices + added);
+    for (Eigen::Index k = 0; k < added; ++k) {
+      const std::int32_t face = surgery.split_faces[static_cast<std::size_t>(k)];
+      const std::int32_t a = m_faces(face, 0), b = m_faces(face, 1), c = m_faces(face, 2);
+      m_masses[old_vertices + k] = options.mass_scale * (m_masses[a] + m_masses[b] + m_masses[c]) / 3.0;
+    }
+  }
+  adopt_subdivision(surgery.mesh);
+  for (Eigen::Index k = 0; k < added; ++k) {
+    const std::int32_t face = surgery.split_faces[static_cast<std::size_t>(k)];
+    const auto second_child = static_cast<std::int32_t>(old_faces + 2 * k);
+    report.split_faces.push_back(face);
+    report.new_vertices.push_back(static_cast<std::int32_t>(old_vertices + k));
+    report.region_faces.insert(report.region_faces.end(), {face, second_child, second_child + 1});
+  }
   update_inverse_masses();
+  report.mass_added = m_masses.sum() - mass_before;
 
   // Springs: keep every spring whose pair is still wired, drop the rest, add the new pairs with
   // eq. (1) rest lengths.
@@ -845,6 +886,174 @@ void Cloth::update_quadratic_bending() const {
   }
   m_quadratic = quadratic_bending_matrix(m_bending_rest, m_faces);
   m_quadratic_topology = m_topology_version;
+}
+
+RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
+  if (face_count() == 0) fail("a spring network has no faces to refine");
+  const Refinement surgery = refine_faces_1to4(m_positions, m_faces, faces);
+  RefineReport report;
+  report.refined_faces = surgery.refined_faces;
+  report.bisected_faces = surgery.bisected_faces;
+  if (surgery.split_edges.empty()) return report;
+  const Subdivision& mesh = surgery.mesh;
+
+  // Structural rest and reference lengths by pair: the rest metric the new springs inherit.
+  std::unordered_map<std::uint64_t, double> rest, reference;
+  rest.reserve(2 * m_springs.size());
+  reference.reserve(2 * m_springs.size());
+  for (std::size_t k = 0; k < m_springs.size(); ++k) {
+    if (m_springs.kind[k] != SpringKind::structural) continue;
+    const std::uint64_t key = pair_key(m_springs.first[k], m_springs.second[k]);
+    rest[key] = m_springs.rest_length[k];
+    reference[key] = m_springs.reference_length[k];
+  }
+  // Every face edge has a structural spring; the fallback only guards a hand-edited state.
+  auto side = [&](const std::unordered_map<std::uint64_t, double>& metric, std::int32_t i,
+                  std::int32_t j) {
+    const auto it = metric.find(pair_key(i, j));
+    return it == metric.end() ? (mesh.positions.row(i) - mesh.positions.row(j)).norm() : it->second;
+  };
+  const Faces old_faces = m_faces;
+  const Eigen::Index old_vertices = vertex_count();
+  for (const auto* changed : {&surgery.refined_faces, &surgery.bisected_faces}) {
+    for (const std::int32_t f : *changed) {
+      const std::int32_t a = old_faces(f, 0), b = old_faces(f, 1), c = old_faces(f, 2);
+      report.rest_area_before +=
+          area_from_sides(side(rest, a, b), side(rest, b, c), side(rest, c, a));
+    }
+  }
+  const Eigen::VectorXd masses = conserving_masses(mesh);  // checked before anything changes
+  for (Eigen::Index k = 0; k < mesh.new_vertex_corners.rows(); ++k) {
+    report.new_vertices.push_back(static_cast<std::int32_t>(old_vertices + k));
+  }
+  for (std::size_t g = 0; g < mesh.parents.size(); ++g) {
+    const std::int32_t parent = mesh.parents[g];
+    if (static_cast<std::int32_t>(g) != parent || mesh.faces.row(parent) != old_faces.row(parent)) {
+      report.region_faces.push_back(static_cast<std::int32_t>(g));
+    }
+  }
+
+  // Springs: keep every spring whose pair is still wired, add the new pairs in the rest metric.
+  // Built aside and committed with the vertices at the end, so a failure leaves the cloth as it was.
+  SpringSet springs = m_springs;
+  const MeshConnectivity connectivity = mesh_connectivity(mesh.faces);
+  std::vector<char> keep(springs.size(), 0);
+  std::unordered_map<std::uint64_t, char> existing;
+  existing.reserve(springs.size());
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const VertexPair pair{std::min(springs.first[k], springs.second[k]),
+                          std::max(springs.first[k], springs.second[k])};
+    const auto& wired = springs.kind[k] == SpringKind::structural ? connectivity.edges
+                                                                    : connectivity.bending_pairs;
+    keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
+    if (keep[k]) existing[pair_key(pair[0], pair[1])] = 1;
+  }
+  const std::size_t before = springs.size();
+  springs.keep(keep);
+  report.springs_removed = static_cast<std::int64_t>(before - springs.size());
+  const std::size_t kept = springs.size();
+
+  // A face of the new mesh around each edge, and the apexes on either side of each edge.
+  struct EdgeFaces {
+    std::int32_t face = -1;  // a face of the new mesh around the edge
+    std::array<std::int32_t, 2> apexes{-1, -1};
+    int count = 0;
+  };
+  std::unordered_map<std::uint64_t, EdgeFaces> around_edge;
+  around_edge.reserve(static_cast<std::size_t>(2 * mesh.faces.rows()));
+  for (Eigen::Index g = 0; g < mesh.faces.rows(); ++g) {
+    for (int c = 0; c < 3; ++c) {
+      EdgeFaces& entry = around_edge[pair_key(mesh.faces(g, c), mesh.faces(g, (c + 1) % 3))];
+      entry.face = static_cast<std::int32_t>(g);
+      if (entry.count < 2) entry.apexes[static_cast<std::size_t>(entry.count)] = mesh.faces(g, (c + 2) % 3);
+      ++entry.count;
+    }
+  }
+  // Barycentric weights of a vertex in an old face: a corner, or the midpoint of two corners.
+  auto weights_in = [&](std::int32_t v, std::int32_t parent) {
+    Vec3 w = Vec3::Zero();
+    if (v < old_vertices) {
+      for (int c = 0; c < 3; ++c) w[c] = old_faces(parent, c) == v ? 1.0 : 0.0;
+      return w;
+    }
+    const VertexPair& edge = surgery.split_edges[static_cast<std::size_t>(v - old_vertices)];
+    for (int c = 0; c < 3; ++c) {
+      if (old_faces(parent, c) == edge[0] || old_faces(parent, c) == edge[1]) w[c] = 0.5;
+    }
+    return w;
+  };
+  for (const VertexPair& edge : connectivity.edges) {
+    const std::uint64_t key = pair_key(edge[0], edge[1]);
+    if (existing.count(key)) continue;
+    const std::int32_t parent = mesh.parents[static_cast<std::size_t>(around_edge.at(key).face)];
+    const std::int32_t a = old_faces(parent, 0), b = old_faces(parent, 1), c = old_faces(parent, 2);
+    const Vec3 u = weights_in(edge[0], parent), v = weights_in(edge[1], parent);
+    const double rest_length =
+        metric_distance(u, v, side(rest, a, b), side(rest, b, c), side(rest, c, a));
+    const double reference_length = metric_distance(
+        u, v, side(reference, a, b), side(reference, b, c), side(reference, c, a));
+    springs.add(edge[0], edge[1], rest_length, m_stretch_stiffness, m_spring_damping,
+                  SpringKind::structural, reference_length);
+    ++report.springs_added;
+  }
+  // The new structural springs are the sides of the triangles the bending springs hinge on.
+  for (std::size_t k = kept; k < springs.size(); ++k) {
+    const std::uint64_t key = pair_key(springs.first[k], springs.second[k]);
+    rest[key] = springs.rest_length[k];
+    reference[key] = springs.reference_length[k];
+  }
+  if (m_bend_stiffness > 0.0) {
+    std::unordered_map<std::uint64_t, VertexPair> hinge_of;  // bending pair → the edge it crosses
+    hinge_of.reserve(around_edge.size());
+    for (const auto& entry : around_edge) {
+      if (entry.second.count != 2) continue;
+      const std::int32_t u = static_cast<std::int32_t>(entry.first & 0xffffffffu);
+      const std::int32_t v = static_cast<std::int32_t>(entry.first >> 32);
+      hinge_of.emplace(pair_key(entry.second.apexes[0], entry.second.apexes[1]), VertexPair{u, v});
+    }
+    for (const VertexPair& pair : connectivity.bending_pairs) {
+      const std::uint64_t key = pair_key(pair[0], pair[1]);
+      if (existing.count(key)) continue;
+      const VertexPair hinge = hinge_of.at(key);
+      const std::int32_t u = hinge[0], v = hinge[1], p = pair[0], q = pair[1];
+      const Vec3 xu = mesh.positions.row(u), xv = mesh.positions.row(v);
+      const Vec3 axis = (xv - xu).normalized();
+      Vec3 arm_p = Vec3(mesh.positions.row(p)) - xu, arm_q = Vec3(mesh.positions.row(q)) - xu;
+      arm_p -= arm_p.dot(axis) * axis;
+      arm_q -= arm_q.dot(axis) * axis;
+      const double norms = arm_p.norm() * arm_q.norm();
+      const double cos_dihedral = norms > 0.0 ? std::clamp(arm_p.dot(arm_q) / norms, -1.0, 1.0) : -1.0;
+      auto hinged = [&](const std::unordered_map<std::uint64_t, double>& metric) {
+        return hinge_distance(side(metric, u, v), side(metric, u, p), side(metric, v, p),
+                              side(metric, u, q), side(metric, v, q), cos_dihedral);
+      };
+      const double rest_length = hinged(rest);
+      if (!(rest_length > 0.0)) {
+        std::ostringstream msg;
+        msg << "refinement gives the bending pair (" << p << ", " << q
+            << ") a zero rest length: degenerate rest triangles";
+        fail(msg.str());
+      }
+      springs.add(p, q, rest_length, m_bend_stiffness, m_spring_damping, SpringKind::bending,
+                    hinged(reference));
+      ++report.springs_added;
+    }
+  }
+  for (const std::int32_t g : report.region_faces) {
+    const std::int32_t a = mesh.faces(g, 0), b = mesh.faces(g, 1), c = mesh.faces(g, 2);
+    report.rest_area_after += area_from_sides(side(rest, a, b), side(rest, b, c), side(rest, c, a));
+  }
+  const double mass_before = m_masses.sum();
+  adopt_subdivision(mesh);
+  m_masses = masses;
+  m_springs = std::move(springs);
+  update_inverse_masses();
+  report.mass_added = m_masses.sum() - mass_before;
+  rebuild_incidence();
+  m_topology_version = next_topology_version();
+  ++m_edit_count;
+  if (m_bending == BendingModel::quadratic) update_quadratic_bending();  // rest at refine time
+  return report;
 }
 
 EnergyTerms Cloth::energy(const Vec3& gravity) const {

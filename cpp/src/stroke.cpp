@@ -188,8 +188,14 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
     previous = next;
   }
   std::map<std::int32_t, std::size_t> slot_of_face;
-  for (const Sample& sample : samples) {
-    if (!sample.hit) continue;
+  std::int32_t part = 0;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& sample = samples[k];
+    if (!sample.hit) {
+      if (k > 0 && samples[k - 1].hit) ++part;
+      continue;
+    }
+    trace.path.push_back({sample.hit->face, sample.hit->barycentric, part});
     const auto [it, inserted] = slot_of_face.emplace(sample.hit->face, trace.crossings.size());
     if (inserted) trace.crossings.push_back({sample.hit->face, Eigen::Vector3d::Zero(), 0});
     StrokeCrossing& crossing = trace.crossings[it->second];
@@ -313,6 +319,11 @@ StrokeTrace trace_parts(const Polyline& stroke, const std::vector<Positions>& pa
         line.corners(), kMaxStrokeSamples - merged.samples);
     merged.samples += trace.samples;
     merged.missed_samples += trace.missed_samples;
+    const std::int32_t offset = merged.path.empty() ? 0 : merged.path.back().part + 1;
+    for (StrokePoint point : trace.path) {
+      point.part += offset;
+      merged.path.push_back(point);
+    }
     for (const StrokeCrossing& crossing : trace.crossings) {
       const auto [it, inserted] = slot_of_face.emplace(crossing.face, merged.crossings.size());
       if (inserted) {

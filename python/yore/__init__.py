@@ -9,7 +9,7 @@ from __future__ import annotations
 import numbers
 import os as _os
 
-from . import metrics, scenes, springs, stroke
+from . import metrics, scenes, springs, stroke, subdivision
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
@@ -54,6 +54,7 @@ __all__ = [
     "render",
     "load_state",
     "springs",
+    "subdivision",
     "build_info",
     "set_num_threads",
 ]

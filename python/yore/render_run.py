@@ -57,7 +57,9 @@ def _stroke_lines(strokes, V):
     """Polylines of the strokes whose vertices exist in a frame with these positions."""
     lines = []
     for stroke in strokes:
-        vertices = np.asarray(stroke["new_vertices"], dtype=np.int64)
+        # runs recorded before line_vertices existed drew their (paper) new vertices
+        vertices = np.asarray(stroke.get("line_vertices", stroke["new_vertices"]),
+                              dtype=np.int64)
         if vertices.size >= 1 and vertices.max() < len(V):
             lines.append(V[vertices])
     return lines

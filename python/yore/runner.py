@@ -520,8 +520,14 @@ def _stroke_record(index, time, report):
             "rest_area_after": report.rest_area_after,
             "missed_fraction": report.missed_fraction, "locate_seconds": report.locate_seconds,
             "subdivide_seconds": report.subdivide_seconds,
-            # the stroke's new vertices in the order it crossed their faces: its polyline
-            "new_vertices": [int(v) for v in report.new_vertices]}
+            "growth": report.growth, "width": report.width, "refine": report.refine,
+            "faces_refined": report.faces_refined, "faces_bisected": report.faces_bisected,
+            "springs_grown": report.springs_grown,
+            "rest_length_added": report.rest_length_added, "mass_added": report.mass_added,
+            "new_vertices": [int(v) for v in report.new_vertices],
+            # vertices along the stroke in stroke order: its polyline in pictures (the paper's
+            # new vertices in the order it crossed their faces)
+            "line_vertices": [int(v) for v in report.line_vertices]}
 
 
 def _save(out, sim, record, previous_phases, phases=None):

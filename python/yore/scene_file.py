@@ -44,7 +44,8 @@ from .io import load_mesh
 from .meshes import MAX_MESH_VERTICES, cylinder_mesh, cylinder_ring, grid_mesh
 from .simulation import (_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, OptionError,
                          Simulation, check_option)
-from .stroke import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, Camera, StrokeMissed
+from .stroke import (GROWTH_MODES, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_REFINE, Camera,
+                     StrokeMissed)
 
 __all__ = ["Scene", "SceneError", "load_scene", "parse_override"]
 
@@ -229,6 +230,19 @@ _SELECTION = {
 }
 
 _STROKE_FORMS = ("points", "material", "screen")
+
+
+def _mass_scale(value):
+    if value == "conserve" and isinstance(value, str):
+        return value
+    try:
+        return _positive_factor(value)
+    except _Invalid as error:
+        raise _Invalid(error.problem, _mass_scale.expected) from None
+
+
+_positive_factor = _number(0, strict_minimum=True)
+_mass_scale.expected = "a number > 0 or 'conserve'"
 _SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in _GENERATOR_KEYS)
 
 SCHEMA = {
@@ -284,7 +298,13 @@ SCHEMA = {
         "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
         "expansion": (_number(0, strict_minimum=True), 1.1, "rest length / current length of "
                       "new springs (eq. (1))"),
-        "mass_scale": (_number(0, strict_minimum=True), 0.95, "new vertex mass / corners' mean"),
+        "mass_scale": (_mass_scale, 0.95, "new vertex mass / corners' mean, or 'conserve' "
+                       "(taken from the corners; total mass unchanged)"),
+        "width": (_number(0, strict_minimum=True, unit="m"), None,
+                  "band around the stroke with a smooth falloff (default: the crossed faces)"),
+        "growth": (_choice(*GROWTH_MODES), "paper",
+                   "paper (eq. (1) on new springs), isotropic, along or across the stroke"),
+        "refine": (_integer(0, MAX_REFINE), 0, "1→4 refinement passes of the band first"),
         "max_distance": (_number(0, strict_minimum=True, unit="m"), None,
                          "points only: farthest a point may be from the surface"),
         "smooth": ("smooth", None, "{iterations, strength, region}: rest-length smoothing "
@@ -314,6 +334,7 @@ _SMOOTH = {
     "iterations": (_integer(0, MAX_SMOOTHING_ITERATIONS), 10, "smoothing iterations"),
     "strength": (_number(0, 1, strict_minimum=True), 0.5, "fraction moved per iteration"),
     "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
+    "conserve": (_boolean, True, "keep the region's added rest length (redistribute only)"),
 }
 _BOX = {
     "min": (_vector3, _REQUIRED, "lower corner, m"),
@@ -826,7 +847,9 @@ def apply_scene_stroke(scene, sim, index, camera=None):
     report. A stroke that misses raises SceneError naming it."""
     stroke = scene.data["strokes"][index]
     where = f"strokes[{index}]"
-    options = {"expansion": stroke["expansion"], "mass_scale": stroke["mass_scale"]}
+    options = {"expansion": stroke["expansion"], "mass_scale": stroke["mass_scale"],
+               "width": stroke.get("width"), "growth": stroke["growth"],
+               "refine": stroke["refine"]}
     try:
         if "material" in stroke:
             report = sim.stroke_material(stroke["material"], **options)
@@ -846,5 +869,6 @@ def apply_scene_stroke(scene, sim, index, camera=None):
     smooth = stroke.get("smooth")
     if smooth is not None:
         sim.smooth_rest_lengths(iterations=smooth["iterations"], strength=smooth["strength"],
-                                region="all" if smooth["region"] == "all" else None)
+                                region="all" if smooth["region"] == "all" else None,
+                                conserve=smooth["conserve"])
     return report

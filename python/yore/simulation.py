@@ -11,7 +11,8 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
-from .stroke import Camera, apply_stroke, check_factor, check_stroke_points, mean_edge_length
+from .stroke import (Camera, apply_stroke, check_factor, check_stroke_options, check_stroke_points,
+                     mean_edge_length)
 
 __all__ = ["Simulation", "INTEGRATORS"]
 
@@ -678,82 +679,108 @@ class Simulation:
                           stacklevel=3)
 
     # -- strokes ----------------------------------------------------------------------------
-    def stroke(self, points_3d, expansion=1.1, mass_scale=0.95, max_distance=None):
+    def stroke(self, points_3d, expansion=1.1, mass_scale=0.95, max_distance=None, width=None,
+               growth="paper", refine=0):
         """Adds wrinkles along a 3-D polyline near the cloth (the paper's stroke).
 
         points_3d : (k, 3) metres. Each point goes to the closest point of the current surface;
         the polyline is refined until no face it crosses is skipped. Points farther than
         ``max_distance`` (default 5 % of the cloth's bounding-box diagonal) miss.
-        expansion : rest length of new springs over their current length (eq. (1): 1.1).
-        mass_scale : new vertex mass over its face corners' mean (paper: 0.95).
+        expansion : rest length of new springs over their current length (eq. (1): 1.1); in the
+        other growth modes the factor a spring at full weight grows by.
+        mass_scale : new vertex mass over its face corners' mean (paper: 0.95), or "conserve"
+        (the new vertex takes its mass from the corners; the total mass is unchanged).
+        width : m, the band around the stroke (None: the faces it crosses, as in the paper).
+        growth : "paper" | "isotropic" | "along" | "across"; refine : 1→4 refinement passes of
+        the band before the growth (see `yore.stroke` for the rules).
         Returns a `yore.stroke.StrokeReport`; raises `yore.StrokeMissed` if nothing is hit,
         ValueError on bad input.
         """
-        points, expansion, mass_scale = self._stroke_arguments(
-            points_3d, 3, "points_3d", expansion, mass_scale)
+        points, expansion, options = self._stroke_arguments(
+            points_3d, 3, "points_3d", expansion, mass_scale, width, growth, refine)
         X = self._cloth.positions
         if max_distance is None:
             max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
         max_distance = check_factor(max_distance, "max_distance")
-        spacing = 0.25 * mean_edge_length(X, self._cloth.faces)
-        start = _time.perf_counter()
-        trace = _core.trace_closest(self._cloth, points, max_distance, spacing)
-        return self._finish_stroke(trace, expansion, mass_scale, start)
 
-    def stroke_screen(self, points_px, camera, expansion=1.1, mass_scale=0.95):
+        def trace():
+            spacing = 0.25 * mean_edge_length(self._cloth.positions, self._cloth.faces)
+            return _core.trace_closest(self._cloth, points, max_distance, spacing)
+        return self._finish_stroke(trace, expansion, options)
+
+    def stroke_screen(self, points_px, camera, expansion=1.1, mass_scale=0.95, width=None,
+                      growth="paper", refine=0):
         """Adds wrinkles along a 2-D polyline drawn over a rendered view, as the paper's user
         draws: points_px (k, 2) in pixels of `camera` (a `yore.Camera`); rays through the
-        current surface, nearest hit. Same report and errors as `stroke`."""
+        current surface, nearest hit. Same options, report and errors as `stroke`."""
         if not isinstance(camera, Camera):
             raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
-        points, expansion, mass_scale = self._stroke_arguments(
-            points_px, 2, "points_px", expansion, mass_scale)
+        points, expansion, options = self._stroke_arguments(
+            points_px, 2, "points_px", expansion, mass_scale, width, growth, refine)
         d0, dx, dy = camera.pixel_rays()
-        start = _time.perf_counter()
-        trace = _core.trace_rays(self._cloth, points, np.asarray(camera.eye, float), d0, dx, dy,
-                                 0.5)
-        return self._finish_stroke(trace, expansion, mass_scale, start)
 
-    def stroke_material(self, points_uv, expansion=1.1, mass_scale=0.95):
+        def trace():
+            return _core.trace_rays(self._cloth, points, np.asarray(camera.eye, float), d0, dx,
+                                    dy, 0.5)
+        return self._finish_stroke(trace, expansion, options)
+
+    def stroke_material(self, points_uv, expansion=1.1, mass_scale=0.95, width=None,
+                        growth="paper", refine=0):
         """Adds wrinkles along a 2-D polyline in the cloth's rest-pattern coordinates
-        (``cloth.material_coordinates``, set by the scenes). Same report and errors as
-        `stroke`."""
-        points, expansion, mass_scale = self._stroke_arguments(
-            points_uv, 2, "points_uv", expansion, mass_scale)
+        (``cloth.material_coordinates``, set by the scenes). Same options, report and errors as
+        `stroke` (width is still measured on the current surface)."""
+        points, expansion, options = self._stroke_arguments(
+            points_uv, 2, "points_uv", expansion, mass_scale, width, growth, refine)
         uv = self._cloth.material_coordinates
         if uv is None:
             raise ValueError("the cloth has no material coordinates; set "
                              "cloth.material_coordinates (n×2) first")
-        flat = np.column_stack([uv, np.zeros(len(uv))])
-        spacing = 0.25 * mean_edge_length(flat, self._cloth.faces)
         tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
-        start = _time.perf_counter()
-        trace = _core.trace_material(self._cloth, points, tolerance, spacing)
-        return self._finish_stroke(trace, expansion, mass_scale, start)
 
-    def _stroke_arguments(self, points, dimension, name, expansion, mass_scale):
-        """Checked stroke points (k×3) and factors; ValueError naming what is wrong."""
+        def trace():
+            uv = self._cloth.material_coordinates
+            flat = np.column_stack([uv, np.zeros(len(uv))])
+            spacing = 0.25 * mean_edge_length(flat, self._cloth.faces)
+            return _core.trace_material(self._cloth, points, tolerance, spacing)
+        return self._finish_stroke(trace, expansion, options)
+
+    def _stroke_arguments(self, points, dimension, name, expansion, mass_scale, width, growth,
+                          refine):
+        """Checked stroke points (k×3), expansion and options; ValueError naming what is
+        wrong."""
         if self._cloth.face_count == 0:
             raise ValueError("a spring network has no faces to stroke")
-        return (check_stroke_points(points, dimension, name),
-                check_factor(expansion, "expansion"), check_factor(mass_scale, "mass_scale"))
+        width, growth, refine, mass_scale = check_stroke_options(width, growth, refine,
+                                                                 mass_scale)
+        return (check_stroke_points(points, dimension, name), check_factor(expansion, "expansion"),
+                {"mass_scale": mass_scale, "width": width, "growth": growth, "refine": refine})
 
-    def _finish_stroke(self, trace, expansion, mass_scale, start):
-        report = apply_stroke(self._cloth, trace, expansion, mass_scale,
-                              _time.perf_counter() - start)
+    def _finish_stroke(self, trace, expansion, options):
+        start = _time.perf_counter()
+        first = trace()
+        report = apply_stroke(self._cloth, first, expansion, options["mass_scale"],
+                              _time.perf_counter() - start, width=options["width"],
+                              growth=options["growth"], refine=options["refine"], retrace=trace)
         self._pending_reports.append(report)
         self._last_stroke = report
         return report
 
-    def smooth_rest_lengths(self, iterations=10, strength=0.5, region=None) -> dict:
+    def smooth_rest_lengths(self, iterations=10, strength=0.5, region=None,
+                            conserve=True) -> dict:
         """Laplacian smoothing of rest lengths (the paper's remedy for uneven surfaces).
 
         The smoothed field is the ratio rest / reference length of each spring (1 for untouched
         springs, ``expansion`` for a stroke's new ones); each iteration moves a spring's ratio by
         ``strength`` towards the mean ratio around its two ends. ``region``: vertex indices whose
         springs are smoothed, "all", or None for the last stroke's region and one ring around it.
+        With ``conserve`` (default) smoothing redistributes the expansion and creates none: the
+        smoothed excess (rest − reference) of the smoothed springs is scaled so that its sum, the
+        added rest length over the region, is what it was (averaging ratios alone spreads
+        a short spring's ratio to longer neighbours and raised a stroke's added rest length by
+        29 %, 0.550 → 0.708 m). ``conserve=False`` is the plain ratio smoothing.
         No re-analysis follows (the topology is unchanged). Returns the ratio-field roughness
-        before and after (`yore.metrics.rest_ratio_roughness`).
+        before and after (`yore.metrics.rest_ratio_roughness`) and the added rest length (m)
+        before and after.
 
         Raises ValueError unless ``iterations`` is an integer in [0, `MAX_SMOOTHING_ITERATIONS`],
         ``strength`` a number in (0, 1] and ``region`` None, "all" or integer vertex indices in
@@ -787,12 +814,20 @@ class Simulation:
         reference = cloth.springs.reference
         ratio = cloth.springs.rest / reference
         before = rest_ratio_roughness(cloth, np.flatnonzero(selected))
+        added_before = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
         for _ in range(iterations):
             neighbour = _vertex_mean_of_springs(cloth, ratio)
             ratio = np.where(selected, (1.0 - strength) * ratio + strength * neighbour, ratio)
+        added_after = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
+        if conserve and added_before != 0.0 and added_after * added_before > 0.0:
+            scaled = np.where(selected, 1.0 + (ratio - 1.0) * (added_before / added_after), ratio)
+            if np.all(scaled > 0.0):  # a mixed-sign excess could scale a ratio through zero
+                ratio = scaled
+                added_after = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
         cloth.springs.rest = ratio * reference
         return {"springs": int(selected.sum()), "roughness_before": before,
-                "roughness_after": rest_ratio_roughness(cloth, np.flatnonzero(selected))}
+                "roughness_after": rest_ratio_roughness(cloth, np.flatnonzero(selected)),
+                "rest_added_before": added_before, "rest_added_after": added_after}
 
     # -- measurements -----------------------------------------------------------------------
     def energy(self) -> dict:

@@ -10,6 +10,30 @@ Degenerate cases (documented rule): a split point whose smallest barycentric wei
 a tenth of the face's area; if a child would still have an angle below 5°, the centroid is
 tried, and if that too gives a sliver the face is left whole and reported in
 ``faces_skipped``. Strokes repeated over a region split its (new) faces again.
+
+Options beyond the paper (all strokes, scene files alike):
+
+- ``width`` (m, default None): the band of the stroke. None is the paper's: the faces the stroke
+  crosses. A width takes every face with a corner closer than width/2 to the stroke's path, the
+  distance measured in 3-D on the *current* surface (the path is the stroke's samples on the
+  surface, so a 3-D, screen or material stroke all give the same kind of path). Each vertex gets
+  the falloff weight w = 1 − smoothstep(d / (width/2)) (1 on the corners of a crossed face, 0
+  from width/2 on), each spring the smaller weight of its two ends. In paper mode the split
+  stays on the crossed faces (eq. (1)); width there only widens the band that ``refine`` refines.
+- ``growth``: "paper" (default) splits the crossed faces 1→3 and lengthens only the new springs
+  (eq. (1)); "isotropic", "along" and "across" split nothing and lengthen every spring in the
+  band (structural and bending, original or not) from its rest length L: with g = 1 + (expansion
+  − 1) w, isotropic gives L·g, along L·√(g²c² + s²) and across L·√(c² + g²s²), c and s the
+  cosine and sine of the angle between the spring and the tangent of the path at the end nearer
+  it. The angle is taken on the current surface at the time of the stroke (the rest frame for a
+  cloth at rest; a strained cloth's springs turn a little).
+- ``refine`` (int, 0–`MAX_REFINE`): passes of 1→4 midpoint refinement of the band's faces (a
+  neighbour left with two split edges is refined too, one with a single split edge is bisected)
+  before the growth; the stroke is traced again after each pass. New springs keep the rest
+  metric, masses are redistributed with the total unchanged (`yore.Cloth` refine_faces).
+- ``mass_scale``: a number is the paper's rule (a new point weighs mass_scale × its corners'
+  mean, so the total mass grows); "conserve" takes the new point's mass from the split face's
+  corners so the total is unchanged.
 """
 
 from __future__ import annotations
@@ -25,11 +49,16 @@ from . import _core
 from .metrics import face_areas
 
 __all__ = ["Camera", "StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
-           "MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS"]
+           "MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS", "GROWTH_MODES", "MAX_REFINE", "falloff_weight"]
 
 #: The degenerate-case rules (see the module docstring).
 MIN_BARYCENTRIC = 0.1
 MIN_ANGLE_DEGREES = 5.0
+
+#: The growth modes (see the module docstring), in the order of the core's table.
+GROWTH_MODES = ("paper", "isotropic", "along", "across")
+#: Most refinement passes one stroke may ask for: each pass quadruples the band's faces.
+MAX_REFINE = 4
 
 
 #: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
@@ -148,6 +177,23 @@ class StrokeReport:
     reanalyze_seconds: float | None = None
     topology_version: int = 0
     extra: dict = field(default_factory=dict)
+    #: the options the stroke ran with
+    growth: str = "paper"
+    width: float | None = None
+    refine: int = 0
+    #: faces split 1→4 / bisected 1→2 by the refinement passes (all passes)
+    faces_refined: int = 0
+    faces_bisected: int = 0
+    #: springs whose rest length the growth rule changed (0 in paper mode: its springs are new)
+    springs_grown: int = 0
+    #: m, Σ (new − old rest length) of the grown springs, or of the split's new springs
+    #: (expansion − 1 times their length) in paper mode
+    rest_length_added: float = 0.0
+    #: kg, total mass after the stroke minus before
+    mass_added: float = 0.0
+    #: vertices that trace the stroke on the cloth, in stroke order (for pictures): the split's
+    #: new vertices in paper mode, else the corner nearest each sample of the path
+    line_vertices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
 
     @property
     def missed_fraction(self) -> float:
@@ -199,23 +245,145 @@ def mean_edge_length(V, F) -> float:
                           for a, b in ((0, 1), (1, 2), (2, 0))]))
 
 
-def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds) -> StrokeReport:
-    """Splits the faces a trace found; raises StrokeMissed when it found none."""
+def falloff_weight(distance, width):
+    """Falloff weights (in [0, 1]) at distances (m) from a stroke of this width (m):
+    1 − smoothstep(distance / (width/2)), 1 on the stroke and 0 from width/2 on."""
+    width = check_factor(width, "width", "m")
+    return _core.falloff_weight(np.atleast_1d(np.asarray(distance, dtype=float)), width / 2.0)
+
+
+def check_stroke_options(width, growth, refine, mass_scale):
+    """(width or None, growth, refine, mass_scale) checked; ValueError naming the problem."""
+    if width is not None:
+        width = check_factor(width, "width", "m")
+    if not isinstance(growth, str) or growth not in GROWTH_MODES:
+        raise ValueError(f"growth: got {growth!r}; expected one of "
+                         + ", ".join(repr(g) for g in GROWTH_MODES))
+    if (isinstance(refine, (bool, np.bool_)) or not isinstance(refine, numbers.Integral)
+            or not 0 <= refine <= MAX_REFINE):
+        raise ValueError(f"refine: got {refine!r}; expected an integer in [0, {MAX_REFINE}] "
+                         "(refinement passes; each quadruples the band's faces)")
+    if isinstance(mass_scale, str):
+        if mass_scale != "conserve":
+            raise ValueError(f"mass_scale: got {mass_scale!r}; expected a number > 0 (the "
+                             "paper's rule) or 'conserve'")
+    else:
+        mass_scale = check_factor(mass_scale, "mass_scale")
+    return width, growth, int(refine), mass_scale
+
+
+def surface_path(cloth, trace):
+    """The stroke's path on the current surface: (m×3 points, m part labels)."""
+    corners = cloth.positions[cloth.faces[trace["path_faces"]]]
+    return (np.einsum("mc,mcd->md", trace["path_barycentric"], corners),
+            np.asarray(trace["path_part"]))
+
+
+def _check_hit(trace):
     if len(trace["faces"]) == 0:
         raise StrokeMissed(f"the stroke touches the cloth nowhere ({trace['samples']} samples, "
                            "all missed)")
+
+
+def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds, width=None,
+                 growth="paper", refine=0, retrace=None) -> StrokeReport:
+    """Refines, splits or grows along the faces a trace found; raises StrokeMissed when it found
+    none. ``retrace()`` traces the stroke again (after each refinement pass)."""
+    _check_hit(trace)
     area_before = float(face_areas(cloth.positions, cloth.faces)[trace["faces"]].sum())
     start = time.perf_counter()
-    split = _core.split_faces(cloth, trace["faces"], trace["barycentric"], expansion=expansion,
-                              mass_scale=mass_scale, min_barycentric=MIN_BARYCENTRIC,
-                              min_angle_degrees=MIN_ANGLE_DEGREES)
+    mass_before = float(cloth.masses.sum())
+    band_width = 0.0 if width is None else float(width)
+    refined = {"faces_refined": 0, "faces_bisected": 0, "springs_added": 0,
+               "springs_removed": 0, "vertices": []}
+    for _ in range(refine):
+        path, part = surface_path(cloth, trace)
+        band = _core.stroke_band(cloth, path, part, trace["faces"], band_width)
+        result = _core.refine_faces(cloth, band["faces"])
+        refined["faces_refined"] += len(result["refined_faces"])
+        refined["faces_bisected"] += len(result["bisected_faces"])
+        refined["springs_added"] += result["springs_added"]
+        refined["springs_removed"] += result["springs_removed"]
+        refined["vertices"].extend(result["new_vertices"].tolist())
+        located = time.perf_counter()
+        trace = retrace()
+        locate_seconds += time.perf_counter() - located
+        _check_hit(trace)
+    options = {"growth": growth, "width": width, "refine": refine,
+               "faces_refined": refined["faces_refined"],
+               "faces_bisected": refined["faces_bisected"]}
+    if growth == "paper":
+        conserve = mass_scale == "conserve"
+        split = _core.split_faces(cloth, trace["faces"], trace["barycentric"],
+                                  expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
+                                  min_barycentric=MIN_BARYCENTRIC,
+                                  min_angle_degrees=MIN_ANGLE_DEGREES, conserve_mass=conserve)
+        subdivide = time.perf_counter() - start
+        new_vertices = np.array(refined["vertices"] + split["new_vertices"].tolist(),
+                                dtype=np.int32) if refine else np.array(split["new_vertices"])
+        springs = cloth.springs
+        added = springs.rest[len(springs.rest) - split["springs_added"]:]
+        reference = springs.reference[len(springs.rest) - split["springs_added"]:]
+        return StrokeReport(
+            faces_split=len(split["split_faces"]), faces_skipped=np.array(split["skipped_faces"]),
+            vertices_added=len(new_vertices),
+            springs_added=split["springs_added"] + refined["springs_added"],
+            springs_removed=split["springs_removed"] + refined["springs_removed"],
+            region_faces=np.array(split["region_faces"]), new_vertices=new_vertices,
+            area_before=area_before, rest_area_before=split["rest_area_before"],
+            rest_area_after=split["rest_area_after"], samples=trace["samples"],
+            missed_samples=trace["missed_samples"], moved_inward=split["moved_inward"],
+            locate_seconds=locate_seconds, subdivide_seconds=subdivide,
+            topology_version=cloth.topology_version,
+            rest_length_added=float(np.sum(added - reference)),
+            mass_added=float(cloth.masses.sum()) - mass_before,
+            line_vertices=np.array(split["new_vertices"]), **options)
+    path, part = surface_path(cloth, trace)
+    grown = _core.grown_rest_lengths(cloth, path, part, trace["faces"], band_width, growth,
+                                     expansion)
+    band_faces = np.asarray(grown["faces"])
+    rest_area = [_rest_area(cloth, band_faces, cloth.springs.rest),
+                 _rest_area(cloth, band_faces, grown["rest_lengths"])]
+    if grown["springs_grown"]:
+        cloth.springs.rest = grown["rest_lengths"]
     subdivide = time.perf_counter() - start
     return StrokeReport(
-        faces_split=len(split["split_faces"]), faces_skipped=np.array(split["skipped_faces"]),
-        vertices_added=len(split["new_vertices"]), springs_added=split["springs_added"],
-        springs_removed=split["springs_removed"], region_faces=np.array(split["region_faces"]),
-        new_vertices=np.array(split["new_vertices"]), area_before=area_before,
-        rest_area_before=split["rest_area_before"], rest_area_after=split["rest_area_after"],
-        samples=trace["samples"], missed_samples=trace["missed_samples"],
-        moved_inward=split["moved_inward"], locate_seconds=locate_seconds,
-        subdivide_seconds=subdivide, topology_version=cloth.topology_version)
+        faces_split=0, faces_skipped=np.zeros(0, dtype=np.int32),
+        vertices_added=len(refined["vertices"]), springs_added=refined["springs_added"],
+        springs_removed=refined["springs_removed"], region_faces=band_faces,
+        new_vertices=np.array(refined["vertices"], dtype=np.int32), area_before=area_before,
+        rest_area_before=rest_area[0], rest_area_after=rest_area[1], samples=trace["samples"],
+        missed_samples=trace["missed_samples"], moved_inward=0, locate_seconds=locate_seconds,
+        subdivide_seconds=subdivide, topology_version=cloth.topology_version,
+        springs_grown=grown["springs_grown"], rest_length_added=grown["rest_added"],
+        mass_added=float(cloth.masses.sum()) - mass_before,
+        extra={"spring_weights": grown["spring_weights"],
+               "vertex_weights": grown["vertex_weight"]},
+        line_vertices=_nearest_corners(cloth, trace), **options)
+
+
+def _nearest_corners(cloth, trace):
+    """Per path sample the corner of its face with the largest weight, repeats dropped."""
+    corners = cloth.faces[trace["path_faces"], np.argmax(trace["path_barycentric"], axis=1)]
+    if len(corners) == 0:
+        return corners.astype(np.int32)
+    keep = np.concatenate([[True], corners[1:] != corners[:-1]])
+    return corners[keep].astype(np.int32)
+
+
+def _rest_area(cloth, faces, rest):
+    """Rest area (m²) of `faces` with the structural springs' rest lengths `rest` (s,), Heron."""
+    springs = cloth.springs
+    structural = springs.kind == 0
+    ends = np.sort(springs.ends[structural], axis=1).astype(np.int64)
+    keys = ends[:, 0] << 32 | ends[:, 1]
+    order = np.argsort(keys)
+    keys, lengths = keys[order], np.asarray(rest)[structural][order]
+    F = cloth.faces[faces]
+    sides = []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        pair = np.sort(F[:, [a, b]], axis=1).astype(np.int64)
+        sides.append(lengths[np.searchsorted(keys, pair[:, 0] << 32 | pair[:, 1])])
+    a, b, c = sides
+    s = 0.5 * (a + b + c)
+    return float(np.sqrt(np.clip(s * (s - a) * (s - b) * (s - c), 0.0, None)).sum())

@@ -6,6 +6,7 @@
 #include "yore/mesh.hpp"
 #include "yore/quadratic_bending.hpp"
 #include "yore/springs.hpp"
+#include "yore/subdivision.hpp"
 
 #include <Eigen/Core>
 
@@ -77,18 +78,15 @@ struct ClothState {
   Positions bending_rest;        ///< n×3 rest positions of quadratic bending (m), else empty
 };
 
-/// Where to split one face: the new vertex at these barycentric weights of its corners.
-struct FaceSplit {
-  std::int32_t face = -1;
-  Vec3 barycentric = Vec3::Constant(1.0 / 3.0);
-};
-
 /// How faces are split (the paper's partial area expansion).
 struct SplitOptions {
   /// Rest length of a new spring = expansion × its current length (eq. (1) of the paper: 1.1).
   double expansion = 1.1;
   /// Mass of a new vertex = mass_scale × the mean mass of the face's corners (paper: 0.95).
   double mass_scale = 0.95;
+  /// Instead of mass_scale: the new vertex takes its mass from the split face's corners so that
+  /// the total mass is unchanged (see Cloth::split_faces).
+  bool conserve_mass = false;
   /// A split point with a barycentric weight below this is moved towards the centroid until the
   /// smallest weight equals it, so no child triangle has less than this fraction of the area.
   double min_barycentric = 0.1;
@@ -108,6 +106,20 @@ struct SplitReport {
   double rest_area_before = 0.0;     ///< m², of the split faces, from their edges' rest lengths
   double rest_area_after = 0.0;      ///< m², of their children, likewise
   std::int64_t moved_inward = 0;     ///< split points moved inward by the min_barycentric rule
+  double mass_added = 0.0;           ///< kg, total mass after minus before
+};
+
+/// What refine_faces did.
+struct RefineReport {
+  std::vector<std::int32_t> refined_faces;   ///< original indices of the faces split 1→4
+  std::vector<std::int32_t> bisected_faces;  ///< faces split 1→2 by the conforming closure
+  std::vector<std::int32_t> new_vertices;    ///< the edge midpoints
+  std::vector<std::int32_t> region_faces;    ///< every child of a refined or bisected face
+  std::int64_t springs_added = 0;
+  std::int64_t springs_removed = 0;  ///< springs whose pair is no longer wired
+  double rest_area_before = 0.0;     ///< m², of the changed faces, from their rest lengths
+  double rest_area_after = 0.0;      ///< m², of their children, likewise
+  double mass_added = 0.0;           ///< kg, total mass after minus before (0 up to round-off)
 };
 
 /// A mass-spring cloth (or a plain spring network when built by from_springs).
@@ -222,7 +234,23 @@ class Cloth {
   /// springs across edges whose neighbours changed are removed. Faces keep their orientation.
   /// Gives a new topology_version. Throws std::invalid_argument on a spring network (no faces),
   /// bad options, out-of-range or repeated faces, or non-finite weights.
+  /// With options.conserve_mass the new vertex's mass comes from the corners instead (see
+  /// refine_faces for the rule), so the total mass is unchanged.
+  /// Mesh surgery by split_faces_1to3 (subdivision.hpp); this rewires springs and masses.
   SplitReport split_faces(const std::vector<FaceSplit>& splits, const SplitOptions& options);
+
+  /// Refines faces 1→4 at edge midpoints with the conforming closure of refine_faces_1to4.
+  /// New vertices get the midpoint of their edge's positions, velocities and material
+  /// coordinates. Springs keep the rest metric: a new spring's rest (and reference) length is
+  /// the distance between its ends in the parent triangle laid out with its structural rest
+  /// (reference) lengths as sides; a new bending spring's, across the two rest triangles hinged
+  /// at the current dihedral angle. Masses are redistributed so the total is unchanged: each
+  /// corner's share of a changed face (its mass × face area / its faces' area, current areas)
+  /// moves to the face, which gives it to its children by area, each child a third to each
+  /// corner.
+  /// Gives a new topology_version (unless nothing is refined). Throws std::invalid_argument on
+  /// a spring network or faces out of range.
+  RefineReport refine_faces(const std::vector<std::int32_t>& faces);
 
   /// Rest-pattern (material) coordinates, n×2 (m), or empty when the cloth has none.
   const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& material_coordinates() const {
@@ -289,6 +317,11 @@ class Cloth {
   static constexpr double kLanczosRelativeTolerance = 1e-6;
   void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
   void update_quadratic_bending() const;
+  // Takes over a subdivision's vertices (interpolating velocities and material coordinates)
+  // and faces; masses and springs are left to the caller.
+  void adopt_subdivision(const Subdivision& mesh);
+  // Masses of a subdivided mesh with the same total: the mass-conserving rule of refine_faces.
+  Eigen::VectorXd conserving_masses(const Subdivision& mesh) const;
 
   Positions m_positions;
   Positions m_velocities;

@@ -50,9 +50,18 @@ struct StrokeCrossing {
   std::int32_t samples = 0;  ///< how many stroke samples fell in the face
 };
 
+/// One sample of a stroke that hit the surface.
+struct StrokePoint {
+  std::int32_t face = -1;
+  Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();
+  std::int32_t part = 0;  ///< stretches of the stroke between misses (and clipped parts) differ
+};
+
 /// The faces a stroke crosses, in the order it first enters them.
 struct StrokeTrace {
   std::vector<StrokeCrossing> crossings;
+  /// Every sample that hit, in stroke order: the stroke's path on the surface.
+  std::vector<StrokePoint> path;
   std::int64_t samples = 0;         ///< samples evaluated (after refinement) + counted
   /// samples that did not touch the surface, including those of the parts of a stroke clipped
   /// away before sampling (counted at the sampling spacing, not evaluated)
