@@ -365,3 +365,26 @@ def test_screen_strokes_take_the_options_too():
     assert report.faces_refined > 0 and report.springs_grown > 0 and report.faces_split == 0
     with pytest.raises(ValueError, match="growth"):
         sim.stroke_screen(pixels, camera, growth="sideways")
+
+
+def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_not():
+    # Refinement halves edges and splits masses, so the stable step falls; an explicit dt left
+    # to the default is re-derived (never raised), one the user gave is kept as given.
+    sim = yore.scenes.hanging_cloth(resolution=9)
+    before = sim.dt
+    report = sim.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2,
+                                 refine=1)
+    assert report.faces_refined > 0
+    assert sim.dt == yore.simulation.default_explicit_dt(sim.cloth) < before
+    assert report.extra["dt_before"] == before and report.extra["dt_after"] == sim.dt
+    sim.advance(0.05)  # stable at the new step
+    assert np.isfinite(sim.cloth.positions).all()
+    # the choice survives a saved state
+    again = yore.Simulation.from_state(sim.state())
+    assert again._dt_follows_cloth and again.dt == sim.dt
+    given = yore.scenes.hanging_cloth(resolution=9, dt=before)
+    given.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2, refine=1)
+    assert given.dt == before
+    implicit = yore.scenes.hanging_cloth(resolution=9, integrator="implicit")
+    implicit.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2, refine=1)
+    assert implicit.dt == yore.simulation.IMPLICIT_DT

@@ -413,6 +413,9 @@ class Simulation:
         self._cloth = cloth
         self._integrator_name = integrator
         self._integrator = _FACTORIES[integrator](self._options)
+        # An explicit dt left to the default follows the cloth: a stroke that refines faces or
+        # adds light vertices lowers the stable step, and the default is re-derived then.
+        self._dt_follows_cloth = dt is None and integrator == "explicit"
         if dt is None:
             dt = default_explicit_dt(cloth) if integrator == "explicit" else IMPLICIT_DT
         self._dt = check_factor(dt, "dt", "s")
@@ -466,7 +469,8 @@ class Simulation:
         return {"cloth": self._cloth.state(), "integrator": self._integrator_name,
                 "options": dict(self._options), "dt": self._dt,
                 "gravity": self._gravity.copy(), "history": history,
-                "projection_memory": memory, "target_time": self._target_time}
+                "projection_memory": memory, "target_time": self._target_time,
+                "dt_follows_cloth": self._dt_follows_cloth}
 
     def _keeps_history(self) -> bool:
         """Whether the integrator keeps BDF2's history (part of a saved state)."""
@@ -481,8 +485,9 @@ class Simulation:
         tolerance). Raises ValueError on a malformed state."""
         expected = {"cloth", "integrator", "options", "dt", "gravity", "history", "target_time"}
         # projection_memory: absent from states saved before it existed (then: none yet)
+        # dt_follows_cloth: absent from states saved before it existed (then: False)
         if not isinstance(state, dict) or not expected <= set(state) <= expected | {
-                "projection_memory"}:
+                "projection_memory", "dt_follows_cloth"}:
             got = sorted(state) if isinstance(state, dict) else type(state).__name__
             raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, "
                              f"got {got}")
@@ -501,6 +506,10 @@ class Simulation:
                                                   memory.get("shift", 0.0))
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
+        follows = state.get("dt_follows_cloth", False)
+        if not isinstance(follows, (bool, np.bool_)):
+            raise ValueError(f"dt_follows_cloth must be a bool, got {follows!r}")
+        sim._dt_follows_cloth = bool(follows) and sim._integrator_name == "explicit"
         return sim
 
     # -- stepping ---------------------------------------------------------------------------
@@ -763,6 +772,13 @@ class Simulation:
                               growth=options["growth"], refine=options["refine"], retrace=trace)
         self._pending_reports.append(report)
         self._last_stroke = report
+        if self._dt_follows_cloth:
+            # never raised (the run keeps its step), lowered when the stroke lowered the bound
+            lowered = default_explicit_dt(self._cloth)
+            if lowered < self._dt:
+                report.extra["dt_before"] = self._dt
+                report.extra["dt_after"] = lowered
+                self._dt = lowered
         return report
 
     def smooth_rest_lengths(self, iterations=10, strength=0.5, region=None,

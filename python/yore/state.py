@@ -301,7 +301,8 @@ _TINY = float(np.finfo(np.float64).tiny)
 
 def _check_simulation(field, simulation):
     """The schema of a version-1 state (`Simulation.state`, `yore.Cloth.state`)."""
-    field.keys(simulation, "simulation", _SIMULATION_FIELDS, optional=("projection_memory",))
+    field.keys(simulation, "simulation", _SIMULATION_FIELDS,
+               optional=("projection_memory", "dt_follows_cloth"))
     integrator = simulation["integrator"]
     if not isinstance(integrator, str) or integrator not in INTEGRATORS:
         raise field.error("simulation.integrator", f"got {_show(integrator)}",
@@ -317,6 +318,9 @@ def _check_simulation(field, simulation):
     field.array(simulation["gravity"], "simulation.gravity", np.float64, (3,))
     if simulation["target_time"] is not None:
         field.real(simulation["target_time"], "simulation.target_time")
+    if "dt_follows_cloth" in simulation and not isinstance(simulation["dt_follows_cloth"], bool):
+        raise field.error("simulation.dt_follows_cloth",
+                          f"got {_show(simulation['dt_follows_cloth'])}", "true or false")
 
     # The bending fields came with quadratic bending: a file without them is bending springs.
     cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS,
