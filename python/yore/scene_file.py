@@ -793,6 +793,9 @@ def _build(scene):
                          **data["integrator"])
     except ValueError as error:
         raise scene.error("integrator", str(error)) from None
+    # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an
+    # explicit scene that refines gives its [simulation] dt, else the run stops with advice).
+    sim._dt_follows_cloth = False
     sim.scene = {"name": data["scene"].get("name", scene.source), "sets": sets, "uv": uv}
     return sim, sets
 
