@@ -191,33 +191,37 @@ def _hanging(integrator="explicit", **options):
     return yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **options)
 
 
-@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
-def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator):
-    sim = _hanging(integrator)
+@pytest.mark.parametrize("integrator, bending", [("explicit", {}), ("implicit", {}),
+                                                 ("explicit", {"bending": "quadratic",
+                                                               "bending_modulus": 3e-3})])
+def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator, bending):
+    sim = _hanging(integrator, **bending)
     before = sim.energy()
+    dt = sim.dt
     info = sim.settle(max_seconds=10.0, tolerance=0.02)
     assert info["converged"] and info["residual_acceleration"] <= 0.02
-    assert info["resets"] >= 1 and 0.0 < info["seconds"] <= 10.0 + sim.dt
-    assert sim.time == 0.0 and not np.any(sim.cloth.velocities)
+    assert 1 <= info["steps"] and info["seconds"] <= 10.0
+    assert sim.time == 0.0 and not np.any(sim.cloth.velocities) and sim.dt == dt
     after = sim.energy()
     # it fell and stretched to rest: the potential dropped, nothing is moving
-    assert after["gravity"] + after["spring"] < before["gravity"] + before["spring"]
+    potential = ("gravity", "spring", "bending")
+    assert sum(after.get(k, 0.0) for k in potential) < sum(before.get(k, 0.0) for k in potential)
     assert after["kinetic"] == 0.0
-    # At rest near equilibrium the cloth stays put: one check interval from rest gains at
-    # most tolerance·interval of RMS speed (the stopping test, re-measured independently),
-    # while the cloth as built swings off by tens of centimetres.
+    # Independently of settle's own measure: one explicit step of 1 µs from rest gives
+    # v = dt M⁻¹ f (symplectic Euler, no damping at v = 0), whose RMS over dt is the residual.
+    probe = yore.Simulation(yore.Cloth.from_state(sim.cloth.state()), integrator="explicit",
+                            dt=1e-6)
+    probe.step(1)
+    v, m = probe.cloth.velocities, probe.cloth.masses
+    assert np.sqrt((m[:, None] * v**2).sum() / m.sum()) / 1e-6 <= 0.02 * (1 + 1e-6)
+    # At rest near equilibrium the cloth stays nearly put, while as built it swings off by
+    # tens of centimetres.
     x0 = sim.cloth.positions.copy()
-    interval = max(1, round(yore.simulation.SETTLE_CHECK_SECONDS / sim.dt))
-    sim.step(interval)
-    v = sim.cloth.velocities
-    m = sim.cloth.masses
-    rms = np.sqrt((m[:, None] * v**2).sum() / m.sum())
-    assert rms <= 0.02 * interval * sim.dt * (1 + 1e-9)
     sim.advance(0.5)
-    unsettled = _hanging(integrator)
+    unsettled = _hanging(integrator, **bending)
     start = unsettled.cloth.positions.copy()
     unsettled.advance(0.5)
-    assert np.abs(sim.cloth.positions - x0).max() < 0.02 * np.abs(
+    assert np.abs(sim.cloth.positions - x0).max() < 0.05 * np.abs(
         unsettled.cloth.positions - start).max()
 
 
@@ -234,6 +238,6 @@ def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
     # zero seconds: nothing but the velocities (already zero) changes
     x = sim.cloth.positions.copy()
     info = sim.settle(max_seconds=0.0)
-    assert info == {"seconds": 0.0, "resets": 0, "converged": False,
+    assert info == {"seconds": 0.0, "steps": 0, "converged": False,
                     "residual_acceleration": float("inf")}
     assert np.array_equal(sim.cloth.positions, x)

@@ -150,12 +150,12 @@ def _check_record(state_path, record):
         fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
     settle = record.get("settle")
     if settle is not None and not (
-            isinstance(settle, dict) and set(settle) == {"seconds", "resets", "converged",
+            isinstance(settle, dict) and set(settle) == {"seconds", "steps", "converged",
                                                          "residual_acceleration"}
-            and number(settle["seconds"]) and count(settle["resets"])
+            and number(settle["seconds"]) and count(settle["steps"])
             and isinstance(settle["converged"], bool)
             and isinstance(settle["residual_acceleration"], (int, float))):
-        fail("settle", "null or a table with seconds, resets, converged and "
+        fail("settle", "null or a table with seconds, steps, converged and "
              "residual_acceleration")
     if not isinstance(record["scene_text"], str):
         fail("scene_text", "the scene file's text")
@@ -581,7 +581,7 @@ def _summary(scene, sim, record, out, state_path, status, message):
         "settings": settings,
         "records": record["records"],
         "strokes": record["strokes"],
-        # kinetic-damping relaxation before t = 0 ([simulation] settle), or null
+        # relaxation to rest before t = 0 ([simulation] settle), or null
         "settle": record.get("settle"),
         "before": before,
         "frames": [{"time": t, "file": _relative(p, out)} for t, p in record["frames"]],

@@ -284,9 +284,9 @@ SCHEMA = {
                "time step; default: below the stable step (explicit) or 1/60 s"),
         "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
-        "settle": (_number(0, unit="s"), 0.0, "at most this much simulated time of "
-                   "kinetic-damping relaxation to rest before t = 0 (Simulation.settle; no "
-                   "driven vertices); 0: start as built"),
+        "settle": (_number(0, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
+                   "to a static equilibrium before t = 0 (Simulation.settle; no driven "
+                   "vertices); 0: start as built"),
         "threads": (_integer(1), None, "threads of the core's loops and of BLAS "
                     "(yore.set_num_threads); default: the machine's cores"),
     }, "table"),

@@ -297,8 +297,8 @@ _FACTORIES = {
 #: Default time step of the implicit integrators, s.
 IMPLICIT_DT = 1.0 / 60.0
 
-#: Simulated time between two kinetic-energy checks of `Simulation.settle`, s.
-SETTLE_CHECK_SECONDS = 0.004
+#: Pseudo-time step of `Simulation.settle`'s backward-Euler relaxation, s.
+SETTLE_DT = 0.5
 
 # Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
 _BATCH_SECONDS = 0.1
@@ -324,6 +324,18 @@ def default_explicit_dt(cloth: Cloth, safety: float = EXPLICIT_DT_SAFETY) -> flo
     if not math.isfinite(stable):
         return 1.0 / 60.0
     return 1.0 / math.ceil(1.0 / (safety * stable))
+
+
+def _residual_acceleration(cloth, gravity) -> float:
+    """Mass-weighted RMS of M⁻¹ f at the cloth's positions and zero velocity, m/s²: one
+    symplectic-Euler step of a copy from rest gives v = dt M⁻¹ f exactly (damping and drag
+    vanish at v = 0), so nothing is recomputed by hand."""
+    probe = Cloth.from_state(cloth.state())
+    probe.velocities = np.zeros_like(probe.velocities)
+    dt = 1e-9
+    _core.ExplicitIntegrator().advance(probe, np.asarray(gravity, dtype=float), dt, 1)
+    v, m = probe.velocities, probe.masses
+    return math.sqrt(float(np.einsum("i,ij,ij->", m, v, v)) / float(m.sum())) / dt
 
 
 class Simulation:
@@ -544,22 +556,23 @@ class Simulation:
         return steps
 
     def settle(self, max_seconds: float = 10.0, tolerance: float = 0.02, progress=None) -> dict:
-        """Brings the cloth to rest near its static equilibrium before an experiment, by kinetic
-        damping (dynamic relaxation): it steps with this simulation's integrator and dt and
-        zeroes every velocity whenever the kinetic energy has fallen since the last check
-        (a peak has passed: the motion is about to turn back), so energy leaves the cloth at
-        each swing's peak without any change to the model. A check comes every
-        `SETTLE_CHECK_SECONDS` of simulated time. It stops when, over one check interval
-        started at rest, the cloth's RMS speed gained stays below ``tolerance`` ×
-        the interval (the residual acceleration, m/s², of a cloth at rest: 0.02 is 0.2 % of
-        gravity), or after ``max_seconds`` of simulated time. Afterwards the velocities are
-        zero and the clock is back where it was, so strokes and outputs keep their times;
-        BDF2 starts afresh (the velocities were edited).
+        """Brings the cloth to rest at a static equilibrium before an experiment, by proximal
+        point iteration (pseudo-time stepping): backward-Euler steps of `SETTLE_DT` from rest,
+        the velocities zeroed after each, so every step minimises the potential plus
+        ½‖x − xₖ‖²_M / h² and the sequence descends to a local minimum of the potential
+        (gravity, springs, bending) — whatever the stiffness, and without simulating the
+        swings. Each step is solved by Newton (Levenberg–Marquardt shifted, tight tolerance)
+        in an integrator of its own: this simulation's integrator, options and dt are not
+        used or changed. It stops when the residual acceleration of the cloth at rest, the
+        mass-weighted RMS of M⁻¹ f (m/s², f the net force at zero velocity), is at most
+        ``tolerance`` (0.02 is 0.2 % of gravity), or after ``max_seconds`` of pseudo-time. Afterwards the velocities
+        are zero and the clock is where it was, so strokes and outputs keep their times; BDF2
+        starts afresh (the velocities were edited).
 
-        Returns {"seconds": simulated time spent, "resets": velocity resets, "converged":
-        bool, "residual_acceleration": the last check's, m/s²}. Raises ValueError for bad
-        arguments or a cloth with driven vertices (a driven cloth has no rest to settle to),
-        SimulationDiverged as `step`."""
+        Returns {"seconds": pseudo-time spent, "steps": steps taken, "converged": bool,
+        "residual_acceleration": the last step's, m/s²}. Raises ValueError for bad arguments or
+        a cloth with driven vertices (a driven cloth has no rest to settle to),
+        SimulationDiverged if a step does."""
         max_seconds, tolerance = float(max_seconds), float(tolerance)
         if not math.isfinite(max_seconds) or max_seconds < 0.0:
             raise ValueError(f"max_seconds must be finite and >= 0, got {max_seconds}")
@@ -570,56 +583,39 @@ class Simulation:
             raise ValueError("settle needs a cloth without driven vertices (a driven cloth "
                              "keeps moving: it has no rest to settle to)")
         start_time = cloth.time
-        masses = cloth.masses
-        total_mass = float(masses.sum())
-        chunk = max(1, int(round(SETTLE_CHECK_SECONDS / self._dt)))
-        interval = chunk * self._dt
-        checks = max(1, int(math.ceil(max_seconds / interval))) if max_seconds > 0 else 0
-        resets, converged, acceleration = 0, False, math.inf
-        previous_kinetic = 0.0
-        started_at_rest = True
-        cloth.velocities = np.zeros_like(cloth.velocities)
+        relax = _core.ImplicitIntegrator(method="backward-euler", projection="shifted",
+                                         predictor="start", newton_tol=1e-7, max_newton=200)
+        steps = int(math.ceil(max_seconds / SETTLE_DT - 1e-9)) if max_seconds > 0 else 0
+        converged, acceleration, done = False, math.inf, 0
         bar, started = None, _time.perf_counter()
-        unconverged_before = self._integrator.statistics.get("unconverged_steps", 0)
-        for check in range(checks):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # one summary below
-                self._run(chunk, False)
-            if bar is None and progress is not False and (
-                    progress or _time.perf_counter() - started > _PROGRESS_AFTER_SECONDS / 2):
-                from tqdm.auto import tqdm
-
-                # unasked, a bar shows on a terminal only (never in a log file)
-                bar = tqdm(total=checks, initial=check + 1, unit="check", desc="yore settle",
-                           leave=False, dynamic_ncols=True,
-                           disable=None if progress is None else False)
-            elif bar is not None:
-                bar.update(1)
-            velocities = cloth.velocities
-            kinetic = 0.5 * float(np.einsum("i,ij,ij->", masses, velocities, velocities))
-            if started_at_rest:
-                acceleration = math.sqrt(2.0 * kinetic / total_mass) / interval
+        cloth.velocities = np.zeros_like(cloth.velocities)
+        try:
+            for done in range(1, steps + 1):
+                before = cloth.positions
+                relax.advance(cloth, self._gravity, SETTLE_DT, 1)
+                cloth.velocities = np.zeros_like(before)
+                acceleration = _residual_acceleration(cloth, self._gravity)
                 if acceleration <= tolerance:
                     converged = True
                     break
-            if kinetic < previous_kinetic:
-                cloth.velocities = np.zeros_like(velocities)
-                resets += 1
-                previous_kinetic, started_at_rest = 0.0, True
-            else:
-                previous_kinetic, started_at_rest = kinetic, False
-        if bar is not None:
-            bar.close()
-        unconverged = self._integrator.statistics.get("unconverged_steps", 0) - unconverged_before
-        if unconverged:
-            warnings.warn(f"{self._integrator_name}: {unconverged} settling steps were accepted "
-                          "unconverged (stats['counters']['unconverged_steps'])",
-                          RuntimeWarning, stacklevel=2)
-        spent = cloth.time - start_time
+                if bar is None and progress is not False and (
+                        progress or _time.perf_counter() - started > _PROGRESS_AFTER_SECONDS / 2):
+                    from tqdm.auto import tqdm
+
+                    # unasked, a bar shows on a terminal only (never in a log file)
+                    bar = tqdm(total=steps, initial=done, unit="step", desc="yore settle",
+                               leave=False, dynamic_ncols=True,
+                               disable=None if progress is None else False)
+                elif bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+            self._wall_seconds += _time.perf_counter() - started
         cloth.velocities = np.zeros_like(cloth.velocities)
         cloth.time = start_time
         self._target_time = None
-        return {"seconds": float(spent), "resets": resets, "converged": converged,
+        return {"seconds": done * SETTLE_DT, "steps": done, "converged": converged,
                 "residual_acceleration": float(acceleration)}
 
     def _run(self, steps: int, progress) -> None:
