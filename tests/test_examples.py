@@ -57,3 +57,16 @@ def test_stroke_experiments_write_frames_across_the_topology_change(tmp_path):
         assert (tmp_path / f"{name}.png").exists()
         assert f"{name} (explicit): stroke split" in out
     assert "ratio roughness" in out
+
+
+def test_the_gallery_script_writes_its_pictures_and_measures(tmp_path):
+    run("gallery.py", "--out", str(tmp_path), "--small")
+    for name in ("hanging.png", "cylinder.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    import json
+    data = json.loads((tmp_path / "gallery.json").read_text())
+    assert data["small"] is True
+    assert set(data) >= {"hanging", "hanging_paper", "cylinder", "cylinder_paper"}
+    # the same measures as tests/test_experiments.py, through the script
+    assert data["hanging"]["wrinkle_ratio"] >= 2.0 and data["hanging"]["spike_index"] <= 0.1
+    assert data["cylinder"]["hem_ratio"] >= 1.2 > data["cylinder_paper"]["hem_ratio"]

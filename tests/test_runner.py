@@ -32,7 +32,7 @@ def strict_json(path):
 
 
 def run_hanging(out, *extra):
-    return main(["run", str(EXAMPLES / "hanging.toml"), "-o", str(out), *HANGING, *extra])
+    return main(["run", str(EXAMPLES / "hanging_paper.toml"), "-o", str(out), *HANGING, *extra])
 
 
 def resume(out):
@@ -216,7 +216,7 @@ def test_a_folder_holding_another_run_is_refused_unless_overwrite(tmp_path, caps
     assert run_hanging(tmp_path) == 0
     stale = tmp_path / "frames" / "frame_00099.vtu"  # a frame the next run would not write
     stale.write_bytes((tmp_path / "frames" / "frame_00000.vtu").read_bytes())
-    other = ["run", str(EXAMPLES / "cylinder.toml"), "-o", str(tmp_path), "--quiet",
+    other = ["run", str(EXAMPLES / "cylinder_paper.toml"), "-o", str(tmp_path), "--quiet",
              "--no-render", "--set", "mesh.rings=4", "--set", "mesh.segments=8",
              "--set", "simulation.duration=0.05", "--set", "strokes=[]"]
     assert main(other) == 2
@@ -307,7 +307,7 @@ def test_a_settled_run_starts_at_rest_at_time_zero_and_says_so(tmp_path, capsys)
     resumed = strict_json(tmp_path / "summary.json")
     assert resumed["settle"] == settle and resumed["finished"]
     # a driven scene has no rest: one error line, exit code 2
-    assert main(["run", str(EXAMPLES / "cylinder.toml"), "-o", str(tmp_path / "c"), "--quiet",
+    assert main(["run", str(EXAMPLES / "cylinder_paper.toml"), "-o", str(tmp_path / "c"), "--quiet",
                  "--no-render", "--set", "simulation.settle=1"]) == 2
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error:") and "\n" not in error and "settle" in error

@@ -30,7 +30,7 @@ def error_of(text, **kwargs):
 
 def test_the_toml_hanging_cloth_is_the_python_scene_exactly():
     # An independent construction of the same cloth: yore.scenes.hanging_cloth's defaults.
-    sim, sets = load_scene(EXAMPLES / "hanging.toml").build()
+    sim, sets = load_scene(EXAMPLES / "hanging_paper.toml").build()
     reference = yore.scenes.hanging_cloth()
     a, b = sim.cloth.state(), reference.cloth.state()
     for key in ("positions", "velocities", "masses", "faces", "spring_ends", "spring_rest",
@@ -223,7 +223,7 @@ def test_a_generator_of_the_wrong_type_is_a_scene_error():
 
 
 def test_a_subnormal_mass_is_named_in_material_and_no_nan_step_is_suggested():
-    scene = load_scene(EXAMPLES / "hanging.toml", overrides={"material.mass": 1e-320})
+    scene = load_scene(EXAMPLES / "hanging_paper.toml", overrides={"material.mass": 1e-320})
     with pytest.raises(SceneError, match=r"material: mass of vertex 0") as info:
         scene.build()
     assert "nan" not in str(info.value)

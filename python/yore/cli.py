@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from importlib import resources
 from pathlib import Path
 
 __all__ = ["main"]
@@ -71,10 +70,14 @@ def _parser():
     _add_set(check)
     _add_common(check, quiet=False)
 
-    demo = commands.add_parser("demo", help="the paper's hanging cloth with a stroke",
-                               description="The paper's hanging-cloth experiment with a stroke "
-                               "(examples/hanging.toml), writing frames, before/after "
-                               "pictures and an animation into OUT.")
+    demo = commands.add_parser("demo", help="the paper's hanging cloth: no stroke, the "
+                               "paper's stroke, yore's stroke",
+                               description="The paper's hanging-cloth experiment three ways: "
+                               "yore's stroke (examples/hanging.toml: frames, pictures and an "
+                               "animation in OUT), the paper's operation (OUT/paper) and the "
+                               "cloth without a stroke (OUT/no-stroke, OUT/paper-no-stroke); "
+                               "OUT/demo.png shows them side by side, summary.json's demo "
+                               "table holds their wrinkle measures and spike indices.")
     demo.add_argument("-o", "--out", type=Path, default=Path("yore-out"),
                       help="output folder (default: yore-out)")
     _add_set(demo)
@@ -137,7 +140,9 @@ def _overrides(arguments):
 
 def demo_scene_text() -> str:
     """The demo's scene file (the same text as examples/hanging.toml)."""
-    return resources.files("yore").joinpath("data/hanging.toml").read_text(encoding="utf-8")
+    from .demo import demo_scene_text as text
+
+    return text()
 
 
 def _report(summary, out, quiet):
@@ -154,6 +159,7 @@ def _report(summary, out, quiet):
               f"{counters.get('factorizations')}")
     outputs = summary["outputs"]
     where = {"frames": "frames", "pvd": "ParaView collection", "before_after": "before/after",
+             "demo": "no stroke / paper / yore",
              "last": "last frame picture", "animation": "animation", "summary": "summary",
              "state": "state (yore run --resume)"}
     for key, label in where.items():
@@ -194,13 +200,10 @@ def _check(arguments):
 
 
 def _demo(arguments):
-    from .runner import run_scene
-    from .scene_file import load_scene
+    from .demo import run_demo
 
-    scene = load_scene(Path("hanging.toml"), text=demo_scene_text(),
-                       overrides=_overrides(arguments))
-    summary = run_scene(scene, arguments.out, quiet=arguments.quiet,
-                        overwrite=arguments.overwrite, threads=arguments.threads)
+    summary = run_demo(arguments.out, overrides=_overrides(arguments), quiet=arguments.quiet,
+                       overwrite=arguments.overwrite, threads=arguments.threads)
     _report(summary, arguments.out, arguments.quiet)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 
 __all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "wrinkle_measure",
            "taubin_smooth", "roughness", "rest_ratio_roughness", "spike_index", "radial_distance",
-           "radius_profile"]
+           "radius_profile", "stroke_effect"]
 
 
 def face_areas(V, F) -> np.ndarray:
@@ -288,3 +288,38 @@ def _vertex_mean_of_springs(cloth, values):
     at_vertex = vertex_mean_of_springs(cloth, values)
     ends = cloth.springs.ends
     return 0.5 * (at_vertex[ends[:, 0]] + at_vertex[ends[:, 1]])
+
+
+def stroke_effect(V, F, V_plain, F_plain, region_faces, vertices) -> dict:
+    """What a stroke did, against the same run without it at the same time.
+
+    V, F: the stroked cloth (its first ``len(V_plain)`` vertices are the original ones: strokes
+    append); V_plain, F_plain: the run without the stroke; region_faces: the stroke's region in
+    the stroked mesh (a report's ``region_faces``); vertices: where spikes would be (a report's
+    ``new_vertices``, or its ``line_vertices`` when it added none).
+
+    Returns {"wrinkle": the region's `wrinkle_measure` (m), "wrinkle_plain": the same in the
+    plain run, "wrinkle_ratio", "spike_index": `spike_index` of ``vertices``,
+    "spike_index_plain": of the region's original vertices in the plain run}. Both wrinkle
+    values are taken on the original vertices with the plain mesh's faces, so one filter at one
+    resolution measures both (refined or split faces would change what Taubin smoothing keeps,
+    and new vertices are the spike index's business)."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    V_plain, F_plain = np.asarray(V_plain, dtype=float), np.asarray(F_plain)
+    n = len(V_plain)
+    if len(V) < n or V.ndim != 2 or V_plain.ndim != 2:
+        raise ValueError(f"the stroked cloth has {len(V)} vertices, fewer than the plain run's {n}")
+    region = np.asarray(region_faces, dtype=np.int64)
+    if region.size == 0:
+        raise ValueError("stroke_effect needs the stroke's region faces, got none")
+    original = np.unique(F[region])
+    original = original[original < n]
+    faces = np.flatnonzero(np.all(np.isin(F_plain, original), axis=1))
+    if faces.size == 0:
+        raise ValueError("the stroke's region holds no whole face of the plain mesh")
+    wrinkle = wrinkle_measure(V[:n], F_plain, faces)
+    plain = wrinkle_measure(V_plain, F_plain, faces)
+    return {"wrinkle": wrinkle, "wrinkle_plain": plain,
+            "wrinkle_ratio": wrinkle / plain if plain > 0 else float("inf"),
+            "spike_index": spike_index(V, F, vertices),
+            "spike_index_plain": spike_index(V_plain, F_plain, original)}

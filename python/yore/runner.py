@@ -525,6 +525,7 @@ def _stroke_record(index, time, report):
             "springs_grown": report.springs_grown,
             "rest_length_added": report.rest_length_added, "mass_added": report.mass_added,
             "new_vertices": [int(v) for v in report.new_vertices],
+            "region_faces": [int(f) for f in report.region_faces],
             # vertices along the stroke in stroke order: its polyline in pictures (the paper's
             # new vertices in the order it crossed their faces)
             "line_vertices": [int(v) for v in report.line_vertices]}
