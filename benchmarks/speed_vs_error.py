@@ -670,6 +670,14 @@ def plot(payload, path):
     rows = payload["rows"]
     groups = list(dict.fromkeys((r["scene"], r["size"], r["bending"]) for r in rows))
     stiffnesses = sorted({r["stretch_stiffness"] for r in rows})
+    if not rows:  # every cell skipped (budget): say so rather than fail
+        fig, ax = plt.subplots(figsize=(5, 2))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no cell measured (all skipped: see the JSON's summary)",
+                ha="center", va="center")
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        return
     fig, axes = plt.subplots(len(groups), len(stiffnesses), squeeze=False,
                              figsize=(3.2 * len(stiffnesses), 2.8 * len(groups)))
     colours = dict(zip(FAMILIES, plt.rcParams["axes.prop_cycle"].by_key()["color"]))

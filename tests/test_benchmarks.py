@@ -61,6 +61,22 @@ def test_implicit_step_benchmark_smoke(tmp_path):
         assert is_timing(row["quasi_newton_iteration_seconds"])
 
 
+def test_speed_vs_error_with_every_cell_skipped_still_writes_its_results(tmp_path):
+    # a budget of 0 CPU seconds per cell skips them all (predicted from the stability trials,
+    # not timed): the JSON says so per cell and the picture says there is nothing to show
+    pytest.importorskip("matplotlib")
+    result = subprocess.run([sys.executable, "-m", "benchmarks.speed_vs_error", "--out",
+                             str(tmp_path), "--quick", "--scenes", "sheet", "--sizes", "6",
+                             "--stiffness", "2e3", "--bending", "equal", "--max-cell-seconds",
+                             "0", "--no-extend"], cwd=ROOT, capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "speed_vs_error.png").read_bytes()[:4] == b"\x89PNG"
+    data = json.loads((tmp_path / "speed_vs_error.json").read_text())
+    assert data["rows"] == []
+    assert data["summary"]["cells"] and all("skipped" in c for c in data["summary"]["cells"])
+
+
 def test_speed_vs_error_smoke(tmp_path):
     # caps far above any run: which runs exist must not depend on wall time
     data = run_benchmark("speed_vs_error", tmp_path, "--quick", "--repeats", "2",
