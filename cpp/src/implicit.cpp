@@ -107,16 +107,11 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   const QuadraticBendingMatrix* bending =
       cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
   if (bending != nullptr) {
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
-      if (a < 0) continue;
-      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
-           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
-        const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
-        if (j > i && b >= 0) coupled.emplace_back(a / 3, b / 3);
-      }
-    }
+    for_each_free_entry(*bending, m_dof_of_vertex,
+                        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a,
+                            std::int32_t b) {
+                          if (j > i) coupled.emplace_back(a / 3, b / 3);
+                        });
   }
   std::sort(coupled.begin(), coupled.end());
   coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
@@ -166,35 +161,30 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_bending_slots.clear();
   if (bending != nullptr) {
     m_bending_slots.assign(3 * bending->columns.size(), -1);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
-      if (a < 0) continue;
-      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
-           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
-        const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
-        if (j < i || b < 0) continue;  // the lower triangle holds each pair once
-        const std::int32_t column_block = a / 3;
-        std::int64_t base = -1;
-        if (j > i) {
-          const std::int32_t row_block = b / 3;
-          const auto begin =
-              coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
-          const auto end =
-              coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
-          base = 3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) -
-                      begin);
-        }
-        for (int c = 0; c < 3; ++c) {
-          // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
-          // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
-          const std::int64_t column_start =
-              pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
-          m_bending_slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
-              j == i ? column_start : column_start + (3 - c) + base + c;
-        }
+    // the lower triangle holds each pair once
+    for_each_free_entry(*bending, m_dof_of_vertex, [&](std::int32_t k, std::int32_t i,
+                                                       std::int32_t j, std::int32_t a,
+                                                       std::int32_t b) {
+      const std::int32_t column_block = a / 3;
+      std::int64_t base = -1;
+      if (j > i) {
+        const std::int32_t row_block = b / 3;
+        const auto begin =
+            coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+        const auto end =
+            coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+        base = 3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) -
+                    begin);
       }
-    }
+      for (int c = 0; c < 3; ++c) {
+        // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
+        // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
+        const std::int64_t column_start =
+            pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
+        m_bending_slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
+            j == i ? column_start : column_start + (3 - c) + base + c;
+      }
+    });
   }
 
   const auto dofs = static_cast<Eigen::Index>(pattern.size);

@@ -113,26 +113,30 @@ QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
   return out;
 }
 
+namespace {
+
+// (Q x)ᵢ, one row of the product, per coordinate.
+Eigen::RowVector3d row_product(const QuadraticBendingMatrix& matrix, const Positions& positions,
+                               Eigen::Index i) {
+  Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+  for (std::int32_t k = matrix.row_starts[static_cast<std::size_t>(i)];
+       k < matrix.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+    sum += matrix.values[static_cast<std::size_t>(k)] *
+           positions.row(matrix.columns[static_cast<std::size_t>(k)]);
+  }
+  return sum;
+}
+
+}  // namespace
+
 double quadratic_bending_gradient(const QuadraticBendingMatrix& matrix, double modulus,
                                   const Positions& positions, Positions& gradient) {
   const Eigen::Index n = positions.rows();
   gradient.resize(n, 3);
   double twice_energy = 0.0;
   for (Eigen::Index i = 0; i < n; ++i) {
-    double gx = 0.0, gy = 0.0, gz = 0.0;
-    for (std::int32_t k = matrix.row_starts[static_cast<std::size_t>(i)];
-         k < matrix.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-      const double q = matrix.values[static_cast<std::size_t>(k)];
-      const std::int32_t j = matrix.columns[static_cast<std::size_t>(k)];
-      gx += q * positions(j, 0);
-      gy += q * positions(j, 1);
-      gz += q * positions(j, 2);
-    }
-    gradient(i, 0) = modulus * gx;
-    gradient(i, 1) = modulus * gy;
-    gradient(i, 2) = modulus * gz;
-    twice_energy += positions(i, 0) * gradient(i, 0) + positions(i, 1) * gradient(i, 1) +
-                    positions(i, 2) * gradient(i, 2);
+    gradient.row(i) = modulus * row_product(matrix, positions, i);
+    twice_energy += positions.row(i).dot(gradient.row(i));
   }
   return 0.5 * twice_energy;
 }
@@ -141,16 +145,7 @@ double quadratic_bending_energy(const QuadraticBendingMatrix& matrix, double mod
                                 const Positions& positions) {
   double twice_energy = 0.0;
   for (Eigen::Index i = 0; i < positions.rows(); ++i) {
-    double gx = 0.0, gy = 0.0, gz = 0.0;
-    for (std::int32_t k = matrix.row_starts[static_cast<std::size_t>(i)];
-         k < matrix.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-      const double q = matrix.values[static_cast<std::size_t>(k)];
-      const std::int32_t j = matrix.columns[static_cast<std::size_t>(k)];
-      gx += q * positions(j, 0);
-      gy += q * positions(j, 1);
-      gz += q * positions(j, 2);
-    }
-    twice_energy += positions(i, 0) * gx + positions(i, 1) * gy + positions(i, 2) * gz;
+    twice_energy += positions.row(i).dot(row_product(matrix, positions, i));
   }
   return 0.5 * modulus * twice_energy;
 }

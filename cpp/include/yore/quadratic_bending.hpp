@@ -49,4 +49,23 @@ double quadratic_bending_energy(const QuadraticBendingMatrix& matrix, double mod
 double quadratic_bending_gradient(const QuadraticBendingMatrix& matrix, double modulus,
                                   const Positions& positions, Positions& gradient);
 
+/// Calls visit(k, i, j, a, b) for every stored entry k = (i, j) of Q with j ≥ i (the lower
+/// triangle's pairs once, the diagonal included) whose vertices are both unknowns: a =
+/// index_of_vertex[i] ≥ 0 and b = index_of_vertex[j] ≥ 0 (n entries, −1 for a constrained
+/// vertex). The shared walk of the solvers' pattern and slot builders.
+template <class Visit>
+void for_each_free_entry(const QuadraticBendingMatrix& matrix,
+                         const std::vector<std::int32_t>& index_of_vertex, Visit&& visit) {
+  for (std::int64_t i = 0; i < matrix.size; ++i) {
+    const std::int32_t a = index_of_vertex[static_cast<std::size_t>(i)];
+    if (a < 0) continue;
+    for (std::int32_t k = matrix.row_starts[static_cast<std::size_t>(i)];
+         k < matrix.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+      const std::int32_t j = matrix.columns[static_cast<std::size_t>(k)];
+      const std::int32_t b = index_of_vertex[static_cast<std::size_t>(j)];
+      if (j >= i && b >= 0) visit(k, static_cast<std::int32_t>(i), j, a, b);
+    }
+  }
+}
+
 }  // namespace yore
