@@ -11,7 +11,8 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
-from .stroke import (Camera, apply_stroke, check_factor, check_stroke_options, check_stroke_points,
+from .camera import Camera
+from .stroke import (apply_stroke, check_factor, check_stroke_options, check_stroke_points,
                      mean_edge_length)
 
 __all__ = ["Simulation", "INTEGRATORS"]

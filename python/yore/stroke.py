@@ -38,7 +38,6 @@ Options beyond the paper (all strokes, scene files alike):
 
 from __future__ import annotations
 
-import math
 import numbers
 import time
 from dataclasses import dataclass, field
@@ -46,10 +45,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _core
+from .camera import Camera  # noqa: F401 (stroke_screen's camera; yore.Camera)
+from .checks import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_factor, check_image_size  # noqa: F401
 from .metrics import face_areas
 
-__all__ = ["Camera", "StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
-           "MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS", "GROWTH_MODES", "MAX_REFINE", "falloff_weight"]
+__all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
+           "GROWTH_MODES", "MAX_REFINE", "falloff_weight"]
 
 #: The degenerate-case rules (see the module docstring).
 MIN_BARYCENTRIC = 0.1
@@ -61,97 +62,8 @@ GROWTH_MODES = ("paper", "isotropic", "along", "across")
 MAX_REFINE = 4
 
 
-#: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
-#: MAX_IMAGE_PIXELS pixels in all (2^23, e.g. 3840×2160), checked before anything is allocated
-#: (the renderer needs some 60 bytes per pixel).
-MAX_IMAGE_SIDE = 16384
-MAX_IMAGE_PIXELS = 1 << 23
-
-
-def check_image_size(width, height, what="camera"):
-    """(width, height) as ints if both are integers in [1, MAX_IMAGE_SIDE] whose product is at
-    most MAX_IMAGE_PIXELS; ValueError naming the side, its value and the limit otherwise."""
-    for name, value in (("width", width), ("height", height)):
-        if (isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral)
-                or not 1 <= value <= MAX_IMAGE_SIDE):
-            text = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
-            raise ValueError(f"{what} {name}: got {type(value).__name__} {text}; expected an "
-                             f"integer number of pixels in [1, {MAX_IMAGE_SIDE}]")
-    if int(width) * int(height) > MAX_IMAGE_PIXELS:
-        raise ValueError(f"{what} image size: {int(width)}×{int(height)} = "
-                         f"{int(width) * int(height)} pixels is more than the limit of "
-                         f"{MAX_IMAGE_PIXELS} pixels")
-    return int(width), int(height)
-
-
 class StrokeMissed(ValueError):
     """The stroke touches the cloth nowhere."""
-
-
-@dataclass(frozen=True)
-class Camera:
-    """A pinhole camera: eye and target (m), up direction, vertical field of view (degrees) and
-    image size (pixels). Pixel (0, 0) is the top-left corner, x to the right, y down."""
-
-    eye: tuple
-    target: tuple
-    up: tuple = (0.0, 1.0, 0.0)
-    fov_degrees: float = 45.0
-    width: int = 800
-    height: int = 600
-
-    def __post_init__(self):
-        for name in ("eye", "target", "up"):
-            try:
-                value = np.asarray(getattr(self, name), dtype=float)
-            except (TypeError, ValueError):
-                value = np.full(0, np.nan)
-            if value.shape != (3,) or not np.all(np.isfinite(value)):
-                raise ValueError(f"camera {name} must be 3 finite numbers, got {getattr(self, name)!r}")
-        if (isinstance(self.fov_degrees, (bool, np.bool_))
-                or not isinstance(self.fov_degrees, numbers.Real)
-                or not 0.0 < float(self.fov_degrees) < 180.0):
-            raise ValueError(f"camera fov_degrees must be in (0, 180), got {self.fov_degrees}")
-        width, height = check_image_size(self.width, self.height)
-        object.__setattr__(self, "width", width)
-        object.__setattr__(self, "height", height)
-        forward = np.asarray(self.target, float) - np.asarray(self.eye, float)
-        if np.linalg.norm(forward) == 0 or np.linalg.norm(np.cross(forward, self.up)) == 0:
-            raise ValueError("camera target must differ from eye and not lie along up")
-
-    def basis(self):
-        """Unit vectors (right, up, forward) of the camera."""
-        forward = np.asarray(self.target, float) - np.asarray(self.eye, float)
-        forward /= np.linalg.norm(forward)
-        right = np.cross(forward, np.asarray(self.up, float))
-        right /= np.linalg.norm(right)
-        return right, np.cross(right, forward), forward
-
-    def _scales(self):
-        half_height = math.tan(math.radians(self.fov_degrees) / 2.0)
-        return half_height * self.width / self.height, half_height
-
-    def pixel_rays(self):
-        """(d0, dx, dy): the ray direction through pixel (px, py) is d0 + px·dx + py·dy."""
-        right, up, forward = self.basis()
-        half_width, half_height = self._scales()
-        dx = right * (2.0 * half_width / self.width)
-        dy = -up * (2.0 * half_height / self.height)
-        d0 = forward - right * half_width + up * half_height + 0.5 * (dx + dy)
-        return d0, dx, dy
-
-    def project(self, points) -> np.ndarray:
-        """Pixel coordinates (k×2) of 3-D points in front of the camera."""
-        points = np.atleast_2d(np.asarray(points, dtype=float)) - np.asarray(self.eye, float)
-        right, up, forward = self.basis()
-        depth = points @ forward
-        if np.any(depth <= 0):
-            raise ValueError("a point lies behind the camera")
-        half_width, half_height = self._scales()
-        x = (points @ right) / depth / half_width
-        y = (points @ up) / depth / half_height
-        return np.column_stack([(x + 1.0) * self.width / 2.0 - 0.5,
-                                (1.0 - y) * self.height / 2.0 - 0.5])
 
 
 @dataclass
@@ -226,17 +138,6 @@ def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:
     if dimension == 2:
         array = np.column_stack([array, np.zeros(len(array))])
     return np.ascontiguousarray(array)
-
-
-def check_factor(value, name: str, unit: str = "") -> float:
-    """`value` as a finite float > 0; ValueError naming `name` otherwise."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number{unit and f' ({unit})'}, got {value!r}") from None
-    if not math.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0{unit and f' ({unit})'}, got {number}")
-    return number
 
 
 def mean_edge_length(V, F) -> float:
