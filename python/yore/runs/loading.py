@@ -39,12 +39,12 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
     import tomli as tomllib
 
-from ._core import Cloth
-from .io import load_mesh
-from .meshes import MAX_MESH_VERTICES, cylinder_mesh, cylinder_ring, grid_mesh
-from .simulation import (_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, OptionError,
+from .._core import Cloth
+from ..io import load_mesh
+from ..meshes import MAX_MESH_VERTICES, cylinder_mesh, cylinder_ring, grid_mesh
+from ..simulation import (_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, OptionError,
                          Simulation, check_option)
-from .stroke import (GROWTH_MODES, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_REFINE, Camera,
+from ..stroke import (GROWTH_MODES, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_REFINE, Camera,
                      StrokeMissed)
 
 __all__ = ["Scene", "SceneError", "load_scene", "parse_override"]
@@ -837,7 +837,7 @@ def _select(scene, where, entry, sets, positions):
 # -- strokes --------------------------------------------------------------------------------------
 def scene_camera(scene, positions) -> Camera:
     """The scene's [camera]: as given, with eye/target fitted to ``positions`` when absent."""
-    from .render_run import camera_from_settings
+    from ..render_run import camera_from_settings
 
     try:
         return camera_from_settings(scene.data["camera"], positions)
