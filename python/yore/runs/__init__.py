@@ -11,14 +11,17 @@ file, checks it, builds it and runs it (what ``yore run``, ``yore check`` and ``
   the summary and the state that `resume_run` continues exactly;
 - `yore.runs.demo` — ``yore demo``: the paper's first experiment three ways.
 
-Each module imports only the ones above it in this list; the mesh, the core, the simulation
-and the pictures (`yore.render`, `yore.render_run`) live in the package above.
+The schema imports no other module of the layer; building uses the schema (a Scene is only
+read, not imported), loading uses both (`Scene.build` and `Scene.check_strokes` call building),
+the runner all three and the demo the runner. The mesh, the core, the simulation and the
+pictures (`yore.render`, `yore.render_run`) live in the package above.
 """
 
 from __future__ import annotations
 
-from .loading import Scene, SceneError, load_scene, parse_override
-from .loading import apply_scene_stroke, scene_camera
+from .schema import SceneError
+from .building import apply_scene_stroke, scene_camera
+from .loading import Scene, load_scene, parse_override
 from .runner import (RunError, RunInterrupted, STATE_NAME, SUMMARY_NAME, resume_run,
                      run_scene)
 from .demo import demo_scene_text, paper_scene_text, run_demo

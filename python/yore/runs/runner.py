@@ -33,7 +33,9 @@ from .._core import SimulationDiverged
 from ..io import FrameSeries, save_mesh
 from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
-from .loading import Scene, SceneError, apply_scene_stroke, load_scene, scene_camera
+from .building import apply_scene_stroke, scene_camera
+from .loading import Scene, load_scene
+from .schema import SceneError
 
 __all__ = ["run_scene", "resume_run", "RunError", "RunInterrupted", "SUMMARY_NAME",
            "STATE_NAME"]
