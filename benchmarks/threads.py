@@ -42,7 +42,7 @@ def build(scene: str, quick: bool):
         from pathlib import Path
 
         from yore.cli import demo_scene_text
-        from yore.scene_file import load_scene
+        from yore.runs import load_scene
 
         sim, _ = load_scene(Path("hanging.toml"), text=demo_scene_text()).build()
         return sim

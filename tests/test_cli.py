@@ -52,7 +52,7 @@ def pvd_entries(path):
                                   "stiff"])
 def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tmp_path, name):
     summary = run(name, tmp_path)
-    scene = yore.scene_file.load_scene(EXAMPLES / f"{name}.toml")
+    scene = yore.runs.load_scene(EXAMPLES / f"{name}.toml")
     output = scene.data["output"]
     assert summary["finished"] and summary["time"] == pytest.approx(0.3, abs=summary["dt"])
     assert summary["integrator"] == scene.data["simulation"]["integrator"]

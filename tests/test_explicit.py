@@ -140,7 +140,7 @@ def test_stable_dt_estimates_against_the_limit_found_by_bisection(name):
 
 
 def test_the_demo_scene_runs_its_whole_duration_at_the_default_dt(tmp_path):
-    from yore.runner import run_scene
+    from yore.runs import run_scene
 
     scene = yore.load_scene(Path(__file__).resolve().parents[1] / "examples" / "hanging_paper.toml")
     sim, _ = scene.build()

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import yore
 from yore import _core
-from yore.scene_file import SceneError, load_scene
+from yore.runs import SceneError, load_scene
 from yore.stroke import GROWTH_MODES, MAX_REFINE, falloff_weight
 
 from test_stroke import check_invariants
@@ -300,7 +300,7 @@ def test_scene_file_stroke_options_parse_and_apply():
     assert (defaults["growth"], defaults["refine"], defaults["mass_scale"]) == ("paper", 0, 0.95)
     assert "width" not in defaults  # None: the crossed faces
     sim, _ = scene.build()
-    from yore.scene_file import apply_scene_stroke
+    from yore.runs import apply_scene_stroke
 
     report = apply_scene_stroke(scene, sim, 0)
     assert report.growth == "along" and report.refine == 1 and report.faces_refined > 0

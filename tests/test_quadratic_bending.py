@@ -10,7 +10,7 @@ import pytest
 
 import yore
 from yore import _core
-from yore.scene_file import SceneError, load_scene
+from yore.runs import SceneError, load_scene
 from yore.state import load_state, save_state
 
 NO_GRAVITY = (0.0, 0.0, 0.0)

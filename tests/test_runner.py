@@ -11,7 +11,7 @@ import pytest
 
 import yore
 import yore.io
-import yore.runner
+import yore.runs.runner
 from yore.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -120,7 +120,7 @@ def test_an_interrupt_during_a_stroke_applies_it_exactly_once(tmp_path, monkeypa
     if point == "during the stroke's smoothing":
         interrupt_on_call(monkeypatch, yore.Simulation, "smooth_rest_lengths", 2)
     elif point == "before it is counted":
-        interrupt_on_call(monkeypatch, yore.runner, "_stroke_record", 1, before=True)
+        interrupt_on_call(monkeypatch, yore.runs.runner, "_stroke_record", 1, before=True)
     else:
         interrupt_on_call(monkeypatch, yore.Simulation, "stroke_material", 2, by_signal=True)
     assert run_hanging(tmp_path) == 130
@@ -151,7 +151,7 @@ def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(tmp_
                                                                           monkeypatch, capsys):
     # The integrators' own bound cannot see an energy that overflows (the bound overflows with
     # it); the run checks every frame. The frame at t = 0.2 s (after the stroke) is made to overflow.
-    original = yore.runner._measure
+    original = yore.runs.runner._measure
     calls = {"count": 0}
 
     def overflowing(sim):
@@ -162,7 +162,7 @@ def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(tmp_
             entry["spring"] = entry["total"] = float("inf")
         return entry
 
-    monkeypatch.setattr(yore.runner, "_measure", overflowing)
+    monkeypatch.setattr(yore.runs.runner, "_measure", overflowing)
     assert run_hanging(tmp_path) == 1
     error = capsys.readouterr().err
     assert "non-finite" in error and "spring inf" in error and "dt" in error
@@ -187,7 +187,7 @@ def test_a_scene_that_starts_non_finite_is_bad_input(tmp_path, capsys):
 
 
 def test_non_finite_numbers_reach_json_as_null_with_the_reason():
-    document, found = yore.runner._finite_json(
+    document, found = yore.runs.runner._finite_json(
         {"records": [{"area": 1.0, "rest_area": float("inf")}], "x": float("nan")})
     assert document == {"records": [{"area": 1.0, "rest_area": None}], "x": None}
     assert found == [{"field": "records.0.rest_area", "value": "inf"},
@@ -271,7 +271,7 @@ def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(tmp_path, mon
                                                                     straight, capsys):
     # A state file after every frame; the process then "dies" (SystemExit, which the run does
     # not catch, like a kill) while writing the 5th frame, after the stroke.
-    monkeypatch.setattr(yore.runner, "CHECKPOINT_SECONDS", 0.0)
+    monkeypatch.setattr(yore.runs.runner, "CHECKPOINT_SECONDS", 0.0)
     original = yore.io.FrameSeries.write
     calls = {"count": 0}
 

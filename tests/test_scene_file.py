@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import yore
-from yore.scene_file import SceneError, load_scene, parse_override
+from yore.runs import SceneError, load_scene, parse_override
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -15,9 +15,8 @@ from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
 from .simulation import INTEGRATORS, Simulation
 from .state import load_state, save_state
-from .scene_file import SceneError, load_scene
-from .runner import RunError, resume_run, run_scene
-from . import render, scene_file
+from .runs import RunError, SceneError, load_scene, resume_run, run_scene
+from . import render, runs
 from .stroke import Camera, StrokeMissed, StrokeReport
 from . import _core as _threads_core
 

@@ -133,14 +133,14 @@ def _add_common(parser, quiet=True):
 
 
 def _overrides(arguments):
-    from .scene_file import parse_override
+    from .runs import parse_override
 
     return dict(parse_override(text) for text in arguments.overrides)
 
 
 def demo_scene_text() -> str:
     """The demo's scene file (the same text as examples/hanging.toml)."""
-    from .demo import demo_scene_text as text
+    from .runs import demo_scene_text as text
 
     return text()
 
@@ -168,8 +168,7 @@ def _report(summary, out, quiet):
 
 
 def _run(arguments):
-    from .runner import resume_run, run_scene
-    from .scene_file import load_scene
+    from .runs import load_scene, resume_run, run_scene
 
     if arguments.resume is not None:
         if arguments.scene is not None or arguments.overrides:
@@ -190,7 +189,7 @@ def _run(arguments):
 
 
 def _check(arguments):
-    from .scene_file import load_scene
+    from .runs import load_scene
 
     scene = load_scene(arguments.scene, overrides=_overrides(arguments))
     scene.check_strokes()
@@ -200,7 +199,7 @@ def _check(arguments):
 
 
 def _demo(arguments):
-    from .demo import run_demo
+    from .runs import run_demo
 
     summary = run_demo(arguments.out, overrides=_overrides(arguments), quiet=arguments.quiet,
                        overwrite=arguments.overwrite, threads=arguments.threads)
@@ -233,7 +232,7 @@ def _render(arguments):
 def main(argv=None) -> int:
     """Runs the command line; returns the exit code (see the module docstring)."""
     arguments = _parser().parse_args(argv)
-    from .runner import RunError
+    from .runs import RunError
 
     handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render}
     try:

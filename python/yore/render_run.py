@@ -1,6 +1,6 @@
 """Pictures of runs and frames (what ``yore render`` and the end of ``yore run`` do).
 
-A run folder (see `yore.runner`) gives: ``before_after.png`` — the cloth just before the first
+A run folder (see `yore.runs.runner`) gives: ``before_after.png`` — the cloth just before the first
 stroke (or at t = 0 without strokes) next to the last frame, as in the paper's figures, with
 the strokes in red — ``last.png``, and an animation of all frames (``animation.gif``, or
 ``.mp4`` where ffmpeg is installed). One camera fits every frame, so nothing jumps.

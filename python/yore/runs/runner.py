@@ -28,12 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-from . import metrics
-from ._core import SimulationDiverged
-from .io import FrameSeries, save_mesh
-from .scene_file import Scene, SceneError, apply_scene_stroke, load_scene, scene_camera
-from .simulation import Simulation
-from .state import load_metadata, load_state, save_state
+from .. import metrics
+from .._core import SimulationDiverged
+from ..io import FrameSeries, save_mesh
+from ..simulation import Simulation
+from ..state import load_metadata, load_state, save_state
+from .building import apply_scene_stroke, scene_camera
+from .loading import Scene, load_scene
+from .schema import SceneError
 
 __all__ = ["run_scene", "resume_run", "RunError", "RunInterrupted", "SUMMARY_NAME",
            "STATE_NAME"]
@@ -194,7 +196,7 @@ def _check_record(state_path, record):
 def _set_threads(scene, threads):
     threads = scene.data["simulation"].get("threads") if threads is None else threads
     if threads is not None:
-        from . import set_num_threads
+        from .. import set_num_threads
 
         set_num_threads(threads)
 
@@ -435,7 +437,7 @@ def _run(scene, sim, record, out, until, quiet, render):
     if status == "diverged":
         raise RunError(f"{message} State kept: {state_path}", state_path)
     if render and frames is not None:
-        from .render_run import render_run
+        from ..render_run import render_run
 
         output = data["output"]
         if output["pictures"] or output["animation"] != "none":
@@ -541,7 +543,7 @@ def _save(out, sim, record, previous_phases, phases=None):
 
 
 def _summary(scene, sim, record, out, state_path, status, message):
-    from . import build_info
+    from .. import build_info
 
     stats = sim.stats
     # the scene as run (copied into JSON types by _finite_json below)

@@ -20,12 +20,12 @@ import json
 from importlib import resources
 from pathlib import Path
 
-from . import metrics
-from .render import render_image, save_png, side_by_side
-from .render_run import camera_from_settings
+from .. import metrics
+from ..render import render_image, save_png, side_by_side
+from ..render_run import camera_from_settings
+from ..state import load_state
+from .loading import load_scene
 from .runner import SUMMARY_NAME, STATE_NAME, _write_json, run_scene
-from .scene_file import load_scene
-from .state import load_state
 
 __all__ = ["run_demo", "demo_scene_text", "paper_scene_text"]
 

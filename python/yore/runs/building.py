@@ -1,0 +1,189 @@
+"""Building what a `yore.runs.loading.Scene` describes: the Simulation at t = 0 with the named
+vertex sets of its mesh (`Scene.build`), the scene's camera (`scene_camera`) and its strokes
+drawn on a simulation (`apply_scene_stroke`, which the run and `Scene.check_strokes` call).
+
+What the static checks could not see raises `SceneError` here, named by the scene: vertex
+indices out of range, a selection that selects nothing, a vertex both fixed and driven,
+integrator options the integrator rejects, a mesh file that cannot be read, a stroke that misses.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._core import Cloth
+from ..io import load_mesh
+from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh
+from ..simulation import Simulation
+from ..stroke import Camera, StrokeMissed
+from .schema import _STROKE_FORMS, _did_you_mean
+
+__all__ = ["scene_camera", "apply_scene_stroke"]
+
+
+# -- building -------------------------------------------------------------------------------------
+def _build(scene):
+    data = scene.data
+    mesh = data["mesh"]
+    generator = mesh["generator"]
+    uv = None
+    if generator == "grid":
+        V, F = grid_mesh(mesh["nx"], mesh["ny"], width=mesh["width"], height=mesh["height"])
+        uv = V[:, :2].copy()
+        pattern = V if mesh["plane"] == "xy" else np.column_stack(
+            [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+        sets = _grid_sets(mesh["nx"], mesh["ny"])
+    elif generator == "cylinder":
+        pattern, F = cylinder_mesh(mesh["radius"], mesh["height"], mesh["rings"],
+                                   mesh["segments"])
+        sets = {"bottom rim": cylinder_ring(mesh["rings"], mesh["segments"], 0),
+                "top rim": cylinder_ring(mesh["rings"], mesh["segments"], -1)}
+    else:
+        path = Path(mesh["path"])
+        if not path.is_absolute():
+            path = scene.base_dir / path
+        try:
+            pattern, F = load_mesh(path)
+        except (ValueError, OSError) as error:
+            raise scene.error("mesh.path", str(error), "a readable triangle mesh file") from None
+        pattern = pattern * mesh["scale"]
+        sets = {}
+    sets["all"] = np.arange(len(pattern), dtype=np.int32)
+
+    material = data["material"]
+    n = len(pattern)
+    if "density" in material:
+        mass_arguments = {"density": material["density"]}
+    elif "mass_per_vertex" in material:
+        mass_arguments = {"mass": material["mass_per_vertex"]}
+    else:
+        mass_arguments = {"mass": material["mass"] / n}
+    try:
+        bending_arguments = (
+            {"bending": "quadratic", "bending_modulus": material["bending_modulus"]}
+            if material["bending"] == "quadratic"
+            else {"bend_stiffness": material["bend_stiffness"]})
+        cloth = Cloth(pattern, F, stretch_stiffness=material["stretch_stiffness"],
+                      damping=material["damping"], drag=material["drag"], **mass_arguments,
+                      **bending_arguments)
+    except ValueError as error:
+        # The core checks the mesh and the per-vertex masses; name the table the value came from.
+        if "mass" in str(error):
+            raise scene.error("material", str(error), "masses that are normal numbers > 0 per "
+                              "vertex") from None
+        raise scene.error("mesh", str(error), "a valid triangle mesh") from None
+    if generator == "grid" and mesh["gather"] != 1.0:
+        gathered = pattern.copy()
+        middle = 0.5 * mesh["width"]
+        gathered[:, 0] = middle + mesh["gather"] * (pattern[:, 0] - middle)
+        cloth.positions = gathered
+    if uv is not None:
+        cloth.material_coordinates = uv
+
+    positions = cloth.positions
+    for k, entry in enumerate(data["fixed"]):
+        vertices = _select(scene, f"fixed[{k}]", entry, sets, positions)
+        try:
+            cloth.fix(vertices)
+        except ValueError as error:
+            raise scene.error(f"fixed[{k}]", str(error)) from None
+    for k, entry in enumerate(data["driven"]):
+        vertices = _select(scene, f"driven[{k}]", entry, sets, positions)
+        try:
+            cloth.drive_rotation(vertices, center=entry["center"], axis=entry["axis"],
+                                 omega=entry["omega"])
+        except ValueError as error:
+            raise scene.error(f"driven[{k}]", str(error)) from None
+
+    simulation = data["simulation"]
+    gravity = simulation.get("gravity")
+    try:
+        sim = Simulation(cloth, integrator=simulation["integrator"], dt=simulation.get("dt"),
+                         gravity=(0.0, -9.81, 0.0) if gravity is None else gravity,
+                         **data["integrator"])
+    except ValueError as error:
+        raise scene.error("integrator", str(error)) from None
+    # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an
+    # explicit scene that refines gives its [simulation] dt, else the run stops with advice).
+    sim._dt_follows_cloth = False
+    sim.scene = {"name": data["scene"].get("name", scene.source), "sets": sets, "uv": uv}
+    return sim, sets
+
+
+def _grid_sets(nx, ny):
+    index = np.arange(nx * ny, dtype=np.int32).reshape(ny, nx)  # [j, i] = j*nx + i
+    sets = {"bottom edge": index[0, :], "top edge": index[-1, :], "left edge": index[:, 0],
+            "right edge": index[:, -1]}
+    for name in ("bottom", "top", "left", "right"):
+        edge = sets[f"{name} edge"]
+        sets[f"{name} corners"] = np.array([edge[0], edge[-1]], dtype=np.int32)
+    sets["corners"] = np.array(sorted({index[0, 0], index[0, -1], index[-1, 0], index[-1, -1]}),
+                               dtype=np.int32)
+    return sets
+
+
+def _select(scene, where, entry, sets, positions):
+    if "indices" in entry:
+        vertices = entry["indices"]
+        bad = vertices[vertices >= len(positions)]
+        if bad.size:
+            raise scene.error(f"{where}.indices", f"vertex {int(bad[0])} is out of range",
+                              f"indices in [0, {len(positions)})")
+        return vertices
+    if "set" in entry:
+        name = entry["set"]
+        if name not in sets:
+            raise scene.error(f"{where}.set", f"unknown set {name!r}{_did_you_mean(name, sets)}",
+                              "one of " + ", ".join(repr(s) for s in sets))
+        return sets[name]
+    box = entry["box"]
+    inside = np.all((positions >= box["min"]) & (positions <= box["max"]), axis=1)
+    if not inside.any():
+        raise scene.error(f"{where}.box", "selects no vertex",
+                          "a box that contains vertices of the cloth at t = 0")
+    return np.flatnonzero(inside).astype(np.int32)
+
+
+# -- strokes --------------------------------------------------------------------------------------
+def scene_camera(scene, positions) -> Camera:
+    """The scene's [camera]: as given, with eye/target fitted to ``positions`` when absent."""
+    from ..render_run import camera_from_settings
+
+    try:
+        return camera_from_settings(scene.data["camera"], positions)
+    except ValueError as error:
+        raise scene.error("camera", str(error)) from None
+
+
+def apply_scene_stroke(scene, sim, index, camera=None):
+    """Draws stroke ``index`` of the scene on ``sim`` now (and smooths if asked); returns the
+    report. A stroke that misses raises SceneError naming it."""
+    stroke = scene.data["strokes"][index]
+    where = f"strokes[{index}]"
+    options = {"expansion": stroke["expansion"], "mass_scale": stroke["mass_scale"],
+               "width": stroke.get("width"), "growth": stroke["growth"],
+               "refine": stroke["refine"]}
+    try:
+        if "material" in stroke:
+            report = sim.stroke_material(stroke["material"], **options)
+        elif "points" in stroke:
+            report = sim.stroke(stroke["points"], max_distance=stroke.get("max_distance"),
+                                **options)
+        else:
+            if "eye" not in scene.data["camera"]:
+                raise scene.error(f"{where}.screen", "a screen stroke needs a camera",
+                                  "a [camera] table with eye and target")
+            camera = camera or scene_camera(scene, sim.cloth.positions)
+            report = sim.stroke_screen(stroke["screen"], camera, **options)
+    except StrokeMissed as error:
+        form = next(f for f in _STROKE_FORMS if f in stroke)
+        raise scene.error(f"{where}.{form}", f"the stroke misses the cloth at t = "
+                          f"{sim.time:.4g} s ({error})", "a polyline over the cloth") from None
+    smooth = stroke.get("smooth")
+    if smooth is not None:
+        sim.smooth_rest_lengths(iterations=smooth["iterations"], strength=smooth["strength"],
+                                region="all" if smooth["region"] == "all" else None,
+                                conserve=smooth["conserve"])
+    return report

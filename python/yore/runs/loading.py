@@ -1,0 +1,397 @@
+"""Loading a scene file: `load_scene` reads the text, applies ``--set`` overrides
+(`parse_override`) and checks every key against `yore.runs.schema.SCHEMA`, giving a `Scene`.
+
+Every key is checked when the file is loaded: an unknown key (with a "did you mean"), a wrong
+type, a value out of range, a missing required key, vertex indices out of range, a selection
+that selects nothing and a stroke that misses the cloth (material strokes at any time, 3-D and
+screen strokes at time 0 — later ones depend on the motion) raise `SceneError`, which names the
+key, its line in the file and what was expected. The limits are those of `yore.runs.schema`.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import stat
+from dataclasses import dataclass, field
+from pathlib import Path
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
+    import tomli as tomllib
+
+from .._core import Cloth
+from ..meshes import MAX_MESH_VERTICES
+from ..simulation import _OPTIONS, OptionError, Simulation, check_option
+from ..stroke import MAX_IMAGE_PIXELS
+from .building import _build, apply_scene_stroke
+from .schema import (_BOX, _GENERATOR_KEYS, _REQUIRED, _SCHEMA_GENERATOR_EXPECTED, _SELECTION,
+                     _SMOOTH, _STROKE_FORMS, MAX_SCENE_FILE_BYTES, SCHEMA, SceneError, _describe,
+                     _did_you_mean, _Invalid)
+
+__all__ = ["Scene", "load_scene", "parse_override"]
+
+
+# -- the scene ------------------------------------------------------------------------------------
+@dataclass
+class Scene:
+    """A checked scene: ``data`` holds every table with defaults filled in (numpy arrays for
+    points and vectors), ``text`` the file's text, ``path`` where it came from (None for a
+    string), ``overrides`` the dotted keys set from outside the file."""
+
+    data: dict
+    text: str
+    path: Path | None = None
+    overrides: dict = field(default_factory=dict)
+    override_keys: set = field(default_factory=set)  # the same keys as errors name them
+
+    @property
+    def source(self) -> str:
+        return str(self.path) if self.path is not None else "<scene>"
+
+    @property
+    def base_dir(self) -> Path:
+        return self.path.parent if self.path is not None else Path.cwd()
+
+    def error(self, key, problem, expected=None) -> SceneError:
+        """A SceneError for ``key`` (dotted, with [k] for array entries) at its line."""
+        overridden = key in self.override_keys
+        line = None if overridden else _find_line(self.text, key)
+        source = self.source + (" (set on the command line)" if overridden else "")
+        return SceneError(source, key, problem, expected, line)
+
+    def build(self) -> tuple[Simulation, dict]:
+        """The simulation the scene describes at t = 0, and the named vertex sets of its mesh.
+
+        Raises SceneError for anything the static checks could not see: vertex indices out
+        of range, a selection that selects nothing, a vertex both fixed and driven, integrator
+        options the integrator rejects, a mesh file that cannot be read."""
+        return _build(self)
+
+    def check_strokes(self, sim=None) -> None:
+        """Tries the strokes that can be tried before the run on a copy of the cloth (of
+        ``sim``, a simulation this scene built, or of a new one): material strokes at any time,
+        3-D and screen strokes at time 0 (later ones depend on the motion, which only the run
+        knows). Raises SceneError naming the stroke that misses."""
+        if sim is None:
+            sim, _ = self.build()
+        probe = Simulation(Cloth.from_state(sim.cloth.state()), integrator="explicit",
+                           dt=sim.dt, gravity=sim.gravity)
+        for index, stroke in sorted(enumerate(self.data["strokes"]), key=lambda s: s[1]["time"]):
+            if "material" in stroke or stroke["time"] == 0.0:
+                apply_scene_stroke(self, probe, index)
+
+    def frame_interval(self, dt: float) -> int:
+        """Steps between frames."""
+        output = self.data["output"]
+        if output.get("every_steps") is not None:
+            return int(output["every_steps"])
+        return max(1, round(1.0 / (output["fps"] * dt)))
+
+
+def load_scene(path=None, text=None, overrides=None) -> Scene:
+    """Reads and checks a scene file (or ``text``); ``overrides`` maps dotted keys (e.g.
+    ``"mesh.nx"``, ``"strokes.0.time"``) to values that replace the file's. Raises SceneError
+    (a ValueError) naming the first problem, its key, line and what was expected."""
+    if text is None:
+        if path is None:
+            raise ValueError("give a scene file path or its text")
+        path = Path(os.fspath(path))
+        text = _read_scene_text(path)
+    elif path is not None:
+        path = Path(os.fspath(path))
+    source = str(path) if path is not None else "<scene>"
+    if not isinstance(text, str):
+        raise ValueError(f"scene text must be a str, got {type(text).__name__}")
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        match = re.search(r"line (\d+)", str(error))
+        raise SceneError(source, None, f"not valid TOML: {' '.join(str(error).split())}",
+                         line=int(match.group(1)) if match else None) from None
+    except RecursionError:
+        raise SceneError(source, None, "not readable TOML: arrays or tables are nested too "
+                         "deeply", "a scene file (no key takes values nested more than 2 "
+                         "levels deep)") from None
+    scene = Scene(data={}, text=text, path=path)
+    for dotted, value in (overrides or {}).items():
+        _apply_override(scene, raw, dotted, value)
+    scene.data = _check(scene, raw)
+    return scene
+
+
+def _read_scene_text(path):
+    """The text of scene file ``path``; SceneError if it is not a regular file (a FIFO would
+    block), is larger than MAX_SCENE_FILE_BYTES or is not UTF-8."""
+    try:
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):
+            raise SceneError(path, None, "cannot read the scene file: not a regular file")
+        if info.st_size > MAX_SCENE_FILE_BYTES:
+            raise SceneError(path, None, f"cannot read the scene file: {info.st_size} bytes "
+                             f"is more than the limit of {MAX_SCENE_FILE_BYTES} bytes")
+        return path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise SceneError(path, None, f"cannot read the scene file ({error.strerror})") \
+            from None
+    except UnicodeDecodeError as error:
+        raise SceneError(path, None, f"cannot read the scene file: not UTF-8 text (byte "
+                         f"{error.start})") from None
+
+
+def parse_override(text: str):
+    """``KEY=VALUE`` from the command line: VALUE is read as TOML (numbers, booleans, lists,
+    quoted strings); anything that is not TOML is taken as a plain string."""
+    if "=" not in text:
+        raise ValueError(f"--set needs KEY=VALUE, got {text!r}")
+    key, value = text.split("=", 1)
+    key = key.strip()
+    try:
+        parsed = tomllib.loads(f"value = {value.strip()}")["value"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()
+    except RecursionError:
+        raise SceneError("--set", key, "the value is nested too deeply",
+                         "a number, boolean, string or a list of them") from None
+    return key, parsed
+
+
+# -- checking -------------------------------------------------------------------------------------
+def _apply_override(scene, raw, dotted, value):
+    parts = [int(p) if p.isdigit() else p for p in dotted.split(".")]
+    if not parts or any(p == "" for p in parts):
+        raise SceneError("--set", dotted, "not a dotted key", "e.g. mesh.nx or strokes.0.time")
+    node = raw
+    for depth, part in enumerate(parts[:-1]):
+        if isinstance(part, int):
+            if not isinstance(node, list) or part >= len(node):
+                raise SceneError("--set", dotted, f"there is no entry {part} to change")
+            node = node[part]
+        else:
+            if not isinstance(node, dict):
+                raise SceneError("--set", dotted, f"{'.'.join(map(str, parts[:depth]))} is "
+                                 "not a table")
+            node = node.setdefault(part, {})
+    last = parts[-1]
+    if isinstance(last, int) or not isinstance(node, dict):
+        raise SceneError("--set", dotted, "can only set a key of a table")
+    node[last] = value
+    scene.overrides[dotted] = value
+    scene.override_keys.add(_dotted(parts))
+
+
+def _dotted(parts):
+    text = ""
+    for part in parts:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else part)
+    return text
+
+
+def _check(scene, raw):
+    unknown = [key for key in raw if key not in SCHEMA]
+    if unknown:
+        key = unknown[0]
+        raise scene.error(key, f"unknown table or key{_did_you_mean(key, SCHEMA)}",
+                          "one of the tables " + ", ".join(f"[{k}]" for k in SCHEMA))
+    data = {}
+    for name, (keys, kind) in SCHEMA.items():
+        value = raw.get(name)
+        if name == "integrator":
+            continue
+        if kind == "array":
+            if value is None:
+                value = []
+            if not isinstance(value, list) or any(not isinstance(v, dict) for v in value):
+                raise scene.error(name, f"got {_describe(value)}",
+                                  f"[[{name}]] tables (an array of tables)")
+            data[name] = [_check_table(scene, f"{name}[{k}]", entry, keys)
+                          for k, entry in enumerate(value)]
+        else:
+            if value is None:
+                if name in ("mesh", "simulation"):
+                    raise scene.error(name, "missing", f"a [{name}] table")
+                value = {}
+            if not isinstance(value, dict):
+                raise scene.error(name, f"got {_describe(value)}", f"a [{name}] table")
+            if name == "mesh":
+                generator = value.get("generator")
+                if generator is None:
+                    raise scene.error("mesh.generator", "missing",
+                                      _SCHEMA_GENERATOR_EXPECTED)
+                keys = dict(keys)
+                if isinstance(generator, str) and generator in _GENERATOR_KEYS:
+                    keys.update(_GENERATOR_KEYS[generator])
+            data[name] = _check_table(scene, name, value, keys)
+            if name == "mesh":
+                _check_mesh_size(scene, data[name])
+            if name == "camera":
+                _check_camera_size(scene, data[name])
+    material = data["material"]
+    given = [k for k in ("mass", "mass_per_vertex", "density") if k in material]
+    if len(given) > 1:
+        raise scene.error(f"material.{given[1]}", f"given together with material.{given[0]}",
+                          "one of mass (total), mass_per_vertex or density")
+    if not given:
+        material["mass"] = 0.1
+    if material["bending"] == "quadratic":
+        if "bending_modulus" not in material:
+            raise scene.error("material.bending_modulus", "missing with bending = \"quadratic\"",
+                              "a number >= 0 (N·m)")
+        if material.get("bend_stiffness", 0.0) != 0.0:
+            raise scene.error("material.bend_stiffness", "given with bending = \"quadratic\", "
+                              "which creates no bending springs", "no bend_stiffness (or 0)")
+        material.pop("bend_stiffness", None)
+    else:
+        if "bending_modulus" in material:
+            raise scene.error("material.bending_modulus", "given with bending = \"springs\"",
+                              "bending = \"quadratic\", or bend_stiffness for the springs")
+        material.setdefault("bend_stiffness", 200.0)
+    for k, entry in enumerate(data["fixed"]):
+        _check_selection(scene, f"fixed[{k}]", entry)
+    for k, entry in enumerate(data["driven"]):
+        _check_selection(scene, f"driven[{k}]", entry)
+    for k, stroke in enumerate(data["strokes"]):
+        forms = [f for f in _STROKE_FORMS if f in stroke]
+        if len(forms) != 1:
+            raise scene.error(f"strokes[{k}]", f"gives {len(forms)} of points, material, screen",
+                              "exactly one of them")
+        if "max_distance" in stroke and forms[0] != "points":
+            raise scene.error(f"strokes[{k}].max_distance", f"given for a {forms[0]} stroke",
+                              "max_distance only with points")
+        if stroke["time"] >= data["simulation"]["duration"]:
+            raise scene.error(f"strokes[{k}].time", f"{stroke['time']:g} s is not before the "
+                              f"end of the run ({data['simulation']['duration']:g} s)",
+                              "a time before simulation.duration")
+    output = data["output"]
+    if output.get("fps") is not None and output.get("every_steps") is not None:
+        raise scene.error("output.every_steps", "given together with output.fps",
+                          "one of fps or every_steps")
+    if output.get("every_steps") is None and output.get("fps") is None:
+        output["fps"] = 30.0
+    if output["animation"] != "none" and output["format"] == "none":
+        raise scene.error("output.animation", "an animation needs frames, but output.format "
+                          "is 'none'", "format = 'vtu', 'vtk', 'ply' or 'obj'")
+    if data["simulation"]["settle"] > 0.0 and data["driven"]:
+        raise scene.error("simulation.settle", "given for a scene with [[driven]] vertices, "
+                          "which keep moving and have no rest to settle to", "settle = 0")
+    data["integrator"] = _check_integrator(scene, raw.get("integrator", {}),
+                                           data["simulation"]["integrator"])
+    return data
+
+
+def _check_mesh_size(scene, mesh):
+    """The generated mesh's vertex count, estimated before anything is built."""
+    sizes = {"grid": ("nx", "ny"), "cylinder": ("rings", "segments")}.get(mesh["generator"])
+    if sizes is None:
+        return
+    count = mesh[sizes[0]] * mesh[sizes[1]]
+    if count > MAX_MESH_VERTICES:
+        key = sizes[0] if mesh[sizes[0]] >= mesh[sizes[1]] else sizes[1]
+        raise scene.error(f"mesh.{key}", f"{sizes[0]} × {sizes[1]} = {mesh[sizes[0]]} × "
+                          f"{mesh[sizes[1]]} = {count} vertices",
+                          f"at most {MAX_MESH_VERTICES} vertices")
+
+
+def _check_camera_size(scene, camera):
+    pixels = camera["width"] * camera["height"]
+    if pixels > MAX_IMAGE_PIXELS:
+        key = "width" if camera["width"] >= camera["height"] else "height"
+        raise scene.error(f"camera.{key}", f"{camera['width']} × {camera['height']} = "
+                          f"{pixels} pixels", f"at most {MAX_IMAGE_PIXELS} pixels in all")
+
+
+def _check_table(scene, where, table, keys):
+    checked = {}
+    for key, value in table.items():
+        if key not in keys:
+            raise scene.error(f"{where}.{key}", f"unknown key{_did_you_mean(key, keys)}",
+                              "one of " + ", ".join(keys))
+        checker = keys[key][0]
+        if checker == "box":
+            checked[key] = _check_table(scene, f"{where}.{key}", _as_table(scene, where, key,
+                                                                             value), _BOX)
+            continue
+        if checker == "smooth":
+            checked[key] = _check_table(scene, f"{where}.{key}", _as_table(scene, where, key,
+                                                                             value), _SMOOTH)
+            continue
+        try:
+            checked[key] = checker(value)
+        except _Invalid as invalid:
+            raise scene.error(f"{where}.{key}", invalid.problem, invalid.expected) from None
+    for key, (checker, default, _) in keys.items():
+        if key in checked:
+            continue
+        if default is _REQUIRED:
+            expected = getattr(checker, "expected", "a value")
+            raise scene.error(f"{where}.{key}", "missing", expected)
+        if default is not None and checker not in ("box", "smooth"):
+            checked[key] = checker(default) if isinstance(default, list) else default
+    return checked
+
+
+def _as_table(scene, where, key, value):
+    if not isinstance(value, dict):
+        raise scene.error(f"{where}.{key}", f"got {_describe(value)}", "an inline table {...}")
+    return value
+
+
+def _check_selection(scene, where, entry):
+    given = [k for k in _SELECTION if k in entry]
+    if len(given) != 1:
+        raise scene.error(where, f"selects vertices by {len(given)} of indices, box, set",
+                          "exactly one of them")
+
+
+def _check_integrator(scene, options, integrator):
+    if not isinstance(options, dict):
+        raise scene.error("integrator", f"got {_describe(options)}", "an [integrator] table")
+    table = _OPTIONS.get(integrator, {})
+    checked = {}
+    for key, value in options.items():
+        if key not in table:
+            raise scene.error(f"integrator.{key}",
+                              f"unknown option of the {integrator!r} integrator"
+                              f"{_did_you_mean(key, table)}",
+                              "one of " + (", ".join(sorted(table)) or "no options"))
+        try:
+            checked[key] = check_option(integrator, key, value)
+        except OptionError as invalid:
+            raise scene.error(f"integrator.{key}", f"got {invalid.got}",
+                              invalid.expected) from None
+    return checked
+
+
+def _find_line(text, key):
+    """Line (1-based) of a dotted key such as ``strokes[1].time`` or ``mesh.nx`` in TOML text:
+    the key's own line if it is found in its table, else the table's header line."""
+    parts = re.findall(r"[^.\[\]]+|\[\d+\]", key)
+    if not parts:
+        return None
+    table, index, rest = parts[0], 0, parts[1:]
+    if rest and rest[0].startswith("["):
+        index, rest = int(rest[0][1:-1]), rest[1:]
+    name = rest[0] if rest else None
+    header = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?")
+    assignment = re.compile(r"^\s*\"?([A-Za-z0-9_\-]+)\"?\s*=")
+    current, seen, header_line = None, -1, None
+    for number, line in enumerate(text.splitlines(), start=1):
+        match = header.match(line)
+        if match:
+            current = match.group(1).strip()
+            if current == table:
+                seen += 1
+                if seen == index:
+                    header_line = number
+                    if name is None:
+                        return number
+            continue
+        found = assignment.match(line)
+        if not found:
+            continue
+        if current is None and found.group(1) == table:
+            return number  # a top-level key, or an inline table
+        if current == table and seen == index and found.group(1) == name:
+            return number
+    return header_line

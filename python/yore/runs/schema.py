@@ -1,0 +1,327 @@
+"""Scene files' schema: every table and key of a scene file with its validator, default and
+description (`SCHEMA`), the error a wrong scene raises (`SceneError`) and the limits.
+
+A scene file names the mesh (a generator with its sizes, or a mesh file), the material, fixed
+and driven vertices, gravity, the integrator with its options and dt, the duration, strokes at
+given times with their options and rest-length smoothing, the camera and the outputs. The
+tables and keys are documented in README.md ("Scene files") and in `SCHEMA` below; the example
+scenes in ``examples/*.toml`` use all of them. `yore.runs.loading` checks a file against it.
+
+Limits, checked before anything is built or allocated: a scene file is a regular file of at
+most `MAX_SCENE_FILE_BYTES`; TOML nested deeper than Python can parse is refused (in the file
+and in ``--set`` values); every integer is at most `MAX_INTEGER` (2^31 - 1, so vertex indices
+fit the core's int32); a generated mesh has at most `yore.meshes.MAX_MESH_VERTICES` vertices
+(nx·ny or rings·segments); the camera image at most `yore.stroke.MAX_IMAGE_SIDE` pixels a side
+and `yore.stroke.MAX_IMAGE_PIXELS` in all; integrator options follow
+`yore.simulation.check_option` (iteration counts up to `MAX_STEP_ITERATIONS`); smoothing
+iterations at most `MAX_SMOOTHING_ITERATIONS`; floats are finite.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+
+import numpy as np
+
+from ..simulation import INTEGRATORS, MAX_SMOOTHING_ITERATIONS
+from ..stroke import GROWTH_MODES, MAX_IMAGE_SIDE, MAX_REFINE
+
+__all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
+
+#: Largest scene file read, bytes.
+MAX_SCENE_FILE_BYTES = 16 * 2**20
+#: Largest integer any key takes (vertex indices, sizes, counts): the core's int32 range.
+MAX_INTEGER = 2**31 - 1
+
+
+class SceneError(ValueError):
+    """A scene file is wrong. ``key`` is the dotted key (e.g. ``strokes[1].time``), ``line``
+    its line in the file (None when unknown or given on the command line), ``expected`` what
+    would have been accepted."""
+
+    def __init__(self, source, key, problem, expected=None, line=None):
+        self.source, self.key, self.problem = source, key, problem
+        self.expected, self.line = expected, line
+        place = f"{source}:{line}" if line else str(source)
+        text = f"{place}: {key}: {problem}" if key else f"{place}: {problem}"
+        if expected:
+            text += f"; expected {expected}"
+        super().__init__(text)
+
+
+# -- the schema ----------------------------------------------------------------------------------
+# Each key maps to (checker, default, description). A checker takes a value and returns
+# the checked value or raises _Invalid(problem, expected). A default of _REQUIRED means the key
+# must be given; None means "absent unless given".
+
+_REQUIRED = object()
+
+
+class _Invalid(Exception):
+    def __init__(self, problem, expected):
+        super().__init__(problem)
+        self.problem, self.expected = problem, expected
+
+
+def _describe(value):
+    if isinstance(value, (dict, list)):
+        return f"a {'table' if isinstance(value, dict) else 'list'}"
+    text = repr(value)
+    if len(text) > 60:  # one readable line, whatever was given
+        text = text[:57] + "..."
+    return f"{type(value).__name__} {text}"
+
+
+def _did_you_mean(key, candidates):
+    close = difflib.get_close_matches(str(key), [str(c) for c in candidates], n=2, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
+def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
+    bounds = []
+    if minimum is not None:
+        bounds.append(f"{'>' if strict_minimum else '>='} {minimum:g}")
+    if maximum is not None:
+        bounds.append(f"<= {maximum:g}")
+    expected = "a number" + (f" {' and '.join(bounds)}" if bounds else "") + \
+        (f" ({unit})" if unit else "")
+
+    def check(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise _Invalid(f"got {_describe(value)}", expected)
+        value = float(value)
+        if not math.isfinite(value):
+            raise _Invalid(f"got {value}", expected)
+        if minimum is not None and (value < minimum or (strict_minimum and value == minimum)):
+            raise _Invalid(f"got {value:g}", expected)
+        if maximum is not None and value > maximum:
+            raise _Invalid(f"got {value:g}", expected)
+        return value
+    check.expected = expected
+    return check
+
+
+def _integer(minimum, maximum=MAX_INTEGER):
+    expected = (f"an integer >= {minimum}" if maximum == MAX_INTEGER else
+                f"an integer in [{minimum}, {maximum}]")
+
+    def check(value):
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise _Invalid(f"got {_describe(value)}", expected)
+        if value > maximum:
+            raise _Invalid(f"got {_describe(value)}, more than the limit {maximum}", expected)
+        return value
+    check.expected = expected
+    return check
+
+
+def _boolean(value):
+    if not isinstance(value, bool):
+        raise _Invalid(f"got {_describe(value)}", "true or false")
+    return value
+
+
+_boolean.expected = "true or false"
+
+
+def _string(value):
+    if not isinstance(value, str):
+        raise _Invalid(f"got {_describe(value)}", "a string")
+    return value
+
+
+_string.expected = "a string"
+
+
+def _choice(*choices):
+    expected = "one of " + ", ".join(repr(c) for c in choices)
+
+    def check(value):
+        if value not in choices:
+            raise _Invalid(f"got {_describe(value)}", expected)
+        return value
+    check.expected = expected
+    return check
+
+
+def _points(dimension, what):
+    expected = f"a list of {what} points"
+
+    def check(value):
+        if not isinstance(value, list) or not value:
+            raise _Invalid(f"got {_describe(value)}", expected)
+        for point in value:
+            if (not isinstance(point, list) or len(point) != dimension or
+                    any(isinstance(c, bool) or not isinstance(c, (int, float)) or
+                        not math.isfinite(c) for c in point)):
+                raise _Invalid(f"got the point {point!r}", expected)
+        return np.asarray(value, dtype=np.float64)
+    check.expected = expected
+    return check
+
+
+def _vector3(value):
+    if (not isinstance(value, list) or len(value) != 3 or
+            any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
+                for c in value)):
+        raise _Invalid(f"got {_describe(value)}", "3 numbers [x, y, z]")
+    return np.asarray(value, dtype=np.float64)
+
+
+_vector3.expected = "3 numbers [x, y, z]"
+
+
+def _indices(value):
+    expected = _indices.expected
+    if not isinstance(value, list) or not value:
+        raise _Invalid(f"got {_describe(value)}", expected)
+    for i in value:
+        if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i <= MAX_INTEGER:
+            raise _Invalid(f"got the index {_describe(i)}", expected)
+    return np.asarray(value, dtype=np.int32)
+
+
+_indices.expected = "a list of vertex indices (integers in [0, 2147483647])"
+
+_GENERATOR_KEYS = {
+    "grid": {
+        "nx": (_integer(2), 21, "vertices along the pattern's u (width) direction"),
+        "ny": (_integer(2), 21, "vertices along the pattern's v (height) direction"),
+        "width": (_number(0, strict_minimum=True, unit="m"), 1.0, "pattern size along u"),
+        "height": (_number(0, strict_minimum=True, unit="m"), 1.0, "pattern size along v"),
+        "plane": (_choice("xy", "xz"), "xy",
+                  "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)"),
+        "gather": (_number(0, 1, strict_minimum=True), 1.0,
+                   "start gathered along u to this fraction of the width (rest lengths stay "
+                   "those of the flat pattern)"),
+    },
+    "cylinder": {
+        "radius": (_number(0, strict_minimum=True, unit="m"), 0.25, "tube radius"),
+        "height": (_number(0, strict_minimum=True, unit="m"), 0.5, "tube length along y"),
+        "rings": (_integer(2), 13, "vertex rings"),
+        "segments": (_integer(3), 32, "vertices per ring"),
+    },
+    "file": {
+        "path": (_string, _REQUIRED, "mesh file (any meshio format), relative to the scene"),
+        "scale": (_number(0, strict_minimum=True), 1.0, "factor applied to the coordinates"),
+    },
+}
+
+_SELECTION = {
+    "indices": (_indices, None, "vertex indices"),
+    "box": ("box", None, "{min = [x, y, z], max = [x, y, z]}: vertices inside at t = 0, m"),
+    "set": (_string, None, "a named set of the mesh generator (see README)"),
+}
+
+_STROKE_FORMS = ("points", "material", "screen")
+
+
+def _mass_scale(value):
+    if value == "conserve" and isinstance(value, str):
+        return value
+    try:
+        return _positive_factor(value)
+    except _Invalid as error:
+        raise _Invalid(error.problem, _mass_scale.expected) from None
+
+
+_positive_factor = _number(0, strict_minimum=True)
+_mass_scale.expected = "a number > 0 or 'conserve'"
+_SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in _GENERATOR_KEYS)
+
+SCHEMA = {
+    "scene": ({
+        "name": (_string, None, "a title"),
+        "description": (_string, None, "free text"),
+    }, "table"),
+    "mesh": ({
+        "generator": (_choice(*_GENERATOR_KEYS), _REQUIRED, "grid, cylinder or file"),
+    }, "table"),
+    "material": ({
+        "mass": (_number(0, strict_minimum=True, unit="kg"), None,
+                 "total mass, spread uniformly over the vertices (the paper's choice)"),
+        "mass_per_vertex": (_number(0, strict_minimum=True, unit="kg"), None, "per vertex"),
+        "density": (_number(0, strict_minimum=True, unit="kg/m²"), None,
+                    "areal density, lumped to the vertices by area"),
+        "stretch_stiffness": (_number(0, strict_minimum=True, unit="N/m"), 200.0,
+                              "structural springs"),
+        "bend_stiffness": (_number(0, unit="N/m"), None,
+                           "bending springs (default 200; 0: none; not with quadratic bending)"),
+        "bending": (_choice("springs", "quadratic"), "springs",
+                    "bending model: the paper's springs or Bergou et al. 2006's quadratic energy"),
+        "bending_modulus": (_number(0, unit="N·m"), None,
+                            "quadratic bending's modulus (required with bending = quadratic)"),
+        "damping": (_number(0, unit="N·s/m"), 0.02, "along each spring"),
+        "drag": (_number(0, unit="1/s"), 0.3, "still air"),
+    }, "table"),
+    "fixed": (dict(_SELECTION), "array"),
+    "driven": ({
+        **_SELECTION,
+        "motion": (_choice("rotation"), "rotation", "the kind of prescribed motion"),
+        "center": (_vector3, _REQUIRED, "a point on the rotation axis, m"),
+        "axis": (_vector3, _REQUIRED, "axis direction"),
+        "omega": (_number(unit="rad/s"), _REQUIRED, "angular speed, right-handed about axis"),
+    }, "array"),
+    "simulation": ({
+        "integrator": (_choice(*INTEGRATORS), "explicit", "the time integrator"),
+        "dt": (_number(0, strict_minimum=True, unit="s"), None,
+               "time step; default: below the stable step (explicit) or 1/60 s"),
+        "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
+        "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
+        "settle": (_number(0, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
+                   "to a static equilibrium before t = 0 (Simulation.settle; no driven "
+                   "vertices); 0: start as built"),
+        "threads": (_integer(1), None, "threads of the core's loops and of BLAS "
+                    "(yore.set_num_threads); default: the machine's cores"),
+    }, "table"),
+    "integrator": (None, "table"),  # options of the chosen integrator, checked separately
+    "strokes": ({
+        "time": (_number(0, unit="s"), _REQUIRED, "when the stroke is drawn"),
+        "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
+        "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
+        "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
+        "expansion": (_number(0, strict_minimum=True), 1.1, "rest length / current length of "
+                      "new springs (eq. (1))"),
+        "mass_scale": (_mass_scale, 0.95, "new vertex mass / corners' mean, or 'conserve' "
+                       "(taken from the corners; total mass unchanged)"),
+        "width": (_number(0, strict_minimum=True, unit="m"), None,
+                  "band around the stroke with a smooth falloff (default: the crossed faces)"),
+        "growth": (_choice(*GROWTH_MODES), "paper",
+                   "paper (eq. (1) on new springs), isotropic, along or across the stroke"),
+        "refine": (_integer(0, MAX_REFINE), 0, "1→4 refinement passes of the band first"),
+        "max_distance": (_number(0, strict_minimum=True, unit="m"), None,
+                         "points only: farthest a point may be from the surface"),
+        "smooth": ("smooth", None, "{iterations, strength, region}: rest-length smoothing "
+                   "right after the stroke"),
+    }, "array"),
+    "camera": ({
+        "eye": (_vector3, None, "m; default: fitted to the cloth at t = 0"),
+        "target": (_vector3, None, "m; default: the cloth's centre at t = 0"),
+        "up": (_vector3, [0.0, 1.0, 0.0], "up direction"),
+        "fov_degrees": (_number(0, 180, strict_minimum=True), 35.0, "vertical field of view"),
+        "width": (_integer(16, MAX_IMAGE_SIDE), 800, "image width, pixels"),
+        "height": (_integer(16, MAX_IMAGE_SIDE), 600, "image height, pixels"),
+    }, "table"),
+    "output": ({
+        "format": (_choice("vtu", "vtk", "ply", "obj", "none"), "vtu", "frame file format"),
+        "fps": (_number(0, strict_minimum=True), None,
+                "frames per simulated second (default 30 unless every_steps is given)"),
+        "every_steps": (_integer(1), None, "a frame every this many steps"),
+        "pictures": (_boolean, True, "before/after PNG (before = just before the first stroke)"),
+        "animation": (_choice("none", "gif", "mp4"), "none", "an animation of the frames"),
+        "color_by": (_choice("none", "expansion"), "none",
+                     "colour pictures by rest-length expansion"),
+    }, "table"),
+}
+
+_SMOOTH = {
+    "iterations": (_integer(0, MAX_SMOOTHING_ITERATIONS), 10, "smoothing iterations"),
+    "strength": (_number(0, 1, strict_minimum=True), 0.5, "fraction moved per iteration"),
+    "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
+    "conserve": (_boolean, True, "keep the region's added rest length (redistribute only)"),
+}
+_BOX = {
+    "min": (_vector3, _REQUIRED, "lower corner, m"),
+    "max": (_vector3, _REQUIRED, "upper corner, m"),
+}
