@@ -20,8 +20,10 @@ import numpy as np
 import yore
 from yore import metrics
 from yore.cli import main as yore_main
-from yore.render import render_image, save_png, side_by_side
-from yore.render_run import camera_from_settings
+from yore.camera import camera_from_settings
+from yore.viz import render_image, save_png, side_by_side
+from yore.viz.pictures import stroke_lines
+from yore.viz.render import framing_camera, picture_layout
 
 EXAMPLES = Path(__file__).resolve().parent
 
@@ -34,6 +36,25 @@ def run(scene, out, *sets):
     return yore.load_state(out / "state.npz")
 
 
+def save(path, settings, shown, width, height, wrinkles):
+    """One picture of (simulation, strokes, title) panels under one camera fitted to all,
+    coloured by wrinkle height on a shared scale when ``wrinkles``."""
+    positions = [sim.cloth.positions for sim, _, _ in shown]
+    inner = camera_from_settings(settings, positions,
+                                 *picture_layout(width, height, colorbar=wrinkles))
+    camera = framing_camera(inner, width, height)
+    heights = [1e3 * metrics.wrinkle_height(sim.cloth.positions, sim.cloth.faces)
+               for sim, _, _ in shown]
+    half = max(float(np.abs(h).max()) for h in heights)
+    panels = [render_image(sim.cloth.positions, sim.cloth.faces, camera,
+                           vertex_values=height if wrinkles else None,
+                           value_range=(-half, half), colormap="coolwarm",
+                           colorbar="wrinkle height (mm)" if wrinkles else None,
+                           strokes=stroke_lines(strokes, sim.cloth.positions))
+              for (sim, strokes, _), height in zip(shown, heights)]
+    save_png(path, side_by_side(panels, [title for _, _, title in shown]))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/gallery"))
@@ -43,12 +64,9 @@ def main():
     results = {}
 
     hanging_size = ["--set", "mesh.nx=13", "--set", "mesh.ny=13"] if args.small else []
-    panels, titles = [], []
     plain, _ = run("hanging.toml", runs / "hanging-plain", *hanging_size, "--set", "strokes=[]")
     scene = yore.load_scene(EXAMPLES / "hanging.toml")
-    camera = camera_from_settings(scene.data["camera"], plain.cloth.positions, 640, 480)
-    panels.append(render_image(plain.cloth.positions, plain.cloth.faces, camera))
-    titles.append("no stroke")
+    shown = [(plain, [], "no stroke")]
     for name, label in (("hanging_paper.toml", "the paper's stroke"),
                         ("hanging.toml", "yore's stroke")):
         stem = name.removesuffix(".toml")
@@ -60,33 +78,28 @@ def main():
                                        stroke["region_faces"],
                                        stroke["new_vertices"] or stroke["line_vertices"])
         results[stem] = {**effect, "time": sim.time, "vertices": sim.cloth.vertex_count}
-        panels.append(render_image(sim.cloth.positions, sim.cloth.faces, camera))
-        titles.append(f"{label}: wrinkles x{effect['wrinkle_ratio']:.1f}, "
-                      f"spike index {effect['spike_index']:.2f}")
-    save_png(args.out / "hanging.png", side_by_side(panels, titles))
+        shown.append((sim, record["strokes"], f"{label}: wrinkles x{effect['wrinkle_ratio']:.1f}, "
+                      f"spike index {effect['spike_index']:.2f}"))
+    save(args.out / "hanging.png", scene.data["camera"], shown, 640, 480, wrinkles=True)
 
     cylinder_size = (["--set", "mesh.rings=7", "--set", "mesh.segments=16"] if args.small
                      else [])
     segments = 16 if args.small else 32
-    panels, titles = [], []
     plain, _ = run("cylinder.toml", runs / "cylinder-plain", *cylinder_size,
                    "--set", "strokes=[]")
     scene = yore.load_scene(EXAMPLES / "cylinder.toml")
-    camera = camera_from_settings(scene.data["camera"], plain.cloth.positions, 560, 480)
-    panels.append(render_image(plain.cloth.positions, plain.cloth.faces, camera))
-    titles.append("no stroke")
+    shown = [(plain, [], "no stroke")]
     for name, label in (("cylinder_paper.toml", "the paper's stroke"),
                         ("cylinder.toml", "yore's stroke")):
         stem = name.removesuffix(".toml")
-        sim, _ = run(name, runs / stem, *cylinder_size)
+        sim, record = run(name, runs / stem, *cylinder_size)
         own, _ = run(name, runs / f"{stem}-plain", *cylinder_size, "--set", "strokes=[]")
         hem = float(metrics.radial_distance(sim.cloth.positions[:segments]).mean())
         hem_plain = float(metrics.radial_distance(own.cloth.positions[:segments]).mean())
         results[stem] = {"hem_radius": hem, "hem_radius_plain": hem_plain,
                          "hem_ratio": hem / hem_plain, "time": sim.time}
-        panels.append(render_image(sim.cloth.positions, sim.cloth.faces, camera))
-        titles.append(f"{label}: hem radius x{hem / hem_plain:.2f}")
-    save_png(args.out / "cylinder.png", side_by_side(panels, titles))
+        shown.append((sim, record["strokes"], f"{label}: hem radius x{hem / hem_plain:.2f}"))
+    save(args.out / "cylinder.png", scene.data["camera"], shown, 560, 480, wrinkles=False)
     (args.out / "gallery.json").write_text(json.dumps({"small": args.small, **results},
                                                       indent=1) + "\n")
     for name, values in results.items():

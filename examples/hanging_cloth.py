@@ -10,7 +10,7 @@ from pathlib import Path
 
 import yore
 from yore.io import FrameSeries
-from yore.plotting import save_side_by_side
+from yore.viz import save_panels
 
 
 def main(argv=None):
@@ -36,7 +36,7 @@ def main(argv=None):
                      point_data={"velocity": cloth.velocities})
     wall = time.perf_counter() - started
     frames.close()
-    picture = save_side_by_side(
+    picture = save_panels(
         args.out / "hanging_cloth.png",
         [("t = 0 s", before, cloth.faces), (f"t = {sim.time:.2f} s", cloth.positions, cloth.faces)])
 

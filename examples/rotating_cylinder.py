@@ -14,7 +14,7 @@ import numpy as np
 import yore
 from yore.io import FrameSeries
 from yore.meshes import cylinder_ring
-from yore.plotting import save_side_by_side
+from yore.viz import save_panels
 
 
 def ring_angular_speed(cloth, ring):
@@ -41,7 +41,7 @@ def main(argv=None):
         for _ in range(round(args.seconds * args.fps)):
             sim.advance(1.0 / args.fps)
             frames.write(sim.time, cloth.positions, cloth.faces)
-    picture = save_side_by_side(args.out / "rotating_cylinder.png",
+    picture = save_panels(args.out / "rotating_cylinder.png",
                                 [("t = 0 s", before, cloth.faces),
                                  (f"t = {sim.time:.2f} s", cloth.positions, cloth.faces)])
     print(f"t = {sim.time:.2f} s, rim turns at {sim.scene['omega']:.3f} rad/s")

@@ -17,7 +17,8 @@ import numpy as np
 
 import yore
 from yore import metrics
-from yore.render import fit_camera, render_image, save_png
+from yore.camera import fit_camera
+from yore.viz import render_image, save_png
 
 HERE = Path(__file__).resolve().parent
 
@@ -55,7 +56,8 @@ def main(argv=None):
     gain = metrics.area(sim.cloth.positions, sim.cloth.faces, report.region_faces) / area_before
     picture = save_png(args.out / "scripted.png",
                        render_image(sim.cloth.positions, sim.cloth.faces, camera,
-                                    strokes=[sim.cloth.positions[report.new_vertices]]))
+                                    strokes=[sim.cloth.positions[report.line_vertices]],
+                                    title=f"t = {sim.time:.2f} s"))
     print(f"part 2: screen stroke split {report.faces_split} faces; smoothing roughness "
           f"{smoothing['roughness_before']:.4f} -> {smoothing['roughness_after']:.4f}; "
           f"region area x{gain:.3f} after 1 s")

@@ -20,7 +20,7 @@ import numpy as np
 import yore
 from yore import metrics
 from yore.io import FrameSeries
-from yore.plotting import save_side_by_side
+from yore.viz import save_panels
 
 
 def hanging(integrator):
@@ -74,7 +74,7 @@ def run(name, make, integrator, out, before_seconds, after_seconds, smooth=0, fp
             write()
     region = report.region_faces
     gain = metrics.area_gain(cloth.positions, cloth.faces, region, report.area_before)
-    picture = save_side_by_side(out / f"{name}.png", [
+    picture = save_panels(out / f"{name}.png", [
         (f"before the stroke (t = {before_seconds:.1f} s)", *before),
         (f"{after_seconds:.1f} s after it", cloth.positions, cloth.faces)])
     print(f"{name} ({integrator}): stroke split {report.faces_split} faces "

@@ -154,9 +154,12 @@ def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, c
     background = np.all(pixels == 255, axis=1)
     # the cloth covers a real part of the picture, and not all of it (fitted with a margin)
     assert 0.05 < 1.0 - background.mean() < 0.95
-    # the stroke of the run is drawn in red over the cloth
-    red = (pixels[:, 0] > 200) & (pixels[:, 1] < 80) & (pixels[:, 2] < 80)
-    assert red.sum() > 10
+    # the stroke of the run is drawn over the cloth, in the colour chosen to stand out from
+    # the colour map (unlit, so its pixels have that colour up to anti-aliasing at the rim)
+    from yore.viz.render import colormap_table, stroke_color
+
+    ink = np.asarray(stroke_color(colormap_table("viridis"))) * 255.0
+    assert np.sum(np.abs(pixels - ink).max(axis=1) < 40) > 10
     # a whole run: before/after side by side and the animation
     assert main(["render", str(tmp_path), "-o", str(tmp_path / "pictures"), "--quiet"]) == 0
     with Image.open(tmp_path / "pictures" / "before_after.png") as image:
@@ -339,16 +342,16 @@ def test_render_mp4_without_ffmpeg_fails_before_touching_the_run(tmp_path, monke
 
 def test_render_colours_by_the_scene_unless_told_otherwise(tmp_path, monkeypatch):
     run("hanging", tmp_path, "--no-render", "--set", 'output.color_by="expansion"')
-    import yore.render_run
+    import yore.viz.pictures
 
     seen = []
-    original = yore.render_run.render_image
+    original = yore.viz.pictures.render_image
 
-    def recording(V, F, camera, face_values=None, **kwargs):
-        seen.append(face_values is not None)
-        return original(V, F, camera, face_values=face_values, **kwargs)
+    def recording(V, F, camera, vertex_values=None, **kwargs):
+        seen.append(vertex_values is not None)
+        return original(V, F, camera, vertex_values=vertex_values, **kwargs)
 
-    monkeypatch.setattr(yore.render_run, "render_image", recording)
+    monkeypatch.setattr(yore.viz.pictures, "render_image", recording)
     assert main(["render", str(tmp_path), "--animation", "none", "--quiet"]) == 0
     assert seen and all(seen)
     seen.clear()

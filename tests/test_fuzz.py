@@ -362,4 +362,4 @@ def test_camera_sizes_are_checked_before_allocating(width, height):
     except ValueError as error:
         assert "\n" not in str(error)
         return
-    assert camera.width * camera.height <= yore.stroke.MAX_IMAGE_PIXELS
+    assert camera.width * camera.height <= yore.checks.MAX_IMAGE_PIXELS

@@ -16,8 +16,9 @@ from .meshes import cylinder_mesh, grid_mesh
 from .simulation import INTEGRATORS, Simulation
 from .state import load_state, save_state
 from .runs import RunError, SceneError, load_scene, resume_run, run_scene
-from . import render, runs
-from .stroke import Camera, StrokeMissed, StrokeReport
+from . import camera, checks, runs, viz
+from .camera import Camera
+from .stroke import StrokeMissed, StrokeReport
 from . import _core as _threads_core
 
 # OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
@@ -50,7 +51,10 @@ __all__ = [
     "run_scene",
     "resume_run",
     "RunError",
-    "render",
+    "viz",
+    "camera",
+    "checks",
+    "runs",
     "load_state",
     "springs",
     "subdivision",

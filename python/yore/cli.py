@@ -4,8 +4,11 @@
     yore run --resume OUT/state.npz [-o OUT2] [--until SECONDS] [--quiet]
     yore check SCENE.toml [--set KEY=VALUE ...]
     yore demo [-o OUT] [--overwrite] [--quiet]
-    yore render FRAME|RUN_DIR [-o OUT] [--width W] [--height H] [--color-by expansion]
+    yore render FRAME|RUN_DIR [-o OUT] [--width W] [--height H] [--color-by none|expansion|wrinkles]
                 [--animation gif|mp4|none] [--no-pictures] [--eye X Y Z] [--target X Y Z]
+                [--up X Y Z] [--fov DEGREES] [--framing cloth|run]
+    yore view SCENE.toml|STATE.npz [--set KEY=VALUE ...] [--headless --stroke-px "x,y x,y ..."
+              [--at T] [--until T] --screenshot PNG] [--width W] [--height H] [stroke options]
     yore --version
 Every command takes --threads N (the threads of the core's loops and of BLAS, see
 `yore.set_num_threads`; default: the scene's [simulation] threads, else the machine's cores).
@@ -94,9 +97,9 @@ def _parser():
                         "[camera] width, 800)")
     render.add_argument("--height", type=int, help="image height, pixels (default: the "
                         "scene's [camera] height, 600)")
-    render.add_argument("--color-by", choices=("none", "expansion"), default=None,
-                        help="colour faces by rest-length expansion (default: the scene's "
-                        "[output] color_by, else none)")
+    render.add_argument("--color-by", choices=("none", "expansion", "wrinkles"), default=None,
+                        help="colour by rest-length expansion or signed wrinkle height, with a "
+                        "colour bar (default: the scene's [output] color_by, else none)")
     render.add_argument("--animation", choices=("gif", "mp4", "none"), default="gif",
                         help="animation of a run's frames (default gif; mp4 needs ffmpeg)")
     render.add_argument("--no-pictures", action="store_true",
@@ -106,8 +109,69 @@ def _parser():
     render.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="point the camera looks at, m (default: the scene's, else the "
                         "cloth's centre)")
+    _add_view_options(render)
+    render.add_argument("--framing", choices=("cloth", "run"), default=None,
+                        help="cloth: each picture framed tightly on the cloth it shows, the "
+                        "animation's camera follows the cloth; run: one camera for every frame "
+                        "(default: the scene's [output] framing, else cloth)")
     _add_common(render)
+
+    view = commands.add_parser("view", help="watch a simulation live and draw strokes with "
+                               "the mouse (or headless, strokes in pixels)",
+                               description="Open a window (polyscope) in which the simulation "
+                               "of a scene file or a saved state runs live; press D (or the "
+                               "panel's button) to draw a stroke with the left mouse button. "
+                               "With --headless the same code runs without a window: "
+                               "--stroke-px draws a stroke through pixels of the view at --at, "
+                               "--until runs on, --screenshot saves the view.")
+    view.add_argument("source", type=Path, help="a scene file (.toml) or a state (.npz)")
+    _add_set(view)
+    view.add_argument("--headless", action="store_true",
+                      help="no window: EGL off-screen rendering (over SSH, in scripts, tests)")
+    view.add_argument("--stroke-px", dest="stroke_px", action="append", default=[],
+                      metavar='"x,y x,y ..."', help="headless: a stroke through these pixels "
+                      "of the view (x right, y down, from the top-left pixel's centre); may be "
+                      "given several times")
+    view.add_argument("--at", type=float, metavar="SECONDS",
+                      help="headless: simulated time at which the strokes are drawn (default: "
+                      "the start)")
+    view.add_argument("--until", type=float, metavar="SECONDS",
+                      help="headless: run until this simulated time (default: --at, or the "
+                      "start)")
+    view.add_argument("--screenshot", type=Path, metavar="PNG",
+                      help="save the view at the end as this PNG (headless: required)")
+    view.add_argument("--panel", action="store_true",
+                      help="headless: draw the window's panels (controls, statistics) into the "
+                      "screenshot")
+    view.add_argument("--width", type=int, help="view width, pixels (default: the scene's "
+                      "[camera] width, 800; alone: the aspect ratio is kept)")
+    view.add_argument("--height", type=int, help="view height, pixels (default: the scene's "
+                      "[camera] height, 600)")
+    view.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                      help="camera position, m (default: the scene's, else fitted)")
+    view.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                      help="point the camera looks at, m")
+    _add_view_options(view)
+    view.add_argument("--expansion", type=float, default=None,
+                      help="stroke expansion (default 1.1, or the scene's first stroke's)")
+    view.add_argument("--width-m", dest="stroke_width", type=float, default=None,
+                      metavar="METRES", help="stroke band width, m (default: the paper's, "
+                      "crossed faces only)")
+    view.add_argument("--growth", choices=("paper", "isotropic", "along", "across"),
+                      default=None, help="stroke growth mode (default paper)")
+    view.add_argument("--refine", type=int, default=None, help="stroke refinement passes")
+    view.add_argument("--smooth", type=int, default=None, metavar="ITERATIONS",
+                      help="rest-length smoothing iterations after each stroke (default 0)")
+    _add_common(view)
     return parser
+
+
+def _add_view_options(parser):
+    parser.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="the world direction shown upwards (default: the scene's, else "
+                        "0 1 0); the ground plane lies across the axis nearest to it")
+    parser.add_argument("--fov", type=float, metavar="DEGREES",
+                        help="vertical field of view, degrees (default: the scene's, else 35)")
 
 
 def _add_set(parser):
@@ -207,16 +271,19 @@ def _demo(arguments):
 
 
 def _render(arguments):
-    from .render_run import render_frame, render_run
+    from .viz.pictures import render_frame, render_run
 
     path = arguments.path
+    _check_view_numbers(arguments)
     if path.is_dir():
         written = render_run(path, pictures=not arguments.no_pictures,
                              animation=None if arguments.animation == "none"
                              else arguments.animation,
                              color_by=arguments.color_by, width=arguments.width,
                              height=arguments.height, out=arguments.out, eye=arguments.eye,
-                             target=arguments.target, quiet=arguments.quiet)
+                             target=arguments.target, up=arguments.up,
+                             fov_degrees=arguments.fov, framing=arguments.framing,
+                             quiet=arguments.quiet)
         base = path if arguments.out is None else Path(".")
         if not arguments.quiet:
             for name, file in written.items():
@@ -224,9 +291,36 @@ def _render(arguments):
     else:
         written = render_frame(path, out=arguments.out, width=arguments.width,
                                height=arguments.height, color_by=arguments.color_by,
-                               eye=arguments.eye, target=arguments.target)
+                               eye=arguments.eye, target=arguments.target, up=arguments.up,
+                               fov_degrees=arguments.fov)
         if not arguments.quiet:
             print(f"picture:      {written.resolve()}")
+
+
+def _check_view_numbers(arguments):
+    """Image sizes, field of view and vectors of render/view, checked before any work."""
+    from .checks import check_image_size, check_vector
+
+    for name in ("width", "height"):
+        value = getattr(arguments, name, None)
+        if value is not None:
+            check_image_size(value if name == "width" else 1, value if name == "height" else 1,
+                             f"--{name}")
+    if arguments.fov is not None and not 0.0 < arguments.fov < 180.0:
+        raise ValueError(f"--fov must be in (0, 180) degrees, got {arguments.fov}")
+    for name in ("eye", "target", "up"):
+        value = getattr(arguments, name, None)
+        if value is not None:
+            check_vector(value, f"--{name}") if name == "up" else None
+            if not all(abs(v) < 1e12 for v in value):
+                raise ValueError(f"--{name} must be 3 finite numbers, got {value}")
+
+
+def _view(arguments):
+    from .viz.viewer import run_view_command
+
+    _check_view_numbers(arguments)
+    run_view_command(arguments, _overrides(arguments))
 
 
 def main(argv=None) -> int:
@@ -234,7 +328,7 @@ def main(argv=None) -> int:
     arguments = _parser().parse_args(argv)
     from .runs import RunError
 
-    handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render}
+    handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render, "view": _view}
     try:
         if arguments.threads is not None:
             from . import set_num_threads

@@ -129,14 +129,22 @@ def wrinkle_measure(V, F, region=None, iterations=10, lam=0.5, mu=-0.53) -> floa
     V n×3 (m), F f×3 vertex indices; region: face indices (a stroke report's
     ``region_faces``; their vertices are measured) or None for every vertex."""
     V, F = np.asarray(V, dtype=float), np.asarray(F)
-    smooth = taubin_smooth(V, F, iterations, lam, mu)
-    normals = vertex_normals(smooth, F)
     vertices = (np.unique(F) if region is None
                 else np.unique(F[np.asarray(region, dtype=np.int64)]))
     if vertices.size == 0:
         return 0.0
-    height = np.einsum("ij,ij->i", V[vertices] - smooth[vertices], normals[vertices])
+    height = wrinkle_height(V, F, iterations, lam, mu)[vertices]
     return float(np.sqrt(np.mean(height**2)))
+
+
+def wrinkle_height(V, F, iterations=10, lam=0.5, mu=-0.53) -> np.ndarray:
+    """Per-vertex signed wrinkle height, m: the normal component of (vertex − Taubin-smoothed
+    surface), what `wrinkle_measure` takes the RMS of (and what pictures colour by with
+    ``color_by="wrinkles"``). Vertices on no face get 0."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    smooth = taubin_smooth(V, F, iterations, lam, mu)
+    normals = vertex_normals(smooth, F)
+    return np.einsum("ij,ij->i", V - smooth, normals)
 
 
 def spike_index(V, F, vertices=None) -> float:

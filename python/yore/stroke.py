@@ -45,8 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _core
-from .camera import Camera  # noqa: F401 (stroke_screen's camera; yore.Camera)
-from .checks import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, check_factor, check_image_size  # noqa: F401
+from .checks import check_factor
 from .metrics import face_areas
 
 __all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",

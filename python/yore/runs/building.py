@@ -17,7 +17,8 @@ from .._core import Cloth
 from ..io import load_mesh
 from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh
 from ..simulation import Simulation
-from ..stroke import Camera, StrokeMissed
+from ..camera import Camera, camera_from_settings
+from ..stroke import StrokeMissed
 from .schema import _STROKE_FORMS, _did_you_mean
 
 __all__ = ["scene_camera", "apply_scene_stroke"]
@@ -149,8 +150,6 @@ def _select(scene, where, entry, sets, positions):
 # -- strokes --------------------------------------------------------------------------------------
 def scene_camera(scene, positions) -> Camera:
     """The scene's [camera]: as given, with eye/target fitted to ``positions`` when absent."""
-    from ..render_run import camera_from_settings
-
     try:
         return camera_from_settings(scene.data["camera"], positions)
     except ValueError as error:

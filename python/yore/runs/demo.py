@@ -21,8 +21,7 @@ from importlib import resources
 from pathlib import Path
 
 from .. import metrics
-from ..render import render_image, save_png, side_by_side
-from ..render_run import camera_from_settings
+from ..camera import camera_from_settings
 from ..state import load_state
 from .loading import load_scene
 from .runner import SUMMARY_NAME, STATE_NAME, _write_json, run_scene
@@ -32,6 +31,35 @@ __all__ = ["run_demo", "demo_scene_text", "paper_scene_text"]
 #: Sub-folders of the demo's output folder.
 PAPER_DIR, PLAIN_DIR, PAPER_PLAIN_DIR = "paper", "no-stroke", "paper-no-stroke"
 PICTURE_NAME = "demo.png"
+
+
+def _save_panels(path, camera_settings, shown):
+    """The demo's picture: one panel per (simulation, run folder, title), one camera fitted to
+    all of them, coloured by wrinkle height on one shared scale, with each run's strokes."""
+    from ..viz import save_png, side_by_side
+    from ..viz.pictures import stroke_lines
+    from ..viz.render import framing_camera, picture_layout, render_image
+
+    positions = [sim.cloth.positions for sim, _, _ in shown]
+    heights = [1e3 * metrics.wrinkle_height(sim.cloth.positions, sim.cloth.faces)
+               for sim, _, _ in shown]
+    half = max(float(max(abs(h).max() for h in heights)), 1e-9)
+    full = camera_from_settings(camera_settings, positions)
+    if (camera_settings or {}).get("eye") is None:
+        inner_size = picture_layout(full.width, full.height, colorbar=True)
+        inner = camera_from_settings(camera_settings, positions, *inner_size)
+        full = framing_camera(inner, full.width, full.height)
+    panels = []
+    for (sim, folder, _), height in zip(shown, heights):
+        strokes = []
+        if folder is not None and (folder / SUMMARY_NAME).is_file():
+            record = json.loads((folder / SUMMARY_NAME).read_text(encoding="utf-8"))
+            strokes = stroke_lines(record.get("strokes", []), sim.cloth.positions)
+        panels.append(render_image(sim.cloth.positions, sim.cloth.faces, full,
+                                   vertex_values=height, value_range=(-half, half),
+                                   colormap="coolwarm", colorbar="wrinkle height (mm)",
+                                   strokes=strokes))
+    save_png(path, side_by_side(panels, [title for _, _, title in shown]))
 
 
 def demo_scene_text() -> str:
@@ -88,7 +116,6 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
     measured = {}
     yore_effect = _effect(out, out / PLAIN_DIR)
     paper_effect = _effect(out / PAPER_DIR, out / PAPER_PLAIN_DIR)
-    panels, titles = [], []
     plain_sim = None
     if yore_effect is not None:
         measured["yore"], yore_sim, plain_sim = yore_effect
@@ -96,17 +123,15 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
         measured["paper"], paper_sim, _ = paper_effect
     if plain_sim is None:
         plain_sim, _ = load_state(out / PLAIN_DIR / STATE_NAME)
-    camera = camera_from_settings(summary.get("camera"), plain_sim.cloth.positions)
-    panels.append(render_image(plain_sim.cloth.positions, plain_sim.cloth.faces, camera))
-    titles.append("no stroke")
+    shown = [(plain_sim, None, "no stroke")]
     if paper_effect is not None:
-        panels.append(render_image(paper_sim.cloth.positions, paper_sim.cloth.faces, camera))
-        titles.append(f"the paper's stroke: spike index {measured['paper']['spike_index']:.2f}")
+        shown.append((paper_sim, out / PAPER_DIR,
+                      f"the paper's stroke: spike index {measured['paper']['spike_index']:.2f}"))
     if yore_effect is not None:
-        panels.append(render_image(yore_sim.cloth.positions, yore_sim.cloth.faces, camera))
-        titles.append(f"yore's stroke: wrinkles x{measured['yore']['wrinkle_ratio']:.1f}, "
-                      f"spike index {measured['yore']['spike_index']:.2f}")
-    save_png(out / PICTURE_NAME, side_by_side(panels, titles))
+        shown.append((yore_sim, out,
+                      f"yore's stroke: wrinkles x{measured['yore']['wrinkle_ratio']:.1f}, "
+                      f"spike index {measured['yore']['spike_index']:.2f}"))
+    _save_panels(out / PICTURE_NAME, summary.get("camera"), shown)
 
     summary["demo"] = {"picture": PICTURE_NAME, "time": plain_sim.time, **measured,
                        "runs": {"paper": PAPER_DIR, "no_stroke": PLAIN_DIR,

@@ -24,7 +24,7 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 from .._core import Cloth
 from ..meshes import MAX_MESH_VERTICES
 from ..simulation import _OPTIONS, OptionError, Simulation, check_option
-from ..stroke import MAX_IMAGE_PIXELS
+from ..checks import MAX_IMAGE_PIXELS
 from .building import _build, apply_scene_stroke
 from .schema import (_BOX, _GENERATOR_KEYS, _REQUIRED, _SCHEMA_GENERATOR_EXPECTED, _SELECTION,
                      _SMOOTH, _STROKE_FORMS, MAX_SCENE_FILE_BYTES, SCHEMA, SceneError, _describe,

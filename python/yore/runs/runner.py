@@ -79,6 +79,7 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     _set_threads(scene, threads)
     sim, _ = scene.build()
     scene.check_strokes(sim)
+    _check_pictures(scene, render)
     settle = None
     if scene.data["simulation"]["settle"] > 0.0:
         # before t = 0 and before the folder is claimed: an interrupted settle leaves nothing
@@ -91,6 +92,20 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     out = Path(os.fspath(out))
     claim_folder(out, record, overwrite)
     return _run(scene, sim, record, out, until, quiet, render)
+
+
+def _check_pictures(scene, render):
+    """Raises, before any work, what the pictures at the end would raise: no ffmpeg for an MP4,
+    no EGL (`yore.viz.BackendUnavailable`) for any picture."""
+    output = scene.data["output"]
+    if not render or output["format"] == "none" or not (output["pictures"] or
+                                                        output["animation"] != "none"):
+        return
+    from ..viz import backend, check_ffmpeg
+
+    if output["animation"] == "mp4":
+        check_ffmpeg()
+    backend.ensure()
 
 
 def resume_run(state_path, out=None, until=None, quiet=False, render=True,
@@ -129,6 +144,7 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
     else:
         out = Path(os.fspath(out))
         claim_folder(out, record, overwrite)
+    _check_pictures(scene, render)
     return _run(scene, sim, record, out, until, quiet, render)
 
 
@@ -437,14 +453,14 @@ def _run(scene, sim, record, out, until, quiet, render):
     if status == "diverged":
         raise RunError(f"{message} State kept: {state_path}", state_path)
     if render and frames is not None:
-        from ..render_run import render_run
+        from ..viz.pictures import render_run
 
         output = data["output"]
         if output["pictures"] or output["animation"] != "none":
             summary["outputs"].update(render_run(
                 out, pictures=output["pictures"],
                 animation=None if output["animation"] == "none" else output["animation"],
-                color_by=output["color_by"], quiet=quiet))
+                color_by=output["color_by"], framing=output["framing"], quiet=quiet))
             _write_json(summary_path, summary)
     return summary
 

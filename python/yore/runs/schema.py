@@ -11,8 +11,8 @@ Limits, checked before anything is built or allocated: a scene file is a regular
 most `MAX_SCENE_FILE_BYTES`; TOML nested deeper than Python can parse is refused (in the file
 and in ``--set`` values); every integer is at most `MAX_INTEGER` (2^31 - 1, so vertex indices
 fit the core's int32); a generated mesh has at most `yore.meshes.MAX_MESH_VERTICES` vertices
-(nx·ny or rings·segments); the camera image at most `yore.stroke.MAX_IMAGE_SIDE` pixels a side
-and `yore.stroke.MAX_IMAGE_PIXELS` in all; integrator options follow
+(nx·ny or rings·segments); the camera image at most `yore.checks.MAX_IMAGE_SIDE` pixels a side
+and `yore.checks.MAX_IMAGE_PIXELS` in all; integrator options follow
 `yore.simulation.check_option` (iteration counts up to `MAX_STEP_ITERATIONS`); smoothing
 iterations at most `MAX_SMOOTHING_ITERATIONS`; floats are finite.
 """
@@ -25,7 +25,8 @@ import math
 import numpy as np
 
 from ..simulation import INTEGRATORS, MAX_SMOOTHING_ITERATIONS
-from ..stroke import GROWTH_MODES, MAX_IMAGE_SIDE, MAX_REFINE
+from ..checks import MAX_IMAGE_SIDE
+from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
 
@@ -310,8 +311,11 @@ SCHEMA = {
         "every_steps": (_integer(1), None, "a frame every this many steps"),
         "pictures": (_boolean, True, "before/after PNG (before = just before the first stroke)"),
         "animation": (_choice("none", "gif", "mp4"), "none", "an animation of the frames"),
-        "color_by": (_choice("none", "expansion"), "none",
-                     "colour pictures by rest-length expansion"),
+        "color_by": (_choice("none", "expansion", "wrinkles"), "none",
+                     "colour pictures by rest-length expansion or wrinkle height"),
+        "framing": (_choice("cloth", "run"), "cloth",
+                    "cloth: each picture framed on the cloth it shows, the animation "
+                    "follows it; run: one camera for the whole run"),
     }, "table"),
 }
 

@@ -23,23 +23,30 @@ import numpy as np
 from ..camera import Camera
 
 __all__ = ["BackendUnavailable", "EGL_PACKAGES", "ensure", "is_window", "set_camera",
-           "camera_from_view", "screenshot", "pick", "SSAA_FACTOR"]
+           "camera_from_view", "screenshot", "pick", "supersampling", "SSAA_FACTOR"]
 
 #: Debian packages the headless backend needs (``make setup`` installs them).
 EGL_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1-mesa-dri", "libx11-6")
-#: Supersampling for anti-aliasing: each picture is rendered at SSAA_FACTOR² times its pixels
-#: (where that stays within `_SSAA_MAX_PIXELS`) and averaged down.
-SSAA_FACTOR = 2
-_SSAA_MAX_PIXELS = 1 << 22
-_SSAA_MAX_SIDE = 8192
+#: Supersampling for anti-aliasing: each picture is rendered at SSAA_FACTOR × its width and
+#: height (where that stays within `SSAA_MAX_PIXELS` and `SSAA_MAX_SIDE`) and averaged down in
+#: blocks of SSAA_FACTOR² pixels (polyscope's own SSAA setting does not reach headless
+#: screenshots in 2.6).
+SSAA_FACTOR = 3
+SSAA_MAX_PIXELS = 1 << 24
+SSAA_MAX_SIDE = 8192
 _MESA_VENDOR_FILES = ("/usr/share/glvnd/egl_vendor.d/50_mesa.json",)
+
+
+#: Structures the viewer keeps in polyscope's scene (pictures hide them while they render).
+VIEWER_SURFACES = ("cloth",)
+VIEWER_CURVES = ("stroke being drawn",)
 
 
 class BackendUnavailable(OSError):
     """polyscope or the OpenGL/EGL libraries it needs are missing, or it failed to start."""
 
 
-_state = {"initialized": False, "window": False, "ssaa": None}
+_state = {"initialized": False, "window": False}
 
 
 def _import_polyscope():
@@ -117,6 +124,26 @@ def ensure(window: bool = False):
     return ps
 
 
+class hidden_viewer:
+    """Context: the viewer's structures disabled (so a picture shows only its own)."""
+
+    def __enter__(self):
+        ps = ensure(_state["window"])
+        self.restore = []
+        for names, has, get in ((VIEWER_SURFACES, ps.has_surface_mesh, ps.get_surface_mesh),
+                                (VIEWER_CURVES, ps.has_curve_network, ps.get_curve_network)):
+            for name in names:
+                if has(name) and get(name).is_enabled():
+                    get(name).set_enabled(False)
+                    self.restore.append(get(name))
+        return self
+
+    def __exit__(self, *exc):
+        for structure in self.restore:
+            structure.set_enabled(True)
+        return False
+
+
 def is_window() -> bool:
     """Whether polyscope runs in a window in this process."""
     return bool(_state["window"])
@@ -136,10 +163,18 @@ def _axis(vector, exclude=None):
     return axis, 1 if vector[axis] >= 0 else -1
 
 
-def set_camera(camera: Camera, ssaa: bool = True) -> None:
+def supersampling(width, height) -> int:
+    """The supersampling factor for a width × height picture (1 when too large)."""
+    if width * height * SSAA_FACTOR**2 <= SSAA_MAX_PIXELS \
+            and max(width, height) * SSAA_FACTOR <= SSAA_MAX_SIDE:
+        return SSAA_FACTOR
+    return 1
+
+
+def set_camera(camera: Camera) -> None:
     """Sets polyscope's view to ``camera``: window (framebuffer) size, eye, direction, up and
     vertical field of view; the ground plane lies across the world axis nearest to the
-    camera's up. ``ssaa``: anti-alias screenshots (see SSAA_FACTOR)."""
+    camera's up."""
     ps = ensure(_state["window"])
     if not _state["window"] and tuple(ps.get_window_size()) != (camera.width, camera.height):
         ps.set_window_size(camera.width, camera.height)
@@ -148,13 +183,6 @@ def set_camera(camera: Camera, ssaa: bool = True) -> None:
     right, up, forward = camera.basis()
     front = _axis(-forward, exclude=up_axis[0])
     ps.set_front_dir(_FRONT_NAMES[front])
-    factor = 1
-    if ssaa and camera.width * camera.height * SSAA_FACTOR**2 <= _SSAA_MAX_PIXELS \
-            and max(camera.width, camera.height) * SSAA_FACTOR <= _SSAA_MAX_SIDE:
-        factor = SSAA_FACTOR
-    if _state["ssaa"] != factor:
-        ps.set_SSAA_factor(factor)
-        _state["ssaa"] = factor
     intrinsics = ps.CameraIntrinsics(fov_vertical_deg=camera.fov_degrees,
                                      aspect=camera.width / camera.height)
     extrinsics = ps.CameraExtrinsics(root=np.asarray(camera.eye, float), look_dir=forward,

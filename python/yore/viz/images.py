@@ -3,6 +3,7 @@ bars), PNG, animated GIF (Pillow) and MP4 (ffmpeg). Pure numpy + Pillow: no Open
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import tempfile
@@ -119,8 +120,23 @@ def _draw_titles(band, titles, lefts, widths, background):
     return np.asarray(picture)
 
 
+def _atomic(path, write):
+    """Calls ``write(temporary_path)`` then renames the file to ``path``: an interrupted write
+    never leaves a half-written picture under the final name."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.part{path.suffix}")
+    try:
+        write(partial)
+        os.replace(partial, path)
+    finally:
+        if partial.exists():
+            partial.unlink()
+    return path
+
+
 def save_png(path, image) -> Path:
-    """Writes an (h, w, 3) uint8 RGB image as PNG, creating parent folders; returns the path.
+    """Writes an (h, w, 3) uint8 RGB image as PNG (atomically: a temporary file renamed),
+    creating parent folders; returns the path.
 
     Raises ValueError if the image is not (h, w, 3) uint8 or the path does not end in ".png".
     """
@@ -130,9 +146,7 @@ def save_png(path, image) -> Path:
     path = Path(path)
     if path.suffix.lower() != ".png":
         raise ValueError(f"save_png writes PNG files; path must end in .png, got {str(path)!r}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(image).save(path, format="PNG")
-    return path
+    return _atomic(path, lambda target: Image.fromarray(image).save(target, format="PNG"))
 
 
 def save_animation(path, images, fps=15.0) -> Path:
@@ -180,9 +194,9 @@ def _save_gif(path, frames, fps):
     from PIL import Image
 
     pictures = [Image.fromarray(frame) for frame in frames]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    pictures[0].save(path, format="GIF", save_all=True, append_images=pictures[1:],
-                     duration=max(int(round(1000.0 / fps)), 1), loop=0)
+    _atomic(path, lambda target: pictures[0].save(
+        target, format="GIF", save_all=True, append_images=pictures[1:],
+        duration=max(int(round(1000.0 / fps)), 1), loop=0))
 
 
 def check_ffmpeg() -> str:
@@ -195,6 +209,10 @@ def check_ffmpeg() -> str:
 
 
 def _save_mp4(path, frames, fps):
+    _atomic(path, lambda target: _encode_mp4(target, path, frames, fps))
+
+
+def _encode_mp4(target, path, frames, fps):
     ffmpeg = check_ffmpeg()
     height, width = frames[0].shape[:2]
     pad = ((0, height % 2), (0, width % 2), (0, 0))
@@ -203,8 +221,7 @@ def _save_mp4(path, frames, fps):
                "-video_size", f"{width + width % 2}x{height + height % 2}",
                "-framerate", repr(float(fps)), "-i", "-",
                "-an", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-movflags", "+faststart",
-               str(path)]
-    path.parent.mkdir(parents=True, exist_ok=True)
+               str(target)]
     # ffmpeg's messages go to a file rather than a pipe: an unread pipe that fills up would
     # block ffmpeg while we block writing frames to it.
     with tempfile.TemporaryFile() as errors:
@@ -226,8 +243,6 @@ def _save_mp4(path, frames, fps):
             message = errors.read().decode(errors="replace").strip()
             raise RuntimeError(f"ffmpeg failed with exit status {status} writing "
                                f"{str(path)!r}: {message}")
-
-
 
 
 def draw_title(image, title, band=None) -> np.ndarray:

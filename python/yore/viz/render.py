@@ -20,11 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import Camera
-from ..checks import (check_faces, check_points, check_unit_rgb, check_vertex_values)
+from ..checks import check_faces, check_points, check_unit_rgb, check_vertex_values
+from ..metrics import vertex_normals
 from . import backend
 from .images import draw_colorbar, draw_title
 
-__all__ = ["render_image", "COLORMAPS", "CLOTH_COLOR", "STROKE_CANDIDATES", "stroke_color",
+__all__ = ["render_image", "picture_layout", "framing_camera", "colorbar_width",
+           "title_height", "COLORMAPS", "CLOTH_COLOR", "STROKE_CANDIDATES", "stroke_color",
            "colormap_table"]
 
 #: Colour maps `render_image` accepts (matplotlib's, sampled at 256 points).
@@ -92,15 +94,6 @@ def stroke_color(surface_colors) -> tuple:
     return tuple(float(c) for c in candidates[int(np.argmax(distance))])
 
 
-def _vertex_normals(V, F):
-    normals = np.zeros_like(V)
-    face_normals = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    for corner in range(3):
-        np.add.at(normals, F[:, corner], face_normals)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-
-
 def _value_range(values, value_range, colormap):
     if value_range is not None:
         try:
@@ -161,7 +154,7 @@ def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_ra
     title : str, optional
         Written centred in a band at the top (`title_height`), the cloth drawn below it.
     antialias : bool
-        Supersample (`backend.SSAA_FACTOR`), where the image is small enough.
+        Supersample (`backend.SSAA_FACTOR (3)`), where the image is small enough.
 
     Returns
     -------
@@ -222,6 +215,23 @@ def title_height(height) -> int:
     return int(max(14, min(0.07 * height, 40)))
 
 
+def picture_layout(width, height, colorbar=False, title=False):
+    """(width, height) of the part of a width × height picture that shows the cloth, with a
+    colour bar strip and/or a title band."""
+    return (width - (colorbar_width(width, height) if colorbar else 0),
+            height - (title_height(height) if title else 0))
+
+
+def framing_camera(inner, width, height) -> Camera:
+    """The width × height camera to pass to `render_image` so that the cloth is drawn exactly as
+    ``inner`` (a camera of the cloth's part, see `picture_layout`) frames it."""
+    tan_inner = np.tan(np.radians(inner.fov_degrees) / 2.0)
+    factor = min(1.0, height * inner.width / (width * inner.height))
+    return Camera(eye=inner.eye, target=inner.target, up=inner.up,
+                  fov_degrees=float(np.degrees(2.0 * np.arctan(tan_inner * factor))),
+                  width=width, height=height)
+
+
 def _inner_camera(camera, width, height) -> Camera:
     """The camera for a width × height part of ``camera``'s picture: same eye and direction,
     the field of view widened where needed so that everything ``camera`` sees is still seen
@@ -239,17 +249,20 @@ def _inner_camera(camera, width, height) -> Camera:
 def _render_view(V, F, camera, values, defined_on, value_range, colormap, polylines,
                  base_color, background, edges, ground, antialias):
     ps = backend.ensure()
-    backend.set_camera(camera, ssaa=antialias)
+    factor = backend.supersampling(camera.width, camera.height) if antialias else 1
+    backend.set_camera(camera.resized(camera.width * factor, camera.height * factor)
+                       if factor > 1 else camera)
     ps.set_background_color(tuple(background))
     ps.set_ground_plane_mode("shadow_only" if ground else "none")
     ps.set_transparency_mode("none")
     registered = []
+    hidden = backend.hidden_viewer().__enter__()
     try:
         if len(F):
             mesh = ps.register_surface_mesh(CLOTH_NAME, V, F, color=tuple(base_color),
                                             smooth_shade=True, material="clay",
                                             back_face_policy="different",
-                                            edge_width=1.0 if edges else 0.0,
+                                            edge_width=float(factor) if edges else 0.0,
                                             edge_color=(0.15, 0.15, 0.15))
         else:
             mesh = ps.register_point_cloud(CLOTH_NAME, V, color=tuple(base_color))
@@ -265,7 +278,7 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
         ink = stroke_color(surface_colors)
         size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
         radius = STROKE_RADIUS_FRACTION * (size if size > 0 else 1.0)
-        normals = _vertex_normals(V, F) if len(F) else np.zeros_like(V)
+        normals = vertex_normals(V, F) if len(F) else np.zeros_like(V)
         eye = np.asarray(camera.eye, float)
         for k, points in enumerate(polylines):
             lifted = _lift(points, V, normals, eye, 0.5 * radius)
@@ -280,10 +293,16 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
             registered.append(name)
         # polyscope fits the ground plane and the clip planes to the scene's extent
         ps.update_scene_extents()
-        return backend.screenshot()
+        image = backend.screenshot()
     finally:
         for name in registered:
             _remove(ps, name)
+        hidden.__exit__(None, None, None)
+    if factor > 1:
+        # box-filter the supersampled picture down to the camera's size
+        blocks = image.reshape(camera.height, factor, camera.width, factor, 3)
+        image = np.rint(blocks.mean(axis=(1, 3))).astype(np.uint8)
+    return image
 
 
 def _remove(ps, name):

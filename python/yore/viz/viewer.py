@@ -1,0 +1,762 @@
+"""The viewer: a simulation running live in a polyscope window, strokes drawn with the mouse.
+
+`Viewer(sim)` shows ``sim``'s cloth. In a window (`Viewer.show`) the simulation runs as fast as
+real time allows; an ImGui panel has play/pause/step, the integrator and dt (a change rebuilds
+the integrator from the current state), reset, undo of the last stroke, save state, save
+picture, the stroke options and live statistics. Keys: Space play/pause, N one frame, D draw
+mode, Z (or Ctrl+Z) undo, R reset, S save picture.
+
+Drawing: in draw mode the default camera motion is off and a left-button drag draws. Every
+mouse sample (densified to at most `SAMPLE_SPACING_PX` pixels apart) is picked on the current
+surface as (face, barycentric coordinates); on release the samples become 3-D points on the
+cloth *as it is then* (the same faces and barycentric coordinates, today's positions: the cloth
+may have moved during the drag) and each run of consecutive samples on the cloth becomes one
+`Simulation.stroke` with the panel's options, followed by the panel's rest-length smoothing.
+A drag that leaves the cloth and comes back draws two strokes; the undo step holds both.
+
+Headless (`Viewer(sim, headless=True)`, ``yore view --headless``) the same methods run without a
+window: `stroke_pixels` turns pixels into picked points by the very function the mouse uses
+(`pick_surface`), `advance` steps, `screenshot` renders the view.
+
+Undo restores the simulation saved before the stroke (`Simulation.state`, so bit for bit,
+BDF2's history and Newton's memory included); `Viewer.sim` is then a new `Simulation` object.
+The mesh is registered again with polyscope after every change of topology.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..camera import Camera, fit_camera
+from ..simulation import INTEGRATORS, Simulation
+from ..stroke import GROWTH_MODES, MAX_REFINE, StrokeMissed
+from . import backend
+
+__all__ = ["Viewer", "parse_pixels", "run_view_command", "SAMPLE_SPACING_PX", "KEYS"]
+
+#: Mouse or given pixels are densified so that consecutive samples are at most this far apart.
+SAMPLE_SPACING_PX = 2.0
+#: Most samples one stroke may have after densifying (a drag across a 16384-pixel screen).
+MAX_STROKE_SAMPLES = 100_000
+#: Undo keeps this many strokes.
+MAX_UNDO = 32
+#: Wall time the live loop may spend stepping per frame, s (keeps the window responsive).
+FRAME_BUDGET_SECONDS = 0.05
+#: The keys, as listed in the README and the window's help line.
+KEYS = {"Space": "play / pause", "N": "one frame", "D": "draw mode on / off",
+        "Z": "undo the last stroke", "R": "reset to the start", "S": "save a picture"}
+CLOTH = backend.VIEWER_SURFACES[0]
+DRAFT = backend.VIEWER_CURVES[0]
+COLORINGS = ("expansion", "wrinkles", "none")
+_ACTIVE = [None]  # the viewer whose cloth polyscope shows
+
+
+def parse_pixels(text) -> np.ndarray:
+    """``"x,y x,y ..."`` → (k, 2) float array of pixel coordinates; ValueError naming the
+    sample that is not a pair of finite numbers."""
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError('--stroke-px needs pixels as "x,y x,y ...", got an empty value')
+    pixels = []
+    for k, item in enumerate(text.replace(";", " ").split()):
+        parts = item.split(",")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            x, y = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise ValueError(f'--stroke-px sample {k + 1} is {item!r}; expected "x,y" (two '
+                             'numbers, pixels)') from None
+        if not (math.isfinite(x) and math.isfinite(y)) or max(abs(x), abs(y)) > 1e6:
+            raise ValueError(f"--stroke-px sample {k + 1} is {item!r}; pixels must be finite "
+                             "and within ±1e6")
+        pixels.append((x, y))
+    return np.asarray(pixels, dtype=np.float64)
+
+
+def densify(pixels, spacing=SAMPLE_SPACING_PX) -> np.ndarray:
+    """The polyline through ``pixels`` (k×2) resampled so that consecutive samples are at
+    most ``spacing`` apart (the given pixels are kept)."""
+    pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+    if len(pixels) < 2:
+        return pixels
+    out = [pixels[:1]]
+    for a, b in zip(pixels[:-1], pixels[1:]):
+        pieces = max(1, int(math.ceil(np.linalg.norm(b - a) / spacing)))
+        t = np.arange(1, pieces + 1)[:, None] / pieces
+        out.append(a + t * (b - a))
+    dense = np.concatenate(out)
+    if len(dense) > MAX_STROKE_SAMPLES:
+        raise ValueError(f"the stroke is {len(dense)} samples long at {spacing} px spacing; "
+                         f"at most {MAX_STROKE_SAMPLES}")
+    return dense
+
+
+class Viewer:
+    """A live view of ``sim`` where strokes are drawn with the mouse (see the module docstring).
+
+    Parameters
+    ----------
+    sim : yore.Simulation
+    camera : yore.Camera, optional
+        The starting view and the window or picture size. Default: fitted to the cloth,
+        800×600.
+    headless : bool
+        No window: EGL off-screen (strokes by `stroke_pixels`, pictures by `screenshot`).
+    stroke_options : dict, optional
+        Starting stroke options: expansion (1.1), mass_scale (0.95), width (None), growth
+        ("paper"), refine (0) and smooth (rest-length smoothing iterations, 0).
+    coloring : str
+        "expansion" (rest expansion, default), "wrinkles" (signed wrinkle height) or "none".
+    """
+
+    def __init__(self, sim, camera=None, *, headless=False, stroke_options=None,
+                 coloring="expansion"):
+        if not isinstance(sim, Simulation):
+            raise ValueError(f"sim must be a yore.Simulation, got {type(sim).__name__}")
+        if camera is not None and not isinstance(camera, Camera):
+            raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
+        if coloring not in COLORINGS:
+            raise ValueError(f"coloring must be one of {', '.join(COLORINGS)}, got {coloring!r}")
+        self.sim = sim
+        self.headless = bool(headless)
+        self.camera = camera or fit_camera(sim.cloth.positions, 800, 600)
+        self.coloring = coloring
+        self.stroke_options = {"expansion": 1.1, "mass_scale": 0.95, "width": None,
+                               "growth": "paper", "refine": 0, "smooth": 0}
+        for name, value in (stroke_options or {}).items():
+            if name not in self.stroke_options:
+                raise ValueError(f"unknown stroke option {name!r}; valid: "
+                                 f"{', '.join(self.stroke_options)}")
+            if value is not None or name == "width":
+                self.stroke_options[name] = value
+        self._check_stroke_options()
+        self.start_state = sim.state()
+        self.undo_states = []
+        self.reports = []
+        self.playing = False
+        self.draw_mode = False
+        self.message = ""
+        self.speed = 1.0
+        self._dt_text = None  # the dt the panel shows (None: the integrator's default)
+        self._draft = []  # (pixel, face, barycentric) of the drag being drawn
+        self._mouse_was_down = False
+        self._frame_steps, self._frame_seconds = 0, 0.0
+        self._last_frame = None
+        self._topology = None
+        self._mesh = None
+        self._adjacency = None
+        self._ps = backend.ensure(window=not self.headless)
+        backend.set_camera(self.camera)
+        self._register()
+
+    # -- the scene in polyscope -------------------------------------------------------------
+    def _activate(self):
+        """Makes this viewer's cloth and camera polyscope's (a process has one polyscope
+        scene; several viewers, e.g. in a script or tests, take turns)."""
+        if _ACTIVE[0] is not self:
+            _ACTIVE[0] = self
+            self._mesh = None
+            backend.set_camera(self.camera)
+            self._register()
+
+    def _register(self):
+        """(Re-)registers the cloth; only positions are updated while the topology stays."""
+        ps, cloth = self._ps, self.sim.cloth
+        _ACTIVE[0] = self
+        version = (id(cloth), cloth.topology_version)
+        if self._mesh is not None and self._topology == version:
+            self._mesh.update_vertex_positions(cloth.positions)
+        else:
+            if ps.has_surface_mesh(CLOTH):
+                ps.remove_surface_mesh(CLOTH)
+            self._mesh = ps.register_surface_mesh(CLOTH, cloth.positions, cloth.faces,
+                                                  color=(0.42, 0.62, 0.84), smooth_shade=True,
+                                                  material="clay", back_face_policy="different")
+            self._mesh.set_selection_mode("faces_only")
+            self._topology = version
+            self._colored_version = None
+            self._adjacency = None
+        self._update_colors()
+
+    def _update_colors(self, force=False):
+        from ..metrics import vertex_expansion, wrinkle_height
+        from .render import _polyscope_map
+
+        cloth = self.sim.cloth
+        if self.coloring == "none":
+            self._mesh.remove_all_quantities()
+            self._colored_version = None
+            return
+        if self.coloring == "expansion":
+            # changes only with strokes, undo and reset
+            key = ("expansion", self._topology, len(self.reports), len(self.undo_states))
+            if key == self._colored_version and not force:
+                return
+            values, cmap, label = vertex_expansion(cloth), "viridis", "rest expansion"
+            low, high = 1.0, max(1.0 + 1e-3, float(values.max()))
+        else:
+            key = None
+            values = 1e3 * wrinkle_height(cloth.positions, cloth.faces)
+            half = max(float(np.abs(values).max()), 1e-6)
+            cmap, label, low, high = "coolwarm", "wrinkle height (mm)", -half, half
+        self._mesh.add_scalar_quantity(label, values, defined_on="vertices",
+                                       cmap=_polyscope_map(self._ps, cmap), vminmax=(low, high),
+                                       enabled=True, onscreen_colorbar_enabled=not self.headless)
+        self._colored_version = key
+
+    # -- picking: the one path from screen samples to points on the cloth --------------------
+    def view_camera(self) -> Camera:
+        """The camera of the current view (the window's, as the user turned it; headless:
+        the viewer's camera)."""
+        return self.camera if self.headless else backend.camera_from_view()
+
+    def pick_surface(self, pixels):
+        """Picks each pixel (k×2, yore pixel coordinates of the current view, fractions
+        allowed) on the cloth. Returns (pixels, faces, barycentric): the samples that hit the
+        cloth, the face under each and its barycentric coordinates (k×3, each row ≥ 0 summing
+        to 1).
+
+        polyscope's pick buffer says which face is under a pixel (at whole-pixel resolution);
+        the point is then where the pixel's ray (`Camera.rays` of `view_camera`) meets that
+        face or, when it passes beside it by the buffer's rounding, one of its neighbours (else
+        the nearest point of the picked face)."""
+        self._activate()
+        if self.headless:
+            backend.set_camera(self.camera)  # a picture in between may have moved the view
+        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        hits, faces, weights = [], [], []
+        hidden = self._ps.has_curve_network(DRAFT)
+        if hidden:
+            self._ps.get_curve_network(DRAFT).set_enabled(False)
+        try:
+            picked = []
+            for pixel in pixels:
+                result = backend.pick(pixel)
+                data = result.structure_data if result.is_hit else {}
+                if result.structure_name == CLOTH and data.get("element_type") == "face":
+                    picked.append((pixel, int(data["index"])))
+        finally:
+            if hidden:
+                self._ps.get_curve_network(DRAFT).set_enabled(True)
+        if not picked:
+            return np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+        camera = self.view_camera()
+        eye = np.asarray(camera.eye, float)
+        directions = camera.rays(np.asarray([p for p, _ in picked]))
+        V, F = self.sim.cloth.positions, self.sim.cloth.faces
+        for (pixel, face), direction in zip(picked, directions):
+            candidates = self._neighbour_faces(face)
+            u, v, t = _ray_triangles(eye, direction, V[F[candidates]])
+            inside = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (t > 0)
+            if inside.any():
+                k = np.flatnonzero(inside)[np.argmin(t[inside])]
+                face, bary = int(candidates[k]), np.array([1 - u[k] - v[k], u[k], v[k]])
+            else:
+                k = int(np.flatnonzero(candidates == face)[0])
+                bary = np.array([1 - u[k] - v[k], u[k], v[k]])
+            bary = np.clip(bary, 0.0, None)
+            if not np.isfinite(bary).all() or bary.sum() <= 0:
+                continue
+            hits.append(pixel)
+            faces.append(face)
+            weights.append(bary / bary.sum())
+        return (np.asarray(hits, dtype=np.float64).reshape(-1, 2),
+                np.asarray(faces, dtype=np.int64), np.asarray(weights).reshape(-1, 3))
+
+    def _neighbour_faces(self, face) -> np.ndarray:
+        """``face`` first, then the faces sharing a vertex with it."""
+        if self._adjacency is None:
+            F = self.sim.cloth.faces
+            order = np.argsort(F.reshape(-1), kind="stable")
+            starts = np.searchsorted(F.reshape(-1)[order], np.arange(self.sim.cloth.vertex_count
+                                                                     + 1))
+            self._adjacency = (order // 3, starts)
+        faces_of, starts = self._adjacency
+        around = np.concatenate([faces_of[starts[v]:starts[v + 1]]
+                                 for v in self.sim.cloth.faces[face]])
+        return np.concatenate([[face], np.setdiff1d(around, [face])]).astype(np.int64)
+
+    def surface_points(self, faces, barycentric) -> np.ndarray:
+        """3-D points (k×3) on the cloth as it is now at (face, barycentric) pairs."""
+        cloth = self.sim.cloth
+        corners = cloth.positions[cloth.faces[np.asarray(faces, dtype=np.int64)]]
+        return np.einsum("kj,kji->ki", np.asarray(barycentric, dtype=np.float64), corners)
+
+    @staticmethod
+    def _runs(pixels, faces):
+        """Index ranges of consecutive samples: a gap (a sample that missed the cloth, seen as
+        a jump of more than 1.5 spacings between kept samples) starts a new run."""
+        if len(faces) == 0:
+            return []
+        gaps = np.flatnonzero(np.linalg.norm(np.diff(pixels, axis=0), axis=1)
+                              > 1.5 * SAMPLE_SPACING_PX) + 1
+        bounds = [0, *gaps.tolist(), len(faces)]
+        return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+    # -- strokes ------------------------------------------------------------------------------
+    def stroke_pixels(self, pixels) -> list:
+        """Draws a stroke through ``pixels`` (k×2, pixels of the current view: x right, y
+        down, (0, 0) the top-left pixel's centre), exactly as a mouse drag through them
+        would: densify, pick, then `apply_picked`. Returns the stroke reports. Raises
+        yore.StrokeMissed when no sample lies on the cloth."""
+        hits, faces, weights = self.pick_surface(densify(pixels))
+        return self.apply_picked(hits, faces, weights)
+
+    def apply_picked(self, pixels, faces, barycentric) -> list:
+        """Applies picked samples as strokes (one per run of consecutive samples), with the
+        stroke options and smoothing; one undo step for all. Returns the reports."""
+        if len(faces) == 0:
+            raise StrokeMissed("the stroke's pixels miss the cloth (no sample lies on it)")
+        options = dict(self.stroke_options)
+        smooth = int(options.pop("smooth"))
+        saved = self.sim.state()
+        reports = []
+        # every run's points on the cloth as it is now, before the first stroke renumbers faces
+        pieces = [self.surface_points(faces[a:b], barycentric[a:b])
+                  for a, b in self._runs(pixels, faces)]
+        try:
+            for points in pieces:
+                report = self.sim.stroke(points, **options)
+                reports.append(report)
+                if smooth > 0:
+                    # the stroke's region, conserving the rest length it added
+                    self.sim.smooth_rest_lengths(iterations=smooth)
+        except Exception:
+            # a stroke that fails halfway leaves nothing behind
+            self.sim = Simulation.from_state(saved)
+            self._register()
+            raise
+        self.undo_states.append(saved)
+        del self.undo_states[:-MAX_UNDO]
+        self.reports.append(reports)
+        del self.reports[:-MAX_UNDO]
+        self._register()
+        split = sum(r.faces_split for r in reports)
+        added = sum(r.vertices_added for r in reports)
+        self.message = (f"stroke at t = {self.sim.time:.3f} s: {split} faces split, "
+                        f"{added} vertices added")
+        return reports
+
+    def undo(self) -> bool:
+        """Restores the simulation saved before the last stroke; False when there is none."""
+        if not self.undo_states:
+            self.message = "nothing to undo"
+            return False
+        self.sim = Simulation.from_state(self.undo_states.pop())
+        self.reports.pop()
+        self._register()
+        self.message = f"stroke undone (t = {self.sim.time:.3f} s)"
+        return True
+
+    def reset(self) -> None:
+        """Back to the simulation the viewer started with (strokes and undo steps dropped)."""
+        self.sim = Simulation.from_state(self.start_state)
+        self.undo_states.clear()
+        self.reports.clear()
+        self._register()
+        self.message = "reset to the start"
+
+    def _check_stroke_options(self):
+        options = self.stroke_options
+        if options["growth"] not in GROWTH_MODES:
+            raise ValueError(f"growth must be one of {', '.join(GROWTH_MODES)}, "
+                             f"got {options['growth']!r}")
+        refine, smooth = options["refine"], options["smooth"]
+        if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) \
+                or not 0 <= refine <= MAX_REFINE:
+            raise ValueError(f"refine must be an integer in [0, {MAX_REFINE}], got {refine!r}")
+        if isinstance(smooth, bool) or not isinstance(smooth, (int, np.integer)) \
+                or not 0 <= smooth <= 1000:
+            raise ValueError(f"smooth must be an integer in [0, 1000] (iterations), "
+                             f"got {smooth!r}")
+        for name in ("expansion", "mass_scale", "width"):
+            value = options[name]
+            if value is None and name == "width":
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
+                    or not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+
+    # -- time -----------------------------------------------------------------------------------
+    def advance(self, seconds, progress=None) -> None:
+        """Advances the simulation by ``seconds`` and updates the view."""
+        self.sim.advance(seconds, progress=progress)
+        self._register()
+
+    def step_frame(self, wall_seconds=1.0 / 30.0) -> int:
+        """One frame of the live loop: steps for ``speed × wall_seconds`` of simulated time,
+        at least one, at most what fits in `FRAME_BUDGET_SECONDS` at the last frame's cost per
+        step. A divergence pauses the viewer with its message. Returns the steps taken."""
+        dt = self.sim.dt
+        wanted = max(1, int(round(self.speed * min(wall_seconds, 0.1) / dt)))
+        if self._frame_steps:
+            per_step = self._frame_seconds / self._frame_steps
+            wanted = max(1, min(wanted, int(FRAME_BUDGET_SECONDS / max(per_step, 1e-9))))
+        start = time.perf_counter()
+        try:
+            with warnings.catch_warnings():
+                # unconverged steps are counted in the statistics the panel shows
+                warnings.simplefilter("ignore", RuntimeWarning)
+                self.sim.step(wanted)
+        except RuntimeError as error:  # yore.SimulationDiverged
+            self.playing = False
+            self.message = " ".join(str(error).split())
+            self._register()
+            return 0
+        self._frame_steps, self._frame_seconds = wanted, time.perf_counter() - start
+        self._register()
+        return wanted
+
+    def set_integrator(self, integrator, dt=None) -> None:
+        """Rebuilds the integrator (its default options) from the current state; dt None takes
+        the integrator's default for this cloth."""
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"unknown integrator {integrator!r}; valid: "
+                             f"{', '.join(INTEGRATORS)}")
+        state = self.sim.state()
+        cloth = self.sim.cloth
+        sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=state["gravity"])
+        self.sim = sim
+        self._frame_steps = 0
+        self.message = f"{integrator}, dt = {sim.dt:.4g} s"
+
+    # -- pictures and files ---------------------------------------------------------------------
+    def screenshot(self, panel=False) -> np.ndarray:
+        """The current view as an (h, w, 3) uint8 image; ``panel``: with polyscope's and the
+        viewer's panels drawn over it, as the window shows them."""
+        self._activate()
+        if panel:
+            return self._screenshot_with_panel()
+        if not self.headless:
+            return backend.screenshot()
+        # headless: supersampled like every picture, then the view is set back for picking
+        camera = self.camera
+        factor = backend.supersampling(camera.width, camera.height)
+        backend.set_camera(camera.resized(camera.width * factor, camera.height * factor))
+        try:
+            image = backend.screenshot()
+        finally:
+            backend.set_camera(camera)
+        blocks = image.reshape(camera.height, factor, camera.width, factor, 3)
+        return np.rint(blocks.mean(axis=(1, 3))).astype(np.uint8)
+
+    def _screenshot_with_panel(self) -> np.ndarray:
+        ps = self._ps
+        if self.headless:
+            import polyscope.imgui as psim
+
+            backend.set_camera(self.camera)
+            ps.set_user_callback(lambda: self._panel(psim))
+            try:
+                ps.show(forFrames=2)  # ImGui lays its windows out over two frames
+            finally:
+                ps.clear_user_callback()
+        image = ps.screenshot_to_buffer(transparent_bg=False, include_UI=True)
+        return np.ascontiguousarray(image[:, :, :3])
+
+    def save_picture(self, path, panel=False) -> Path:
+        from .images import save_png
+
+        path = save_png(path, self.screenshot(panel=panel))
+        self.message = f"picture saved: {path}"
+        return path
+
+    def save_state(self, path) -> Path:
+        from ..state import save_state
+
+        path = save_state(path, self.sim, metadata={"source": "yore view"})
+        self.message = f"state saved: {path}"
+        return path
+
+    def statistics(self) -> dict:
+        """What the panel shows: time, steps, last frame's step time, steps per second,
+        iterations per step, analyses, factorization time, vertices, faces."""
+        stats = self.sim.stats
+        counters, phases = stats["counters"], stats["phases"]
+        steps = max(stats["steps"], 1)
+        iterations = counters.get("newton_iterations", counters.get("iterations"))
+        per_step = self._frame_seconds / self._frame_steps if self._frame_steps else None
+        return {"time": self.sim.time, "steps": stats["steps"], "integrator": stats["integrator"],
+                "dt": stats["dt"], "step_ms": None if per_step is None else 1e3 * per_step,
+                "steps_per_second": None if not per_step else 1.0 / per_step,
+                "iterations_per_step": None if iterations is None else iterations / steps,
+                "unconverged_steps": counters.get("unconverged_steps"),
+                "analyses": counters.get("analyses"),
+                "factorize_seconds": phases.get("factorize_seconds"),
+                "vertices": stats["vertices"], "faces": int(len(self.sim.cloth.faces)),
+                "strokes": len(self.reports)}
+
+    # -- the window -----------------------------------------------------------------------------
+    def show(self) -> None:
+        """Opens the window and runs until it is closed (not in headless mode)."""
+        if self.headless:
+            raise ValueError("a headless viewer has no window; use stroke_pixels, advance and "
+                             "screenshot")
+        ps = self._ps
+        ps.set_user_callback(self._frame)
+        self.playing = True
+        try:
+            ps.show()
+        finally:
+            ps.clear_user_callback()
+            ps.set_do_default_mouse_interaction(True)
+
+    def mouse(self, down, released, position, captured=False) -> list | None:
+        """One frame of mouse input in draw mode: ``position`` in window pixels (corner
+        coordinates, as ImGui reports them). Samples are picked while the button is down and
+        applied on release; returns the reports of a stroke applied now, else None."""
+        if not self.draw_mode or captured:
+            return None
+        if down:
+            pixel = np.asarray(position, dtype=np.float64) - 0.5
+            previous = self._draft[-1][0] if self._draft else None
+            samples = densify([previous, pixel])[1:] if previous is not None else pixel[None]
+            hits, faces, weights = self.pick_surface(samples)
+            self._draft.extend(zip(hits, faces, weights))
+            self._show_draft()
+            return None
+        if released and self._draft:
+            pixels = np.asarray([d[0] for d in self._draft])
+            faces = np.asarray([d[1] for d in self._draft])
+            weights = np.asarray([d[2] for d in self._draft])
+            self._draft = []
+            if self._ps.has_curve_network(DRAFT):
+                self._ps.remove_curve_network(DRAFT)
+            try:
+                return self.apply_picked(pixels, faces, weights)
+            except ValueError as error:  # StrokeMissed, a bad option
+                self.message = " ".join(str(error).split())
+        return None
+
+    def _show_draft(self):
+        ps = self._ps
+        if len(self._draft) < 2:
+            return
+        faces = np.asarray([d[1] for d in self._draft])
+        weights = np.asarray([d[2] for d in self._draft])
+        points = self.surface_points(faces, weights)
+        if ps.has_curve_network(DRAFT):
+            ps.remove_curve_network(DRAFT)
+        curve = ps.register_curve_network(DRAFT, points, "line", color=(0.9, 0.06, 0.1),
+                                          material="flat")
+        curve.set_radius(0.004, relative=True)
+
+    def _frame(self):
+        """polyscope's per-frame callback: keys, panel, mouse, stepping."""
+        import polyscope.imgui as psim
+
+        io = psim.GetIO()
+        if not io.WantCaptureKeyboard:
+            if psim.IsKeyPressed(psim.ImGuiKey_Space):
+                self.playing = not self.playing
+            if psim.IsKeyPressed(psim.ImGuiKey_D):
+                self.draw_mode = not self.draw_mode
+            if psim.IsKeyPressed(psim.ImGuiKey_Z):
+                self.undo()
+            if psim.IsKeyPressed(psim.ImGuiKey_R):
+                self.reset()
+            if psim.IsKeyPressed(psim.ImGuiKey_S):
+                self.save_picture(Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.png"))
+            if psim.IsKeyPressed(psim.ImGuiKey_N):
+                self.step_frame()
+        self._ps.set_do_default_mouse_interaction(not self.draw_mode)
+        self._panel(psim)
+        self.mouse(psim.IsMouseDown(0), psim.IsMouseReleased(0), psim.GetMousePos(),
+                   captured=io.WantCaptureMouse)
+        now = time.perf_counter()
+        elapsed = 1.0 / 30.0 if self._last_frame is None else now - self._last_frame
+        self._last_frame = now
+        if self.playing and not self._draft:
+            self.step_frame(elapsed)
+
+    def _panel(self, psim):
+        psim.PushItemWidth(150)
+        if psim.Button("pause" if self.playing else "play"):
+            self.playing = not self.playing
+        psim.SameLine()
+        if psim.Button("step"):
+            self.step_frame()
+        psim.SameLine()
+        if psim.Button("reset"):
+            self.reset()
+        psim.SameLine()
+        if psim.Button("undo stroke"):
+            self.undo()
+        changed, self.draw_mode = psim.Checkbox("draw mode (D)", self.draw_mode)
+        _, self.speed = psim.SliderFloat("speed (x real time)", self.speed, 0.01, 4.0)
+        names = list(INTEGRATORS)
+        index = names.index(self.sim.integrator)
+        changed, index = psim.Combo("integrator", index, names)
+        if changed:
+            self._safely(self.set_integrator, names[index])
+        changed, dt = psim.InputFloat("dt (s)", float(self.sim.dt), format="%.3g")
+        if changed and dt > 0 and math.isfinite(dt):
+            self._safely(self.set_integrator, self.sim.integrator, float(dt))
+        coloring = COLORINGS.index(self.coloring)
+        changed, coloring = psim.Combo("colour by", coloring, list(COLORINGS))
+        if changed:
+            self.coloring = COLORINGS[coloring]
+            self._update_colors(force=True)
+        if psim.CollapsingHeader("stroke"):
+            options = self.stroke_options
+            _, options["expansion"] = psim.SliderFloat("expansion", float(options["expansion"]),
+                                                       1.0, 1.5)
+            width = options["width"] or 0.0
+            _, width = psim.SliderFloat("width (m, 0 = paper)", float(width), 0.0, 0.5)
+            options["width"] = width if width > 0 else None
+            growth = GROWTH_MODES.index(options["growth"])
+            _, growth = psim.Combo("growth", growth, list(GROWTH_MODES))
+            options["growth"] = GROWTH_MODES[growth]
+            _, options["refine"] = psim.SliderInt("refine", int(options["refine"]), 0, 2)
+            _, options["smooth"] = psim.SliderInt("smoothing iterations",
+                                                  int(options["smooth"]), 0, 50)
+        if psim.Button("save state"):
+            self._safely(self.save_state, Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.npz"))
+        psim.SameLine()
+        if psim.Button("save picture"):
+            self._safely(self.save_picture,
+                         Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.png"))
+        psim.Separator()
+        for line in _statistics_lines(self.statistics()):
+            psim.TextUnformatted(line)
+        if self.message:
+            psim.Separator()
+            psim.TextUnformatted(self.message)
+        psim.Separator()
+        for key, action in KEYS.items():
+            psim.TextUnformatted(f"{key:>6}  {action}")
+        psim.TextUnformatted("  drag  draw (in draw mode), else turn the view")
+        psim.PopItemWidth()
+
+    def _safely(self, function, *arguments):
+        try:
+            return function(*arguments)
+        except (ValueError, OSError, RuntimeError) as error:
+            self.message = " ".join(str(error).split())
+            return None
+
+
+def _ray_triangles(origin, direction, triangles):
+    """Möller–Trumbore: (u, v, t) of the ray origin + t·direction against k triangles (k×3×3);
+    the hit point is (1 − u − v)·a + u·b + v·c. Parallel triangles give inf."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    e1, e2 = b - a, c - a
+    p = np.cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    inverse = np.divide(1.0, det, out=np.full_like(det, np.inf), where=np.abs(det) > 1e-300)
+    s = origin - a
+    u = np.einsum("ij,ij->i", s, p) * inverse
+    q = np.cross(s, e1)
+    v = (q @ direction) * inverse
+    t = np.einsum("ij,ij->i", e2, q) * inverse
+    return u, v, t
+
+
+def _statistics_lines(s) -> list:
+    def number(value, form):
+        return "–" if value is None else form.format(value)
+
+    return [f"t = {s['time']:.3f} s, {s['steps']} steps of {s['dt']:.3g} s ({s['integrator']})",
+            f"step {number(s['step_ms'], '{:.2f}')} ms, "
+            f"{number(s['steps_per_second'], '{:.0f}')} steps/s",
+            f"iterations per step {number(s['iterations_per_step'], '{:.1f}')}, "
+            f"unconverged {number(s['unconverged_steps'], '{}')}",
+            f"analyses {number(s['analyses'], '{}')}, "
+            f"factorization {number(s['factorize_seconds'], '{:.3f}')} s",
+            f"{s['vertices']} vertices, {s['faces']} faces; strokes: {s['strokes']}"]
+
+
+# -- yore view ------------------------------------------------------------------------------------
+def _load_source(source, overrides):
+    """(simulation, camera settings, first stroke's options) of a scene file or a state."""
+    source = Path(source)
+    if source.suffix.lower() == ".npz":
+        if overrides:
+            raise ValueError("--set changes a scene file; a state (.npz) takes none")
+        from ..state import load_state
+
+        sim, metadata = load_state(source)
+        settings = None
+        if isinstance(metadata, dict) and isinstance(metadata.get("scene_text"), str):
+            # a run's state: its scene's [camera]
+            from ..runs import load_scene
+
+            try:
+                settings = load_scene(text=metadata["scene_text"],
+                                      overrides=metadata.get("overrides") or {}).data["camera"]
+            except ValueError:
+                settings = None
+        return sim, settings, {}
+    from ..runs import load_scene
+
+    scene = load_scene(source, overrides=overrides)
+    sim, _ = scene.build()
+    strokes = scene.data.get("strokes") or []
+    first = {}
+    if strokes:
+        for name in ("expansion", "mass_scale", "width", "growth", "refine"):
+            if strokes[0].get(name) is not None:
+                first[name] = strokes[0][name]
+    return sim, scene.data.get("camera"), first
+
+
+def run_view_command(arguments, overrides) -> None:
+    """``yore view`` (see `yore.cli`)."""
+    from ..camera import camera_from_settings
+
+    if not arguments.headless and (arguments.stroke_px or arguments.at is not None
+                                   or arguments.until is not None):
+        raise ValueError("--stroke-px, --at and --until script a headless view: add --headless")
+    if arguments.headless and arguments.screenshot is None:
+        raise ValueError("a headless view shows nothing: give --screenshot PICTURE.png")
+    if arguments.screenshot is not None and arguments.screenshot.suffix.lower() != ".png":
+        raise ValueError(f"--screenshot writes PNG files; got {str(arguments.screenshot)!r}")
+    strokes = [parse_pixels(text) for text in arguments.stroke_px]
+    for name in ("at", "until"):
+        value = getattr(arguments, name)
+        if value is not None and not (math.isfinite(value) and 0.0 <= value <= 1e6):
+            raise ValueError(f"--{name} must be a time in [0, 1e6] s, got {value}")
+    sim, settings, first = _load_source(arguments.source, overrides)
+    at = sim.time if arguments.at is None else arguments.at
+    until = at if arguments.until is None else arguments.until
+    if at < sim.time - 1e-12:
+        raise ValueError(f"--at {at} s is before the simulation's time {sim.time:.6g} s")
+    if until < at:
+        raise ValueError(f"--until {until} s is before --at {at} s")
+    options = dict(first)
+    for name, value in (("expansion", arguments.expansion), ("width", arguments.stroke_width),
+                        ("growth", arguments.growth), ("refine", arguments.refine),
+                        ("smooth", arguments.smooth)):
+        if value is not None:
+            options[name] = value
+    camera = camera_from_settings(settings, sim.cloth.positions, arguments.width,
+                                  arguments.height, arguments.eye, arguments.target,
+                                  arguments.up, arguments.fov)
+    viewer = Viewer(sim, camera, headless=arguments.headless, stroke_options=options)
+    if not arguments.headless:
+        viewer.show()
+        return
+    quiet = getattr(arguments, "quiet", False)
+
+    def run_to(target):
+        if target > viewer.sim.time:
+            # Simulation.advance shows its own progress bar on a terminal for long runs
+            viewer.advance(target - viewer.sim.time, progress=False if quiet else None)
+
+    run_to(at)
+    for k, pixels in enumerate(strokes):
+        reports = viewer.stroke_pixels(pixels)
+        if not quiet:
+            print(f"stroke {k + 1} at t = {viewer.sim.time:.3f} s: "
+                  f"{sum(r.faces_split for r in reports)} faces split, "
+                  f"{sum(r.vertices_added for r in reports)} vertices added"
+                  + (f" ({len(reports)} pieces)" if len(reports) > 1 else ""))
+    run_to(until)
+    path = viewer.save_picture(arguments.screenshot, panel=arguments.panel)
+    if not quiet:
+        print(f"picture:      {Path(path).resolve()}")
