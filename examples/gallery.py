@@ -49,7 +49,7 @@ def save(path, settings, shown, width, height, wrinkles):
     panels = [render_image(sim.cloth.positions, sim.cloth.faces, camera,
                            vertex_values=height if wrinkles else None,
                            value_range=(-half, half), colormap="coolwarm",
-                           colorbar="wrinkle height (mm)" if wrinkles else None,
+                           colorbar="wrinkles (mm)" if wrinkles else None,
                            strokes=stroke_lines(strokes, sim.cloth.positions))
               for (sim, strokes, _), height in zip(shown, heights)]
     save_png(path, side_by_side(panels, [title for _, _, title in shown]))

@@ -57,7 +57,7 @@ def _save_panels(path, camera_settings, shown):
             strokes = stroke_lines(record.get("strokes", []), sim.cloth.positions)
         panels.append(render_image(sim.cloth.positions, sim.cloth.faces, full,
                                    vertex_values=height, value_range=(-half, half),
-                                   colormap="coolwarm", colorbar="wrinkle height (mm)",
+                                   colormap="coolwarm", colorbar="wrinkles (mm)",
                                    strokes=strokes))
     save_png(path, side_by_side(panels, [title for _, _, title in shown]))
 

@@ -23,7 +23,8 @@ import numpy as np
 from ..camera import Camera
 
 __all__ = ["BackendUnavailable", "EGL_PACKAGES", "ensure", "is_window", "set_camera",
-           "camera_from_view", "screenshot", "pick", "supersampling", "SSAA_FACTOR"]
+           "camera_from_view", "screenshot", "pick", "supersampling", "downsample",
+           "SSAA_FACTOR"]
 
 #: Debian packages the headless backend needs (``make setup`` installs them).
 EGL_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1-mesa-dri", "libx11-6")
@@ -163,12 +164,24 @@ def _axis(vector, exclude=None):
     return axis, 1 if vector[axis] >= 0 else -1
 
 
-def supersampling(width, height) -> int:
-    """The supersampling factor for a width × height picture (1 when too large)."""
-    if width * height * SSAA_FACTOR**2 <= SSAA_MAX_PIXELS \
-            and max(width, height) * SSAA_FACTOR <= SSAA_MAX_SIDE:
-        return SSAA_FACTOR
-    return 1
+def supersampling(width, height, factor=None) -> int:
+    """The supersampling factor for a width × height picture: ``factor`` (default
+    SSAA_FACTOR), lowered until the supersampled picture fits the limits."""
+    factor = SSAA_FACTOR if factor is None else max(1, int(factor))
+    while factor > 1 and (width * height * factor**2 > SSAA_MAX_PIXELS
+                          or max(width, height) * factor > SSAA_MAX_SIDE):
+        factor -= 1
+    return factor
+
+
+def downsample(image, factor) -> np.ndarray:
+    """An (h·f, w·f, 3) uint8 picture averaged in f × f blocks (rounded) to (h, w, 3)."""
+    if factor == 1:
+        return image
+    height, width = image.shape[0] // factor, image.shape[1] // factor
+    blocks = image.reshape(height, factor, width, factor, 3).astype(np.uint16)
+    total = blocks.sum(axis=3).sum(axis=1)
+    return ((total + factor * factor // 2) // (factor * factor)).astype(np.uint8)
 
 
 def set_camera(camera: Camera) -> None:

@@ -283,9 +283,15 @@ def draw_colorbar(image, table, value_range, label, left=None, ticks=5) -> np.nd
     draw = ImageDraw.Draw(picture)
     pad = max(2, int(0.5 * size))
     top = (height - bar_height) // 2
-    label_box = draw.textbbox((0, 0), label, font=face)
+    label_face, label_size = face, size
+    label_box = draw.textbbox((0, 0), label, font=label_face)
+    while label_box[2] - label_box[0] > strip - 2 * pad and label_size > 7:
+        # a long label gets a smaller font, so it fits the strip
+        label_size -= 1
+        label_face = font(label_size)
+        label_box = draw.textbbox((0, 0), label, font=label_face)
     draw.text((left + pad - label_box[0], top - pad - label_box[3]), label, fill=(20, 20, 20),
-              font=face)
+              font=label_face)
     bar_left = left + pad
     rows = np.linspace(1.0, 0.0, bar_height)
     colours = np.column_stack([np.interp(rows, np.linspace(0, 1, len(table)), table[:, c])

@@ -153,7 +153,9 @@ def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_ra
         the cloth's shadow.
     title : str, optional
         Written centred in a band at the top (`title_height`), the cloth drawn below it.
-    antialias : bool
+    antialias : bool or int
+        True: supersample by `backend.SSAA_FACTOR` (3); an int k: by k (animations use 2, at
+        half the cost); False: none. Lowered for very large pictures.
         Supersample (`backend.SSAA_FACTOR (3)`), where the image is small enough.
 
     Returns
@@ -249,7 +251,9 @@ def _inner_camera(camera, width, height) -> Camera:
 def _render_view(V, F, camera, values, defined_on, value_range, colormap, polylines,
                  base_color, background, edges, ground, antialias):
     ps = backend.ensure()
-    factor = backend.supersampling(camera.width, camera.height) if antialias else 1
+    factor = (1 if antialias is False else
+              backend.supersampling(camera.width, camera.height,
+                                    None if antialias is True else antialias))
     backend.set_camera(camera.resized(camera.width * factor, camera.height * factor)
                        if factor > 1 else camera)
     ps.set_background_color(tuple(background))
@@ -298,10 +302,8 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
         for name in registered:
             _remove(ps, name)
         hidden.__exit__(None, None, None)
-    if factor > 1:
-        # box-filter the supersampled picture down to the camera's size
-        blocks = image.reshape(camera.height, factor, camera.width, factor, 3)
-        image = np.rint(blocks.mean(axis=(1, 3))).astype(np.uint8)
+    # box-filter the supersampled picture down to the camera's size
+    image = backend.downsample(image, factor)
     return image
 
 

@@ -197,13 +197,13 @@ class Viewer:
             key = ("expansion", self._topology, len(self.reports), len(self.undo_states))
             if key == self._colored_version and not force:
                 return
-            values, cmap, label = vertex_expansion(cloth), "viridis", "rest expansion"
+            values, cmap, label = vertex_expansion(cloth), "viridis", "expansion"
             low, high = 1.0, max(1.0 + 1e-3, float(values.max()))
         else:
             key = None
             values = 1e3 * wrinkle_height(cloth.positions, cloth.faces)
             half = max(float(np.abs(values).max()), 1e-6)
-            cmap, label, low, high = "coolwarm", "wrinkle height (mm)", -half, half
+            cmap, label, low, high = "coolwarm", "wrinkles (mm)", -half, half
         self._mesh.add_scalar_quantity(label, values, defined_on="vertices",
                                        cmap=_polyscope_map(self._ps, cmap), vminmax=(low, high),
                                        enabled=True, onscreen_colorbar_enabled=not self.headless)
@@ -442,8 +442,7 @@ class Viewer:
             image = backend.screenshot()
         finally:
             backend.set_camera(camera)
-        blocks = image.reshape(camera.height, factor, camera.width, factor, 3)
-        return np.rint(blocks.mean(axis=(1, 3))).astype(np.uint8)
+        return backend.downsample(image, factor)
 
     def _screenshot_with_panel(self) -> np.ndarray:
         ps = self._ps
@@ -454,9 +453,12 @@ class Viewer:
             ps.set_user_callback(lambda: self._panel(psim))
             try:
                 ps.show(forFrames=2)  # ImGui lays its windows out over two frames
+                # the screenshot draws one more frame, the panel's callback still set
+                image = ps.screenshot_to_buffer(transparent_bg=False, include_UI=True)
             finally:
                 ps.clear_user_callback()
-        image = ps.screenshot_to_buffer(transparent_bg=False, include_UI=True)
+        else:
+            image = ps.screenshot_to_buffer(transparent_bg=False, include_UI=True)
         return np.ascontiguousarray(image[:, :, :3])
 
     def save_picture(self, path, panel=False) -> Path:
@@ -480,7 +482,9 @@ class Viewer:
         counters, phases = stats["counters"], stats["phases"]
         steps = max(stats["steps"], 1)
         iterations = counters.get("newton_iterations", counters.get("iterations"))
-        per_step = self._frame_seconds / self._frame_steps if self._frame_steps else None
+        # the live loop's last frame, else the mean over the simulation's steps so far
+        per_step = (self._frame_seconds / self._frame_steps if self._frame_steps else
+                    stats["wall_seconds"] / stats["steps"] if stats["steps"] else None)
         return {"time": self.sim.time, "steps": stats["steps"], "integrator": stats["integrator"],
                 "dt": stats["dt"], "step_ms": None if per_step is None else 1e3 * per_step,
                 "steps_per_second": None if not per_step else 1.0 / per_step,
@@ -696,6 +700,9 @@ def _load_source(source, overrides):
 
     scene = load_scene(source, overrides=overrides)
     sim, _ = scene.build()
+    if scene.data["simulation"]["settle"] > 0.0:
+        # the scene's starting state is its settled cloth, as in `yore run`
+        sim.settle(scene.data["simulation"]["settle"])
     strokes = scene.data.get("strokes") or []
     first = {}
     if strokes:
