@@ -5,10 +5,10 @@ set -euo pipefail
 
 python=${PYTHON:-python3}
 # libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6: polyscope's headless (EGL, Mesa llvmpipe)
-# pictures and the viewer
+# pictures and the viewer; xvfb xdotool: the test that drives the viewer's real window
 packages=(g++ make cmake ninja-build ccache pkg-config
           libeigen3-dev libsuitesparse-dev libcgal-dev libopenblas0-pthread
-          libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6)
+          libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6 xvfb xdotool)
 missing=()
 for package in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then

@@ -4,7 +4,7 @@
 real time allows; an ImGui panel has play/pause/step, the integrator and dt (a change rebuilds
 the integrator from the current state), reset, undo of the last stroke, save state, save
 picture, the stroke options and live statistics. Keys: Space play/pause, N one frame, D draw
-mode, Z (or Ctrl+Z) undo, R reset, S save picture.
+mode, Z undo, R reset, S save picture, Q close.
 
 Drawing: in draw mode the default camera motion is off and a left-button drag draws. Every
 mouse sample (densified to at most `SAMPLE_SPACING_PX` pixels apart) is picked on the current
@@ -47,9 +47,12 @@ MAX_STROKE_SAMPLES = 100_000
 MAX_UNDO = 32
 #: Wall time the live loop may spend stepping per frame, s (keeps the window responsive).
 FRAME_BUDGET_SECONDS = 0.05
+#: Width of the viewer's panel, pixels.
+PANEL_WIDTH = 330
 #: The keys, as listed in the README and the window's help line.
 KEYS = {"Space": "play / pause", "N": "one frame", "D": "draw mode on / off",
-        "Z": "undo the last stroke", "R": "reset to the start", "S": "save a picture"}
+        "Z": "undo the last stroke", "R": "reset to the start", "S": "save a picture",
+        "Q": "close the viewer"}
 CLOTH = backend.VIEWER_SURFACES[0]
 DRAFT = backend.VIEWER_CURVES[0]
 COLORINGS = ("expansion", "wrinkles", "none")
@@ -140,10 +143,13 @@ class Viewer:
         self.reports = []
         self.playing = False
         self.draw_mode = False
-        self.message = ""
+        self.polyscope_panels = False
+        self._message = ""
+        self.log = None  # a callable given each message (yore view: print)
         self.speed = 1.0
         self._dt_text = None  # the dt the panel shows (None: the integrator's default)
         self._draft = []  # (pixel, face, barycentric) of the drag being drawn
+        self._drag_pixel = None  # the drag's last mouse sample
         self._mouse_was_down = False
         self._frame_steps, self._frame_seconds = 0, 0.0
         self._last_frame = None
@@ -153,6 +159,17 @@ class Viewer:
         self._ps = backend.ensure(window=not self.headless)
         backend.set_camera(self.camera)
         self._register()
+
+    @property
+    def message(self) -> str:
+        """The last thing the viewer did or refused (shown in the panel)."""
+        return self._message
+
+    @message.setter
+    def message(self, text):
+        self._message = text
+        if self.log is not None and text:
+            self.log(text)
 
     # -- the scene in polyscope -------------------------------------------------------------
     def _activate(self):
@@ -450,6 +467,7 @@ class Viewer:
             import polyscope.imgui as psim
 
             backend.set_camera(self.camera)
+            self._prepare_panels()
             ps.set_user_callback(lambda: self._panel(psim))
             try:
                 ps.show(forFrames=2)  # ImGui lays its windows out over two frames
@@ -502,6 +520,9 @@ class Viewer:
             raise ValueError("a headless viewer has no window; use stroke_pixels, advance and "
                              "screenshot")
         ps = self._ps
+        ps.set_window_size(self.camera.width, self.camera.height)
+        backend.set_camera(self.camera)
+        self._prepare_panels()
         ps.set_user_callback(self._frame)
         self.playing = True
         try:
@@ -509,6 +530,14 @@ class Viewer:
         finally:
             ps.clear_user_callback()
             ps.set_do_default_mouse_interaction(True)
+
+    def set_draw_mode(self, on) -> None:
+        """Draw mode on (a left drag draws, the camera stays) or off (the mouse moves the
+        camera)."""
+        self.draw_mode = bool(on)
+        self._ps.set_do_default_mouse_interaction(not self.draw_mode)
+        self.message = ("draw mode on: drag with the left button to draw a stroke"
+                        if self.draw_mode else "draw mode off")
 
     def mouse(self, down, released, position, captured=False) -> list | None:
         """One frame of mouse input in draw mode: ``position`` in window pixels (corner
@@ -518,13 +547,22 @@ class Viewer:
             return None
         if down:
             pixel = np.asarray(position, dtype=np.float64) - 0.5
-            previous = self._draft[-1][0] if self._draft else None
+            previous = self._drag_pixel
+            if previous is not None and np.array_equal(previous, pixel):
+                return None
             samples = densify([previous, pixel])[1:] if previous is not None else pixel[None]
+            self._drag_pixel = pixel
+            if previous is None:
+                self.message = "drawing a stroke (release to apply it)"
             hits, faces, weights = self.pick_surface(samples)
             self._draft.extend(zip(hits, faces, weights))
             self._show_draft()
             return None
+        if released and self._drag_pixel is not None and not self._draft:
+            self._drag_pixel = None
+            self.message = "the stroke missed the cloth (no sample on it)"
         if released and self._draft:
+            self._drag_pixel = None
             pixels = np.asarray([d[0] for d in self._draft])
             faces = np.asarray([d[1] for d in self._draft])
             weights = np.asarray([d[2] for d in self._draft])
@@ -554,12 +592,14 @@ class Viewer:
         """polyscope's per-frame callback: keys, panel, mouse, stepping."""
         import polyscope.imgui as psim
 
+        if self._last_frame is None:
+            self.message = "viewer ready: D to draw strokes, Space to pause"
         io = psim.GetIO()
         if not io.WantCaptureKeyboard:
             if psim.IsKeyPressed(psim.ImGuiKey_Space):
                 self.playing = not self.playing
             if psim.IsKeyPressed(psim.ImGuiKey_D):
-                self.draw_mode = not self.draw_mode
+                self.set_draw_mode(not self.draw_mode)
             if psim.IsKeyPressed(psim.ImGuiKey_Z):
                 self.undo()
             if psim.IsKeyPressed(psim.ImGuiKey_R):
@@ -568,6 +608,10 @@ class Viewer:
                 self.save_picture(Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.png"))
             if psim.IsKeyPressed(psim.ImGuiKey_N):
                 self.step_frame()
+            if psim.IsKeyPressed(psim.ImGuiKey_Q):
+                self.message = "closing"
+                self._ps.unshow()
+                return
         self._ps.set_do_default_mouse_interaction(not self.draw_mode)
         self._panel(psim)
         self.mouse(psim.IsMouseDown(0), psim.IsMouseReleased(0), psim.GetMousePos(),
@@ -578,8 +622,14 @@ class Viewer:
         if self.playing and not self._draft:
             self.step_frame(elapsed)
 
+    def _prepare_panels(self):
+        """A narrow panel at the right; polyscope's own panels (structures, options) start
+        hidden, so the cloth has the window (a checkbox brings them back)."""
+        self._ps.set_right_gui_pane_width(PANEL_WIDTH)
+        self._ps.set_build_default_gui_panels(self.polyscope_panels)
+
     def _panel(self, psim):
-        psim.PushItemWidth(150)
+        psim.PushItemWidth(120)
         if psim.Button("pause" if self.playing else "play"):
             self.playing = not self.playing
         psim.SameLine()
@@ -591,7 +641,9 @@ class Viewer:
         psim.SameLine()
         if psim.Button("undo stroke"):
             self.undo()
-        changed, self.draw_mode = psim.Checkbox("draw mode (D)", self.draw_mode)
+        changed, draw = psim.Checkbox("draw mode (D)", self.draw_mode)
+        if changed:
+            self.set_draw_mode(draw)
         _, self.speed = psim.SliderFloat("speed (x real time)", self.speed, 0.01, 4.0)
         names = list(INTEGRATORS)
         index = names.index(self.sim.integrator)
@@ -627,10 +679,14 @@ class Viewer:
                          Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.png"))
         psim.Separator()
         for line in _statistics_lines(self.statistics()):
-            psim.TextUnformatted(line)
+            psim.TextWrapped(line)
+        changed, self.polyscope_panels = psim.Checkbox("polyscope's panels",
+                                                       self.polyscope_panels)
+        if changed:
+            self._ps.set_build_default_gui_panels(self.polyscope_panels)
         if self.message:
             psim.Separator()
-            psim.TextUnformatted(self.message)
+            psim.TextWrapped(self.message)
         psim.Separator()
         for key, action in KEYS.items():
             psim.TextUnformatted(f"{key:>6}  {action}")
@@ -746,6 +802,8 @@ def run_view_command(arguments, overrides) -> None:
                                   arguments.up, arguments.fov)
     viewer = Viewer(sim, camera, headless=arguments.headless, stroke_options=options)
     if not arguments.headless:
+        if not getattr(arguments, "quiet", False):
+            viewer.log = lambda text: print(f"yore view: {text}", flush=True)
         viewer.show()
         return
     quiet = getattr(arguments, "quiet", False)
