@@ -269,6 +269,22 @@ def section(data: dict, results: Path) -> str:
                    f"{cell['default_over_one_thread']:.2f} |")
     out += ["", f"Target: the default at most {threads['target_ratio']}× one thread in every "
             f"cell — {verdict(threads['target_met'])}."]
+    # -- pictures -------------------------------------------------------------------------------
+    pictures = data["pictures"]
+    out += ["", "### Pictures", "", f"![pictures]({results}/pictures.png)", "",
+            f"{pictures['renderer']} on the CPU (Mesa llvmpipe), one picture with a colour map, "
+            "colour bar and stroke (median of "
+            f"{pictures['rows'][0]['repeats']}); starting polyscope in a fresh process "
+            f"{pictures['start_seconds_median']:.2f} s, the viewer's pick of a pixel "
+            f"{1e3 * pictures['pick_seconds_median']:.1f} ms.", "",
+            "| size | vertices | " + " | ".join(
+                f"×{f}" for f in sorted({r['factor'] for r in pictures['rows']})) + " |",
+            "|---|---|" + "---|" * len({r["factor"] for r in pictures["rows"]})]
+    for key in dict.fromkeys((r["width"], r["height"], r["vertices"]) for r in pictures["rows"]):
+        cells = {r["factor"]: r for r in pictures["rows"]
+                 if (r["width"], r["height"], r["vertices"]) == key}
+        out.append(f"| {key[0]}×{key[1]} | {key[2]} | " + " | ".join(
+            duration(cells[f]["render_seconds_median"]) for f in sorted(cells)) + " |")
     return "\n".join(line for line in out if line is not None)
 
 

@@ -235,3 +235,11 @@ def test_stream_bandwidth_probe_is_plausible():
     assert is_timing(bandwidth) and bandwidth > 0
     with pytest.raises(ValueError):
         yore._core.stream_triad_bandwidth(0, 3)
+
+
+def test_pictures_smoke(tmp_path):
+    data = run_benchmark("pictures", tmp_path, "--quick")
+    cells = {(r["width"], r["height"], r["factor"]) for r in data["rows"]}
+    assert cells == {(w, h, f) for w, h in ((320, 240), (640, 480)) for f in (1, 3)}
+    assert all(is_timing(r["render_seconds_median"]) for r in data["rows"])
+    assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])

@@ -14,6 +14,7 @@ import numbers
 import numpy as np
 
 __all__ = ["MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS", "check_image_size", "check_factor",
+           "check_integer",
            "check_points", "check_faces", "check_vector", "check_unit_rgb", "check_image",
            "check_count", "check_vertex_values"]
 
@@ -45,7 +46,7 @@ def check_image_size(width, height, what="camera"):
 
 def check_factor(value, name: str, unit: str = "") -> float:
     """`value` as a finite float > 0; ValueError naming `name` otherwise."""
-    if isinstance(value, (bool, np.bool_)):
+    if isinstance(value, (bool, np.bool_, str, bytes)):
         raise ValueError(f"{name} must be a number{unit and f' ({unit})'}, got {value!r}")
     try:
         number = float(value)
@@ -55,6 +56,16 @@ def check_factor(value, name: str, unit: str = "") -> float:
     if not math.isfinite(number) or number <= 0.0:
         raise ValueError(f"{name} must be finite and > 0{unit and f' ({unit})'}, got {number}")
     return number
+
+
+def check_integer(value, name, minimum, maximum=None) -> int:
+    """`value` as an int if it is an integer (bool refused) in [minimum, maximum];
+    ValueError naming `name` otherwise."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
+            or value < minimum or (maximum is not None and value > maximum):
+        bound = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
+        raise ValueError(f"{name} must be an integer {bound}, got {_short(value)}")
+    return int(value)
 
 
 def check_points(points, name, allow_empty=True) -> np.ndarray:

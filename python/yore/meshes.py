@@ -9,10 +9,11 @@ stiffness in a mass-spring cloth.
 
 from __future__ import annotations
 
-import math
 import numbers
 
 import numpy as np
+
+from .checks import check_factor, check_integer
 
 __all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring", "MAX_MESH_VERTICES"]
 
@@ -25,25 +26,6 @@ def _check_vertex_count(count: int, what: str) -> None:
     if count > MAX_MESH_VERTICES:
         raise ValueError(f"{what} gives {count} vertices, more than the limit of "
                          f"{MAX_MESH_VERTICES}")
-
-
-def _check_count(name: str, value, minimum: int) -> int:
-    """Return ``value`` as an int, or raise ValueError unless it is an integer >= minimum."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    if value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def _check_length(name: str, value) -> float:
-    """Return ``value`` as a float, or raise ValueError unless it is a finite number > 0."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    length = float(value)
-    if not math.isfinite(length) or length <= 0.0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return length
 
 
 def _split_quads(a, b, c, d, even) -> np.ndarray:
@@ -85,10 +67,10 @@ def grid_mesh(nx, ny, width=1.0, height=1.0):
         If nx or ny is not an integer >= 2, nx·ny is more than `MAX_MESH_VERTICES`, or width
         or height is not finite and > 0.
     """
-    nx = _check_count("nx", nx, 2)
-    ny = _check_count("ny", ny, 2)
-    width = _check_length("width", width)
-    height = _check_length("height", height)
+    nx = check_integer(nx, "nx", 2)
+    ny = check_integer(ny, "ny", 2)
+    width = check_factor(width, "width", "m")
+    height = check_factor(height, "height", "m")
     _check_vertex_count(nx * ny, f"nx × ny = {nx} × {ny}")
 
     # linspace pins the last coordinate to exactly width/height.
@@ -137,10 +119,10 @@ def cylinder_mesh(radius, height, rings, segments):
         If radius or height is not finite and > 0, rings is not an integer >= 2, segments
         is not an integer >= 3, or rings·segments is more than `MAX_MESH_VERTICES`.
     """
-    radius = _check_length("radius", radius)
-    height = _check_length("height", height)
-    rings = _check_count("rings", rings, 2)
-    segments = _check_count("segments", segments, 3)
+    radius = check_factor(radius, "radius", "m")
+    height = check_factor(height, "height", "m")
+    rings = check_integer(rings, "rings", 2)
+    segments = check_integer(segments, "segments", 3)
     _check_vertex_count(rings * segments, f"rings × segments = {rings} × {segments}")
 
     theta = 2.0 * np.pi * np.arange(segments) / segments
@@ -185,8 +167,8 @@ def cylinder_ring(rings, segments, which):
     ValueError
         If rings or segments is invalid, or which is not an integer in [-rings, rings).
     """
-    rings = _check_count("rings", rings, 2)
-    segments = _check_count("segments", segments, 3)
+    rings = check_integer(rings, "rings", 2)
+    segments = check_integer(segments, "segments", 3)
     if not isinstance(which, numbers.Integral) or isinstance(which, bool):
         raise ValueError(f"which must be an integer ring number, got {which!r}")
     if not -rings <= which < rings:

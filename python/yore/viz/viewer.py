@@ -34,7 +34,8 @@ import numpy as np
 
 from ..camera import Camera, fit_camera
 from ..simulation import INTEGRATORS, Simulation
-from ..stroke import GROWTH_MODES, MAX_REFINE, StrokeMissed
+from ..checks import check_factor, check_integer
+from ..stroke import GROWTH_MODES, StrokeMissed, check_stroke_options
 from . import backend
 
 __all__ = ["Viewer", "parse_pixels", "run_view_command", "SAMPLE_SPACING_PX", "KEYS"]
@@ -380,24 +381,11 @@ class Viewer:
 
     def _check_stroke_options(self):
         options = self.stroke_options
-        if options["growth"] not in GROWTH_MODES:
-            raise ValueError(f"growth must be one of {', '.join(GROWTH_MODES)}, "
-                             f"got {options['growth']!r}")
-        refine, smooth = options["refine"], options["smooth"]
-        if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) \
-                or not 0 <= refine <= MAX_REFINE:
-            raise ValueError(f"refine must be an integer in [0, {MAX_REFINE}], got {refine!r}")
-        if isinstance(smooth, bool) or not isinstance(smooth, (int, np.integer)) \
-                or not 0 <= smooth <= 1000:
-            raise ValueError(f"smooth must be an integer in [0, 1000] (iterations), "
-                             f"got {smooth!r}")
-        for name in ("expansion", "mass_scale", "width"):
-            value = options[name]
-            if value is None and name == "width":
-                continue
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
-                    or not math.isfinite(value) or value <= 0:
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        options["width"], options["growth"], options["refine"], options["mass_scale"] = \
+            check_stroke_options(options["width"], options["growth"], options["refine"],
+                                 options["mass_scale"])
+        options["expansion"] = check_factor(options["expansion"], "expansion")
+        options["smooth"] = check_integer(options["smooth"], "smooth (iterations)", 0, 1000)
 
     # -- time -----------------------------------------------------------------------------------
     def advance(self, seconds, progress=None) -> None:
