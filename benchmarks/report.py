@@ -284,7 +284,8 @@ def section(data: dict, results: Path) -> str:
         cells = {r["factor"]: r for r in pictures["rows"]
                  if (r["width"], r["height"], r["vertices"]) == key}
         out.append(f"| {key[0]}×{key[1]} | {key[2]} | " + " | ".join(
-            duration(cells[f]["render_seconds_median"]) for f in sorted(cells)) + " |")
+            duration(cells[f]["render_seconds_median"]) if f in cells else "– (too large)"
+            for f in sorted({r["factor"] for r in pictures["rows"]})) + " |")
     return "\n".join(line for line in out if line is not None)
 
 

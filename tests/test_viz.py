@@ -330,6 +330,18 @@ def test_render_image_has_the_cameras_size_and_shows_the_cloth():
         assert np.all(image[0, 0] == WHITE)
 
 
+@pytest.mark.parametrize("width, height", [(320, 240), (1920, 1080), (3840, 2160), (16, 8000)])
+def test_supersampling_stays_within_the_image_limits(width, height):
+    from yore.checks import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE
+
+    factor = backend.supersampling(width, height)
+    assert factor >= 1
+    assert width * height * factor**2 <= MAX_IMAGE_PIXELS
+    assert max(width, height) * factor <= MAX_IMAGE_SIDE
+    if width * height * 9 <= MAX_IMAGE_PIXELS and max(width, height) * 3 <= 8192:
+        assert factor == backend.SSAA_FACTOR
+
+
 def test_antialiasing_softens_edges():
     V, F = wavy_cloth()
     camera = fit_camera(V, 240, 180)

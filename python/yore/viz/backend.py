@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import Camera
+from ..checks import MAX_IMAGE_PIXELS
 
 __all__ = ["BackendUnavailable", "EGL_PACKAGES", "ensure", "is_window", "set_camera",
            "camera_from_view", "screenshot", "pick", "supersampling", "downsample",
@@ -33,7 +34,7 @@ EGL_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1-mesa-dri", "libx11-6")
 #: blocks of SSAA_FACTOR² pixels (polyscope's own SSAA setting does not reach headless
 #: screenshots in 2.6).
 SSAA_FACTOR = 3
-SSAA_MAX_PIXELS = 1 << 24
+SSAA_MAX_PIXELS = MAX_IMAGE_PIXELS  # the supersampled picture is a camera too
 SSAA_MAX_SIDE = 8192
 _MESA_VENDOR_FILES = ("/usr/share/glvnd/egl_vendor.d/50_mesa.json",)
 
