@@ -1,72 +1,70 @@
-"""Stability map: which (stiffness, time step) pairs each integrator survives.
+"""Stability map: which (stiffness, time step) pairs each integrator survives — a sweep.
 
-    python -m benchmarks.stability_map [--out bench-results] [--quick]
+    python -m benchmarks.stability_map [--out bench-results] [--quick] [--workers N]
 
-An undamped hanging cloth (no spring damping, no drag) is run for a fixed number of steps at
-every stiffness × dt of a grid, per integrator. A run is "diverged" if it raises
-SimulationDiverged, "energy gain" if its total energy ever rose by more than 5 % of the
-gravitational energy it released over the run (an undamped symplectic run oscillates far less;
-backward Euler and BDF2 should only lose energy), else "stable". Writes stability_map.json and a
-heatmap per integrator, stability_map.png.
+The grid is the sweep file benchmarks/stability_map.toml (--quick: stability_map_quick.toml)
+over the scene benchmarks/stability_scene.toml: an undamped hanging cloth (no spring damping,
+no drag) run for a fixed number of steps at every stiffness × dt, per integrator (a zip of
+variants). It runs through `yore.sweep` (Dask, one task per cell; the sweep's folder is
+OUT/sweeps/stability_map, its Dataset results.nc), and the figure and JSON come from the
+Dataset. A cell is "diverged" if its run diverged, "energy gain" if its total energy ever rose
+(at the 10 recorded frames) by more than 5 % of the gravitational energy it released (an undamped
+symplectic run oscillates far less; backward Euler and BDF2 should only lose energy), else
+"stable". Writes stability_map.json and a heat map per integrator, stability_map.png.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 
 import numpy as np
 
-import yore
-
 from .common import arguments, machine_info, save
 
-INTEGRATORS = {
-    "explicit": {"integrator": "explicit"},
-    "explicit + strain limit": {"integrator": "explicit", "strain_limit": 1.1},
-    "BE linearized": {"integrator": "implicit", "linearized": True},
-    "BE Newton": {"integrator": "implicit"},
-    "BDF2": {"integrator": "bdf2"},
-}
+HERE = Path(__file__).resolve().parent
 STATES = ("stable", "energy gain", "diverged")
-BASE_STIFFNESS = 200.0  # N/m, the scenes' default
+ENERGY_GAIN_LIMIT = 0.05
 
 
-def classify(resolution, multiplier, dt, options, steps):
-    sim = yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0,
-                                    stretch_stiffness=BASE_STIFFNESS * multiplier,
-                                    bend_stiffness=BASE_STIFFNESS * multiplier, damping=0.0,
-                                    drag=0.0, dt=dt, **options)
-    start = sim.energy()
-    energies = [start["total"]]
-    released = 0.0
-    try:
-        for _ in range(10):
-            sim.step(steps // 10, progress=False)
-            energy = sim.energy()
-            energies.append(energy["total"])
-            released = max(released, start["gravity"] - energy["gravity"])
-    except yore.SimulationDiverged:
+def classify(status, gain, released):
+    if status == "diverged":
         return "diverged", None
-    gain = (max(energies) - energies[0]) / max(released, 1e-12)
-    return ("energy gain" if gain > 0.05 else "stable"), gain
+    if status != "done":
+        return "failed", None
+    ratio = gain / max(released, 1e-12)
+    return ("energy gain" if ratio > ENERGY_GAIN_LIMIT else "stable"), float(ratio)
 
 
 def main(argv=None):
-    args = arguments(__doc__, argv)
-    resolution, steps = (7, 60) if args.quick else (11, 200)
-    multipliers = [1, 10, 100, 1000] if args.quick else [1, 10, 100, 1000, 10000]
-    dts = ([1 / 30, 1 / 240, 1 / 1920] if args.quick
-           else [1 / 30, 1 / 120, 1 / 480, 1 / 1920, 1 / 7680, 1 / 30720])
+    from yore.sweep import load_sweep, run
+
+    args = arguments(__doc__, argv, extra=lambda p: p.add_argument(
+        "--workers", type=int, default=None, help="Dask workers (default: the cores)"))
+    sweep = load_sweep(HERE / ("stability_map_quick.toml" if args.quick
+                               else "stability_map.toml"))
+    results = run(sweep, Path(args.out) / "sweeps" / "stability_map", workers=args.workers,
+                  overwrite=True, quiet=True)
+    dataset = results.dataset()
+    methods = [str(m) for m in dataset["method"].values]
+    stiffness = [float(k) for k in dataset["material.stretch_stiffness"].values]
+    dts = [float(d) for d in dataset["simulation.dt"].values]
+    steps = int(round(float(dataset["simulation.duration"].values[0]) / dts[0]))
     rows = []
-    for name, options in INTEGRATORS.items():
-        for multiplier in multipliers:
-            for dt in dts:
-                state, gain = classify(resolution, multiplier, dt, options, steps)
-                rows.append({"integrator": name, "stiffness": BASE_STIFFNESS * multiplier,
-                             "dt": dt, "state": state, "energy_gain": gain})
+    for i, name in enumerate(methods):
+        for j, k in enumerate(stiffness):
+            for m, dt in enumerate(dts):
+                cell = dataset.isel(method=i, stiffness=j, step=m)
+                state, gain = classify(str(cell["status"].values),
+                                       float(cell["max_energy_gain"].values),
+                                       float(cell["gravity_released"].values))
+                rows.append({"integrator": name, "stiffness": k, "dt": dt, "state": state,
+                             "energy_gain": gain})
         print(name, " ".join(r["state"][0] for r in rows if r["integrator"] == name))
     payload = {"benchmark": "stability_map", "machine": machine_info(), "quick": args.quick,
-               "resolution": resolution, "steps": steps, "stiffness_values": [
-                   BASE_STIFFNESS * m for m in multipliers], "dt_values": dts, "rows": rows}
+               "resolution": int(sweep.sets["mesh.nx"]), "steps": steps,
+               "stiffness_values": stiffness, "dt_values": dts, "integrators": methods,
+               "sweep": str((Path(args.out) / "sweeps" / "stability_map").as_posix()),
+               "rows": rows}
     save(args.out, "stability_map", payload, lambda path: plot(payload, path))
     return payload
 
@@ -79,15 +77,16 @@ def plot(payload, path):
     from matplotlib.colors import ListedColormap
 
     stiffness, dts = payload["stiffness_values"], payload["dt_values"]
-    fig, axes = plt.subplots(1, len(INTEGRATORS), figsize=(3.3 * len(INTEGRATORS), 3.6),
+    integrators = payload["integrators"]
+    fig, axes = plt.subplots(1, len(integrators), figsize=(3.3 * len(integrators), 3.6),
                              sharey=True)
     cmap = ListedColormap(["#5cb85c", "#f0ad4e", "#d9534f"])
-    for ax, name in zip(axes, INTEGRATORS):
+    for ax, name in zip(axes, integrators):
         grid = np.zeros((len(stiffness), len(dts)))
         for row in payload["rows"]:
             if row["integrator"] == name:
-                grid[stiffness.index(row["stiffness"]), dts.index(row["dt"])] = STATES.index(
-                    row["state"])
+                grid[stiffness.index(row["stiffness"]), dts.index(row["dt"])] = (
+                    STATES.index(row["state"]) if row["state"] in STATES else np.nan)
         ax.imshow(grid, cmap=cmap, vmin=0, vmax=2, origin="lower", aspect="auto")
         ax.set_xticks(range(len(dts)), [f"1/{round(1 / dt)}" for dt in dts], rotation=45,
                       fontsize=7)

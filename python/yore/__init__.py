@@ -63,6 +63,15 @@ __all__ = [
 ]
 
 
+def __getattr__(name):
+    # yore.sweep (Dask, xarray) loads on first use: `import yore` stays light
+    if name == "sweep":
+        import importlib
+
+        return importlib.import_module(".sweep", __name__)
+    raise AttributeError(f"module 'yore' has no attribute {name!r}")
+
+
 def build_info() -> dict:
     """Versions of the libraries yore was built and linked with, and its thread count."""
     from . import _core

@@ -9,6 +9,9 @@
                 [--up X Y Z] [--fov DEGREES] [--framing cloth|run]
     yore view SCENE.toml|STATE.npz [--set KEY=VALUE ...] [--headless --stroke-px "x,y x,y ..."
               [--at T] [--until T] --screenshot PNG] [--width W] [--height H] [stroke options]
+    yore sweep SWEEP.toml [-o OUT] [--scheduler tcp://host:8786] [--workers N] [--overwrite]
+    yore sweep --resume OUT [--scheduler ...] [--workers N]
+    yore sweep plot OUT --x DIM --y DIM --value NAME [--select DIM=VALUE ...] [-o PNG]
     yore --version
 Every command takes --threads N (the threads of the core's loops and of BLAS, see
 `yore.set_num_threads`; default: the scene's [simulation] threads, else the machine's cores).
@@ -163,6 +166,42 @@ def _parser():
     view.add_argument("--smooth", type=int, default=None, metavar="ITERATIONS",
                       help="rest-length smoothing iterations after each stroke (default 0)")
     _add_common(view)
+
+    sweep = commands.add_parser("sweep", help="a parameter sweep on Dask (then `yore sweep "
+                                "plot OUT ...` for heat maps)",
+                                description="Run every cell of a sweep file (a base scene, "
+                                "axes over its keys) as a Dask task, on a local cluster or a "
+                                "scheduler's; results go to OUT/results.nc (xarray, NetCDF) as "
+                                "cells finish. `yore sweep plot OUT --x DIM --y DIM --value "
+                                "NAME` draws a heat map.")
+    sweep.add_argument("sweep", nargs="?", type=Path, help="the sweep file (.toml)")
+    sweep.add_argument("-o", "--out", type=Path, help="output folder (default: "
+                       "yore-out/SWEEP)")
+    sweep.add_argument("--resume", type=Path, metavar="OUT",
+                       help="continue the sweep in OUT: run only the cells it does not hold")
+    sweep.add_argument("--scheduler", metavar="ADDRESS",
+                       help="a running Dask scheduler, e.g. tcp://host:8786 (default: a local "
+                       "cluster)")
+    sweep.add_argument("--workers", type=int, metavar="N",
+                       help="local worker processes, one thread each (default: the machine's "
+                       "cores)")
+    _add_overwrite(sweep)
+    _add_common(sweep)  # --threads: this process's; every cell runs on one thread
+
+    plot = commands.add_parser("sweep-plot", prog="yore sweep plot",
+                               help=argparse.SUPPRESS,
+                               description="A heat map of a recorded value over two "
+                               "dimensions of a sweep.")
+    plot.add_argument("out", type=Path, help="the sweep's folder")
+    plot.add_argument("--x", required=True, metavar="DIM", help="dimension along x")
+    plot.add_argument("--y", required=True, metavar="DIM", help="dimension along y")
+    plot.add_argument("--value", required=True, metavar="NAME",
+                      help="a recorded variable (e.g. wall_seconds, error_rms, newton_iterations)")
+    plot.add_argument("--select", action="append", default=[], metavar="DIM=VALUE",
+                      help="fix another dimension at one of its values")
+    plot.add_argument("-o", "--output", type=Path, metavar="PNG",
+                      help="picture file (default: OUT/VALUE_Y_X.png)")
+    _add_common(plot, quiet=False)
     return parser
 
 
@@ -297,6 +336,41 @@ def _render(arguments):
             print(f"picture:      {written.resolve()}")
 
 
+def _sweep(arguments):
+    from .sweep import resume, run
+
+    if arguments.resume is not None:
+        if arguments.sweep is not None:
+            raise ValueError("--resume continues a sweep folder: give no sweep file")
+        results = resume(arguments.resume, scheduler=arguments.scheduler,
+                         workers=arguments.workers, quiet=arguments.quiet)
+    else:
+        if arguments.sweep is None:
+            raise ValueError("give a sweep file (yore sweep SWEEP.toml) or --resume OUT")
+        out = arguments.out or Path("yore-out") / arguments.sweep.stem
+        results = run(arguments.sweep, out, scheduler=arguments.scheduler,
+                      workers=arguments.workers, quiet=arguments.quiet,
+                      overwrite=arguments.overwrite)
+    if not arguments.quiet:
+        counts = ", ".join(f"{n} {status}" for status, n in results.counts().items())
+        print(f"cells: {counts}")
+        print(f"results:      {(results.out / 'results.nc').resolve()}")
+
+
+def _sweep_plot(arguments):
+    from .sweep import heat_map
+
+    select = {}
+    for text in arguments.select:
+        name, equals, value = text.partition("=")
+        if not equals or not name:
+            raise ValueError(f"--select takes DIM=VALUE, got {text!r}")
+        select[name] = value
+    path = heat_map(arguments.out, arguments.x, arguments.y, arguments.value, select=select,
+                    path=arguments.output)
+    print(f"picture:      {path.resolve()}")
+
+
 def _check_view_numbers(arguments):
     """Image sizes, field of view and vectors of render/view, checked before any work."""
     from .checks import check_image_size, check_vector
@@ -325,12 +399,16 @@ def _view(arguments):
 
 def main(argv=None) -> int:
     """Runs the command line; returns the exit code (see the module docstring)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:2] == ["sweep", "plot"]:
+        argv = ["sweep-plot", *argv[2:]]
     arguments = _parser().parse_args(argv)
     from .runs import RunError
 
-    handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render, "view": _view}
+    handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render, "view": _view,
+                "sweep": _sweep, "sweep-plot": _sweep_plot}
     try:
-        if arguments.threads is not None:
+        if getattr(arguments, "threads", None) is not None:
             from . import set_num_threads
 
             set_num_threads(arguments.threads)

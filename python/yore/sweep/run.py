@@ -1,0 +1,178 @@
+"""Running a sweep on Dask: one task per cell, a local cluster by default, a scheduler address
+to scale out; finished cells are written as they come and skipped on ``--resume``.
+
+Local cluster: ``workers`` processes (default: the machine's cores), one thread each, with
+OpenMP and BLAS pinned to one thread in every worker (``OMP_NUM_THREADS``,
+``OPENBLAS_NUM_THREADS`` and `yore.set_num_threads(1)` in each task), so N workers use N cores
+and nothing more. A scheduler address (``tcp://host:8786``) connects to a cluster started with
+``dask scheduler`` and ``dask worker tcp://host:8786 --nthreads 1`` (each worker needs yore
+installed; the workers need no shared file system: a task gets the scene's text and sends its
+results back).
+
+At most a few tasks per worker are in flight at once (`IN_FLIGHT_PER_WORKER`), so the client
+holds a bounded number of futures whatever the sweep's size. A lost worker costs the cells it
+was running, which Dask runs again elsewhere; a failing cell is recorded, not fatal.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+import time
+from pathlib import Path
+
+from .cell import run_cell
+from .results import CELLS_DIR, RESULTS_NAME, Results
+from .spec import Sweep, SweepError, load_sweep
+
+__all__ = ["run", "resume", "SWEEP_NAME", "SCENE_NAME", "IN_FLIGHT_PER_WORKER"]
+
+SWEEP_NAME = "sweep.toml"
+SCENE_NAME = "scene.toml"
+META_NAME = "sweep.json"
+IN_FLIGHT_PER_WORKER = 4
+#: results.nc is rewritten at most this often while cells finish (and at the end).
+WRITE_INTERVAL_SECONDS = 5.0
+PINNED = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def _claim(sweep: Sweep, out: Path, resume: bool, overwrite: bool) -> None:
+    """Creates ``out`` for this sweep; refuses a folder that holds another sweep (or this one,
+    unless resuming or overwriting)."""
+    meta = out / META_NAME
+    if out.exists() and not out.is_dir():
+        raise SweepError(f"{out} is not a folder")
+    if meta.is_file() and not resume:
+        if not overwrite:
+            raise SweepError(f"{out} already holds a sweep; `yore sweep --resume {out}` "
+                             "continues it, --overwrite replaces it")
+        for name in (SWEEP_NAME, SCENE_NAME, META_NAME, RESULTS_NAME):
+            (out / name).unlink(missing_ok=True)
+        shutil.rmtree(out / CELLS_DIR, ignore_errors=True)
+    elif not meta.is_file() and out.is_dir() and any(out.iterdir()) and not overwrite:
+        raise SweepError(f"{out} is not empty and holds no sweep; choose another -o folder")
+    out.mkdir(parents=True, exist_ok=True)
+    if not meta.is_file():
+        (out / SWEEP_NAME).write_text(sweep.text, encoding="utf-8")
+        (out / SCENE_NAME).write_text(sweep.scene_text, encoding="utf-8")
+        record = {"sweep_path": str(sweep.path.resolve()) if sweep.path else None,
+                  "scene_path": str(sweep.scene_path) if sweep.scene_path else None,
+                  "cells": sweep.cell_count}
+        (out / META_NAME).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
+def _client(scheduler, workers, quiet):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout="30s"), None
+        except (OSError, TimeoutError) as error:
+            raise SweepError(f"cannot reach the Dask scheduler {scheduler} ({error}); start "
+                             "one with `dask scheduler` and workers with `dask worker "
+                             f"{scheduler} --nthreads 1`") from None
+    workers = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=logging.ERROR, env=PINNED)
+    return Client(cluster), cluster
+
+
+def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
+        resume=False, cell_function=None) -> Results:
+    """Runs ``sweep`` (a `Sweep` or a sweep file path) into folder ``out``; returns its
+    `Results` (``.dataset()`` is the xarray Dataset also written to OUT/results.nc).
+
+    scheduler : "tcp://host:8786" to use a running Dask cluster; default a local one with
+    ``workers`` processes. resume : skip the cells ``out`` already holds. cell_function : what
+    runs a cell (default `run_cell`; tests pass stand-ins). Raises SweepError before anything
+    runs when the sweep or the folder is wrong."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= 1024):
+        raise SweepError(f"workers must be an integer in [1, 1024], got {workers!r}")
+    if not isinstance(sweep, Sweep):
+        sweep = load_sweep(sweep)
+    out = Path(os.fspath(out))
+    _claim(sweep, out, resume, overwrite)
+    results = Results(sweep, out)
+    done = results.load_finished() if resume else set()
+    pending = (cell for cell in sweep.cells() if cell.index not in done)
+    todo = sweep.cell_count - len(done)
+    if todo == 0:
+        results.reference_errors()
+        results.write()
+        return results
+    function = cell_function or run_cell
+    client, cluster = _client(scheduler, workers, quiet)
+    from dask.distributed import as_completed
+    from tqdm.auto import tqdm
+
+    try:
+        if not quiet:
+            print(f"yore sweep: {todo} of {sweep.cell_count} cells to run on "
+                  f"{len(client.scheduler_info()['workers'])} Dask workers; dashboard "
+                  f"{client.dashboard_link}", flush=True)
+        limit = IN_FLIGHT_PER_WORKER * max(1, len(client.scheduler_info()["workers"]))
+        running = {}
+        queue = as_completed()
+
+        def submit_next():
+            cell = next(pending, None)
+            if cell is None:
+                return False
+            future = client.submit(function, sweep.scene_text,
+                                   str(sweep.scene_path) if sweep.scene_path else None,
+                                   cell.overrides, key=f"yore-cell-{cell.key}-{os.getpid()}",
+                                   pure=False)
+            running[future.key] = cell
+            queue.add(future)
+            return True
+
+        for _ in range(limit):
+            if not submit_next():
+                break
+        last_write = time.monotonic()
+        failed = 0
+        with tqdm(total=todo, desc="yore sweep", unit="cell", disable=quiet or None,
+                  delay=2.0) as bar:
+            for future in queue:
+                cell = running.pop(future.key)
+                try:
+                    result = future.result()
+                except Exception as error:  # noqa: BLE001 - the task itself failed (worker)
+                    result = {"status": "failed",
+                              "message": f"{type(error).__name__}: {error}",
+                              "values": {}, "positions": None, "faces": None}
+                future.release()
+                results.add(cell, result)
+                failed += result["status"] != "done"
+                bar.update(1)
+                bar.set_postfix(not_done=failed, refresh=False)
+                submit_next()
+                if time.monotonic() - last_write >= WRITE_INTERVAL_SECONDS:
+                    results.write()
+                    last_write = time.monotonic()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+        # whatever finished is on disk; the Dataset says so even after a Ctrl-C
+        results.reference_errors()
+        results.write()
+    return results
+
+
+def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None) -> Results:
+    """Continues the sweep in folder ``out``: the cells it does not hold yet."""
+    out = Path(os.fspath(out))
+    if not (out / META_NAME).is_file():
+        raise SweepError(f"{out} holds no sweep to resume (no {META_NAME})")
+    meta = json.loads((out / META_NAME).read_text(encoding="utf-8"))
+    text = (out / SWEEP_NAME).read_text(encoding="utf-8")
+    sweep_path = Path(meta["sweep_path"]) if meta.get("sweep_path") else out / SWEEP_NAME
+    sweep = load_sweep(sweep_path, text=text, check_cells=False)
+    # the base scene as it was when the sweep started (the file may have changed since)
+    sweep.scene_text = (out / SCENE_NAME).read_text(encoding="utf-8")
+    return run(sweep, out, scheduler=scheduler, workers=workers, quiet=quiet, resume=True,
+               cell_function=cell_function)

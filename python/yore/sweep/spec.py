@@ -1,0 +1,372 @@
+"""Sweep files: a base scene, axes over its keys, what to record; checked before anything runs.
+
+::
+
+    [sweep]
+    scene = "base.toml"        # a scene file, relative to this file, or "hanging" (yore's demo
+                               # scene, yore/data/hanging.toml)
+    repeats = 1                # each cell this many times (a "repeat" dimension when > 1)
+    [sweep.set]                # overrides for every cell, as `yore run --set`
+    "mesh.nx" = 13
+    [axes]                     # one dimension per key; every combination is a cell
+    "material.stretch_stiffness" = [2e3, 2e4, 2e5]
+    "simulation.integrator" = ["explicit", "quasi-newton"]
+    [zip.method]               # keys that vary together: one dimension ("method"), its members
+    "simulation.integrator" = ["explicit", "implicit"]    # as coordinates along it
+    "simulation.dt" = [1e-4, 1e-2]
+    [zip]                      # or variants: a list of override tables, each setting only its
+    integrator = [             # own keys; "label" names it (the dimension's coordinate)
+      { label = "explicit", "simulation.integrator" = "explicit" },
+      { label = "BE linearized", "simulation.integrator" = "implicit",
+        "integrator.linearized" = true },
+    ]
+    [record]
+    frames = false             # keep each cell's final frame (cells/<id>/final.vtu)
+    reference = { "simulation.dt" = 1e-4 }   # error of every cell against the cell with these
+                                             # values (and its own on the other axes)
+
+Every cell's scene (base + [sweep.set] + the cell's values) is loaded and checked like a scene
+file before any cell runs; an unknown key, a bad value or a bad axis fails then, naming it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+try:
+    import tomllib
+except ImportError:  # Python < 3.11
+    import tomli as tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from ..runs import SceneError, load_scene
+
+__all__ = ["Sweep", "Cell", "Dimension", "load_sweep", "SweepError", "MAX_CELLS",
+           "BUILTIN_SCENES"]
+
+#: Most cells a sweep may have (checked before anything runs).
+MAX_CELLS = 100_000
+MAX_REPEATS = 1000
+MAX_SWEEP_FILE_BYTES = 1 << 20
+#: Scene names a sweep may use instead of a file: the scenes yore ships.
+BUILTIN_SCENES = {"hanging": "data/hanging.toml"}
+_TOP = {"sweep", "axes", "zip", "record"}
+_SWEEP_KEYS = {"scene", "repeats", "set"}
+_RECORD_KEYS = {"frames", "reference"}
+
+
+class SweepError(ValueError):
+    """A sweep file is wrong; the message names the file, the key and what was expected."""
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """One dimension of the results: ``name``, the scene keys it sets and its values (one tuple
+    per position, a value per key)."""
+
+    name: str
+    keys: tuple
+    values: tuple
+    #: variants only: one label per position, and per position the keys it sets
+    labels: tuple = ()
+    variant_keys: tuple = ()
+
+    def overrides(self, k) -> dict:
+        """The scene overrides of position ``k``."""
+        if self.labels:
+            return dict(zip(self.variant_keys[k], self.values[k]))
+        return dict(zip(self.keys, self.values[k]))
+
+    @property
+    def size(self) -> int:
+        return len(self.values)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One run of the sweep: its index (row-major over the dimensions), position along each
+    dimension, the scene overrides and the repeat number."""
+
+    index: int
+    position: tuple
+    overrides: dict
+    repeat: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.index:06d}"
+
+
+@dataclass
+class Sweep:
+    """A checked sweep file (see the module docstring)."""
+
+    text: str
+    path: Path | None
+    scene_text: str
+    scene_path: Path | None
+    sets: dict
+    dimensions: list
+    repeats: int
+    frames: bool = False
+    reference: dict = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(d.size for d in self.dimensions)
+
+    @property
+    def cell_count(self) -> int:
+        return math.prod(self.shape)
+
+    def cells(self):
+        """The cells, in index order (a generator: a large sweep is not held in memory)."""
+        ranges = [range(d.size) for d in self.dimensions]
+        for index, position in enumerate(itertools.product(*ranges)):
+            overrides = dict(self.sets)
+            repeat = 0
+            for dimension, k in zip(self.dimensions, position):
+                if dimension.name == "repeat":
+                    repeat = k
+                    continue
+                overrides.update(dimension.overrides(k))
+            yield Cell(index, position, overrides, repeat)
+
+    def reference_position(self, position) -> tuple | None:
+        """The position of the reference cell of the cell at ``position`` (None without a
+        reference): the reference's values on its keys, the cell's own elsewhere."""
+        if not self.reference:
+            return None
+        out = list(position)
+        for d, dimension in enumerate(self.dimensions):
+            if dimension.labels:
+                continue  # variants are never a reference's key
+            wanted = [self.reference.get(key) for key in dimension.keys]
+            if any(w is not None for w in wanted):
+                out[d] = next(k for k, values in enumerate(dimension.values)
+                              if all(w is None or _same(w, v) for w, v in zip(wanted, values)))
+        return tuple(out)
+
+    def scene(self, cell):
+        """The cell's scene (`yore.runs.Scene`)."""
+        return load_scene(self.scene_path, text=self.scene_text, overrides=cell.overrides)
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and \
+            not isinstance(a, bool) and not isinstance(b, bool):
+        return float(a) == float(b)
+    return a == b
+
+
+def _error(source, key, problem, expected=None):
+    where = f"{source}: {key}: " if key else f"{source}: "
+    return SweepError(where + problem + (f"; expected {expected}" if expected else ""))
+
+
+def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
+    """Reads and checks a sweep file (or ``text``, relative paths then from the current folder
+    or ``path``'s). ``check_cells``: load every cell's scene too (the default; a resumed sweep
+    was checked when it started). Raises SweepError (a ValueError) naming the problem."""
+    if text is None:
+        if path is None:
+            raise ValueError("give a sweep file path or its text")
+        path = Path(os.fspath(path))
+        if not path.is_file():
+            raise SweepError(f"{path}: no such sweep file")
+        if path.stat().st_size > MAX_SWEEP_FILE_BYTES:
+            raise SweepError(f"{path}: larger than {MAX_SWEEP_FILE_BYTES} bytes; not a sweep file")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as error:
+            raise SweepError(f"{path}: cannot be read ({error})") from None
+    elif path is not None:
+        path = Path(os.fspath(path))
+    source = str(path) if path is not None else "<sweep>"
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SweepError(f"{source}: not valid TOML: {' '.join(str(error).split())}") from None
+    except RecursionError:
+        raise SweepError(f"{source}: nested too deeply to be a sweep file") from None
+    unknown = sorted(set(raw) - _TOP)
+    if unknown:
+        raise _error(source, unknown[0], "unknown table", "one of " + ", ".join(sorted(_TOP)))
+    sweep_table = _table(source, raw, "sweep", required=True)
+    unknown = sorted(set(sweep_table) - _SWEEP_KEYS)
+    if unknown:
+        raise _error(source, f"sweep.{unknown[0]}", "unknown key",
+                     "one of " + ", ".join(sorted(_SWEEP_KEYS)))
+    scene_text, scene_path = _scene(source, path, sweep_table.get("scene"))
+    repeats = sweep_table.get("repeats", 1)
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or \
+            not 1 <= repeats <= MAX_REPEATS:
+        raise _error(source, "sweep.repeats", f"got {repeats!r}",
+                     f"an integer in [1, {MAX_REPEATS}]")
+    sets = _table(source, sweep_table, "set", where="sweep.set")
+    dimensions = []
+    axes = _table(source, raw, "axes")
+    for key, values in axes.items():
+        _check_values(source, f"axes.{key}", values)
+        dimensions.append(Dimension(key, (key,), tuple((v,) for v in values)))
+    for name, members in _table(source, raw, "zip").items():
+        if isinstance(members, list):
+            dimensions.append(_variants(source, name, members))
+            continue
+        if not isinstance(members, dict) or not members:
+            raise _error(source, f"zip.{name}", "is not a table of keys",
+                         'a table like [zip.method] with "simulation.dt" = [...] lines')
+        lengths = set()
+        for key, values in members.items():
+            _check_values(source, f"zip.{name}.{key}", values)
+            lengths.add(len(values))
+        if len(lengths) != 1:
+            raise _error(source, f"zip.{name}", f"its lists have lengths {sorted(lengths)}",
+                         "lists of one length (the keys vary together)")
+        dimensions.append(Dimension(name, tuple(members),
+                                    tuple(zip(*members.values()))))
+    keys = [key for d in dimensions for key in d.keys]
+    names = [d.name for d in dimensions]
+    for duplicate in {k for k in keys if keys.count(k) > 1}:
+        raise _error(source, duplicate, "is swept twice (in [axes] and a [zip], or two zips)",
+                     "each key in one place")
+    for duplicate in {k for k in names if names.count(k) > 1} | ({"repeat"} & set(names)):
+        raise _error(source, duplicate, "names two dimensions", "distinct names")
+    for key in set(sets) & set(keys):
+        raise _error(source, f"sweep.set.{key}", "is also swept", "a key set or swept, not both")
+    if repeats > 1:
+        dimensions.append(Dimension("repeat", ("repeat",), tuple((k,) for k in range(repeats))))
+    if not dimensions:
+        raise _error(source, "axes", "no axis, zip or repeat", "at least one axis to sweep")
+    record = _table(source, raw, "record")
+    unknown = sorted(set(record) - _RECORD_KEYS)
+    if unknown:
+        raise _error(source, f"record.{unknown[0]}", "unknown key",
+                     "one of " + ", ".join(sorted(_RECORD_KEYS)))
+    frames = record.get("frames", False)
+    if not isinstance(frames, bool):
+        raise _error(source, "record.frames", f"got {frames!r}", "true or false")
+    reference = record.get("reference", {})
+    if not isinstance(reference, dict):
+        raise _error(source, "record.reference", f"got {reference!r}",
+                     'a table of swept keys and values, e.g. { "simulation.dt" = 1e-4 }')
+    for key, value in reference.items():
+        dimension = next((d for d in dimensions if key in d.keys and not d.labels), None)
+        if dimension is None:
+            raise _error(source, f"record.reference.{key}", "is not a swept key",
+                         "one of " + ", ".join(k for d in dimensions if not d.labels
+                                               for k in d.keys))
+        column = dimension.keys.index(key)
+        if not any(_same(value, values[column]) for values in dimension.values):
+            raise _error(source, f"record.reference.{key}", f"{value!r} is not one of its "
+                         "values", ", ".join(repr(v[column]) for v in dimension.values))
+    sweep = Sweep(text=text, path=path, scene_text=scene_text, scene_path=scene_path,
+                  sets=dict(sets), dimensions=dimensions, repeats=repeats, frames=frames,
+                  reference=dict(reference))
+    if sweep.cell_count > MAX_CELLS:
+        raise _error(source, "axes", f"{sweep.cell_count} cells", f"at most {MAX_CELLS}")
+    for dimension in dimensions:
+        if dimension.name == "repeat":
+            continue
+        for k in range(dimension.size):
+            if dimension.labels:  # a variant's keys belong together: tried together
+                _try_overrides(sweep, source, f"zip.{dimension.name}[{k}]",
+                               dimension.overrides(k))
+                continue
+            for key, value in dimension.overrides(k).items():
+                _try_overrides(sweep, source, key, {key: value})
+    if check_cells:
+        for cell in sweep.cells():
+            try:
+                sweep.scene(cell)
+            except SceneError as error:
+                raise _error(source, f"cell {cell.index} ({_describe(sweep, cell)})",
+                             " ".join(str(error).split())) from None
+    return sweep
+
+
+def _variants(source, name, entries) -> Dimension:
+    """A dimension of override tables (see the module docstring)."""
+    if not entries:
+        raise _error(source, f"zip.{name}", "is an empty list", "override tables")
+    labels, keys, values = [], [], []
+    for k, entry in enumerate(entries):
+        if not isinstance(entry, dict) or not entry:
+            raise _error(source, f"zip.{name}[{k}]", f"got {entry!r}",
+                         'a table of scene keys, e.g. { "simulation.integrator" = "bdf2" }')
+        entry = dict(entry)
+        label = entry.pop("label", None)
+        if label is not None and not isinstance(label, str):
+            raise _error(source, f"zip.{name}[{k}].label", f"got {label!r}", "a string")
+        for key, value in entry.items():
+            if isinstance(value, (dict, list)):
+                raise _error(source, f"zip.{name}[{k}].{key}", f"holds {value!r}",
+                             "a number, string or boolean")
+        labels.append(label or ", ".join(f"{key}={value}" for key, value in entry.items()))
+        keys.append(tuple(entry))
+        values.append(tuple(entry.values()))
+    if len(set(labels)) != len(labels):
+        raise _error(source, f"zip.{name}", "two variants have one label", "distinct labels")
+    every = tuple(dict.fromkeys(key for group in keys for key in group))
+    return Dimension(name, every, tuple(values), labels=tuple(labels), variant_keys=tuple(keys))
+
+
+def _describe(sweep, cell) -> str:
+    return ", ".join(f"{key} = {value!r}" for key, value in cell.overrides.items()
+                     if key not in sweep.sets)
+
+
+def _try_overrides(sweep, source, where, overrides):
+    """A swept key must be a scene key: tried alone (a variant: its keys together) on the base
+    scene, so an unknown axis is named as such before the (slower) check of every cell."""
+    try:
+        load_scene(sweep.scene_path, text=sweep.scene_text, overrides={**sweep.sets, **overrides})
+    except SceneError as error:
+        shown = ", ".join(f"{key} = {value!r}" for key, value in overrides.items())
+        raise _error(source, where, f"{shown} is not valid in the scene: "
+                     + " ".join(str(error).split())) from None
+
+
+def _table(source, parent, name, required=False, where=None):
+    value = parent.get(name)
+    if value is None:
+        if required:
+            raise _error(source, name, "missing", f"a [{name}] table")
+        return {}
+    if not isinstance(value, dict):
+        raise _error(source, where or name, f"got {value!r}", "a table")
+    return value
+
+
+def _check_values(source, key, values):
+    if not isinstance(values, list) or not values:
+        raise _error(source, key, f"got {values!r}", "a non-empty list of values")
+    for value in values:
+        if isinstance(value, (dict, list)) and key.split(".")[1:2] != ["strokes"]:
+            raise _error(source, key, f"holds {value!r}", "numbers, strings or booleans")
+    if len(values) > MAX_CELLS:
+        raise _error(source, key, f"{len(values)} values", f"at most {MAX_CELLS}")
+
+
+def _scene(source, path, scene):
+    """(text, path) of the sweep's base scene."""
+    if not isinstance(scene, str) or not scene:
+        raise _error(source, "sweep.scene", f"got {scene!r}",
+                     "a scene file (relative to the sweep file) or one of "
+                     + ", ".join(BUILTIN_SCENES))
+    if scene in BUILTIN_SCENES:
+        text = resources.files("yore").joinpath(BUILTIN_SCENES[scene]).read_text("utf-8")
+        return text, None
+    base = path.parent if path is not None else Path(".")
+    scene_path = (base / scene).resolve()
+    if not scene_path.is_file():
+        raise _error(source, "sweep.scene", f"{scene_path} does not exist",
+                     "a scene file (relative to the sweep file) or one of "
+                     + ", ".join(BUILTIN_SCENES))
+    try:
+        return scene_path.read_text(encoding="utf-8"), scene_path
+    except (OSError, UnicodeDecodeError) as error:
+        raise _error(source, "sweep.scene", f"cannot read {scene_path} ({error})") from None

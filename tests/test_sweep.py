@@ -1,0 +1,232 @@
+"""Sweeps on Dask: a 2-worker local cluster gives each cell's numbers exactly as a run of that
+cell alone; a diverging cell is a result; an interrupted sweep resumes with only the rest; a bad
+axis fails before anything runs; the client's memory does not grow with the cells."""
+
+from __future__ import annotations
+
+import json
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import yore
+from yore.cli import main
+from yore.runs import load_scene, run_scene
+from yore.sweep import SweepError, load_sweep, open_results, resume, run
+from yore.sweep.cell import OUTPUT_OVERRIDES, null_cell
+
+SMALL = '''
+[sweep]
+scene = "hanging"
+[sweep.set]
+"mesh.nx" = 7
+"mesh.ny" = 7
+"simulation.duration" = 0.1
+"simulation.settle" = 0
+"strokes.0.time" = 0.05
+"strokes.0.refine" = 0
+'''
+
+
+def write(tmp_path, text, name="sweep.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
+    """A 2 × 3 sweep (stiffness × a zip of integrator and dt, the last one diverging) run on a
+    2-worker local cluster."""
+    tmp_path = tmp_path_factory.mktemp("grid")
+    path = write(tmp_path, SMALL + '''
+[axes]
+"material.stretch_stiffness" = [100.0, 1000.0]
+[zip.method]
+"simulation.integrator" = ["explicit", "implicit", "explicit"]
+"simulation.dt" = [1e-4, 1e-2, 0.05]
+[record]
+reference = { "simulation.dt" = 1e-4 }
+frames = true
+''')
+    results = run(path, tmp_path / "out", workers=2, quiet=True)
+    return load_sweep(path), tmp_path / "out", results
+
+
+def test_each_cell_gives_the_numbers_of_its_run_alone(grid, tmp_path):
+    sweep, out, _ = grid
+    dataset = open_results(out)
+    assert dataset["status"].shape == (2, 3)
+    for cell in sweep.cells():
+        if cell.position[1] == 2:
+            continue  # the diverging one, below
+        scene = load_scene(None, text=sweep.scene_text,
+                           overrides={**cell.overrides, **OUTPUT_OVERRIDES})
+        alone = tmp_path / f"alone-{cell.key}"
+        yore.set_num_threads(1)
+        summary = run_scene(scene, alone, render=False, quiet=True)
+        sim, _ = yore.load_state(alone / "state.npz")
+        with np.load(out / "cells" / f"{cell.key}.npz") as final:
+            assert np.array_equal(final["positions"], sim.cloth.positions)  # bit for bit
+            assert np.array_equal(final["faces"], sim.cloth.faces)
+        here = dataset.isel({"material.stretch_stiffness": cell.position[0],
+                             "method": cell.position[1]})
+        assert str(here["status"].values) == "done"
+        assert float(here["steps"]) == summary["steps"]
+        assert float(here["final_total"]) == summary["records"][-1]["total"]
+        assert float(here["stroke_faces_split"]) == summary["strokes"][0]["faces_split"]
+        assert float(here["wrinkle_measure"]) == pytest.approx(
+            yore.metrics.wrinkle_measure(sim.cloth.positions, sim.cloth.faces), rel=1e-12)
+        # frames = true: the final frame as a mesh file
+        V, F = yore.load_mesh(out / "cells" / f"{cell.key}.vtu")
+        assert np.allclose(V, sim.cloth.positions) and np.array_equal(F, sim.cloth.faces)
+
+
+def test_errors_are_against_the_reference_cell(grid):
+    _, out, _ = grid
+    dataset = open_results(out)
+    error = dataset["error_rms"].values
+    assert np.all(error[:, 0] == 0.0)  # the references themselves
+    assert np.all(error[:, 1] > 0.0) and np.all(np.isfinite(error[:, 1]))
+    # against an independent computation from the saved final positions
+    for k in range(2):
+        with np.load(out / "cells" / f"{3 * k:06d}.npz") as a, \
+                np.load(out / "cells" / f"{3 * k + 1:06d}.npz") as b:
+            distance = np.linalg.norm(a["positions"] - b["positions"], axis=1)
+        assert error[k, 1] == pytest.approx(np.sqrt(np.mean(distance**2)), rel=1e-12)
+        assert dataset["error_max"].values[k, 1] == pytest.approx(distance.max(), rel=1e-12)
+
+
+def test_a_diverging_cell_is_recorded_not_fatal(grid):
+    _, out, results = grid
+    dataset = open_results(out)
+    status = dataset["status"].values
+    assert list(status[:, 2]) == ["diverged", "diverged"]
+    assert np.all(status[:, :2] == "done")
+    assert np.all(dataset["diverged_time"].values[:, 2] >= 0.0)
+    assert np.all(np.isfinite(dataset["suggested_dt"].values[:, 2]))
+    assert np.all(dataset["suggested_dt"].values[:, 2] < 0.05)
+    for message in dataset["message"].values[:, 2]:
+        assert "diverged" in message and "use dt <=" in message and "State kept" not in message
+    assert np.isnan(dataset["error_rms"].values[:, 2]).all()  # no error for a failed cell
+    assert results.counts() == {"done": 4, "diverged": 2}
+
+
+def test_an_interrupted_sweep_resumes_with_only_the_rest(tmp_path, monkeypatch):
+    path = write(tmp_path, SMALL + '''
+[axes]
+"material.stretch_stiffness" = [100.0, 300.0, 1000.0, 3000.0]
+"simulation.dt" = [1e-4, 2e-4]
+''')
+    out = tmp_path / "out"
+    import yore.sweep.results as results_module
+
+    original = results_module.Results.add
+    calls = {"n": 0}
+
+    def interrupting(self, cell, result):
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        calls["n"] += 1
+        original(self, cell, result)
+
+    monkeypatch.setattr(results_module.Results, "add", interrupting)
+    with pytest.raises(KeyboardInterrupt):
+        run(path, out, workers=2, quiet=True)
+    monkeypatch.setattr(results_module.Results, "add", original)
+    before = {p.name: (p.stat().st_mtime_ns, p.read_bytes())
+              for p in (out / "cells").glob("*.json")}
+    assert len(before) == 3
+    partial = open_results(out)
+    assert int(np.count_nonzero(partial["status"].values != "")) == 3
+    resumed = resume(out, workers=2, quiet=True)
+    after = {p.name: (p.stat().st_mtime_ns, p.read_bytes())
+             for p in (out / "cells").glob("*.json")}
+    assert len(after) == 8
+    assert all(after[name] == before[name] for name in before)  # not computed again
+    assert resumed.counts() == {"done": 8}
+    # resuming a finished sweep runs nothing
+    assert resume(out, workers=2, quiet=True).counts() == {"done": 8}
+    assert {p.name: p.stat().st_mtime_ns for p in (out / "cells").glob("*.json")} == \
+        {name: value[0] for name, value in after.items()}
+
+
+@pytest.mark.parametrize("extra, named", [
+    ('[axes]\n"material.stiffnes" = [1.0, 2.0]\n', "material.stiffnes"),
+    ('[axes]\n"simulation.integrator" = ["explicit", "rk4"]\n', "simulation.integrator"),
+    ('[axes]\n"mesh.nx" = []\n', "axes.mesh.nx"),
+    ('[zip.m]\n"mesh.nx" = [5, 7]\n"mesh.ny" = [5]\n', "zip.m"),
+    ('[axes]\n"material.mass" = [0.1, 0.2]\n[record]\nreference = { "material.mass" = 0.3 }\n',
+     "record.reference.material.mass"),
+    ('[axes]\n"material.mass" = [0.1, 0.2]\n[record]\nreference = { "mesh.ny" = 7 }\n',
+     "record.reference.mesh.ny"),
+    ('[axes]\n"material.mass" = [0.1, 0.2]\n[recrod]\n', "recrod"),
+    ('[axes]\n"mesh.nx" = [5, 9]\n', "sweep.set.mesh.nx"),
+])
+def test_a_bad_sweep_fails_before_anything_runs_naming_the_key(tmp_path, capsys, extra, named):
+    path = write(tmp_path, SMALL + extra)
+    with pytest.raises(SweepError, match=named.replace(".", r"\.")):
+        load_sweep(path)
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("yore: error:") and err.count("\n") == 1 and named in err
+    assert not out.exists()
+
+
+def test_a_cell_whose_scene_is_wrong_is_found_before_running(tmp_path):
+    # each value is fine alone; together nx × ny passes the 1 000 000-vertex limit
+    path = write(tmp_path, SMALL.replace('"mesh.nx" = 7\n"mesh.ny" = 7\n', "")
+                 + '[axes]\n"mesh.nx" = [7, 1001]\n"mesh.ny" = [7, 1001]\n')
+    with pytest.raises(SweepError, match="cell 3 .*mesh.nx = 1001, mesh.ny = 1001"):
+        load_sweep(path)
+
+
+def test_the_client_memory_does_not_grow_with_the_cells(tmp_path):
+    """What yore's code holds in the client after a sweep (traced allocations made in yore's
+    files and still alive) for 100 and for 500 cells: results are streamed to disk, so five
+    times the cells keep about the same memory. (The local cluster's scheduler runs in this
+    process too; its own logs are Dask's and bounded by Dask's settings.)"""
+    def held(count):
+        path = write(tmp_path, SMALL + f'[axes]\n"material.mass" = '
+                     f'{[0.1 + 1e-4 * k for k in range(count)]}\n', f"s{count}.toml")
+        sweep = load_sweep(path, check_cells=False)
+        tracemalloc.start(5)
+        try:
+            results = run(sweep, tmp_path / f"out{count}", workers=2, quiet=True,
+                          cell_function=null_cell)
+            snapshot = tracemalloc.take_snapshot()
+        finally:
+            tracemalloc.stop()
+        mine = snapshot.filter_traces([tracemalloc.Filter(True, "*/yore/*")])
+        del results
+        return sum(stat.size for stat in mine.statistics("filename"))
+
+    small, large = held(100), held(500)
+    assert len(list((tmp_path / "out500" / "cells").glob("*.json"))) == 500
+    # what grows is the per-cell status and values arrays: well under 200 bytes per cell (a cell's positions alone would be 1 kB)
+    assert large - small < 400 * 200, (small, large)
+
+
+def test_sweep_plot_draws_a_heat_map_and_names_bad_dimensions(grid, capsys):
+    _, out, _ = grid
+    picture = out / "map.png"
+    assert main(["sweep", "plot", str(out), "--x", "method", "--y",
+                 "material.stretch_stiffness", "--value", "wall_seconds", "-o",
+                 str(picture)]) == 0
+    assert picture.read_bytes()[:4] == b"\x89PNG"
+    assert main(["sweep", "plot", str(out), "--x", "methd", "--y",
+                 "material.stretch_stiffness", "--value", "wall_seconds"]) == 2
+    err = capsys.readouterr().err
+    assert "methd" in err and "dimensions: material.stretch_stiffness, method" in err
+    assert main(["sweep", "plot", str(out), "--x", "method", "--y",
+                 "material.stretch_stiffness", "--value", "speed"]) == 2
+    assert "recorded:" in capsys.readouterr().err
+
+
+def test_a_folder_holding_a_sweep_is_not_overwritten_by_accident(grid, capsys):
+    sweep, out, _ = grid
+    assert main(["sweep", str(sweep.path), "-o", str(out), "--quiet"]) == 2
+    assert "--resume" in capsys.readouterr().err
+    assert json.loads((out / "sweep.json").read_text())["cells"] == 6
