@@ -40,7 +40,7 @@ demo: setup
 
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
 BENCHMARKS := explicit_step implicit_step rebuild_cost speed_vs_error scaling newton_projection \
-              stability_map stable_dt threads pictures
+              stability_map stable_dt threads pictures crossover_sweep
 BENCH_ENV := OPENBLAS_NUM_THREADS=1
 
 bench: setup

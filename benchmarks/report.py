@@ -228,6 +228,8 @@ def section(data: dict, results: Path) -> str:
     # -- stability ------------------------------------------------------------------------------
     stability = data["stability_map"]
     out += ["", "### Stability", "", f"![stability map]({results}/stability_map.png)", "",
+            "A sweep (`benchmarks/stability_map.toml`, run through `yore sweep`; the figure "
+            "comes from its Dataset): "
             f"{stability['steps']} undamped steps per cell; cells stable / energy gain / diverged "
             "per integrator: " + "; ".join(
                 f"{name} {sum(r['state'] == 'stable' for r in rows)}/"
@@ -269,6 +271,30 @@ def section(data: dict, results: Path) -> str:
                    f"{cell['default_over_one_thread']:.2f} |")
     out += ["", f"Target: the default at most {threads['target_ratio']}× one thread in every "
             f"cell — {verdict(threads['target_met'])}."]
+    # -- the crossover as a sweep ---------------------------------------------------------------
+    sweep = data["crossover_sweep"]
+    out += ["", "### The crossover as a sweep", "",
+            f"![crossover sweep]({results}/crossover_sweep.png)", "",
+            f"`benchmarks/crossover.toml` through `yore sweep` ({sweep['cells']} cells: "
+            + ", ".join(f"{n} {s}" for s, n in sweep["statuses"].items())
+            + "): explicit at its default step against each implicit family on a fixed ladder "
+            f"of steps, error at the {sweep['horizon_seconds']:g} s horizon against explicit at "
+            "a fine fixed step, cost in wall seconds per simulated second (two workers on two "
+            "cores). Cheapest at 1 % error:", "",
+            "| sheet | stiffness (N/m) | explicit (s/s) | best implicit | its cost (s/s) | implicit / explicit |",
+            "|---|---|---|---|---|---|"]
+    for r in sweep["summary"]:
+        out.append(f"| {r['size']}² | {r['stiffness']:g} | "
+                   + (f"{r['explicit_cost']:.3g}" if r["explicit_cost"] is not None else "–")
+                   + f" | {r['best_implicit'] or '–'} | "
+                   + (f"{r['best_implicit_cost']:.3g}" if r["best_implicit_cost"] is not None
+                      else "–") + " | "
+                   + (f"{r['implicit_over_explicit']:.2f}" if r["implicit_over_explicit"]
+                      is not None else "–") + " |")
+    out += ["", "A coarser, cheaper map than the one above (fixed ladder, one run per cell, "
+            "wall time, no reference convergence check); what it shows is that the sweep engine "
+            "reproduces the experiment from a file (`yore sweep plot` draws any of its "
+            "variables)."]
     # -- pictures -------------------------------------------------------------------------------
     pictures = data["pictures"]
     out += ["", "### Pictures", "", f"![pictures]({results}/pictures.png)", "",

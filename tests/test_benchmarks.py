@@ -243,3 +243,17 @@ def test_pictures_smoke(tmp_path):
     assert cells == {(w, h, f) for w, h in ((320, 240), (640, 480)) for f in (1, 3)}
     assert all(is_timing(r["render_seconds_median"]) for r in data["rows"])
     assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])
+
+
+def test_crossover_sweep_smoke(tmp_path):
+    data = run_benchmark("crossover_sweep", tmp_path, "--quick")
+    # the sweep's Dataset is there, every cell ran, and the reference cells have error 0
+    assert (tmp_path / "sweeps" / "crossover" / "results.nc").is_file()
+    assert sum(data["statuses"].values()) == data["cells"] == len(data["rows"])
+    assert all(r["error"] == 0.0 for r in data["rows"] if r["method"] == "reference")
+    assert {r["family"] for r in data["rows"]} == {"explicit", "reference", "BE linearized",
+                                                    "BE Newton", "BDF2", "local-global",
+                                                    "quasi-Newton"}
+    for cell in data["summary"]:
+        assert cell["winner"] in (None, "explicit") or cell["winner"].split(",")[0] in {
+            "BE linearized", "BE Newton", "BDF2", "local-global", "quasi-Newton"}

@@ -230,3 +230,29 @@ def test_a_folder_holding_a_sweep_is_not_overwritten_by_accident(grid, capsys):
     assert main(["sweep", str(sweep.path), "-o", str(out), "--quiet"]) == 2
     assert "--resume" in capsys.readouterr().err
     assert json.loads((out / "sweep.json").read_text())["cells"] == 6
+
+
+def test_variants_set_only_their_own_keys_and_can_be_the_reference(tmp_path):
+    path = write(tmp_path, SMALL + '''
+[zip]
+method = [
+  { label = "explicit", "simulation.integrator" = "explicit" },
+  { label = "strain limited", "simulation.integrator" = "explicit", "integrator.strain_limit" = 1.1 },
+  { label = "BE", "simulation.integrator" = "implicit", "integrator.linearized" = true },
+]
+[axes]
+"material.mass" = [0.1, 0.2]
+[record]
+reference = { method = "BE" }
+''')
+    sweep = load_sweep(path)
+    assert sweep.shape == (2, 3)  # [axes] first, then the zips
+    cells = list(sweep.cells())
+    assert "integrator.strain_limit" not in cells[0].overrides
+    assert cells[1].overrides["integrator.strain_limit"] == 1.1
+    assert "integrator.strain_limit" not in cells[2].overrides  # BE: its own keys only
+    assert cells[2].overrides["integrator.linearized"] is True
+    assert sweep.reference_position((1, 0)) == (1, 2)
+    with pytest.raises(SweepError, match="record.reference.method"):
+        load_sweep(path,
+                   text=path.read_text().replace('{ method = "BE" }', '{ method = "RK4" }'))

@@ -15,6 +15,7 @@ import re
 import tempfile
 import time
 import traceback
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +43,10 @@ def run_cell(scene_text, scene_path, overrides) -> dict:
         try:
             scene = load_scene(scene_path, text=scene_text,
                                overrides={**overrides, **OUTPUT_OVERRIDES})
-            run_scene(scene, out, render=False, quiet=True)
+            with warnings.catch_warnings():
+                # unconverged steps are recorded (unconverged_steps), not warned per cell
+                warnings.simplefilter("ignore", RuntimeWarning)
+                run_scene(scene, out, render=False, quiet=True)
         except RunError as error:
             # the scratch folder's state file goes with the folder: not worth naming
             status = "diverged"

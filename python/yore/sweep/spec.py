@@ -23,7 +23,8 @@
     [record]
     frames = false             # keep each cell's final frame (cells/<id>/final.vtu)
     reference = { "simulation.dt" = 1e-4 }   # error of every cell against the cell with these
-                                             # values (and its own on the other axes)
+                                             # values (and its own on the other axes); a
+                                             # variant by its label: { method = "explicit" }
 
 Every cell's scene (base + [sweep.set] + the cell's values) is loaded and checked like a scene
 file before any cell runs; an unknown key, a bad value or a bad axis fails then, naming it.
@@ -143,7 +144,9 @@ class Sweep:
         out = list(position)
         for d, dimension in enumerate(self.dimensions):
             if dimension.labels:
-                continue  # variants are never a reference's key
+                if dimension.name in self.reference:  # a variant, by its label
+                    out[d] = dimension.labels.index(self.reference[dimension.name])
+                continue
             wanted = [self.reference.get(key) for key in dimension.keys]
             if any(w is not None for w in wanted):
                 out[d] = next(k for k, values in enumerate(dimension.values)
@@ -254,11 +257,18 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         raise _error(source, "record.reference", f"got {reference!r}",
                      'a table of swept keys and values, e.g. { "simulation.dt" = 1e-4 }')
     for key, value in reference.items():
+        variants = next((d for d in dimensions if d.labels and d.name == key), None)
+        if variants is not None:
+            if value not in variants.labels:
+                raise _error(source, f"record.reference.{key}", f"{value!r} is not one of its "
+                             "labels", ", ".join(repr(label) for label in variants.labels))
+            continue
         dimension = next((d for d in dimensions if key in d.keys and not d.labels), None)
         if dimension is None:
             raise _error(source, f"record.reference.{key}", "is not a swept key",
-                         "one of " + ", ".join(k for d in dimensions if not d.labels
-                                               for k in d.keys))
+                         "one of " + ", ".join([k for d in dimensions if not d.labels
+                                                for k in d.keys]
+                                               + [d.name for d in dimensions if d.labels]))
         column = dimension.keys.index(key)
         if not any(_same(value, values[column]) for values in dimension.values):
             raise _error(source, f"record.reference.{key}", f"{value!r} is not one of its "
