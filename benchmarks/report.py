@@ -278,7 +278,7 @@ def section(data: dict, results: Path) -> str:
             f"`benchmarks/crossover.toml` through `yore sweep` ({sweep['cells']} cells: "
             + ", ".join(f"{n} {s}" for s, n in sweep["statuses"].items())
             + "): explicit at its default step against each implicit family on a fixed ladder "
-            f"of steps, error at the {sweep['horizon_seconds']:g} s horizon against explicit at "
+            f"of steps, error at the {sweep['horizon_seconds']:.3g} s horizon against explicit at "
             "a fine fixed step, cost in wall seconds per simulated second (two workers on two "
             "cores). Cheapest at 1 % error:", "",
             "| sheet | stiffness (N/m) | explicit (s/s) | best implicit | its cost (s/s) | implicit / explicit |",
@@ -291,10 +291,17 @@ def section(data: dict, results: Path) -> str:
                       else "–") + " | "
                    + (f"{r['implicit_over_explicit']:.2f}" if r["implicit_over_explicit"]
                       is not None else "–") + " |")
-    out += ["", "A coarser, cheaper map than the one above (fixed ladder, one run per cell, "
-            "wall time, no reference convergence check); what it shows is that the sweep engine "
-            "reproduces the experiment from a file (`yore sweep plot` draws any of its "
-            "variables)."]
+    winners = {r["winner"] == "explicit" for r in sweep["summary"] if r["winner"]}
+    out += ["", "A coarser map than the one above: a fixed ladder, one run per cell, wall time "
+            "of two workers sharing two cores, the error at the horizon only, explicit at its "
+            "default step (below its limit) and a reference that is not checked for "
+            "convergence." + (" Here explicit is cheaper in every cell, where speed_vs_error "
+                              "(CPU time, repeats, explicit at its bisected limit, errors at "
+                              "T/2 and T, a converged reference) finds implicit cheaper at 1 % "
+                              "on the stiffest sheets; which of those differences decides it "
+                              "is not measured yet." if winners == {True} else "")
+            + " `yore sweep plot bench-results/sweeps/crossover ...` draws any recorded "
+            "variable of it."]
     # -- pictures -------------------------------------------------------------------------------
     pictures = data["pictures"]
     out += ["", "### Pictures", "", f"![pictures]({results}/pictures.png)", "",

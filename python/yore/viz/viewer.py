@@ -148,10 +148,8 @@ class Viewer:
         self._message = ""
         self.log = None  # a callable given each message (yore view: print)
         self.speed = 1.0
-        self._dt_text = None  # the dt the panel shows (None: the integrator's default)
         self._draft = []  # (pixel, face, barycentric) of the drag being drawn
         self._drag_pixel = None  # the drag's last mouse sample
-        self._mouse_was_down = False
         self._frame_steps, self._frame_seconds = 0, 0.0
         self._last_frame = None
         self._topology = None
@@ -638,7 +636,9 @@ class Viewer:
         changed, index = psim.Combo("integrator", index, names)
         if changed:
             self._safely(self.set_integrator, names[index])
-        changed, dt = psim.InputFloat("dt (s)", float(self.sim.dt), format="%.3g")
+        # applied on Enter, not at every keystroke of a number being typed
+        changed, dt = psim.InputFloat("dt (s)", float(self.sim.dt), format="%.3g",
+                                      flags=psim.ImGuiInputTextFlags_EnterReturnsTrue)
         if changed and dt > 0 and math.isfinite(dt):
             self._safely(self.set_integrator, self.sim.integrator, float(dt))
         coloring = COLORINGS.index(self.coloring)
