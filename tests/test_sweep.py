@@ -256,3 +256,13 @@ reference = { method = "BE" }
     with pytest.raises(SweepError, match="record.reference.method"):
         load_sweep(path,
                    text=path.read_text().replace('{ method = "BE" }', '{ method = "RK4" }'))
+
+
+def test_a_sweep_leaves_the_callers_environment_as_it_was(tmp_path):
+    import os
+
+    before = dict(os.environ)
+    path = write(tmp_path, SMALL + '[axes]\n"material.mass" = [0.1, 0.2]\n')
+    run(load_sweep(path), tmp_path / "out", workers=1, quiet=True, cell_function=null_cell)
+    # Dask's settings for its workers (OMP_NUM_THREADS=1, ...) do not leak into the caller
+    assert dict(os.environ) == before

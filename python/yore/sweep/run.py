@@ -74,9 +74,18 @@ def _client(scheduler, workers, quiet):
                              "one with `dask scheduler` and workers with `dask worker "
                              f"{scheduler} --nthreads 1`") from None
     workers = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.ERROR, env=PINNED)
-    return Client(cluster), cluster
+    # Dask sets its workers' environment (and PINNED) in this process's os.environ before it
+    # spawns them; the client's own environment is put back afterwards, so a sweep leaves the
+    # caller's process as it was (its BLAS and OpenMP settings included)
+    saved = dict(os.environ)
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR, env=PINNED)
+        client = Client(cluster)
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+    return client, cluster
 
 
 def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
