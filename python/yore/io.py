@@ -21,7 +21,25 @@ import meshio
 import numpy as np
 from meshio._helpers import reader_map as _meshio_readers  # see _read_with_meshio
 
-__all__ = ["load_mesh", "load_frame", "save_mesh", "FrameSeries", "MAX_MESH_FILE_BYTES"]
+__all__ = ["load_mesh", "load_frame", "save_mesh", "FrameSeries", "MAX_MESH_FILE_BYTES",
+           "write_atomically"]
+
+
+def write_atomically(path, write) -> Path:
+    """Calls ``write(temporary_path)`` for a hidden file beside ``path`` with the same
+    extension (so format-by-extension writers pick the same format), then renames it to
+    ``path``: a reader, or a run interrupted mid-write, never sees half a file. Creates the
+    parent folder; removes the temporary file if ``write`` fails."""
+    path = Path(os.fspath(path))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.stem}.part{path.suffix}")
+    try:
+        write(partial)
+        os.replace(partial, path)
+    finally:
+        if partial.exists():
+            partial.unlink()
+    return path
 
 #: Largest mesh (or frame) file read, bytes (512 MiB, some ten million triangles as binary
 #: PLY): meshio reads a file whole, and parsing takes a few times its size in memory, so a
@@ -268,18 +286,11 @@ def save_mesh(path, V, F, point_data=None):
         fields = _split_vector_fields(fields)
 
     mesh = meshio.Mesh(V, [("triangle", F)], point_data=fields)
-    # Written under a hidden temporary name (same extension, so meshio picks the same format)
-    # and renamed: a reader, or a run interrupted mid-write, never sees half a file.
-    partial = path.with_name(f".{path.stem}.part{path.suffix}")
     try:
-        meshio.write(partial, mesh)
-        os.replace(partial, path)
+        write_atomically(path, lambda partial: meshio.write(partial, mesh))
     except (meshio.ReadError, meshio.WriteError) as error:
         # meshio reports an unknown extension as a ReadError even when writing.
         raise ValueError(f"cannot write mesh file {path}: {error}") from error
-    finally:
-        if partial.exists():
-            partial.unlink()
 
 
 class FrameSeries:

@@ -22,26 +22,17 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from ..io import write_atomically
+
 __all__ = ["Results", "open_results", "RESULTS_NAME", "CELLS_DIR"]
 
 RESULTS_NAME = "results.nc"
 CELLS_DIR = "cells"
-
-
-def _atomic_write(path: Path, write):
-    partial = path.with_name(f".{path.name}.part{path.suffix}")
-    try:
-        write(partial)
-        os.replace(partial, path)
-    finally:
-        if partial.exists():
-            partial.unlink()
 
 
 class Results:
@@ -75,7 +66,7 @@ class Results:
     def add(self, cell, result) -> None:
         """Records a cell's result: arrays first, then its .json (the cell's 'done' mark)."""
         if result.get("positions") is not None:
-            _atomic_write(self.cells / f"{cell.key}.npz",
+            write_atomically(self.cells / f"{cell.key}.npz",
                           lambda p: np.savez(p, positions=result["positions"],
                                              faces=result["faces"]))
             if self.sweep.frames:
@@ -87,7 +78,7 @@ class Results:
                   "values": {k: v for k, v in result["values"].items()
                              if isinstance(v, float) and math.isfinite(v)}}
         text = json.dumps(record, indent=1, default=str)
-        _atomic_write(self.cells / f"{cell.key}.json",
+        write_atomically(self.cells / f"{cell.key}.json",
                       lambda p: p.write_text(text + "\n", encoding="utf-8"))
         self._store(cell, record)
 
@@ -165,7 +156,7 @@ class Results:
         """Writes results.nc (atomically); returns its path."""
         dataset = self.dataset()
         path = self.out / RESULTS_NAME
-        _atomic_write(path, lambda p: dataset.to_netcdf(p, engine="h5netcdf"))
+        write_atomically(path, lambda p: dataset.to_netcdf(p, engine="h5netcdf"))
         return path
 
 

@@ -3,7 +3,6 @@ bars), PNG, animated GIF (Pillow) and MP4 (ffmpeg). Pure numpy + Pillow: no Open
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import tempfile
@@ -12,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import MAX_IMAGE_PIXELS, check_count, check_factor, check_image
+from ..io import write_atomically
 
 __all__ = ["side_by_side", "save_png", "save_animation", "check_ffmpeg", "draw_title",
            "draw_colorbar", "font"]
@@ -120,20 +120,6 @@ def _draw_titles(band, titles, lefts, widths, background):
     return np.asarray(picture)
 
 
-def _atomic(path, write):
-    """Calls ``write(temporary_path)`` then renames the file to ``path``: an interrupted write
-    never leaves a half-written picture under the final name."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.name}.part{path.suffix}")
-    try:
-        write(partial)
-        os.replace(partial, path)
-    finally:
-        if partial.exists():
-            partial.unlink()
-    return path
-
-
 def save_png(path, image) -> Path:
     """Writes an (h, w, 3) uint8 RGB image as PNG (atomically: a temporary file renamed),
     creating parent folders; returns the path.
@@ -146,7 +132,7 @@ def save_png(path, image) -> Path:
     path = Path(path)
     if path.suffix.lower() != ".png":
         raise ValueError(f"save_png writes PNG files; path must end in .png, got {str(path)!r}")
-    return _atomic(path, lambda target: Image.fromarray(image).save(target, format="PNG"))
+    return write_atomically(path, lambda target: Image.fromarray(image).save(target, format="PNG"))
 
 
 def save_animation(path, images, fps=15.0) -> Path:
@@ -194,7 +180,7 @@ def _save_gif(path, frames, fps):
     from PIL import Image
 
     pictures = [Image.fromarray(frame) for frame in frames]
-    _atomic(path, lambda target: pictures[0].save(
+    write_atomically(path, lambda target: pictures[0].save(
         target, format="GIF", save_all=True, append_images=pictures[1:],
         duration=max(int(round(1000.0 / fps)), 1), loop=0))
 
@@ -209,7 +195,7 @@ def check_ffmpeg() -> str:
 
 
 def _save_mp4(path, frames, fps):
-    _atomic(path, lambda target: _encode_mp4(target, path, frames, fps))
+    write_atomically(path, lambda target: _encode_mp4(target, path, frames, fps))
 
 
 def _encode_mp4(target, path, frames, fps):
