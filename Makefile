@@ -25,7 +25,7 @@ $(VENV)/.deps: $(VPY) pyproject.toml
 	$(VPY) -m pip install --quiet --upgrade pip
 	$(VPY) -m pip install --quiet "scikit-build-core>=0.10" "pybind11>=2.13" "numpy>=1.23" \
 	    "meshio>=5.3,<6" "tqdm>=4.60" "pillow>=9" "pytest>=7" "hypothesis>=6" "matplotlib>=3.6" \
-	    "polyscope>=2.6,<2.7" "dask[distributed]>=2024.1" "xarray>=2024.1" "h5netcdf>=1.3"
+	    "polyscope>=2.6,<2.7" "dask[distributed]>=2024.1" "xarray>=2024.1" "h5netcdf>=1.3" "h5py>=3.8"
 	@touch $@
 
 $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
