@@ -23,7 +23,7 @@ import numpy as np
 from ..camera import Camera
 from ..checks import MAX_IMAGE_PIXELS
 
-__all__ = ["BackendUnavailable", "EGL_PACKAGES", "ensure", "is_window", "set_camera",
+__all__ = ["BackendUnavailable", "EGL_PACKAGES", "ensure", "set_camera",
            "camera_from_view", "screenshot", "pick", "supersampling", "downsample",
            "SSAA_FACTOR"]
 
@@ -144,11 +144,6 @@ class hidden_viewer:
         for structure in self.restore:
             structure.set_enabled(True)
         return False
-
-
-def is_window() -> bool:
-    """Whether polyscope runs in a window in this process."""
-    return bool(_state["window"])
 
 
 _UP_NAMES = {(0, 1): "x_up", (0, -1): "neg_x_up", (1, 1): "y_up", (1, -1): "neg_y_up",

@@ -188,9 +188,12 @@ def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_ra
         raise ValueError(f"colormap must be one of {', '.join(COLORMAPS)}, got {colormap!r}")
 
     width, height = camera.width, camera.height
-    strip = colorbar_width(width, height) if (values is not None and colorbar) else 0
-    band = title_height(height) if title else 0
-    view = _inner_camera(camera, width - strip, height - band)
+    if values is not None:
+        value_range = _value_range(values, value_range, colormap)
+    inner_width, inner_height = picture_layout(width, height, values is not None and colorbar,
+                                               bool(title))
+    strip, band = width - inner_width, height - inner_height
+    view = _inner_camera(camera, inner_width, inner_height)
     image = _render_view(V, F, view, values, defined_on, value_range, colormap, polylines,
                          base_color, background, edges, ground, antialias)
     if not (strip or band):
@@ -199,8 +202,7 @@ def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_ra
     canvas[:] = np.rint(background * 255.0).astype(np.uint8)
     canvas[band:, :width - strip] = image
     if strip:
-        low, high = _value_range(values, value_range, colormap)
-        canvas = draw_colorbar(canvas, colormap_table(colormap), (low, high), str(colorbar),
+        canvas = draw_colorbar(canvas, colormap_table(colormap), value_range, str(colorbar),
                                left=width - strip)
     if band:
         canvas = draw_title(canvas, str(title), band)

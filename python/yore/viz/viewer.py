@@ -421,9 +421,7 @@ class Viewer:
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid: "
                              f"{', '.join(INTEGRATORS)}")
-        state = self.sim.state()
-        cloth = self.sim.cloth
-        sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=state["gravity"])
+        sim = Simulation(self.sim.cloth, integrator=integrator, dt=dt, gravity=self.sim.gravity)
         self.sim = sim
         self._frame_steps = 0
         self.message = f"{integrator}, dt = {sim.dt:.4g} s"
