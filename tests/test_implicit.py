@@ -576,3 +576,46 @@ def test_projection_options_are_checked():
         yore.Simulation(cloth, integrator="implicit", solver="pcg", projection="exact")
     with pytest.raises(ValueError, match="Cholesky"):
         yore.Simulation(cloth, integrator="implicit", solver="pcg", projection="shifted")
+
+
+def _stiff_chain(**options):
+    """A horizontal chain of 10 stiff springs (1e5 N/m, 1 g per vertex, 0.1 m each) fixed at
+    one end, about to swing down: every spring stretches, so the clamp is the exact Hessian
+    and Newton converges quadratically near the step's solution."""
+    n = 11
+    V = np.column_stack([np.linspace(0.0, 1.0, n), np.zeros(n), np.zeros(n)])
+    edges = np.column_stack([np.arange(n - 1), np.arange(1, n)]).astype(np.int32)
+    chain = yore.Cloth.from_springs(V, edges, mass=1e-3, stiffness=1e5, damping=0.0)
+    chain.fix([0])
+    return yore.Simulation(chain, integrator="implicit", dt=1 / 60, projection="clamp",
+                           **options)
+
+
+def test_the_step_test_stops_within_its_distance_of_the_solution():
+    # Reference: the same step solved to a residual 1e5 times tighter than the default.
+    tight = _stiff_chain(newton_tol=1e-10, max_newton=200)
+    tight.step()
+    residual_only = _stiff_chain()
+    residual_only.step()
+    stepped = _stiff_chain(step_tol=1e-3)
+    stepped.step()
+    counters = stepped.stats["counters"]
+    assert counters["step_test_stops"] == 1 and counters["unconverged_steps"] == 0
+    # the residual test (inertia-scaled) asks for more than the step test on stiff springs
+    assert counters["newton_iterations"] < residual_only.stats["counters"]["newton_iterations"]
+    # Near the solution Newton converges quadratically: after a full step of at most
+    # step_tol × L (L = 0.1 m) the iterate is much closer than that to the solution.
+    distance = np.abs(stepped.cloth.positions - tight.cloth.positions).max()
+    assert distance <= 1e-3 * 0.1
+    # and it did move: the chain fell (the check is not vacuous)
+    assert tight.cloth.positions[:, 1].min() < -1e-3
+
+
+def test_step_tol_off_by_default_and_checked():
+    sim = _stiff_chain()
+    sim.step()
+    assert sim.stats["counters"]["step_test_stops"] == 0
+    with pytest.raises(ValueError, match="step_tol"):
+        _stiff_chain(step_tol=-1e-3)
+    with pytest.raises(ValueError, match="step_tol"):
+        _stiff_chain(step_tol=float("nan"))

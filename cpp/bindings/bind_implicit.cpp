@@ -98,6 +98,7 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
       plain_option("lag_max_cg_iterations", &O::lag_max_cg_iterations),
       plain_option("lag_cg_tol", &O::lag_cg_tolerance),
       plain_option("newton_tol", &O::newton_tol),
+      plain_option("step_tol", &O::step_tol),
       plain_option("max_newton", &O::max_newton),
       plain_option("solver", &O::solver, &LinearSolverOptions::backend),
       choice_option<O, Ordering>(
@@ -212,6 +213,11 @@ Newton direction.)doc")
         out["unconverged_steps"] = s.unconverged_steps;
         out["exact_hessian_rejected"] = s.exact_hessian_rejected;
         out["exact_hessian_accepted"] = s.exact_hessian_accepted;
+        // every indefinite matrix caught (exact and shifted projections) was a factorization
+        // thrown away; a lagged solve reused a factor of an earlier matrix
+        out["factorizations_thrown_away"] = s.exact_hessian_rejected;
+        out["factor_reuses"] = s.lagged_solves;
+        out["step_test_stops"] = s.step_test_stops;
         out["abs_projections"] = s.abs_projections;
         out["shifted_factorizations"] = s.shifted_factorizations;
         out["last_scaled_residual"] = s.last_scaled_residual;

@@ -24,6 +24,11 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     msg << "newton_tol must be finite and > 0, got " << options.newton_tol;
     throw std::invalid_argument(msg.str());
   }
+  if (!std::isfinite(options.step_tol) || options.step_tol < 0.0) {
+    std::ostringstream msg;
+    msg << "step_tol must be finite and >= 0, got " << options.step_tol;
+    throw std::invalid_argument(msg.str());
+  }
   if (options.max_newton < 1) {
     std::ostringstream msg;
     msg << "max_newton must be >= 1, got " << options.max_newton;

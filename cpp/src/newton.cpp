@@ -168,6 +168,13 @@ void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, doub
     }
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
+    if (m_options.step_tol > 0.0 && alpha == 1.0 && std::isfinite(energy) &&
+        std::isfinite(residual) &&
+        m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
+      ++m_statistics.step_test_stops;
+      converged = true;
+      break;
+    }
   }
   if (m_options.linearized) converged = true;
   end_projection(choice, iterations);

@@ -28,7 +28,8 @@ _CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
 _CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
 _CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
 #: Options of Newton's method that quasi-Newton does not take.
-_NEWTON_ONLY = ("linearized", "adaptive_projection", "projection", "lagged_factorization",
+_NEWTON_ONLY = ("linearized", "step_tol", "adaptive_projection", "projection",
+                "lagged_factorization",
                 "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
                 "pcg_max_iterations")
 _OPTIONS = {
@@ -190,6 +191,7 @@ _RULES = {
     "divergence_energy_factor": _real(0.0),
     "linearized": _flag(),
     "newton_tol": _real(0.0),
+    "step_tol": _real(0.0, low_open=False),
     "max_newton": _count(1, MAX_STEP_ITERATIONS),
     "solver": _one_of("cholmod", "eigen-ldlt", "pcg"),
     "ordering": _one_of("amd", "metis", "natural"),
@@ -362,7 +364,10 @@ class Simulation:
         Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
         ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
         ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when max |∇ᵢE|·h̃²/mᵢ, the
-        gradient as a displacement, is below newton_tol × the mean rest length; a step that
+        gradient as a displacement, is below newton_tol × the mean rest length),
+        ``step_tol`` (0 = off: Newton also stops after a full step that moved no vertex by
+        more than step_tol × the mean rest length, the model's distance to the solution;
+        counted in ``step_test_stops``; a step that
         reaches ``max_newton`` (50) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
         "exact" | "trust-region" | "shifted", see `_OPTIONS`; None: "shifted", or "clamp" for
