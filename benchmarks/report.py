@@ -12,6 +12,7 @@ import argparse
 import json
 from pathlib import Path
 
+from .crossover import finding, summary_table
 from .schema import SCHEMAS, check
 
 START, END = "<!-- results:start -->", "<!-- results:end -->"
@@ -37,75 +38,45 @@ def verdict(met: bool) -> str:
     return "**met**" if met else "**missed**"
 
 
-def speed_vs_error_section(sve: dict, results: Path) -> list:
-    """The crossover benchmark's lines: per sheet cell the cheapest explicit and implicit runs at
-    1 % (and the ratio at 0.1 %), the crossover stiffness, the 64² targets, wrinkle retention."""
-    out = ["### Speed against error: the crossover", "",
+def crossover_section(crossover: dict, results: Path) -> list:
+    """The crossover's lines: the map, one line per cell, the crossover stiffness per row, the
+    issue's targets and one sentence on who wins where and why (all from crossover.json)."""
+    settings = crossover["settings"]
+    out = ["### The crossover", "",
            f"![crossover map]({results}/crossover.png)", "",
-           f"![speed against error]({results}/speed_vs_error.png)", "",
-           "Error: RMS vertex distance to a converged symplectic-Euler reference at T/2 and T over "
-           "the cloth's size; cost: CPU seconds per simulated second on one thread (medians of "
-           f"{sve['repeats']} runs for every run that could be its family's cheapest); explicit "
-           "at its largest stable step, found by trying. Cells whose reference did not converge "
-           f"to {sve['reference_tolerance']:g} are left out. Families: "
-           f"{', '.join(sve['families'])}"
-           + (f" (not in this build: {', '.join(sve['families_unavailable'])})"
-              if sve["families_unavailable"] else "") + ".", "",
-           "| cell | T | explicit at 1 % | cheapest implicit at 1 % | implicit / explicit at 1 % "
-           "| at 0.1 % |", "|---|---|---|---|---|---|"]
-
-    def run(e):
-        if not e or "method" not in e:
-            return "none"
-        return (f"{e['method']}, dt {e['dt']:.3g} s, {e['cost_seconds_per_simulated_second']:.3g}"
-                " s/s" + ("" if e["method"] == "explicit"
-                          else f" ({e['iterations_per_step']:.1f} it/step)"))
-
-    for c in sve["summary"]["cells"]:
-        name = (f"{c['scene']} {c['size']}², k {c['stretch_stiffness']:g}, bending "
-                f"{c['bend_stiffness']:g}")
-        if "skipped" in c:
-            out.append(f"| {name} | | skipped: {c['skipped']} | | | |")
-            continue
-        if not c.get("reference_converged"):
-            out.append(f"| {name} | {c['horizon']:g} s | reference not converged "
-                       f"({c.get('reference_error') or float('nan'):.1e}) | | | |")
-            continue
-        one, tenth = c["at_0.01"], c["at_0.001"]
-        ratios = [f"{a['implicit_over_explicit_cost']:.2f} ({a['winner']})"
-                  if "implicit_over_explicit_cost" in a else "—" for a in (one, tenth)]
-        out.append(f"| {name} | {c['horizon']:g} s | {run(one['families'].get('explicit'))} | "
-                   f"{run(one['best_implicit'])} | {ratios[0]} | {ratios[1]} |")
-    crossing = sve["summary"]["crossovers"]
+           f"`benchmarks/crossover.py` on the `yore.sweep` engine ({crossover['cells']} cells, one "
+           "Dask task each: " + ", ".join(f"{n} {s}" for s, n in crossover["statuses"].items())
+           + "). Error: RMS vertex distance to a converged symplectic-Euler reference at T/2 and "
+           "at T (the larger) over the sheet's start diagonal; cost: CPU seconds of the stepping "
+           "per simulated second on one thread (the task's thread clock; medians of "
+           f"{settings['repeats']} runs for every run that could be its family's cheapest); "
+           "explicit at its largest stable step, found by bisection. Cells whose reference did "
+           f"not converge to {crossover['reference_tolerance']:g} are left out. Families: "
+           f"{', '.join(crossover['families'])}"
+           + (f" (not in this build: {'; '.join(crossover['families_unavailable'])})"
+              if crossover["families_unavailable"] else "") + ".", ""]
+    out += summary_table(crossover)
+    crossing = crossover["summary"]["crossovers"]
     if crossing:
         out += ["", "Crossover stiffness (implicit / explicit cost at 1 % crosses 1): "
-                + "; ".join(f"{x['size']}², bending {x['bending']}: "
+                + "; ".join(f"{x['size']}², {x['bending']} bending: "
                             + (f"{x['crossover_stiffness']:.2g} N/m" if x["crossover_stiffness"]
                                else x.get("bound", "no data")) for x in crossing) + "."]
-    for g in sve["summary"]["targets"]:
-        head = (f"Target: at 64², k = {g['stretch_stiffness']:g} N/m, the best implicit method "
-                f"costs at most {g['goal_ratio']:g} × explicit — ")
-        if g.get("ratio") is None:
-            out += ["", head + "**not measured**" + (" (no implicit run reached 1 %)"
-                                                     if g["measured"] else "") + "."]
+    out += ["", "Targets (cheapest implicit over cheapest explicit cost):", ""]
+    for g in crossover["summary"]["targets"]:
+        head = (f"- {g['target']}, goal {'<' if g['goal_ratio'] == 1.0 else '≤'} "
+                f"{g['goal_ratio']:g}: ")
+        if g["ratio"] is None:
+            out.append(head + ("**missed**" if g["measured"] else "**not measured**")
+                       + " (" + "; ".join(f"{c['bending']}: {c['why']}" for c in g["cells"]
+                                          if c.get("why")) + ")")
             continue
-        lim = g["limits"]
-        out += ["", head + verdict(g["met"]) + f": {g['ratio']:.2f}"
-                + ("" if g["met"] else f", {g['shortfall']:.2f}× short")
-                + f". {lim['implicit']['method']}: {lim['implicit']['steps']} steps × "
-                f"{lim['implicit']['iterations_per_step']:.1f} iterations × "
-                f"{duration(lim['implicit']['cpu_per_iteration'])} per iteration, against "
-                f"explicit's {lim['explicit']['steps']} steps × "
-                f"{duration(lim['explicit']['cpu_per_step'])}."]
-    wrinkles = [c for c in sve["summary"]["cells"] if c["scene"] != "sheet"
-                and c.get("reference_converged")]
-    for c in wrinkles:
-        kept = [f"{e['method']} {e['wrinkle_retention']:.2f}"
-                for e in c["at_0.01"]["families"].values() if "wrinkle_retention" in e]
-        if kept:
-            out += ["", f"Wrinkle retention on {c['scene']} (stroke region's wrinkle measure "
-                    "over the reference's), cheapest run of each family at 1 %: "
-                    + ", ".join(kept) + "."]
+        best = g["best"]
+        out.append(head + verdict(g["met"]) + f" ({g['ratio']:.2f}, {best['bending']} bending; "
+                   f"{best['implicit']['method']} {best['implicit']['steps']} steps × "
+                   f"{duration(best['implicit']['cpu_per_step'])} against explicit's "
+                   f"{best['explicit']['steps']} × {duration(best['explicit']['cpu_per_step'])})")
+    out += ["", finding(crossover)]
     return out
 
 
@@ -118,8 +89,8 @@ def section(data: dict, results: Path) -> str:
            f"{machine['thread_environment'].get('OPENBLAS_NUM_THREADS')}. Medians of repeated "
            "runs; ratios measured in one run.", ""]
 
-    # -- speed against error: the crossover ------------------------------------------------------
-    out += speed_vs_error_section(data["speed_vs_error"], results)
+    # -- the crossover ----------------------------------------------------------------------------
+    out += crossover_section(data["crossover"], results)
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]
@@ -271,37 +242,6 @@ def section(data: dict, results: Path) -> str:
                    f"{cell['default_over_one_thread']:.2f} |")
     out += ["", f"Target: the default at most {threads['target_ratio']}× one thread in every "
             f"cell — {verdict(threads['target_met'])}."]
-    # -- the crossover as a sweep ---------------------------------------------------------------
-    sweep = data["crossover_sweep"]
-    out += ["", "### The crossover as a sweep", "",
-            f"![crossover sweep]({results}/crossover_sweep.png)", "",
-            f"`benchmarks/crossover.toml` through `yore sweep` ({sweep['cells']} cells: "
-            + ", ".join(f"{n} {s}" for s, n in sweep["statuses"].items())
-            + "): explicit at its default step against each implicit family on a fixed ladder "
-            f"of steps, error at the {sweep['horizon_seconds']:.3g} s horizon against explicit at "
-            "a fine fixed step, cost in wall seconds per simulated second (two workers on two "
-            "cores). Cheapest at 1 % error:", "",
-            "| sheet | stiffness (N/m) | explicit (s/s) | best implicit | its cost (s/s) | implicit / explicit |",
-            "|---|---|---|---|---|---|"]
-    for r in sweep["summary"]:
-        out.append(f"| {r['size']}² | {r['stiffness']:g} | "
-                   + (f"{r['explicit_cost']:.3g}" if r["explicit_cost"] is not None else "–")
-                   + f" | {r['best_implicit'] or '–'} | "
-                   + (f"{r['best_implicit_cost']:.3g}" if r["best_implicit_cost"] is not None
-                      else "–") + " | "
-                   + (f"{r['implicit_over_explicit']:.2f}" if r["implicit_over_explicit"]
-                      is not None else "–") + " |")
-    winners = {r["winner"] == "explicit" for r in sweep["summary"] if r["winner"]}
-    out += ["", "A coarser map than the one above: a fixed ladder, one run per cell, wall time "
-            "of two workers sharing two cores, the error at the horizon only, explicit at its "
-            "default step (below its limit) and a reference that is not checked for "
-            "convergence." + (" Here explicit is cheaper in every cell, where speed_vs_error "
-                              "(CPU time, repeats, explicit at its bisected limit, errors at "
-                              "T/2 and T, a converged reference) finds implicit cheaper at 1 % "
-                              "on the stiffest sheets; which of those differences decides it "
-                              "is not measured yet." if winners == {True} else "")
-            + " `yore sweep plot bench-results/sweeps/crossover ...` draws any recorded "
-            "variable of it."]
     # -- pictures -------------------------------------------------------------------------------
     pictures = data["pictures"]
     out += ["", "### Pictures", "", f"![pictures]({results}/pictures.png)", "",

@@ -16,9 +16,11 @@ SCHEMAS = {
                        "solve_seconds", "analyze_seconds", "step_over_factorize",
                        "analyze_over_factorize", "analyze_over_explicit_step",
                        "factorize_gflops", "factorize_fraction_of_dense"}),
-    "speed_vs_error": ({"benchmark", "machine", "rows", "summary", "duration_seconds",
-                        "sample_times", "quick"},
-                       {"scene", "method", "dt"}),
+    "crossover": ({"benchmark", "machine", "rows", "summary", "quick", "clock", "families",
+                   "families_unavailable", "thresholds", "reference_tolerance", "sample_times",
+                   "settings", "sweep", "cells", "statuses"},
+                  {"size", "stretch_stiffness", "bending", "horizon", "method", "dt", "steps",
+                   "reference_converged", "diverged", "aborted"}),
     "rebuild_cost": ({"benchmark", "machine", "rows", "dense_matmul_gflops", "quick",
                       "local_global", "quasi_newton"},
                      {"case", "ordering_used", "dofs", "factor_nonzeros", "factor_flops",
@@ -41,14 +43,14 @@ SCHEMAS = {
                   "pick_seconds_median"},
                  {"width", "height", "pixels", "factor", "vertices", "render_seconds_median",
                   "repeats"}),
-    "crossover_sweep": ({"benchmark", "machine", "rows", "quick", "summary", "threshold",
-                         "sweep", "cells", "statuses"},
-                        {"size", "stiffness", "method", "family", "dt", "status", "error",
-                         "cost"}),
     "stable_dt": ({"benchmark", "machine", "rows", "steps", "safety", "quick"},
                   {"scene", "stiffness", "damped", "gershgorin_dt", "bound_dt", "estimate_dt",
                    "found_dt", "default_dt", "default_ratio"}),
 }
+
+
+#: keys of the "summary" table, where a benchmark's JSON has one the report reads
+SUMMARIES = {"crossover": {"cells", "crossovers", "targets", "lines"}}
 
 
 def check(payload: dict) -> None:
@@ -63,11 +65,12 @@ def check(payload: dict) -> None:
     missing = MACHINE - set(payload["machine"])
     if missing:
         raise ValueError(f"{name}: machine info lacks {sorted(missing)}")
+    missing = SUMMARIES.get(name, set()) - set(payload.get("summary", {}))
+    if missing:
+        raise ValueError(f"{name}: its summary lacks {sorted(missing)}")
     if not payload["rows"]:
         raise ValueError(f"{name}: no rows")
     for row in payload["rows"]:
-        if name == "speed_vs_error" and row.get("method") == "reference":
-            continue
         missing = row_keys - set(row)
         if missing:
             raise ValueError(f"{name}: a row lacks {sorted(missing)}: {row}")

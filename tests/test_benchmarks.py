@@ -8,6 +8,7 @@ quantities (steps, factorizations, sizes) for their values. Timings belong in th
 import json
 import math
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -61,61 +62,115 @@ def test_implicit_step_benchmark_smoke(tmp_path):
         assert is_timing(row["quasi_newton_iteration_seconds"])
 
 
-def test_speed_vs_error_with_every_cell_skipped_still_writes_its_results(tmp_path):
+def test_crossover_with_every_cell_skipped_still_writes_its_results_and_resumes(tmp_path):
     # a budget of 0 CPU seconds per cell skips them all (predicted from the stability trials,
-    # not timed): the JSON says so per cell and the picture says there is nothing to show
+    # not timed): the JSON and the sweep's records say so per cell, the map says there is
+    # nothing to show; a resumed run reruns only a cell whose record is gone, with the settings
+    # the folder was started with (here the budget of 0, whatever the flags say)
     pytest.importorskip("matplotlib")
-    result = subprocess.run([sys.executable, "-m", "benchmarks.speed_vs_error", "--out",
-                             str(tmp_path), "--quick", "--scenes", "sheet", "--sizes", "6",
-                             "--stiffness", "2e3", "--bending", "equal", "--max-cell-seconds",
-                             "0", "--no-extend"], cwd=ROOT, capture_output=True, text=True,
-                            timeout=600)
+    command = [sys.executable, "-m", "benchmarks.crossover", "--out", str(tmp_path), "--quick",
+               "--workers", "1"]
+    result = subprocess.run(command + ["--max-cell-seconds", "0"], cwd=ROOT,
+                            capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
-    assert (tmp_path / "speed_vs_error.png").read_bytes()[:4] == b"\x89PNG"
-    data = json.loads((tmp_path / "speed_vs_error.json").read_text())
-    assert data["rows"] == []
-    assert data["summary"]["cells"] and all("skipped" in c for c in data["summary"]["cells"])
+    assert (tmp_path / "crossover.png").read_bytes()[:4] == b"\x89PNG"
+    data = json.loads((tmp_path / "crossover.json").read_text())
+    assert data["rows"] == [] and data["statuses"] == {"skipped": data["cells"]} == {"skipped": 2}
+    cells = data["summary"]["cells"]
+    assert len(cells) == 2 and all("--max-cell-seconds 0" in c["skipped"] for c in cells)
+    assert not any(t["measured"] or t["met"] for t in data["summary"]["targets"])
+    folder = tmp_path / "sweeps" / "crossover"
+    assert (folder / "results.nc").is_file()
+    kept, gone = sorted((folder / "cells").glob("*.json"))
+    before = kept.stat().st_mtime_ns
+    gone.unlink()
+    result = subprocess.run(command + ["--resume", "--max-cell-seconds", "1e9"], cwd=ROOT,
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert "1 of 2 cells to run" in result.stdout
+    assert kept.stat().st_mtime_ns == before and gone.is_file()
+    data = json.loads((tmp_path / "crossover.json").read_text())
+    assert data["statuses"] == {"skipped": 2} and data["settings"]["max_cell_seconds"] == 0
 
 
-def test_speed_vs_error_smoke(tmp_path):
+def test_crossover_smoke(tmp_path):
     # caps far above any run: which runs exist must not depend on wall time
-    data = run_benchmark("speed_vs_error", tmp_path, "--quick", "--repeats", "2",
-                         "--max-ratio", "1e9", "--max-run-seconds", "1e9")
+    data = run_benchmark("crossover", tmp_path, "--quick", "--max-ratio", "1e9",
+                         "--max-run-seconds", "1e9")
+    from benchmarks.crossover import QUICK_FAMILIES, THRESHOLDS, usable
+
+    # the family table, filtered by what the build accepts
+    assert set(data["families"]) | {n.split(":")[0] for n in data["families_unavailable"]} \
+        == set(QUICK_FAMILIES)
+    assert {"explicit", "BE linearized"} <= set(data["families"])
     rows = [r for r in data["rows"] if r["method"] != "reference"]
-    families = set(data["families"])
-    core = {"explicit", "BE linearized", "BE Newton", "BDF2", "local-global"}
-    assert core <= families <= core | {"quasi-Newton BE", "quasi-Newton BDF2"}
-    assert families | set(data["families_unavailable"]) == core | {"quasi-Newton BE",
-                                                                    "quasi-Newton BDF2"}
-    assert {r["method"] for r in rows} == families
-    assert not any(r["diverged"] or r["aborted"] for r in rows
-                   if r["method"] in ("BE Newton", "BDF2"))
+    assert {r["method"] for r in rows} == set(data["families"])
+    # every cell ran as a task of the sweep engine, which wrote its Dataset
+    assert (tmp_path / "sweeps" / "crossover" / "results.nc").is_file()
+    assert data["statuses"] == {"done": data["cells"]} == {"done": 2}
+    tolerance = data["reference_tolerance"]
+    assert tolerance == 0.1 * min(data["thresholds"]) == 1e-4
     for cell in data["summary"]["cells"]:
         # the stability search bracketed explicit's limit, and the limit run is at or below it
         trials = cell["stability_trials"]
         largest = max(t["dt"] for t in trials if t["stable"])
         assert all(t["dt"] > largest for t in trials if not t["stable"]) and len(trials) >= 2
         assert cell["explicit_limit_dt"] <= largest * (1 + 1e-12)
-        if cell["reference_converged"]:
-            assert cell["reference_error"] <= data["reference_tolerance"] == 1e-4
-            for at in ("at_0.01", "at_0.001"):
-                explicit = cell[at]["families"]["explicit"]
-                assert "none" in explicit or explicit["error"] <= float(at[3:])
-    for r in rows:
-        if "error" in r:  # counted quantities; every run covers its cell's horizon
-            assert r["steps"] % 2 == 0 and math.isclose(r["steps"] * r["dt"], r["horizon"])
-            assert r["iterations_per_step"] >= 1 and is_timing(r["cost_seconds_per_simulated_second"])
-            assert r["repeats"] == len(r["cpu_seconds_samples"]) in (1, 2)
-            if r["scene"] != "sheet":
-                assert r["wrinkle_retention"] > 0
-    assert any(r.get("repeats") == 2 for r in rows)
-    # BDF2 is second order: halving dt divides its error by more than backward Euler's
-    def ratio(method):
-        sel = sorted((r for r in rows if r["method"] == method and r["scene"] == "sheet"
-                      and r["size"] == 9 and r["bending"] == "equal"
-                      and r["stretch_stiffness"] == 2e3), key=lambda r: -r["dt"])
-        return sel[0]["error"] / sel[1]["error"]
-    assert ratio("BDF2") > ratio("BE Newton")
+        # the reference: explicit halved from half the limit; its flag is the last check's
+        chain = cell["reference_chain"]
+        assert chain[0]["dt"] <= largest / 2 * (1 + 1e-12) and len(chain) >= 2
+        assert all(b["steps"] == 2 * a["steps"] for a, b in zip(chain, chain[1:]))
+        assert cell["reference_error"] == chain[-1]["difference_to_previous"]
+        assert cell["reference_converged"] == (cell["reference_error"] <= tolerance)
+        assert math.isclose(cell["reference_dt"], chain[-1]["dt"])
+        assert is_timing(cell["cell_thread_cpu_seconds"])
+        mine = [r for r in rows if (r["size"], r["stretch_stiffness"], r["bending"])
+                == (cell["size"], cell["stretch_stiffness"], cell["bending"])]
+        if not cell["reference_converged"]:
+            continue
+        # the cheapest run picked is the cheapest run below each threshold, per family
+        for threshold in THRESHOLDS:
+            at = cell[f"at_{threshold:g}"]
+            for family, picked in at["families"].items():
+                below = [r for r in mine if r["method"] == family and usable(r)
+                         and r["error"] <= threshold]
+                if not below:
+                    assert "none" in picked
+                    continue
+                cheapest = min(r["cost_seconds_per_simulated_second"] for r in below)
+                assert picked["cost_seconds_per_simulated_second"] == cheapest
+                assert picked["error"] <= threshold
+            implicit = [e for f, e in at["families"].items() if f != "explicit" and "method" in e]
+            if implicit and at["best_explicit"]:
+                best = min(e["cost_seconds_per_simulated_second"] for e in implicit)
+                assert at["best_implicit"]["cost_seconds_per_simulated_second"] == best
+                assert math.isclose(at["implicit_over_explicit_cost"], best / at[
+                    "best_explicit"]["cost_seconds_per_simulated_second"])
+                assert (at["winner"] == "explicit") == (at["implicit_over_explicit_cost"] >= 1)
+    measured = [r for r in rows if "error" in r]
+    assert measured
+    for r in measured:
+        # errors at T/2 and at T, each measured; a run's error is the larger
+        assert r["sample_steps"] == [r["steps"] // 2, r["steps"]] and r["steps"] % 2 == 0
+        assert r["sample_times"] == [r["horizon"] / 2, r["horizon"]]
+        assert math.isclose(r["steps"] * r["dt"], r["horizon"])
+        assert r["error"] == max(r["error_half"], r["error_end"]) and r["error_half"] > 0
+        # counters per step, unconverged steps flagged, cost = median of the samples
+        assert r["iterations_per_step"] >= 1 and r["factorizations_per_step"] >= 0
+        assert r["unconverged_steps"] == r["counters"].get("unconverged_steps", 0)
+        assert r["flagged"] == (r["unconverged_steps"] > 0)
+        assert r["repeats"] == len(r["cpu_seconds_samples"]) in (1, 3)
+        assert math.isclose(r["cpu_seconds"], statistics.median(r["cpu_seconds_samples"]))
+        assert is_timing(r["cost_seconds_per_simulated_second"])
+    assert any(r["error_half"] != r["error_end"] for r in measured)
+    assert any(r["repeats"] == 3 for r in measured)
+    assert all(r["factorizations_per_step"] >= 1 for r in measured
+               if r["method"] == "BE linearized")
+    targets = data["summary"]["targets"]
+    assert [t["target"][:8] for t in targets[:4]] == ["64², k =", "64², k =", "128², k ",
+                                                      "moonshot"]
+    assert all(not t["measured"] for t in targets[:4])  # not in the quick grid
+    assert len(targets) == 4 + 2  # the stiffest cell of each row of the map (two at --quick)
     assert (tmp_path / "crossover.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -243,17 +298,3 @@ def test_pictures_smoke(tmp_path):
     assert cells == {(w, h, f) for w, h in ((320, 240), (640, 480)) for f in (1, 3)}
     assert all(is_timing(r["render_seconds_median"]) for r in data["rows"])
     assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])
-
-
-def test_crossover_sweep_smoke(tmp_path):
-    data = run_benchmark("crossover_sweep", tmp_path, "--quick")
-    # the sweep's Dataset is there, every cell ran, and the reference cells have error 0
-    assert (tmp_path / "sweeps" / "crossover" / "results.nc").is_file()
-    assert sum(data["statuses"].values()) == data["cells"] == len(data["rows"])
-    assert all(r["error"] == 0.0 for r in data["rows"] if r["method"] == "reference")
-    assert {r["family"] for r in data["rows"]} == {"explicit", "reference", "BE linearized",
-                                                    "BE Newton", "BDF2", "local-global",
-                                                    "quasi-Newton"}
-    for cell in data["summary"]:
-        assert cell["winner"] in (None, "explicit") or cell["winner"].split(",")[0] in {
-            "BE linearized", "BE Newton", "BDF2", "local-global", "quasi-Newton"}
