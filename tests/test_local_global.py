@@ -112,9 +112,15 @@ def test_stiff_sheet_at_a_large_step_stays_finite_and_dissipative():
                                     bend_stiffness=2e5, damping=0.0, drag=0.0,
                                     integrator="local-global", dt=1 / 30)
     energies = [sim.energy()["total"]]
-    for _ in range(60):
-        sim.step()
-        energies.append(sim.energy()["total"])
+    # At k h²/m ≈ 1e6 local-global's linear convergence cannot meet its tolerance within its
+    # cap in every step: this test is about what such partly converged steps do, and checks
+    # that each of them is reported (a warning per capped step, the counter).
+    with pytest.warns(RuntimeWarning, match="reached the iteration cap") as record:
+        for _ in range(60):
+            sim.step()
+            energies.append(sim.energy()["total"])
+    capped = sim.stats["counters"]["unconverged_steps"]
+    assert 0 < capped == len(record)
     assert np.all(np.isfinite(sim.cloth.positions))
     assert energies[-1] < energies[0]
     # each step decreases the backward-Euler objective from the inertial guess, so energy can
