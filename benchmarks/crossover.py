@@ -1059,7 +1059,7 @@ def plot(payload, path):
                  fontsize=9)
     fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
                  label="implicit / explicit cost (blue: implicit cheaper)")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")  # the colour bar's label fits
     plt.close(fig)
 
 
