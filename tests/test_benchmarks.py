@@ -229,7 +229,8 @@ def test_newton_projection_smoke(tmp_path):
     # only the projections that try the exact Hessian can have it rejected
     assert all(r["rejected_per_step"] == 0 for r in data["rows"]
                if r["projection"] not in ("exact", "shifted"))
-    assert all(r["median_iterations"] <= r["max_iterations"] <= 50 for r in data["rows"])
+    assert all(r["median_iterations"] <= r["max_iterations"] <= data["max_newton"]
+               for r in data["rows"])
     assert all(0.0 <= r["deviation"] < 1.0 for r in data["rows"])
     # the step's own error, probed from the run's states, is finite and below the size
     assert all(0.0 <= r["step_deviation"] < 1.0 for r in data["rows"])

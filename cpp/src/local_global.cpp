@@ -52,6 +52,7 @@ void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
   const Eigen::Index rows = unknowns;
   m_base_rhs.resize(rows, 3);
   m_rhs.resize(rows, 3);
+  m_rhs_rows.resize(rows, 3);
   m_unknowns.resize(rows, 3);
   m_gradient.resize(rows, 3);
   m_work_rhs.resize(rows);
@@ -79,6 +80,7 @@ void LocalGlobalIntegrator::factor_fresh(bool keep_ordering) {
   }
   Stopwatch start;
   m_solver = std::make_unique<SparseCholesky>(m_options.factor, m_options.ordering);
+  m_solver->set_simplicial_solves(true);  // Q is factored once and solved ~10× per step
   if (keep_ordering && !m_previous_permutation.empty() && m_previous_size <= m_pattern.size) {
     // The old ordering, each new unknown placed right after the last of its old neighbours
     // (eliminated after them, like a leaf): little extra fill, no ordering search.
@@ -313,10 +315,11 @@ double LocalGlobalIntegrator::begin_step(Cloth& cloth, const Vec3& gravity, doub
 
 }
 
-double LocalGlobalIntegrator::local_step(const Cloth& cloth) {
-  // The local step (every spring's ideal vector into m_rhs) and, in the same pass, the
-  // objective's gradient at the iterate (m_gradient); returns the Newton-style residual
-  // max |∇ᵢE| h²/mᵢ, reported but not the test.
+double LocalGlobalIntegrator::local_step(const Cloth& cloth, bool with_gradient) {
+  // The local step: every spring's ideal vector into the right-hand side. With `with_gradient`
+  // (the step's last pass: the residual is reported, never tested) also the objective's
+  // gradient at the iterate (m_gradient) in the same pass; returns the Newton-style residual
+  // max |∇ᵢE| h²/mᵢ then, NaN when the right-hand side is not finite, 0 otherwise.
   const double dt = m_h;
   const Vec3& gravity = m_gravity;
   const SpringSet& springs = cloth.springs();
@@ -325,13 +328,15 @@ double LocalGlobalIntegrator::local_step(const Cloth& cloth) {
   const QuadraticBendingMatrix* bending = with_bending ? &cloth.quadratic_bending() : nullptr;
   const double modulus = cloth.bending_modulus();
   ScopedTimer timer(m_statistics.assemble_seconds);
-  m_rhs = m_base_rhs;
-  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-    const std::int32_t i = m_free_vertices[b];
-    const double m = cloth.masses()[i];
-    m_gradient.row(static_cast<Eigen::Index>(b)) =
-        m / (dt * dt) * (m_iterate.row(i) - m_target.row(i)) +
-        drag * m / dt * (m_iterate.row(i) - m_start.row(i)) - m * gravity.transpose();
+  m_rhs_rows = m_base_rhs;
+  if (with_gradient) {
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      const std::int32_t i = m_free_vertices[b];
+      const double m = cloth.masses()[i];
+      m_gradient.row(static_cast<Eigen::Index>(b)) =
+          m / (dt * dt) * (m_iterate.row(i) - m_target.row(i)) +
+          drag * m / dt * (m_iterate.row(i) - m_start.row(i)) - m * gravity.transpose();
+    }
   }
   for (std::size_t s = 0; s < springs.size(); ++s) {
     const std::int32_t i = springs.first[s], j = springs.second[s];
@@ -344,8 +349,9 @@ double LocalGlobalIntegrator::local_step(const Cloth& cloth) {
     Eigen::RowVector3d gradient = Eigen::RowVector3d::Zero();  // ∂E/∂xᵢ of this spring
     if (length > 0.0) {
       // local step: the spring's ideal vector, its current direction at its rest length
-      force = (springs.stiffness[s] * springs.rest_length[s] / length) * d;
-      gradient = (springs.stiffness[s] * (length - springs.rest_length[s]) / length) * d;
+      const double stretch = springs.stiffness[s] / length;
+      force = (stretch * springs.rest_length[s]) * d;
+      if (with_gradient) gradient = (stretch * (length - springs.rest_length[s])) * d;
     }
     if (springs.damping[s] > 0.0) {
       // The matrix damps the whole relative motion (c/h); give back its part across the
@@ -356,17 +362,17 @@ double LocalGlobalIntegrator::local_step(const Cloth& cloth) {
       const Eigen::RowVector3d n0 = m_directions.row(static_cast<Eigen::Index>(s));
       const double along = moved.dot(n0);
       force += (springs.damping[s] / dt) * (moved - along * n0);
-      gradient += (springs.damping[s] / dt * along) * n0;
+      if (with_gradient) gradient += (springs.damping[s] / dt * along) * n0;
     }
-    if (a >= 0) {
-      m_rhs.row(a) += force;
-      m_gradient.row(a) += gradient;
-    }
-    if (b >= 0) {
-      m_rhs.row(b) -= force;
-      m_gradient.row(b) -= gradient;
+    if (a >= 0) m_rhs_rows.row(a) += force;
+    if (b >= 0) m_rhs_rows.row(b) -= force;
+    if (with_gradient) {
+      if (a >= 0) m_gradient.row(a) += gradient;
+      if (b >= 0) m_gradient.row(b) -= gradient;
     }
   }
+  m_rhs = m_rhs_rows;  // column-major for the solver
+  if (!with_gradient) return m_rhs.allFinite() ? 0.0 : std::numeric_limits<double>::quiet_NaN();
   if (with_bending) {  // ∇ of ½ κ xᵀ Q x: κ (Q x)ᵢ
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
       const std::int32_t i = m_free_vertices[b];
@@ -447,13 +453,15 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   bool converged = m_pattern.size == 0;
   for (int iteration = 0; m_pattern.size > 0; ++iteration) {
     poll_interrupt();  // iterations is user-typed
-    residual = local_step(cloth);
-    if (m_options.tolerance > 0.0 && estimate.error <= tolerance) {
+    const bool tolerance_met = m_options.tolerance > 0.0 && estimate.error <= tolerance;
+    const bool last = tolerance_met || iteration == m_options.iterations;
+    residual = local_step(cloth, last);
+    if (tolerance_met) {
       converged = true;
       break;
     }
     if (!std::isfinite(residual)) break;  // the divergence monitor reports it
-    if (iteration == m_options.iterations) break;
+    if (last) break;
     const double change = global_step(iteration, omega);
     ++solves;
     estimate.update(change, iteration, m_options.chebyshev_rho);

@@ -40,6 +40,8 @@ struct SparseCholesky::Impl {
   cholmod_common common{};
   cholmod_sparse* matrix = nullptr;
   cholmod_factor* factor = nullptr;
+  cholmod_factor* solve_factor = nullptr;  // simplicial copy for the solves, or null
+  bool simplicial_solves = false;
   cholmod_dense* rhs = nullptr;
   cholmod_dense* solution = nullptr;
   cholmod_dense* work_y = nullptr;
@@ -75,6 +77,7 @@ struct SparseCholesky::Impl {
 
   void release() {
     if (factor) cholmod_free_factor(&factor, &common);
+    if (solve_factor) cholmod_free_factor(&solve_factor, &common);
     if (matrix) cholmod_free_sparse(&matrix, &common);
     if (rhs) cholmod_free_dense(&rhs, &common);
     if (solution) cholmod_free_dense(&solution, &common);
@@ -164,15 +167,27 @@ void SparseCholesky::factorize(const double* values) {
         << d.factor->minor << " of " << d.factor->n;
     throw NotPositiveDefinite(msg.str());
   }
+  if (d.solve_factor) cholmod_free_factor(&d.solve_factor, &d.common);
+  if (d.simplicial_solves && d.factor->is_super) {
+    // to simplicial LLᵀ (packed, monotonic): the supernodal factor stays for the next
+    // factorization with this analysis
+    d.solve_factor = cholmod_copy_factor(d.factor, &d.common);
+    d.check("copy_factor");
+    cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, d.solve_factor, &d.common);
+    d.check("change_factor");
+  }
   d.factored = true;
 }
+
+void SparseCholesky::set_simplicial_solves(bool on) { m_impl->simplicial_solves = on; }
 
 void SparseCholesky::solve(const double* rhs, double* solution) {
   Impl& d = *m_impl;
   if (!d.factored) throw std::logic_error("SparseCholesky::solve without a valid factor");
   std::memcpy(d.rhs->x, rhs, d.rhs->nrow * sizeof(double));
   // cholmod_solve2 reuses solution and workspace: no allocation after the first call.
-  cholmod_solve2(CHOLMOD_A, d.factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
+  cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
+  cholmod_solve2(CHOLMOD_A, factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
                  &d.common);
   d.check("solve");
   std::memcpy(solution, d.solution->x, d.rhs->nrow * sizeof(double));
@@ -189,7 +204,8 @@ void SparseCholesky::solve_columns(const double* rhs, double* solution, int colu
     d.check("zeros");
   }
   std::memcpy(d.block_rhs->x, rhs, n * static_cast<std::size_t>(columns) * sizeof(double));
-  cholmod_solve2(CHOLMOD_A, d.factor, d.block_rhs, nullptr, &d.block_solution, nullptr,
+  cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
+  cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr,
                  &d.block_y, &d.block_e, &d.common);
   d.check("solve");
   std::memcpy(solution, d.block_solution->x, n * static_cast<std::size_t>(columns) * sizeof(double));

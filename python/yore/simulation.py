@@ -368,7 +368,7 @@ class Simulation:
         ``step_tol`` (0 = off: Newton also stops after a full step that moved no vertex by
         more than step_tol × the mean rest length, the model's distance to the solution;
         counted in ``step_test_stops``; a step that
-        reaches ``max_newton`` (50) is accepted, counted in ``unconverged_steps`` and warned
+        reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
         "exact" | "trust-region" | "shifted", see `_OPTIONS`; None: "shifted", or "clamp" for
         linearized, pcg and lagged factorization), ``predictor`` (None | "start" |

@@ -90,7 +90,7 @@ struct ImplicitOptions {
   /// k h̃²/m times smaller error along the springs than it says; this test does not. 0 (the
   /// default) turns it off.
   double step_tol = 0.0;
-  int max_newton = 50;
+  int max_newton = 1000;
   LinearSolverOptions solver;
   double divergence_energy_factor = 10.0;
 };

@@ -112,7 +112,7 @@ class LocalGlobalIntegrator {
   double objective(const Cloth& cloth, const Positions& x) const;
   // One step, in its parts.
   double begin_step(Cloth& cloth, const Vec3& gravity, double dt);
-  double local_step(const Cloth& cloth);
+  double local_step(const Cloth& cloth, bool with_gradient);
   double global_step(int iteration, double& omega);
   /// The convergence test's estimate of the error left after an iteration, from the plain
   /// global step and the contraction of the iteration (see local_global.cpp).
@@ -153,7 +153,10 @@ class LocalGlobalIntegrator {
   Vec3 m_gravity = Vec3::Zero();
   Positions m_start, m_target, m_iterate, m_previous_iterate, m_solution;
   Positions m_directions;  // s×3, damping directions, from the predictor xₙ + h vₙ
-  Eigen::Matrix<double, Eigen::Dynamic, 3> m_base_rhs, m_rhs, m_unknowns, m_gradient;
+  // Per-unknown accumulators are row-major (a spring touches two rows); the solver's right-hand
+  // side and solution are column-major (x, y, z columns in one pass over the factor).
+  Positions m_base_rhs, m_rhs_rows, m_gradient;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> m_rhs, m_unknowns;
   Eigen::VectorXd m_work_rhs, m_work_x, m_diagonal;
   CgWorkspace m_cg;
   std::vector<double> m_objective_history;
