@@ -66,6 +66,28 @@ def explicit_seconds(make, target_seconds, repeats):
     return median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)["median"] / steps
 
 
+def dense_supernode_gflops(columns, rows, repeats=5):
+    """GFlop/s of numpy's dense kernels on one supernode's shape: the Cholesky of its
+    columns × columns block, the solve for the rows × columns block below it and the
+    rows × rows update it sends on (flops as each kernel does them: k³/3, 2k³/3 + 2k²m for the
+    LU solve, 2km² for the multiply), median of repeats. What a factorization whose flops sit
+    in supernodes of this shape can reach at best."""
+    k, m = max(1, int(columns)), max(1, int(rows))
+    rng = np.random.default_rng(0)
+    block = rng.standard_normal((k, k))
+    block = block @ block.T + k * np.eye(k)
+    below = rng.standard_normal((m, k))
+
+    def kernel():
+        factor = np.linalg.cholesky(block)
+        panel = np.linalg.solve(factor, below.T).T
+        return panel @ panel.T
+
+    timing = median_seconds(kernel, repeats=repeats, warmup=1)
+    flops = k**3 / 3 + 2 * k**3 / 3 + 2 * k * k * m + 2 * k * m * m
+    return flops / timing["median"] / 1e9
+
+
 def measure(name, make, stroke, ordering, repeats, explicit):
     sim = make("implicit", linearized=True, ordering=ordering)
     sim.step(1, progress=False)
@@ -101,6 +123,10 @@ def measure(name, make, stroke, ordering, repeats, explicit):
     row["step_after_stroke_over_step"] = (row["step_after_stroke_seconds"]
                                           / row["implicit_step_seconds"])
     row["factorize_gflops"] = row["factor_flops"] / row["factorize_seconds"] / 1e9
+    row["supernode_median_columns"] = counters["supernode_median_columns"]
+    row["supernode_median_rows"] = counters["supernode_median_rows"]
+    row["dense_at_supernode_gflops"] = dense_supernode_gflops(row["supernode_median_columns"],
+                                                              row["supernode_median_rows"])
     return row
 
 
@@ -190,6 +216,7 @@ def main(argv=None):
             row = measure(name, make, stroke, ordering, repeats, explicit)
             row["dense_gflops"] = dense
             row["factorize_fraction_of_dense"] = row["factorize_gflops"] / dense
+            row["dense_at_supernode_fraction_of_dense"] = row["dense_at_supernode_gflops"] / dense
             rows.append(row)
             print(f"{name:16s} {ordering:6s} dofs {row['dofs']:7d} explicit "
                   f"{1e3 * explicit:8.3f} ms  implicit {1e3 * row['implicit_step_seconds']:9.2f} ms"

@@ -113,6 +113,22 @@ def section(data: dict, results: Path) -> str:
             f"{min(r['analyze_over_explicit_step'] for r in rebuild['rows']):.0f}–"
             f"{max(r['analyze_over_explicit_step'] for r in rebuild['rows']):.0f} explicit steps."]
 
+    shaped = [r for r in rebuild["rows"] if r.get("dense_at_supernode_gflops")]
+    if shaped:
+        out += ["", "What bounds the factorization's rate: half of its flops are in supernodes "
+                "(dense column blocks) no wider than the flop-weighted median below, and numpy's "
+                "dense kernels on one supernode of that shape (Cholesky, solve below it, update) "
+                "run at the rate given, in the same run:", "",
+                "| case | ordering | median supernode: columns × rows below | dense kernels at "
+                "that shape, GFlop/s (% of the big multiply) | factorization, % of that |",
+                "|---|---|---|---|---|"]
+        for r in shaped:
+            out.append(f"| {r['case']} | {r['ordering_used']} | "
+                       f"{r['supernode_median_columns']:.0f} × {r['supernode_median_rows']:.0f} | "
+                       f"{r['dense_at_supernode_gflops']:.1f} "
+                       f"({100 * r['dense_at_supernode_fraction_of_dense']:.0f} %) | "
+                       f"{100 * r['factorize_gflops'] / r['dense_at_supernode_gflops']:.0f} % |")
+
     lg = rebuild.get("local_global", [])
     if lg:
         out += ["", "Prefactored local-global (10 iterations per step), where the matrix is factored "

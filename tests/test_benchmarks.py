@@ -179,6 +179,8 @@ def test_rebuild_cost_smoke(tmp_path):
     for row in data["rows"]:
         assert row["analyses"] == 1 + row["repeats"]  # one per stroke, plus the first
         assert is_timing(row["step_after_stroke_seconds"]) and is_timing(row["analyze_seconds"])
+        assert 1 <= row["supernode_median_columns"] <= row["dofs"]
+        assert is_timing(row["dense_at_supernode_gflops"])
     strategies = {(r["case"], r["strategy"]) for r in data["local_global"]}
     assert {s for _, s in strategies} == {"fresh", "reuse-ordering", "stale-pcg"}
     for row in data["local_global"]:

@@ -622,3 +622,18 @@ def test_step_tol_off_by_default_and_checked():
         _stiff_chain(step_tol=-1e-3)
     with pytest.raises(ValueError, match="step_tol"):
         _stiff_chain(step_tol=float("nan"))
+
+
+def test_supernode_sizes_of_a_factor_that_is_one_dense_block():
+    # Two free vertices joined to each other and to a fixed one: all 6 unknowns couple, so the
+    # supernodal factor is a single 6-column supernode with no rows below it; the simplicial
+    # factor has none.
+    positions = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]])
+    for factorization, expected in (("supernodal", (6.0, 0.0)), ("simplicial", (0.0, 0.0))):
+        cloth = yore.Cloth(positions, np.array([[0, 1, 2]]), mass=0.01)
+        cloth.fix([0])
+        sim = yore.Simulation(cloth, integrator="implicit", factorization=factorization)
+        sim.step(1)
+        counters = sim.stats["counters"]
+        assert (counters["supernode_median_columns"],
+                counters["supernode_median_rows"]) == expected, factorization

@@ -169,6 +169,8 @@ RuntimeError if the cloth or the integrator is in use by another thread.)doc");
 inline void add_factor_statistics(py::dict& out, const SolverStatistics& solver) {
   out["factor_nonzeros"] = solver.factor_nonzeros;
   out["factor_flops"] = solver.factor_flops;
+  out["supernode_median_columns"] = solver.supernode_median_columns;
+  out["supernode_median_rows"] = solver.supernode_median_rows;
   out["ordering"] = solver.ordering;
 }
 

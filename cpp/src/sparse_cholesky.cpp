@@ -4,6 +4,12 @@
 
 #include <cholmod.h>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <vector>
 #include <sstream>
@@ -24,6 +30,67 @@ const char* ordering_name(int code) {
     case CHOLMOD_POSTORDERED: return "natural-postordered";
     default: return "unknown";
   }
+}
+
+// Debian's CHOLMOD 3.0 runs some loops of its supernodal factorization in OpenMP teams of a
+// fixed 4 threads (CHOLMOD_OMP_NUM_THREADS, compiled in), whatever the thread setting: on this
+// project's 2-core machines, 3 extra threads that spin and hand off through futexes. A 64²
+// linearized step took 3.1 CPU s per 20 steps with them and 0.96 without (one thread, same
+// run; OMP_MAX_ACTIVE_LEVELS=0). The dense kernels' parallelism is BLAS's (its own threads), so
+// CHOLMOD's calls run with no active OpenMP level. The level is process-wide in libgomp: for the
+// length of a CHOLMOD call, OpenMP loops on other threads run serial too (only slower).
+class SerialOpenMP {
+ public:
+  SerialOpenMP() {
+#ifdef _OPENMP
+    m_saved = omp_get_max_active_levels();
+    omp_set_max_active_levels(0);
+#endif
+  }
+  ~SerialOpenMP() {
+#ifdef _OPENMP
+    omp_set_max_active_levels(m_saved);
+#endif
+  }
+  SerialOpenMP(const SerialOpenMP&) = delete;
+  SerialOpenMP& operator=(const SerialOpenMP&) = delete;
+
+ private:
+  int m_saved = 1;
+};
+
+// Flop-weighted medians of the supernodes' widths (columns) and of the rows below them: a
+// supernode of k columns with m rows below costs about k³/3 + k²m + km² flops (its dense
+// Cholesky, the triangular solve below it and the update it sends to its ancestors).
+void supernode_sizes(const cholmod_factor* factor, SolverStatistics& statistics) {
+  statistics.supernode_median_columns = 0.0;
+  statistics.supernode_median_rows = 0.0;
+  if (!factor || !factor->is_super || factor->nsuper == 0) return;
+  const auto* super = static_cast<const std::int32_t*>(factor->super);
+  const auto* row_starts = static_cast<const std::int32_t*>(factor->pi);
+  struct Node {
+    double columns, rows, flops;
+  };
+  std::vector<Node> nodes(factor->nsuper);
+  double total = 0.0;
+  for (std::size_t s = 0; s < factor->nsuper; ++s) {
+    const double k = super[s + 1] - super[s];
+    const double m = (row_starts[s + 1] - row_starts[s]) - k;
+    nodes[s] = {k, m, k * k * k / 3.0 + k * k * m + k * m * m};
+    total += nodes[s].flops;
+  }
+  const auto median = [&](double Node::*size) {
+    std::sort(nodes.begin(), nodes.end(),
+              [&](const Node& a, const Node& b) { return a.*size < b.*size; });
+    double sum = 0.0;
+    for (const Node& node : nodes) {
+      sum += node.flops;
+      if (sum >= 0.5 * total) return node.*size;
+    }
+    return nodes.back().*size;
+  };
+  statistics.supernode_median_columns = median(&Node::columns);
+  statistics.supernode_median_rows = median(&Node::rows);
 }
 
 }  // namespace
@@ -134,9 +201,11 @@ void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
   std::memcpy(d.matrix->i, pattern.row_indices.data(), nnz * sizeof(std::int32_t));
   std::memset(d.matrix->x, 0, nnz * sizeof(double));
   if (permutation.empty()) {
+    const SerialOpenMP serial;
     d.factor = cholmod_analyze(d.matrix, &d.common);
   } else {
     // One method, the given permutation (postordered by CHOLMOD as usual); restore afterwards.
+    const SerialOpenMP serial;
     const int saved = d.common.method[0].ordering;
     d.common.method[0].ordering = CHOLMOD_GIVEN;
     d.factor = cholmod_analyze_p(d.matrix, const_cast<std::int32_t*>(permutation.data()),
@@ -149,6 +218,7 @@ void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
   ++d.statistics.analyses;
   d.statistics.factor_nonzeros = d.common.lnz;
   d.statistics.factor_flops = d.common.fl;
+  supernode_sizes(d.factor, d.statistics);
   d.statistics.ordering = ordering_name(d.factor->ordering);
 }
 
@@ -156,6 +226,7 @@ void SparseCholesky::factorize(const double* values) {
   Impl& d = *m_impl;
   if (!d.factor) throw std::logic_error("SparseCholesky::factorize before analyze");
   std::memcpy(d.matrix->x, values, d.matrix->nzmax * sizeof(double));
+  const SerialOpenMP serial;
   cholmod_factorize(d.matrix, d.factor, &d.common);
   d.check("factorize");
   ++d.statistics.factorizations;
@@ -187,6 +258,7 @@ void SparseCholesky::solve(const double* rhs, double* solution) {
   std::memcpy(d.rhs->x, rhs, d.rhs->nrow * sizeof(double));
   // cholmod_solve2 reuses solution and workspace: no allocation after the first call.
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
+  const SerialOpenMP serial;
   cholmod_solve2(CHOLMOD_A, factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
                  &d.common);
   d.check("solve");
@@ -205,6 +277,7 @@ void SparseCholesky::solve_columns(const double* rhs, double* solution, int colu
   }
   std::memcpy(d.block_rhs->x, rhs, n * static_cast<std::size_t>(columns) * sizeof(double));
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
+  const SerialOpenMP serial;
   cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr,
                  &d.block_y, &d.block_e, &d.common);
   d.check("solve");

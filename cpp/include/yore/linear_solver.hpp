@@ -44,6 +44,12 @@ struct SolverStatistics {
   std::int64_t solves = 0;
   double factor_nonzeros = 0.0;  ///< nnz(L) of the last analysis (0 for an iterative solver)
   double factor_flops = 0.0;     ///< flops of one factorization with the last analysis
+  /// Supernodal factor: half of a factorization's flops are in supernodes (dense blocks of
+  /// columns eliminated together) of at most this many columns, and in rows below them of at
+  /// most supernode_median_rows (both flop-weighted medians); 0 otherwise. The size of the
+  /// dense kernels that bound the factorization's rate.
+  double supernode_median_columns = 0.0;
+  double supernode_median_rows = 0.0;
   std::string ordering;          ///< ordering used by the last analysis ("" if none)
   std::int64_t iterations = 0;   ///< iterations of an iterative solver, cumulative
   std::int64_t unconverged = 0;  ///< solves of an iterative solver that hit its iteration limit
