@@ -39,7 +39,7 @@ demo: setup
 	$(VENV)/bin/yore demo -o $(OUT)
 
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
-BENCHMARKS := explicit_step implicit_step rebuild_cost crossover scaling newton_projection \
+BENCHMARKS := explicit_step implicit_step rebuild_cost crossover scaling newton_projection factor_reuse \
               stability_map stable_dt threads pictures
 BENCH_ENV := OPENBLAS_NUM_THREADS=1
 

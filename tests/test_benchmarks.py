@@ -239,6 +239,22 @@ def test_newton_projection_smoke(tmp_path):
     assert set(data["target_met"]) == {r["projection"] for r in data["rows"]}
 
 
+def test_factor_reuse_smoke(tmp_path):
+    data = run_benchmark("factor_reuse", tmp_path, "--quick")
+    assert {r["variant"] for r in data["rows"]} == set(data["variants"])
+    for row in data["rows"]:
+        assert is_timing(row["cpu_seconds_per_simulated_second"])
+        # every Newton system is solved once: fresh, reused, or after thrown-away tries
+        assert row["newton_per_step"] == pytest.approx(row["fresh_factorizations_per_step"]
+                                                       + row["factor_reuses_per_step"])
+        if row["variant"] == "default (shifted, residual test)":
+            assert row["deviation_from_default"] == 0.0 and row["factor_reuses_per_step"] == 0
+        else:
+            assert row["thrown_away_per_step"] == 0  # the clamp is never indefinite
+    lagged = [r for r in data["rows"] if "lagged" in r["variant"]]
+    assert lagged and all(r["factor_reuses_per_step"] > 0 for r in lagged)
+
+
 def test_threads_benchmark_smoke(tmp_path):
     data = run_benchmark("threads", tmp_path, "--quick")
     scenes = {"demo", "grid128", "grid64-implicit"}

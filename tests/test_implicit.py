@@ -366,6 +366,10 @@ def test_lagged_factorization_reaches_the_same_steps_with_fewer_factorizations()
     assert np.abs(plain - lagged).max() < 1e-8
     assert lagged_counters["lagged_solves"] > 0
     assert lagged_counters["factorizations"] < 0.5 * plain_counters["factorizations"]
+    # each Newton system is solved once: by CG on the kept factor (a reuse) or, when that CG
+    # fails or there is no factor yet, by a fresh factorization (none thrown away: the clamp)
+    assert lagged_counters["newton_iterations"] == (lagged_counters["factorizations"]
+                                                    + lagged_counters["factor_reuses"])
 
 
 def test_lagged_factorization_needs_the_projected_hessian_and_a_cholesky_backend():

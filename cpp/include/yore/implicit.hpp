@@ -106,7 +106,8 @@ struct ImplicitStatistics {
   std::int64_t exact_hessian_accepted = 0;  ///< projection exact: exact Hessians factorized
   std::int64_t abs_projections = 0;     ///< trust_region: iterations that used |λ| filtering
   std::int64_t shifted_factorizations = 0;  ///< shifted: factorizations with μ > 0 that succeeded
-  std::int64_t lagged_solves = 0;       ///< Newton solves done by CG on a lagged factor
+  std::int64_t lagged_solves = 0;       ///< Newton systems solved by CG on a lagged factor (not
+                                        ///< counting CG runs that failed and were refactored)
   std::int64_t lagged_cg_iterations = 0;
   std::int64_t lbfgs_skipped_updates = 0;  ///< lbfgs: pairs with sᵀy ≤ 0, not stored
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
