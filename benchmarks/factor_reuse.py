@@ -41,20 +41,24 @@ def sizes(quick):
     return {12: 2 * DT, 16: 2 * DT} if quick else {64: 0.25, 128: 0.125}
 
 
-def run(resolution, duration, options):
+def run(resolution, duration, options, max_seconds):
     sim = yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0, mass=0.1,
                                     stretch_stiffness=STIFFNESS, bend_stiffness=STIFFNESS,
                                     integrator="bdf2", dt=DT, **options)
-    steps = max(1, round(duration / DT))
+    planned = max(1, round(duration / DT))
     start = time.process_time()
+    steps = 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # capped steps are counted below
-        sim.step(steps, progress=False)
+        while steps < planned and time.process_time() - start < max_seconds:
+            sim.step(1, progress=False)
+            steps += 1
     cpu = time.process_time() - start
     c = sim.stats["counters"]
     fresh = c["factorizations"] - c["factorizations_thrown_away"]
     return sim, {
-        "resolution": resolution, "steps": steps, "simulated_seconds": steps * DT,
+        "resolution": resolution, "steps": steps, "planned_steps": planned,
+        "stopped_by_cpu_cap": steps < planned, "simulated_seconds": steps * DT,
         "newton_per_step": c["newton_iterations"] / steps,
         "fresh_factorizations_per_step": fresh / steps,
         "factor_reuses_per_step": c["factor_reuses"] / steps,
@@ -66,27 +70,36 @@ def run(resolution, duration, options):
     }
 
 
+def options(parser):
+    parser.add_argument("--max-run-seconds", type=float, default=900.0,
+                        help="CPU seconds after which a run stops at the end of its step "
+                             "(default 900); its figures are then per step done")
+
+
 def main(argv=None):
-    args = arguments(__doc__, argv)
+    args = arguments(__doc__, argv, options)
     rows = []
     for resolution, duration in sizes(args.quick).items():
         reference = None
-        for name, options in VARIANTS.items():
-            sim, row = run(resolution, duration, options)
+        for name, variant_options in VARIANTS.items():
+            sim, row = run(resolution, duration, variant_options, args.max_run_seconds)
             positions = np.asarray(sim.cloth.positions)
             if reference is None:
-                reference = positions
+                reference = (positions, row["steps"])
             size = float(np.ptp(positions, axis=0).max())
-            row.update(variant=name, options=options,
-                       deviation_from_default=float(
-                           np.linalg.norm(positions - reference, axis=1).max() / size))
+            # (None when the two runs did not reach the same time)
+            deviation = (float(np.linalg.norm(positions - reference[0], axis=1).max() / size)
+                         if row["steps"] == reference[1] else None)
+            row.update(variant=name, options=variant_options, deviation_from_default=deviation)
             rows.append(row)
             print(f"{resolution:4d}² {name:34s} {row['newton_per_step']:6.1f} it/step, fresh "
                   f"{row['fresh_factorizations_per_step']:5.1f}, reused "
                   f"{row['factor_reuses_per_step']:5.1f}, thrown "
                   f"{row['thrown_away_per_step']:4.1f}, capped {row['unconverged_steps']}, "
                   f"{row['cpu_seconds_per_simulated_second']:8.2f} CPU s/s, deviation "
-                  f"{row['deviation_from_default']:.1e}", flush=True)
+                  f"{row['deviation_from_default']}"
+                  + (f" (stopped by the CPU cap after {row['steps']} of {row['planned_steps']} "
+                     "steps)" if row["stopped_by_cpu_cap"] else ""), flush=True)
     for resolution in sizes(args.quick):
         chosen = {r["variant"]: r for r in rows if r["resolution"] == resolution}
         lagged = chosen["clamp, step test, lagged factor"]

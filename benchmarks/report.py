@@ -55,6 +55,16 @@ def crossover_section(crossover: dict, results: Path) -> list:
            f"{', '.join(crossover['families'])}"
            + (f" (not in this build: {'; '.join(crossover['families_unavailable'])})"
               if crossover["families_unavailable"] else "") + ".", ""]
+    from .crossover import BENDING_ROWS, SIZES, STIFFNESSES
+
+    full = (list(SIZES), [float(k) for k in STIFFNESSES], list(BENDING_ROWS))
+    ran = (settings["sizes"], [float(k) for k in settings["stiffness"]], settings["bending"])
+    if ran != full:
+        out += [f"Only part of the grid ran: sizes {', '.join(f'{n}²' for n in ran[0])}; "
+                f"stiffness {', '.join(f'{k:g}' for k in ran[1])} N/m; bending "
+                f"{', '.join(ran[2])}; a run's CPU cap {settings['max_run_seconds']:g} s. The "
+                f"full grid ({len(SIZES)} sizes × {len(STIFFNESSES)} stiffnesses × "
+                f"{len(BENDING_ROWS)} bending rows) has not run here.", ""]
     out += summary_table(crossover)
     crossing = crossover["summary"]["crossovers"]
     if crossing:
@@ -227,8 +237,11 @@ def section(data: dict, results: Path) -> str:
         out.append(f"| {r['resolution']}² | {r['variant']} | {r['newton_per_step']:.1f} | "
                    f"{r['fresh_factorizations_per_step']:.1f} | "
                    f"{r['factor_reuses_per_step']:.1f} | {r['thrown_away_per_step']:.1f} | "
-                   f"{r['unconverged_steps']} | {r['cpu_seconds_per_simulated_second']:.1f} | "
-                   f"{r['deviation_from_default']:.1e} |")
+                   f"{r['unconverged_steps']} | {r['cpu_seconds_per_simulated_second']:.1f}"
+                   + (f" (CPU cap: {r['steps']} of {r['planned_steps']} steps)"
+                      if r.get("stopped_by_cpu_cap") else "") + " | "
+                   + (f"{r['deviation_from_default']:.1e} |"
+                      if r["deviation_from_default"] is not None else "– |"))
     lagged = [r for r in reuse["rows"] if "cpu_over_unlagged" in r]
     if lagged:
         out += ["", "The lagged factor's CPU time over the same setting without it: " + ", ".join(

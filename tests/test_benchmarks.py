@@ -247,12 +247,11 @@ def test_factor_reuse_smoke(tmp_path):
         # every Newton system is solved once: fresh, reused, or after thrown-away tries
         assert row["newton_per_step"] == pytest.approx(row["fresh_factorizations_per_step"]
                                                        + row["factor_reuses_per_step"])
+        assert not row["stopped_by_cpu_cap"] and row["steps"] == row["planned_steps"]
         if row["variant"] == "default (shifted, residual test)":
             assert row["deviation_from_default"] == 0.0 and row["factor_reuses_per_step"] == 0
         else:
             assert row["thrown_away_per_step"] == 0  # the clamp is never indefinite
-    lagged = [r for r in data["rows"] if "lagged" in r["variant"]]
-    assert lagged and all(r["factor_reuses_per_step"] > 0 for r in lagged)
 
 
 def test_threads_benchmark_smoke(tmp_path):
