@@ -102,3 +102,21 @@ def explicit_step_seconds(n: int, target_seconds: float, repeats: int) -> dict:
     timing = median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)
     return {key: (value / steps if key != "repeats" else value) for key, value in timing.items()} | {
         "steps_per_batch": steps}
+
+
+def grouped_bars(axes, rows, group, series, metrics):
+    """Bar charts of rows grouped along x by row[group], one bar per row[series] in each
+    group, one axis per metric (axes[k] shows row[metrics[k]]); returns the x positions and
+    the group values (in first-seen order), for the caller's tick labels."""
+    import numpy as np
+
+    groups = list(dict.fromkeys(r[group] for r in rows))
+    names = list(dict.fromkeys(r[series] for r in rows))
+    x = np.arange(len(groups))
+    width = 0.8 / len(names)
+    for k, name in enumerate(names):
+        chosen = [next(r for r in rows if r[group] == g and r[series] == name) for g in groups]
+        offset = (k - (len(names) - 1) / 2) * width
+        for ax, metric in zip(axes, metrics):
+            ax.bar(x + offset, [r[metric] for r in chosen], width, label=name)
+    return x, groups

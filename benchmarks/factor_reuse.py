@@ -24,7 +24,7 @@ import numpy as np
 
 import yore
 
-from .common import arguments, machine_info, save
+from .common import arguments, grouped_bars, machine_info, save
 
 DT = 1 / 60
 STIFFNESS = 2e5
@@ -119,19 +119,10 @@ def plot(rows, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    resolutions = list(dict.fromkeys(r["resolution"] for r in rows))
-    variants = list(dict.fromkeys(r["variant"] for r in rows))
-    x = np.arange(len(resolutions))
-    width = 0.8 / len(variants)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for v, variant in enumerate(variants):
-        chosen = [next(r for r in rows if r["resolution"] == n and r["variant"] == variant)
-                  for n in resolutions]
-        offset = (v - (len(variants) - 1) / 2) * width
-        axes[0].bar(x + offset, [r["fresh_factorizations_per_step"] for r in chosen], width,
-                    label=variant)
-        axes[1].bar(x + offset, [r["cpu_seconds_per_simulated_second"] for r in chosen], width,
-                    label=variant)
+    x, resolutions = grouped_bars(axes, rows, "resolution", "variant",
+                                  ("fresh_factorizations_per_step",
+                                   "cpu_seconds_per_simulated_second"))
     axes[0].set_ylabel("fresh factorizations per step")
     axes[1].set_ylabel("CPU s per simulated s")
     axes[1].set_yscale("log")

@@ -26,7 +26,7 @@ import numpy as np
 
 import yore
 
-from .common import arguments, machine_info, save
+from .common import arguments, grouped_bars, machine_info, save
 
 PROJECTIONS = ("clamp", "abs", "exact", "trust-region", "shifted")
 DT = 1 / 60
@@ -152,19 +152,9 @@ def plot(rows, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    projections = list(dict.fromkeys(r["projection"] for r in rows))
-    x = np.arange(len(scenes))
-    width = 0.8 / len(projections)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for p, projection in enumerate(projections):
-        chosen = [next(r for r in rows if r["scene"] == s and r["projection"] == projection)
-                  for s in scenes]
-        offset = (p - (len(projections) - 1) / 2) * width
-        axes[0].bar(x + offset, [r["median_iterations"] for r in chosen], width,
-                    label=projection)
-        axes[1].bar(x + offset, [r["rejected_per_step"] for r in chosen], width,
-                    label=projection)
+    x, scenes = grouped_bars(axes, rows, "scene", "projection",
+                             ("median_iterations", "rejected_per_step"))
     axes[0].set_ylabel("median Newton iterations per step")
     axes[1].set_ylabel("rejected factorizations per step")
     for ax in axes:
