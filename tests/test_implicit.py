@@ -207,9 +207,12 @@ def test_symbolic_analysis_runs_once_per_topology():
     sim.step(100)
     counters = sim.stats["counters"]
     assert counters["analyses"] == 1
-    # one factorization per Newton iteration, plus the exact Hessians found indefinite
+    # one factorization per Newton iteration but those solved again on the last factor (the
+    # default steihaug's refused steps), plus the exact Hessians found indefinite (none here)
     assert counters["factorizations"] == (counters["newton_iterations"]
+                                          - counters["factor_reuses"]
                                           + counters["exact_hessian_rejected"])
+    assert counters["exact_hessian_rejected"] == 0
     assert counters["newton_iterations"] >= 100
     version = sim.cloth.topology_version
     sim.cloth.fix([24])  # a change of the unknowns: a new topology version
@@ -572,9 +575,85 @@ def test_shifted_projection_resumes_with_its_shift():
         yore.Simulation.from_state(bad)
 
 
+def test_steihaug_throws_no_factorization_away_on_a_buckling_cloth():
+    # Counts are deterministic. The gathered cloth's compressed springs make the exact Hessian
+    # indefinite: the shifted projection throws factorizations away, trust-region Newton–CG
+    # factors only the clamped Hessian (SPD) and solves a refused step again on that factor.
+    steihaug = gathered_iterations("steihaug").stats["counters"]
+    shifted = gathered_iterations("shifted").stats["counters"]
+    assert shifted["factorizations_thrown_away"] > 0
+    assert steihaug["factorizations_thrown_away"] == steihaug["exact_hessian_rejected"] == 0
+    assert steihaug["unconverged_steps"] == 0
+    # it met negative curvature and refused steps, each solved again on the kept factor
+    assert steihaug["negative_curvature_steps"] > 0 and steihaug["trust_region_rejections"] > 0
+    assert steihaug["factor_reuses"] == steihaug["trust_region_rejections"]
+    assert steihaug["newton_iterations"] == (steihaug["factorizations"]
+                                             + steihaug["factor_reuses"])
+    assert steihaug["trust_region_cg_iterations"] > 0
+    assert steihaug["factorizations"] < shifted["factorizations"]
+
+
+def test_steihaug_on_a_convex_step_is_plain_newton():
+    # A chain pulled taut by gravity from its rest shape: no spring compressed, so the clamped
+    # Hessian is the exact one, each subproblem is one solve (no CG iteration) and the iterates
+    # are Newton's, as the clamp projection's full steps.
+    def chain(projection):
+        n = 8
+        V = np.column_stack([np.linspace(0.0, 0.7, n), np.zeros(n), np.zeros(n)])
+        edges = np.column_stack([np.arange(n - 1), np.arange(1, n)]).astype(np.int32)
+        cloth = yore.Cloth.from_springs(V, edges, mass=1e-3, stiffness=1e3, damping=0.0)
+        cloth.fix([0])
+        sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection=projection)
+        sim.step(3)
+        return sim
+    steihaug, clamp = chain("steihaug"), chain("clamp")
+    counters = steihaug.stats["counters"]
+    assert counters["trust_region_cg_iterations"] == 0
+    assert counters["trust_region_rejections"] == counters["negative_curvature_steps"] == 0
+    assert clamp.stats["counters"]["line_search_backtracks"] == 0
+    assert counters["newton_iterations"] == clamp.stats["counters"]["newton_iterations"]
+    assert np.abs(steihaug.cloth.positions - clamp.cloth.positions).max() < 1e-12
+
+
+def test_steihaug_and_shifted_agree_when_solved_tight():
+    # Two minimisers of the same potential: where the step's minimum is unique (no gathered
+    # start) they reach it to solver round-off; CG's inexact solves only change the path.
+    X = {}
+    for projection in ("steihaug", "shifted"):
+        sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", dt=0.02,
+                                        pin_spacing=1.0, newton_tol=1e-10, projection=projection)
+        sim.step(10)
+        assert sim.stats["counters"]["unconverged_steps"] == 0
+        X[projection] = sim.cloth.positions
+    assert np.abs(X["steihaug"] - X["shifted"]).max() < 1e-9
+
+
+def test_steihaug_resumes_with_its_trust_radius():
+    def gathered():
+        return yore.scenes.hanging_cloth(resolution=8, integrator="bdf2", dt=1 / 60,
+                                         projection="steihaug")
+    straight = gathered()
+    straight.step(6)
+    sim = gathered()
+    sim.step(2)
+    state = sim.state()
+    assert state["projection_memory"]["radius"] > 0.0
+    resumed = yore.Simulation.from_state(state)
+    resumed.step(4)
+    assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)
+    forgetful = yore.Simulation.from_state(
+        {**state, "projection_memory": {**state["projection_memory"], "radius": 0.0}})
+    forgetful.step(4)
+    assert not np.array_equal(forgetful.cloth.positions, straight.cloth.positions)
+    bad = {**state, "projection_memory": {**state["projection_memory"], "radius": -1.0}}
+    with pytest.raises(ValueError, match="radius"):
+        yore.Simulation.from_state(bad)
+
+
 def test_projection_options_are_checked():
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
-    with pytest.raises(ValueError, match="valid: clamp, abs, exact, trust-region, shifted"):
+    with pytest.raises(ValueError,
+                       match="valid: clamp, abs, exact, trust-region, shifted, steihaug"):
         yore.Simulation(cloth, integrator="implicit", projection="none")
     with pytest.raises(ValueError, match="contradicts"):
         yore.Simulation(cloth, integrator="implicit", projection="clamp",
@@ -583,6 +662,10 @@ def test_projection_options_are_checked():
         yore.Simulation(cloth, integrator="implicit", solver="pcg", projection="exact")
     with pytest.raises(ValueError, match="Cholesky"):
         yore.Simulation(cloth, integrator="implicit", solver="pcg", projection="shifted")
+    with pytest.raises(ValueError, match="Cholesky"):
+        yore.Simulation(cloth, integrator="implicit", solver="pcg", projection="steihaug")
+    with pytest.raises(ValueError, match="neither linearized nor lagged"):
+        yore.Simulation(cloth, integrator="implicit", linearized=True, projection="steihaug")
 
 
 def _stiff_chain(**options):

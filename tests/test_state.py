@@ -242,7 +242,8 @@ def test_newtons_projection_memory_is_saved_so_a_resume_decides_the_same():
     sim = gathered()
     sim.step(1)
     state = sim.state()
-    assert state["projection_memory"] == {"exact_skip": 1, "exact_backoff": 2, "shift": 0.0}
+    assert state["projection_memory"] == {"exact_skip": 1, "exact_backoff": 2, "shift": 0.0,
+                                          "radius": 0.0}
     resumed = yore.Simulation.from_state(state)
     resumed.step(7)
     assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)

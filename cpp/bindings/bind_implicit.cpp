@@ -90,7 +90,8 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
           {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
            {"exact", HessianProjection::exact},
            {"trust-region", HessianProjection::trust_region},
-           {"shifted", HessianProjection::shifted}}),
+           {"shifted", HessianProjection::shifted},
+           {"steihaug", HessianProjection::steihaug}}),
       choice_option<O, NewtonPredictor>(
           "predictor", [](O& o) -> NewtonPredictor& { return o.predictor; },
           {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}}),
@@ -183,20 +184,24 @@ Newton direction.)doc")
             out["exact_skip"] = memory.exact_skip;
             out["exact_backoff"] = memory.exact_backoff;
             out["shift"] = memory.shift;
+            out["radius"] = memory.radius;
             return out;
           },
-          "The exact projection's memory across steps: a dict with exact_skip (steps still to "
-          "take projected), exact_backoff (the next wait after a rejection) and shift (the "
-          "shifted projection's μ, in units of M/h̃²).")
+          "The projections' memory across steps: a dict with exact_skip (steps still to "
+          "take projected), exact_backoff (the next wait after a rejection), shift (the "
+          "shifted projection's μ, in units of M/h̃²) and radius (the steihaug projection's "
+          "trust radius, √J; 0: none yet).")
       .def(
           "set_projection_memory",
           [](ImplicitIntegrator& integrator, std::int64_t exact_skip, std::int64_t exact_backoff,
-             double shift) {
+             double shift, double radius) {
             check_idle(&integrator, "the integrator");
             integrator.set_projection_memory({to_int32(exact_skip, "exact_skip"),
-                                              to_int32(exact_backoff, "exact_backoff"), shift});
+                                              to_int32(exact_backoff, "exact_backoff"), shift,
+                                              radius});
           },
           py::arg("exact_skip"), py::arg("exact_backoff"), py::arg("shift") = 0.0,
+          py::arg("radius") = 0.0,
           "Restores a memory taken by projection_memory(); ValueError out of range.")
       .def_property_readonly("statistics", [](const ImplicitIntegrator& integrator) {
         check_idle(&integrator, "the integrator");
@@ -224,6 +229,9 @@ Newton direction.)doc")
         out["lagged_solves"] = s.lagged_solves;
         out["lagged_cg_iterations"] = s.lagged_cg_iterations;
         out["lbfgs_skipped_updates"] = s.lbfgs_skipped_updates;
+        out["trust_region_cg_iterations"] = s.trust_region_cg_iterations;
+        out["trust_region_rejections"] = s.trust_region_rejections;
+        out["negative_curvature_steps"] = s.negative_curvature_steps;
         out["last_newton_iterations"] = s.last_newton_iterations;
         out["last_line_search_backtracks"] = s.last_line_search_backtracks;
         out["last_residual"] = s.last_residual;

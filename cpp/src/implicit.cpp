@@ -48,6 +48,12 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
         "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
         "indefinite Hessian; pcg cannot");
   }
+  if (options.projection == HessianProjection::steihaug &&
+      (options.solver.backend == "pcg" || options.lagged_factorization || options.linearized)) {
+    throw std::invalid_argument(
+        "the steihaug projection needs a Cholesky backend (cholmod or eigen-ldlt) for its "
+        "preconditioner, and neither linearized nor lagged factorization");
+  }
   if (options.projection == HessianProjection::shifted &&
       (options.solver.backend == "pcg" || options.lagged_factorization)) {
     throw std::invalid_argument(
@@ -199,6 +205,8 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   const bool newton = m_options.minimizer == ImplicitMinimizer::newton;
   // quasi-Newton never assembles the 3n×3n Hessian: no values, no analysis of it
   m_values.assign(newton ? static_cast<std::size_t>(pattern.nonzeros()) : 0, 0.0);
+  m_exact_values.assign(m_options.projection == HessianProjection::steihaug ? m_values.size() : 0,
+                        0.0);
   m_anchor.resize(n, 3);
   m_target.resize(n, 3);
   m_trial.resize(n, 3);
@@ -392,6 +400,8 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     residual = scaled_residual(cloth);
     if (m_options.minimizer == ImplicitMinimizer::lbfgs) {
       quasi_newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
+    } else if (m_options.projection == HessianProjection::steihaug && !m_options.linearized) {
+      steihaug_iterate(cloth, energy, residual, iterations, backtracks, converged);
     } else {
       newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
     }
@@ -514,6 +524,12 @@ void ImplicitIntegrator::set_projection_memory(const ProjectionMemory& memory) {
   m_exact_skip = memory.exact_skip;
   m_exact_backoff = memory.exact_backoff;
   m_shift = memory.shift;
+  if (!std::isfinite(memory.radius) || memory.radius < 0.0) {
+    std::ostringstream msg;
+    msg << "projection memory must have a finite radius >= 0, got " << memory.radius;
+    throw std::invalid_argument(msg.str());
+  }
+  m_radius = memory.radius;
 }
 
 void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history) {

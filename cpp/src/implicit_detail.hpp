@@ -27,4 +27,18 @@ constexpr double kShiftGrowth = 10.0;
 constexpr double kShiftShrink = 2.0;
 constexpr double kMaxShift = 1e12;
 
+// Projection steihaug: most CG iterations per subproblem; the loosest relative residual CG
+// stops at; the trust-region ratio ρ (actual over predicted decrease) above which a trial step
+// is taken; below which the radius shrinks to kSteihaugShrink × the step's length; above which
+// a step that reached the edge grows it by kSteihaugGrowth. The usual values (Nocedal &
+// Wright, ch. 4); on the 32² stiff sheet and gathered cloth forcing 0.01–0.5, acceptance
+// 1e-4–0.2, shrink 0.1–0.5 and growth 2–4 were tried: none fewer iterations than these.
+constexpr int kMaxSteihaugIterations = 200;
+constexpr double kSteihaugForcing = 0.1;
+constexpr double kSteihaugAccept = 0.05;
+constexpr double kSteihaugShrinkBelow = 0.25;
+constexpr double kSteihaugShrink = 0.25;
+constexpr double kSteihaugGrowAbove = 0.75;
+constexpr double kSteihaugGrowth = 2.0;
+
 }  // namespace yore::implicit_detail

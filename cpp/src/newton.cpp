@@ -212,4 +212,155 @@ bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
   }
 }
 
+double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool same,
+                                              bool& boundary, double& length) {
+  // Preconditioned CG on H d = −g from d = 0, P the clamped Hessian (Steihaug–Toint; Nocedal &
+  // Wright, Alg. 7.2), inside ‖d‖_P ≤ Δ. It stops at the relative residual `forcing` in the P⁻¹
+  // norm, where ‖d‖_P reaches Δ (then along p to the edge), or on curvature pᵀHp ≤ 0: on the
+  // first iteration (p the clamped Newton step) it goes to the edge along p, later it keeps d.
+  // Unlike Steihaug's it never follows negative curvature past the clamped step: a compressed
+  // spring's negative transverse stiffness k(1 − L/ℓ) holds only within ~√(2ℓ(L − ℓ)) of its
+  // line, a stiff spring's quartic term takes over beyond it, and steps along it were refused
+  // by the ratio test at ρ ≈ −10…−10⁶ (measured on the 32² stiff sheet). ‖d‖_P and dᵀPp are
+  // carried by recurrences (no product with P).
+  CgWorkspace& w = m_cg;
+  m_direction.setZero();
+  w.residual = -m_gradient;
+  {
+    ScopedTimer timer(m_statistics.solve_seconds);
+    m_solver->solve(w.residual.data(), w.preconditioned.data());
+  }
+  double rz = w.residual.dot(w.preconditioned);
+  // A step starts from at least the clamped Newton step's length (the radius a step ends with
+  // is that of its last, tiny corrections).
+  if (first || !(m_radius > 0.0)) m_radius = std::max(m_radius, std::sqrt(rz));
+  const double radius2 = m_radius * m_radius;
+  if (same) {
+    // No spring is compressed: H = P, and the first CG step is Newton's step.
+    boundary = rz > radius2;
+    const double scale = boundary ? m_radius / std::sqrt(rz) : 1.0;
+    m_direction = scale * w.preconditioned;
+    length = scale * std::sqrt(rz);
+    return scale * rz - 0.5 * scale * scale * rz;  // −(g·d + ½ dᵀHd) with Hz = −g
+  }
+  w.direction = w.preconditioned;
+  const double target = forcing * std::sqrt(rz);
+  double dpd = 0.0, dpp = 0.0, ppp = rz;  // ‖d‖²_P, dᵀPp, ‖p‖²_P
+  boundary = false;
+  for (int j = 0; j < kMaxSteihaugIterations; ++j) {
+    poll_interrupt();
+    symmetric_multiply(m_pattern, m_exact_values.data(), w.direction, w.product);
+    const double curvature = w.direction.dot(w.product);
+    if (!(curvature > 0.0)) ++m_statistics.negative_curvature_steps;
+    if (!(curvature > 0.0) && j > 0) break;
+    const double alpha = rz / curvature;
+    const double next_dpd = dpd + 2.0 * alpha * dpp + alpha * alpha * ppp;
+    if (!(curvature > 0.0) || next_dpd >= radius2) {
+      // τ ≥ 0 with ‖d + τp‖²_P = Δ²
+      const double tau =
+          (-dpp + std::sqrt(std::max(0.0, dpp * dpp + ppp * (radius2 - dpd)))) / ppp;
+      m_direction += tau * w.direction;
+      boundary = true;
+      break;
+    }
+    m_direction += alpha * w.direction;
+    dpd = next_dpd;
+    w.residual -= alpha * w.product;
+    {
+      ScopedTimer timer(m_statistics.solve_seconds);
+      m_solver->solve(w.residual.data(), w.preconditioned.data());
+    }
+    ++m_statistics.trust_region_cg_iterations;
+    const double next = w.residual.dot(w.preconditioned);
+    if (!(next > target * target)) break;
+    const double beta = next / rz;
+    dpp = beta * (dpp + alpha * ppp);
+    ppp = next + beta * beta * ppp;
+    w.direction = w.preconditioned + beta * w.direction;
+    rz = next;
+  }
+  length = boundary ? m_radius : std::sqrt(std::max(0.0, dpd));
+  symmetric_multiply(m_pattern, m_exact_values.data(), m_direction, w.product);
+  return -(m_gradient.dot(m_direction) + 0.5 * m_direction.dot(w.product));
+}
+
+void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, double& residual,
+                                          int& iterations, int& backtracks, bool& converged) {
+  // Trust-region Newton–CG: each accepted iterate assembles the exact and the clamped Hessian
+  // and factors the clamped one (SPD: never refused); a step the ratio test refuses is solved
+  // again, on the same factor, in a smaller region.
+  bool factored = false;  // the factor and m_exact_values are of m_iterate
+  bool same = false;      // and equal: no spring compressed
+  double first_residual = -1.0;
+  while (true) {
+    poll_interrupt();  // max_newton is user-typed
+    const IterationVerdict now = verdict(energy, residual, iterations);
+    if (now == IterationVerdict::diverged) break;  // the state is checked after the step
+    if (now == IterationVerdict::converged) {
+      converged = true;
+      break;
+    }
+    if (now == IterationVerdict::at_cap) break;
+    if (!factored) {
+      energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
+      std::copy(m_values.begin(), m_values.end(), m_exact_values.begin());
+      evaluate(cloth, m_iterate, false, true, HessianProjection::clamp);
+      same = m_values == m_exact_values;
+      ScopedTimer timer(m_statistics.factorize_seconds);
+      m_solver->factorize(m_values.data());
+      factored = true;
+    } else {
+      ++m_statistics.lagged_solves;  // a refused step solved again on the same factor
+    }
+    ++iterations;
+    if (first_residual < 0.0) first_residual = residual;
+    // Loose far from the solution, tighter as the residual falls (superlinear convergence).
+    const double forcing = std::min(kSteihaugForcing, std::sqrt(residual / first_residual));
+    bool boundary = false;
+    double length = 0.0;
+    const double predicted = steihaug_direction(forcing, iterations == 1, same, boundary, length);
+    const double slope = m_gradient.dot(m_direction);
+    m_trial = m_iterate;
+    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+      m_trial.row(m_free_vertices[b]) +=
+          m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
+    }
+    double actual = 0.0, trial_energy = 0.0;
+    if (predicted <= kRoundoff * m_energy_magnitude) {
+      // below the energy's resolution: the trapezoid rule on the directional derivatives
+      // (as in line_search)
+      trial_energy = evaluate(cloth, m_trial, true, false);
+      actual = -0.5 * (slope + m_gradient.dot(m_direction));
+    } else {
+      trial_energy = evaluate(cloth, m_trial, false, false);
+      actual = energy - trial_energy;
+    }
+    const double ratio = predicted > 0.0 ? actual / predicted : -1.0;
+    const bool finite = std::isfinite(trial_energy) && std::isfinite(actual);
+    if (!finite || !(ratio >= kSteihaugShrinkBelow)) {
+      m_radius = kSteihaugShrink * length;
+    } else if (ratio > kSteihaugGrowAbove && boundary) {
+      m_radius = kSteihaugGrowth * m_radius;
+    }
+    if (finite && ratio > kSteihaugAccept) {
+      std::swap(m_iterate, m_trial);
+      energy = evaluate(cloth, m_iterate, true, false);
+      residual = scaled_residual(cloth);
+      factored = false;
+      if (m_options.step_tol > 0.0 && !boundary && std::isfinite(energy) &&
+          std::isfinite(residual) &&
+          m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
+        ++m_statistics.step_test_stops;
+        converged = true;
+        break;
+      }
+    } else {
+      ++backtracks;
+      ++m_statistics.trust_region_rejections;
+      if (!(m_radius > 0.0)) break;  // nothing left to try; the verdict at the cap decides
+      evaluate(cloth, m_iterate, true, false);  // the iterate's gradient again
+    }
+  }
+}
+
 }  // namespace yore

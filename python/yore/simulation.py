@@ -199,7 +199,8 @@ _RULES = {
     "pcg_tol": _real(0.0, 1.0, high_open=True),
     "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
     "adaptive_projection": _or_none(_flag()),
-    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted")),
+    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted",
+                                   "steihaug")),
     "predictor": _or_none(_one_of("start", "inertial")),
     "lagged_factorization": _flag(),
     "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
@@ -253,10 +254,10 @@ def _projection(options):
         return "exact" if options["adaptive_projection"] else "clamp"
     if options["linearized"] or options["solver"] == "pcg" or options["lagged_factorization"]:
         return "clamp"
-    # Levenberg–Marquardt on the exact Hessian: on every scene of benchmarks/newton_projection.py
-    # the cheapest projection and the closest to a tight solve (32² gathered cloth: 12 CPU s per
-    # simulated second against exact's 39, 3 steps at max_newton against 45).
-    return "shifted"
+    # Trust-region Newton–CG on the exact Hessian, preconditioned by the clamped one's factor:
+    # no factorization thrown away, and on the buckling scenes the cheapest (see the README's
+    # Newton section and benchmarks/newton_projection.py).
+    return "steihaug"
 
 
 def _make_implicit(options, method="backward-euler"):
@@ -517,11 +518,13 @@ class Simulation:
         memory = state.get("projection_memory")
         if memory is not None:
             keys = {"exact_skip", "exact_backoff"}
-            if not isinstance(memory, dict) or not keys <= set(memory) <= keys | {"shift"}:
+            optional = {"shift", "radius"}
+            if not isinstance(memory, dict) or not keys <= set(memory) <= keys | optional:
                 raise ValueError("projection_memory must be a dict with exact_skip, "
-                                 f"exact_backoff and (optional) shift, got {memory!r}")
+                                 f"exact_backoff and (optional) shift and radius, got {memory!r}")
             sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"],
-                                                  memory.get("shift", 0.0))
+                                                  memory.get("shift", 0.0),
+                                                  memory.get("radius", 0.0))
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
         follows = state.get("dt_follows_cloth", False)

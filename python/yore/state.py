@@ -387,14 +387,17 @@ def _check_simulation(field, simulation):
         if integrator not in ("implicit", "bdf2"):
             raise field.error("simulation.projection_memory", f"given for integrator "
                               f"{integrator!r}", "null (only Newton keeps one)")
-        # shift: absent from states saved before the shifted projection existed (then: 0)
+        # shift, radius: absent from states saved before the shifted and steihaug projections
+        # existed (then: 0)
         field.keys(memory, "simulation.projection_memory", ("exact_skip", "exact_backoff"),
-                   optional=("shift",))
+                   optional=("shift", "radius"))
         field.integer(memory["exact_skip"], "simulation.projection_memory.exact_skip", 0, 32)
         field.integer(memory["exact_backoff"], "simulation.projection_memory.exact_backoff",
                       1, 32)
         if "shift" in memory:
             field.real(memory["shift"], "simulation.projection_memory.shift", 0.0, high=1e12)
+        if "radius" in memory:
+            field.real(memory["radius"], "simulation.projection_memory.radius", 0.0)
     history = simulation["history"]
     if history is not None:
         bdf2 = integrator == "bdf2" or (integrator == "quasi-newton" and

@@ -37,6 +37,11 @@ enum class HessianProjection {
   shifted,       ///< Levenberg–Marquardt: the exact Hessian plus μ M/h̃², μ ≥ 0 raised when the
                  ///< factorization finds it indefinite or the quadratic model fits poorly and
                  ///< lowered when it fits well; μ carries over to the next step
+  steihaug,      ///< trust-region Newton–CG (Steihaug–Toint): CG on the exact Hessian,
+                 ///< preconditioned by the factor of the clamped one (always SPD), inside a
+                 ///< trust region in that factor's norm; a refused step is solved again on the
+                 ///< same factor (none thrown away). Negative curvature past the clamped step
+                 ///< is not followed (see newton.cpp)
 };
 
 /// Where Newton starts each step.
@@ -110,6 +115,9 @@ struct ImplicitStatistics {
                                         ///< counting CG runs that failed and were refactored)
   std::int64_t lagged_cg_iterations = 0;
   std::int64_t lbfgs_skipped_updates = 0;  ///< lbfgs: pairs with sᵀy ≤ 0, not stored
+  std::int64_t trust_region_cg_iterations = 0;  ///< steihaug: CG iterations (one solve each)
+  std::int64_t trust_region_rejections = 0;     ///< steihaug: trial steps the ratio test refused
+  std::int64_t negative_curvature_steps = 0;    ///< steihaug: steps CG ended on ≤ 0 curvature
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
   double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
@@ -184,9 +192,10 @@ class ImplicitIntegrator {
     int exact_skip = 0;
     int exact_backoff = 1;
     double shift = 0.0;  ///< projection shifted: the μ the next iteration starts with (≥ 0)
+    double radius = 0.0;  ///< projection steihaug: the trust radius (0: not set yet), √J
   };
   ProjectionMemory projection_memory() const {
-    return {m_exact_skip, m_exact_backoff, m_shift};
+    return {m_exact_skip, m_exact_backoff, m_shift, m_radius};
   }
   /// Restores a memory taken by projection_memory(); throws std::invalid_argument out of range.
   void set_projection_memory(const ProjectionMemory& memory);
@@ -242,6 +251,15 @@ class ImplicitIntegrator {
   void newton_iterate(const Cloth& cloth, double& energy, double& residual, int& iterations,
                       int& backtracks, bool& converged);
   bool factorize_shifted(const Cloth& cloth);
+  /// projection steihaug: minimises from m_iterate by trust-region Newton–CG (newton.cpp).
+  void steihaug_iterate(const Cloth& cloth, double& energy, double& residual, int& iterations,
+                        int& backtracks, bool& converged);
+  /// Steihaug–Toint CG for the trust-region subproblem at m_iterate (exact Hessian in
+  /// m_exact_values, the factor of the clamped one in m_solver, gradient in m_gradient); leaves
+  /// the step in m_direction and returns the model's decrease −(g·d + ½ dᵀHd). `first`: the
+  /// step's first subproblem; `same`: the two Hessians are equal (one solve is Newton's step).
+  double steihaug_direction(double forcing, bool first, bool same, bool& boundary,
+                            double& length);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
@@ -275,6 +293,8 @@ class ImplicitIntegrator {
   // projection exact: steps still to take projected after a rejection, and the next back-off
   int m_exact_skip = 0, m_exact_backoff = 1;
   double m_shift = 0.0;  // projection shifted: μ, in units of the inertia M/h̃²
+  double m_radius = 0.0;  // projection steihaug: trust radius in the clamped factor's norm
+  std::vector<double> m_exact_values;  // projection steihaug: the exact Hessian's values
   CgWorkspace m_cg;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
 
