@@ -5,8 +5,9 @@ tight-tolerance solve.
     python -m benchmarks.newton_projection [--out bench-results] [--quick]
 
 Backward Euler at 1/60 s with the default options (newton_tol 1e-5, max_newton 1000) except the
-projection: clamp, abs, exact, trust-region and shifted (Levenberg–Marquardt on the exact
-Hessian). Per row: median, mean and largest Newton iterations per step, rejected (indefinite)
+projection: clamp, abs, exact, trust-region, shifted (Levenberg–Marquardt on the exact
+Hessian) and steihaug (trust-region Newton–CG on the exact Hessian, preconditioned by the
+clamped one's factor; the default). Per row: median, mean and largest Newton iterations per step, rejected (indefinite)
 factorizations per step, steps that reached max_newton, CPU seconds (time.process_time, run
 with one thread) per simulated second, and the largest vertex deviation from the scene's
 tight-tolerance run (shifted, newton_tol 1e-9, max_newton 1000) over the cloth's size (the
@@ -28,7 +29,7 @@ import yore
 
 from .common import arguments, grouped_bars, machine_info, save
 
-PROJECTIONS = ("clamp", "abs", "exact", "trust-region", "shifted")
+PROJECTIONS = ("clamp", "abs", "exact", "trust-region", "shifted", "steihaug")
 DT = 1 / 60
 # Every this many steps, the step is also solved tight from the same state (step_deviation).
 PROBE_EVERY = 10

@@ -245,7 +245,8 @@ def section(data: dict, results: Path) -> str:
     lagged = [r for r in reuse["rows"] if "cpu_over_unlagged" in r]
     if lagged:
         out += ["", "The lagged factor's CPU time over the same setting without it: " + ", ".join(
-            f"{r['resolution']}² {r['cpu_over_unlagged']:.2f}×" for r in lagged) + "."]
+            f"{r['resolution']}² {r['variant']} {r['cpu_over_unlagged']:.2f}×"
+            for r in lagged) + "."]
 
     # -- stability ------------------------------------------------------------------------------
     stability = data["stability_map"]

@@ -227,7 +227,7 @@ def test_stable_dt_smoke(tmp_path):
 def test_newton_projection_smoke(tmp_path):
     data = run_benchmark("newton_projection", tmp_path, "--quick")
     assert {r["projection"] for r in data["rows"]} == {"clamp", "abs", "exact", "trust-region",
-                                                        "shifted"}
+                                                        "shifted", "steihaug"}
     # only the projections that try the exact Hessian can have it rejected
     assert all(r["rejected_per_step"] == 0 for r in data["rows"]
                if r["projection"] not in ("exact", "shifted"))

@@ -49,10 +49,10 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
         "indefinite Hessian; pcg cannot");
   }
   if (options.projection == HessianProjection::steihaug &&
-      (options.solver.backend == "pcg" || options.lagged_factorization || options.linearized)) {
+      (options.solver.backend == "pcg" || options.linearized)) {
     throw std::invalid_argument(
         "the steihaug projection needs a Cholesky backend (cholmod or eigen-ldlt) for its "
-        "preconditioner, and neither linearized nor lagged factorization");
+        "preconditioner, and is not linearized");
   }
   if (options.projection == HessianProjection::shifted &&
       (options.solver.backend == "pcg" || options.lagged_factorization)) {

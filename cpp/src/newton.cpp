@@ -213,7 +213,9 @@ bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
 }
 
 double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool same,
-                                              bool& boundary, double& length) {
+                                              int max_iterations, bool& boundary,
+                                              double& length, bool& exhausted,
+                                              bool& negative) {
   // Preconditioned CG on H d = −g from d = 0, P the clamped Hessian (Steihaug–Toint; Nocedal &
   // Wright, Alg. 7.2), inside ‖d‖_P ≤ Δ. It stops at the relative residual `forcing` in the P⁻¹
   // norm, where ‖d‖_P reaches Δ (then along p to the edge), or on curvature pᵀHp ≤ 0: on the
@@ -222,8 +224,9 @@ double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool s
   // spring's negative transverse stiffness k(1 − L/ℓ) holds only within ~√(2ℓ(L − ℓ)) of its
   // line, a stiff spring's quartic term takes over beyond it, and steps along it were refused
   // by the ratio test at ρ ≈ −10…−10⁶ (measured on the 32² stiff sheet). ‖d‖_P and dᵀPp are
-  // carried by recurrences (no product with P).
+  // carried by recurrences (no product with P). `exhausted`: CG stopped at max_iterations.
   CgWorkspace& w = m_cg;
+  exhausted = negative = false;
   m_direction.setZero();
   w.residual = -m_gradient;
   {
@@ -247,12 +250,19 @@ double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool s
   const double target = forcing * std::sqrt(rz);
   double dpd = 0.0, dpp = 0.0, ppp = rz;  // ‖d‖²_P, dᵀPp, ‖p‖²_P
   boundary = false;
-  for (int j = 0; j < kMaxSteihaugIterations; ++j) {
+  for (int j = 0;; ++j) {
+    if (j == max_iterations) {
+      exhausted = true;
+      break;
+    }
     poll_interrupt();
     symmetric_multiply(m_pattern, m_exact_values.data(), w.direction, w.product);
     const double curvature = w.direction.dot(w.product);
-    if (!(curvature > 0.0)) ++m_statistics.negative_curvature_steps;
-    if (!(curvature > 0.0) && j > 0) break;
+    if (!(curvature > 0.0)) {
+      ++m_statistics.negative_curvature_steps;
+      negative = true;
+      if (j > 0) break;
+    }
     const double alpha = rz / curvature;
     const double next_dpd = dpd + 2.0 * alpha * dpp + alpha * alpha * ppp;
     if (!(curvature > 0.0) || next_dpd >= radius2) {
@@ -284,13 +294,23 @@ double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool s
   return -(m_gradient.dot(m_direction) + 0.5 * m_direction.dot(w.product));
 }
 
+void ImplicitIntegrator::refactor_clamped(const Cloth& cloth, bool& same) {
+  // m_values ← the clamped Hessian at m_iterate (m_exact_values holds the exact one there)
+  evaluate(cloth, m_iterate, false, true, HessianProjection::clamp);
+  same = m_values == m_exact_values;
+  ScopedTimer timer(m_statistics.factorize_seconds);
+  m_solver->factorize(m_values.data());
+  m_factor_valid = true;
+}
+
 void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, double& residual,
                                           int& iterations, int& backtracks, bool& converged) {
   // Trust-region Newton–CG: each accepted iterate assembles the exact and the clamped Hessian
   // and factors the clamped one (SPD: never refused); a step the ratio test refuses is solved
   // again, on the same factor, in a smaller region.
-  bool factored = false;  // the factor and m_exact_values are of m_iterate
-  bool same = false;      // and equal: no spring compressed
+  const bool lagged = m_options.lagged_factorization;
+  bool assembled = false;  // m_exact_values (and the gradient) are of m_iterate
+  bool same = false;       // the factor is of m_iterate's clamped Hessian, equal to the exact one
   double first_residual = -1.0;
   while (true) {
     poll_interrupt();  // max_newton is user-typed
@@ -301,24 +321,36 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       break;
     }
     if (now == IterationVerdict::at_cap) break;
-    if (!factored) {
+    bool fresh = false;  // the factor was made at this iterate
+    if (!assembled) {
       energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
       std::copy(m_values.begin(), m_values.end(), m_exact_values.begin());
-      evaluate(cloth, m_iterate, false, true, HessianProjection::clamp);
-      same = m_values == m_exact_values;
-      ScopedTimer timer(m_statistics.factorize_seconds);
-      m_solver->factorize(m_values.data());
-      factored = true;
-    } else {
-      ++m_statistics.lagged_solves;  // a refused step solved again on the same factor
+      assembled = true;
+      if (!lagged || !m_factor_valid) {
+        refactor_clamped(cloth, same);
+        fresh = true;
+      }
     }
     ++iterations;
     if (first_residual < 0.0) first_residual = residual;
     // Loose far from the solution, tighter as the residual falls (superlinear convergence).
     const double forcing = std::min(kSteihaugForcing, std::sqrt(residual / first_residual));
-    bool boundary = false;
+    bool boundary = false, exhausted = false, negative = false;
     double length = 0.0;
-    const double predicted = steihaug_direction(forcing, iterations == 1, same, boundary, length);
+    const bool first = iterations == 1;
+    double predicted = steihaug_direction(forcing, first, same && fresh,
+                                          fresh ? kMaxSteihaugIterations
+                                                : m_options.lag_max_cg_iterations,
+                                          boundary, length, exhausted, negative);
+    if (exhausted && !fresh) {
+      // the kept factor no longer preconditions well: factor this iterate's clamped Hessian
+      // and solve the subproblem again
+      refactor_clamped(cloth, same);
+      fresh = true;
+      predicted = steihaug_direction(forcing, first, same, kMaxSteihaugIterations, boundary,
+                                     length, exhausted, negative);
+    }
+    if (!fresh) ++m_statistics.lagged_solves;  // solved on a factor made at an earlier iterate
     const double slope = m_gradient.dot(m_direction);
     m_trial = m_iterate;
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
@@ -346,8 +378,12 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       std::swap(m_iterate, m_trial);
       energy = evaluate(cloth, m_iterate, true, false);
       residual = scaled_residual(cloth);
-      factored = false;
-      if (m_options.step_tol > 0.0 && !boundary && std::isfinite(energy) &&
+      assembled = false;
+      same = false;
+      // the step test trusts a Newton step only: CG ended inside the region, converged, on
+      // positive curvature
+      if (m_options.step_tol > 0.0 && !boundary && !negative && !exhausted &&
+          std::isfinite(energy) &&
           std::isfinite(residual) &&
           m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
         ++m_statistics.step_test_stops;

@@ -247,12 +247,12 @@ def _make_explicit(options):
 
 def _projection(options):
     """The projection option in force: explicit, else mapped from adaptive_projection, else
-    the clamp where the exact Hessian cannot be used (linearized, pcg, lagged factorization)."""
+    the clamp where the exact Hessian cannot be used (linearized, pcg)."""
     if options["projection"] is not None:
         return options["projection"]
     if options["adaptive_projection"] is not None:
         return "exact" if options["adaptive_projection"] else "clamp"
-    if options["linearized"] or options["solver"] == "pcg" or options["lagged_factorization"]:
+    if options["linearized"] or options["solver"] == "pcg":
         return "clamp"
     # Trust-region Newton–CG on the exact Hessian, preconditioned by the clamped one's factor:
     # no factorization thrown away, and on the buckling scenes the cheapest (see the README's

@@ -79,7 +79,9 @@ struct ImplicitOptions {
   /// Lagged factorization: keep the last factor across Newton iterations and steps and solve
   /// with CG preconditioned by it on the current matrix; refactor only when CG needs more than
   /// lag_max_cg_iterations to reach lag_cg_tolerance. Uses the projected Hessian (CG needs SPD);
-  /// Cholesky backends only.
+  /// Cholesky backends only. With projection steihaug the matrix is the exact Hessian, CG's
+  /// tolerance is the trust-region solver's own, and a factor is made only where CG on the kept
+  /// one needs more than lag_max_cg_iterations.
   bool lagged_factorization = false;
   int lag_max_cg_iterations = 20;
   double lag_cg_tolerance = 1e-10;
@@ -257,9 +259,13 @@ class ImplicitIntegrator {
   /// Steihaug–Toint CG for the trust-region subproblem at m_iterate (exact Hessian in
   /// m_exact_values, the factor of the clamped one in m_solver, gradient in m_gradient); leaves
   /// the step in m_direction and returns the model's decrease −(g·d + ½ dᵀHd). `first`: the
-  /// step's first subproblem; `same`: the two Hessians are equal (one solve is Newton's step).
-  double steihaug_direction(double forcing, bool first, bool same, bool& boundary,
-                            double& length);
+  /// step's first subproblem; `same`: the two Hessians are equal (one solve is Newton's step);
+  /// `exhausted`: CG stopped at max_iterations; `negative`: it met curvature ≤ 0.
+  double steihaug_direction(double forcing, bool first, bool same, int max_iterations,
+                            bool& boundary, double& length, bool& exhausted, bool& negative);
+  /// projection steihaug: assembles the clamped Hessian at m_iterate into m_values and factors
+  /// it; `same` tells whether it equals the exact one in m_exact_values.
+  void refactor_clamped(const Cloth& cloth, bool& same);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
