@@ -44,8 +44,8 @@ _OPTIONS = {
         # (unconverged_steps) and warned about. solver: "cholmod" | "eigen-ldlt" | "pcg";
         # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
         # lagged_factorization: keep the factor across Newton iterations and steps, CG
-        # preconditioned by it on the current matrix, refactor when CG needs more than
-        # lag_max_cg_iterations.
+        # preconditioned by it on the current matrix (steihaug: the exact Hessian), refactor
+        # when CG needs more than lag_max_cg_iterations.
         **{name: value for name, value in _CORE_IMPLICIT.items()
            if name not in ("method", "minimizer", "lbfgs_history")},
         # Try the exact Hessian first, fall back to the PSD projection when the factorization
@@ -56,9 +56,10 @@ _OPTIONS = {
         # the clamp where the factorization finds it indefinite, decision kept across iterations
         # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp)
         # | "shifted" (Levenberg–Marquardt: exact Hessian + μ M/h², μ raised when indefinite or
-        # on a poor model fit, lowered on a good one, carried across steps). None:
-        # adaptive_projection decides if given, else "clamp" for linearized, pcg or lagged
-        # factorization and "shifted" otherwise.
+        # on a poor model fit, lowered on a good one, carried across steps) | "steihaug"
+        # (trust-region Newton–CG: CG on the exact Hessian preconditioned by the clamped one's
+        # factor; no factorization thrown away). None: adaptive_projection decides if given,
+        # else "clamp" for linearized or pcg and "steihaug" otherwise.
         "projection": None,
         # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
         # linearized (Baraff–Witkin's step), "inertial" otherwise.
@@ -371,8 +372,8 @@ class Simulation:
         counted in ``step_test_stops``; a step that
         reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region" | "shifted", see `_OPTIONS`; None: "shifted", or "clamp" for
-        linearized, pcg and lagged factorization), ``predictor`` (None | "start" |
+        "exact" | "trust-region" | "shifted" | "steihaug", see `_OPTIONS`; None: "steihaug",
+        or "clamp" for linearized and pcg), ``predictor`` (None | "start" |
         "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
@@ -382,7 +383,8 @@ class Simulation:
         Every system solved is SPD either way.
         ``lagged_factorization`` (False: keep the factor over iterations and steps, solve by CG
         preconditioned with it, refactor when CG needs more than ``lag_max_cg_iterations`` (20)
-        to reach ``lag_cg_tol`` (1e-10); uses the projected Hessian).
+        to reach ``lag_cg_tol`` (1e-10); CG runs on the projected Hessian, or with "steihaug"
+        on the exact one at the trust-region solver's own tolerance).
     local-global: ``iterations`` (300: the cap per step), ``tolerance`` (1e-3: a step stops
         once its estimated distance to the backward-Euler solution is below this × the mean
         rest length; 0 = no test; a step at the cap is counted in ``unconverged_steps`` and a
