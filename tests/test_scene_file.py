@@ -92,6 +92,20 @@ def test_missing_tables_and_keys_and_contradictions_are_named():
     assert error.key == "strokes[0].time" and "not before the end" in error.problem
 
 
+def test_a_stroke_that_rounds_to_the_last_step_is_refused_before_running(tmp_path):
+    # duration 0.05 s at dt 1 ms: a stroke at 0.0496 s rounds to step 50, the last, after which
+    # the run draws nothing; 0.049 s (step 49) is drawn before the last step
+    late = MINIMAL.replace("duration = 0.1", "duration = 0.05\ndt = 0.001") + (
+        "[[strokes]]\ntime = 0.0496\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n")
+    error = error_of(late)
+    assert error.key == "strokes[0].time" and error.line == 10
+    assert "step 50" in error.problem and "0.049" in error.expected
+    ok = late.replace("time = 0.0496", "time = 0.049")
+    summary = yore.run_scene(load_scene(Path("scene.toml"), text=ok), tmp_path / "run",
+                             quiet=True, render=False)
+    assert summary["finished"] and len(summary["strokes"]) == 1
+
+
 def test_selections_out_of_range_or_empty_fail_before_running():
     error = error_of(MINIMAL + "[[fixed]]\nindices = [3, 20]\n")
     assert error.key == "fixed[0].indices" and "vertex 20" in error.problem

@@ -34,6 +34,11 @@ __all__ = ["Scene", "load_scene", "parse_override"]
 
 
 # -- the scene ------------------------------------------------------------------------------------
+def step_of(seconds, dt):
+    """The step (from 0) a time falls on at step dt: the nearest, as the run counts them."""
+    return int(round(seconds / dt))
+
+
 @dataclass
 class Scene:
     """A checked scene: ``data`` holds every table with defaults filled in (numpy arrays for
@@ -76,6 +81,18 @@ class Scene:
         knows). Raises SceneError naming the stroke that misses."""
         if sim is None:
             sim, _ = self.build()
+        # A stroke is drawn before the step it rounds to; one that rounds to the run's last step
+        # (or past it) would never be drawn.
+        last = step_of(self.data["simulation"]["duration"], sim.dt)
+        for index, stroke in enumerate(self.data["strokes"]):
+            at = step_of(stroke["time"], sim.dt)
+            if at >= last:
+                raise self.error(
+                    f"strokes[{index}].time",
+                    f"{stroke['time']:g} s rounds to step {at} of dt = {sim.dt:.6g} s, the run's "
+                    f"last step ({last}, t = {self.data['simulation']['duration']:g} s), after "
+                    "which nothing is drawn",
+                    f"a time at most {(last - 1) * sim.dt:.6g} s (the duration less one step)")
         probe = Simulation(Cloth.from_state(sim.cloth.state()), integrator="explicit",
                            dt=sim.dt, gravity=sim.gravity)
         for index, stroke in sorted(enumerate(self.data["strokes"]), key=lambda s: s[1]["time"]):

@@ -34,7 +34,7 @@ from ..io import FrameSeries, save_mesh
 from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
 from .building import apply_scene_stroke, scene_camera
-from .loading import Scene, load_scene
+from .loading import Scene, load_scene, step_of
 from .schema import SceneError
 
 __all__ = ["run_scene", "resume_run", "RunError", "RunInterrupted", "SUMMARY_NAME",
@@ -478,8 +478,7 @@ def _stable_advice(sim):
     return f"Try a smaller dt, e.g. {sim.dt / 4:.3g} s."
 
 
-def _steps(seconds, dt):
-    return int(round(seconds / dt))
+_steps = step_of  # the one rounding of times to steps (Scene.check_strokes uses it too)
 
 
 def _with_wall_time(record, started):
