@@ -314,6 +314,12 @@ def test_parse_pixels():
             parse_pixels(bad)
     dense = densify([[0.0, 0.0], [10.0, 0.0]])
     assert np.all(np.diff(dense[:, 0]) <= 2.0 + 1e-12) and dense[-1, 0] == 10.0
+    assert len(dense) == 6 and np.array_equal(densify([[3.0, 4.0]]), [[3.0, 4.0]])
+    from yore.viz.viewer import MAX_STROKE_SAMPLES
+    at_limit = densify([[0.0, 0.0], [2.0 * (MAX_STROKE_SAMPLES - 1), 0.0]])
+    assert len(at_limit) == MAX_STROKE_SAMPLES
+    with pytest.raises(ValueError, match="samples long"):
+        densify([[0.0, 0.0], [2.0 * MAX_STROKE_SAMPLES, 0.0]])
 
 
 # -- pictures ------------------------------------------------------------------------------------
@@ -475,6 +481,9 @@ def test_yore_view_continues_a_saved_run(tmp_path, capsys):
     (["--headless", "--screenshot", "x.png", "--fov", "190"], "--fov"),
     (["--headless", "--screenshot", "x.png", "--width", "0"], "--width"),
     (["--headless", "--screenshot", "x.png", "--stroke-px", "1,1 3,3"], "miss the cloth"),
+    # 100 pixels in range, 1.4e6 px apart: counted before any sample is made (was ~2.3 GB)
+    (["--headless", "--screenshot", "x.png", "--stroke-px",
+      " ".join(["0,0 999999,999999"] * 50)], "samples long"),
 ])
 def test_yore_view_bad_input_is_one_error_line(tmp_path, capsys, monkeypatch, arguments,
                                                 message):

@@ -88,16 +88,19 @@ def densify(pixels, spacing=SAMPLE_SPACING_PX) -> np.ndarray:
     pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
     if len(pixels) < 2:
         return pixels
+    # The size is counted before anything is allocated (a few far-apart pixels would
+    # otherwise ask for gigabytes).
+    lengths = np.linalg.norm(np.diff(pixels, axis=0), axis=1)
+    pieces = np.maximum(1, np.ceil(lengths / spacing))
+    total = 1 + float(pieces.sum())
+    if total > MAX_STROKE_SAMPLES:
+        raise ValueError(f"the stroke would be {total:.0f} samples long at {spacing} px spacing "
+                         f"({lengths.sum():.6g} px in all); at most {MAX_STROKE_SAMPLES}")
     out = [pixels[:1]]
-    for a, b in zip(pixels[:-1], pixels[1:]):
-        pieces = max(1, int(math.ceil(np.linalg.norm(b - a) / spacing)))
-        t = np.arange(1, pieces + 1)[:, None] / pieces
+    for a, b, count in zip(pixels[:-1], pixels[1:], pieces.astype(np.int64)):
+        t = np.arange(1, count + 1)[:, None] / count
         out.append(a + t * (b - a))
-    dense = np.concatenate(out)
-    if len(dense) > MAX_STROKE_SAMPLES:
-        raise ValueError(f"the stroke is {len(dense)} samples long at {spacing} px spacing; "
-                         f"at most {MAX_STROKE_SAMPLES}")
-    return dense
+    return np.concatenate(out)
 
 
 class Viewer:
@@ -766,6 +769,8 @@ def run_view_command(arguments, overrides) -> None:
     if arguments.screenshot is not None and arguments.screenshot.suffix.lower() != ".png":
         raise ValueError(f"--screenshot writes PNG files; got {str(arguments.screenshot)!r}")
     strokes = [parse_pixels(text) for text in arguments.stroke_px]
+    for pixels in strokes:
+        densify(pixels)  # its sample limit, before the scene is loaded and run
     for name in ("at", "until"):
         value = getattr(arguments, name)
         if value is not None and not (math.isfinite(value) and 0.0 <= value <= 1e6):
