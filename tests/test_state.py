@@ -208,7 +208,38 @@ def test_a_pickled_object_array_is_never_loaded(state_file):
         buffer = _io.BytesIO()
         np.save(buffer, np.array([object()], dtype=object), allow_pickle=True)
         archive.writestr("evil.npy", buffer.getvalue())
-    one_line_error(state_file, "field evil: ValueError: holds Python objects")
+    # a member the document does not refer to is refused unread
+    one_line_error(state_file, "member evil.npy is not a field the state refers to")
+
+
+def test_a_pickled_array_the_document_refers_to_is_never_loaded(state_file):
+    def change(arrays, document):
+        arrays["simulation/cloth/masses"] = np.array([object()], dtype=object)
+
+    tampered(state_file, change)
+    one_line_error(state_file, "ValueError: holds Python objects")
+
+
+def test_members_no_field_refers_to_are_refused_unread_and_the_total_is_bounded(
+        state_file, monkeypatch):
+    import zipfile
+
+    import yore.state
+
+    # an extra member that would inflate to 64 MiB from a few kB: refused without inflating
+    with zipfile.ZipFile(state_file, "a", compression=zipfile.ZIP_DEFLATED) as archive:
+        with archive.open("bomb.npy", "w", force_zip64=True) as member:
+            np.lib.format.write_array_header_1_0(
+                member, {"descr": "<f8", "fortran_order": False, "shape": (2**23,)})
+            for _ in range(64):
+                member.write(bytes(2**20))
+    assert state_file.stat().st_size < 2**20
+    one_line_error(state_file, "member bomb.npy is not a field the state refers to")
+    with pytest.raises(ValueError, match="bomb.npy"):
+        yore.state.load_metadata(state_file)
+    # the members' declared sizes are summed before any is read
+    monkeypatch.setattr(yore.state, "MAX_STATE_FILE_BYTES", 2**25)
+    one_line_error(state_file, "declare .* bytes uncompressed in all")
 
 
 def test_a_header_announcing_more_data_than_stored_allocates_nothing(state_file):

@@ -78,7 +78,7 @@ def load_state(path):
     field of the wrong kind.
     """
     path = Path(os.fspath(path))
-    arrays, document = _read_archive(path)
+    arrays, document, unknown = _read_archive(path)
     field = _FieldChecker(path)
     if not isinstance(document, dict) or set(document) != {"format", "version", "simulation",
                                                            "metadata"}:
@@ -91,6 +91,7 @@ def load_state(path):
                           f"version {STATE_VERSION}", str(STATE_VERSION))
     simulation = field.join(document["simulation"], arrays, "simulation")
     metadata = field.join(document["metadata"], arrays, "metadata")
+    _refuse_unknown(path, unknown)
     if metadata is not None and not isinstance(metadata, dict):
         raise field.error("metadata", f"got {_show(metadata)}", "a table or null")
     _check_simulation(field, simulation)
@@ -120,9 +121,10 @@ def _show(value):
 
 
 def _read_archive(path):
-    """(arrays, document) of a state file, read with zipfile and the .npy header parser (so a
-    tampered header cannot make numpy allocate what the file does not hold, and no pickle is
-    ever loaded); ValueError naming the file and the member otherwise."""
+    """(arrays, document, unknown) of a state file, read with zipfile and the .npy header
+    parser (so a tampered header cannot make numpy allocate what the file does not hold, and no
+    pickle is ever loaded); ``unknown``: the members the document does not refer to, not read.
+    ValueError naming the file and the member otherwise."""
     try:
         info = os.stat(path)
     except FileNotFoundError:
@@ -134,22 +136,48 @@ def _read_archive(path):
     if info.st_size > MAX_STATE_FILE_BYTES:
         raise ValueError(f"cannot read state file {path}: {info.st_size} bytes is more than the "
                          f"limit of {MAX_STATE_FILE_BYTES} bytes")
-    arrays = {}
+    arrays, unknown = {}, []
     member = None
     try:
         with zipfile.ZipFile(path) as archive:
-            for entry in archive.infolist():
+            entries = archive.infolist()
+            # Sizes and names are checked from the directory before anything is inflated: the
+            # total the members declare is bounded (each member is read only up to its
+            # declared size), and a member the document does not refer to is refused unread.
+            declared = sum(entry.file_size for entry in entries)
+            if declared > MAX_STATE_FILE_BYTES:
+                raise ValueError(f"its members declare {declared} bytes uncompressed in all, "
+                                 f"more than the limit of {MAX_STATE_FILE_BYTES}")
+            by_name = {}
+            for entry in entries:
                 member = entry.filename
                 if not member.endswith(".npy") or entry.is_dir():
                     raise ValueError("not a .npy array")
-                if entry.file_size > MAX_STATE_FILE_BYTES:
-                    raise ValueError(f"{entry.file_size} bytes uncompressed is too large")
+                if member in by_name:
+                    raise ValueError("stored twice")
+                by_name[member] = entry
+            member = _DOCUMENT + ".npy"
+            if member not in by_name:
+                raise _DocumentError(f"{path} is not a yore state file (no {_DOCUMENT} entry)")
+            with archive.open(by_name[member]) as stream:
+                text = _read_npy(stream, by_name[member].file_size)
+            document = _parse_document(path, text)
+            referenced = _referenced_arrays(document)
+            for name, entry in by_name.items():
+                member = name
+                if name[:-4] == _DOCUMENT:
+                    continue
+                if name[:-4] not in referenced:
+                    unknown.append(name[:-4])  # refused by the caller, never read
+                    continue
                 with archive.open(entry) as stream:
-                    arrays[member[:-4]] = _read_npy(stream, entry.file_size)
+                    arrays[name[:-4]] = _read_npy(stream, entry.file_size)
     except zipfile.BadZipFile as error:
         where = f" (member {member})" if member else ""
         raise ValueError(f"{path} is not a readable yore state file (.npz){where}: "
                          f"{error}") from None
+    except _DocumentError as error:
+        raise ValueError(str(error)) from None
     except (ValueError, EOFError, OSError, zlib.error, KeyError, NotImplementedError,
             RuntimeError, MemoryError, struct.error, SyntaxError) as error:
         where = f"field {member[:-4] if member.endswith('.npy') else member}" if member \
@@ -157,18 +185,38 @@ def _read_archive(path):
         raise ValueError(f"{path} is not a readable yore state file: {where}: "
                          f"{type(error).__name__}: {' '.join(str(error).split())}"[:400]) \
             from None
-    text = arrays.pop(_DOCUMENT, None)
-    if text is None:
-        raise ValueError(f"{path} is not a yore state file (no {_DOCUMENT} entry)")
+    return arrays, document, sorted(unknown)
+
+
+class _DocumentError(Exception):
+    """The document member is readable but not a JSON text (its message is final)."""
+
+
+def _parse_document(path, text):
     if text.dtype.kind != "U" or text.shape != () or text.dtype.itemsize > 4 * _MAX_DOCUMENT_CHARS:
-        raise ValueError(f"{path}: field {_DOCUMENT}: got {_show(text)}; expected a JSON text")
+        raise _DocumentError(f"{path}: field {_DOCUMENT}: got {_show(text)}; expected a JSON "
+                             "text")
     try:
-        document = json.loads(str(text[()]))
+        return json.loads(str(text[()]))
     except (ValueError, RecursionError) as error:
         problem = "nested too deeply" if isinstance(error, RecursionError) else \
             f"not valid JSON ({' '.join(str(error).split())})"
-        raise ValueError(f"{path}: field {_DOCUMENT}: {problem}") from None
-    return arrays, document
+        raise _DocumentError(f"{path}: field {_DOCUMENT}: {problem}") from None
+
+
+def _referenced_arrays(document):
+    """The array names the document refers to (``{"$array": name}`` anywhere in it)."""
+    names, stack = set(), [document]
+    while stack:
+        value = stack.pop()
+        if isinstance(value, dict):
+            if set(value) == {"$array"} and isinstance(value["$array"], str):
+                names.add(value["$array"])
+            else:
+                stack.extend(value.values())
+        elif isinstance(value, list):
+            stack.extend(value)
+    return names
 
 
 def _read_npy(stream, size):
@@ -416,11 +464,20 @@ def load_metadata(path):
     """The ``metadata`` a state file was saved with (a dict or None), without building its
     simulation. Raises ValueError as `load_state` for a file that cannot be read."""
     path = Path(os.fspath(path))
-    arrays, document = _read_archive(path)
+    arrays, document, unknown = _read_archive(path)
     if not isinstance(document, dict) or "metadata" not in document:
         raise _FieldChecker(path).error("document", "is not a yore state document",
                                         "keys format, version, simulation, metadata")
-    return _FieldChecker(path).join(document["metadata"], arrays, "metadata")
+    metadata = _FieldChecker(path).join(document["metadata"], arrays, "metadata")
+    _refuse_unknown(path, unknown)
+    return metadata
+
+
+def _refuse_unknown(path, unknown):
+    """ValueError for members of a state file its document does not refer to (never read)."""
+    if unknown:
+        raise ValueError(f"{path}: member {unknown[0]}.npy is not a field the state refers to "
+                         f"({len(unknown)} such member(s), refused unread)")
 
 
 def _split(value, name, arrays):
