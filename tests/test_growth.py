@@ -194,6 +194,38 @@ def test_refined_strokes_keep_the_mesh_the_rest_area_and_the_mass():
     assert np.all(np.isfinite(cloth.positions))
 
 
+@pytest.mark.parametrize("width, passes", [(None, 4), (0.1, 3), (0.3, 3), (1.0, 2)])
+def test_the_refined_size_prediction_bounds_the_size_a_stroke_makes(width, passes):
+    from yore.stroke import predicted_refined_vertices
+
+    sim = yore.scenes.hanging_cloth(resolution=20, integrator="explicit")
+    before = sim.cloth.vertex_count
+    report = sim.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=passes, width=width)
+    band = report.faces_refined  # at least the first pass's band
+    first = yore.scenes.hanging_cloth(resolution=20, integrator="explicit")
+    one = first.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=1, width=width)
+    assert one.faces_refined <= band
+    assert sim.cloth.vertex_count <= predicted_refined_vertices(before, one.faces_refined
+                                                                 + one.faces_bisected, passes)
+
+
+def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tmp_path):
+    from yore.stroke import RefinementTooLarge
+
+    sim = yore.scenes.hanging_cloth(resolution=120, integrator="explicit")
+    version, vertices = sim.cloth.topology_version, sim.cloth.vertex_count
+    with pytest.raises(RefinementTooLarge, match="more than the limit of 1000000"):
+        sim.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=4, width=0.3)
+    assert sim.cloth.topology_version == version and sim.cloth.vertex_count == vertices
+    # in a scene file: one error naming the stroke's refine key, before the run
+    text = ('[mesh]\ngenerator = "grid"\nnx = 120\nny = 120\n[simulation]\nduration = 0.01\n'
+            'dt = 0.001\n[[strokes]]\ntime = 0.0\nmaterial = [[0.1, 0.5], [0.9, 0.52]]\n'
+            'width = 0.3\nrefine = 4\n')
+    with pytest.raises(SceneError) as caught:
+        load_scene(tmp_path / "scene.toml", text=text).check_strokes()
+    assert caught.value.key == "strokes[0].refine" and "1000000" in caught.value.problem
+
+
 def test_paper_mode_with_refinement_splits_the_crossed_refined_faces():
     plain, refined = flat_sim(), flat_sim()
     a = plain.stroke_material(STROKE)

@@ -46,6 +46,7 @@ import numpy as np
 
 from . import _core
 from .checks import check_factor
+from .meshes import MAX_MESH_VERTICES
 from .metrics import face_areas
 
 __all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
@@ -57,6 +58,10 @@ MIN_ANGLE_DEGREES = 5.0
 
 #: The growth modes (see the module docstring), in the order of the core's table.
 GROWTH_MODES = ("paper", "isotropic", "along", "across")
+#: Vertices a refinement pass adds per band face, and the band's growth per pass, at most
+#: (an estimate from above for `predicted_refined_vertices`; measured 1.2–1.9 and 2–4.6).
+REFINE_VERTICES_PER_FACE = 2.0
+REFINE_BAND_GROWTH = 5.0
 #: Most refinement passes one stroke may ask for: each pass quadruples the band's faces.
 MAX_REFINE = 4
 
@@ -185,6 +190,29 @@ def _check_hit(trace):
                            "all missed)")
 
 
+def predicted_refined_vertices(vertices, band_faces, passes):
+    """An estimate from above of the vertex count after ``passes`` refinement passes of a band
+    of ``band_faces`` faces on a mesh of ``vertices``: each pass adds at most
+    `REFINE_VERTICES_PER_FACE` vertices per band face, and the band (the same width in metres
+    over smaller faces) grows at most `REFINE_BAND_GROWTH` times per pass (measured on grids:
+    1.2–1.9 and 2–4.6)."""
+    growth = sum(REFINE_BAND_GROWTH ** k for k in range(passes))
+    return vertices + REFINE_VERTICES_PER_FACE * band_faces * growth
+
+
+class RefinementTooLarge(ValueError):
+    """A stroke's refinement could make the mesh larger than `MAX_MESH_VERTICES`."""
+
+
+def _check_refined_size(cloth, band_faces, passes):
+    predicted = predicted_refined_vertices(cloth.vertex_count, band_faces, passes)
+    if predicted > MAX_MESH_VERTICES:
+        raise RefinementTooLarge(
+            f"refine: {passes} passes over a band of {band_faces} faces could make the mesh "
+            f"{predicted:.3g} vertices, more than the limit of {MAX_MESH_VERTICES} (checked "
+            "before refining; the cloth is unchanged); use fewer passes or a narrower width")
+
+
 def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds, width=None,
                  growth="paper", refine=0, retrace=None) -> StrokeReport:
     """Refines, splits or grows along the faces a trace found; raises StrokeMissed when it found
@@ -196,9 +224,11 @@ def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds, width=None
     band_width = 0.0 if width is None else float(width)
     refined = {"faces_refined": 0, "faces_bisected": 0, "springs_added": 0,
                "springs_removed": 0, "vertices": []}
-    for _ in range(refine):
+    for done in range(refine):
         path, part = surface_path(cloth, trace)
         band = _core.stroke_band(cloth, path, part, trace["faces"], band_width)
+        if done == 0:
+            _check_refined_size(cloth, len(band["faces"]), refine)
         result = _core.refine_faces(cloth, band["faces"])
         refined["faces_refined"] += len(result["refined_faces"])
         refined["faces_bisected"] += len(result["bisected_faces"])

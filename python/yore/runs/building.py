@@ -18,7 +18,7 @@ from ..io import load_mesh
 from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh
 from ..simulation import Simulation
 from ..camera import Camera, camera_from_settings
-from ..stroke import StrokeMissed
+from ..stroke import RefinementTooLarge, StrokeMissed
 from .schema import _STROKE_FORMS, _did_you_mean
 
 __all__ = ["scene_camera", "apply_scene_stroke"]
@@ -176,6 +176,8 @@ def apply_scene_stroke(scene, sim, index, camera=None):
                                   "a [camera] table with eye and target")
             camera = camera or scene_camera(scene, sim.cloth.positions)
             report = sim.stroke_screen(stroke["screen"], camera, **options)
+    except RefinementTooLarge as error:
+        raise scene.error(f"{where}.refine", str(error).removeprefix("refine: ")) from None
     except StrokeMissed as error:
         form = next(f for f in _STROKE_FORMS if f in stroke)
         raise scene.error(f"{where}.{form}", f"the stroke misses the cloth at t = "
