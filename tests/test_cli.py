@@ -142,6 +142,37 @@ def test_a_diverging_run_exits_1_saying_when_and_suggesting_a_step(tmp_path, cap
     assert (tmp_path / "state.npz").is_file()  # the last good state is kept
 
 
+def test_a_refused_matrix_mid_run_is_a_failed_run_with_state_and_summary(tmp_path, capsys,
+                                                                          monkeypatch):
+    # Whatever makes the linear solver refuse a matrix mid-run (extreme values that pass the
+    # checks, round-off) ends the run as a failure: one line, exit 1, state and summary kept.
+    calls = []
+    step = yore.Simulation.step
+
+    def refusing_step(self, n=1, progress=None):
+        calls.append(n)
+        if len(calls) == 2:
+            raise yore.NotPositiveDefinite("CHOLMOD: the matrix is not positive definite")
+        return step(self, n, progress)
+
+    monkeypatch.setattr(yore.Simulation, "step", refusing_step)
+    code = main(["run", str(EXAMPLES / "stiff.toml"), "-o", str(tmp_path), "--quiet",
+                 *SMALL["stiff"]])
+    error = capsys.readouterr().err
+    assert code == 1 and error.count("\n") == 1 and error.startswith("yore: error:")
+    assert "refused a step's matrix" in error and "smaller dt" in error
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "diverged" and not summary["finished"]
+    assert (tmp_path / "state.npz").is_file()
+
+
+def test_material_values_past_their_limit_fail_the_check_naming_the_key(tmp_path, capsys):
+    code = main(["check", str(EXAMPLES / "stiff.toml"), "--set",
+                 "material.stretch_stiffness=1e300"])
+    error = capsys.readouterr().err
+    assert code == 2 and "material.stretch_stiffness" in error and "1e+12" in error
+
+
 def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, capsys):
     run("hanging", tmp_path)
     frame = tmp_path / "frames" / "frame_00003.vtu"

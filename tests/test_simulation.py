@@ -241,3 +241,30 @@ def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
     assert info == {"seconds": 0.0, "steps": 0, "converged": False,
                     "residual_acceleration": float("inf")}
     assert np.array_equal(sim.cloth.positions, x)
+
+
+def test_api_values_of_the_wrong_kind_or_out_of_range_are_value_errors_naming_them():
+    # issue 22, item 17: each was accepted, or raised something other than a ValueError
+    sim = yore.scenes.hanging_cloth(resolution=5)
+    sim.stroke_material([[0.1, 0.5], [0.9, 0.5]])
+    for conserve in ("yes", None, 1):
+        with pytest.raises(ValueError, match="conserve"):
+            sim.smooth_rest_lengths(conserve=conserve)
+    for modulus in (True, "1e-3", np.bool_(True)):
+        with pytest.raises(ValueError, match="bending_modulus"):
+            yore.scenes.hanging_cloth(resolution=5, bending="quadratic", bending_modulus=modulus)
+    with pytest.raises(ValueError, match="bend_stiffness"):
+        yore.Cloth(*yore.grid_mesh(3, 3), bend_stiffness="stiff")
+    for option in ("tolerance", "step_tol"):
+        integrator = "local-global" if option == "tolerance" else "implicit"
+        with pytest.raises(ValueError, match=option):
+            yore.scenes.hanging_cloth(resolution=5, integrator=integrator, **{option: 1})
+    with pytest.raises(ValueError, match="stretch_stiffness .*1e\\+12"):
+        yore.scenes.hanging_cloth(resolution=5, stretch_stiffness=1.7e308)
+    with pytest.raises(ValueError, match="mass of vertex 0 .*1e\\+12"):
+        yore.Cloth(*yore.grid_mesh(3, 3), mass=1e300)
+    for seconds in (None, "1", float("nan"), -1.0):
+        with pytest.raises(ValueError, match="seconds"):
+            sim.advance(seconds)
+    # the limit itself is accepted
+    yore.Cloth(*yore.grid_mesh(3, 3), mass=1e12, stretch_stiffness=1e12, bend_stiffness=1e12)

@@ -238,7 +238,22 @@ Cloth cloth_from_state(const py::dict& values) {
   return Cloth::from_state(state);
 }
 
+// A number given as a Python object (None allowed by the caller): a real number, not a bool or
+// a string; std::invalid_argument (ValueError) naming the argument otherwise.
+double real_argument(const py::object& value, const char* name) {
+  const py::object real = py::module_::import("numbers").attr("Real");
+  const py::object numpy_bool = py::module_::import("numpy").attr("bool_");
+  if (py::isinstance<py::bool_>(value) || py::isinstance(value, numpy_bool) ||
+      !py::isinstance(value, real)) {
+    throw std::invalid_argument(std::string(name) + ": got " +
+                                py::str(py::repr(value)).cast<std::string>() +
+                                "; expected a number");
+  }
+  return value.cast<double>();
+}
+
 }  // namespace
+
 
 void bind_cloth(py::module_& m) {
   py::class_<SpringsView>(m, "Springs", "The springs of a cloth (structure of arrays).")
@@ -328,7 +343,9 @@ Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0,
                    "bending=\"quadratic\" needs bending_modulus (N·m, >= 0)");
              }
              double stiffness = kDefaultBendStiffness;
-             if (!bend_stiffness.is_none()) stiffness = bend_stiffness.cast<double>();
+             if (!bend_stiffness.is_none()) {
+               stiffness = real_argument(bend_stiffness, "bend_stiffness");
+             }
              if (model == BendingModel::quadratic) {
                if (!bend_stiffness.is_none() && stiffness != 0.0) {
                  throw std::invalid_argument(
@@ -337,7 +354,9 @@ Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0,
                }
                stiffness = 0.0;
              }
-             const double modulus = bending_modulus.is_none() ? 0.0 : bending_modulus.cast<double>();
+             const double modulus = bending_modulus.is_none()
+                                        ? 0.0
+                                        : real_argument(bending_modulus, "bending_modulus");
              const Positions v = to_rows3(vertices, "vertices");
              const Faces f = to_faces(faces);
              const Eigen::VectorXd masses = vertex_masses(mass, density, v, &f);

@@ -26,18 +26,23 @@ std::uint64_t next_topology_version() {
   return ++counter;
 }
 
+// Material constants (stiffnesses N/m, damping N·s/m, drag 1/s, bending modulus N·m) and
+// masses (kg) are at most this: far beyond any cloth (a steel wire 1 mm² × 1 cm is 2e7 N/m),
+// and far enough below overflow that energies, forces and k/m stay finite.
+constexpr double kMaxMaterialValue = 1e12;
+
 void check_non_negative(double value, const char* name) {
-  if (!std::isfinite(value) || value < 0.0) {
+  if (!std::isfinite(value) || value < 0.0 || value > kMaxMaterialValue) {
     std::ostringstream msg;
-    msg << name << " must be finite and >= 0, got " << value;
+    msg << name << " must be finite, >= 0 and <= " << kMaxMaterialValue << ", got " << value;
     fail(msg.str());
   }
 }
 
 void check_positive(double value, const char* name) {
-  if (!std::isfinite(value) || value <= 0.0) {
+  if (!std::isfinite(value) || value <= 0.0 || value > kMaxMaterialValue) {
     std::ostringstream msg;
-    msg << name << " must be finite and > 0, got " << value;
+    msg << name << " must be finite, > 0 and <= " << kMaxMaterialValue << ", got " << value;
     fail(msg.str());
   }
 }
@@ -67,11 +72,12 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
   }
   for (Eigen::Index i = 0; i < n; ++i) {
     // A subnormal (or smaller) mass has no finite inverse mass or stable step to go with it.
-    if (!std::isfinite(masses[i]) || !(masses[i] >= std::numeric_limits<double>::min())) {
+    if (!std::isfinite(masses[i]) || !(masses[i] >= std::numeric_limits<double>::min()) ||
+        masses[i] > kMaxMaterialValue) {
       std::ostringstream msg;
-      msg << "mass of vertex " << i << " must be finite and >= "
-          << std::numeric_limits<double>::min() << " kg (a normal number > 0), got "
-          << masses[i];
+      msg << "mass of vertex " << i << " must be finite, >= "
+          << std::numeric_limits<double>::min() << " kg (a normal number > 0) and <= "
+          << kMaxMaterialValue << " kg, got " << masses[i];
       fail(msg.str());
     }
   }
@@ -246,16 +252,19 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n) {
     const double values[] = {springs.rest_length[k], springs.reference_length[k],
                              springs.stiffness[k]};
     if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
-          values[1] > 0.0 && std::isfinite(values[2]) && values[2] > 0.0)) {
+          values[1] > 0.0 && std::isfinite(values[2]) && values[2] > 0.0 &&
+          values[2] <= kMaxMaterialValue)) {
       std::ostringstream msg;
       msg << "state: spring " << k << " needs finite, positive rest length, reference length "
-          << "and stiffness, got " << values[0] << ", " << values[1] << ", " << values[2];
+          << "and stiffness (at most " << kMaxMaterialValue << " N/m), got " << values[0]
+          << ", " << values[1] << ", " << values[2];
       fail(msg.str());
     }
-    if (!std::isfinite(springs.damping[k]) || springs.damping[k] < 0.0) {
+    if (!std::isfinite(springs.damping[k]) || springs.damping[k] < 0.0 ||
+        springs.damping[k] > kMaxMaterialValue) {
       std::ostringstream msg;
       msg << "state: spring " << k << " has damping " << springs.damping[k]
-          << "; it must be finite and >= 0";
+          << "; it must be finite, >= 0 and <= " << kMaxMaterialValue;
       fail(msg.str());
     }
     const auto kind = static_cast<int>(springs.kind[k]);

@@ -192,7 +192,7 @@ _RULES = {
     "divergence_energy_factor": _real(0.0),
     "linearized": _flag(),
     "newton_tol": _real(0.0),
-    "step_tol": _real(0.0, low_open=False),
+    "step_tol": _real(0.0, 1.0, low_open=False, high_open=True),
     "max_newton": _count(1, MAX_STEP_ITERATIONS),
     "solver": _one_of("cholmod", "eigen-ldlt", "pcg"),
     "ordering": _one_of("amd", "metis", "natural"),
@@ -207,7 +207,7 @@ _RULES = {
     "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
     "lag_cg_tol": _real(0.0, 1.0, high_open=True),
     "iterations": _count(1, MAX_STEP_ITERATIONS),
-    "tolerance": _real(0.0, low_open=False),
+    "tolerance": _real(0.0, 1.0, low_open=False, high_open=True),
     "acceleration": _one_of(*_ACCELERATIONS),
     "chebyshev_rho": _real(0.0, 1.0, low_open=False, high_open=True),
     "rebuild": _one_of("fresh", "reuse-ordering", "stale-pcg"),
@@ -328,6 +328,9 @@ def default_explicit_dt(cloth: Cloth, safety: float = EXPLICIT_DT_SAFETY) -> flo
     stable = cloth.stable_time_step_bound()
     if not math.isfinite(stable):
         return 1.0 / 60.0
+    if not safety * stable >= 1e-300:
+        raise ValueError(f"no explicit time step is stable for this cloth (the bound is "
+                         f"{stable:.3g} s): its stiffnesses or masses are out of range")
     return 1.0 / math.ceil(1.0 / (safety * stable))
 
 
@@ -554,9 +557,9 @@ class Simulation:
         Repeated calls aim at the sum of the requested durations, so a loop of
         ``advance(1/30)`` stays within dt/2 of the frame times instead of drifting.
         """
+        if not _is_real(seconds) or seconds < 0.0:
+            raise ValueError(f"seconds must be a finite number >= 0, got {_show(seconds)}")
         seconds = float(seconds)
-        if not math.isfinite(seconds) or seconds < 0.0:
-            raise ValueError(f"seconds must be finite and >= 0, got {seconds}")
         start = self.time
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
             start = self._target_time
@@ -819,6 +822,10 @@ class Simulation:
             raise ValueError(f"smooth_rest_lengths strength: got {_show(strength)}; expected a "
                              "number in (0, 1]")
         strength = float(strength)
+        if not isinstance(conserve, (bool, np.bool_)):
+            raise ValueError(f"smooth_rest_lengths conserve: got {_show(conserve)}; expected "
+                             "True or False")
+        conserve = bool(conserve)
         cloth = self._cloth
         ends = cloth.springs.ends
         if isinstance(region, str):

@@ -70,11 +70,17 @@ def _build(scene):
                       damping=material["damping"], drag=material["drag"], **mass_arguments,
                       **bending_arguments)
     except ValueError as error:
-        # The core checks the mesh and the per-vertex masses; name the table the value came from.
-        if "mass" in str(error):
-            raise scene.error("material", str(error), "masses that are normal numbers > 0 per "
-                              "vertex") from None
-        raise scene.error("mesh", str(error), "a valid triangle mesh") from None
+        # The core checks the mesh, the per-vertex masses and the material's values; name the
+        # key (or table) the value came from.
+        text = str(error)
+        for key in ("stretch_stiffness", "bend_stiffness", "bending_modulus", "damping",
+                    "drag"):
+            if text.startswith(key):
+                raise scene.error(f"material.{key}", text) from None
+        if "mass" in text:
+            raise scene.error("material", text, "masses that are normal numbers > 0 per "
+                              "vertex, at most 1e12 kg") from None
+        raise scene.error("mesh", text, "a valid triangle mesh") from None
     if generator == "grid" and mesh["gather"] != 1.0:
         gathered = pattern.copy()
         middle = 0.5 * mesh["width"]

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import metrics
-from .._core import SimulationDiverged
+from .._core import NotPositiveDefinite, SimulationDiverged
 from ..io import FrameSeries, save_mesh
 from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
@@ -427,6 +427,13 @@ def _run(scene, sim, record, out, until, quiet, render):
                     saved_at = _time.perf_counter()
     except (SimulationDiverged, _NonFinite) as error:
         status, message = "diverged", str(error)
+    except NotPositiveDefinite as error:
+        # the integrator put the cloth back where the failed call began
+        status, message = "diverged", (
+            f"the {sim.integrator} integrator's linear solver refused a step's matrix after "
+            f"t = {sim.time:.6g} s ({' '.join(str(error).split())}): check for extreme "
+            "stiffnesses or masses, or try a smaller dt. The run went back to "
+            f"t = {sim.time:.6g} s")
     except KeyboardInterrupt:
         status, message = "interrupted", None
         # Steps completed so far, from the step-counting clock (the interruption may come
