@@ -402,3 +402,24 @@ def test_no_progress_bar_reaches_a_log_file(monkeypatch, capsys):
     assert capsys.readouterr().err == ""
     sim.step(5, progress=True)  # asked for: shown anyway
     assert "yore" in capsys.readouterr().err
+
+
+def test_a_run_past_the_step_limit_needs_allow_long_and_check_says_the_steps(tmp_path, capsys):
+    scene = str(EXAMPLES / "stiff.toml")
+    assert main(["check", scene, "--set", "simulation.dt=0.01"]) == 0
+    out = capsys.readouterr().out
+    assert " steps," in out and "allow-long" not in out
+    tiny = ["--set", "simulation.dt=1e-12"]
+    assert main(["check", scene, *tiny]) == 0
+    assert "yore run needs --allow-long" in capsys.readouterr().out
+    code = main(["run", scene, "-o", str(tmp_path / "long"), "--quiet", *tiny])
+    err = capsys.readouterr().err
+    assert code == 2 and "more than the limit of 100000000" in err and "--allow-long" in err
+    assert not (tmp_path / "long").exists()  # refused before the folder was claimed
+    code = main(["run", scene, "-o", str(tmp_path / "until"), "--quiet", "--until", "1e6"])
+    err = capsys.readouterr().err
+    assert code == 2 and "after the scene's end" in err
+    for key, value, match in [("simulation.settle", "1e9", "simulation.settle"),
+                              ("simulation.threads", "1000000", "simulation.threads")]:
+        assert main(["check", scene, "--set", f"{key}={value}"]) == 2
+        assert match in capsys.readouterr().err

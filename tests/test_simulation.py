@@ -268,3 +268,21 @@ def test_api_values_of_the_wrong_kind_or_out_of_range_are_value_errors_naming_th
             sim.advance(seconds)
     # the limit itself is accepted
     yore.Cloth(*yore.grid_mesh(3, 3), mass=1e12, stretch_stiffness=1e12, bend_stiffness=1e12)
+
+
+def test_work_beyond_the_documented_limits_is_refused_before_it_starts():
+    # issue 22, item 7: each of these was hours of work accepted silently
+    from yore.checks import MAX_SETTLE_SECONDS, MAX_STEPS
+
+    sim = yore.scenes.hanging_cloth(resolution=4)
+    with pytest.raises(ValueError, match=f"more than the limit of {MAX_STEPS}"):
+        sim.step(2**63)
+    with pytest.raises(ValueError, match="steps, more than the limit"):
+        sim.advance(1e9)
+    with pytest.raises(ValueError, match="max_seconds must be in"):
+        sim.settle(MAX_SETTLE_SECONDS * 2)
+    assert sim.time == 0.0 and sim.stats["steps"] == 0  # nothing ran
+    free = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3)))
+    with pytest.raises(ValueError, match="settle needs a fixed vertex"):
+        free.settle()
+    yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3)), gravity=[0, 0, 0]).settle(1.0)

@@ -82,8 +82,7 @@ def build_info() -> dict:
     return info
 
 
-#: Most threads `set_num_threads` accepts (each OpenMP thread is an operating-system thread).
-MAX_THREADS = 256
+from .checks import MAX_THREADS  # noqa: E402  (most threads set_num_threads accepts)
 
 
 def set_num_threads(threads: int) -> None:

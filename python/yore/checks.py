@@ -18,6 +18,14 @@ __all__ = ["MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS", "check_image_size", "check_fact
            "check_points", "check_faces", "check_vector", "check_unit_rgb", "check_image",
            "check_count", "check_vertex_values"]
 
+#: Most threads `yore.set_num_threads` accepts (each OpenMP thread is an operating-system thread).
+MAX_THREADS = 256
+#: Most steps one `Simulation.step`/`advance` call, or one run of a scene, may take (a run past
+#: it needs ``yore run --allow-long``): 1e8 explicit steps of a small cloth are hours.
+MAX_STEPS = 100_000_000
+#: Most pseudo-time `Simulation.settle` may spend, s (20 000 backward-Euler steps of 0.5 s).
+MAX_SETTLE_SECONDS = 10_000.0
+
 #: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
 #: MAX_IMAGE_PIXELS pixels in all (2^23, e.g. 3840×2160), checked before anything is allocated.
 MAX_IMAGE_SIDE = 16384

@@ -66,6 +66,8 @@ def _parser():
     _add_overwrite(run)
     run.add_argument("--no-render", action="store_true",
                      help="skip the pictures and animation the scene asks for")
+    run.add_argument("--allow-long", action="store_true",
+                     help="allow a run of more than 100 000 000 steps")
     _add_common(run)
 
     check = commands.add_parser("check", help="check a scene file without running it",
@@ -278,7 +280,8 @@ def _run(arguments):
             raise ValueError("--resume continues a saved run: give no scene file and no --set")
         summary = resume_run(arguments.resume, out=arguments.out, until=arguments.until,
                              quiet=arguments.quiet, render=not arguments.no_render,
-                             overwrite=arguments.overwrite, threads=arguments.threads)
+                             overwrite=arguments.overwrite, threads=arguments.threads,
+                             allow_long=arguments.allow_long)
         out = arguments.out or arguments.resume.parent
     else:
         if arguments.scene is None:
@@ -287,18 +290,23 @@ def _run(arguments):
         out = arguments.out or Path("yore-out") / arguments.scene.stem
         summary = run_scene(scene, out, until=arguments.until, quiet=arguments.quiet,
                             render=not arguments.no_render, overwrite=arguments.overwrite,
-                            threads=arguments.threads)
+                            threads=arguments.threads, allow_long=arguments.allow_long)
     _report(summary, Path(out), arguments.quiet)
 
 
 def _check(arguments):
     from .runs import load_scene
 
+    from .checks import MAX_STEPS
+    from .runs.runner import check_length
+
     scene = load_scene(arguments.scene, overrides=_overrides(arguments))
-    scene.check_strokes()
     sim, _ = scene.build()
+    scene.check_strokes(sim)
+    steps = check_length(scene, sim, allow_long=True)
+    long = f" (more than {MAX_STEPS}: yore run needs --allow-long)" if steps > MAX_STEPS else ""
     print(f"{arguments.scene}: OK ({sim.cloth.vertex_count} vertices, {sim.integrator}, "
-          f"dt = {sim.dt:.4g} s, {len(scene.data['strokes'])} stroke(s))")
+          f"dt = {sim.dt:.4g} s, {steps} steps{long}, {len(scene.data['strokes'])} stroke(s))")
 
 
 def _demo(arguments):

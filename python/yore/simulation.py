@@ -11,6 +11,7 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
+from .checks import MAX_SETTLE_SECONDS, MAX_STEPS
 from .camera import Camera
 from .stroke import (apply_stroke, check_factor, check_stroke_options, check_stroke_points,
                      mean_edge_length)
@@ -549,6 +550,9 @@ class Simulation:
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
             raise ValueError(f"n must be a non-negative integer, got {n!r}")
+        if n > MAX_STEPS:
+            raise ValueError(f"n: {n} steps in one call is more than the limit of {MAX_STEPS}; "
+                             "call step repeatedly for longer runs")
         self._run(int(n), progress)
 
     def advance(self, seconds: float, progress=None) -> int:
@@ -565,6 +569,9 @@ class Simulation:
             start = self._target_time
         target = start + seconds
         steps = max(0, int(round((target - self.time) / self._dt)))
+        if steps > MAX_STEPS:
+            raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
+                             f"more than the limit of {MAX_STEPS} per call")
         self._run(steps, progress)
         self._target_time = target
         return steps
@@ -588,14 +595,18 @@ class Simulation:
         a cloth with driven vertices (a driven cloth has no rest to settle to),
         SimulationDiverged if a step does."""
         max_seconds, tolerance = float(max_seconds), float(tolerance)
-        if not math.isfinite(max_seconds) or max_seconds < 0.0:
-            raise ValueError(f"max_seconds must be finite and >= 0, got {max_seconds}")
+        if not math.isfinite(max_seconds) or not 0.0 <= max_seconds <= MAX_SETTLE_SECONDS:
+            raise ValueError(f"max_seconds must be in [0, {MAX_SETTLE_SECONDS:g}] s, got "
+                             f"{max_seconds}")
         if not math.isfinite(tolerance) or tolerance <= 0.0:
             raise ValueError(f"tolerance must be finite and > 0, got {tolerance}")
         cloth = self._cloth
         if cloth.driven_vertices.size:
             raise ValueError("settle needs a cloth without driven vertices (a driven cloth "
                              "keeps moving: it has no rest to settle to)")
+        if cloth.fixed_vertices.size == 0 and np.any(self._gravity != 0.0):
+            raise ValueError("settle needs a fixed vertex: a free cloth falls under gravity "
+                             "forever and has no rest to settle to")
         start_time = cloth.time
         relax = _core.ImplicitIntegrator(method="backward-euler", projection="shifted",
                                          predictor="start", newton_tol=1e-7, max_newton=200)

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import metrics
+from ..checks import MAX_STEPS
 from .._core import NotPositiveDefinite, SimulationDiverged
 from ..io import FrameSeries, save_mesh
 from ..simulation import Simulation
@@ -64,7 +65,7 @@ class RunError(RuntimeError):
 
 
 def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
-              overwrite=False, threads=None) -> dict:
+              overwrite=False, threads=None, allow_long=False) -> dict:
     """Runs ``scene`` from t = 0 into folder ``out`` (created); returns the summary dict.
 
     until : stop at this simulated time (s) instead of the scene's duration (the state file
@@ -72,13 +73,15 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     animation the scene's [output] asks for. overwrite : replace a run that ``out`` already
     holds (without it, a folder holding another run, or an unfinished one, is refused: see
     `claim_folder`). threads : `yore.set_num_threads` for the run (default: the scene's
-    [simulation] threads, else left as it is). Raises SceneError before anything runs when the
+    [simulation] threads, else left as it is). allow_long : allow a run of more than
+    `yore.checks.MAX_STEPS` steps (see `check_length`). Raises SceneError before anything runs when the
     scene is wrong, ValueError when ``out`` holds another run, RunError when the run stops early
     (state saved).
     """
     _set_threads(scene, threads)
     sim, _ = scene.build()
     scene.check_strokes(sim)
+    check_length(scene, sim, until, allow_long)
     _check_pictures(scene, render)
     settle = None
     if scene.data["simulation"]["settle"] > 0.0:
@@ -109,7 +112,7 @@ def _check_pictures(scene, render):
 
 
 def resume_run(state_path, out=None, until=None, quiet=False, render=True,
-               overwrite=False, threads=None) -> dict:
+               overwrite=False, threads=None, allow_long=False) -> dict:
     """Continues a run from its state file into ``out`` (default: the state's folder, whose
     frames and collection then simply grow); returns the summary of the whole run so far.
     The result is bit for bit that of a run that never stopped (see `yore.state` for the
@@ -138,6 +141,7 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
         raise ValueError(f"{state_path}: field metadata.next_stroke: {record['next_stroke']} "
                          f"strokes done, but the scene has {len(scene.data['strokes'])}")
     _set_threads(scene, threads)
+    check_length(scene, sim, until, allow_long)
     record["resumed_from"] = record["resumed_from"] + [str(state_path)]
     if out is None or Path(os.fspath(out)).resolve() == state_path.parent.resolve():
         out = state_path.parent
@@ -146,6 +150,26 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
         claim_folder(out, record, overwrite)
     _check_pictures(scene, render)
     return _run(scene, sim, record, out, until, quiet, render)
+
+
+def check_length(scene, sim, until=None, allow_long=False) -> int:
+    """The steps the run will take (to ``until`` or the scene's end); ValueError for an
+    ``until`` that is not a time in the run, or more than `MAX_STEPS` steps without
+    ``allow_long``."""
+    duration = scene.data["simulation"]["duration"]
+    if until is not None:
+        until = float(until)
+        if not math.isfinite(until) or until <= 0:
+            raise ValueError(f"until must be a positive time in seconds, got {until}")
+        if until > duration + 0.5 * sim.dt:
+            raise ValueError(f"--until {until:g} s is after the scene's end "
+                             f"(simulation.duration = {duration:g} s)")
+    steps = _steps(duration if until is None else until, sim.dt)
+    if steps > MAX_STEPS and not allow_long:
+        raise ValueError(f"the run is {steps} steps ({duration if until is None else until:g} s "
+                         f"at dt = {sim.dt:.6g} s), more than the limit of {MAX_STEPS}: use a "
+                         "larger dt or a shorter duration, or give --allow-long")
+    return steps
 
 
 def _check_record(state_path, record):

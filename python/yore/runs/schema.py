@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ..simulation import INTEGRATORS, MAX_SMOOTHING_ITERATIONS
-from ..checks import MAX_IMAGE_SIDE
+from ..checks import MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
@@ -270,10 +270,10 @@ SCHEMA = {
                "time step; default: below the stable step (explicit) or 1/60 s"),
         "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
-        "settle": (_number(0, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
+        "settle": (_number(0, MAX_SETTLE_SECONDS, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
                    "to a static equilibrium before t = 0 (Simulation.settle; no driven "
                    "vertices); 0: start as built"),
-        "threads": (_integer(1), None, "threads of the core's loops and of BLAS "
+        "threads": (_integer(1, MAX_THREADS), None, "threads of the core's loops and of BLAS "
                     "(yore.set_num_threads); default: the machine's cores"),
     }, "table"),
     "integrator": (None, "table"),  # options of the chosen integrator, checked separately
