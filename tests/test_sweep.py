@@ -266,3 +266,87 @@ def test_a_sweep_leaves_the_callers_environment_as_it_was(tmp_path):
     run(load_sweep(path), tmp_path / "out", workers=1, quiet=True, cell_function=null_cell)
     # Dask's settings for its workers (OMP_NUM_THREADS=1, ...) do not leak into the caller
     assert dict(os.environ) == before
+
+
+NULL_SWEEP = SMALL + '''
+[axes]
+"material.stretch_stiffness" = [100.0, 300.0]
+"simulation.dt" = [1e-4, 2e-4]
+'''
+
+
+def _status_cell(scene_text, scene_path, overrides):
+    # a cell function recording a quantity named like the Dataset's own status variable
+    return {"status": "done", "message": "", "values": {"status": 1.0, "message": 2.0},
+            "positions": None, "faces": None}
+
+
+def test_resume_refuses_an_edited_sweep_or_records_that_are_not_its_cells(tmp_path, capsys):
+    # issue 22, items 1 and 11: resume relabelled old cells with new values, took a status
+    # recorded as a value, and tracebacked on records of the wrong kind
+    path = write(tmp_path, NULL_SWEEP)
+    out = tmp_path / "out"
+    run(path, out, workers=1, quiet=True, cell_function=null_cell)
+    pristine = {p: p.read_bytes() for p in [out / "sweep.toml", out / "sweep.json",
+                                            *sorted((out / "cells").glob("*.json"))]}
+
+    def refused(match):
+        with pytest.raises(ValueError, match=match):
+            resume(out, workers=1, quiet=True, cell_function=null_cell)
+        assert main(["sweep", "--resume", str(out), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("yore: error:") and err.count("\n") == 1, err
+        for file, data in pristine.items():  # put everything back for the next case
+            file.write_bytes(data)
+
+    edited = NULL_SWEEP.replace("[100.0, 300.0]", "[100.0, 999.0]")
+    (out / "sweep.toml").write_text(edited)
+    refused("was changed since the sweep started")
+    # a folder from before the identity was recorded: each record is checked against its cell
+    meta = json.loads(pristine[out / "sweep.json"])
+    del meta["identity"]
+    (out / "sweep.json").write_text(json.dumps(meta))
+    (out / "sweep.toml").write_text(edited)
+    refused("written for other settings")
+    record = out / "cells" / "000000.json"
+    good = json.loads(pristine[record])
+    for bad, match in [([1, 2], "not a table"), ("done", "not a table"),
+                       ({**good, "status": 3}, "status 3"), ({**good, "message": None}, "message"),
+                       ({**good, "values": {"x": "1"}}, "finite numbers"),
+                       ({**good, "overrides": {}}, "other settings")]:
+        record.write_text(json.dumps(bad))
+        refused(f"000000.json: .*{match}")
+    record.write_text("[" * 100_000 + "]" * 100_000)
+    refused("000000.json: nested too deeply")
+    with open(record, "wb") as handle:  # 3 GB, sparse
+        handle.truncate(3 * 2**30)
+    refused("000000.json: 3221225472 bytes")
+    for bad in ("[1, 2]", "{", json.dumps({"cells": 4})):
+        (out / "sweep.json").write_text(bad)
+        refused("sweep.json: not a sweep record")
+    assert resume(out, workers=1, quiet=True, cell_function=null_cell).counts() == {"done": 4}
+
+
+def test_a_recorded_value_never_replaces_the_status_or_a_coordinate(tmp_path):
+    out = tmp_path / "out"
+    run(write(tmp_path, NULL_SWEEP), out, workers=1, quiet=True, cell_function=_status_cell)
+    dataset = open_results(out)
+    assert set(np.unique(dataset["status"].values)) == {"done"}
+    assert float(dataset["recorded_status"].max()) == 1.0
+    assert float(dataset["recorded_message"].max()) == 2.0
+
+
+@pytest.mark.parametrize("extra, named", [
+    ('[zip.status]\n"material.mass" = [0.1, 0.2]\n"mesh.nx" = [5, 7]\n', "zip.status"),
+    ('[zip.message]\n"material.mass" = [0.1, 0.2]\n"mesh.nx" = [5, 7]\n', "zip.message"),
+    ('[zip]\n"a/b" = [{ "material.mass" = 0.1 }, { "material.mass" = 0.2 }]\n', "zip.a/b"),
+    ('[zip]\n"" = [{ "material.mass" = 0.1 }, { "material.mass" = 0.2 }]\n', "zip."),
+    ('[zip]\n"." = [{ "material.mass" = 0.1 }, { "material.mass" = 0.2 }]\n', "zip.."),
+    ('[axes]\n"error_rms" = [1, 2]\n', "axes.error_rms"),
+])
+def test_names_results_nc_cannot_hold_are_refused_before_running(tmp_path, extra, named):
+    # issue 22, item 3: every cell ran, then results.nc could not be written
+    path = write(tmp_path, SMALL.replace('"mesh.nx" = 7\n', "") + extra)
+    with pytest.raises(SweepError, match="results.nc") as caught:
+        load_sweep(path)
+    assert named in str(caught.value)

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..io import write_atomically
 
-__all__ = ["Results", "open_results", "RESULTS_NAME", "CELLS_DIR"]
+__all__ = ["Results", "open_results", "read_record", "RESULTS_NAME", "CELLS_DIR", "STATUSES"]
 
 RESULTS_NAME = "results.nc"
 CELLS_DIR = "cells"
@@ -50,16 +50,14 @@ class Results:
 
     # -- cells ----------------------------------------------------------------------------------
     def load_finished(self) -> set:
-        """Reads the cells finished earlier; returns their indices."""
+        """Reads the cells finished earlier; returns their indices. Each record is checked
+        against its cell (its overrides, statuses, values): a record that is not this sweep's
+        is refused (ValueError naming it), never relabelled."""
         done = set()
         for cell in self.sweep.cells():
             path = self.cells / f"{cell.key}.json"
-            if path.is_file():
-                try:
-                    record = json.loads(path.read_text(encoding="utf-8"))
-                except (OSError, json.JSONDecodeError):
-                    continue  # an unreadable record: the cell runs again
-                self._store(cell, record)
+            if path.is_file() or path.is_symlink():
+                self._store(cell, read_record(path, cell))
                 done.add(cell.index)
         return done
 
@@ -141,7 +139,11 @@ class Results:
                     coords[key] = (d.name, _column([v[k] for v in d.values]))
         data = {"status": (dims, self.status.astype(str)),
                 "message": (dims, self.message.astype(str))}
+        taken = set(data) | set(coords) | set(dims)
         for name, array in sorted(self.values.items()):
+            # a recorded quantity never takes the name of a dimension, coordinate or the status
+            while name in taken:
+                name = "recorded_" + name
             data[name] = (dims, array)
         dataset = xr.Dataset(data, coords=coords)
         dataset.attrs.update({"sweep": self.sweep.text,
@@ -158,6 +160,54 @@ class Results:
         path = self.out / RESULTS_NAME
         write_atomically(path, lambda p: dataset.to_netcdf(p, engine="h5netcdf"))
         return path
+
+
+#: The statuses `run_cell` records (a cell function may add its own, short texts), and the
+#: largest record file read, bytes.
+STATUSES = ("done", "diverged", "stroke missed", "failed")
+MAX_RECORD_BYTES = 1 << 20
+
+
+def read_record(path, cell) -> dict:
+    """The record of ``cell`` in ``path``, checked; ValueError naming the file otherwise."""
+    def refuse(problem):
+        raise ValueError(f"{path}: {problem}; not a record of this sweep's cell {cell.index} "
+                         "(remove the file to run the cell again)")
+
+    try:
+        info = path.stat()
+    except OSError as error:
+        refuse(f"cannot be read ({error.strerror})")
+    if not path.is_file():
+        refuse("not a regular file")
+    if info.st_size > MAX_RECORD_BYTES:
+        refuse(f"{info.st_size} bytes, more than a record's {MAX_RECORD_BYTES}")
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        refuse(f"not valid JSON ({' '.join(str(error).split())[:120]})")
+    except RecursionError:
+        refuse("nested too deeply")
+    if not isinstance(record, dict) or set(record) != {"status", "message", "overrides",
+                                                       "values"}:
+        refuse("not a table with status, message, overrides and values")
+    status = record["status"]
+    if not isinstance(status, str) or not 0 < len(status) <= 64 or \
+            any(ord(c) < 32 for c in status):
+        refuse(f"status {status!r} is not a short text (e.g. {', '.join(STATUSES)})")
+    if not isinstance(record["message"], str):
+        refuse("message is not a string")
+    expected = json.loads(json.dumps(cell.overrides, default=str))
+    if record["overrides"] != expected:
+        refuse(f"it was written for other settings ({record['overrides']!r}; this cell's are "
+               f"{expected!r}): the sweep file was changed since")
+    values = record["values"]
+    if not isinstance(values, dict) or not all(
+            isinstance(name, str) and isinstance(value, (int, float))
+            and not isinstance(value, bool) and math.isfinite(value)
+            for name, value in values.items()):
+        refuse("values is not a table of finite numbers")
+    return record
 
 
 def _column(values):

@@ -16,6 +16,7 @@ was running, which Dask runs again elsewhere; a failing cell is recorded, not fa
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
@@ -59,8 +60,49 @@ def _claim(sweep: Sweep, out: Path, resume: bool, overwrite: bool) -> None:
         (out / SCENE_NAME).write_text(sweep.scene_text, encoding="utf-8")
         record = {"sweep_path": str(sweep.path.resolve()) if sweep.path else None,
                   "scene_path": str(sweep.scene_path) if sweep.scene_path else None,
-                  "cells": sweep.cell_count}
+                  "cells": sweep.cell_count, "identity": identity(sweep)}
         (out / META_NAME).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
+def identity(sweep) -> str:
+    """A hash of what the sweep's cells are: the base scene's text, the dimensions (names,
+    keys, labels) and every cell's overrides. A resumed sweep must have the one it started
+    with."""
+    digest = hashlib.sha256()
+    digest.update(sweep.scene_text.encode("utf-8"))
+    digest.update(json.dumps([[d.name, list(d.keys), list(d.labels)] for d in sweep.dimensions],
+                             default=str).encode("utf-8"))
+    for cell in sweep.cells():
+        digest.update(json.dumps([cell.index, cell.overrides], sort_keys=True,
+                                 default=str).encode("utf-8"))
+    return digest.hexdigest()
+
+
+#: Largest sweep.json read, bytes (it holds two paths, a count and a hash).
+MAX_META_BYTES = 1 << 16
+
+
+def _read_meta(out) -> dict:
+    """OUT/sweep.json, checked; SweepError naming the file otherwise."""
+    path = out / META_NAME
+    if not path.is_file():
+        raise SweepError(f"{out} holds no sweep to resume (no {META_NAME})")
+    try:
+        if path.stat().st_size > MAX_META_BYTES:
+            raise ValueError(f"more than {MAX_META_BYTES} bytes")
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except RecursionError:
+        meta = None
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise SweepError(f"{path}: not a sweep record ({' '.join(str(error).split())[:120]})") \
+            from None
+    if not isinstance(meta, dict) or not {"sweep_path", "scene_path", "cells"} <= set(meta) \
+            or not all(meta[k] is None or isinstance(meta[k], str)
+                       for k in ("sweep_path", "scene_path")) \
+            or not isinstance(meta.get("identity", ""), str):
+        raise SweepError(f"{path}: not a sweep record (expected a table with sweep_path, "
+                         "scene_path, cells and identity)")
+    return meta
 
 
 def _client(scheduler, workers, quiet):
@@ -175,13 +217,22 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
 def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None) -> Results:
     """Continues the sweep in folder ``out``: the cells it does not hold yet."""
     out = Path(os.fspath(out))
-    if not (out / META_NAME).is_file():
-        raise SweepError(f"{out} holds no sweep to resume (no {META_NAME})")
-    meta = json.loads((out / META_NAME).read_text(encoding="utf-8"))
-    text = (out / SWEEP_NAME).read_text(encoding="utf-8")
+    meta = _read_meta(out)
+    try:
+        text = (out / SWEEP_NAME).read_text(encoding="utf-8")
+        scene_text = (out / SCENE_NAME).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise SweepError(f"{out}: the sweep's {SWEEP_NAME} or {SCENE_NAME} cannot be read "
+                         f"({error})") from None
     sweep_path = Path(meta["sweep_path"]) if meta.get("sweep_path") else out / SWEEP_NAME
     sweep = load_sweep(sweep_path, text=text, check_cells=False)
     # the base scene as it was when the sweep started (the file may have changed since)
-    sweep.scene_text = (out / SCENE_NAME).read_text(encoding="utf-8")
+    sweep.scene_text = scene_text
+    # the cells are what they were when the sweep started, or nothing runs (folders from
+    # before the identity was recorded are checked record by record only)
+    if meta.get("identity") and meta["identity"] != identity(sweep):
+        raise SweepError(f"{out}: {SWEEP_NAME} or {SCENE_NAME} was changed since the sweep "
+                         "started (its cells are not the ones recorded); restore them, or "
+                         "start a new sweep in another folder")
     return run(sweep, out, scheduler=scheduler, workers=workers, quiet=quiet, resume=True,
                cell_function=cell_function)

@@ -240,6 +240,15 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         raise _error(source, duplicate, "names two dimensions", "distinct names")
     for key in set(sets) & set(keys):
         raise _error(source, f"sweep.set.{key}", "is also swept", "a key set or swept, not both")
+    # Dimension names and the keys along zips become names in results.nc: refuse now what the
+    # file cannot hold, before any cell runs
+    for dimension in dimensions:
+        where = f"zip.{dimension.name}" if dimension.name not in dimension.keys or \
+            len(dimension.keys) > 1 or dimension.labels else f"axes.{dimension.name}"
+        _check_result_name(source, where, dimension.name)
+        if len(dimension.keys) > 1 and not dimension.labels:
+            for key in dimension.keys:
+                _check_result_name(source, f"{where}.{key}", key)
     if repeats > 1:
         dimensions.append(Dimension("repeat", ("repeat",), tuple((k,) for k in range(repeats))))
     if not dimensions:
@@ -296,6 +305,21 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
                 raise _error(source, f"cell {cell.index} ({_describe(sweep, cell)})",
                              " ".join(str(error).split())) from None
     return sweep
+
+
+#: Variable names results.nc always holds (a dimension or zip key may not take them).
+RESERVED_RESULT_NAMES = ("status", "message", "error_rms", "error_max")
+
+
+def _check_result_name(source, where, name):
+    """A dimension's (or a zip key's) name must be one results.nc can hold and not one of its
+    variables."""
+    if not name or name in (".", "..") or "/" in name or any(ord(c) < 32 for c in name):
+        raise _error(source, where, f"{name!r} cannot name a variable of results.nc",
+                     "a non-empty name without '/' or control characters, not '.' or '..'")
+    if name in RESERVED_RESULT_NAMES:
+        raise _error(source, where, f"{name!r} is a variable results.nc always holds",
+                     "a name other than " + ", ".join(RESERVED_RESULT_NAMES))
 
 
 def _variants(source, name, entries) -> Dimension:
