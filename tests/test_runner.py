@@ -253,7 +253,10 @@ def test_a_resume_checks_that_the_frames_it_lists_exist(tmp_path, capsys):
 @pytest.mark.parametrize("field, value", [
     ("step", -1), ("step", 3.5), ("step", 10**6), ("next_stroke", 7), ("frames", [[0.0]]),
     ("records", "x"), ("before", {"time": "now"}), ("wall_seconds", -1.0), ("phases", []),
-    ("overrides", [1]), ("scene_text", None), ("settle", {"seconds": "long"})])
+    ("overrides", [1]), ("scene_text", None), ("settle", {"seconds": "long"}),
+    # issue 22, item 13: accepted, then a KeyError or a system file taken for a frame
+    ("records", [{}]), ("records", [{"time": 0.0, "total": "x"}]),
+    ("frames", [[0.0, "/etc/passwd"]]), ("before", {"time": 0.0, "file": "/etc/passwd"})])
 def test_a_tampered_run_record_is_refused_naming_the_field(tmp_path, capsys, field, value):
     assert run_hanging(tmp_path, "--until", "0.15") == 0
     sim, record = yore.load_state(tmp_path / "state.npz")

@@ -242,6 +242,35 @@ def test_members_no_field_refers_to_are_refused_unread_and_the_total_is_bounded(
     one_line_error(state_file, "declare .* bytes uncompressed in all")
 
 
+def test_states_that_are_well_formed_but_out_of_range_are_refused(state_file):
+    # issue 22, item 13: each passed the schema and then crashed the resume
+    def tiny_dt(arrays, document):
+        document["simulation"]["dt"] = 5e-324
+
+    tampered(state_file, tiny_dt)
+    one_line_error(state_file, "simulation.dt: got float 5e-324; expected a finite number >= 1e-12")
+
+
+def test_a_duplicated_structural_spring_is_refused(state_file):
+    def duplicate(arrays, document):
+        for name in ("spring_ends", "spring_rest", "spring_reference", "spring_stiffness",
+                     "spring_damping", "spring_kind"):
+            key = f"simulation/cloth/{name}"
+            arrays[key] = np.concatenate([arrays[key], arrays[key][:1]])
+
+    tampered(state_file, duplicate)
+    one_line_error(state_file, "structural springs 0 and 24 join the same vertices")
+
+
+def test_a_stiffness_past_the_limit_in_a_state_is_refused(state_file):
+    def stiff(arrays, document):
+        arrays["simulation/cloth/spring_stiffness"] = np.full_like(
+            arrays["simulation/cloth/spring_stiffness"], 1e300)
+
+    tampered(state_file, stiff)
+    one_line_error(state_file, "spring_stiffness|stiffness \\(at most 1e\\+12")
+
+
 def test_a_header_announcing_more_data_than_stored_allocates_nothing(state_file):
     import zipfile
 

@@ -274,6 +274,23 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n) {
       fail(msg.str());
     }
   }
+  // One structural spring per edge: a duplicate would double the edge's stiffness and break
+  // the mesh operations that look springs up by their edge.
+  std::vector<std::array<std::int64_t, 3>> edges;
+  for (std::size_t k = 0; k < s; ++k) {
+    if (springs.kind[k] != SpringKind::structural) continue;
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    edges.push_back({std::min(i, j), std::max(i, j), static_cast<std::int64_t>(k)});
+  }
+  std::sort(edges.begin(), edges.end());
+  for (std::size_t e = 1; e < edges.size(); ++e) {
+    if (edges[e][0] == edges[e - 1][0] && edges[e][1] == edges[e - 1][1]) {
+      std::ostringstream msg;
+      msg << "state: structural springs " << edges[e - 1][2] << " and " << edges[e][2]
+          << " join the same vertices (" << edges[e][0] << ", " << edges[e][1] << ")";
+      fail(msg.str());
+    }
+  }
 }
 
 void check_state_constraints(const ClothState& state, Eigen::Index n) {

@@ -23,6 +23,8 @@ MAX_THREADS = 256
 #: Most steps one `Simulation.step`/`advance` call, or one run of a scene, may take (a run past
 #: it needs ``yore run --allow-long``): 1e8 explicit steps of a small cloth are hours.
 MAX_STEPS = 100_000_000
+#: Smallest time step, s (a smaller one only overflows step counts: 1 s is then 1e12 steps).
+MIN_DT = 1e-12
 #: Most pseudo-time `Simulation.settle` may spend, s (20 000 backward-Euler steps of 0.5 s).
 MAX_SETTLE_SECONDS = 10_000.0
 

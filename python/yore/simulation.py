@@ -11,7 +11,7 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
-from .checks import MAX_SETTLE_SECONDS, MAX_STEPS
+from .checks import MAX_SETTLE_SECONDS, MAX_STEPS, MIN_DT
 from .camera import Camera
 from .stroke import (apply_stroke, check_factor, check_stroke_options, check_stroke_points,
                      mean_edge_length)
@@ -444,6 +444,8 @@ class Simulation:
         if dt is None:
             dt = default_explicit_dt(cloth) if integrator == "explicit" else IMPLICIT_DT
         self._dt = check_factor(dt, "dt", "s")
+        if self._dt < MIN_DT:
+            raise ValueError(f"dt must be at least {MIN_DT:g} s, got {self._dt:g}")
         self._wall_seconds = 0.0
         self._target_time = None  # the time the last advance() aimed at
         self._pending_reports = []  # stroke reports waiting for the next step's re-analysis time

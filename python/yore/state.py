@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .checks import MIN_DT
 from .simulation import _OPTIONS, INTEGRATORS, Simulation, check_option
 
 __all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
@@ -362,7 +363,7 @@ def _check_simulation(field, simulation):
             check_option(integrator, name, value)
         except ValueError as error:
             raise field.error(f"simulation.options.{name}", str(error)) from None
-    field.real(simulation["dt"], "simulation.dt", 0.0, low_open=True)
+    field.real(simulation["dt"], "simulation.dt", MIN_DT)
     field.array(simulation["gravity"], "simulation.gravity", np.float64, (3,))
     if simulation["target_time"] is not None:
         field.real(simulation["target_time"], "simulation.target_time")
@@ -457,7 +458,7 @@ def _check_simulation(field, simulation):
         field.keys(history, "simulation.history", ("positions", "velocities", "dt"))
         field.array(history["positions"], "simulation.history.positions", np.float64, (n, 3))
         field.array(history["velocities"], "simulation.history.velocities", np.float64, (n, 3))
-        field.real(history["dt"], "simulation.history.dt", 0.0, low_open=True)
+        field.real(history["dt"], "simulation.history.dt", MIN_DT)
 
 
 def load_metadata(path):

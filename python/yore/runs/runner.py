@@ -21,6 +21,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import signal
 import threading
 import time as _time
@@ -211,18 +212,24 @@ def _check_record(state_path, record):
             fail(field, "an integer >= 0")
     if not isinstance(record["frames"], list) or not all(
             isinstance(f, list) and len(f) == 2 and number(f[0]) and isinstance(f[1], str)
-            for f in record["frames"]):
-        fail("frames", "a list of [time, path] pairs")
+            and _is_frame_path(f[1]) for f in record["frames"]):
+        fail("frames", f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN "
+             "file of a run")
     for field in ("records", "strokes"):
         if not isinstance(record[field], list) or \
                 not all(isinstance(entry, dict) for entry in record[field]):
             fail(field, "a list of tables")
+    if not all(number(entry.get("time")) and all(
+            isinstance(key, str) and (number(value) or isinstance(value, float))
+            for key, value in entry.items()) for entry in record["records"]):
+        fail("records", "a list of tables of numbers, each with its time")
     if len(record["strokes"]) != record["next_stroke"]:
         fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
     before = record["before"]
     if before is not None and not (isinstance(before, dict) and number(before.get("time"))
-                                   and isinstance(before.get("file"), str)):
-        fail("before", "null or a table with time and file")
+                                   and isinstance(before.get("file"), str)
+                                   and Path(before["file"]).name == BEFORE_NAME):
+        fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
     if not number(record["wall_seconds"]) or record["wall_seconds"] < 0:
         fail("wall_seconds", "a number >= 0")
     if not isinstance(record["resumed_from"], list) or \
@@ -231,6 +238,13 @@ def _check_record(state_path, record):
     if not isinstance(record["phases"], dict) or not all(
             isinstance(k, str) and number(v) for k, v in record["phases"].items()):
         fail("phases", "a table of seconds per phase")
+
+
+def _is_frame_path(text):
+    """A frame file as a run writes it: OUT/frames/frame_NNNNN.EXT."""
+    path = Path(text)
+    return path.parent.name == FRAMES_DIR and re.fullmatch(
+        r"frame_\d{5,}\.(vtu|vtk|ply|obj)", path.name) is not None
 
 
 def _set_threads(scene, threads):

@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ..simulation import INTEGRATORS, MAX_SMOOTHING_ITERATIONS
-from ..checks import MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS
+from ..checks import MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS, MIN_DT
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
@@ -266,7 +266,7 @@ SCHEMA = {
     }, "array"),
     "simulation": ({
         "integrator": (_choice(*INTEGRATORS), "explicit", "the time integrator"),
-        "dt": (_number(0, strict_minimum=True, unit="s"), None,
+        "dt": (_number(MIN_DT, unit="s"), None,
                "time step; default: below the stable step (explicit) or 1/60 s"),
         "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
