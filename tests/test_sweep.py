@@ -350,3 +350,22 @@ def test_names_results_nc_cannot_hold_are_refused_before_running(tmp_path, extra
     with pytest.raises(SweepError, match="results.nc") as caught:
         load_sweep(path)
     assert named in str(caught.value)
+
+
+def test_a_sweeps_base_scene_has_the_scene_file_limits(tmp_path, capsys):
+    # issue 22, item 8: a 20 MiB scene was accepted, a 2 GB sparse one read whole, a symlink
+    # loop a traceback
+    (tmp_path / "loop.toml").symlink_to("loop.toml")
+    with open(tmp_path / "big.toml", "wb") as handle:
+        handle.truncate(20 * 2**20)
+    with open(tmp_path / "sparse.toml", "wb") as handle:
+        handle.truncate(2 * 2**30)
+    for name, match in [("loop.toml", "symbolic links"), ("big.toml", "more than the limit"),
+                        ("sparse.toml", "more than the limit")]:
+        path = write(tmp_path, f'[sweep]\nscene = "{name}"\n[axes]\n"mesh.nx" = [5, 7]\n',
+                     name=f"sweep_{name}")
+        with pytest.raises(SweepError, match=match):
+            load_sweep(path)
+        assert main(["sweep", str(path), "-o", str(tmp_path / f"out_{name}"), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("yore: error:") and err.count("\n") == 1 and "sweep.scene" in err

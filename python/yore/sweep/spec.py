@@ -44,6 +44,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..runs import SceneError, load_scene
+from ..runs.loading import _read_scene_text
 
 __all__ = ["Sweep", "Cell", "Dimension", "load_sweep", "SweepError", "MAX_CELLS",
            "BUILTIN_SCENES"]
@@ -395,12 +396,15 @@ def _scene(source, path, scene):
         text = resources.files("yore").joinpath(BUILTIN_SCENES[scene]).read_text("utf-8")
         return text, None
     base = path.parent if path is not None else Path(".")
-    scene_path = (base / scene).resolve()
-    if not scene_path.is_file():
+    # absolute, not resolved: a symlink loop is then a file that cannot be read, not a crash
+    scene_path = Path(os.path.abspath(base / scene))
+    if not os.path.lexists(scene_path):
         raise _error(source, "sweep.scene", f"{scene_path} does not exist",
                      "a scene file (relative to the sweep file) or one of "
                      + ", ".join(BUILTIN_SCENES))
     try:
-        return scene_path.read_text(encoding="utf-8"), scene_path
-    except (OSError, UnicodeDecodeError) as error:
-        raise _error(source, "sweep.scene", f"cannot read {scene_path} ({error})") from None
+        # the limits of a scene file (`yore run`, `yore check`): a regular file of at most
+        # MAX_SCENE_FILE_BYTES, UTF-8
+        return _read_scene_text(scene_path), scene_path
+    except SceneError as error:
+        raise _error(source, "sweep.scene", " ".join(str(error).split())) from None
