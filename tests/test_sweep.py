@@ -369,3 +369,29 @@ def test_a_sweeps_base_scene_has_the_scene_file_limits(tmp_path, capsys):
         assert main(["sweep", str(path), "-o", str(tmp_path / f"out_{name}"), "--quiet"]) == 2
         err = capsys.readouterr().err
         assert err.startswith("yore: error:") and err.count("\n") == 1 and "sweep.scene" in err
+
+
+def test_sweep_plot_refuses_a_folder_as_picture_and_results_without_status(tmp_path, capsys):
+    # issue 22, item 15: a KeyError traceback, and -o DIR silently wrote DIR.png
+    import xarray as xr
+
+    out = tmp_path / "out"
+    run(write(tmp_path, NULL_SWEEP), out, workers=1, quiet=True, cell_function=null_cell)
+    plot = ["sweep", "plot", str(out), "--x", "material.stretch_stiffness", "--y",
+            "simulation.dt", "--value", "overrides"]
+    folder = tmp_path / "pictures"
+    folder.mkdir()
+    for target in (folder, tmp_path / "picture"):
+        assert main([*plot, "-o", str(target)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and ".png file" in err
+    assert not (tmp_path / "pictures.png").exists() and not (tmp_path / "picture.png").exists()
+    assert main([*plot, "-o", str(tmp_path / "map.png")]) == 0
+    xr.Dataset({"other": ("x", np.arange(3.0))}).to_netcdf(out / "results.nc",
+                                                           engine="h5netcdf")
+    assert main(plot) == 2
+    assert "no status per cell" in capsys.readouterr().err
+    (out / "results.nc").write_bytes(b"not netcdf")
+    assert main(plot) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot be read" in err

@@ -23,7 +23,15 @@ def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
+    if path is not None:
+        path = Path(path)
+        if path.is_dir() or path.suffix.lower() != ".png":
+            raise ValueError(f"the picture must be a .png file, got {str(path)!r}"
+                             + (" (a folder)" if path.is_dir() else ""))
     dataset = open_results(out)
+    if "status" not in dataset.data_vars or not dataset["status"].dims:
+        raise ValueError(f"{Path(out) / 'results.nc'} is not a yore sweep's results (it has no "
+                         "status per cell)")
     dims = list(dataset["status"].dims)
     for name, what in ((x, "--x"), (y, "--y")):
         if name not in dims:

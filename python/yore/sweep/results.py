@@ -228,5 +228,10 @@ def open_results(out):
     if not path.is_file():
         raise ValueError(f"{out} holds no sweep results ({RESULTS_NAME}); run `yore sweep` "
                          "first")
-    with xr.open_dataset(path, engine="h5netcdf") as dataset:
-        return dataset.load()
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as dataset:
+            return dataset.load()
+    except (OSError, ValueError, KeyError, RuntimeError, TypeError) as error:
+        raise ValueError(f"{path} cannot be read as a sweep's results "
+                         f"({type(error).__name__}: {' '.join(str(error).split())[:160]})") \
+            from None
