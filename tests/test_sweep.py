@@ -5,6 +5,7 @@ axis fails before anything runs; the client's memory does not grow with the cell
 from __future__ import annotations
 
 import json
+import re
 import tracemalloc
 
 import numpy as np
@@ -395,3 +396,34 @@ def test_sweep_plot_refuses_a_folder_as_picture_and_results_without_status(tmp_p
     assert main(plot) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "cannot be read" in err
+
+
+def test_a_scheduler_that_is_not_one_is_one_line_within_the_timeout(tmp_path, capsys):
+    # issue 22, item 9: a silent or HTTP server hung the sweep for over 11 minutes, ucx:// and
+    # tls:// gave TypeError tracebacks, a refused connection took 30 s
+    import socket
+
+    path = write(tmp_path, NULL_SWEEP)
+    silent = socket.socket()
+    silent.bind(("127.0.0.1", 0))
+    silent.listen(8)  # accepts connections (the kernel does) and never says a word
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))
+    refused_port = closed.getsockname()[1]
+    closed.close()
+    try:
+        for address, match in [
+                (f"tcp://127.0.0.1:{silent.getsockname()[1]}", "did not answer within 1 s|cannot reach"),
+                (f"tcp://127.0.0.1:{refused_port}", "cannot reach"),
+                ("ucx://127.0.0.1:8786", "tcp://HOST:PORT"),
+                ("tls://127.0.0.1:8786", "tcp://HOST:PORT"),
+                ("http://127.0.0.1:80/", "tcp://HOST:PORT")]:
+            out = tmp_path / f"out{len(match)}"
+            code = main(["sweep", str(path), "-o", str(out), "--quiet", "--scheduler", address,
+                         "--connect-timeout", "1"])
+            err = capsys.readouterr().err
+            assert code == 2 and err.startswith("yore: error:") and err.count("\n") == 1, err
+            assert re.search(match, err), err
+            assert not out.exists()  # nothing written before the scheduler answered
+    finally:
+        silent.close()

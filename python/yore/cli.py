@@ -184,6 +184,8 @@ def _parser():
     sweep.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler, e.g. tcp://host:8786 (default: a local "
                        "cluster)")
+    sweep.add_argument("--connect-timeout", type=float, metavar="SECONDS", default=10.0,
+                       help="seconds a --scheduler has to answer (default 10)")
     sweep.add_argument("--workers", type=int, metavar="N",
                        help="local worker processes, one thread each (default: the machine's "
                        "cores)")
@@ -351,14 +353,15 @@ def _sweep(arguments):
         if arguments.sweep is not None:
             raise ValueError("--resume continues a sweep folder: give no sweep file")
         results = resume(arguments.resume, scheduler=arguments.scheduler,
-                         workers=arguments.workers, quiet=arguments.quiet)
+                         workers=arguments.workers, quiet=arguments.quiet,
+                         connect_timeout=arguments.connect_timeout)
     else:
         if arguments.sweep is None:
             raise ValueError("give a sweep file (yore sweep SWEEP.toml) or --resume OUT")
         out = arguments.out or Path("yore-out") / arguments.sweep.stem
         results = run(arguments.sweep, out, scheduler=arguments.scheduler,
                       workers=arguments.workers, quiet=arguments.quiet,
-                      overwrite=arguments.overwrite)
+                      overwrite=arguments.overwrite, connect_timeout=arguments.connect_timeout)
     if not arguments.quiet:
         counts = ", ".join(f"{n} {status}" for status, n in results.counts().items())
         print(f"cells: {counts}")

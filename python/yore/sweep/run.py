@@ -20,7 +20,9 @@ import hashlib
 import json
 import logging
 import os
+import re
 import shutil
+import threading
 import time
 from pathlib import Path
 
@@ -105,16 +107,49 @@ def _read_meta(out) -> dict:
     return meta
 
 
+#: Seconds a scheduler has to answer (``yore sweep --connect-timeout``).
+CONNECT_TIMEOUT_SECONDS = 10.0
+
+
+def _connect(scheduler, timeout):
+    """A Dask client of the scheduler at ``scheduler`` (tcp://HOST:PORT), connected within
+    ``timeout`` seconds; SweepError otherwise. The connection runs in a helper thread that is
+    abandoned if it does not return in time: whatever answers on the port (an HTTP server, a
+    silent one) cannot hang the sweep."""
+    if not isinstance(scheduler, str) or not re.fullmatch(r"tcp://[^\s/:]+:\d{1,5}", scheduler):
+        raise SweepError(f"--scheduler must be a Dask scheduler's address tcp://HOST:PORT, got "
+                         f"{scheduler!r}")
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
+            not 0.1 <= timeout <= 3600:
+        raise SweepError(f"the connect timeout must be in [0.1, 3600] s, got {timeout!r}")
+    from dask.distributed import Client
+
+    outcome = {}
+
+    def connect():
+        try:
+            outcome["client"] = Client(scheduler, timeout=f"{timeout}s")
+        except BaseException as error:  # noqa: BLE001 - reported by the caller, in one line
+            outcome["error"] = error
+
+    helper = threading.Thread(target=connect, name="yore-connect", daemon=True)
+    helper.start()
+    helper.join(timeout + 5.0)
+    hint = (f"start one with `dask scheduler` and workers with `dask worker {scheduler} "
+            "--nthreads 1`")
+    if helper.is_alive():
+        raise SweepError(f"the Dask scheduler {scheduler} did not answer within {timeout:g} s "
+                         f"(is it a Dask scheduler?); {hint}")
+    if "error" in outcome:
+        error = outcome["error"]
+        text = " ".join(str(error).split())[:200] or type(error).__name__
+        raise SweepError(f"cannot reach the Dask scheduler {scheduler} ({text}); {hint}")
+    return outcome["client"]
+
+
 def _client(scheduler, workers, quiet):
     from dask.distributed import Client, LocalCluster
 
-    if scheduler is not None:
-        try:
-            return Client(scheduler, timeout="30s"), None
-        except (OSError, TimeoutError) as error:
-            raise SweepError(f"cannot reach the Dask scheduler {scheduler} ({error}); start "
-                             "one with `dask scheduler` and workers with `dask worker "
-                             f"{scheduler} --nthreads 1`") from None
     workers = workers or os.cpu_count() or 1
     # Dask sets its workers' environment (and PINNED) in this process's os.environ before it
     # spawns them; the client's own environment is put back afterwards, so a sweep leaves the
@@ -131,7 +166,8 @@ def _client(scheduler, workers, quiet):
 
 
 def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
-        resume=False, cell_function=None) -> Results:
+        resume=False, cell_function=None,
+        connect_timeout=CONNECT_TIMEOUT_SECONDS) -> Results:
     """Runs ``sweep`` (a `Sweep` or a sweep file path) into folder ``out``; returns its
     `Results` (``.dataset()`` is the xarray Dataset also written to OUT/results.nc).
 
@@ -145,17 +181,26 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
     out = Path(os.fspath(out))
-    _claim(sweep, out, resume, overwrite)
-    results = Results(sweep, out)
-    done = results.load_finished() if resume else set()
+    # a remote scheduler is reached before anything is written
+    remote = _connect(scheduler, connect_timeout) if scheduler is not None else None
+    try:
+        _claim(sweep, out, resume, overwrite)
+        results = Results(sweep, out)
+        done = results.load_finished() if resume else set()
+    except BaseException:
+        if remote is not None:
+            remote.close()
+        raise
     pending = (cell for cell in sweep.cells() if cell.index not in done)
     todo = sweep.cell_count - len(done)
     if todo == 0:
+        if remote is not None:
+            remote.close()
         results.reference_errors()
         results.write()
         return results
     function = cell_function or run_cell
-    client, cluster = _client(scheduler, workers, quiet)
+    client, cluster = (remote, None) if remote is not None else _client(None, workers, quiet)
     from dask.distributed import as_completed
     from tqdm.auto import tqdm
 
@@ -214,7 +259,8 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
     return results
 
 
-def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None) -> Results:
+def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None,
+           connect_timeout=CONNECT_TIMEOUT_SECONDS) -> Results:
     """Continues the sweep in folder ``out``: the cells it does not hold yet."""
     out = Path(os.fspath(out))
     meta = _read_meta(out)
@@ -235,4 +281,4 @@ def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None) -
                          "started (its cells are not the ones recorded); restore them, or "
                          "start a new sweep in another folder")
     return run(sweep, out, scheduler=scheduler, workers=workers, quiet=quiet, resume=True,
-               cell_function=cell_function)
+               cell_function=cell_function, connect_timeout=connect_timeout)
