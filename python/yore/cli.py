@@ -347,6 +347,16 @@ def _render(arguments):
 
 
 def _sweep(arguments):
+    try:
+        _sweep_or_resume(arguments)
+    except KeyboardInterrupt:
+        # the cells finished so far are on disk and in results.nc (written on the way out)
+        out = arguments.resume or arguments.out or Path("yore-out") / arguments.sweep.stem
+        raise KeyboardInterrupt(f"interrupted; the finished cells are in {out}, "
+                                f"`yore sweep --resume {out}` runs the rest") from None
+
+
+def _sweep_or_resume(arguments):
     from .sweep import resume, run
 
     if arguments.resume is not None:
@@ -427,7 +437,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt as interruption:
         state = getattr(interruption, "state_path", None)
         print(f"yore: {interruption}; `yore run --resume {state}` continues" if state
-              else "yore: interrupted", file=sys.stderr)
+              else f"yore: {interruption}" if str(interruption) else "yore: interrupted",
+              file=sys.stderr)
         return EXIT_INTERRUPTED
     except RunError as error:
         _fail(error)

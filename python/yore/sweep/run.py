@@ -22,6 +22,7 @@ import logging
 import os
 import re
 import shutil
+import signal
 import threading
 import time
 from pathlib import Path
@@ -39,6 +40,10 @@ IN_FLIGHT_PER_WORKER = 4
 #: results.nc is rewritten at most this often while cells finish (and at the end).
 WRITE_INTERVAL_SECONDS = 5.0
 PINNED = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: For the processes the local cluster starts (multiprocessing's resource tracker among them):
+#: after a Ctrl-C the tracker frees the semaphores of the workers' processes — its job — and
+#: warned about them on stderr ("leaked semaphore objects"), a line the user can do nothing with.
+QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
 
 
 def _claim(sweep: Sweep, out: Path, resume: bool, overwrite: bool) -> None:
@@ -155,11 +160,23 @@ def _client(scheduler, workers, quiet):
     # spawns them; the client's own environment is put back afterwards, so a sweep leaves the
     # caller's process as it was (its BLAS and OpenMP settings included)
     saved = dict(os.environ)
+    # The worker processes start with SIGINT ignored (an ignored signal stays ignored across
+    # exec, and Python then installs no KeyboardInterrupt handler): a Ctrl-C at the terminal
+    # reaches the whole process group, and only this process should act on it, closing the
+    # cluster; workers interrupted mid-task printed tracebacks and one never exited. Their own
+    # logs are silenced below CRITICAL: a cell's failure is its result, not a log line.
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    os.environ["PYTHONWARNINGS"] = ",".join(
+        filter(None, [os.environ.get("PYTHONWARNINGS"), QUIET_TRACKER]))
     try:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.ERROR, env=PINNED)
+                               dashboard_address=":0", silence_logs=logging.CRITICAL,
+                               env=PINNED)
         client = Client(cluster)
     finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
         os.environ.clear()
         os.environ.update(saved)
     return client, cluster
