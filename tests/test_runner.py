@@ -314,3 +314,32 @@ def test_a_settled_run_starts_at_rest_at_time_zero_and_says_so(tmp_path, capsys)
                  "--no-render", "--set", "simulation.settle=1"]) == 2
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error:") and "\n" not in error and "settle" in error
+
+
+def test_a_second_ctrl_c_while_the_state_is_saved_still_gives_the_resume_hint(
+        tmp_path, monkeypatch, straight, capsys):
+    # issue 22, item 18: the second interrupt replaced the first's hint with "interrupted"
+    interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 3, by_signal=True)
+    interrupt_on_call(monkeypatch, yore.runs.runner, "_summary", 1, by_signal=True)
+    assert run_hanging(tmp_path) == 130
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "yore run --resume" in err and "state.npz" in err
+    monkeypatch.undo()
+    assert strict_json(tmp_path / "summary.json")["status"] == "interrupted"
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
+
+
+def test_a_run_started_with_sigint_ignored_is_not_stopped_by_one(tmp_path, monkeypatch,
+                                                                 straight, capsys):
+    # as under nohup: the deferral around a frame's bookkeeping installed its own handler, so
+    # a SIGINT then stopped the run
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 3, by_signal=True)
+        assert run_hanging(tmp_path) == 0
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    monkeypatch.undo()
+    assert strict_json(tmp_path / "summary.json")["status"] == "finished"
+    assert_same_run(straight, tmp_path)

@@ -353,7 +353,10 @@ def _deferred_interrupt():
     """Ctrl-C inside the block is held back until the block is done, so bookkeeping that must
     not be split (a frame and its record, a saved state) completes. Main thread only; elsewhere
     the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
+        # elsewhere, or where SIGINT is ignored (nohup, a parent's choice): nothing to defer,
+        # and a handler of ours would make Ctrl-C stop a run that was started not to stop
         yield
         return
     caught = []
@@ -486,11 +489,16 @@ def _run(scene, sim, record, out, until, quiet, render):
         status = ("finished" if sim.time >= duration - 0.5 * dt else "stopped at --until")
         for entry, report in live_reports:
             entry["reanalyze_seconds"] = report.reanalyze_seconds
-    with _deferred_interrupt():
-        state_path = _save(out, sim, record, previous_phases, phases)
-        summary = _summary(scene, sim, record, out, state_path, status, message)
-        summary_path = out / SUMMARY_NAME
-        _write_json(summary_path, summary)
+    try:
+        with _deferred_interrupt():
+            state_path = _save(out, sim, record, previous_phases, phases)
+            summary = _summary(scene, sim, record, out, state_path, status, message)
+            summary_path = out / SUMMARY_NAME
+            _write_json(summary_path, summary)
+    except KeyboardInterrupt:
+        # a (second) Ctrl-C held back while the state and summary were written: they are
+        # complete, so the run stops as interrupted there, with its resume hint
+        raise RunInterrupted(state_path, sim.time) from None
     if status == "interrupted":
         raise RunInterrupted(state_path, sim.time)
     if missed is not None:
