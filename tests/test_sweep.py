@@ -164,6 +164,10 @@ def test_an_interrupted_sweep_resumes_with_only_the_rest(tmp_path, monkeypatch):
      "record.reference.mesh.ny"),
     ('[axes]\n"material.mass" = [0.1, 0.2]\n[recrod]\n', "recrod"),
     ('[axes]\n"mesh.nx" = [5, 9]\n', "sweep.set.mesh.nx"),
+    # a [sweep.set] that conflicts with the base scene is named as the set's (it was named as
+    # the first axis value; issue 22, item 16)
+    ('"output.format" = "none"\n"output.animation" = "gif"\n[axes]\n"material.mass" = [0.1]\n',
+     "sweep.set.output.animation"),
 ])
 def test_a_bad_sweep_fails_before_anything_runs_naming_the_key(tmp_path, capsys, extra, named):
     path = write(tmp_path, SMALL + extra)

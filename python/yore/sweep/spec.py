@@ -288,6 +288,14 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
                   reference=dict(reference))
     if sweep.cell_count > MAX_CELLS:
         raise _error(source, "axes", f"{sweep.cell_count} cells", f"at most {MAX_CELLS}")
+    # [sweep.set] on the base scene alone first: a conflict there is named as the set's, not
+    # as the first axis value's
+    try:
+        load_scene(sweep.scene_path, text=sweep.scene_text, overrides=dict(sweep.sets))
+    except SceneError as error:
+        key = f"sweep.set.{error.key}" if error.key in sweep.sets else "sweep.set"
+        raise _error(source, key, "with the base scene: " + " ".join(str(error).split())) \
+            from None
     for dimension in dimensions:
         if dimension.name == "repeat":
             continue
