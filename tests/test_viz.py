@@ -5,6 +5,7 @@ colour bars and stroke colours, and the errors when EGL is missing."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import math
 
 import numpy as np
@@ -481,6 +482,9 @@ def test_yore_view_continues_a_saved_run(tmp_path, capsys):
     (["--headless", "--screenshot", "x.png", "--fov", "190"], "--fov"),
     (["--headless", "--screenshot", "x.png", "--width", "0"], "--width"),
     (["--headless", "--screenshot", "x.png", "--stroke-px", "1,1 3,3"], "miss the cloth"),
+    # issue 22, item 14: an OpenGL RuntimeError traceback
+    (["--headless", "--screenshot", "x.png", "--panel", "--width", "1", "--height", "1"],
+     "at least 16 px with --panel"),
     # 100 pixels in range, 1.4e6 px apart: counted before any sample is made (was ~2.3 GB)
     (["--headless", "--screenshot", "x.png", "--stroke-px",
       " ".join(["0,0 999999,999999"] * 50)], "samples long"),
@@ -586,3 +590,30 @@ def test_headless_screenshot_with_the_panel(tmp_path):
     # ImGui's panels are dark grey boxes over the white background
     dark = np.all(with_panel < 90, axis=2).mean() - np.all(plain < 90, axis=2).mean()
     assert dark > 0.05
+
+
+def test_view_and_render_survive_records_of_the_wrong_kind(tmp_path, capsys):
+    # issue 22, item 14: AttributeError tracebacks, and RuntimeWarning lines before an error
+    import meshio
+
+    sim = yore.scenes.hanging_cloth(resolution=6)
+    scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
+    for overrides in ([1, 2], "mesh.nx=5"):
+        state = yore.save_state(tmp_path / "state.npz", sim, metadata={
+            "scene_text": Path(scene).read_text(), "overrides": overrides})
+        assert main(["view", str(state), "--headless", "--screenshot",
+                     str(tmp_path / "view.png"), "--quiet"]) == 0
+    run = tmp_path / "run"
+    (run / "frames").mkdir(parents=True)
+    V, F = yore.grid_mesh(4, 4)
+    meshio.write(run / "frames" / "frame_00000.vtu", meshio.Mesh(V, [("triangle", F)]))
+    (run / "summary.json").write_text("[1, 2]")
+    capsys.readouterr()
+    assert main(["render", str(run), "--no-pictures"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a run summary" in err
+    huge = tmp_path / "huge.vtu"
+    meshio.write(huge, meshio.Mesh(V * 1e300, [("triangle", F)]))
+    assert main(["render", str(huge), "-o", str(tmp_path / "huge.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "beyond" in err and "Warning" not in err

@@ -411,8 +411,19 @@ def _check_view_numbers(arguments):
                 raise ValueError(f"--{name} must be 3 finite numbers, got {value}")
 
 
+#: Smallest picture side with --panel (the panels are drawn into it; 1 px failed in OpenGL).
+MIN_PANEL_SIDE = 16
+
+
 def _view(arguments):
     from .viz.viewer import run_view_command
+
+    if getattr(arguments, "panel", False):
+        for name in ("width", "height"):
+            value = getattr(arguments, name, None)
+            if value is not None and value < MIN_PANEL_SIDE:
+                raise ValueError(f"--{name} must be at least {MIN_PANEL_SIDE} px with --panel, "
+                                 f"got {value}")
 
     _check_view_numbers(arguments)
     run_view_command(arguments, _overrides(arguments))

@@ -46,9 +46,21 @@ def _read_frame(path):
     (`yore.io.load_frame`: regular files of bounded size only, any meshio failure caught)."""
     path = Path(path)
     try:
-        return load_frame(path)
+        V, F, point_data = load_frame(path)
     except FileNotFoundError:
         raise ValueError(f"frame file {path} does not exist") from None
+    # a camera has to frame the cloth: coordinates it cannot square without overflow (the
+    # strokes' bound) are refused before any arithmetic warns about them
+    with np.errstate(invalid="ignore"):
+        largest = float(np.max(np.abs(V))) if V.size else 0.0
+    if not np.isfinite(largest) or largest > MAX_FRAME_COORDINATE:
+        raise ValueError(f"frame file {path}: a coordinate of {largest:.3g} m is beyond "
+                         f"±{MAX_FRAME_COORDINATE:g} m; it cannot be framed in a picture")
+    return V, F, point_data
+
+
+#: Largest vertex coordinate of a frame a picture is made of, m (as for strokes).
+MAX_FRAME_COORDINATE = 1e12
 
 
 def _check_color_by(color_by):
@@ -92,9 +104,13 @@ def _load_summary(folder):
     if not path.is_file():
         return None
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        summary = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as error:
         raise ValueError(f"{path} is not a run summary ({error})") from None
+    if not isinstance(summary, dict):
+        raise ValueError(f"{path} is not a run summary (a {type(summary).__name__}, not a "
+                         "table)")
+    return summary
 
 
 class _Painter:

@@ -731,13 +731,15 @@ def _load_source(source, overrides):
 
         sim, metadata = load_state(source)
         settings = None
-        if isinstance(metadata, dict) and isinstance(metadata.get("scene_text"), str):
-            # a run's state: its scene's [camera]
+        overrides = metadata.get("overrides") if isinstance(metadata, dict) else None
+        if isinstance(metadata, dict) and isinstance(metadata.get("scene_text"), str) and \
+                (overrides is None or isinstance(overrides, dict)):
+            # a run's state: its scene's [camera] (a record that is not a run's is ignored)
             from ..runs import load_scene
 
             try:
                 settings = load_scene(text=metadata["scene_text"],
-                                      overrides=metadata.get("overrides") or {}).data["camera"]
+                                      overrides=overrides or {}).data["camera"]
             except ValueError:
                 settings = None
         return sim, settings, {}
