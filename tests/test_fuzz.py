@@ -363,3 +363,110 @@ def test_camera_sizes_are_checked_before_allocating(width, height):
         assert "\n" not in str(error)
         return
     assert camera.width * camera.height <= yore.checks.MAX_IMAGE_PIXELS
+
+
+# -- sweep files, sweep records, stroke options (issue 22) ------------------------------------
+BASE_SWEEP = {
+    "sweep": {"scene": "hanging", "repeats": 1},
+    "axes": {"material.stretch_stiffness": [100.0, 200.0]},
+    "zip": {"step": {"simulation.dt": [1e-3, 2e-3], "simulation.duration": [1.0, 2.0]}},
+    "record": {"frames": False},
+}
+
+
+@st.composite
+def mutated_sweeps(draw):
+    sweep = {name: dict(table) for name, table in BASE_SWEEP.items()}
+    for _ in range(draw(st.integers(1, 3))):
+        name = draw(st.sampled_from(sorted(sweep) + ["bogus"]))
+        action = draw(st.sampled_from(["set", "delete", "replace table"]))
+        if action == "delete" and name in sweep:
+            del sweep[name]
+        elif action == "replace table" or not isinstance(sweep.get(name), dict):
+            sweep[name] = draw(values)
+        else:
+            sweep[name][draw(st.one_of(keys, st.sampled_from(
+                ["scene", "repeats", "set", "status", "message", "a/b", "", ".",
+                 "mesh.nx", "simulation.dt", "reference"])))] = draw(values)
+    return sweep
+
+
+def sweep_document(sweep):
+    # nested tables as inline tables: [sweep] with set = {...} is valid TOML too
+    lines = []
+    for name, table in sweep.items():
+        if isinstance(table, dict):
+            lines.append(f"[{name}]")
+            lines += [f'"{k}" = {toml_value(v)}' for k, v in table.items()]
+        else:
+            lines.insert(0, f'"{name}" = {toml_value(table)}')
+    return "\n".join(lines) + "\n"
+
+
+@FUZZ
+@given(mutated_sweeps())
+def test_a_mutated_sweep_file_loads_or_is_a_sweep_error(tmp_path_factory, sweep):
+    from yore.sweep import SweepError, load_sweep
+
+    folder = tmp_path_factory.mktemp("sweep")
+    path = folder / "sweep.toml"
+    path.write_text(sweep_document(sweep))
+    try:
+        loaded = load_sweep(path, check_cells=False)
+    except SweepError as error:
+        assert "\n" not in str(error)
+        return
+    assert loaded.cell_count >= 1
+
+
+@pytest.fixture(scope="module")
+def sweep_and_cell(tmp_path_factory):
+    from yore.sweep import load_sweep
+
+    folder = tmp_path_factory.mktemp("records")
+    path = folder / "sweep.toml"
+    path.write_text(sweep_document(BASE_SWEEP))
+    sweep = load_sweep(path, check_cells=False)
+    return sweep, next(sweep.cells())
+
+
+@FUZZ
+@given(st.one_of(values, st.fixed_dictionaries(
+    {"status": st.one_of(st.sampled_from(["done", "failed"]), values), "message": values,
+     "overrides": values, "values": values})))
+def test_a_tampered_cell_record_is_read_or_is_a_value_error(tmp_path_factory, sweep_and_cell,
+                                                            record):
+    import json
+
+    from yore.sweep.results import read_record
+
+    sweep, cell = sweep_and_cell
+    path = tmp_path_factory.mktemp("record") / "000000.json"
+    try:
+        path.write_text(json.dumps(record))
+    except ValueError:  # nan/inf are not JSON: write them as Python's json does
+        path.write_text(json.dumps(record, allow_nan=True))
+    try:
+        read = read_record(path, cell)
+    except ValueError as error:
+        assert "\n" not in str(error) and "000000.json" in str(error)
+        return
+    assert read["overrides"] == json.loads(json.dumps(cell.overrides, default=str))
+    assert all(math.isfinite(v) for v in read["values"].values())
+
+
+@FUZZ
+@given(any_argument, any_argument, any_argument, any_argument, any_argument)
+def test_stroke_options_are_accepted_or_are_value_errors(small_cloth_state, expansion,
+                                                        mass_scale, width, growth, refine):
+    cloth = yore.Cloth.from_state(small_cloth_state)
+    V, _ = yore.grid_mesh(4, 4)
+    cloth.material_coordinates = V[:, :2]
+    sim = yore.Simulation(cloth, dt=1e-3)
+    try:
+        sim.stroke_material([[0.1, 0.5], [0.9, 0.5]], expansion=expansion,
+                            mass_scale=mass_scale, width=width, growth=growth, refine=refine)
+    except ValueError as error:
+        assert "\n" not in str(error)
+        return
+    assert np.all(np.isfinite(sim.cloth.positions)) and np.all(sim.cloth.springs.rest > 0)
