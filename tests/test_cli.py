@@ -423,3 +423,24 @@ def test_a_run_past_the_step_limit_needs_allow_long_and_check_says_the_steps(tmp
                               ("simulation.threads", "1000000", "simulation.threads")]:
         assert main(["check", scene, "--set", f"{key}={value}"]) == 2
         assert match in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("delay", [0.05, 0.2, 0.4])
+def test_ctrl_c_while_the_command_starts_is_one_line(delay):
+    # issue 22, item 18: a Ctrl-C during `import yore` printed a 20-line traceback. Whenever
+    # the interrupt lands (starting, running or after the end), the command says at most one
+    # line.
+    import signal
+    import time
+
+    yore_command = Path(sys.executable).with_name("yore")
+    process = subprocess.Popen([str(yore_command), "check", str(EXAMPLES / "stiff.toml")],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    time.sleep(delay)  # where the interrupt lands, not a measure
+    try:
+        os.killpg(process.pid, signal.SIGINT)
+    except ProcessLookupError:
+        pass
+    _, err = process.communicate(timeout=300)
+    assert (process.returncode, err) in ((130, "yore: interrupted\n"), (0, "")), err

@@ -8,8 +8,26 @@ from __future__ import annotations
 
 import numbers
 import os as _os
+import signal as _signal
+import sys as _sys
+import threading as _threading
 
-from . import metrics, scenes, springs, stroke, subdivision
+
+def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the process
+    print("yore: interrupted", file=_sys.stderr, flush=True)
+    _os._exit(130)
+
+
+# The `yore` command imports all of yore before its main() can catch Ctrl-C: while it starts, a
+# Ctrl-C is one line and exit 130 (a traceback of the imports otherwise). Only for the command:
+# a program importing yore keeps its own handling.
+_STARTING = (_os.path.basename(_sys.argv[0] if _sys.argv else "") == "yore"
+             and _threading.current_thread() is _threading.main_thread()
+             and _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler)
+if _STARTING:
+    _signal.signal(_signal.SIGINT, _interrupted_while_starting)
+
+from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the handler)
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh

@@ -431,6 +431,13 @@ def _view(arguments):
 
 def main(argv=None) -> int:
     """Runs the command line; returns the exit code (see the module docstring)."""
+    import signal
+
+    from . import _STARTING
+
+    if _STARTING and signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        # started: Ctrl-C is main's to handle from here (see yore/__init__.py)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:2] == ["sweep", "plot"]:
         argv = ["sweep-plot", *argv[2:]]
