@@ -1,7 +1,7 @@
 """Factor reuse in Newton on stiff sheets: fresh, reused and thrown-away factorizations per step,
 what reuse saves in CPU time, and what it costs in accuracy, at 64² and 128².
 
-    python -m benchmarks.factor_reuse [--out bench-results] [--quick]
+    python -m benchmarks.factor_reuse [--out bench-results] [--quick] [--sizes 64 128]
 
 The sheet is the crossover's stiffest measured kind: `hanging_cloth(resolution=N,
 pin_spacing=1.0, mass=0.1)`, k = 2e5 N/m, bending springs as stiff, BDF2 at 1/60 s, one
@@ -42,9 +42,15 @@ VARIANTS = {
 }
 
 
-def sizes(quick):
-    """resolution → simulated seconds."""
-    return {12: 2 * DT, 16: 2 * DT} if quick else {64: 0.25, 128: 0.125}
+def sizes(quick, only=None):
+    """resolution → simulated seconds (``only``: those resolutions of the full set)."""
+    chosen = {12: 2 * DT, 16: 2 * DT} if quick else {64: 0.25, 128: 0.125}
+    if only:
+        unknown = sorted(set(only) - set(chosen))
+        if unknown:
+            raise SystemExit(f"--sizes: {unknown} not among {sorted(chosen)}")
+        chosen = {n: t for n, t in chosen.items() if n in only}
+    return chosen
 
 
 def run(resolution, duration, options, max_seconds):
@@ -77,6 +83,8 @@ def run(resolution, duration, options, max_seconds):
 
 
 def options(parser):
+    parser.add_argument("--sizes", type=int, nargs="+", metavar="N",
+                        help="run only these resolutions (of 64 128; --quick: 12 16)")
     parser.add_argument("--max-run-seconds", type=float, default=900.0,
                         help="CPU seconds after which a run stops at the end of its step "
                              "(default 900); its figures are then per step done")
@@ -85,7 +93,7 @@ def options(parser):
 def main(argv=None):
     args = arguments(__doc__, argv, options)
     rows = []
-    for resolution, duration in sizes(args.quick).items():
+    for resolution, duration in sizes(args.quick, args.sizes).items():
         reference = None
         for name, variant_options in VARIANTS.items():
             sim, row = run(resolution, duration, variant_options, args.max_run_seconds)
@@ -108,7 +116,7 @@ def main(argv=None):
                      "steps)" if row["stopped_by_cpu_cap"] else ""), flush=True)
     pairs = (("steihaug, lagged factor", "default (steihaug, residual test)"),
              ("clamp, step test, lagged factor", "clamp, step test"))
-    for resolution in sizes(args.quick):
+    for resolution in sizes(args.quick, args.sizes):
         chosen = {r["variant"]: r for r in rows if r["resolution"] == resolution}
         for lagged_name, plain_name in pairs:
             lagged, plain = chosen[lagged_name], chosen[plain_name]

@@ -242,6 +242,10 @@ def section(data: dict, results: Path) -> str:
                       if r.get("stopped_by_cpu_cap") else "") + " | "
                    + (f"{r['deviation_from_default']:.1e} |"
                       if r["deviation_from_default"] is not None else "– |"))
+    ran = sorted({r["resolution"] for r in reuse["rows"]})
+    if not reuse["quick"] and ran != [64, 128]:
+        out += ["", "Only " + ", ".join(f"{n}²" for n in ran) + " ran this time "
+                "(`--sizes`); the full benchmark also runs 128²."]
     lagged = [r for r in reuse["rows"] if "cpu_over_unlagged" in r]
     if lagged:
         out += ["", "The lagged factor's CPU time over the same setting without it: " + ", ".join(
