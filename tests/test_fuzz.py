@@ -391,18 +391,6 @@ def mutated_sweeps(draw):
     return sweep
 
 
-def sweep_document(sweep):
-    # nested tables as inline tables: [sweep] with set = {...} is valid TOML too
-    lines = []
-    for name, table in sweep.items():
-        if isinstance(table, dict):
-            lines.append(f"[{name}]")
-            lines += [f'"{k}" = {toml_value(v)}' for k, v in table.items()]
-        else:
-            lines.insert(0, f'"{name}" = {toml_value(table)}')
-    return "\n".join(lines) + "\n"
-
-
 @FUZZ
 @given(mutated_sweeps())
 def test_a_mutated_sweep_file_loads_or_is_a_sweep_error(tmp_path_factory, sweep):
@@ -410,7 +398,7 @@ def test_a_mutated_sweep_file_loads_or_is_a_sweep_error(tmp_path_factory, sweep)
 
     folder = tmp_path_factory.mktemp("sweep")
     path = folder / "sweep.toml"
-    path.write_text(sweep_document(sweep))
+    path.write_text(toml_document(sweep))
     try:
         loaded = load_sweep(path, check_cells=False)
     except SweepError as error:
@@ -425,7 +413,7 @@ def sweep_and_cell(tmp_path_factory):
 
     folder = tmp_path_factory.mktemp("records")
     path = folder / "sweep.toml"
-    path.write_text(sweep_document(BASE_SWEEP))
+    path.write_text(toml_document(BASE_SWEEP))
     sweep = load_sweep(path, check_cells=False)
     return sweep, next(sweep.cells())
 
