@@ -310,7 +310,8 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
   // again, on the same factor, in a smaller region.
   const bool lagged = m_options.lagged_factorization;
   bool assembled = false;  // m_exact_values (and the gradient) are of m_iterate
-  bool same = false;       // the factor is of m_iterate's clamped Hessian, equal to the exact one
+  bool current = false;    // the factor is of m_iterate's clamped Hessian
+  bool same = false;       // and that equals the exact one
   double first_residual = -1.0;
   while (true) {
     poll_interrupt();  // max_newton is user-typed
@@ -321,14 +322,14 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       break;
     }
     if (now == IterationVerdict::at_cap) break;
-    bool fresh = false;  // the factor was made at this iterate
+    bool fresh = false;  // this subproblem made the factor (else: a reuse)
     if (!assembled) {
       energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
       std::copy(m_values.begin(), m_values.end(), m_exact_values.begin());
       assembled = true;
       if (!lagged || !m_factor_valid) {
         refactor_clamped(cloth, same);
-        fresh = true;
+        fresh = current = true;
       }
     }
     ++iterations;
@@ -338,15 +339,15 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
     bool boundary = false, exhausted = false, negative = false;
     double length = 0.0;
     const bool first = iterations == 1;
-    double predicted = steihaug_direction(forcing, first, same && fresh,
-                                          fresh ? kMaxSteihaugIterations
-                                                : m_options.lag_max_cg_iterations,
+    double predicted = steihaug_direction(forcing, first, same && current,
+                                          current ? kMaxSteihaugIterations
+                                                  : m_options.lag_max_cg_iterations,
                                           boundary, length, exhausted, negative);
-    if (exhausted && !fresh) {
+    if (exhausted && !current) {
       // the kept factor no longer preconditions well: factor this iterate's clamped Hessian
       // and solve the subproblem again
       refactor_clamped(cloth, same);
-      fresh = true;
+      fresh = current = true;
       predicted = steihaug_direction(forcing, first, same, kMaxSteihaugIterations, boundary,
                                      length, exhausted, negative);
     }
@@ -378,8 +379,7 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       std::swap(m_iterate, m_trial);
       energy = evaluate(cloth, m_iterate, true, false);
       residual = scaled_residual(cloth);
-      assembled = false;
-      same = false;
+      assembled = current = same = false;
       // the step test trusts a Newton step only: CG ended inside the region, converged, on
       // positive curvature
       if (m_options.step_tol > 0.0 && !boundary && !negative && !exhausted &&
