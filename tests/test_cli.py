@@ -429,7 +429,7 @@ def test_a_run_past_the_step_limit_needs_allow_long_and_check_says_the_steps(tmp
 def test_ctrl_c_while_the_command_starts_is_one_line(delay):
     # issue 22, item 18: a Ctrl-C during `import yore` printed a 20-line traceback. Whenever
     # the interrupt lands (starting, running or after the end), the command says at most one
-    # line.
+    # line and never a traceback.
     import signal
     import time
 
@@ -443,4 +443,7 @@ def test_ctrl_c_while_the_command_starts_is_one_line(delay):
     except ProcessLookupError:
         pass
     _, err = process.communicate(timeout=300)
-    assert (process.returncode, err) in ((130, "yore: interrupted\n"), (0, "")), err
+    # -SIGINT: it landed while the interpreter itself starts or shuts down, which Python's
+    # default disposition ends silently
+    assert (process.returncode, err) in ((130, "yore: interrupted\n"), (0, ""),
+                                         (-signal.SIGINT, "")), err
