@@ -374,11 +374,8 @@ def _run(scene, sim, record, out, until, quiet, render):
     data = scene.data
     dt = sim.dt
     duration = data["simulation"]["duration"]
-    if until is not None:
-        until = float(until)
-        if not math.isfinite(until) or until <= 0:
-            raise ValueError(f"until must be a positive time in seconds, got {until}")
-    last_step = _steps(duration if until is None else until, dt)
+    # (the callers checked the length against the limit, before anything was written)
+    last_step = check_length(scene, sim, until, allow_long=True)
     every = scene.frame_interval(dt)
     schedule = sorted(((_steps(s["time"], dt), k) for k, s in enumerate(data["strokes"])))
     fmt = data["output"]["format"]

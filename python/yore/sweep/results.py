@@ -144,6 +144,7 @@ class Results:
             # a recorded quantity never takes the name of a dimension, coordinate or the status
             while name in taken:
                 name = "recorded_" + name
+            taken.add(name)
             data[name] = (dims, array)
         dataset = xr.Dataset(data, coords=coords)
         dataset.attrs.update({"sweep": self.sweep.text,
