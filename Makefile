@@ -9,7 +9,7 @@ OUT ?= yore-out
 SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null) \
            CMakeLists.txt pyproject.toml
 
-.PHONY: setup system test demo bench bench-quick clean
+.PHONY: setup system test test-fast docs lock demo bench bench-quick clean
 
 setup: system $(VENV)/.installed
 
@@ -20,12 +20,13 @@ $(VPY):
 	$(PYTHON) -m venv $(VENV)
 
 # Build requirements live in the venv: the install below runs without build isolation so that
-# scikit-build-core reuses the persistent CMake folder.
-$(VENV)/.deps: $(VPY) pyproject.toml
-	$(VPY) -m pip install --quiet --upgrade pip
-	$(VPY) -m pip install --quiet "scikit-build-core>=0.10" "pybind11>=2.13" "numpy>=1.23" \
-	    "meshio>=5.3,<6" "tqdm>=4.60" "pillow>=9" "pytest>=7" "hypothesis>=6" "matplotlib>=3.6" \
-	    "polyscope>=2.6,<2.7" "dask[distributed]>=2024.1" "xarray>=2024.1" "h5netcdf>=1.3" "h5py>=3.8"
+# scikit-build-core reuses the persistent CMake folder. Every Python package comes in at the
+# version of the lock file constraints.txt (the versions `make test` passed with); requirements.in
+# holds the open ranges, and `make lock` resolves them anew into constraints.txt, on purpose.
+LOCK := constraints.txt
+$(VENV)/.deps: $(VPY) requirements.in $(LOCK)
+	$(VPY) -m pip install --quiet --upgrade pip -c $(LOCK)
+	$(VPY) -m pip install --quiet -r requirements.in -c $(LOCK)
 	@touch $@
 
 $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
@@ -34,6 +35,15 @@ $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
 
 test: setup
 	$(VPY) -m pytest -q tests
+
+# The tests a developer runs while editing: all but those marked slow (under a minute here).
+test-fast: setup
+	$(VPY) -m pytest -q -m "not slow" tests
+
+# The documentation site (Sphinx: furo, MyST, autodoc, sphinx-gallery), warnings as errors:
+# docs/_build/html/index.html.
+docs: setup
+	$(VPY) -m sphinx -W --keep-going -q -b html docs docs/_build/html
 
 demo: setup
 	$(VENV)/bin/yore demo -o $(OUT)
@@ -54,6 +64,21 @@ bench-quick: setup
 	    echo "== $$name"; $(BENCH_ENV) $(VPY) -m benchmarks.$$name --quick --out bench-results \
 	        || exit 1; \
 	done
+
+# The lock file: the newest versions requirements.in allows, resolved in a fresh venv (under the
+# build folder), written atomically. Run it on purpose, then `make test`, then commit the file.
+LOCK_VENV := build/lock-venv
+lock:
+	rm -rf $(LOCK_VENV)
+	$(PYTHON) -m venv $(LOCK_VENV)
+	$(LOCK_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(LOCK_VENV)/bin/python -m pip install --quiet -r requirements.in
+	{ echo "# yore's lock file: the versions \`make setup\` installs (pip constraints), written by"; \
+	  echo "# \`make lock\` from requirements.in with $$($(LOCK_VENV)/bin/python -V) on $$(date -u +%Y-%m-%d)."; \
+	  $(LOCK_VENV)/bin/python -m pip freeze --all; } > $(LOCK).tmp
+	mv $(LOCK).tmp $(LOCK)
+	rm -rf $(LOCK_VENV)
+	@echo "wrote $(LOCK); run make test before committing it"
 
 clean:
 	rm -rf build $(VENV) $(OUT) bench-results

@@ -48,6 +48,7 @@ def pvd_entries(path):
     return [(float(d.get("timestep")), d.get("file")) for d in root.iter("DataSet")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["hanging", "hanging_paper", "cylinder", "cylinder_paper",
                                   "stiff"])
 def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tmp_path, name):
@@ -92,6 +93,7 @@ def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tm
     assert (tmp_path / "animation.gif").exists() == (output["animation"] == "gif")
 
 
+@pytest.mark.slow
 def test_the_python_scripting_example_runs(tmp_path):
     completed = subprocess.run(
         [sys.executable, str(EXAMPLES / "scripted_scene.py"), "--out", str(tmp_path),
@@ -119,6 +121,7 @@ def test_bad_scenes_fail_before_simulating_with_exit_code_2_and_one_line(tmp_pat
         assert not out.exists()  # nothing ran, nothing was written
 
 
+@pytest.mark.slow
 def test_the_console_script_exits_non_zero_on_errors_and_zero_on_check(tmp_path):
     yore_command = Path(sys.executable).with_name("yore")
     completed = subprocess.run([str(yore_command), "run", str(tmp_path / "missing.toml")],
@@ -173,6 +176,7 @@ def test_material_values_past_their_limit_fail_the_check_naming_the_key(tmp_path
     assert code == 2 and "material.stretch_stiffness" in error and "1e+12" in error
 
 
+@pytest.mark.slow
 def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, capsys):
     run("hanging", tmp_path)
     frame = tmp_path / "frames" / "frame_00003.vtu"
@@ -241,6 +245,7 @@ def test_pvd_lists_every_frame_across_a_stroke_and_a_resume(tmp_path):
                             tmp_path / summary["frames"][-1]["file"])
 
 
+@pytest.mark.slow
 def test_yore_demo_writes_frames_pictures_and_an_animation_and_says_where(tmp_path, capsys):
     out = tmp_path / "yore-out"
     assert main(["demo", "-o", str(out), *SMALL["hanging"]]) == 0
@@ -361,6 +366,7 @@ def test_the_command_in_the_stiff_example_header_runs_and_diverges_as_it_says(tm
     assert code == 1 and "diverged" in error and "use dt <=" in error
 
 
+@pytest.mark.slow
 def test_render_mp4_without_ffmpeg_fails_before_touching_the_run(tmp_path, monkeypatch, capsys):
     run("hanging", tmp_path, "--no-render")
     import shutil

@@ -19,6 +19,7 @@ def run(script, *args):
     return result.stdout
 
 
+@pytest.mark.slow
 def test_demo_writes_frames_a_collection_and_a_picture_and_says_where(tmp_path):
     pytest.importorskip("matplotlib")
     out = run("hanging_cloth.py", "--out", str(tmp_path), "--seconds", "0.2", "--fps", "20",
@@ -36,6 +37,7 @@ def test_demo_writes_frames_a_collection_and_a_picture_and_says_where(tmp_path):
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_cylinder_example_reports_the_rim_speed(tmp_path):
     pytest.importorskip("matplotlib")
     out = run("rotating_cylinder.py", "--out", str(tmp_path), "--seconds", "0.2")
@@ -43,6 +45,7 @@ def test_cylinder_example_reports_the_rim_speed(tmp_path):
     assert len(list((tmp_path / "cylinder").glob("*.obj"))) == 6
 
 
+@pytest.mark.slow
 def test_stroke_experiments_write_frames_across_the_topology_change(tmp_path):
     pytest.importorskip("matplotlib")
     out = run("stroke_experiments.py", "--out", str(tmp_path), "--before", "0.2", "--after",
@@ -59,6 +62,7 @@ def test_stroke_experiments_write_frames_across_the_topology_change(tmp_path):
     assert "ratio roughness" in out
 
 
+@pytest.mark.slow
 def test_the_gallery_script_writes_its_pictures_and_measures(tmp_path):
     run("gallery.py", "--out", str(tmp_path), "--small")
     for name in ("hanging.png", "cylinder.png"):

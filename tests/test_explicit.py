@@ -139,6 +139,7 @@ def test_stable_dt_estimates_against_the_limit_found_by_bisection(name):
     assert probe.dt == yore.simulation.default_explicit_dt(cloth)
 
 
+@pytest.mark.slow
 def test_the_demo_scene_runs_its_whole_duration_at_the_default_dt(tmp_path):
     from yore.runs import run_scene
 

@@ -116,6 +116,7 @@ def loaded_or_scene_error(text, overrides=None):
     return scene
 
 
+@pytest.mark.slow
 @FUZZ
 @given(mutated_scenes())
 def test_a_mutated_scene_file_loads_or_is_a_scene_error(scene):
@@ -176,6 +177,7 @@ def load_or_value_error(tmp_path, data, name="tampered.npz"):
     return sim
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.data())
 def test_a_state_file_with_flipped_or_cut_bytes_loads_or_is_a_value_error(
@@ -238,6 +240,7 @@ json_fields = st.sampled_from([
     ("metadata",), ("simulation", "cloth", "positions")])
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.data())
 def test_a_state_file_with_tampered_fields_loads_or_is_a_value_error(
@@ -287,7 +290,7 @@ def rewrite_with_pickle(state_bytes, change):
 
 any_argument = st.one_of(values, st.sampled_from([np.float64(0.5), np.int64(3), np.bool_(True),
                                                   float("inf"), float("nan"), None, "no"]))
-OPTION_NAMES = {integrator: sorted(yore.simulation._OPTIONS[integrator])
+OPTION_NAMES = {integrator: sorted(yore.simulation.INTEGRATOR_OPTIONS[integrator])
                 for integrator in ("explicit", "implicit", "local-global")}
 
 
@@ -299,6 +302,7 @@ def small_cloth_state():
     return cloth.state()
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.sampled_from(sorted(OPTION_NAMES)), st.data())
 def test_simulation_options_are_accepted_as_given_or_are_value_errors(
@@ -317,6 +321,7 @@ def test_simulation_options_are_accepted_as_given_or_are_value_errors(
     assert not isinstance(value, str) or isinstance(stored, str)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(any_argument, any_argument, st.one_of(any_argument, st.lists(st.integers(-2, 20))))
 def test_smooth_rest_lengths_arguments_are_checked(small_cloth_state, iterations, strength,
@@ -332,6 +337,7 @@ def test_smooth_rest_lengths_arguments_are_checked(small_cloth_state, iterations
     assert result["springs"] >= 0
 
 
+@pytest.mark.slow
 @FUZZ
 @given(any_argument, any_argument, any_argument, any_argument)
 def test_grid_mesh_and_cloth_arguments_are_checked(nx, ny, mass, stiffness):
@@ -391,6 +397,7 @@ def mutated_sweeps(draw):
     return sweep
 
 
+@pytest.mark.slow
 @FUZZ
 @given(mutated_sweeps())
 def test_a_mutated_sweep_file_loads_or_is_a_sweep_error(tmp_path_factory, sweep):
@@ -418,6 +425,7 @@ def sweep_and_cell(tmp_path_factory):
     return sweep, next(sweep.cells())
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.one_of(values, st.fixed_dictionaries(
     {"status": st.one_of(st.sampled_from(["done", "failed"]), values), "message": values,
@@ -443,6 +451,7 @@ def test_a_tampered_cell_record_is_read_or_is_a_value_error(tmp_path_factory, sw
     assert all(math.isfinite(v) for v in read["values"].values())
 
 
+@pytest.mark.slow
 @FUZZ
 @given(any_argument, any_argument, any_argument, any_argument, any_argument)
 def test_stroke_options_are_accepted_or_are_value_errors(small_cloth_state, expansion,

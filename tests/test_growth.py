@@ -413,7 +413,7 @@ def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_no
     assert np.isfinite(sim.cloth.positions).all()
     # the choice survives a saved state
     again = yore.Simulation.from_state(sim.state())
-    assert again._dt_follows_cloth and again.dt == sim.dt
+    assert again.dt_follows_cloth and again.dt == sim.dt
     given = yore.scenes.hanging_cloth(resolution=9, dt=before)
     given.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2, refine=1)
     assert given.dt == before

@@ -70,6 +70,7 @@ def stiff_sheet(resolution=9):
                                      drag=0.0, integrator="implicit", dt=1.0 / 30.0)
 
 
+@pytest.mark.slow
 def test_stiff_cloth_at_a_large_step_stays_finite_and_never_gains_energy_while_explicit_diverges():
     sim = stiff_sheet()
     energies = [sim.energy()["total"]]
@@ -437,6 +438,7 @@ def test_a_truncated_line_search_step_does_not_count_as_converged():
     assert counters["unconverged_steps"] == 0 and counters["last_scaled_residual"] <= 1e-8
 
 
+@pytest.mark.slow
 def test_gathered_cloth_takes_few_newton_iterations_and_rejects_few_exact_hessians():
     # counts are deterministic: the iteration target of the default Newton as a count
     # (the first step, from the flat gathered start, needs ~100 iterations: max_newton 500)
@@ -497,6 +499,7 @@ def spinning_cloth_angular_momentum(integrator, damping):
     return angular_momentum() / before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("integrator", ["implicit", "bdf2"])
 def test_spring_damping_leaves_a_rigid_spin_alone(integrator):
     undamped = spinning_cloth_angular_momentum(integrator, 0.0)
@@ -524,6 +527,7 @@ def gathered_iterations(projection, resolution=12, steps=30):
     return sim
 
 
+@pytest.mark.slow
 def test_shifted_projection_keeps_the_exact_curvature_and_beats_the_clamp():
     # Counts are deterministic. Levenberg–Marquardt on the exact Hessian: the gathered cloth's
     # compressed springs make it indefinite (rejected, then shifted factorizations), and
@@ -575,6 +579,7 @@ def test_shifted_projection_resumes_with_its_shift():
         yore.Simulation.from_state(bad)
 
 
+@pytest.mark.slow
 def test_steihaug_throws_no_factorization_away_on_a_buckling_cloth():
     # Counts are deterministic. The gathered cloth's compressed springs make the exact Hessian
     # indefinite: the shifted projection throws factorizations away, trust-region Newton–CG

@@ -215,6 +215,7 @@ def test_the_convergence_test_stops_early_and_a_cap_hit_is_counted_and_warned_on
     assert fixed.stats["counters"]["iterations"] == 15
 
 
+@pytest.mark.slow
 def test_stiff_sheet_falls_as_a_converged_step_would():
     # the case, smaller: a stiff sheet hung from two corners. 10 plain iterations (the
     # old default) barely let it fall; the defaults follow a tightly converged local-global run

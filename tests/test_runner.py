@@ -194,6 +194,7 @@ def test_non_finite_numbers_reach_json_as_null_with_the_reason():
                      {"field": "x", "value": "nan"}]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["stiff", "hanging"])
 def test_resuming_a_finished_run_changes_nothing(tmp_path, scene):
     small = {"stiff": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "fixed.1.indices=[8]",
@@ -231,6 +232,7 @@ def test_a_folder_holding_another_run_is_refused_unless_overwrite(tmp_path, caps
     assert mine.read_text() == "not yore's"  # only the run's own files are removed
 
 
+@pytest.mark.slow
 def test_the_same_finished_run_repeats_but_an_unfinished_one_is_kept(tmp_path, capsys):
     assert run_hanging(tmp_path) == 0
     assert run_hanging(tmp_path) == 0  # the same scene, finished: running it again repeats it
@@ -250,6 +252,7 @@ def test_a_resume_checks_that_the_frames_it_lists_exist(tmp_path, capsys):
     assert "no longer exist" in error and Path(frames[1]["file"]).name in error
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("field, value", [
     ("step", -1), ("step", 3.5), ("step", 10**6), ("next_stroke", 7), ("frames", [[0.0]]),
     ("records", "x"), ("before", {"time": "now"}), ("wall_seconds", -1.0), ("phases", []),

@@ -176,14 +176,14 @@ def test_core_option_tables_round_trip_and_name_unknown_options(core):
 
 def test_python_option_defaults_come_from_the_core_structs():
     from yore import _core
-    from yore.simulation import _OPTIONS
+    from yore.simulation import INTEGRATOR_OPTIONS
 
     core = _core.ImplicitIntegrator.defaults
     # Newton's numbers are the struct's; quasi-Newton overrides only its cap and factorization
     for name in ("newton_tol", "max_newton", "pcg_tol", "lag_cg_tol", "ordering"):
-        assert _OPTIONS["implicit"][name] == core[name]
-    assert _OPTIONS["quasi-newton"]["lbfgs_history"] == core["lbfgs_history"]
-    assert _OPTIONS["local-global"]["chebyshev_rho"] == \
+        assert INTEGRATOR_OPTIONS["implicit"][name] == core[name]
+    assert INTEGRATOR_OPTIONS["quasi-newton"]["lbfgs_history"] == core["lbfgs_history"]
+    assert INTEGRATOR_OPTIONS["local-global"]["chebyshev_rho"] == \
         _core.LocalGlobalIntegrator.defaults["chebyshev_rho"]
 
 

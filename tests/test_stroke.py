@@ -174,6 +174,7 @@ def cylinder_stroke_points(height_fraction=0.25, radius=0.25, height=0.5):
                             radius * np.sin(angles)])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("integrator", ["explicit", "implicit"])
 def test_hanging_cloth_stroke_grows_the_region_and_lifts_it_out_of_plane(integrator):
     n = 11
@@ -192,6 +193,7 @@ def test_hanging_cloth_stroke_grows_the_region_and_lifts_it_out_of_plane(integra
     assert np.all(np.isfinite(sim.cloth.positions))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("integrator", ["explicit", "implicit"])
 def test_rotating_cylinder_stroke_grows_the_lower_band(integrator):
     sim = yore.scenes.rotating_cylinder(rings=9, segments=24, integrator=integrator)
@@ -230,6 +232,7 @@ def min_angle_degrees(V, F):
     return float(np.min([angle(a, b, c), angle(b, c, a), angle(c, a, b)]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("adaptive", [None, False])
 def test_five_strokes_over_one_region_keep_angles_and_the_implicit_solver_healthy(adaptive):
     sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", max_newton=400,

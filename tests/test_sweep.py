@@ -55,6 +55,7 @@ frames = true
     return load_sweep(path), tmp_path / "out", results
 
 
+@pytest.mark.slow
 def test_each_cell_gives_the_numbers_of_its_run_alone(grid, tmp_path):
     sweep, out, _ = grid
     dataset = open_results(out)
@@ -114,6 +115,7 @@ def test_a_diverging_cell_is_recorded_not_fatal(grid):
     assert results.counts() == {"done": 4, "diverged": 2}
 
 
+@pytest.mark.slow
 def test_an_interrupted_sweep_resumes_with_only_the_rest(tmp_path, monkeypatch):
     path = write(tmp_path, SMALL + '''
 [axes]
@@ -188,6 +190,7 @@ def test_a_cell_whose_scene_is_wrong_is_found_before_running(tmp_path):
         load_sweep(path)
 
 
+@pytest.mark.slow
 def test_the_client_memory_does_not_grow_with_the_cells(tmp_path):
     """What yore's code holds in the client after a sweep (traced allocations made in yore's
     files and still alive) for 100 and for 500 cells: results are streamed to disk, so five
@@ -214,6 +217,7 @@ def test_the_client_memory_does_not_grow_with_the_cells(tmp_path):
     assert large - small < 400 * 200, (small, large)
 
 
+@pytest.mark.slow
 def test_sweep_plot_draws_a_heat_map_and_names_bad_dimensions(grid, capsys):
     _, out, _ = grid
     picture = out / "map.png"
@@ -263,6 +267,7 @@ reference = { method = "BE" }
                    text=path.read_text().replace('{ method = "BE" }', '{ method = "RK4" }'))
 
 
+@pytest.mark.slow
 def test_a_sweep_leaves_the_callers_environment_as_it_was(tmp_path):
     import os
 
@@ -286,6 +291,7 @@ def _status_cell(scene_text, scene_path, overrides):
             "positions": None, "faces": None}
 
 
+@pytest.mark.slow
 def test_resume_refuses_an_edited_sweep_or_records_that_are_not_its_cells(tmp_path, capsys):
     # issue 22, items 1 and 11: resume relabelled old cells with new values, took a status
     # recorded as a value, and tracebacked on records of the wrong kind
@@ -332,6 +338,7 @@ def test_resume_refuses_an_edited_sweep_or_records_that_are_not_its_cells(tmp_pa
     assert resume(out, workers=1, quiet=True, cell_function=null_cell).counts() == {"done": 4}
 
 
+@pytest.mark.slow
 def test_a_recorded_value_never_replaces_the_status_or_a_coordinate(tmp_path):
     out = tmp_path / "out"
     run(write(tmp_path, NULL_SWEEP), out, workers=1, quiet=True, cell_function=_status_cell)
@@ -376,6 +383,7 @@ def test_a_sweeps_base_scene_has_the_scene_file_limits(tmp_path, capsys):
         assert err.startswith("yore: error:") and err.count("\n") == 1 and "sweep.scene" in err
 
 
+@pytest.mark.slow
 def test_sweep_plot_refuses_a_folder_as_picture_and_results_without_status(tmp_path, capsys):
     # issue 22, item 15: a KeyError traceback, and -o DIR silently wrote DIR.png
     import xarray as xr
@@ -402,6 +410,7 @@ def test_sweep_plot_refuses_a_folder_as_picture_and_results_without_status(tmp_p
     assert err.count("\n") == 1 and "cannot be read" in err
 
 
+@pytest.mark.slow
 def test_a_scheduler_that_is_not_one_is_one_line_within_the_timeout(tmp_path, capsys):
     # issue 22, item 9: a silent or HTTP server hung the sweep for over 11 minutes, ucx:// and
     # tls:// gave TypeError tracebacks, a refused connection took 30 s
@@ -433,6 +442,7 @@ def test_a_scheduler_that_is_not_one_is_one_line_within_the_timeout(tmp_path, ca
         silent.close()
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_a_sweep_is_one_line_exit_130_and_resumable(tmp_path):
     # issue 22, item 10: multi-line Dask tracebacks in 10 of 11 trials, one never exited. The
     # terminal's Ctrl-C goes to the whole process group: the workers must leave it to the client.

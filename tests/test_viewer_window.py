@@ -58,6 +58,7 @@ def xdotool(display, *arguments):
                           capture_output=True, text=True, timeout=60).stdout.strip()
 
 
+@pytest.mark.slow
 def test_a_mouse_drag_in_the_window_draws_a_stroke_and_z_undoes_it(display, tmp_path):
     scene = Path(yore.__file__).with_name("data") / "hanging.toml"
     log = tmp_path / "view.log"

@@ -380,6 +380,7 @@ def assert_colour_bar(image, colormap, left):
     assert np.all(np.diff(index) <= 1)  # never goes back up the map
 
 
+@pytest.mark.slow
 def test_the_colour_bar_shows_the_map_and_the_cloth_is_drawn_beside_it():
     V, F = wavy_cloth()
     width, height = 400, 300
@@ -581,6 +582,7 @@ def test_yore_run_without_egl_stops_before_running(tmp_path, capsys, monkeypatch
                  "--set", "strokes=[]", "--set", "simulation.settle=0"]) == 0
 
 
+@pytest.mark.slow
 def test_headless_screenshot_with_the_panel(tmp_path):
     viewer = Viewer(wavy_simulation(), Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0),
                                               width=640, height=480), headless=True)
@@ -592,6 +594,7 @@ def test_headless_screenshot_with_the_panel(tmp_path):
     assert dark > 0.05
 
 
+@pytest.mark.slow
 def test_view_and_render_survive_records_of_the_wrong_kind(tmp_path, capsys):
     # issue 22, item 14: AttributeError tracebacks, and RuntimeWarning lines before an error
     import meshio

@@ -6,28 +6,14 @@ Cloth") with an explicit reference integrator; see README.md for the whole pictu
 
 from __future__ import annotations
 
-import numbers
 import os as _os
-import signal as _signal
-import sys as _sys
-import threading as _threading
 
+# First, before the heavy imports: the `yore` command's Ctrl-C while it starts (yore.runtime).
+from .runtime import guard_command_start as _guard_command_start
 
-def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the process
-    print("yore: interrupted", file=_sys.stderr, flush=True)
-    _os._exit(130)
+_guard_command_start()
 
-
-# The `yore` command imports all of yore before its main() can catch Ctrl-C: while it starts, a
-# Ctrl-C is one line and exit 130 (a traceback of the imports otherwise). Only for the command:
-# a program importing yore keeps its own handling.
-_STARTING = (_os.path.basename(_sys.argv[0] if _sys.argv else "") == "yore"
-             and _threading.current_thread() is _threading.main_thread()
-             and _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler)
-if _STARTING:
-    _signal.signal(_signal.SIGINT, _interrupted_while_starting)
-
-from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the handler)
+from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the guard)
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh
@@ -46,7 +32,7 @@ if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_TH
                                             "OMP_NUM_THREADS")):
     _threads_core.set_blas_threads(1)
 
-__version__ = "0.1.0"
+from .runtime import VERSION as __version__, build_info, set_num_threads  # noqa: E402,F401
 
 __all__ = [
     "Cloth",
@@ -90,33 +76,3 @@ def __getattr__(name):
     raise AttributeError(f"module 'yore' has no attribute {name!r}")
 
 
-def build_info() -> dict:
-    """Versions of the libraries yore was built and linked with, and its thread count."""
-    from . import _core
-
-    info = dict(_core.build_info())
-    info["threads"] = _core.max_threads()
-    info["yore"] = __version__
-    return info
-
-
-from .checks import MAX_THREADS  # noqa: E402  (most threads set_num_threads accepts)
-
-
-def set_num_threads(threads: int) -> None:
-    """Sets the threads of yore's parallel loops and of the BLAS that CHOLMOD calls (OpenBLAS),
-    for the whole process: the one place the thread count is set (``yore --threads N`` and a
-    scene's ``[simulation] threads`` call it). Raises ValueError unless `threads` is an int >= 1
-    (bool is refused).
-
-    The explicit step still runs a block of steps on one thread when that is faster (small
-    cloths, or a machine busy with other processes); ``Simulation.stats["threads"]`` says what
-    its loops used.
-    """
-    from . import _core
-
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or \
-            not 1 <= threads <= MAX_THREADS:
-        raise ValueError(f"the number of threads must be an int in [1, {MAX_THREADS}], got "
-                         f"{threads!r}")
-    _core.set_max_threads(int(threads))

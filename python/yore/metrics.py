@@ -269,7 +269,7 @@ def rest_ratio_roughness(cloth, springs=None) -> float:
     graph: RMS difference between each spring's ratio and the mean ratio around its two ends.
     Rest-length smoothing lowers it."""
     ratio = cloth.springs.rest / cloth.springs.reference
-    neighbour = _vertex_mean_of_springs(cloth, ratio)
+    neighbour = spring_mean_around_ends(cloth, ratio)
     difference = ratio - neighbour
     if springs is not None:
         difference = difference[np.asarray(springs)]
@@ -291,7 +291,7 @@ def vertex_expansion(cloth) -> np.ndarray:
     return vertex_mean_of_springs(cloth, cloth.springs.rest / cloth.springs.reference)
 
 
-def _vertex_mean_of_springs(cloth, values):
+def spring_mean_around_ends(cloth, values):
     """For each spring, the mean of `values` over the springs at its two ends."""
     at_vertex = vertex_mean_of_springs(cloth, values)
     ends = cloth.springs.ends

@@ -16,7 +16,7 @@ from .camera import Camera
 from .stroke import (apply_stroke, check_factor, check_stroke_options, check_stroke_points,
                      mean_edge_length)
 
-__all__ = ["Simulation", "INTEGRATORS"]
+__all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
 
 #: Integrator names of the public API. Only those in ``_FACTORIES`` are built yet.
 INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
@@ -33,7 +33,9 @@ _NEWTON_ONLY = ("linearized", "step_tol", "adaptive_projection", "projection",
                 "lagged_factorization",
                 "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
                 "pcg_max_iterations")
-_OPTIONS = {
+#: Each integrator's options (name → default, None where `Simulation` resolves it from the
+#: others); `check_option` checks a value.
+INTEGRATOR_OPTIONS = {
     # strain_limit: Provot strain limiting, largest length / rest length of a structural spring
     # (e.g. 1.1); None turns it off (the core's 0). divergence_energy_factor: the divergence
     # bound in multiples of the cloth's energy scale (see ExplicitIntegrator).
@@ -67,8 +69,8 @@ _OPTIONS = {
         "predictor": None,
     },
 }
-_OPTIONS["bdf2"] = dict(_OPTIONS["implicit"])
-_OPTIONS["local-global"] = {
+INTEGRATOR_OPTIONS["bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
+INTEGRATOR_OPTIONS["local-global"] = {
     # Iterations of a step stop once the estimated distance to the step's solution is at most
     # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
     # `iterations` (counted in unconverged_steps). chebyshev_rho: the spectral-radius estimate
@@ -80,7 +82,7 @@ _OPTIONS["local-global"] = {
     **_CORE_LOCAL_GLOBAL,
     "acceleration": "chebyshev",  # "none" | "chebyshev" (Wang 2015); "none" passes rho 0
 }
-_OPTIONS["quasi-newton"] = {
+INTEGRATOR_OPTIONS["quasi-newton"] = {
     # The potential minimised: backward Euler's or BDF2's, as "implicit" and "bdf2" do.
     "method": "backward-euler",  # "backward-euler" | "bdf2"
     # lbfgs_history: L-BFGS correction pairs kept within a step (the initial Hessian is the
@@ -98,7 +100,7 @@ _OPTIONS["quasi-newton"] = {
     "factorization": "simplicial",
 }
 _ACCELERATIONS = ("none", "chebyshev")
-#: The quasi-Newton potentials (`_OPTIONS["quasi-newton"]["method"]`).
+#: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`).
 _QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
 
 #: Largest iteration counts an option may ask for. One step runs its iterations inside the C++
@@ -186,7 +188,7 @@ def _or_none(rule):
 
 
 #: How each option is checked (one rule per name, whichever integrator takes it); the defaults
-#: are in `_OPTIONS`. `check_option` applies them.
+#: are in `INTEGRATOR_OPTIONS`. `check_option` applies them.
 _RULES = {
     "strain_limit": _or_none(_real(1.0, low_open=False)),
     "strain_limit_passes": _count(1, MAX_STEP_ITERATIONS),
@@ -218,7 +220,7 @@ _RULES = {
     "method": _one_of(*_QUASI_NEWTON_METHODS),
     "lbfgs_history": _count(1, 1000),
 }
-assert all(set(table) <= set(_RULES) for table in _OPTIONS.values())
+assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
 
 def check_option(integrator, name, value):
@@ -226,7 +228,7 @@ def check_option(integrator, name, value):
     ValueError naming the option, the value and what is expected (an unknown name lists the
     valid ones). Types are checked, not coerced: ``linearized="no"``, ``max_newton=2.9`` and
     ``lag_cg_tol=inf`` are errors."""
-    valid = _OPTIONS[integrator]
+    valid = INTEGRATOR_OPTIONS[integrator]
     if name not in valid:
         raise ValueError(f"unknown option {name!r} for integrator {integrator!r}; valid: "
                          f"{', '.join(sorted(valid)) or 'none'}")
@@ -369,14 +371,14 @@ class Simulation:
     **options
         Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
         ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
-        ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when max |∇ᵢE|·h̃²/mᵢ, the
+        ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when ``max |∇ᵢE|·h̃²/mᵢ``, the
         gradient as a displacement, is below newton_tol × the mean rest length),
         ``step_tol`` (0 = off: Newton also stops after a full step that moved no vertex by
         more than step_tol × the mean rest length, the model's distance to the solution;
         counted in ``step_test_stops``; a step that
         reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region" | "shifted" | "steihaug", see `_OPTIONS`; None: "steihaug",
+        "exact" | "trust-region" | "shifted" | "steihaug", see `INTEGRATOR_OPTIONS`; None: "steihaug",
         or "clamp" for linearized and pcg), ``predictor`` (None | "start" |
         "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
@@ -423,7 +425,7 @@ class Simulation:
             raise NotImplementedError(
                 f"integrator {integrator!r} is not built yet in this version of yore; "
                 f"available: {', '.join(_FACTORIES)}")
-        valid = _OPTIONS[integrator]
+        valid = INTEGRATOR_OPTIONS[integrator]
         unknown = sorted(set(options) - set(valid))
         if unknown:
             raise ValueError(
@@ -471,6 +473,18 @@ class Simulation:
     def dt(self) -> float:
         """Time step, s."""
         return self._dt
+
+    @property
+    def dt_follows_cloth(self) -> bool:
+        """True when the step follows the cloth: an explicit simulation whose dt was left to
+        the default re-derives it after a stroke that lowers the stable step. `keep_dt` ends
+        that."""
+        return self._dt_follows_cloth
+
+    def keep_dt(self) -> None:
+        """Keeps the step as it is from now on, whatever strokes do to the stable step (a run
+        that schedules strokes and frames in steps of one dt needs this)."""
+        self._dt_follows_cloth = False
 
     @property
     def gravity(self) -> np.ndarray:
@@ -825,7 +839,7 @@ class Simulation:
         ``strength`` a number in (0, 1] and ``region`` None, "all" or integer vertex indices in
         range (floats and booleans are refused, not rounded).
         """
-        from .metrics import _vertex_mean_of_springs, rest_ratio_roughness
+        from .metrics import spring_mean_around_ends, rest_ratio_roughness
 
         if not _is_integer(iterations) or not 0 <= iterations <= MAX_SMOOTHING_ITERATIONS:
             raise ValueError(f"smooth_rest_lengths iterations: got {_show(iterations)}; expected "
@@ -859,7 +873,7 @@ class Simulation:
         before = rest_ratio_roughness(cloth, np.flatnonzero(selected))
         added_before = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
         for _ in range(iterations):
-            neighbour = _vertex_mean_of_springs(cloth, ratio)
+            neighbour = spring_mean_around_ends(cloth, ratio)
             ratio = np.where(selected, (1.0 - strength) * ratio + strength * neighbour, ratio)
         added_after = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
         if conserve and added_before != 0.0 and added_after * added_before > 0.0:

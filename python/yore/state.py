@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .checks import MIN_DT
-from .simulation import _OPTIONS, INTEGRATORS, Simulation, check_option
+from .simulation import INTEGRATOR_OPTIONS, INTEGRATORS, Simulation, check_option
 
 __all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
            "MAX_STATE_FILE_BYTES"]
@@ -357,7 +357,7 @@ def _check_simulation(field, simulation):
         raise field.error("simulation.integrator", f"got {_show(integrator)}",
                           "one of " + ", ".join(INTEGRATORS))
     options = field.keys(simulation["options"], "simulation.options", (),
-                         tuple(_OPTIONS[integrator]))
+                         tuple(INTEGRATOR_OPTIONS[integrator]))
     for name, value in options.items():
         try:
             check_option(integrator, name, value)

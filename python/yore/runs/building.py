@@ -19,13 +19,13 @@ from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh
 from ..simulation import Simulation
 from ..camera import Camera, camera_from_settings
 from ..stroke import RefinementTooLarge, StrokeMissed
-from .schema import _STROKE_FORMS, _did_you_mean
+from .schema import STROKE_FORMS, did_you_mean
 
 __all__ = ["scene_camera", "apply_scene_stroke"]
 
 
 # -- building -------------------------------------------------------------------------------------
-def _build(scene):
+def build_simulation(scene):
     data = scene.data
     mesh = data["mesh"]
     generator = mesh["generator"]
@@ -114,7 +114,7 @@ def _build(scene):
         raise scene.error("integrator", str(error)) from None
     # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an
     # explicit scene that refines gives its [simulation] dt, else the run stops with advice).
-    sim._dt_follows_cloth = False
+    sim.keep_dt()
     sim.scene = {"name": data["scene"].get("name", scene.source), "sets": sets, "uv": uv}
     return sim, sets
 
@@ -142,7 +142,7 @@ def _select(scene, where, entry, sets, positions):
     if "set" in entry:
         name = entry["set"]
         if name not in sets:
-            raise scene.error(f"{where}.set", f"unknown set {name!r}{_did_you_mean(name, sets)}",
+            raise scene.error(f"{where}.set", f"unknown set {name!r}{did_you_mean(name, sets)}",
                               "one of " + ", ".join(repr(s) for s in sets))
         return sets[name]
     box = entry["box"]
@@ -185,7 +185,7 @@ def apply_scene_stroke(scene, sim, index, camera=None):
     except RefinementTooLarge as error:
         raise scene.error(f"{where}.refine", str(error).removeprefix("refine: ")) from None
     except StrokeMissed as error:
-        form = next(f for f in _STROKE_FORMS if f in stroke)
+        form = next(f for f in STROKE_FORMS if f in stroke)
         raise scene.error(f"{where}.{form}", f"the stroke misses the cloth at t = "
                           f"{sim.time:.4g} s ({error})", "a polyline over the cloth") from None
     smooth = stroke.get("smooth")

@@ -24,7 +24,7 @@ from .. import metrics
 from ..camera import camera_from_settings
 from ..state import load_state
 from .loading import load_scene
-from .runner import SUMMARY_NAME, STATE_NAME, _write_json, run_scene
+from .runner import SUMMARY_NAME, STATE_NAME, write_json, run_scene
 
 __all__ = ["run_demo", "demo_scene_text", "paper_scene_text"]
 
@@ -33,12 +33,12 @@ PAPER_DIR, PLAIN_DIR, PAPER_PLAIN_DIR = "paper", "no-stroke", "paper-no-stroke"
 PICTURE_NAME = "demo.png"
 
 
-def _save_panels(path, camera_settings, shown):
+def _save_picture(path, camera_settings, shown):
     """The demo's picture: one panel per (simulation, run folder, title), one camera fitted to
     all of them, coloured by wrinkle height on one shared scale, with each run's strokes."""
-    from ..viz import save_png, side_by_side
+    from ..viz import save_panels
     from ..viz.pictures import stroke_lines
-    from ..viz.render import framing_camera, picture_layout, render_image
+    from ..viz.render import framing_camera, picture_layout
 
     positions = [sim.cloth.positions for sim, _, _ in shown]
     heights = [1e3 * metrics.wrinkle_height(sim.cloth.positions, sim.cloth.faces)
@@ -50,16 +50,14 @@ def _save_panels(path, camera_settings, shown):
         inner = camera_from_settings(camera_settings, positions, *inner_size)
         full = framing_camera(inner, full.width, full.height)
     panels = []
-    for (sim, folder, _), height in zip(shown, heights):
+    for sim, folder, title in shown:
         strokes = []
         if folder is not None and (folder / SUMMARY_NAME).is_file():
             record = json.loads((folder / SUMMARY_NAME).read_text(encoding="utf-8"))
             strokes = stroke_lines(record.get("strokes", []), sim.cloth.positions)
-        panels.append(render_image(sim.cloth.positions, sim.cloth.faces, full,
-                                   vertex_values=height, value_range=(-half, half),
-                                   colormap="coolwarm", colorbar="wrinkles (mm)",
-                                   strokes=strokes))
-    save_png(path, side_by_side(panels, [title for _, _, title in shown]))
+        panels.append((title, sim.cloth.positions, sim.cloth.faces, strokes))
+    save_panels(path, panels, camera=full, values=heights, value_range=(-half, half),
+                colormap="coolwarm", colorbar="wrinkles (mm)")
 
 
 def demo_scene_text() -> str:
@@ -131,13 +129,13 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
         shown.append((yore_sim, out,
                       f"yore's stroke: wrinkles x{measured['yore']['wrinkle_ratio']:.1f}, "
                       f"spike index {measured['yore']['spike_index']:.2f}"))
-    _save_panels(out / PICTURE_NAME, summary.get("camera"), shown)
+    _save_picture(out / PICTURE_NAME, summary.get("camera"), shown)
 
     summary["demo"] = {"picture": PICTURE_NAME, "time": plain_sim.time, **measured,
                        "runs": {"paper": PAPER_DIR, "no_stroke": PLAIN_DIR,
                                 "paper_no_stroke": PAPER_PLAIN_DIR}}
     summary["outputs"]["demo"] = PICTURE_NAME
-    _write_json(out / SUMMARY_NAME, summary)
+    write_json(out / SUMMARY_NAME, summary)
     if not quiet:
         for name, effect in measured.items():
             print(f"{name:5s}: wrinkle measure {effect['wrinkle']:.4f} m against "

@@ -23,12 +23,12 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from .._core import Cloth
 from ..meshes import MAX_MESH_VERTICES
-from ..simulation import _OPTIONS, OptionError, Simulation, check_option
+from ..simulation import INTEGRATOR_OPTIONS, OptionError, Simulation, check_option
 from ..checks import MAX_IMAGE_PIXELS
-from .building import _build, apply_scene_stroke
-from .schema import (_BOX, _GENERATOR_KEYS, _REQUIRED, _SCHEMA_GENERATOR_EXPECTED, _SELECTION,
-                     _SMOOTH, _STROKE_FORMS, MAX_SCENE_FILE_BYTES, SCHEMA, SceneError, _describe,
-                     _did_you_mean, _Invalid)
+from .building import build_simulation, apply_scene_stroke
+from .schema import (BOX, GENERATOR_KEYS, REQUIRED, SCHEMA_GENERATOR_EXPECTED, SELECTION,
+                     SMOOTH, STROKE_FORMS, MAX_SCENE_FILE_BYTES, SCHEMA, SceneError, describe_value,
+                     did_you_mean, Invalid)
 
 __all__ = ["Scene", "load_scene", "parse_override"]
 
@@ -72,7 +72,7 @@ class Scene:
         Raises SceneError for anything the static checks could not see: vertex indices out
         of range, a selection that selects nothing, a vertex both fixed and driven, integrator
         options the integrator rejects, a mesh file that cannot be read."""
-        return _build(self)
+        return build_simulation(self)
 
     def check_strokes(self, sim=None) -> None:
         """Tries the strokes that can be tried before the run on a copy of the cloth (of
@@ -115,7 +115,7 @@ def load_scene(path=None, text=None, overrides=None) -> Scene:
         if path is None:
             raise ValueError("give a scene file path or its text")
         path = Path(os.fspath(path))
-        text = _read_scene_text(path)
+        text = read_scene_text(path)
     elif path is not None:
         path = Path(os.fspath(path))
     source = str(path) if path is not None else "<scene>"
@@ -138,7 +138,7 @@ def load_scene(path=None, text=None, overrides=None) -> Scene:
     return scene
 
 
-def _read_scene_text(path):
+def read_scene_text(path):
     """The text of scene file ``path``; SceneError if it is not a regular file (a FIFO would
     block), is larger than MAX_SCENE_FILE_BYTES or is not UTF-8."""
     try:
@@ -209,7 +209,7 @@ def _check(scene, raw):
     unknown = [key for key in raw if key not in SCHEMA]
     if unknown:
         key = unknown[0]
-        raise scene.error(key, f"unknown table or key{_did_you_mean(key, SCHEMA)}",
+        raise scene.error(key, f"unknown table or key{did_you_mean(key, SCHEMA)}",
                           "one of the tables " + ", ".join(f"[{k}]" for k in SCHEMA))
     data = {}
     for name, (keys, kind) in SCHEMA.items():
@@ -220,7 +220,7 @@ def _check(scene, raw):
             if value is None:
                 value = []
             if not isinstance(value, list) or any(not isinstance(v, dict) for v in value):
-                raise scene.error(name, f"got {_describe(value)}",
+                raise scene.error(name, f"got {describe_value(value)}",
                                   f"[[{name}]] tables (an array of tables)")
             data[name] = [_check_table(scene, f"{name}[{k}]", entry, keys)
                           for k, entry in enumerate(value)]
@@ -230,15 +230,15 @@ def _check(scene, raw):
                     raise scene.error(name, "missing", f"a [{name}] table")
                 value = {}
             if not isinstance(value, dict):
-                raise scene.error(name, f"got {_describe(value)}", f"a [{name}] table")
+                raise scene.error(name, f"got {describe_value(value)}", f"a [{name}] table")
             if name == "mesh":
                 generator = value.get("generator")
                 if generator is None:
                     raise scene.error("mesh.generator", "missing",
-                                      _SCHEMA_GENERATOR_EXPECTED)
+                                      SCHEMA_GENERATOR_EXPECTED)
                 keys = dict(keys)
-                if isinstance(generator, str) and generator in _GENERATOR_KEYS:
-                    keys.update(_GENERATOR_KEYS[generator])
+                if isinstance(generator, str) and generator in GENERATOR_KEYS:
+                    keys.update(GENERATOR_KEYS[generator])
             data[name] = _check_table(scene, name, value, keys)
             if name == "mesh":
                 _check_mesh_size(scene, data[name])
@@ -269,7 +269,7 @@ def _check(scene, raw):
     for k, entry in enumerate(data["driven"]):
         _check_selection(scene, f"driven[{k}]", entry)
     for k, stroke in enumerate(data["strokes"]):
-        forms = [f for f in _STROKE_FORMS if f in stroke]
+        forms = [f for f in STROKE_FORMS if f in stroke]
         if len(forms) != 1:
             raise scene.error(f"strokes[{k}]", f"gives {len(forms)} of points, material, screen",
                               "exactly one of them")
@@ -322,25 +322,25 @@ def _check_table(scene, where, table, keys):
     checked = {}
     for key, value in table.items():
         if key not in keys:
-            raise scene.error(f"{where}.{key}", f"unknown key{_did_you_mean(key, keys)}",
+            raise scene.error(f"{where}.{key}", f"unknown key{did_you_mean(key, keys)}",
                               "one of " + ", ".join(keys))
         checker = keys[key][0]
         if checker == "box":
             checked[key] = _check_table(scene, f"{where}.{key}", _as_table(scene, where, key,
-                                                                             value), _BOX)
+                                                                             value), BOX)
             continue
         if checker == "smooth":
             checked[key] = _check_table(scene, f"{where}.{key}", _as_table(scene, where, key,
-                                                                             value), _SMOOTH)
+                                                                             value), SMOOTH)
             continue
         try:
             checked[key] = checker(value)
-        except _Invalid as invalid:
+        except Invalid as invalid:
             raise scene.error(f"{where}.{key}", invalid.problem, invalid.expected) from None
     for key, (checker, default, _) in keys.items():
         if key in checked:
             continue
-        if default is _REQUIRED:
+        if default is REQUIRED:
             expected = getattr(checker, "expected", "a value")
             raise scene.error(f"{where}.{key}", "missing", expected)
         if default is not None and checker not in ("box", "smooth"):
@@ -350,12 +350,12 @@ def _check_table(scene, where, table, keys):
 
 def _as_table(scene, where, key, value):
     if not isinstance(value, dict):
-        raise scene.error(f"{where}.{key}", f"got {_describe(value)}", "an inline table {...}")
+        raise scene.error(f"{where}.{key}", f"got {describe_value(value)}", "an inline table {...}")
     return value
 
 
 def _check_selection(scene, where, entry):
-    given = [k for k in _SELECTION if k in entry]
+    given = [k for k in SELECTION if k in entry]
     if len(given) != 1:
         raise scene.error(where, f"selects vertices by {len(given)} of indices, box, set",
                           "exactly one of them")
@@ -363,14 +363,14 @@ def _check_selection(scene, where, entry):
 
 def _check_integrator(scene, options, integrator):
     if not isinstance(options, dict):
-        raise scene.error("integrator", f"got {_describe(options)}", "an [integrator] table")
-    table = _OPTIONS.get(integrator, {})
+        raise scene.error("integrator", f"got {describe_value(options)}", "an [integrator] table")
+    table = INTEGRATOR_OPTIONS.get(integrator, {})
     checked = {}
     for key, value in options.items():
         if key not in table:
             raise scene.error(f"integrator.{key}",
                               f"unknown option of the {integrator!r} integrator"
-                              f"{_did_you_mean(key, table)}",
+                              f"{did_you_mean(key, table)}",
                               "one of " + (", ".join(sorted(table)) or "no options"))
         try:
             checked[key] = check_option(integrator, key, value)

@@ -250,7 +250,7 @@ def _is_frame_path(text):
 def _set_threads(scene, threads):
     threads = scene.data["simulation"].get("threads") if threads is None else threads
     if threads is not None:
-        from .. import set_num_threads
+        from ..runtime import set_num_threads
 
         set_num_threads(threads)
 
@@ -491,7 +491,7 @@ def _run(scene, sim, record, out, until, quiet, render):
             state_path = _save(out, sim, record, previous_phases, phases)
             summary = _summary(scene, sim, record, out, state_path, status, message)
             summary_path = out / SUMMARY_NAME
-            _write_json(summary_path, summary)
+            write_json(summary_path, summary)
     except KeyboardInterrupt:
         # a (second) Ctrl-C held back while the state and summary were written: they are
         # complete, so the run stops as interrupted there, with its resume hint
@@ -511,7 +511,7 @@ def _run(scene, sim, record, out, until, quiet, render):
                 out, pictures=output["pictures"],
                 animation=None if output["animation"] == "none" else output["animation"],
                 color_by=output["color_by"], framing=output["framing"], quiet=quiet))
-            _write_json(summary_path, summary)
+            write_json(summary_path, summary)
     return summary
 
 
@@ -608,7 +608,7 @@ def _save(out, sim, record, previous_phases, phases=None):
 
 
 def _summary(scene, sim, record, out, state_path, status, message):
-    from .. import build_info
+    from ..runtime import build_info
 
     stats = sim.stats
     # the scene as run (copied into JSON types by _finite_json below)
@@ -690,7 +690,7 @@ def _finite_json(value, where=""):
     return visit(value, where), found
 
 
-def _write_json(path, document):
+def write_json(path, document):
     partial = path.with_name(path.name + ".part")
     partial.write_text(json.dumps(document, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     os.replace(partial, path)

@@ -53,19 +53,19 @@ class SceneError(ValueError):
 
 # -- the schema ----------------------------------------------------------------------------------
 # Each key maps to (checker, default, description). A checker takes a value and returns
-# the checked value or raises _Invalid(problem, expected). A default of _REQUIRED means the key
+# the checked value or raises Invalid(problem, expected). A default of REQUIRED means the key
 # must be given; None means "absent unless given".
 
-_REQUIRED = object()
+REQUIRED = object()
 
 
-class _Invalid(Exception):
+class Invalid(Exception):
     def __init__(self, problem, expected):
         super().__init__(problem)
         self.problem, self.expected = problem, expected
 
 
-def _describe(value):
+def describe_value(value):
     if isinstance(value, (dict, list)):
         return f"a {'table' if isinstance(value, dict) else 'list'}"
     text = repr(value)
@@ -74,7 +74,7 @@ def _describe(value):
     return f"{type(value).__name__} {text}"
 
 
-def _did_you_mean(key, candidates):
+def did_you_mean(key, candidates):
     close = difflib.get_close_matches(str(key), [str(c) for c in candidates], n=2, cutoff=0.6)
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
@@ -90,14 +90,14 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
 
     def check(value):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise _Invalid(f"got {_describe(value)}", expected)
+            raise Invalid(f"got {describe_value(value)}", expected)
         value = float(value)
         if not math.isfinite(value):
-            raise _Invalid(f"got {value}", expected)
+            raise Invalid(f"got {value}", expected)
         if minimum is not None and (value < minimum or (strict_minimum and value == minimum)):
-            raise _Invalid(f"got {value:g}", expected)
+            raise Invalid(f"got {value:g}", expected)
         if maximum is not None and value > maximum:
-            raise _Invalid(f"got {value:g}", expected)
+            raise Invalid(f"got {value:g}", expected)
         return value
     check.expected = expected
     return check
@@ -109,9 +109,9 @@ def _integer(minimum, maximum=MAX_INTEGER):
 
     def check(value):
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise _Invalid(f"got {_describe(value)}", expected)
+            raise Invalid(f"got {describe_value(value)}", expected)
         if value > maximum:
-            raise _Invalid(f"got {_describe(value)}, more than the limit {maximum}", expected)
+            raise Invalid(f"got {describe_value(value)}, more than the limit {maximum}", expected)
         return value
     check.expected = expected
     return check
@@ -119,7 +119,7 @@ def _integer(minimum, maximum=MAX_INTEGER):
 
 def _boolean(value):
     if not isinstance(value, bool):
-        raise _Invalid(f"got {_describe(value)}", "true or false")
+        raise Invalid(f"got {describe_value(value)}", "true or false")
     return value
 
 
@@ -128,7 +128,7 @@ _boolean.expected = "true or false"
 
 def _string(value):
     if not isinstance(value, str):
-        raise _Invalid(f"got {_describe(value)}", "a string")
+        raise Invalid(f"got {describe_value(value)}", "a string")
     return value
 
 
@@ -140,7 +140,7 @@ def _choice(*choices):
 
     def check(value):
         if value not in choices:
-            raise _Invalid(f"got {_describe(value)}", expected)
+            raise Invalid(f"got {describe_value(value)}", expected)
         return value
     check.expected = expected
     return check
@@ -151,12 +151,12 @@ def _points(dimension, what):
 
     def check(value):
         if not isinstance(value, list) or not value:
-            raise _Invalid(f"got {_describe(value)}", expected)
+            raise Invalid(f"got {describe_value(value)}", expected)
         for point in value:
             if (not isinstance(point, list) or len(point) != dimension or
                     any(isinstance(c, bool) or not isinstance(c, (int, float)) or
                         not math.isfinite(c) for c in point)):
-                raise _Invalid(f"got the point {point!r}", expected)
+                raise Invalid(f"got the point {point!r}", expected)
         return np.asarray(value, dtype=np.float64)
     check.expected = expected
     return check
@@ -166,7 +166,7 @@ def _vector3(value):
     if (not isinstance(value, list) or len(value) != 3 or
             any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
                 for c in value)):
-        raise _Invalid(f"got {_describe(value)}", "3 numbers [x, y, z]")
+        raise Invalid(f"got {describe_value(value)}", "3 numbers [x, y, z]")
     return np.asarray(value, dtype=np.float64)
 
 
@@ -176,16 +176,16 @@ _vector3.expected = "3 numbers [x, y, z]"
 def _indices(value):
     expected = _indices.expected
     if not isinstance(value, list) or not value:
-        raise _Invalid(f"got {_describe(value)}", expected)
+        raise Invalid(f"got {describe_value(value)}", expected)
     for i in value:
         if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i <= MAX_INTEGER:
-            raise _Invalid(f"got the index {_describe(i)}", expected)
+            raise Invalid(f"got the index {describe_value(i)}", expected)
     return np.asarray(value, dtype=np.int32)
 
 
 _indices.expected = "a list of vertex indices (integers in [0, 2147483647])"
 
-_GENERATOR_KEYS = {
+GENERATOR_KEYS = {
     "grid": {
         "nx": (_integer(2), 21, "vertices along the pattern's u (width) direction"),
         "ny": (_integer(2), 21, "vertices along the pattern's v (height) direction"),
@@ -204,18 +204,18 @@ _GENERATOR_KEYS = {
         "segments": (_integer(3), 32, "vertices per ring"),
     },
     "file": {
-        "path": (_string, _REQUIRED, "mesh file (any meshio format), relative to the scene"),
+        "path": (_string, REQUIRED, "mesh file (any meshio format), relative to the scene"),
         "scale": (_number(0, strict_minimum=True), 1.0, "factor applied to the coordinates"),
     },
 }
 
-_SELECTION = {
+SELECTION = {
     "indices": (_indices, None, "vertex indices"),
     "box": ("box", None, "{min = [x, y, z], max = [x, y, z]}: vertices inside at t = 0, m"),
     "set": (_string, None, "a named set of the mesh generator (see README)"),
 }
 
-_STROKE_FORMS = ("points", "material", "screen")
+STROKE_FORMS = ("points", "material", "screen")
 
 
 def _mass_scale(value):
@@ -223,13 +223,13 @@ def _mass_scale(value):
         return value
     try:
         return _positive_factor(value)
-    except _Invalid as error:
-        raise _Invalid(error.problem, _mass_scale.expected) from None
+    except Invalid as error:
+        raise Invalid(error.problem, _mass_scale.expected) from None
 
 
 _positive_factor = _number(0, strict_minimum=True)
 _mass_scale.expected = "a number > 0 or 'conserve'"
-_SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in _GENERATOR_KEYS)
+SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in GENERATOR_KEYS)
 
 SCHEMA = {
     "scene": ({
@@ -237,7 +237,7 @@ SCHEMA = {
         "description": (_string, None, "free text"),
     }, "table"),
     "mesh": ({
-        "generator": (_choice(*_GENERATOR_KEYS), _REQUIRED, "grid, cylinder or file"),
+        "generator": (_choice(*GENERATOR_KEYS), REQUIRED, "grid, cylinder or file"),
     }, "table"),
     "material": ({
         "mass": (_number(0, strict_minimum=True, unit="kg"), None,
@@ -256,19 +256,19 @@ SCHEMA = {
         "damping": (_number(0, unit="N·s/m"), 0.02, "along each spring"),
         "drag": (_number(0, unit="1/s"), 0.3, "still air"),
     }, "table"),
-    "fixed": (dict(_SELECTION), "array"),
+    "fixed": (dict(SELECTION), "array"),
     "driven": ({
-        **_SELECTION,
+        **SELECTION,
         "motion": (_choice("rotation"), "rotation", "the kind of prescribed motion"),
-        "center": (_vector3, _REQUIRED, "a point on the rotation axis, m"),
-        "axis": (_vector3, _REQUIRED, "axis direction"),
-        "omega": (_number(unit="rad/s"), _REQUIRED, "angular speed, right-handed about axis"),
+        "center": (_vector3, REQUIRED, "a point on the rotation axis, m"),
+        "axis": (_vector3, REQUIRED, "axis direction"),
+        "omega": (_number(unit="rad/s"), REQUIRED, "angular speed, right-handed about axis"),
     }, "array"),
     "simulation": ({
         "integrator": (_choice(*INTEGRATORS), "explicit", "the time integrator"),
         "dt": (_number(MIN_DT, unit="s"), None,
                "time step; default: below the stable step (explicit) or 1/60 s"),
-        "duration": (_number(0, strict_minimum=True, unit="s"), _REQUIRED, "simulated time"),
+        "duration": (_number(0, strict_minimum=True, unit="s"), REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
         "settle": (_number(0, MAX_SETTLE_SECONDS, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
                    "to a static equilibrium before t = 0 (Simulation.settle; no driven "
@@ -278,7 +278,7 @@ SCHEMA = {
     }, "table"),
     "integrator": (None, "table"),  # options of the chosen integrator, checked separately
     "strokes": ({
-        "time": (_number(0, unit="s"), _REQUIRED, "when the stroke is drawn"),
+        "time": (_number(0, unit="s"), REQUIRED, "when the stroke is drawn"),
         "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
         "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
         "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
@@ -319,13 +319,13 @@ SCHEMA = {
     }, "table"),
 }
 
-_SMOOTH = {
+SMOOTH = {
     "iterations": (_integer(0, MAX_SMOOTHING_ITERATIONS), 10, "smoothing iterations"),
     "strength": (_number(0, 1, strict_minimum=True), 0.5, "fraction moved per iteration"),
     "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
     "conserve": (_boolean, True, "keep the region's added rest length (redistribute only)"),
 }
-_BOX = {
-    "min": (_vector3, _REQUIRED, "lower corner, m"),
-    "max": (_vector3, _REQUIRED, "upper corner, m"),
+BOX = {
+    "min": (_vector3, REQUIRED, "lower corner, m"),
+    "max": (_vector3, REQUIRED, "upper corner, m"),
 }

@@ -32,7 +32,7 @@ _ENERGIES = ("kinetic", "spring", "gravity", "total", "area", "rest_area")
 def run_cell(scene_text, scene_path, overrides) -> dict:
     """Runs one cell; returns {"status", "message", "values": {name: float}, "positions",
     "faces"} (positions/faces None when no state was reached)."""
-    from .. import set_num_threads
+    from ..runtime import set_num_threads
     from ..runs import RunError, SceneError, load_scene, run_scene
 
     set_num_threads(1)  # one thread per worker process: no oversubscription

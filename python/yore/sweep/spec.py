@@ -44,7 +44,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..runs import SceneError, load_scene
-from ..runs.loading import _read_scene_text
+from ..runs.loading import read_scene_text
 
 __all__ = ["Sweep", "Cell", "Dimension", "load_sweep", "SweepError", "MAX_CELLS",
            "BUILTIN_SCENES"]
@@ -311,7 +311,7 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
             try:
                 sweep.scene(cell)
             except SceneError as error:
-                raise _error(source, f"cell {cell.index} ({_describe(sweep, cell)})",
+                raise _error(source, f"cell {cell.index} ({describe_value(sweep, cell)})",
                              " ".join(str(error).split())) from None
     return sweep
 
@@ -357,7 +357,7 @@ def _variants(source, name, entries) -> Dimension:
     return Dimension(name, every, tuple(values), labels=tuple(labels), variant_keys=tuple(keys))
 
 
-def _describe(sweep, cell) -> str:
+def describe_value(sweep, cell) -> str:
     return ", ".join(f"{key} = {value!r}" for key, value in cell.overrides.items()
                      if key not in sweep.sets)
 
@@ -413,6 +413,6 @@ def _scene(source, path, scene):
     try:
         # the limits of a scene file (`yore run`, `yore check`): a regular file of at most
         # MAX_SCENE_FILE_BYTES, UTF-8
-        return _read_scene_text(scene_path), scene_path
+        return read_scene_text(scene_path), scene_path
     except SceneError as error:
         raise _error(source, "sweep.scene", " ".join(str(error).split())) from None

@@ -280,18 +280,24 @@ def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=Non
                    else str(path)) for name, path in written.items()}
 
 
-def save_panels(path, panels, width=480, height=400, camera=None, **render_options) -> Path:
+def save_panels(path, panels, width=480, height=400, camera=None, values=None,
+                **render_options) -> Path:
     """One PNG of several states side by side, titled, under one camera (fitted to all of
     them unless ``camera`` is given), so shapes compare at one scale.
 
-    panels : list of (title, V, F) or (title, V, F, strokes); render_options go to
-    `yore.viz.render_image` (e.g. ``vertex_values`` is not shared: pass per-panel values by
-    rendering yourself)."""
+    panels : list of (title, V, F) or (title, V, F, strokes); values : None, or one array of
+    vertex values per panel (coloured on one scale: pass ``value_range`` to share it);
+    render_options go to `yore.viz.render_image` (``value_range``, ``colormap``, ``colorbar``,
+    ...)."""
     if not panels:
         raise ValueError("panels is empty: save_panels needs at least one (title, V, F)")
+    if values is not None and len(values) != len(panels):
+        raise ValueError(f"values has {len(values)} arrays for {len(panels)} panels")
     if camera is None:
         camera = fit_camera([np.asarray(panel[1], float) for panel in panels], width, height)
     images = [render_image(panel[1], panel[2], camera,
-                           strokes=panel[3] if len(panel) > 3 else (), **render_options)
-              for panel in panels]
+                           strokes=panel[3] if len(panel) > 3 else (),
+                           **({} if values is None else {"vertex_values": values[k]}),
+                           **render_options)
+              for k, panel in enumerate(panels)]
     return save_png(path, side_by_side(images, [str(panel[0]) for panel in panels]))

@@ -55,7 +55,7 @@ def colormap_table(name, samples=256) -> np.ndarray:
     return np.asarray(colormaps[name](np.linspace(0.0, 1.0, samples)))[:, :3]
 
 
-def _polyscope_map(ps, name) -> str:
+def polyscope_colormap(ps, name) -> str:
     """The name under which polyscope knows colour map ``name`` (loaded once per process)."""
     global _map_folder
     if name not in _loaded_maps:
@@ -278,7 +278,7 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
             low, high = _value_range(values, value_range, colormap)
             if len(F):
                 mesh.add_scalar_quantity("values", values, defined_on=defined_on,
-                                         cmap=_polyscope_map(ps, colormap), vminmax=(low, high),
+                                         cmap=polyscope_colormap(ps, colormap), vminmax=(low, high),
                                          enabled=True)
             surface_colors = colormap_table(colormap)
         ink = stroke_color(surface_colors)

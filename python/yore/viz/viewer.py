@@ -38,7 +38,7 @@ from ..checks import check_factor, check_integer
 from ..stroke import GROWTH_MODES, StrokeMissed, check_stroke_options
 from . import backend
 
-__all__ = ["Viewer", "parse_pixels", "run_view_command", "SAMPLE_SPACING_PX", "KEYS"]
+__all__ = ["Viewer", "parse_pixels", "densify", "SAMPLE_SPACING_PX", "KEYS"]
 
 #: Mouse or given pixels are densified so that consecutive samples are at most this far apart.
 SAMPLE_SPACING_PX = 2.0
@@ -204,7 +204,7 @@ class Viewer:
 
     def _update_colors(self, force=False):
         from ..metrics import vertex_expansion, wrinkle_height
-        from .render import _polyscope_map
+        from .render import polyscope_colormap
 
         cloth = self.sim.cloth
         if self.coloring == "none":
@@ -224,7 +224,7 @@ class Viewer:
             half = max(float(np.abs(values).max()), 1e-6)
             cmap, label, low, high = "coolwarm", "wrinkles (mm)", -half, half
         self._mesh.add_scalar_quantity(label, values, defined_on="vertices",
-                                       cmap=_polyscope_map(self._ps, cmap), vminmax=(low, high),
+                                       cmap=polyscope_colormap(self._ps, cmap), vminmax=(low, high),
                                        enabled=True, onscreen_colorbar_enabled=not self.headless)
         self._colored_version = key
 
@@ -718,103 +718,3 @@ def _statistics_lines(s) -> list:
             f"analyses {number(s['analyses'], '{}')}, "
             f"factorization {number(s['factorize_seconds'], '{:.3f}')} s",
             f"{s['vertices']} vertices, {s['faces']} faces; strokes: {s['strokes']}"]
-
-
-# -- yore view ------------------------------------------------------------------------------------
-def _load_source(source, overrides):
-    """(simulation, camera settings, first stroke's options) of a scene file or a state."""
-    source = Path(source)
-    if source.suffix.lower() == ".npz":
-        if overrides:
-            raise ValueError("--set changes a scene file; a state (.npz) takes none")
-        from ..state import load_state
-
-        sim, metadata = load_state(source)
-        settings = None
-        overrides = metadata.get("overrides") if isinstance(metadata, dict) else None
-        if isinstance(metadata, dict) and isinstance(metadata.get("scene_text"), str) and \
-                (overrides is None or isinstance(overrides, dict)):
-            # a run's state: its scene's [camera] (a record that is not a run's is ignored)
-            from ..runs import load_scene
-
-            try:
-                settings = load_scene(text=metadata["scene_text"],
-                                      overrides=overrides or {}).data["camera"]
-            except ValueError:
-                settings = None
-        return sim, settings, {}
-    from ..runs import load_scene
-
-    scene = load_scene(source, overrides=overrides)
-    sim, _ = scene.build()
-    if scene.data["simulation"]["settle"] > 0.0:
-        # the scene's starting state is its settled cloth, as in `yore run`
-        sim.settle(scene.data["simulation"]["settle"])
-    strokes = scene.data.get("strokes") or []
-    first = {}
-    if strokes:
-        for name in ("expansion", "mass_scale", "width", "growth", "refine"):
-            if strokes[0].get(name) is not None:
-                first[name] = strokes[0][name]
-    return sim, scene.data.get("camera"), first
-
-
-def run_view_command(arguments, overrides) -> None:
-    """``yore view`` (see `yore.cli`)."""
-    from ..camera import camera_from_settings
-
-    if not arguments.headless and (arguments.stroke_px or arguments.at is not None
-                                   or arguments.until is not None):
-        raise ValueError("--stroke-px, --at and --until script a headless view: add --headless")
-    if arguments.headless and arguments.screenshot is None:
-        raise ValueError("a headless view shows nothing: give --screenshot PICTURE.png")
-    if arguments.screenshot is not None and arguments.screenshot.suffix.lower() != ".png":
-        raise ValueError(f"--screenshot writes PNG files; got {str(arguments.screenshot)!r}")
-    strokes = [parse_pixels(text) for text in arguments.stroke_px]
-    for pixels in strokes:
-        densify(pixels)  # its sample limit, before the scene is loaded and run
-    for name in ("at", "until"):
-        value = getattr(arguments, name)
-        if value is not None and not (math.isfinite(value) and 0.0 <= value <= 1e6):
-            raise ValueError(f"--{name} must be a time in [0, 1e6] s, got {value}")
-    sim, settings, first = _load_source(arguments.source, overrides)
-    at = sim.time if arguments.at is None else arguments.at
-    until = at if arguments.until is None else arguments.until
-    if at < sim.time - 1e-12:
-        raise ValueError(f"--at {at} s is before the simulation's time {sim.time:.6g} s")
-    if until < at:
-        raise ValueError(f"--until {until} s is before --at {at} s")
-    options = dict(first)
-    for name, value in (("expansion", arguments.expansion), ("width", arguments.stroke_width),
-                        ("growth", arguments.growth), ("refine", arguments.refine),
-                        ("smooth", arguments.smooth)):
-        if value is not None:
-            options[name] = value
-    camera = camera_from_settings(settings, sim.cloth.positions, arguments.width,
-                                  arguments.height, arguments.eye, arguments.target,
-                                  arguments.up, arguments.fov)
-    viewer = Viewer(sim, camera, headless=arguments.headless, stroke_options=options)
-    if not arguments.headless:
-        if not getattr(arguments, "quiet", False):
-            viewer.log = lambda text: print(f"yore view: {text}", flush=True)
-        viewer.show()
-        return
-    quiet = getattr(arguments, "quiet", False)
-
-    def run_to(target):
-        if target > viewer.sim.time:
-            # Simulation.advance shows its own progress bar on a terminal for long runs
-            viewer.advance(target - viewer.sim.time, progress=False if quiet else None)
-
-    run_to(at)
-    for k, pixels in enumerate(strokes):
-        reports = viewer.stroke_pixels(pixels)
-        if not quiet:
-            print(f"stroke {k + 1} at t = {viewer.sim.time:.3f} s: "
-                  f"{sum(r.faces_split for r in reports)} faces split, "
-                  f"{sum(r.vertices_added for r in reports)} vertices added"
-                  + (f" ({len(reports)} pieces)" if len(reports) > 1 else ""))
-    run_to(until)
-    path = viewer.save_picture(arguments.screenshot, panel=arguments.panel)
-    if not quiet:
-        print(f"picture:      {Path(path).resolve()}")

@@ -1,0 +1,77 @@
+"""The process-wide facts and settings of yore: its version, what its core was built with, its
+thread count (re-exported by `yore`: `yore.build_info`, `yore.set_num_threads`) and the `yore`
+command's handling of Ctrl-C while it starts. Imports only the standard library at first:
+``yore/__init__.py`` imports it before anything heavy."""
+
+from __future__ import annotations
+
+import numbers
+import os
+import signal
+import sys
+import threading
+
+__all__ = ["VERSION", "build_info", "set_num_threads", "guard_command_start",
+           "end_command_start"]
+
+#: yore's version (also `yore.__version__`).
+VERSION = "0.1.0"
+
+
+def build_info() -> dict:
+    """Versions of the libraries yore was built and linked with, and its thread count."""
+    from . import _core
+
+    info = dict(_core.build_info())
+    info["threads"] = _core.max_threads()
+    info["yore"] = VERSION
+    return info
+
+
+def set_num_threads(threads: int) -> None:
+    """Sets the threads of yore's parallel loops and of the BLAS that CHOLMOD calls (OpenBLAS),
+    for the whole process: the one place the thread count is set (``yore --threads N`` and a
+    scene's ``[simulation] threads`` call it). Raises ValueError unless `threads` is an int >= 1
+    (bool is refused).
+
+    The explicit step still runs a block of steps on one thread when that is faster (small
+    cloths, or a machine busy with other processes); ``Simulation.stats["threads"]`` says what
+    its loops used.
+    """
+    from . import _core
+    from .checks import MAX_THREADS
+
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or \
+            not 1 <= threads <= MAX_THREADS:
+        raise ValueError(f"the number of threads must be an int in [1, {MAX_THREADS}], got "
+                         f"{threads!r}")
+    _core.set_max_threads(int(threads))
+
+
+# The `yore` command imports all of yore before its main() can catch Ctrl-C: while it starts, a
+# Ctrl-C is one line and exit 130 (a traceback of the imports otherwise). Only for the command:
+# a program importing yore keeps its own handling.
+_guarding = [False]
+
+
+def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the process
+    print("yore: interrupted", file=sys.stderr, flush=True)
+    os._exit(130)
+
+
+def guard_command_start() -> None:
+    """In the `yore` command's main thread, while Python's own Ctrl-C handling is in place: a
+    Ctrl-C ends the process with one line and exit 130 until `end_command_start`."""
+    if (os.path.basename(sys.argv[0] if sys.argv else "") == "yore"
+            and threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+        signal.signal(signal.SIGINT, _interrupted_while_starting)
+        _guarding[0] = True
+
+
+def end_command_start() -> None:
+    """The command has started: Ctrl-C raises KeyboardInterrupt again, for its main() to handle
+    (unless something else took SIGINT meanwhile)."""
+    if _guarding[0] and signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    _guarding[0] = False
