@@ -1,0 +1,127 @@
+"""The Python package's shape, read from its source: no import cycle between yore's modules, the
+libraries below the command line import no command code, and private names stay in their module.
+Imports inside functions count too: a deferred import is still a dependency."""
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "python" / "yore"
+
+
+def _module_name(path):
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _sources():
+    return {_module_name(path): (path, ast.parse(path.read_text(encoding="utf-8")))
+            for path in sorted(PACKAGE.rglob("*.py"))}
+
+
+SOURCES = _sources()
+MODULES = set(SOURCES) | {"yore._core"}  # the extension module
+
+
+def _imports(name, tree, path):
+    """(imported yore module, imported names) of every import in the module, nested ones too."""
+    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target == "yore" or target.startswith("yore."):
+                for alias in node.names:
+                    submodule = f"{target}.{alias.name}"
+                    found.append((submodule, None) if submodule in MODULES
+                                 else (target, alias.name))
+        elif isinstance(node, ast.Import):
+            found += [(alias.name, None) for alias in node.names
+                      if alias.name == "yore" or alias.name.startswith("yore.")]
+    return found
+
+
+def _graph():
+    return {name: {target for target, _ in _imports(name, tree, path)
+                   if target in MODULES and target != name}
+            for name, (path, tree) in SOURCES.items()}
+
+
+def _cycles(graph):
+    """The strongly connected components of more than one module (Tarjan's algorithm)."""
+    index, low, stack, on_stack, components = {}, {}, [], set(), []
+
+    def visit(node):
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for other in graph.get(node, ()):
+            if other not in index:
+                visit(other)
+                low[node] = min(low[node], low[other])
+            elif other in on_stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                other = stack.pop()
+                on_stack.discard(other)
+                component.append(other)
+                if other == node:
+                    break
+            if len(component) > 1:
+                components.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return components
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_module_of_yore_imports_itself_through_others():
+    graph = _graph()
+    assert len(graph) > 20  # the reader found the package
+    assert _cycles(graph) == []
+
+
+def test_the_libraries_import_no_command_code():
+    # viz (pictures, the viewer) is a library: the commands (cli), runs and sweeps build on it
+    for name, targets in _graph().items():
+        if name.startswith("yore.viz"):
+            assert not {t for t in targets
+                        if t.startswith(("yore.runs", "yore.sweep", "yore.cli"))}, name
+        if name not in ("yore.cli", "yore.__main__"):
+            assert "yore.cli" not in targets, name
+
+
+def test_private_names_stay_in_their_module():
+    # names starting with one underscore, defined somewhere in yore: none is imported from
+    # another module, nor read as an attribute outside the module that defines it
+    defined = {}
+    for name, (path, tree) in SOURCES.items():
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
+                defined.setdefault(node.name, set()).add(name)
+            elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                defined.setdefault(node.id, set()).add(name)
+            elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+                defined.setdefault(node.attr, set()).add(name)
+    private = {n for n in defined if n.startswith("_") and not n.startswith("__")}
+    crossing = []
+    for name, (path, tree) in SOURCES.items():
+        for target, imported in _imports(name, tree, path):
+            if imported in private:
+                crossing.append(f"{name} imports {target}.{imported}")
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and node.attr in private and \
+                    name not in defined[node.attr]:
+                crossing.append(f"{name} reads {ast.unparse(node)}")
+    assert crossing == []
