@@ -22,9 +22,9 @@ void bind_implicit(py::module_& m) {
          const py::handle& data, const py::handle& rhs, const std::string& solver,
          const std::string& ordering, const std::string& factorization) {
         LinearSolverOptions options;
-        options.backend = solver;
+        options.solver = solver;
         options.ordering = parse_ordering(ordering);
-        options.factor = parse_factor_kind(factorization);
+        options.factorization = parse_factor_kind(factorization);
         const std::int32_t size = to_int32(requested_size, "size");
         if (size < 0) throw std::invalid_argument("size must be >= 0, got " + std::to_string(size));
         SymmetricPattern pattern;
@@ -97,18 +97,18 @@ with one of the backends; raises NotPositiveDefinite when H is not positive defi
           {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}}),
       plain_option("lagged_factorization", &O::lagged_factorization),
       plain_option("lag_max_cg_iterations", &O::lag_max_cg_iterations),
-      plain_option("lag_cg_tol", &O::lag_cg_tolerance),
+      plain_option("lag_cg_tol", &O::lag_cg_tol),
       plain_option("newton_tol", &O::newton_tol),
       plain_option("step_tol", &O::step_tol),
       plain_option("max_newton", &O::max_newton),
-      plain_option("solver", &O::solver, &LinearSolverOptions::backend),
+      plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
       choice_option<O, Ordering>(
-          "ordering", [](O& o) -> Ordering& { return o.solver.ordering; }, ordering_choices()),
+          "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; }, ordering_choices()),
       choice_option<O, FactorKind>(
-          "factorization", [](O& o) -> FactorKind& { return o.solver.factor; },
+          "factorization", [](O& o) -> FactorKind& { return o.linear_solver.factorization; },
           factor_kind_choices()),
-      plain_option("pcg_tol", &O::solver, &LinearSolverOptions::pcg_tolerance),
-      plain_option("pcg_max_iterations", &O::solver, &LinearSolverOptions::pcg_max_iterations),
+      plain_option("pcg_tol", &O::linear_solver, &LinearSolverOptions::pcg_tol),
+      plain_option("pcg_max_iterations", &O::linear_solver, &LinearSolverOptions::pcg_max_iterations),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, O{});

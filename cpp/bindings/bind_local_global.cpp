@@ -21,7 +21,7 @@ void bind_local_global(py::module_& m) {
       plain_option("chebyshev_rho", &O::chebyshev_rho),
       choice_option<O, Ordering>("ordering", [](O& o) -> Ordering& { return o.ordering; },
                                  ordering_choices()),
-      choice_option<O, FactorKind>("factorization", [](O& o) -> FactorKind& { return o.factor; },
+      choice_option<O, FactorKind>("factorization", [](O& o) -> FactorKind& { return o.factorization; },
                                    factor_kind_choices()),
       choice_option<O, RebuildStrategy>(
           "rebuild", [](O& o) -> RebuildStrategy& { return o.rebuild; },
@@ -29,7 +29,7 @@ void bind_local_global(py::module_& m) {
            {"reuse-ordering", RebuildStrategy::reuse_ordering},
            {"stale-pcg", RebuildStrategy::stale_pcg}}),
       plain_option("stale_pcg_max_iterations", &O::stale_pcg_max_iterations),
-      plain_option("stale_pcg_tol", &O::stale_pcg_tolerance),
+      plain_option("stale_pcg_tol", &O::stale_pcg_tol),
       plain_option("record_objective", &O::record_objective),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };

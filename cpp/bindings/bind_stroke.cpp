@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "options.hpp"
 #include "yore/cloth.hpp"
 #include "yore/stroke.hpp"
 
@@ -91,6 +92,18 @@ void bind_stroke(py::module_& m) {
       py::arg("cloth"), py::arg("pixels"), py::arg("eye"), py::arg("base_direction"),
       py::arg("direction_per_pixel_x"), py::arg("direction_per_pixel_y"), py::arg("spacing"),
       "Faces a pixel polyline crosses, by rays from a pinhole camera; nearest hits.");
+  // The split's options by their Python names, read from a default SplitOptions: the one
+  // source of the stroke defaults (yore.options.STROKE_DEFAULTS reads `split_defaults`).
+  using S = SplitOptions;
+  static const OptionTable<S> split_table = {
+      plain_option("expansion", &S::expansion),
+      plain_option("mass_scale", &S::mass_scale),
+      plain_option("conserve_mass", &S::conserve_mass),
+      plain_option("min_barycentric", &S::min_barycentric),
+      plain_option("min_angle_degrees", &S::min_angle_degrees),
+  };
+  const SplitOptions split_defaults;
+  m.attr("split_defaults") = option_values(split_table, split_defaults);
   m.def(
       "split_faces",
       [](Cloth& cloth, const py::handle& faces, const py::handle& barycentric, double expansion,
@@ -126,8 +139,11 @@ void bind_stroke(py::module_& m) {
         return out;
       },
       py::arg("cloth"), py::arg("faces"), py::arg("barycentric"), py::kw_only(),
-      py::arg("expansion") = 1.1, py::arg("mass_scale") = 0.95, py::arg("min_barycentric") = 0.1,
-      py::arg("min_angle_degrees") = 5.0, py::arg("conserve_mass") = false,
+      py::arg("expansion") = split_defaults.expansion,
+      py::arg("mass_scale") = split_defaults.mass_scale,
+      py::arg("min_barycentric") = split_defaults.min_barycentric,
+      py::arg("min_angle_degrees") = split_defaults.min_angle_degrees,
+      py::arg("conserve_mass") = split_defaults.conserve_mass,
       "Splits faces 1→3 at barycentric points (the paper's subdivision); returns a report. "
       "conserve_mass: the new vertices take their mass from the corners (mass_scale unused).");
 }

@@ -35,27 +35,27 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     throw std::invalid_argument(msg.str());
   }
   if (options.lagged_factorization &&
-      (options.solver.backend == "pcg" || options.adaptive_projection)) {
+      (options.linear_solver.solver == "pcg" || options.adaptive_projection)) {
     throw std::invalid_argument(
         "lagged factorization needs a Cholesky backend and the projected Hessian "
         "(adaptive_projection off)");
   }
-  if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tolerance > 0.0)) {
+  if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tol > 0.0)) {
     throw std::invalid_argument("lag_max_cg_iterations must be >= 1 and lag_cg_tol > 0");
   }
-  if (options.adaptive_projection && options.solver.backend == "pcg") {
+  if (options.adaptive_projection && options.linear_solver.solver == "pcg") {
     throw std::invalid_argument(
         "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
         "indefinite Hessian; pcg cannot");
   }
   if (options.projection == HessianProjection::steihaug &&
-      (options.solver.backend == "pcg" || options.linearized)) {
+      (options.linear_solver.solver == "pcg" || options.linearized)) {
     throw std::invalid_argument(
         "the steihaug projection needs a Cholesky backend (cholmod or eigen-ldlt) for its "
         "preconditioner, and is not linearized");
   }
   if (options.projection == HessianProjection::shifted &&
-      (options.solver.backend == "pcg" || options.lagged_factorization)) {
+      (options.linear_solver.solver == "pcg" || options.lagged_factorization)) {
     throw std::invalid_argument(
         "the shifted projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
         "indefinite Hessian, and no lagged factorization");
@@ -74,10 +74,10 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     // projection's memory untouched
     m_options.projection = HessianProjection::clamp;
     m_options.adaptive_projection = false;
-    m_scalar_solver = std::make_unique<SparseCholesky>(options.solver.factor,
-                                                       options.solver.ordering);
+    m_scalar_solver = std::make_unique<SparseCholesky>(options.linear_solver.factorization,
+                                                       options.linear_solver.ordering);
   }
-  m_solver = make_linear_solver(options.solver);
+  m_solver = make_linear_solver(options.linear_solver);
 }
 
 ImplicitIntegrator::~ImplicitIntegrator() = default;

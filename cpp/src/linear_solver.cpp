@@ -249,15 +249,15 @@ int preconditioned_cg(const SymmetricPattern& pattern, const double* values,
 std::vector<std::string> linear_solver_backends() { return {"cholmod", "eigen-ldlt", "pcg"}; }
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options) {
-  if (options.backend == "cholmod") {
-    return std::make_unique<SparseCholesky>(options.factor, options.ordering);
+  if (options.solver == "cholmod") {
+    return std::make_unique<SparseCholesky>(options.factorization, options.ordering);
   }
-  if (options.backend == "eigen-ldlt") return std::make_unique<EigenLdlt>(options.ordering);
-  if (options.backend == "pcg") {
-    return std::make_unique<JacobiPcg>(options.ordering, options.pcg_tolerance,
+  if (options.solver == "eigen-ldlt") return std::make_unique<EigenLdlt>(options.ordering);
+  if (options.solver == "pcg") {
+    return std::make_unique<JacobiPcg>(options.ordering, options.pcg_tol,
                                        options.pcg_max_iterations);
   }
-  throw std::invalid_argument("unknown solver '" + options.backend +
+  throw std::invalid_argument("unknown solver '" + options.solver +
                               "'; valid: cholmod, eigen-ldlt, pcg");
 }
 

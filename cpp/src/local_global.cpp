@@ -30,10 +30,10 @@ LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
     msg << "chebyshev_rho must be in [0, 1), got " << options.chebyshev_rho;
     throw std::invalid_argument(msg.str());
   }
-  if (options.stale_pcg_max_iterations < 1 || !(options.stale_pcg_tolerance > 0.0)) {
+  if (options.stale_pcg_max_iterations < 1 || !(options.stale_pcg_tol > 0.0)) {
     throw std::invalid_argument("stale_pcg_max_iterations must be >= 1 and stale_pcg_tol > 0");
   }
-  m_solver = std::make_unique<SparseCholesky>(options.factor, options.ordering);
+  m_solver = std::make_unique<SparseCholesky>(options.factorization, options.ordering);
 }
 
 LocalGlobalIntegrator::~LocalGlobalIntegrator() = default;
@@ -79,7 +79,7 @@ void LocalGlobalIntegrator::factor_fresh(bool keep_ordering) {
     return;
   }
   Stopwatch start;
-  m_solver = std::make_unique<SparseCholesky>(m_options.factor, m_options.ordering);
+  m_solver = std::make_unique<SparseCholesky>(m_options.factorization, m_options.ordering);
   m_solver->set_simplicial_solves(true);  // Q is factored once and solved ~10× per step
   if (keep_ordering && !m_previous_permutation.empty() && m_previous_size <= m_pattern.size) {
     // The old ordering, each new unknown placed right after the last of its old neighbours
@@ -150,7 +150,7 @@ void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
       if (m_factor_current) {
         m_stale_solver = std::move(m_solver);
         m_stale_size = static_cast<std::int32_t>(old_free.size());
-        m_solver = std::make_unique<SparseCholesky>(m_options.factor, m_options.ordering);
+        m_solver = std::make_unique<SparseCholesky>(m_options.factorization, m_options.ordering);
       }
       m_factor_current = false;
     }
@@ -201,7 +201,7 @@ void LocalGlobalIntegrator::global_solve() {
     bool converged = false;
     m_statistics.pcg_iterations += preconditioned_cg(
         m_pattern, m_values.data(), m_work_rhs, m_work_x, precondition,
-        m_options.stale_pcg_tolerance, m_options.stale_pcg_max_iterations, m_cg, converged);
+        m_options.stale_pcg_tol, m_options.stale_pcg_max_iterations, m_cg, converged);
     ++m_statistics.stale_solves;
     if (!converged) {
       // The stale factor no longer helps enough: rebuild now (old ordering reused) and solve

@@ -86,7 +86,7 @@ double ImplicitIntegrator::newton_direction(const Cloth& cloth, ProjectionChoice
       m_statistics.lagged_cg_iterations += preconditioned_cg(
           m_pattern, m_values.data(), m_rhs, m_direction,
           [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
-          m_options.lag_cg_tolerance, m_options.lag_max_cg_iterations, m_cg, solved);
+          m_options.lag_cg_tol, m_options.lag_max_cg_iterations, m_cg, solved);
       if (solved) ++m_statistics.lagged_solves;  // a failed CG is followed by a factorization
     }
     if (!solved) {

@@ -26,13 +26,15 @@ import numpy as np
 
 from .checks import check_factor, check_image_size, check_points, check_vector
 
+from .options import FOV_DEGREES, IMAGE_HEIGHT, IMAGE_WIDTH
+
 __all__ = ["Camera", "fit_camera", "follow_cameras", "camera_from_settings",
            "DEFAULT_DIRECTION", "DEFAULT_FOV_DEGREES", "DEFAULT_MARGIN"]
 
 #: From the target towards the eye, for y up: a view from the front, a little from the right
 #: and above (rotated with ``up`` when another up direction is asked for).
 DEFAULT_DIRECTION = (0.35, 0.45, 1.0)
-DEFAULT_FOV_DEGREES = 35.0
+DEFAULT_FOV_DEGREES = FOV_DEGREES
 #: The points' projected extent fills 1 / margin of the image's width or height.
 DEFAULT_MARGIN = 1.06
 
@@ -45,9 +47,9 @@ class Camera:
     eye: tuple
     target: tuple
     up: tuple = (0.0, 1.0, 0.0)
-    fov_degrees: float = 45.0
-    width: int = 800
-    height: int = 600
+    fov_degrees: float = FOV_DEGREES
+    width: int = IMAGE_WIDTH
+    height: int = IMAGE_HEIGHT
 
     def __post_init__(self):
         for name in ("eye", "target", "up"):
@@ -156,7 +158,7 @@ def default_direction(up) -> np.ndarray:
             + axis * (axis @ direction) * (1.0 - cosine))
 
 
-def fit_camera(points, width=800, height=600, direction=None, up=(0.0, 1.0, 0.0),
+def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, up=(0.0, 1.0, 0.0),
                fov_degrees=DEFAULT_FOV_DEGREES, margin=DEFAULT_MARGIN) -> Camera:
     """A camera looking along ``-direction`` that frames ``points`` tightly.
 
@@ -242,7 +244,7 @@ def fit_camera(points, width=800, height=600, direction=None, up=(0.0, 1.0, 0.0)
                   fov_degrees=fov_degrees, width=width, height=height)
 
 
-def follow_cameras(frames, width=800, height=600, direction=None, up=(0.0, 1.0, 0.0),
+def follow_cameras(frames, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, up=(0.0, 1.0, 0.0),
                    fov_degrees=DEFAULT_FOV_DEGREES, margin=DEFAULT_MARGIN, window=9) -> list:
     """One camera per frame (a list of (k_i, 3) position arrays) that follows the cloth: each
     frame is framed on its own (`fit_camera`), then the targets are averaged and the
@@ -280,8 +282,8 @@ def camera_from_settings(settings, points, width=None, height=None, eye=None, ta
     arguments, when given, override the settings. A width or a height given alone keeps the
     settings' aspect ratio."""
     settings = settings or {}
-    base_width = int(settings.get("width", 800))
-    base_height = int(settings.get("height", 600))
+    base_width = int(settings.get("width", IMAGE_WIDTH))
+    base_height = int(settings.get("height", IMAGE_HEIGHT))
     if width is not None and height is None:
         height = max(1, round(base_height * int(width) / base_width))
     elif height is not None and width is None:

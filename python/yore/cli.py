@@ -46,6 +46,8 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser():
     from . import __version__
+    from .options import (ANIMATION_FORMATS, GROWTH_MODES, IMAGE_HEIGHT, IMAGE_WIDTH,
+                          RENDER_ANIMATION, STROKE_DEFAULTS)
 
     parser = _Parser(prog="yore", description="Cloth simulation with stroke-driven wrinkles "
                      "(Shi & Saito): run scene files, render pictures.")
@@ -100,14 +102,15 @@ def _parser():
     render.add_argument("-o", "--out", type=Path, help="PNG file (frame) or folder (run); "
                         "default: next to the frame, or the run folder")
     render.add_argument("--width", type=int, help="image width, pixels (default: the scene's "
-                        "[camera] width, 800)")
+                        f"[camera] width, {IMAGE_WIDTH})")
     render.add_argument("--height", type=int, help="image height, pixels (default: the "
-                        "scene's [camera] height, 600)")
+                        f"scene's [camera] height, {IMAGE_HEIGHT})")
     render.add_argument("--color-by", choices=("none", "expansion", "wrinkles"), default=None,
                         help="colour by rest-length expansion or signed wrinkle height, with a "
                         "colour bar (default: the scene's [output] color_by, else none)")
-    render.add_argument("--animation", choices=("gif", "mp4", "none"), default="gif",
-                        help="animation of a run's frames (default gif; mp4 needs ffmpeg)")
+    render.add_argument("--animation", choices=ANIMATION_FORMATS, default=RENDER_ANIMATION,
+                        help=f"animation of a run's frames (default {RENDER_ANIMATION}; mp4 needs "
+                        "ffmpeg)")
     render.add_argument("--no-pictures", action="store_true",
                         help="a run: only the animation")
     render.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"),
@@ -150,21 +153,22 @@ def _parser():
                       help="headless: draw the window's panels (controls, statistics) into the "
                       "screenshot")
     view.add_argument("--width", type=int, help="view width, pixels (default: the scene's "
-                      "[camera] width, 800; alone: the aspect ratio is kept)")
+                      f"[camera] width, {IMAGE_WIDTH}; alone: the aspect ratio is kept)")
     view.add_argument("--height", type=int, help="view height, pixels (default: the scene's "
-                      "[camera] height, 600)")
+                      f"[camera] height, {IMAGE_HEIGHT})")
     view.add_argument("--eye", type=float, nargs=3, metavar=("X", "Y", "Z"),
                       help="camera position, m (default: the scene's, else fitted)")
     view.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"),
                       help="point the camera looks at, m")
     _add_view_options(view)
     view.add_argument("--expansion", type=float, default=None,
-                      help="stroke expansion (default 1.1, or the scene's first stroke's)")
+                      help=f"stroke expansion (default {STROKE_DEFAULTS['expansion']}, or the scene's "
+                      "first stroke's)")
     view.add_argument("--width-m", dest="stroke_width", type=float, default=None,
                       metavar="METRES", help="stroke band width, m (default: the paper's, "
                       "crossed faces only)")
-    view.add_argument("--growth", choices=("paper", "isotropic", "along", "across"),
-                      default=None, help="stroke growth mode (default paper)")
+    view.add_argument("--growth", choices=GROWTH_MODES,
+                      default=None, help=f"stroke growth mode (default {STROKE_DEFAULTS['growth']})")
     view.add_argument("--refine", type=int, default=None, help="stroke refinement passes")
     view.add_argument("--smooth", type=int, default=None, metavar="ITERATIONS",
                       help="rest-length smoothing iterations after each stroke (default 0)")

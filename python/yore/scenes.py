@@ -15,6 +15,8 @@ import numpy as np
 
 from ._core import Cloth
 from .meshes import cylinder_mesh, cylinder_ring, grid_mesh
+from .options import GRAVITY, MASS
+from .options import STIFFNESS as OPTION_STIFFNESS
 from .simulation import Simulation
 
 __all__ = ["hanging_cloth", "rotating_cylinder"]
@@ -22,7 +24,7 @@ __all__ = ["hanging_cloth", "rotating_cylinder"]
 # Default material of both scenes. The paper gives all springs the same constant; per-spring
 # stiffness in N/m is independent of the mesh resolution for the in-plane response of a
 # triangulated sheet, so these values keep their meaning when `resolution` changes.
-STIFFNESS = 200.0  # N/m, structural and bending alike (paper §3)
+STIFFNESS = OPTION_STIFFNESS  # N/m, structural and bending alike (paper §3)
 DAMPING = 0.02  # N·s/m along each spring
 DRAG = 0.3  # 1/s, still air
 
@@ -38,9 +40,9 @@ def _bending_arguments(bending, bend_stiffness, bending_modulus):
     return arguments
 
 
-def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
+def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
                   stretch_stiffness=STIFFNESS, bend_stiffness=None, damping=DAMPING,
-                  drag=DRAG, integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
+                  drag=DRAG, integrator="explicit", dt=None, gravity=GRAVITY,
                   bending="springs", bending_modulus=None, **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
@@ -79,10 +81,10 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=0.1,
     return sim
 
 
-def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=0.1,
+def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
                       omega=2.0 * math.pi, stretch_stiffness=STIFFNESS,
                       bend_stiffness=None, damping=DAMPING, drag=DRAG,
-                      integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
+                      integrator="explicit", dt=None, gravity=GRAVITY,
                       bending="springs", bending_modulus=None, **options) -> Simulation:
     """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import numbers
 import time as _time
 import warnings
 
@@ -12,232 +11,16 @@ import numpy as np
 from . import _core
 from ._core import Cloth, SimulationDiverged
 from .checks import MAX_SETTLE_SECONDS, MAX_STEPS, MIN_DT
+from .options import (ACCELERATIONS, CORE_IMPLICIT, CORE_LOCAL_GLOBAL, GRAVITY,
+                      INTEGRATOR_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, STROKE_DEFAULTS,
+                      check_option, is_integer, is_real, resolve_options, show_value)
 from .camera import Camera
 from .stroke import (apply_stroke, check_factor, check_stroke_options, check_stroke_points,
                      mean_edge_length)
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
 
-#: Integrator names of the public API. Only those in ``_FACTORIES`` are built yet.
-INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
-
-#: Options each integrator accepts, with their defaults. Names and defaults come from the C++
-#: option structs (``_core.*Integrator.defaults``); written here are only the options that
-#: exist on the Python side alone (None = decide from the others, ``acceleration``) and the
-#: defaults that differ by integrator.
-_CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
-_CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
-_CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
-#: Options of Newton's method that quasi-Newton does not take.
-_NEWTON_ONLY = ("linearized", "step_tol", "adaptive_projection", "projection",
-                "lagged_factorization",
-                "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
-                "pcg_max_iterations")
-#: Each integrator's options (name → default, None where `Simulation` resolves it from the
-#: others); `check_option` checks a value.
-INTEGRATOR_OPTIONS = {
-    # strain_limit: Provot strain limiting, largest length / rest length of a structural spring
-    # (e.g. 1.1); None turns it off (the core's 0). divergence_energy_factor: the divergence
-    # bound in multiples of the cloth's energy scale (see ExplicitIntegrator).
-    "explicit": {**_CORE_EXPLICIT, "strain_limit": None},
-    "implicit": {
-        # linearized: one Newton step, no line search (Baraff & Witkin 1998). Newton stops when
-        # the residual max |∇ᵢE|·h̃²/mᵢ (the gradient as a displacement) is at most newton_tol ×
-        # the mean rest length; a step that reaches max_newton is counted in stats
-        # (unconverged_steps) and warned about. solver: "cholmod" | "eigen-ldlt" | "pcg";
-        # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
-        # lagged_factorization: keep the factor across Newton iterations and steps, CG
-        # preconditioned by it on the current matrix (steihaug: the exact Hessian), refactor
-        # when CG needs more than lag_max_cg_iterations.
-        **{name: value for name, value in _CORE_IMPLICIT.items()
-           if name not in ("method", "minimizer", "lbfgs_history")},
-        # Try the exact Hessian first, fall back to the PSD projection when the factorization
-        # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
-        # tell). False: always project (linear convergence when many springs are compressed).
-        "adaptive_projection": None,
-        # How compressed springs' Hessians are made PSD: "clamp" | "abs" | "exact" (exact Hessian,
-        # the clamp where the factorization finds it indefinite, decision kept across iterations
-        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp)
-        # | "shifted" (Levenberg–Marquardt: exact Hessian + μ M/h², μ raised when indefinite or
-        # on a poor model fit, lowered on a good one, carried across steps) | "steihaug"
-        # (trust-region Newton–CG: CG on the exact Hessian preconditioned by the clamped one's
-        # factor; no factorization thrown away). None: adaptive_projection decides if given,
-        # else "clamp" for linearized or pcg and "steihaug" otherwise.
-        "projection": None,
-        # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
-        # linearized (Baraff–Witkin's step), "inertial" otherwise.
-        "predictor": None,
-    },
-}
-INTEGRATOR_OPTIONS["bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
-INTEGRATOR_OPTIONS["local-global"] = {
-    # Iterations of a step stop once the estimated distance to the step's solution is at most
-    # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
-    # `iterations` (counted in unconverged_steps). chebyshev_rho: the spectral-radius estimate
-    # of Chebyshev acceleration (LocalGlobalOptions says how it was measured). rebuild, after
-    # a stroke: "fresh" analysis + factorization, "reuse-ordering" (cholmod_analyze_p with the
-    # old ordering extended) or "stale-pcg" (CG preconditioned by the stale factor until it
-    # needs more than stale_pcg_max_iterations, then reuse-ordering). record_objective: keep
-    # the objective after every iteration (diagnostics).
-    **_CORE_LOCAL_GLOBAL,
-    "acceleration": "chebyshev",  # "none" | "chebyshev" (Wang 2015); "none" passes rho 0
-}
-INTEGRATOR_OPTIONS["quasi-newton"] = {
-    # The potential minimised: backward Euler's or BDF2's, as "implicit" and "bdf2" do.
-    "method": "backward-euler",  # "backward-euler" | "bdf2"
-    # lbfgs_history: L-BFGS correction pairs kept within a step (the initial Hessian is the
-    # constant local-global matrix, factored once per topology, step size and material);
-    # Newton's residual test (newton_tol) and cap (max_newton), predictor, ordering,
-    # factorization, divergence bound.
-    **{name: value for name, value in _CORE_IMPLICIT.items()
-       if name not in _NEWTON_ONLY + ("minimizer", "method")},
-    # Quasi-Newton iterations are cheap (one scalar solve with three right-hand sides) but
-    # many: its cap is twenty times Newton's.
-    "max_newton": 1000,
-    "predictor": "inertial",  # "start" | "inertial", as for Newton
-    # Q is factored once and solved every iteration: the simplicial factor solves faster
-    # (0.41 against 0.63 ms per iteration at 64², one thread, three right-hand sides).
-    "factorization": "simplicial",
-}
-_ACCELERATIONS = ("none", "chebyshev")
-#: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`).
-_QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
-
-#: Largest iteration counts an option may ask for. One step runs its iterations inside the C++
-#: core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be refused rather
-#: than run for days.
-MAX_STEP_ITERATIONS = 10_000  # per step: newton, local-global, lagged/stale CG, strain passes
-MAX_SOLVER_ITERATIONS = 1_000_000  # per linear solve: pcg_max_iterations
-#: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
-MAX_SMOOTHING_ITERATIONS = 100_000
-
-
-class OptionError(ValueError):
-    """An integrator option of the wrong type or out of range: ``option`` its name, ``got`` a
-    description of the value, ``expected`` what would be accepted."""
-
-    def __init__(self, option, got, expected):
-        self.option, self.got, self.expected = option, got, expected
-        super().__init__(f"option {option}: got {got}; expected {expected}")
-
-
-class _Rule:
-    """How one option is checked: ``check(value)`` returns the value (as int, float, bool, str
-    or None) or raises ValueError naming the option, the value and ``expected``."""
-
-    def __init__(self, expected, test):
-        self.expected, self._test = expected, test
-
-    def check(self, name, value):
-        try:
-            ok, checked = self._test(value)
-        except (TypeError, ValueError, OverflowError):
-            ok, checked = False, None
-        if not ok:
-            raise OptionError(name, _show(value), self.expected)
-        return checked
-
-
-def _show(value):
-    text = repr(value)
-    if len(text) > 60:
-        text = text[:57] + "..."
-    return f"{type(value).__name__} {text}"
-
-
-def _is_integer(value):
-    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
-
-
-def _is_real(value):
-    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
-            and math.isfinite(value))
-
-
-def _flag():
-    return _Rule("True or False", lambda v: (isinstance(v, (bool, np.bool_)), bool(v)))
-
-
-def _count(low, high):
-    return _Rule(f"an integer in [{low}, {high}]",
-                 lambda v: (_is_integer(v) and low <= v <= high, int(v)))
-
-
-def _real(low, high=None, low_open=True, high_open=False):
-    bounds = ("(" if low_open else "[") + f"{low:g}, " + \
-        ("inf)" if high is None else f"{high:g}" + (")" if high_open else "]"))
-
-    def test(v):
-        if not _is_real(v):
-            return False, None
-        v = float(v)
-        above = v > low if low_open else v >= low
-        below = high is None or (v < high if high_open else v <= high)
-        return above and below, v
-    return _Rule(f"a finite number in {bounds}", test)
-
-
-def _one_of(*choices):
-    return _Rule(f"a name (valid: {', '.join(choices)})",
-                 lambda v: (isinstance(v, str) and v in choices, v))
-
-
-def _or_none(rule):
-    return _Rule(f"None or {rule.expected}",
-                 lambda v: (True, None) if v is None else (True, rule.check("", v)))
-
-
-#: How each option is checked (one rule per name, whichever integrator takes it); the defaults
-#: are in `INTEGRATOR_OPTIONS`. `check_option` applies them.
-_RULES = {
-    "strain_limit": _or_none(_real(1.0, low_open=False)),
-    "strain_limit_passes": _count(1, MAX_STEP_ITERATIONS),
-    "divergence_energy_factor": _real(0.0),
-    "linearized": _flag(),
-    "newton_tol": _real(0.0),
-    "step_tol": _real(0.0, 1.0, low_open=False, high_open=True),
-    "max_newton": _count(1, MAX_STEP_ITERATIONS),
-    "solver": _one_of("cholmod", "eigen-ldlt", "pcg"),
-    "ordering": _one_of("amd", "metis", "natural"),
-    "factorization": _one_of("supernodal", "simplicial"),
-    "pcg_tol": _real(0.0, 1.0, high_open=True),
-    "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
-    "adaptive_projection": _or_none(_flag()),
-    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted",
-                                   "steihaug")),
-    "predictor": _or_none(_one_of("start", "inertial")),
-    "lagged_factorization": _flag(),
-    "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
-    "lag_cg_tol": _real(0.0, 1.0, high_open=True),
-    "iterations": _count(1, MAX_STEP_ITERATIONS),
-    "tolerance": _real(0.0, 1.0, low_open=False, high_open=True),
-    "acceleration": _one_of(*_ACCELERATIONS),
-    "chebyshev_rho": _real(0.0, 1.0, low_open=False, high_open=True),
-    "rebuild": _one_of("fresh", "reuse-ordering", "stale-pcg"),
-    "stale_pcg_max_iterations": _count(1, MAX_STEP_ITERATIONS),
-    "stale_pcg_tol": _real(0.0, 1.0, high_open=True),
-    "record_objective": _flag(),
-    "method": _one_of(*_QUASI_NEWTON_METHODS),
-    "lbfgs_history": _count(1, 1000),
-}
-assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
-
-
-def check_option(integrator, name, value):
-    """``value`` of option ``name`` of ``integrator`` as stored (int, float, bool, str or None);
-    ValueError naming the option, the value and what is expected (an unknown name lists the
-    valid ones). Types are checked, not coerced: ``linearized="no"``, ``max_newton=2.9`` and
-    ``lag_cg_tol=inf`` are errors."""
-    valid = INTEGRATOR_OPTIONS[integrator]
-    if name not in valid:
-        raise ValueError(f"unknown option {name!r} for integrator {integrator!r}; valid: "
-                         f"{', '.join(sorted(valid)) or 'none'}")
-    return _RULES[name].check(name, value)
-
-
-def option_expected(name) -> str:
-    """What option ``name`` accepts, in words (for error messages elsewhere)."""
-    return _RULES[name].expected
+_STROKE = STROKE_DEFAULTS  # the stroke methods' defaults
 
 
 def _make_explicit(options):
@@ -249,48 +32,25 @@ def _make_explicit(options):
     )
 
 
-def _projection(options):
-    """The projection option in force: explicit, else mapped from adaptive_projection, else
-    the clamp where the exact Hessian cannot be used (linearized, pcg)."""
-    if options["projection"] is not None:
-        return options["projection"]
-    if options["adaptive_projection"] is not None:
-        return "exact" if options["adaptive_projection"] else "clamp"
-    if options["linearized"] or options["solver"] == "pcg":
-        return "clamp"
-    # Trust-region Newton–CG on the exact Hessian, preconditioned by the clamped one's factor:
-    # no factorization thrown away, and on the buckling scenes the cheapest (see the README's
-    # Newton section and benchmarks/newton_projection.py).
-    return "steihaug"
-
-
 def _make_implicit(options, method="backward-euler"):
-    projection = _projection(options)
-    if options["adaptive_projection"] is not None and options["projection"] is not None and \
-            options["adaptive_projection"] != (projection == "exact"):
-        raise ValueError(f"adaptive_projection={options['adaptive_projection']} contradicts "
-                         f"projection={projection!r}; give one of them")
-    predictor = options["predictor"]
-    if predictor is None:
-        predictor = "start" if options["linearized"] else "inertial"
-    core = {name: options[name] for name in _CORE_IMPLICIT if name in options}
-    core.update(projection=projection, predictor=predictor, method=method,
-                adaptive_projection=False)  # mapped into projection above
+    options = resolve_options("implicit", options)
+    core = {name: options[name] for name in CORE_IMPLICIT if name in options}
+    core.update(method=method, adaptive_projection=False)  # mapped into projection
     return _core.ImplicitIntegrator(**core)
 
 
 def _make_local_global(options):
-    if options["acceleration"] not in _ACCELERATIONS:
+    if options["acceleration"] not in ACCELERATIONS:
         raise ValueError(f"unknown acceleration {options['acceleration']!r}; valid: "
-                         f"{', '.join(_ACCELERATIONS)}")
-    core = {name: options[name] for name in _CORE_LOCAL_GLOBAL}
+                         f"{', '.join(ACCELERATIONS)}")
+    core = {name: options[name] for name in CORE_LOCAL_GLOBAL}
     if options["acceleration"] == "none":
         core["chebyshev_rho"] = 0.0
     return _core.LocalGlobalIntegrator(**core)
 
 
 def _make_quasi_newton(options):
-    core = {name: options[name] for name in _CORE_IMPLICIT if name in options}
+    core = {name: options[name] for name in CORE_IMPLICIT if name in options}
     return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
 
 
@@ -391,17 +151,19 @@ class Simulation:
         preconditioned with it, refactor when CG needs more than ``lag_max_cg_iterations`` (20)
         to reach ``lag_cg_tol`` (1e-10); CG runs on the projected Hessian, or with "steihaug"
         on the exact one at the trust-region solver's own tolerance).
-    local-global: ``iterations`` (300: the cap per step), ``tolerance`` (1e-3: a step stops
-        once its estimated distance to the backward-Euler solution is below this × the mean
-        rest length; 0 = no test; a step at the cap is counted in ``unconverged_steps`` and a
-        call with any warns once), ``acceleration`` ("chebyshev" | "none"),
+
+        local-global: ``iterations`` (300: the cap per step), ``tolerance`` (1e-3: a step
+        stops once its estimated distance to the backward-Euler solution is below this × the
+        mean rest length; 0 = no test; a step at the cap is counted in ``unconverged_steps``
+        and a call with any warns once), ``acceleration`` ("chebyshev" | "none"),
         ``chebyshev_rho`` (0.997), ``ordering``, ``factorization``, ``rebuild`` ("fresh" |
         "reuse-ordering" | "stale-pcg"), ``stale_pcg_max_iterations`` (30), ``stale_pcg_tol``,
         ``record_objective``, ``divergence_energy_factor``.
-    quasi-newton: ``method`` ("backward-euler" | "bdf2"), ``lbfgs_history`` (8 pairs, kept
-        within a step), ``newton_tol`` (1e-5, Newton's residual test), ``max_newton`` (1000: the
-        iteration cap, counted and warned about as for Newton), ``predictor`` ("inertial" |
-        "start"), ``ordering``, ``factorization`` ("simplicial": it solves faster),
+
+        quasi-newton: ``method`` ("backward-euler" | "bdf2"), ``lbfgs_history`` (8 pairs, kept
+        within a step), ``newton_tol`` (1e-5, Newton's residual test), ``max_newton`` (1000:
+        the iteration cap, counted and warned about as for Newton), ``predictor`` ("inertial"
+        | "start"), ``ordering``, ``factorization`` ("simplicial": it solves faster),
         ``divergence_energy_factor``.
 
     Raises
@@ -414,7 +176,7 @@ class Simulation:
         An integrator of the API that this version does not build yet.
     """
 
-    def __init__(self, cloth, integrator="explicit", dt=None, gravity=(0.0, -9.81, 0.0),
+    def __init__(self, cloth, integrator="explicit", dt=None, gravity=GRAVITY,
                  **options):
         if not isinstance(cloth, Cloth):
             raise TypeError(f"cloth must be a yore.Cloth, got {type(cloth).__name__}")
@@ -466,8 +228,15 @@ class Simulation:
 
     @property
     def options(self) -> dict:
-        """Integrator options in force (defaults filled in)."""
+        """Integrator options as given, defaults filled in (None where the integrator decides
+        from the others; `resolved_options` says what it decided)."""
         return dict(self._options)
+
+    @property
+    def resolved_options(self) -> dict:
+        """Integrator options in force: `options` with every None decided
+        (`yore.options.resolve_options`), e.g. the Hessian projection Newton uses."""
+        return resolve_options(self._integrator_name, self._options)
 
     @property
     def dt(self) -> float:
@@ -577,8 +346,8 @@ class Simulation:
         Repeated calls aim at the sum of the requested durations, so a loop of
         ``advance(1/30)`` stays within dt/2 of the frame times instead of drifting.
         """
-        if not _is_real(seconds) or seconds < 0.0:
-            raise ValueError(f"seconds must be a finite number >= 0, got {_show(seconds)}")
+        if not is_real(seconds) or seconds < 0.0:
+            raise ValueError(f"seconds must be a finite number >= 0, got {show_value(seconds)}")
         seconds = float(seconds)
         start = self.time
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
@@ -725,8 +494,9 @@ class Simulation:
                           stacklevel=3)
 
     # -- strokes ----------------------------------------------------------------------------
-    def stroke(self, points_3d, expansion=1.1, mass_scale=0.95, max_distance=None, width=None,
-               growth="paper", refine=0):
+    def stroke(self, points_3d, expansion=_STROKE["expansion"],
+               mass_scale=_STROKE["mass_scale"], max_distance=None, width=_STROKE["width"],
+               growth=_STROKE["growth"], refine=_STROKE["refine"]):
         """Adds wrinkles along a 3-D polyline near the cloth (the paper's stroke).
 
         points_3d : (k, 3) metres. Each point goes to the closest point of the current surface;
@@ -754,8 +524,9 @@ class Simulation:
             return _core.trace_closest(self._cloth, points, max_distance, spacing)
         return self._finish_stroke(trace, expansion, options)
 
-    def stroke_screen(self, points_px, camera, expansion=1.1, mass_scale=0.95, width=None,
-                      growth="paper", refine=0):
+    def stroke_screen(self, points_px, camera, expansion=_STROKE["expansion"],
+                      mass_scale=_STROKE["mass_scale"], width=_STROKE["width"],
+                      growth=_STROKE["growth"], refine=_STROKE["refine"]):
         """Adds wrinkles along a 2-D polyline drawn over a rendered view, as the paper's user
         draws: points_px (k, 2) in pixels of `camera` (a `yore.Camera`); rays through the
         current surface, nearest hit. Same options, report and errors as `stroke`."""
@@ -770,8 +541,9 @@ class Simulation:
                                     dy, 0.5)
         return self._finish_stroke(trace, expansion, options)
 
-    def stroke_material(self, points_uv, expansion=1.1, mass_scale=0.95, width=None,
-                        growth="paper", refine=0):
+    def stroke_material(self, points_uv, expansion=_STROKE["expansion"],
+                        mass_scale=_STROKE["mass_scale"], width=_STROKE["width"],
+                        growth=_STROKE["growth"], refine=_STROKE["refine"]):
         """Adds wrinkles along a 2-D polyline in the cloth's rest-pattern coordinates
         (``cloth.material_coordinates``, set by the scenes). Same options, report and errors as
         `stroke` (width is still measured on the current surface)."""
@@ -841,16 +613,16 @@ class Simulation:
         """
         from .metrics import spring_mean_around_ends, rest_ratio_roughness
 
-        if not _is_integer(iterations) or not 0 <= iterations <= MAX_SMOOTHING_ITERATIONS:
-            raise ValueError(f"smooth_rest_lengths iterations: got {_show(iterations)}; expected "
+        if not is_integer(iterations) or not 0 <= iterations <= MAX_SMOOTHING_ITERATIONS:
+            raise ValueError(f"smooth_rest_lengths iterations: got {show_value(iterations)}; expected "
                              f"an integer in [0, {MAX_SMOOTHING_ITERATIONS}]")
         iterations = int(iterations)
-        if not _is_real(strength) or not 0.0 < strength <= 1.0:
-            raise ValueError(f"smooth_rest_lengths strength: got {_show(strength)}; expected a "
+        if not is_real(strength) or not 0.0 < strength <= 1.0:
+            raise ValueError(f"smooth_rest_lengths strength: got {show_value(strength)}; expected a "
                              "number in (0, 1]")
         strength = float(strength)
         if not isinstance(conserve, (bool, np.bool_)):
-            raise ValueError(f"smooth_rest_lengths conserve: got {_show(conserve)}; expected "
+            raise ValueError(f"smooth_rest_lengths conserve: got {show_value(conserve)}; expected "
                              "True or False")
         conserve = bool(conserve)
         cloth = self._cloth
@@ -952,14 +724,14 @@ def _region_indices(region, vertex_count):
     [0, vertex_count); ValueError otherwise (floats, booleans, nested lists, out of range)."""
     expected = f"None, 'all' or vertex indices (integers in [0, {vertex_count}))"
     if isinstance(region, (bool, np.bool_, float, dict, set)):
-        raise ValueError(f"smooth_rest_lengths region: got {_show(region)}; expected {expected}")
+        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; expected {expected}")
     try:
         array = np.asarray(region)
     except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"smooth_rest_lengths region: got {_show(region)}; expected "
+        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; expected "
                          f"{expected}") from None
     if array.dtype.kind not in "iu" and not (array.size == 0 and array.dtype.kind == "f"):
-        raise ValueError(f"smooth_rest_lengths region: got {_show(region)} (dtype "
+        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)} (dtype "
                          f"{array.dtype}); expected {expected}")
     if array.ndim > 1:
         raise ValueError(f"smooth_rest_lengths region: got an array of shape {array.shape}; "

@@ -37,7 +37,7 @@ def _batch(xi, xj, *per_spring):
 
 
 def energy(xi, xj, rest_length, stiffness):
-    """Spring energy ½ k (|xi − xj| − L)², joules; shape (s,) (or a float for one spring)."""
+    """Spring energy ``½ k (|xi − xj| − L)²``, joules; shape (s,) (or a float for one spring)."""
     single, a, b, (rest, k) = _batch(xi, xj, ("rest_length", rest_length), ("stiffness", stiffness))
     out = _core.spring_energy(a, b, rest, k)
     return float(out[0]) if single else out

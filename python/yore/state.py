@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from .checks import MIN_DT
-from .simulation import INTEGRATOR_OPTIONS, INTEGRATORS, Simulation, check_option
+from .options import INTEGRATOR_OPTIONS, INTEGRATORS, check_option
+from .simulation import Simulation
 
 __all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
            "MAX_STATE_FILE_BYTES"]

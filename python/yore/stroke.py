@@ -48,6 +48,7 @@ from . import _core
 from .checks import check_factor
 from .meshes import MAX_MESH_VERTICES
 from .metrics import face_areas
+from .options import GROWTH_MODES  # in the order of the core's table (see the docstring)
 
 __all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
            "GROWTH_MODES", "MAX_REFINE", "falloff_weight"]
@@ -56,8 +57,6 @@ __all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES
 MIN_BARYCENTRIC = 0.1
 MIN_ANGLE_DEGREES = 5.0
 
-#: The growth modes (see the module docstring), in the order of the core's table.
-GROWTH_MODES = ("paper", "isotropic", "along", "across")
 #: Vertices a refinement pass adds per band face, and the band's growth per pass, at most
 #: (an estimate from above for `predicted_refined_vertices`; measured 1.2–1.9 and 2–4.6).
 REFINE_VERTICES_PER_FACE = 2.0

@@ -78,13 +78,13 @@ struct ImplicitOptions {
   NewtonPredictor predictor = NewtonPredictor::start;
   /// Lagged factorization: keep the last factor across Newton iterations and steps and solve
   /// with CG preconditioned by it on the current matrix; refactor only when CG needs more than
-  /// lag_max_cg_iterations to reach lag_cg_tolerance. Uses the projected Hessian (CG needs SPD);
+  /// lag_max_cg_iterations to reach lag_cg_tol. Uses the projected Hessian (CG needs SPD);
   /// Cholesky backends only. With projection steihaug the matrix is the exact Hessian, CG's
   /// tolerance is the trust-region solver's own, and a factor is made only where CG on the kept
   /// one needs more than lag_max_cg_iterations.
   bool lagged_factorization = false;
   int lag_max_cg_iterations = 20;
-  double lag_cg_tolerance = 1e-10;
+  double lag_cg_tol = 1e-10;
   /// Newton stops when the residual max_i |∇ᵢE| h̃²/mᵢ (the gradient as a displacement, m) is
   /// at most newton_tol × the mean rest length, at a finite objective. A step cut short by the
   /// line search is not converged; a step that reaches max_newton is counted in
@@ -98,7 +98,7 @@ struct ImplicitOptions {
   /// default) turns it off.
   double step_tol = 0.0;
   int max_newton = 1000;
-  LinearSolverOptions solver;
+  LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
 };
 

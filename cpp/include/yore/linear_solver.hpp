@@ -73,10 +73,10 @@ class LinearSolver {
 
 /// Options of the solver backends.
 struct LinearSolverOptions {
-  std::string backend = "cholmod";  ///< "cholmod", "eigen-ldlt" or "pcg"
+  std::string solver = "cholmod";  ///< "cholmod", "eigen-ldlt" or "pcg"
   Ordering ordering = Ordering::amd;
-  FactorKind factor = FactorKind::supernodal;
-  double pcg_tolerance = 1e-12;  ///< relative residual of the Jacobi-preconditioned CG
+  FactorKind factorization = FactorKind::supernodal;
+  double pcg_tol = 1e-12;  ///< relative residual of the Jacobi-preconditioned CG
   int pcg_max_iterations = 20000;
 };
 

@@ -43,10 +43,10 @@ struct LocalGlobalOptions {
   /// overestimate only slows Chebyshev, an underestimate can make it diverge.
   double chebyshev_rho = 0.997;
   Ordering ordering = Ordering::amd;
-  FactorKind factor = FactorKind::supernodal;
+  FactorKind factorization = FactorKind::supernodal;
   RebuildStrategy rebuild = RebuildStrategy::fresh;
   int stale_pcg_max_iterations = 30;  ///< per solve, before the stale factor is replaced
-  double stale_pcg_tolerance = 1e-12;  ///< relative residual of the stale-factor PCG
+  double stale_pcg_tol = 1e-12;  ///< relative residual of the stale-factor PCG
   bool record_objective = false;       ///< keep the objective after every iteration (tests)
   double divergence_energy_factor = 10.0;
 };

@@ -16,6 +16,7 @@ import numpy as np
 from .._core import Cloth
 from ..io import load_mesh
 from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh
+from ..options import GRAVITY
 from ..simulation import Simulation
 from ..camera import Camera, camera_from_settings
 from ..stroke import RefinementTooLarge, StrokeMissed
@@ -108,7 +109,7 @@ def build_simulation(scene):
     gravity = simulation.get("gravity")
     try:
         sim = Simulation(cloth, integrator=simulation["integrator"], dt=simulation.get("dt"),
-                         gravity=(0.0, -9.81, 0.0) if gravity is None else gravity,
+                         gravity=GRAVITY if gravity is None else gravity,
                          **data["integrator"])
     except ValueError as error:
         raise scene.error("integrator", str(error)) from None

@@ -23,7 +23,9 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from .._core import Cloth
 from ..meshes import MAX_MESH_VERTICES
-from ..simulation import INTEGRATOR_OPTIONS, OptionError, Simulation, check_option
+from ..options import (FRAMES_PER_SECOND, INTEGRATOR_OPTIONS, MASS, STIFFNESS, OptionError,
+                       check_option)
+from ..simulation import Simulation
 from ..checks import MAX_IMAGE_PIXELS
 from .building import build_simulation, apply_scene_stroke
 from .schema import (BOX, GENERATOR_KEYS, REQUIRED, SCHEMA_GENERATOR_EXPECTED, SELECTION,
@@ -250,7 +252,7 @@ def _check(scene, raw):
         raise scene.error(f"material.{given[1]}", f"given together with material.{given[0]}",
                           "one of mass (total), mass_per_vertex or density")
     if not given:
-        material["mass"] = 0.1
+        material["mass"] = MASS
     if material["bending"] == "quadratic":
         if "bending_modulus" not in material:
             raise scene.error("material.bending_modulus", "missing with bending = \"quadratic\"",
@@ -263,7 +265,7 @@ def _check(scene, raw):
         if "bending_modulus" in material:
             raise scene.error("material.bending_modulus", "given with bending = \"springs\"",
                               "bending = \"quadratic\", or bend_stiffness for the springs")
-        material.setdefault("bend_stiffness", 200.0)
+        material.setdefault("bend_stiffness", STIFFNESS)
     for k, entry in enumerate(data["fixed"]):
         _check_selection(scene, f"fixed[{k}]", entry)
     for k, entry in enumerate(data["driven"]):
@@ -285,7 +287,7 @@ def _check(scene, raw):
         raise scene.error("output.every_steps", "given together with output.fps",
                           "one of fps or every_steps")
     if output.get("every_steps") is None and output.get("fps") is None:
-        output["fps"] = 30.0
+        output["fps"] = FRAMES_PER_SECOND
     if output["animation"] != "none" and output["format"] == "none":
         raise scene.error("output.animation", "an animation needs frames, but output.format "
                           "is 'none'", "format = 'vtu', 'vtk', 'ply' or 'obj'")

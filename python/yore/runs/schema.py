@@ -24,7 +24,9 @@ import math
 
 import numpy as np
 
-from ..simulation import INTEGRATORS, MAX_SMOOTHING_ITERATIONS
+from ..options import (ANIMATION_FORMATS, FOV_DEGREES, FRAMES_PER_SECOND, IMAGE_HEIGHT,
+                       IMAGE_WIDTH, INTEGRATORS, MASS, MAX_SMOOTHING_ITERATIONS, RUN_ANIMATION,
+                       STIFFNESS, STROKE_DEFAULTS)
 from ..checks import MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS, MIN_DT
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
@@ -241,14 +243,16 @@ SCHEMA = {
     }, "table"),
     "material": ({
         "mass": (_number(0, strict_minimum=True, unit="kg"), None,
-                 "total mass, spread uniformly over the vertices (the paper's choice)"),
+                 f"total mass, spread uniformly over the vertices (the paper's choice; default "
+                 f"{MASS:g} unless mass_per_vertex or density is given)"),
         "mass_per_vertex": (_number(0, strict_minimum=True, unit="kg"), None, "per vertex"),
         "density": (_number(0, strict_minimum=True, unit="kg/m²"), None,
                     "areal density, lumped to the vertices by area"),
         "stretch_stiffness": (_number(0, strict_minimum=True, unit="N/m"), 200.0,
                               "structural springs"),
         "bend_stiffness": (_number(0, unit="N/m"), None,
-                           "bending springs (default 200; 0: none; not with quadratic bending)"),
+                           f"bending springs (default {STIFFNESS:g}; 0: none; not with quadratic "
+                           "bending)"),
         "bending": (_choice("springs", "quadratic"), "springs",
                     "bending model: the paper's springs or Bergou et al. 2006's quadratic energy"),
         "bending_modulus": (_number(0, unit="N·m"), None,
@@ -282,15 +286,15 @@ SCHEMA = {
         "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
         "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
         "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
-        "expansion": (_number(0, strict_minimum=True), 1.1, "rest length / current length of "
+        "expansion": (_number(0, strict_minimum=True), STROKE_DEFAULTS["expansion"], "rest length / current length of "
                       "new springs (eq. (1))"),
-        "mass_scale": (_mass_scale, 0.95, "new vertex mass / corners' mean, or 'conserve' "
+        "mass_scale": (_mass_scale, STROKE_DEFAULTS["mass_scale"], "new vertex mass / corners' mean, or 'conserve' "
                        "(taken from the corners; total mass unchanged)"),
         "width": (_number(0, strict_minimum=True, unit="m"), None,
                   "band around the stroke with a smooth falloff (default: the crossed faces)"),
-        "growth": (_choice(*GROWTH_MODES), "paper",
+        "growth": (_choice(*GROWTH_MODES), STROKE_DEFAULTS["growth"],
                    "paper (eq. (1) on new springs), isotropic, along or across the stroke"),
-        "refine": (_integer(0, MAX_REFINE), 0, "1→4 refinement passes of the band first"),
+        "refine": (_integer(0, MAX_REFINE), STROKE_DEFAULTS["refine"], "1→4 refinement passes of the band first"),
         "max_distance": (_number(0, strict_minimum=True, unit="m"), None,
                          "points only: farthest a point may be from the surface"),
         "smooth": ("smooth", None, "{iterations, strength, region}: rest-length smoothing "
@@ -300,17 +304,18 @@ SCHEMA = {
         "eye": (_vector3, None, "m; default: fitted to the cloth at t = 0"),
         "target": (_vector3, None, "m; default: the cloth's centre at t = 0"),
         "up": (_vector3, [0.0, 1.0, 0.0], "up direction"),
-        "fov_degrees": (_number(0, 180, strict_minimum=True), 35.0, "vertical field of view"),
-        "width": (_integer(16, MAX_IMAGE_SIDE), 800, "image width, pixels"),
-        "height": (_integer(16, MAX_IMAGE_SIDE), 600, "image height, pixels"),
+        "fov_degrees": (_number(0, 180, strict_minimum=True), FOV_DEGREES, "vertical field of view"),
+        "width": (_integer(16, MAX_IMAGE_SIDE), IMAGE_WIDTH, "image width, pixels"),
+        "height": (_integer(16, MAX_IMAGE_SIDE), IMAGE_HEIGHT, "image height, pixels"),
     }, "table"),
     "output": ({
         "format": (_choice("vtu", "vtk", "ply", "obj", "none"), "vtu", "frame file format"),
         "fps": (_number(0, strict_minimum=True), None,
-                "frames per simulated second (default 30 unless every_steps is given)"),
+                f"frames per simulated second (default {FRAMES_PER_SECOND:g} unless every_steps is "
+                "given)"),
         "every_steps": (_integer(1), None, "a frame every this many steps"),
         "pictures": (_boolean, True, "before/after PNG (before = just before the first stroke)"),
-        "animation": (_choice("none", "gif", "mp4"), "none", "an animation of the frames"),
+        "animation": (_choice(*ANIMATION_FORMATS), RUN_ANIMATION, "an animation of the frames"),
         "color_by": (_choice("none", "expansion", "wrinkles"), "none",
                      "colour pictures by rest-length expansion or wrinkle height"),
         "framing": (_choice("cloth", "run"), "cloth",

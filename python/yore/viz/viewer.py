@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import Camera, fit_camera
-from ..simulation import INTEGRATORS, Simulation
+from ..options import IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, STROKE_DEFAULTS
+from ..simulation import Simulation
 from ..checks import check_factor, check_integer
 from ..stroke import GROWTH_MODES, StrokeMissed, check_stroke_options
 from . import backend
@@ -131,10 +132,9 @@ class Viewer:
             raise ValueError(f"coloring must be one of {', '.join(COLORINGS)}, got {coloring!r}")
         self.sim = sim
         self.headless = bool(headless)
-        self.camera = camera or fit_camera(sim.cloth.positions, 800, 600)
+        self.camera = camera or fit_camera(sim.cloth.positions, IMAGE_WIDTH, IMAGE_HEIGHT)
         self.coloring = coloring
-        self.stroke_options = {"expansion": 1.1, "mass_scale": 0.95, "width": None,
-                               "growth": "paper", "refine": 0, "smooth": 0}
+        self.stroke_options = {**STROKE_DEFAULTS, "smooth": 0}
         for name, value in (stroke_options or {}).items():
             if name not in self.stroke_options:
                 raise ValueError(f"unknown stroke option {name!r}; valid: "

@@ -1,0 +1,326 @@
+"""yore.options: the one registry of the options that cross a boundary — between Python and the
+C++ core, and between scene files, state files, `yore.Simulation`, the viewer and the command
+line, which all read their names, defaults and checks from here.
+
+- Integrators: `INTEGRATOR_OPTIONS` (integrator → {option: default}). Names and defaults come
+  from the C++ option structs (``_core.*Integrator.defaults``, a table in the bindings); written
+  here are only the options that exist on the Python side alone and the defaults that differ by
+  integrator. A default of None means "decided from the other options": `resolve_options` is the
+  one place that decides, and `defaults` gives an integrator's defaults so resolved.
+  `check_option` checks a value (type and range, with an error naming the option); the C++
+  constructors check again.
+- Strokes: `STROKE_DEFAULTS` (the paper's expansion and mass scale come from the C++
+  ``SplitOptions`` struct, bound as ``_core.split_defaults``).
+- Pictures and the scene: `GRAVITY`, `IMAGE_WIDTH`, `IMAGE_HEIGHT`, `FOV_DEGREES`.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from . import _core
+
+__all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "OptionError", "check_option", "option_expected",
+           "resolve_options", "defaults", "STROKE_DEFAULTS", "GROWTH_MODES", "GRAVITY",
+           "IMAGE_WIDTH", "IMAGE_HEIGHT", "FOV_DEGREES", "MAX_STEP_ITERATIONS",
+           "MAX_SOLVER_ITERATIONS", "MAX_SMOOTHING_ITERATIONS"]
+
+#: Integrator names of the public API. 
+INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
+
+#: Options each integrator accepts, with their defaults. Names and defaults come from the C++
+#: option structs (``_core.*Integrator.defaults``); written here are only the options that
+#: exist on the Python side alone (None = decide from the others, ``acceleration``) and the
+#: defaults that differ by integrator.
+CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
+CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
+CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
+#: Options of Newton's method that quasi-Newton does not take.
+NEWTON_ONLY = ("linearized", "step_tol", "adaptive_projection", "projection",
+                "lagged_factorization",
+                "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
+                "pcg_max_iterations")
+#: Each integrator's options (name → default, None where `Simulation` resolves it from the
+#: others); `check_option` checks a value.
+INTEGRATOR_OPTIONS = {
+    # strain_limit: Provot strain limiting, largest length / rest length of a structural spring
+    # (e.g. 1.1); None turns it off (the core's 0). divergence_energy_factor: the divergence
+    # bound in multiples of the cloth's energy scale (see ExplicitIntegrator).
+    "explicit": {**CORE_EXPLICIT, "strain_limit": None},
+    "implicit": {
+        # linearized: one Newton step, no line search (Baraff & Witkin 1998). Newton stops when
+        # the residual max |∇ᵢE|·h̃²/mᵢ (the gradient as a displacement) is at most newton_tol ×
+        # the mean rest length; a step that reaches max_newton is counted in stats
+        # (unconverged_steps) and warned about. solver: "cholmod" | "eigen-ldlt" | "pcg";
+        # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
+        # lagged_factorization: keep the factor across Newton iterations and steps, CG
+        # preconditioned by it on the current matrix (steihaug: the exact Hessian), refactor
+        # when CG needs more than lag_max_cg_iterations.
+        **{name: value for name, value in CORE_IMPLICIT.items()
+           if name not in ("method", "minimizer", "lbfgs_history")},
+        # Try the exact Hessian first, fall back to the PSD projection when the factorization
+        # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
+        # tell). False: always project (linear convergence when many springs are compressed).
+        "adaptive_projection": None,
+        # How compressed springs' Hessians are made PSD: "clamp" | "abs" | "exact" (exact Hessian,
+        # the clamp where the factorization finds it indefinite, decision kept across iterations
+        # and steps) | "trust-region" (Chen et al. 2024: abs after a poor model fit, else clamp)
+        # | "shifted" (Levenberg–Marquardt: exact Hessian + μ M/h², μ raised when indefinite or
+        # on a poor model fit, lowered on a good one, carried across steps) | "steihaug"
+        # (trust-region Newton–CG: CG on the exact Hessian preconditioned by the clamped one's
+        # factor; no factorization thrown away). None: adaptive_projection decides if given,
+        # else "clamp" for linearized or pcg and "steihaug" otherwise.
+        "projection": None,
+        # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
+        # linearized (Baraff–Witkin's step), "inertial" otherwise.
+        "predictor": None,
+    },
+}
+INTEGRATOR_OPTIONS["bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
+INTEGRATOR_OPTIONS["local-global"] = {
+    # Iterations of a step stop once the estimated distance to the step's solution is at most
+    # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
+    # `iterations` (counted in unconverged_steps). chebyshev_rho: the spectral-radius estimate
+    # of Chebyshev acceleration (LocalGlobalOptions says how it was measured). rebuild, after
+    # a stroke: "fresh" analysis + factorization, "reuse-ordering" (cholmod_analyze_p with the
+    # old ordering extended) or "stale-pcg" (CG preconditioned by the stale factor until it
+    # needs more than stale_pcg_max_iterations, then reuse-ordering). record_objective: keep
+    # the objective after every iteration (diagnostics).
+    **CORE_LOCAL_GLOBAL,
+    "acceleration": "chebyshev",  # "none" | "chebyshev" (Wang 2015); "none" passes rho 0
+}
+INTEGRATOR_OPTIONS["quasi-newton"] = {
+    # The potential minimised: backward Euler's or BDF2's, as "implicit" and "bdf2" do.
+    "method": "backward-euler",  # "backward-euler" | "bdf2"
+    # lbfgs_history: L-BFGS correction pairs kept within a step (the initial Hessian is the
+    # constant local-global matrix, factored once per topology, step size and material);
+    # Newton's residual test (newton_tol) and cap (max_newton), predictor, ordering,
+    # factorization, divergence bound.
+    **{name: value for name, value in CORE_IMPLICIT.items()
+       if name not in NEWTON_ONLY + ("minimizer", "method")},
+    # Quasi-Newton iterations are cheap (one scalar solve with three right-hand sides) but
+    # many: its cap is twenty times Newton's.
+    "max_newton": 1000,
+    "predictor": "inertial",  # "start" | "inertial", as for Newton
+    # Q is factored once and solved every iteration: the simplicial factor solves faster
+    # (0.41 against 0.63 ms per iteration at 64², one thread, three right-hand sides).
+    "factorization": "simplicial",
+}
+ACCELERATIONS = ("none", "chebyshev")
+#: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`).
+QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
+
+#: Largest iteration counts an option may ask for. One step runs its iterations inside the C++
+#: core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be refused rather
+#: than run for days.
+MAX_STEP_ITERATIONS = 10_000  # per step: newton, local-global, lagged/stale CG, strain passes
+MAX_SOLVER_ITERATIONS = 1_000_000  # per linear solve: pcg_max_iterations
+#: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
+MAX_SMOOTHING_ITERATIONS = 100_000
+
+
+class OptionError(ValueError):
+    """An integrator option of the wrong type or out of range: ``option`` its name, ``got`` a
+    description of the value, ``expected`` what would be accepted."""
+
+    def __init__(self, option, got, expected):
+        self.option, self.got, self.expected = option, got, expected
+        super().__init__(f"option {option}: got {got}; expected {expected}")
+
+
+class _Rule:
+    """How one option is checked: ``check(value)`` returns the value (as int, float, bool, str
+    or None) or raises ValueError naming the option, the value and ``expected``."""
+
+    def __init__(self, expected, test):
+        self.expected, self._test = expected, test
+
+    def check(self, name, value):
+        try:
+            ok, checked = self._test(value)
+        except (TypeError, ValueError, OverflowError):
+            ok, checked = False, None
+        if not ok:
+            raise OptionError(name, show_value(value), self.expected)
+        return checked
+
+
+def show_value(value):
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{type(value).__name__} {text}"
+
+
+def is_integer(value):
+    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+
+
+def is_real(value):
+    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+            and math.isfinite(value))
+
+
+def _flag():
+    return _Rule("True or False", lambda v: (isinstance(v, (bool, np.bool_)), bool(v)))
+
+
+def _count(low, high):
+    return _Rule(f"an integer in [{low}, {high}]",
+                 lambda v: (is_integer(v) and low <= v <= high, int(v)))
+
+
+def _real(low, high=None, low_open=True, high_open=False):
+    bounds = ("(" if low_open else "[") + f"{low:g}, " + \
+        ("inf)" if high is None else f"{high:g}" + (")" if high_open else "]"))
+
+    def test(v):
+        if not is_real(v):
+            return False, None
+        v = float(v)
+        above = v > low if low_open else v >= low
+        below = high is None or (v < high if high_open else v <= high)
+        return above and below, v
+    return _Rule(f"a finite number in {bounds}", test)
+
+
+def _one_of(*choices):
+    return _Rule(f"a name (valid: {', '.join(choices)})",
+                 lambda v: (isinstance(v, str) and v in choices, v))
+
+
+def _or_none(rule):
+    return _Rule(f"None or {rule.expected}",
+                 lambda v: (True, None) if v is None else (True, rule.check("", v)))
+
+
+#: How each option is checked (one rule per name, whichever integrator takes it); the defaults
+#: are in `INTEGRATOR_OPTIONS`. `check_option` applies them.
+_RULES = {
+    "strain_limit": _or_none(_real(1.0, low_open=False)),
+    "strain_limit_passes": _count(1, MAX_STEP_ITERATIONS),
+    "divergence_energy_factor": _real(0.0),
+    "linearized": _flag(),
+    "newton_tol": _real(0.0),
+    "step_tol": _real(0.0, 1.0, low_open=False, high_open=True),
+    "max_newton": _count(1, MAX_STEP_ITERATIONS),
+    "solver": _one_of("cholmod", "eigen-ldlt", "pcg"),
+    "ordering": _one_of("amd", "metis", "natural"),
+    "factorization": _one_of("supernodal", "simplicial"),
+    "pcg_tol": _real(0.0, 1.0, high_open=True),
+    "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
+    "adaptive_projection": _or_none(_flag()),
+    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted",
+                                   "steihaug")),
+    "predictor": _or_none(_one_of("start", "inertial")),
+    "lagged_factorization": _flag(),
+    "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
+    "lag_cg_tol": _real(0.0, 1.0, high_open=True),
+    "iterations": _count(1, MAX_STEP_ITERATIONS),
+    "tolerance": _real(0.0, 1.0, low_open=False, high_open=True),
+    "acceleration": _one_of(*ACCELERATIONS),
+    "chebyshev_rho": _real(0.0, 1.0, low_open=False, high_open=True),
+    "rebuild": _one_of("fresh", "reuse-ordering", "stale-pcg"),
+    "stale_pcg_max_iterations": _count(1, MAX_STEP_ITERATIONS),
+    "stale_pcg_tol": _real(0.0, 1.0, high_open=True),
+    "record_objective": _flag(),
+    "method": _one_of(*QUASI_NEWTON_METHODS),
+    "lbfgs_history": _count(1, 1000),
+}
+assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
+
+
+def check_option(integrator, name, value):
+    """``value`` of option ``name`` of ``integrator`` as stored (int, float, bool, str or None);
+    ValueError naming the option, the value and what is expected (an unknown name lists the
+    valid ones). Types are checked, not coerced: ``linearized="no"``, ``max_newton=2.9`` and
+    ``lag_cg_tol=inf`` are errors."""
+    valid = INTEGRATOR_OPTIONS[integrator]
+    if name not in valid:
+        raise ValueError(f"unknown option {name!r} for integrator {integrator!r}; valid: "
+                         f"{', '.join(sorted(valid)) or 'none'}")
+    return _RULES[name].check(name, value)
+
+
+def option_expected(name) -> str:
+    """What option ``name`` accepts, in words (for error messages elsewhere)."""
+    return _RULES[name].expected
+
+
+def _projection(options):
+    """The projection option in force: explicit, else mapped from adaptive_projection, else
+    the clamp where the exact Hessian cannot be used (linearized, pcg)."""
+    if options["projection"] is not None:
+        return options["projection"]
+    if options["adaptive_projection"] is not None:
+        return "exact" if options["adaptive_projection"] else "clamp"
+    if options["linearized"] or options["solver"] == "pcg":
+        return "clamp"
+    # Trust-region Newton–CG on the exact Hessian, preconditioned by the clamped one's factor:
+    # no factorization thrown away, and on the buckling scenes the cheapest (see the README's
+    # Newton section and benchmarks/newton_projection.py).
+    return "steihaug"
+
+
+def _predictor(options):
+    """Where Newton starts, when not given: xₙ for the linearized step (Baraff–Witkin's),
+    the inertial guess xₙ + h vₙ otherwise."""
+    if options["predictor"] is not None:
+        return options["predictor"]
+    return "start" if options["linearized"] else "inertial"
+
+
+def resolve_options(integrator, options) -> dict:
+    """``options`` (all of ``integrator``'s, checked) with every None that stands for "decide from
+    the others" decided: the one place that does it. ValueError where two options contradict."""
+    options = dict(options)
+    if integrator in ("implicit", "bdf2"):
+        projection = _projection(options)
+        if options["adaptive_projection"] is not None and options["projection"] is not None \
+                and options["adaptive_projection"] != (projection == "exact"):
+            raise ValueError(f"adaptive_projection={options['adaptive_projection']} contradicts "
+                             f"projection={projection!r}; give one of them")
+        options.update(projection=projection, predictor=_predictor(options))
+    return options
+
+
+def defaults(integrator) -> dict:
+    """``integrator``'s options at their defaults, as `yore.Simulation` runs them (None
+    resolved; ``adaptive_projection`` stays None: it only maps into ``projection``)."""
+    if integrator not in INTEGRATOR_OPTIONS:
+        raise ValueError(f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
+    return resolve_options(integrator, INTEGRATOR_OPTIONS[integrator])
+
+
+# -- strokes ------------------------------------------------------------------------------------
+#: How a stroke grows its band (see `yore.stroke`), in the order of the core's table.
+GROWTH_MODES = ("paper", "isotropic", "along", "across")
+#: A stroke's options and their defaults: expansion and mass_scale from the C++ SplitOptions
+#: (eq. (1) of the paper: 1.1; the new vertex's mass 0.95 × its corners' mean), width None (the
+#: faces the stroke crosses), growth "paper", refine 0 passes.
+STROKE_DEFAULTS = {"expansion": float(_core.split_defaults["expansion"]),
+                   "mass_scale": float(_core.split_defaults["mass_scale"]),
+                   "width": None, "growth": "paper", "refine": 0}
+
+# -- the scene and pictures -----------------------------------------------------------------------
+#: Gravitational acceleration of every scene unless given, m/s² (y is up).
+GRAVITY = (0.0, -9.81, 0.0)
+#: The cloth's total mass unless a scene gives mass, mass_per_vertex or density, kg (also
+#: `yore.scenes`' default).
+MASS = 0.1
+#: Stiffness of the bending springs unless given (a scene file's material, with spring bending),
+#: N/m; `yore.scenes` uses it for the structural springs too (the paper's single constant).
+STIFFNESS = 200.0
+#: Frames per simulated second a run writes unless [output] gives fps or every_steps.
+FRAMES_PER_SECOND = 30.0
+#: Animation formats; a run makes none unless its [output] asks, `yore render` of a run folder
+#: makes a GIF unless told otherwise (rendering is what it was asked for).
+ANIMATION_FORMATS = ("none", "gif", "mp4")
+RUN_ANIMATION, RENDER_ANIMATION = "none", "gif"
+#: Size of pictures and of the viewer's window unless given, pixels.
+IMAGE_WIDTH, IMAGE_HEIGHT = 800, 600
+#: Vertical field of view of cameras unless given, degrees.
+FOV_DEGREES = 35.0
