@@ -33,7 +33,9 @@ $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
 	$(VPY) -m pip install --no-build-isolation --no-deps ".[test]"
 	@touch $@
 
+# The docs build first, so that pytest's summary is the closing line.
 test: setup
+	$(MAKE) --no-print-directory docs
 	$(VPY) -m pytest -q tests
 
 # The tests a developer runs while editing: all but those marked slow (under a minute here).
@@ -57,7 +59,7 @@ bench: setup
 	@for name in $(BENCHMARKS); do \
 	    echo "== $$name"; $(BENCH_ENV) $(VPY) -m benchmarks.$$name --out bench-results || exit 1; \
 	done
-	$(VPY) -m benchmarks.report --results bench-results --readme README.md
+	$(VPY) -m benchmarks.report --results bench-results --page docs/results.md
 
 bench-quick: setup
 	@for name in $(BENCHMARKS); do \

@@ -133,7 +133,7 @@ FAMILIES = {
     "BDF2": {"integrator": "bdf2"},
     "BE lagged factors": {"integrator": "implicit", "lagged_factorization": True},
     "BDF2 lagged factors": {"integrator": "bdf2", "lagged_factorization": True},
-    # the loose stops measured on stiff sheets (README, Limitations): clamp, no factor thrown
+    # the loose stops measured on stiff sheets (docs/limitations.md): clamp, no factor thrown
     # away, Newton ended by the step test
     "BE clamp, step test": {"integrator": "implicit", "projection": "clamp", "step_tol": 3e-3},
     "BDF2 clamp, step test": {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3},

@@ -11,7 +11,7 @@ is solved again on the same factor, a reuse; residual test); the same with
 `lagged_factorization` (the factor kept across iterations and steps, refactored when CG on it
 needs more than 20 iterations); the former default, the shifted projection (Levenberg–Marquardt:
 each indefinite matrix is a thrown-away factorization); the clamp with the step test
-(`projection="clamp", step_tol=3e-3`, the setting the README recommends for stiff sheets); and
+(`projection="clamp", step_tol=3e-3`, the setting docs/integrators.md recommends for stiff sheets); and
 that with `lagged_factorization` (CG on the clamped Hessian, 20 iterations at most, before a
 refactorization). Per row: Newton iterations, fresh factorizations, factor reuses (CG solves
 on a kept factor) and thrown-away factorizations per step, CPU seconds (time.process_time) per

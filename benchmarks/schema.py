@@ -1,5 +1,5 @@
 """The shape of every benchmark's JSON: keys each file and each row must have. Checked by the
-tests (on smoke-size runs) and by benchmarks.report before it writes the README."""
+tests (on smoke-size runs) and by benchmarks.report before it writes docs/results.md."""
 
 from __future__ import annotations
 

@@ -1,14 +1,18 @@
-"""The README's gallery: the paper's two experiments, no stroke / the paper's stroke / yore's
-stroke side by side, with their measures.
+"""No stroke, the paper's stroke, yore's stroke
+=============================================
+
+The paper's two experiments, each three ways side by side — no stroke, the paper's stroke and
+yore's stroke — with their measures::
 
     python examples/gallery.py [--out docs/gallery] [--small]
 
-Runs examples/hanging*.toml and examples/cylinder*.toml with and without their strokes (the
-`yore run` machinery, into OUT/runs), then writes OUT/hanging.png, OUT/cylinder.png and
-OUT/gallery.json: for the hanging cloth `yore.metrics.stroke_effect` of each stroke against its
-own no-stroke run (wrinkle measure and its ratio, spike index), for the cylinder the hem
-radius (mean `radial_distance` of the first ring) over the no-stroke run's. --small: reduced
-sizes (a quick look; the README's numbers are full size).
+Runs ``examples/hanging*.toml`` and ``examples/cylinder*.toml`` with and without their strokes
+(the ``yore run`` machinery, into ``OUT/runs``), then writes ``OUT/hanging.png``,
+``OUT/cylinder.png`` and ``OUT/gallery.json``: for the hanging cloth
+``yore.metrics.stroke_effect`` of each stroke against its own no-stroke run (wrinkle measure and
+its ratio, spike index), for the cylinder the hem radius (mean ``radial_distance`` of the first
+ring) over the no-stroke run's. ``--small``: reduced sizes (a quick look; the numbers quoted in
+the documentation are full size).
 """
 
 import argparse

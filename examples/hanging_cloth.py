@@ -1,7 +1,11 @@
-"""The paper's first scene (§3.1): a square cloth hung from two points, run with the explicit
-integrator; writes ParaView frames and a before/after picture.
+"""A cloth hung from two corners
+==============================
 
-    python examples/hanging_cloth.py [--out yore-out] [--seconds 3] [--fps 30]
+The paper's first scene (§3.1): a square cloth hung from two points, run with the explicit
+integrator. The script writes ParaView frames and a picture of the cloth at the start and at the
+end::
+
+    python examples/hanging_cloth.py [--out yore-out] [--seconds 3] [--fps 30] [--resolution 21]
 """
 
 import argparse

@@ -1,6 +1,9 @@
-"""Scripting example: the paper's second scene (§3.2), an open cylinder whose top rim rotates.
+"""A tube turned by its top rim
+=============================
 
-    python examples/rotating_cylinder.py [--out yore-out] [--seconds 2]
+Scripting example: the paper's second scene (§3.2), an open cylinder whose top rim rotates::
+
+    python examples/rotating_cylinder.py [--out yore-out] [--seconds 2] [--fps 25]
 
 Writes OBJ frames (for Blender) and a before/after picture, and prints how the tube follows the
 rim: the mean angular speed of each ring about the axis.

@@ -1,11 +1,15 @@
-"""Scripting yore from Python: run a scene file, then go on from its saved state by hand.
+"""A scene file, then a stroke by hand
+====================================
+
+Scripting yore from Python: run a scene file, then go on from its saved state by hand::
 
     python examples/scripted_scene.py [--out yore-out/scripted] [--resolution 21] [--seconds 2]
 
-1. Loads examples/hanging.toml with a few keys overridden (as `yore run --set` does) and runs
-   it with `yore.run_scene`: frames, ParaView collection, summary.json, state.npz, pictures.
-2. Loads the saved state (`yore.load_state`), draws a second stroke the way the paper's user
-   does — a 2-D line over a rendered view (`sim.stroke_screen` through a `yore.Camera`) —
+1. Loads ``examples/hanging.toml`` with a few keys overridden (as ``yore run --set`` does) and
+   runs it with ``yore.run_scene``: frames, ParaView collection, ``summary.json``,
+   ``state.npz``, pictures.
+2. Loads the saved state (``yore.load_state``), draws a second stroke the way the paper's user
+   does — a 2-D line over a rendered view (``sim.stroke_screen`` through a ``yore.Camera``) —
    smooths the rest lengths around it, runs one more second, and renders a picture.
 3. Prints what the strokes did: faces split, rest-area growth and the region's area gain.
 """

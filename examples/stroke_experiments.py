@@ -1,4 +1,7 @@
-"""The paper's two experiments with a stroke (§3.1 Fig. 3 and §3.2 Fig. 4).
+"""The paper's two experiments with a stroke
+==========================================
+
+The paper's two experiments with a stroke (§3.1 Fig. 3 and §3.2 Fig. 4)::
 
     python examples/stroke_experiments.py [--scene hanging|cylinder|both] [--integrator explicit]
                                           [--out yore-out] [--before 1.5] [--after 2.0]

@@ -18,6 +18,8 @@ import pytest
 from benchmarks import report, schema
 
 ROOT = Path(__file__).resolve().parent.parent
+# They run benchmarks (smoke size): left out by `make test-fast`.
+pytestmark = pytest.mark.slow
 
 
 def run_benchmark(name, out, *args):
@@ -285,22 +287,29 @@ def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
     for name in schema.SCHEMAS:
         run_benchmark(name, results, "--quick", *(["--sizes", "6", "8"]
                                                   if name == "implicit_step" else []))
-    readme = tmp_path / "README.md"
-    readme.write_text(f"intro\n{report.START}\nold\n{report.END}\nrest\n")
+    page = tmp_path / "docs" / "results.md"
+    page.parent.mkdir()
+    page.write_text(f"intro\n{report.START}\nold\n{report.END}\nrest\n")
     with pytest.raises(SystemExit, match="quick"):
-        report.main(["--results", str(results), "--readme", str(readme)])
+        report.main(["--results", str(results), "--page", str(page)])
     for path in results.glob("*.json"):
         data = json.loads(path.read_text())
         data["quick"] = False
         path.write_text(json.dumps(data))
-    report.main(["--results", str(results), "--readme", str(readme)])
-    text = readme.read_text()
+    report.main(["--results", str(results), "--page", str(page)])
+    text = page.read_text()
     assert text.startswith("intro\n") and text.endswith("rest\n") and "old" not in text
     # every number in the section comes from the JSON: spot-check two
     rebuild = json.loads((results / "rebuild_cost.json").read_text())
     assert f"{rebuild['dense_matmul_gflops']:.1f} GFlop/s" in text
     scaling = json.loads((results / "scaling.json").read_text())
     assert f"explicit {scaling['slopes']['explicit']:.2f}" in text
+    # pictures are linked relative to the page, so they resolve in the Sphinx build
+    assert "![scaling](../results/scaling.png)" in text
+    # --readme, the option's former name, still rewrites the block it is given
+    page.write_text(f"intro\n{report.START}\nold\n{report.END}\nrest\n")
+    report.main(["--results", str(results), "--readme", str(page)])
+    assert page.read_text() == text
 
 
 def test_stream_bandwidth_probe_is_plausible():

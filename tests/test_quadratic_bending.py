@@ -199,7 +199,7 @@ def test_the_cylinder_energy_approaches_the_continuum_value_with_refinement(mesh
 
 
 def test_on_grid_mesh_at_45_degrees_the_energy_is_half_again_too_stiff():
-    # The documented anisotropy (README, Limitations): grid_mesh alternates its diagonals, and a
+    # The documented anisotropy (docs/limitations.md): grid_mesh alternates its diagonals, and a
     # cylinder whose rulings cross its lines at 45° gets ≈ 1.5 × ½ κ ∫ (2H)² dA, not 1×.
     radius, modulus, n = 0.5, 2e-3, 33
     V, F = yore.grid_mesh(n, n)

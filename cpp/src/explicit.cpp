@@ -14,7 +14,7 @@ namespace {
 
 // Below these sizes a loop runs on one thread even when more are configured: forking and
 // joining would cost more than the loop. Break-even measured per loop on the 2-core machine of
-// the README (phase times of stats, every loop forced parallel, 1 against 2 threads, idle):
+// docs/results.md (phase times of stats, every loop forced parallel, 1 against 2 threads, idle):
 // spring forces pay from about 1000 springs (16²: 3.2 µs against 5.1 µs), the fused
 // gather + update from about 500 vertices (16²: 2.9 against 2.5 µs, 24²: 3.6 against 5.3 µs),
 // the energy check from about 1000 (24²: 1.06 against 1.22 µs, 16²: 0.84 against 0.72 µs).

@@ -1,7 +1,7 @@
 """yore — cloth simulation with stroke-driven partial area expansion.
 
 A mass-spring cloth (Shi & Saito, "Partially Area Expansion by Mesh Subdivision to Make Wrinkled
-Cloth") with an explicit reference integrator; see README.md for the whole picture.
+Cloth") with an explicit reference integrator; see README.md and the documentation in docs/.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from .stroke import StrokeMissed, StrokeReport
 from . import _core as _threads_core
 
 # OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
-# re-times them: one thread unless the user asked (README, "Threads": on a busy machine two
+# re-times them: one thread unless the user asked (docs/integrators.md, "Threads": on a busy machine two
 # made a linearized implicit step 3× slower). set_num_threads(n) sets n here too.
 if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
                                             "OMP_NUM_THREADS")):

@@ -260,8 +260,8 @@ def _projection(options):
     if options["linearized"] or options["solver"] == "pcg":
         return "clamp"
     # Trust-region Newton–CG on the exact Hessian, preconditioned by the clamped one's factor:
-    # no factorization thrown away, and on the buckling scenes the cheapest (see the README's
-    # Newton section and benchmarks/newton_projection.py).
+    # no factorization thrown away, and on the buckling scenes the cheapest (see
+    # docs/integrators.md and benchmarks/newton_projection.py).
     return "steihaug"
 
 

@@ -4,7 +4,7 @@ description (`SCHEMA`), the error a wrong scene raises (`SceneError`) and the li
 A scene file names the mesh (a generator with its sizes, or a mesh file), the material, fixed
 and driven vertices, gravity, the integrator with its options and dt, the duration, strokes at
 given times with their options and rest-length smoothing, the camera and the outputs. The
-tables and keys are documented in README.md ("Scene files") and in `SCHEMA` below; the example
+tables and keys are documented in docs/scene-files.md and in `SCHEMA` below; the example
 scenes in ``examples/*.toml`` use all of them. `yore.runs.loading` checks a file against it.
 
 Limits, checked before anything is built or allocated: a scene file is a regular file of at
@@ -214,7 +214,7 @@ GENERATOR_KEYS = {
 SELECTION = {
     "indices": (_indices, None, "vertex indices"),
     "box": ("box", None, "{min = [x, y, z], max = [x, y, z]}: vertices inside at t = 0, m"),
-    "set": (_string, None, "a named set of the mesh generator (see README)"),
+    "set": (_string, None, "a named set of the mesh generator (see docs/scene-files.md)"),
 }
 
 STROKE_FORMS = ("points", "material", "screen")

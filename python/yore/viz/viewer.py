@@ -51,7 +51,7 @@ MAX_UNDO = 32
 FRAME_BUDGET_SECONDS = 0.05
 #: Width of the viewer's panel, pixels.
 PANEL_WIDTH = 330
-#: The keys, as listed in the README and the window's help line.
+#: The keys, as listed in docs/viewer.md and the window's help line.
 KEYS = {"Space": "play / pause", "N": "one frame", "D": "draw mode on / off",
         "Z": "undo the last stroke", "R": "reset to the start", "S": "save a picture",
         "Q": "close the viewer"}
