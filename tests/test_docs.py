@@ -1,0 +1,90 @@
+"""The README and the documentation tell the truth: the README's first scene file loads and its
+first Python script runs as shown, its links exist, and the option tables of the integrators'
+page list the registry's options with its defaults."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import yore
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _blocks(language):
+    return re.findall(rf"^```{language}\n(.*?)^```", README.read_text(encoding="utf-8"),
+                      re.M | re.S)
+
+
+def test_the_readme_stays_short_and_links_pages_that_exist():
+    text = README.read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= 300
+    links = re.findall(r"\]\((docs/[^)#]+)", text)
+    assert links, "the README links into the documentation"
+    for link in links:
+        assert (README.parent / link).exists(), link
+
+
+def test_the_first_scene_file_loads_and_has_its_stroke(tmp_path):
+    (scene_text,) = _blocks("toml")
+    path = tmp_path / "first.toml"
+    path.write_text(scene_text, encoding="utf-8")
+    scene = yore.load_scene(path)
+    sim, _ = scene.build()
+    assert sim.cloth.vertex_count == 21 * 21
+    assert len(scene.data["strokes"]) == 1 and scene.data["simulation"]["duration"] == 2.0
+
+
+@pytest.mark.slow
+def test_the_first_python_script_runs_and_splits_faces(tmp_path):
+    (script,) = _blocks("python")
+    completed = subprocess.run([sys.executable, "-c", script], cwd=tmp_path,
+                               capture_output=True, text=True, timeout=600)
+    assert completed.returncode == 0, completed.stderr
+    first, iterations = completed.stdout.strip().splitlines()
+    split = int(first.split()[0])
+    assert split > 0 and "faces split" in first
+    before, after = (float(x) for x in re.findall(r"(\d+\.\d+)", first))
+    assert after > before  # the stroke grew the rest area
+    assert int(iterations) > 0
+    assert (tmp_path / "cloth.obj").is_file()
+
+
+def _option_tables(text):
+    """{integrator heading: {option: default text}} from docs/integrators.md's Options tables:
+    rows of `` `name` (default) `` cells, one or several names per row."""
+    tables, current = {}, None
+    for line in text.splitlines():
+        heading = re.fullmatch(r"\*\*([a-z0-9 -]+)\*\*", line.strip())
+        if heading:
+            current = tables.setdefault(heading.group(1), {})
+        elif current is not None and line.startswith("| `"):
+            cell = line.split("|")[1]
+            for name, default in re.findall(r"`([a-z_]+)` \(([^)]*)\)", cell):
+                current[name] = default
+    return tables
+
+
+def _matches(text, value):
+    """Whether a documented default (its first word) is the value."""
+    word = text.replace("`", "").split(" ")[0]
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return word == (f'"{value}"' if isinstance(value, str) else str(value))
+    return float(word) == value
+
+
+def test_the_documented_integrator_options_and_defaults_are_the_registrys():
+    from yore.options import INTEGRATOR_OPTIONS
+
+    tables = _option_tables((README.parent / "docs" / "integrators.md").read_text("utf-8"))
+    documented = {"explicit": tables["explicit"], "implicit": tables["implicit and bdf2"],
+                  "bdf2": tables["implicit and bdf2"], "local-global": tables["local-global"],
+                  "quasi-newton": tables["quasi-newton"]}
+    for integrator, options in INTEGRATOR_OPTIONS.items():
+        assert set(documented[integrator]) == set(options), integrator
+        for name, value in options.items():
+            # "0 = off" style notes follow the value
+            assert _matches(documented[integrator][name], value), (integrator, name, value)
