@@ -26,8 +26,8 @@ from .stroke import StrokeMissed, StrokeReport
 from . import _core as _threads_core
 
 # OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
-# re-times them: one thread unless the user asked (docs/integrators.md, "Threads": on a busy machine two
-# made a linearized implicit step 3× slower). set_num_threads(n) sets n here too.
+# re-times them: one thread unless the user asked (docs/integrators.md, "Threads": on a busy
+# machine two made a linearized implicit step 3× slower). set_num_threads(n) sets n here too.
 if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
                                             "OMP_NUM_THREADS")):
     _threads_core.set_blas_threads(1)

@@ -244,7 +244,8 @@ def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, u
                   fov_degrees=fov_degrees, width=width, height=height)
 
 
-def follow_cameras(frames, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, up=(0.0, 1.0, 0.0),
+def follow_cameras(frames, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None,
+                   up=(0.0, 1.0, 0.0),
                    fov_degrees=DEFAULT_FOV_DEGREES, margin=DEFAULT_MARGIN, window=9) -> list:
     """One camera per frame (a list of (k_i, 3) position arrays) that follows the cloth: each
     frame is framed on its own (`fit_camera`), then the targets are averaged and the

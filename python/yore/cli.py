@@ -46,15 +46,24 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser():
     from . import __version__
-    from .options import (ANIMATION_FORMATS, GROWTH_MODES, IMAGE_HEIGHT, IMAGE_WIDTH,
-                          RENDER_ANIMATION, STROKE_DEFAULTS)
 
     parser = _Parser(prog="yore", description="Cloth simulation with stroke-driven wrinkles "
                      "(Shi & Saito): run scene files, render pictures.")
     parser.add_argument("--version", action="version", version=f"yore {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     commands.required = True
+    _add_run(commands)
+    _add_check(commands)
+    _add_demo(commands)
+    _add_render(commands)
+    _add_view(commands)
+    _add_sweep(commands)
+    _add_sweep_plot(commands)
+    return parser
 
+
+def _add_run(commands):
+    """`yore run`: a scene file, or --resume a run."""
     run = commands.add_parser("run", help="run a scene file (or resume a run)",
                               description="Run a TOML scene file, writing frames, a ParaView "
                               "collection, summary.json, state.npz and pictures into OUT.")
@@ -73,6 +82,9 @@ def _parser():
                      help="allow a run of more than 100 000 000 steps")
     _add_common(run)
 
+
+def _add_check(commands):
+    """`yore check`: a scene file checked and built, not run."""
     check = commands.add_parser("check", help="check a scene file without running it",
                                 description="Check a scene file (keys, types, values, vertex "
                                 "selections, strokes that can be tried at t = 0) and build "
@@ -81,6 +93,9 @@ def _parser():
     _add_set(check)
     _add_common(check, quiet=False)
 
+
+def _add_demo(commands):
+    """`yore demo`: the paper's hanging cloth three ways."""
     demo = commands.add_parser("demo", help="the paper's hanging cloth: no stroke, the "
                                "paper's stroke, yore's stroke",
                                description="The paper's hanging-cloth experiment three ways: "
@@ -94,6 +109,11 @@ def _parser():
     _add_set(demo)
     _add_overwrite(demo)
     _add_common(demo)
+
+
+def _add_render(commands):
+    """`yore render`: pictures of a frame or a run."""
+    from .options import ANIMATION_FORMATS, IMAGE_HEIGHT, IMAGE_WIDTH, RENDER_ANIMATION
 
     render = commands.add_parser("render", help="pictures of a frame or a run",
                                  description="PNG pictures of a frame file, or of a run folder "
@@ -124,6 +144,11 @@ def _parser():
                         "animation's camera follows the cloth; run: one camera for every frame "
                         "(default: the scene's [output] framing, else cloth)")
     _add_common(render)
+
+
+def _add_view(commands):
+    """`yore view`: the live viewer, or headless."""
+    from .options import GROWTH_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, STROKE_DEFAULTS
 
     view = commands.add_parser("view", help="watch a simulation live and draw strokes with "
                                "the mouse (or headless, strokes in pixels)",
@@ -162,18 +187,23 @@ def _parser():
                       help="point the camera looks at, m")
     _add_view_options(view)
     view.add_argument("--expansion", type=float, default=None,
-                      help=f"stroke expansion (default {STROKE_DEFAULTS['expansion']}, or the scene's "
+                      help=f"stroke expansion (default {STROKE_DEFAULTS['expansion']}, or the "
+                      "scene's "
                       "first stroke's)")
     view.add_argument("--width-m", dest="stroke_width", type=float, default=None,
                       metavar="METRES", help="stroke band width, m (default: the paper's, "
                       "crossed faces only)")
     view.add_argument("--growth", choices=GROWTH_MODES,
-                      default=None, help=f"stroke growth mode (default {STROKE_DEFAULTS['growth']})")
+                      default=None,
+                      help=f"stroke growth mode (default {STROKE_DEFAULTS['growth']})")
     view.add_argument("--refine", type=int, default=None, help="stroke refinement passes")
     view.add_argument("--smooth", type=int, default=None, metavar="ITERATIONS",
                       help="rest-length smoothing iterations after each stroke (default 0)")
     _add_common(view)
 
+
+def _add_sweep(commands):
+    """`yore sweep`: a parameter sweep on Dask."""
     sweep = commands.add_parser("sweep", help="a parameter sweep on Dask (then `yore sweep "
                                 "plot OUT ...` for heat maps)",
                                 description="Run every cell of a sweep file (a base scene, "
@@ -197,6 +227,9 @@ def _parser():
     _add_overwrite(sweep)
     _add_common(sweep)  # --threads: this process's; every cell runs on one thread
 
+
+def _add_sweep_plot(commands):
+    """`yore sweep plot` (the parser's "sweep-plot"): a heat map."""
     plot = commands.add_parser("sweep-plot", prog="yore sweep plot",
                                help=argparse.SUPPRESS,
                                description="A heat map of a recorded value over two "
@@ -211,7 +244,6 @@ def _parser():
     plot.add_argument("-o", "--output", type=Path, metavar="PNG",
                       help="picture file (default: OUT/VALUE_Y_X.png)")
     _add_common(plot, quiet=False)
-    return parser
 
 
 def _add_view_options(parser):

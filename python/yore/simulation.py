@@ -138,7 +138,7 @@ class Simulation:
         counted in ``step_test_stops``; a step that
         reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region" | "shifted" | "steihaug", see `INTEGRATOR_OPTIONS`; None: "steihaug",
+        "exact" | "trust-region" | "shifted" | "steihaug", see `yore.options`; None: "steihaug",
         or "clamp" for linearized and pcg), ``predictor`` (None | "start" |
         "inertial"), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
@@ -614,11 +614,13 @@ class Simulation:
         from .metrics import spring_mean_around_ends, rest_ratio_roughness
 
         if not is_integer(iterations) or not 0 <= iterations <= MAX_SMOOTHING_ITERATIONS:
-            raise ValueError(f"smooth_rest_lengths iterations: got {show_value(iterations)}; expected "
+            raise ValueError(f"smooth_rest_lengths iterations: got {show_value(iterations)}; "
+                             "expected "
                              f"an integer in [0, {MAX_SMOOTHING_ITERATIONS}]")
         iterations = int(iterations)
         if not is_real(strength) or not 0.0 < strength <= 1.0:
-            raise ValueError(f"smooth_rest_lengths strength: got {show_value(strength)}; expected a "
+            raise ValueError(f"smooth_rest_lengths strength: got {show_value(strength)}; "
+                             "expected a "
                              "number in (0, 1]")
         strength = float(strength)
         if not isinstance(conserve, (bool, np.bool_)):
@@ -724,7 +726,8 @@ def _region_indices(region, vertex_count):
     [0, vertex_count); ValueError otherwise (floats, booleans, nested lists, out of range)."""
     expected = f"None, 'all' or vertex indices (integers in [0, {vertex_count}))"
     if isinstance(region, (bool, np.bool_, float, dict, set)):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; expected {expected}")
+        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; "
+                         f"expected {expected}")
     try:
         array = np.asarray(region)
     except (TypeError, ValueError, OverflowError):

@@ -286,15 +286,18 @@ SCHEMA = {
         "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
         "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
         "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
-        "expansion": (_number(0, strict_minimum=True), STROKE_DEFAULTS["expansion"], "rest length / current length of "
+        "expansion": (_number(0, strict_minimum=True), STROKE_DEFAULTS["expansion"],
+                      "rest length / current length of "
                       "new springs (eq. (1))"),
-        "mass_scale": (_mass_scale, STROKE_DEFAULTS["mass_scale"], "new vertex mass / corners' mean, or 'conserve' "
+        "mass_scale": (_mass_scale, STROKE_DEFAULTS["mass_scale"],
+                       "new vertex mass / corners' mean, or 'conserve' "
                        "(taken from the corners; total mass unchanged)"),
         "width": (_number(0, strict_minimum=True, unit="m"), None,
                   "band around the stroke with a smooth falloff (default: the crossed faces)"),
         "growth": (_choice(*GROWTH_MODES), STROKE_DEFAULTS["growth"],
                    "paper (eq. (1) on new springs), isotropic, along or across the stroke"),
-        "refine": (_integer(0, MAX_REFINE), STROKE_DEFAULTS["refine"], "1→4 refinement passes of the band first"),
+        "refine": (_integer(0, MAX_REFINE), STROKE_DEFAULTS["refine"],
+                   "1→4 refinement passes of the band first"),
         "max_distance": (_number(0, strict_minimum=True, unit="m"), None,
                          "points only: farthest a point may be from the surface"),
         "smooth": ("smooth", None, "{iterations, strength, region}: rest-length smoothing "
@@ -304,7 +307,8 @@ SCHEMA = {
         "eye": (_vector3, None, "m; default: fitted to the cloth at t = 0"),
         "target": (_vector3, None, "m; default: the cloth's centre at t = 0"),
         "up": (_vector3, [0.0, 1.0, 0.0], "up direction"),
-        "fov_degrees": (_number(0, 180, strict_minimum=True), FOV_DEGREES, "vertical field of view"),
+        "fov_degrees": (_number(0, 180, strict_minimum=True), FOV_DEGREES,
+                        "vertical field of view"),
         "width": (_integer(16, MAX_IMAGE_SIDE), IMAGE_WIDTH, "image width, pixels"),
         "height": (_integer(16, MAX_IMAGE_SIDE), IMAGE_HEIGHT, "image height, pixels"),
     }, "table"),
