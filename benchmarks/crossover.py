@@ -5,7 +5,7 @@ Dask task on the `yore.sweep` engine.
         [--scheduler tcp://host:8786] [--resume] [--repeats 3] [--sizes 32 64 128]
         [--stiffness 2e3 2e4 2e5 2e6 2e7] [--bending equal soft "real cloth"]
         [--families NAME ...] [--max-run-seconds 120] [--max-ratio 8]
-        [--max-reference-seconds 1800] [--max-cell-seconds 3600]
+        [--max-reference-seconds 1800] [--max-cell-seconds 3600] [--merge EARLIER.json ...]
 
 Cells. One cell is one (size, stretch stiffness, bending row) combination, and one Dask task:
 `yore.sweep.run(..., cell_function=crossover_cell)` runs them (a local cluster of --workers
@@ -74,7 +74,9 @@ Inside each cell, the rules of the careful benchmark this replaces (speed_vs_err
 Cost at the defaults (a model from the explicit step's cost and the caps, not measured):
 about 20 CPU hours, ~10 h on two workers; the longest cells (128², 2e7 N/m) ~1.5 h each.
 --sizes / --stiffness / --bending run a part of the grid (the targets need 64² and 128² at
-2e5–2e7 N/m).
+2e5–2e7 N/m); --merge EARLIER.json adds the cells of an earlier run with the same families and
+budgets (e.g. the committed bench-results/crossover.json), so the grid is measured a part at a
+time, across sessions or machines (each cell's ratio is measured within the cell's own run).
 
 Writes crossover.json (every run; per cell the cheapest explicit and implicit run at 1 % and
 0.1 %, implicit/explicit cost, each side's steps per simulated second × CPU per step, the
@@ -95,6 +97,7 @@ import sys
 import time
 import traceback
 import warnings
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -910,6 +913,10 @@ def options(parser):
                         help="cap of one implicit run over explicit's cost (default 8)")
     parser.add_argument("--max-reference-seconds", type=float, default=1800.0,
                         help="CPU budget of one more reference halving (default 1800)")
+    parser.add_argument("--merge", type=Path, action="append", default=[], metavar="JSON",
+                        help="a crossover.json of an earlier run with the same families and "
+                             "budgets: its cells join this run's (this run's win where both "
+                             "hold a cell), so the grid can be measured a part at a time")
     parser.add_argument("--max-cell-seconds", type=float, default=3600.0,
                         help="skip a cell whose explicit runs (limit, repeats, reference pair) "
                              "would take more CPU seconds, predicted from the stability trials "
@@ -943,6 +950,44 @@ def new_settings(args):
     return settings
 
 
+#: Settings two runs must share for their cells to make one table (the grid may differ).
+MERGE_KEYS = ("quick", "repeats", "max_run_seconds", "max_ratio", "max_reference_seconds",
+              "max_cell_seconds", "rates")
+
+
+def _cell_key(cell):
+    return (int(cell["size"]), float(cell["stretch_stiffness"]), str(cell["bending"]))
+
+
+def merge_runs(settings, cells, rows, earlier, source="earlier run"):
+    """This run's (cells, rows) with an earlier run's payload: the earlier cells this run does
+    not hold, and their rows, join; the grid of ``settings`` becomes the union. SystemExit when
+    the two runs differ in families, thresholds or budgets (their costs would not compare)."""
+    theirs = earlier.get("settings", {})
+    for key in MERGE_KEYS:
+        if theirs.get(key) != settings.get(key):
+            raise SystemExit(f"--merge {source}: its {key} is {theirs.get(key)!r}, this run's "
+                             f"{settings.get(key)!r}; only runs with the same settings merge")
+    if earlier.get("family_options") != settings["families"]:
+        raise SystemExit(f"--merge {source}: its families differ from this run's")
+    if list(earlier.get("thresholds", ())) != list(THRESHOLDS) or \
+            earlier.get("reference_tolerance") != REFERENCE_TOLERANCE:
+        raise SystemExit(f"--merge {source}: its thresholds differ from this run's")
+    held = {_cell_key(c) for c in cells}
+    added = [c for c in earlier["summary"]["cells"] if _cell_key(c) not in held]
+    keys = {_cell_key(c) for c in added}
+    rows = rows + [r for r in earlier["rows"]
+                   if (int(r["size"]), float(r["stretch_stiffness"]), str(r["bending"])) in keys]
+    merged = dict(settings)
+    merged["sizes"] = sorted({*settings["sizes"], *(k[0] for k in keys)})
+    merged["stiffness"] = sorted({*settings["stiffness"], *(k[1] for k in keys)})
+    merged["bending"] = [b for b in BENDING_ROWS
+                         if b in settings["bending"] or any(k[2] == b for k in keys)]
+    origin = {"from": source, "machine": earlier.get("machine"),
+              "cells": [list(k) for k in sorted(keys, key=str)]}
+    return merged, cells + added, rows, origin
+
+
 def main(argv=None):
     import tomllib
 
@@ -966,6 +1011,12 @@ def main(argv=None):
     results = run(sweep, folder, scheduler=args.scheduler, workers=args.workers,
                   overwrite=not args.resume, resume=args.resume, cell_function=crossover_cell)
     rows, cells = collect(sweep, results)
+    merged_from = []
+    grid = settings
+    for path in args.merge:
+        earlier = json.loads(Path(path).read_text(encoding="utf-8"))
+        grid, cells, rows, origin = merge_runs(grid, cells, rows, earlier, str(path))
+        merged_from.append(origin)
     good = measured(cells)
     payload = {
         "benchmark": "crossover", "machine": machine_info(), "quick": settings["quick"],
@@ -976,14 +1027,16 @@ def main(argv=None):
         "families_unavailable": settings["families_unavailable"],
         "thresholds": list(THRESHOLDS), "reference_tolerance": REFERENCE_TOLERANCE,
         "sample_times": "T/2 and T of each cell (its horizon); a run's error is the larger",
-        "settings": {k: v for k, v in settings.items() if k != "families"},
-        "sweep": folder.as_posix(), "cells": sweep.cell_count, "statuses": results.counts(),
+        "settings": {k: v for k, v in grid.items() if k != "families"},
+        "sweep": folder.as_posix(), "cells": len(cells),
+        "statuses": dict(Counter(c.get("status", "not run") for c in cells)),
+        "merged_from": merged_from,
         "wall_seconds": time.perf_counter() - started,
         "cell_cpu_seconds": sum(c.get("cell_thread_cpu_seconds", 0.0) for c in cells),
         "rows": rows,
         "summary": {"cells": [{k: v for k, v in c.items() if k != "log"} for c in cells],
                     "crossovers": crossovers(good),
-                    "targets": targets(cells, settings["stiffness"])},
+                    "targets": targets(cells, grid["stiffness"])},
     }
     payload["summary"]["lines"] = summary_lines(payload)
     save(Path(args.out), "crossover", payload, lambda path: plot(payload, path))

@@ -328,3 +328,42 @@ def test_pictures_smoke(tmp_path):
     assert cells == {(w, h, f) for w, h in ((320, 240), (640, 480)) for f in (1, 3)}
     assert all(is_timing(r["render_seconds_median"]) for r in data["rows"])
     assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])
+
+
+def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
+    from benchmarks import crossover
+
+    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
+                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
+                "rates": list(crossover.RATES), "sizes": [128], "stiffness": [2e6],
+                "bending": ["soft"], "families": {"explicit": {"integrator": "explicit"}}}
+
+    def cell(size, k, bending, ratio):
+        return {"size": size, "stretch_stiffness": k, "bending": bending, "status": "done",
+                "reference_converged": True, "at_0.01": {"implicit_over_explicit_cost": ratio}}
+
+    def row(size, k, bending):
+        return {"size": size, "stretch_stiffness": k, "bending": bending, "method": "explicit"}
+
+    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
+               "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
+               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
+               "summary": {"cells": [cell(64, 2e5, "equal", 1.0), cell(128, 2e6, "soft", 9.0)]},
+               "rows": [row(64, 2e5, "equal"), row(128, 2e6, "soft")]}
+    earlier["settings"].update(sizes=[64, 128], stiffness=[2e5, 2e6], bending=["equal", "soft"])
+    mine = [cell(128, 2e6, "soft", 0.5)]
+    grid, cells, rows, origin = crossover.merge_runs(settings, mine, [row(128, 2e6, "soft")],
+                                                     earlier, "old.json")
+    # this run's cell wins; the earlier run's other cell and its rows join
+    assert sorted((c["size"], c["at_0.01"]["implicit_over_explicit_cost"]) for c in cells) == \
+        [(64, 1.0), (128, 0.5)]
+    assert len(rows) == 2 and grid["sizes"] == [64, 128] and grid["stiffness"] == [2e5, 2e6]
+    assert grid["bending"] == ["equal", "soft"] and origin["cells"] == [[64, 2e5, "equal"]]
+    assert [(c["bending"], c["size"], c["ratios"]) for c in
+            crossover.crossovers(crossover.measured(cells))] == \
+        [("equal", 64, [(2e5, 1.0)]), ("soft", 128, [(2e6, 0.5)])]
+    for key, value in (("max_run_seconds", 120.0), ("repeats", 1)):
+        other = json.loads(json.dumps(earlier))
+        other["settings"][key] = value
+        with pytest.raises(SystemExit, match=key):
+            crossover.merge_runs(settings, mine, [], other, "old.json")
