@@ -5,7 +5,8 @@ Dask task on the `yore.sweep` engine.
         [--scheduler tcp://host:8786] [--resume] [--repeats 3] [--sizes 32 64 128]
         [--stiffness 2e3 2e4 2e5 2e6 2e7] [--bending equal soft "real cloth"]
         [--families NAME ...] [--max-run-seconds 120] [--max-ratio 8]
-        [--max-reference-seconds 1800] [--max-cell-seconds 3600] [--merge EARLIER.json ...]
+        [--max-reference-seconds 1800] [--max-cell-seconds 3600] [--collect]
+        [--merge EARLIER.json ...]
 
 Cells. One cell is one (size, stretch stiffness, bending row) combination, and one Dask task:
 `yore.sweep.run(..., cell_function=crossover_cell)` runs them (a local cluster of --workers
@@ -913,6 +914,9 @@ def options(parser):
                         help="cap of one implicit run over explicit's cost (default 8)")
     parser.add_argument("--max-reference-seconds", type=float, default=1800.0,
                         help="CPU budget of one more reference halving (default 1800)")
+    parser.add_argument("--collect", action="store_true",
+                        help="run no cell: write the results of the cells OUT/sweeps/crossover "
+                             "holds (e.g. while a run goes on, or after it was stopped)")
     parser.add_argument("--merge", type=Path, action="append", default=[], metavar="JSON",
                         help="a crossover.json of an earlier run with the same families and "
                              "budgets: its cells join this run's (this run's win where both "
@@ -995,12 +999,13 @@ def main(argv=None):
 
     args = arguments(__doc__, argv, options)
     folder = Path(args.out).joinpath(*SWEEP_FOLDER)
-    if args.resume:
+    if args.resume or args.collect:
         scene = folder / "scene.toml"
         if not scene.is_file():
             raise SystemExit(f"{folder} holds no crossover to resume (no scene.toml)")
         settings = tomllib.loads(scene.read_text(encoding="utf-8"))
-        print(f"resuming {folder} with its settings (grid and budget flags ignored)")
+        print(f"{'collecting' if args.collect else 'resuming'} {folder} with its settings "
+              "(grid and budget flags ignored)")
     else:
         settings = new_settings(args)
     for line in settings["families_unavailable"]:
@@ -1008,8 +1013,15 @@ def main(argv=None):
     sweep = grid_sweep(settings)
     _send_code_by_value()
     started = time.perf_counter()
-    results = run(sweep, folder, scheduler=args.scheduler, workers=args.workers,
-                  overwrite=not args.resume, resume=args.resume, cell_function=crossover_cell)
+    if args.collect:  # the cells finished so far; the others stay "not run"
+        from yore.sweep.results import Results
+
+        results = Results(sweep, folder)
+        results.load_finished()
+    else:
+        results = run(sweep, folder, scheduler=args.scheduler, workers=args.workers,
+                      overwrite=not args.resume, resume=args.resume,
+                      cell_function=crossover_cell)
     rows, cells = collect(sweep, results)
     merged_from = []
     grid = settings

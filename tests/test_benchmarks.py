@@ -86,6 +86,12 @@ def test_crossover_with_every_cell_skipped_still_writes_its_results_and_resumes(
     kept, gone = sorted((folder / "cells").glob("*.json"))
     before = kept.stat().st_mtime_ns
     gone.unlink()
+    # --collect runs nothing: the missing cell is "not run"
+    result = subprocess.run(command + ["--collect"], cwd=ROOT, capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr
+    data = json.loads((tmp_path / "crossover.json").read_text())
+    assert data["statuses"] == {"skipped": 1, "not run": 1} and not gone.exists()
     result = subprocess.run(command + ["--resume", "--max-cell-seconds", "1e9"], cwd=ROOT,
                             capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
