@@ -88,7 +88,7 @@ def grid_cloth(n: int) -> "yore.Cloth":
     """The benchmarks' cloth: an n × n-vertex, 1 m square with the scenes' material (200 N/m
     structural and bending springs, damping, drag, 0.1 kg), fixed at two corners."""
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, mass=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
+    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
                        damping=0.02, drag=0.3)
     cloth.fix([0, n - 1])
     return cloth

@@ -28,7 +28,7 @@ def hung_grid(resolution=15, dt=None, **material):
     """A vertical grid (x–y plane) held along its top edge, under gravity."""
     V, F = yore.grid_mesh(resolution, resolution, width=1.0, height=1.0)
     mass = 0.1 / len(V)
-    cloth = yore.Cloth(V, F, mass=mass, stretch_stiffness=material["stretch_stiffness"],
+    cloth = yore.Cloth(V, F, masses=mass, stretch_stiffness=material["stretch_stiffness"],
                        bend_stiffness=material["bend_stiffness"],
                        damping=material.get("damping", yore.scenes.DAMPING),
                        drag=material.get("drag", yore.scenes.DRAG))

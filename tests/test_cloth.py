@@ -64,21 +64,21 @@ def test_zero_bend_stiffness_creates_no_bending_springs():
 
 def test_masses_uniform_array_and_area_lumped():
     V, F = yore.grid_mesh(4, 3, width=2.0, height=1.0)
-    assert np.all(yore.Cloth(V, F, mass=0.2).masses == 0.2)
+    assert np.all(yore.Cloth(V, F, masses=0.2).masses == 0.2)
     per_vertex = np.linspace(0.1, 1.0, len(V))
-    assert np.array_equal(yore.Cloth(V, F, mass=per_vertex).masses, per_vertex)
+    assert np.array_equal(yore.Cloth(V, F, masses=per_vertex).masses, per_vertex)
     lumped = yore.Cloth(V, F, density=0.3).masses
     assert lumped.sum() == pytest.approx(0.3 * 2.0 * 1.0, rel=1e-12)
     # an interior vertex of this grid touches more area than a corner
     assert lumped.max() > lumped.min()
     with pytest.raises(ValueError, match="not both"):
-        yore.Cloth(V, F, mass=0.1, density=0.3)
+        yore.Cloth(V, F, masses=0.1, density=0.3)
 
 
 def test_from_springs_builds_a_chain_with_default_and_given_rest_lengths():
     V = np.array([[0.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, -3.0, 0.0]])
     edges = np.array([[0, 1], [1, 2]])
-    chain = yore.Cloth.from_springs(V, edges, mass=0.5, stiffness=20.0)
+    chain = yore.Cloth.from_springs(V, edges, masses=0.5, stiffness=20.0)
     assert np.allclose(chain.springs.rest, [1.0, 2.0])
     assert chain.face_count == 0 and chain.spring_count == 2
     chain = yore.Cloth.from_springs(V, edges, rest_lengths=[0.5, 0.25])
@@ -140,8 +140,8 @@ GOOD_V, GOOD_F = yore.grid_mesh(3, 3)
         (GOOD_V[:, :2], GOOD_F, {}, r"shape \(n, 3\)"),
         (GOOD_V, GOOD_F[:, :2], {}, r"shape \(n, 3\)"),
         (GOOD_V, GOOD_F.astype(float), {}, "integer"),
-        (GOOD_V, GOOD_F, {"mass": -1.0}, "mass of vertex 0"),
-        (GOOD_V, GOOD_F, {"mass": np.ones(4)}, r"mass must have shape \(9,\)"),
+        (GOOD_V, GOOD_F, {"masses": -1.0}, "mass of vertex 0"),
+        (GOOD_V, GOOD_F, {"masses": np.ones(4)}, r"masses must have shape \(9,\)"),
         (GOOD_V, GOOD_F, {"stretch_stiffness": -5.0}, "stretch_stiffness"),
         (GOOD_V, GOOD_F, {"stretch_stiffness": 0.0}, "stretch_stiffness"),
         (GOOD_V, GOOD_F, {"bend_stiffness": np.nan}, "bend_stiffness"),
@@ -187,12 +187,12 @@ def _grid_cloth(**kwargs):
 def test_subnormal_zero_and_nan_masses_are_value_errors_and_the_stable_dt_is_never_nan():
     for mass in (5e-324, 1e-310, 0.0, -1.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="mass of vertex 0"):
-            _grid_cloth(mass=mass)
-    cloth = _grid_cloth(mass=1e-300, stretch_stiffness=1e12)  # k/m overflows
+            _grid_cloth(masses=mass)
+    cloth = _grid_cloth(masses=1e-300, stretch_stiffness=1e12)  # k/m overflows
     assert cloth.stable_time_step() == 0.0
     with pytest.raises(ValueError, match="stretch_stiffness must be finite, > 0 and <= 1e"):
-        _grid_cloth(mass=1e-3, stretch_stiffness=1e300)  # past the material limit
-    state = _grid_cloth(mass=1e-3).state()
+        _grid_cloth(masses=1e-3, stretch_stiffness=1e300)  # past the material limit
+    state = _grid_cloth(masses=1e-3).state()
     state["masses"] = np.full(len(state["masses"]), 1e-310)
     with pytest.raises(ValueError, match="mass of vertex 0"):
         yore.Cloth.from_state(state)
@@ -212,7 +212,7 @@ def test_indices_beyond_32_bits_are_value_errors_naming_the_argument():
 
 
 def test_tampered_states_are_value_errors_naming_the_field():
-    good = _grid_cloth(mass=1e-3).state()
+    good = _grid_cloth(masses=1e-3).state()
     n, s = len(good["masses"]), len(good["spring_rest"])
     cases = [
         ("positions", np.zeros((n + 1, 3)), "velocities"),
@@ -233,3 +233,16 @@ def test_tampered_states_are_value_errors_naming_the_field():
         state[key] = value
         with pytest.raises(ValueError, match=message):
             yore.Cloth.from_state(state)
+
+
+def test_the_former_mass_keyword_still_works_for_one_version_with_a_deprecation_warning():
+    V, F = yore.grid_mesh(3, 3)
+    masses = np.linspace(1e-3, 2e-3, 9)
+    with pytest.warns(DeprecationWarning, match="masses="):
+        old = yore.Cloth(V, F, mass=masses)
+    assert np.array_equal(old.masses, yore.Cloth(V, F, masses=masses).masses)
+    with pytest.warns(DeprecationWarning):
+        chain = yore.Cloth.from_springs(V[:2], [[0, 1]], mass=1e-3)
+    assert np.array_equal(chain.masses, [1e-3, 1e-3])
+    with pytest.raises(ValueError, match="not also its former name"):
+        yore.Cloth(V, F, masses=masses, mass=masses)

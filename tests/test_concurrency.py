@@ -17,7 +17,7 @@ import yore
 
 def small_cloth():
     V, F = yore.grid_mesh(5, 5, width=0.2, height=0.2)
-    cloth = yore.Cloth(V, F, mass=0.005, stretch_stiffness=50.0, bend_stiffness=20.0)
+    cloth = yore.Cloth(V, F, masses=0.005, stretch_stiffness=50.0, bend_stiffness=20.0)
     cloth.fix([0, 4])
     cloth.material_coordinates = V[:, :2]
     return cloth

@@ -14,7 +14,7 @@ NO_GRAVITY = (0.0, 0.0, 0.0)
 def oscillator(mass=0.2, stiffness=50.0, rest=1.0, amplitude=0.1, damping=0.0):
     """One mass on a spring whose other end is fixed; returns the cloth (mass is vertex 1)."""
     V = np.array([[0.0, 0.0, 0.0], [0.0, -(rest + amplitude), 0.0]])
-    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[rest], mass=mass,
+    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[rest], masses=mass,
                                     stiffness=stiffness, damping=damping)
     cloth.fix([0])
     return cloth
@@ -154,7 +154,7 @@ def test_the_demo_scene_runs_its_whole_duration_at_the_default_dt(tmp_path):
 
 def small_cloth(damping=0.0, seed=1):
     V, F = yore.grid_mesh(8, 8, width=0.5, height=0.5)
-    cloth = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bend_stiffness=50.0,
+    cloth = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=50.0,
                        damping=damping)
     rng = np.random.default_rng(seed)
     # a smooth out-of-plane bump plus small in-plane noise: all modes excited, no rigid motion
@@ -215,7 +215,7 @@ def test_free_cloth_conserves_linear_momentum_to_round_off():
     V, F = yore.cylinder_mesh(0.2, 0.3, 5, 12)
     rng = np.random.default_rng(3)
     masses = rng.uniform(0.005, 0.02, len(V))
-    cloth = yore.Cloth(V, F, mass=masses, stretch_stiffness=80.0, bend_stiffness=20.0,
+    cloth = yore.Cloth(V, F, masses=masses, stretch_stiffness=80.0, bend_stiffness=20.0,
                        damping=0.02)
     cloth.velocities = rng.normal(0.0, 0.5, (len(V), 3))
     p0 = masses @ cloth.velocities
@@ -230,7 +230,7 @@ def test_free_cloth_conserves_linear_momentum_to_round_off():
 
 def test_strain_limiting_conserves_momentum_and_caps_stretch():
     V, F = yore.grid_mesh(6, 6, width=0.5, height=0.5)
-    cloth = yore.Cloth(V, F, mass=0.01, stretch_stiffness=5.0, bend_stiffness=0.0)
+    cloth = yore.Cloth(V, F, masses=0.01, stretch_stiffness=5.0, bend_stiffness=0.0)
     rng = np.random.default_rng(5)
     cloth.velocities = rng.normal(0.0, 2.0, (len(V), 3))
     p0 = cloth.masses @ cloth.velocities
@@ -244,7 +244,7 @@ def test_strain_limiting_conserves_momentum_and_caps_stretch():
     p1 = sim.cloth.masses @ sim.cloth.velocities
     assert np.abs(p1 - p0).max() < 1e-10 * np.abs(cloth.masses @ np.abs(cloth.velocities)).max()
     # without limiting the same run stretches further
-    free = yore.Cloth(V, F, mass=0.01, stretch_stiffness=5.0, bend_stiffness=0.0)
+    free = yore.Cloth(V, F, masses=0.01, stretch_stiffness=5.0, bend_stiffness=0.0)
     free.velocities = cloth.velocities
     loose = yore.Simulation(free, dt=sim.dt, gravity=NO_GRAVITY)
     loose.step(200)
@@ -257,7 +257,7 @@ def test_hanging_chain_settles_to_the_exact_static_stretch():
     V = np.column_stack([np.zeros(count + 1), -0.1 * np.arange(count + 1), np.zeros(count + 1)])
     edges = np.column_stack([np.arange(count), np.arange(1, count + 1)])
     # drag damps every mode, spring damping the fast ones; neither changes the equilibrium
-    chain = yore.Cloth.from_springs(V, edges, mass=m, stiffness=k, damping=0.05, drag=10.0)
+    chain = yore.Cloth.from_springs(V, edges, masses=m, stiffness=k, damping=0.05, drag=10.0)
     chain.fix([0])
     sim = yore.Simulation(chain, dt=2e-3, gravity=(0.0, -g, 0.0))
     sim.advance(10.0)

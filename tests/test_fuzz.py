@@ -156,7 +156,7 @@ def test_a_set_override_is_parsed_and_checked_or_is_a_value_error(key, value):
 @pytest.fixture(scope="module")
 def state_bytes(tmp_path_factory):
     V, F = yore.grid_mesh(3, 3)
-    cloth = yore.Cloth(V, F, mass=0.01)
+    cloth = yore.Cloth(V, F, masses=0.01)
     cloth.fix([0, 2])
     sim = yore.Simulation(cloth, integrator="bdf2", dt=0.01)
     sim.step(2)
@@ -297,7 +297,7 @@ OPTION_NAMES = {integrator: sorted(yore.simulation.INTEGRATOR_OPTIONS[integrator
 @pytest.fixture(scope="module")
 def small_cloth_state():
     V, F = yore.grid_mesh(4, 4)
-    cloth = yore.Cloth(V, F, mass=0.01)
+    cloth = yore.Cloth(V, F, masses=0.01)
     cloth.fix([12, 15])
     return cloth.state()
 
@@ -350,7 +350,7 @@ def test_grid_mesh_and_cloth_arguments_are_checked(nx, ny, mass, stiffness):
     if len(V) > 25:
         return
     try:
-        yore.Cloth(V, F, mass=mass, stretch_stiffness=stiffness)
+        yore.Cloth(V, F, masses=mass, stretch_stiffness=stiffness)
     except ValueError as error:
         assert "\n" not in str(error)
     except TypeError:

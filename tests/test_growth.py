@@ -23,7 +23,7 @@ STROKE = [[-0.2, STROKE_Y], [1.2, STROKE_Y]]  # beyond both sides: no end effect
 
 def flat_sim(n=N, bend=200.0):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, mass=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=bend,
+    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=bend,
                        damping=0.02, drag=0.3)
     cloth.material_coordinates = V[:, :2]
     return yore.Simulation(cloth, integrator="explicit", dt=1e-4)
@@ -274,9 +274,7 @@ def test_smoothing_redistributes_the_added_rest_length(growth):
 
 
 def _total_rest_area(cloth):
-    from yore.stroke import _rest_area
-
-    return _rest_area(cloth, np.arange(len(cloth.faces)), cloth.springs.rest)
+    return yore.metrics.rest_area(cloth)
 
 
 # -- bad values -------------------------------------------------------------------------------------

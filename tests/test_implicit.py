@@ -13,7 +13,7 @@ NO_GRAVITY = (0.0, 0.0, 0.0)
 
 def oscillator(mass=0.2, stiffness=50.0, amplitude=0.1):
     V = np.array([[0.0, 0.0, 0.0], [0.0, -(1.0 + amplitude), 0.0]])
-    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[1.0], mass=mass,
+    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[1.0], masses=mass,
                                     stiffness=stiffness)
     cloth.fix([0])
     return cloth
@@ -89,7 +89,7 @@ def test_stiff_cloth_at_a_large_step_stays_finite_and_never_gains_energy_while_e
 
 def test_compressed_springs_factor_and_step():
     V, F = yore.grid_mesh(8, 8, width=0.4, height=0.4)
-    cloth = yore.Cloth(V, F, mass=0.005, stretch_stiffness=100.0, bend_stiffness=100.0)
+    cloth = yore.Cloth(V, F, masses=0.005, stretch_stiffness=100.0, bend_stiffness=100.0)
     cloth.springs.rest = 1.2 * cloth.springs.rest  # every spring starts compressed (paper eq. 1)
     cloth.fix([0, 7])
     for integrator in ("implicit", "bdf2"):
@@ -105,7 +105,7 @@ def test_compressed_springs_factor_and_step():
 
 def small_problem(stretched=True, seed=0):
     V, F = yore.grid_mesh(4, 4, width=0.3, height=0.3)
-    cloth = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bend_stiffness=20.0,
+    cloth = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=20.0,
                        damping=0.1, drag=0.5)
     rng = np.random.default_rng(seed)
     scale = 1.3 if stretched else 0.8
@@ -458,7 +458,7 @@ def test_gathered_cloth_takes_few_newton_iterations_and_rejects_few_exact_hessia
 def damped_chain(damping):
     # horizontal at the start: it swings down, so the spring directions turn during a step
     V = np.array([[0.2 * i, 0.0, 0.0] for i in range(6)])
-    cloth = yore.Cloth.from_springs(V, [[i, i + 1] for i in range(5)], mass=0.05,
+    cloth = yore.Cloth.from_springs(V, [[i, i + 1] for i in range(5)], masses=0.05,
                                     stiffness=200.0, damping=damping)
     cloth.fix([0])
     return cloth
@@ -482,7 +482,7 @@ def test_bdf2_is_second_order_with_spring_damping():
 
 def spinning_cloth_angular_momentum(integrator, damping):
     V, F = yore.grid_mesh(9, 9, width=1.0, height=1.0)
-    cloth = yore.Cloth(V - V.mean(axis=0), F, mass=1 / 81, stretch_stiffness=200.0,
+    cloth = yore.Cloth(V - V.mean(axis=0), F, masses=1 / 81, stretch_stiffness=200.0,
                        bend_stiffness=20.0, damping=damping)
     omega = np.array([0.0, 0.0, 2 * math.pi])  # one turn a second about the normal, all free
     cloth.velocities = np.cross(omega, cloth.positions)
@@ -542,7 +542,7 @@ def test_shifted_projection_keeps_the_exact_curvature_and_beats_the_clamp():
 
 def test_shifted_projection_on_a_convex_step_is_plain_newton():
     # a cloth stretched by gravity from its rest shape: the exact Hessian is SPD, μ stays 0
-    cloth = yore.Cloth(*yore.grid_mesh(6, 6), mass=0.01, stretch_stiffness=200.0,
+    cloth = yore.Cloth(*yore.grid_mesh(6, 6), masses=0.01, stretch_stiffness=200.0,
                        bend_stiffness=0.0)
     cloth.fix([30, 35])
     sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection="shifted")
@@ -557,7 +557,7 @@ def test_shifted_projection_resumes_with_its_shift():
     def gathered():
         # every spring 20 % compressed: the steps end with the shift still up (μ ≈ 3–14)
         V, F = yore.grid_mesh(8, 8, width=0.4, height=0.4)
-        cloth = yore.Cloth(V, F, mass=0.005, stretch_stiffness=100.0, bend_stiffness=100.0)
+        cloth = yore.Cloth(V, F, masses=0.005, stretch_stiffness=100.0, bend_stiffness=100.0)
         cloth.springs.rest = 1.2 * cloth.springs.rest
         cloth.fix([0, 7])
         return yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection="shifted")
@@ -606,7 +606,7 @@ def test_steihaug_on_a_convex_step_is_plain_newton():
         n = 8
         V = np.column_stack([np.linspace(0.0, 0.7, n), np.zeros(n), np.zeros(n)])
         edges = np.column_stack([np.arange(n - 1), np.arange(1, n)]).astype(np.int32)
-        cloth = yore.Cloth.from_springs(V, edges, mass=1e-3, stiffness=1e3, damping=0.0)
+        cloth = yore.Cloth.from_springs(V, edges, masses=1e-3, stiffness=1e3, damping=0.0)
         cloth.fix([0])
         sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection=projection)
         sim.step(3)
@@ -680,7 +680,7 @@ def _stiff_chain(**options):
     n = 11
     V = np.column_stack([np.linspace(0.0, 1.0, n), np.zeros(n), np.zeros(n)])
     edges = np.column_stack([np.arange(n - 1), np.arange(1, n)]).astype(np.int32)
-    chain = yore.Cloth.from_springs(V, edges, mass=1e-3, stiffness=1e5, damping=0.0)
+    chain = yore.Cloth.from_springs(V, edges, masses=1e-3, stiffness=1e5, damping=0.0)
     chain.fix([0])
     return yore.Simulation(chain, integrator="implicit", dt=1 / 60, projection="clamp",
                            **options)
@@ -722,7 +722,7 @@ def test_supernode_sizes_of_a_factor_that_is_one_dense_block():
     # factor has none.
     positions = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]])
     for factorization, expected in (("supernodal", (6.0, 0.0)), ("simplicial", (0.0, 0.0))):
-        cloth = yore.Cloth(positions, np.array([[0, 1, 2]]), mass=0.01)
+        cloth = yore.Cloth(positions, np.array([[0, 1, 2]]), masses=0.01)
         cloth.fix([0])
         sim = yore.Simulation(cloth, integrator="implicit", factorization=factorization)
         sim.step(1)

@@ -9,7 +9,7 @@ from yore import _core
 
 def small_cloth(damping=0.0):
     V, F = yore.grid_mesh(6, 6, width=0.3, height=0.3)
-    cloth = yore.Cloth(V, F, mass=0.005, stretch_stiffness=50.0, bend_stiffness=20.0,
+    cloth = yore.Cloth(V, F, masses=0.005, stretch_stiffness=50.0, bend_stiffness=20.0,
                        damping=damping, drag=0.5)
     cloth.fix([0, 5])
     return cloth
@@ -171,7 +171,7 @@ def test_iteration_counts_beyond_32_bits_are_value_errors_naming_the_option():
 
 def spinning_sheet_angular_momentum(damping):
     V, F = yore.grid_mesh(11, 11, width=0.5, height=0.5)
-    cloth = yore.Cloth(V - V.mean(axis=0), F, mass=0.01, stretch_stiffness=200.0,
+    cloth = yore.Cloth(V - V.mean(axis=0), F, masses=0.01, stretch_stiffness=200.0,
                        bend_stiffness=50.0, damping=damping, drag=0.0)
     omega = np.array([0.0, 0.0, 2 * np.pi])  # one turn a second about the sheet's normal
     cloth.velocities = np.cross(omega, cloth.positions)

@@ -37,7 +37,7 @@ def on_cylinder(V, radius):
 def strip(modulus=3e-3, nx=9, ny=5, radius=0.3, stretch_stiffness=50.0):
     """A 0.4 m × 0.2 m strip, rest flat, started bent onto a cylinder of `radius`."""
     V, F = yore.grid_mesh(nx, ny, width=0.4, height=0.2)
-    cloth = yore.Cloth(V, F, mass=1e-3, stretch_stiffness=stretch_stiffness,
+    cloth = yore.Cloth(V, F, masses=1e-3, stretch_stiffness=stretch_stiffness,
                        bending="quadratic", bending_modulus=modulus)
     cloth.positions = on_cylinder(V, radius)
     return cloth
@@ -83,9 +83,9 @@ def test_the_implicit_gradient_and_hessian_of_the_term_match_finite_differences(
     V, F = yore.grid_mesh(4, 4, width=0.3, height=0.3)
     rng = np.random.default_rng(1)
     X = on_cylinder(V, 0.2) + rng.normal(0.0, 0.003, V.shape)
-    with_term = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bending="quadratic",
+    with_term = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bending="quadratic",
                            bending_modulus=0.02)
-    without = yore.Cloth(V, F, mass=0.01, stretch_stiffness=50.0, bend_stiffness=0.0)
+    without = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=0.0)
     for cloth in (with_term, without):
         cloth.positions = X
         cloth.fix([0, 3])
@@ -266,7 +266,7 @@ def test_every_stable_step_estimate_falls_as_the_modulus_grows():
     V, F = yore.grid_mesh(9, 9)
     steps = []
     for modulus in (0.0, 1e-3, 1e-2, 1e-1):
-        cloth = yore.Cloth(V, F, mass=1e-3, stretch_stiffness=100.0, bending="quadratic",
+        cloth = yore.Cloth(V, F, masses=1e-3, stretch_stiffness=100.0, bending="quadratic",
                            bending_modulus=modulus)
         steps.append([cloth.gershgorin_time_step(), cloth.stable_time_step_bound(),
                       cloth.stable_time_step()])
@@ -429,7 +429,7 @@ def test_refining_a_quadratic_cloth_keeps_its_flat_rest_and_rebuilds_q():
     # neighbours: on a flat cloth they land on the rest midpoints, so the refined cloth still
     # has no bending energy at rest, and Q gains the new hinges.
     V, F = yore.grid_mesh(7, 7)
-    cloth = yore.Cloth(V, F, mass=1e-3, bending="quadratic", bending_modulus=1e-3)
+    cloth = yore.Cloth(V, F, masses=1e-3, bending="quadratic", bending_modulus=1e-3)
     cloth.material_coordinates = V[:, :2]
     sim = yore.Simulation(cloth, integrator="implicit", gravity=NO_GRAVITY)
     hinges = cloth.quadratic_bending["hinges"]

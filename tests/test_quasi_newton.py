@@ -86,7 +86,7 @@ def test_a_step_at_the_iteration_cap_is_counted_and_warned_about():
 def test_spring_damping_leaves_a_rigid_spin_alone():
     def angular_momentum_kept(damping):
         V, F = yore.grid_mesh(9, 9, width=1.0, height=1.0)
-        cloth = yore.Cloth(V - V.mean(axis=0), F, mass=1 / 81, stretch_stiffness=200.0,
+        cloth = yore.Cloth(V - V.mean(axis=0), F, masses=1 / 81, stretch_stiffness=200.0,
                            bend_stiffness=20.0, damping=damping)
         cloth.velocities = np.cross([0.0, 0.0, 2 * np.pi], cloth.positions)
 

@@ -8,7 +8,7 @@ import yore
 
 @pytest.fixture
 def cloth():
-    return yore.Cloth(*yore.grid_mesh(4, 4), mass=0.01)
+    return yore.Cloth(*yore.grid_mesh(4, 4), masses=0.01)
 
 
 def test_unknown_integrator_and_option_names_list_the_valid_ones(cloth):
@@ -262,12 +262,12 @@ def test_api_values_of_the_wrong_kind_or_out_of_range_are_value_errors_naming_th
     with pytest.raises(ValueError, match="stretch_stiffness .*1e\\+12"):
         yore.scenes.hanging_cloth(resolution=5, stretch_stiffness=1.7e308)
     with pytest.raises(ValueError, match="mass of vertex 0 .*1e\\+12"):
-        yore.Cloth(*yore.grid_mesh(3, 3), mass=1e300)
+        yore.Cloth(*yore.grid_mesh(3, 3), masses=1e300)
     for seconds in (None, "1", float("nan"), -1.0):
         with pytest.raises(ValueError, match="seconds"):
             sim.advance(seconds)
     # the limit itself is accepted
-    yore.Cloth(*yore.grid_mesh(3, 3), mass=1e12, stretch_stiffness=1e12, bend_stiffness=1e12)
+    yore.Cloth(*yore.grid_mesh(3, 3), masses=1e12, stretch_stiffness=1e12, bend_stiffness=1e12)
 
 
 def test_work_beyond_the_documented_limits_is_refused_before_it_starts():

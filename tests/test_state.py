@@ -117,7 +117,7 @@ def test_bad_states_and_files_are_value_errors_naming_the_problem(tmp_path):
 
 @pytest.fixture
 def state_file(tmp_path):
-    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), mass=0.01), integrator="bdf2")
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01), integrator="bdf2")
     sim.step(2)
     return yore.save_state(tmp_path / "state.npz", sim, metadata={"step": 2})
 

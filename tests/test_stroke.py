@@ -13,7 +13,7 @@ from yore import metrics
 
 def flat_cloth(n=9, **kwargs):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, mass=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
+    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
                        damping=0.02, drag=0.3)
     cloth.material_coordinates = V[:, :2]
     return cloth

@@ -180,7 +180,7 @@ def test_refine_refuses_faces_out_of_range():
 
 
 def refined_cloth(V, F, faces, bend=200.0, masses=None):
-    cloth = yore.Cloth(V, F, mass=0.1 / len(V) if masses is None else masses,
+    cloth = yore.Cloth(V, F, masses=0.1 / len(V) if masses is None else masses,
                        stretch_stiffness=200.0, bend_stiffness=bend, damping=0.02, drag=0.3)
     cloth.material_coordinates = V[:, :2]
     return cloth, yore._core.refine_faces(cloth, faces)
@@ -229,7 +229,7 @@ def _far_from(cloth, report, n):
 
 def test_cloth_refinement_of_a_stretched_region_keeps_its_rest_lengths_not_its_stretch():
     V, F = yore.grid_mesh(5, 5)
-    cloth = yore.Cloth(V, F, mass=1e-3, stretch_stiffness=200.0, bend_stiffness=200.0,
+    cloth = yore.Cloth(V, F, masses=1e-3, stretch_stiffness=200.0, bend_stiffness=200.0,
                        damping=0.0, drag=0.0)
     cloth.positions = V * np.array([1.3, 1.0, 1.0])  # stretched 30 % along x, still flat
     yore._core.refine_faces(cloth, [10])
@@ -247,7 +247,7 @@ def test_cloth_refinement_of_a_stretched_region_keeps_its_rest_lengths_not_its_s
 def test_conserving_split_keeps_the_total_mass_and_the_paper_rule_adds_mass():
     V, F = yore.grid_mesh(9, 9)
     for conserve in (False, True):
-        cloth = yore.Cloth(V, F, mass=0.1 / len(V), stretch_stiffness=200.0,
+        cloth = yore.Cloth(V, F, masses=0.1 / len(V), stretch_stiffness=200.0,
                            bend_stiffness=200.0, damping=0.02, drag=0.3)
         faces = np.arange(40, 56)
         report = yore._core.split_faces(cloth, faces, np.full((16, 3), 1 / 3),

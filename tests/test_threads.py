@@ -19,7 +19,7 @@ def restore_threads():
 
 def grid_simulation(n):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, mass=0.1, stretch_stiffness=200.0, bend_stiffness=200.0,
+    cloth = yore.Cloth(V, F, masses=0.1, stretch_stiffness=200.0, bend_stiffness=200.0,
                        damping=0.02, drag=0.3)
     cloth.fix([0, n - 1])
     return yore.Simulation(cloth)

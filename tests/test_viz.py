@@ -33,7 +33,7 @@ def wavy_cloth(n=17, amplitude=0.08):
 
 def wavy_simulation(integrator="explicit", gravity=(0.0, 0.0, 0.0)):
     V, F = wavy_cloth()
-    cloth = yore.Cloth(V, F, mass=0.1, stretch_stiffness=200.0, damping=0.0)
+    cloth = yore.Cloth(V, F, masses=0.1, stretch_stiffness=200.0, damping=0.0)
     return yore.Simulation(cloth, integrator=integrator, gravity=gravity)
 
 
@@ -234,7 +234,7 @@ def assert_same_state(a, b, where="state"):
 @pytest.mark.parametrize("integrator", ["explicit", "bdf2"])
 def test_undo_restores_the_state_before_the_stroke_bit_for_bit(integrator):
     V, F = wavy_cloth()
-    cloth = yore.Cloth(V, F, mass=0.1, stretch_stiffness=200.0, damping=0.0)
+    cloth = yore.Cloth(V, F, masses=0.1, stretch_stiffness=200.0, damping=0.0)
     cloth.fix([0, 16])
     sim = yore.Simulation(cloth, integrator=integrator,
                           dt=None if integrator == "explicit" else 1 / 120)

@@ -1,4 +1,5 @@
 #include "bindings.hpp"
+#include "cloth_state.hpp"
 #include "convert.hpp"
 #include "yore/cloth.hpp"
 
@@ -20,9 +21,9 @@ Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
   const Eigen::Index n = positions.rows();
   if (!density.is_none()) {
     if (!mass.is_none()) {
-      throw std::invalid_argument("give either mass (kg per vertex) or density (kg/m²), not both");
+      throw std::invalid_argument("give either masses (kg per vertex) or density (kg/m²), not both");
     }
-    if (faces == nullptr) throw std::invalid_argument("density needs faces; give mass instead");
+    if (faces == nullptr) throw std::invalid_argument("density needs faces; give masses instead");
     const double rho = density.cast<double>();
     if (!std::isfinite(rho) || rho <= 0.0) {
       std::ostringstream msg;
@@ -33,15 +34,27 @@ Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
     return rho * lumped_vertex_areas(positions, *faces);
   }
   if (mass.is_none()) return Eigen::VectorXd::Constant(n, kDefaultMass);
-  const auto array = as_float_array(mass, "mass");
+  const auto array = as_float_array(mass, "masses");
   if (array.ndim() == 0) return Eigen::VectorXd::Constant(n, *array.data());
-  return to_vector(mass, "mass", n);
+  return to_vector(mass, "masses", n);
 }
 
-/// The springs of a cloth, seen from Python (a view; keeps its cloth alive).
-struct SpringsView {
-  Cloth* cloth;
-};
+/// The per-vertex masses argument: `masses`, or the former name `mass` (kg per vertex as well,
+/// but spelled like the scene files' and yore.scenes' total mass), accepted for one version
+/// with a DeprecationWarning.
+py::object masses_argument(const py::object& masses, const py::object& mass) {
+  if (mass.is_none()) return masses;
+  if (!masses.is_none()) {
+    throw std::invalid_argument("give masses (kg per vertex), not also its former name mass");
+  }
+  if (PyErr_WarnEx(PyExc_DeprecationWarning,
+                   "Cloth(mass=...) is deprecated: the per-vertex masses are now given as "
+                   "masses=... (mass means the total in scene files and yore.scenes)",
+                   1) != 0) {
+    throw py::error_already_set();
+  }
+  return mass;
+}
 
 py::dict energy_dict(const EnergyTerms& terms) {
   py::dict out;
@@ -61,183 +74,6 @@ std::vector<std::int32_t> vertices_in_state(const Cloth& cloth, VertexState stat
   return out;
 }
 
-/// The keys of Cloth.state(), in order.
-const char* const kStateKeys[] = {
-    "positions",        "velocities",       "masses",           "faces",
-    "spring_ends",      "spring_rest",      "spring_reference", "spring_stiffness",
-    "spring_damping",   "spring_kind",      "drag",             "stretch_stiffness",
-    "bend_stiffness",   "damping",          "material_coordinates", "vertex_states",
-    "drivers",          "clock_origin",     "clock_steps",      "clock_dt",
-    "bending",          "bending_modulus",  "bending_rest"};
-/// Keys a state may lack: states saved before quadratic bending existed are bending springs.
-bool optional_state_key(const std::string& key) {
-  return key == "bending" || key == "bending_modulus" || key == "bending_rest";
-}
-
-/// The bending model named in Python, or std::invalid_argument listing the valid names.
-BendingModel bending_model(const std::string& name) {
-  if (name == "springs") return BendingModel::springs;
-  if (name == "quadratic") return BendingModel::quadratic;
-  throw std::invalid_argument("bending must be \"springs\" or \"quadratic\", got \"" + name +
-                              "\"");
-}
-
-const char* bending_name(BendingModel model) {
-  return model == BendingModel::quadratic ? "quadratic" : "springs";
-}
-
-py::dict state_dict(const Cloth& cloth) {
-  const ClothState state = idle(cloth).state();
-  const SpringSet& springs = state.springs;
-  const std::size_t s = springs.size();
-  Edges ends(static_cast<Eigen::Index>(s), 2);
-  std::vector<std::int8_t> kinds(s);
-  for (std::size_t k = 0; k < s; ++k) {
-    ends(static_cast<Eigen::Index>(k), 0) = springs.first[k];
-    ends(static_cast<Eigen::Index>(k), 1) = springs.second[k];
-    kinds[k] = static_cast<std::int8_t>(springs.kind[k]);
-  }
-  std::vector<std::uint8_t> vertex_states(state.vertex_states.size());
-  for (std::size_t i = 0; i < vertex_states.size(); ++i) {
-    vertex_states[i] = static_cast<std::uint8_t>(state.vertex_states[i]);
-  }
-  py::list drivers;
-  for (const RotationDriver& driver : state.drivers) {
-    py::dict entry;
-    entry["vertices"] = read_only_copy(driver.vertices);
-    entry["reference"] = read_only_copy(driver.reference);
-    entry["center"] = read_only_copy(driver.center);
-    entry["axis"] = read_only_copy(driver.axis);
-    entry["omega"] = driver.omega;
-    entry["start_time"] = driver.start_time;
-    drivers.append(entry);
-  }
-  py::dict out;
-  out["positions"] = read_only_copy(state.positions);
-  out["velocities"] = read_only_copy(state.velocities);
-  out["masses"] = read_only_copy(state.masses);
-  out["faces"] = read_only_copy(state.faces);
-  out["spring_ends"] = read_only_copy(ends);
-  out["spring_rest"] = read_only_copy(springs.rest_length);
-  out["spring_reference"] = read_only_copy(springs.reference_length);
-  out["spring_stiffness"] = read_only_copy(springs.stiffness);
-  out["spring_damping"] = read_only_copy(springs.damping);
-  out["spring_kind"] = read_only_copy(kinds);
-  out["drag"] = state.drag;
-  out["stretch_stiffness"] = state.stretch_stiffness;
-  out["bend_stiffness"] = state.bend_stiffness;
-  out["damping"] = state.spring_damping;
-  out["material_coordinates"] =
-      state.material.rows() ? py::object(read_only_copy(state.material)) : py::none();
-  out["vertex_states"] = read_only_copy(vertex_states);
-  out["drivers"] = drivers;
-  out["clock_origin"] = state.clock.origin;
-  out["clock_steps"] = state.clock.steps;
-  out["clock_dt"] = state.clock.dt;
-  out["bending"] = bending_name(state.bending);
-  out["bending_modulus"] = state.bending_modulus;
-  out["bending_rest"] =
-      state.bending_rest.rows() ? py::object(read_only_copy(state.bending_rest)) : py::none();
-  return out;
-}
-
-std::vector<double> double_list(const py::handle& object, const char* name, Eigen::Index size) {
-  const Eigen::VectorXd values = to_vector(object, name, size);
-  return std::vector<double>(values.data(), values.data() + values.size());
-}
-
-Cloth cloth_from_state(const py::dict& values) {
-  std::string unknown;
-  for (const auto& item : values) {
-    const std::string key = py::str(item.first);
-    if (std::find_if(std::begin(kStateKeys), std::end(kStateKeys),
-                     [&](const char* name) { return key == name; }) == std::end(kStateKeys)) {
-      unknown += (unknown.empty() ? "" : ", ") + key;
-    }
-  }
-  std::string missing;
-  for (const char* key : kStateKeys) {
-    if (!values.contains(key) && !optional_state_key(key)) {
-      missing += (missing.empty() ? "" : ", ") + std::string(key);
-    }
-  }
-  if (!unknown.empty() || !missing.empty()) {
-    throw std::invalid_argument("not a cloth state: " +
-                                (unknown.empty() ? "" : "unknown key(s) " + unknown) +
-                                (unknown.empty() || missing.empty() ? "" : "; ") +
-                                (missing.empty() ? "" : "missing key(s) " + missing));
-  }
-  ClothState state;
-  state.positions = to_rows3(values["positions"], "state positions");
-  const Eigen::Index n = state.positions.rows();
-  state.velocities = to_rows3(values["velocities"], "state velocities", n);
-  state.masses = to_vector(values["masses"], "state masses", n);
-  const auto faces = as_float_array(values["faces"], "state faces");
-  if (faces.size() > 0) state.faces = to_faces(values["faces"], "state faces");
-  const Edges ends = to_edges(values["spring_ends"], "state spring_ends");
-  const Eigen::Index s = ends.rows();
-  SpringSet& springs = state.springs;
-  springs.first.resize(static_cast<std::size_t>(s));
-  springs.second.resize(static_cast<std::size_t>(s));
-  for (Eigen::Index k = 0; k < s; ++k) {
-    springs.first[static_cast<std::size_t>(k)] = ends(k, 0);
-    springs.second[static_cast<std::size_t>(k)] = ends(k, 1);
-  }
-  springs.rest_length = double_list(values["spring_rest"], "state spring_rest", s);
-  springs.reference_length = double_list(values["spring_reference"], "state spring_reference", s);
-  springs.stiffness = double_list(values["spring_stiffness"], "state spring_stiffness", s);
-  springs.damping = double_list(values["spring_damping"], "state spring_damping", s);
-  for (const double code : double_list(values["spring_kind"], "state spring_kind", s)) {
-    if (code != 0.0 && code != 1.0) {  // before the cast: NaN or 1e300 to int is undefined
-      throw std::invalid_argument("state spring_kind must hold 0 (structural) or 1 (bending)");
-    }
-    springs.kind.push_back(static_cast<SpringKind>(static_cast<int>(code)));
-  }
-  state.drag = values["drag"].cast<double>();
-  state.stretch_stiffness = values["stretch_stiffness"].cast<double>();
-  state.bend_stiffness = values["bend_stiffness"].cast<double>();
-  state.spring_damping = values["damping"].cast<double>();
-  if (!values["material_coordinates"].is_none()) {
-    const auto uv = as_float_array(values["material_coordinates"], "state material_coordinates");
-    if (uv.ndim() != 2 || uv.shape(1) != 2 || uv.shape(0) != n) {
-      throw std::invalid_argument("state material_coordinates must have shape (" +
-                                  std::to_string(n) + ", 2), got " + shape_text(uv));
-    }
-    state.material.resize(n, 2);
-    std::copy(uv.data(), uv.data() + uv.size(), state.material.data());
-  }
-  for (const double code : double_list(values["vertex_states"], "state vertex_states", n)) {
-    if (code != 0.0 && code != 1.0 && code != 2.0) {
-      throw std::invalid_argument(
-          "state vertex_states must hold 0 (free), 1 (fixed) or 2 (driven)");
-    }
-    state.vertex_states.push_back(static_cast<VertexState>(static_cast<int>(code)));
-  }
-  for (const py::handle entry : values["drivers"].cast<py::list>()) {
-    const py::dict driver_values = entry.cast<py::dict>();
-    RotationDriver driver;
-    driver.vertices = to_indices(driver_values["vertices"], "state driver vertices");
-    driver.reference = to_rows3(driver_values["reference"], "state driver reference",
-                                static_cast<Eigen::Index>(driver.vertices.size()));
-    driver.center = to_vec3(driver_values["center"], "state driver center");
-    driver.axis = to_vec3(driver_values["axis"], "state driver axis");
-    driver.omega = driver_values["omega"].cast<double>();
-    driver.start_time = driver_values["start_time"].cast<double>();
-    state.drivers.push_back(std::move(driver));
-  }
-  state.clock.origin = values["clock_origin"].cast<double>();
-  state.clock.steps = values["clock_steps"].cast<std::int64_t>();
-  state.clock.dt = values["clock_dt"].cast<double>();
-  if (values.contains("bending")) state.bending = bending_model(values["bending"].cast<std::string>());
-  if (values.contains("bending_modulus") && !values["bending_modulus"].is_none()) {
-    state.bending_modulus = values["bending_modulus"].cast<double>();
-  }
-  if (values.contains("bending_rest") && !values["bending_rest"].is_none()) {
-    state.bending_rest = to_rows3(values["bending_rest"], "state bending_rest", n);
-  }
-  return Cloth::from_state(state);
-}
-
 // A number given as a Python object (None allowed by the caller): a real number, not a bool or
 // a string; std::invalid_argument (ValueError) naming the argument otherwise.
 double real_argument(const py::object& value, const char* name) {
@@ -254,73 +90,17 @@ double real_argument(const py::object& value, const char* name) {
 
 }  // namespace
 
-
 void bind_cloth(py::module_& m) {
-  py::class_<SpringsView>(m, "Springs", "The springs of a cloth (structure of arrays).")
-      .def("__len__", [](const SpringsView& view) { return idle(*view.cloth).springs().size(); })
-      .def_property_readonly(
-          "ends",
-          [](const SpringsView& view) {
-            const SpringSet& springs = idle(*view.cloth).springs();
-            Edges ends(static_cast<Eigen::Index>(springs.size()), 2);
-            for (std::size_t s = 0; s < springs.size(); ++s) {
-              ends(static_cast<Eigen::Index>(s), 0) = springs.first[s];
-              ends(static_cast<Eigen::Index>(s), 1) = springs.second[s];
-            }
-            return read_only_copy(ends);
-          },
-          "s×2 int32 vertex indices of each spring's ends.")
-      .def_property(
-          "rest",
-          [](const SpringsView& view) {
-            return read_only_copy(idle(*view.cloth).springs().rest_length);
-          },
-          [](SpringsView& view, const py::handle& rest) {
-            Cloth& cloth = idle(*view.cloth);
-            cloth.set_rest_lengths(
-                to_vector(rest, "rest", static_cast<Eigen::Index>(cloth.springs().size())));
-          },
-          "(s,) rest lengths, metres; assignable (finite, > 0).")
-      .def_property_readonly(
-          "kind",
-          [](const SpringsView& view) {
-            const auto& kinds = idle(*view.cloth).springs().kind;
-            std::vector<std::int8_t> codes(kinds.size());
-            for (std::size_t s = 0; s < kinds.size(); ++s) {
-              codes[s] = static_cast<std::int8_t>(kinds[s]);
-            }
-            return read_only_copy(codes);
-          },
-          "(s,) int8 kind of each spring: 0 structural, 1 bending.")
-      .def_property_readonly(
-          "reference",
-          [](const SpringsView& view) {
-            return read_only_copy(idle(*view.cloth).springs().reference_length);
-          },
-          "(s,) reference lengths, metres: what rest lengths are measured against (the input "
-          "length, or the length when a stroke created the spring).")
-      .def_property_readonly(
-          "stiffness",
-          [](const SpringsView& view) {
-            return read_only_copy(idle(*view.cloth).springs().stiffness);
-          },
-          "(s,) stiffness, N/m.")
-      .def_property_readonly(
-          "damping",
-          [](const SpringsView& view) {
-            return read_only_copy(idle(*view.cloth).springs().damping);
-          },
-          "(s,) damping along each spring, N·s/m.");
-
   py::class_<Cloth>(m, "Cloth", R"doc(
 A mass-spring cloth on a triangle mesh, wired as the paper's Fig. 1: structural springs on every
 edge, bending springs across every interior edge between the two opposite vertices.
 
-Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0, damping=0.0,
+Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.0, damping=0.0,
       drag=0.0, density=None, bending="springs", bending_modulus=None)
-  vertices n×3 (m); faces f×3 integer indices; mass kg per vertex, a scalar (uniform, the paper's
-  choice; 1e-3 when neither mass nor density is given) or an (n,) array; density kg/m² instead of
-  mass lumps mass by area (a third of each face to each corner); stiffnesses N/m per spring
+  vertices n×3 (m); faces f×3 integer indices; masses kg per vertex, a scalar (uniform, the
+  paper's choice; 1e-3 when neither masses nor density is given) or an (n,) array (`mass`, its
+  former name, still works for one version with a DeprecationWarning); density kg/m² instead of
+  masses lumps mass by area (a third of each face to each corner); stiffnesses N/m per spring
   (bend_stiffness=0 creates no bending springs); damping N·s/m along each spring; drag 1/s, a force
   -drag·m·v on each vertex (still air).
   bending="springs" (the paper's bending springs, default) or "quadratic": Bergou et al. 2006's
@@ -328,10 +108,12 @@ Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0,
   >= 0; 0 adds no term) and Q from the rest shape of the faces in `vertices`; it creates no
   bending springs (bend_stiffness must then be left out or 0). Raises ValueError on a bad mesh or
   value.)doc")
-      .def(py::init([](const py::handle& vertices, const py::handle& faces, const py::object& mass,
-                       double stretch_stiffness, const py::object& bend_stiffness, double damping,
-                       double drag, const py::object& density, const std::string& bending,
-                       const py::object& bending_modulus) {
+      .def(py::init([](const py::handle& vertices, const py::handle& faces,
+                       const py::object& masses, double stretch_stiffness,
+                       const py::object& bend_stiffness, double damping, double drag,
+                       const py::object& density, const std::string& bending,
+                       const py::object& bending_modulus, const py::object& mass) {
+             const py::object given = masses_argument(masses, mass);
              const BendingModel model = bending_model(bending);
              if (model == BendingModel::springs && !bending_modulus.is_none()) {
                throw std::invalid_argument(
@@ -359,32 +141,37 @@ Cloth(vertices, faces, mass=None, stretch_stiffness=100.0, bend_stiffness=100.0,
                                         : real_argument(bending_modulus, "bending_modulus");
              const Positions v = to_rows3(vertices, "vertices");
              const Faces f = to_faces(faces);
-             const Eigen::VectorXd masses = vertex_masses(mass, density, v, &f);
-             return Cloth(v, f, masses, stretch_stiffness, stiffness, damping, drag, model,
+             const Eigen::VectorXd vertex_mass = vertex_masses(given, density, v, &f);
+             return Cloth(v, f, vertex_mass, stretch_stiffness, stiffness, damping, drag, model,
                           modulus);
            }),
-           py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("mass") = py::none(),
+           py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("masses") = py::none(),
            py::arg("stretch_stiffness") = 100.0, py::arg("bend_stiffness") = py::none(),
            py::arg("damping") = 0.0, py::arg("drag") = 0.0, py::arg("density") = py::none(),
-           py::arg("bending") = "springs", py::arg("bending_modulus") = py::none())
+           py::arg("bending") = "springs", py::arg("bending_modulus") = py::none(),
+           py::arg("mass") = py::none())
       .def_static(
           "from_springs",
           [](const py::handle& vertices, const py::handle& edges, const py::object& rest_lengths,
-             const py::object& mass, double stiffness, double damping, double drag) {
+             const py::object& masses, double stiffness, double damping, double drag,
+             const py::object& mass) {
             const Positions v = to_rows3(vertices, "vertices");
             const Edges e = to_edges(edges);
             const Eigen::VectorXd rest = rest_lengths.is_none()
                                              ? Eigen::VectorXd()
                                              : to_vector(rest_lengths, "rest_lengths", e.rows());
-            const Eigen::VectorXd masses = vertex_masses(mass, py::none(), v, nullptr);
-            return Cloth::from_springs(v, e, rest, masses, stiffness, damping, drag);
+            const Eigen::VectorXd vertex_mass =
+                vertex_masses(masses_argument(masses, mass), py::none(), v, nullptr);
+            return Cloth::from_springs(v, e, rest, vertex_mass, stiffness, damping, drag);
           },
           py::arg("vertices"), py::arg("edges"), py::kw_only(),
-          py::arg("rest_lengths") = py::none(), py::arg("mass") = py::none(),
+          py::arg("rest_lengths") = py::none(), py::arg("masses") = py::none(),
           py::arg("stiffness") = 100.0, py::arg("damping") = 0.0, py::arg("drag") = 0.0,
+          py::arg("mass") = py::none(),
           R"doc(A plain spring network with no faces (chains, single springs).
 vertices n×3 (m); edges s×2 vertex indices; rest_lengths (s,) metres, default the distances in
-vertices; mass kg per vertex (scalar or (n,)); stiffness N/m; damping N·s/m; drag 1/s.)doc")
+vertices; masses kg per vertex (scalar or (n,); `mass`, its former name, still works for one
+version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc")
       .def_property(
           "positions", [](const Cloth& cloth) { return read_only_copy(idle(cloth).positions()); },
           [](Cloth& cloth, const py::handle& value) {

@@ -54,10 +54,13 @@ PYBIND11_MODULE(_core, m) {
 
   yore::bindings::bind_springs(m);
   yore::bindings::bind_mesh(m);
+  yore::bindings::bind_cloth_springs(m);
   yore::bindings::bind_cloth(m);
   yore::bindings::bind_explicit(m);
+  yore::bindings::bind_linear_solver(m);
   yore::bindings::bind_implicit(m);
   yore::bindings::bind_stroke(m);
+  yore::bindings::bind_stroke_pipeline(m);
   yore::bindings::bind_local_global(m);
   yore::bindings::bind_subdivision(m);
   yore::bindings::bind_growth(m);

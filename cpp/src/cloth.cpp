@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace yore {
 namespace {
@@ -584,13 +585,6 @@ void Cloth::set_material_coordinates(
 
 namespace {
 
-/// Area of a triangle with these side lengths (Heron); 0 if they violate the triangle inequality.
-double area_from_sides(double a, double b, double c) {
-  const double s = 0.5 * (a + b + c);
-  const double product = s * (s - a) * (s - b) * (s - c);
-  return product > 0.0 ? std::sqrt(product) : 0.0;
-}
-
 std::uint64_t pair_key(std::int32_t i, std::int32_t j) {
   const auto lo = static_cast<std::uint64_t>(std::min(i, j));
   const auto hi = static_cast<std::uint64_t>(std::max(i, j));
@@ -622,6 +616,62 @@ double hinge_distance(double uv, double up, double vp, double uq, double vq,
   const double squared = (xp - xq) * (xp - xq) + hp * hp + hq * hq - 2.0 * hp * hq * cos_dihedral;
   return std::sqrt(std::max(squared, 0.0));
 }
+
+/// The one place a subdivision rewires springs to its new mesh (split_faces and refine_faces).
+/// Construction keeps every spring whose pair is still wired (a structural spring on an edge, a
+/// bending spring across one), in order, and drops the rest; add_missing then appends a spring
+/// for each wired pair that has none, in the connectivity's order. A pair holds at most one
+/// spring whatever its kind. The new lengths come from the caller's rule: eq. (1) for the
+/// paper's split, the rest metric for refinement.
+class SpringRewiring {
+ public:
+  /// Rest and reference length (m) of a new spring.
+  struct Lengths {
+    double rest = 0.0;
+    double reference = 0.0;
+  };
+
+  SpringRewiring(SpringSet& springs, const MeshConnectivity& connectivity)
+      : m_springs(springs), m_connectivity(connectivity) {
+    std::vector<char> keep(springs.size(), 0);
+    m_existing.reserve(springs.size());
+    for (std::size_t k = 0; k < springs.size(); ++k) {
+      const VertexPair pair{std::min(springs.first[k], springs.second[k]),
+                            std::max(springs.first[k], springs.second[k])};
+      const auto& wired = springs.kind[k] == SpringKind::structural ? connectivity.edges
+                                                                      : connectivity.bending_pairs;
+      keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
+      if (keep[k]) m_existing.insert(pair_key(pair[0], pair[1]));
+    }
+    const std::size_t before = springs.size();
+    springs.keep(keep);
+    m_removed = static_cast<std::int64_t>(before - springs.size());
+  }
+
+  /// Adds a spring of this kind on every wired pair of that kind without one (edges for
+  /// structural, bending pairs for bending), lengths by `lengths(pair)`.
+  template <class LengthRule>
+  void add_missing(SpringKind kind, double stiffness, double damping, LengthRule&& lengths) {
+    const auto& pairs =
+        kind == SpringKind::structural ? m_connectivity.edges : m_connectivity.bending_pairs;
+    for (const VertexPair& pair : pairs) {
+      if (m_existing.count(pair_key(pair[0], pair[1]))) continue;
+      const Lengths length = lengths(pair);
+      m_springs.add(pair[0], pair[1], length.rest, stiffness, damping, kind, length.reference);
+      ++m_added;
+    }
+  }
+
+  std::int64_t removed() const { return m_removed; }
+  std::int64_t added() const { return m_added; }
+
+ private:
+  SpringSet& m_springs;
+  const MeshConnectivity& m_connectivity;
+  std::unordered_set<std::uint64_t> m_existing;  // pairs of the kept springs
+  std::int64_t m_removed = 0;
+  std::int64_t m_added = 0;
+};
 
 }  // namespace
 
@@ -788,47 +838,27 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
   // Springs: keep every spring whose pair is still wired, drop the rest, add the new pairs with
   // eq. (1) rest lengths.
   const MeshConnectivity connectivity = mesh_connectivity(m_faces);
-  const bool with_bending = m_bend_stiffness > 0.0;
-  std::vector<char> keep(m_springs.size(), 0);
-  std::unordered_map<std::uint64_t, char> existing;
-  existing.reserve(m_springs.size());
-  for (std::size_t k = 0; k < m_springs.size(); ++k) {
-    const VertexPair pair{std::min(m_springs.first[k], m_springs.second[k]),
-                          std::max(m_springs.first[k], m_springs.second[k])};
-    const auto& wired = m_springs.kind[k] == SpringKind::structural ? connectivity.edges
-                                                                    : connectivity.bending_pairs;
-    keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
-    if (keep[k]) existing[pair_key(pair[0], pair[1])] = 1;
-  }
-  const std::size_t before = m_springs.size();
-  m_springs.keep(keep);
-  report.springs_removed = static_cast<std::int64_t>(before - m_springs.size());
-  auto add_new = [&](const VertexPair& pair, double stiffness, SpringKind kind) {
-    if (existing.count(pair_key(pair[0], pair[1]))) return;
+  SpringRewiring rewiring(m_springs, connectivity);
+  auto eq1 = [&](const VertexPair& pair) {
     const double length = (m_positions.row(pair[0]) - m_positions.row(pair[1])).norm();
-    m_springs.add(pair[0], pair[1], options.expansion * length, stiffness, m_spring_damping, kind,
-                  length);
-    if (kind == SpringKind::structural) {
-      structural_rest[pair_key(pair[0], pair[1])] = options.expansion * length;
-    }
-    ++report.springs_added;
+    return SpringRewiring::Lengths{options.expansion * length, length};
   };
-  for (const VertexPair& edge : connectivity.edges) {
-    add_new(edge, m_stretch_stiffness, SpringKind::structural);
+  rewiring.add_missing(SpringKind::structural, m_stretch_stiffness, m_spring_damping,
+                       [&](const VertexPair& pair) {
+                         const SpringRewiring::Lengths lengths = eq1(pair);
+                         structural_rest[pair_key(pair[0], pair[1])] = lengths.rest;
+                         return lengths;
+                       });
+  if (m_bend_stiffness > 0.0) {
+    rewiring.add_missing(SpringKind::bending, m_bend_stiffness, m_spring_damping, eq1);
   }
-  if (with_bending) {
-    for (const VertexPair& pair : connectivity.bending_pairs) {
-      add_new(pair, m_bend_stiffness, SpringKind::bending);
-    }
-  }
+  report.springs_removed = rewiring.removed();
+  report.springs_added = rewiring.added();
   for (const std::int32_t f : report.region_faces) {
     const std::int32_t a = m_faces(f, 0), b = m_faces(f, 1), c = m_faces(f, 2);
     report.rest_area_after += area_from_sides(rest_of(a, b), rest_of(b, c), rest_of(c, a));
   }
-  rebuild_incidence();
-  m_topology_version = next_topology_version();
-  ++m_edit_count;
-  if (m_bending == BendingModel::quadratic) update_quadratic_bending();  // rest at split time
+  finish_topology_change();  // quadratic bending: rest at split time
   return report;
 }
 
@@ -963,20 +993,7 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   // Built aside and committed with the vertices at the end, so a failure leaves the cloth as it was.
   SpringSet springs = m_springs;
   const MeshConnectivity connectivity = mesh_connectivity(mesh.faces);
-  std::vector<char> keep(springs.size(), 0);
-  std::unordered_map<std::uint64_t, char> existing;
-  existing.reserve(springs.size());
-  for (std::size_t k = 0; k < springs.size(); ++k) {
-    const VertexPair pair{std::min(springs.first[k], springs.second[k]),
-                          std::max(springs.first[k], springs.second[k])};
-    const auto& wired = springs.kind[k] == SpringKind::structural ? connectivity.edges
-                                                                    : connectivity.bending_pairs;
-    keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
-    if (keep[k]) existing[pair_key(pair[0], pair[1])] = 1;
-  }
-  const std::size_t before = springs.size();
-  springs.keep(keep);
-  report.springs_removed = static_cast<std::int64_t>(before - springs.size());
+  SpringRewiring rewiring(springs, connectivity);
   const std::size_t kept = springs.size();
 
   // A face of the new mesh around each edge, and the apexes on either side of each edge.
@@ -1008,20 +1025,16 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
     }
     return w;
   };
-  for (const VertexPair& edge : connectivity.edges) {
+  rewiring.add_missing(SpringKind::structural, m_stretch_stiffness, m_spring_damping,
+                       [&](const VertexPair& edge) {
     const std::uint64_t key = pair_key(edge[0], edge[1]);
-    if (existing.count(key)) continue;
     const std::int32_t parent = mesh.parents[static_cast<std::size_t>(around_edge.at(key).face)];
     const std::int32_t a = old_faces(parent, 0), b = old_faces(parent, 1), c = old_faces(parent, 2);
     const Vec3 u = weights_in(edge[0], parent), v = weights_in(edge[1], parent);
-    const double rest_length =
-        metric_distance(u, v, side(rest, a, b), side(rest, b, c), side(rest, c, a));
-    const double reference_length = metric_distance(
-        u, v, side(reference, a, b), side(reference, b, c), side(reference, c, a));
-    springs.add(edge[0], edge[1], rest_length, m_stretch_stiffness, m_spring_damping,
-                  SpringKind::structural, reference_length);
-    ++report.springs_added;
-  }
+    return SpringRewiring::Lengths{
+        metric_distance(u, v, side(rest, a, b), side(rest, b, c), side(rest, c, a)),
+        metric_distance(u, v, side(reference, a, b), side(reference, b, c), side(reference, c, a))};
+  });
   // The new structural springs are the sides of the triangles the bending springs hinge on.
   for (std::size_t k = kept; k < springs.size(); ++k) {
     const std::uint64_t key = pair_key(springs.first[k], springs.second[k]);
@@ -1037,10 +1050,9 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
       const std::int32_t v = static_cast<std::int32_t>(entry.first >> 32);
       hinge_of.emplace(pair_key(entry.second.apexes[0], entry.second.apexes[1]), VertexPair{u, v});
     }
-    for (const VertexPair& pair : connectivity.bending_pairs) {
-      const std::uint64_t key = pair_key(pair[0], pair[1]);
-      if (existing.count(key)) continue;
-      const VertexPair hinge = hinge_of.at(key);
+    rewiring.add_missing(SpringKind::bending, m_bend_stiffness, m_spring_damping,
+                         [&](const VertexPair& pair) {
+      const VertexPair hinge = hinge_of.at(pair_key(pair[0], pair[1]));
       const std::int32_t u = hinge[0], v = hinge[1], p = pair[0], q = pair[1];
       const Vec3 xu = mesh.positions.row(u), xv = mesh.positions.row(v);
       const Vec3 axis = (xv - xu).normalized();
@@ -1060,11 +1072,11 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
             << ") a zero rest length: degenerate rest triangles";
         fail(msg.str());
       }
-      springs.add(p, q, rest_length, m_bend_stiffness, m_spring_damping, SpringKind::bending,
-                    hinged(reference));
-      ++report.springs_added;
-    }
+      return SpringRewiring::Lengths{rest_length, hinged(reference)};
+    });
   }
+  report.springs_removed = rewiring.removed();
+  report.springs_added = rewiring.added();
   for (const std::int32_t g : report.region_faces) {
     const std::int32_t a = mesh.faces(g, 0), b = mesh.faces(g, 1), c = mesh.faces(g, 2);
     report.rest_area_after += area_from_sides(side(rest, a, b), side(rest, b, c), side(rest, c, a));
@@ -1075,11 +1087,15 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
   m_springs = std::move(springs);
   update_inverse_masses();
   report.mass_added = m_masses.sum() - mass_before;
+  finish_topology_change();  // quadratic bending: rest at refine time
+  return report;
+}
+
+void Cloth::finish_topology_change() {
   rebuild_incidence();
   m_topology_version = next_topology_version();
   ++m_edit_count;
-  if (m_bending == BendingModel::quadratic) update_quadratic_bending();  // rest at refine time
-  return report;
+  if (m_bending == BendingModel::quadratic) update_quadratic_bending();
 }
 
 EnergyTerms Cloth::energy(const Vec3& gravity) const {

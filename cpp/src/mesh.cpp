@@ -150,4 +150,10 @@ Eigen::VectorXd lumped_vertex_areas(const Positions& positions, const Faces& fac
   return area;
 }
 
+double area_from_sides(double a, double b, double c) {
+  const double s = 0.5 * (a + b + c);
+  const double product = s * (s - a) * (s - b) * (s - c);
+  return product > 0.0 ? std::sqrt(product) : 0.0;
+}
+
 }  // namespace yore

@@ -67,7 +67,7 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
     # clockwise about +y, i.e. the cloth's front faces up.
-    cloth = Cloth(pattern, F, mass=_per_vertex(mass, len(pattern)),
+    cloth = Cloth(pattern, F, masses=_per_vertex(mass, len(pattern)),
                   stretch_stiffness=stretch_stiffness, damping=damping, drag=drag,
                   **_bending_arguments(bending, bend_stiffness, bending_modulus))
     gathered = pattern.copy()
@@ -98,7 +98,7 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
     tube sewn from flat cloth, it has bending energy at rest (the model's rest state is flat).
     """
     V, F = cylinder_mesh(radius, height, rings, segments)
-    cloth = Cloth(V, F, mass=_per_vertex(mass, len(V)), stretch_stiffness=stretch_stiffness,
+    cloth = Cloth(V, F, masses=_per_vertex(mass, len(V)), stretch_stiffness=stretch_stiffness,
                   damping=damping, drag=drag,
                   **_bending_arguments(bending, bend_stiffness, bending_modulus))
     rim = cylinder_ring(rings, segments, -1)

@@ -15,8 +15,7 @@ from .options import (ACCELERATIONS, CORE_IMPLICIT, CORE_LOCAL_GLOBAL, GRAVITY,
                       INTEGRATOR_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, STROKE_DEFAULTS,
                       check_option, is_integer, is_real, resolve_options, show_value)
 from .camera import Camera
-from .stroke import (apply_stroke, check_factor, check_stroke_options, check_stroke_points,
-                     mean_edge_length)
+from .stroke import apply_stroke, check_factor, check_stroke_options, check_stroke_points
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
 
@@ -519,10 +518,8 @@ class Simulation:
             max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
         max_distance = check_factor(max_distance, "max_distance")
 
-        def trace():
-            spacing = 0.25 * mean_edge_length(self._cloth.positions, self._cloth.faces)
-            return _core.trace_closest(self._cloth, points, max_distance, spacing)
-        return self._finish_stroke(trace, expansion, options)
+        return self._finish_stroke("closest", points, expansion, options,
+                                   max_distance=max_distance)
 
     def stroke_screen(self, points_px, camera, expansion=_STROKE["expansion"],
                       mass_scale=_STROKE["mass_scale"], width=_STROKE["width"],
@@ -535,11 +532,10 @@ class Simulation:
         points, expansion, options = self._stroke_arguments(
             points_px, 2, "points_px", expansion, mass_scale, width, growth, refine)
         d0, dx, dy = camera.pixel_rays()
-
-        def trace():
-            return _core.trace_rays(self._cloth, points, np.asarray(camera.eye, float), d0, dx,
-                                    dy, 0.5)
-        return self._finish_stroke(trace, expansion, options)
+        return self._finish_stroke("rays", points, expansion, options,
+                                   eye=np.asarray(camera.eye, float), base_direction=d0,
+                                   direction_per_pixel_x=dx, direction_per_pixel_y=dy,
+                                   spacing_pixels=0.5)
 
     def stroke_material(self, points_uv, expansion=_STROKE["expansion"],
                         mass_scale=_STROKE["mass_scale"], width=_STROKE["width"],
@@ -554,13 +550,8 @@ class Simulation:
             raise ValueError("the cloth has no material coordinates; set "
                              "cloth.material_coordinates (n×2) first")
         tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
-
-        def trace():
-            uv = self._cloth.material_coordinates
-            flat = np.column_stack([uv, np.zeros(len(uv))])
-            spacing = 0.25 * mean_edge_length(flat, self._cloth.faces)
-            return _core.trace_material(self._cloth, points, tolerance, spacing)
-        return self._finish_stroke(trace, expansion, options)
+        return self._finish_stroke("material", points, expansion, options,
+                                   max_distance=tolerance)
 
     def _stroke_arguments(self, points, dimension, name, expansion, mass_scale, width, growth,
                           refine):
@@ -573,12 +564,12 @@ class Simulation:
         return (check_stroke_points(points, dimension, name), check_factor(expansion, "expansion"),
                 {"mass_scale": mass_scale, "width": width, "growth": growth, "refine": refine})
 
-    def _finish_stroke(self, trace, expansion, options):
-        start = _time.perf_counter()
-        first = trace()
-        report = apply_stroke(self._cloth, first, expansion, options["mass_scale"],
-                              _time.perf_counter() - start, width=options["width"],
-                              growth=options["growth"], refine=options["refine"], retrace=trace)
+    def _finish_stroke(self, trace, points, expansion, options, **trace_options):
+        """Applies the stroke in one call of the core, which traces it (again after each
+        refinement pass) the way ``trace`` names ("closest", "rays" or "material")."""
+        report = apply_stroke(self._cloth, trace, points, expansion, options["mass_scale"],
+                              width=options["width"], growth=options["growth"],
+                              refine=options["refine"], **trace_options)
         self._pending_reports.append(report)
         self._last_stroke = report
         if self._dt_follows_cloth:

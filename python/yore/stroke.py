@@ -39,7 +39,6 @@ Options beyond the paper (all strokes, scene files alike):
 from __future__ import annotations
 
 import numbers
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,7 +46,6 @@ import numpy as np
 from . import _core
 from .checks import check_factor
 from .meshes import MAX_MESH_VERTICES
-from .metrics import face_areas
 from .options import GROWTH_MODES  # in the order of the core's table (see the docstring)
 
 __all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
@@ -59,10 +57,10 @@ MIN_ANGLE_DEGREES = 5.0
 
 #: Vertices a refinement pass adds per band face, and the band's growth per pass, at most
 #: (an estimate from above for `predicted_refined_vertices`; measured 1.2–1.9 and 2–4.6).
-REFINE_VERTICES_PER_FACE = 2.0
-REFINE_BAND_GROWTH = 5.0
+REFINE_VERTICES_PER_FACE = _core.refine_vertices_per_face
+REFINE_BAND_GROWTH = _core.refine_band_growth
 #: Most refinement passes one stroke may ask for: each pass quadruples the band's faces.
-MAX_REFINE = 4
+MAX_REFINE = _core.max_refine
 
 
 class StrokeMissed(ValueError):
@@ -176,143 +174,41 @@ def check_stroke_options(width, growth, refine, mass_scale):
     return width, growth, int(refine), mass_scale
 
 
-def surface_path(cloth, trace):
-    """The stroke's path on the current surface: (m×3 points, m part labels)."""
-    corners = cloth.positions[cloth.faces[trace["path_faces"]]]
-    return (np.einsum("mc,mcd->md", trace["path_barycentric"], corners),
-            np.asarray(trace["path_part"]))
-
-
-def _check_hit(trace):
-    if len(trace["faces"]) == 0:
-        raise StrokeMissed(f"the stroke touches the cloth nowhere ({trace['samples']} samples, "
-                           "all missed)")
-
-
 def predicted_refined_vertices(vertices, band_faces, passes):
     """An estimate from above of the vertex count after ``passes`` refinement passes of a band
     of ``band_faces`` faces on a mesh of ``vertices``: each pass adds at most
     `REFINE_VERTICES_PER_FACE` vertices per band face, and the band (the same width in metres
     over smaller faces) grows at most `REFINE_BAND_GROWTH` times per pass (measured on grids:
     1.2–1.9 and 2–4.6)."""
-    growth = sum(REFINE_BAND_GROWTH ** k for k in range(passes))
-    return vertices + REFINE_VERTICES_PER_FACE * band_faces * growth
+    return _core.predicted_refined_vertices(vertices, band_faces, passes)
 
 
 class RefinementTooLarge(ValueError):
     """A stroke's refinement could make the mesh larger than `MAX_MESH_VERTICES`."""
 
 
-def _check_refined_size(cloth, band_faces, passes):
-    predicted = predicted_refined_vertices(cloth.vertex_count, band_faces, passes)
-    if predicted > MAX_MESH_VERTICES:
-        raise RefinementTooLarge(
-            f"refine: {passes} passes over a band of {band_faces} faces could make the mesh "
-            f"{predicted:.3g} vertices, more than the limit of {MAX_MESH_VERTICES} (checked "
-            "before refining; the cloth is unchanged); use fewer passes or a narrower width")
+def apply_stroke(cloth, trace, points, expansion, mass_scale, width=None, growth="paper",
+                 refine=0, **trace_options) -> StrokeReport:
+    """Applies one stroke in one call of the core (`_core.apply_stroke`): traces it, refines
+    its band ``refine`` times (tracing again after each pass), then splits or grows.
 
-
-def apply_stroke(cloth, trace, expansion, mass_scale, locate_seconds, width=None,
-                 growth="paper", refine=0, retrace=None) -> StrokeReport:
-    """Refines, splits or grows along the faces a trace found; raises StrokeMissed when it found
-    none. ``retrace()`` traces the stroke again (after each refinement pass)."""
-    _check_hit(trace)
-    area_before = float(face_areas(cloth.positions, cloth.faces)[trace["faces"]].sum())
-    start = time.perf_counter()
-    mass_before = float(cloth.masses.sum())
-    band_width = 0.0 if width is None else float(width)
-    refined = {"faces_refined": 0, "faces_bisected": 0, "springs_added": 0,
-               "springs_removed": 0, "vertices": []}
-    for done in range(refine):
-        path, part = surface_path(cloth, trace)
-        band = _core.stroke_band(cloth, path, part, trace["faces"], band_width)
-        if done == 0:
-            _check_refined_size(cloth, len(band["faces"]), refine)
-        result = _core.refine_faces(cloth, band["faces"])
-        refined["faces_refined"] += len(result["refined_faces"])
-        refined["faces_bisected"] += len(result["bisected_faces"])
-        refined["springs_added"] += result["springs_added"]
-        refined["springs_removed"] += result["springs_removed"]
-        refined["vertices"].extend(result["new_vertices"].tolist())
-        located = time.perf_counter()
-        trace = retrace()
-        locate_seconds += time.perf_counter() - located
-        _check_hit(trace)
-    options = {"growth": growth, "width": width, "refine": refine,
-               "faces_refined": refined["faces_refined"],
-               "faces_bisected": refined["faces_bisected"]}
-    if growth == "paper":
-        conserve = mass_scale == "conserve"
-        split = _core.split_faces(cloth, trace["faces"], trace["barycentric"],
-                                  expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
-                                  min_barycentric=MIN_BARYCENTRIC,
-                                  min_angle_degrees=MIN_ANGLE_DEGREES, conserve_mass=conserve)
-        subdivide = time.perf_counter() - start
-        new_vertices = np.array(refined["vertices"] + split["new_vertices"].tolist(),
-                                dtype=np.int32) if refine else np.array(split["new_vertices"])
-        springs = cloth.springs
-        added = springs.rest[len(springs.rest) - split["springs_added"]:]
-        reference = springs.reference[len(springs.rest) - split["springs_added"]:]
-        return StrokeReport(
-            faces_split=len(split["split_faces"]), faces_skipped=np.array(split["skipped_faces"]),
-            vertices_added=len(new_vertices),
-            springs_added=split["springs_added"] + refined["springs_added"],
-            springs_removed=split["springs_removed"] + refined["springs_removed"],
-            region_faces=np.array(split["region_faces"]), new_vertices=new_vertices,
-            area_before=area_before, rest_area_before=split["rest_area_before"],
-            rest_area_after=split["rest_area_after"], samples=trace["samples"],
-            missed_samples=trace["missed_samples"], moved_inward=split["moved_inward"],
-            locate_seconds=locate_seconds, subdivide_seconds=subdivide,
-            topology_version=cloth.topology_version,
-            rest_length_added=float(np.sum(added - reference)),
-            mass_added=float(cloth.masses.sum()) - mass_before,
-            line_vertices=np.array(split["new_vertices"]), **options)
-    path, part = surface_path(cloth, trace)
-    grown = _core.grown_rest_lengths(cloth, path, part, trace["faces"], band_width, growth,
-                                     expansion)
-    band_faces = np.asarray(grown["faces"])
-    rest_area = [_rest_area(cloth, band_faces, cloth.springs.rest),
-                 _rest_area(cloth, band_faces, grown["rest_lengths"])]
-    if grown["springs_grown"]:
-        cloth.springs.rest = grown["rest_lengths"]
-    subdivide = time.perf_counter() - start
-    return StrokeReport(
-        faces_split=0, faces_skipped=np.zeros(0, dtype=np.int32),
-        vertices_added=len(refined["vertices"]), springs_added=refined["springs_added"],
-        springs_removed=refined["springs_removed"], region_faces=band_faces,
-        new_vertices=np.array(refined["vertices"], dtype=np.int32), area_before=area_before,
-        rest_area_before=rest_area[0], rest_area_after=rest_area[1], samples=trace["samples"],
-        missed_samples=trace["missed_samples"], moved_inward=0, locate_seconds=locate_seconds,
-        subdivide_seconds=subdivide, topology_version=cloth.topology_version,
-        springs_grown=grown["springs_grown"], rest_length_added=grown["rest_added"],
-        mass_added=float(cloth.masses.sum()) - mass_before,
-        extra={"spring_weights": grown["spring_weights"],
-               "vertex_weights": grown["vertex_weight"]},
-        line_vertices=_nearest_corners(cloth, trace), **options)
-
-
-def _nearest_corners(cloth, trace):
-    """Per path sample the corner of its face with the largest weight, repeats dropped."""
-    corners = cloth.faces[trace["path_faces"], np.argmax(trace["path_barycentric"], axis=1)]
-    if len(corners) == 0:
-        return corners.astype(np.int32)
-    keep = np.concatenate([[True], corners[1:] != corners[:-1]])
-    return corners[keep].astype(np.int32)
-
-
-def _rest_area(cloth, faces, rest):
-    """Rest area (m²) of `faces` with the structural springs' rest lengths `rest` (s,), Heron."""
-    springs = cloth.springs
-    structural = springs.kind == 0
-    ends = np.sort(springs.ends[structural], axis=1).astype(np.int64)
-    keys = ends[:, 0] << 32 | ends[:, 1]
-    order = np.argsort(keys)
-    keys, lengths = keys[order], np.asarray(rest)[structural][order]
-    F = cloth.faces[faces]
-    sides = []
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        pair = np.sort(F[:, [a, b]], axis=1).astype(np.int64)
-        sides.append(lengths[np.searchsorted(keys, pair[:, 0] << 32 | pair[:, 1])])
-    a, b, c = sides
-    s = 0.5 * (a + b + c)
-    return float(np.sqrt(np.clip(s * (s - a) * (s - b) * (s - c), 0.0, None)).sum())
+    trace : "closest" (``points`` k×3 m, ``max_distance`` m), "material" (``points`` k×3 in
+    rest-pattern m with z = 0, ``max_distance`` the tolerance) or "rays" (``points`` k×3 pixels
+    with z = 0, ``eye``, ``base_direction``, ``direction_per_pixel_x``,
+    ``direction_per_pixel_y``, ``spacing_pixels``), all in ``trace_options``. Raises
+    StrokeMissed when a trace finds nothing, RefinementTooLarge (the cloth unchanged) when the
+    refinement could make the mesh larger than `MAX_MESH_VERTICES`.
+    """
+    conserve = isinstance(mass_scale, str) and mass_scale == "conserve"
+    fields = dict(_core.apply_stroke(
+        cloth, trace, points, growth=growth, width=0.0 if width is None else float(width),
+        refine=refine, expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
+        conserve_mass=conserve, min_barycentric=MIN_BARYCENTRIC,
+        min_angle_degrees=MIN_ANGLE_DEGREES, max_vertices=MAX_MESH_VERTICES, **trace_options))
+    weights = {"spring_weights": fields.pop("spring_weights"),
+               "vertex_weights": fields.pop("vertex_weights")}
+    for name in ("faces_skipped", "region_faces", "new_vertices", "line_vertices"):
+        fields[name] = np.array(fields[name])
+    return StrokeReport(**fields, topology_version=cloth.topology_version,
+                        extra={} if growth == "paper" else weights, growth=growth, width=width,
+                        refine=refine)

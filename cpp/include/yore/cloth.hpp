@@ -322,6 +322,9 @@ class Cloth {
   void adopt_subdivision(const Subdivision& mesh);
   // Masses of a subdivided mesh with the same total: the mass-conserving rule of refine_faces.
   Eigen::VectorXd conserving_masses(const Subdivision& mesh) const;
+  // The end of every change of the mesh (split_faces, refine_faces): incidence, a new topology
+  // version, and for quadratic bending the rest positions of the new vertices (at this time).
+  void finish_topology_change();
 
   Positions m_positions;
   Positions m_velocities;

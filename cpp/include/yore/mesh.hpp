@@ -38,4 +38,8 @@ MeshConnectivity mesh_connectivity(const Faces& faces);
 /// Per-vertex lumped area: each vertex gets a third of the area of every face around it (m²).
 Eigen::VectorXd lumped_vertex_areas(const Positions& positions, const Faces& faces);
 
+/// Area (m²) of a triangle with these side lengths (m), Heron's formula; 0 if they violate the
+/// triangle inequality. Rest areas of faces come from their structural springs' rest lengths.
+double area_from_sides(double a, double b, double c);
+
 }  // namespace yore

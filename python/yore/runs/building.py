@@ -59,9 +59,9 @@ def build_simulation(scene):
     if "density" in material:
         mass_arguments = {"density": material["density"]}
     elif "mass_per_vertex" in material:
-        mass_arguments = {"mass": material["mass_per_vertex"]}
+        mass_arguments = {"masses": material["mass_per_vertex"]}
     else:
-        mass_arguments = {"mass": material["mass"] / n}
+        mass_arguments = {"masses": material["mass"] / n}
     try:
         bending_arguments = (
             {"bending": "quadratic", "bending_modulus": material["bending_modulus"]}

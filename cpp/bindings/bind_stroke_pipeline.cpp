@@ -1,0 +1,136 @@
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "yore/stroke_pipeline.hpp"
+
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace yore::bindings {
+namespace {
+
+/// The stroke as C++ traces it: "closest" (points k×3 m, max_distance m), "material" (points
+/// k×3 rest-pattern m with z = 0, max_distance the tolerance m) or "rays" (pixels k×3 with z =
+/// 0 and a camera's eye and pixel rays).
+StrokeInput stroke_input(const std::string& trace, const py::handle& points, double max_distance,
+                         const py::handle& eye, const py::handle& base_direction,
+                         const py::handle& per_pixel_x, const py::handle& per_pixel_y,
+                         double spacing_pixels) {
+  StrokeInput input;
+  input.points = to_rows3(points, "points");
+  input.max_distance = max_distance;
+  if (trace == "closest") {
+    input.kind = StrokeInput::Kind::closest;
+  } else if (trace == "material") {
+    input.kind = StrokeInput::Kind::material;
+  } else if (trace == "rays") {
+    input.kind = StrokeInput::Kind::rays;
+    input.eye = to_vec3(eye, "eye");
+    input.base_direction = to_vec3(base_direction, "base_direction");
+    input.per_pixel_x = to_vec3(per_pixel_x, "direction_per_pixel_x");
+    input.per_pixel_y = to_vec3(per_pixel_y, "direction_per_pixel_y");
+    input.spacing_pixels = spacing_pixels;
+  } else {
+    throw std::invalid_argument("trace: got '" + trace +
+                                "'; expected 'closest', 'rays' or 'material'");
+  }
+  return input;
+}
+
+py::dict result_dict(const StrokeResult& result) {
+  py::dict out;
+  out["faces_split"] = result.faces_split;
+  out["faces_skipped"] = read_only_copy(result.faces_skipped);
+  out["vertices_added"] = static_cast<std::int64_t>(result.new_vertices.size());
+  out["springs_added"] = result.springs_added;
+  out["springs_removed"] = result.springs_removed;
+  out["region_faces"] = read_only_copy(result.region_faces);
+  out["new_vertices"] = read_only_copy(result.new_vertices);
+  out["area_before"] = result.area_before;
+  out["rest_area_before"] = result.rest_area_before;
+  out["rest_area_after"] = result.rest_area_after;
+  out["samples"] = result.samples;
+  out["missed_samples"] = result.missed_samples;
+  out["moved_inward"] = result.moved_inward;
+  out["locate_seconds"] = result.locate_seconds;
+  out["subdivide_seconds"] = result.subdivide_seconds;
+  out["faces_refined"] = result.faces_refined;
+  out["faces_bisected"] = result.faces_bisected;
+  out["springs_grown"] = result.springs_grown;
+  out["rest_length_added"] = result.rest_length_added;
+  out["mass_added"] = result.mass_added;
+  out["line_vertices"] = read_only_copy(result.line_vertices);
+  out["spring_weights"] = read_only_copy(result.spring_weights);
+  out["vertex_weights"] = read_only_copy(result.vertex_weights);
+  return out;
+}
+
+}  // namespace
+
+void bind_stroke_pipeline(py::module_& m) {
+  // A missed stroke and a refused refinement become yore.stroke's exceptions (ValueErrors),
+  // looked up when raised: yore.stroke imports this module.
+  py::register_exception_translator([](std::exception_ptr pointer) {
+    try {
+      if (pointer) std::rethrow_exception(pointer);
+    } catch (const StrokeMissed& error) {
+      py::object type = py::module_::import("yore.stroke").attr("StrokeMissed");
+      PyErr_SetObject(type.ptr(), type(error.what()).ptr());
+    } catch (const RefinementTooLarge& error) {
+      py::object type = py::module_::import("yore.stroke").attr("RefinementTooLarge");
+      PyErr_SetObject(type.ptr(), type(error.what()).ptr());
+    }
+  });
+  const SplitOptions split_defaults;
+  m.attr("max_refine") = kMaxRefine;
+  m.attr("refine_vertices_per_face") = kRefineVerticesPerFace;
+  m.attr("refine_band_growth") = kRefineBandGrowth;
+  m.def("predicted_refined_vertices", &predicted_refined_vertices, py::arg("vertices"),
+        py::arg("band_faces"), py::arg("passes"),
+        "An estimate from above of the vertex count after `passes` refinement passes of a band "
+        "of `band_faces` faces on a mesh of `vertices`.");
+  m.def(
+      "apply_stroke",
+      [](Cloth& cloth, const std::string& trace, const py::handle& points, double max_distance,
+         const py::handle& eye, const py::handle& base_direction, const py::handle& per_pixel_x,
+         const py::handle& per_pixel_y, double spacing_pixels, const std::string& growth,
+         double width, int refine, double expansion, double mass_scale, bool conserve_mass,
+         double min_barycentric, double min_angle_degrees, std::int64_t max_vertices) {
+        idle(cloth);
+        const StrokeInput input = stroke_input(trace, points, max_distance, eye, base_direction,
+                                               per_pixel_x, per_pixel_y, spacing_pixels);
+        StrokeOptions options;
+        options.growth = growth_mode(growth);
+        options.width = width;
+        options.refine = refine;
+        options.split.expansion = expansion;
+        options.split.mass_scale = mass_scale;
+        options.split.conserve_mass = conserve_mass;
+        options.split.min_barycentric = min_barycentric;
+        options.split.min_angle_degrees = min_angle_degrees;
+        options.max_vertices = max_vertices;
+        const BusyGuard busy(&cloth, "the Cloth", "a stroke is being applied to it");
+        return result_dict(run_without_gil([&] { return apply_stroke(cloth, input, options); }));
+      },
+      py::arg("cloth"), py::arg("trace"), py::arg("points"), py::kw_only(),
+      py::arg("max_distance") = 0.0, py::arg("eye") = py::none(),
+      py::arg("base_direction") = py::none(), py::arg("direction_per_pixel_x") = py::none(),
+      py::arg("direction_per_pixel_y") = py::none(), py::arg("spacing_pixels") = 0.5,
+      py::arg("growth") = "paper", py::arg("width") = 0.0, py::arg("refine") = 0,
+      py::arg("expansion") = split_defaults.expansion,
+      py::arg("mass_scale") = split_defaults.mass_scale,
+      py::arg("conserve_mass") = split_defaults.conserve_mass,
+      py::arg("min_barycentric") = split_defaults.min_barycentric,
+      py::arg("min_angle_degrees") = split_defaults.min_angle_degrees,
+      py::arg("max_vertices") = StrokeOptions{}.max_vertices,
+      R"doc(One stroke: trace → band → `refine` passes (traced again after each) → the paper's
+1→3 split (growth "paper") or the growth rule over the band. trace: "closest" (points k×3 m,
+max_distance m), "material" (points k×3 in rest-pattern m with z = 0, max_distance the
+tolerance) or "rays" (pixels k×3 with z = 0, eye and the camera's pixel rays, spacing_pixels).
+width m (0: the crossed faces). Returns the report's fields as a dict. Raises yore.StrokeMissed
+when a trace hits nothing, yore.stroke.RefinementTooLarge (cloth unchanged) when the refinement
+could pass max_vertices, ValueError on bad input.)doc");
+}
+
+}  // namespace yore::bindings
