@@ -286,3 +286,25 @@ def test_work_beyond_the_documented_limits_is_refused_before_it_starts():
     with pytest.raises(ValueError, match="settle needs a fixed vertex"):
         free.settle()
     yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3)), gravity=[0, 0, 0]).settle(1.0)
+
+
+def test_option_checks_come_from_the_core_tables_and_shared_names_agree():
+    from yore import _core
+    from yore.options import CORE_RULES, check_option
+
+    tables = [cls.option_rules for cls in (_core.ExplicitIntegrator, _core.ImplicitIntegrator,
+                                           _core.LocalGlobalIntegrator)]
+    for name in {n for table in tables for n in table}:
+        rules = [table[name] for table in tables if name in table]
+        assert all(rule == rules[0] for rule in rules), name  # one rule per name
+    assert CORE_RULES["step_tol"] == {"kind": "real", "low": 0.0, "high": 1.0,
+                                      "low_open": False, "high_open": True, "choices": ()}
+    assert CORE_RULES["solver"]["choices"] == ("cholmod", "eigen-ldlt", "pcg")
+    top = int(CORE_RULES["max_newton"]["high"])
+    assert check_option("implicit", "max_newton", top) == top
+    with pytest.raises(ValueError, match=rf"max_newton.*\[1, {top}\]"):
+        check_option("implicit", "max_newton", top + 1)
+    # the Python side adds only None ("decide from the others") where the core has none
+    assert check_option("bdf2", "projection", None) is None
+    with pytest.raises(ValueError, match="steihaug"):
+        check_option("bdf2", "projection", "newton")

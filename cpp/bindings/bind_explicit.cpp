@@ -3,6 +3,8 @@
 #include "options.hpp"
 #include "yore/explicit.hpp"
 
+#include <limits>
+
 namespace yore::bindings {
 
 void bind_explicit(py::module_& m) {
@@ -10,11 +12,14 @@ void bind_explicit(py::module_& m) {
       m, "ExplicitIntegrator", "Symplectic Euler with optional Provot strain limiting.");
   def_advance(integrator_class);
   static const OptionTable<ExplicitOptions> table = {
-      plain_option("strain_limit", &ExplicitOptions::strain_limit),
+      // 0 = off here; Python's None (yore.options keeps that rule)
+      in_range(plain_option("strain_limit", &ExplicitOptions::strain_limit), 0.0,
+               std::numeric_limits<double>::infinity(), false),
       plain_option("strain_limit_passes", &ExplicitOptions::strain_limit_passes),
       plain_option("divergence_energy_factor", &ExplicitOptions::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, ExplicitOptions{});
+  integrator_class.attr("option_rules") = option_rules(table);
   integrator_class.def(py::init([](const py::kwargs& kwargs) {
              return ExplicitIntegrator(options_from_kwargs(table, kwargs));
            }),

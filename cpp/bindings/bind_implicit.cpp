@@ -27,7 +27,7 @@ void bind_implicit(py::module_& m) {
       choice_option<O, ImplicitMinimizer>(
           "minimizer", [](O& o) -> ImplicitMinimizer& { return o.minimizer; },
           {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}}),
-      plain_option("lbfgs_history", &O::lbfgs_history),
+      in_range(plain_option("lbfgs_history", &O::lbfgs_history), 1.0, kMaxLbfgsHistory),
       plain_option("linearized", &O::linearized),
       plain_option("adaptive_projection", &O::adaptive_projection),
       choice_option<O, HessianProjection>(
@@ -42,21 +42,26 @@ void bind_implicit(py::module_& m) {
           {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}}),
       plain_option("lagged_factorization", &O::lagged_factorization),
       plain_option("lag_max_cg_iterations", &O::lag_max_cg_iterations),
-      plain_option("lag_cg_tol", &O::lag_cg_tol),
+      in_range(plain_option("lag_cg_tol", &O::lag_cg_tol), 0.0, 1.0, true, true),
       plain_option("newton_tol", &O::newton_tol),
-      plain_option("step_tol", &O::step_tol),
+      in_range(plain_option("step_tol", &O::step_tol), 0.0, 1.0, false, true),
       plain_option("max_newton", &O::max_newton),
-      plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
+      one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
+             {"cholmod", "eigen-ldlt", "pcg"}),
       choice_option<O, Ordering>(
           "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; }, ordering_choices()),
       choice_option<O, FactorKind>(
           "factorization", [](O& o) -> FactorKind& { return o.linear_solver.factorization; },
           factor_kind_choices()),
-      plain_option("pcg_tol", &O::linear_solver, &LinearSolverOptions::pcg_tol),
-      plain_option("pcg_max_iterations", &O::linear_solver, &LinearSolverOptions::pcg_max_iterations),
+      in_range(plain_option("pcg_tol", &O::linear_solver, &LinearSolverOptions::pcg_tol), 0.0,
+               1.0, true, true),
+      in_range(plain_option("pcg_max_iterations", &O::linear_solver,
+                            &LinearSolverOptions::pcg_max_iterations),
+               1.0, kMaxSolverIterations),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
+  integrator_class.attr("option_rules") = option_rules(table);
   integrator_class.def(py::init([](const py::kwargs& kwargs) {
                          return std::make_unique<ImplicitIntegrator>(
                              options_from_kwargs(table, kwargs));

@@ -17,8 +17,8 @@ void bind_local_global(py::module_& m) {
   using O = LocalGlobalOptions;
   static const OptionTable<O> table = {
       plain_option("iterations", &O::iterations),
-      plain_option("tolerance", &O::tolerance),
-      plain_option("chebyshev_rho", &O::chebyshev_rho),
+      in_range(plain_option("tolerance", &O::tolerance), 0.0, 1.0, false, true),
+      in_range(plain_option("chebyshev_rho", &O::chebyshev_rho), 0.0, 1.0, false, true),
       choice_option<O, Ordering>("ordering", [](O& o) -> Ordering& { return o.ordering; },
                                  ordering_choices()),
       choice_option<O, FactorKind>("factorization", [](O& o) -> FactorKind& { return o.factorization; },
@@ -29,11 +29,12 @@ void bind_local_global(py::module_& m) {
            {"reuse-ordering", RebuildStrategy::reuse_ordering},
            {"stale-pcg", RebuildStrategy::stale_pcg}}),
       plain_option("stale_pcg_max_iterations", &O::stale_pcg_max_iterations),
-      plain_option("stale_pcg_tol", &O::stale_pcg_tol),
+      in_range(plain_option("stale_pcg_tol", &O::stale_pcg_tol), 0.0, 1.0, true, true),
       plain_option("record_objective", &O::record_objective),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
+  integrator_class.attr("option_rules") = option_rules(table);
   integrator_class
       .def(py::init([](const py::kwargs& kwargs) {
              return std::make_unique<LocalGlobalIntegrator>(options_from_kwargs(table, kwargs));

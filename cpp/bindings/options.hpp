@@ -7,20 +7,82 @@
 
 #include "convert.hpp"
 
+#include <cmath>
 #include <functional>
 #include <initializer_list>
+#include <limits>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 namespace yore::bindings {
+
+/// Largest iteration counts an option may ask for: one step runs its iterations inside the
+/// core, out of reach of Ctrl-C, so a typo such as 10**9 iterations is refused.
+inline constexpr double kMaxStepIterations = 10'000;     ///< per step (Newton, CG, passes)
+inline constexpr double kMaxSolverIterations = 1'000'000;  ///< per linear solve (pcg)
+inline constexpr double kMaxLbfgsHistory = 1'000;
+
+/// What values an option takes, for the Python side's checks (yore.options reads it as
+/// `Integrator.option_rules`): "flag" (a bool), "count" (an integer in [low, high]), "real" (a
+/// finite number between low and high, each bound open or closed; high may be infinite) or
+/// "choice" (one of `choices`).
+struct OptionRule {
+  std::string kind;
+  double low = 0.0;
+  double high = std::numeric_limits<double>::infinity();
+  bool low_open = true;
+  bool high_open = false;
+  std::vector<std::string> choices;
+};
 
 template <typename Options>
 struct OptionField {
   std::string name;
   std::function<py::object(const Options&)> get;
   std::function<void(Options&, const py::handle&)> set;
+  OptionRule rule;
 };
+
+/// The rule a plain member of type T gets before a range is given: bools are flags, integers
+/// counts from 1 up to kMaxStepIterations, doubles positive reals, strings choices.
+template <typename T>
+OptionRule default_rule() {
+  OptionRule rule;
+  if constexpr (std::is_same_v<T, bool>) {
+    rule.kind = "flag";
+  } else if constexpr (std::is_same_v<T, int>) {
+    rule.kind = "count";
+    rule.low = 1.0;
+    rule.high = kMaxStepIterations;
+  } else if constexpr (std::is_same_v<T, double>) {
+    rule.kind = "real";
+  } else {
+    rule.kind = "choice";
+  }
+  return rule;
+}
+
+/// `field` taking values between low and high (a count: [low, high]; a real: open or closed
+/// bounds as given).
+template <typename Options>
+OptionField<Options> in_range(OptionField<Options> field, double low, double high,
+                              bool low_open = true, bool high_open = false) {
+  field.rule.low = low;
+  field.rule.high = high;
+  field.rule.low_open = low_open;
+  field.rule.high_open = high_open;
+  return field;
+}
+
+/// A string `field` taking one of `choices`.
+template <typename Options>
+OptionField<Options> one_of(OptionField<Options> field, std::vector<std::string> choices) {
+  field.rule.kind = "choice";
+  field.rule.choices = std::move(choices);
+  return field;
+}
 
 template <typename Options>
 using OptionTable = std::vector<OptionField<Options>>;
@@ -37,7 +99,8 @@ OptionField<Options> plain_option(const char* name, Holder Options::*holder, T H
             } else {
               (o.*holder).*member = value.cast<T>();
             }
-          }};
+          },
+          default_rule<T>()};
 }
 
 template <typename Options, typename T>
@@ -50,7 +113,8 @@ OptionField<Options> plain_option(const char* name, T Options::*member) {
             } else {
               o.*member = value.cast<T>();
             }
-          }};
+          },
+          default_rule<T>()};
 }
 
 /// An enum reached by `access`, by the names of `choices` (std::invalid_argument listing them).
@@ -77,7 +141,13 @@ OptionField<Options> choice_option(const char* name, std::function<Enum&(Options
               valid += (valid.empty() ? "" : ", ") + choice;
             }
             throw std::invalid_argument("unknown " + key + " '" + text + "'; valid: " + valid);
-          }};
+          },
+          [&] {
+            OptionRule rule;
+            rule.kind = "choice";
+            for (const auto& [text, code] : choices) rule.choices.push_back(text);
+            return rule;
+          }()};
 }
 
 /// The struct's values by their Python names.
@@ -85,6 +155,28 @@ template <typename Options>
 py::dict option_values(const OptionTable<Options>& table, const Options& options) {
   py::dict out;
   for (const auto& field : table) out[py::str(field.name)] = field.get(options);
+  return out;
+}
+
+/// Every option's rule by its Python name: {kind, low, high (None: infinite), low_open,
+/// high_open, choices}.
+template <typename Options>
+py::dict option_rules(const OptionTable<Options>& table) {
+  py::dict out;
+  for (const auto& field : table) {
+    const OptionRule& rule = field.rule;
+    py::dict entry;
+    entry["kind"] = rule.kind;
+    entry["low"] = rule.low;
+    entry["high"] =
+        std::isinf(rule.high) ? py::object(py::none()) : py::object(py::float_(rule.high));
+    entry["low_open"] = rule.low_open;
+    entry["high_open"] = rule.high_open;
+    py::list choices;
+    for (const std::string& choice : rule.choices) choices.append(py::str(choice));
+    entry["choices"] = py::tuple(choices);
+    out[py::str(field.name)] = entry;
+  }
   return out;
 }
 

@@ -110,14 +110,22 @@ INTEGRATOR_OPTIONS["quasi-newton"] = {
     "factorization": "simplicial",
 }
 ACCELERATIONS = ("none", "chebyshev")
+#: What values each core option takes, by name, from the C++ option tables
+#: (``_core.*Integrator.option_rules``: kind "flag", "count", "real" or "choice", bounds and
+#: choices); an option several integrators take has one rule.
+CORE_RULES = {}
+for _integrator in (_core.ExplicitIntegrator, _core.ImplicitIntegrator,
+                    _core.LocalGlobalIntegrator):
+    for _name, _spec in _integrator.option_rules.items():
+        CORE_RULES.setdefault(_name, dict(_spec))
 #: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`).
-QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
+QUASI_NEWTON_METHODS = tuple(CORE_RULES["method"]["choices"])
 
-#: Largest iteration counts an option may ask for. One step runs its iterations inside the C++
-#: core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be refused rather
-#: than run for days.
-MAX_STEP_ITERATIONS = 10_000  # per step: newton, local-global, lagged/stale CG, strain passes
-MAX_SOLVER_ITERATIONS = 1_000_000  # per linear solve: pcg_max_iterations
+#: Largest iteration counts an option may ask for (the core's). One step runs its iterations
+#: inside the C++ core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be
+#: refused rather than run for days.
+MAX_STEP_ITERATIONS = int(CORE_RULES["max_newton"]["high"])  # newton, CG, passes per step
+MAX_SOLVER_ITERATIONS = int(CORE_RULES["pcg_max_iterations"]["high"])  # per linear solve
 #: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
 MAX_SMOOTHING_ITERATIONS = 100_000
 
@@ -197,39 +205,30 @@ def _or_none(rule):
                  lambda v: (True, None) if v is None else (True, rule.check("", v)))
 
 
-#: How each option is checked (one rule per name, whichever integrator takes it); the defaults
-#: are in `INTEGRATOR_OPTIONS`. `check_option` applies them.
-_RULES = {
-    "strain_limit": _or_none(_real(1.0, low_open=False)),
-    "strain_limit_passes": _count(1, MAX_STEP_ITERATIONS),
-    "divergence_energy_factor": _real(0.0),
-    "linearized": _flag(),
-    "newton_tol": _real(0.0),
-    "step_tol": _real(0.0, 1.0, low_open=False, high_open=True),
-    "max_newton": _count(1, MAX_STEP_ITERATIONS),
-    "solver": _one_of("cholmod", "eigen-ldlt", "pcg"),
-    "ordering": _one_of("amd", "metis", "natural"),
-    "factorization": _one_of("supernodal", "simplicial"),
-    "pcg_tol": _real(0.0, 1.0, high_open=True),
-    "pcg_max_iterations": _count(1, MAX_SOLVER_ITERATIONS),
-    "adaptive_projection": _or_none(_flag()),
-    "projection": _or_none(_one_of("clamp", "abs", "exact", "trust-region", "shifted",
-                                   "steihaug")),
-    "predictor": _or_none(_one_of("start", "inertial")),
-    "lagged_factorization": _flag(),
-    "lag_max_cg_iterations": _count(1, MAX_STEP_ITERATIONS),
-    "lag_cg_tol": _real(0.0, 1.0, high_open=True),
-    "iterations": _count(1, MAX_STEP_ITERATIONS),
-    "tolerance": _real(0.0, 1.0, low_open=False, high_open=True),
-    "acceleration": _one_of(*ACCELERATIONS),
-    "chebyshev_rho": _real(0.0, 1.0, low_open=False, high_open=True),
-    "rebuild": _one_of("fresh", "reuse-ordering", "stale-pcg"),
-    "stale_pcg_max_iterations": _count(1, MAX_STEP_ITERATIONS),
-    "stale_pcg_tol": _real(0.0, 1.0, high_open=True),
-    "record_objective": _flag(),
-    "method": _one_of(*QUASI_NEWTON_METHODS),
-    "lbfgs_history": _count(1, 1000),
-}
+def _core_rule(spec):
+    """A rule from one entry of a C++ option table's rules (`CORE_RULES`)."""
+    kind = spec["kind"]
+    if kind == "flag":
+        return _flag()
+    if kind == "count":
+        return _count(int(spec["low"]), int(spec["high"]))
+    if kind == "real":
+        return _real(spec["low"], spec["high"], low_open=spec["low_open"],
+                     high_open=spec["high_open"])
+    return _one_of(*spec["choices"])
+
+
+#: How each option is checked (one rule per name, whichever integrator takes it), built from the
+#: C++ option tables' rules (`CORE_RULES`); the defaults are in `INTEGRATOR_OPTIONS`.
+#: `check_option` applies them; the C++ constructors check again.
+_RULES = {name: _core_rule(spec) for name, spec in CORE_RULES.items()}
+# The Python side's own: None for "decide from the others", and strain_limit's None for off
+# (the core's 0), so a limit is at least 1.
+_RULES.update(strain_limit=_or_none(_real(1.0, low_open=False)),
+              adaptive_projection=_or_none(_RULES["adaptive_projection"]),
+              projection=_or_none(_RULES["projection"]),
+              predictor=_or_none(_RULES["predictor"]),
+              acceleration=_one_of(*ACCELERATIONS))
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
 
