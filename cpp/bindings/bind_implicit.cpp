@@ -45,6 +45,7 @@ void bind_implicit(py::module_& m) {
       in_range(plain_option("lag_cg_tol", &O::lag_cg_tol), 0.0, 1.0, true, true),
       plain_option("newton_tol", &O::newton_tol),
       in_range(plain_option("step_tol", &O::step_tol), 0.0, 1.0, false, true),
+      plain_option("mixed", &O::mixed),
       plain_option("max_newton", &O::max_newton),
       one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
              {"cholmod", "eigen-ldlt", "pcg"}),

@@ -253,6 +253,54 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
   }
 }
 
+namespace {
+
+// A spring's Hessian with the force `tension` (N) in its transverse term: k n nᵀ + (λ/ℓ)(I − n nᵀ),
+// the transverse factor filtered as for the actual force.
+Mat3 mixed_spring_hessian(const Vec3& xi, const Vec3& xj, double stiffness, double tension,
+                          TransverseFilter filter) {
+  const Vec3 d = xi - xj;
+  const double length = d.norm();
+  if (length == 0.0) return stiffness * Mat3::Identity();
+  const Vec3 n = d / length;
+  const Mat3 nn = n * n.transpose();
+  double transverse = tension / length;
+  if (transverse < 0.0) {
+    if (filter == TransverseFilter::clamp) transverse = 0.0;
+    if (filter == TransverseFilter::abs) transverse = -transverse;
+  }
+  return stiffness * nn + transverse * (Mat3::Identity() - nn);
+}
+
+}  // namespace
+
+void ImplicitIntegrator::reset_tension(const Cloth& cloth, const Positions& x) {
+  const SpringSet& springs = cloth.springs();
+  m_tension.resize(springs.size());
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const double length = (x.row(springs.first[k]) - x.row(springs.second[k])).norm();
+    m_tension[k] = springs.stiffness[k] * (length - springs.rest_length[k]);
+  }
+}
+
+void ImplicitIntegrator::update_tension(const Cloth& cloth, double alpha) {
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    const Vec3 d = m_iterate.row(i) - m_iterate.row(j);
+    const double length = d.norm();
+    if (length == 0.0) continue;
+    Vec3 moved = Vec3::Zero();
+    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
+    if (a >= 0) moved += m_direction.segment<3>(a);
+    if (b >= 0) moved -= m_direction.segment<3>(b);
+    const double predicted =
+        springs.stiffness[k] * (length + d.dot(moved) / length - springs.rest_length[k]);
+    m_tension[k] += alpha * (predicted - m_tension[k]);
+  }
+}
+
 double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
                                     bool with_hessian, HessianProjection projection) {
   const TransverseFilter filter = projection == HessianProjection::exact ||
@@ -319,7 +367,9 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       if (b >= 0) m_gradient.segment<3>(b) -= gradient;
     }
     if (with_hessian) {
-      Mat3 block = spring_hessian(xi, xj, rest, stiffness, filter);
+      Mat3 block = m_options.mixed ? mixed_spring_hessian(xi, xj, stiffness,
+                                                          m_tension[k], filter)
+                                   : spring_hessian(xi, xj, rest, stiffness, filter);
       if (c > 0.0) block += (c / h) * n0 * n0.transpose();
       const auto& starts = m_pattern.column_starts;
       for (const std::int32_t dof : {a, b}) {
@@ -387,6 +437,7 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   }
   const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(new_time);
+  if (m_options.mixed) reset_tension(cloth, cloth.positions());
   m_iterate = cloth.positions();
   if (m_options.predictor == NewtonPredictor::inertial) {
     for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);
@@ -587,6 +638,7 @@ NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& g
   begin_step(cloth, gravity, dt, false);
   m_iterate = cloth.positions();
   for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = positions.row(i);
+  if (m_options.mixed) reset_tension(cloth, m_iterate);  // the true Hessian at the point
   NewtonSystem system;
   system.energy = evaluate(cloth, m_iterate, true, true);
   system.gradient = m_gradient;

@@ -162,6 +162,7 @@ void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, doub
     const double magnitude = m_energy_magnitude;  // of the objective at the iterate
     const double alpha = line_search(cloth, energy, slope, backtracks, trial_energy);
     adapt_projection(cloth, choice, energy, trial_energy, slope, alpha, magnitude);
+    if (m_options.mixed) update_tension(cloth, alpha);
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
       m_iterate.row(m_free_vertices[b]) +=
           alpha * m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
@@ -376,6 +377,7 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       m_radius = kSteihaugGrowth * m_radius;
     }
     if (finite && ratio > kSteihaugAccept) {
+      if (m_options.mixed) update_tension(cloth, 1.0);
       std::swap(m_iterate, m_trial);
       energy = evaluate(cloth, m_iterate, true, false);
       residual = scaled_residual(cloth);

@@ -39,7 +39,7 @@ CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
 CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
 CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
 #: Options of Newton's method that quasi-Newton does not take.
-NEWTON_ONLY = ("linearized", "step_tol", "adaptive_projection", "projection",
+NEWTON_ONLY = ("linearized", "step_tol", "mixed", "adaptive_projection", "projection",
                 "lagged_factorization",
                 "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
                 "pcg_max_iterations")
@@ -77,6 +77,11 @@ INTEGRATOR_OPTIONS = {
         # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
         # linearized (Baraff–Witkin's step), "inertial" otherwise.
         "predictor": None,
+        # The springs' transverse (geometric) stiffness in Newton's matrices from the forces
+        # that the step's linearization predicts (the mixed formulation, Trusty et al. 2022)
+        # rather than the force at the iterate; the solution is the same. None: True for
+        # Newton, False for linearized (whose one matrix is the same either way from xₙ).
+        "mixed": None,
     },
 }
 INTEGRATOR_OPTIONS["bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
@@ -228,6 +233,7 @@ _RULES.update(strain_limit=_or_none(_real(1.0, low_open=False)),
               adaptive_projection=_or_none(_RULES["adaptive_projection"]),
               projection=_or_none(_RULES["projection"]),
               predictor=_or_none(_RULES["predictor"]),
+              mixed=_or_none(_RULES["mixed"]),
               acceleration=_one_of(*ACCELERATIONS))
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
@@ -264,6 +270,15 @@ def _projection(options):
     return "steihaug"
 
 
+def _mixed(options):
+    """Whether Newton's matrices take the springs' forces from the linearization (mixed),
+    when not given: for Newton yes (on stiff sheets it saves iterations: docs/integrators.md),
+    for the linearized step no (the default predictor starts it at xₙ, where the two agree)."""
+    if options["mixed"] is not None:
+        return options["mixed"]
+    return not options["linearized"]
+
+
 def _predictor(options):
     """Where Newton starts, when not given: xₙ for the linearized step (Baraff–Witkin's),
     the inertial guess xₙ + h vₙ otherwise."""
@@ -282,7 +297,8 @@ def resolve_options(integrator, options) -> dict:
                 and options["adaptive_projection"] != (projection == "exact"):
             raise ValueError(f"adaptive_projection={options['adaptive_projection']} contradicts "
                              f"projection={projection!r}; give one of them")
-        options.update(projection=projection, predictor=_predictor(options))
+        options.update(projection=projection, predictor=_predictor(options),
+                       mixed=_mixed(options))
     return options
 
 

@@ -97,6 +97,15 @@ struct ImplicitOptions {
   /// k h̃²/m times smaller error along the springs than it says; this test does not. 0 (the
   /// default) turns it off.
   double step_tol = 0.0;
+  /// Mixed (stress) form of the springs' geometric stiffness: the transverse term of each
+  /// spring's Hessian, (f/ℓ)(I − n nᵀ), takes its force f from λ, which starts each step at the
+  /// springs' forces k(ℓ − L) at xₙ and follows each Newton step's linearization,
+  /// λ ← λ + α(k(ℓ + n·Δd − L) − λ), instead of the actual force at the iterate. The energy,
+  /// the gradient and so the solution are unchanged; the matrices are those of Newton on the
+  /// mixed formulation with the spring forces as unknowns, eliminated spring by spring (Trusty
+  /// et al. 2022). On stiff springs the actual force at an iterate carries k times the length
+  /// error of the step's out-of-plane moves (ℓ grows by w²/2ℓ), λ does not.
+  bool mixed = true;
   int max_newton = 1000;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
@@ -301,6 +310,12 @@ class ImplicitIntegrator {
   double m_shift = 0.0;  // projection shifted: μ, in units of the inertia M/h̃²
   double m_radius = 0.0;  // projection steihaug: trust radius in the clamped factor's norm
   std::vector<double> m_exact_values;  // projection steihaug: the exact Hessian's values
+  // mixed: per spring, the force λ (N) the Newton matrices' transverse terms use
+  std::vector<double> m_tension;
+  /// mixed: λ ← the springs' forces at positions x
+  void reset_tension(const Cloth& cloth, const Positions& x);
+  /// mixed: λ after a step alpha·m_direction from m_iterate (before m_iterate moves)
+  void update_tension(const Cloth& cloth, double alpha);
   CgWorkspace m_cg;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
 
