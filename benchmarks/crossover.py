@@ -882,6 +882,9 @@ def summary_lines(payload):
     for g in payload["summary"]["targets"]:
         lines.append(f"target {g['target']} (goal {'<' if g['goal_ratio'] == 1.0 else '≤'} "
                      f"{g['goal_ratio']:g}): " + target_text(g))
+    for c in payload["summary"]["cells"]:
+        for name, why in c.get("families_dropped", {}).items():
+            lines.append(f"{describe(c)}: {name} left out ({why})")
     lines.append(finding(payload))
     return lines
 
@@ -963,10 +966,36 @@ def _cell_key(cell):
     return (int(cell["size"]), float(cell["stretch_stiffness"]), str(cell["bending"]))
 
 
-def merge_runs(settings, cells, rows, earlier, source="earlier run"):
+#: Options that yore gained after runs were recorded without their families' resolved options,
+#: with the value that reproduces what those runs ran: a family of such a run that takes one of
+#: them ran with this value.
+LEGACY_OPTIONS = {"mixed": False}
+
+
+def resolved_families(families):
+    """Each family's options as yore resolves them (defaults and None decided), so two runs
+    can tell whether a family ran the same way: {name: {option: value}}."""
+    V, F = yore.grid_mesh(3, 3)
+    return {name: dict(yore.Simulation(yore.Cloth(V, F), dt=1e-3, **options).resolved_options)
+            for name, options in families.items()}
+
+
+def earlier_resolved(earlier, current):
+    """The earlier run's resolved family options: recorded, or for runs that predate the
+    record, this run's with `LEGACY_OPTIONS` in place of the options it did not know."""
+    if "family_resolved_options" in earlier:
+        return earlier["family_resolved_options"]
+    return {name: {k: LEGACY_OPTIONS.get(k, v) for k, v in options.items()}
+            for name, options in current.items()}
+
+
+def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=None):
     """This run's (cells, rows) with an earlier run's payload: the earlier cells this run does
     not hold, and their rows, join; the grid of ``settings`` becomes the union. SystemExit when
-    the two runs differ in families, thresholds or budgets (their costs would not compare)."""
+    the two runs differ in families, thresholds or budgets (their costs would not compare).
+    A family whose resolved options (``resolved``, this run's; see `earlier_resolved`) differ
+    between the runs keeps no row in the earlier cells, which are summarised again without it
+    and name it in ``families_dropped``: a number is kept only with the options it ran with."""
     theirs = earlier.get("settings", {})
     for key in MERGE_KEYS:
         if theirs.get(key) != settings.get(key):
@@ -980,15 +1009,37 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run"):
     held = {_cell_key(c) for c in cells}
     added = [c for c in earlier["summary"]["cells"] if _cell_key(c) not in held]
     keys = {_cell_key(c) for c in added}
-    rows = rows + [r for r in earlier["rows"]
-                   if (int(r["size"]), float(r["stretch_stiffness"]), str(r["bending"])) in keys]
+    theirs_resolved = earlier_resolved(earlier, resolved) if resolved is not None else {}
+    dropped = {name: sorted(k for k in set(options) | set(theirs_resolved.get(name, {}))
+                            if options.get(k) != theirs_resolved.get(name, {}).get(k))
+               for name, options in (resolved or {}).items()}
+    dropped = {name: changed for name, changed in dropped.items() if changed}
+    earlier_rows = [r for r in earlier["rows"]
+                    if (int(r["size"]), float(r["stretch_stiffness"]), str(r["bending"])) in keys
+                    and r["method"] not in dropped]
+    rows = rows + earlier_rows
+    if dropped:
+        kept = [name for name in settings["families"] if name not in dropped]
+        resummarized = []
+        for c in added:
+            info = {k: v for k, v in c.items() if not k.startswith("at_")}
+            mine = [r for r in earlier_rows if _cell_key(r) == _cell_key(c)]
+            cell = summarize_cell(info, mine, kept) if c.get("status") == "done" else dict(c)
+            cell["families_dropped"] = {
+                name: "measured with other options: " + ", ".join(
+                    f"{k} {theirs_resolved.get(name, {}).get(k)!r} (now {resolved[name].get(k)!r})"
+                    for k in changed)
+                for name, changed in dropped.items()}
+            resummarized.append(cell)
+        added = resummarized
     merged = dict(settings)
     merged["sizes"] = sorted({*settings["sizes"], *(k[0] for k in keys)})
     merged["stiffness"] = sorted({*settings["stiffness"], *(k[1] for k in keys)})
     merged["bending"] = [b for b in BENDING_ROWS
                          if b in settings["bending"] or any(k[2] == b for k in keys)]
     origin = {"from": source, "machine": earlier.get("machine"),
-              "cells": [list(k) for k in sorted(keys, key=str)]}
+              "cells": [list(k) for k in sorted(keys, key=str)],
+              "families_dropped": {name: changed for name, changed in dropped.items()}}
     return merged, cells + added, rows, origin
 
 
@@ -1025,9 +1076,10 @@ def main(argv=None):
     rows, cells = collect(sweep, results)
     merged_from = []
     grid = settings
+    resolved = resolved_families(settings["families"])
     for path in args.merge:
         earlier = json.loads(Path(path).read_text(encoding="utf-8"))
-        grid, cells, rows, origin = merge_runs(grid, cells, rows, earlier, str(path))
+        grid, cells, rows, origin = merge_runs(grid, cells, rows, earlier, str(path), resolved)
         merged_from.append(origin)
     good = measured(cells)
     payload = {
@@ -1036,6 +1088,8 @@ def main(argv=None):
                  "pinned to one thread",
         "families": list(settings["families"]),
         "family_options": settings["families"],
+        # as this code resolves them (a run resumed or collected after yore changed: today's)
+        "family_resolved_options": resolved,
         "families_unavailable": settings["families_unavailable"],
         "thresholds": list(THRESHOLDS), "reference_tolerance": REFERENCE_TOLERANCE,
         "sample_times": "T/2 and T of each cell (its horizon); a run's error is the larger",

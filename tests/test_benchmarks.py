@@ -336,6 +336,53 @@ def test_pictures_smoke(tmp_path):
     assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])
 
 
+def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_options():
+    # a run recorded before `mixed` existed ran Newton with mixed=False: its Newton rows must
+    # not stand for today's Newton (mixed=True); its linearized and explicit rows still do
+    from benchmarks import crossover
+
+    families = {"explicit": {"integrator": "explicit"},
+                "BE linearized": {"integrator": "implicit", "linearized": True},
+                "BDF2": {"integrator": "bdf2"}}
+    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
+                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
+                "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
+                "bending": ["equal"], "families": families}
+    resolved = crossover.resolved_families(families)
+    assert resolved["BDF2"]["mixed"] is True and resolved["BE linearized"]["mixed"] is False
+
+    def row(method, error, cost):
+        return {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "method": method,
+                "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
+                "cpu_per_step": cost / 100, "at_limit": method == "explicit",
+                "unstable": False, "dt": 0.01}
+
+    old_rows = [row("explicit", 1e-3, 10.0), row("BE linearized", 5e-3, 4.0),
+                row("BDF2", 5e-3, 2.0)]
+    info = {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "status": "done",
+            "reference_converged": True, "horizon": 0.25}
+    old_cell = crossover.summarize_cell(info, old_rows, list(families))
+    assert old_cell["at_0.01"]["winner"] == "BDF2"
+    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
+               "family_options": families, "thresholds": list(crossover.THRESHOLDS),
+               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
+               "summary": {"cells": [dict(old_cell, status="done")]}, "rows": old_rows}
+    grid, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
+                                                     resolved)
+    assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
+    (cell,) = cells
+    assert cell["at_0.01"]["winner"] == "BE linearized"
+    assert cell["at_0.01"]["implicit_over_explicit_cost"] == pytest.approx(0.4)
+    assert "BDF2" not in cell["at_0.01"]["families"]
+    assert set(cell["families_dropped"]) == {"BDF2"} and "mixed" in cell["families_dropped"]["BDF2"]
+    assert origin["families_dropped"] == {"BDF2": ["mixed"]}
+    # a run that recorded the same resolved options keeps every family
+    same = dict(earlier, family_resolved_options=resolved)
+    _, cells, rows, origin = crossover.merge_runs(settings, [], [], same, "new.json", resolved)
+    assert len(rows) == 3 and cells[0]["at_0.01"]["winner"] == "BDF2"
+    assert origin["families_dropped"] == {} and "families_dropped" not in cells[0]
+
+
 def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
     from benchmarks import crossover
 
