@@ -13,7 +13,9 @@ needs more than 20 iterations); the former default, the shifted projection (Leve
 each indefinite matrix is a thrown-away factorization); the clamp with the step test
 (`projection="clamp", step_tol=3e-3`, the setting docs/integrators.md recommends for stiff sheets); and
 that with `lagged_factorization` (CG on the clamped Hessian, 20 iterations at most, before a
-refactorization). Per row: Newton iterations, fresh factorizations, factor reuses (CG solves
+refactorization); and the default and the clamp with the step test with `mixed=False` (the
+actual spring forces in Newton's matrices, as before the mixed matrices became the default;
+`newton_over_actual_forces` and `cpu_over_actual_forces` on the mixed rows). Per row: Newton iterations, fresh factorizations, factor reuses (CG solves
 on a kept factor) and thrown-away factorizations per step, CPU seconds (time.process_time) per
 simulated second, and the largest vertex distance from the default run's end state over the
 cloth's size. Writes factor_reuse.json and factor_reuse.png.
@@ -39,6 +41,11 @@ VARIANTS = {
     "clamp, step test": {"projection": "clamp", "step_tol": 3e-3},
     "clamp, step test, lagged factor": {"projection": "clamp", "step_tol": 3e-3,
                                         "lagged_factorization": True},
+    # the same two stops with the actual spring forces in Newton's matrices (mixed=False, the
+    # behaviour before the mixed matrices became the default): what `mixed` saves, same run
+    "steihaug, actual forces": {"mixed": False},
+    "clamp, step test, actual forces": {"projection": "clamp", "step_tol": 3e-3,
+                                        "mixed": False},
 }
 
 
@@ -116,12 +123,20 @@ def main(argv=None):
                      "steps)" if row["stopped_by_cpu_cap"] else ""), flush=True)
     pairs = (("steihaug, lagged factor", "default (steihaug, residual test)"),
              ("clamp, step test, lagged factor", "clamp, step test"))
+    mixed_pairs = (("default (steihaug, residual test)", "steihaug, actual forces"),
+                   ("clamp, step test", "clamp, step test, actual forces"))
     for resolution in sizes(args.quick, args.sizes):
         chosen = {r["variant"]: r for r in rows if r["resolution"] == resolution}
         for lagged_name, plain_name in pairs:
             lagged, plain = chosen[lagged_name], chosen[plain_name]
             lagged["cpu_over_unlagged"] = (lagged["cpu_seconds_per_simulated_second"]
                                            / plain["cpu_seconds_per_simulated_second"])
+        for mixed_name, actual_name in mixed_pairs:
+            mixed, actual = chosen[mixed_name], chosen[actual_name]
+            mixed["newton_over_actual_forces"] = (mixed["newton_per_step"]
+                                                  / actual["newton_per_step"])
+            mixed["cpu_over_actual_forces"] = (mixed["cpu_seconds_per_simulated_second"]
+                                               / actual["cpu_seconds_per_simulated_second"])
     payload = {"benchmark": "factor_reuse", "machine": machine_info(), "quick": args.quick,
                "rows": rows, "dt": DT, "stretch_stiffness": STIFFNESS,
                "variants": list(VARIANTS)}

@@ -263,6 +263,14 @@ def test_factor_reuse_smoke(tmp_path):
         else:
             # steihaug and the clamp factor the clamped Hessian, never indefinite
             assert row["thrown_away_per_step"] == 0
+    rows = {(r["resolution"], r["variant"]): r for r in data["rows"]}
+    for resolution in {r["resolution"] for r in data["rows"]}:
+        for mixed, actual in (("default (steihaug, residual test)", "steihaug, actual forces"),
+                              ("clamp, step test", "clamp, step test, actual forces")):
+            assert rows[resolution, actual]["options"]["mixed"] is False
+            assert rows[resolution, mixed]["newton_over_actual_forces"] == pytest.approx(
+                rows[resolution, mixed]["newton_per_step"]
+                / rows[resolution, actual]["newton_per_step"])
 
 
 def test_threads_benchmark_smoke(tmp_path):
