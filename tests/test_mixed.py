@@ -26,6 +26,12 @@ def test_mixed_is_resolved_on_for_newton_and_off_for_the_linearized_step():
     assert sim.resolved_options["mixed"] is False
     sim = yore.Simulation(cloth, integrator="bdf2", linearized=True, mixed=True)
     assert sim.resolved_options["mixed"] is True
+    # steihaug with lagged factors measured far worse with it: off there, on for the clamp
+    sim = yore.Simulation(cloth, integrator="bdf2", lagged_factorization=True)
+    assert sim.resolved_options["mixed"] is False
+    sim = yore.Simulation(cloth, integrator="bdf2", lagged_factorization=True,
+                          projection="clamp")
+    assert sim.resolved_options["mixed"] is True
     with pytest.raises(ValueError, match="mixed"):
         yore.Simulation(cloth, integrator="quasi-newton", mixed=True)
     with pytest.raises(ValueError, match="option mixed"):
