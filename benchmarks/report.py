@@ -72,6 +72,15 @@ def crossover_section(crossover: dict, images: str) -> list:
                 f"full grid ({len(SIZES)} sizes × {len(STIFFNESSES)} stiffnesses × "
                 f"{len(BENDING_ROWS)} bending rows) has not run here.", ""]
     out += summary_table(crossover)
+    dropped = [(c, name, why) for c in crossover["summary"]["cells"]
+               for name, why in c.get("families_dropped", {}).items()]
+    if dropped:
+        out += ["", "Families left out of cells merged from an earlier run, because they ran "
+                "there with other options than today's (a number is kept only with the options it "
+                "ran with): " + "; ".join(sorted({f"{name} ({why.split(': ', 1)[-1]})"
+                                                  for _, name, why in dropped}))
+                + ", in " + ", ".join(sorted({f"{c['size']}² k = {c['stretch_stiffness']:g} "
+                                              f"{c['bending']}" for c, _, _ in dropped})) + "."]
     crossing = crossover["summary"]["crossovers"]
     if crossing:
         out += ["", "Crossover stiffness (implicit / explicit cost at 1 % crosses 1): "

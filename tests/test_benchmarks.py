@@ -363,12 +363,14 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
         return {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "method": method,
                 "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
                 "cpu_per_step": cost / 100, "at_limit": method == "explicit",
-                "unstable": False, "dt": 0.01}
+                "unstable": False, "dt": 0.01, "iterations_per_step": 3.0,
+                "factorizations_per_step": 3.0}
 
     old_rows = [row("explicit", 1e-3, 10.0), row("BE linearized", 5e-3, 4.0),
                 row("BDF2", 5e-3, 2.0)]
     info = {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "status": "done",
-            "reference_converged": True, "horizon": 0.25}
+            "reference_converged": True, "horizon": 0.25, "reference_error": 5e-5,
+            "reference_dt": 1e-6}
     old_cell = crossover.summarize_cell(info, old_rows, list(families))
     assert old_cell["at_0.01"]["winner"] == "BDF2"
     earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
@@ -384,6 +386,13 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     assert "BDF2" not in cell["at_0.01"]["families"]
     assert set(cell["families_dropped"]) == {"BDF2"} and "mixed" in cell["families_dropped"]["BDF2"]
     assert origin["families_dropped"] == {"BDF2": ["mixed"]}
+    # the results page says which families a merged cell left out, and why
+    payload = {"settings": grid, "cells": 1, "statuses": {"done": 1}, "families": list(families),
+               "families_unavailable": [], "reference_tolerance": crossover.REFERENCE_TOLERANCE,
+               "summary": {"cells": cells, "crossovers": crossover.crossovers(cells),
+                           "targets": crossover.targets(cells, grid["stiffness"])}}
+    page = "\n".join(report.crossover_section(payload, "results"))
+    assert "BDF2 (mixed False (now True))" in page and "64² k = 2e+06 equal" in page
     # a run that recorded the same resolved options keeps every family
     same = dict(earlier, family_resolved_options=resolved)
     _, cells, rows, origin = crossover.merge_runs(settings, [], [], same, "new.json", resolved)
