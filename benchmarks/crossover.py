@@ -77,7 +77,9 @@ about 20 CPU hours, ~10 h on two workers; the longest cells (128², 2e7 N/m) ~1.
 --sizes / --stiffness / --bending run a part of the grid (the targets need 64² and 128² at
 2e5–2e7 N/m); --merge EARLIER.json adds the cells of an earlier run with the same families and
 budgets (e.g. the committed bench-results/crossover.json), so the grid is measured a part at a
-time, across sessions or machines (each cell's ratio is measured within the cell's own run).
+time, across sessions or machines (each cell's ratio is measured within the cell's own run). A
+family that ran there with other resolved options than today's keeps no row in those cells,
+which name it in `families_dropped`.
 
 Writes crossover.json (every run; per cell the cheapest explicit and implicit run at 1 % and
 0.1 %, implicit/explicit cost, each side's steps per simulated second × CPU per step, the
@@ -138,9 +140,11 @@ FAMILIES = {
     "BE lagged factors": {"integrator": "implicit", "lagged_factorization": True},
     "BDF2 lagged factors": {"integrator": "bdf2", "lagged_factorization": True},
     # the loose stops measured on stiff sheets (docs/limitations.md): clamp, no factor thrown
-    # away, Newton ended by the step test
-    "BE clamp, step test": {"integrator": "implicit", "projection": "clamp", "step_tol": 3e-3},
-    "BDF2 clamp, step test": {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3},
+    # away, Newton ended by the step test, the springs' forces from the linearization (mixed)
+    "BE clamp, step test": {"integrator": "implicit", "projection": "clamp", "step_tol": 3e-3,
+                            "mixed": True},
+    "BDF2 clamp, step test": {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3,
+                              "mixed": True},
     "local-global": {"integrator": "local-global"},
     "quasi-Newton BE": {"integrator": "quasi-newton", "method": "backward-euler"},
     "quasi-Newton BDF2": {"integrator": "quasi-newton", "method": "bdf2"},
@@ -980,20 +984,27 @@ def resolved_families(families):
             for name, options in families.items()}
 
 
-def earlier_resolved(earlier, current):
+def earlier_resolved(earlier, current, given):
     """The earlier run's resolved family options: recorded, or for runs that predate the
-    record, this run's with `LEGACY_OPTIONS` in place of the options it did not know."""
+    record, this run's (``current``) with `LEGACY_OPTIONS` in place of the options it did not
+    know — for the families whose given options (``given``, this run's) were the same then
+    apart from those; a family given otherwise counts as unknown ({})."""
     if "family_resolved_options" in earlier:
         return earlier["family_resolved_options"]
-    return {name: {k: LEGACY_OPTIONS.get(k, v) for k, v in options.items()}
+    theirs = earlier.get("family_options", {})
+
+    def core(options):
+        return {k: v for k, v in options.items() if k not in LEGACY_OPTIONS}
+    return {name: ({k: LEGACY_OPTIONS.get(k, v) for k, v in options.items()}
+                   if name in theirs and core(theirs[name]) == core(given.get(name, {})) else {})
             for name, options in current.items()}
 
 
 def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=None):
     """This run's (cells, rows) with an earlier run's payload: the earlier cells this run does
     not hold, and their rows, join; the grid of ``settings`` becomes the union. SystemExit when
-    the two runs differ in families, thresholds or budgets (their costs would not compare).
-    A family whose resolved options (``resolved``, this run's; see `earlier_resolved`) differ
+    the two runs differ in their families' names, thresholds or budgets (their costs would not
+    compare). A family whose resolved options (``resolved``, this run's; see `earlier_resolved`) differ
     between the runs keeps no row in the earlier cells, which are summarised again without it
     and name it in ``families_dropped``: a number is kept only with the options it ran with."""
     theirs = earlier.get("settings", {})
@@ -1001,7 +1012,7 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
         if theirs.get(key) != settings.get(key):
             raise SystemExit(f"--merge {source}: its {key} is {theirs.get(key)!r}, this run's "
                              f"{settings.get(key)!r}; only runs with the same settings merge")
-    if earlier.get("family_options") != settings["families"]:
+    if set(earlier.get("family_options", {})) != set(settings["families"]):
         raise SystemExit(f"--merge {source}: its families differ from this run's")
     if list(earlier.get("thresholds", ())) != list(THRESHOLDS) or \
             earlier.get("reference_tolerance") != REFERENCE_TOLERANCE:
@@ -1009,7 +1020,8 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
     held = {_cell_key(c) for c in cells}
     added = [c for c in earlier["summary"]["cells"] if _cell_key(c) not in held]
     keys = {_cell_key(c) for c in added}
-    theirs_resolved = earlier_resolved(earlier, resolved) if resolved is not None else {}
+    theirs_resolved = (earlier_resolved(earlier, resolved, settings["families"])
+                       if resolved is not None else {})
     dropped = {name: sorted(k for k in set(options) | set(theirs_resolved.get(name, {}))
                             if options.get(k) != theirs_resolved.get(name, {}).get(k))
                for name, options in (resolved or {}).items()}

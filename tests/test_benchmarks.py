@@ -265,9 +265,10 @@ def test_factor_reuse_smoke(tmp_path):
             assert row["thrown_away_per_step"] == 0
     rows = {(r["resolution"], r["variant"]): r for r in data["rows"]}
     for resolution in {r["resolution"] for r in data["rows"]}:
-        for mixed, actual in (("default (steihaug, residual test)", "steihaug, actual forces"),
+        for mixed, actual in (("steihaug, mixed", "default (steihaug, residual test)"),
                               ("clamp, step test", "clamp, step test, actual forces")):
-            assert rows[resolution, actual]["options"]["mixed"] is False
+            assert rows[resolution, mixed]["options"]["mixed"] is True
+            assert rows[resolution, actual]["options"].get("mixed", False) is False
             assert rows[resolution, mixed]["newton_over_actual_forces"] == pytest.approx(
                 rows[resolution, mixed]["newton_per_step"]
                 / rows[resolution, actual]["newton_per_step"])
@@ -345,13 +346,15 @@ def test_pictures_smoke(tmp_path):
 
 
 def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_options():
-    # a run recorded before `mixed` existed ran Newton with mixed=False: its Newton rows must
-    # not stand for today's Newton (mixed=True); its linearized and explicit rows still do
+    # a run recorded before `mixed` existed ran the clamp with the step test with mixed=False
+    # (and did not name the option): its rows must not stand for today's family, which asks
+    # for mixed=True; its linearized and explicit rows still do
     from benchmarks import crossover
 
+    stiff = {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3}
     families = {"explicit": {"integrator": "explicit"},
                 "BE linearized": {"integrator": "implicit", "linearized": True},
-                "BDF2": {"integrator": "bdf2"}}
+                "BDF2": dict(stiff, mixed=True)}
     settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
                 "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
                 "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
@@ -374,7 +377,8 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     old_cell = crossover.summarize_cell(info, old_rows, list(families))
     assert old_cell["at_0.01"]["winner"] == "BDF2"
     earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
-               "family_options": families, "thresholds": list(crossover.THRESHOLDS),
+               "family_options": dict(families, BDF2=stiff),
+               "thresholds": list(crossover.THRESHOLDS),
                "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
                "summary": {"cells": [dict(old_cell, status="done")]}, "rows": old_rows}
     grid, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
@@ -393,6 +397,11 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
                            "targets": crossover.targets(cells, grid["stiffness"])}}
     page = "\n".join(report.crossover_section(payload, "results"))
     assert "BDF2 (mixed False (now True))" in page and "64² k = 2e+06 equal" in page
+    # a family given other options (not only the newer ones) counts as unknown: dropped too
+    other = dict(earlier, family_options=dict(families, BDF2=dict(stiff, step_tol=1e-2)))
+    _, _, rows, origin = crossover.merge_runs(settings, [], [], other, "old.json", resolved)
+    assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
+    assert "BDF2" in origin["families_dropped"]
     # a run that recorded the same resolved options keeps every family
     same = dict(earlier, family_resolved_options=resolved)
     _, cells, rows, origin = crossover.merge_runs(settings, [], [], same, "new.json", resolved)

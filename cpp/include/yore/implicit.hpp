@@ -104,8 +104,11 @@ struct ImplicitOptions {
   /// the gradient and so the solution are unchanged; the matrices are those of Newton on the
   /// mixed formulation with the spring forces as unknowns, eliminated spring by spring (Trusty
   /// et al. 2022). On stiff springs the actual force at an iterate carries k times the length
-  /// error of the step's out-of-plane moves (ℓ grows by w²/2ℓ), λ does not.
-  bool mixed = true;
+  /// error of the step's out-of-plane moves (ℓ grows by w²/2ℓ), λ does not. Off by default: it
+  /// saves ~40 % of the clamp's iterations on stiff sheets but measured mixed with steihaug
+  /// (fewer at 32²–64², more at 128² and on easy scenes) and far worse with steihaug's lagged
+  /// factors (docs/integrators.md).
+  bool mixed = false;
   int max_newton = 1000;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
