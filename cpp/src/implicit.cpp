@@ -253,27 +253,6 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
   }
 }
 
-namespace {
-
-// A spring's Hessian with the force `tension` (N) in its transverse term: k n nᵀ + (λ/ℓ)(I − n nᵀ),
-// the transverse factor filtered as for the actual force.
-Mat3 mixed_spring_hessian(const Vec3& xi, const Vec3& xj, double stiffness, double tension,
-                          TransverseFilter filter) {
-  const Vec3 d = xi - xj;
-  const double length = d.norm();
-  if (length == 0.0) return stiffness * Mat3::Identity();
-  const Vec3 n = d / length;
-  const Mat3 nn = n * n.transpose();
-  double transverse = tension / length;
-  if (transverse < 0.0) {
-    if (filter == TransverseFilter::clamp) transverse = 0.0;
-    if (filter == TransverseFilter::abs) transverse = -transverse;
-  }
-  return stiffness * nn + transverse * (Mat3::Identity() - nn);
-}
-
-}  // namespace
-
 void ImplicitIntegrator::reset_tension(const Cloth& cloth, const Positions& x) {
   const SpringSet& springs = cloth.springs();
   m_tension.resize(springs.size());
@@ -367,9 +346,9 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       if (b >= 0) m_gradient.segment<3>(b) -= gradient;
     }
     if (with_hessian) {
-      Mat3 block = m_options.mixed ? mixed_spring_hessian(xi, xj, stiffness,
-                                                          m_tension[k], filter)
-                                   : spring_hessian(xi, xj, rest, stiffness, filter);
+      Mat3 block = m_options.mixed
+                       ? spring_hessian_with_force(xi, xj, stiffness, m_tension[k], filter)
+                       : spring_hessian(xi, xj, rest, stiffness, filter);
       if (c > 0.0) block += (c / h) * n0 * n0.transpose();
       const auto& starts = m_pattern.column_starts;
       for (const std::int32_t dof : {a, b}) {

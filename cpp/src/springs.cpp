@@ -81,21 +81,40 @@ Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double s
                         project_psd ? TransverseFilter::clamp : TransverseFilter::exact);
 }
 
-Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
-                    TransverseFilter filter) {
-  const Vec3 d = xi - xj;
-  const double length = d.norm();
-  if (length == 0.0) return stiffness * Mat3::Identity();
+namespace {
+
+// k (d̂d̂ᵀ + t (I − d̂d̂ᵀ)) for d = xi − xj of length ℓ > 0, with the transverse factor t filtered.
+Mat3 spring_block(const Vec3& d, double length, double stiffness, double transverse,
+                  TransverseFilter filter) {
   const Vec3 n = d / length;
   const Mat3 nn = n * n.transpose();
-  double transverse = 1.0 - rest_length / length;
-  // A compressed spring (ℓ < L) has a negative transverse stiffness: it buckles sideways. Clamping
-  // keeps the block PSD so an implicit system stays SPD.
+  // A compressed spring (ℓ < L, or a negative force) has a negative transverse stiffness: it
+  // buckles sideways. Clamping keeps the block PSD so an implicit system stays SPD.
   if (transverse < 0.0) {
     if (filter == TransverseFilter::clamp) transverse = 0.0;
     if (filter == TransverseFilter::abs) transverse = -transverse;
   }
   return stiffness * (nn + transverse * (Mat3::Identity() - nn));
+}
+
+}  // namespace
+
+Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
+                    TransverseFilter filter) {
+  const Vec3 d = xi - xj;
+  const double length = d.norm();
+  if (length == 0.0) return stiffness * Mat3::Identity();
+  return spring_block(d, length, stiffness, 1.0 - rest_length / length, filter);
+}
+
+Mat3 spring_hessian_with_force(const Vec3& xi, const Vec3& xj, double stiffness, double force,
+                               TransverseFilter filter) {
+  const Vec3 d = xi - xj;
+  const double length = d.norm();
+  if (length == 0.0) return stiffness * Mat3::Identity();
+  // f/ℓ = k t; a spring of stiffness 0 has no force and no transverse term
+  const double transverse = stiffness > 0.0 ? force / (stiffness * length) : 0.0;
+  return spring_block(d, length, stiffness, transverse, filter);
 }
 
 Vec3 spring_damping_force(const Vec3& xi, const Vec3& xj, const Vec3& vi, const Vec3& vj,

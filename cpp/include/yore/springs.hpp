@@ -75,6 +75,12 @@ enum class TransverseFilter {
 Mat3 spring_hessian(const Vec3& xi, const Vec3& xj, double rest_length, double stiffness,
                     TransverseFilter filter);
 
+/// The block with the transverse term of a given spring force f (N) instead of the actual
+/// k(ℓ − L): k d̂d̂ᵀ + (f/ℓ)(I − d̂d̂ᵀ), the transverse factor filtered as `filter` says (Newton's
+/// matrices on the mixed formulation, ImplicitOptions::mixed). k·I at zero length.
+Mat3 spring_hessian_with_force(const Vec3& xi, const Vec3& xj, double stiffness, double force,
+                               TransverseFilter filter);
+
 /// Damping force on xi, −c ((vi − vj)·d̂) d̂, newtons (the force on xj is its negative).
 Vec3 spring_damping_force(const Vec3& xi, const Vec3& xj, const Vec3& vi, const Vec3& vj,
                           double damping);
