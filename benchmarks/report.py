@@ -72,15 +72,17 @@ def crossover_section(crossover: dict, images: str) -> list:
                 f"full grid ({len(SIZES)} sizes × {len(STIFFNESSES)} stiffnesses × "
                 f"{len(BENDING_ROWS)} bending rows) has not run here.", ""]
     out += summary_table(crossover)
-    dropped = [(c, name, why) for c in crossover["summary"]["cells"]
-               for name, why in c.get("families_dropped", {}).items()]
+    dropped = {}  # (family, why) → the cells that left it out
+    for c in crossover["summary"]["cells"]:
+        for name, why in c.get("families_dropped", {}).items():
+            dropped.setdefault((name, why.split(": ", 1)[-1]), []).append(
+                f"{c['size']}² k = {c['stretch_stiffness']:g} {c['bending']}")
     if dropped:
         out += ["", "Families left out of cells merged from an earlier run, because they ran "
                 "there with other options than today's (a number is kept only with the options it "
-                "ran with): " + "; ".join(sorted({f"{name} ({why.split(': ', 1)[-1]})"
-                                                  for _, name, why in dropped}))
-                + ", in " + ", ".join(sorted({f"{c['size']}² k = {c['stretch_stiffness']:g} "
-                                              f"{c['bending']}" for c, _, _ in dropped})) + "."]
+                "ran with): " + "; ".join(f"{name} ({why}) in {', '.join(sorted(cells))}"
+                                          for (name, why), cells in sorted(dropped.items()))
+                + "."]
     crossing = crossover["summary"]["crossovers"]
     if crossing:
         out += ["", "Crossover stiffness (implicit / explicit cost at 1 % crosses 1): "
