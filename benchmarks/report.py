@@ -56,8 +56,10 @@ def crossover_section(crossover: dict, images: str) -> list:
            "at T (the larger) over the sheet's start diagonal; cost: CPU seconds of the stepping "
            "per simulated second on one thread (the task's thread clock; medians of "
            f"{settings['repeats']} runs for every run that could be its family's cheapest); "
-           "explicit at its largest stable step, found by bisection. Cells whose reference did "
-           f"not converge to {crossover['reference_tolerance']:g} are left out. Families: "
+           "explicit at its largest stable step, found by bisection. An error threshold is "
+           "judged only in cells whose reference converged to a tenth of it ("
+           + ", ".join(f"{0.1 * t:g} for {100 * t:g} %" for t in crossover["thresholds"])
+           + "). Families: "
            f"{', '.join(crossover['families'])}"
            + (f" (not in this build: {'; '.join(crossover['families_unavailable'])})"
               if crossover["families_unavailable"] else "") + ".", ""]

@@ -134,11 +134,14 @@ def test_crossover_smoke(tmp_path):
         assert is_timing(cell["cell_thread_cpu_seconds"])
         mine = [r for r in rows if (r["size"], r["stretch_stiffness"], r["bending"])
                 == (cell["size"], cell["stretch_stiffness"], cell["bending"])]
-        if not cell["reference_converged"]:
-            continue
         # the cheapest run picked is the cheapest run below each threshold, per family
         for threshold in THRESHOLDS:
             at = cell[f"at_{threshold:g}"]
+            # a threshold is judged only with a reference within a tenth of it
+            if cell["reference_error"] > 0.1 * threshold:
+                assert at["reference_too_coarse"] == cell["reference_error"]
+                assert not at["families"] and "winner" not in at
+                continue
             for family, picked in at["families"].items():
                 below = [r for r in mine if r["method"] == family and usable(r)
                          and r["error"] <= threshold]
@@ -304,7 +307,7 @@ def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
                                                   if name == "implicit_step" else []))
     page = tmp_path / "docs" / "results.md"
     page.parent.mkdir()
-    page.write_text(f"intro\n{report.START}\nold\n{report.END}\nrest\n")
+    page.write_text(f"intro\n{report.START}\nstale block\n{report.END}\nrest\n")
     with pytest.raises(SystemExit, match="quick"):
         report.main(["--results", str(results), "--page", str(page)])
     for path in results.glob("*.json"):
@@ -313,7 +316,7 @@ def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
         path.write_text(json.dumps(data))
     report.main(["--results", str(results), "--page", str(page)])
     text = page.read_text()
-    assert text.startswith("intro\n") and text.endswith("rest\n") and "old" not in text
+    assert text.startswith("intro\n") and text.endswith("rest\n") and "stale block" not in text
     # every number in the section comes from the JSON: spot-check two
     rebuild = json.loads((results / "rebuild_cost.json").read_text())
     assert f"{rebuild['dense_matmul_gflops']:.1f} GFlop/s" in text
@@ -322,7 +325,7 @@ def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
     # pictures are linked relative to the page, so they resolve in the Sphinx build
     assert "![scaling](../results/scaling.png)" in text
     # --readme, the option's former name, still rewrites the block it is given
-    page.write_text(f"intro\n{report.START}\nold\n{report.END}\nrest\n")
+    page.write_text(f"intro\n{report.START}\nstale block\n{report.END}\nrest\n")
     report.main(["--results", str(results), "--readme", str(page)])
     assert page.read_text() == text
 
@@ -393,6 +396,7 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     # the results page says which families a merged cell left out, and why
     payload = {"settings": grid, "cells": 1, "statuses": {"done": 1}, "families": list(families),
                "families_unavailable": [], "reference_tolerance": crossover.REFERENCE_TOLERANCE,
+               "thresholds": list(crossover.THRESHOLDS),
                "summary": {"cells": cells, "crossovers": crossover.crossovers(cells),
                            "targets": crossover.targets(cells, grid["stiffness"])}}
     page = "\n".join(report.crossover_section(payload, "results"))
@@ -409,34 +413,97 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     assert origin["families_dropped"] == {} and "families_dropped" not in cells[0]
 
 
+def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine():
+    """A reference that stalls at 5e-4 (between a tenth of 1 % and a tenth of 0.1 %) judges
+    the cell at 1 % and leaves it out at 0.1 %: in the cell's summary, the targets, the table
+    and the sentence; a merge summarises an earlier cell again by the same rule."""
+    from benchmarks import crossover
+
+    def row(method, error, cost):
+        return {"size": 128, "stretch_stiffness": 2e6, "bending": "soft", "method": method,
+                "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
+                "cpu_per_step": cost / 100, "at_limit": method == "explicit",
+                "unstable": False, "dt": 0.01, "iterations_per_step": 3.0,
+                "factorizations_per_step": 3.0}
+
+    rows = [row("explicit", 5e-4, 10.0), row("BE linearized", 8e-3, 3.0),
+            row("BE linearized", 5e-4, 20.0)]
+    families = ["explicit", "BE linearized"]
+    cells = {}
+    for error in (5e-4, 5e-5, 2e-3, None):
+        info = {"size": 128, "stretch_stiffness": 2e6, "bending": "soft", "status": "done",
+                "reference_converged": error is not None and error <= 1e-4, "horizon": 0.125,
+                "reference_error": error, "reference_dt": 1e-7}
+        cells[error] = dict(crossover.summarize_cell(info, rows, families), status="done")
+    coarse = cells[5e-4]
+    assert coarse["at_0.01"]["winner"] == "BE linearized"
+    assert coarse["at_0.01"]["implicit_over_explicit_cost"] == pytest.approx(0.3)
+    assert coarse["at_0.001"]["reference_too_coarse"] == 5e-4
+    assert "winner" not in coarse["at_0.001"]
+    # the fine reference judges both: at 0.1 % the 20 s/s run loses to explicit's 10
+    assert cells[5e-5]["at_0.001"]["winner"] == "explicit"
+    # a reference too coarse even for 1 % judges nothing; a diverged one (None) too
+    assert "winner" not in cells[2e-3]["at_0.01"] and "at_0.01" not in cells[None]
+    assert crossover.measured(list(cells.values())) == [coarse, cells[5e-5]]
+    one = crossover._cell_verdict([coarse], 128, 2e6, "soft", 0.01)
+    tenth = crossover._cell_verdict([coarse], 128, 2e6, "soft", 0.001)
+    assert one["ratio"] == pytest.approx(0.3)
+    assert tenth["ratio"] is None and "not converged to 0.0001 (0.0005)" in tenth["why"]
+    payload = {"summary": {"cells": [coarse]}}
+    (line,) = crossover.summary_table(payload)[2:]
+    assert "0.30 (BE linearized)" in line and "reference too coarse (5.0e-04 > 0.0001)" in line
+    assert "cheaper in 1 of 1" in crossover.finding(payload)
+    # an earlier run's cell, summarised under the old rule (left out), is judged again
+    old = {k: v for k, v in coarse.items() if not k.startswith("at_")}
+    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
+                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
+                "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
+                "bending": ["equal"], "families": {f: {} for f in families}}
+    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
+               "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
+               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
+               "summary": {"cells": [old]}, "rows": rows}
+    _, merged, _, _ = crossover.merge_runs(settings, [], [], earlier, "old.json")
+    assert merged[0]["at_0.01"]["winner"] == "BE linearized"
+    assert "reference_too_coarse" in merged[0]["at_0.001"]
+
+
 def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
     from benchmarks import crossover
 
     settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
                 "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
                 "rates": list(crossover.RATES), "sizes": [128], "stiffness": [2e6],
-                "bending": ["soft"], "families": {"explicit": {"integrator": "explicit"}}}
+                "bending": ["soft"], "families": {"explicit": {"integrator": "explicit"},
+                                                  "BE linearized": {"linearized": True}}}
+
+    def rows_of(size, k, bending, ratio):
+        return [{"size": size, "stretch_stiffness": k, "bending": bending, "method": method,
+                 "error": 5e-3, "cost_seconds_per_simulated_second": cost, "steps": 100,
+                 "cpu_per_step": cost / 100, "at_limit": method == "explicit", "unstable": False,
+                 "dt": 0.01, "iterations_per_step": 1.0, "factorizations_per_step": 1.0}
+                for method, cost in (("explicit", 10.0), ("BE linearized", 10.0 * ratio))]
 
     def cell(size, k, bending, ratio):
-        return {"size": size, "stretch_stiffness": k, "bending": bending, "status": "done",
-                "reference_converged": True, "at_0.01": {"implicit_over_explicit_cost": ratio}}
-
-    def row(size, k, bending):
-        return {"size": size, "stretch_stiffness": k, "bending": bending, "method": "explicit"}
+        info = {"size": size, "stretch_stiffness": k, "bending": bending, "status": "done",
+                "reference_converged": True, "reference_error": 5e-5, "horizon": 0.25}
+        return dict(crossover.summarize_cell(info, rows_of(size, k, bending, ratio),
+                                             list(settings["families"])), status="done")
 
     earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
                "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
                "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
                "summary": {"cells": [cell(64, 2e5, "equal", 1.0), cell(128, 2e6, "soft", 9.0)]},
-               "rows": [row(64, 2e5, "equal"), row(128, 2e6, "soft")]}
+               "rows": rows_of(64, 2e5, "equal", 1.0) + rows_of(128, 2e6, "soft", 9.0)}
     earlier["settings"].update(sizes=[64, 128], stiffness=[2e5, 2e6], bending=["equal", "soft"])
     mine = [cell(128, 2e6, "soft", 0.5)]
-    grid, cells, rows, origin = crossover.merge_runs(settings, mine, [row(128, 2e6, "soft")],
+    grid, cells, rows, origin = crossover.merge_runs(settings, mine,
+                                                     rows_of(128, 2e6, "soft", 0.5),
                                                      earlier, "old.json")
     # this run's cell wins; the earlier run's other cell and its rows join
     assert sorted((c["size"], c["at_0.01"]["implicit_over_explicit_cost"]) for c in cells) == \
         [(64, 1.0), (128, 0.5)]
-    assert len(rows) == 2 and grid["sizes"] == [64, 128] and grid["stiffness"] == [2e5, 2e6]
+    assert len(rows) == 4 and grid["sizes"] == [64, 128] and grid["stiffness"] == [2e5, 2e6]
     assert grid["bending"] == ["equal", "soft"] and origin["cells"] == [[64, 2e5, "equal"]]
     assert [(c["bending"], c["size"], c["ratios"]) for c in
             crossover.crossovers(crossover.measured(cells))] == \
