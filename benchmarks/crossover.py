@@ -99,6 +99,7 @@ import json
 import math
 import platform
 import statistics
+import textwrap
 import sys
 import time
 import traceback
@@ -1195,19 +1196,21 @@ def plot(payload, path):
             if item["ratio"] is not None:
                 grid[i, j] = item["ratio"]
                 # the winner and the ratio; where explicit wins, also the implicit family
-                text = f"{item['winner']}\n{item['ratio']:.2g}" + (
-                    f"\n(vs {item['implicit']['method']})" if item["winner"] == "explicit"
-                    else "")
+                # family names wrapped to fit a cell ("BDF2 clamp,\nstep test")
+                text = "\n".join(textwrap.wrap(item["winner"], 12)) + f"\n{item['ratio']:.2g}" + (
+                    "\n" + "\n".join(textwrap.wrap(f"(vs {item['implicit']['method']})", 14))
+                    if item["winner"] == "explicit" else "")
             elif item.get("winner"):
                 text = "explicit\n(no implicit run\nwithin the caps)"
             elif c.get("status") != "done":
                 text = str(c.get("status"))
             elif not reference_serves(c, threshold):
-                text = "reference\nnot converged"
+                error = c.get("reference_error")
+                text = "reference\ntoo coarse" + (f"\n({error:.1e})" if error is not None else "")
             else:
                 text = item["why"].replace(" reached", "\nat")
             dark = np.isfinite(grid[i, j]) and abs(math.log10(grid[i, j])) > 0.6
-            ax.text(j, i, text, ha="center", va="center", fontsize=6,
+            ax.text(j, i, text, ha="center", va="center", fontsize=5.5,
                     color="white" if dark else "black")
         image = ax.imshow(np.ma.masked_invalid(np.clip(grid, 0.1, 10.0)), cmap="RdBu_r",
                           norm=norm, origin="lower", aspect="auto")
