@@ -17,7 +17,7 @@ import json
 import os
 from pathlib import Path
 
-from .crossover import finding, summary_table
+from .crossover import finding, stiffest_judged_text, summary_table
 from .schema import SCHEMAS, check
 
 START, END = "<!-- results:start -->", "<!-- results:end -->"
@@ -98,7 +98,8 @@ def crossover_section(crossover: dict, images: str) -> list:
         if g["ratio"] is None:
             out.append(head + ("**missed**" if g["measured"] else "**not measured**")
                        + " (" + "; ".join(f"{c['bending']}: {c['why']}" for c in g["cells"]
-                                          if c.get("why")) + ")")
+                                          if c.get("why"))
+                       + stiffest_judged_text(g) + ")")
             continue
         best = g["best"]
         out.append(head + verdict(g["met"]) + f" ({g['ratio']:.2f}, {best['bending']} bending; "

@@ -449,6 +449,15 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
     tenth = crossover._cell_verdict([coarse], 128, 2e6, "soft", 0.001)
     assert one["ratio"] == pytest.approx(0.3)
     assert tenth["ratio"] is None and "not converged to 0.0001 (0.0005)" in tenth["why"]
+    # the 0.1 % target of a row is judged at the grid's stiffest cell; where that was not
+    # judged (here its reference is too coarse), the row's stiffest judged cell is shown beside
+    fine = dict(cells[5e-5], stretch_stiffness=2e5)
+    (goal,) = [g for g in crossover.targets([coarse, fine], [2e5, 2e6])
+               if g["threshold"] == 0.001]
+    assert not goal["measured"] and not goal["met"]
+    assert goal["stiffest_judged"]["stretch_stiffness"] == 2e5
+    assert crossover.target_text(goal).endswith(
+        "the row's stiffest judged cell, k = 200000: 2.00, explicit")
     payload = {"summary": {"cells": [coarse]}}
     (line,) = crossover.summary_table(payload)[2:]
     assert "0.30 (BE linearized)" in line and "reference too coarse (5.0e-04 > 0.0001)" in line
