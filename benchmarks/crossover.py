@@ -99,8 +99,8 @@ import json
 import math
 import platform
 import statistics
-import textwrap
 import sys
+import textwrap
 import time
 import traceback
 import warnings
@@ -1218,9 +1218,10 @@ def plot(payload, path):
                 grid[i, j] = item["ratio"]
                 # the winner and the ratio; where explicit wins, also the implicit family
                 # family names wrapped to fit a cell ("BDF2 clamp,\nstep test")
-                text = "\n".join(textwrap.wrap(item["winner"], 12)) + f"\n{item['ratio']:.2g}" + (
-                    "\n" + "\n".join(textwrap.wrap(f"(vs {item['implicit']['method']})", 14))
-                    if item["winner"] == "explicit" else "")
+                text = "\n".join(textwrap.wrap(item["winner"], 12) + [f"{item['ratio']:.2g}"])
+                if item["winner"] == "explicit":
+                    text += "\n" + "\n".join(
+                        textwrap.wrap(f"(vs {item['implicit']['method']})", 14))
             elif item.get("winner"):
                 text = "explicit\n(no implicit run\nwithin the caps)"
             elif c.get("status") != "done":

@@ -17,7 +17,7 @@ import json
 import os
 from pathlib import Path
 
-from .crossover import finding, stiffest_judged_text, summary_table
+from .crossover import REFERENCE_FRACTION, finding, stiffest_judged_text, summary_table
 from .schema import SCHEMAS, check
 
 START, END = "<!-- results:start -->", "<!-- results:end -->"
@@ -58,7 +58,8 @@ def crossover_section(crossover: dict, images: str) -> list:
            f"{settings['repeats']} runs for every run that could be its family's cheapest); "
            "explicit at its largest stable step, found by bisection. An error threshold is "
            "judged only in cells whose reference converged to a tenth of it ("
-           + ", ".join(f"{0.1 * t:g} for {100 * t:g} %" for t in crossover["thresholds"])
+           + ", ".join(f"{REFERENCE_FRACTION * t:g} for {100 * t:g} %"
+                       for t in crossover["thresholds"])
            + "). Families: "
            f"{', '.join(crossover['families'])}"
            + (f" (not in this build: {'; '.join(crossover['families_unavailable'])})"
