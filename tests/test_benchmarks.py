@@ -348,6 +348,17 @@ def test_pictures_smoke(tmp_path):
     assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])
 
 
+def crossover_row(method, error, cost, size=64, stiffness=2e6, bending="equal",
+                  iterations=3.0):
+    """A synthetic crossover run: 100 steps, explicit at its limit, cost in CPU s per
+    simulated second."""
+    return {"size": size, "stretch_stiffness": stiffness, "bending": bending, "method": method,
+            "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
+            "cpu_per_step": cost / 100, "at_limit": method == "explicit", "unstable": False,
+            "dt": 0.01, "iterations_per_step": iterations,
+            "factorizations_per_step": iterations}
+
+
 def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_options():
     # a run recorded before `mixed` existed ran the clamp with the step test with mixed=False
     # (and did not name the option): its rows must not stand for today's family, which asks
@@ -365,15 +376,8 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     resolved = crossover.resolved_families(families)
     assert resolved["BDF2"]["mixed"] is True and resolved["BE linearized"]["mixed"] is False
 
-    def row(method, error, cost):
-        return {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "method": method,
-                "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
-                "cpu_per_step": cost / 100, "at_limit": method == "explicit",
-                "unstable": False, "dt": 0.01, "iterations_per_step": 3.0,
-                "factorizations_per_step": 3.0}
-
-    old_rows = [row("explicit", 1e-3, 10.0), row("BE linearized", 5e-3, 4.0),
-                row("BDF2", 5e-3, 2.0)]
+    old_rows = [crossover_row("explicit", 1e-3, 10.0), crossover_row("BE linearized", 5e-3, 4.0),
+                crossover_row("BDF2", 5e-3, 2.0)]
     info = {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "status": "done",
             "reference_converged": True, "horizon": 0.25, "reference_error": 5e-5,
             "reference_dt": 1e-6}
@@ -420,11 +424,7 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
     from benchmarks import crossover
 
     def row(method, error, cost):
-        return {"size": 128, "stretch_stiffness": 2e6, "bending": "soft", "method": method,
-                "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
-                "cpu_per_step": cost / 100, "at_limit": method == "explicit",
-                "unstable": False, "dt": 0.01, "iterations_per_step": 3.0,
-                "factorizations_per_step": 3.0}
+        return crossover_row(method, error, cost, size=128, bending="soft")
 
     rows = [row("explicit", 5e-4, 10.0), row("BE linearized", 8e-3, 3.0),
             row("BE linearized", 5e-4, 20.0)]
@@ -487,10 +487,7 @@ def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
                                                   "BE linearized": {"linearized": True}}}
 
     def rows_of(size, k, bending, ratio):
-        return [{"size": size, "stretch_stiffness": k, "bending": bending, "method": method,
-                 "error": 5e-3, "cost_seconds_per_simulated_second": cost, "steps": 100,
-                 "cpu_per_step": cost / 100, "at_limit": method == "explicit", "unstable": False,
-                 "dt": 0.01, "iterations_per_step": 1.0, "factorizations_per_step": 1.0}
+        return [crossover_row(method, 5e-3, cost, size, k, bending, iterations=1.0)
                 for method, cost in (("explicit", 10.0), ("BE linearized", 10.0 * ratio))]
 
     def cell(size, k, bending, ratio):
