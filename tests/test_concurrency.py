@@ -32,7 +32,8 @@ def endless_simulation(integrator="local-global"):
                                                                  tolerance=0.0),
         # a Newton solve that never converges by its own tolerance
         "implicit": lambda: yore._core.ImplicitIntegrator(
-            max_newton=2**31 - 1, newton_tol=1e-300, adaptive_projection=False),
+            max_newton=2**31 - 1, newton_tol=1e-300, truncation_fraction=0.0,
+            adaptive_projection=False),
     }[integrator]()
     return sim
 

@@ -20,7 +20,7 @@ def flat_cloth(integrator, resolution=12, **options):
 
 @pytest.mark.parametrize("method, newton", [("backward-euler", "implicit"), ("bdf2", "bdf2")])
 def test_quasi_newton_converges_to_newtons_step(method, newton):
-    reference = flat_cloth(newton, newton_tol=1e-11, max_newton=200)
+    reference = flat_cloth(newton, newton_tol=1e-11, max_newton=200, truncation_fraction=0.0)
     reference.step(5)
     sim = flat_cloth("quasi-newton", method=method, newton_tol=1e-9, max_newton=5000)
     sim.step(5)

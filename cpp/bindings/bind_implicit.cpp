@@ -45,6 +45,8 @@ void bind_implicit(py::module_& m) {
       in_range(plain_option("lag_cg_tol", &O::lag_cg_tol), 0.0, 1.0, true, true),
       plain_option("newton_tol", &O::newton_tol),
       in_range(plain_option("step_tol", &O::step_tol), 0.0, 1.0, false, true),
+      in_range(plain_option("truncation_fraction", &O::truncation_fraction), 0.0, 1.0, false,
+               false),
       plain_option("mixed", &O::mixed),
       plain_option("max_newton", &O::max_newton),
       one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
@@ -174,9 +176,11 @@ Newton direction.)doc")
         out["factorizations_thrown_away"] = s.exact_hessian_rejected;
         out["factor_reuses"] = s.lagged_solves;
         out["step_test_stops"] = s.step_test_stops;
+        out["truncation_stops"] = s.truncation_stops;
         out["abs_projections"] = s.abs_projections;
         out["shifted_factorizations"] = s.shifted_factorizations;
         out["last_scaled_residual"] = s.last_scaled_residual;
+        out["last_truncation_error"] = s.last_truncation_error;
         out["lagged_solves"] = s.lagged_solves;
         out["lagged_cg_iterations"] = s.lagged_cg_iterations;
         out["lbfgs_skipped_updates"] = s.lbfgs_skipped_updates;

@@ -24,6 +24,13 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     msg << "newton_tol must be finite and > 0, got " << options.newton_tol;
     throw std::invalid_argument(msg.str());
   }
+  if (!std::isfinite(options.truncation_fraction) || options.truncation_fraction < 0.0 ||
+      options.truncation_fraction > 1.0) {
+    std::ostringstream msg;
+    msg << "truncation_fraction must be finite and in [0, 1], got "
+        << options.truncation_fraction;
+    throw std::invalid_argument(msg.str());
+  }
   if (!std::isfinite(options.step_tol) || options.step_tol < 0.0) {
     std::ostringstream msg;
     msg << "step_tol must be finite and >= 0, got " << options.step_tol;
@@ -229,6 +236,8 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
 void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, double dt,
                                     bool second_order) {
   m_gravity = gravity;
+  m_dt = dt;
+  m_second_order = second_order;
   const Positions& x = cloth.positions();
   const Positions& v = cloth.velocities();
   if (second_order) {
@@ -441,9 +450,11 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     evaluate(cloth, m_iterate, true, false);
     m_statistics.last_residual = m_gradient.lpNorm<Eigen::Infinity>();
     m_statistics.last_scaled_residual = scaled_residual(cloth) / m_mean_rest_length;
+    m_statistics.last_truncation_error = truncation_error(cloth);
   } else {
     m_statistics.last_residual = 0.0;
     m_statistics.last_scaled_residual = 0.0;
+    m_statistics.last_truncation_error = 0.0;
   }
 
   Positions& x = cloth.integrator_positions();
@@ -507,6 +518,41 @@ ImplicitIntegrator::IterationVerdict ImplicitIntegrator::verdict(double energy, 
   if (residual <= m_options.newton_tol * m_mean_rest_length) return IterationVerdict::converged;
   if (iterations >= m_options.max_newton) return IterationVerdict::at_cap;
   return IterationVerdict::go_on;
+}
+
+double ImplicitIntegrator::truncation_error(const Cloth& cloth) const {
+  // Backward Euler: x⁺ − x̂ = h² a⁺ and the local error is ½ h² ẍ. BDF2 (error constant 2/9):
+  // (2/9) h³ x''' with h² x''' ≈ v⁺ − 2vₙ + vₙ₋₁, where v⁺ = (x⁺ − x̄)/h̃ and vₙ₋₁ comes back
+  // from x̂ − x̄ = h̃ (4vₙ − vₙ₋₁)/3 (begin_step); vₙ is the cloth's velocity until the step ends.
+  const Positions& v = cloth.velocities();
+  double largest = 0.0;
+  for (const std::int32_t i : m_free_vertices) {
+    double error = 0.0;
+    if (m_second_order) {
+      const Vec3 next = (m_iterate.row(i) - m_anchor.row(i)).transpose() / m_h;
+      const Vec3 now = v.row(i).transpose();
+      const Vec3 before =
+          4.0 * now - 3.0 * (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;
+      error = 2.0 / 9.0 * m_dt * (next - 2.0 * now + before).norm();
+    } else {
+      error = 0.5 * (m_iterate.row(i) - m_target.row(i)).norm();
+    }
+    largest = std::max(largest, error);
+  }
+  return largest;
+}
+
+bool ImplicitIntegrator::truncation_test(const Cloth& cloth, double alpha, double& last_move,
+                                         double& rate) const {
+  if (!(m_options.truncation_fraction > 0.0)) return false;
+  double move = 0.0;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    move = std::max(move, m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).norm());
+  }
+  move *= alpha;
+  if (last_move > 0.0) rate = std::max(0.3 * rate, move / last_move);
+  last_move = move;
+  return move * std::min(1.0, rate) <= m_options.truncation_fraction * truncation_error(cloth);
 }
 
 double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {

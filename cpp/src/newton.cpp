@@ -138,6 +138,7 @@ void ImplicitIntegrator::adapt_projection(const Cloth& cloth, ProjectionChoice& 
 void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, double& residual,
                                         int& iterations, int& backtracks, bool& converged) {
   ProjectionChoice choice = begin_projection();
+  double last_move = 0.0, rate = 1.0;  // the truncation test's memory within the step
   while (true) {
     poll_interrupt();  // max_newton is user-typed
     const IterationVerdict now = verdict(energy, residual, iterations);
@@ -169,6 +170,12 @@ void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, doub
     }
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
+    if (alpha == 1.0 && std::isfinite(energy) && std::isfinite(residual) &&
+        truncation_test(cloth, alpha, last_move, rate)) {
+      ++m_statistics.truncation_stops;
+      converged = true;
+      break;
+    }
     if (m_options.step_tol > 0.0 && alpha == 1.0 && std::isfinite(energy) &&
         std::isfinite(residual) &&
         m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
@@ -314,6 +321,7 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
   bool current = false;    // the factor is of m_iterate's clamped Hessian
   bool same = false;       // and that equals the exact one
   double first_residual = -1.0;
+  double last_move = 0.0, rate = 1.0;  // the truncation test's memory within the step
   while (true) {
     poll_interrupt();  // max_newton is user-typed
     const IterationVerdict now = verdict(energy, residual, iterations);
@@ -382,8 +390,14 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       energy = evaluate(cloth, m_iterate, true, false);
       residual = scaled_residual(cloth);
       assembled = current = same = false;
-      // the step test trusts a Newton step only: CG ended inside the region, converged, on
-      // positive curvature
+      // the step and truncation tests trust a Newton step only: CG ended inside the region,
+      // converged, on positive curvature
+      if (!boundary && !negative && !exhausted && std::isfinite(energy) &&
+          std::isfinite(residual) && truncation_test(cloth, 1.0, last_move, rate)) {
+        ++m_statistics.truncation_stops;
+        converged = true;
+        break;
+      }
       if (m_options.step_tol > 0.0 && !boundary && !negative && !exhausted &&
           std::isfinite(energy) &&
           std::isfinite(residual) &&

@@ -39,7 +39,7 @@ CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
 CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
 CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
 #: Options of Newton's method that quasi-Newton does not take.
-NEWTON_ONLY = ("linearized", "step_tol", "mixed", "adaptive_projection", "projection",
+NEWTON_ONLY = ("linearized", "step_tol", "truncation_fraction", "mixed", "adaptive_projection", "projection",
                 "lagged_factorization",
                 "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
                 "pcg_max_iterations")
@@ -58,11 +58,17 @@ INTEGRATOR_OPTIONS = {
         # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
         # lagged_factorization: keep the factor across Newton iterations and steps, CG
         # preconditioned by it on the current matrix (steihaug: the exact Hessian), refactor
-        # when CG needs more than lag_max_cg_iterations. mixed: Newton's matrices take the
-        # springs' forces from the step's linearization (the mixed formulation), off by
-        # default; with the clamp and the step test it saves ~40 % on stiff sheets.
+        # when CG needs more than lag_max_cg_iterations. truncation_fraction: Newton also
+        # stops once its estimated distance to the solution is at most this fraction of the
+        # step's estimated truncation error (0 = off; ImplicitOptions says how both are
+        # estimated).
         **{name: value for name, value in CORE_IMPLICIT.items()
            if name not in ("method", "minimizer", "lbfgs_history")},
+        # mixed: Newton's matrices take the springs' forces from the step's linearization (the
+        # mixed formulation, Trusty et al. 2022). None: on with the clamp (it saves ~40 % of
+        # its iterations on stiff sheets), off with the other projections (measured mixed with
+        # steihaug, far worse with its lagged factors; docs/integrators.md).
+        "mixed": None,
         # Try the exact Hessian first, fall back to the PSD projection when the factorization
         # finds it indefinite. None: on for the Cholesky backends, off for pcg (which cannot
         # tell). False: always project (linear convergence when many springs are compressed).
@@ -74,7 +80,7 @@ INTEGRATOR_OPTIONS = {
         # on a poor model fit, lowered on a good one, carried across steps) | "steihaug"
         # (trust-region Newton–CG: CG on the exact Hessian preconditioned by the clamped one's
         # factor; no factorization thrown away). None: adaptive_projection decides if given,
-        # else "clamp" for linearized or pcg and "steihaug" otherwise.
+        # else "clamp".
         "projection": None,
         # Where Newton starts: "start" (xₙ) | "inertial" (xₙ + h vₙ). None: "start" for
         # linearized (Baraff–Witkin's step), "inertial" otherwise.
@@ -230,6 +236,7 @@ _RULES.update(strain_limit=_or_none(_real(1.0, low_open=False)),
               adaptive_projection=_or_none(_RULES["adaptive_projection"]),
               projection=_or_none(_RULES["projection"]),
               predictor=_or_none(_RULES["predictor"]),
+              mixed=_or_none(_RULES["mixed"]),
               acceleration=_one_of(*ACCELERATIONS))
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
@@ -258,12 +265,11 @@ def _projection(options):
         return options["projection"]
     if options["adaptive_projection"] is not None:
         return "exact" if options["adaptive_projection"] else "clamp"
-    if options["linearized"] or options["solver"] == "pcg":
-        return "clamp"
-    # Trust-region Newton–CG on the exact Hessian, preconditioned by the clamped one's factor:
-    # no factorization thrown away, and on the buckling scenes the cheapest (see
-    # docs/integrators.md and benchmarks/newton_projection.py).
-    return "steihaug"
+    # The clamp with the mixed matrices, stopped by the truncation test: no factorization
+    # thrown away, and on the stiff and the buckling scenes the fewest iterations (see
+    # docs/integrators.md and benchmarks/newton_projection.py). pcg and linearized need it
+    # (no Cholesky to find an indefinite matrix; one step).
+    return "clamp"
 
 
 def _predictor(options):
@@ -284,7 +290,10 @@ def resolve_options(integrator, options) -> dict:
                 and options["adaptive_projection"] != (projection == "exact"):
             raise ValueError(f"adaptive_projection={options['adaptive_projection']} contradicts "
                              f"projection={projection!r}; give one of them")
-        options.update(projection=projection, predictor=_predictor(options))
+        mixed = options["mixed"]
+        if mixed is None:  # the one linearized step is the same either way (to round-off)
+            mixed = projection == "clamp" and not options["linearized"]
+        options.update(projection=projection, predictor=_predictor(options), mixed=mixed)
     return options
 
 

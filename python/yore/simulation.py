@@ -134,13 +134,16 @@ class Simulation:
         gradient as a displacement, is below newton_tol × the mean rest length),
         ``step_tol`` (0 = off: Newton also stops after a full step that moved no vertex by
         more than step_tol × the mean rest length, the model's distance to the solution;
-        counted in ``step_test_stops``; a step that
+        counted in ``step_test_stops``), ``truncation_fraction`` (0.1: Newton also stops
+        once its estimated distance to the solution is below this fraction of the step's
+        estimated local truncation error, as stiff integrators do; 0 = off; counted in
+        ``truncation_stops``); a step that
         reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region" | "shifted" | "steihaug", see `yore.options`; None: "steihaug",
-        or "clamp" for linearized and pcg), ``predictor`` (None | "start" |
-        "inertial"), ``mixed`` (False: Newton's matrices take the springs' forces from the
-        step's linearization, the mixed formulation; with the clamp and ``step_tol`` it saves
+        "exact" | "trust-region" | "shifted" | "steihaug", see `yore.options`; None: "clamp"),
+        ``predictor`` (None | "start" |
+        "inertial"), ``mixed`` (None: Newton's matrices take the springs' forces from the
+        step's linearization, the mixed formulation; None: with the clamp, where it saves
         ~40 % of the iterations on stiff sheets), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
@@ -277,8 +280,9 @@ class Simulation:
             history = self._integrator.history(self._cloth)
         if self._integrator_name in ("implicit", "bdf2"):
             memory = self._integrator.projection_memory()
+        # the options as resolved: a state continues with what ran, whatever later defaults
         return {"cloth": self._cloth.state(), "integrator": self._integrator_name,
-                "options": dict(self._options), "dt": self._dt,
+                "options": dict(self.resolved_options), "dt": self._dt,
                 "gravity": self._gravity.copy(), "history": history,
                 "projection_memory": memory, "target_time": self._target_time,
                 "dt_follows_cloth": self._dt_follows_cloth}
@@ -304,7 +308,7 @@ class Simulation:
                              f"got {got}")
         cloth = Cloth.from_state(state["cloth"])
         sim = cls(cloth, integrator=state["integrator"], dt=state["dt"],
-                  gravity=state["gravity"], **state["options"])
+                  gravity=state["gravity"], **_as_saved(state["integrator"], state["options"]))
         if state["history"] is not None:
             sim._integrator.set_history(cloth, state["history"])
         memory = state.get("projection_memory")
@@ -712,6 +716,21 @@ class Simulation:
     def __repr__(self) -> str:
         return (f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
                 f"t={self.time:.4g} s, {self._cloth!r}>")
+
+
+def _as_saved(integrator, options):
+    """A state's options as its simulation ran them. States saved before the truncation test
+    existed (no ``truncation_fraction``) ran Newton without it, without the mixed matrices
+    unless asked, and with projection None meaning steihaug (the clamp for linearized or pcg):
+    so they continue."""
+    if integrator not in ("implicit", "bdf2") or not isinstance(options, dict) or \
+            "truncation_fraction" in options:
+        return options
+    options = dict(options, truncation_fraction=0.0, mixed=options.get("mixed", False))
+    if options.get("projection") is None and options.get("adaptive_projection") is None:
+        options["projection"] = ("clamp" if options.get("linearized") or
+                                 options.get("solver") == "pcg" else "steihaug")
+    return options
 
 
 def _region_indices(region, vertex_count):

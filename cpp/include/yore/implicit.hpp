@@ -97,6 +97,17 @@ struct ImplicitOptions {
   /// k h̃²/m times smaller error along the springs than it says; this test does not. 0 (the
   /// default) turns it off.
   double step_tol = 0.0;
+  /// The truncation test, on by default: Newton also stops after a full step (no backtracking;
+  /// steihaug: CG ended inside the region, converged, on positive curvature) once its estimated
+  /// distance to the solution is at most truncation_fraction × the step's estimated local
+  /// truncation error, both the largest over the vertices. The distance is the step's largest
+  /// move times min(1, θ), θ the contraction rate (the largest move over the last one,
+  /// max(0.3 θ_before, that) after the first step; 1 before it), as CVODE's Newton test does
+  /// (Hindmarsh et al. 2005); the truncation error is backward Euler's ½ h² a ≈ ½ |x⁺ − x̂|
+  /// (x̂ = xₙ + h vₙ) or BDF2's (2/9) h³ x''' ≈ (2/9) h |v⁺ − 2vₙ + vₙ₋₁| at the iterate.
+  /// Stiff integrators stop there because solving further does not make the step more
+  /// accurate: the step's own error dominates. 0 turns it off (the residual test alone).
+  double truncation_fraction = 0.1;
   /// Mixed (stress) form of the springs' geometric stiffness: the transverse term of each
   /// spring's Hessian, (f/ℓ)(I − n nᵀ), takes its force f from λ, which starts each step at the
   /// springs' forces k(ℓ − L) at xₙ and follows each Newton step's linearization,
@@ -121,6 +132,7 @@ struct ImplicitStatistics {
   std::int64_t line_search_backtracks = 0;
   std::int64_t unconverged_steps = 0;  ///< steps that reached max_newton
   std::int64_t step_test_stops = 0;    ///< steps the step test (step_tol) ended
+  std::int64_t truncation_stops = 0;   ///< steps the truncation test (truncation_fraction) ended
   std::int64_t exact_hessian_rejected = 0;  ///< projection exact: exact Hessians found indefinite
   std::int64_t exact_hessian_accepted = 0;  ///< projection exact: exact Hessians factorized
   std::int64_t abs_projections = 0;     ///< trust_region: iterations that used |λ| filtering
@@ -141,6 +153,9 @@ struct ImplicitStatistics {
   double last_residual = std::numeric_limits<double>::quiet_NaN();  ///< ‖∇E‖∞ at the end, N
   /// The stopping residual at the end of the last step: max_i |∇ᵢE| h̃²/mᵢ / mean rest length.
   double last_scaled_residual = std::numeric_limits<double>::quiet_NaN();
+  /// The last step's estimated local truncation error (see truncation_fraction), m, largest
+  /// over the free vertices.
+  double last_truncation_error = std::numeric_limits<double>::quiet_NaN();
   std::int64_t last_dofs = 0;
 };
 
@@ -298,6 +313,14 @@ class ImplicitIntegrator {
 
   // Per-step data and work buffers (sized per topology; no allocation per step).
   double m_h = 0.0;        // h̃
+  double m_dt = 0.0;       // the step's h
+  bool m_second_order = false;  // this step is BDF2's (else backward Euler's)
+  /// The step's local truncation error at m_iterate, m, largest over the free vertices.
+  double truncation_error(const Cloth& cloth) const;
+  /// The truncation test after a full step (`m_direction` × alpha) from the last iterate;
+  /// `last_move` and `rate` carry the previous move and contraction rate within the step
+  /// (0 and 1 at its start). True: stop.
+  bool truncation_test(const Cloth& cloth, double alpha, double& last_move, double& rate) const;
   Vec3 m_gravity = Vec3::Zero();
   Positions m_anchor;      // x̄, n×3
   Positions m_target;      // x̂, n×3
