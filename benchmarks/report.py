@@ -243,7 +243,7 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
                    + (f"{r['step_deviation']:.1e} |" if r.get("step_deviation") is not None
                       else "– |"))
     out += ["", "Target on the first scene (median <= 5, <= 0.5 rejected/step, none at max_newton, "
-            "deviation <= 1e-3): " + ", ".join(
+            "one step's deviation <= 1e-3): " + ", ".join(
                 f"{p} {'**met**' if met else '**missed**'}"
                 for p, met in newton["target_met"].items()) + "."]
 
