@@ -16,7 +16,8 @@ tight-tolerance run (shifted, newton_tol 1e-9, max_newton 1000) over the cloth's
 vertices before any stroke) — on the buckling scenes this is mostly the folds settling
 differently, so beside it "step_deviation" is the error of the step itself: every 10th step is
 also solved tight from the same state, and the largest vertex distance over the size is
-kept. The issue's target row is the 32² gathered hanging cloth (32 × 32 vertices, 120 steps).
+kept, and over the step's estimated truncation error ("step_deviation_over_truncation", the
+largest ratio: Newton's error against the discretization's). The issue's target row is the 32² gathered hanging cloth (32 × 32 vertices, 120 steps).
 Writes newton_projection.json and newton_projection.png.
 """
 
@@ -43,11 +44,13 @@ PROBE_EVERY = 10
 TIGHT = {"projection": "shifted", "newton_tol": 1e-9, "max_newton": 1000,
          "truncation_fraction": 0.0, "mixed": False}
 MAX_NEWTON = yore._core.ImplicitIntegrator.defaults["max_newton"]  # the cap the rows run with
-# The issue's target on the 32² gathered cloth, with the accuracy asked of the step itself
-# (step_deviation): the whole run's deviation on a buckling cloth is the folds settling in
-# other mirror-image minima, which no tolerance fixes (docs/limitations.md).
+# The issue's target on the 32² gathered cloth (iterations, thrown-away factorizations, capped
+# steps), and as accuracy that each probed step lands within its own estimated truncation error
+# of the tight solve (step_deviation_over_truncation <= 1): Newton's error below the
+# discretization's. (The whole run's deviation on a buckling cloth is the folds settling in
+# other mirror-image minima, which no tolerance fixes: docs/limitations.md.)
 TARGET = {"median_iterations": 5, "rejected_per_step": 0.5, "unconverged_steps": 0,
-          "step_deviation": 1e-3}
+          "step_deviation_over_truncation": 1.0}
 
 
 def scenes(quick):
@@ -81,13 +84,13 @@ def run(make, seconds, probe_every=0, **options):
     """Steps one at a time; returns the final positions of the vertices it started with,
     per-step iterations and rejections, the unconverged-step count, CPU seconds, the simulated
     time and, every ``probe_every`` steps (0: never), the step's own deviation: the same step
-    from the same state solved tight (`TIGHT`), largest vertex distance (m). The probes' CPU
-    time is not counted."""
+    from the same state solved tight (`TIGHT`), largest vertex distance (m), and that over the
+    step's estimated truncation error. The probes' CPU time is not counted."""
     sim, stroke = make(integrator="implicit", dt=DT, **options)
     original = sim.cloth.vertex_count  # strokes append vertices, and where depends on the shape
     steps = round(seconds / DT)
     stroke_every = steps // 5 if stroke is not None else 0
-    iterations, rejected, step_deviations = [], [], []
+    iterations, rejected, step_deviations, step_ratios = [], [], [], []
     before_iterations = before_rejected = 0
     probe_cpu = 0.0
     start = time.process_time()
@@ -105,8 +108,10 @@ def run(make, seconds, probe_every=0, **options):
                 state["options"] = {**state["options"], **TIGHT}
                 tight = yore.Simulation.from_state(state)
                 tight.step(1, progress=False)
-                step_deviations.append(
-                    float(np.abs(tight.cloth.positions - sim.cloth.positions).max()))
+                distance = float(np.abs(tight.cloth.positions - sim.cloth.positions).max())
+                step_deviations.append(distance)
+                truncation = sim.stats["counters"]["last_truncation_error"]
+                step_ratios.append(distance / truncation if truncation > 0 else float("inf"))
                 probe_cpu += time.process_time() - probe_start
             counters = sim.stats["counters"]
             iterations.append(counters["newton_iterations"] - before_iterations)
@@ -115,17 +120,18 @@ def run(make, seconds, probe_every=0, **options):
             before_rejected = counters["exact_hessian_rejected"]
     cpu = time.process_time() - start - probe_cpu
     return (sim.cloth.positions[:original].copy(), np.array(iterations), np.array(rejected),
-            sim.stats["counters"]["unconverged_steps"], cpu, sim.time, np.array(step_deviations))
+            sim.stats["counters"]["unconverged_steps"], cpu, sim.time, np.array(step_deviations),
+            np.array(step_ratios))
 
 
 def main(argv=None):
     args = arguments(__doc__, argv)
     rows = []
     for scene, (make, size, seconds) in scenes(args.quick).items():
-        reference, its, _, unconverged, _, _, _ = run(make, seconds, **TIGHT)
+        reference, its, _, unconverged, _, _, _, _ = run(make, seconds, **TIGHT)
         print(f"{scene}: tight solve max {its.max()} it/step, {unconverged} unconverged")
         for projection, options in VARIANTS.items():
-            x, its, rejected, unconverged, cpu, simulated, probes = run(
+            x, its, rejected, unconverged, cpu, simulated, probes, ratios = run(
                 make, seconds, probe_every=PROBE_EVERY, **options)
             rows.append({
                 "scene": scene, "projection": projection, "steps": int(its.size),
@@ -135,19 +141,23 @@ def main(argv=None):
                 "unconverged_steps": int(unconverged),
                 "cpu_seconds_per_simulated_second": cpu / simulated,
                 "deviation": float(np.abs(x - reference).max() / size),
-                "step_deviation": float(probes.max() / size) if probes.size else None})
+                "step_deviation": float(probes.max() / size) if probes.size else None,
+                "step_deviation_over_truncation": (float(ratios.max()) if ratios.size
+                                                   else None)})
             r = rows[-1]
             print(f"  {projection:12s} median {r['median_iterations']:4.1f} mean "
                   f"{r['mean_iterations']:5.1f} max {r['max_iterations']:3d} it/step, "
                   f"{r['rejected_per_step']:5.2f} rejected/step, {r['unconverged_steps']:3d} "
                   f"at max_newton, {r['cpu_seconds_per_simulated_second']:7.2f} CPU s/s, "
-                  f"deviation {r['deviation']:.1e} (one step {r['step_deviation']:.1e})",
+                  f"deviation {r['deviation']:.1e} (one step {r['step_deviation']:.1e}, "
+                  f"{r['step_deviation_over_truncation']:.2f} of its truncation error)",
                   flush=True)
     target_scene = next(iter(scenes(args.quick)))
     met = {r["projection"]: (r["median_iterations"] <= TARGET["median_iterations"]
                              and r["rejected_per_step"] <= TARGET["rejected_per_step"]
                              and r["unconverged_steps"] <= TARGET["unconverged_steps"]
-                             and r["step_deviation"] <= TARGET["step_deviation"])
+                             and r["step_deviation_over_truncation"]
+                             <= TARGET["step_deviation_over_truncation"])
            for r in rows if r["scene"] == target_scene}
     payload = {"benchmark": "newton_projection", "machine": machine_info(), "quick": args.quick,
                "rows": rows, "projections": list(VARIANTS), "max_newton": MAX_NEWTON,

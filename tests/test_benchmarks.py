@@ -247,6 +247,14 @@ def test_newton_projection_smoke(tmp_path):
     assert all(0.0 <= r["deviation"] < 1.0 for r in data["rows"])
     # the step's own error, probed from the run's states, is finite and below the size
     assert all(0.0 <= r["step_deviation"] < 1.0 for r in data["rows"])
+    # the default's truncation test stops each step within its truncation error of the tight
+    # solve (measured 0.05–0.66 of it on the stiff sheet, see tests/test_truncation.py); after
+    # a stroke, in the folds' flat valley, the rate estimate is optimistic (2.07 here, up to
+    # ~5 measured: docs/limitations.md), never by orders of magnitude
+    default = {r["scene"]: r["step_deviation_over_truncation"] for r in data["rows"]
+               if r["projection"] == "default"}
+    assert all(ratio <= (10.0 if "strokes" in scene else 1.0)
+               for scene, ratio in default.items()), default
     assert set(data["target_met"]) == {r["projection"] for r in data["rows"]}
 
 

@@ -542,8 +542,8 @@ double ImplicitIntegrator::truncation_error(const Cloth& cloth) const {
   return largest;
 }
 
-bool ImplicitIntegrator::truncation_test(const Cloth& cloth, double alpha, double& last_move,
-                                         double& rate) const {
+bool ImplicitIntegrator::truncation_test(const Cloth& cloth, double alpha, bool trusted,
+                                         double& last_move, double& rate) const {
   if (!(m_options.truncation_fraction > 0.0)) return false;
   double move = 0.0;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
@@ -552,7 +552,8 @@ bool ImplicitIntegrator::truncation_test(const Cloth& cloth, double alpha, doubl
   move *= alpha;
   if (last_move > 0.0) rate = std::max(0.3 * rate, move / last_move);
   last_move = move;
-  return move * std::min(1.0, rate) <= m_options.truncation_fraction * truncation_error(cloth);
+  return trusted &&
+         move * std::min(1.0, rate) <= m_options.truncation_fraction * truncation_error(cloth);
 }
 
 double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {

@@ -170,8 +170,9 @@ void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, doub
     }
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
-    if (alpha == 1.0 && std::isfinite(energy) && std::isfinite(residual) &&
-        truncation_test(cloth, alpha, last_move, rate)) {
+    if (truncation_test(cloth, alpha,
+                        alpha == 1.0 && std::isfinite(energy) && std::isfinite(residual),
+                        last_move, rate)) {
       ++m_statistics.truncation_stops;
       converged = true;
       break;
@@ -392,8 +393,10 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       assembled = current = same = false;
       // the step and truncation tests trust a Newton step only: CG ended inside the region,
       // converged, on positive curvature
-      if (!boundary && !negative && !exhausted && std::isfinite(energy) &&
-          std::isfinite(residual) && truncation_test(cloth, 1.0, last_move, rate)) {
+      if (truncation_test(cloth, 1.0,
+                          !boundary && !negative && !exhausted && std::isfinite(energy) &&
+                              std::isfinite(residual),
+                          last_move, rate)) {
         ++m_statistics.truncation_stops;
         converged = true;
         break;

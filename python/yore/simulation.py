@@ -142,9 +142,9 @@ class Simulation:
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
         "exact" | "trust-region" | "shifted" | "steihaug", see `yore.options`; None: "clamp"),
         ``predictor`` (None | "start" |
-        "inertial"), ``mixed`` (None: Newton's matrices take the springs' forces from the
-        step's linearization, the mixed formulation; None: with the clamp, where it saves
-        ~40 % of the iterations on stiff sheets), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
+        "inertial"), ``mixed`` (None = on with the clamp, off otherwise: Newton's matrices
+        take the springs' forces from the step's linearization, the mixed formulation, which
+        saves ~40 % of the clamp's iterations on stiff sheets), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
         ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
         ``adaptive_projection`` (the older name of two projections: True = "exact", try the

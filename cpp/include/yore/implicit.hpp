@@ -317,10 +317,12 @@ class ImplicitIntegrator {
   bool m_second_order = false;  // this step is BDF2's (else backward Euler's)
   /// The step's local truncation error at m_iterate, m, largest over the free vertices.
   double truncation_error(const Cloth& cloth) const;
-  /// The truncation test after a full step (`m_direction` × alpha) from the last iterate;
-  /// `last_move` and `rate` carry the previous move and contraction rate within the step
-  /// (0 and 1 at its start). True: stop.
-  bool truncation_test(const Cloth& cloth, double alpha, double& last_move, double& rate) const;
+  /// The truncation test after an accepted step (`m_direction` × alpha) from the last
+  /// iterate; `last_move` and `rate` carry the previous move and contraction rate within the
+  /// step (0 and 1 at its start) and follow every accepted step; only a `trusted` one (a full
+  /// Newton step) may stop. True: stop.
+  bool truncation_test(const Cloth& cloth, double alpha, bool trusted, double& last_move,
+                       double& rate) const;
   Vec3 m_gravity = Vec3::Zero();
   Positions m_anchor;      // x̄, n×3
   Positions m_target;      // x̂, n×3
