@@ -82,7 +82,8 @@ about 20 CPU hours, ~10 h on two workers; the longest cells (128², 2e7 N/m) ~1.
 budgets (e.g. the committed bench-results/crossover.json), so the grid is measured a part at a
 time, across sessions or machines (each cell's ratio is measured within the cell's own run). A
 family that ran there with other resolved options than today's keeps no row in those cells,
-which name it in `families_dropped`.
+which name it in `families_dropped`, as they name a family added since (the earlier run's
+families must be among this run's).
 
 Writes crossover.json (every run; per cell the cheapest explicit and implicit run at 1 % and
 0.1 %, implicit/explicit cost, each side's steps per simulated second × CPU per step, the
@@ -156,6 +157,10 @@ FAMILIES = {
                             "mixed": True, **TIGHT},
     "BDF2 clamp, step test": {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3,
                               "mixed": True, **TIGHT},
+    # yore's defaults (the clamp with the mixed matrices, the truncation test): a change of the
+    # defaults changes their resolved options, and a merge then leaves their rows out
+    "BE default": {"integrator": "implicit"},
+    "BDF2 default": {"integrator": "bdf2"},
     "local-global": {"integrator": "local-global"},
     "quasi-Newton BE": {"integrator": "quasi-newton", "method": "backward-euler"},
     "quasi-Newton BDF2": {"integrator": "quasi-newton", "method": "bdf2"},
@@ -1066,17 +1071,22 @@ def earlier_resolved(earlier, current, given):
 def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=None):
     """This run's (cells, rows) with an earlier run's payload: the earlier cells this run does
     not hold, and their rows, join; the grid of ``settings`` becomes the union. SystemExit when
-    the two runs differ in their families' names, thresholds or budgets (their costs would not
-    compare). A family whose resolved options (``resolved``, this run's; see `earlier_resolved`) differ
-    between the runs keeps no row in the earlier cells, which are summarised again without it
-    and name it in ``families_dropped``: a number is kept only with the options it ran with."""
+    the earlier run has a family this one does not, or they differ in thresholds or budgets
+    (their costs would not compare). A family whose resolved options (``resolved``, this run's;
+    see `earlier_resolved`) differ between the runs keeps no row in the earlier cells, which are
+    summarised again without it and name it in ``families_dropped``: a number is kept only with
+    the options it ran with. A family this run has and the earlier did not is named there too,
+    as not run in those cells."""
     theirs = earlier.get("settings", {})
     for key in MERGE_KEYS:
         if theirs.get(key) != settings.get(key):
             raise SystemExit(f"--merge {source}: its {key} is {theirs.get(key)!r}, this run's "
                              f"{settings.get(key)!r}; only runs with the same settings merge")
-    if set(earlier.get("family_options", {})) != set(settings["families"]):
-        raise SystemExit(f"--merge {source}: its families differ from this run's")
+    theirs_names = set(earlier.get("family_options", {}))
+    if not theirs_names <= set(settings["families"]):
+        raise SystemExit(f"--merge {source}: it has families this run has not: "
+                         + ", ".join(sorted(theirs_names - set(settings["families"]))))
+    new = [name for name in settings["families"] if name not in theirs_names]
     if list(earlier.get("thresholds", ())) != list(THRESHOLDS) or \
             earlier.get("reference_tolerance") != REFERENCE_TOLERANCE:
         raise SystemExit(f"--merge {source}: its thresholds differ from this run's")
@@ -1087,14 +1097,14 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
                        if resolved is not None else {})
     dropped = {name: sorted(k for k in set(options) | set(theirs_resolved.get(name, {}))
                             if options.get(k) != theirs_resolved.get(name, {}).get(k))
-               for name, options in (resolved or {}).items()}
+               for name, options in (resolved or {}).items() if name not in new}
     dropped = {name: changed for name, changed in dropped.items() if changed}
     earlier_rows = [r for r in earlier["rows"]
                     if (int(r["size"]), float(r["stretch_stiffness"]), str(r["bending"])) in keys
                     and r["method"] not in dropped]
     rows = rows + earlier_rows
     # the earlier cells are summarised again by this run's rules (families, reference rule)
-    kept = [name for name in settings["families"] if name not in dropped]
+    kept = [name for name in settings["families"] if name not in dropped and name not in new]
     resummarized = []
     for c in added:
         cell = dict(c)
@@ -1102,12 +1112,13 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
             info = {k: v for k, v in c.items() if not k.startswith("at_")}
             mine = [r for r in earlier_rows if _cell_key(r) == _cell_key(c)]
             cell = summarize_cell(info, mine, kept)
-        if dropped:
+        if dropped or new:
             cell["families_dropped"] = {**c.get("families_dropped", {}), **{
                 name: "measured with other options: " + ", ".join(
                     f"{k} {theirs_resolved.get(name, {}).get(k)!r} (now {resolved[name].get(k)!r})"
                     for k in changed)
-                for name, changed in dropped.items()}}
+                for name, changed in dropped.items()}, **{
+                name: "not run: not a family yet when the cell ran" for name in new}}
         resummarized.append(cell)
     added = resummarized
     merged = dict(settings)
@@ -1117,7 +1128,8 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
                          if b in settings["bending"] or any(k[2] == b for k in keys)]
     origin = {"from": source, "machine": earlier.get("machine"),
               "cells": [list(k) for k in sorted(keys, key=str)],
-              "families_dropped": {name: changed for name, changed in dropped.items()}}
+              "families_dropped": {name: changed for name, changed in dropped.items()},
+              "families_new": new}
     return merged, cells + added, rows, origin
 
 

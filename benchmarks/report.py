@@ -81,9 +81,9 @@ def crossover_section(crossover: dict, images: str) -> list:
             dropped.setdefault((name, why.split(": ", 1)[-1]), []).append(
                 f"{c['size']}² k = {c['stretch_stiffness']:g} {c['bending']}")
     if dropped:
-        out += ["", "Families left out of cells merged from an earlier run, because they ran "
-                "there with other options than today's (a number is kept only with the options it "
-                "ran with): " + "; ".join(f"{name} ({why}) in {', '.join(sorted(cells))}"
+        out += ["", "Families left out of cells merged from an earlier run, which ran them with "
+                "other options than today's or not at all (a number is kept only with the options "
+                "it ran with): " + "; ".join(f"{name} ({why}) in {', '.join(sorted(cells))}"
                                           for (name, why), cells in sorted(dropped.items()))
                 + "."]
     crossing = crossover["summary"]["crossovers"]

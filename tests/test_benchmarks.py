@@ -428,6 +428,46 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     assert origin["families_dropped"] == {} and "families_dropped" not in cells[0]
 
 
+def test_crossover_merge_keeps_an_earlier_run_that_lacked_a_family_this_run_has():
+    # an earlier run without "BDF2" merges into a run with it: its cells keep their families'
+    # rows and name "BDF2" as not run; a run with a family this one lacks does not merge
+    from benchmarks import crossover
+
+    families = {"explicit": {"integrator": "explicit"},
+                "BE linearized": {"integrator": "implicit", "linearized": True,
+                                  "truncation_fraction": 0.0},
+                "BDF2": {"integrator": "bdf2"}}
+    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
+                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
+                "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
+                "bending": ["equal"], "families": families}
+    resolved = crossover.resolved_families(families)
+    earlier_families = {k: v for k, v in families.items() if k != "BDF2"}
+    old_rows = [crossover_row("explicit", 1e-3, 10.0), crossover_row("BE linearized", 5e-3, 4.0)]
+    info = {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "status": "done",
+            "reference_converged": True, "horizon": 0.25, "reference_error": 5e-5,
+            "reference_dt": 1e-6}
+    old_cell = crossover.summarize_cell(info, old_rows, list(earlier_families))
+    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
+               "family_options": earlier_families,
+               "family_resolved_options": {k: resolved[k] for k in earlier_families},
+               "thresholds": list(crossover.THRESHOLDS),
+               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
+               "summary": {"cells": [dict(old_cell, status="done")]}, "rows": old_rows}
+    _, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
+                                                  resolved)
+    assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
+    (cell,) = cells
+    assert cell["at_0.01"]["winner"] == "BE linearized"
+    assert cell["at_0.01"]["implicit_over_explicit_cost"] == pytest.approx(0.4)
+    assert set(cell["families_dropped"]) == {"BDF2"}
+    assert cell["families_dropped"]["BDF2"].startswith("not run")
+    assert origin["families_new"] == ["BDF2"] and origin["families_dropped"] == {}
+    with pytest.raises(SystemExit, match="families this run has not: BDF2"):
+        crossover.merge_runs(dict(settings, families=earlier_families), [], [],
+                             dict(earlier, family_options=families), "old.json", resolved)
+
+
 def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine():
     """A reference that stalls at 5e-4 (between a tenth of 1 % and a tenth of 0.1 %) judges
     the cell at 1 % and leaves it out at 0.1 %: in the cell's summary, the targets, the table
