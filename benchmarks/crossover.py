@@ -1033,11 +1033,9 @@ def _cell_key(cell):
     return (int(cell["size"]), float(cell["stretch_stiffness"]), str(cell["bending"]))
 
 
-#: Options that yore gained after runs were recorded without their families' resolved options,
-#: with the value that reproduces what those runs ran: a family of such a run that takes one of
+#: Options that yore gained after runs were recorded, with the value that reproduces what those
+#: runs ran (the behaviour before the option existed): a family of such a run that takes one of
 #: them ran with this value.
-#: Options added to yore after runs were recorded, with the value those runs ran with (the
-#: behaviour before the option existed).
 LEGACY_OPTIONS = {"mixed": False, "truncation_fraction": 0.0}
 
 

@@ -367,6 +367,27 @@ def crossover_row(method, error, cost, size=64, stiffness=2e6, bending="equal",
             "factorizations_per_step": iterations}
 
 
+def crossover_settings(families, sizes=(32,), stiffness=(2e5,), bending=("equal",)):
+    """A crossover run's settings, with the committed run's budgets."""
+    from benchmarks import crossover
+
+    return {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
+            "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
+            "rates": list(crossover.RATES), "sizes": list(sizes), "stiffness": list(stiffness),
+            "bending": list(bending), "families": families}
+
+
+def earlier_crossover(settings, cells, rows, **fields):
+    """An earlier run's payload with the budgets and families of ``settings`` (``fields``
+    added or replaced)."""
+    from benchmarks import crossover
+
+    return {"settings": {k: v for k, v in settings.items() if k != "families"},
+            "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
+            "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
+            "summary": {"cells": cells}, "rows": rows, **fields}
+
+
 def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_options():
     # a run recorded before `mixed` existed ran the clamp with the step test with mixed=False
     # (and did not name the option): its rows must not stand for today's family, which asks
@@ -380,10 +401,7 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
                 "BE linearized": {"integrator": "implicit", "linearized": True,
                                   "truncation_fraction": 0.0},
                 "BDF2": dict(stiff, mixed=True)}
-    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
-                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
-                "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
-                "bending": ["equal"], "families": families}
+    settings = crossover_settings(families)
     resolved = crossover.resolved_families(families)
     assert resolved["BDF2"]["mixed"] is True and resolved["BE linearized"]["mixed"] is False
 
@@ -394,11 +412,8 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
             "reference_dt": 1e-6}
     old_cell = crossover.summarize_cell(info, old_rows, list(families))
     assert old_cell["at_0.01"]["winner"] == "BDF2"
-    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
-               "family_options": dict(families, BDF2=stiff),
-               "thresholds": list(crossover.THRESHOLDS),
-               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
-               "summary": {"cells": [dict(old_cell, status="done")]}, "rows": old_rows}
+    earlier = earlier_crossover(settings, [dict(old_cell, status="done")], old_rows,
+                                family_options=dict(families, BDF2=stiff))
     grid, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
                                                      resolved)
     assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
@@ -437,10 +452,7 @@ def test_crossover_merge_keeps_an_earlier_run_that_lacked_a_family_this_run_has(
                 "BE linearized": {"integrator": "implicit", "linearized": True,
                                   "truncation_fraction": 0.0},
                 "BDF2": {"integrator": "bdf2"}}
-    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
-                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
-                "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
-                "bending": ["equal"], "families": families}
+    settings = crossover_settings(families)
     resolved = crossover.resolved_families(families)
     earlier_families = {k: v for k, v in families.items() if k != "BDF2"}
     old_rows = [crossover_row("explicit", 1e-3, 10.0), crossover_row("BE linearized", 5e-3, 4.0)]
@@ -448,12 +460,9 @@ def test_crossover_merge_keeps_an_earlier_run_that_lacked_a_family_this_run_has(
             "reference_converged": True, "horizon": 0.25, "reference_error": 5e-5,
             "reference_dt": 1e-6}
     old_cell = crossover.summarize_cell(info, old_rows, list(earlier_families))
-    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
-               "family_options": earlier_families,
-               "family_resolved_options": {k: resolved[k] for k in earlier_families},
-               "thresholds": list(crossover.THRESHOLDS),
-               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
-               "summary": {"cells": [dict(old_cell, status="done")]}, "rows": old_rows}
+    earlier = earlier_crossover(
+        settings, [dict(old_cell, status="done")], old_rows, family_options=earlier_families,
+        family_resolved_options={k: resolved[k] for k in earlier_families})
     _, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
                                                   resolved)
     assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
@@ -515,14 +524,8 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
     assert "cheaper in 1 of 1" in crossover.finding(payload)
     # an earlier run's cell, summarised under the old rule (left out), is judged again
     old = {k: v for k, v in coarse.items() if not k.startswith("at_")}
-    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
-                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
-                "rates": list(crossover.RATES), "sizes": [32], "stiffness": [2e5],
-                "bending": ["equal"], "families": {f: {} for f in families}}
-    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
-               "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
-               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
-               "summary": {"cells": [old]}, "rows": rows}
+    settings = crossover_settings({f: {} for f in families})
+    earlier = earlier_crossover(settings, [old], rows)
     _, merged, _, _ = crossover.merge_runs(settings, [], [], earlier, "old.json")
     assert merged[0]["at_0.01"]["winner"] == "BE linearized"
     assert "reference_too_coarse" in merged[0]["at_0.001"]
@@ -531,11 +534,9 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
 def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
     from benchmarks import crossover
 
-    settings = {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
-                "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
-                "rates": list(crossover.RATES), "sizes": [128], "stiffness": [2e6],
-                "bending": ["soft"], "families": {"explicit": {"integrator": "explicit"},
-                                                  "BE linearized": {"linearized": True}}}
+    settings = crossover_settings({"explicit": {"integrator": "explicit"},
+                                   "BE linearized": {"linearized": True}},
+                                  sizes=(128,), stiffness=(2e6,), bending=("soft",))
 
     def rows_of(size, k, bending, ratio):
         return [crossover_row(method, 5e-3, cost, size, k, bending, iterations=1.0)
@@ -547,11 +548,9 @@ def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
         return dict(crossover.summarize_cell(info, rows_of(size, k, bending, ratio),
                                              list(settings["families"])), status="done")
 
-    earlier = {"settings": {k: v for k, v in settings.items() if k != "families"},
-               "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
-               "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
-               "summary": {"cells": [cell(64, 2e5, "equal", 1.0), cell(128, 2e6, "soft", 9.0)]},
-               "rows": rows_of(64, 2e5, "equal", 1.0) + rows_of(128, 2e6, "soft", 9.0)}
+    earlier = earlier_crossover(
+        settings, [cell(64, 2e5, "equal", 1.0), cell(128, 2e6, "soft", 9.0)],
+        rows_of(64, 2e5, "equal", 1.0) + rows_of(128, 2e6, "soft", 9.0))
     earlier["settings"].update(sizes=[64, 128], stiffness=[2e5, 2e6], bending=["equal", "soft"])
     mine = [cell(128, 2e6, "soft", 0.5)]
     grid, cells, rows, origin = crossover.merge_runs(settings, mine,
