@@ -18,9 +18,12 @@ stiff sheets); that with `lagged_factorization` (CG on the clamped Hessian, 20 i
 most, before a refactorization); and, for what the mixed matrices change in the same run,
 steihaug with `mixed=True` and the clamp with the step test without (`newton_over_actual_forces`
 and `cpu_over_actual_forces` on the rows with them). Per row: Newton iterations, fresh factorizations, factor reuses (CG solves
-on a kept factor) and thrown-away factorizations per step, CPU seconds (time.process_time) per
-simulated second, and the largest vertex distance from the default run's end state over the
-cloth's size. Writes factor_reuse.json and factor_reuse.png.
+on a kept factor), failed CG runs on a kept factor (after the k-th failure in a row the next
+min(2^(k-1), 32) iterations refactor without trying) and thrown-away factorizations per step,
+CPU seconds (time.process_time) per simulated second, the largest vertex distance from the
+default run's end state over the cloth's size, and the CPU time of one factorization and of one
+solve with a factor, the price a reuse has to beat. Writes factor_reuse.json and
+factor_reuse.png.
 """
 
 from __future__ import annotations
@@ -79,6 +82,7 @@ def run(resolution, duration, options, max_seconds):
             steps += 1
     cpu = time.process_time() - start
     c = sim.stats["counters"]
+    phases = sim.stats["phases"]
     fresh = c["factorizations"] - c["factorizations_thrown_away"]
     return sim, {
         "resolution": resolution, "steps": steps, "planned_steps": planned,
@@ -89,6 +93,13 @@ def run(resolution, duration, options, max_seconds):
         "thrown_away_per_step": c["factorizations_thrown_away"] / steps,
         "lagged_cg_iterations_per_reuse": (c["lagged_cg_iterations"] / c["factor_reuses"]
                                            if c["factor_reuses"] else 0.0),
+        # CG runs on a kept factor that missed their bound (each followed by a factorization)
+        "lagged_failures_per_step": c.get("lagged_failures", 0) / steps,
+        "lagged_cg_iterations_per_step": c["lagged_cg_iterations"] / steps,
+        # what a reuse has to beat: one factorization's CPU time in solves with a factor (a CG
+        # iteration on a kept factor is one solve and one product with the matrix)
+        "factorization_ms": 1e3 * phases["factorize_seconds"] / max(1, c["factorizations"]),
+        "solve_ms": 1e3 * phases["solve_seconds"] / max(1, c["solves"]),
         "unconverged_steps": c["unconverged_steps"],
         "cpu_seconds_per_simulated_second": cpu / (steps * DT),
     }

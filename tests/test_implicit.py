@@ -362,7 +362,8 @@ def test_lagged_factorization_reaches_the_same_steps_with_fewer_factorizations()
     for lagged in (False, True):
         sim = yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, integrator="implicit",
                                         adaptive_projection=False, newton_tol=1e-10,
-                                        max_newton=500, lagged_factorization=lagged)
+                                        max_newton=500, truncation_fraction=0.0,
+                                        lagged_factorization=lagged)
         sim.step(20)
         results.append((sim.cloth.positions, sim.stats["counters"]))
     (plain, plain_counters), (lagged, lagged_counters) = results
@@ -375,6 +376,31 @@ def test_lagged_factorization_reaches_the_same_steps_with_fewer_factorizations()
     # fails or there is no factor yet, by a fresh factorization (none thrown away: the clamp)
     assert lagged_counters["newton_iterations"] == (lagged_counters["factorizations"]
                                                     + lagged_counters["factor_reuses"])
+
+
+def test_a_kept_factor_that_never_serves_is_tried_on_a_doubling_schedule_and_changes_nothing():
+    # One CG iteration cannot reach a 1e-14 relative residual on the stiff sheet, so every try
+    # on the kept factor fails and is refactored: the directions, and so the steps, are the
+    # unlagged run's to the bit, and after the k-th failure the next min(2^(k-1), 32)
+    # iterations refactor without trying.
+    def run(**options):
+        sim = yore.scenes.hanging_cloth(resolution=10, pin_spacing=1.0, mass=0.1,
+                                        stretch_stiffness=2e5, bend_stiffness=2e5,
+                                        integrator="bdf2", dt=1 / 60, **options)
+        sim.step(12)
+        return sim.cloth.positions, sim.stats["counters"]
+
+    plain, plain_counters = run()
+    lagged, counters = run(lagged_factorization=True, lag_max_cg_iterations=1, lag_cg_tol=1e-14)
+    assert np.array_equal(plain, lagged)
+    assert counters["factor_reuses"] == 0
+    assert counters["factorizations"] == plain_counters["factorizations"]
+    failures, iterations = counters["lagged_failures"], counters["newton_iterations"]
+    assert failures >= 3
+    skips = [min(2 ** k, 32) for k in range(failures)]
+    # the first iteration has no factor; each failure is followed by its skips (the last one's
+    # perhaps cut short by the end of the run)
+    assert 1 + failures + sum(skips[:-1]) <= iterations <= 1 + failures + sum(skips)
 
 
 def test_lagged_factorization_needs_the_projected_hessian_and_a_cholesky_backend():

@@ -183,6 +183,7 @@ Newton direction.)doc")
         out["last_truncation_error"] = s.last_truncation_error;
         out["lagged_solves"] = s.lagged_solves;
         out["lagged_cg_iterations"] = s.lagged_cg_iterations;
+        out["lagged_failures"] = s.lagged_failures;
         out["lbfgs_skipped_updates"] = s.lbfgs_skipped_updates;
         out["trust_region_cg_iterations"] = s.trust_region_cg_iterations;
         out["trust_region_rejections"] = s.trust_region_rejections;

@@ -58,7 +58,8 @@ INTEGRATOR_OPTIONS = {
         # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
         # lagged_factorization: keep the factor across Newton iterations and steps, CG
         # preconditioned by it on the current matrix (steihaug: the exact Hessian), refactor
-        # when CG needs more than lag_max_cg_iterations. truncation_fraction: Newton also
+        # when CG needs more than lag_max_cg_iterations (and, after the k-th such failure in
+        # a row, for the next min(2^(k-1), 32) iterations). truncation_fraction: Newton also
         # stops once its estimated distance to the solution is at most this fraction of the
         # step's estimated truncation error (0 = off; ImplicitOptions says how both are
         # estimated).

@@ -154,7 +154,8 @@ class Simulation:
         ``lagged_factorization`` (False: keep the factor over iterations and steps, solve by CG
         preconditioned with it, refactor when CG needs more than ``lag_max_cg_iterations`` (20)
         to reach ``lag_cg_tol`` (1e-10); CG runs on the projected Hessian, or with "steihaug"
-        on the exact one at the trust-region solver's own tolerance).
+        on the exact one at the trust-region solver's own tolerance; after the k-th failed CG
+        in a row the next min(2^(k-1), 32) iterations refactor without trying).
 
         local-global: ``iterations`` (300: the cap per step), ``tolerance`` (1e-3: a step
         stops once its estimated distance to the backward-Euler solution is below this × the

@@ -81,7 +81,8 @@ struct ImplicitOptions {
   /// lag_max_cg_iterations to reach lag_cg_tol. Uses the projected Hessian (CG needs SPD);
   /// Cholesky backends only. With projection steihaug the matrix is the exact Hessian, CG's
   /// tolerance is the trust-region solver's own, and a factor is made only where CG on the kept
-  /// one needs more than lag_max_cg_iterations.
+  /// one needs more than lag_max_cg_iterations. After the k-th failed CG in a row the next
+  /// min(2^(k−1), 32) iterations refactor without trying the kept factor.
   bool lagged_factorization = false;
   int lag_max_cg_iterations = 20;
   double lag_cg_tol = 1e-10;
@@ -140,6 +141,7 @@ struct ImplicitStatistics {
   std::int64_t lagged_solves = 0;       ///< Newton systems solved by CG on a lagged factor (not
                                         ///< counting CG runs that failed and were refactored)
   std::int64_t lagged_cg_iterations = 0;
+  std::int64_t lagged_failures = 0;  ///< CG runs on a kept factor that missed their bound
   std::int64_t lbfgs_skipped_updates = 0;  ///< lbfgs: pairs with sᵀy ≤ 0, not stored
   std::int64_t trust_region_cg_iterations = 0;  ///< steihaug: CG iterations (one solve each)
   std::int64_t trust_region_rejections = 0;     ///< steihaug: trial steps the ratio test refused
@@ -333,6 +335,13 @@ class ImplicitIntegrator {
   std::vector<double> m_values;
   double m_energy_magnitude = 0.0;  // Σ |terms| of the last evaluate(): its round-off scale
   bool m_factor_valid = false;  // the solver holds a factor of this topology (lagged mode)
+  // lagged mode: Newton iterations still to refactor without trying the kept factor after a
+  // failed CG on it, and the next such back-off
+  int m_lag_skip = 0, m_lag_backoff = 1;
+  /// lagged mode: whether this iteration may try CG on the kept factor (counts a skip down)
+  bool try_kept_factor();
+  /// lagged mode: a CG on the kept factor succeeded (true) or missed its bound (false)
+  void kept_factor_result(bool solved);
   // projection exact: steps still to take projected after a rejection, and the next back-off
   int m_exact_skip = 0, m_exact_backoff = 1;
   double m_shift = 0.0;  // projection shifted: μ, in units of the inertia M/h̃²
