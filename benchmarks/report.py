@@ -277,17 +277,21 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
               and r["variant"].startswith("default (") and r["solve_ms"] > 0]
     if priced:
         out += ["", "What a reuse has to beat (default rows, no CG): one factorization costs " +
-                ", ".join(f"{r['factorization_ms']:.3g} ms at {r['resolution']}², "
-                          f"{r['factorization_ms'] / r['solve_ms']:.1f} solves with its factor"
+                ", ".join(f"{r['factorization_ms']:.3g} ms at {r['resolution']}² (as much as "
+                          f"{r['factorization_ms'] / r['solve_ms']:.1f} solves with its factor)"
                           for r in priced) +
                 "; a CG iteration on a kept factor is one solve and one product with the "
                 "matrix."]
     failing = [r for r in reuse["rows"] if "lagged_failures_per_step" in r
                and "lagged factor" in r["variant"]]
     if failing:
-        out += ["", "CG on the kept factor, per step (iterations, failed runs): " + ", ".join(
-            f"{r['resolution']}² {r['variant']} {r['lagged_cg_iterations_per_step']:.1f}, "
-            f"{r['lagged_failures_per_step']:.1f}" for r in failing) + "."]
+        # (steihaug's CG iterations are its trust-region solver's, not counted here)
+        out += ["", "Failed CG runs on the kept factor per step (and the lagged CG's iterations "
+                "per step, where the clamp runs it): " + ", ".join(
+                    f"{r['resolution']}² {r['variant']} {r['lagged_failures_per_step']:.2f}"
+                    + ("" if "steihaug" in r["variant"]
+                       else f" ({r['lagged_cg_iterations_per_step']:.1f})")
+                    for r in failing) + "."]
     lagged = [r for r in reuse["rows"] if "cpu_over_unlagged" in r]
     if lagged:
         out += ["", "The lagged factor's CPU time over the same setting without it: " + ", ".join(
