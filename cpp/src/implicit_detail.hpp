@@ -7,6 +7,9 @@ namespace yore::implicit_detail {
 
 // Most steps the exact projection waits, projected, after repeated rejections.
 constexpr int kMaxExactBackoff = 32;
+// Most Newton iterations a lagged factorization refactors without trying its kept factor,
+// after repeated failed CG runs on it.
+constexpr int kMaxLagBackoff = 32;
 
 // Backtracking line search: Armijo constant, halvings before giving up.
 constexpr double kArmijo = 1e-4;

@@ -107,9 +107,10 @@ double ImplicitIntegrator::newton_direction(const Cloth& cloth, ProjectionChoice
 bool ImplicitIntegrator::try_kept_factor() {
   // A failed CG on the kept factor costs lag_max_cg_iterations solves, about two factorizations
   // at the default bound (one factorization costs 8–12 solves at 32²–128²), and where the stiff
-  // springs turn within a step every try fails: after a failure the next 1, 2, 4, … 32
-  // iterations refactor without trying, so failures cost at most a few per cent of the
-  // unlagged run, while a factor that keeps serving is tried every iteration.
+  // springs turn within a step every try fails: after the k-th failure in a row the next
+  // min(2^(k−1), 32) iterations refactor without trying (on the stiff sheets, where every try
+  // fails, 13–24 % more CPU than no lagging instead of 2.4–2.8 times), while a factor that
+  // keeps serving is tried every iteration.
   if (!m_options.lagged_factorization || !m_factor_valid) return false;
   if (m_lag_skip > 0) {
     --m_lag_skip;
@@ -124,7 +125,7 @@ void ImplicitIntegrator::kept_factor_result(bool solved) {
   } else {
     ++m_statistics.lagged_failures;
     m_lag_skip = m_lag_backoff;
-    m_lag_backoff = std::min(2 * m_lag_backoff, kMaxExactBackoff);
+    m_lag_backoff = std::min(2 * m_lag_backoff, kMaxLagBackoff);
   }
 }
 
