@@ -1068,7 +1068,8 @@ def earlier_resolved(earlier, current, given):
 
 def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=None):
     """This run's (cells, rows) with an earlier run's payload: the earlier cells this run does
-    not hold, and their rows, join; the grid of ``settings`` becomes the union. SystemExit when
+    not hold, or did not finish where the earlier run did, and their rows, join; the grid of
+    ``settings`` becomes the union. SystemExit when
     the earlier run has a family this one does not, or they differ in thresholds or budgets
     (their costs would not compare). A family whose resolved options (``resolved``, this run's;
     see `earlier_resolved`) differ between the runs keeps no row in the earlier cells, which are
@@ -1088,7 +1089,13 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
     if list(earlier.get("thresholds", ())) != list(THRESHOLDS) or \
             earlier.get("reference_tolerance") != REFERENCE_TOLERANCE:
         raise SystemExit(f"--merge {source}: its thresholds differ from this run's")
+    # a cell this run did not finish (stopped, skipped) gives way to the earlier run's cell
+    # when that one finished: an interrupted run never erases a measured cell
+    finished_before = {_cell_key(c) for c in earlier["summary"]["cells"]
+                       if c.get("status") == "done"}
+    cells = [c for c in cells if c.get("status") == "done" or _cell_key(c) not in finished_before]
     held = {_cell_key(c) for c in cells}
+    rows = [r for r in rows if _cell_key(r) in held]
     added = [c for c in earlier["summary"]["cells"] if _cell_key(c) not in held]
     keys = {_cell_key(c) for c in added}
     theirs_resolved = (earlier_resolved(earlier, resolved, settings["families"])

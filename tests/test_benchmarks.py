@@ -564,6 +564,12 @@ def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
     assert [(c["bending"], c["size"], c["ratios"]) for c in
             crossover.crossovers(crossover.measured(cells))] == \
         [("equal", 64, [(2e5, 1.0)]), ("soft", 128, [(2e6, 0.5)])]
+    # a cell this run did not finish (its run was stopped) keeps the earlier run's result
+    stopped = {"size": 128, "stretch_stiffness": 2e6, "bending": "soft", "status": "not run"}
+    _, cells, rows, origin = crossover.merge_runs(settings, [stopped], [], earlier, "old.json")
+    assert sorted((c["size"], c["status"], c["at_0.01"]["implicit_over_explicit_cost"])
+                  for c in cells) == [(64, "done", 1.0), (128, "done", 9.0)]
+    assert len(rows) == 4 and [128, 2e6, "soft"] in origin["cells"]
     for key, value in (("max_run_seconds", 120.0), ("repeats", 1)):
         other = json.loads(json.dumps(earlier))
         other["settings"][key] = value
