@@ -1069,12 +1069,11 @@ def earlier_resolved(earlier, current, given):
 def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=None):
     """This run's (cells, rows) with an earlier run's payload: the earlier cells this run does
     not hold, or did not finish where the earlier run did, and their rows, join; the grid of
-    ``settings`` becomes the union. SystemExit when
-    the earlier run has a family this one does not, or they differ in thresholds or budgets
-    (their costs would not compare). A family whose resolved options (``resolved``, this run's;
-    see `earlier_resolved`) differ between the runs keeps no row in the earlier cells, which are
-    summarised again without it and name it in ``families_dropped``: a number is kept only with
-    the options it ran with. A family this run has and the earlier did not is named there too,
+    ``settings`` becomes the union. SystemExit when the earlier run has a family this one does
+    not, or they differ in thresholds or budgets (their costs would not compare). A family
+    whose resolved options (``resolved``, this run's; see `earlier_resolved`) differ between the
+    runs keeps no row in the earlier cells, which are summarised again without it and name it in
+    ``families_dropped``: a number is kept only with the options it ran with. A family this run has and the earlier did not is named there too,
     as not run in those cells."""
     theirs = earlier.get("settings", {})
     for key in MERGE_KEYS:

@@ -94,7 +94,7 @@ def run(resolution, duration, options, max_seconds):
         "lagged_cg_iterations_per_reuse": (c["lagged_cg_iterations"] / c["factor_reuses"]
                                            if c["factor_reuses"] else 0.0),
         # CG runs on a kept factor that missed their bound (each followed by a factorization)
-        "lagged_failures_per_step": c.get("lagged_failures", 0) / steps,
+        "lagged_failures_per_step": c["lagged_failures"] / steps,
         "lagged_cg_iterations_per_step": c["lagged_cg_iterations"] / steps,
         # what a reuse has to beat: one factorization's CPU time in solves with a factor (a CG
         # iteration on a kept factor is one solve and one product with the matrix)

@@ -381,8 +381,7 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
                                           current ? kMaxSteihaugIterations
                                                   : m_options.lag_max_cg_iterations,
                                           boundary, length, exhausted, negative);
-    if (!current && first_on_kept) kept_factor_result(!exhausted);
-    first_on_kept = false;
+    if (first_on_kept) kept_factor_result(!exhausted);
     if (exhausted && !current) {
       // the kept factor no longer preconditions well: factor this iterate's clamped Hessian
       // and solve the subproblem again
