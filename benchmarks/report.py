@@ -298,6 +298,35 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
             f"{r['resolution']}² {r['variant']} {r['cpu_over_unlagged']:.2f}×"
             for r in lagged) + "."]
 
+    # -- where Newton stops --------------------------------------------------------------------
+    stop = data["newton_stop"]
+    out += ["", "## Newton: where it stops on the stiff sheet", "",
+            f"![Newton's stop]({images}/newton_stop.png)", "",
+            f"{stop['resolution']}² stiff sheet (k = {stop['stretch_stiffness']:g} N/m, bending "
+            f"equal, pinned 1 m apart), {stop['rows'][0]['steps']} steps of 1/60 s, one thread. "
+            "`truncation_fraction` 0 is the residual test alone (the tight run); "
+            f"{stop['default_fraction']:g} is the default. Error: the largest vertex distance "
+            "from explicit at a quarter of its stable-step estimate, over the cloth's size, at "
+            f"T/3, 2T/3 and T (the reference is {stop['reference_check']:.1e} of the size from "
+            "explicit at half that step); from tight: the same distance from the tight run.", "",
+            "| integrator | truncation_fraction | iterations mean / median / max | thrown away | "
+            "capped steps | CPU s/s | error | RMS error | from tight (of its error) |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for r in stop["rows"]:
+        out.append(f"| {r['integrator']} | {r['truncation_fraction']:g}"
+                   + (" (default)" if r["default"] else "")
+                   + f" | {r['mean_iterations']:.2f} / {r['median_iterations']:g} / "
+                   f"{r['max_iterations']} | {r['thrown_away_per_step']:.2f} | "
+                   f"{r['unconverged_steps']} | {r['cpu_seconds_per_simulated_second']:.2f} | "
+                   f"{r['error']:.2e} | {r['rms_error']:.2e} | {r['from_tight']:.2e} "
+                   f"({r['from_tight_over_tight_error']:.2f}) |")
+    goal = stop["goal"]
+    out += ["", f"Goal for the default (mean and median at most {goal['mean_iterations']:g} "
+            f"iterations per step, at most {goal['thrown_away_per_step']:g} thrown-away "
+            "factorizations per step, no step at max_newton): " + ", ".join(
+                f"{name} {'**met**' if met else '**missed**'}"
+                for name, met in stop["goal_met"].items()) + "."]
+
     # -- stability ------------------------------------------------------------------------------
     stability = data["stability_map"]
     out += ["", "## Stability", "", f"![stability map]({images}/stability_map.png)", "",

@@ -285,6 +285,40 @@ def test_factor_reuse_smoke(tmp_path):
                 / rows[resolution, actual]["newton_per_step"])
 
 
+def test_newton_stop_smoke(tmp_path):
+    data = run_benchmark("newton_stop", tmp_path, "--quick")
+    fractions = sorted({r["truncation_fraction"] for r in data["rows"]})
+    assert fractions[0] == 0.0 and data["default_fraction"] in fractions
+    for name in ("BE", "BDF2"):
+        rows = {r["truncation_fraction"]: r for r in data["rows"] if r["integrator"] == name}
+        assert set(rows) == set(fractions)
+        tight = rows[0.0]
+        assert tight["from_tight"] == 0.0
+        for r in rows.values():
+            per_step = r["iterations"]
+            assert len(per_step) == r["steps"] and min(per_step) >= 1
+            assert r["mean_iterations"] == pytest.approx(sum(per_step) / r["steps"])
+            assert r["max_iterations"] == max(per_step)
+            assert r["unconverged_steps"] == 0 and r["thrown_away_per_step"] == 0  # the clamp
+            # the norm is a maximum over vertices and sample times: the triangle inequality
+            # through the tight run bounds each run's error
+            assert r["error"] <= tight["error"] + r["from_tight"] + 1e-12
+            assert r["from_tight_over_tight_error"] == pytest.approx(r["from_tight"]
+                                                                     / tight["error"])
+            assert r["rms_error"] <= r["error"] + 1e-15
+        # the first step starts from the same state in every row, and the truncation test
+        # only adds a way to stop: never more iterations there than the residual test alone
+        assert all(r["iterations"][0] <= tight["iterations"][0] for r in rows.values())
+        default = rows[data["default_fraction"]]
+        assert data["goal_met"][name] == (
+            default["mean_iterations"] <= data["goal"]["mean_iterations"]
+            and default["median_iterations"] <= data["goal"]["median_iterations"]
+            and default["thrown_away_per_step"] <= data["goal"]["thrown_away_per_step"]
+            and default["unconverged_steps"] <= data["goal"]["unconverged_steps"])
+    # the reference is finer than anything it judges
+    assert data["reference_check"] < min(r["error"] for r in data["rows"])
+
+
 def test_threads_benchmark_smoke(tmp_path):
     data = run_benchmark("threads", tmp_path, "--quick")
     scenes = {"demo", "grid128", "grid64-implicit"}
