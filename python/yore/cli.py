@@ -573,8 +573,12 @@ def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:2] == ["sweep", "plot"]:
         argv = ["sweep-plot", *argv[2:]]
-    arguments = _parser().parse_args(argv)
-    from .runs import RunError
+    try:
+        arguments = _parser().parse_args(argv)
+        from .runs import RunError
+    except KeyboardInterrupt:  # it landed while the parser was built: nothing ran yet
+        print("yore: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
     handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render, "view": _view,
                 "sweep": _sweep, "sweep-plot": _sweep_plot}
