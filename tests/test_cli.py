@@ -453,3 +453,16 @@ def test_ctrl_c_while_the_command_starts_is_one_line(delay):
     # default disposition ends silently
     assert (process.returncode, err) in ((130, "yore: interrupted\n"), (0, ""),
                                          (-signal.SIGINT, "")), err
+
+
+def test_ctrl_c_while_the_parser_is_built_is_one_line(monkeypatch, capsys):
+    # the interrupt that test_ctrl_c_while_the_command_starts_is_one_line can only hit by
+    # timing, made certain: it lands inside the parser's construction
+    from yore import cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_parser", interrupted)
+    assert cli.main(["check", str(EXAMPLES / "stiff.toml")]) == cli.EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "yore: interrupted\n"
