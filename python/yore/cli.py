@@ -567,6 +567,15 @@ def _run_view(arguments, overrides) -> None:
 
 def main(argv=None) -> int:
     """Runs the command line; returns the exit code (see the module docstring)."""
+    from .runtime import end_command
+
+    try:
+        return _main(argv)
+    finally:
+        end_command()  # the `yore` command ignores a Ctrl-C in its shutdown (see yore.runtime)
+
+
+def _main(argv) -> int:
     from .runtime import end_command_start
 
     end_command_start()  # Ctrl-C is main's to handle from here (see yore.runtime)

@@ -12,7 +12,7 @@ import sys
 import threading
 
 __all__ = ["VERSION", "build_info", "set_num_threads", "guard_command_start",
-           "end_command_start"]
+           "end_command_start", "end_command"]
 
 #: yore's version (also `yore.__version__`).
 VERSION = "0.1.0"
@@ -50,8 +50,11 @@ def set_num_threads(threads: int) -> None:
 
 # The `yore` command imports all of yore before its main() can catch Ctrl-C: while it starts, a
 # Ctrl-C is one line and exit 130 (a traceback of the imports otherwise). Only for the command:
-# a program importing yore keeps its own handling.
+# a program importing yore keeps its own handling. When main() has returned, the interpreter's
+# shutdown is all that is left: a Ctrl-C there has nothing to interrupt, and Python would print
+# "Exception ignored in ..." with a traceback and still exit 0 (end_command).
 _guarding = [False]
+_command = [False]  # this process is the `yore` command
 
 
 def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the process
@@ -67,6 +70,7 @@ def guard_command_start() -> None:
             and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
         signal.signal(signal.SIGINT, _interrupted_while_starting)
         _guarding[0] = True
+        _command[0] = True
 
 
 def end_command_start() -> None:
@@ -75,3 +79,11 @@ def end_command_start() -> None:
     if _guarding[0] and signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     _guarding[0] = False
+
+
+def end_command() -> None:
+    """The `yore` command's main() is done and its exit code decided: from here on a Ctrl-C is
+    ignored, so that one landing in the interpreter's shutdown prints nothing (everything the
+    command writes is written and closed before main() returns)."""
+    if _command[0] and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
