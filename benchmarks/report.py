@@ -327,6 +327,34 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
                 f"{name} {'**met**' if met else '**missed**'}"
                 for name, met in stop["goal_met"].items()) + "."]
 
+    # -- how sensitive the crossover's sheets are ------------------------------------------------
+    sens = data["sensitivity"]
+    small, large = (f"{e:g}" for e in sens["epsilons"])
+    tenth = {f"{t:g}": sens["reference_fraction"] * t for t in sens["thresholds"]}
+    out += ["", "## How sensitive the crossover's sheets are", "",
+            f"![sensitivity]({images}/sensitivity.png)", "",
+            "Explicit at each crossover cell's coarsest reference step, from the cell's start "
+            f"and from starts whose free vertices moved by {small} m and {large} m; the "
+            "distance is the crossover's (RMS over the size, the larger of T/2 and T). Growth: "
+            f"the distance at {large} m over that at {small} m (linear response: "
+            f"{float(large) / float(small):.0e}). The floor (the distance at {small} m) must be "
+            "at most a tenth of a threshold for any run to be judged against it, as the "
+            "crossover asks of its references.", "",
+            "| cell | reference's last difference | floor | at " + large + " m | growth | "
+            "judgeable at " + " / ".join(tenth) + " |", "|---|---|---|---|---|---|"]
+    for r in sorted(sens["rows"], key=lambda r: (r["bending"], r["size"],
+                                                   r["stretch_stiffness"])):
+        reference = ("—" if r["reference_error"] is None else
+                     f"{r['reference_error']:.1e}"
+                     + ("" if r["reference_converged"] else " (stalled)"))
+        out.append(f"| {r['size']}² {r['bending']} {r['stretch_stiffness']:g} N/m | {reference} "
+                   f"| {r['floor']:.1e} | {r['distance_' + large]:.1e} | {r['growth']:.3g} | "
+                   + " / ".join("yes" if r["judgeable"][t] else "**no**" for t in tenth) + " |")
+    if sens["left_out"]:
+        out += ["", "Not measured: " + "; ".join(
+            f"{c['size']}² {c['bending']} {c['stretch_stiffness']:g} N/m ({c['reason']})"
+            for c in sens["left_out"]) + "."]
+
     # -- stability ------------------------------------------------------------------------------
     stability = data["stability_map"]
     out += ["", "## Stability", "", f"![stability map]({images}/stability_map.png)", "",

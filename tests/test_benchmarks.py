@@ -319,6 +319,48 @@ def test_newton_stop_smoke(tmp_path):
     assert data["reference_check"] < min(r["error"] for r in data["rows"])
 
 
+def test_sensitivity_smoke(tmp_path):
+    data = run_benchmark("sensitivity", tmp_path, "--quick")
+    small, large = data["epsilons"]
+    assert len(data["rows"]) == 2 and not data["left_out"]
+    for r in data["rows"]:
+        # one thread, the same start: the run repeats to the bit
+        assert r["repeat_distance"] == 0.0
+        # the quick cells do not buckle: the response to a start moved by ε is linear, so the
+        # distance grows as ε does (the 1e-14 m move is ~100 round-off units of a 1 m
+        # coordinate, so its distance is known to about a percent)
+        assert r["growth"] == pytest.approx(large / small, rel=0.05)
+        assert r["floor"] == r[f"distance_{small:g}"] > 0.0
+        assert r[f"distance_{small:g}"] == max(r[f"distance_half_{small:g}"],
+                                               r[f"distance_end_{small:g}"])
+        assert r["judgeable"] == {f"{t:g}": True for t in data["thresholds"]}
+        assert r["dt"] == pytest.approx(r["horizon"] / r["steps"])
+
+
+def test_sensitivity_takes_the_crossover_cells_it_can(tmp_path):
+    from benchmarks import sensitivity
+
+    def cell(size, chain):
+        return {"size": size, "stretch_stiffness": 2e5, "bending": "soft", "horizon": 0.125,
+                "reference_chain": chain, "reference_converged": False,
+                "reference_error": 3e-4}
+
+    chain = [{"steps": 1000, "cpu_seconds": 5.0, "difference_to_previous": None},
+             {"steps": 2000, "cpu_seconds": 10.0, "difference_to_previous": 3e-4}]
+    costly = [dict(chain[0], cpu_seconds=500.0)]
+    summary = {"summary": {"cells": [cell(32, chain), cell(64, costly),
+                                     {"size": 128, "stretch_stiffness": 2e5,
+                                      "bending": "soft", "horizon": 0.125,
+                                      "status": "not run"}]}}
+    path = tmp_path / "crossover.json"
+    path.write_text(json.dumps(summary))
+    chosen, left_out = sensitivity.cells_from(path, max_run_seconds=200.0)
+    assert [(c["size"], steps) for c, steps, _ in chosen] == [(32, 1000)]
+    assert chosen[0][2]["reference_differences"] == [3e-4]
+    assert [(c["size"], c["reason"].split()[0]) for c in left_out] == [(64, "its"),
+                                                                       (128, "not")]
+
+
 def test_threads_benchmark_smoke(tmp_path):
     data = run_benchmark("threads", tmp_path, "--quick")
     scenes = {"demo", "grid128", "grid64-implicit"}
