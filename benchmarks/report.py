@@ -341,7 +341,8 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
             "at most a tenth of a threshold for any run to be judged against it, as the "
             "crossover asks of its references.", "",
             "| cell | reference's last difference | floor | at " + large + " m | growth | "
-            "judgeable at " + " / ".join(tenth) + " |", "|---|---|---|---|---|---|"]
+            "judgeable at " + " / ".join(f"{float(t) * 100:g} %" for t in tenth) + " |",
+            "|---|---|---|---|---|---|"]
     for r in sorted(sens["rows"], key=lambda r: (r["bending"], r["size"],
                                                    r["stretch_stiffness"])):
         reference = ("—" if r["reference_error"] is None else
@@ -350,6 +351,35 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
         out.append(f"| {r['size']}² {r['bending']} {r['stretch_stiffness']:g} N/m | {reference} "
                    f"| {r['floor']:.1e} | {r['distance_' + large]:.1e} | {r['growth']:.3g} | "
                    + " / ".join("yes" if r["judgeable"][t] else "**no**" for t in tenth) + " |")
+    for t, bound in tenth.items():
+        lucky = [r for r in sens["rows"] if r["reference_error"] is not None
+                 and r["reference_error"] <= bound and not r["judgeable"][t]]
+        if lucky:
+            out += ["", f"Judged at {float(t) * 100:g} % by the crossover's rule (its "
+                    "reference's last difference within a tenth of it) though the sheet moves "
+                    "more than that "
+                    "for a start moved by round-off: " + "; ".join(
+                        f"{r['size']}² {r['bending']} {r['stretch_stiffness']:g} N/m (reference "
+                        f"{r['reference_error']:.1e}, floor {r['floor']:.1e})" for r in lucky)
+                    + "."]
+    if sens["floor_aware"]:
+        out += ["", "Floor-aware verdicts, beside the crossover's and not in it: where its rule "
+                "leaves a threshold out or judges it on a floor above a tenth of it, every "
+                "error is charged the reference's own uncertainty u = max(its last difference, "
+                "the floor), and a run meets t when error + u ≤ t.", "",
+                "| cell | threshold | u | cheapest implicit (error) | explicit (error) | "
+                "implicit / explicit |", "|---|---|---|---|---|---|"]
+        for v in sens["floor_aware"]:
+            def side(e, least=None):
+                if e is None:
+                    return "none within t − u" + ("" if least is None else
+                                                  f" (least error {least:.2e})")
+                return f"{e['method']} at {e['dt']:.3g} s ({e['error']:.2e})"
+            ratio = ("—" if v["ratio"] is None else f"**{v['ratio']:.2f}**")
+            out.append(f"| {v['size']}² {v['bending']} {v['stretch_stiffness']:g} N/m | "
+                       f"{v['threshold'] * 100:g} % | {v['allowance']:.1e} | "
+                       f"{side(v['implicit'], v['least_implicit_error'])} | "
+                       f"{side(v['explicit'])} | {ratio} |")
     if sens["left_out"]:
         out += ["", "Not measured: " + "; ".join(
             f"{c['size']}² {c['bending']} {c['stretch_stiffness']:g} N/m ({c['reason']})"

@@ -51,7 +51,7 @@ SCHEMAS = {
                      "cpu_seconds_per_simulated_second", "error", "rms_error", "from_tight",
                      "from_tight_over_tight_error"}),
     "sensitivity": ({"benchmark", "machine", "rows", "quick", "left_out", "epsilons", "seed",
-                     "thresholds", "reference_fraction"},
+                     "thresholds", "reference_fraction", "floor_aware"},
                     {"size", "stretch_stiffness", "bending", "horizon", "steps", "dt", "scale",
                      "reference_converged", "reference_error", "repeat_distance", "floor",
                      "growth", "judgeable", "cpu_seconds_per_run"}),

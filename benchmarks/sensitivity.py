@@ -3,6 +3,7 @@ crossover judges.
 
     python -m benchmarks.sensitivity [--out bench-results] [--quick]
         [--crossover bench-results/crossover.json] [--max-run-seconds 200]
+        [--cell SIZE:K:BENDING ...] [--merge EARLIER.json [--verdicts-only]]
 
 A crossover cell judges a run by its distance from an explicit reference, halving the
 reference's step until two references agree to a tenth of the threshold. On some buckling
@@ -16,17 +17,28 @@ and 1e-10 m) in fixed random directions. The distance is the crossover's: RMS ve
 over the bounding-box diagonal at the start, at T/2 and at T, the larger of the two.
 
 Per cell it records the distances at each ε, their growth over ε (linear response: ten
-thousand times from 1e-14 to 1e-10; saturated, when a start moved by round-off already changes
-which way the sheet buckles: about once), the floor (the distance at the smaller ε, the most a
-reference's own round-off could decide) and whether a threshold is judgeable at all: the floor
-at most a tenth of it, the crossover's rule for its references. --quick runs two small cells
-(a 12² sheet, a smooth one and a stiff one) from scratch, without the crossover's JSON.
+thousand times from 1e-14 to 1e-10; about once when it saturates, that is when a start moved
+by round-off already changes how the sheet buckles), the floor (the distance at the smaller ε:
+one sample of how far round-off alone moves the answer, so good to a factor of about two) and
+whether a threshold is judgeable at all: the floor at most a tenth of it, the crossover's rule
+for its references.
+
+Floor-aware verdicts (`floor_aware`): where the crossover's rule leaves a threshold out (the
+reference too coarse) or judges it on a floor above a tenth of it, the verdict the crossover would give if every run's error were charged
+the reference's own uncertainty, u = max(its last difference, the floor): a run meets t when
+error + u ≤ t. Labelled as such, beside the crossover's verdicts, not in them.
+
+--cell runs only the cells named (e.g. "128:2e7:real cloth", whatever their cost); --merge
+keeps an earlier file's rows of the cells not run now; --verdicts-only runs nothing and only
+recomputes the floor-aware verdicts (after cells were added to the crossover). --quick runs two
+small cells (a 12² sheet, a smooth one and a stiff one) from scratch, without the crossover.
 Writes sensitivity.json and sensitivity.png.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -106,16 +118,86 @@ def measure(cell, steps, facts):
     return row
 
 
+def floor_aware(crossover, rows):
+    """The verdicts the crossover's rule leaves out or gives on a floor above a tenth of the
+    threshold, with each error charged the reference's own uncertainty: there a run counts as meeting t when its error plus the allowance u = max(the
+    reference's last difference, the cell's floor) is at most t, a bound on its distance from
+    any run of the ensemble the reference belongs to. The crossover's own selection
+    (`summarize_cell`: usable runs, its families, the cheapest by median CPU) does the rest."""
+    floors = {key(r): r["floor"] for r in rows}
+    out = []
+    for cell in crossover["summary"]["cells"]:
+        k = key(cell)
+        if k not in floors or cell.get("reference_error") is None:
+            continue
+        families = [f for f in crossover["families"] if f not in cell.get("families_dropped", {})]
+        for threshold in cx.THRESHOLDS:
+            if (cx.reference_serves(cell, threshold)
+                    and floors[k] <= cx.REFERENCE_FRACTION * threshold):
+                continue  # the crossover's verdict stands as it is
+            allowance = max(cell["reference_error"], floors[k])
+            found = dict(size=k[0], stretch_stiffness=k[1], bending=k[2], threshold=threshold,
+                         allowance=allowance, reference_error=cell["reference_error"],
+                         floor=floors[k], ratio=None, implicit=None, explicit=None)
+            errors = [r["error"] for r in crossover["rows"] if key(r) == k and cx.usable(r)
+                      and r["method"] in families and r["method"] != "explicit"]
+            found["least_implicit_error"] = min(errors, default=None)
+            if allowance < threshold:
+                shifted = [dict(r, error=r["error"] + allowance) for r in crossover["rows"]
+                           if key(r) == k and "error" in r]
+                verdict = cx.summarize_cell(dict(cell, reference_error=0.0), shifted,
+                                            families)[f"at_{threshold:g}"]
+                for side in ("implicit", "explicit"):
+                    best = verdict[f"best_{side}"]
+                    if best:
+                        found[side] = {n: best.get(n) for n in ("method", "dt", "repeats",
+                                                                "cost_seconds_per_simulated_second")}
+                        found[side]["error"] = best["error"] - allowance
+                found["ratio"] = verdict.get("implicit_over_explicit_cost")
+            out.append(found)
+    return out
+
+
 def describe(row):
     return f"{row['size']}² k={row['stretch_stiffness']:g} {row['bending']}"
+
+
+def key(cell):
+    return (int(cell["size"]), float(cell["stretch_stiffness"]), cell["bending"])
+
+
+def merged(earlier, rows, left_out):
+    """This run's rows and left-out cells joined with an earlier payload's: a cell run now
+    replaces its earlier row, and a cell is left out only if no row measures it."""
+    now = {key(r) for r in rows}
+    rows = [r for r in earlier["rows"] if key(r) not in now] + rows
+    done = {key(r) for r in rows}
+    left = {key(c): c for c in earlier["left_out"] + left_out if key(c) not in done}
+    return rows, list(left.values())
+
+
+def parse_cell(text):
+    """"SIZE:K:BENDING" -> the cell's key; ValueError naming the problem."""
+    parts = text.split(":")
+    if len(parts) != 3 or parts[2] not in cx.BENDING_ROWS:
+        raise ValueError(f"--cell wants SIZE:K:BENDING with BENDING one of "
+                         f"{', '.join(cx.BENDING_ROWS)}, got {text!r}")
+    return int(parts[0]), float(parts[1]), parts[2]
 
 
 def main(argv=None):
     args = arguments(__doc__, argv, extra=lambda parser: (
         parser.add_argument("--crossover", type=Path,
                             default=Path("bench-results") / "crossover.json"),
-        parser.add_argument("--max-run-seconds", type=float, default=200.0)))
-    if args.quick:
+        parser.add_argument("--max-run-seconds", type=float, default=200.0),
+        parser.add_argument("--cell", action="append", default=[], type=parse_cell),
+        parser.add_argument("--merge", type=Path, default=None),
+        parser.add_argument("--verdicts-only", action="store_true")))
+    if args.verdicts_only and (args.merge is None or args.cell or args.quick):
+        raise SystemExit("--verdicts-only takes --merge EARLIER.json and no --cell or --quick")
+    if args.verdicts_only:
+        jobs, left_out = [], []
+    elif args.quick:
         jobs, left_out = [], []
         for cell in QUICK_CELLS:
             cell = dict(cell, horizon=0.125)
@@ -124,7 +206,11 @@ def main(argv=None):
             jobs.append((cell, steps, {"reference_converged": None, "reference_error": None,
                                        "reference_steps": [], "reference_differences": []}))
     else:
-        jobs, left_out = cells_from(args.crossover, args.max_run_seconds)
+        named = set(args.cell)
+        jobs, left_out = cells_from(args.crossover, math.inf if named else args.max_run_seconds)
+        if named:
+            jobs = [job for job in jobs if key(job[0]) in named]
+            left_out = [c for c in left_out if key(c) in named]
         jobs.sort(key=lambda job: job[0]["size"] ** 3 * job[1])  # the cheapest first
     rows = []
     for cell, steps, facts in jobs:
@@ -134,9 +220,14 @@ def main(argv=None):
               f"{row['distance_1e-10']:.2e} (growth {row['growth']:.3g}), reference "
               f"{row['reference_error'] if row['reference_error'] is None else format(row['reference_error'], '.2e')}, "
               f"repeat {row['repeat_distance']:.1e}", flush=True)
+    if args.merge is not None:
+        rows, left_out = merged(json.loads(args.merge.read_text()), rows, left_out)
+    crossover = None if args.quick else json.loads(args.crossover.read_text())
+    verdicts = floor_aware(crossover, rows) if crossover else []
     payload = {"benchmark": "sensitivity", "machine": machine_info(), "quick": args.quick,
                "rows": rows, "left_out": left_out, "epsilons": list(EPSILONS), "seed": SEED,
-               "thresholds": list(cx.THRESHOLDS), "reference_fraction": cx.REFERENCE_FRACTION}
+               "thresholds": list(cx.THRESHOLDS), "reference_fraction": cx.REFERENCE_FRACTION,
+               "floor_aware": verdicts}
     save(args.out, "sensitivity", payload, lambda path: plot(payload, path))
     return payload
 

@@ -361,6 +361,63 @@ def test_sensitivity_takes_the_crossover_cells_it_can(tmp_path):
                                                                        (128, "not")]
 
 
+def test_sensitivity_merges_and_names_its_cells():
+    from benchmarks import sensitivity
+
+    def row(size, floor):
+        return {"size": size, "stretch_stiffness": 2e6, "bending": "soft", "floor": floor}
+
+    def out(size):
+        return {"size": size, "stretch_stiffness": 2e6, "bending": "soft", "reason": "costly"}
+
+    earlier = {"rows": [row(32, 1.0), row(64, 2.0)], "left_out": [out(128)]}
+    rows, left_out = sensitivity.merged(earlier, [row(64, 3.0), row(128, 4.0)], [])
+    assert sorted((r["size"], r["floor"]) for r in rows) == [(32, 1.0), (64, 3.0), (128, 4.0)]
+    assert left_out == []  # measured now
+    rows, left_out = sensitivity.merged(earlier, [], [out(256), out(128)])
+    assert len(rows) == 2 and sorted(c["size"] for c in left_out) == [128, 256]
+    assert sensitivity.parse_cell("128:2e7:real cloth") == (128, 2e7, "real cloth")
+    for bad in ("128:2e7", "128:2e7:stiff", "x:2e7:soft"):
+        with pytest.raises(ValueError):
+            sensitivity.parse_cell(bad)
+
+
+def test_floor_aware_verdicts_charge_each_error_the_reference_uncertainty():
+    from benchmarks import sensitivity
+
+    where = {"size": 32, "stretch_stiffness": 2e7, "bending": "soft"}
+
+    def run(method, error, cost):
+        return dict(where, method=method, error=error, cost_seconds_per_simulated_second=cost,
+                    dt=1e-3, steps=100, cpu_per_step=cost / 100, repeats=3, unstable=False,
+                    at_limit=method == "explicit")
+
+    crossover = {
+        "families": ["explicit", "BDF2", "BE"],
+        "summary": {"cells": [dict(where, horizon=0.125, reference_error=2e-4,
+                                   families_dropped={"BE": "not run"})]},
+        "rows": [run("explicit", 5e-4, 10.0), run("BDF2", 7e-4, 5.0),
+                 run("BDF2", 8.5e-4, 1.0),  # within 0.1 % alone, not with u
+                 run("BE", 1e-4, 0.1),  # a family dropped from the cell: never picked
+                 run("reference", 0.0, 0.01)]}  # the reference itself: never picked
+    rows = [dict(where, floor=1e-4)]
+    verdicts = {v["threshold"]: v for v in sensitivity.floor_aware(crossover, rows)}
+    assert set(verdicts) == {0.001}  # 1 %: the reference serves and the floor is small
+    v = verdicts[0.001]
+    assert v["allowance"] == 2e-4  # max(the reference's last difference, the floor)
+    assert v["implicit"]["method"] == "BDF2" and v["implicit"]["error"] == pytest.approx(7e-4)
+    assert v["explicit"]["error"] == pytest.approx(5e-4)
+    assert v["ratio"] == pytest.approx(0.5)
+    assert v["least_implicit_error"] == pytest.approx(7e-4)
+    # a floor of 2e-3: above a tenth of 1 %, so the crossover's 1 % verdict is redone with
+    # u = 2e-3 (the cheapest BDF2 run now qualifies), and above 0.1 % itself: nothing to judge
+    verdicts = {v["threshold"]: v for v in
+                sensitivity.floor_aware(crossover, [dict(where, floor=2e-3)])}
+    assert verdicts[0.01]["allowance"] == 2e-3 and verdicts[0.01]["ratio"] == pytest.approx(0.1)
+    assert verdicts[0.001]["ratio"] is None and verdicts[0.001]["implicit"] is None
+    assert verdicts[0.001]["explicit"] is None
+
+
 def test_threads_benchmark_smoke(tmp_path):
     data = run_benchmark("threads", tmp_path, "--quick")
     scenes = {"demo", "grid128", "grid64-implicit"}
