@@ -57,7 +57,8 @@ Inside each cell, the rules of the careful benchmark this replaces (speed_vs_err
   is judged only where the reference's last difference is at most REFERENCE_FRACTION × t (a
   tenth of it): a cell whose reference stalls at 5e-4 (a buckling sheet whose late motion
   round-off steers) is compared at 1 % and left out at 0.1 % (`reference_too_coarse`), of the
-  summary, the map and the targets alike.
+  summary, the map and the targets alike. `benchmarks.sensitivity` measures each cell's floor
+  (how far a start moved by round-off ends up) and gives floor-aware verdicts beside these.
 - Error: RMS vertex distance to the reference at T/2 and at T, each over the cloth's
   bounding-box diagonal at the start (√2 m); a run's error is the larger of the two.
 - Implicit families run a ladder dt = 1/32 … 1/1024 s (--quick: … 1/128), stopping once a run
