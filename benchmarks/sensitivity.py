@@ -24,9 +24,10 @@ whether a threshold is judgeable at all: the floor at most a tenth of it, the cr
 for its references.
 
 Floor-aware verdicts (`floor_aware`): where the crossover's rule leaves a threshold out (the
-reference too coarse) or judges it on a floor above a tenth of it, the verdict the crossover would give if every run's error were charged
-the reference's own uncertainty, u = max(its last difference, the floor): a run meets t when
-error + u ≤ t. Labelled as such, beside the crossover's verdicts, not in them.
+reference too coarse) or judges it on a floor above a tenth of it, the verdict the crossover
+would give if every run's error were charged the reference's own uncertainty, u = max(its
+last difference, the floor): a run meets t when error + u ≤ t. Labelled as such, beside the
+crossover's verdicts, not in them.
 
 --cell runs only the cells named (e.g. "128:2e7:real cloth", whatever their cost); --merge
 keeps an earlier file's rows of the cells not run now; --verdicts-only runs nothing and only
@@ -72,8 +73,9 @@ def run(make, dt_steps, duration, epsilon):
 
 
 def cells_from(crossover_json, max_run_seconds):
-    """(cell, steps of the reference's coarsest run, its CPU s, the reference's facts) of every
-    measured crossover cell, and the cells left out with the reason."""
+    """(cell, steps of the reference's coarsest run, the reference's facts) of every measured
+    crossover cell whose coarsest reference run cost at most max_run_seconds, and the cells
+    left out with the reason."""
     summary = json.loads(Path(crossover_json).read_text())["summary"]["cells"]
     chosen, left_out = [], []
     for c in summary:
@@ -119,11 +121,13 @@ def measure(cell, steps, facts):
 
 
 def floor_aware(crossover, rows):
-    """The verdicts the crossover's rule leaves out or gives on a floor above a tenth of the
-    threshold, with each error charged the reference's own uncertainty: there a run counts as meeting t when its error plus the allowance u = max(the
-    reference's last difference, the cell's floor) is at most t, a bound on its distance from
-    any run of the ensemble the reference belongs to. The crossover's own selection
-    (`summarize_cell`: usable runs, its families, the cheapest by median CPU) does the rest."""
+    """The verdicts the crossover's rule leaves out, or gives on a floor above a tenth of the
+    threshold, with every error charged the reference's own uncertainty: there a run meets t
+    when its error plus the allowance u = max(the reference's last difference, the cell's
+    floor) is at most t (the triangle inequality, u standing for the reference's distance from
+    the sheet's motion, which round-off defines no better than the floor). The crossover's own
+    selection (`summarize_cell`: usable runs, the cell's families, the cheapest by median CPU)
+    does the rest."""
     floors = {key(r): r["floor"] for r in rows}
     out = []
     for cell in crossover["summary"]["cells"]:
@@ -150,8 +154,8 @@ def floor_aware(crossover, rows):
                 for side in ("implicit", "explicit"):
                     best = verdict[f"best_{side}"]
                     if best:
-                        found[side] = {n: best.get(n) for n in ("method", "dt", "repeats",
-                                                                "cost_seconds_per_simulated_second")}
+                        found[side] = {n: best.get(n) for n in (
+                            "method", "dt", "repeats", "cost_seconds_per_simulated_second")}
                         found[side]["error"] = best["error"] - allowance
                 found["ratio"] = verdict.get("implicit_over_explicit_cost")
             out.append(found)
@@ -216,9 +220,10 @@ def main(argv=None):
     for cell, steps, facts in jobs:
         row = measure(cell, steps, facts)
         rows.append(row)
+        reference = row["reference_error"]
         print(f"{describe(row)}: {steps} steps, floor {row['floor']:.2e}, at 1e-10 m "
               f"{row['distance_1e-10']:.2e} (growth {row['growth']:.3g}), reference "
-              f"{row['reference_error'] if row['reference_error'] is None else format(row['reference_error'], '.2e')}, "
+              f"{'—' if reference is None else format(reference, '.2e')}, "
               f"repeat {row['repeat_distance']:.1e}", flush=True)
     if args.merge is not None:
         rows, left_out = merged(json.loads(args.merge.read_text()), rows, left_out)
