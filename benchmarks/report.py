@@ -331,6 +331,15 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
     sens = data["sensitivity"]
     small, large = (f"{e:g}" for e in sens["epsilons"])
     tenth = {f"{t:g}": sens["reference_fraction"] * t for t in sens["thresholds"]}
+
+    def cell(c):
+        return f"{c['size']}² {c['bending']} {c['stretch_stiffness']:g} N/m"
+
+    def side(e, least=None):
+        if e is None:
+            return "none within t − u" + ("" if least is None else f" (least error {least:.2e})")
+        return f"{e['method']} at {e['dt']:.3g} s ({e['error']:.2e})"
+
     out += ["", "## How sensitive the crossover's sheets are", "",
             f"![sensitivity]({images}/sensitivity.png)", "",
             "Explicit at each crossover cell's coarsest reference step, from the cell's start "
@@ -348,7 +357,7 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
         reference = ("—" if r["reference_error"] is None else
                      f"{r['reference_error']:.1e}"
                      + ("" if r["reference_converged"] else " (stalled)"))
-        out.append(f"| {r['size']}² {r['bending']} {r['stretch_stiffness']:g} N/m | {reference} "
+        out.append(f"| {cell(r)} | {reference} "
                    f"| {r['floor']:.1e} | {r['distance_' + large]:.1e} | {r['growth']:.3g} | "
                    + " / ".join("yes" if r["judgeable"][t] else "**no**" for t in tenth) + " |")
     for t, bound in tenth.items():
@@ -357,10 +366,9 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
         if lucky:
             out += ["", f"Judged at {float(t) * 100:g} % by the crossover's rule (its "
                     "reference's last difference within a tenth of it) though the sheet moves "
-                    "more than that "
-                    "for a start moved by round-off: " + "; ".join(
-                        f"{r['size']}² {r['bending']} {r['stretch_stiffness']:g} N/m (reference "
-                        f"{r['reference_error']:.1e}, floor {r['floor']:.1e})" for r in lucky)
+                    "more than that for a start moved by round-off: " + "; ".join(
+                        f"{cell(r)} (reference {r['reference_error']:.1e}, floor "
+                        f"{r['floor']:.1e})" for r in lucky)
                     + "."]
     if sens["floor_aware"]:
         out += ["", "Floor-aware verdicts, beside the crossover's and not in it: where its rule "
@@ -370,20 +378,13 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
                 "| cell | threshold | u | cheapest implicit (error) | explicit (error) | "
                 "implicit / explicit |", "|---|---|---|---|---|---|"]
         for v in sens["floor_aware"]:
-            def side(e, least=None):
-                if e is None:
-                    return "none within t − u" + ("" if least is None else
-                                                  f" (least error {least:.2e})")
-                return f"{e['method']} at {e['dt']:.3g} s ({e['error']:.2e})"
             ratio = ("—" if v["ratio"] is None else f"**{v['ratio']:.2f}**")
-            out.append(f"| {v['size']}² {v['bending']} {v['stretch_stiffness']:g} N/m | "
-                       f"{v['threshold'] * 100:g} % | {v['allowance']:.1e} | "
+            out.append(f"| {cell(v)} | {v['threshold'] * 100:g} % | {v['allowance']:.1e} | "
                        f"{side(v['implicit'], v['least_implicit_error'])} | "
                        f"{side(v['explicit'])} | {ratio} |")
     if sens["left_out"]:
         out += ["", "Not measured: " + "; ".join(
-            f"{c['size']}² {c['bending']} {c['stretch_stiffness']:g} N/m ({c['reason']})"
-            for c in sens["left_out"]) + "."]
+            f"{cell(c)} ({c['reason']})" for c in sens["left_out"]) + "."]
 
     # -- stability ------------------------------------------------------------------------------
     stability = data["stability_map"]
