@@ -131,7 +131,8 @@ class Simulation:
         Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
         ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
         ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when ``max |∇ᵢE|·h̃²/mᵢ``, the
-        gradient as a displacement, is below newton_tol × the mean rest length),
+        gradient as a displacement, is below newton_tol × the mean rest length; the step's
+        start passes only if no vertex's net force exceeds newton_tol × its weight),
         ``step_tol`` (0 = off: Newton also stops after a full step that moved no vertex by
         more than step_tol × the mean rest length, the model's distance to the solution;
         counted in ``step_test_stops``), ``truncation_fraction`` (0.1: Newton also stops

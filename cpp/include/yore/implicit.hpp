@@ -87,7 +87,9 @@ struct ImplicitOptions {
   int lag_max_cg_iterations = 20;
   double lag_cg_tol = 1e-10;
   /// Newton stops when the residual max_i |∇ᵢE| h̃²/mᵢ (the gradient as a displacement, m) is
-  /// at most newton_tol × the mean rest length, at a finite objective. A step cut short by the
+  /// at most newton_tol × the mean rest length, at a finite objective; the step's start (no
+  /// iteration yet) also needs h̃²|g| × newton_tol, no vertex's net force above newton_tol × its
+  /// weight, or small steps would pass it whatever the forces. A step cut short by the
   /// line search is not converged; a step that reaches max_newton is counted in
   /// ImplicitStatistics::unconverged_steps.
   double newton_tol = 1e-5;
