@@ -297,6 +297,31 @@ def test_the_frame_callback_runs_headless_panel_and_stepping():
     assert viewer.statistics()["step_ms"] is not None
 
 
+def test_the_panel_does_not_run_the_stable_dt_estimate_every_frame():
+    # The panel is rebuilt every frame; Simulation.stats adds an eigenvalue estimate of the
+    # stable step (0.3 s at 128²) that the panel does not show, so the panel must not ask.
+    class NoEstimate:
+        def __init__(self, cloth):
+            self._cloth = cloth
+
+        def __getattr__(self, name):
+            if name == "stable_time_step":
+                raise AssertionError("the panel ran the stable-dt estimate")
+            return getattr(self._cloth, name)
+
+    viewer = Viewer(wavy_simulation(), headless=True)
+    viewer.step_frame()
+    stats = viewer.sim.stats
+    assert stats["stable_dt_estimate"] == viewer.sim.stable_dt() > 0.0
+    cloth = viewer.sim._cloth
+    viewer.sim._cloth = NoEstimate(cloth)
+    try:
+        panel = viewer.statistics()
+    finally:
+        viewer.sim._cloth = cloth
+    assert panel["steps"] == stats["steps"] and panel["vertices"] == cloth.vertex_count
+
+
 def test_viewer_rejects_bad_arguments():
     with pytest.raises(ValueError, match="yore.Simulation"):
         Viewer("not a simulation", headless=True)
