@@ -676,15 +676,10 @@ class Simulation:
         checks; implicit: assemble, analyze, factorize, solve). ``counters``: cumulative counts
         and the last step's figures (implicit: newton_iterations, line_search_backtracks,
         analyses, factorizations, factor_nonzeros, factor_flops, ordering, last_residual, ...).
-        ``stable_dt_estimate`` is ``stable_dt()`` at the current state: an eigenvalue estimate
-        that costs about half an implicit step (36 ms at 64², 0.3 s at 128²), so read ``stats``
-        between runs rather than after every step.
+        Cheap enough to read after every step; the stable explicit step is not here:
+        ``stable_dt()`` estimates it (an eigenvalue run that costs about half an implicit step,
+        36 ms at 64², 0.3 s at 128²).
         """
-        return self._statistics()
-
-    def _statistics(self, stable_dt: bool = True) -> dict:
-        """``stats``; without ``stable_dt`` (the viewer's panel, every frame) no
-        ``stable_dt_estimate``, and none of its cost."""
         cloth = self._cloth
         counters = dict(self._integrator.statistics)
         steps = counters.pop("steps")
@@ -705,7 +700,7 @@ class Simulation:
             # (interior edges) it couples, 0 when the modulus is 0 (no term at all)
             active["quadratic_bending"] = (int(cloth.quadratic_bending["hinges"])
                                            if cloth.bending_modulus > 0.0 else 0)
-        stats = {
+        return {
             "integrator": self._integrator_name,
             "dt": self._dt,
             "time": self.time,
@@ -721,9 +716,6 @@ class Simulation:
             "threads": {"configured": _core.max_threads(), "blas": _core.blas_threads(),
                         **getattr(self._integrator, "thread_usage", {})},
         }
-        if stable_dt:
-            stats["stable_dt_estimate"] = cloth.stable_time_step()
-        return stats
 
     def __repr__(self) -> str:
         return (f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "

@@ -483,8 +483,7 @@ class Viewer:
     def statistics(self) -> dict:
         """What the panel shows: time, steps, last frame's step time, steps per second,
         iterations per step, analyses, factorization time, vertices, faces."""
-        # every frame: without the stable-dt estimate, an eigenvalue run (0.3 s at 128²)
-        stats = self.sim._statistics(stable_dt=False)
+        stats = self.sim.stats
         counters, phases = stats["counters"], stats["phases"]
         steps = max(stats["steps"], 1)
         iterations = counters.get("newton_iterations", counters.get("iterations"))
