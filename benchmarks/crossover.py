@@ -15,7 +15,10 @@ comes (OUT/sweeps/crossover/cells/ID.json) and the Dataset OUT/sweeps/crossover/
 (dimensions size × stiffness × bending; the cell's summary numbers as variables; its runs, as
 JSON, in its `message`). --resume runs only the cells that folder does not hold yet, with the
 settings it was started with (its scene.toml; the grid and budget flags are then ignored).
-Sizes and stiffnesses run largest first, so the longest cells start first.
+Sizes and stiffnesses run largest first, so the longest cells start first. On a local cluster
+each cell also keeps a journal of its finished runs (OUT/sweeps/crossover/journal/CELL/, one
+record per run, written after it): a cell stopped part-way replays them under --resume and goes
+on from the run it was on; a recorded cell's journal is removed.
 
 - The sheet: `yore.scenes.hanging_cloth(resolution=N, pin_spacing=1.0, mass=0.1)`, an N × N
   *vertex* grid of a 1 m square, 0.1 kg in all, starting flat and horizontal between its two
@@ -97,9 +100,12 @@ summary table.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import os
 import platform
+import shutil
 import statistics
 import sys
 import textwrap
@@ -227,7 +233,7 @@ def numeric_counters(counters):
             if isinstance(v, (int, float)) and not isinstance(v, bool)}
 
 
-def simulate(make, options, steps, duration, cap_seconds=math.inf, chunks=16):
+def _simulate(make, options, steps, duration, cap_seconds=math.inf, chunks=16):
     """Runs steps of duration/steps from the start: positions at steps/2 and steps, thread CPU
     seconds of the stepping, the integrator's counters. Diverged → {"diverged": True}; CPU
     (spent, or extrapolated from the steps done) beyond cap_seconds → {"aborted": ...} with the
@@ -275,13 +281,15 @@ def is_stable(make, dt):
             (time.thread_time() - start) / SEARCH_STEPS)
 
 
-def trial_limit(make, estimate):
+def trial_limit(make, estimate, check=None):
     """Largest dt stable over SEARCH_STEPS steps, from the estimate: bracket by SEARCH_FACTOR,
-    then bisect (geometrically). Returns the dt and the trials [{dt, stable, cpu_per_step}]."""
+    then bisect (geometrically). Returns the dt and the trials [{dt, stable, cpu_per_step}].
+    check(dt): is_stable's answer (default: is_stable itself)."""
     trials = []
+    check = check or (lambda dt: is_stable(make, dt))
 
     def trial(dt):
-        stable, cpu_per_step = is_stable(make, dt)
+        stable, cpu_per_step = check(dt)
         trials.append({"dt": dt, "stable": stable, "cpu_per_step": cpu_per_step})
         return stable
 
@@ -307,14 +315,123 @@ def trial_limit(make, estimate):
     return low, trials
 
 
+# -- a cell's journal ------------------------------------------------------------------------------
+_BUILD = None
+
+
+def build_fingerprint():
+    """A hash of the installed yore (its extension and Python files): runs journaled by another
+    build are not replayed."""
+    global _BUILD
+    if _BUILD is None:
+        digest = hashlib.sha256()
+        package = Path(yore.__file__).parent
+        for path in sorted(package.rglob("*")):
+            if path.suffix in (".py", ".so", ".pyd") and path.is_file():
+                digest.update(path.relative_to(package).as_posix().encode())
+                digest.update(path.read_bytes())
+        _BUILD = digest.hexdigest()[:16]
+    return _BUILD
+
+
+def journal_folder(root, cell):
+    return Path(root) / (f"{int(cell['size'])}-{float(cell['stretch_stiffness']):g}-"
+                         + str(cell["bending"]).replace(" ", "_"))
+
+
+class Journal:
+    """The runs of one cell so far, on disk, so that a cell stopped part-way (the session or
+    the worker ends) resumes at the run it was on instead of from the start: a cell at 128² or
+    2e7 N/m takes hours. Each run is recorded after it ends, in the order the cell asks for
+    them: its arrays first, then the JSON naming what was asked and what came out (each
+    written to a temporary name and renamed). A resumed cell replays the records while they
+    answer what it asks again, with their CPU seconds as measured then, and runs the rest; the
+    first record that does not match, and every later one, is dropped. Records of another
+    build of yore are dropped too. ``folder`` None: nothing is kept."""
+
+    def __init__(self, folder, log):
+        self.folder, self.count, self.replayed, self.replayed_cpu = None, 0, 0, 0.0
+        if folder is None:
+            return
+        folder = Path(folder)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            build = folder / "build.txt"
+            if not build.is_file() or build.read_text(encoding="utf-8") != build_fingerprint():
+                self._drop(0, folder)
+                self._write(build, build_fingerprint().encode())
+        except OSError as error:
+            log(f"journal off ({error})")
+            return
+        self.folder = folder
+
+    @staticmethod
+    def _write(path, data):
+        scratch = path.with_name(path.name + ".part")
+        scratch.write_bytes(data)
+        os.replace(scratch, path)
+
+    @staticmethod
+    def _drop(first, folder):
+        for path in folder.glob("run-*"):
+            if int(path.name[4:9]) >= first:
+                path.unlink(missing_ok=True)
+
+    def run(self, asked, compute):
+        """compute()'s result for what ``asked`` names (JSON values), replayed or run now."""
+        index, self.count = self.count, self.count + 1
+        if self.folder is None:
+            return compute()
+        asked = json.loads(json.dumps(asked))
+        record = self.folder / f"run-{index:05d}.json"
+        arrays = self.folder / f"run-{index:05d}.npz"
+        if record.is_file():
+            kept = json.loads(record.read_text(encoding="utf-8"))
+            if kept["asked"] == asked and (arrays.is_file() or not kept["arrays"]):
+                result = kept["result"]
+                if kept["arrays"]:
+                    with np.load(arrays) as data:
+                        result["snapshots"] = [data["half"], data["end"]]
+                if "stable" in result:
+                    result = (result["stable"], result["cpu_per_step"])
+                self.replayed += 1
+                self.replayed_cpu += kept["cpu_seconds"]
+                return result
+            self._drop(index, self.folder)
+        result = compute()
+        if isinstance(result, tuple):  # a stability trial: (stable, cpu per step)
+            kept, cpu = {"stable": result[0], "cpu_per_step": result[1]}, result[1] * SEARCH_STEPS
+        else:
+            kept = {k: v for k, v in result.items() if k != "snapshots"}
+            cpu = result.get("cpu_seconds", 0.0)
+        if isinstance(result, dict) and "snapshots" in result:
+            from io import BytesIO
+
+            buffer = BytesIO()
+            np.savez(buffer, half=result["snapshots"][0], end=result["snapshots"][1])
+            self._write(arrays, buffer.getvalue())
+        self._write(record, json.dumps({"asked": asked, "result": kept, "cpu_seconds": cpu,
+                                        "arrays": isinstance(result, dict)
+                                        and "snapshots" in result}, default=float).encode())
+        return result
+
+
 # -- one cell -----------------------------------------------------------------------------------
-def measure_cell(cell, make, families, settings, log):
-    """Rows of every run of one cell, and the cell's facts (stability search, reference)."""
+def measure_cell(cell, make, families, settings, log, journal=None):
+    """Rows of every run of one cell, and the cell's facts (stability search, reference).
+    journal: a Journal that keeps (and replays) the cell's runs."""
     duration = cell["horizon"]
+    journal = journal or Journal(None, log)
+
+    def simulate(make, options, steps, duration, cap_seconds=math.inf):  # noqa: F811
+        asked = {"run": options, "steps": steps, "duration": duration, "cap": cap_seconds}
+        return journal.run(asked, lambda: _simulate(make, options, steps, duration, cap_seconds))
+
     probe = make()
     estimate = probe.stable_dt()
     scale = float(np.linalg.norm(np.ptp(probe.cloth.positions, axis=0)))
-    limit, trials = trial_limit(make, estimate)
+    limit, trials = trial_limit(make, estimate, lambda dt: journal.run(
+        {"stability trial": dt, "steps": SEARCH_STEPS}, lambda: is_stable(make, dt)))
     explicit = families["explicit"]
     steps_limit = even_steps(duration, limit)
     info = dict(cell, stable_dt_estimate=estimate, trial_limit_dt=limit, stability_trials=trials,
@@ -423,7 +540,11 @@ def measure_cell(cell, make, families, settings, log):
                     break
                 previous = r
 
-    repeat_candidates(rows, make, families, duration, settings["repeats"], log)
+    repeat_candidates(rows, make, families, duration, settings["repeats"], log, simulate)
+    if journal.replayed:
+        info.update(replayed_runs=journal.replayed, replayed_cpu_seconds=journal.replayed_cpu)
+        log(f"{describe(cell)}: {journal.replayed} runs replayed from the journal "
+            f"({journal.replayed_cpu:.0f} CPU s measured before the cell was stopped)")
     return rows, info
 
 
@@ -442,7 +563,7 @@ def usable(row):
     return "error" in row and row["method"] != "reference" and not row.get("unstable")
 
 
-def repeat_candidates(rows, make, families, duration, repeats, log):
+def repeat_candidates(rows, make, families, duration, repeats, log, simulate=None):
     """Repeats (to `repeats` in all) every run that could be its family's cheapest at a
     threshold: it meets the threshold and costs at most REPEAT_MARGIN × the family's cheapest
     single run that meets it. The cost becomes the median."""
@@ -460,7 +581,7 @@ def repeat_candidates(rows, make, families, duration, repeats, log):
     for i in sorted(candidates):
         r = rows[i]
         for _ in range(repeats - 1):
-            again = simulate(make, families[r["method"]], r["steps"], duration)
+            again = (simulate or _simulate)(make, families[r["method"]], r["steps"], duration)
             r["cpu_seconds_samples"].append(again["cpu_seconds"])
         r["repeats"] = len(r["cpu_seconds_samples"])
         set_cost(r, statistics.median(r["cpu_seconds_samples"]))
@@ -617,8 +738,10 @@ def crossover_cell(settings_toml, scene_path, overrides) -> dict:
         families = settings["families"]
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", UNCONVERGED_WARNING, RuntimeWarning)
+            root = settings.get("journal")
+            journal = Journal(journal_folder(root, cell) if root else None, log.append)
             rows, info = measure_cell(cell, sheet(size, stiffness, bending), families,
-                                      settings, log.append)
+                                      settings, log.append, journal)
         summary = info if "skipped" in info else summarize_cell(info, rows, families)
     except Exception as error:  # noqa: BLE001 - a cell's failure is its result
         message = f"{type(error).__name__}: {' '.join(str(error).split())}"
@@ -966,7 +1089,9 @@ def options(parser):
                              "cluster; its workers need yore installed")
     parser.add_argument("--resume", action="store_true",
                         help="run only the cells OUT/sweeps/crossover does not hold yet, with "
-                             "the settings it was started with")
+                             "the settings it was started with; a cell stopped part-way "
+                             "replays the runs it had finished (OUT/sweeps/crossover/journal, "
+                             "kept on local clusters) and goes on from there")
     parser.add_argument("--sizes", type=int, nargs="+", default=None,
                         help="sheet resolutions, vertices per edge (default 32 64 128)")
     parser.add_argument("--stiffness", type=float, nargs="+", default=None,
@@ -1154,6 +1279,8 @@ def main(argv=None):
               "(grid and budget flags ignored)")
     else:
         settings = new_settings(args)
+        if not args.scheduler:  # a cluster's workers need not share this file system
+            settings["journal"] = str((folder / "journal").resolve())
     for line in settings["families_unavailable"]:
         print(f"left out: {line}")
     sweep = grid_sweep(settings)
@@ -1169,6 +1296,10 @@ def main(argv=None):
                       overwrite=not args.resume, resume=args.resume,
                       cell_function=crossover_cell)
     rows, cells = collect(sweep, results, settings["families"])
+    if settings.get("journal"):  # a recorded cell needs its runs no more
+        for cell in cells:
+            if cell.get("status") in ("done", "skipped"):
+                shutil.rmtree(journal_folder(settings["journal"], cell), ignore_errors=True)
     merged_from = []
     grid = settings
     resolved = resolved_families(settings["families"])

@@ -116,6 +116,10 @@ def test_crossover_smoke(tmp_path):
     # every cell ran as a task of the sweep engine, which wrote its Dataset
     assert (tmp_path / "sweeps" / "crossover" / "results.nc").is_file()
     assert data["statuses"] == {"done": data["cells"]} == {"done": 2}
+    # each cell kept a journal of its runs while it ran; a recorded cell's is removed
+    journal = Path(data["settings"]["journal"])
+    assert journal == (tmp_path / "sweeps" / "crossover" / "journal").resolve()
+    assert journal.is_dir() and not any(journal.iterdir())
     tolerance = data["reference_tolerance"]
     assert tolerance == 0.1 * min(data["thresholds"]) == 1e-4
     for cell in data["summary"]["cells"]:
@@ -708,3 +712,100 @@ def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
         other["settings"][key] = value
         with pytest.raises(SystemExit, match=key):
             crossover.merge_runs(settings, mine, [], other, "old.json")
+
+
+def _journal_cell(monkeypatch):
+    """A small crossover cell whose runs' CPU clock is a counter (a millisecond a reading), so
+    which runs it asks for (a ladder stops when a run costs more than the last, repeats go to
+    runs near the cheapest) is the same every time: no test depends on timing."""
+    import types
+
+    from benchmarks import crossover
+
+    ticks = iter(range(10**9))
+    monkeypatch.setattr(crossover, "time", types.SimpleNamespace(
+        thread_time=lambda: 1e-3 * next(ticks), perf_counter=crossover.time.perf_counter,
+        process_time=crossover.time.process_time))
+
+    families, _ = crossover.available_families(("explicit", "BE linearized"))
+    settings = dict(crossover_settings(families, sizes=(8,), stiffness=(2e3,), bending=("soft",)),
+                    repeats=2, rates=list(crossover.QUICK_RATES), max_run_seconds=1e9,
+                    max_ratio=1e9)
+    cell = {"size": 8, "stretch_stiffness": 2e3, "bending": "soft", "horizon": 0.125,
+            **crossover.bending_arguments("soft", 2e3)}
+    return crossover, cell, crossover.sheet(8, 2e3, "soft"), families, settings
+
+
+def _same_runs(a, b):
+    keys = ("method", "steps", "dt", "error", "error_half", "diverged", "iterations")
+    assert [tuple(r.get(k) for k in keys) for r in a] == [tuple(r.get(k) for k in keys) for r in b]
+
+
+def test_a_crossover_cell_stopped_part_way_replays_its_finished_runs(tmp_path, monkeypatch):
+    crossover, cell, make, families, settings = _journal_cell(monkeypatch)
+    real = crossover._simulate
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(args[2])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(crossover, "_simulate", counted)
+    whole, _ = crossover.measure_cell(cell, make, families, settings, lambda s: None)
+    total = len(calls)
+    assert total >= 6  # reference pair, explicit at its limit, the linearized ladder, repeats
+
+    # the same cell, stopped by an interrupt in its fifth run, then resumed on its journal
+    folder = tmp_path / "journal" / "cell"
+
+    def stopping(*args, **kwargs):
+        if len(calls) == total + 4:
+            raise KeyboardInterrupt
+        return counted(*args, **kwargs)
+
+    monkeypatch.setattr(crossover, "_simulate", stopping)
+    with pytest.raises(KeyboardInterrupt):
+        crossover.measure_cell(cell, make, families, settings, lambda s: None,
+                               crossover.Journal(folder, print))
+    assert len(list(folder.glob("run-*.npz"))) == 4  # the four runs that ended, arrays kept
+    monkeypatch.setattr(crossover, "_simulate", counted)
+    before = len(calls)
+    journal = crossover.Journal(folder, print)
+    resumed, info = crossover.measure_cell(cell, make, families, settings, lambda s: None,
+                                           journal)
+    # only the runs not finished before ran again; the stability trials and four runs replayed
+    assert len(calls) - before == total - 4
+    trials = len(info["stability_trials"])
+    assert journal.replayed == trials + 4 == info["replayed_runs"]
+    assert info["replayed_cpu_seconds"] > 0.0
+    _same_runs(resumed, whole)
+
+    # a third pass replays everything: nothing runs, the rows and their CPU seconds are the same
+    before = len(calls)
+    again, _ = crossover.measure_cell(cell, make, families, settings, lambda s: None,
+                                      crossover.Journal(folder, print))
+    assert len(calls) == before
+    _same_runs(again, resumed)
+    assert [r.get("cpu_seconds_samples") for r in again] == \
+        [r.get("cpu_seconds_samples") for r in resumed]
+
+
+def test_a_crossover_journal_of_another_build_or_another_question_is_not_replayed(
+        tmp_path, monkeypatch):
+    crossover, cell, make, families, settings = _journal_cell(monkeypatch)
+    folder = tmp_path / "journal"
+    crossover.measure_cell(cell, make, families, settings, lambda s: None,
+                           crossover.Journal(folder, print))
+    records = sorted(folder.glob("run-*.json"))
+    # a record whose question differs (here: another step count) is dropped with all after it
+    record = json.loads(records[-3].read_text())
+    record["asked"]["steps"] += 2
+    records[-3].write_text(json.dumps(record))
+    journal = crossover.Journal(folder, print)
+    crossover.measure_cell(cell, make, families, settings, lambda s: None, journal)
+    assert journal.replayed == len(records) - 3
+    # another build of yore: nothing replayed
+    (folder / "build.txt").write_text("another build")
+    journal = crossover.Journal(folder, print)
+    crossover.measure_cell(cell, make, families, settings, lambda s: None, journal)
+    assert journal.replayed == 0 and journal.count == len(records)
