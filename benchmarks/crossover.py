@@ -386,17 +386,20 @@ class Journal:
         record = self.folder / f"run-{index:05d}.json"
         arrays = self.folder / f"run-{index:05d}.npz"
         if record.is_file():
-            kept = json.loads(record.read_text(encoding="utf-8"))
-            if kept["asked"] == asked and (arrays.is_file() or not kept["arrays"]):
-                result = kept["result"]
-                if kept["arrays"]:
-                    with np.load(arrays) as data:
-                        result["snapshots"] = [data["half"], data["end"]]
-                if "stable" in result:
-                    result = (result["stable"], result["cpu_per_step"])
-                self.replayed += 1
-                self.replayed_cpu += kept["cpu_seconds"]
-                return result
+            try:
+                kept = json.loads(record.read_text(encoding="utf-8"))
+                if kept["asked"] == asked:
+                    result = kept["result"]
+                    if kept["arrays"]:
+                        with np.load(arrays) as data:
+                            result["snapshots"] = [data["half"], data["end"]]
+                    if "stable" in result:
+                        result = (result["stable"], result["cpu_per_step"])
+                    self.replayed += 1
+                    self.replayed_cpu += kept["cpu_seconds"]
+                    return result
+            except (OSError, ValueError, KeyError, TypeError):
+                pass  # a record damaged by hand: run it again
             self._drop(index, self.folder)
         result = compute()
         if isinstance(result, tuple):  # a stability trial: (stable, cpu per step)
@@ -423,7 +426,7 @@ def measure_cell(cell, make, families, settings, log, journal=None):
     duration = cell["horizon"]
     journal = journal or Journal(None, log)
 
-    def simulate(make, options, steps, duration, cap_seconds=math.inf):  # noqa: F811
+    def simulate(make, options, steps, duration, cap_seconds=math.inf):
         asked = {"run": options, "steps": steps, "duration": duration, "cap": cap_seconds}
         return journal.run(asked, lambda: _simulate(make, options, steps, duration, cap_seconds))
 
@@ -1279,6 +1282,7 @@ def main(argv=None):
               "(grid and budget flags ignored)")
     else:
         settings = new_settings(args)
+        shutil.rmtree(folder / "journal", ignore_errors=True)  # a new run measures afresh
         if not args.scheduler:  # a cluster's workers need not share this file system
             settings["journal"] = str((folder / "journal").resolve())
     for line in settings["families_unavailable"]:

@@ -102,6 +102,10 @@ def test_crossover_with_every_cell_skipped_still_writes_its_results_and_resumes(
 
 
 def test_crossover_smoke(tmp_path):
+    # a journal an earlier run left in the folder: a new run (not --resume) starts afresh
+    stale = tmp_path / "sweeps" / "crossover" / "journal" / "99-1-equal"
+    stale.mkdir(parents=True)
+    (stale / "run-00000.json").write_text("{}")
     # caps far above any run: which runs exist must not depend on wall time
     data = run_benchmark("crossover", tmp_path, "--quick", "--max-ratio", "1e9",
                          "--max-run-seconds", "1e9")
@@ -119,7 +123,7 @@ def test_crossover_smoke(tmp_path):
     # each cell kept a journal of its runs while it ran; a recorded cell's is removed
     journal = Path(data["settings"]["journal"])
     assert journal == (tmp_path / "sweeps" / "crossover" / "journal").resolve()
-    assert journal.is_dir() and not any(journal.iterdir())
+    assert journal.is_dir() and not any(journal.iterdir())  # the stale cell's records too
     tolerance = data["reference_tolerance"]
     assert tolerance == 0.1 * min(data["thresholds"]) == 1e-4
     for cell in data["summary"]["cells"]:
@@ -804,6 +808,11 @@ def test_a_crossover_journal_of_another_build_or_another_question_is_not_replaye
     journal = crossover.Journal(folder, print)
     crossover.measure_cell(cell, make, families, settings, lambda s: None, journal)
     assert journal.replayed == len(records) - 3
+    # a damaged record (cut short) is run again, and so is every later one
+    records[-5].write_text(records[-5].read_text()[:20])
+    journal = crossover.Journal(folder, print)
+    crossover.measure_cell(cell, make, families, settings, lambda s: None, journal)
+    assert journal.replayed == len(records) - 5
     # another build of yore: nothing replayed
     (folder / "build.txt").write_text("another build")
     journal = crossover.Journal(folder, print)
