@@ -101,6 +101,7 @@ summary table.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import math
 import os
@@ -407,15 +408,13 @@ class Journal:
         else:
             kept = {k: v for k, v in result.items() if k != "snapshots"}
             cpu = result.get("cpu_seconds", 0.0)
-        if isinstance(result, dict) and "snapshots" in result:
-            from io import BytesIO
-
-            buffer = BytesIO()
+        has_arrays = isinstance(result, dict) and "snapshots" in result
+        if has_arrays:
+            buffer = io.BytesIO()
             np.savez(buffer, half=result["snapshots"][0], end=result["snapshots"][1])
             self._write(arrays, buffer.getvalue())
         self._write(record, json.dumps({"asked": asked, "result": kept, "cpu_seconds": cpu,
-                                        "arrays": isinstance(result, dict)
-                                        and "snapshots" in result}, default=float).encode())
+                                        "arrays": has_arrays}, default=float).encode())
         return result
 
 

@@ -1,6 +1,9 @@
 """Implicit stepping (backward Euler, BDF2) on sparse solvers."""
 
+import json
 import math
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -793,8 +796,7 @@ def test_supernode_sizes_of_a_factor_that_is_one_dense_block():
                 counters["supernode_median_rows"]) == expected, factorization
 
 
-EXAMPLES = sorted((__import__("pathlib").Path(__file__).resolve().parents[1] / "examples")
-                  .glob("*.toml"))
+EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 
 
 @pytest.mark.slow
@@ -806,9 +808,6 @@ def test_the_default_newton_converges_on_every_example_scene_through_its_strokes
     # default Newton of `method` at 1/60 s with no [integrator] options, until 0.5 s after its
     # last stroke: every step converges at newton_tol or stops on the truncation test (a step
     # at max_newton would count in unconverged_steps and warn, and a warning is an error here).
-    import json
-    import warnings
-
     scene = yore.runs.load_scene(path)
     last = max((s["time"] for s in scene.data.get("strokes", [])), default=0.0)
     assert last > 0.0, "every example has a stroke: the test covers a topology change"
@@ -833,8 +832,6 @@ def test_the_default_newton_converges_on_every_example_scene_through_its_strokes
 @pytest.mark.parametrize("method", ["implicit", "bdf2"])
 @pytest.mark.parametrize("scene", ["hanging_cloth", "rotating_cylinder"])
 def test_the_default_newton_converges_on_the_scenes_soft_and_stiff(scene, method):
-    import warnings
-
     for stiffness in (200.0, 2e4):
         sim = getattr(yore.scenes, scene)(integrator=method, dt=1 / 60,
                                           stretch_stiffness=stiffness, bend_stiffness=stiffness)
