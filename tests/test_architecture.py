@@ -125,3 +125,45 @@ def test_private_names_stay_in_their_module():
                     name not in defined[node.attr]:
                 crossing.append(f"{name} reads {ast.unparse(node)}")
     assert crossing == []
+
+
+def _docstrings(tree):
+    """The string constants that are docstrings (of the module, classes and functions)."""
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                found.add(id(body[0].value))
+    return found
+
+
+def _integrator_names_outside_the_registry():
+    """(module, line, name) of every string constant outside yore.options that is an
+    integrator's name (docstrings aside: they document, they do not decide)."""
+    import yore.options
+
+    names = set(yore.options.INTEGRATORS)
+    found = []
+    for name, (path, tree) in SOURCES.items():
+        if name == "yore.options":
+            continue
+        docstrings = _docstrings(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and \
+                    node.value in names and id(node) not in docstrings:
+                found.append((name, node.lineno, node.value))
+    return found
+
+
+def test_no_module_outside_the_registry_names_an_integrator():
+    # An integrator is one row of yore.options.INTEGRATOR_SPECS: whatever differs between them
+    # (factory, options, dt policy, history fields, iteration cap) is a field of that row, so
+    # adding one touches no other module.
+    assert _integrator_names_outside_the_registry() == []
+
+
+def test_the_integrator_name_finder_finds_a_name(monkeypatch):
+    tree = ast.parse('def f():\n    "implicit"\n\nx = "implicit"\ny = "implicit-ish"\n')
+    monkeypatch.setitem(SOURCES, "yore.fake", (PACKAGE / "fake.py", tree))
+    assert _integrator_names_outside_the_registry() == [("yore.fake", 4, "implicit")]

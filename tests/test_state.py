@@ -52,7 +52,8 @@ def test_clock_does_not_depend_on_how_a_run_is_split():
     assert np.array_equal(a.cloth.positions, b.cloth.positions)
 
 
-@pytest.mark.parametrize("integrator", ["explicit", "implicit", "bdf2", "local-global"])
+@pytest.mark.parametrize("integrator", ["explicit", "implicit", "bdf2", "generalized-alpha",
+                                        "tr-bdf2", "local-global"])
 def test_a_restored_simulation_continues_bit_for_bit(tmp_path, integrator):
     # local-global's buckling start needs more than its default 300 iterations per step
     options = {"iterations": 2000} if integrator == "local-global" else {}

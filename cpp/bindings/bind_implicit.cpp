@@ -17,13 +17,17 @@ py::array csc_array(const std::vector<std::int32_t>& values) { return read_only_
 
 void bind_implicit(py::module_& m) {
   py::class_<ImplicitIntegrator> integrator_class(
-      m, "ImplicitIntegrator", "Backward Euler / BDF2 by Newton's method on a sparse solver.");
+      m, "ImplicitIntegrator",
+      "Backward Euler, BDF2, generalized-α and TR-BDF2 by Newton's method on a sparse solver.");
   def_advance(integrator_class);
   using O = ImplicitOptions;
   static const OptionTable<O> table = {
       choice_option<O, ImplicitMethod>(
           "method", [](O& o) -> ImplicitMethod& { return o.method; },
-          {{"backward-euler", ImplicitMethod::backward_euler}, {"bdf2", ImplicitMethod::bdf2}}),
+          {{"backward-euler", ImplicitMethod::backward_euler},
+           {"bdf2", ImplicitMethod::bdf2},
+           {"generalized-alpha", ImplicitMethod::generalized_alpha},
+           {"tr-bdf2", ImplicitMethod::tr_bdf2}}),
       choice_option<O, ImplicitMinimizer>(
           "minimizer", [](O& o) -> ImplicitMinimizer& { return o.minimizer; },
           {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}}),
@@ -49,6 +53,7 @@ void bind_implicit(py::module_& m) {
                false),
       plain_option("mixed", &O::mixed),
       plain_option("max_newton", &O::max_newton),
+      in_range(plain_option("rho_infinity", &O::rho_infinity), 0.0, 1.0, false, false),
       one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
              {"cholmod", "eigen-ldlt", "pcg"}),
       choice_option<O, Ordering>(
@@ -103,14 +108,25 @@ Newton direction.)doc")
             const ImplicitIntegrator::History history = integrator.history(cloth);
             if (!history.valid) return py::none();
             py::dict out;
-            out["positions"] = read_only_copy(history.positions);
-            out["velocities"] = read_only_copy(history.velocities);
+            const ImplicitMethod method = integrator.options().method;
+            if (method == ImplicitMethod::generalized_alpha) {
+              out["accelerations"] = read_only_copy(history.accelerations);
+              out["force_accelerations"] = read_only_copy(history.force_accelerations);
+            } else if (method == ImplicitMethod::tr_bdf2) {
+              out["accelerations"] = read_only_copy(history.accelerations);
+            } else {
+              out["positions"] = read_only_copy(history.positions);
+              out["velocities"] = read_only_copy(history.velocities);
+            }
             out["dt"] = history.dt;
             return out;
           },
           py::arg("cloth"),
-          R"doc(BDF2's state one step back for the next step of `cloth`: a dict with positions
-(n×3, m), velocities (n×3, m/s) and dt (s), or None when the next step starts afresh.)doc")
+          R"doc(The memory the next step of `cloth` uses: BDF2's state one step back, a dict with
+positions (n×3, m), velocities (n×3, m/s) and dt (s); generalized-α's accelerations, a dict with
+accelerations (algorithmic, n×3, m/s²), force_accelerations (the true ones as solved for, n×3)
+and dt (s, the last step's); TR-BDF2's, a dict with accelerations (at the step's end as solved
+for, n×3) and dt; None when the next step starts afresh or the method keeps none.)doc")
       .def(
           "set_history",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::object& history) {
@@ -120,8 +136,19 @@ Newton direction.)doc")
             if (!history.is_none()) {
               const py::dict values = history.cast<py::dict>();
               restored.valid = true;
-              restored.positions = to_rows3(values["positions"], "history positions");
-              restored.velocities = to_rows3(values["velocities"], "history velocities");
+              const ImplicitMethod method = integrator.options().method;
+              if (method == ImplicitMethod::generalized_alpha ||
+                  method == ImplicitMethod::tr_bdf2) {
+                restored.accelerations =
+                    to_rows3(values["accelerations"], "history accelerations");
+              }
+              if (method == ImplicitMethod::generalized_alpha) {
+                restored.force_accelerations =
+                    to_rows3(values["force_accelerations"], "history force_accelerations");
+              } else if (method != ImplicitMethod::tr_bdf2) {
+                restored.positions = to_rows3(values["positions"], "history positions");
+                restored.velocities = to_rows3(values["velocities"], "history velocities");
+              }
               restored.dt = values["dt"].cast<double>();
             }
             integrator.set_history(cloth, restored);
@@ -188,6 +215,8 @@ Newton direction.)doc")
         out["trust_region_cg_iterations"] = s.trust_region_cg_iterations;
         out["trust_region_rejections"] = s.trust_region_rejections;
         out["negative_curvature_steps"] = s.negative_curvature_steps;
+        out["stages"] = s.stages;
+        out["history_restarts"] = s.history_restarts;
         out["last_newton_iterations"] = s.last_newton_iterations;
         out["last_line_search_backtracks"] = s.last_line_search_backtracks;
         out["last_residual"] = s.last_residual;

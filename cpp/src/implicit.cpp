@@ -36,6 +36,12 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     msg << "step_tol must be finite and >= 0, got " << options.step_tol;
     throw std::invalid_argument(msg.str());
   }
+  if (!std::isfinite(options.rho_infinity) || options.rho_infinity < 0.0 ||
+      options.rho_infinity > 1.0) {
+    std::ostringstream msg;
+    msg << "rho_infinity must be finite and in [0, 1], got " << options.rho_infinity;
+    throw std::invalid_argument(msg.str());
+  }
   if (options.max_newton < 1) {
     std::ostringstream msg;
     msg << "max_newton must be >= 1, got " << options.max_newton;
@@ -71,6 +77,10 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     if (options.linearized || options.lagged_factorization) {
       throw std::invalid_argument(
           "quasi-Newton (lbfgs) takes neither linearized nor lagged_factorization");
+    }
+    if (options.method != ImplicitMethod::backward_euler &&
+        options.method != ImplicitMethod::bdf2) {
+      throw std::invalid_argument("quasi-Newton (lbfgs) takes method backward-euler or bdf2");
     }
     if (options.lbfgs_history < 1 || options.lbfgs_history > 1000) {
       std::ostringstream msg;
@@ -219,8 +229,19 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_trial.resize(n, 3);
   m_iterate.resize(n, 3);
   m_directions.resize(static_cast<Eigen::Index>(s), 3);
+  if (m_options.method == ImplicitMethod::generalized_alpha) m_predicted.resize(n, 3);
+  if (m_options.method == ImplicitMethod::tr_bdf2) {
+    m_start_positions.resize(n, 3);
+    m_start_velocities.resize(n, 3);
+    m_mid_velocities.resize(n, 3);
+  }
   // A history restored by set_history for this very topology survives the first step's setup.
   if (m_history_topology != cloth.topology_version()) {
+    if (m_options.method == ImplicitMethod::generalized_alpha) m_acceleration.resize(n, 3);
+    if (m_options.method == ImplicitMethod::generalized_alpha ||
+        m_options.method == ImplicitMethod::tr_bdf2) {
+      m_force_acceleration.resize(n, 3);
+    }
     m_previous_positions.resize(n, 3);
     m_previous_velocities.resize(n, 3);
     m_history_valid = false;
@@ -238,6 +259,7 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
   m_gravity = gravity;
   m_dt = dt;
   m_second_order = second_order;
+  m_stage = second_order ? StageKind::bdf2 : StageKind::backward_euler;
   const Positions& x = cloth.positions();
   const Positions& v = cloth.velocities();
   if (second_order) {
@@ -250,6 +272,7 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
     m_anchor = x;
     m_target = x + dt * v;
   }
+  m_hv = m_h;
   // Damping directions of the inertial prediction x̂ (constrained vertices included: x̂ − x̄ is
   // their velocity times h̃ too), an O(h̃²) extrapolation of the end-of-step directions: frozen at
   // xₙ they would be O(h) off, which costs BDF2 its order and damps a rigid rotation.
@@ -297,7 +320,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
                                   : projection == HessianProjection::abs ? TransverseFilter::abs
                                                                          : TransverseFilter::clamp;
   const Stopwatch start;
-  const double h = m_h;
+  const double h = m_h, hv = m_hv;  // inertia's h̃ and the velocity scale (equal but for GA)
   const double drag = cloth.drag();
   const Eigen::VectorXd& masses = cloth.masses();
   double energy = 0.0, magnitude = 0.0;  // the sum and the sum of the terms' magnitudes
@@ -310,7 +333,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     const double m = masses[i];
     const Vec3 inertial = x.row(i) - m_target.row(i);
     const Vec3 moved = x.row(i) - m_anchor.row(i);
-    const double inertia_weight = m / (h * h), drag_weight = drag * m / h;
+    const double inertia_weight = m / (h * h), drag_weight = drag * m / hv;
     const double gravity_energy = m * x.row(i).dot(m_gravity);
     const double positive = 0.5 * inertia_weight * inertial.squaredNorm() +
                             0.5 * drag_weight * moved.squaredNorm();
@@ -343,14 +366,14 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     double relative = 0.0;
     if (c > 0.0) {
       relative = (xi - m_anchor.row(i).transpose() - xj + m_anchor.row(j).transpose()).dot(n0);
-      energy += 0.5 * c / h * relative * relative;
-      magnitude += 0.5 * c / h * relative * relative;
+      energy += 0.5 * c / hv * relative * relative;
+      magnitude += 0.5 * c / hv * relative * relative;
     }
     const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
     const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
     if (with_gradient) {
       Vec3 gradient = spring_gradient(xi, xj, rest, stiffness);
-      if (c > 0.0) gradient += (c / h * relative) * n0;
+      if (c > 0.0) gradient += (c / hv * relative) * n0;
       if (a >= 0) m_gradient.segment<3>(a) += gradient;
       if (b >= 0) m_gradient.segment<3>(b) -= gradient;
     }
@@ -358,7 +381,7 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       Mat3 block = m_options.mixed
                        ? spring_hessian_with_force(xi, xj, stiffness, m_tension[k], filter)
                        : spring_hessian(xi, xj, rest, stiffness, filter);
-      if (c > 0.0) block += (c / h) * n0 * n0.transpose();
+      if (c > 0.0) block += (c / hv) * n0 * n0.transpose();
       const auto& starts = m_pattern.column_starts;
       for (const std::int32_t dof : {a, b}) {
         if (dof < 0) continue;
@@ -415,9 +438,19 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
 
 void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   ensure_structure(cloth);
-  const bool second_order = m_options.method == ImplicitMethod::bdf2 && m_history_valid &&
-                            m_history_topology == cloth.topology_version() &&
-                            m_history_edits == cloth.edit_count() && m_history_dt == dt;
+  if (m_options.method == ImplicitMethod::generalized_alpha) {
+    step_generalized_alpha(cloth, gravity, dt);
+    return;
+  }
+  if (m_options.method == ImplicitMethod::tr_bdf2) {
+    step_tr_bdf2(cloth, gravity, dt);
+    return;
+  }
+  const bool second_order =
+      m_options.method == ImplicitMethod::bdf2 && history_matches(cloth) && m_history_dt == dt;
+  if (m_options.method == ImplicitMethod::bdf2 && !second_order) {
+    ++m_statistics.history_restarts;
+  }
   begin_step(cloth, gravity, dt, second_order);
   if (m_options.method == ImplicitMethod::bdf2) {
     m_previous_positions = cloth.positions();  // same size: no allocation
@@ -425,24 +458,44 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   }
   const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(new_time);
+
+  int iterations = 0, backtracks = 0;
+  solve_stage(cloth, iterations, backtracks);
+  write_stage(cloth);
+  m_history_valid = m_options.method == ImplicitMethod::bdf2;
+  m_history_topology = cloth.topology_version();
+  m_history_edits = cloth.edit_count();
+  m_history_dt = dt;
+
+  ++m_statistics.steps;
+  m_statistics.last_newton_iterations = iterations;
+  m_statistics.last_line_search_backtracks = backtracks;
+}
+
+bool ImplicitIntegrator::history_matches(const Cloth& cloth) const {
+  return m_history_valid && m_history_topology == cloth.topology_version() &&
+         m_history_edits == cloth.edit_count();
+}
+
+bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& backtracks) {
   if (m_options.mixed) reset_tension(cloth, cloth.positions());
   m_iterate = cloth.positions();
   if (m_options.predictor == NewtonPredictor::inertial) {
     for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);
   }
-
-  int iterations = 0, backtracks = 0;
+  int stage_iterations = 0, stage_backtracks = 0;
   bool converged = m_pattern.size == 0;
   double energy = 0.0, residual = 0.0;
   if (!converged) {
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
     if (m_options.minimizer == ImplicitMinimizer::lbfgs) {
-      quasi_newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
+      quasi_newton_iterate(cloth, energy, residual, stage_iterations, stage_backtracks,
+                           converged);
     } else if (m_options.projection == HessianProjection::steihaug && !m_options.linearized) {
-      steihaug_iterate(cloth, energy, residual, iterations, backtracks, converged);
+      steihaug_iterate(cloth, energy, residual, stage_iterations, stage_backtracks, converged);
     } else {
-      newton_iterate(cloth, energy, residual, iterations, backtracks, converged);
+      newton_iterate(cloth, energy, residual, stage_iterations, stage_backtracks, converged);
     }
   }
   if (!converged) ++m_statistics.unconverged_steps;
@@ -456,24 +509,76 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     m_statistics.last_scaled_residual = 0.0;
     m_statistics.last_truncation_error = 0.0;
   }
+  ++m_statistics.stages;
+  m_statistics.newton_iterations += stage_iterations;
+  m_statistics.line_search_backtracks += stage_backtracks;
+  m_statistics.last_dofs = m_pattern.size;
+  iterations += stage_iterations;
+  backtracks += stage_backtracks;
+  return converged;
+}
 
+void ImplicitIntegrator::write_stage(Cloth& cloth) {
   Positions& x = cloth.integrator_positions();
   Positions& v = cloth.integrator_velocities();
   for (const std::int32_t i : m_free_vertices) {
     x.row(i) = m_iterate.row(i);
-    v.row(i) = (m_iterate.row(i) - m_anchor.row(i)) / m_h;
+    v.row(i) = (m_iterate.row(i) - m_anchor.row(i)) / m_hv;
   }
-  m_history_valid = m_options.method == ImplicitMethod::bdf2;
-  m_history_topology = cloth.topology_version();
-  m_history_edits = cloth.edit_count();
-  m_history_dt = dt;
+}
 
-  ++m_statistics.steps;
-  m_statistics.newton_iterations += iterations;
-  m_statistics.line_search_backtracks += backtracks;
-  m_statistics.last_newton_iterations = iterations;
-  m_statistics.last_line_search_backtracks = backtracks;
-  m_statistics.last_dofs = m_pattern.size;
+void ImplicitIntegrator::keep_stage_accelerations() {
+  for (const std::int32_t i : m_free_vertices) {
+    m_force_acceleration.row(i) = (m_iterate.row(i) - m_target.row(i)) / (m_h * m_h);
+  }
+}
+
+void ImplicitIntegrator::finish_stage_setup(const Cloth& cloth) {
+  // Constrained vertices are where the drivers put them at the stage's end, moving at their
+  // prescribed velocity: their rows make the damping of springs to them see that velocity.
+  const Positions& x = cloth.positions();
+  const Positions& v = cloth.velocities();
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    if (m_dof_of_vertex[static_cast<std::size_t>(i)] >= 0) continue;
+    m_anchor.row(i) = x.row(i) - m_hv * v.row(i);
+    m_target.row(i) = x.row(i);
+  }
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const Vec3 d = m_target.row(springs.first[k]) - m_target.row(springs.second[k]);
+    const double length = d.norm();
+    m_directions.row(static_cast<Eigen::Index>(k)) =
+        length > 0.0 ? Vec3(d / length) : Vec3::Zero();
+  }
+}
+
+void ImplicitIntegrator::accelerations(const Cloth& cloth, const Positions& x,
+                                       const Positions& v, Positions& out) {
+  // M⁻¹ f(x, v) as the explicit integrator's forces: −∇U, the springs' damping along their
+  // current directions, drag and gravity; only the free vertices' rows are used.
+  out.setZero();
+  const SpringSet& springs = cloth.springs();
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    const Vec3 xi = x.row(i), xj = x.row(j);
+    Vec3 force = -spring_gradient(xi, xj, springs.rest_length[k], springs.stiffness[k]);
+    if (springs.damping[k] > 0.0) {
+      force += spring_damping_force(xi, xj, v.row(i).transpose(), v.row(j).transpose(),
+                                    springs.damping[k]);
+    }
+    out.row(i) += force.transpose();
+    out.row(j) -= force.transpose();
+  }
+  if (cloth.has_quadratic_bending()) {
+    // the trial buffer is free between steps
+    quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(), x, m_trial);
+    out -= m_trial;
+  }
+  const Eigen::VectorXd& masses = cloth.masses();
+  const double drag = cloth.drag();
+  for (const std::int32_t i : m_free_vertices) {
+    out.row(i) = out.row(i) / masses[i] + m_gravity.transpose() - drag * v.row(i);
+  }
 }
 
 double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double slope,
@@ -533,18 +638,51 @@ double ImplicitIntegrator::truncation_error(const Cloth& cloth) const {
   // Backward Euler: x⁺ − x̂ = h² a⁺ and the local error is ½ h² ẍ. BDF2 (error constant 2/9):
   // (2/9) h³ x''' with h² x''' ≈ v⁺ − 2vₙ + vₙ₋₁, where v⁺ = (x⁺ − x̄)/h̃ and vₙ₋₁ comes back
   // from x̂ − x̄ = h̃ (4vₙ − vₙ₋₁)/3 (begin_step); vₙ is the cloth's velocity until the step ends.
+  // The trapezoidal stage of TR-BDF2 (length γh = 2h̃): (γh)³ x'''/12 with γh x''' ≈ a⁺ − a₀,
+  // a⁺ = (v⁺ − v̄)/h̃. TR-BDF2's second stage: the embedded estimate of the whole step (Bank et
+  // al. 1985; Hosea & Shampine 1996), 2|k| h |v₀/γ − v_γ/(γ(1 − γ)) + v⁺/(1 − γ)|, k =
+  // (−3γ² + 4γ − 2)/(12(2 − γ)), which is |k| h³ x''' to leading order. Generalized-α:
+  // Newmark's estimate |β − 1/6| h² |aₙ₊₁ − aₙ| (Zienkiewicz & Xie 1991) on the algorithmic
+  // accelerations, aₙ₊₁ = (x⁺ − x_pred)/(β h²).
   const Positions& v = cloth.velocities();
   double largest = 0.0;
   for (const std::int32_t i : m_free_vertices) {
     double error = 0.0;
-    if (m_second_order) {
-      const Vec3 next = (m_iterate.row(i) - m_anchor.row(i)).transpose() / m_h;
-      const Vec3 now = v.row(i).transpose();
-      const Vec3 before =
-          4.0 * now - 3.0 * (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;
-      error = 2.0 / 9.0 * m_dt * (next - 2.0 * now + before).norm();
-    } else {
-      error = 0.5 * (m_iterate.row(i) - m_target.row(i)).norm();
+    const Vec3 next = (m_iterate.row(i) - m_anchor.row(i)).transpose() / m_hv;
+    switch (m_stage) {
+      case StageKind::bdf2: {
+        const Vec3 now = v.row(i).transpose();
+        const Vec3 before =
+            4.0 * now - 3.0 * (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;
+        error = 2.0 / 9.0 * m_dt * (next - 2.0 * now + before).norm();
+        break;
+      }
+      case StageKind::backward_euler:
+        error = 0.5 * (m_iterate.row(i) - m_target.row(i)).norm();
+        break;
+      case StageKind::trapezoid: {
+        const Vec3 blended = (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;  // v̄
+        const Vec3 acceleration = (next - blended) / m_h;
+        const double length = 2.0 * m_h;  // γh
+        error = length * length / 12.0 *
+                (acceleration - m_force_acceleration.row(i).transpose()).norm();
+        break;
+      }
+      case StageKind::tr_bdf2: {
+        const double gamma = kTrBdf2Gamma;
+        const double k = (-3.0 * gamma * gamma + 4.0 * gamma - 2.0) / (12.0 * (2.0 - gamma));
+        const Vec3 combination = m_start_velocities.row(i).transpose() / gamma -
+                                 m_mid_velocities.row(i).transpose() / (gamma * (1.0 - gamma)) +
+                                 next / (1.0 - gamma);
+        error = 2.0 * std::abs(k) * m_dt * combination.norm();
+        break;
+      }
+      case StageKind::generalized_alpha: {
+        const Vec3 acceleration =
+            (m_iterate.row(i) - m_predicted.row(i)).transpose() / m_beta_h2;
+        error = m_error_constant * (acceleration - m_acceleration.row(i).transpose()).norm();
+        break;
+      }
     }
     largest = std::max(largest, error);
   }
@@ -582,13 +720,17 @@ double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
 
 ImplicitIntegrator::History ImplicitIntegrator::history(const Cloth& cloth) const {
   History out;
-  out.valid = m_options.method == ImplicitMethod::bdf2 && m_history_valid &&
-              m_history_topology == cloth.topology_version() &&
-              m_history_edits == cloth.edit_count();
-  if (out.valid) {
+  out.valid = m_options.method != ImplicitMethod::backward_euler && history_matches(cloth);
+  if (!out.valid) return out;
+  out.dt = m_history_dt;
+  if (m_options.method == ImplicitMethod::generalized_alpha) {
+    out.accelerations = m_acceleration;
+    out.force_accelerations = m_force_acceleration;
+  } else if (m_options.method == ImplicitMethod::tr_bdf2) {
+    out.accelerations = m_force_acceleration;
+  } else {
     out.positions = m_previous_positions;
     out.velocities = m_previous_velocities;
-    out.dt = m_history_dt;
   }
   return out;
 }
@@ -619,30 +761,54 @@ void ImplicitIntegrator::set_projection_memory(const ProjectionMemory& memory) {
 }
 
 void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history) {
-  if (m_options.method != ImplicitMethod::bdf2) {
-    throw std::invalid_argument("only a BDF2 integrator has a history to restore");
+  const bool alpha = m_options.method == ImplicitMethod::generalized_alpha;
+  const bool trbdf2 = m_options.method == ImplicitMethod::tr_bdf2;
+  if (m_options.method == ImplicitMethod::backward_euler) {
+    throw std::invalid_argument("a backward-Euler integrator has no history to restore");
   }
   if (!history.valid) {
     m_history_valid = false;
     return;
   }
   const Eigen::Index n = cloth.vertex_count();
-  if (history.positions.rows() != n || history.velocities.rows() != n) {
-    std::ostringstream msg;
-    msg << "history must have " << n << " rows (the cloth's vertices), got "
-        << history.positions.rows() << " and " << history.velocities.rows();
-    throw std::invalid_argument(msg.str());
-  }
-  if (!history.positions.allFinite() || !history.velocities.allFinite()) {
-    throw std::invalid_argument("history positions and velocities must be finite");
+  if (alpha || trbdf2) {
+    const Eigen::Index forces = alpha ? history.force_accelerations.rows() : n;
+    if (history.accelerations.rows() != n || forces != n) {
+      std::ostringstream msg;
+      msg << "history accelerations must have " << n << " rows (the cloth's vertices), got "
+          << history.accelerations.rows() << (alpha ? " and " : "")
+          << (alpha ? std::to_string(forces) : std::string());
+      throw std::invalid_argument(msg.str());
+    }
+    if (!history.accelerations.allFinite() ||
+        (alpha && !history.force_accelerations.allFinite())) {
+      throw std::invalid_argument("history accelerations must be finite");
+    }
+  } else {
+    if (history.positions.rows() != n || history.velocities.rows() != n) {
+      std::ostringstream msg;
+      msg << "history must have " << n << " rows (the cloth's vertices), got "
+          << history.positions.rows() << " and " << history.velocities.rows();
+      throw std::invalid_argument(msg.str());
+    }
+    if (!history.positions.allFinite() || !history.velocities.allFinite()) {
+      throw std::invalid_argument("history positions and velocities must be finite");
+    }
   }
   if (!std::isfinite(history.dt) || history.dt <= 0.0) {
     std::ostringstream msg;
     msg << "history dt must be finite and > 0, got " << history.dt;
     throw std::invalid_argument(msg.str());
   }
-  m_previous_positions = history.positions;
-  m_previous_velocities = history.velocities;
+  if (alpha) {
+    m_acceleration = history.accelerations;
+    m_force_acceleration = history.force_accelerations;
+  } else if (trbdf2) {
+    m_force_acceleration = history.accelerations;
+  } else {
+    m_previous_positions = history.positions;
+    m_previous_velocities = history.velocities;
+  }
   m_history_dt = history.dt;
   m_history_topology = cloth.topology_version();
   m_history_edits = cloth.edit_count();
@@ -651,7 +817,10 @@ void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history)
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                  std::int64_t steps) {
-  const char* name = m_options.method == ImplicitMethod::bdf2 ? "bdf2" : "implicit";
+  const char* name = m_options.method == ImplicitMethod::bdf2                ? "bdf2"
+                     : m_options.method == ImplicitMethod::generalized_alpha ? "generalized-alpha"
+                     : m_options.method == ImplicitMethod::tr_bdf2           ? "tr-bdf2"
+                                                                             : "implicit";
   advance_checked(
       cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions,
       m_checkpoint_velocities, [&] { step(cloth, gravity, dt); },

@@ -2,7 +2,11 @@
 C++ core, and between scene files, state files, `yore.Simulation`, the viewer and the command
 line, which all read their names, defaults and checks from here.
 
-- Integrators: `INTEGRATOR_OPTIONS` (integrator → {option: default}). Names and defaults come
+- Integrators: `INTEGRATOR_SPECS`, one `IntegratorSpec` per integrator (its core class and how
+  to make it, its options table, its dt policy, the fields of its history in a state file), and
+  the views of it `INTEGRATORS` (the names) and `INTEGRATOR_OPTIONS` (integrator → {option:
+  default}). No other module names an integrator (tests/test_architecture.py checks): adding
+  one is a C++ file, its binding and one row here. Names and defaults come
   from the C++ option structs (``_core.*Integrator.defaults``, a table in the bindings); written
   here are only the options that exist on the Python side alone and the defaults that differ by
   integrator. A default of None means "decided from the other options": `resolve_options` is the
@@ -18,18 +22,19 @@ from __future__ import annotations
 
 import math
 import numbers
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from . import _core
 
-__all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "OptionError", "check_option", "option_expected",
+__all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "INTEGRATOR_SPECS", "IntegratorSpec",
+           "DEFAULT_INTEGRATOR", "REFERENCE_INTEGRATOR", "FIXED_DT", "OptionError", "check_option", "option_expected",
            "resolve_options", "defaults", "STROKE_DEFAULTS", "GROWTH_MODES", "GRAVITY",
            "IMAGE_WIDTH", "IMAGE_HEIGHT", "FOV_DEGREES", "MAX_STEP_ITERATIONS",
            "MAX_SOLVER_ITERATIONS", "MAX_SMOOTHING_ITERATIONS"]
 
-#: Integrator names of the public API. 
-INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
 
 #: Options each integrator accepts, with their defaults. Names and defaults come from the C++
 #: option structs (``_core.*Integrator.defaults``); written here are only the options that
@@ -38,6 +43,9 @@ INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
 CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
 CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
 CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
+#: Core options no integrator takes as such: the method and minimizer are the integrator's
+#: name, rho_infinity is generalized-α's alone.
+CORE_CHOSEN_BY_NAME = ("method", "minimizer", "lbfgs_history", "rho_infinity")
 #: Options of Newton's method that quasi-Newton does not take.
 NEWTON_ONLY = ("linearized", "step_tol", "truncation_fraction", "mixed", "adaptive_projection", "projection",
                 "lagged_factorization",
@@ -64,7 +72,7 @@ INTEGRATOR_OPTIONS = {
         # step's estimated truncation error (0 = off; ImplicitOptions says how both are
         # estimated).
         **{name: value for name, value in CORE_IMPLICIT.items()
-           if name not in ("method", "minimizer", "lbfgs_history")},
+           if name not in CORE_CHOSEN_BY_NAME},
         # mixed: Newton's matrices take the springs' forces from the step's linearization (the
         # mixed formulation, Trusty et al. 2022). None: on with the clamp (it saves ~40 % of
         # its iterations on stiff sheets), off with the other projections (measured mixed with
@@ -89,6 +97,19 @@ INTEGRATOR_OPTIONS = {
     },
 }
 INTEGRATOR_OPTIONS["bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
+INTEGRATOR_OPTIONS["generalized-alpha"] = {
+    **INTEGRATOR_OPTIONS["implicit"],
+    # ρ∞, the spectral radius of a step at infinite frequency: 1 keeps every frequency (the
+    # trapezoidal rule), 0 removes the highest in one step; low frequencies keep their energy
+    # to third order in ωh whatever ρ∞ (Chung & Hulbert 1993).
+    "rho_infinity": CORE_IMPLICIT["rho_infinity"],
+    # Newton's truncation test at a tenth of the default's fraction: ρ∞ > 0 keeps the stiff
+    # modes' oscillation in the step's error estimate, so the default's 0.1 stops Newton too
+    # early and the stiff 32² sheet (2e5 N/m, 1/32 s) gains energy without bound; at 0.01 its
+    # kinetic-energy history is within 6.5 % over 2 s (docs/integrators.md).
+    "truncation_fraction": 0.01,
+}
+INTEGRATOR_OPTIONS["tr-bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
 INTEGRATOR_OPTIONS["local-global"] = {
     # Iterations of a step stop once the estimated distance to the step's solution is at most
     # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
@@ -109,7 +130,7 @@ INTEGRATOR_OPTIONS["quasi-newton"] = {
     # Newton's residual test (newton_tol) and cap (max_newton), predictor, ordering,
     # factorization, divergence bound.
     **{name: value for name, value in CORE_IMPLICIT.items()
-       if name not in NEWTON_ONLY + ("minimizer", "method")},
+       if name not in NEWTON_ONLY + ("minimizer", "method", "rho_infinity")},
     # Quasi-Newton iterations are cheap (one scalar solve with three right-hand sides) but
     # many: its cap is twenty times Newton's.
     "max_newton": 1000,
@@ -127,8 +148,9 @@ for _integrator in (_core.ExplicitIntegrator, _core.ImplicitIntegrator,
                     _core.LocalGlobalIntegrator):
     for _name, _spec in _integrator.option_rules.items():
         CORE_RULES.setdefault(_name, dict(_spec))
-#: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`).
-QUASI_NEWTON_METHODS = tuple(CORE_RULES["method"]["choices"])
+#: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`): the one-step
+#: ones whose iteration matrix is the scalar local-global matrix.
+QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
 
 #: Largest iteration counts an option may ask for (the core's). One step runs its iterations
 #: inside the C++ core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be
@@ -238,7 +260,8 @@ _RULES.update(strain_limit=_or_none(_real(1.0, low_open=False)),
               projection=_or_none(_RULES["projection"]),
               predictor=_or_none(_RULES["predictor"]),
               mixed=_or_none(_RULES["mixed"]),
-              acceleration=_one_of(*ACCELERATIONS))
+              acceleration=_one_of(*ACCELERATIONS),
+              method=_one_of(*QUASI_NEWTON_METHODS))
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
 
@@ -285,7 +308,7 @@ def resolve_options(integrator, options) -> dict:
     """``options`` (all of ``integrator``'s, checked) with every None that stands for "decide from
     the others" decided: the one place that does it. ValueError where two options contradict."""
     options = dict(options)
-    if integrator in ("implicit", "bdf2"):
+    if INTEGRATOR_SPECS[integrator].newton:
         projection = _projection(options)
         if options["adaptive_projection"] is not None and options["projection"] is not None \
                 and options["adaptive_projection"] != (projection == "exact"):
@@ -304,6 +327,106 @@ def defaults(integrator) -> dict:
     if integrator not in INTEGRATOR_OPTIONS:
         raise ValueError(f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
     return resolve_options(integrator, INTEGRATOR_OPTIONS[integrator])
+
+
+# -- the integrators' registry -----------------------------------------------------------------
+#: Default time step of the integrators that are not conditionally stable, s.
+FIXED_DT = 1.0 / 60.0
+#: The integrator a scene, a scene file and `yore.scenes` use unless told (the paper's), and the
+#: one the run loader steps a probe with: it needs no factorization and no options.
+DEFAULT_INTEGRATOR = REFERENCE_INTEGRATOR = "explicit"
+
+
+@dataclass(frozen=True)
+class IntegratorSpec:
+    """Everything the Python side knows of one integrator; `INTEGRATOR_SPECS` holds them.
+
+    name: the public name (``yore.Simulation(integrator=name)``, scene and state files).
+    summary: one line for help texts. options: its options table (name → default, None where
+    `resolve_options` decides). make: its core integrator from its options as given (the
+    factory resolves them). conditionally_stable: dt defaults to the explicit stable-step bound
+    and follows the cloth through strokes, and a diverged run's advice is that bound; otherwise
+    dt defaults to `FIXED_DT`. newton: Newton's integrator, whose options `resolve_options`
+    decides and whose projection memory a state file keeps. history: the fields (n×3 arrays)
+    of the history a state file keeps besides its dt, given the options; () when none.
+    cap: the options that name its iteration cap and its tolerance (the warning for steps
+    that reach the cap quotes them).
+    """
+
+    name: str
+    summary: str
+    options: dict
+    make: Callable[[dict], object]
+    conditionally_stable: bool = False
+    newton: bool = False
+    history: Callable[[dict], tuple] = lambda options: ()
+    cap: tuple = ("max_newton", "newton_tol")
+
+
+def _make_explicit(options):
+    limit = options["strain_limit"]
+    return _core.ExplicitIntegrator(
+        strain_limit=0.0 if limit is None else float(limit),
+        strain_limit_passes=int(options["strain_limit_passes"]),
+        divergence_energy_factor=float(options["divergence_energy_factor"]),
+    )
+
+
+def _newton_factory(integrator, method):
+    def make(options):
+        options = resolve_options(integrator, options)
+        core = {name: options[name] for name in CORE_IMPLICIT if name in options}
+        core.update(method=method, adaptive_projection=False)  # mapped into projection
+        return _core.ImplicitIntegrator(**core)
+    return make
+
+
+def _make_local_global(options):
+    core = {name: options[name] for name in CORE_LOCAL_GLOBAL}
+    if options["acceleration"] == "none":
+        core["chebyshev_rho"] = 0.0
+    return _core.LocalGlobalIntegrator(**core)
+
+
+def _make_quasi_newton(options):
+    core = {name: options[name] for name in CORE_IMPLICIT if name in options}
+    return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
+
+
+_BDF2_HISTORY = ("positions", "velocities")
+
+
+def _newton_spec(name, method, summary, history=()):
+    return IntegratorSpec(name, summary, INTEGRATOR_OPTIONS[name], _newton_factory(name, method),
+                          newton=True, history=lambda options: history)
+
+
+#: The integrators, in the order help texts list them.
+INTEGRATOR_SPECS = {spec.name: spec for spec in (
+    IntegratorSpec("explicit", "symplectic Euler, the reference (stable below the explicit "
+                   "limit)", INTEGRATOR_OPTIONS["explicit"], _make_explicit,
+                   conditionally_stable=True),
+    _newton_spec("implicit", "backward-euler", "backward Euler by Newton on a sparse Cholesky "
+                 "factorization (first order, damps the motion)"),
+    _newton_spec("bdf2", "bdf2", "BDF2 on the same machinery (second order, damps less)",
+                 _BDF2_HISTORY),
+    _newton_spec("generalized-alpha", "generalized-alpha", "generalized-α (Chung & Hulbert "
+                 "1993; second order, high frequencies damped as rho_infinity says)",
+                 ("accelerations", "force_accelerations")),
+    _newton_spec("tr-bdf2", "tr-bdf2", "TR-BDF2 (Bank et al. 1985; second order, L-stable, "
+                 "two Newton solves a step, an embedded error estimate)", ("accelerations",)),
+    IntegratorSpec("local-global", "prefactored local/global backward Euler (Liu et al. 2013)",
+                   INTEGRATOR_OPTIONS["local-global"], _make_local_global,
+                   cap=("iterations", "tolerance")),
+    IntegratorSpec("quasi-newton", "L-BFGS on the backward-Euler or BDF2 potential (Liu, "
+                   "Bouaziz & Kavan 2017)", INTEGRATOR_OPTIONS["quasi-newton"],
+                   _make_quasi_newton,
+                   history=lambda options: _BDF2_HISTORY if options.get("method") == "bdf2"
+                   else ()),
+)}
+#: Integrator names of the public API.
+INTEGRATORS = tuple(INTEGRATOR_SPECS)
+assert set(INTEGRATORS) == set(INTEGRATOR_OPTIONS)
 
 
 # -- strokes ------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ import numpy as np
 
 from ._core import Cloth
 from .meshes import cylinder_mesh, cylinder_ring, grid_mesh
-from .options import GRAVITY, MASS
+from .options import DEFAULT_INTEGRATOR, GRAVITY, MASS
 from .options import STIFFNESS as OPTION_STIFFNESS
 from .simulation import Simulation
 
@@ -42,7 +42,7 @@ def _bending_arguments(bending, bend_stiffness, bending_modulus):
 
 def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
                   stretch_stiffness=STIFFNESS, bend_stiffness=None, damping=DAMPING,
-                  drag=DRAG, integrator="explicit", dt=None, gravity=GRAVITY,
+                  drag=DRAG, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                   bending="springs", bending_modulus=None, **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
@@ -84,7 +84,7 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
 def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
                       omega=2.0 * math.pi, stretch_stiffness=STIFFNESS,
                       bend_stiffness=None, damping=DAMPING, drag=DRAG,
-                      integrator="explicit", dt=None, gravity=GRAVITY,
+                      integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                       bending="springs", bending_modulus=None, **options) -> Simulation:
     """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
 

@@ -11,8 +11,8 @@ import numpy as np
 from . import _core
 from ._core import Cloth, SimulationDiverged
 from .checks import MAX_SETTLE_SECONDS, MAX_STEPS, MIN_DT
-from .options import (ACCELERATIONS, CORE_IMPLICIT, CORE_LOCAL_GLOBAL, GRAVITY,
-                      INTEGRATOR_OPTIONS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, STROKE_DEFAULTS,
+from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
+                      INTEGRATOR_SPECS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, STROKE_DEFAULTS,
                       check_option, is_integer, is_real, resolve_options, show_value)
 from .camera import Camera
 from .stroke import apply_stroke, check_factor, check_stroke_options, check_stroke_points
@@ -22,47 +22,8 @@ __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
 _STROKE = STROKE_DEFAULTS  # the stroke methods' defaults
 
 
-def _make_explicit(options):
-    limit = options["strain_limit"]
-    return _core.ExplicitIntegrator(
-        strain_limit=0.0 if limit is None else float(limit),
-        strain_limit_passes=int(options["strain_limit_passes"]),
-        divergence_energy_factor=float(options["divergence_energy_factor"]),
-    )
-
-
-def _make_implicit(options, method="backward-euler"):
-    options = resolve_options("implicit", options)
-    core = {name: options[name] for name in CORE_IMPLICIT if name in options}
-    core.update(method=method, adaptive_projection=False)  # mapped into projection
-    return _core.ImplicitIntegrator(**core)
-
-
-def _make_local_global(options):
-    if options["acceleration"] not in ACCELERATIONS:
-        raise ValueError(f"unknown acceleration {options['acceleration']!r}; valid: "
-                         f"{', '.join(ACCELERATIONS)}")
-    core = {name: options[name] for name in CORE_LOCAL_GLOBAL}
-    if options["acceleration"] == "none":
-        core["chebyshev_rho"] = 0.0
-    return _core.LocalGlobalIntegrator(**core)
-
-
-def _make_quasi_newton(options):
-    core = {name: options[name] for name in CORE_IMPLICIT if name in options}
-    return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
-
-
-_FACTORIES = {
-    "quasi-newton": _make_quasi_newton,
-    "explicit": _make_explicit,
-    "local-global": _make_local_global,
-    "implicit": _make_implicit,
-    "bdf2": lambda options: _make_implicit(options, method="bdf2"),
-}
-
-#: Default time step of the implicit integrators, s.
-IMPLICIT_DT = 1.0 / 60.0
+#: Default time step of the implicit integrators, s (`yore.options.FIXED_DT`).
+IMPLICIT_DT = FIXED_DT
 
 #: Pseudo-time step of `Simulation.settle`'s backward-Euler relaxation, s.
 SETTLE_DT = 0.5
@@ -119,7 +80,10 @@ class Simulation:
         One of ``yore.simulation.INTEGRATORS``: ``"explicit"`` (symplectic Euler, the
         reference), ``"implicit"`` (backward Euler by Newton on a sparse Cholesky factorization),
         ``"bdf2"`` (second order on the same machinery), ``"local-global"`` (prefactored
-        local/global backward Euler, Liu et al. 2013), ``"quasi-newton"`` (L-BFGS on the
+        local/global backward Euler, Liu et al. 2013), ``"generalized-alpha"`` (Chung &
+        Hulbert's second-order method on the same Newton machinery; ``rho_infinity`` sets how
+        much of the highest frequencies survives a step), ``"tr-bdf2"`` (a trapezoidal stage
+        and a BDF2 stage per step: second order, L-stable), ``"quasi-newton"`` (L-BFGS on the
         backward-Euler or BDF2 potential with the constant local-global matrix as initial
         Hessian, Liu, Bouaziz & Kavan 2017).
     dt : float, optional
@@ -129,7 +93,8 @@ class Simulation:
         Gravitational acceleration, m/s².
     **options
         Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
-        ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit and bdf2:
+        ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit, bdf2,
+        generalized-alpha and tr-bdf2 (generalized-alpha also takes ``rho_infinity``, in [0, 1]):
         ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when ``max |∇ᵢE|·h̃²/mᵢ``, the
         gradient as a displacement, is below newton_tol × the mean rest length; the step's
         start passes only if no vertex's net force exceeds newton_tol × its weight),
@@ -182,17 +147,13 @@ class Simulation:
         An integrator of the API that this version does not build yet.
     """
 
-    def __init__(self, cloth, integrator="explicit", dt=None, gravity=GRAVITY,
+    def __init__(self, cloth, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                  **options):
         if not isinstance(cloth, Cloth):
             raise TypeError(f"cloth must be a yore.Cloth, got {type(cloth).__name__}")
         if not isinstance(integrator, str) or integrator not in INTEGRATORS:
             raise ValueError(
                 f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
-        if integrator not in _FACTORIES:
-            raise NotImplementedError(
-                f"integrator {integrator!r} is not built yet in this version of yore; "
-                f"available: {', '.join(_FACTORIES)}")
         valid = INTEGRATOR_OPTIONS[integrator]
         unknown = sorted(set(options) - set(valid))
         if unknown:
@@ -207,12 +168,13 @@ class Simulation:
         self._gravity = gravity
         self._cloth = cloth
         self._integrator_name = integrator
-        self._integrator = _FACTORIES[integrator](self._options)
+        self._spec = INTEGRATOR_SPECS[integrator]
+        self._integrator = self._spec.make(self._options)
         # An explicit dt left to the default follows the cloth: a stroke that refines faces or
         # adds light vertices lowers the stable step, and the default is re-derived then.
-        self._dt_follows_cloth = dt is None and integrator == "explicit"
+        self._dt_follows_cloth = dt is None and self._spec.conditionally_stable
         if dt is None:
-            dt = default_explicit_dt(cloth) if integrator == "explicit" else IMPLICIT_DT
+            dt = default_explicit_dt(cloth) if self._spec.conditionally_stable else FIXED_DT
         self._dt = check_factor(dt, "dt", "s")
         if self._dt < MIN_DT:
             raise ValueError(f"dt must be at least {MIN_DT:g} s, got {self._dt:g}")
@@ -278,9 +240,9 @@ class Simulation:
         Newton's projection memory (which steps try the exact Hessian).
         `Simulation.from_state` rebuilds it; `yore.save_state` writes it to a file."""
         history = memory = None
-        if self._keeps_history():
+        if self._spec.history(self._options):
             history = self._integrator.history(self._cloth)
-        if self._integrator_name in ("implicit", "bdf2"):
+        if self._spec.newton:
             memory = self._integrator.projection_memory()
         # the options as resolved: a state continues with what ran, whatever later defaults
         return {"cloth": self._cloth.state(), "integrator": self._integrator_name,
@@ -288,11 +250,6 @@ class Simulation:
                 "gravity": self._gravity.copy(), "history": history,
                 "projection_memory": memory, "target_time": self._target_time,
                 "dt_follows_cloth": self._dt_follows_cloth}
-
-    def _keeps_history(self) -> bool:
-        """Whether the integrator keeps BDF2's history (part of a saved state)."""
-        return self._integrator_name == "bdf2" or (
-            self._integrator_name == "quasi-newton" and self._options["method"] == "bdf2")
 
     @classmethod
     def from_state(cls, state) -> Simulation:
@@ -311,8 +268,16 @@ class Simulation:
         cloth = Cloth.from_state(state["cloth"])
         sim = cls(cloth, integrator=state["integrator"], dt=state["dt"],
                   gravity=state["gravity"], **_as_saved(state["integrator"], state["options"]))
-        if state["history"] is not None:
-            sim._integrator.set_history(cloth, state["history"])
+        history = state["history"]
+        if history is not None:
+            fields = (*sim._spec.history(sim._options), "dt")
+            if len(fields) == 1 or not isinstance(history, dict) or set(history) != set(fields):
+                got = sorted(history) if isinstance(history, dict) else type(history).__name__
+                expected = ("None (it keeps none)" if len(fields) == 1 else
+                            f"None or a dict with {', '.join(fields)}")
+                raise ValueError(f"history of integrator {sim._integrator_name!r}: expected "
+                                 f"{expected}, got {got}")
+            sim._integrator.set_history(cloth, history)
         memory = state.get("projection_memory")
         if memory is not None:
             keys = {"exact_skip", "exact_backoff"}
@@ -328,7 +293,7 @@ class Simulation:
         follows = state.get("dt_follows_cloth", False)
         if not isinstance(follows, (bool, np.bool_)):
             raise ValueError(f"dt_follows_cloth must be a bool, got {follows!r}")
-        sim._dt_follows_cloth = bool(follows) and sim._integrator_name == "explicit"
+        sim._dt_follows_cloth = bool(follows) and sim._spec.conditionally_stable
         return sim
 
     # -- stepping ---------------------------------------------------------------------------
@@ -488,13 +453,12 @@ class Simulation:
         unconverged = after.get("unconverged_steps", 0) - unconverged_before
         if unconverged:
             # once per call: the steps were taken at their last iterate, never silently
-            if self._integrator_name == "local-global":
-                detail = (f"reached the iteration cap (iterations={self._options['iterations']}) "
-                          f"before the tolerance ({self._options['tolerance']:g}; last error "
-                          f"estimate {after['last_error_estimate']:.3g} mean rest lengths)")
-            else:
-                detail = (f"reached max_newton = {self._options['max_newton']} before Newton's "
-                          f"residual met newton_tol = {self._options['newton_tol']:g}")
+            cap, tolerance = self._spec.cap
+            detail = (f"reached the iteration cap ({cap} = {self._options[cap]}) before the "
+                      f"tolerance ({tolerance} = {self._options[tolerance]:g})")
+            if "last_error_estimate" in after:
+                detail += (f" (last error estimate {after['last_error_estimate']:.3g} mean rest "
+                           "lengths)")
             warnings.warn(f"{self._integrator_name}: {unconverged} of {steps} steps {detail}; "
                           "they were accepted unconverged "
                           "(stats['counters']['unconverged_steps'])", RuntimeWarning,
@@ -727,7 +691,8 @@ def _as_saved(integrator, options):
     existed (no ``truncation_fraction``) ran Newton without it, without the mixed matrices
     unless asked, and with projection None meaning steihaug (the clamp for linearized or pcg):
     so they continue."""
-    if integrator not in ("implicit", "bdf2") or not isinstance(options, dict) or \
+    if integrator not in INTEGRATOR_SPECS or not INTEGRATOR_SPECS[integrator].newton or \
+            not isinstance(options, dict) or \
             "truncation_fraction" in options:
         return options
     options = dict(options, truncation_fraction=0.0, mixed=options.get("mixed", False))

@@ -8,9 +8,10 @@ double, so scalars survive exactly too.
 What is saved: the cloth (`yore.Cloth.state`: positions, velocities, springs in their order,
 masses, constraints, drivers, material coordinates, the clock, the bending model with its
 modulus and rest positions; files written before quadratic bending load as bending springs),
-the integrator's name, options,
-dt and gravity, BDF2's one-step history, and any JSON-able ``metadata`` the caller adds (the
-``yore run`` command keeps its step counter, frames and records there).
+the integrator's name, options, dt and gravity, the integrator's history (BDF2's state one step
+back, generalized-α's accelerations), Newton's projection memory, and any JSON-able
+``metadata`` the caller adds (the ``yore run`` command keeps its step counter, frames and
+records there).
 
 What is not: caches that only speed things up (sparsity patterns, symbolic analyses, factors);
 they are rebuilt at the first step and give the same numbers. Two options keep a factor across
@@ -33,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .checks import MIN_DT
-from .options import INTEGRATOR_OPTIONS, INTEGRATORS, check_option
+from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
 from .simulation import Simulation
 
 __all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
@@ -434,7 +435,7 @@ def _check_simulation(field, simulation):
 
     memory = simulation.get("projection_memory")
     if memory is not None:
-        if integrator not in ("implicit", "bdf2"):
+        if not INTEGRATOR_SPECS[integrator].newton:
             raise field.error("simulation.projection_memory", f"given for integrator "
                               f"{integrator!r}", "null (only Newton keeps one)")
         # shift, radius: absent from states saved before the shifted and steihaug projections
@@ -450,15 +451,17 @@ def _check_simulation(field, simulation):
             field.real(memory["radius"], "simulation.projection_memory.radius", 0.0)
     history = simulation["history"]
     if history is not None:
-        bdf2 = integrator == "bdf2" or (integrator == "quasi-newton" and
-                                        simulation["options"].get("method") == "bdf2")
-        if not bdf2:
-            raise field.error("simulation.history", f"given for integrator {integrator!r}",
-                              "null (only bdf2 and quasi-newton with method bdf2 keep a "
+        fields = INTEGRATOR_SPECS[integrator].history(simulation["options"])
+        if not fields:
+            keeping = ", ".join(name for name, spec in INTEGRATOR_SPECS.items()
+                                if spec.history(INTEGRATOR_OPTIONS[name]))
+            raise field.error("simulation.history", f"given for integrator {integrator!r} "
+                              "with these options",
+                              f"null (only {keeping} and quasi-newton with method bdf2 keep a "
                               "history)")
-        field.keys(history, "simulation.history", ("positions", "velocities", "dt"))
-        field.array(history["positions"], "simulation.history.positions", np.float64, (n, 3))
-        field.array(history["velocities"], "simulation.history.velocities", np.float64, (n, 3))
+        field.keys(history, "simulation.history", (*fields, "dt"))
+        for name in fields:
+            field.array(history[name], f"simulation.history.{name}", np.float64, (n, 3))
         field.real(history["dt"], "simulation.history.dt", MIN_DT)
 
 

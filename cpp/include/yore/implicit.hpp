@@ -23,6 +23,12 @@ namespace yore {
 enum class ImplicitMethod {
   backward_euler,  ///< first order, unconditionally stable, dissipative
   bdf2,            ///< second order; the first step (and the first after a change) is BE
+  generalized_alpha,  ///< Chung & Hulbert 1993 in Arnold & Brüls' form (second order,
+                      ///< unconditionally stable on linear problems; rho_infinity sets how much
+                      ///< of the highest frequencies survives a step); generalized_alpha.cpp
+  tr_bdf2,  ///< Bank et al. 1985: a trapezoidal stage to t + γh, γ = 2 − √2, then BDF2 through
+            ///< the three points; L-stable, second order, one-step (no history), with Hosea &
+            ///< Shampine's embedded error estimate; tr_bdf2.cpp
 };
 
 /// How the Hessian of a compressed spring (ℓ < L, transverse factor 1 − L/ℓ < 0) is made
@@ -124,6 +130,14 @@ struct ImplicitOptions {
   /// factors (docs/integrators.md).
   bool mixed = false;
   int max_newton = 1000;
+  /// generalized_alpha: the spectral radius of a step at infinite frequency, in [0, 1]. 1 is
+  /// the trapezoidal rule (no numerical damping, the energy-conserving reference on linear
+  /// problems); 0 annihilates the highest frequencies in one step. α_m = (2ρ∞ − 1)/(ρ∞ + 1),
+  /// α_f = ρ∞/(ρ∞ + 1), γ = ½ − α_m + α_f, β = ¼(1 − α_m + α_f)². 0.5 by default: on the
+  /// stiff 32² sheet (2e5 N/m, 1/32 s) 0.8 and 1 gain energy without bound even with Newton
+  /// solved to 1e-5 (generalized-α's linear stability does not carry over to stiff nonlinear
+  /// springs), 0.5 keeps 88 % of the motion's energy over 2 s (docs/integrators.md).
+  double rho_infinity = 0.5;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
 };
@@ -148,6 +162,9 @@ struct ImplicitStatistics {
   std::int64_t trust_region_cg_iterations = 0;  ///< steihaug: CG iterations (one solve each)
   std::int64_t trust_region_rejections = 0;     ///< steihaug: trial steps the ratio test refused
   std::int64_t negative_curvature_steps = 0;    ///< steihaug: steps CG ended on ≤ 0 curvature
+  std::int64_t stages = 0;  ///< nonlinear solves (one per step; two for tr_bdf2)
+  std::int64_t history_restarts = 0;  ///< bdf2, generalized_alpha: steps that began afresh
+                                      ///< (first step, after a stroke, an edit or a restore)
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
   double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
@@ -158,7 +175,7 @@ struct ImplicitStatistics {
   /// The stopping residual at the end of the last step: max_i |∇ᵢE| h̃²/mᵢ / mean rest length.
   double last_scaled_residual = std::numeric_limits<double>::quiet_NaN();
   /// The last step's estimated local truncation error (see truncation_fraction), m, largest
-  /// over the free vertices.
+  /// over the free vertices (tr_bdf2: the embedded estimate of the whole step).
   double last_truncation_error = std::numeric_limits<double>::quiet_NaN();
   std::int64_t last_dofs = 0;
 };
@@ -210,12 +227,19 @@ class ImplicitIntegrator {
     bool valid = false;
     Positions positions, velocities;
     double dt = 0.0;
+    /// generalized_alpha: the algorithmic accelerations aₙ (n×3, m/s²); tr_bdf2: the
+    /// accelerations at the step's end as its last stage solved for them (n×3, m/s²);
+    /// positions and velocities empty.
+    Positions accelerations;
+    /// generalized_alpha: the true accelerations ẍₙ as the last step solved for them (n×3,
+    /// m/s²); empty for the others.
+    Positions force_accelerations;
   };
   /// The history the next step of `cloth` would use (always invalid for backward Euler).
   History history(const Cloth& cloth) const;
   /// Restores a history taken by history(), for `cloth` as it is now (a resumed run).
   /// Throws std::invalid_argument on shapes that do not match the cloth, non-finite values,
-  /// a non-positive dt, or a backward-Euler integrator.
+  /// a non-positive dt, or an integrator without history (backward Euler).
   void set_history(const Cloth& cloth, const History& history);
 
   /// The exact projection's memory across steps: steps still to take projected after a
@@ -298,6 +322,27 @@ class ImplicitIntegrator {
   /// it; `same` tells whether it equals the exact one in m_exact_values.
   void refactor_clamped(const Cloth& cloth, bool& same);
   void step(Cloth& cloth, const Vec3& gravity, double dt);
+  /// The nonlinear solve of one stage: minimises the objective set up by the stage's anchor,
+  /// target, h̃ and velocity scale from the cloth's (driven) positions or the inertial guess,
+  /// updates the counters, and leaves the solution in m_iterate; returns whether it converged.
+  bool solve_stage(const Cloth& cloth, int& iterations, int& backtracks);
+  /// After a stage's anchor and target are set for the free vertices and the drivers are at
+  /// the stage's end time: constrained vertices' rows (anchor = x − h_v v, target = x) and the
+  /// damping directions of the target.
+  void finish_stage_setup(const Cloth& cloth);
+  /// M⁻¹ f(x, v) of the free vertices (n×3, m/s²; other rows zero): springs, their damping along
+  /// the current directions, quadratic bending, drag and gravity.
+  void accelerations(const Cloth& cloth, const Positions& x, const Positions& v, Positions& out);
+  /// Writes m_iterate and (m_iterate − x̄)/h_v into the cloth's free vertices.
+  void write_stage(Cloth& cloth);
+  /// The accelerations the stage just solved for, (x⁺ − x̂)/h̃² = M⁻¹(f + the Newton residual),
+  /// into m_force_acceleration's free rows: the next step starts from what this one did, not
+  /// from f re-evaluated at an inexact x⁺ (that would turn the solver's error δ into a force
+  /// error kδ, which the trapezoidal rule and generalized-α carry on undamped).
+  void keep_stage_accelerations();
+  bool history_matches(const Cloth& cloth) const;
+  void step_generalized_alpha(Cloth& cloth, const Vec3& gravity, double dt);  // generalized_alpha.cpp
+  void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);            // tr_bdf2.cpp
 
   ImplicitOptions m_options;
   ImplicitStatistics m_statistics;
@@ -316,9 +361,20 @@ class ImplicitIntegrator {
   double m_mean_rest_length = 1.0;
 
   // Per-step data and work buffers (sized per topology; no allocation per step).
-  double m_h = 0.0;        // h̃
+  double m_h = 0.0;        // h̃: the inertia term is ½‖x − x̂‖²_M / h̃²
+  double m_hv = 0.0;       // the velocity scale: v⁺ = (x⁺ − x̄)/h_v (h̃ except generalized-α)
   double m_dt = 0.0;       // the step's h
   bool m_second_order = false;  // this step is BDF2's (else backward Euler's)
+  /// Which formula truncation_error uses for the stage being solved.
+  enum class StageKind { backward_euler, bdf2, trapezoid, tr_bdf2, generalized_alpha };
+  StageKind m_stage = StageKind::backward_euler;
+  // generalized_alpha: aₙ (algorithmic accelerations) and ẍₙ (true ones, in
+  // m_force_acceleration), both its history; the Newmark predictor x_pred, β h² and the error
+  // constant |β − 1/6| h². tr_bdf2: the step's start (x₀, v₀), a₀ (m_force_acceleration, its
+  // history) and the first stage's velocities.
+  Positions m_acceleration, m_force_acceleration, m_predicted;
+  Positions m_start_positions, m_start_velocities, m_mid_velocities;
+  double m_beta_h2 = 0.0, m_error_constant = 0.0;
   /// The step's local truncation error at m_iterate, m, largest over the free vertices.
   double truncation_error(const Cloth& cloth) const;
   /// The truncation test after an accepted step (`m_direction` × alpha) from the last

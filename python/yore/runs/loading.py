@@ -23,8 +23,8 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from .._core import Cloth
 from ..meshes import MAX_MESH_VERTICES
-from ..options import (FRAMES_PER_SECOND, INTEGRATOR_OPTIONS, MASS, STIFFNESS, OptionError,
-                       check_option)
+from ..options import (FRAMES_PER_SECOND, INTEGRATOR_OPTIONS, MASS, REFERENCE_INTEGRATOR,
+                       STIFFNESS, OptionError, check_option)
 from ..simulation import Simulation
 from ..checks import MAX_IMAGE_PIXELS
 from .building import build_simulation, apply_scene_stroke
@@ -95,7 +95,7 @@ class Scene:
                     f"last step ({last}, t = {self.data['simulation']['duration']:g} s), after "
                     "which nothing is drawn",
                     f"a time at most {(last - 1) * sim.dt:.6g} s (the duration less one step)")
-        probe = Simulation(Cloth.from_state(sim.cloth.state()), integrator="explicit",
+        probe = Simulation(Cloth.from_state(sim.cloth.state()), integrator=REFERENCE_INTEGRATOR,
                            dt=sim.dt, gravity=sim.gravity)
         for index, stroke in sorted(enumerate(self.data["strokes"]), key=lambda s: s[1]["time"]):
             if "material" in stroke or stroke["time"] == 0.0:

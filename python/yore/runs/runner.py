@@ -33,6 +33,7 @@ from .. import metrics
 from ..checks import MAX_STEPS
 from .._core import NotPositiveDefinite, SimulationDiverged
 from ..io import FrameSeries, save_mesh
+from ..options import INTEGRATOR_SPECS
 from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
 from .building import apply_scene_stroke, scene_camera
@@ -522,7 +523,8 @@ class _NonFinite(Exception):
 
 def _stable_advice(sim):
     stable = sim.stable_dt()
-    if sim.integrator == "explicit" and math.isfinite(stable) and stable > 0:
+    if INTEGRATOR_SPECS[sim.integrator].conditionally_stable and math.isfinite(stable) and \
+            stable > 0:
         return (f"The estimated stable time step is {stable:.3g} s: use dt <= "
                 f"{0.9 * stable:.3g} s or an implicit integrator.")
     return f"Try a smaller dt, e.g. {sim.dt / 4:.3g} s."

@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-from ..options import (ANIMATION_FORMATS, FOV_DEGREES, FRAMES_PER_SECOND, IMAGE_HEIGHT,
-                       IMAGE_WIDTH, INTEGRATORS, MASS, MAX_SMOOTHING_ITERATIONS, RUN_ANIMATION,
+from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAMES_PER_SECOND,
+                       IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, MASS, MAX_SMOOTHING_ITERATIONS, RUN_ANIMATION,
                        STIFFNESS, STROKE_DEFAULTS)
 from ..checks import MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS, MIN_DT
 from ..stroke import GROWTH_MODES, MAX_REFINE
@@ -269,7 +269,7 @@ SCHEMA = {
         "omega": (_number(unit="rad/s"), REQUIRED, "angular speed, right-handed about axis"),
     }, "array"),
     "simulation": ({
-        "integrator": (_choice(*INTEGRATORS), "explicit", "the time integrator"),
+        "integrator": (_choice(*INTEGRATORS), DEFAULT_INTEGRATOR, "the time integrator"),
         "dt": (_number(MIN_DT, unit="s"), None,
                "time step; default: below the stable step (explicit) or 1/60 s"),
         "duration": (_number(0, strict_minimum=True, unit="s"), REQUIRED, "simulated time"),

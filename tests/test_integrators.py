@@ -1,0 +1,204 @@
+"""What every integrator of the registry (`yore.options.INTEGRATOR_SPECS`) owes, and what the
+second-order implicit ones (BDF2, generalized-α, TR-BDF2) share: their order against analytic
+and converged solutions, an exact resume from a state file, a stroke in the middle of a run,
+Newton's rules on a stiff sheet, and one clear error for a bad option."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import yore
+from yore.options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS
+
+SECOND_ORDER = ["bdf2", "generalized-alpha", "tr-bdf2"]
+# Tight Newton: the order tests measure the method, not the solver's stopping error.
+TIGHT = {"newton_tol": 1e-12, "truncation_fraction": 0.0}
+
+
+def chain(count=9, stiffness=100.0, mass=0.01, spacing=0.1, amplitude=1e-3):
+    """`count` free masses on a line between two fixed ends, displaced along the line in the
+    lowest mode: collinear springs make the motion exactly linear, with angular frequency
+    ω = 2√(k/m) sin(π/(2(count + 1)))."""
+    points = np.zeros((count + 2, 3))
+    points[:, 0] = np.arange(count + 2) * spacing
+    edges = np.array([[i, i + 1] for i in range(count + 1)])
+    net = yore.Cloth.from_springs(points, edges, masses=np.full(count + 2, mass),
+                                  stiffness=stiffness, damping=0.0)
+    net.fix([0, count + 1])
+    mode = np.sin(math.pi * np.arange(count + 2) / (count + 1))
+    displaced = points.copy()
+    displaced[:, 0] += amplitude * mode
+    net.positions = displaced
+    omega = 2.0 * math.sqrt(stiffness / mass) * math.sin(math.pi / (2 * (count + 1)))
+    return net, points[:, 0], amplitude * mode, omega
+
+
+def chain_error(integrator, steps, periods=2.25, **options):
+    """Largest distance from the analytic solution after `periods` periods in `steps` steps
+    (a quarter period past a whole one, where the phase error shows to first order)."""
+    net, rest, shape, omega = chain()
+    duration = periods * 2 * math.pi / omega
+    sim = yore.Simulation(net, integrator=integrator, dt=duration / steps, gravity=(0, 0, 0),
+                          **options)
+    sim.step(steps)
+    exact = rest + shape * math.cos(omega * duration)
+    return np.abs(sim.cloth.positions[:, 0] - exact).max()
+
+
+@pytest.mark.parametrize("integrator", SECOND_ORDER)
+def test_second_order_on_a_linear_mode_against_its_analytic_solution(integrator):
+    errors = [chain_error(integrator, steps, **TIGHT) for steps in (64, 128, 256)]
+    orders = [math.log2(errors[k] / errors[k + 1]) for k in range(2)]
+    # halving the step quarters the error (BDF2's first backward-Euler step costs it a little
+    # at the coarsest step)
+    assert all(1.8 < order < 2.2 for order in orders), (errors, orders)
+
+
+def damped_sheet(integrator, dt, bending="springs"):
+    extra = {"bending": "quadratic", "bending_modulus": 1e-3} if bending == "quadratic" else {}
+    return yore.scenes.hanging_cloth(resolution=8, pin_spacing=1.0, mass=0.1,
+                                     stretch_stiffness=200.0, damping=0.05, drag=0.2,
+                                     integrator=integrator, dt=dt, **extra,
+                                     **(TIGHT if integrator != "explicit" else {}))
+
+
+@pytest.mark.parametrize("bending", ["springs", "quadratic"])
+@pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
+def test_second_order_with_damping_drag_and_bending_against_a_converged_reference(
+        integrator, bending):
+    # Everything the Newton objective holds (spring damping along the predicted directions,
+    # drag, gravity, quadratic bending): against explicit at 1e-6 s, whose own error (measured
+    # against 2e-6 s) is 5e-7 m, 40 times below the finest error here.
+    duration = 0.1
+    reference = damped_sheet("explicit", 1e-6, bending)
+    reference.step(round(duration / 1e-6))
+    errors = []
+    for steps in (8, 16, 32):
+        sim = damped_sheet(integrator, duration / steps, bending)
+        sim.step(steps)
+        errors.append(np.abs(sim.cloth.positions - reference.cloth.positions).max())
+    orders = [math.log2(errors[k] / errors[k + 1]) for k in range(2)]
+    assert all(1.75 < order < 2.3 for order in orders), (errors, orders)
+    # and the error itself is second order's: a thirtieth of backward Euler's at the same step
+    first_order = damped_sheet("implicit", duration / 32, bending)
+    first_order.step(32)
+    assert errors[-1] < np.abs(first_order.cloth.positions - reference.cloth.positions).max() / 30
+
+
+def stroked(integrator, **options):
+    sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **options)
+    sim.step(5)
+    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    return sim
+
+
+@pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
+def test_a_stroke_restarts_the_history_and_the_run_goes_on_converged(integrator):
+    sim = stroked(integrator)
+    assert sim.stats["counters"]["history_restarts"] == 1  # the first step
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no step at its cap (that would warn)
+        sim.step(10)
+    counters = sim.stats["counters"]
+    # and the first after the stroke, the only one
+    assert counters["history_restarts"] == 2 and counters["unconverged_steps"] == 0
+    steps = sim.stats["steps"]
+    assert counters["stages"] == steps * (2 if integrator == "tr-bdf2" else 1)
+    assert np.all(np.isfinite(sim.cloth.positions))
+
+
+@pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
+def test_the_history_is_what_makes_the_resume_exact(integrator):
+    straight = stroked(integrator)
+    straight.step(8)
+    sim = stroked(integrator)
+    sim.step(4)
+    state = sim.state()
+    fields = INTEGRATOR_SPECS[integrator].history(state["options"])
+    assert set(state["history"]) == {*fields, "dt"}
+    exact = yore.Simulation.from_state(state)
+    exact.step(4)
+    assert np.array_equal(exact.cloth.positions, straight.cloth.positions)
+    state["history"] = None  # restarts: accelerations from the forces at the saved state
+    forgetful = yore.Simulation.from_state(state)
+    forgetful.step(4)
+    assert not np.array_equal(forgetful.cloth.positions, straight.cloth.positions)
+
+
+def test_a_state_file_with_a_history_field_missing_is_a_value_error(tmp_path):
+    sim = stroked("generalized-alpha")
+    sim.step(2)
+    state = sim.state()
+    del state["history"]["force_accelerations"]
+    with pytest.raises(ValueError, match="force_accelerations"):
+        yore.save_state(tmp_path / "bad.npz", yore.Simulation.from_state(state))
+
+
+@pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
+def test_driven_vertices_follow_their_drivers_exactly(integrator):
+    sim = yore.scenes.rotating_cylinder(rings=5, segments=8, integrator=integrator)
+    reference = yore.scenes.rotating_cylinder(rings=5, segments=8, integrator="explicit",
+                                              dt=sim.dt)
+    sim.step(6)
+    reference.cloth.time = sim.time  # moves the driven vertices there, without stepping
+    driven = sim.cloth.driven_vertices
+    assert driven.size
+    assert np.array_equal(sim.cloth.positions[driven], reference.cloth.positions[driven])
+    assert np.array_equal(sim.cloth.velocities[driven], reference.cloth.velocities[driven])
+
+
+@pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
+def test_newton_rules_hold_on_the_stiff_sheet_at_a_large_step(integrator):
+    # The crossover's sheet at 2e5 N/m and 1/32 s: every step converges by Newton's own tests
+    # (none at the cap, none thrown away), no warning.
+    sim = yore.scenes.hanging_cloth(resolution=16, pin_spacing=1.0, mass=0.1,
+                                    stretch_stiffness=2e5, bend_stiffness=2e5,
+                                    integrator=integrator, dt=1 / 32)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.step(16)
+    counters = sim.stats["counters"]
+    assert counters["unconverged_steps"] == 0
+    assert counters["factorizations_thrown_away"] == 0
+    assert counters["newton_iterations"] / counters["stages"] <= 12
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.5, float("nan"), float("inf"), True, "0.5", None])
+def test_rho_infinity_outside_zero_one_is_one_value_error_naming_it(value):
+    cloth = stroked("explicit").cloth
+    with pytest.raises(ValueError, match="rho_infinity"):
+        yore.Simulation(cloth, integrator="generalized-alpha", rho_infinity=value)
+
+
+@pytest.mark.parametrize("integrator", ["implicit", "bdf2", "tr-bdf2", "quasi-newton"])
+def test_rho_infinity_belongs_to_generalized_alpha_alone(integrator):
+    cloth = stroked("explicit").cloth
+    with pytest.raises(ValueError, match=r"unknown option\(s\) 'rho_infinity'"):
+        yore.Simulation(cloth, integrator=integrator, rho_infinity=0.5)
+
+
+def test_quasi_newton_takes_only_its_one_step_potentials():
+    cloth = stroked("explicit").cloth
+    with pytest.raises(ValueError, match="method"):
+        yore.Simulation(cloth, integrator="quasi-newton", method="tr-bdf2")
+
+
+def test_every_registered_integrator_runs_saves_and_states_its_dt_policy(tmp_path):
+    # the registry is the one place an integrator is described: each row builds, steps, says
+    # which dt it defaults to, and round-trips through a state file
+    for name in INTEGRATORS:
+        spec = INTEGRATOR_SPECS[name]
+        assert spec.options is INTEGRATOR_OPTIONS[name]
+        # local-global's buckling start needs more than its default 300 iterations a step
+        options = {"iterations": 2000} if spec.cap[0] == "iterations" else {}
+        sim = yore.scenes.hanging_cloth(resolution=6, integrator=name, **options)
+        expected = (yore.simulation.default_explicit_dt(sim.cloth) if spec.conditionally_stable
+                    else yore.options.FIXED_DT)
+        assert sim.dt == expected, name
+        sim.step(2)
+        path = yore.save_state(tmp_path / f"{name}.npz", sim)
+        restored, _ = yore.load_state(path)
+        assert restored.integrator == name
+        assert (restored.state()["history"] is None) == (not spec.history(sim.options))
