@@ -169,6 +169,9 @@ FAMILIES = {
     # defaults changes their resolved options, and a merge then leaves their rows out
     "BE default": {"integrator": "implicit"},
     "BDF2 default": {"integrator": "bdf2"},
+    # the second-order integrators that keep the motion (docs/integrators.md), at their defaults
+    "generalized-alpha default": {"integrator": "generalized-alpha"},
+    "TR-BDF2 default": {"integrator": "tr-bdf2"},
     "local-global": {"integrator": "local-global"},
     "quasi-Newton BE": {"integrator": "quasi-newton", "method": "backward-euler"},
     "quasi-Newton BDF2": {"integrator": "quasi-newton", "method": "bdf2"},

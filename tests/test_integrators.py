@@ -197,6 +197,8 @@ def test_every_registered_integrator_runs_saves_and_states_its_dt_policy(tmp_pat
         expected = (yore.simulation.default_explicit_dt(sim.cloth) if spec.conditionally_stable
                     else yore.options.FIXED_DT)
         assert sim.dt == expected, name
+        # the registry's history fields are the core's (the C++ Integrator interface)
+        assert tuple(sim._integrator.history_fields) == spec.history(sim.options), name
         sim.step(2)
         path = yore.save_state(tmp_path / f"{name}.npz", sim)
         restored, _ = yore.load_state(path)

@@ -11,6 +11,7 @@ void bind_explicit(py::module_& m) {
   py::class_<ExplicitIntegrator> integrator_class(
       m, "ExplicitIntegrator", "Symplectic Euler with optional Provot strain limiting.");
   def_advance(integrator_class);
+  def_history(integrator_class);
   static const OptionTable<ExplicitOptions> table = {
       // 0 = off here; Python's None (yore.options keeps that rule)
       in_range(plain_option("strain_limit", &ExplicitOptions::strain_limit), 0.0,

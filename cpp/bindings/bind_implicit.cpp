@@ -20,6 +20,7 @@ void bind_implicit(py::module_& m) {
       m, "ImplicitIntegrator",
       "Backward Euler, BDF2, generalized-α and TR-BDF2 by Newton's method on a sparse solver.");
   def_advance(integrator_class);
+  def_history(integrator_class);
   using O = ImplicitOptions;
   static const OptionTable<O> table = {
       choice_option<O, ImplicitMethod>(
@@ -100,61 +101,6 @@ void bind_implicit(py::module_& m) {
 at `positions` (n×3; only free vertices are unknowns): energy (J), gradient (N), the Hessian's
 lower triangle in CSC (hessian_data, hessian_indices, hessian_indptr, size) and the solver's
 Newton direction.)doc")
-      .def(
-          "history",
-          [](const ImplicitIntegrator& integrator, const Cloth& cloth) -> py::object {
-            check_idle(&integrator, "the integrator");
-            idle(cloth);
-            const ImplicitIntegrator::History history = integrator.history(cloth);
-            if (!history.valid) return py::none();
-            py::dict out;
-            const ImplicitMethod method = integrator.options().method;
-            if (method == ImplicitMethod::generalized_alpha) {
-              out["accelerations"] = read_only_copy(history.accelerations);
-              out["force_accelerations"] = read_only_copy(history.force_accelerations);
-            } else if (method == ImplicitMethod::tr_bdf2) {
-              out["accelerations"] = read_only_copy(history.accelerations);
-            } else {
-              out["positions"] = read_only_copy(history.positions);
-              out["velocities"] = read_only_copy(history.velocities);
-            }
-            out["dt"] = history.dt;
-            return out;
-          },
-          py::arg("cloth"),
-          R"doc(The memory the next step of `cloth` uses: BDF2's state one step back, a dict with
-positions (n×3, m), velocities (n×3, m/s) and dt (s); generalized-α's accelerations, a dict with
-accelerations (algorithmic, n×3, m/s²), force_accelerations (the true ones as solved for, n×3)
-and dt (s, the last step's); TR-BDF2's, a dict with accelerations (at the step's end as solved
-for, n×3) and dt; None when the next step starts afresh or the method keeps none.)doc")
-      .def(
-          "set_history",
-          [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::object& history) {
-            check_idle(&integrator, "the integrator");
-            idle(cloth);
-            ImplicitIntegrator::History restored;
-            if (!history.is_none()) {
-              const py::dict values = history.cast<py::dict>();
-              restored.valid = true;
-              const ImplicitMethod method = integrator.options().method;
-              if (method == ImplicitMethod::generalized_alpha ||
-                  method == ImplicitMethod::tr_bdf2) {
-                restored.accelerations =
-                    to_rows3(values["accelerations"], "history accelerations");
-              }
-              if (method == ImplicitMethod::generalized_alpha) {
-                restored.force_accelerations =
-                    to_rows3(values["force_accelerations"], "history force_accelerations");
-              } else if (method != ImplicitMethod::tr_bdf2) {
-                restored.positions = to_rows3(values["positions"], "history positions");
-                restored.velocities = to_rows3(values["velocities"], "history velocities");
-              }
-              restored.dt = values["dt"].cast<double>();
-            }
-            integrator.set_history(cloth, restored);
-          },
-          py::arg("cloth"), py::arg("history"),
-          "Restores a history taken by history() (None forgets it) for `cloth` as it is now.")
       .def(
           "projection_memory",
           [](const ImplicitIntegrator& integrator) {

@@ -14,6 +14,7 @@ void bind_local_global(py::module_& m) {
   py::class_<LocalGlobalIntegrator> integrator_class(
       m, "LocalGlobalIntegrator", "Prefactored local/global backward Euler (Liu et al. 2013).");
   def_advance(integrator_class);
+  def_history(integrator_class);
   using O = LocalGlobalOptions;
   static const OptionTable<O> table = {
       plain_option("iterations", &O::iterations),

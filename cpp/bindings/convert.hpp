@@ -3,6 +3,7 @@
 // offending argument, shape or value (std::invalid_argument → ValueError in Python).
 
 #include "yore/cloth.hpp"
+#include "yore/integrator.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/linear_solver.hpp"
 #include "yore/mesh.hpp"
@@ -163,6 +164,68 @@ RuntimeError if the cloth or the integrator is in use by another thread.)doc");
   integrator_class.def_property_readonly(
       "busy", [](const Integrator& integrator) { return is_busy(&integrator); },
       "Whether an advance call (possibly on another thread) is running on this integrator.");
+}
+
+/// Binds Integrator::history / set_history (and history_fields) on an integrator class: a
+/// history is a dict of its named n×3 arrays plus "dt", or None.
+template <class Integrator>
+void def_history(py::class_<Integrator>& integrator_class) {
+  integrator_class.def_property_readonly(
+      "history_fields",
+      [](const Integrator& integrator) {
+        check_idle(&integrator, "the integrator");
+        py::tuple names(integrator.history_fields().size());
+        std::size_t k = 0;
+        for (const std::string& name : integrator.history_fields()) names[k++] = name;
+        return names;
+      },
+      "Names of the arrays the integrator's history holds (empty: it keeps none).");
+  integrator_class.def(
+      "history",
+      [](const Integrator& integrator, const Cloth& cloth) -> py::object {
+        check_idle(&integrator, "the integrator");
+        idle(cloth);
+        const IntegratorHistory history = integrator.history(cloth);
+        if (!history.valid) return py::none();
+        py::dict out;
+        for (const auto& [name, values] : history.arrays) {
+          out[name.c_str()] = read_only_copy(values);
+        }
+        out["dt"] = history.dt;
+        return out;
+      },
+      py::arg("cloth"),
+      R"doc(What the next step of `cloth` carries over besides the cloth's state: a dict of the
+named n×3 arrays in `history_fields` (BDF2: positions, m, and velocities, m/s, one step back;
+generalized-α: accelerations and force_accelerations, m/s²; TR-BDF2: accelerations, m/s²) and
+dt (s, the last step's); None when the next step starts afresh or the method keeps none.)doc");
+  integrator_class.def(
+      "set_history",
+      [](Integrator& integrator, const Cloth& cloth, const py::object& history) {
+        check_idle(&integrator, "the integrator");
+        idle(cloth);
+        IntegratorHistory restored;
+        if (!history.is_none()) {
+          if (!py::isinstance<py::dict>(history)) {
+            throw std::invalid_argument("history must be a dict or None");
+          }
+          const py::dict values = history.cast<py::dict>();
+          restored.valid = true;
+          for (const std::string& name : integrator.history_fields()) {
+            if (!values.contains(name)) {
+              throw std::invalid_argument("history has no array '" + name + "'");
+            }
+            const std::string what = "history " + name;
+            restored.arrays.emplace_back(name, to_rows3(values[name.c_str()], what.c_str()));
+          }
+          if (!values.contains("dt")) throw std::invalid_argument("history has no dt");
+          restored.dt = values["dt"].cast<double>();
+        }
+        integrator.set_history(cloth, restored);
+      },
+      py::arg("cloth"), py::arg("history"),
+      "Restores a history taken by history() (None forgets it) for `cloth` as it is now; "
+      "ValueError on missing arrays, wrong shapes or non-finite values.");
 }
 
 /// Adds the factor's size, flops and ordering (as every integrator's statistics report them).

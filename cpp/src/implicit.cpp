@@ -718,19 +718,38 @@ double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
   return largest;
 }
 
-ImplicitIntegrator::History ImplicitIntegrator::history(const Cloth& cloth) const {
-  History out;
+std::vector<std::string> ImplicitIntegrator::history_fields() const {
+  switch (m_options.method) {
+    case ImplicitMethod::bdf2:
+      return {"positions", "velocities"};
+    case ImplicitMethod::generalized_alpha:
+      return {"accelerations", "force_accelerations"};
+    case ImplicitMethod::tr_bdf2:
+      return {"accelerations"};
+    case ImplicitMethod::backward_euler:
+      break;
+  }
+  return {};
+}
+
+IntegratorHistory ImplicitIntegrator::history(const Cloth& cloth) const {
+  IntegratorHistory out;
   out.valid = m_options.method != ImplicitMethod::backward_euler && history_matches(cloth);
   if (!out.valid) return out;
   out.dt = m_history_dt;
-  if (m_options.method == ImplicitMethod::generalized_alpha) {
-    out.accelerations = m_acceleration;
-    out.force_accelerations = m_force_acceleration;
-  } else if (m_options.method == ImplicitMethod::tr_bdf2) {
-    out.accelerations = m_force_acceleration;
-  } else {
-    out.positions = m_previous_positions;
-    out.velocities = m_previous_velocities;
+  switch (m_options.method) {
+    case ImplicitMethod::bdf2:
+      out.arrays = {{"positions", m_previous_positions}, {"velocities", m_previous_velocities}};
+      break;
+    case ImplicitMethod::generalized_alpha:
+      out.arrays = {{"accelerations", m_acceleration},
+                    {"force_accelerations", m_force_acceleration}};
+      break;
+    case ImplicitMethod::tr_bdf2:
+      out.arrays = {{"accelerations", m_force_acceleration}};
+      break;
+    case ImplicitMethod::backward_euler:
+      break;
   }
   return out;
 }
@@ -760,54 +779,26 @@ void ImplicitIntegrator::set_projection_memory(const ProjectionMemory& memory) {
   m_radius = memory.radius;
 }
 
-void ImplicitIntegrator::set_history(const Cloth& cloth, const History& history) {
-  const bool alpha = m_options.method == ImplicitMethod::generalized_alpha;
-  const bool trbdf2 = m_options.method == ImplicitMethod::tr_bdf2;
-  if (m_options.method == ImplicitMethod::backward_euler) {
-    throw std::invalid_argument("a backward-Euler integrator has no history to restore");
-  }
+void ImplicitIntegrator::set_history(const Cloth& cloth, const IntegratorHistory& history) {
+  check_history(cloth, history);
   if (!history.valid) {
     m_history_valid = false;
     return;
   }
-  const Eigen::Index n = cloth.vertex_count();
-  if (alpha || trbdf2) {
-    const Eigen::Index forces = alpha ? history.force_accelerations.rows() : n;
-    if (history.accelerations.rows() != n || forces != n) {
-      std::ostringstream msg;
-      msg << "history accelerations must have " << n << " rows (the cloth's vertices), got "
-          << history.accelerations.rows() << (alpha ? " and " : "")
-          << (alpha ? std::to_string(forces) : std::string());
-      throw std::invalid_argument(msg.str());
-    }
-    if (!history.accelerations.allFinite() ||
-        (alpha && !history.force_accelerations.allFinite())) {
-      throw std::invalid_argument("history accelerations must be finite");
-    }
-  } else {
-    if (history.positions.rows() != n || history.velocities.rows() != n) {
-      std::ostringstream msg;
-      msg << "history must have " << n << " rows (the cloth's vertices), got "
-          << history.positions.rows() << " and " << history.velocities.rows();
-      throw std::invalid_argument(msg.str());
-    }
-    if (!history.positions.allFinite() || !history.velocities.allFinite()) {
-      throw std::invalid_argument("history positions and velocities must be finite");
-    }
-  }
-  if (!std::isfinite(history.dt) || history.dt <= 0.0) {
-    std::ostringstream msg;
-    msg << "history dt must be finite and > 0, got " << history.dt;
-    throw std::invalid_argument(msg.str());
-  }
-  if (alpha) {
-    m_acceleration = history.accelerations;
-    m_force_acceleration = history.force_accelerations;
-  } else if (trbdf2) {
-    m_force_acceleration = history.accelerations;
-  } else {
-    m_previous_positions = history.positions;
-    m_previous_velocities = history.velocities;
+  switch (m_options.method) {
+    case ImplicitMethod::bdf2:
+      m_previous_positions = history.array("positions");
+      m_previous_velocities = history.array("velocities");
+      break;
+    case ImplicitMethod::generalized_alpha:
+      m_acceleration = history.array("accelerations");
+      m_force_acceleration = history.array("force_accelerations");
+      break;
+    case ImplicitMethod::tr_bdf2:
+      m_force_acceleration = history.array("accelerations");
+      break;
+    case ImplicitMethod::backward_euler:
+      break;
   }
   m_history_dt = history.dt;
   m_history_topology = cloth.topology_version();

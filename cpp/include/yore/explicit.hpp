@@ -4,6 +4,7 @@
 
 #include "yore/cloth.hpp"
 #include "yore/divergence.hpp"
+#include "yore/integrator.hpp"
 
 #include <cstdint>
 #include <limits>
@@ -78,7 +79,7 @@ class StepThreadChooser {
 /// Symplectic (semi-implicit) Euler: v⁺ = v + h M⁻¹ f(x, v), x⁺ = x + h v⁺, then optional strain
 /// limiting with velocities recomputed from the corrected positions. Fixed vertices never move;
 /// driven vertices follow their drivers exactly.
-class ExplicitIntegrator {
+class ExplicitIntegrator : public Integrator {
  public:
   /// Throws std::invalid_argument on a negative or non-finite option.
   explicit ExplicitIntegrator(const ExplicitOptions& options = {});
@@ -87,7 +88,7 @@ class ExplicitIntegrator {
   /// step (see DivergenceMonitor): a non-finite state or an energy past the bound throws
   /// SimulationDiverged and restores the cloth to its state at the start of this call.
   /// Throws std::invalid_argument on dt <= 0, non-finite dt or gravity, or steps < 0.
-  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps);
+  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) override;
 
   /// The options this integrator was built with.
   const ExplicitOptions& options() const { return m_options; }

@@ -5,6 +5,7 @@
 
 #include "yore/cloth.hpp"
 #include "yore/divergence.hpp"
+#include "yore/integrator.hpp"
 #include "yore/linear_solver.hpp"
 #include "yore/sparse_cholesky.hpp"
 #include "yore/spring_matrix.hpp"
@@ -202,7 +203,7 @@ struct NewtonSystem {
 /// v⁺ = (x⁺ − x̄)/h̃.
 /// The sparsity pattern and the symbolic analysis are rebuilt only when topology_version
 /// changes; every Newton iteration refills the values in place.
-class ImplicitIntegrator {
+class ImplicitIntegrator : public Integrator {
  public:
   /// Throws std::invalid_argument on bad options (unknown solver, negative tolerances, ...).
   explicit ImplicitIntegrator(const ImplicitOptions& options = {});
@@ -212,7 +213,7 @@ class ImplicitIntegrator {
   /// restored to its state at the start of the call) on a non-finite state or an energy past
   /// the bound, NotPositiveDefinite if the solver rejects the matrix, std::invalid_argument on
   /// bad dt, gravity or steps.
-  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps);
+  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) override;
 
   /// The backward-Euler incremental potential of the next step from the cloth's current state,
   /// evaluated at free-vertex positions `positions` (n×3; rows of constrained vertices are
@@ -220,27 +221,17 @@ class ImplicitIntegrator {
   NewtonSystem newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
                              const Positions& positions);
 
-  /// BDF2's memory: the state one step back (n×3 positions in m, velocities in m/s) and the step
-  /// size it was taken with, s. `valid` is false when the next step of `cloth` would start
-  /// BDF2 afresh with a backward-Euler step (no history yet, or the cloth was edited since).
-  struct History {
-    bool valid = false;
-    Positions positions, velocities;
-    double dt = 0.0;
-    /// generalized_alpha: the algorithmic accelerations aₙ (n×3, m/s²); tr_bdf2: the
-    /// accelerations at the step's end as its last stage solved for them (n×3, m/s²);
-    /// positions and velocities empty.
-    Positions accelerations;
-    /// generalized_alpha: the true accelerations ẍₙ as the last step solved for them (n×3,
-    /// m/s²); empty for the others.
-    Positions force_accelerations;
-  };
-  /// The history the next step of `cloth` would use (always invalid for backward Euler).
-  History history(const Cloth& cloth) const;
-  /// Restores a history taken by history(), for `cloth` as it is now (a resumed run).
-  /// Throws std::invalid_argument on shapes that do not match the cloth, non-finite values,
-  /// a non-positive dt, or an integrator without history (backward Euler).
-  void set_history(const Cloth& cloth, const History& history);
+  /// The history's arrays: BDF2's state one step back ("positions", m; "velocities", m/s),
+  /// generalized-α's algorithmic accelerations and its true ones as solved for
+  /// ("accelerations", "force_accelerations", m/s²), TR-BDF2's accelerations at the step's
+  /// end as solved for ("accelerations"); none for backward Euler. Each n×3.
+  std::vector<std::string> history_fields() const override;
+  /// The history the next step of `cloth` would use (invalid for backward Euler, and when the
+  /// next step restarts: no step yet, or the cloth was edited since). Its dt is the last step's.
+  IntegratorHistory history(const Cloth& cloth) const override;
+  /// Restores a history taken by history(), for `cloth` as it is now (a resumed run); see
+  /// Integrator::set_history for what it throws.
+  void set_history(const Cloth& cloth, const IntegratorHistory& history) override;
 
   /// The exact projection's memory across steps: steps still to take projected after a
   /// rejection, and the back-off the next rejection starts (both 1..32, skip may be 0). Part of

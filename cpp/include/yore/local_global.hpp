@@ -6,6 +6,7 @@
 
 #include "yore/cloth.hpp"
 #include "yore/divergence.hpp"
+#include "yore/integrator.hpp"
 #include "yore/sparse_cholesky.hpp"
 #include "yore/spring_matrix.hpp"
 
@@ -86,7 +87,7 @@ struct LocalGlobalStatistics {
 /// Newton integrator's objective exactly. Iterations stop at `tolerance` or the `iterations`
 /// cap. Fixed and driven vertices are eliminated; Q is scalar (n_free × n_free), solved for
 /// x, y and z.
-class LocalGlobalIntegrator {
+class LocalGlobalIntegrator : public Integrator {
  public:
   /// Throws std::invalid_argument on bad options.
   explicit LocalGlobalIntegrator(const LocalGlobalOptions& options = {});
@@ -94,7 +95,7 @@ class LocalGlobalIntegrator {
 
   /// Runs `steps` steps of dt (s) under gravity (m/s²); SimulationDiverged (cloth restored) on
   /// blow-up; std::invalid_argument on bad arguments.
-  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps);
+  void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) override;
 
   const LocalGlobalOptions& options() const { return m_options; }
   const LocalGlobalStatistics& statistics() const { return m_statistics; }
