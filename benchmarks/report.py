@@ -111,6 +111,195 @@ def crossover_section(crossover: dict, images: str) -> list:
     return out
 
 
+def _cell_name(c):
+    return f"{c['size']}² k = {c['stretch_stiffness']:g} {c['bending']}"
+
+
+def _long_horizon_verdict(cell, measure, threshold, detail=True):
+    """A cell's verdict at (measure, threshold) as a table entry: the cheapest implicit run over
+    explicit's cost, "not judged" (with the floor) where the floor forbids, or why not."""
+    if cell.get("status") != "done":
+        return f"{cell.get('status')}" + (f": {cell['skipped']}" if cell.get("skipped") else "")
+    verdict = cell.get("verdicts", {}).get(measure, {}).get(f"at_{threshold:g}")
+    if verdict is None:
+        return "no verdict (no floors or no stable explicit run)"
+    if not verdict["judged"]:
+        return f"not judged (floor {verdict['floor']:.1e})"
+    if "implicit_over_explicit_cost" in verdict:
+        best = verdict["best_implicit"]
+        ratio = verdict["implicit_over_explicit_cost"]
+        return (f"**{ratio:.2f}**" if ratio < 1 else f"{ratio:.2f}") + (
+            f" ({best['method']} {best['dt']:.3g} s)" if detail else "")
+    return "explicit (no implicit run met it)"
+
+
+def long_horizon_section(payload: dict, images: str) -> list:
+    """The long horizon's lines (from long_horizon.json): the map of the ladder's measure at the
+    largest threshold, one table per measure (verdicts at each threshold, "not judged" where
+    the floor forbids), the per-run table of one cell, the summary lines."""
+    from .long_horizon import FLOOR_FRACTION, LADDER_MEASURE, key
+
+    settings, thresholds = payload["settings"], payload["thresholds"]
+    cells = sorted(payload["summary"]["cells"], key=key)
+    out = ["## The long horizon", "", f"![long horizon]({images}/long_horizon.png)", "",
+           f"`benchmarks/long_horizon.py` on the `yore.sweep` engine ({len(cells)} "
+           f"cell{'s' if len(cells) != 1 else ''}: "
+           + ", ".join(f"{n} {s}" for s, n in payload["statuses"].items()) + "): the "
+           "crossover's sheets over T = " + f"{settings['horizon']:g} s"
+           + "".join(f" ({n}²: {t:g} s)" for n, t in settings["horizon_at"])
+           + ", sampled every 1/64 s. Measures, each against explicit at half its limit: "
+           + "; ".join(f"{m.replace('_', ' ')}: {text}" for m, text in payload["measures"].items())
+           + f". A threshold is judged only where the measure's floor (the larger of explicit at "
+           "a quarter of its limit and the reference from a start moved by round-off, each "
+           f"against the reference) is below {FLOOR_FRACTION:.2g} of it. Cost: CPU seconds of the "
+           "stepping per simulated second, one thread, explicit at its bisected limit as the "
+           "denominator; ratios below 1 (bold) are implicit wins. Families: "
+           + ", ".join(payload["families"])
+           + (f" (not in this build: {'; '.join(payload['families_unavailable'])})"
+              if payload.get("families_unavailable") else "") + ".", ""]
+    from .long_horizon import BENDING_ROWS, SIZES, STIFFNESSES
+
+    full = (list(SIZES), [float(k) for k in STIFFNESSES], list(BENDING_ROWS))
+    ran = (list(settings["sizes"]), [float(k) for k in settings["stiffness"]],
+           list(settings["bending"]))
+    if ran != full:
+        out += [f"Only part of the grid ran: sizes {', '.join(f'{n}²' for n in ran[0])}; "
+                f"stiffness {', '.join(f'{k:g}' for k in ran[1])} N/m; bending "
+                f"{', '.join(ran[2])}. The full grid ({len(SIZES)} sizes × {len(STIFFNESSES)} "
+                f"stiffnesses × {len(BENDING_ROWS)} bending rows) has not run here.", ""]
+    # the map: rows (bending, size), columns stiffness, at the largest threshold
+    top = max(thresholds)
+    rows = sorted({(c["bending"], c["size"]) for c in cells})
+    stiffnesses = sorted({c["stretch_stiffness"] for c in cells})
+    out += [f"Map: {LADDER_MEASURE.replace('_', ' ')} within {100 * top:g} %, cheapest implicit "
+            "over explicit.", "",
+            "| sheet | " + " | ".join(f"k = {k:g}" for k in stiffnesses) + " |",
+            "|---|" + "---|" * len(stiffnesses)]
+    for bending, size in rows:
+        entries = []
+        for k in stiffnesses:
+            cell = next((c for c in cells if key(c) == (size, k, bending)), None)
+            entries.append("–" if cell is None else
+                           _long_horizon_verdict(cell, LADDER_MEASURE, top))
+        out.append(f"| {size}² {bending} | " + " | ".join(entries) + " |")
+    for measure, text in payload["measures"].items():
+        out += ["", f"### {measure.replace('_', ' ').capitalize()}", "", f"{text}.", "",
+                "| cell | T | floor | " + " | ".join(f"within {100 * t:g} %" for t in thresholds)
+                + " |", "|---|---|---|" + "---|" * len(thresholds)]
+        for c in cells:
+            floor = (c.get("floors") or {}).get(measure, {}).get("floor")
+            out.append(f"| {_cell_name(c)} | {c['horizon']:g} s | "
+                       + ("–" if floor is None else f"{floor:.1e}") + " | "
+                       + " | ".join(_long_horizon_verdict(c, measure, t) for t in thresholds)
+                       + " |")
+    # the per-run table of one cell: 64² k = 2e5 equal where it ran, else the one with most runs
+    done = [c for c in cells if c.get("status") == "done"]
+    if done:
+        counts = {key(c): sum(key(r) == key(c) for r in payload["rows"]) for c in done}
+        shown = next((c for c in done if key(c) == (64, 2e5, "equal")),
+                     max(done, key=lambda c: counts[key(c)]))
+        measures = list(payload["measures"])
+        out += ["", f"### Every run of {_cell_name(shown)}", "",
+                f"Predictability time {shown.get('predictability_time', float('nan')):g} s"
+                + ("" if shown.get("predictability_reached") else " (the references never "
+                   "parted: the whole run)") + "; explicit's trial limit "
+                f"{shown.get('trial_limit_dt', float('nan')):.3g} s. CPU s/s: medians of the "
+                "repeats given.", "",
+                "| run | dt (s) | " + " | ".join(m.replace("_", " ") for m in measures)
+                + " | CPU s/s (repeats) | Newton per step |",
+                "|---|---|" + "---|" * (len(measures) + 2)]
+        for r in payload["rows"]:
+            if key(r) != key(shown):
+                continue
+            head = f"| {r['method']}" + (" at its limit" if r.get("at_limit") else "") + \
+                f" | {r['dt']:.3g} | "
+            if r["diverged"] or r["aborted"]:
+                why = "diverged" if r["diverged"] else f"aborted: {r['aborted']}"
+                out.append(head + " | ".join([why] + [""] * (len(measures) + 1)) + " |")
+                continue
+            cost = r.get("cost_seconds_per_simulated_second")
+            out.append(head + " | ".join(f"{r[m]:.2e}" for m in measures) + " | "
+                       + ("–" if cost is None or r["method"].startswith("reference")
+                          else f"{cost:.3g} ({r.get('repeats', 1)})") + " | "
+                       + (f"{r['iterations'] / r['steps']:.2f}" if r["method"] not in (
+                           "explicit", "reference", "reference, perturbed start",
+                           "reference, quarter step") and "iterations" in r else "–")
+                       + (f" ({r['unconverged_steps']} unconverged)"
+                          if r.get("unconverged_steps") else "") + " |")
+    out += [""] + [f"- {line}" for line in payload["summary"]["lines"]]
+    return out
+
+
+def numerical_damping_section(payload: dict, images: str) -> list:
+    """The numerical-damping lines (from numerical_damping.json): one linear mode against each
+    scheme's analytic amplification, and the energy the swinging sheet keeps."""
+    chain = payload["chain"]
+    out = ["## Numerical damping", "", f"![numerical damping]({images}/numerical_damping.png)",
+           "", "`benchmarks/numerical_damping.py`, one thread. **One linear mode**: a straight "
+           f"chain of {chain['free_masses']} free masses (explicit: "
+           f"{chain['explicit_free_masses']}, so that its highest mode stays stable) between two "
+           "fixed ends, no damping, drag or gravity, started from rest in its lowest "
+           "longitudinal mode, which moves exactly linearly; Newton tight "
+           f"(newton_tol {chain['newton']['newton_tol']:g}, truncation_fraction "
+           f"{chain['newton']['truncation_fraction']:g}). Measured: the principal root of the "
+           "linear recurrence fitted to the mode's sampled (ωq, p) (matrix pencil); analytic: "
+           "the principal eigenvalue of each scheme's one-step matrix for ẍ = −ω²x, computed "
+           "independently in numpy. Energy kept per period: decay^(2 · 2π/ωh); period "
+           "elongation: ωh / arg λ − 1."
+           + (f" Not in this build: {'; '.join(payload['integrators_unavailable'])}."
+              if payload["integrators_unavailable"] else ""), "",
+           "| integrator | ρ∞ | ωh | steps per period | decay per step | analytic | relative "
+           "difference | energy kept per period | period elongation |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for r in payload["rows"]:
+        out.append(f"| {r['integrator']} | "
+                   + ("–" if r["rho_infinity"] is None else f"{r['rho_infinity']:g}")
+                   + f" | {r['omega_h']:.3g} | {r['steps_per_period']:.3g} | "
+                   f"{r['decay_per_step']:.9f} | {r['analytic_decay_per_step']:.9f} | "
+                   f"{r['relative_difference']:.1e} | {r['energy_kept_per_period']:.4g} | "
+                   f"{r['period_elongation']:.3g} |")
+    worst = max(abs(r["relative_difference"]) for r in payload["rows"])
+    out += ["", f"Largest relative difference between measured and analytic decay: {worst:.1e}."]
+    settings = payload["sheet_settings"]
+    references = {ref["size"]: ref for ref in payload["sheet_references"]}
+    out += ["", "**The swinging sheet's energy kept**: the crossover's sheet (pin spacing 1 m, "
+            f"0.1 kg, k = {settings['stretch_stiffness']:g} N/m, bending {settings['bending']}) "
+            "let go from flat; the reference is explicit at half its bisected limit ("
+            + ", ".join(f"{n}²: {ref['reference_dt']:.3g} s" for n, ref in references.items())
+            + "). Kept at t: the run's mean kinetic energy over t ± "
+            f"{settings['window']:g} s over the reference's; history: the kinetic-energy "
+            f"history's relative L2 over [0, {settings['history_until']:g}] s; centroid: the "
+            "largest centroid distance over the sheet's size; CPU seconds of the stepping per "
+            "simulated second (one run). Explicit at its limit shows the measures' floor on "
+            "this chaotic sheet. Families at yore's defaults"
+            + (f" (not in this build: {'; '.join(payload['sheet_families_unavailable'])})"
+               if payload["sheet_families_unavailable"] else "") + ".", "",
+            "| sheet | family | dt (s) | kept at "
+            + " | kept at ".join(f"{t:g} s" for t in settings["times"])
+            + " | KE history | centroid | CPU s/s | Newton per step |",
+            "|---|---|---|" + "---|" * len(settings["times"]) + "---|---|---|---|"]
+    aliases = {}  # a family measured once for several names that resolve alike
+    for name, kept in payload.get("sheet_families_merged", {}).items():
+        aliases.setdefault(kept, []).append(name)
+    for r in payload["sheet_rows"]:
+        family = " = ".join([r["family"], *aliases.get(r["family"], [])])
+        head = f"| {r['size']}² | {family} | {r['dt']:.3g} | "
+        if "kinetic_energy_history" not in r:
+            why = "diverged" if r["diverged"] else f"aborted: {r['aborted']}"
+            out.append(head + " | ".join([why] + [""] * (len(settings["times"]) + 3)) + " |")
+            continue
+        out.append(head + " | ".join(f"{r[f'kinetic_energy_kept_at_{t:g}s']:.3g}"
+                                     for t in settings["times"])
+                   + f" | {r['kinetic_energy_history']:.3g} | {r['centroid_path']:.3g} | "
+                   f"{r['cost_seconds_per_simulated_second']:.3g} | "
+                   + ("–" if r["integrator"] == "explicit" else
+                      f"{r['newton_iterations_per_step']:.2f}")
+                   + (f" ({r['unconverged_steps']} unconverged)" if r.get("unconverged_steps")
+                      else "") + " |")
+    out += [""] + [f"- {line}" for line in payload["summary"]["lines"]]
+    return out
+
+
 def section(data: dict, results: Path, images: str | None = None) -> str:
     """The generated part of the results page from the benchmarks' JSON (``load``); ``results``
     is the folder named in the text, ``images`` the folder of the PNG files as the page links
@@ -126,6 +315,8 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
 
     # -- the crossover ----------------------------------------------------------------------------
     out += crossover_section(data["crossover"], images)
+    out += [""] + long_horizon_section(data["long_horizon"], images)
+    out += [""] + numerical_damping_section(data["numerical_damping"], images)
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]

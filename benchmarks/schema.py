@@ -21,6 +21,18 @@ SCHEMAS = {
                    "settings", "sweep", "cells", "statuses"},
                   {"size", "stretch_stiffness", "bending", "horizon", "method", "dt", "steps",
                    "reference_converged", "diverged", "aborted"}),
+    "long_horizon": ({"benchmark", "machine", "rows", "summary", "quick", "families", "thresholds",
+                      "measures", "floor_fraction", "settings", "statuses"},
+                     {"size", "stretch_stiffness", "bending", "horizon", "method", "dt", "steps",
+                      "diverged", "aborted"}),
+    "numerical_damping": ({"benchmark", "machine", "rows", "quick", "integrators",
+                           "integrators_unavailable", "rho_infinity", "chain", "sheet_families",
+                           "sheet_families_unavailable", "sheet_settings", "sheet_references",
+                           "sheet_rows", "summary"},
+                          {"integrator", "rho_infinity", "omega_h", "steps_per_period",
+                           "decay_per_step", "analytic_decay_per_step", "relative_difference",
+                           "energy_kept_per_period", "analytic_energy_kept_per_period",
+                           "period_elongation", "analytic_period_elongation"}),
     "rebuild_cost": ({"benchmark", "machine", "rows", "dense_matmul_gflops", "quick",
                       "local_global", "quasi_newton"},
                      {"case", "ordering_used", "dofs", "factor_nonzeros", "factor_flops",
@@ -71,7 +83,16 @@ SCHEMAS = {
 
 
 #: keys of the "summary" table, where a benchmark's JSON has one the report reads
-SUMMARIES = {"crossover": {"cells", "crossovers", "targets", "lines"}}
+SUMMARIES = {"crossover": {"cells", "crossovers", "targets", "lines"},
+             "long_horizon": {"cells", "targets", "lines", "table"},
+             "numerical_damping": {"lines"}}
+
+#: further row tables of a benchmark's JSON beside "rows": {benchmark: {key: row keys}}; each
+#: must be a non-empty list whose every row has the keys
+TABLES = {"numerical_damping": {"sheet_rows": {"size", "stretch_stiffness", "family",
+                                               "integrator", "dt", "steps", "duration",
+                                               "diverged", "aborted"},
+                                "sheet_references": {"size", "trial_limit_dt", "reference_dt"}}}
 
 
 def check(payload: dict) -> None:
@@ -89,9 +110,10 @@ def check(payload: dict) -> None:
     missing = SUMMARIES.get(name, set()) - set(payload.get("summary", {}))
     if missing:
         raise ValueError(f"{name}: its summary lacks {sorted(missing)}")
-    if not payload["rows"]:
-        raise ValueError(f"{name}: no rows")
-    for row in payload["rows"]:
-        missing = row_keys - set(row)
-        if missing:
-            raise ValueError(f"{name}: a row lacks {sorted(missing)}: {row}")
+    for table, keys in {"rows": row_keys, **TABLES.get(name, {})}.items():
+        if not payload.get(table):
+            raise ValueError(f"{name}: no {table}")
+        for row in payload[table]:
+            missing = keys - set(row)
+            if missing:
+                raise ValueError(f"{name}: a row of {table} lacks {sorted(missing)}: {row}")
