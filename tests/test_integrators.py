@@ -75,15 +75,15 @@ def test_second_order_with_damping_drag_and_bending_against_a_converged_referenc
     reference = damped_sheet("explicit", 1e-6, bending)
     reference.step(round(duration / 1e-6))
     errors = []
-    for steps in (8, 16, 32):
+    for steps in (16, 32, 64):
         sim = damped_sheet(integrator, duration / steps, bending)
         sim.step(steps)
         errors.append(np.abs(sim.cloth.positions - reference.cloth.positions).max())
     orders = [math.log2(errors[k] / errors[k + 1]) for k in range(2)]
     assert all(1.75 < order < 2.3 for order in orders), (errors, orders)
     # and the error itself is second order's: a thirtieth of backward Euler's at the same step
-    first_order = damped_sheet("implicit", duration / 32, bending)
-    first_order.step(32)
+    first_order = damped_sheet("implicit", duration / 64, bending)
+    first_order.step(64)
     assert errors[-1] < np.abs(first_order.cloth.positions - reference.cloth.positions).max() / 30
 
 
@@ -104,8 +104,9 @@ def test_a_stroke_restarts_the_history_and_the_run_goes_on_converged(integrator)
     counters = sim.stats["counters"]
     # and the first after the stroke, the only one
     assert counters["history_restarts"] == 2 and counters["unconverged_steps"] == 0
-    steps = sim.stats["steps"]
-    assert counters["stages"] == steps * (2 if integrator == "tr-bdf2" else 1)
+    # a restart is one backward-Euler solve, every other TR-BDF2 step two
+    steps, restarts = sim.stats["steps"], counters["history_restarts"]
+    assert counters["stages"] == (2 * steps - restarts if integrator == "tr-bdf2" else steps)
     assert np.all(np.isfinite(sim.cloth.positions))
 
 

@@ -13,8 +13,9 @@
 /// problem this is Chung & Hulbert's method exactly (second order, unconditionally stable,
 /// spectral radius ρ∞ at infinite frequency). aₙ and ẍₙ are the method's memory (the history a
 /// state file keeps): ẍₙ₊₁ is taken from the solve, (xₙ₊₁ − x̂)/h̃², not from f at xₙ₊₁, so
-/// Newton's error stays a position error instead of becoming a stiff force error. Both start,
-/// and restart after a stroke or an edit, at M⁻¹f(xₙ, vₙ).
+/// Newton's error stays a position error instead of becoming a stiff force error. The first
+/// step, and the first after a stroke or an edit, is backward Euler's (as BDF2's), and its
+/// accelerations as solved for start both.
 
 #include "implicit_detail.hpp"
 #include "yore/implicit.hpp"
@@ -29,17 +30,16 @@ void ImplicitIntegrator::step_generalized_alpha(Cloth& cloth, const Vec3& gravit
   const double alpha_f = rho / (rho + 1.0);
   const double gamma = 0.5 - alpha_m + alpha_f;
   const double beta = 0.25 * (1.0 - alpha_m + alpha_f) * (1.0 - alpha_m + alpha_f);
+  if (!history_matches(cloth)) {
+    restart_with_backward_euler(cloth, gravity, dt);
+    return;
+  }
   m_gravity = gravity;
   m_dt = dt;
   m_second_order = false;
   m_stage = StageKind::generalized_alpha;
   const Positions& x = cloth.positions();
   const Positions& v = cloth.velocities();
-  if (!history_matches(cloth)) {
-    accelerations(cloth, x, v, m_force_acceleration);
-    m_acceleration = m_force_acceleration;  // same shape: no allocation
-    ++m_statistics.history_restarts;
-  }
   m_beta_h2 = beta * dt * dt;
   m_error_constant = std::abs(beta - 1.0 / 6.0) * dt * dt;
   m_h = dt * std::sqrt(beta * (1.0 - alpha_f) / (1.0 - alpha_m));

@@ -472,6 +472,31 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   m_statistics.last_line_search_backtracks = backtracks;
 }
 
+void ImplicitIntegrator::restart_with_backward_euler(Cloth& cloth, const Vec3& gravity,
+                                                     double dt) {
+  // A start far from equilibrium (a gathered stiff cloth: compressed springs pushing with
+  // k × 20 % of their length) is a stiff transient the trapezoidal stage and generalized-α
+  // carry on undamped and, on nonlinear springs, amplify; backward Euler removes it in one step.
+  ++m_statistics.history_restarts;
+  begin_step(cloth, gravity, dt, false);
+  const double new_time = cloth.advance_time(dt);
+  cloth.apply_drivers(new_time);
+  int iterations = 0, backtracks = 0;
+  solve_stage(cloth, iterations, backtracks);
+  write_stage(cloth);
+  keep_stage_accelerations();
+  if (m_options.method == ImplicitMethod::generalized_alpha) {
+    m_acceleration = m_force_acceleration;  // same shape: no allocation
+  }
+  m_history_valid = true;
+  m_history_topology = cloth.topology_version();
+  m_history_edits = cloth.edit_count();
+  m_history_dt = dt;
+  ++m_statistics.steps;
+  m_statistics.last_newton_iterations = iterations;
+  m_statistics.last_line_search_backtracks = backtracks;
+}
+
 bool ImplicitIntegrator::history_matches(const Cloth& cloth) const {
   return m_history_valid && m_history_topology == cloth.topology_version() &&
          m_history_edits == cloth.edit_count();
@@ -549,35 +574,6 @@ void ImplicitIntegrator::finish_stage_setup(const Cloth& cloth) {
     const double length = d.norm();
     m_directions.row(static_cast<Eigen::Index>(k)) =
         length > 0.0 ? Vec3(d / length) : Vec3::Zero();
-  }
-}
-
-void ImplicitIntegrator::accelerations(const Cloth& cloth, const Positions& x,
-                                       const Positions& v, Positions& out) {
-  // M⁻¹ f(x, v) as the explicit integrator's forces: −∇U, the springs' damping along their
-  // current directions, drag and gravity; only the free vertices' rows are used.
-  out.setZero();
-  const SpringSet& springs = cloth.springs();
-  for (std::size_t k = 0; k < springs.size(); ++k) {
-    const std::int32_t i = springs.first[k], j = springs.second[k];
-    const Vec3 xi = x.row(i), xj = x.row(j);
-    Vec3 force = -spring_gradient(xi, xj, springs.rest_length[k], springs.stiffness[k]);
-    if (springs.damping[k] > 0.0) {
-      force += spring_damping_force(xi, xj, v.row(i).transpose(), v.row(j).transpose(),
-                                    springs.damping[k]);
-    }
-    out.row(i) += force.transpose();
-    out.row(j) -= force.transpose();
-  }
-  if (cloth.has_quadratic_bending()) {
-    // the trial buffer is free between steps
-    quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(), x, m_trial);
-    out -= m_trial;
-  }
-  const Eigen::VectorXd& masses = cloth.masses();
-  const double drag = cloth.drag();
-  for (const std::int32_t i : m_free_vertices) {
-    out.row(i) = out.row(i) / masses[i] + m_gravity.transpose() - drag * v.row(i);
   }
 }
 

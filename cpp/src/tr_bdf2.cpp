@@ -10,7 +10,8 @@
 /// second stage solved for, (xₙ − x̂)/h̃², as stiffly accurate Runge–Kutta codes reuse their
 /// last stage's derivative: re-evaluated at the inexact xₙ it would turn Newton's error δ into
 /// a force error kδ that the trapezoidal stage passes on undamped. That a₀ is the history a
-/// state file keeps; the first step, and the first after a stroke or an edit, evaluate it.
+/// state file keeps; the first step, and the first after a stroke or an edit, is backward
+/// Euler's (as BDF2's), whose accelerations as solved for start it.
 /// The second stage's truncation error is the method's embedded estimate of the whole step
 /// (ImplicitIntegrator::truncation_error).
 
@@ -21,6 +22,10 @@ namespace yore {
 using implicit_detail::kTrBdf2Gamma;
 
 void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt) {
+  if (!history_matches(cloth)) {
+    restart_with_backward_euler(cloth, gravity, dt);
+    return;
+  }
   const double gamma = kTrBdf2Gamma;
   m_gravity = gravity;
   m_dt = dt;
@@ -28,10 +33,6 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
   m_h = m_hv = 0.5 * gamma * dt;
   m_start_positions = cloth.positions();  // same shape: no allocation
   m_start_velocities = cloth.velocities();
-  if (!history_matches(cloth)) {
-    accelerations(cloth, m_start_positions, m_start_velocities, m_force_acceleration);
-    ++m_statistics.history_restarts;
-  }
 
   // The trapezoidal stage to tₙ + γh.
   m_stage = StageKind::trapezoid;

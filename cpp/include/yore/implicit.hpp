@@ -134,11 +134,12 @@ struct ImplicitOptions {
   /// generalized_alpha: the spectral radius of a step at infinite frequency, in [0, 1]. 1 is
   /// the trapezoidal rule (no numerical damping, the energy-conserving reference on linear
   /// problems); 0 annihilates the highest frequencies in one step. α_m = (2ρ∞ − 1)/(ρ∞ + 1),
-  /// α_f = ρ∞/(ρ∞ + 1), γ = ½ − α_m + α_f, β = ¼(1 − α_m + α_f)². 0.5 by default: on the
-  /// stiff 32² sheet (2e5 N/m, 1/32 s) 0.8 and 1 gain energy without bound even with Newton
-  /// solved to 1e-5 (generalized-α's linear stability does not carry over to stiff nonlinear
-  /// springs), 0.5 keeps 88 % of the motion's energy over 2 s (docs/integrators.md).
-  double rho_infinity = 0.5;
+  /// α_f = ρ∞/(ρ∞ + 1), γ = ½ − α_m + α_f, β = ¼(1 − α_m + α_f)². 0.3 by default:
+  /// generalized-α's unconditional stability is linear only, and on stiff nonlinear springs
+  /// (2e5 N/m, 1/32 s) the flat 32² sheet gains energy without bound from ρ∞ ≈ 0.6 up (even
+  /// with Newton solved to its residual test) and the gathered 21² cloth at 0.5; 0.2–0.35 kept
+  /// both bounded (docs/integrators.md).
+  double rho_infinity = 0.3;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
 };
@@ -321,9 +322,6 @@ class ImplicitIntegrator : public Integrator {
   /// the stage's end time: constrained vertices' rows (anchor = x − h_v v, target = x) and the
   /// damping directions of the target.
   void finish_stage_setup(const Cloth& cloth);
-  /// M⁻¹ f(x, v) of the free vertices (n×3, m/s²; other rows zero): springs, their damping along
-  /// the current directions, quadratic bending, drag and gravity.
-  void accelerations(const Cloth& cloth, const Positions& x, const Positions& v, Positions& out);
   /// Writes m_iterate and (m_iterate − x̄)/h_v into the cloth's free vertices.
   void write_stage(Cloth& cloth);
   /// The accelerations the stage just solved for, (x⁺ − x̂)/h̃² = M⁻¹(f + the Newton residual),
@@ -332,6 +330,10 @@ class ImplicitIntegrator : public Integrator {
   /// error kδ, which the trapezoidal rule and generalized-α carry on undamped).
   void keep_stage_accelerations();
   bool history_matches(const Cloth& cloth) const;
+  /// generalized_alpha and tr_bdf2 without history (the first step, or the first after a
+  /// stroke, an edit or a restore): one backward-Euler step, whose accelerations (as solved
+  /// for) start the history. Counts the restart.
+  void restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt);
   void step_generalized_alpha(Cloth& cloth, const Vec3& gravity, double dt);  // generalized_alpha.cpp
   void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);            // tr_bdf2.cpp
 
