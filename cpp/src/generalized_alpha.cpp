@@ -64,14 +64,7 @@ void ImplicitIntegrator::step_generalized_alpha(Cloth& cloth, const Vec3& gravit
     m_acceleration.row(i) = (m_iterate.row(i) - m_predicted.row(i)) / m_beta_h2;
   }
   keep_stage_accelerations();
-  m_history_valid = true;
-  m_history_topology = cloth.topology_version();
-  m_history_edits = cloth.edit_count();
-  m_history_dt = dt;
-
-  ++m_statistics.steps;
-  m_statistics.last_newton_iterations = iterations;
-  m_statistics.last_line_search_backtracks = backtracks;
+  finish_step(cloth, dt, true, iterations, backtracks);
 }
 
 }  // namespace yore

@@ -276,6 +276,10 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
   // Damping directions of the inertial prediction x̂ (constrained vertices included: x̂ − x̄ is
   // their velocity times h̃ too), an O(h̃²) extrapolation of the end-of-step directions: frozen at
   // xₙ they would be O(h) off, which costs BDF2 its order and damps a rigid rotation.
+  target_directions(cloth);
+}
+
+void ImplicitIntegrator::target_directions(const Cloth& cloth) {
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const Vec3 d = m_target.row(springs.first[k]) - m_target.row(springs.second[k]);
@@ -462,11 +466,15 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   int iterations = 0, backtracks = 0;
   solve_stage(cloth, iterations, backtracks);
   write_stage(cloth);
-  m_history_valid = m_options.method == ImplicitMethod::bdf2;
+  finish_step(cloth, dt, m_options.method == ImplicitMethod::bdf2, iterations, backtracks);
+}
+
+void ImplicitIntegrator::finish_step(const Cloth& cloth, double dt, bool history_valid,
+                                     int iterations, int backtracks) {
+  m_history_valid = history_valid;
   m_history_topology = cloth.topology_version();
   m_history_edits = cloth.edit_count();
   m_history_dt = dt;
-
   ++m_statistics.steps;
   m_statistics.last_newton_iterations = iterations;
   m_statistics.last_line_search_backtracks = backtracks;
@@ -488,13 +496,7 @@ void ImplicitIntegrator::restart_with_backward_euler(Cloth& cloth, const Vec3& g
   if (m_options.method == ImplicitMethod::generalized_alpha) {
     m_acceleration = m_force_acceleration;  // same shape: no allocation
   }
-  m_history_valid = true;
-  m_history_topology = cloth.topology_version();
-  m_history_edits = cloth.edit_count();
-  m_history_dt = dt;
-  ++m_statistics.steps;
-  m_statistics.last_newton_iterations = iterations;
-  m_statistics.last_line_search_backtracks = backtracks;
+  finish_step(cloth, dt, true, iterations, backtracks);
 }
 
 bool ImplicitIntegrator::history_matches(const Cloth& cloth) const {
@@ -568,13 +570,7 @@ void ImplicitIntegrator::finish_stage_setup(const Cloth& cloth) {
     m_anchor.row(i) = x.row(i) - m_hv * v.row(i);
     m_target.row(i) = x.row(i);
   }
-  const SpringSet& springs = cloth.springs();
-  for (std::size_t k = 0; k < springs.size(); ++k) {
-    const Vec3 d = m_target.row(springs.first[k]) - m_target.row(springs.second[k]);
-    const double length = d.norm();
-    m_directions.row(static_cast<Eigen::Index>(k)) =
-        length > 0.0 ? Vec3(d / length) : Vec3::Zero();
-  }
+  target_directions(cloth);
 }
 
 double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double slope,

@@ -65,14 +65,7 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
   solve_stage(cloth, iterations, backtracks);
   write_stage(cloth);
   keep_stage_accelerations();
-  m_history_valid = true;
-  m_history_topology = cloth.topology_version();
-  m_history_edits = cloth.edit_count();
-  m_history_dt = dt;
-
-  ++m_statistics.steps;
-  m_statistics.last_newton_iterations = iterations;
-  m_statistics.last_line_search_backtracks = backtracks;
+  finish_step(cloth, dt, true, iterations, backtracks);
 }
 
 }  // namespace yore

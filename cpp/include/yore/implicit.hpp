@@ -322,6 +322,8 @@ class ImplicitIntegrator : public Integrator {
   /// the stage's end time: constrained vertices' rows (anchor = x − h_v v, target = x) and the
   /// damping directions of the target.
   void finish_stage_setup(const Cloth& cloth);
+  /// The damping directions d̂: each spring's direction at the target x̂ (zero at zero length).
+  void target_directions(const Cloth& cloth);
   /// Writes m_iterate and (m_iterate − x̄)/h_v into the cloth's free vertices.
   void write_stage(Cloth& cloth);
   /// The accelerations the stage just solved for, (x⁺ − x̂)/h̃² = M⁻¹(f + the Newton residual),
@@ -330,6 +332,10 @@ class ImplicitIntegrator : public Integrator {
   /// error kδ, which the trapezoidal rule and generalized-α carry on undamped).
   void keep_stage_accelerations();
   bool history_matches(const Cloth& cloth) const;
+  /// The end of every step: whether the method's history is now valid (keyed to the cloth as
+  /// it is, and to dt), and the step's counters.
+  void finish_step(const Cloth& cloth, double dt, bool history_valid, int iterations,
+                   int backtracks);
   /// generalized_alpha and tr_bdf2 without history (the first step, or the first after a
   /// stroke, an edit or a restore): one backward-Euler step, whose accelerations (as solved
   /// for) start the history. Counts the restart.
