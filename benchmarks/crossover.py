@@ -721,6 +721,20 @@ def cell_values(summary, rows):
 
 
 # -- the Dask task ------------------------------------------------------------------------------
+def cell_of(overrides, horizon_seconds):
+    """A cell's record from its sweep overrides (size, stiffness and bending row, keyed as
+    `grid_sweep` keys them) and its horizon (s): what crossover and long_horizon cells start
+    from."""
+    size = int(overrides["crossover.size"])
+    stiffness = float(overrides["crossover.stretch_stiffness"])
+    bending = str(overrides["crossover.bending"])
+    material = bending_arguments(bending, stiffness)
+    return {"size": size, "stretch_stiffness": stiffness, "bending": bending,
+            "bend_stiffness": material.get("bend_stiffness"),
+            "bending_modulus": material.get("bending_modulus"),
+            "horizon": horizon_seconds(size, bending)}
+
+
 def crossover_cell(settings_toml, scene_path, overrides) -> dict:
     """One cell as a `yore.sweep` task (the engine's cell-function signature: the sweep's
     'scene' is this benchmark's settings, as TOML; overrides name the cell). Never raises: a
@@ -731,14 +745,8 @@ def crossover_cell(settings_toml, scene_path, overrides) -> dict:
     log = []
     try:
         settings = tomllib.loads(settings_toml)
-        size = int(overrides["crossover.size"])
-        stiffness = float(overrides["crossover.stretch_stiffness"])
-        bending = str(overrides["crossover.bending"])
-        material = bending_arguments(bending, stiffness)
-        cell = {"size": size, "stretch_stiffness": stiffness, "bending": bending,
-                "bend_stiffness": material.get("bend_stiffness"),
-                "bending_modulus": material.get("bending_modulus"),
-                "horizon": horizon(size, bending)}
+        cell = cell_of(overrides, horizon)
+        size, stiffness, bending = cell["size"], cell["stretch_stiffness"], cell["bending"]
         yore.set_num_threads(1)  # the thread clock then holds all of the stepping
         families = settings["families"]
         with warnings.catch_warnings():

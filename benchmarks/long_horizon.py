@@ -558,14 +558,8 @@ def long_horizon_cell(settings_toml, scene_path, overrides) -> dict:
     log = []
     try:
         settings = tomllib.loads(settings_toml)
-        size = int(overrides["crossover.size"])
-        stiffness = float(overrides["crossover.stretch_stiffness"])
-        bending = str(overrides["crossover.bending"])
-        material = cx.bending_arguments(bending, stiffness)
-        cell = {"size": size, "stretch_stiffness": stiffness, "bending": bending,
-                "bend_stiffness": material.get("bend_stiffness"),
-                "bending_modulus": material.get("bending_modulus"),
-                "horizon": horizon(settings, size)}
+        cell = cx.cell_of(overrides, lambda size, bending: horizon(settings, size))
+        size, stiffness, bending = cell["size"], cell["stretch_stiffness"], cell["bending"]
         yore.set_num_threads(1)  # the thread clock then holds all of the stepping
         families = settings["families"]
         with warnings.catch_warnings():
