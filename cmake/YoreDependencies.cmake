@@ -23,6 +23,15 @@ if(NOT TARGET SuiteSparse::CHOLMOD)
 endif()
 message(STATUS "yore: CHOLMOD ${CHOLMOD_LIBRARY} (headers in ${CHOLMOD_INCLUDE_DIR})")
 
+# SUNDIALS 6 (Debian 12's libsundials-dev) ships SUNDIALSConfig.cmake: CVODE and ARKODE for the
+# error-controlled integrators (error_controlled.cpp).
+find_package(SUNDIALS 6 QUIET CONFIG)
+if(NOT SUNDIALS_FOUND OR NOT TARGET SUNDIALS::cvode_shared OR NOT TARGET SUNDIALS::arkode_shared)
+  message(FATAL_ERROR "yore: SUNDIALS 6 (CVODE, ARKODE) not found. "
+    "On Debian/Ubuntu: apt-get install --no-install-recommends libsundials-dev")
+endif()
+message(STATUS "yore: SUNDIALS ${SUNDIALS_VERSION}")
+
 set(CGAL_DO_NOT_WARN_ABOUT_CMAKE_BUILD_TYPE TRUE)
 find_package(CGAL QUIET)
 if(NOT CGAL_FOUND)

@@ -84,7 +84,11 @@ def test_the_documented_integrator_options_and_defaults_are_the_registrys():
     newton = tables["implicit, bdf2 and tr-bdf2"]
     documented = {"explicit": tables["explicit"], "implicit": newton, "bdf2": newton,
                   "tr-bdf2": newton, "generalized-alpha": {**newton, **tables["generalized-alpha"]},
-                  "local-global": tables["local-global"], "quasi-newton": tables["quasi-newton"]}
+                  "local-global": tables["local-global"], "quasi-newton": tables["quasi-newton"],
+                  "cvode": {name: value for name, value in tables["cvode and arkode"].items()
+                            if name != "order"},
+                  "arkode": {name: value for name, value in tables["cvode and arkode"].items()
+                             if name != "max_order"}}
     for integrator, options in INTEGRATOR_OPTIONS.items():
         assert set(documented[integrator]) == set(options), integrator
         for name, value in options.items():

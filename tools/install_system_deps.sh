@@ -4,10 +4,12 @@
 set -euo pipefail
 
 python=${PYTHON:-python3}
+# libsundials-dev: CVODE and ARKODE (the error-controlled integrators); Debian built it with
+# MPI, hypre and PETSc, so it pulls ~350 MB of packages in.
 # libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6: polyscope's headless (EGL, Mesa llvmpipe)
 # pictures and the viewer; xvfb xdotool: the test that drives the viewer's real window
 packages=(g++ make cmake ninja-build ccache pkg-config
-          libeigen3-dev libsuitesparse-dev libcgal-dev libopenblas0-pthread
+          libeigen3-dev libsuitesparse-dev libcgal-dev libsundials-dev libopenblas0-pthread
           libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6 xvfb xdotool)
 missing=()
 for package in "${packages[@]}"; do

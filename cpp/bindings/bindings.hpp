@@ -15,6 +15,7 @@ void bind_implicit(pybind11::module_& m);
 void bind_stroke(pybind11::module_& m);
 void bind_stroke_pipeline(pybind11::module_& m);
 void bind_local_global(pybind11::module_& m);
+void bind_error_controlled(pybind11::module_& m);
 void bind_subdivision(pybind11::module_& m);
 void bind_growth(pybind11::module_& m);
 

@@ -62,6 +62,7 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_stroke(m);
   yore::bindings::bind_stroke_pipeline(m);
   yore::bindings::bind_local_global(m);
+  yore::bindings::bind_error_controlled(m);
   yore::bindings::bind_subdivision(m);
   yore::bindings::bind_growth(m);
 }

@@ -556,7 +556,9 @@ void Cloth::drive_rotation(const std::vector<std::int32_t>& vertices, const Vec3
   ++m_edit_count;
 }
 
-void Cloth::apply_drivers(double time) {
+void Cloth::apply_drivers(double time) { driver_state(time, m_positions, m_velocities); }
+
+void Cloth::driver_state(double time, Positions& x, Positions& v) const {
   for (const RotationDriver& driver : m_drivers) {
     const Eigen::Matrix3d rotation =
         Eigen::AngleAxisd(driver.omega * (time - driver.start_time), driver.axis)
@@ -565,8 +567,8 @@ void Cloth::apply_drivers(double time) {
     for (std::size_t k = 0; k < driver.vertices.size(); ++k) {
       const Vec3 arm = rotation * (driver.reference.row(static_cast<Eigen::Index>(k)).transpose() -
                                    driver.center);
-      m_positions.row(driver.vertices[k]) = (driver.center + arm).transpose();
-      m_velocities.row(driver.vertices[k]) = angular_velocity.cross(arm).transpose();
+      x.row(driver.vertices[k]) = (driver.center + arm).transpose();
+      v.row(driver.vertices[k]) = angular_velocity.cross(arm).transpose();
     }
   }
 }

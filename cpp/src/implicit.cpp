@@ -841,4 +841,42 @@ NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& g
   return system;
 }
 
+const std::vector<std::int32_t>& ImplicitIntegrator::prepare_structure(const Cloth& cloth) {
+  ensure_structure(cloth);
+  return m_free_vertices;
+}
+
+void ImplicitIntegrator::factor_iteration_matrix(const Cloth& cloth, const Positions& x,
+                                                 double gamma, std::vector<double>& stiffness) {
+  if (!(gamma > 0.0) || !std::isfinite(gamma)) {
+    throw std::invalid_argument("factor_iteration_matrix: gamma must be finite and > 0");
+  }
+  ensure_structure(cloth);
+  // The damping directions are x's own (the Jacobian of the explicit forces at x); the
+  // anchor and target only enter the objective's value, which is not used here.
+  m_target = x;
+  m_anchor = x;
+  target_directions(cloth);
+  const HessianProjection projection = m_options.projection == HessianProjection::abs
+                                           ? HessianProjection::abs
+                                           : HessianProjection::clamp;
+  // h̃ = ∞: the inertia, drag and damping weights vanish and the values are H alone.
+  m_h = m_hv = std::numeric_limits<double>::infinity();
+  evaluate(cloth, x, false, true, projection);
+  stiffness = m_values;  // same size after the first call: no allocation
+  m_h = m_hv = gamma;
+  evaluate(cloth, x, false, true, projection);
+  if (m_pattern.size == 0) return;
+  const Stopwatch start;
+  m_solver->factorize(m_values.data());
+  m_statistics.factorize_seconds += start.seconds();
+}
+
+void ImplicitIntegrator::solve_iteration_matrix(const double* rhs, double* solution) {
+  if (m_pattern.size == 0) return;
+  const Stopwatch start;
+  m_solver->solve(rhs, solution);
+  m_statistics.solve_seconds += start.seconds();
+}
+
 }  // namespace yore

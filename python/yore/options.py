@@ -43,6 +43,7 @@ __all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "INTEGRATOR_SPECS", "IntegratorS
 CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
 CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
 CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
+CORE_ERROR_CONTROLLED = dict(_core.ErrorControlledIntegrator.defaults)
 #: Core options no integrator takes as such: the method and minimizer are the integrator's
 #: name, rho_infinity is generalized-α's alone.
 CORE_CHOSEN_BY_NAME = ("method", "minimizer", "lbfgs_history", "rho_infinity")
@@ -139,13 +140,28 @@ INTEGRATOR_OPTIONS["quasi-newton"] = {
     # (0.41 against 0.63 ms per iteration at 64², one thread, three right-hand sides).
     "factorization": "simplicial",
 }
+# The error-controlled integrators (SUNDIALS): a tolerance in, steps out. dt is their output
+# interval (frames and advance() land on its multiples); inside one, SUNDIALS takes the internal
+# steps its local error test asks for. rtol: relative tolerance; atol: absolute tolerance of the
+# positions (m) and, unless atol_velocity (m/s) is given, of the velocities (the same number);
+# SUNDIALS weighs component i's error by 1/(rtol |yᵢ| + atolᵢ) in a root-mean-square norm.
+# max_dt: largest internal step (0: no limit); max_steps: internal steps allowed in one output
+# interval before the run stops with SimulationDiverged. cvode: max_order, the highest BDF
+# order (1..5); arkode: order, the stiffly accurate ESDIRK table's (2: TR-BDF2, 3, 4).
+_ERROR_CONTROLLED_COMMON = {name: value for name, value in CORE_ERROR_CONTROLLED.items()
+                            if name not in ("method", "max_order", "order")}
+_ERROR_CONTROLLED_COMMON["atol_velocity"] = None  # None: the same number as atol
+INTEGRATOR_OPTIONS["cvode"] = {**_ERROR_CONTROLLED_COMMON,
+                               "max_order": CORE_ERROR_CONTROLLED["max_order"]}
+INTEGRATOR_OPTIONS["arkode"] = {**_ERROR_CONTROLLED_COMMON,
+                                "order": CORE_ERROR_CONTROLLED["order"]}
 ACCELERATIONS = ("none", "chebyshev")
 #: What values each core option takes, by name, from the C++ option tables
 #: (``_core.*Integrator.option_rules``: kind "flag", "count", "real" or "choice", bounds and
 #: choices); an option several integrators take has one rule.
 CORE_RULES = {}
 for _integrator in (_core.ExplicitIntegrator, _core.ImplicitIntegrator,
-                    _core.LocalGlobalIntegrator):
+                    _core.LocalGlobalIntegrator, _core.ErrorControlledIntegrator):
     for _name, _spec in _integrator.option_rules.items():
         CORE_RULES.setdefault(_name, dict(_spec))
 #: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`): the one-step
@@ -260,6 +276,7 @@ _RULES.update(strain_limit=_or_none(_real(1.0, low_open=False)),
               projection=_or_none(_RULES["projection"]),
               predictor=_or_none(_RULES["predictor"]),
               mixed=_or_none(_RULES["mixed"]),
+              atol_velocity=_or_none(_real(0.0)),
               acceleration=_one_of(*ACCELERATIONS),
               method=_one_of(*QUASI_NEWTON_METHODS))
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
@@ -350,7 +367,9 @@ class IntegratorSpec:
     decides and whose projection memory a state file keeps. history: the fields (n×3 arrays)
     of the history a state file keeps besides its dt, given the options; () when none.
     cap: the options that name its iteration cap and its tolerance (the warning for steps
-    that reach the cap quotes them).
+    that reach the cap quotes them). error_controlled: SUNDIALS chooses the internal steps by
+    a tolerance; dt is the output interval, and since SUNDIALS' memory cannot be saved, a
+    resumed state restarts the integrator at the saved time (the state says so).
     """
 
     name: str
@@ -361,6 +380,7 @@ class IntegratorSpec:
     newton: bool = False
     history: Callable[[dict], tuple] = lambda options: ()
     cap: tuple = ("max_newton", "newton_tol")
+    error_controlled: bool = False
 
 
 def _make_explicit(options):
@@ -393,6 +413,15 @@ def _make_quasi_newton(options):
     return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
 
 
+def _error_controlled_factory(method):
+    def make(options):
+        core = {name: options[name] for name in CORE_ERROR_CONTROLLED if name in options}
+        if core.get("atol_velocity") is None:
+            core["atol_velocity"] = 0.0  # the core's "same as atol"
+        return _core.ErrorControlledIntegrator(method=method, **core)
+    return make
+
+
 _BDF2_HISTORY = ("positions", "velocities")
 
 
@@ -423,6 +452,14 @@ INTEGRATOR_SPECS = {spec.name: spec for spec in (
                    _make_quasi_newton,
                    history=lambda options: _BDF2_HISTORY if options.get("method") == "bdf2"
                    else ()),
+    IntegratorSpec("cvode", "CVODE's variable-order BDF with error control (SUNDIALS; rtol/atol "
+                   "in, internal steps out; dt is the output interval)",
+                   INTEGRATOR_OPTIONS["cvode"], _error_controlled_factory("cvode"),
+                   cap=("max_steps", "rtol"), error_controlled=True),
+    IntegratorSpec("arkode", "ARKODE's stiffly accurate ESDIRK with error control (SUNDIALS; "
+                   "order 2-4; dt is the output interval)",
+                   INTEGRATOR_OPTIONS["arkode"], _error_controlled_factory("arkode"),
+                   cap=("max_steps", "rtol"), error_controlled=True),
 )}
 #: Integrator names of the public API.
 INTEGRATORS = tuple(INTEGRATOR_SPECS)

@@ -249,7 +249,9 @@ class Simulation:
                 "options": dict(self.resolved_options), "dt": self._dt,
                 "gravity": self._gravity.copy(), "history": history,
                 "projection_memory": memory, "target_time": self._target_time,
-                "dt_follows_cloth": self._dt_follows_cloth}
+                "dt_follows_cloth": self._dt_follows_cloth,
+                # SUNDIALS' memory cannot be saved: the resumed run restarts its integrator
+                "integrator_restarts": self._spec.error_controlled}
 
     @classmethod
     def from_state(cls, state) -> Simulation:
@@ -260,8 +262,9 @@ class Simulation:
         expected = {"cloth", "integrator", "options", "dt", "gravity", "history", "target_time"}
         # projection_memory: absent from states saved before it existed (then: none yet)
         # dt_follows_cloth: absent from states saved before it existed (then: False)
+        # integrator_restarts: absent from states saved before it existed (then: False)
         if not isinstance(state, dict) or not expected <= set(state) <= expected | {
-                "projection_memory", "dt_follows_cloth"}:
+                "projection_memory", "dt_follows_cloth", "integrator_restarts"}:
             got = sorted(state) if isinstance(state, dict) else type(state).__name__
             raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, "
                              f"got {got}")
@@ -325,11 +328,20 @@ class Simulation:
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
             start = self._target_time
         target = start + seconds
-        steps = max(0, int(round((target - self.time) / self._dt)))
+        if self._spec.error_controlled:
+            # dt is an output interval: whole intervals, then one to the target itself
+            steps = max(0, int(np.floor((target - self.time) / self._dt * (1 + 1e-12))))
+        else:
+            steps = max(0, int(round((target - self.time) / self._dt)))
         if steps > MAX_STEPS:
             raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
                              f"more than the limit of {MAX_STEPS} per call")
         self._run(steps, progress)
+        if self._spec.error_controlled:
+            rest = target - self.time
+            if rest > 1e-9 * self._dt:
+                self._run(1, progress, dt=rest)
+                steps += 1
         self._target_time = target
         return steps
 
@@ -400,9 +412,10 @@ class Simulation:
         return {"seconds": done * SETTLE_DT, "steps": done, "converged": converged,
                 "residual_acceleration": float(acceleration)}
 
-    def _run(self, steps: int, progress) -> None:
+    def _run(self, steps: int, progress, dt=None) -> None:
         if steps == 0:
             return
+        dt = self._dt if dt is None else dt
         cloth = self._cloth
         saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
         before = self._integrator.statistics
@@ -413,7 +426,7 @@ class Simulation:
         try:
             while done < steps:
                 count = min(batch, steps - done)
-                self._integrator.advance(self._cloth, self._gravity, self._dt, count)
+                self._integrator.advance(self._cloth, self._gravity, dt, count)
                 if self._pending_reports:
                     analyzed = self._integrator.statistics.get("analyze_seconds", 0.0)
                     for report in self._pending_reports:

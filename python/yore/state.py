@@ -353,7 +353,7 @@ _TINY = float(np.finfo(np.float64).tiny)
 def _check_simulation(field, simulation):
     """The schema of a version-1 state (`Simulation.state`, `yore.Cloth.state`)."""
     field.keys(simulation, "simulation", _SIMULATION_FIELDS,
-               optional=("projection_memory", "dt_follows_cloth"))
+               optional=("projection_memory", "dt_follows_cloth", "integrator_restarts"))
     integrator = simulation["integrator"]
     if not isinstance(integrator, str) or integrator not in INTEGRATORS:
         raise field.error("simulation.integrator", f"got {_show(integrator)}",
@@ -372,6 +372,10 @@ def _check_simulation(field, simulation):
     if "dt_follows_cloth" in simulation and not isinstance(simulation["dt_follows_cloth"], bool):
         raise field.error("simulation.dt_follows_cloth",
                           f"got {_show(simulation['dt_follows_cloth'])}", "true or false")
+    if "integrator_restarts" in simulation and \
+            not isinstance(simulation["integrator_restarts"], bool):
+        raise field.error("simulation.integrator_restarts",
+                          f"got {_show(simulation['integrator_restarts'])}", "true or false")
 
     # The bending fields came with quadratic bending: a file without them is bending springs.
     cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS,

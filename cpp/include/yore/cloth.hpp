@@ -191,6 +191,9 @@ class Cloth {
   const std::vector<RotationDriver>& drivers() const { return m_drivers; }
   /// Moves driven vertices to their prescribed positions and velocities at time t (s).
   void apply_drivers(double time);
+  /// Writes the driven vertices' prescribed positions and velocities at time t (s) into their
+  /// rows of x and v (n×3 each); the other rows are left as they are.
+  void driver_state(double time, Positions& x, Positions& v) const;
 
   /// Simulated time, s.
   double time() const { return m_clock.time(); }

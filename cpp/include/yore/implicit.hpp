@@ -249,6 +249,22 @@ class ImplicitIntegrator : public Integrator {
   /// Restores a memory taken by projection_memory(); throws std::invalid_argument out of range.
   void set_projection_memory(const ProjectionMemory& memory);
 
+  // -- The iteration matrix of the first-order (x, v) integrators (error_controlled.cpp) ---
+  /// Builds the pattern and its symbolic analysis when `cloth`'s topology changed; returns the
+  /// vertex of each block of 3 unknowns (the free vertices, in order).
+  const std::vector<std::int32_t>& prepare_structure(const Cloth& cloth);
+  /// Assembles at positions x (n×3) and factors V = M/γ² + (C + drag M)/γ + H, the matrix this
+  /// integrator's Newton factors for a step of h̃ = γ: C the springs' damping along x's spring
+  /// directions, H the stiffness Hessian of springs and bending at x projected as the options
+  /// say. γ² V = M + γ(C + drag M) + γ² H is M(I − γJ)'s velocity block for y = (x, v),
+  /// J = ∂(v, M⁻¹f)/∂(x, v). Writes H alone (pattern order) into `stiffness`.
+  void factor_iteration_matrix(const Cloth& cloth, const Positions& x, double gamma,
+                               std::vector<double>& stiffness);
+  /// Solves V z = rhs with the last factor_iteration_matrix (both of its pattern's size).
+  void solve_iteration_matrix(const double* rhs, double* solution);
+  /// The lower-triangle pattern of the 3n_free system (after prepare_structure).
+  const SymmetricPattern& pattern() const { return m_pattern; }
+
   const ImplicitOptions& options() const { return m_options; }
   const ImplicitStatistics& statistics() const { return m_statistics; }
   /// The linear solver's counters (analyses, factorizations, nnz(L), flops, ordering).

@@ -1,0 +1,80 @@
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "options.hpp"
+#include "yore/error_controlled.hpp"
+
+#include <pybind11/stl.h>
+
+namespace yore::bindings {
+
+void bind_error_controlled(py::module_& m) {
+  py::class_<ErrorControlledIntegrator> integrator_class(
+      m, "ErrorControlledIntegrator",
+      "CVODE (BDF) or ARKODE (ESDIRK) on y = (x, v) with error control, their Newton systems "
+      "solved on yore's CHOLMOD factor, refactored only when SUNDIALS asks.");
+  def_advance(integrator_class);
+  def_history(integrator_class);
+  using O = ErrorControlledOptions;
+  static const OptionTable<O> table = {
+      choice_option<O, ErrorControlledMethod>(
+          "method", [](O& o) -> ErrorControlledMethod& { return o.method; },
+          {{"cvode", ErrorControlledMethod::cvode}, {"arkode", ErrorControlledMethod::arkode}}),
+      in_range(plain_option("rtol", &O::rtol), 0.0, 1.0, true, true),
+      plain_option("atol", &O::atol),
+      in_range(plain_option("atol_velocity", &O::atol_velocity), 0.0,
+               std::numeric_limits<double>::infinity(), false, false),
+      in_range(plain_option("max_order", &O::max_order), 1.0, 5.0),
+      in_range(plain_option("order", &O::order), 2.0, 4.0),
+      in_range(plain_option("max_dt", &O::max_dt), 0.0, std::numeric_limits<double>::infinity(),
+               false, false),
+      in_range(plain_option("max_steps", &O::max_steps), 1.0, 10'000'000.0),
+      choice_option<O, Ordering>(
+          "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; },
+          ordering_choices()),
+      choice_option<O, FactorKind>(
+          "factorization", [](O& o) -> FactorKind& { return o.linear_solver.factorization; },
+          factor_kind_choices()),
+      plain_option("divergence_energy_factor", &O::divergence_energy_factor),
+  };
+  integrator_class.attr("defaults") = option_values(table, O{});
+  integrator_class.attr("option_rules") = option_rules(table);
+  integrator_class
+      .def(py::init([](const py::kwargs& kwargs) {
+             return std::make_unique<ErrorControlledIntegrator>(
+                 options_from_kwargs(table, kwargs));
+           }),
+           "Keyword options as in `defaults`.")
+      .def_property_readonly("statistics", [](const ErrorControlledIntegrator& integrator) {
+        check_idle(&integrator, "the integrator");
+        const ErrorControlledStatistics& s = integrator.statistics();
+        const SolverStatistics& solver = integrator.solver_statistics();
+        const ImplicitStatistics& inner = integrator.assembly_statistics();
+        py::dict out;
+        out["steps"] = s.steps;
+        out["rhs_seconds"] = s.rhs_seconds;
+        out["setup_seconds"] = s.setup_seconds;
+        out["solve_seconds"] = s.solve_seconds;
+        out["assemble_seconds"] = inner.assemble_seconds;
+        out["analyze_seconds"] = inner.analyze_seconds;
+        out["factorize_seconds"] = inner.factorize_seconds;
+        out["internal_steps"] = s.internal_steps;
+        out["error_test_failures"] = s.error_test_failures;
+        out["nonlinear_iterations"] = s.nonlinear_iterations;
+        out["nonlinear_failures"] = s.nonlinear_failures;
+        out["linear_setups"] = s.linear_setups;
+        out["linear_solves"] = s.linear_solves;
+        out["rhs_evaluations"] = s.rhs_evaluations;
+        out["jacobian_evaluations"] = s.jacobian_evaluations;
+        out["restarts"] = s.restarts;
+        out["current_order"] = s.current_order;
+        out["current_internal_dt"] = s.current_internal_dt;
+        out["last_internal_dt"] = s.last_internal_dt;
+        out["analyses"] = solver.analyses;
+        out["factorizations"] = solver.factorizations;
+        out["solves"] = solver.solves;
+        add_factor_statistics(out, solver);
+        return out;
+      });
+}
+
+}  // namespace yore::bindings

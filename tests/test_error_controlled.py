@@ -1,0 +1,229 @@
+"""The error-controlled integrators on SUNDIALS (cvode: BDF; arkode: ESDIRK): tolerance in,
+steps out, on yore's own CHOLMOD factor, which is made only when SUNDIALS asks for it."""
+
+import _thread
+import math
+import threading
+
+import numpy as np
+import pytest
+
+import yore
+
+ERROR_CONTROLLED = ["cvode", "arkode"]
+
+
+def chain(count=9, stiffness=100.0, mass=0.01, spacing=0.1, amplitude=1e-2):
+    """`count` free masses on a line between two fixed ends, displaced along it in the lowest
+    mode: collinear springs keep the motion exactly linear, x = rest + shape cos(ω t)."""
+    points = np.zeros((count + 2, 3))
+    points[:, 0] = np.arange(count + 2) * spacing
+    edges = np.array([[i, i + 1] for i in range(count + 1)])
+    net = yore.Cloth.from_springs(points, edges, masses=np.full(count + 2, mass),
+                                  stiffness=stiffness, damping=0.0)
+    net.fix([0, count + 1])
+    mode = np.sin(math.pi * np.arange(count + 2) / (count + 1))
+    net.positions = points + np.outer(amplitude * mode, [1.0, 0.0, 0.0])
+    omega = 2.0 * math.sqrt(stiffness / mass) * math.sin(math.pi / (2 * (count + 1)))
+    return net, points[:, 0], amplitude * mode, omega
+
+
+def chain_error(integrator, duration=0.5, **options):
+    net, rest, shape, omega = chain()
+    sim = yore.Simulation(net, integrator=integrator, dt=1 / 60, gravity=(0, 0, 0), **options)
+    sim.advance(duration)
+    exact = rest + shape * math.cos(omega * duration)
+    return np.abs(sim.cloth.positions[:, 0] - exact).max(), sim
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_the_error_falls_with_the_tolerance_against_the_analytic_solution(integrator):
+    # rtol = atol = tol (amplitude 1 cm, so atol matters): the global error of a linear mode
+    # over ~3 periods follows the tolerance, and stays within a small multiple of it
+    errors = []
+    for tol in (1e-4, 1e-6, 1e-8):
+        error, sim = chain_error(integrator, rtol=tol, atol=tol)
+        errors.append(error)
+        assert error < 200 * tol, (tol, error)
+    slopes = [math.log10(errors[k] / errors[k + 1]) / 2 for k in range(2)]
+    assert all(0.5 < slope < 1.5 for slope in slopes), (errors, slopes)
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_factors_are_kept_across_steps_and_every_counter_agrees(integrator):
+    error, sim = chain_error(integrator, rtol=1e-6, atol=1e-6)
+    counters = sim.stats["counters"]
+    # one factorization per setup SUNDIALS asked for, and far fewer than its Newton iterations
+    assert counters["factorizations"] == counters["linear_setups"] > 0
+    assert counters["factorizations"] < counters["nonlinear_iterations"] / 3
+    assert counters["jacobian_evaluations"] <= counters["linear_setups"]
+    # one solve per Newton iteration at most (SUNDIALS skips it when the residual is already
+    # below its linear tolerance)
+    assert 0 < counters["linear_solves"] <= counters["nonlinear_iterations"]
+    assert counters["internal_steps"] > sim.stats["steps"]  # 1/60 s is more than one step
+    assert counters["analyses"] == 1 and counters["restarts"] == 1
+    assert counters["last_internal_dt"] > 0 and counters["current_order"] >= 1
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_frames_and_advance_land_exactly_on_the_requested_times(integrator):
+    net, *_ = chain()
+    sim = yore.Simulation(net, integrator=integrator, dt=1 / 60, gravity=(0, 0, 0))
+    sim.advance(0.1)
+    assert sim.time == pytest.approx(0.1, abs=1e-15)
+    sim.advance(0.0123)  # not a whole number of intervals: the last one is shortened
+    assert sim.time == pytest.approx(0.1123, abs=1e-15)
+    sim.step(3)
+    assert sim.time == pytest.approx(0.1123 + 3 / 60, abs=1e-14)
+
+
+def converged_reference(make, duration):
+    """The explicit integrator at 1e-6 s, and its own error: the distance to 2e-6 s (first
+    order, so about its error)."""
+    fine, finer = make("explicit", dt=2e-6), make("explicit", dt=1e-6)
+    fine.advance(duration)
+    finer.advance(duration)
+    floor = np.abs(fine.cloth.positions - finer.cloth.positions).max()
+    return finer, floor
+
+
+def damped_sheet(integrator, **options):
+    return yore.scenes.hanging_cloth(resolution=8, pin_spacing=1.0, mass=0.1,
+                                     stretch_stiffness=200.0, damping=0.05, drag=0.2,
+                                     bending="quadratic", bending_modulus=1e-3,
+                                     integrator=integrator, **options)
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_damping_drag_bending_and_gravity_match_the_explicit_forces(integrator):
+    # the right-hand side is the explicit integrator's forces: a tight tolerance reproduces a
+    # converged explicit run on a sheet with every term
+    duration = 0.1
+    reference, floor = converged_reference(damped_sheet, duration)
+    assert floor < 2e-6
+    sim = damped_sheet(integrator, rtol=1e-7, atol=1e-8)
+    sim.advance(duration)
+    assert np.abs(sim.cloth.positions - reference.cloth.positions).max() < 1e-5
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_driven_vertices_follow_their_drivers_and_the_rest_converges(integrator):
+    def make(name, **options):
+        return yore.scenes.rotating_cylinder(rings=4, segments=8, integrator=name, **options)
+
+    reference, floor = converged_reference(make, 0.1)
+    sim = make(integrator, dt=1 / 60, rtol=1e-7, atol=1e-8)
+    sim.advance(0.1)
+    driven = sim.cloth.driven_vertices
+    assert driven.size
+    probe = make("explicit")
+    probe.cloth.time = sim.time  # moves the driven vertices there without stepping
+    assert np.array_equal(sim.cloth.positions[driven], probe.cloth.positions[driven])
+    assert np.abs(sim.cloth.positions - reference.cloth.positions).max() < 1e-5 + 10 * floor
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_a_stroke_restarts_the_integrator_at_the_new_size(integrator):
+    sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator)
+    sim.step(3)
+    before = sim.cloth.vertex_count
+    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    sim.step(3)
+    counters = sim.stats["counters"]
+    assert sim.cloth.vertex_count > before
+    assert counters["restarts"] == 2 and counters["analyses"] == 2
+    assert np.all(np.isfinite(sim.cloth.positions))
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_a_resumed_state_restarts_the_integrator_within_the_tolerance(integrator, tmp_path):
+    tol = 1e-6
+    straight = yore.Simulation(chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0),
+                               rtol=tol, atol=tol)
+    straight.step(30)
+    sim = yore.Simulation(chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0),
+                          rtol=tol, atol=tol)
+    sim.step(15)
+    state = sim.state()
+    # SUNDIALS' memory cannot be saved: the state says the resumed run restarts
+    assert state["integrator_restarts"] is True and state["history"] is None
+    resumed, _ = yore.load_state(yore.save_state(tmp_path / "resume.npz", sim))
+    resumed.step(15)
+    assert resumed.time == straight.time
+    assert resumed.stats["counters"]["restarts"] == 1
+    # both are within the tolerance's reach of the exact solution, so of each other
+    difference = np.abs(resumed.cloth.positions - straight.cloth.positions).max()
+    assert 0 < difference < 200 * tol
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_too_many_internal_steps_is_a_divergence_that_says_when_and_restores(integrator):
+    sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, rtol=1e-9, atol=1e-10,
+                                    max_steps=3)
+    with pytest.raises(yore.SimulationDiverged, match=r"at step 0 \(t = .*more than "
+                       r"max_steps = 3 internal steps.*restored to t = 0 s") as info:
+        sim.step(2)
+    assert info.value.time >= 0
+    assert sim.time == 0.0 and np.array_equal(sim.cloth.positions,
+                                              yore.scenes.hanging_cloth(resolution=9)
+                                              .cloth.positions)
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("rtol", 0.0), ("rtol", -1e-3), ("rtol", float("nan")), ("rtol", 1.0), ("atol", 0.0),
+    ("atol", float("inf")), ("atol_velocity", -1.0), ("max_dt", -1.0), ("max_steps", 0)])
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_a_bad_tolerance_is_one_value_error_naming_it(integrator, name, value):
+    with pytest.raises(ValueError, match=name):
+        yore.scenes.hanging_cloth(resolution=5, integrator=integrator, **{name: value})
+
+
+def test_each_takes_its_own_order_option_in_its_range():
+    for value in (0, 6, 2.5):
+        with pytest.raises(ValueError, match="max_order"):
+            yore.scenes.hanging_cloth(resolution=5, integrator="cvode", max_order=value)
+    for value in (1, 5):
+        with pytest.raises(ValueError, match="order"):
+            yore.scenes.hanging_cloth(resolution=5, integrator="arkode", order=value)
+    with pytest.raises(ValueError, match="unknown option.*'order'"):
+        yore.scenes.hanging_cloth(resolution=5, integrator="cvode", order=3)
+    with pytest.raises(ValueError, match="unknown option.*'max_order'"):
+        yore.scenes.hanging_cloth(resolution=5, integrator="arkode", max_order=3)
+
+
+@pytest.mark.parametrize("order", [2, 3, 4])
+def test_every_esdirk_order_converges_on_the_linear_mode(order):
+    error, _ = chain_error("arkode", order=order, rtol=1e-7, atol=1e-7)
+    assert error < 2e-5
+
+
+def test_a_ctrl_c_inside_an_interval_leaves_the_simulation_as_it_was():
+    # An interval SUNDIALS cannot finish soon (a driven cylinder for 1e5 s at a tight
+    # tolerance); a helper waits until the cloth is busy and interrupts, as Ctrl-C would.
+    sim = yore.scenes.rotating_cylinder(rings=4, segments=8, integrator="cvode", dt=1e5,
+                                        rtol=1e-10, atol=1e-12, max_steps=10**7)
+    before = sim.cloth.state()
+    record = {}
+
+    def helper():
+        for _ in range(10**8):
+            if sim.cloth.busy:
+                break
+        record["busy"] = sim.cloth.busy
+        if sim.cloth.busy:
+            _thread.interrupt_main()
+
+    thread = threading.Thread(target=helper)
+    thread.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.step(1)
+    finally:
+        thread.join()
+    assert record["busy"]
+    assert sim.time == 0.0
+    assert np.array_equal(sim.cloth.positions, before["positions"])
+    assert np.array_equal(sim.cloth.velocities, before["velocities"])
+    # and the next call restarts SUNDIALS at that state
+    sim._integrator.advance(sim.cloth, sim.gravity, 1 / 60, 2)
+    assert sim.stats["counters"]["restarts"] == 2 and np.all(np.isfinite(sim.cloth.positions))
