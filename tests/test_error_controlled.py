@@ -227,3 +227,29 @@ def test_a_ctrl_c_inside_an_interval_leaves_the_simulation_as_it_was():
     # and the next call restarts SUNDIALS at that state
     sim._integrator.advance(sim.cloth, sim.gravity, 1 / 60, 2)
     assert sim.stats["counters"]["restarts"] == 2 and np.all(np.isfinite(sim.cloth.positions))
+
+
+def test_the_viewer_panel_and_a_runs_summary_show_what_sundials_counted(tmp_path):
+    import json
+    from pathlib import Path
+
+    from yore.cli import main
+    from yore.viz.viewer import Viewer
+
+    viewer = Viewer(yore.scenes.hanging_cloth(resolution=6, integrator="cvode"), headless=True)
+    viewer.advance(0.05)
+    figures = viewer.statistics()
+    counters = viewer.sim.stats["counters"]
+    assert figures["internal_steps"] == counters["internal_steps"] > 0
+    assert figures["linear_setups"] == counters["factorizations"]
+    lines = yore.viz.viewer._statistics_lines(figures)
+    assert any(f"internal steps {counters['internal_steps']}" in line for line in lines)
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "hanging_paper.toml"
+    assert main(["run", str(scene), "-o", str(tmp_path), "--set", "mesh.nx=6",
+                 "--set", "mesh.ny=6", "--set", "simulation.duration=0.05", "--set", "strokes.0.time=0.025",
+                 "--set", 'simulation.integrator="cvode"', "--set", "simulation.dt=0.025",
+                 "--no-render", "--quiet"]) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["counters"]["internal_steps"] > 0
+    assert summary["counters"]["factorizations"] == summary["counters"]["linear_setups"]

@@ -498,7 +498,9 @@ class Viewer:
                 "analyses": counters.get("analyses"),
                 "factorize_seconds": phases.get("factorize_seconds"),
                 "vertices": stats["vertices"], "faces": int(len(self.sim.cloth.faces)),
-                "strokes": len(self.reports)}
+                "strokes": len(self.reports),
+                # the error-controlled integrators' own (SUNDIALS): None for the others
+                **{name: counters.get(name) for name in _SUNDIALS_FIGURES}}
 
     # -- the window -----------------------------------------------------------------------------
     def show(self) -> None:
@@ -706,11 +708,25 @@ def _ray_triangles(origin, direction, triangles):
     return u, v, t
 
 
+#: What the panel shows of an error-controlled (SUNDIALS) run, from its counters.
+_SUNDIALS_FIGURES = ("internal_steps", "current_order", "current_internal_dt",
+                     "error_test_failures", "nonlinear_iterations", "nonlinear_failures",
+                     "linear_setups", "linear_solves")
+
+
 def _statistics_lines(s) -> list:
     def number(value, form):
         return "–" if value is None else form.format(value)
 
-    return [f"t = {s['time']:.3f} s, {s['steps']} steps of {s['dt']:.3g} s ({s['integrator']})",
+    sundials = []
+    if s.get("internal_steps") is not None:
+        sundials = [f"internal steps {s['internal_steps']}, order {s['current_order']}, "
+                    f"next step {s['current_internal_dt']:.3g} s",
+                    f"error-test failures {s['error_test_failures']}, Newton iterations "
+                    f"{s['nonlinear_iterations']} (failed {s['nonlinear_failures']})",
+                    f"setups (factorizations) {s['linear_setups']}, solves "
+                    f"{s['linear_solves']}"]
+    return sundials + [f"t = {s['time']:.3f} s, {s['steps']} steps of {s['dt']:.3g} s ({s['integrator']})",
             f"step {number(s['step_ms'], '{:.2f}')} ms, "
             f"{number(s['steps_per_second'], '{:.0f}')} steps/s",
             f"iterations per step {number(s['iterations_per_step'], '{:.1f}')}, "
