@@ -11,6 +11,7 @@ import pytest
 import yore
 
 ERROR_CONTROLLED = ["cvode", "arkode"]
+AUTO = {"dt": "auto"}  # tr-bdf2's own error control
 
 
 def chain(count=9, stiffness=100.0, mass=0.01, spacing=0.1, amplitude=1e-2):
@@ -253,3 +254,65 @@ def test_the_viewer_panel_and_a_runs_summary_show_what_sundials_counted(tmp_path
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["counters"]["internal_steps"] > 0
     assert summary["counters"]["factorizations"] == summary["counters"]["linear_setups"]
+
+
+
+def test_tr_bdf2_auto_chooses_its_steps_by_its_embedded_estimate():
+    # the linear mode: the error falls with the tolerance, rejected steps are retaken, and the
+    # frames land exactly
+    errors, steps = [], []
+    for tol in (1e-5, 1e-7, 1e-9):  # looser, the 1/60 s output interval caps the steps
+        net, rest, shape, omega = chain()
+        sim = yore.Simulation(net, integrator="tr-bdf2", dt="auto", gravity=(0, 0, 0),
+                              rtol=tol, atol=tol, newton_tol=1e-12, truncation_fraction=0.0)
+        assert sim.dt == yore.options.FIXED_DT
+        sim.advance(0.5)
+        assert sim.time == pytest.approx(0.5, abs=1e-15)
+        errors.append(np.abs(sim.cloth.positions[:, 0] - rest - shape * math.cos(omega * 0.5))
+                      .max())
+        steps.append(sim.stats["steps"])
+        counters = sim.stats["counters"]
+        assert counters["intervals"] == 30 and counters["rejected_steps"] < steps[-1] / 4
+    # error per step ∝ h³ held at the tolerance, global error ∝ h²: error ∝ tol^(2/3)
+    slopes = [math.log10(a / b) / 2 for a, b in zip(errors, errors[1:])]
+    assert all(0.5 < slope < 0.9 for slope in slopes) and errors[2] < 1e-6, (errors, slopes)
+    # a local tolerance 100× tighter takes about 100^(1/3) ≈ 4.6× the steps (third-order
+    # local error); more than 3×, fewer than 8×
+    assert all(3 < b / a < 8 for a, b in zip(steps, steps[1:])), steps
+
+
+def test_tr_bdf2_auto_resumes_bit_for_bit_its_proposal_is_the_historys_dt(tmp_path):
+    def make():
+        return yore.scenes.hanging_cloth(resolution=8, integrator="tr-bdf2", dt="auto",
+                                         rtol=1e-4, atol=1e-5)
+
+    straight = make()
+    straight.step(12)
+    sim = make()
+    sim.step(6)
+    state = sim.state()
+    assert state["options"]["adaptive"] is True and state["history"]["dt"] > 0
+    assert state["integrator_restarts"] is False
+    resumed, _ = yore.load_state(yore.save_state(tmp_path / "auto.npz", sim))
+    resumed.step(6)
+    assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)
+    assert resumed.time == straight.time
+
+
+def test_dt_auto_needs_an_integrator_with_error_control():
+    with pytest.raises(ValueError, match="dt='auto'.*'bdf2'.*tr-bdf2, cvode, arkode"):
+        yore.scenes.hanging_cloth(resolution=5, integrator="bdf2", dt="auto")
+    with pytest.raises(ValueError, match="dt must be a number of seconds or 'auto'"):
+        yore.scenes.hanging_cloth(resolution=5, integrator="tr-bdf2", dt="fast")
+    # cvode and arkode take "auto" as the default output interval
+    sim = yore.scenes.hanging_cloth(resolution=5, integrator="cvode", dt="auto")
+    assert sim.dt == yore.options.FIXED_DT
+
+
+def test_tr_bdf2_auto_too_many_steps_is_a_divergence_that_says_so():
+    sim = yore.scenes.hanging_cloth(resolution=8, integrator="tr-bdf2", dt="auto", rtol=1e-9,
+                                    atol=1e-10, max_steps=2)
+    with pytest.raises(yore.SimulationDiverged, match=r"more than max_steps = 2 steps in one "
+                       r"output interval.*restored to t = 0 s"):
+        sim.step(1)
+    assert sim.time == 0.0

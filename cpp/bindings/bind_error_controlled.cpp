@@ -28,6 +28,8 @@ void bind_error_controlled(py::module_& m) {
       in_range(plain_option("max_dt", &O::max_dt), 0.0, std::numeric_limits<double>::infinity(),
                false, false),
       in_range(plain_option("max_steps", &O::max_steps), 1.0, 10'000'000.0),
+      in_range(plain_option("max_nonlinear_iterations", &O::max_nonlinear_iterations), 1.0,
+               100.0),
       choice_option<O, Ordering>(
           "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; },
           ordering_choices()),

@@ -55,6 +55,10 @@ void bind_implicit(py::module_& m) {
       plain_option("mixed", &O::mixed),
       plain_option("max_newton", &O::max_newton),
       in_range(plain_option("rho_infinity", &O::rho_infinity), 0.0, 1.0, false, false),
+      plain_option("adaptive", &O::adaptive),
+      in_range(plain_option("rtol", &O::rtol), 0.0, 1.0, true, true),
+      plain_option("atol", &O::atol),
+      in_range(plain_option("max_steps", &O::max_steps), 1.0, 10'000'000.0),
       one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
              {"cholmod", "eigen-ldlt", "pcg"}),
       choice_option<O, Ordering>(
@@ -163,6 +167,8 @@ Newton direction.)doc")
         out["negative_curvature_steps"] = s.negative_curvature_steps;
         out["stages"] = s.stages;
         out["history_restarts"] = s.history_restarts;
+        out["rejected_steps"] = s.rejected_steps;
+        out["intervals"] = s.intervals;
         out["last_newton_iterations"] = s.last_newton_iterations;
         out["last_line_search_backtracks"] = s.last_line_search_backtracks;
         out["last_residual"] = s.last_residual;

@@ -42,6 +42,9 @@ void check_options(const ErrorControlledOptions& o) {
     throw std::invalid_argument("max_dt must be finite and >= 0 (0: no limit)");
   }
   if (o.max_steps < 1) throw std::invalid_argument("max_steps must be at least 1");
+  if (o.max_nonlinear_iterations < 1 || o.max_nonlinear_iterations > 100) {
+    throw std::invalid_argument("max_nonlinear_iterations must be an integer from 1 to 100");
+  }
   if (o.projection != HessianProjection::clamp && o.projection != HessianProjection::abs) {
     throw std::invalid_argument("projection must be clamp or abs for the error-controlled "
                                 "integrators (their iteration matrix must be SPD)");
@@ -205,6 +208,8 @@ struct ErrorControlledIntegrator::Backend {
       check(CVodeSetMaxNumSteps(memory, o.max_steps), "max_steps");
       check(CVodeSetMaxStep(memory, o.max_dt), "max_dt");
       check(CVodeSetStabLimDet(memory, SUNTRUE), "stability-limit detection");
+      check(CVodeSetMaxNonlinIters(memory, o.max_nonlinear_iterations),
+            "max_nonlinear_iterations");
       check(CVodeSetLinearSolver(memory, solver, nullptr), "the linear solver");
       check(CVodeSetPreconditioner(memory, setup, solve), "the preconditioner hooks");
     } else {
@@ -219,6 +224,8 @@ struct ErrorControlledIntegrator::Backend {
       check(ARKStepSetUserData(memory, owner), "the user data");
       check(ARKStepSetMaxNumSteps(memory, o.max_steps), "max_steps");
       check(ARKStepSetMaxStep(memory, o.max_dt), "max_dt");
+      check(ARKStepSetMaxNonlinIters(memory, o.max_nonlinear_iterations),
+            "max_nonlinear_iterations");
       check(ARKStepSetLinearSolver(memory, solver, nullptr), "the linear solver");
       check(ARKStepSetPreconditioner(memory, setup, solve), "the preconditioner hooks");
     }
@@ -366,7 +373,9 @@ void ErrorControlledIntegrator::ensure_backend(const Cloth& cloth, const Vec3& g
   double* y = N_VGetArrayPointer(m_backend->y);
   double* atol = N_VGetArrayPointer(m_backend->weights);
   const std::size_t free_count = m_free.size();
-  const double atol_v = m_options.atol_velocity > 0.0 ? m_options.atol_velocity : m_options.atol;
+  const double atol_v = m_options.atol_velocity > 0.0
+                            ? m_options.atol_velocity
+                            : m_options.atol / ErrorControlledOptions::kVelocityTimeScale;
   for (std::size_t b = 0; b < free_count; ++b) {
     for (int c = 0; c < 3; ++c) {
       y[3 * b + static_cast<std::size_t>(c)] = m_x(m_free[b], c);

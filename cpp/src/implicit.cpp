@@ -56,6 +56,15 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
   if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tol > 0.0)) {
     throw std::invalid_argument("lag_max_cg_iterations must be >= 1 and lag_cg_tol > 0");
   }
+  if (options.adaptive && (options.method != ImplicitMethod::tr_bdf2 ||
+                           options.minimizer != ImplicitMinimizer::newton)) {
+    throw std::invalid_argument("error-controlled steps (adaptive, dt = \"auto\") need "
+                                "TR-BDF2's embedded estimate: method tr-bdf2 with Newton");
+  }
+  if (!(options.rtol > 0.0) || !(options.rtol < 1.0) || !(options.atol > 0.0) ||
+      !std::isfinite(options.atol) || options.max_steps < 1) {
+    throw std::invalid_argument("rtol must be in (0, 1), atol finite and > 0, max_steps >= 1");
+  }
   if (options.adaptive_projection && options.linear_solver.solver == "pcg") {
     throw std::invalid_argument(
         "adaptive projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
@@ -806,7 +815,14 @@ void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                                                              : "implicit";
   advance_checked(
       cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions,
-      m_checkpoint_velocities, [&] { step(cloth, gravity, dt); },
+      m_checkpoint_velocities,
+      [&] {
+        if (m_options.adaptive) {
+          adaptive_interval(cloth, gravity, dt);
+        } else {
+          step(cloth, gravity, dt);
+        }
+      },
       [&] { return m_statistics.steps - 1; }, [&] { m_history_valid = false; });
 }
 

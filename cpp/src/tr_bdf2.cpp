@@ -16,7 +16,13 @@
 /// (ImplicitIntegrator::truncation_error).
 
 #include "implicit_detail.hpp"
+#include "yore/errors.hpp"
 #include "yore/implicit.hpp"
+#include "yore/interrupt.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
 
 namespace yore {
 using implicit_detail::kTrBdf2Gamma;
@@ -66,6 +72,87 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
   write_stage(cloth);
   keep_stage_accelerations();
   finish_step(cloth, dt, true, iterations, backtracks);
+}
+
+void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt) {
+  // The interval's end on the clock the fixed-step integrators keep (origin + k dt): the
+  // substeps move the clock by their own sizes, and it is set to this at the end, so frames
+  // land exactly where they would with fixed steps.
+  SimulationClock end = cloth.clock();
+  if (end.dt != dt) end = SimulationClock{end.time(), 0, dt};
+  ++end.steps;
+  const double end_time = end.time();
+  ensure_structure(cloth);
+  // The proposal carried from the last interval (the history's dt); afresh: a tenth of dt.
+  double h = history_matches(cloth) && m_history_dt > 0.0 ? m_history_dt : 0.1 * dt;
+  const Eigen::Index n = cloth.vertex_count();
+  if (m_step_positions.rows() != n) {
+    m_step_positions.resize(n, 3);
+    m_step_velocities.resize(n, 3);
+    m_step_accelerations.resize(n, 3);
+  }
+  int taken = 0;
+  while (true) {
+    const double remaining = end_time - cloth.time();
+    if (remaining <= 1e-12 * dt) break;
+    // Steps spread evenly over what is left, none longer than the proposal.
+    const double pieces = std::ceil(remaining / h * (1.0 - 1e-12));
+    const double step_size = remaining / std::max(pieces, 1.0);
+    if (++taken > m_options.max_steps || !(step_size > 1e-12 * dt)) {
+      std::ostringstream msg;
+      msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
+          << " s, tr-bdf2 with dt = \"auto\"): "
+          << (taken > m_options.max_steps ? "more than max_steps = " +
+                                                std::to_string(m_options.max_steps) +
+                                                " steps in one output interval"
+                                          : std::string("the step fell below 1e-12 dt"))
+          << "; the last step tried was " << step_size << " s, tolerance rtol = "
+          << m_options.rtol << ", atol = " << m_options.atol
+          << ". Loosen the tolerance, raise max_steps, or check the forces.";
+      throw SimulationDiverged(msg.str(), m_statistics.steps, cloth.time(), dt, step_size);
+    }
+    poll_interrupt();
+    // What a rejected step must give back: the state, the clock and the history.
+    m_step_positions = cloth.positions();
+    m_step_velocities = cloth.velocities();
+    m_step_accelerations = m_force_acceleration;
+    const SimulationClock clock = cloth.clock();
+    const bool history_valid = m_history_valid;
+    const std::uint64_t history_topology = m_history_topology, history_edits = m_history_edits;
+    const double history_dt = m_history_dt;
+    double largest = 0.0;
+    for (const std::int32_t i : m_free_vertices) {
+      largest = std::max(largest, cloth.positions().row(i).cwiseAbs().maxCoeff());
+    }
+    const double tolerance = m_options.atol + m_options.rtol * largest;
+
+    step(cloth, gravity, step_size);
+    const double error = m_statistics.last_truncation_error;
+    const double ratio = std::isfinite(error) ? error / tolerance
+                                              : std::numeric_limits<double>::infinity();
+    // The estimate is of the local error, O(h³): the step that meets the tolerance with a
+    // margin of 0.9 is h (tol/err)^(1/3), changed by at most 5× up and 5× down per step.
+    const double factor =
+        ratio > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / ratio), 0.2, 5.0) : 5.0;
+    if (ratio <= 1.0) {
+      h = step_size * factor;
+      continue;
+    }
+    ++m_statistics.rejected_steps;
+    cloth.integrator_positions() = m_step_positions;
+    cloth.integrator_velocities() = m_step_velocities;
+    cloth.set_clock(clock);
+    m_force_acceleration = m_step_accelerations;
+    m_history_valid = history_valid;
+    m_history_topology = history_topology;
+    m_history_edits = history_edits;
+    m_history_dt = history_dt;
+    h = step_size * std::min(factor, 0.9);
+  }
+  cloth.set_clock(end);
+  cloth.apply_drivers(end_time);
+  m_history_dt = h;  // the proposal: the history's dt, saved and restored with it
+  ++m_statistics.intervals;
 }
 
 }  // namespace yore

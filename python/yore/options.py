@@ -47,6 +47,8 @@ CORE_ERROR_CONTROLLED = dict(_core.ErrorControlledIntegrator.defaults)
 #: Core options no integrator takes as such: the method and minimizer are the integrator's
 #: name, rho_infinity is generalized-α's alone.
 CORE_CHOSEN_BY_NAME = ("method", "minimizer", "lbfgs_history", "rho_infinity")
+#: TR-BDF2's error control (dt="auto"): adaptive is set by dt="auto", the rest are its own.
+ADAPTIVE_ONLY = ("adaptive", "rtol", "atol", "max_steps")
 #: Options of Newton's method that quasi-Newton does not take.
 NEWTON_ONLY = ("linearized", "step_tol", "truncation_fraction", "mixed", "adaptive_projection", "projection",
                 "lagged_factorization",
@@ -73,7 +75,7 @@ INTEGRATOR_OPTIONS = {
         # step's estimated truncation error (0 = off; ImplicitOptions says how both are
         # estimated).
         **{name: value for name, value in CORE_IMPLICIT.items()
-           if name not in CORE_CHOSEN_BY_NAME},
+           if name not in CORE_CHOSEN_BY_NAME + ADAPTIVE_ONLY},
         # mixed: Newton's matrices take the springs' forces from the step's linearization (the
         # mixed formulation, Trusty et al. 2022). None: on with the clamp (it saves ~40 % of
         # its iterations on stiff sheets), off with the other projections (measured mixed with
@@ -110,7 +112,16 @@ INTEGRATOR_OPTIONS["generalized-alpha"] = {
     # ρ∞ 0.2 its kinetic-energy history is 22 % off with 0.1 against 9.5 % with 0.01).
     "truncation_fraction": 0.01,
 }
-INTEGRATOR_OPTIONS["tr-bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
+INTEGRATOR_OPTIONS["tr-bdf2"] = {
+    **INTEGRATOR_OPTIONS["implicit"],
+    # With dt="auto" (and only then) the steps are chosen by TR-BDF2's embedded error estimate:
+    # a step is accepted when its estimate is at most atol (m) + rtol × the largest |x| of a
+    # free vertex; dt becomes the output interval; more than max_steps steps in one interval
+    # is SimulationDiverged. `adaptive` is what dt="auto" sets (state files keep it).
+    "adaptive": CORE_IMPLICIT["adaptive"],
+    "rtol": CORE_IMPLICIT["rtol"], "atol": CORE_IMPLICIT["atol"],
+    "max_steps": CORE_IMPLICIT["max_steps"],
+}
 INTEGRATOR_OPTIONS["local-global"] = {
     # Iterations of a step stop once the estimated distance to the step's solution is at most
     # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
@@ -131,7 +142,7 @@ INTEGRATOR_OPTIONS["quasi-newton"] = {
     # Newton's residual test (newton_tol) and cap (max_newton), predictor, ordering,
     # factorization, divergence bound.
     **{name: value for name, value in CORE_IMPLICIT.items()
-       if name not in NEWTON_ONLY + ("minimizer", "method", "rho_infinity")},
+       if name not in NEWTON_ONLY + ADAPTIVE_ONLY + ("minimizer", "method", "rho_infinity")},
     # Quasi-Newton iterations are cheap (one scalar solve with three right-hand sides) but
     # many: its cap is twenty times Newton's.
     "max_newton": 1000,

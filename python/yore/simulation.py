@@ -86,9 +86,13 @@ class Simulation:
         and a BDF2 stage per step: second order, L-stable), ``"quasi-newton"`` (L-BFGS on the
         backward-Euler or BDF2 potential with the constant local-global matrix as initial
         Hessian, Liu, Bouaziz & Kavan 2017).
-    dt : float, optional
+    dt : float or "auto", optional
         Time step, s. Default: explicit, ``EXPLICIT_DT_SAFETY`` (0.98) × the state-independent
         stable-step bound, rounded down to 1/N s (``default_explicit_dt``); the others 1/60 s.
+        For the error-controlled integrators (``"cvode"``, ``"arkode"``, and ``"tr-bdf2"``
+        with ``dt="auto"``) dt is the output interval: inside one, the steps are chosen by
+        the tolerance (``rtol``, ``atol``), and `advance` lands exactly on the time asked.
+        "auto": error-controlled steps with an output interval of 1/60 s.
     gravity : (3,) array_like
         Gravitational acceleration, m/s².
     **options
@@ -169,6 +173,21 @@ class Simulation:
         self._cloth = cloth
         self._integrator_name = integrator
         self._spec = INTEGRATOR_SPECS[integrator]
+        if isinstance(dt, str):
+            if dt != "auto":
+                raise ValueError(f"dt must be a number of seconds or 'auto', got {dt!r}")
+            if not (self._spec.error_controlled or "adaptive" in self._options):
+                adaptive = [name for name, spec in INTEGRATOR_SPECS.items()
+                            if spec.error_controlled or "adaptive" in spec.options]
+                raise ValueError(f"dt='auto' chooses the steps by error control, which "
+                                 f"integrator {integrator!r} does not have; use one of "
+                                 f"{', '.join(adaptive)}")
+            if "adaptive" in self._options:
+                self._options["adaptive"] = True
+            dt = FIXED_DT  # the output interval
+        # Error-controlled: dt is an output interval, inside which the steps are chosen.
+        self._error_controlled = self._spec.error_controlled or bool(
+            self._options.get("adaptive"))
         self._integrator = self._spec.make(self._options)
         # An explicit dt left to the default follows the cloth: a stroke that refines faces or
         # adds light vertices lowers the stable step, and the default is re-derived then.
@@ -328,7 +347,7 @@ class Simulation:
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
             start = self._target_time
         target = start + seconds
-        if self._spec.error_controlled:
+        if self._error_controlled:
             # dt is an output interval: whole intervals, then one to the target itself
             steps = max(0, int(np.floor((target - self.time) / self._dt * (1 + 1e-12))))
         else:
@@ -337,7 +356,7 @@ class Simulation:
             raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
                              f"more than the limit of {MAX_STEPS} per call")
         self._run(steps, progress)
-        if self._spec.error_controlled:
+        if self._error_controlled:
             rest = target - self.time
             if rest > 1e-9 * self._dt:
                 self._run(1, progress, dt=rest)

@@ -33,8 +33,13 @@ struct ErrorControlledOptions {
   double rtol = 1e-3;
   /// Absolute tolerance of the positions, m.
   double atol = 1e-4;
-  /// Absolute tolerance of the velocities, m/s; 0 means the same number as atol.
+  /// Absolute tolerance of the velocities, m/s; 0 means atol / kVelocityTimeScale: a velocity
+  /// error that moves a vertex by atol in 1/60 s. The same number as atol (1/s) held the 32²
+  /// sheet at 2e5 N/m to steps near the explicit limit, resolving its springs' vibrations,
+  /// whose velocities are large and whose displacements tiny; far looser (1e6) let Newton's
+  /// velocity error feed energy in until the sheet blew up (docs/integrators.md).
   double atol_velocity = 0.0;
+  static constexpr double kVelocityTimeScale = 1.0 / 60.0;
   /// cvode: the highest BDF order (1..5). 2 by default: BDF of order 3 to 5 is not A-stable,
   /// and a cloth's stiff springs are undamped oscillators (eigenvalues near the imaginary
   /// axis); with orders up to 5 the 32² sheet at 2e5 N/m failed where order 2 ran (stability-
@@ -48,6 +53,9 @@ struct ErrorControlledOptions {
   /// Internal steps allowed within one output interval (dt) before the run stops with
   /// SimulationDiverged: a tolerance the integrator cannot meet never hangs.
   int max_steps = 5000;
+  /// Newton iterations SUNDIALS allows a step's (stage's) nonlinear solve before it counts a
+  /// convergence failure and retries with a smaller step and a fresh Jacobian (SUNDIALS: 3).
+  int max_nonlinear_iterations = 3;
   /// The stiffness Hessian's projection in the iteration matrix: clamp (default) or abs.
   HessianProjection projection = HessianProjection::clamp;
   LinearSolverOptions linear_solver;

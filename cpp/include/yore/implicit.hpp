@@ -140,6 +140,17 @@ struct ImplicitOptions {
   /// with Newton solved to its residual test) and the gathered 21² cloth at 0.5; 0.2–0.35 kept
   /// both bounded (docs/integrators.md).
   double rho_infinity = 0.3;
+  /// tr_bdf2 only: error-controlled steps. advance(dt, steps)'s dt becomes an output interval,
+  /// inside which the steps are chosen by TR-BDF2's embedded estimate (last_truncation_error):
+  /// a step is accepted when its estimate is at most atol + rtol × the largest |x| of a free
+  /// vertex, else retaken shorter; the next step is h × clamp(0.9 (tol/err)^(1/3), 0.2, 5),
+  /// and steps are spread evenly to end each interval exactly. The proposed step carries over
+  /// (it is the history's dt, so a state file resumes bit for bit). More than max_steps steps
+  /// (taken or retaken) in one interval is SimulationDiverged.
+  bool adaptive = false;
+  double rtol = 1e-3;
+  double atol = 1e-4;  ///< m
+  int max_steps = 5000;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
 };
@@ -167,6 +178,8 @@ struct ImplicitStatistics {
   std::int64_t stages = 0;  ///< nonlinear solves (one per step; two for tr_bdf2)
   std::int64_t history_restarts = 0;  ///< bdf2, generalized_alpha: steps that began afresh
                                       ///< (first step, after a stroke, an edit or a restore)
+  std::int64_t rejected_steps = 0;  ///< adaptive: steps retaken shorter (counted in steps too)
+  std::int64_t intervals = 0;       ///< adaptive: output intervals completed
   double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
   double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
@@ -358,6 +371,8 @@ class ImplicitIntegrator : public Integrator {
   void restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt);
   void step_generalized_alpha(Cloth& cloth, const Vec3& gravity, double dt);  // generalized_alpha.cpp
   void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);            // tr_bdf2.cpp
+  /// adaptive: one output interval of dt in error-controlled TR-BDF2 steps (tr_bdf2.cpp).
+  void adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
   ImplicitStatistics m_statistics;
@@ -389,6 +404,8 @@ class ImplicitIntegrator : public Integrator {
   // history) and the first stage's velocities.
   Positions m_acceleration, m_force_acceleration, m_predicted;
   Positions m_start_positions, m_start_velocities, m_mid_velocities;
+  // adaptive: the state, velocities and accelerations at a step's start, for a rejection
+  Positions m_step_positions, m_step_velocities, m_step_accelerations;
   double m_beta_h2 = 0.0, m_error_constant = 0.0;
   /// The step's local truncation error at m_iterate, m, largest over the free vertices.
   double truncation_error(const Cloth& cloth) const;
