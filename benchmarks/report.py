@@ -300,6 +300,49 @@ def numerical_damping_section(payload: dict, images: str) -> list:
     return out
 
 
+def error_control_section(payload: dict, images: str) -> list:
+    """The error-control lines (from error_control.json): each family's error at T against
+    its CPU time, per cell, with what the error-controlled rows cost at equal error."""
+    def number(value, form="{:.3g}"):
+        return "–" if value is None else form.format(value)
+
+    out = ["## Tolerance in, steps out", "", f"![error control]({images}/error_control.png)", "",
+           "`benchmarks/error_control.py`, one thread: the crossover's sheet (flat start, "
+           "bending as stiff as stretching) over its first "
+           f"{payload['horizon']} s; error = the crossover's (RMS distance from explicit at "
+           "half its step, at T/2 and T, over the diagonal); cvode, arkode and tr-bdf2 with dt=\"auto\" at rtol "
+           "1e-2, 1e-3, 1e-4 (atol = rtol/10 m), against bdf2's fixed steps and explicit. "
+           "\"factorizations / step\" is per internal step; \"× bdf2\" is the CPU time over the "
+           "cheapest bdf2 run at least as accurate (– when none is).", ""]
+    for cell in payload["cells"]:
+        judged = [t for t, v in cell["verdicts"].items() if v["judged"]]
+        cheapest = "; ".join(
+            f"at {float(t):.1%}: " + ", ".join(
+                f"{name} {v['cpu_seconds']:.3g} s" for name, v in sorted(
+                    cell["verdicts"][t]["cheapest"].items(), key=lambda kv: kv[1]["cpu_seconds"]))
+            for t in judged) or "no threshold judged (the floor is too high)"
+        out += [f"**{cell['size']}², k = {cell['stiffness']:g} N/m** (floor "
+                f"{cell['floor']:.2g}; cheapest {cheapest})", "",
+                "| run | error | CPU s | steps | factorizations / step | slope vs rtol "
+                "| × bdf2 | × explicit |", "|---|---|---|---|---|---|---|---|"]
+        for r in payload["rows"]:
+            if (r["size"], r["stiffness"]) != (cell["size"], cell["stiffness"]):
+                continue
+            name = (f"{r['integrator']} rtol {r['rtol']:g}" if "rtol" in r else
+                    f"{r['integrator']} dt {r['dt']:.3g} s")
+            if r.get("failure"):
+                out.append(f"| {name} | failed: {r['failure'][:80]} | | | | | | |")
+                continue
+            out.append(f"| {name} | {number(r['error'])} | {number(r['cpu_seconds'])} | "
+                       f"{r.get('internal_steps', '–')} | "
+                       f"{number(r.get('factorizations_per_step'), '{:.2f}')} | "
+                       f"{number(r.get('slope'), '{:.2f}')} | "
+                       f"{number(r.get('cpu_over_bdf2'), '{:.2f}')} | "
+                       f"{number(r.get('cpu_over_explicit'), '{:.2f}')} |")
+        out.append("")
+    return out
+
+
 def section(data: dict, results: Path, images: str | None = None) -> str:
     """The generated part of the results page from the benchmarks' JSON (``load``); ``results``
     is the folder named in the text, ``images`` the folder of the PNG files as the page links
@@ -317,6 +360,7 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
     out += crossover_section(data["crossover"], images)
     out += [""] + long_horizon_section(data["long_horizon"], images)
     out += [""] + numerical_damping_section(data["numerical_damping"], images)
+    out += [""] + error_control_section(data["error_control"], images)
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]

@@ -818,3 +818,29 @@ def test_a_crossover_journal_of_another_build_or_another_question_is_not_replaye
     journal = crossover.Journal(folder, print)
     crossover.measure_cell(cell, make, families, settings, lambda s: None, journal)
     assert journal.replayed == 0 and journal.count == len(records)
+
+
+def test_error_control_smoke(tmp_path):
+    data = run_benchmark("error_control", tmp_path, "--quick")
+    rows = data["rows"]
+    families = {r["integrator"] for r in rows}
+    assert families == {"explicit", "bdf2", "cvode", "arkode", "tr-bdf2 auto"}
+    floor = data["cells"][0]["floor"]
+    assert rows[0]["integrator"] == "explicit" and rows[0]["error"] == floor
+    bdf2 = [r for r in rows if r["integrator"] == "bdf2" and r["error"] is not None]
+    for r in rows:
+        if r["integrator"] in ("cvode", "arkode", "tr-bdf2 auto") and r["error"] is not None:
+            # the derived ratios are the rows' own figures
+            assert r["cpu_over_explicit"] == pytest.approx(r["cpu_seconds"]
+                                                           / rows[0]["cpu_seconds"])
+            as_good = [b for b in bdf2 if b["error"] <= r["error"]]
+            if as_good:
+                cheapest = min(as_good, key=lambda b: b["cpu_seconds"])
+                assert r["cpu_over_bdf2"] == pytest.approx(r["cpu_seconds"]
+                                                           / cheapest["cpu_seconds"])
+            else:
+                assert "cpu_over_bdf2" not in r
+            assert r["internal_steps"] >= 1 and r["factorizations_per_step"] > 0
+    # SUNDIALS' factor is kept across steps: well under one factorization per BDF step
+    cvode = [r for r in rows if r["integrator"] == "cvode" and r["error"] is not None]
+    assert cvode and all(r["factorizations_per_step"] < 1 for r in cvode)

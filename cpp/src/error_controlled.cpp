@@ -373,9 +373,7 @@ void ErrorControlledIntegrator::ensure_backend(const Cloth& cloth, const Vec3& g
   double* y = N_VGetArrayPointer(m_backend->y);
   double* atol = N_VGetArrayPointer(m_backend->weights);
   const std::size_t free_count = m_free.size();
-  const double atol_v = m_options.atol_velocity > 0.0
-                            ? m_options.atol_velocity
-                            : m_options.atol / ErrorControlledOptions::kVelocityTimeScale;
+  const double atol_v = m_options.atol_velocity > 0.0 ? m_options.atol_velocity : m_options.atol;
   for (std::size_t b = 0; b < free_count; ++b) {
     for (int c = 0; c < 3; ++c) {
       y[3 * b + static_cast<std::size_t>(c)] = m_x(m_free[b], c);
