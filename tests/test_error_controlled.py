@@ -316,3 +316,21 @@ def test_tr_bdf2_auto_too_many_steps_is_a_divergence_that_says_so():
                        r"output interval.*restored to t = 0 s"):
         sim.step(1)
     assert sim.time == 0.0
+
+
+def test_a_scene_file_takes_dt_auto_and_refuses_other_words(tmp_path):
+    from pathlib import Path
+
+    from yore.cli import main
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "hanging_paper.toml"
+    common = [str(scene), "--set", "mesh.nx=6", "--set", "mesh.ny=6",
+              "--set", "simulation.duration=0.05", "--set", "strokes.0.time=0.025",
+              "--set", 'simulation.integrator="tr-bdf2"', "--no-render", "--quiet"]
+    assert main(["run", *common, "-o", str(tmp_path / "auto"),
+                 "--set", 'simulation.dt="auto"']) == 0
+    import json
+    summary = json.loads((tmp_path / "auto" / "summary.json").read_text())
+    assert summary["counters"]["intervals"] >= 3 and summary["dt"] == yore.options.FIXED_DT
+    assert main(["run", *common, "-o", str(tmp_path / "bad"),
+                 "--set", 'simulation.dt="fast"']) == 2

@@ -105,6 +105,21 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
     return check
 
 
+def _number_or_auto(minimum=None, unit=""):
+    number = _number(minimum, unit=unit)
+    expected = f'{number.expected} or "auto"'
+
+    def check(value):
+        if value == "auto":
+            return value
+        try:
+            return number(value)
+        except Invalid as error:
+            raise Invalid(error.problem, expected) from None
+    check.expected = expected
+    return check
+
+
 def _integer(minimum, maximum=MAX_INTEGER):
     expected = (f"an integer >= {minimum}" if maximum == MAX_INTEGER else
                 f"an integer in [{minimum}, {maximum}]")
@@ -270,8 +285,10 @@ SCHEMA = {
     }, "array"),
     "simulation": ({
         "integrator": (_choice(*INTEGRATORS), DEFAULT_INTEGRATOR, "the time integrator"),
-        "dt": (_number(MIN_DT, unit="s"), None,
-               "time step; default: below the stable step (explicit) or 1/60 s"),
+        "dt": (_number_or_auto(MIN_DT, unit="s"), None,
+               "time step; default: below the stable step (explicit) or 1/60 s; \"auto\": "
+               "steps chosen by error control (tr-bdf2, cvode, arkode), dt the output "
+               "interval"),
         "duration": (_number(0, strict_minimum=True, unit="s"), REQUIRED, "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
         "settle": (_number(0, MAX_SETTLE_SECONDS, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
