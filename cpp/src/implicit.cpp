@@ -813,6 +813,7 @@ void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                      : m_options.method == ImplicitMethod::generalized_alpha ? "generalized-alpha"
                      : m_options.method == ImplicitMethod::tr_bdf2           ? "tr-bdf2"
                                                                              : "implicit";
+  if (steps > 0) keep_memory();
   advance_checked(
       cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions,
       m_checkpoint_velocities,
@@ -823,7 +824,55 @@ void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
           step(cloth, gravity, dt);
         }
       },
-      [&] { return m_statistics.steps - 1; }, [&] { m_history_valid = false; });
+      [&] { return m_statistics.steps - 1; }, [&] { restore_memory(); });
+}
+
+void ImplicitIntegrator::keep_memory() {
+  Memory& k = m_memory;
+  // only the arrays the method's history holds (assignment reuses their storage)
+  if (m_options.method == ImplicitMethod::bdf2) {
+    k.previous_positions = m_previous_positions;
+    k.previous_velocities = m_previous_velocities;
+  }
+  if (m_options.method == ImplicitMethod::generalized_alpha) k.acceleration = m_acceleration;
+  if (m_options.method == ImplicitMethod::generalized_alpha ||
+      m_options.method == ImplicitMethod::tr_bdf2) {
+    k.force_acceleration = m_force_acceleration;
+  }
+  k.history_valid = m_history_valid;
+  k.history_topology = m_history_topology;
+  k.history_edits = m_history_edits;
+  k.history_dt = m_history_dt;
+  k.exact_skip = m_exact_skip;
+  k.exact_backoff = m_exact_backoff;
+  k.lag_skip = m_lag_skip;
+  k.lag_backoff = m_lag_backoff;
+  k.shift = m_shift;
+  k.radius = m_radius;
+}
+
+void ImplicitIntegrator::restore_memory() {
+  const Memory& k = m_memory;
+  if (m_options.method == ImplicitMethod::bdf2) {
+    m_previous_positions = k.previous_positions;
+    m_previous_velocities = k.previous_velocities;
+  }
+  if (m_options.method == ImplicitMethod::generalized_alpha) m_acceleration = k.acceleration;
+  if (m_options.method == ImplicitMethod::generalized_alpha ||
+      m_options.method == ImplicitMethod::tr_bdf2) {
+    m_force_acceleration = k.force_acceleration;
+  }
+  m_history_valid = k.history_valid;
+  m_history_topology = k.history_topology;
+  m_history_edits = k.history_edits;
+  m_history_dt = k.history_dt;
+  m_exact_skip = k.exact_skip;
+  m_exact_backoff = k.exact_backoff;
+  m_lag_skip = k.lag_skip;
+  m_lag_backoff = k.lag_backoff;
+  m_shift = k.shift;
+  m_radius = k.radius;
+  m_factor_valid = false;  // lagged mode: the kept factor is of a later matrix
 }
 
 NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity,

@@ -458,6 +458,21 @@ class ImplicitIntegrator : public Integrator {
   Eigen::VectorXd m_pairs_rho, m_pairs_alpha, m_previous_gradient;
   Eigen::Matrix<double, Eigen::Dynamic, 3> m_scalar_rhs, m_scalar_solution;
 
+  // What an advance() call gives back when it is interrupted or fails: the history and the
+  // decisions kept across steps as they were at its start (the cloth goes back with them), so
+  // the simulation is exactly as it was before the call.
+  struct Memory {
+    Positions previous_positions, previous_velocities, acceleration, force_acceleration;
+    bool history_valid = false;
+    std::uint64_t history_topology = 0, history_edits = 0;
+    double history_dt = 0.0;
+    int exact_skip = 0, exact_backoff = 1, lag_skip = 0, lag_backoff = 1;
+    double shift = 0.0, radius = 0.0;
+  };
+  Memory m_memory;
+  void keep_memory();
+  void restore_memory();
+
   // BDF2 history: the state one step back, valid while nothing changed.
   Positions m_previous_positions, m_previous_velocities;
   bool m_history_valid = false;
