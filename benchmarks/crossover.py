@@ -1175,7 +1175,9 @@ def _cell_key(cell):
 #: Options that yore gained after runs were recorded, with the value that reproduces what those
 #: runs ran (the behaviour before the option existed): a family of such a run that takes one of
 #: them ran with this value.
-LEGACY_OPTIONS = {"mixed": False, "truncation_fraction": 0.0}
+LEGACY_OPTIONS = {"mixed": False, "truncation_fraction": 0.0,
+                  # tr-bdf2's error control (dt="auto"): off, and its tolerances idle
+                  "adaptive": False, "rtol": 1e-3, "atol": 1e-4, "max_steps": 5000}
 
 
 def resolved_families(families):

@@ -640,6 +640,8 @@ def earlier_run(path, settings, resolved):
             raise BadInput(f"--merge {path}: its {name} is {earlier['settings'].get(name)!r}, "
                            f"this run's {settings.get(name)!r}; only runs with the same "
                            "settings merge")
+    # options yore gained since the earlier run count as their old behaviour (cx.LEGACY_OPTIONS)
+    theirs = cx.earlier_resolved(earlier, resolved, {})
     other = sorted(n for n in theirs if json.dumps(theirs[n], sort_keys=True)
                    != json.dumps(resolved.get(n), sort_keys=True))
     if other:
