@@ -34,10 +34,10 @@ struct ErrorControlledOptions {
   /// Absolute tolerance of the positions, m.
   double atol = 1e-4;
   /// Absolute tolerance of the velocities, m/s; 0 means the same number as atol. Measured
-  /// (benchmarks/error_control.py): atol per 1/60 s (60 atol) took fewer steps on the stiff
-  /// sheet at rtol 1e-4 but let Newton's velocity error feed energy in at rtol 1e-2 (errors
-  /// 5–30× larger, the error no longer falling with the tolerance); the same number keeps
-  /// the error falling with the tolerance everywhere measured.
+  /// (benchmarks/error_control.py --velocity-time): atol per 1/60 s (60 atol) was about
+  /// twice as cheap at rtol 1e-4 with 2–5× the error, but at rtol 1e-2 cvode's error grew
+  /// 7–37× and on the 32² sheet at 2e6 N/m it diverged; the same number keeps the error
+  /// falling with the tolerance in every cell measured.
   double atol_velocity = 0.0;
   /// cvode: the highest BDF order (1..5). 2 by default: BDF of order 3 to 5 is not A-stable,
   /// and a cloth's stiff springs are undamped oscillators (eigenvalues near the imaginary
