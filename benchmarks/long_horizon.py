@@ -68,7 +68,11 @@ with the floor. (The trajectory measure's floor is about PREDICTABILITY by const
 Families: one table, FAMILIES (display name → `yore.Simulation` options), filtered by what this
 build accepts (a refused row is left out and named with the reason): explicit at its limit, BE
 (`integrator="implicit"`) and BDF2 at yore's defaults, generalized-α at its default ρ∞ and at
-ρ∞ = 0.5 (less damping, less robust), TR-BDF2. --quick runs QUICK_FAMILIES.
+ρ∞ = 0.5 (less damping, less robust), TR-BDF2; BDF2 with Newton solved tight (residual test at
+1e-9 of a rest length, no truncation test), and the error-controlled TR-BDF2 (dt="auto") and
+CVODE at rtol 1e-4, atol 1e-5 m, each one run with an output interval of 1/64 s (their steps
+are their tolerance's, so they have no step ladder), the former also with Newton stopped ten
+times tighter and by its residual test alone at 1e-7. --quick runs QUICK_FAMILIES.
 
 Runs, as the crossover's: explicit at the limit over the whole horizon (diverged, or its
 kinetic-energy history over BLOW_UP from the reference: m grows by 5 % and it runs again); each
@@ -170,7 +174,26 @@ FAMILIES = {
     "generalized-alpha": {"integrator": "generalized-alpha"},
     "generalized-alpha rho 0.5": {"integrator": "generalized-alpha", "rho_infinity": 0.5},
     "tr-bdf2": {"integrator": "tr-bdf2"},
+    # Newton solved tight (residual test at 1e-9, no truncation test): is the 2 % plateau of
+    # the implicit runs at 2e6 N/m Newton's stopping error?
+    "bdf2 tight Newton": {"integrator": "bdf2", "newton_tol": 1e-9, "truncation_fraction": 0.0},
+    # error-controlled at one tolerance (rtol 1e-4, atol 1e-5 m): one run at an output
+    # interval of the sampling grid (1/64 s), no step ladder
+    "tr-bdf2 auto 1e-4": {"integrator": "tr-bdf2", "adaptive": True, "rtol": 1e-4,
+                          "atol": 1e-5},
+    "cvode 1e-4": {"integrator": "cvode", "rtol": 1e-4, "atol": 1e-5},
+    # the same TR-BDF2 with Newton stopped ten times tighter, and by its residual test alone at
+    # 1e-7 of a rest length: does the plateau move with Newton's stop?
+    "tr-bdf2 auto 1e-4, truncation 0.01": {"integrator": "tr-bdf2", "adaptive": True,
+                                           "rtol": 1e-4, "atol": 1e-5,
+                                           "truncation_fraction": 0.01},
+    "tr-bdf2 auto 1e-4, Newton 1e-7": {"integrator": "tr-bdf2", "adaptive": True, "rtol": 1e-4,
+                                       "atol": 1e-5, "newton_tol": 1e-7,
+                                       "truncation_fraction": 0.0},
 }
+#: families whose steps their tolerance chooses: dt is their output interval, one rung only
+ERROR_CONTROLLED = ("tr-bdf2 auto 1e-4", "cvode 1e-4", "tr-bdf2 auto 1e-4, truncation 0.01",
+                    "tr-bdf2 auto 1e-4, Newton 1e-7")
 QUICK_FAMILIES = ("explicit", "implicit")
 #: the issue's targets: (name, size, k, bending, measure, threshold, goal ratio)
 TARGETS = (("64², k = 2e5, equal bending", 64, 2e5, "equal", LADDER_MEASURE, 0.05, 0.3),
@@ -424,7 +447,8 @@ def measure_cell(cell, make, families, settings, log, journal=None):
         if family == "explicit":
             continue
         aborted_in_a_row, previous = 0, None
-        for rate in settings["rates"]:
+        rates = [GRID_RATE] if family in ERROR_CONTROLLED else settings["rates"]
+        for rate in rates:
             stride, per = max(1, GRID_RATE // rate), max(1, rate // GRID_RATE)
             r = row(family, per, stride, simulate(options, per, stride, until, cap))
             rows.append(r)
