@@ -338,7 +338,9 @@ class Simulation:
         """Advances by ``seconds`` of simulated time in whole steps; returns the number of steps.
 
         Repeated calls aim at the sum of the requested durations, so a loop of
-        ``advance(1/30)`` stays within dt/2 of the frame times instead of drifting.
+        ``advance(1/30)`` stays within dt/2 of the frame times instead of drifting. The
+        error-controlled integrators (cvode, arkode, tr-bdf2 with dt="auto") land exactly on
+        the time asked: whole output intervals, then one shortened to the target.
         """
         if not is_real(seconds) or seconds < 0.0:
             raise ValueError(f"seconds must be a finite number >= 0, got {show_value(seconds)}")
