@@ -140,3 +140,15 @@ def test_the_gathered_cloth_stays_finite_and_loses_energy_without_a_newton_hessi
         sim.step(30)
     assert np.all(np.isfinite(sim.cloth.positions))
     assert sim.energy()["total"] <= before + 1e-12
+
+
+def test_a_predictor_of_none_is_decided_not_passed_to_the_core():
+    # None means "decide" for every integrator that takes a predictor: quasi-Newton's is the
+    # inertial guess (a None reaching the core was pybind11's "Unable to cast" RuntimeError)
+    sim = yore.scenes.hanging_cloth(resolution=5, integrator="quasi-newton", predictor=None)
+    assert sim.resolved_options["predictor"] == "inertial"
+    sim.step(1)
+    reference = yore.scenes.hanging_cloth(resolution=5, integrator="quasi-newton",
+                                          predictor="inertial")
+    reference.step(1)
+    assert np.array_equal(sim.cloth.positions, reference.cloth.positions)

@@ -308,3 +308,12 @@ def test_option_checks_come_from_the_core_tables_and_shared_names_agree():
     assert check_option("bdf2", "projection", None) is None
     with pytest.raises(ValueError, match="steihaug"):
         check_option("bdf2", "projection", "newton")
+
+
+@pytest.mark.parametrize("name,value", [("max_seconds", None), ("max_seconds", "5"),
+                                        ("tolerance", None), ("tolerance", "0.02")])
+def test_settle_takes_numbers_only_and_names_the_argument(name, value):
+    # a string or None is refused, not coerced by float() or passed on as a TypeError
+    sim = yore.scenes.hanging_cloth(resolution=5)
+    with pytest.raises(ValueError, match=f"{name} must be a finite number"):
+        sim.settle(**{name: value})

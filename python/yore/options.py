@@ -336,6 +336,8 @@ def resolve_options(integrator, options) -> dict:
     """``options`` (all of ``integrator``'s, checked) with every None that stands for "decide from
     the others" decided: the one place that does it. ValueError where two options contradict."""
     options = dict(options)
+    if "predictor" in options and options["predictor"] is None:
+        options["predictor"] = _predictor({"linearized": False, **options})
     if INTEGRATOR_SPECS[integrator].newton:
         projection = _projection(options)
         if options["adaptive_projection"] is not None and options["projection"] is not None \
@@ -420,6 +422,7 @@ def _make_local_global(options):
 
 
 def _make_quasi_newton(options):
+    options = resolve_options("quasi-newton", options)  # predictor None: the inertial guess
     core = {name: options[name] for name in CORE_IMPLICIT if name in options}
     return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
 

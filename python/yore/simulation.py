@@ -384,6 +384,9 @@ class Simulation:
         "residual_acceleration": the last step's, m/s²}. Raises ValueError for bad arguments or
         a cloth with driven vertices (a driven cloth has no rest to settle to),
         SimulationDiverged if a step does."""
+        for name, value in (("max_seconds", max_seconds), ("tolerance", tolerance)):
+            if not is_real(value):  # a number, not a string or None that float() would take
+                raise ValueError(f"{name} must be a finite number, got {show_value(value)}")
         max_seconds, tolerance = float(max_seconds), float(tolerance)
         if not math.isfinite(max_seconds) or not 0.0 <= max_seconds <= MAX_SETTLE_SECONDS:
             raise ValueError(f"max_seconds must be in [0, {MAX_SETTLE_SECONDS:g}] s, got "
