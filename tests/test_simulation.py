@@ -317,3 +317,15 @@ def test_settle_takes_numbers_only_and_names_the_argument(name, value):
     sim = yore.scenes.hanging_cloth(resolution=5)
     with pytest.raises(ValueError, match=f"{name} must be a finite number"):
         sim.settle(**{name: value})
+
+
+@pytest.mark.parametrize("expansion", [10.5, 1e300])
+def test_a_strokes_expansion_past_ten_is_refused_before_the_cloth_changes(expansion):
+    # 1e300 used to return with an infinite spring energy
+    sim = yore.scenes.hanging_cloth(resolution=9)
+    before = sim.cloth.vertex_count
+    with pytest.raises(ValueError, match="expansion must be at most 10"):
+        sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], expansion=expansion)
+    assert sim.cloth.vertex_count == before
+    sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], expansion=10.0)  # the bound itself is taken
+    assert np.isfinite(sim.energy()["total"])

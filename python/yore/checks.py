@@ -27,6 +27,9 @@ MAX_STEPS = 100_000_000
 MIN_DT = 1e-12
 #: Most pseudo-time `Simulation.settle` may spend, s (20 000 backward-Euler steps of 0.5 s).
 MAX_SETTLE_SECONDS = 10_000.0
+#: Largest rest-length factor of a stroke (the paper's is 1.1): a new spring at most ten times
+#: its current length. Past it the springs' energy overflows (1e300 gave an infinite energy).
+MAX_EXPANSION = 10.0
 
 #: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
 #: MAX_IMAGE_PIXELS pixels in all (2^23, e.g. 3840×2160), checked before anything is allocated.

@@ -27,7 +27,7 @@ import numpy as np
 from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAMES_PER_SECOND,
                        IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, MASS, MAX_SMOOTHING_ITERATIONS, RUN_ANIMATION,
                        STIFFNESS, STROKE_DEFAULTS)
-from ..checks import MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS, MIN_DT
+from ..checks import MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS, MIN_DT
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
@@ -303,7 +303,8 @@ SCHEMA = {
         "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
         "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
         "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
-        "expansion": (_number(0, strict_minimum=True), STROKE_DEFAULTS["expansion"],
+        "expansion": (_number(0, MAX_EXPANSION, strict_minimum=True),
+                      STROKE_DEFAULTS["expansion"],
                       "rest length / current length of "
                       "new springs (eq. (1))"),
         "mass_scale": (_mass_scale, STROKE_DEFAULTS["mass_scale"],
