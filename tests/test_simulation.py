@@ -329,3 +329,15 @@ def test_a_strokes_expansion_past_ten_is_refused_before_the_cloth_changes(expans
     assert sim.cloth.vertex_count == before
     sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], expansion=10.0)  # the bound itself is taken
     assert np.isfinite(sim.energy()["total"])
+
+
+@pytest.mark.parametrize("arguments,name", [({"density": "1"}, "density"),
+                                            ({"density": True}, "density"),
+                                            ({"masses": True}, "masses")])
+def test_a_cloths_mass_or_density_of_the_wrong_type_is_a_value_error_naming_it(arguments,
+                                                                                name):
+    # not pybind11's "Unable to cast" RuntimeError, and a bool is not silently 1 kg
+    V, F = yore.grid_mesh(4, 4)
+    with pytest.raises(ValueError, match=f"{name} must be a number"):
+        yore.Cloth(V, F, **arguments)
+    assert yore.Cloth(V, F, density=np.float64(0.2)).vertex_count == 16  # numpy numbers pass

@@ -15,6 +15,24 @@ namespace {
 constexpr double kDefaultMass = 1e-3;  // kg per vertex
 constexpr double kDefaultBendStiffness = 100.0;  // N/m per bending spring
 
+/// A number given as one (an int or a float, numpy's too): bools, strings and anything
+/// pybind11 cannot make a double of are std::invalid_argument naming `name`.
+double plain_number(const py::object& value, const char* name, const char* unit) {
+  const bool flag = PyBool_Check(value.ptr()) ||
+                    std::string(Py_TYPE(value.ptr())->tp_name) == "numpy.bool_" ||
+                    std::string(Py_TYPE(value.ptr())->tp_name) == "numpy.bool";
+  if (!flag && !py::isinstance<py::str>(value) && !py::isinstance<py::bytes>(value)) {
+    try {
+      return value.cast<double>();
+    } catch (const py::cast_error&) {
+    }
+  }
+  std::ostringstream msg;
+  msg << name << " must be a number (" << unit << "), got "
+      << std::string(py::str(py::repr(value))).substr(0, 60);
+  throw std::invalid_argument(msg.str());
+}
+
 /// Per-vertex masses from a scalar (uniform) or an (n,) array, or from an areal density.
 Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
                               const Positions& positions, const Faces* faces) {
@@ -24,7 +42,7 @@ Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
       throw std::invalid_argument("give either masses (kg per vertex) or density (kg/m²), not both");
     }
     if (faces == nullptr) throw std::invalid_argument("density needs faces; give masses instead");
-    const double rho = density.cast<double>();
+    const double rho = plain_number(density, "density", "kg/m²");
     if (!std::isfinite(rho) || rho <= 0.0) {
       std::ostringstream msg;
       msg << "density must be finite and > 0 kg/m², got " << rho;
@@ -34,6 +52,7 @@ Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
     return rho * lumped_vertex_areas(positions, *faces);
   }
   if (mass.is_none()) return Eigen::VectorXd::Constant(n, kDefaultMass);
+  if (PyBool_Check(mass.ptr())) plain_number(mass, "masses", "kg per vertex");  // refuses it
   const auto array = as_float_array(mass, "masses");
   if (array.ndim() == 0) return Eigen::VectorXd::Constant(n, *array.data());
   return to_vector(mass, "masses", n);
