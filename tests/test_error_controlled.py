@@ -9,24 +9,40 @@ import numpy as np
 import pytest
 
 import yore
+from test_integrators import chain as linear_chain
 
 ERROR_CONTROLLED = ["cvode", "arkode"]
-AUTO = {"dt": "auto"}  # tr-bdf2's own error control
 
 
-def chain(count=9, stiffness=100.0, mass=0.01, spacing=0.1, amplitude=1e-2):
-    """`count` free masses on a line between two fixed ends, displaced along it in the lowest
-    mode: collinear springs keep the motion exactly linear, x = rest + shape cos(ω t)."""
-    points = np.zeros((count + 2, 3))
-    points[:, 0] = np.arange(count + 2) * spacing
-    edges = np.array([[i, i + 1] for i in range(count + 1)])
-    net = yore.Cloth.from_springs(points, edges, masses=np.full(count + 2, mass),
-                                  stiffness=stiffness, damping=0.0)
-    net.fix([0, count + 1])
-    mode = np.sin(math.pi * np.arange(count + 2) / (count + 1))
-    net.positions = points + np.outer(amplitude * mode, [1.0, 0.0, 0.0])
-    omega = 2.0 * math.sqrt(stiffness / mass) * math.sin(math.pi / (2 * (count + 1)))
-    return net, points[:, 0], amplitude * mode, omega
+def chain():
+    """test_integrators' linear chain, at an amplitude (1 cm) where atol matters."""
+    return linear_chain(amplitude=1e-2)
+
+
+def interrupt_while_running(sim, call, spin=0):
+    """Runs call() on this thread; a helper waits until the cloth is busy, spins `spin` loop
+    turns (letting some work run first; the tests' assertions hold wherever it lands), and
+    interrupts as Ctrl-C would. Fails unless the interrupt arrived while the call ran."""
+    record = {}
+
+    def helper():
+        for _ in range(10**8):
+            if sim.cloth.busy:
+                break
+        for _ in range(spin):
+            pass
+        record["busy"] = sim.cloth.busy
+        if sim.cloth.busy:
+            _thread.interrupt_main()
+
+    thread = threading.Thread(target=helper)
+    thread.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            call()
+    finally:
+        thread.join()
+    assert record["busy"], "the call ended before the interrupt"
 
 
 def chain_error(integrator, duration=0.5, **options):
@@ -204,24 +220,7 @@ def test_a_ctrl_c_inside_an_interval_leaves_the_simulation_as_it_was():
     sim = yore.scenes.rotating_cylinder(rings=4, segments=8, integrator="cvode", dt=1e5,
                                         rtol=1e-10, atol=1e-12, max_steps=10**7)
     before = sim.cloth.state()
-    record = {}
-
-    def helper():
-        for _ in range(10**8):
-            if sim.cloth.busy:
-                break
-        record["busy"] = sim.cloth.busy
-        if sim.cloth.busy:
-            _thread.interrupt_main()
-
-    thread = threading.Thread(target=helper)
-    thread.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            sim.step(1)
-    finally:
-        thread.join()
-    assert record["busy"]
+    interrupt_while_running(sim, lambda: sim.step(1))
     assert sim.time == 0.0
     assert np.array_equal(sim.cloth.positions, before["positions"])
     assert np.array_equal(sim.cloth.velocities, before["velocities"])
@@ -365,26 +364,7 @@ def test_a_ctrl_c_keeps_the_history_so_the_run_continues_bit_for_bit(integrator,
     sim = make()
     sim.step(6)
     start = sim.time
-    record = {}
-
-    def helper():
-        for _ in range(10**8):
-            if sim.cloth.busy:
-                break
-        for _ in range(10**6):  # let some batches run first (the assertions hold either way)
-            pass
-        record["busy"] = sim.cloth.busy
-        if sim.cloth.busy:
-            _thread.interrupt_main()
-
-    thread = threading.Thread(target=helper)
-    thread.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            sim.step(total)
-    finally:
-        thread.join()
-    assert record["busy"]
+    interrupt_while_running(sim, lambda: sim.step(total), spin=10**6)
     done = round((sim.time - start) / sim.dt)
     assert 0 <= done < total
     assert sim.state()["history"] is not None  # kept, not dropped

@@ -195,8 +195,7 @@ struct ErrorControlledIntegrator::Backend {
 
   /// A fresh integrator memory for y (its current values) at t0.
   void create(const ErrorControlledOptions& o, double t0) {
-    if (context == nullptr) check(SUNContext_Create(nullptr, &context), "a context");
-    if (solver == nullptr) solver = make_solver(context);
+    if (solver == nullptr) solver = make_solver(context);  // the context: ensure_backend's
     if (method == ErrorControlledMethod::cvode) {
       memory = CVodeCreate(CV_BDF, context);
       if (memory == nullptr) throw std::bad_alloc();
@@ -297,22 +296,40 @@ const SolverStatistics& ErrorControlledIntegrator::solver_statistics() const {
   return m_newton.solver_statistics();
 }
 
+namespace {
+
+/// The counters SUNDIALS keeps per memory, added from `from` into `into`.
+void add_sundials_counters(const ErrorControlledStatistics& from, ErrorControlledStatistics& into) {
+  into.internal_steps += from.internal_steps;
+  into.error_test_failures += from.error_test_failures;
+  into.nonlinear_iterations += from.nonlinear_iterations;
+  into.nonlinear_failures += from.nonlinear_failures;
+  into.linear_setups += from.linear_setups;
+  into.linear_solves += from.linear_solves;
+  into.rhs_evaluations += from.rhs_evaluations;
+}
+
+}  // namespace
+
 const ErrorControlledStatistics& ErrorControlledIntegrator::statistics() const {
   ErrorControlledStatistics current;
   if (m_backend) m_backend->counters(current);
   ErrorControlledStatistics& s = m_statistics;
-  s.internal_steps = m_base.internal_steps + current.internal_steps;
-  s.error_test_failures = m_base.error_test_failures + current.error_test_failures;
-  s.nonlinear_iterations = m_base.nonlinear_iterations + current.nonlinear_iterations;
-  s.nonlinear_failures = m_base.nonlinear_failures + current.nonlinear_failures;
-  s.linear_setups = m_base.linear_setups + current.linear_setups;
-  s.linear_solves = m_base.linear_solves + current.linear_solves;
-  s.rhs_evaluations = m_base.rhs_evaluations + current.rhs_evaluations;
-  s.current_order = m_options.method == ErrorControlledMethod::cvode ? current.current_order
+  // this memory's SUNDIALS counters on top of those of the memories folded before
+  ErrorControlledStatistics total = m_base;
+  add_sundials_counters(current, total);
+  s.internal_steps = total.internal_steps;
+  s.error_test_failures = total.error_test_failures;
+  s.nonlinear_iterations = total.nonlinear_iterations;
+  s.nonlinear_failures = total.nonlinear_failures;
+  s.linear_setups = total.linear_setups;
+  s.linear_solves = total.linear_solves;
+  s.rhs_evaluations = total.rhs_evaluations;
+  s.current_order = !m_backend                                   ? 0
+                    : m_options.method == ErrorControlledMethod::cvode ? current.current_order
                                                                        : m_options.order;
-  if (current.internal_steps == 0 && m_backend == nullptr) s.current_order = 0;
   s.current_internal_dt = current.current_internal_dt;
-  s.last_internal_dt = current.internal_steps > 0 ? current.last_internal_dt : s.last_internal_dt;
+  if (current.internal_steps > 0) s.last_internal_dt = current.last_internal_dt;
   return s;
 }
 
@@ -320,13 +337,7 @@ void ErrorControlledIntegrator::fold_counters() const {
   if (!m_backend) return;
   ErrorControlledStatistics current;
   m_backend->counters(current);
-  m_base.internal_steps += current.internal_steps;
-  m_base.error_test_failures += current.error_test_failures;
-  m_base.nonlinear_iterations += current.nonlinear_iterations;
-  m_base.nonlinear_failures += current.nonlinear_failures;
-  m_base.linear_setups += current.linear_setups;
-  m_base.linear_solves += current.linear_solves;
-  m_base.rhs_evaluations += current.rhs_evaluations;
+  add_sundials_counters(current, m_base);
   if (current.internal_steps > 0) m_statistics.last_internal_dt = current.last_internal_dt;
 }
 
