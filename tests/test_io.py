@@ -192,6 +192,39 @@ def test_frame_series_writes_a_collection(tmp_path, fmt):
         series.write(1.0, *meshes[0])
 
 
+def test_a_frame_adds_its_line_to_the_collection_without_rewriting_it(tmp_path, monkeypatch):
+    """Issue 41, class 7: the collection was rewritten whole after every frame (8000 frames
+    took over 300 s). Counted in bytes, not seconds: the 2000th frame writes what the 2nd did,
+    and the collection stays valid XML listing every frame. Mesh files are not the subject
+    (written as empty files here)."""
+    monkeypatch.setattr(yore.io, "save_mesh", lambda path, V, F, point_data=None:
+                        path.write_bytes(b""))
+    V, F = bumpy_grid(3, 3)
+    series = FrameSeries(tmp_path, fmt="vtu")
+    written = []
+    for k in range(2000):
+        series.write(k * 0.001, V, F)
+        written.append(series.pvd_bytes_written)
+        if k in (0, 1, 2, 999, 1999):
+            listed = ET.parse(tmp_path / "frame.pvd").getroot().findall("Collection/DataSet")
+            assert [d.get("file") for d in listed] == [f"frame_{i:05d}.vtu" for i in
+                                                       range(k + 1)]
+            assert float(listed[-1].get("timestep")) == k * 0.001
+    assert max(written[1:]) <= 2 * written[1] < 300  # a line and the closing tags
+    assert written[0] > written[1]  # the first write is the whole (short) file
+    # a new series over the same frames (a resumed run) writes the file whole once, then
+    # appends again; a file changed behind its back is written whole, never appended to
+    again = FrameSeries(tmp_path, fmt="vtu", frames=series.frames)
+    again.write(2.0, V, F)
+    assert again.pvd_bytes_written > 2000 * written[1] / 2
+    again.write(2.1, V, F)
+    assert again.pvd_bytes_written == written[1] or again.pvd_bytes_written < 300
+    (tmp_path / "frame.pvd").write_text("<VTKFile/>")
+    again.write(2.2, V, F)
+    listed = ET.parse(tmp_path / "frame.pvd").getroot().findall("Collection/DataSet")
+    assert len(listed) == 2003
+
+
 def test_frame_series_other_formats_have_no_pvd(tmp_path):
     V, F = bumpy_grid(3, 3)
     series = FrameSeries(tmp_path, stem="cloth", fmt="ply")

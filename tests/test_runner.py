@@ -3,6 +3,7 @@ double nothing, non-finite runs stop with their last good state, folders never m
 
 import json
 import signal
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import meshio
@@ -275,6 +276,7 @@ def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(tmp_path, mon
     # A state file after every frame; the process then "dies" (SystemExit, which the run does
     # not catch, like a kill) while writing the 5th frame, after the stroke.
     monkeypatch.setattr(yore.runs.runner, "CHECKPOINT_SECONDS", 0.0)
+    monkeypatch.setattr(yore.runs.runner, "CHECKPOINT_SHARE", float("inf"))
     original = yore.io.FrameSeries.write
     calls = {"count": 0}
 
@@ -343,3 +345,150 @@ def test_a_run_started_with_sigint_ignored_is_not_stopped_by_one(tmp_path, monke
     monkeypatch.undo()
     assert strict_json(tmp_path / "summary.json")["status"] == "finished"
     assert_same_run(straight, tmp_path)
+
+
+# -- issue 41: a Ctrl-C never changes the answer, a run folder can move -----------------------
+
+
+def test_a_run_split_between_frames_writes_the_frames_of_a_straight_run(tmp_path, straight,
+                                                                        capsys):
+    # 0.12 s lies between the frames at 0.1 and 0.15 s: the part writes none there (class 5)
+    assert run_hanging(tmp_path, "--until", "0.12") == 0
+    part = strict_json(tmp_path / "summary.json")
+    assert part["status"] == "stopped at --until"
+    assert [round(f["time"], 2) for f in part["frames"]] == [0.0, 0.05, 0.1]
+    # a time the state has already passed is refused, and nothing changes
+    stamp = (tmp_path / "state.npz").stat().st_mtime_ns
+    assert main(["run", "--resume", str(tmp_path / "state.npz"), "--until", "0.05",
+                 "--quiet", "--no-render"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error: --until 0.05 s is not after the state's time")
+    assert (tmp_path / "state.npz").stat().st_mtime_ns == stamp
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
+
+
+def test_a_run_folder_can_be_moved_or_copied_and_resumed(tmp_path, straight):
+    import shutil
+
+    first = tmp_path / "first"
+    assert run_hanging(first, "--until", "0.15") == 0
+    _, record = yore.load_state(first / "state.npz")
+    # the record holds paths relative to the run folder (class 3)
+    assert all(not Path(path).is_absolute() for _, path in record["frames"])
+    moved = tmp_path / "moved"
+    copy = tmp_path / "copy"
+    shutil.copytree(first, copy)
+    first.rename(moved)
+    for folder in (moved, copy):
+        assert resume(folder) == 0
+        assert_same_run(straight, folder)
+        # the collection lists the folder's own frames only
+        listed = [element.get("file") for element in
+                  ET.parse(folder / "frames" / "frame.pvd").getroot().iter("DataSet")]
+        assert listed == [Path(f["file"]).name for f in strict_json(folder /
+                                                                     "summary.json")["frames"]]
+        assert all((folder / "frames" / name).is_file() for name in listed)
+
+
+def test_a_resume_into_another_folder_keeps_the_first_frames_where_they_are(tmp_path,
+                                                                           straight):
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert run_hanging(first, "--until", "0.15") == 0
+    assert main(["run", "--resume", str(first / "state.npz"), "-o", str(second), "--quiet",
+                 "--no-render"]) == 0
+    summary = strict_json(second / "summary.json")
+    files = [second / f["file"] for f in summary["frames"]]
+    assert all(path.is_file() for path in files)
+    assert files[0].resolve().parent == (first / "frames").resolve()  # not copied
+    assert files[-1].resolve().parent == (second / "frames").resolve()
+    assert len(files) == len(strict_json(straight / "summary.json")["frames"])
+
+
+def test_ctrl_c_just_after_the_first_frame_leaves_a_run_to_resume(tmp_path, monkeypatch,
+                                                                  straight, capsys):
+    interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 1, by_signal=True)
+    assert run_hanging(tmp_path) == 130
+    monkeypatch.undo()
+    assert (tmp_path / "state.npz").is_file()  # (class 4: there was none)
+    capsys.readouterr()
+    assert run_hanging(tmp_path) == 2  # the same scene, unfinished: resume it
+    error = capsys.readouterr().err
+    assert "unfinished run of the same scene" in error and "--resume" in error
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
+
+
+def test_an_interrupt_before_the_first_frame_also_leaves_a_state(tmp_path, monkeypatch,
+                                                                 straight):
+    interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 1, before=True)
+    assert run_hanging(tmp_path) == 130
+    monkeypatch.undo()
+    _, record = yore.load_state(tmp_path / "state.npz")
+    assert record["frames"] == [] and record["step"] == 0
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
+
+
+@pytest.mark.parametrize("edit, field", [
+    ("integrator", "metadata.scene_text"),  # the record's scene says explicit, the state bdf2
+    ("no frames", "metadata.records"),      # an emptied list would overwrite frame_00000
+    ("no frame files", "metadata.frames"),  # records kept, frames emptied
+    ("frames reordered", "metadata.frames")])
+def test_a_record_that_does_not_match_its_run_is_refused(tmp_path, capsys, edit, field):
+    assert run_hanging(tmp_path, "--until", "0.15") == 0
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    if edit == "integrator":
+        text = record["scene_text"]
+        assert 'integrator = "explicit"' in text
+        record["scene_text"] = text.replace('integrator = "explicit"', 'integrator = "bdf2"')
+    elif edit == "no frames":
+        record["frames"], record["records"] = [], []
+    elif edit == "no frame files":
+        record["frames"] = []
+    else:
+        record["frames"][0], record["frames"][1] = record["frames"][1], record["frames"][0]
+    yore.save_state(tmp_path / "state.npz", sim, metadata=record)
+    frame = (tmp_path / "frames" / "frame_00000.vtu").read_bytes()
+    assert resume(tmp_path) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error:") and "\n" not in error and field in error
+    assert (tmp_path / "frames" / "frame_00000.vtu").read_bytes() == frame
+
+
+def test_a_state_no_file_may_hold_ends_the_run_failed_not_finished(tmp_path, monkeypatch,
+                                                                   capsys):
+    # class 2: a run whose state save_state refuses ends "failed" (exit 1), with a summary
+    calls = {"count": 0}
+    original = yore.runs.runner.save_state
+
+    def refusing(path, sim, metadata=None):
+        calls["count"] += 1
+        if calls["count"] > 1:  # the state before the first frame is fine; the last is not
+            raise ValueError(f"{path} (not written): field simulation.cloth.masses: too heavy")
+        return original(path, sim, metadata=metadata)
+
+    monkeypatch.setattr(yore.runs.runner, "save_state", refusing)
+    assert run_hanging(tmp_path) == 1
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error: the run stopped at t = ") and "masses" in error
+    summary = strict_json(tmp_path / "summary.json")
+    assert summary["status"] == "failed" and summary["outputs"]["state"] is None
+
+
+def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(tmp_path,
+                                                                          monkeypatch, capsys):
+    # class 15: with --allow-long, a frame interval over MAX_STEPS failed after starting
+    # ("call step repeatedly"); the limit is lowered here to keep the run short
+    monkeypatch.setattr(yore.runs.runner, "MAX_STEPS", 5)
+    monkeypatch.setattr(yore.simulation, "MAX_STEPS", 5)
+    scene = ["run", str(EXAMPLES / "hanging_paper.toml"), "-o", str(tmp_path),
+             "--set", "mesh.nx=5", "--set", "mesh.ny=5", "--set", "strokes=[]",
+             "--set", "simulation.dt=0.001", "--set", "simulation.duration=0.03",
+             "--set", f"output.fps={1 / 0.012!r}", "--no-render", "--quiet"]  # 12 steps
+    assert main(scene) == 2  # 30 steps > 5: refused up front without --allow-long
+    assert "--allow-long" in capsys.readouterr().err
+    assert main(scene + ["--allow-long"]) == 0
+    summary = strict_json(tmp_path / "summary.json")
+    assert summary["steps"] == 30 and summary["status"] == "finished"
+    assert [round(f["time"], 6) for f in summary["frames"]] == [0.0, 0.012, 0.024, 0.03]

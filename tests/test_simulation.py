@@ -319,16 +319,24 @@ def test_settle_takes_numbers_only_and_names_the_argument(name, value):
         sim.settle(**{name: value})
 
 
-@pytest.mark.parametrize("expansion", [10.5, 1e300])
-def test_a_strokes_expansion_past_ten_is_refused_before_the_cloth_changes(expansion):
-    # 1e300 used to return with an infinite spring energy
+@pytest.mark.parametrize("name, value, bound", [
+    ("expansion", 10.5, 10.0), ("expansion", 1e300, 10.0),
+    # issue 41, class 2: these gave states no file could hold (rest lengths 0, masses 2e305)
+    ("expansion", 5e-324, 0.1), ("expansion", 0.09, 0.1),
+    ("mass_scale", 1e308, 10.0), ("mass_scale", 10.5, 10.0)])
+def test_a_strokes_factors_out_of_range_are_refused_before_the_cloth_changes(tmp_path, name,
+                                                                             value, bound):
+    # an expansion of 1e300 used to return with an infinite spring energy
     sim = yore.scenes.hanging_cloth(resolution=9)
     before = sim.cloth.vertex_count
-    with pytest.raises(ValueError, match="expansion must be at most 10"):
-        sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], expansion=expansion)
+    limit = "in \\[0.1, 10\\]" if name == "expansion" else "at most 10"
+    with pytest.raises(ValueError, match=f"{name} must be {limit}"):
+        sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], **{name: value})
     assert sim.cloth.vertex_count == before
-    sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], expansion=10.0)  # the bound itself is taken
+    sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], **{name: bound})  # the bound itself is taken
     assert np.isfinite(sim.energy()["total"])
+    path = yore.save_state(tmp_path / "state.npz", sim)
+    assert yore.load_state(path)[0].cloth.vertex_count == sim.cloth.vertex_count
 
 
 @pytest.mark.parametrize("arguments,name", [({"density": "1"}, "density"),

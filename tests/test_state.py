@@ -315,3 +315,61 @@ def test_newtons_projection_memory_is_saved_so_a_resume_decides_the_same():
     bad = {**state, "projection_memory": {"exact_skip": -1, "exact_backoff": 1}}
     with pytest.raises(ValueError, match="exact_skip"):
         yore.Simulation.from_state(bad)
+
+
+# -- issue 41, class 2: whatever save_state writes, load_state reads --------------------------
+
+
+@pytest.mark.parametrize("integrator", ["local-global", "quasi-newton"])
+def test_a_state_with_faces_crushed_flat_saves_and_loads(tmp_path, integrator):
+    # gravity 1e15 crushes faces flat in one step; the state was written, then refused as
+    # "degenerate" on loading: a state's shape is wherever the simulation took it
+    sim = yore.Simulation(yore.scenes.hanging_cloth(resolution=7).cloth, integrator=integrator,
+                          dt=0.01, gravity=(0.0, -1e15, 0.0))
+    with pytest.warns(RuntimeWarning, match="iteration cap"):
+        sim.step(2)
+    V, F = sim.cloth.positions, sim.cloth.faces
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    twice_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    longest = np.max([np.sum(e * e, axis=1) for e in (e1, e2, V[F[:, 2]] - V[F[:, 1]])], axis=0)
+    assert (twice_area <= 2e-12 * longest).any()  # some face is degenerate, as a mesh
+    path = yore.save_state(tmp_path / "state.npz", sim)
+    loaded, _ = yore.load_state(path)
+    assert np.array_equal(loaded.cloth.positions, V)
+    with pytest.raises(ValueError, match="degenerate"):
+        yore.Cloth(V, F)  # a cloth is still built only from a mesh with a shape
+
+
+def test_save_state_refuses_metadata_that_is_not_a_table(tmp_path):
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01))
+    with pytest.raises(ValueError, match="metadata must be a dict or None, got list"):
+        yore.save_state(tmp_path / "state.npz", sim, metadata=[1, 2])
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("masses", 1e300, "mass of vertex 0"),
+    ("spring_rest", 0.0, "rest length"),
+    ("spring_kind", 1, "has no structural spring"),
+    ("clock_origin", 1e308, "clock_origin")])
+def test_save_state_checks_what_it_writes_as_load_state_would(tmp_path, monkeypatch, field,
+                                                              value, match):
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01))
+    state = sim.state()
+    cloth = dict(state["cloth"])
+    cloth[field] = value if np.isscalar(cloth[field]) else np.full_like(cloth[field], value)
+    monkeypatch.setattr(sim, "state", lambda: {**state, "cloth": cloth})
+    with pytest.raises(ValueError, match=match) as caught:
+        yore.save_state(tmp_path / "state.npz", sim)
+    assert "(not written)" in str(caught.value) and "\n" not in str(caught.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_state_whose_springs_are_all_bending_springs_is_refused_on_loading(state_file):
+    # once accepted by the schema, then an IndexError in the rest area on --resume
+    def all_bending(arrays, document):
+        key = "simulation/cloth/spring_kind"
+        arrays[key] = np.ones_like(arrays[key])
+
+    tampered(state_file, all_bending)
+    one_line_error(state_file, r"edge \(0, 1\) of the faces has no structural spring")

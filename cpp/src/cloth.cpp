@@ -32,18 +32,24 @@ std::uint64_t next_topology_version() {
 // and far enough below overflow that energies, forces and k/m stay finite.
 constexpr double kMaxMaterialValue = 1e12;
 
+// A subnormal material value (below DBL_MIN, e.g. 5e-324) is refused like a negative one: its
+// products with masses and steps underflow, and a stiffness of 5e-324 N/m "diverged at step 0".
 void check_non_negative(double value, const char* name) {
-  if (!std::isfinite(value) || value < 0.0 || value > kMaxMaterialValue) {
+  if (!std::isfinite(value) || value < 0.0 || value > kMaxMaterialValue ||
+      (value != 0.0 && value < std::numeric_limits<double>::min())) {
     std::ostringstream msg;
-    msg << name << " must be finite, >= 0 and <= " << kMaxMaterialValue << ", got " << value;
+    msg << name << " must be 0 or a normal number in [" << std::numeric_limits<double>::min()
+        << ", " << kMaxMaterialValue << "], got " << value;
     fail(msg.str());
   }
 }
 
 void check_positive(double value, const char* name) {
-  if (!std::isfinite(value) || value <= 0.0 || value > kMaxMaterialValue) {
+  if (!std::isfinite(value) || !(value >= std::numeric_limits<double>::min()) ||
+      value > kMaxMaterialValue) {
     std::ostringstream msg;
-    msg << name << " must be finite, > 0 and <= " << kMaxMaterialValue << ", got " << value;
+    msg << name << " must be a normal number in [" << std::numeric_limits<double>::min()
+        << ", " << kMaxMaterialValue << "] (> 0), got " << value;
     fail(msg.str());
   }
 }
@@ -253,7 +259,8 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n) {
     const double values[] = {springs.rest_length[k], springs.reference_length[k],
                              springs.stiffness[k]};
     if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
-          values[1] > 0.0 && std::isfinite(values[2]) && values[2] > 0.0 &&
+          values[1] > 0.0 && std::isfinite(values[2]) &&
+          values[2] >= std::numeric_limits<double>::min() &&
           values[2] <= kMaxMaterialValue)) {
       std::ostringstream msg;
       msg << "state: spring " << k << " needs finite, positive rest length, reference length "
@@ -289,6 +296,27 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n) {
       std::ostringstream msg;
       msg << "state: structural springs " << edges[e - 1][2] << " and " << edges[e][2]
           << " join the same vertices (" << edges[e][0] << ", " << edges[e][1] << ")";
+      fail(msg.str());
+    }
+  }
+}
+
+// Every edge of the faces has its structural spring (the rest areas, the strokes and the
+// bending model look springs up by edge): a state whose springs were all marked bending, say,
+// is refused here rather than failing later in whatever looks the first edge up.
+void check_state_edges(const ClothState& state) {
+  std::vector<VertexPair> structural;
+  for (std::size_t k = 0; k < state.springs.size(); ++k) {
+    if (state.springs.kind[k] != SpringKind::structural) continue;
+    const std::int32_t i = state.springs.first[k], j = state.springs.second[k];
+    structural.push_back({std::min(i, j), std::max(i, j)});
+  }
+  std::sort(structural.begin(), structural.end());
+  for (const VertexPair& edge : mesh_connectivity(state.faces).edges) {
+    if (!std::binary_search(structural.begin(), structural.end(), edge)) {
+      std::ostringstream msg;
+      msg << "state: edge (" << edge[0] << ", " << edge[1] << ") of the faces has no "
+          << "structural spring (kind 0); every edge needs one";
       fail(msg.str());
     }
   }
@@ -341,7 +369,9 @@ void check_state_constraints(const ClothState& state, Eigen::Index n) {
 
 Cloth Cloth::from_state(const ClothState& state) {
   const Eigen::Index n = state.positions.rows();
-  if (state.faces.rows() > 0) validate_mesh(state.positions, state.faces);
+  // The topology is checked, not the shape: a state is wherever the simulation took the cloth,
+  // which may have crushed a face flat (gravity 1e15 did).
+  if (state.faces.rows() > 0) validate_mesh(state.positions, state.faces, false);
   Cloth cloth;
   cloth.initialise_state(state.positions, state.masses, state.drag);
   if (state.velocities.rows() != n) {
@@ -353,6 +383,7 @@ Cloth Cloth::from_state(const ClothState& state) {
   check_finite_rows(state.velocities, "velocity");
   check_state_springs(state.springs, n);
   if (state.springs.size() == 0) fail("state: the cloth has no springs");
+  if (state.faces.rows() > 0) check_state_edges(state);
   check_state_constraints(state, n);
   if (state.material.rows() != 0 && state.material.rows() != n) {
     std::ostringstream msg;
@@ -796,10 +827,12 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
       const double mass = options.mass_scale *
                           (m_masses[m_faces(face, 0)] + m_masses[m_faces(face, 1)] +
                            m_masses[m_faces(face, 2)]) / 3.0;
-      if (!(mass >= std::numeric_limits<double>::min()) || !std::isfinite(mass)) {
+      if (!(mass >= std::numeric_limits<double>::min()) || !std::isfinite(mass) ||
+          mass > kMaxMaterialValue) {
         std::ostringstream msg;
         msg << "mass_scale " << options.mass_scale << " gives face " << face
-            << "'s new vertex the mass " << mass << " kg, not a normal number > 0";
+            << "'s new vertex the mass " << mass << " kg, not a normal number > 0 and <= "
+            << kMaxMaterialValue << " kg";
         fail(msg.str());
       }
     }

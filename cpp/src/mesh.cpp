@@ -36,7 +36,7 @@ std::vector<HalfEdgeRecord> sorted_face_sides(const Faces& faces) {
 
 }  // namespace
 
-void validate_mesh(const Positions& positions, const Faces& faces) {
+void validate_mesh(const Positions& positions, const Faces& faces, bool check_shape) {
   const Eigen::Index n = positions.rows();
   if (n == 0) fail("mesh has no vertices");
   if (faces.rows() == 0) fail("mesh has no faces (a cloth needs at least one triangle)");
@@ -73,7 +73,7 @@ void validate_mesh(const Positions& positions, const Faces& faces) {
     const double twice_area = e1.cross(e2).norm();
     // Relative test: a face whose area is below 1e-12 of its longest edge squared has no usable
     // shape (springs across it would be collinear or of zero length).
-    if (!(twice_area > 2e-12 * longest_squared)) {
+    if (check_shape && !(twice_area > 2e-12 * longest_squared)) {
       std::ostringstream msg;
       msg << "face " << f << " (" << a << ", " << b << ", " << c << ") is degenerate: area "
           << 0.5 * twice_area << " m² for a longest edge of " << std::sqrt(longest_squared)

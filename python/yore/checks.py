@@ -25,11 +25,20 @@ MAX_THREADS = 256
 MAX_STEPS = 100_000_000
 #: Smallest time step, s (a smaller one only overflows step counts: 1 s is then 1e12 steps).
 MIN_DT = 1e-12
+#: Largest simulated time, s (about 32 years): a scene's duration, a stroke's time, a state's
+#: clock. Past it step counts lose their meaning (1e308 s overflowed them).
+MAX_TIME = 1e9
 #: Most pseudo-time `Simulation.settle` may spend, s (20 000 backward-Euler steps of 0.5 s).
 MAX_SETTLE_SECONDS = 10_000.0
 #: Largest rest-length factor of a stroke (the paper's is 1.1): a new spring at most ten times
 #: its current length. Past it the springs' energy overflows (1e300 gave an infinite energy).
 MAX_EXPANSION = 10.0
+#: Smallest rest-length factor of a stroke: a new spring at least a tenth of its current length
+#: (the bound mirrors MAX_EXPANSION; 5e-324 gave rest lengths of 0, a state no file can hold).
+MIN_EXPANSION = 1.0 / MAX_EXPANSION
+#: Largest mass_scale of a stroke (the paper's is 0.95): a new vertex at most ten times its
+#: corners' mean mass (1e308 gave masses beyond what a cloth may hold, a state no file can hold).
+MAX_MASS_SCALE = 10.0
 
 #: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
 #: MAX_IMAGE_PIXELS pixels in all (2^23, e.g. 3840×2160), checked before anything is allocated.

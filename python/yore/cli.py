@@ -39,9 +39,8 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports usage errors as one line and exit code 2 (as argparse does)."""
 
     def error(self, message):
-        self.exit(EXIT_BAD_INPUT, f"yore: error: {message} (see `yore {self.prog.split()[-1]} "
-                                  "--help`)\n" if " " in self.prog else
-                  f"yore: error: {message} (see `yore --help`)\n")
+        # the command as typed ("yore sweep plot", "yore run"), whose --help says more
+        self.exit(EXIT_BAD_INPUT, f"yore: error: {message} (see `{self.prog} --help`)\n")
 
 
 def _parser():
@@ -337,12 +336,10 @@ def _check(arguments):
     from .runs import load_scene
 
     from .checks import MAX_STEPS
-    from .runs.runner import check_length
+    from .runs.runner import check_scene
 
     scene = load_scene(arguments.scene, overrides=_overrides(arguments))
-    sim, _ = scene.build()
-    scene.check_strokes(sim)
-    steps = check_length(scene, sim, allow_long=True)
+    sim, steps = check_scene(scene, allow_long=True)
     long = f" (more than {MAX_STEPS}: yore run needs --allow-long)" if steps > MAX_STEPS else ""
     print(f"{arguments.scene}: OK ({sim.cloth.vertex_count} vertices, {sim.integrator}, "
           f"dt = {sim.dt:.4g} s, {steps} steps{long}, {len(scene.data['strokes'])} stroke(s))")
@@ -567,12 +564,22 @@ def _run_view(arguments, overrides) -> None:
 
 def main(argv=None) -> int:
     """Runs the command line; returns the exit code (see the module docstring)."""
+    import warnings
+
     from .runtime import end_command
 
+    shown = warnings.formatwarning
+    # a warning is one line that says what happened, not the source line that warned
+    warnings.formatwarning = _one_line_warning
     try:
         return _main(argv)
     finally:
+        warnings.formatwarning = shown
         end_command()  # the `yore` command ignores a Ctrl-C in its shutdown (see yore.runtime)
+
+
+def _one_line_warning(message, category, filename, lineno, line=None):
+    return f"yore: warning: {' '.join(str(message).split())}\n"
 
 
 def _main(argv) -> int:

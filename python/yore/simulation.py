@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
-from .checks import MAX_EXPANSION, MAX_SETTLE_SECONDS, MAX_STEPS, MIN_DT
+from .checks import MAX_EXPANSION, MAX_SETTLE_SECONDS, MIN_EXPANSION, MAX_STEPS, MIN_DT
 from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
                       INTEGRATOR_SPECS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, STROKE_DEFAULTS,
                       check_option, is_integer, is_real, resolve_options, show_value)
@@ -571,10 +571,10 @@ class Simulation:
         width, growth, refine, mass_scale = check_stroke_options(width, growth, refine,
                                                                  mass_scale)
         expansion = check_factor(expansion, "expansion")
-        if expansion > MAX_EXPANSION:
-            raise ValueError(f"expansion must be at most {MAX_EXPANSION:g} (a new spring that "
-                             f"many times its current length; the paper's is 1.1), got "
-                             f"{expansion:g}")
+        if not MIN_EXPANSION <= expansion <= MAX_EXPANSION:
+            raise ValueError(f"expansion must be in [{MIN_EXPANSION:g}, {MAX_EXPANSION:g}] (a "
+                             "new spring's rest length over its current length; the paper's "
+                             f"is 1.1), got {expansion:g}")
         return (check_stroke_points(points, dimension, name), expansion,
                 {"mass_scale": mass_scale, "width": width, "growth": growth, "refine": refine})
 

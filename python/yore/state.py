@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .checks import MIN_DT
+from ._core import Cloth
+from .checks import MAX_TIME, MIN_DT
 from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
 from .simulation import Simulation
 
@@ -49,11 +50,18 @@ def save_state(path, sim: Simulation, metadata=None) -> Path:
     """Writes ``sim`` (and optional JSON-able ``metadata``) to ``path`` (.npz); returns the path.
 
     The file is written under a temporary name and renamed, so an interrupted save never leaves
-    a half-written state behind. Raises ValueError if ``metadata`` is not JSON-able.
+    a half-written state behind. What is written is first checked as `load_state` checks what
+    it reads (the schema, then the core's consistency checks of the cloth), so a file
+    `save_state` writes is one `load_state` reads. Raises ValueError, writing nothing, if
+    ``metadata`` is not a JSON-able dict (or None) or the simulation is in a state no file may
+    hold (the message names the field).
     """
     path = Path(os.fspath(path))
     if path.suffix != ".npz":
         raise ValueError(f"a state file ends in .npz, got {path.name!r}")
+    if metadata is not None and not isinstance(metadata, dict):
+        raise ValueError(f"state metadata must be a dict or None, got "
+                         f"{type(metadata).__name__}")
     arrays = {}
     document = {"format": STATE_FORMAT, "version": STATE_VERSION,
                 "simulation": _split(sim.state(), "simulation", arrays),
@@ -62,6 +70,7 @@ def save_state(path, sim: Simulation, metadata=None) -> Path:
         text = json.dumps(document, allow_nan=False)
     except (TypeError, ValueError) as error:
         raise ValueError(f"state metadata must be JSON-able: {error}") from None
+    _check_written(path, json.loads(text), arrays)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(path.name + ".part.npz")
     np.savez(partial, **arrays, **{_DOCUMENT: np.array(text)})
@@ -106,6 +115,20 @@ def load_state(path):
         raise ValueError(f"{path}: not a consistent yore state: "
                          f"{' '.join(str(error).split())}") from None
     return sim, metadata
+
+
+def _check_written(path, document, arrays):
+    """The checks `load_state` applies to a file, applied to what `save_state` is about to
+    write (``document`` after its JSON round trip, ``arrays`` as stored): ValueError naming
+    the field otherwise, before anything is written."""
+    field = _FieldChecker(f"{path} (not written)")
+    simulation = field.join(document["simulation"], arrays, "simulation")
+    _check_simulation(field, simulation)
+    try:
+        Cloth.from_state(simulation["cloth"])
+    except (ValueError, TypeError, RuntimeError) as error:
+        raise ValueError(f"{path} (not written): the simulation is in a state no file may hold: "
+                         f"{' '.join(str(error).split())}") from None
 
 
 #: Largest state file read, bytes (a state of a million vertices is some hundreds of MB).
@@ -289,6 +312,7 @@ class _FieldChecker:
                     value < low or (low_open and value == low)))
                 or (high is not None and value > high)):
             bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
+            bounds += "" if high is None else f"{' and' if bounds else ''} <= {high:g}"
             raise self.error(field, f"got {_show(value)}", f"a finite number{bounds}")
         return float(value)
 
@@ -433,7 +457,7 @@ def _check_simulation(field, simulation):
             raise field.error(at + "axis", "is zero", "a direction")
         field.real(driver["omega"], at + "omega")
         field.real(driver["start_time"], at + "start_time")
-    field.real(cloth["clock_origin"], where + "clock_origin")
+    field.real(cloth["clock_origin"], where + "clock_origin", -MAX_TIME, high=MAX_TIME)
     field.integer(cloth["clock_steps"], where + "clock_steps", 0, 2**62)
     field.real(cloth["clock_dt"], where + "clock_dt", 0.0)
 

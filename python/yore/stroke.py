@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _core
-from .checks import check_factor
+from .checks import MAX_MASS_SCALE, check_factor
 from .meshes import MAX_MESH_VERTICES
 from .options import GROWTH_MODES  # in the order of the core's table (see the docstring)
 
@@ -171,6 +171,10 @@ def check_stroke_options(width, growth, refine, mass_scale):
                              "paper's rule) or 'conserve'")
     else:
         mass_scale = check_factor(mass_scale, "mass_scale")
+        if mass_scale > MAX_MASS_SCALE:
+            raise ValueError(f"mass_scale must be at most {MAX_MASS_SCALE:g} (a new vertex's "
+                             "mass over its corners' mean; the paper's is 0.95), got "
+                             f"{mass_scale:g}")
     return width, growth, int(refine), mass_scale
 
 

@@ -22,7 +22,9 @@ using VertexPair = std::array<std::int32_t, 2>;
 /// built from: at least one face, indices in range, three distinct vertices per face, no
 /// zero-area face, no edge shared by more than two faces, no duplicate face, no unused vertex.
 /// Throws std::invalid_argument naming the first offending face, edge or vertex.
-void validate_mesh(const Positions& positions, const Faces& faces);
+/// check_shape false skips the zero-area test: a simulated cloth may crush a face flat (a
+/// saved state is checked that way; a mesh a cloth is built from is checked whole).
+void validate_mesh(const Positions& positions, const Faces& faces, bool check_shape = true);
 
 /// Connectivity of a triangle mesh, as the paper's Fig. 1 wires springs on it.
 struct MeshConnectivity {

@@ -37,8 +37,13 @@ __all__ = ["Scene", "load_scene", "parse_override"]
 
 # -- the scene ------------------------------------------------------------------------------------
 def step_of(seconds, dt):
-    """The step (from 0) a time falls on at step dt: the nearest, as the run counts them."""
-    return int(round(seconds / dt))
+    """The step (from 0) a time falls on at step dt: the nearest, as the run counts them.
+    ValueError for a time that no step count reaches (|seconds / dt| over 2^62)."""
+    ratio = seconds / dt
+    if not abs(ratio) <= 2.0**62:  # (also NaN)
+        raise ValueError(f"t = {seconds:g} s is {ratio:g} steps of dt = {dt:g} s, more than a "
+                         "run can count (2^62)")
+    return int(round(ratio))
 
 
 @dataclass
@@ -106,7 +111,10 @@ class Scene:
         output = self.data["output"]
         if output.get("every_steps") is not None:
             return int(output["every_steps"])
-        return max(1, round(1.0 / (output["fps"] * dt)))
+        per_frame = output["fps"] * dt  # (0 when fps is tiny: no frame but the first and last)
+        if not per_frame * 2.0**62 > 1.0:
+            return 2**62
+        return max(1, round(1.0 / per_frame))
 
 
 def load_scene(path=None, text=None, overrides=None) -> Scene:
@@ -124,7 +132,8 @@ def load_scene(path=None, text=None, overrides=None) -> Scene:
     if not isinstance(text, str):
         raise ValueError(f"scene text must be a str, got {type(text).__name__}")
     try:
-        raw = tomllib.loads(text)
+        # (a byte-order mark, as some editors write one, is not part of the TOML)
+        raw = tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as error:
         match = re.search(r"line (\d+)", str(error))
         raise SceneError(source, None, f"not valid TOML: {' '.join(str(error).split())}",

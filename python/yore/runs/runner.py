@@ -40,7 +40,7 @@ from .building import apply_scene_stroke, scene_camera
 from .loading import Scene, load_scene, step_of
 from .schema import SceneError
 
-__all__ = ["run_scene", "resume_run", "RunError", "RunInterrupted", "SUMMARY_NAME",
+__all__ = ["run_scene", "resume_run", "check_scene", "RunError", "RunInterrupted", "SUMMARY_NAME",
            "STATE_NAME"]
 
 SUMMARY_NAME = "summary.json"
@@ -81,9 +81,7 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     (state saved).
     """
     _set_threads(scene, threads)
-    sim, _ = scene.build()
-    scene.check_strokes(sim)
-    check_length(scene, sim, until, allow_long)
+    sim, _ = check_scene(scene, until, allow_long)
     _check_pictures(scene, render)
     settle = None
     if scene.data["simulation"]["settle"] > 0.0:
@@ -97,6 +95,18 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     out = Path(os.fspath(out))
     claim_folder(out, record, overwrite)
     return _run(scene, sim, record, out, until, quiet, render)
+
+
+def check_scene(scene, until=None, allow_long=False):
+    """What a run checks of its scene before anything runs, in one place (`run_scene`, `yore
+    check` and a sweep's check of its cells all call it): the cloth and simulation build,
+    every stroke lies on the cloth, and the run's length is within the limit (see
+    `check_length`). Returns ``(simulation, steps)``; raises SceneError or ValueError naming
+    the problem."""
+    sim, _ = scene.build()
+    steps = check_length(scene, sim, until, allow_long)
+    scene.check_strokes(sim)
+    return sim, steps
 
 
 def _check_pictures(scene, render):
@@ -127,8 +137,9 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
         raise ValueError(f"{state_path} is a simulation state but not a run's: it has no scene "
                          "(write run states with `yore run`)")
     _check_record(state_path, record)
-    missing = [path for _, path in record["frames"] if not Path(path).is_file()]
-    if record["before"] is not None and not Path(record["before"]["file"]).is_file():
+    folder = state_path.parent  # the record's paths are relative to it (absolute in old files)
+    missing = [path for _, path in record["frames"] if not (folder / path).is_file()]
+    if record["before"] is not None and not (folder / record["before"]["file"]).is_file():
         missing.insert(0, record["before"]["file"])
     if missing:
         raise ValueError(f"{state_path}: the run's record lists {len(missing)} file(s) that no "
@@ -142,14 +153,24 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
     if record["next_stroke"] > len(scene.data["strokes"]):
         raise ValueError(f"{state_path}: field metadata.next_stroke: {record['next_stroke']} "
                          f"strokes done, but the scene has {len(scene.data['strokes'])}")
+    _check_record_against(state_path, record, scene, sim)
     _set_threads(scene, threads)
     check_length(scene, sim, until, allow_long)
+    if until is not None and _steps(float(until), sim.dt) <= record["step"]:
+        raise ValueError(f"--until {float(until):g} s is not after the state's time "
+                         f"(t = {sim.time:.6g} s): the run is already there; give a later "
+                         "time, or none to run to the scene's end")
     record["resumed_from"] = record["resumed_from"] + [str(state_path)]
-    if out is None or Path(os.fspath(out)).resolve() == state_path.parent.resolve():
-        out = state_path.parent
+    if out is None or Path(os.fspath(out)).resolve() == folder.resolve():
+        out = folder
     else:
         out = Path(os.fspath(out))
         claim_folder(out, record, overwrite)
+        # the frames and the before picture stay where they are: relative to the new folder
+        record["frames"] = [[t, _relative(folder / path, out)] for t, path in record["frames"]]
+        if record["before"] is not None:
+            record["before"] = {**record["before"],
+                                "file": _relative(folder / record["before"]["file"], out)}
     _check_pictures(scene, render)
     return _run(scene, sim, record, out, until, quiet, render)
 
@@ -167,6 +188,10 @@ def check_length(scene, sim, until=None, allow_long=False) -> int:
             raise ValueError(f"--until {until:g} s is after the scene's end "
                              f"(simulation.duration = {duration:g} s)")
     steps = _steps(duration if until is None else until, sim.dt)
+    if steps < 1:
+        raise ValueError(f"the run has no step: {duration if until is None else until:g} s is "
+                         f"less than half of dt = {sim.dt:.6g} s; give a longer "
+                         f"{'duration' if until is None else '--until'} or a smaller dt")
     if steps > MAX_STEPS and not allow_long:
         raise ValueError(f"the run is {steps} steps ({duration if until is None else until:g} s "
                          f"at dt = {sim.dt:.6g} s), more than the limit of {MAX_STEPS}: use a "
@@ -241,6 +266,43 @@ def _check_record(state_path, record):
         fail("phases", "a table of seconds per phase")
 
 
+def _check_record_against(state_path, record, scene, sim):
+    """The record against the scene it holds and the state beside it: the same integrator,
+    and the frames and records a run of that scene writes up to the record's step (numbered
+    0, 1, ... in order). ValueError naming the field otherwise: a hand-edited record is
+    refused, never half-used (an emptied frame list would overwrite the first frames)."""
+    def fail(field, problem):
+        raise ValueError(f"{state_path}: field metadata.{field}: {problem}; the record does not "
+                         "match the run (was it edited?): start the run again with --overwrite")
+
+    integrator = scene.data["simulation"]["integrator"]
+    if integrator != sim.integrator:
+        fail("scene_text", f"its scene's integrator is {integrator!r}, the state's is "
+                           f"{sim.integrator!r}")
+    every = scene.frame_interval(sim.dt)
+    step = record["step"]
+    due = step // every + 1  # frames at 0, every, 2 every, ... up to step
+    if _frame_due(step, every, _steps(scene.data["simulation"]["duration"], sim.dt)):
+        if step % every:
+            due += 1  # the scene's end
+        # an interruption may come between the steps to a frame and the frame
+        allowed = (due - 1, due)
+    else:
+        # states written before runs stopped by --until wrote no frame there have one more
+        allowed = (due, due + 1)
+    if len(record["records"]) not in allowed:
+        fail("records", f"{len(record['records'])} entries, but the run writes {due} by step "
+                        f"{step}")
+    if scene.data["output"]["format"] != "none":
+        if len(record["frames"]) != len(record["records"]):
+            fail("frames", f"{len(record['frames'])} frames for {len(record['records'])} "
+                           "records (one per frame)")
+        for number, (_, path) in enumerate(record["frames"]):
+            if not Path(path).name.startswith(f"frame_{number:05d}."):
+                fail("frames", f"entry {number} is {Path(path).name}, expected frame "
+                               f"{number:05d}")
+
+
 def _is_frame_path(text):
     """A frame file as a run writes it: OUT/frames/frame_NNNNN.EXT."""
     path = Path(text)
@@ -256,8 +318,11 @@ def _set_threads(scene, threads):
         set_num_threads(threads)
 
 
-#: Wall time between the state files a run saves at its frames (besides the one at its end).
+#: Wall time between the state files a run saves at its frames (besides the one at its end);
+#: longer once a save takes over a tenth of it (a long run's record is long).
 CHECKPOINT_SECONDS = 10.0
+#: Largest share of a run's wall time its periodic state files may take.
+CHECKPOINT_SHARE = 0.1
 
 #: Files a run writes into its folder (besides frames/).
 RUN_FILES = (SUMMARY_NAME, STATE_NAME, BEFORE_NAME, "before_after.png", "last.png",
@@ -377,13 +442,14 @@ def _run(scene, sim, record, out, until, quiet, render):
     duration = data["simulation"]["duration"]
     # (the callers checked the length against the limit, before anything was written)
     last_step = check_length(scene, sim, until, allow_long=True)
+    duration_step = _steps(duration, dt)
     every = scene.frame_interval(dt)
     schedule = sorted(((_steps(s["time"], dt), k) for k, s in enumerate(data["strokes"])))
     fmt = data["output"]["format"]
     frames = None
     if fmt != "none":
         frames = FrameSeries(out / FRAMES_DIR, stem="frame", fmt=fmt,
-                             frames=[(t, p) for t, p in record["frames"]])
+                             frames=[(t, out / p) for t, p in record["frames"]])
     camera = None
     previous_phases = dict(record.get("phases", {}))  # wall time per phase of earlier parts
     live_reports = []  # (record entry, StrokeReport): re-analysis time arrives with the next step
@@ -394,21 +460,25 @@ def _run(scene, sim, record, out, until, quiet, render):
         if bad:
             raise ValueError(f"the scene's initial state is not finite ({bad}): a value in "
                              "[material], [[driven]] or [simulation] is too large")
-    if (step % every == 0 or step == last_step) and \
-            (last_time is None or last_time < sim.time - 0.5 * dt):
-        # the first frame, or a frame an interruption came before
-        _write_frame(sim, frames, record, fmt, _measure(sim))
-    good = _Checkpoint(sim, record, live_reports)  # the last recorded frame
-
     from tqdm.auto import tqdm
 
+    started = saved_at = _time.perf_counter()
+    save_every = CHECKPOINT_SECONDS
+    # A state file before the first frame: from here on the folder always holds one, so an
+    # interruption (or a kill) at any point leaves a run that `--resume` continues.
+    with _deferred_interrupt():
+        _save(out, sim, record, previous_phases)
     bar = tqdm(total=last_step, initial=min(step, last_step), unit="step", desc="yore run",
                disable=quiet or None, delay=2.0, dynamic_ncols=True, leave=False)
-    started = saved_at = _time.perf_counter()
     status, message = None, None  # None: ran to its last step
     missed = None  # the SceneError of a stroke that missed at its time
     phases = None  # the live simulation's phases, when a rollback replaced it
     try:
+        if _frame_due(step, every, duration_step) and \
+                (last_time is None or last_time < sim.time - 0.5 * dt):
+            # the first frame, or a frame an interruption came before
+            _write_frame(sim, frames, record, fmt, _measure(sim))
+        good = _Checkpoint(sim, record, live_reports)  # the last recorded frame
         while step < last_step:
             while record["next_stroke"] < len(schedule) and \
                     schedule[record["next_stroke"]][0] <= step:
@@ -438,14 +508,16 @@ def _run(scene, sim, record, out, until, quiet, render):
             next_stroke = schedule[record["next_stroke"]][0] \
                 if record["next_stroke"] < len(schedule) else last_step
             next_frame = (step // every + 1) * every
-            target = min(next_stroke, next_frame, last_step)
+            # (at most MAX_STEPS per call: a frame interval may be longer, with --allow-long)
+            target = min(next_stroke, next_frame, last_step, step + MAX_STEPS)
             if target > step:
                 sim.step(target - step, progress=False)
                 bar.update(target - step)
                 bar.set_postfix_str(f"t={sim.time:.3f}/{last_step * dt:.3f} s", refresh=False)
                 step = target
                 record["step"] = step
-            if step % every == 0 or step == last_step:
+            due = _frame_due(step, every, duration_step)
+            if due or step == last_step:  # (a part's end is checked too, framed or not)
                 entry = _measure(sim)
                 bad = _non_finite(entry)
                 if bad:
@@ -457,15 +529,23 @@ def _run(scene, sim, record, out, until, quiet, render):
                         f"t = {failed:.6g} s (dt = {dt:.6g} s, {sim.integrator} integrator): the "
                         f"cloth's energy or area became non-finite ({bad}). "
                         f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s")
+                if not due:
+                    continue  # (the loop ends: step == last_step)
                 _write_frame(sim, frames, record, fmt, entry)
                 good = _Checkpoint(sim, record, live_reports)
-                if _time.perf_counter() - saved_at > CHECKPOINT_SECONDS:
+                if _time.perf_counter() - saved_at > save_every:
                     # a crash (or a kill) then costs at most this much of the run
+                    saving = _time.perf_counter()
                     with _deferred_interrupt():
                         _save(out, sim, _with_wall_time(record, started), previous_phases)
                     saved_at = _time.perf_counter()
+                    # the record grows with the frames: saves take at most CHECKPOINT_SHARE
+                    # of the wall time, so a frame costs the same at frame 100 000 as at 1
+                    save_every = max(CHECKPOINT_SECONDS, (saved_at - saving) / CHECKPOINT_SHARE)
     except (SimulationDiverged, _NonFinite) as error:
         status, message = "diverged", str(error)
+    except _Unsaveable as error:
+        status, message = "failed", str(error)
     except NotPositiveDefinite as error:
         # the integrator put the cloth back where the failed call began
         status, message = "diverged", (
@@ -489,7 +569,12 @@ def _run(scene, sim, record, out, until, quiet, render):
             entry["reanalyze_seconds"] = report.reanalyze_seconds
     try:
         with _deferred_interrupt():
-            state_path = _save(out, sim, record, previous_phases, phases)
+            try:
+                state_path = _save(out, sim, record, previous_phases, phases)
+            except _Unsaveable as error:
+                # kept from the last state file the run wrote (if any); said in the summary
+                state_path = None
+                status, message = "failed", str(error)
             summary = _summary(scene, sim, record, out, state_path, status, message)
             summary_path = out / SUMMARY_NAME
             write_json(summary_path, summary)
@@ -503,6 +588,8 @@ def _run(scene, sim, record, out, until, quiet, render):
         raise missed
     if status == "diverged":
         raise RunError(f"{message} State kept: {state_path}", state_path)
+    if status == "failed":
+        raise RunError(message, None)
     if render and frames is not None:
         from ..viz.pictures import render_run
 
@@ -514,6 +601,17 @@ def _run(scene, sim, record, out, until, quiet, render):
                 color_by=output["color_by"], framing=output["framing"], quiet=quiet))
             write_json(summary_path, summary)
     return summary
+
+
+def _frame_due(step, every, duration_step):
+    """Whether a frame is written at ``step``: every ``every`` steps and at the scene's end. A
+    part stopped by ``until`` between frames writes none there (its state file holds the
+    cloth), so a run split and resumed writes the frames a straight run writes."""
+    return step % every == 0 or step == duration_step
+
+
+class _Unsaveable(Exception):
+    """The simulation reached a state no state file may hold (`yore.save_state` refused it)."""
 
 
 class _NonFinite(Exception):
@@ -568,7 +666,8 @@ def _write_frame(sim, frames, record, fmt, entry):
             point_data = None if fmt == "obj" else {
                 "velocity": cloth.velocities, "expansion": metrics.vertex_expansion(cloth)}
             path = frames.write(sim.time, cloth.positions, cloth.faces, point_data=point_data)
-            record["frames"].append((sim.time, str(path.resolve())))
+            # relative to the run folder, so the folder can be moved
+            record["frames"].append((sim.time, _relative(path, frames.folder.parent)))
         record["records"].append(entry)
 
 
@@ -577,7 +676,7 @@ def _save_before(sim, out, record):
     path = out / BEFORE_NAME
     save_mesh(path, cloth.positions, cloth.faces,
               point_data={"expansion": metrics.vertex_expansion(cloth)})
-    record["before"] = {"time": sim.time, "file": str(path.resolve())}
+    record["before"] = {"time": sim.time, "file": BEFORE_NAME}  # relative to the run folder
 
 
 def _stroke_record(index, time, report):
@@ -606,7 +705,11 @@ def _save(out, sim, record, previous_phases, phases=None):
     phases = sim.stats["phases"] if phases is None else phases
     record["phases"] = {name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
                         for name in set(previous_phases) | set(phases)}
-    return save_state(out / STATE_NAME, sim, metadata=_finite_json(record)[0])
+    try:
+        return save_state(out / STATE_NAME, sim, metadata=_finite_json(record)[0])
+    except ValueError as error:
+        raise _Unsaveable(f"the run stopped at t = {sim.time:.6g} s: {error}. Nothing can "
+                          "continue it; check the scene's extreme values") from None
 
 
 def _summary(scene, sim, record, out, state_path, status, message):
@@ -617,20 +720,21 @@ def _summary(scene, sim, record, out, state_path, status, message):
     settings = {**scene.data, "simulation": {**scene.data["simulation"], "dt": sim.dt},
                 "integrator": sim.options}
     # Paths in the summary are relative to the run folder, so the folder can be moved.
-    outputs = {"state": _relative(state_path, out), "summary": SUMMARY_NAME}
+    outputs = {"state": None if state_path is None else _relative(state_path, out),
+               "summary": SUMMARY_NAME}
     if record["frames"]:
-        outputs["frames"] = _relative(Path(record["frames"][-1][1]).parent, out)
+        outputs["frames"] = _relative((out / record["frames"][-1][1]).parent, out)
         pvd = out / "frames" / "frame.pvd"
         if pvd.exists():
             outputs["pvd"] = _relative(pvd, out)
     before = None
     if record["before"]:
         before = {"time": record["before"]["time"],
-                  "file": _relative(record["before"]["file"], out)}
+                  "file": _relative(out / record["before"]["file"], out)}
         outputs["before"] = before["file"]
     summary = {
         "yore": build_info(),
-        # finished | stopped at --until | interrupted | diverged | stroke missed
+        # finished | stopped at --until | interrupted | diverged | stroke missed | failed
         "status": status,
         "message": message,
         "scene": record["scene_path"],
@@ -654,7 +758,7 @@ def _summary(scene, sim, record, out, state_path, status, message):
         # relaxation to rest before t = 0 ([simulation] settle), or null
         "settle": record.get("settle"),
         "before": before,
-        "frames": [{"time": t, "file": _relative(p, out)} for t, p in record["frames"]],
+        "frames": [{"time": t, "file": _relative(out / p, out)} for t, p in record["frames"]],
         "camera": scene.data["camera"],
         "outputs": outputs,
     }

@@ -27,7 +27,8 @@ import numpy as np
 from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAMES_PER_SECOND,
                        IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, MASS, MAX_SMOOTHING_ITERATIONS, RUN_ANIMATION,
                        STIFFNESS, STROKE_DEFAULTS)
-from ..checks import MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_SETTLE_SECONDS, MAX_THREADS, MIN_DT
+from ..checks import (MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_MASS_SCALE, MAX_SETTLE_SECONDS,
+                      MAX_THREADS, MAX_TIME, MIN_DT, MIN_EXPANSION)
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
@@ -244,8 +245,8 @@ def _mass_scale(value):
         raise Invalid(error.problem, _mass_scale.expected) from None
 
 
-_positive_factor = _number(0, strict_minimum=True)
-_mass_scale.expected = "a number > 0 or 'conserve'"
+_positive_factor = _number(0, MAX_MASS_SCALE, strict_minimum=True)
+_mass_scale.expected = f"a number in (0, {MAX_MASS_SCALE:g}] or 'conserve'"
 SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in GENERATOR_KEYS)
 
 SCHEMA = {
@@ -289,7 +290,8 @@ SCHEMA = {
                "time step; default: below the stable step (explicit) or 1/60 s; \"auto\": "
                "steps chosen by error control (tr-bdf2, cvode, arkode), dt the output "
                "interval"),
-        "duration": (_number(0, strict_minimum=True, unit="s"), REQUIRED, "simulated time"),
+        "duration": (_number(0, MAX_TIME, strict_minimum=True, unit="s"), REQUIRED,
+                     "simulated time"),
         "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
         "settle": (_number(0, MAX_SETTLE_SECONDS, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
                    "to a static equilibrium before t = 0 (Simulation.settle; no driven "
@@ -299,11 +301,11 @@ SCHEMA = {
     }, "table"),
     "integrator": (None, "table"),  # options of the chosen integrator, checked separately
     "strokes": ({
-        "time": (_number(0, unit="s"), REQUIRED, "when the stroke is drawn"),
+        "time": (_number(0, MAX_TIME, unit="s"), REQUIRED, "when the stroke is drawn"),
         "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
         "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
         "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
-        "expansion": (_number(0, MAX_EXPANSION, strict_minimum=True),
+        "expansion": (_number(MIN_EXPANSION, MAX_EXPANSION),
                       STROKE_DEFAULTS["expansion"],
                       "rest length / current length of "
                       "new springs (eq. (1))"),

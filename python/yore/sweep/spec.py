@@ -191,7 +191,7 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         path = Path(os.fspath(path))
     source = str(path) if path is not None else "<sweep>"
     try:
-        raw = tomllib.loads(text)
+        raw = tomllib.loads(text.removeprefix("\ufeff"))  # (an editor's byte-order mark)
     except tomllib.TOMLDecodeError as error:
         raise SweepError(f"{source}: not valid TOML: {' '.join(str(error).split())}") from None
     except RecursionError:
@@ -307,10 +307,16 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
             for key, value in dimension.overrides(k).items():
                 _try_overrides(sweep, source, key, {key: value})
     if check_cells:
+        from ..runs.runner import check_scene
+        from .cell import OUTPUT_OVERRIDES
+
         for cell in sweep.cells():
             try:
-                sweep.scene(cell)
-            except SceneError as error:
+                # what a cell's run checks before it runs (the same as `yore check`): a cell
+                # that would only end "failed" is refused up front
+                check_scene(load_scene(sweep.scene_path, text=sweep.scene_text,
+                                       overrides={**cell.overrides, **OUTPUT_OVERRIDES}))
+            except (SceneError, ValueError) as error:
                 raise _error(source, f"cell {cell.index} ({describe_value(sweep, cell)})",
                              " ".join(str(error).split())) from None
     return sweep
