@@ -492,3 +492,30 @@ def test_ctrl_c_in_the_command_shutdown_prints_nothing(tmp_path):
 
     assert cli.main(["check", str(EXAMPLES / "stiff.toml")]) == cli.EXIT_OK
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_warning_is_one_line_without_the_source_line(tmp_path):
+    # issue 41, class 16: warnings were printed with the Python source line that warned
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[mesh]\ngenerator = "grid"\nnx = 5\nny = 5\n[[fixed]]\n'
+                     'set = "top corners"\n[simulation]\nintegrator = "local-global"\n'
+                     'dt = 0.01\nduration = 0.02\ngravity = [0.0, -1e15, 0.0]\n'
+                     '[output]\nformat = "none"\n')
+    result = subprocess.run([sys.executable, "-m", "yore", "run", str(scene), "-o",
+                             str(tmp_path / "out"), "--quiet"], capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr
+    lines = result.stderr.splitlines()
+    assert lines and all(line.startswith("yore: warning: ") for line in lines), lines
+    assert any("iteration cap" in line for line in lines)
+
+
+def test_a_usage_error_points_at_the_help_of_the_command_as_typed(capsys):
+    # "see `yore plot --help`" named a command that does not exist
+    with pytest.raises(SystemExit) as exit_:
+        main(["sweep", "plot", "--no-such-option"])
+    assert exit_.value.code == 2
+    assert "(see `yore sweep plot --help`)" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["run", "--no-such-option"])
+    assert "(see `yore run --help`)" in capsys.readouterr().err

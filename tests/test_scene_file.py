@@ -241,3 +241,39 @@ def test_a_subnormal_mass_is_named_in_material_and_no_nan_step_is_suggested():
     with pytest.raises(SceneError, match=r"material: mass of vertex 0") as info:
         scene.build()
     assert "nan" not in str(info.value)
+
+
+# -- issue 41, classes 12 and 16: huge and tiny numbers are named, not tracebacks -------------
+
+
+def test_a_duration_past_the_time_limit_is_named():
+    with pytest.raises(SceneError, match=r"simulation.duration: got 1e\+308; expected a number "
+                                         r"> 0 and <= 1e\+09"):
+        load_scene(Path("scene.toml"), text=MINIMAL.replace("duration = 0.1",
+                                                            "duration = 1e308"))
+
+
+@pytest.mark.parametrize("fps", [5e-324, 1e-310, 1e-300])
+def test_a_tiny_frame_rate_writes_the_first_and_last_frames(tmp_path, fps):
+    # 1 / (fps × dt) overflowed (OverflowError) or divided by zero (ZeroDivisionError)
+    text = MINIMAL.replace("duration = 0.1", "duration = 0.05\ndt = 0.01") + \
+        f"[output]\nformat = \"vtu\"\nfps = {fps!r}\n"
+    summary = yore.run_scene(load_scene(Path("scene.toml"), text=text), tmp_path / "run",
+                             quiet=True, render=False)
+    assert summary["finished"] and [f["time"] for f in summary["frames"]] == [0.0, 0.05]
+
+
+def test_a_run_shorter_than_half_a_step_is_named_not_a_negative_time(tmp_path):
+    # a stroke then said "expected a time at most -1 s"
+    text = MINIMAL.replace("duration = 0.1", "duration = 0.004\ndt = 0.01") + \
+        "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n"
+    with pytest.raises(ValueError, match=r"the run has no step: 0.004 s is less than half of "
+                                         r"dt = 0.01 s") as caught:
+        yore.run_scene(load_scene(Path("scene.toml"), text=text), tmp_path / "run", quiet=True)
+    assert "-1" not in str(caught.value) and not (tmp_path / "run").exists()
+
+
+def test_a_scene_file_with_a_byte_order_mark_loads(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + MINIMAL.encode())  # as some editors save UTF-8
+    assert load_scene(path).data["mesh"]["nx"] == 5

@@ -472,3 +472,15 @@ def test_ctrl_c_during_a_sweep_is_one_line_exit_130_and_resumable(tmp_path):
     assert err.count("\n") == 1 and err.startswith("yore: interrupted;"), err
     assert f"yore sweep --resume {out}" in err
     assert (out / "results.nc").is_file() and (out / "sweep.json").is_file()
+
+
+def test_the_sweep_refuses_up_front_the_cells_yore_check_refuses(tmp_path, capsys):
+    # issue 41, class 14: a mass of 5e-324 passed the sweep's check (the scene's schema), then
+    # its cell ran and ended "failed" with exit 0; now one check (yore.runs.check_scene) for all
+    path = write(tmp_path, SMALL + '[axes]\n"material.mass" = [0.1, 5e-324]\n')
+    with pytest.raises(SweepError, match=r"cell 1 \(material.mass = 5e-324\).*mass of vertex"):
+        load_sweep(path)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(load_sweep(write(tmp_path, SMALL, "ok.toml")).scene_text)
+    assert main(["check", str(scene), "--set", "material.mass=5e-324"]) == 2
+    assert "mass of vertex" in capsys.readouterr().err

@@ -590,7 +590,12 @@ def _main(argv) -> int:
     if argv[:2] == ["sweep", "plot"]:
         argv = ["sweep-plot", *argv[2:]]
     try:
-        arguments = _parser().parse_args(argv)
+        parser = _parser()
+        arguments, unknown = parser.parse_known_args(argv)
+        if unknown:  # named by the command's parser, whose --help lists its options
+            commands = next(a for a in parser._actions if a.dest == "command").choices
+            command = commands.get(getattr(arguments, "command", None), parser)
+            command.error(f"unrecognized arguments: {' '.join(unknown)}")
         from .runs import RunError
     except KeyboardInterrupt:  # it landed while the parser was built: nothing ran yet
         print("yore: interrupted", file=sys.stderr)
