@@ -214,7 +214,7 @@ def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tm
 
     sim = yore.scenes.hanging_cloth(resolution=120, integrator="explicit")
     version, vertices = sim.cloth.topology_version, sim.cloth.vertex_count
-    with pytest.raises(RefinementTooLarge, match="more than the limit of 1000000"):
+    with pytest.raises(RefinementTooLarge, match="more than the limit of 250000"):
         sim.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=4, width=0.3)
     assert sim.cloth.topology_version == version and sim.cloth.vertex_count == vertices
     # in a scene file: one error naming the stroke's refine key, before the run
@@ -223,7 +223,7 @@ def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tm
             'width = 0.3\nrefine = 4\n')
     with pytest.raises(SceneError) as caught:
         load_scene(tmp_path / "scene.toml", text=text).check_strokes()
-    assert caught.value.key == "strokes[0].refine" and "1000000" in caught.value.problem
+    assert caught.value.key == "strokes[0].refine" and "250000" in caught.value.problem
 
 
 def test_paper_mode_with_refinement_splits_the_crossed_refined_faces():
@@ -418,3 +418,30 @@ def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_no
     implicit = yore.scenes.hanging_cloth(resolution=9, integrator="implicit")
     implicit.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2, refine=1)
     assert implicit.dt == yore.simulation.IMPLICIT_DT
+
+
+def test_repeated_refining_strokes_stop_at_the_refined_vertex_limit(tmp_path, monkeypatch):
+    """Issue 41, class 8: eight one-pass strokes over a 7×7 cloth grew it to ~500 000
+    vertices (each checked only against the 1e6 mesh limit), and the implicit factor ran out
+    of memory. Refining strokes now stop at MAX_REFINED_VERTICES (lowered here to keep the
+    test small: the rule is the same) — in the API and in `yore check`, before the run."""
+    import yore.stroke
+    from yore.stroke import RefinementTooLarge
+
+    assert yore.stroke.MAX_REFINED_VERTICES == 250_000
+    monkeypatch.setattr(yore.stroke, "MAX_REFINED_VERTICES", 3000)
+    sim = yore.scenes.hanging_cloth(resolution=7, integrator="explicit")
+    counts = []
+    with pytest.raises(RefinementTooLarge, match="more than the limit of 3000"):
+        for _ in range(8):
+            sim.stroke_material([[0.05, 0.5], [0.95, 0.5]], refine=1, width=2.0)
+            counts.append(sim.cloth.vertex_count)
+    assert len(counts) < 8 and counts[-1] <= 3000 and sim.cloth.vertex_count == counts[-1]
+    sim.stroke_material([[0.05, 0.5], [0.95, 0.5]])  # a stroke that does not refine still may
+    stroke = ('[[strokes]]\ntime = 0.0\nmaterial = [[0.05, 0.5], [0.95, 0.5]]\nwidth = 2.0\n'
+              'refine = 1\n')
+    text = ('[mesh]\ngenerator = "grid"\nnx = 7\nny = 7\n[simulation]\nduration = 0.01\n'
+            'dt = 0.001\n' + stroke * 8)
+    with pytest.raises(SceneError) as caught:
+        load_scene(tmp_path / "scene.toml", text=text).check_strokes()
+    assert caught.value.key == f"strokes[{len(counts)}].refine"

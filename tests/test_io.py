@@ -297,3 +297,57 @@ def test_load_frame_returns_point_data_and_checks_its_length(tmp_path):
     assert np.array_equal(data["expansion"], np.ones(len(V)))
     with pytest.raises(FileNotFoundError):
         yore.io.load_frame(tmp_path / "missing.vtu")
+
+
+def _vtu_with_an_inflating_array(path, inflated_bytes):
+    """A valid .vtu of a 3×3 grid (meshio, zlib) whose point array "pad" is one zlib block
+    that inflates to ``inflated_bytes`` zero bytes (a few hundred kB compressed)."""
+    import base64
+    import zlib
+
+    V, F = bumpy_grid(3, 3)
+    meshio.write(path, meshio.Mesh(V, [("triangle", F)], point_data={"pad": np.zeros(len(V))}),
+                 compression="zlib")
+    text = path.read_text()
+    start = text.index('Name="pad"')
+    begin = text.index(">", start) + 1
+    end = text.index("</DataArray>", begin)
+    block = zlib.compress(bytes(inflated_bytes), 9)
+    header = np.array([1, inflated_bytes, inflated_bytes, len(block)], dtype=np.uint64)
+    if 'header_type="UInt64"' not in text:
+        header = header.astype(np.uint32)
+    payload = base64.b64encode(header.tobytes()).decode() + base64.b64encode(block).decode()
+    path.write_text(text[:begin] + payload + text[end:])
+    return path
+
+
+def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_inflating(
+        tmp_path):
+    """Issue 41, class 9: a 1.4 MB compressed .vtu inflated to 3.2 GB before it was refused.
+    Its arrays may now inflate only to what the shapes its XML declares allow (here 9 points
+    and 8 cells: some kB), counted while inflating, so the 512 MiB block below is stopped
+    after a few kB, whatever its header claims."""
+    import tracemalloc
+
+    path = _vtu_with_an_inflating_array(tmp_path / "bomb.vtu", 512 << 20)
+    assert path.stat().st_size < 1 << 20
+    budget = yore.io.vtu_inflation_budget(path.read_bytes())
+    assert budget < 1 << 20
+    tracemalloc.start()
+    try:
+        for read in (yore.load_mesh, yore.io.load_frame):
+            with pytest.raises(ValueError, match=rf"inflate to more than the {budget} bytes") \
+                    as caught:
+                read(path)
+            assert str(path) in str(caught.value) and "\n" not in str(caught.value)
+        assert tracemalloc.get_traced_memory()[1] < 16 << 20
+    finally:
+        tracemalloc.stop()
+    # the same file with an honest array reads, and meshio is left as it was
+    honest = _vtu_with_an_inflating_array(tmp_path / "ok.vtu", 9 * 8)
+    V, F, data = yore.io.load_frame(honest)
+    assert len(V) == 9 and np.array_equal(data["pad"], np.zeros(9))
+    import meshio.vtu._vtu as vtu
+    import zlib
+
+    assert vtu.zlib is zlib

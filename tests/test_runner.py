@@ -492,3 +492,31 @@ def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(tmp_pat
     summary = strict_json(tmp_path / "summary.json")
     assert summary["steps"] == 30 and summary["status"] == "finished"
     assert [round(f["time"], 6) for f in summary["frames"]] == [0.0, 0.012, 0.024, 0.03]
+
+
+def test_out_of_memory_ends_the_run_failed_with_its_last_frame_kept(tmp_path, monkeypatch,
+                                                                    straight, capsys):
+    # issue 41, class 8: CHOLMOD's out of memory (MemoryError in Python) was a traceback that
+    # kept only before.vtu; now the run goes back to its last frame, saves it, and says so
+    original = yore.Simulation.step
+    calls = {"count": 0}
+
+    def exhausted(self, *args, **kwargs):
+        calls["count"] += 1
+        if calls["count"] == 4:
+            original(self, 1, progress=False)  # some work done, then the allocation fails
+            raise MemoryError
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(yore.Simulation, "step", exhausted)
+    assert run_hanging(tmp_path) == 1
+    monkeypatch.undo()
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error: out of memory between t = ") and "\n" not in error
+    assert "State kept" in error
+    summary = strict_json(tmp_path / "summary.json")
+    assert summary["status"] == "failed" and summary["outputs"]["state"] == "state.npz"
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    assert record["frames"] and sim.time == pytest.approx(record["frames"][-1][0])
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)

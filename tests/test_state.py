@@ -373,3 +373,60 @@ def test_a_state_whose_springs_are_all_bending_springs_is_refused_on_loading(sta
 
     tampered(state_file, all_bending)
     one_line_error(state_file, r"edge \(0, 1\) of the faces has no structural spring")
+
+
+def test_a_small_state_that_would_inflate_into_gigabytes_is_refused_unread(tmp_path):
+    """Issue 41, class 9: a 1 MB state whose referenced member is a deflated 1 GiB block
+    inflated to 2.1 GB before it was refused. The budget comes from the declared shapes (the
+    cloth's vertex count) and is checked from the headers before any array is read; the
+    member here declares 256 MiB (a few hundred kB compressed), far past a 9-vertex cloth's."""
+    import tracemalloc
+    import zipfile
+
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01))
+    path = yore.save_state(tmp_path / "state.npz", sim, metadata={"note": "x"})
+    bomb = tmp_path / "bomb.npz"
+    big = 256 << 20
+    with zipfile.ZipFile(path) as source, \
+            zipfile.ZipFile(bomb, "w", compression=zipfile.ZIP_DEFLATED) as target:
+        for entry in source.infolist():
+            if entry.filename == "simulation/cloth/spring_rest.npy":
+                header = np.lib.format.header_data_from_array_1_0(np.zeros(0))
+                header["shape"] = (big // 8,)
+                with target.open(entry.filename, "w", force_zip64=True) as stream:
+                    np.lib.format.write_array_header_1_0(stream, header)
+                    block = bytes(1 << 20)
+                    for _ in range(big >> 20):
+                        stream.write(block)
+            else:
+                target.writestr(entry, source.read(entry))
+    assert bomb.stat().st_size < 2 << 20
+    tracemalloc.start()
+    try:
+        one_line_error(bomb, r"field simulation.cloth.spring_rest: the simulation arrays "
+                             r"declare \d+ bytes in all .*refused before reading")
+        assert tracemalloc.get_traced_memory()[1] < 32 << 20
+    finally:
+        tracemalloc.stop()
+    with pytest.raises(ValueError, match="more than the limit"):  # the document, likewise
+        yore.state._read_npy(_FakeStream(big), big, limit=1 << 20)
+
+
+class _FakeStream:
+    """A .npy stream whose header announces ``size`` bytes of float64 and that holds none:
+    reading past the header fails the test."""
+
+    def __init__(self, size):
+        import io
+
+        header = np.lib.format.header_data_from_array_1_0(np.zeros(0))
+        header["shape"] = (size // 8,)
+        self.buffer = io.BytesIO()
+        np.lib.format.write_array_header_1_0(self.buffer, header)
+        self.buffer.seek(0)
+        self.header_end = len(self.buffer.getvalue())
+
+    def read(self, count=-1):
+        if self.buffer.tell() >= self.header_end:
+            raise AssertionError("read past the header")
+        return self.buffer.read(count)

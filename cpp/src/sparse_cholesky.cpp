@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <new>
 #include <vector>
 #include <sstream>
 #include <stdexcept>
@@ -157,6 +158,9 @@ struct SparseCholesky::Impl {
   }
 
   void check(const char* what) const {
+    // Out of memory is std::bad_alloc (Python's MemoryError): a run can tell it from a solver
+    // failure and stop cleanly with its state kept.
+    if (common.status == CHOLMOD_OUT_OF_MEMORY) throw std::bad_alloc();
     if (common.status < CHOLMOD_OK) {
       std::ostringstream msg;
       msg << "CHOLMOD " << what << " failed with status " << common.status

@@ -7,15 +7,18 @@ arrays in metres, faces f×3 int32 arrays of vertex indices.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import math
 import numbers
 import os
+import re
 import stat
 import sys
-from xml.sax.saxutils import quoteattr
+import threading
 from collections.abc import Mapping
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import meshio
 import numpy as np
@@ -210,7 +213,12 @@ def _read_with_meshio(path: Path) -> meshio.Mesh:
     reasons = []
     for name in formats:
         try:
+            if name == "vtu":
+                with _inflation_budget(path):
+                    return _meshio_readers[name](str(path))
             return _meshio_readers[name](str(path))
+        except _Inflated as error:
+            raise ValueError(f"cannot read mesh file {path}: {error}") from None
         except meshio.ReadError as error:
             # Some readers raise a ReadError without a message; the parser's own exception,
             # if it has text, is then the best reason there is.
@@ -237,6 +245,71 @@ def _read_with_meshio(path: Path) -> meshio.Mesh:
     if len(text) > 400:
         text = text[:397] + "..."
     raise ValueError(f"cannot read mesh file {path}: {text}")
+
+
+class _Inflated(Exception):
+    """A compressed mesh file inflated past its budget (the message says how far)."""
+
+
+_VTU_ITEM_BYTES = {b"Int8": 1, b"UInt8": 1, b"Int16": 2, b"UInt16": 2, b"Int32": 4,
+                   b"UInt32": 4, b"Float32": 4, b"Int64": 8, b"UInt64": 8, b"Float64": 8}
+_INFLATION_LOCK = threading.Lock()
+
+
+def vtu_inflation_budget(data: bytes) -> int:
+    """Bytes a .vtu file's compressed arrays may inflate to, from the shapes its XML declares:
+    8 × (points + cells) entries of every DataArray (components × item size each; a triangle's
+    connectivity is 3 entries per cell), at most `MAX_MESH_FILE_BYTES` (content past it is
+    refused as a file past it would be)."""
+    entities = sum(int(n) for n in re.findall(rb'NumberOf(?:Points|Cells)\s*=\s*"(\d{1,18})"',
+                                              data))
+    per_entity = 0
+    for tag in re.findall(rb"<DataArray\b[^>]*>", data):
+        kind = re.search(rb'\stype\s*=\s*"(\w+)"', tag)
+        components = re.search(rb'NumberOfComponents\s*=\s*"(\d{1,9})"', tag)
+        per_entity += _VTU_ITEM_BYTES.get(kind.group(1) if kind else b"", 8) * \
+            (int(components.group(1)) if components else 1)
+    return min(8 * entities * per_entity + (64 << 10), MAX_MESH_FILE_BYTES)
+
+
+class _BudgetedDecompressor:
+    """Stands in for meshio's ``zlib``/``lzma`` module while a .vtu file is read: its
+    ``decompress`` inflates at most the bytes left in the shared budget (never more), and
+    raises _Inflated past it."""
+
+    def __init__(self, make, budget):
+        self.make, self.budget = make, budget
+
+    def decompress(self, data):
+        left = self.budget["left"]
+        inflated = self.make().decompress(data, left + 1)
+        if len(inflated) > left:
+            raise _Inflated(f"its compressed arrays inflate to more than the "
+                            f"{self.budget['total']} bytes its declared shapes allow "
+                            "(refused while inflating)")
+        self.budget["left"] = left - len(inflated)
+        return inflated
+
+
+@contextlib.contextmanager
+def _inflation_budget(path):
+    """meshio's VTU reader with `vtu_inflation_budget` bytes to inflate, shared by every
+    compressed block of the file."""
+    import lzma
+    import zlib
+
+    from meshio.vtu import _vtu
+
+    budget = vtu_inflation_budget(Path(path).read_bytes())
+    shared = {"left": budget, "total": budget}
+    with _INFLATION_LOCK:
+        saved = _vtu.zlib, _vtu.lzma
+        _vtu.zlib = _BudgetedDecompressor(zlib.decompressobj, shared)
+        _vtu.lzma = _BudgetedDecompressor(lzma.LZMADecompressor, shared)
+        try:
+            yield
+        finally:
+            _vtu.zlib, _vtu.lzma = saved
 
 
 def save_mesh(path, V, F, point_data=None):

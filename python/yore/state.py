@@ -186,9 +186,11 @@ def _read_archive(path):
             if member not in by_name:
                 raise _DocumentError(f"{path} is not a yore state file (no {_DOCUMENT} entry)")
             with archive.open(by_name[member]) as stream:
-                text = _read_npy(stream, by_name[member].file_size)
+                text = _read_npy(stream, by_name[member].file_size,
+                                 limit=4 * _MAX_DOCUMENT_CHARS)
             document = _parse_document(path, text)
             referenced = _referenced_arrays(document)
+            wanted = {}
             for name, entry in by_name.items():
                 member = name
                 if name[:-4] == _DOCUMENT:
@@ -197,7 +199,14 @@ def _read_archive(path):
                     unknown.append(name[:-4])  # refused by the caller, never read
                     continue
                 with archive.open(entry) as stream:
-                    arrays[name[:-4]] = _read_npy(stream, entry.file_size)
+                    wanted[name] = _npy_header(stream, entry.file_size)
+            member = None
+            _check_budget(path, wanted)
+            for name, entry in by_name.items():
+                if name in wanted:
+                    member = name
+                    with archive.open(entry) as stream:
+                        arrays[name[:-4]] = _read_npy(stream, entry.file_size)
     except zipfile.BadZipFile as error:
         where = f" (member {member})" if member else ""
         raise ValueError(f"{path} is not a readable yore state file (.npz){where}: "
@@ -245,8 +254,44 @@ def _referenced_arrays(document):
     return names
 
 
-def _read_npy(stream, size):
-    """One .npy member: header checked against the member's size before the data is read."""
+#: Bytes a state's simulation arrays may declare in all, per vertex of its cloth (positions,
+#: velocities, masses, faces, springs of both kinds, material coordinates, bending rest
+#: positions, a history, drivers: about 500 on a grid), plus a fixed allowance; the metadata's
+#: arrays at most _METADATA_ARRAY_BYTES. Checked from the members' headers before any array is
+#: read, so a small file cannot inflate into gigabytes.
+_BYTES_PER_VERTEX = 2048
+_FIXED_BYTES = 1 << 20
+_METADATA_ARRAY_BYTES = 256 << 20
+_POSITIONS = "simulation/cloth/positions.npy"
+
+
+def _check_budget(path, headers):
+    """_DocumentError (naming the file, the member and the budget) if the arrays' declared
+    sizes pass the budget their cloth's vertex count gives (`_BYTES_PER_VERTEX`)."""
+    def nbytes(name):
+        shape, dtype, _ = headers[name]
+        return math.prod(shape) * dtype.itemsize
+
+    shape = headers.get(_POSITIONS, ((0,), None))[0]
+    vertices = shape[0] if len(shape) == 2 else 0
+    for prefix, budget, what in (
+            ("simulation/", _FIXED_BYTES + _BYTES_PER_VERTEX * vertices,
+             f"{_FIXED_BYTES + _BYTES_PER_VERTEX * vertices} for a cloth of {vertices} "
+             f"vertices ({_BYTES_PER_VERTEX} per vertex)"),
+            ("metadata/", _METADATA_ARRAY_BYTES, str(_METADATA_ARRAY_BYTES))):
+        names = [name for name in headers if name.startswith(prefix)]
+        if sum(nbytes(name) for name in names) > budget:
+            largest = max(names, key=nbytes)
+            raise _DocumentError(
+                f"{path}: field {largest[:-4].replace('/', '.')}: the {prefix[:-1]} arrays "
+                f"declare {sum(nbytes(name) for name in names)} bytes in all (this one "
+                f"{nbytes(largest)}), more than the {what} bytes a state may hold; refused "
+                "before reading")
+
+
+def _npy_header(stream, size):
+    """(shape, dtype) of a .npy member, checked against the member's size (nothing inflated
+    past the header)."""
     version = np.lib.format.read_magic(stream)
     if version == (1, 0):
         shape, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
@@ -256,10 +301,20 @@ def _read_npy(stream, size):
         raise ValueError(f".npy format version {version} is not one yore writes")
     if dtype.hasobject:
         raise ValueError("holds Python objects (a pickle), which a state file never does")
-    count = math.prod(shape)
-    if count * dtype.itemsize > size:
+    if math.prod(shape) * dtype.itemsize > size:
         raise ValueError(f"the header announces shape {shape} of {dtype}, more than the "
                          f"{size} bytes stored")
+    return shape, dtype, fortran
+
+
+def _read_npy(stream, size, limit=None):
+    """One .npy member: header checked against the member's size (and ``limit`` bytes) before
+    the data is read."""
+    shape, dtype, fortran = _npy_header(stream, size)
+    count = math.prod(shape)
+    if limit is not None and count * dtype.itemsize > limit:
+        raise ValueError(f"the header announces {count * dtype.itemsize} bytes, more than the "
+                         f"limit of {limit}; refused before reading")
     data = stream.read(count * dtype.itemsize)
     if len(data) != count * dtype.itemsize:
         raise ValueError(f"truncated: {len(data)} of {count * dtype.itemsize} bytes")

@@ -49,7 +49,7 @@ from .meshes import MAX_MESH_VERTICES
 from .options import GROWTH_MODES  # in the order of the core's table (see the docstring)
 
 __all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
-           "GROWTH_MODES", "MAX_REFINE", "falloff_weight"]
+           "GROWTH_MODES", "MAX_REFINE", "MAX_REFINED_VERTICES", "falloff_weight"]
 
 #: The degenerate-case rules (see the module docstring).
 MIN_BARYCENTRIC = 0.1
@@ -61,6 +61,11 @@ REFINE_VERTICES_PER_FACE = _core.refine_vertices_per_face
 REFINE_BAND_GROWTH = _core.refine_band_growth
 #: Most refinement passes one stroke may ask for: each pass quadruples the band's faces.
 MAX_REFINE = _core.max_refine
+#: Most vertices a refining stroke (refine > 0) may leave the cloth with, predicted from above
+#: before it refines. Refinement grows geometrically: eight strokes of one pass over a 7×7
+#: cloth reached ~500 000 vertices, whose implicit factor then ran out of memory (2.9 GB). A
+#: mesh read or generated may still have up to `MAX_MESH_VERTICES`.
+MAX_REFINED_VERTICES = 250_000
 
 
 class StrokeMissed(ValueError):
@@ -188,7 +193,7 @@ def predicted_refined_vertices(vertices, band_faces, passes):
 
 
 class RefinementTooLarge(ValueError):
-    """A stroke's refinement could make the mesh larger than `MAX_MESH_VERTICES`."""
+    """A stroke's refinement could make the mesh larger than `MAX_REFINED_VERTICES`."""
 
 
 def apply_stroke(cloth, trace, points, expansion, mass_scale, width=None, growth="paper",
@@ -201,14 +206,15 @@ def apply_stroke(cloth, trace, points, expansion, mass_scale, width=None, growth
     with z = 0, ``eye``, ``base_direction``, ``direction_per_pixel_x``,
     ``direction_per_pixel_y``, ``spacing_pixels``), all in ``trace_options``. Raises
     StrokeMissed when a trace finds nothing, RefinementTooLarge (the cloth unchanged) when the
-    refinement could make the mesh larger than `MAX_MESH_VERTICES`.
+    refinement could make the mesh larger than `MAX_REFINED_VERTICES`.
     """
     conserve = isinstance(mass_scale, str) and mass_scale == "conserve"
     fields = dict(_core.apply_stroke(
         cloth, trace, points, growth=growth, width=0.0 if width is None else float(width),
         refine=refine, expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
         conserve_mass=conserve, min_barycentric=MIN_BARYCENTRIC,
-        min_angle_degrees=MIN_ANGLE_DEGREES, max_vertices=MAX_MESH_VERTICES, **trace_options))
+        min_angle_degrees=MIN_ANGLE_DEGREES,
+        max_vertices=MAX_REFINED_VERTICES if refine > 0 else MAX_MESH_VERTICES, **trace_options))
     weights = {"spring_weights": fields.pop("spring_weights"),
                "vertex_weights": fields.pop("vertex_weights")}
     for name in ("faces_skipped", "region_faces", "new_vertices", "line_vertices"):

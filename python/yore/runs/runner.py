@@ -473,6 +473,7 @@ def _run(scene, sim, record, out, until, quiet, render):
     status, message = None, None  # None: ran to its last step
     missed = None  # the SceneError of a stroke that missed at its time
     phases = None  # the live simulation's phases, when a rollback replaced it
+    good = None  # the last recorded frame's checkpoint
     try:
         if _frame_due(step, every, duration_step) and \
                 (last_time is None or last_time < sim.time - 0.5 * dt):
@@ -546,6 +547,19 @@ def _run(scene, sim, record, out, until, quiet, render):
         status, message = "diverged", str(error)
     except _Unsaveable as error:
         status, message = "failed", str(error)
+    except MemoryError:
+        # (CHOLMOD's out of memory is one too) back to the last recorded frame, whose state
+        # is then saved: the run fails cleanly, and can continue where there is more memory
+        failed = sim.time
+        phases = sim.stats["phases"]
+        if good is not None:
+            sim = good.restore(record, live_reports)
+        back = sim.time
+        status, message = "failed", (
+            f"out of memory between t = {back:.6g} s and t = {failed:.6g} s "
+            f"({sim.cloth.vertex_count} vertices, {sim.integrator} integrator): the "
+            "integrator's matrices do not fit; try integrator = \"explicit\", or fewer or "
+            f"narrower refining strokes. The run went back to t = {back:.6g} s")
     except NotPositiveDefinite as error:
         # the integrator put the cloth back where the failed call began
         status, message = "diverged", (
@@ -589,7 +603,8 @@ def _run(scene, sim, record, out, until, quiet, render):
     if status == "diverged":
         raise RunError(f"{message} State kept: {state_path}", state_path)
     if status == "failed":
-        raise RunError(message, None)
+        raise RunError(message if state_path is None else f"{message} State kept: {state_path}",
+                       state_path)
     if render and frames is not None:
         from ..viz.pictures import render_run
 
