@@ -5,6 +5,7 @@ axis fails before anything runs; the client's memory does not grow with the cell
 from __future__ import annotations
 
 import json
+import os
 import re
 import tracemalloc
 
@@ -481,6 +482,51 @@ def test_the_sweep_refuses_up_front_the_cells_yore_check_refuses(tmp_path, capsy
     with pytest.raises(SweepError, match=r"cell 1 \(material.mass = 5e-324\).*mass of vertex"):
         load_sweep(path)
     scene = tmp_path / "scene.toml"
-    scene.write_text(load_sweep(write(tmp_path, SMALL, "ok.toml")).scene_text)
+    scene.write_text(load_sweep(write(tmp_path, SMALL + '[axes]\n"material.mass" = [0.1]\n',
+                                      "ok.toml")).scene_text)
     assert main(["check", str(scene), "--set", "material.mass=5e-324"]) == 2
     assert "mass of vertex" in capsys.readouterr().err
+
+
+def test_a_ctrl_c_while_the_cluster_starts_stops_the_sweep_before_any_cell(tmp_path):
+    """Issue 41, class 10: 13 of 14 SIGINTs sent while the local cluster started were lost
+    (SIGINT was ignored then, so that the workers inherit the ignoring): every cell ran, exit
+    0. The Ctrl-C is sent here from inside the cluster's start, to the whole process as the
+    terminal sends it, in a fresh `yore sweep` process (no timing involved)."""
+    import subprocess
+    import sys
+
+    path = write(tmp_path, SMALL + '[axes]\n"material.mass" = [0.1, 0.2]\n')
+    program = f"""
+import os, signal, sys
+import dask.distributed
+from yore.cli import main
+
+real = dask.distributed.LocalCluster
+
+def starting(*args, **kwargs):
+    os.kill(os.getpid(), signal.SIGINT)
+    return real(*args, **kwargs)
+
+dask.distributed.LocalCluster = starting
+sys.exit(main(["sweep", {str(path)!r}, "-o", {str(tmp_path / "out")!r}, "--workers", "1",
+               "--quiet"]))
+"""
+    result = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 130, result.stderr
+    assert result.stderr.strip().splitlines()[-1].startswith("yore: interrupted")
+    assert not list((tmp_path / "out" / "cells").glob("*.json"))  # no cell ran
+    assert open_results(tmp_path / "out")["status"].values.tolist() == ["", ""]
+
+
+def test_workers_are_bounded_by_the_machines_cores(tmp_path):
+    from yore.sweep.run import max_local_workers
+
+    most = max_local_workers()
+    assert most == 2 * len(os.sched_getaffinity(0))
+    path = write(tmp_path, SMALL + '[axes]\n"material.mass" = [0.1]\n')
+    with pytest.raises(SweepError, match=rf"workers must be an integer in \[1, {most}\], got "
+                                         rf"{most + 1}: at most twice this machine's"):
+        run(path, tmp_path / "out", workers=most + 1, quiet=True)
+    assert not (tmp_path / "out").exists()

@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import os as _os
 
-# First, before the heavy imports: the `yore` command's Ctrl-C while it starts (yore.runtime).
+# First, before the heavy imports: a sweep worker ignores Ctrl-C, and the `yore` command's
+# Ctrl-C while it starts is one line (yore.runtime).
 from .runtime import guard_command_start as _guard_command_start
+from .runtime import ignore_interrupts_in_sweep_workers as _ignore_interrupts_in_sweep_workers
 
+_ignore_interrupts_in_sweep_workers()
 _guard_command_start()
 
 from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the guard)

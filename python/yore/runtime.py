@@ -57,6 +57,19 @@ _guarding = [False]
 _command = [False]  # this process is the `yore` command
 
 
+#: Set in the environment of the worker processes a sweep's local cluster starts
+#: (`yore.sweep.run`): they ignore Ctrl-C from their first import of yore on (the terminal's
+#: Ctrl-C reaches the whole process group; only the client acts on it, closing the cluster).
+SWEEP_WORKER_ENV = "YORE_SWEEP_WORKER"
+
+
+def ignore_interrupts_in_sweep_workers() -> None:
+    """In a sweep's worker process (`SWEEP_WORKER_ENV` set), SIGINT is ignored from here on."""
+    if os.environ.get(SWEEP_WORKER_ENV) == "1" and \
+            threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the process
     print("yore: interrupted", file=sys.stderr, flush=True)
     os._exit(130)

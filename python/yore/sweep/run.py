@@ -27,6 +27,7 @@ import threading
 import time
 from pathlib import Path
 
+from ..runtime import SWEEP_WORKER_ENV
 from .cell import run_cell
 from .results import CELLS_DIR, RESULTS_NAME, Results
 from .spec import Sweep, SweepError, load_sweep
@@ -152,6 +153,15 @@ def _connect(scheduler, timeout):
     return outcome["client"]
 
 
+def max_local_workers() -> int:
+    """Most workers a local cluster may have: twice the cores this process may use."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return 2 * max(1, cores)
+
+
 def _client(scheduler, workers, quiet):
     from dask.distributed import Client, LocalCluster
 
@@ -160,25 +170,38 @@ def _client(scheduler, workers, quiet):
     # spawns them; the client's own environment is put back afterwards, so a sweep leaves the
     # caller's process as it was (its BLAS and OpenMP settings included)
     saved = dict(os.environ)
-    # The worker processes start with SIGINT ignored (an ignored signal stays ignored across
-    # exec, and Python then installs no KeyboardInterrupt handler): a Ctrl-C at the terminal
-    # reaches the whole process group, and only this process should act on it, closing the
-    # cluster; workers interrupted mid-task printed tracebacks and one never exited. Their own
-    # logs are silenced below CRITICAL: a cell's failure is its result, not a log line.
+    # The worker processes ignore SIGINT (a Ctrl-C at the terminal reaches the whole process
+    # group, and only this process should act on it, closing the cluster; workers interrupted
+    # mid-task printed tracebacks and one never exited): they start with SWEEP_WORKER_ENV set,
+    # and yore, which they import first (the `yore` command's script, and the preload), then
+    # ignores it. This process keeps its Ctrl-C: one while the cluster starts is recorded
+    # (ignoring it here, as yore once did, lost 13 of 14) and acted on once the cluster is up:
+    # it is closed, and the sweep stops as interrupted before any cell runs. Their own logs are
+    # silenced below CRITICAL: a cell's failure is its result, not a log line.
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda number, frame: caught.append(number)) \
+        if main_thread else None
     os.environ["PYTHONWARNINGS"] = ",".join(
         filter(None, [os.environ.get("PYTHONWARNINGS"), QUIET_TRACKER]))
+    os.environ[SWEEP_WORKER_ENV] = "1"
+    cluster = client = None
     try:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0", silence_logs=logging.CRITICAL,
-                               env=PINNED)
+                               env={**PINNED, SWEEP_WORKER_ENV: "1"}, preload=["yore"])
         client = Client(cluster)
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
         os.environ.clear()
         os.environ.update(saved)
+        if caught:
+            for part in (client, cluster):
+                if part is not None:
+                    part.close()
+    if caught:
+        raise KeyboardInterrupt
     return client, cluster
 
 
@@ -192,9 +215,13 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
     ``workers`` processes. resume : skip the cells ``out`` already holds. cell_function : what
     runs a cell (default `run_cell`; tests pass stand-ins). Raises SweepError before anything
     runs when the sweep or the folder is wrong."""
+    most = max_local_workers()
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or not 1 <= workers <= 1024):
-        raise SweepError(f"workers must be an integer in [1, 1024], got {workers!r}")
+                                or not 1 <= workers <= most):
+        raise SweepError(f"workers must be an integer in [1, {most}], got {workers!r}: at "
+                         f"most twice this machine's {most // 2} core(s) (a worker is a "
+                         "process of about 80 MB running one cell on one core; more only "
+                         "share the cores)")
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
     out = Path(os.fspath(out))
@@ -217,7 +244,13 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
         results.write()
         return results
     function = cell_function or run_cell
-    client, cluster = (remote, None) if remote is not None else _client(None, workers, quiet)
+    try:
+        client, cluster = (remote, None) if remote is not None else \
+            _client(None, workers, quiet)
+    except BaseException:  # (a Ctrl-C while the cluster started) the Dataset says none ran
+        results.reference_errors()
+        results.write()
+        raise
     from dask.distributed import as_completed
     from tqdm.auto import tqdm
 
