@@ -108,3 +108,42 @@ def test_implicit_stats_report_the_blas_threads(restore_threads):
     threads = sim.stats["threads"]
     assert threads["configured"] == 1 and threads["blas"] in (0, 1)
     assert "last_step" not in threads  # the implicit step's parallelism is the BLAS's
+
+
+def _under_address_space_limit(gib, *arguments):
+    """Runs ``python -c ...`` (or the `yore` command) under RLIMIT_AS = ``gib`` GiB."""
+    import resource
+    import subprocess
+    import sys
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (int(gib * 2**30), int(gib * 2**30)))
+
+    command = [sys.executable, "-m", "yore", *arguments] if arguments[0] != "-c" else \
+        [sys.executable, *arguments]
+    return subprocess.run(command, preexec_fn=limit, capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_threads_that_the_address_space_cannot_hold_are_refused_in_one_line(tmp_path):
+    """Issue 41, class 11: `--threads 32` under a 3–4 GB address-space limit never exited (the
+    threads' creation hung). Threads are now bounded by the limit: (3 GiB − 1 GiB) / 256 MiB
+    = 8 fit (measured: 12 ran, 16 hung), and OpenMP's default is clamped likewise."""
+    from yore.runtime import threads_the_address_space_holds
+
+    assert threads_the_address_space_holds() is None  # no limit in the test process
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[mesh]\ngenerator = "grid"\nnx = 5\nny = 5\n[[fixed]]\n'
+                     'set = "top corners"\n[simulation]\nintegrator = "implicit"\ndt = 0.01\n'
+                     'duration = 0.02\n[output]\nformat = "none"\n')
+    refused = _under_address_space_limit(3, "run", str(scene), "-o", str(tmp_path / "a"),
+                                          "--quiet", "--threads", "32")
+    assert refused.returncode == 2
+    assert refused.stderr.startswith("yore: error: 32 threads do not fit in this process's "
+                                     "address-space limit") and refused.stderr.count("\n") == 1
+    assert "use at most 8 threads" in refused.stderr
+    ran = _under_address_space_limit(3, "run", str(scene), "-o", str(tmp_path / "b"),
+                                     "--quiet", "--threads", "8")
+    assert ran.returncode == 0, ran.stderr
+    clamped = _under_address_space_limit(1.25, "-c", "import yore; print(yore._core.max_threads())")
+    assert clamped.returncode == 0 and clamped.stdout.strip() == "1", clamped.stderr

@@ -34,6 +34,9 @@ from . import _core as _threads_core
 if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
                                             "OMP_NUM_THREADS")):
     _threads_core.set_blas_threads(1)
+from .runtime import clamp_threads_to_the_address_space as _clamp_threads  # noqa: E402
+
+_clamp_threads()
 
 from .runtime import VERSION as __version__, build_info, set_num_threads  # noqa: E402,F401
 

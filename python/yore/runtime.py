@@ -45,7 +45,51 @@ def set_num_threads(threads: int) -> None:
             not 1 <= threads <= MAX_THREADS:
         raise ValueError(f"the number of threads must be an int in [1, {MAX_THREADS}], got "
                          f"{threads!r}")
+    most = threads_the_address_space_holds()
+    if most is not None and threads > most:
+        raise ValueError(
+            f"{threads} threads do not fit in this process's address-space limit (ulimit -v): "
+            f"each reserves about {THREAD_ADDRESS_SPACE >> 20} MiB (stacks, malloc arenas, "
+            f"BLAS buffers) beside {PROCESS_ADDRESS_SPACE >> 20} MiB for the rest, so {most} "
+            f"fit; use at most {most} threads")
     _core.set_max_threads(int(threads))
+
+
+#: Address space a thread of yore's may reserve, bytes, from above: an OpenMP and an OpenBLAS
+#: thread each with its stack, its malloc arena (64 MiB of address space) and BLAS buffers
+#: (measured: under a 3 GiB limit 12 threads ran, 16 never started, hanging).
+THREAD_ADDRESS_SPACE = 256 << 20
+
+
+#: Address space set aside for yore itself (its libraries, the interpreter, a cloth's arrays)
+#: before threads are counted, bytes: a fixed allowance, so the answer does not depend on the
+#: moment it is asked (what a process holds varies by a few hundred MiB as threads start).
+PROCESS_ADDRESS_SPACE = 1 << 30
+
+
+def threads_the_address_space_holds():
+    """Threads that fit in this process's address-space limit (RLIMIT_AS, ``ulimit -v``):
+    (limit − `PROCESS_ADDRESS_SPACE`) / `THREAD_ADDRESS_SPACE`, at least 1; None without a
+    limit."""
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError):
+        return None
+    if limit == resource.RLIM_INFINITY:
+        return None
+    return max(1, (limit - PROCESS_ADDRESS_SPACE) // THREAD_ADDRESS_SPACE)
+
+
+def clamp_threads_to_the_address_space() -> None:
+    """At import: under an address-space limit, fewer threads than OpenMP's default (one per
+    core) when that many would not fit (their creation then hangs)."""
+    from . import _core
+
+    most = threads_the_address_space_holds()
+    if most is not None and _core.max_threads() > most:
+        _core.set_max_threads(most)
 
 
 # The `yore` command imports all of yore before its main() can catch Ctrl-C: while it starts, a
