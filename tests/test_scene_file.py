@@ -277,3 +277,18 @@ def test_a_scene_file_with_a_byte_order_mark_loads(tmp_path):
     path = tmp_path / "scene.toml"
     path.write_bytes(b"\xef\xbb\xbf" + MINIMAL.encode())  # as some editors save UTF-8
     assert load_scene(path).data["mesh"]["nx"] == 5
+
+
+def test_a_camera_that_cannot_make_the_pictures_is_refused_before_the_run():
+    # issue 41, class 15: a camera eye at 1e300 printed numpy warnings and exited 0; a
+    # 4096×2048 camera failed only after the run, when the before/after picture was made
+    far = MINIMAL + "[camera]\neye = [1e300, 0.0, 1.0]\ntarget = [0.5, 0.5, 0.0]\n"
+    error = error_of(far)
+    assert error.key == "camera.eye" and "within ±1e+12" in error.expected
+    with pytest.raises(ValueError, match=r"camera eye must be 3 finite numbers within ±1e\+12"):
+        yore.Camera(eye=(1e300, 0.0, 1.0), target=(0.5, 0.5, 0.0))
+    wide = MINIMAL + "[camera]\nwidth = 4096\nheight = 2048\n[output]\npictures = true\n"
+    error = error_of(wide)
+    assert error.key == "camera.width" and "8200 × 2076" in error.problem
+    # the same camera without pictures is fine (one image of 2^23 pixels)
+    load_scene(Path("scene.toml"), text=wide.replace("pictures = true", "pictures = false"))

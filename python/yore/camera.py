@@ -39,6 +39,12 @@ DEFAULT_FOV_DEGREES = FOV_DEGREES
 DEFAULT_MARGIN = 1.06
 
 
+#: Largest coordinate of a camera's eye, target and up (m; the limit of what a picture can
+#: frame, `yore.viz.pictures.MAX_FRAME_COORDINATE`): an eye at 1e300 overflowed the
+#: projection into numpy warnings and an empty picture.
+MAX_CAMERA_COORDINATE = 1e12
+
+
 @dataclass(frozen=True)
 class Camera:
     """A pinhole camera: eye and target (m), up direction, vertical field of view (degrees) and
@@ -57,9 +63,10 @@ class Camera:
                 value = np.asarray(getattr(self, name), dtype=float)
             except (TypeError, ValueError):
                 value = np.full(0, np.nan)
-            if value.shape != (3,) or not np.all(np.isfinite(value)):
-                raise ValueError(f"camera {name} must be 3 finite numbers, "
-                                 f"got {getattr(self, name)!r}")
+            if value.shape != (3,) or not np.all(np.isfinite(value)) or \
+                    np.abs(value).max() > MAX_CAMERA_COORDINATE:
+                raise ValueError(f"camera {name} must be 3 finite numbers within "
+                                 f"±{MAX_CAMERA_COORDINATE:g}, got {getattr(self, name)!r}")
             object.__setattr__(self, name, tuple(float(c) for c in value))
         if (isinstance(self.fov_degrees, (bool, np.bool_))
                 or not isinstance(self.fov_degrees, numbers.Real)

@@ -300,6 +300,8 @@ def _check(scene, raw):
     if output["animation"] != "none" and output["format"] == "none":
         raise scene.error("output.animation", "an animation needs frames, but output.format "
                           "is 'none'", "format = 'vtu', 'vtk', 'ply' or 'obj'")
+    if output["pictures"] and output["format"] != "none":
+        _check_pictures_size(scene, data["camera"])
     if data["simulation"]["settle"] > 0.0 and data["driven"]:
         raise scene.error("simulation.settle", "given for a scene with [[driven]] vertices, "
                           "which keep moving and have no rest to settle to", "settle = 0")
@@ -327,6 +329,20 @@ def _check_camera_size(scene, camera):
         key = "width" if camera["width"] >= camera["height"] else "height"
         raise scene.error(f"camera.{key}", f"{camera['width']} × {camera['height']} = "
                           f"{pixels} pixels", f"at most {MAX_IMAGE_PIXELS} pixels in all")
+
+
+def _check_pictures_size(scene, camera):
+    """The before/after picture (two camera images side by side, titled) within the image
+    limit, before the run (a 4096×2048 camera failed only after it)."""
+    from ..viz.images import side_by_side_shape
+
+    height, width = side_by_side_shape([camera["width"]] * 2, camera["height"], titled=True)
+    if width * height > 2 * MAX_IMAGE_PIXELS:
+        key = "width" if camera["width"] >= camera["height"] else "height"
+        raise scene.error(f"camera.{key}", f"{camera['width']} × {camera['height']} makes the "
+                          f"before/after picture {width} × {height} = {width * height} pixels",
+                          f"at most {2 * MAX_IMAGE_PIXELS} pixels (two images of at most "
+                          f"{MAX_IMAGE_PIXELS} side by side), or output.pictures = false")
 
 
 def _check_table(scene, where, table, keys):

@@ -29,6 +29,7 @@ from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAME
                        STIFFNESS, STROKE_DEFAULTS)
 from ..checks import (MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_MASS_SCALE, MAX_SETTLE_SECONDS,
                       MAX_THREADS, MAX_TIME, MIN_DT, MIN_EXPANSION)
+from ..camera import MAX_CAMERA_COORDINATE
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
@@ -191,6 +192,17 @@ def _vector3(value):
 _vector3.expected = "3 numbers [x, y, z]"
 
 
+def _camera_vector(value):
+    vector = _vector3(value)
+    if np.abs(vector).max() > MAX_CAMERA_COORDINATE:
+        raise Invalid("got [" + ", ".join(f"{c:g}" for c in vector) + "]",
+                      _camera_vector.expected)
+    return vector
+
+
+_camera_vector.expected = f"3 numbers [x, y, z] within ±{MAX_CAMERA_COORDINATE:g}"
+
+
 def _indices(value):
     expected = _indices.expected
     if not isinstance(value, list) or not value:
@@ -324,9 +336,9 @@ SCHEMA = {
                    "right after the stroke"),
     }, "array"),
     "camera": ({
-        "eye": (_vector3, None, "m; default: fitted to the cloth at t = 0"),
-        "target": (_vector3, None, "m; default: the cloth's centre at t = 0"),
-        "up": (_vector3, [0.0, 1.0, 0.0], "up direction"),
+        "eye": (_camera_vector, None, "m; default: fitted to the cloth at t = 0"),
+        "target": (_camera_vector, None, "m; default: the cloth's centre at t = 0"),
+        "up": (_camera_vector, [0.0, 1.0, 0.0], "up direction"),
         "fov_degrees": (_number(0, 180, strict_minimum=True), FOV_DEGREES,
                         "vertical field of view"),
         "width": (_integer(16, MAX_IMAGE_SIDE), IMAGE_WIDTH, "image width, pixels"),

@@ -40,7 +40,20 @@ def font(size):
         return ImageFont.load_default()
 
 
-def side_by_side(images, titles=None, gap=8, title_height=28,
+#: Pixels between neighbouring images of `side_by_side`, and the height of its title band.
+SIDE_BY_SIDE_GAP = 8
+TITLE_HEIGHT = 28
+
+
+def side_by_side_shape(widths, height, titled, gap=SIDE_BY_SIDE_GAP,
+                       title_height=TITLE_HEIGHT):
+    """(height, width) in pixels of `side_by_side`'s canvas for images of these widths and
+    one height: known before anything is rendered (a run checks its pictures up front)."""
+    return ((title_height if titled else 0) + height,
+            sum(widths) + gap * (len(widths) - 1))
+
+
+def side_by_side(images, titles=None, gap=SIDE_BY_SIDE_GAP, title_height=TITLE_HEIGHT,
                  background=(255, 255, 255)) -> np.ndarray:
     """Places equal-height images left to right, with optional titles above them.
 
@@ -84,7 +97,8 @@ def side_by_side(images, titles=None, gap=8, title_height=28,
                              f"got {len(titles)}")
     band = title_height if titles is not None else 0
     height = images[0].shape[0]
-    total_width = sum(image.shape[1] for image in images) + gap * (len(images) - 1)
+    total_width = side_by_side_shape([image.shape[1] for image in images], height,
+                                     titles is not None, gap, title_height)[1]
     if (band + height) * total_width > len(images) * MAX_IMAGE_PIXELS:
         raise ValueError(f"side_by_side: a {total_width}×{band + height} canvas is more than "
                          f"{MAX_IMAGE_PIXELS} pixels per image (gap {gap}, title_height "
