@@ -46,6 +46,9 @@ def test_step_and_advance_check_their_arguments_and_count_time(cloth):
         sim.step(1.5)
     with pytest.raises(ValueError):
         sim.advance(-1.0)
+    # 1e308 s overflowed the step count (OverflowError, issue 41 class 12)
+    with pytest.raises(ValueError, match="more than the limit of 100000000 per call"):
+        sim.advance(1e308)
     assert sim.advance(0.25) == 250
     assert sim.time == pytest.approx(0.25, abs=1e-15)
     sim.step(10)

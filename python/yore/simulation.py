@@ -349,11 +349,15 @@ class Simulation:
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
             start = self._target_time
         target = start + seconds
+        ratio = (target - self.time) / self._dt
+        if not ratio <= MAX_STEPS + 1:  # (1e308 s overflowed the step count: OverflowError)
+            raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {ratio:.4g} "
+                             f"steps, more than the limit of {MAX_STEPS} per call")
         if self._error_controlled:
             # dt is an output interval: whole intervals, then one to the target itself
-            steps = max(0, int(np.floor((target - self.time) / self._dt * (1 + 1e-12))))
+            steps = max(0, int(np.floor(ratio * (1 + 1e-12))))
         else:
-            steps = max(0, int(round((target - self.time) / self._dt)))
+            steps = max(0, int(round(ratio)))
         if steps > MAX_STEPS:
             raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
                              f"more than the limit of {MAX_STEPS} per call")

@@ -625,8 +625,9 @@ def _frame_due(step, every, duration_step):
     return step % every == 0 or step == duration_step
 
 
-class _Unsaveable(Exception):
-    """The simulation reached a state no state file may hold (`yore.save_state` refused it)."""
+class _Unsaveable(ValueError):
+    """The simulation reached a state no state file may hold (`yore.save_state` refused it).
+    A ValueError: before the run starts (its first state) it is bad input."""
 
 
 class _NonFinite(Exception):
