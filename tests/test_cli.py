@@ -432,15 +432,17 @@ def test_a_run_past_the_step_limit_needs_allow_long_and_check_says_the_steps(tmp
 
 
 @pytest.mark.parametrize("delay", [0.05, 0.2, 0.4])
-def test_ctrl_c_while_the_command_starts_is_one_line(delay):
-    # issue 22, item 18: a Ctrl-C during `import yore` printed a 20-line traceback. Whenever
-    # the interrupt lands (starting, running or after the end), the command says at most one
-    # line and never a traceback.
+@pytest.mark.parametrize("how", ["yore", "python -m yore"])
+def test_ctrl_c_while_the_command_starts_is_one_line(delay, how):
+    # issue 22, item 18: a Ctrl-C during `import yore` printed a 20-line traceback (and with
+    # `python -m yore` it still did, issue 41). Whenever the interrupt lands (starting,
+    # running or after the end), the command says at most one line and never a traceback.
     import signal
     import time
 
-    yore_command = Path(sys.executable).with_name("yore")
-    process = subprocess.Popen([str(yore_command), "check", str(EXAMPLES / "stiff.toml")],
+    command = [str(Path(sys.executable).with_name("yore"))] if how == "yore" else \
+        [sys.executable, "-m", "yore"]
+    process = subprocess.Popen([*command, "check", str(EXAMPLES / "stiff.toml")],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)
     time.sleep(delay)  # where the interrupt lands, not a measure
@@ -519,3 +521,28 @@ def test_a_usage_error_points_at_the_help_of_the_command_as_typed(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--no-such-option"])
     assert "(see `yore run --help`)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("orig_argv, guarded", [
+    (["python", "-m", "yore", "run", "scene.toml"], True),
+    (["python", "-X", "importtime", "-m", "yore", "check"], True),
+    (["python", "-m", "pytest", "-m", "yore"], False),  # a marker named yore: not the command
+    (["python", "-c", "import yore", "-m", "yore"], False)])
+def test_only_the_yore_command_guards_its_start(monkeypatch, orig_argv, guarded):
+    import signal
+
+    from yore import runtime
+
+    monkeypatch.setattr(sys, "orig_argv", orig_argv)
+    monkeypatch.setattr(sys, "argv", ["-m"])
+    monkeypatch.setattr(runtime, "_command", [False])
+    before = signal.getsignal(signal.SIGINT)
+    if before is not signal.default_int_handler:
+        pytest.skip("SIGINT is not Python's default handler in this process")
+    try:
+        runtime.guard_command_start()
+        assert (signal.getsignal(signal.SIGINT) is not before) == guarded
+        runtime.end_command_start()
+        assert signal.getsignal(signal.SIGINT) is before
+    finally:
+        signal.signal(signal.SIGINT, before)

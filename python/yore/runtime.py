@@ -122,8 +122,12 @@ def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the 
 def guard_command_start() -> None:
     """In the `yore` command's main thread, while Python's own Ctrl-C handling is in place: a
     Ctrl-C ends the process with one line and exit 130 until `end_command_start`."""
-    command = os.path.basename(sys.argv[0] if sys.argv else "") == "yore" or \
-        list(getattr(sys, "orig_argv", [])[1:3]) == ["-m", "yore"]  # (python -m yore)
+    # the `yore` script, or python -m yore (the interpreter's first -m or -c names what runs)
+    original = list(getattr(sys, "orig_argv", []))[1:]
+    first = next((k for k, a in enumerate(original) if a in ("-m", "-c")), None)
+    command = os.path.basename(sys.argv[0] if sys.argv else "") == "yore" or (
+        first is not None and original[first] == "-m" and original[first + 1:first + 2] ==
+        ["yore"])
     if (command and threading.current_thread() is threading.main_thread()
             and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
         signal.signal(signal.SIGINT, _interrupted_while_starting)
