@@ -16,8 +16,9 @@ where the floor is at most a tenth of it, and then each family's cheapest run wi
 recorded (`verdicts`). Rows: explicit at its default step; bdf2 at 1/32 … 1/256 s; cvode (BDF,
 max_order 2, the default) and arkode (ESDIRK order 3) at rtol 1e-2, 1e-3, 1e-4 with
 atol = rtol/10 m (atol_velocity at its default, atol per 1/60 s) and an output interval of
-1/60 s; and yore's own tr-bdf2 with dt="auto" at the same rtol and atol (its steps chosen by
-its embedded estimate; "error_test_failures" are then its rejected steps). Cost is CPU seconds (process time, one
+1/60 s; and yore's own tr-bdf2 and bdf2 with dt="auto" at the same rtol and atol (their steps
+chosen by TR-BDF2's embedded estimate and variable-step BDF2's; "error_test_failures" are then
+their rejected steps). --families runs a subset of the error-controlled families. Cost is CPU seconds (process time, one
 thread), the median of `--repeats` runs (one run when the first takes over 20 s). Per
 error-controlled row: the internal steps, factorizations per internal step, the log-log slope
 of error against rtol (judged where both errors are above three times the floor), and its cost
@@ -45,7 +46,9 @@ QUICK_CELLS = [(10, 2e3)]
 BDF2_STEPS = [1 / 32, 1 / 64, 1 / 128, 1 / 256]
 TOLERANCES = [1e-2, 1e-3, 1e-4]
 OUTPUT_INTERVAL = 1 / 60
-ERROR_CONTROLLED = ("cvode", "arkode", "tr-bdf2 auto")
+ERROR_CONTROLLED = ("cvode", "arkode", "tr-bdf2 auto", "bdf2 auto")
+#: yore's own error control (dt="auto"): the family and the integrator it runs
+OWN_CONTROL = {"tr-bdf2 auto": "tr-bdf2", "bdf2 auto": "bdf2"}
 SLOW_RUN = 20.0  # s: a run this long is not repeated
 
 
@@ -84,7 +87,7 @@ def crossover_error(sim, reference):
                for a, b in zip(sim.snapshots, reference.snapshots))
 
 
-def measure_cell(n, k, repeats, velocity_time=None):
+def measure_cell(n, k, repeats, velocity_time=None, families=ERROR_CONTROLLED):
     _, reference = run(n, k, "explicit", 1, dt=sheet(n, k, "explicit").dt / 2)
     rows = []
     explicit, sim = run(n, k, "explicit", repeats)
@@ -97,16 +100,17 @@ def measure_cell(n, k, repeats, velocity_time=None):
             row.update(error=crossover_error(sim, reference),
                        factorizations_per_step=counters["factorizations"] / sim.stats["steps"])
         rows.append({"integrator": "bdf2", "dt": dt, **row})
-    for integrator in ERROR_CONTROLLED:
+    for integrator in families:
         for tol in TOLERANCES:
-            if integrator == "tr-bdf2 auto":
-                row, sim = run(n, k, "tr-bdf2", repeats, dt="auto", rtol=tol, atol=tol / 10)
+            if integrator in OWN_CONTROL:
+                row, sim = run(n, k, OWN_CONTROL[integrator], repeats, dt="auto", rtol=tol,
+                               atol=tol / 10)
             else:
                 extra = {} if velocity_time is None else {
                     "atol_velocity": tol / 10 / velocity_time}
                 row, sim = run(n, k, integrator, repeats, dt=OUTPUT_INTERVAL, rtol=tol,
                                atol=tol / 10, **extra)
-            if sim is not None and integrator == "tr-bdf2 auto":
+            if sim is not None and integrator in OWN_CONTROL:
                 c = sim.stats["counters"]
                 row.update(
                     error=crossover_error(sim, reference),
@@ -177,7 +181,8 @@ def draw(cells, path):
 
     fig, axes = plt.subplots(1, len(cells), figsize=(5 * len(cells), 4), squeeze=False)
     styles = {"explicit": ("k", "*"), "bdf2": ("tab:blue", "o"), "cvode": ("tab:red", "s"),
-              "arkode": ("tab:green", "^"), "tr-bdf2 auto": ("tab:purple", "D")}
+              "arkode": ("tab:green", "^"), "tr-bdf2 auto": ("tab:purple", "D"),
+              "bdf2 auto": ("tab:cyan", "v")}
     for ax, cell in zip(axes[0], cells):
         for name, (colour, marker) in styles.items():
             rows = [r for r in cell["rows"] if r["integrator"] == name and r["error"] is not None]
@@ -201,6 +206,10 @@ def main(argv=None):
                             help="cvode/arkode: atol_velocity = atol / SECONDS (default: "
                             "the integrators' default, the same number as atol)")
         parser.add_argument("--name", default="error_control", help="output file name")
+        parser.add_argument("--families", nargs="+", choices=ERROR_CONTROLLED,
+                            default=list(ERROR_CONTROLLED),
+                            help="error-controlled families to run (explicit and the bdf2 "
+                            "ladder always run: the ratios are measured in the same run)")
 
     args = common.arguments(__doc__, argv, extra)
     yore.set_num_threads(1)
@@ -208,13 +217,13 @@ def main(argv=None):
     for n, k in (QUICK_CELLS if args.quick else CELLS):
         print(f"== {n}² k = {k:g}", flush=True)
         cells.append(measure_cell(n, k, 1 if args.quick else args.repeats,
-                                  args.velocity_time))
+                                  args.velocity_time, tuple(args.families)))
         for r in cells[-1]["rows"]:
             print("  ", {key: (f"{v:.3g}" if isinstance(v, float) else v) for key, v in r.items()},
                   flush=True)
     payload = {"benchmark": "error_control", "machine": common.machine_info(),
                "quick": args.quick, "horizon": HORIZON, "output_interval": OUTPUT_INTERVAL,
-               "velocity_time": args.velocity_time,
+               "velocity_time": args.velocity_time, "families": list(args.families),
                "thresholds": list(THRESHOLDS),
                "cells": [{key: c[key] for key in ("size", "stiffness", "floor", "verdicts")}
                          for c in cells],

@@ -310,8 +310,11 @@ def error_control_section(payload: dict, images: str) -> list:
            "`benchmarks/error_control.py`, one thread: the crossover's sheet (flat start, "
            "bending as stiff as stretching) over its first "
            f"{payload['horizon']} s; error = the crossover's (RMS distance from explicit at "
-           "half its step, at T/2 and T, over the diagonal); cvode, arkode and tr-bdf2 with dt=\"auto\" at rtol "
-           "1e-2, 1e-3, 1e-4 (atol = rtol/10 m), against bdf2's fixed steps and explicit. "
+           "half its step, at T/2 and T, over the diagonal); "
+           + ", ".join(f.replace(" auto", " with dt=\"auto\"") for f in payload.get(
+               "families", ["cvode", "arkode", "tr-bdf2 auto"]))
+           + " at rtol 1e-2, 1e-3, 1e-4 (atol = rtol/10 m), against bdf2's fixed steps and "
+           "explicit. "
            "\"factorizations / step\" is per internal step; \"× bdf2\" is the CPU time over the "
            "cheapest bdf2 run at least as accurate (– when none is).", ""]
     for cell in payload["cells"]:

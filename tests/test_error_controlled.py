@@ -256,13 +256,14 @@ def test_the_viewer_panel_and_a_runs_summary_show_what_sundials_counted(tmp_path
 
 
 
-def test_tr_bdf2_auto_chooses_its_steps_by_its_embedded_estimate():
+@pytest.mark.parametrize("integrator", ["tr-bdf2", "bdf2"])
+def test_auto_steps_are_chosen_by_the_local_error_estimate(integrator):
     # the linear mode: the error falls with the tolerance, rejected steps are retaken, and the
-    # frames land exactly
+    # frames land exactly (TR-BDF2: its embedded estimate; BDF2: variable-step BDF2's)
     errors, steps = [], []
     for tol in (1e-5, 1e-7, 1e-9):  # looser, the 1/60 s output interval caps the steps
         net, rest, shape, omega = chain()
-        sim = yore.Simulation(net, integrator="tr-bdf2", dt="auto", gravity=(0, 0, 0),
+        sim = yore.Simulation(net, integrator=integrator, dt="auto", gravity=(0, 0, 0),
                               rtol=tol, atol=tol, newton_tol=1e-12, truncation_fraction=0.0)
         assert sim.dt == yore.options.FIXED_DT
         sim.advance(0.5)
@@ -280,9 +281,11 @@ def test_tr_bdf2_auto_chooses_its_steps_by_its_embedded_estimate():
     assert all(3 < b / a < 8 for a, b in zip(steps, steps[1:])), steps
 
 
-def test_tr_bdf2_auto_resumes_bit_for_bit_its_proposal_is_the_historys_dt(tmp_path):
+@pytest.mark.parametrize("integrator", ["tr-bdf2", "bdf2"])
+def test_auto_steps_resume_bit_for_bit_the_step_carried_over_is_the_historys_dt(tmp_path,
+                                                                                integrator):
     def make():
-        return yore.scenes.hanging_cloth(resolution=8, integrator="tr-bdf2", dt="auto",
+        return yore.scenes.hanging_cloth(resolution=8, integrator=integrator, dt="auto",
                                          rtol=1e-4, atol=1e-5)
 
     straight = make()
@@ -299,8 +302,8 @@ def test_tr_bdf2_auto_resumes_bit_for_bit_its_proposal_is_the_historys_dt(tmp_pa
 
 
 def test_dt_auto_needs_an_integrator_with_error_control():
-    with pytest.raises(ValueError, match="dt='auto'.*'bdf2'.*tr-bdf2, cvode, arkode"):
-        yore.scenes.hanging_cloth(resolution=5, integrator="bdf2", dt="auto")
+    with pytest.raises(ValueError, match="dt='auto'.*'implicit'.*bdf2, tr-bdf2, cvode, arkode"):
+        yore.scenes.hanging_cloth(resolution=5, integrator="implicit", dt="auto")
     with pytest.raises(ValueError, match="dt must be a number of seconds or 'auto'"):
         yore.scenes.hanging_cloth(resolution=5, integrator="tr-bdf2", dt="fast")
     # cvode and arkode take "auto" as the default output interval
@@ -308,8 +311,9 @@ def test_dt_auto_needs_an_integrator_with_error_control():
     assert sim.dt == yore.options.FIXED_DT
 
 
-def test_tr_bdf2_auto_too_many_steps_is_a_divergence_that_says_so():
-    sim = yore.scenes.hanging_cloth(resolution=8, integrator="tr-bdf2", dt="auto", rtol=1e-9,
+@pytest.mark.parametrize("integrator", ["tr-bdf2", "bdf2"])
+def test_auto_steps_too_many_is_a_divergence_that_says_so(integrator):
+    sim = yore.scenes.hanging_cloth(resolution=8, integrator=integrator, dt="auto", rtol=1e-9,
                                     atol=1e-10, max_steps=2)
     with pytest.raises(yore.SimulationDiverged, match=r"more than max_steps = 2 steps in one "
                        r"output interval.*restored to t = 0 s"):
@@ -372,3 +376,4 @@ def test_a_ctrl_c_keeps_the_history_so_the_run_continues_bit_for_bit(integrator,
     assert sim.time == straight.time
     assert np.array_equal(sim.cloth.positions, straight.cloth.positions)
     assert np.array_equal(sim.cloth.velocities, straight.cloth.velocities)
+

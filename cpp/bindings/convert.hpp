@@ -192,13 +192,15 @@ void def_history(py::class_<Integrator>& integrator_class) {
           out[name.c_str()] = read_only_copy(values);
         }
         out["dt"] = history.dt;
+        if (history.next_dt > 0.0) out["next_dt"] = history.next_dt;
         return out;
       },
       py::arg("cloth"),
       R"doc(What the next step of `cloth` carries over besides the cloth's state: a dict of the
 named n×3 arrays in `history_fields` (BDF2: positions, m, and velocities, m/s, one step back;
 generalized-α: accelerations and force_accelerations, m/s²; TR-BDF2: accelerations, m/s²) and
-dt (s, the last step's); None when the next step starts afresh or the method keeps none.)doc");
+dt (s, the last step's), and with BDF2's error control next_dt (s, the step proposed for the
+next output interval); None when the next step starts afresh or the method keeps none.)doc");
   integrator_class.def(
       "set_history",
       [](Integrator& integrator, const Cloth& cloth, const py::object& history) {
@@ -220,6 +222,7 @@ dt (s, the last step's); None when the next step starts afresh or the method kee
           }
           if (!values.contains("dt")) throw std::invalid_argument("history has no dt");
           restored.dt = values["dt"].cast<double>();
+          if (values.contains("next_dt")) restored.next_dt = values["next_dt"].cast<double>();
         }
         integrator.set_history(cloth, restored);
       },

@@ -56,10 +56,11 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
   if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tol > 0.0)) {
     throw std::invalid_argument("lag_max_cg_iterations must be >= 1 and lag_cg_tol > 0");
   }
-  if (options.adaptive && (options.method != ImplicitMethod::tr_bdf2 ||
+  if (options.adaptive && ((options.method != ImplicitMethod::tr_bdf2 &&
+                            options.method != ImplicitMethod::bdf2) ||
                            options.minimizer != ImplicitMinimizer::newton)) {
-    throw std::invalid_argument("error-controlled steps (adaptive, dt = \"auto\") need "
-                                "TR-BDF2's embedded estimate: method tr-bdf2 with Newton");
+    throw std::invalid_argument("error-controlled steps (adaptive, dt = \"auto\") need a "
+                                "local error estimate: method tr-bdf2 or bdf2, with Newton");
   }
   if (!(options.rtol > 0.0) || !(options.rtol < 1.0) || !(options.atol > 0.0) ||
       !std::isfinite(options.atol) || options.max_steps < 1) {
@@ -271,11 +272,24 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
   m_stage = second_order ? StageKind::bdf2 : StageKind::backward_euler;
   const Positions& x = cloth.positions();
   const Positions& v = cloth.velocities();
-  if (second_order) {
+  m_bdf_ratio = second_order ? dt / m_history_dt : 1.0;
+  if (second_order && m_bdf_ratio == 1.0) {
     // BDF2: x⁺ = x̄ + h̃ v⁺, v⁺ = v̄ + h̃ a⁺ with x̄, v̄ the (4·now − previous)/3 blends, h̃ = 2h/3.
+    m_bdf_a = 4.0 / 3.0;
+    m_bdf_b = 1.0 / 3.0;
     m_h = 2.0 * dt / 3.0;
     m_anchor = (4.0 * x - m_previous_positions) / 3.0;
     m_target = m_anchor + m_h * (4.0 * v - m_previous_velocities) / 3.0;
+  } else if (second_order) {
+    // Variable-step BDF2 (dt = "auto"): the same with w = h/hₙ₋₁, the quadratic through
+    // xₙ₋₁, xₙ, x⁺ differentiated at tₙ₊₁: a = (1 + w)²/(1 + 2w), b = w²/(1 + 2w) (a − b = 1),
+    // h̃ = h (1 + w)/(1 + 2w).
+    const double w = m_bdf_ratio;
+    m_bdf_a = (1.0 + w) * (1.0 + w) / (1.0 + 2.0 * w);
+    m_bdf_b = w * w / (1.0 + 2.0 * w);
+    m_h = dt * (1.0 + w) / (1.0 + 2.0 * w);
+    m_anchor = m_bdf_a * x - m_bdf_b * m_previous_positions;
+    m_target = m_anchor + m_h * (m_bdf_a * v - m_bdf_b * m_previous_velocities);
   } else {
     m_h = dt;
     m_anchor = x;
@@ -459,8 +473,9 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     step_tr_bdf2(cloth, gravity, dt);
     return;
   }
-  const bool second_order =
-      m_options.method == ImplicitMethod::bdf2 && history_matches(cloth) && m_history_dt == dt;
+  // (fixed steps: BDF2 restarts when dt changes; error-controlled ones change it every step)
+  const bool second_order = m_options.method == ImplicitMethod::bdf2 && history_matches(cloth) &&
+                            (m_options.adaptive ? m_history_dt > 0.0 : m_history_dt == dt);
   if (m_options.method == ImplicitMethod::bdf2 && !second_order) {
     ++m_statistics.history_restarts;
   }
@@ -653,9 +668,22 @@ double ImplicitIntegrator::truncation_error(const Cloth& cloth) const {
     switch (m_stage) {
       case StageKind::bdf2: {
         const Vec3 now = v.row(i).transpose();
+        if (m_bdf_ratio == 1.0) {
+          const Vec3 before =
+              4.0 * now - 3.0 * (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;
+          error = 2.0 / 9.0 * m_dt * (next - 2.0 * now + before).norm();
+          break;
+        }
+        // Variable steps: the Taylor expansion of the blend gives the local error
+        // (1 + w)²/(6w(1 + 2w)) h³ x⁽³⁾ (2/9 at w = 1), x⁽³⁾ = v'' from the divided difference
+        // of vₙ₋₁, vₙ, v⁺ (vₙ₋₁ comes back from x̂ − x̄ = h̃ (a vₙ − b vₙ₋₁)).
+        const double w = m_bdf_ratio, previous_h = m_dt / w;
         const Vec3 before =
-            4.0 * now - 3.0 * (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;
-        error = 2.0 / 9.0 * m_dt * (next - 2.0 * now + before).norm();
+            (m_bdf_a * now - (m_target.row(i) - m_anchor.row(i)).transpose() / m_h) / m_bdf_b;
+        const Vec3 curvature =
+            2.0 * ((next - now) / m_dt - (now - before) / previous_h) / (m_dt + previous_h);
+        error = (1.0 + w) * (1.0 + w) / (6.0 * w * (1.0 + 2.0 * w)) * m_dt * m_dt * m_dt *
+                curvature.norm();
         break;
       }
       case StageKind::backward_euler:
@@ -741,6 +769,7 @@ IntegratorHistory ImplicitIntegrator::history(const Cloth& cloth) const {
   switch (m_options.method) {
     case ImplicitMethod::bdf2:
       out.arrays = {{"positions", m_previous_positions}, {"velocities", m_previous_velocities}};
+      if (m_options.adaptive) out.next_dt = m_history_proposal;
       break;
     case ImplicitMethod::generalized_alpha:
       out.arrays = {{"accelerations", m_acceleration},
@@ -790,6 +819,7 @@ void ImplicitIntegrator::set_history(const Cloth& cloth, const IntegratorHistory
     case ImplicitMethod::bdf2:
       m_previous_positions = history.array("positions");
       m_previous_velocities = history.array("velocities");
+      m_history_proposal = history.next_dt;
       break;
     case ImplicitMethod::generalized_alpha:
       m_acceleration = history.array("accelerations");
@@ -843,6 +873,7 @@ void ImplicitIntegrator::keep_memory() {
   k.history_topology = m_history_topology;
   k.history_edits = m_history_edits;
   k.history_dt = m_history_dt;
+  k.history_proposal = m_history_proposal;
   k.exact_skip = m_exact_skip;
   k.exact_backoff = m_exact_backoff;
   k.lag_skip = m_lag_skip;
@@ -866,6 +897,7 @@ void ImplicitIntegrator::restore_memory() {
   m_history_topology = k.history_topology;
   m_history_edits = k.history_edits;
   m_history_dt = k.history_dt;
+  m_history_proposal = k.history_proposal;
   m_exact_skip = k.exact_skip;
   m_exact_backoff = k.exact_backoff;
   m_lag_skip = k.lag_skip;

@@ -38,6 +38,11 @@ void Integrator::check_history(const Cloth& cloth, const IntegratorHistory& hist
     msg << "history dt must be finite and > 0, got " << history.dt;
     throw std::invalid_argument(msg.str());
   }
+  if (!std::isfinite(history.next_dt) || history.next_dt < 0.0) {
+    std::ostringstream msg;
+    msg << "history next_dt must be finite and >= 0, got " << history.next_dt;
+    throw std::invalid_argument(msg.str());
+  }
 }
 
 }  // namespace yore

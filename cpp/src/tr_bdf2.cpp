@@ -83,14 +83,22 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
   ++end.steps;
   const double end_time = end.time();
   ensure_structure(cloth);
-  // The proposal carried from the last interval (the history's dt); afresh: a tenth of dt.
-  double h = history_matches(cloth) && m_history_dt > 0.0 ? m_history_dt : 0.1 * dt;
+  // The proposal carried from the last interval (TR-BDF2: the history's dt; BDF2: its next_dt);
+  // afresh: a tenth of dt.
+  const bool bdf2 = m_options.method == ImplicitMethod::bdf2;
+  const double carried = bdf2 ? m_history_proposal : m_history_dt;
+  double h = history_matches(cloth) && carried > 0.0 ? carried : 0.1 * dt;
   const Eigen::Index n = cloth.vertex_count();
   if (m_step_positions.rows() != n) {
     m_step_positions.resize(n, 3);
     m_step_velocities.resize(n, 3);
     m_step_accelerations.resize(n, 3);
+    m_step_previous_positions.resize(n, 3);
+    m_step_previous_velocities.resize(n, 3);
   }
+  const char* name = bdf2 ? "bdf2" : "tr-bdf2";
+  // variable-step BDF2 is zero-stable for step ratios below 1 + √2: at most 2 per step
+  const double most = bdf2 ? 2.0 : 5.0;
   int taken = 0;
   while (true) {
     const double remaining = end_time - cloth.time();
@@ -101,7 +109,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     if (++taken > m_options.max_steps || !(step_size > 1e-12 * dt)) {
       std::ostringstream msg;
       msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
-          << " s, tr-bdf2 with dt = \"auto\"): "
+          << " s, " << name << " with dt = \"auto\"): "
           << (taken > m_options.max_steps ? "more than max_steps = " +
                                                 std::to_string(m_options.max_steps) +
                                                 " steps in one output interval"
@@ -116,6 +124,10 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     m_step_positions = cloth.positions();
     m_step_velocities = cloth.velocities();
     m_step_accelerations = m_force_acceleration;
+    if (bdf2) {
+      m_step_previous_positions = m_previous_positions;
+      m_step_previous_velocities = m_previous_velocities;
+    }
     const SimulationClock clock = cloth.clock();
     const bool history_valid = m_history_valid;
     const std::uint64_t history_topology = m_history_topology, history_edits = m_history_edits;
@@ -133,7 +145,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     // The estimate is of the local error, O(h³): the step that meets the tolerance with a
     // margin of 0.9 is h (tol/err)^(1/3), changed by at most 5× up and 5× down per step.
     const double factor =
-        ratio > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / ratio), 0.2, 5.0) : 5.0;
+        ratio > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / ratio), 0.2, most) : most;
     if (ratio <= 1.0) {
       h = step_size * factor;
       continue;
@@ -143,6 +155,10 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     cloth.integrator_velocities() = m_step_velocities;
     cloth.set_clock(clock);
     m_force_acceleration = m_step_accelerations;
+    if (bdf2) {
+      m_previous_positions = m_step_previous_positions;
+      m_previous_velocities = m_step_previous_velocities;
+    }
     m_history_valid = history_valid;
     m_history_topology = history_topology;
     m_history_edits = history_edits;
@@ -151,7 +167,9 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
   }
   cloth.set_clock(end);
   cloth.apply_drivers(end_time);
-  m_history_dt = h;  // the proposal: the history's dt, saved and restored with it
+  // The proposal, saved and restored with the history: TR-BDF2's dt; BDF2's next_dt (its dt
+  // stays the last step, which its next blend needs).
+  (bdf2 ? m_history_proposal : m_history_dt) = h;
   ++m_statistics.intervals;
 }
 

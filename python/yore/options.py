@@ -47,7 +47,7 @@ CORE_ERROR_CONTROLLED = dict(_core.ErrorControlledIntegrator.defaults)
 #: Core options no integrator takes as such: the method and minimizer are the integrator's
 #: name, rho_infinity is generalized-α's alone.
 CORE_CHOSEN_BY_NAME = ("method", "minimizer", "lbfgs_history", "rho_infinity")
-#: TR-BDF2's error control (dt="auto"): adaptive is set by dt="auto", the rest are its own.
+#: Error control of bdf2 and tr-bdf2 (dt="auto"): adaptive is set by dt="auto", the rest are its own.
 ADAPTIVE_ONLY = ("adaptive", "rtol", "atol", "max_steps")
 #: Options of Newton's method that quasi-Newton does not take.
 NEWTON_ONLY = ("linearized", "step_tol", "truncation_fraction", "mixed", "adaptive_projection", "projection",
@@ -99,7 +99,14 @@ INTEGRATOR_OPTIONS = {
         "predictor": None,
     },
 }
-INTEGRATOR_OPTIONS["bdf2"] = dict(INTEGRATOR_OPTIONS["implicit"])
+# With dt="auto" (and only then) the steps of bdf2 and tr-bdf2 are chosen by their local error
+# estimates (BDF2: variable-step BDF2's, from the divided difference of the velocities;
+# TR-BDF2: its embedded pair): a step is accepted when its estimate is at most atol (m) +
+# rtol × the largest |x| of a free vertex; dt becomes the output interval; more than max_steps
+# steps in one interval is SimulationDiverged. `adaptive` is what dt="auto" sets (state files
+# keep it).
+_ADAPTIVE_OPTIONS = {name: CORE_IMPLICIT[name] for name in ADAPTIVE_ONLY}
+INTEGRATOR_OPTIONS["bdf2"] = {**INTEGRATOR_OPTIONS["implicit"], **_ADAPTIVE_OPTIONS}
 INTEGRATOR_OPTIONS["generalized-alpha"] = {
     **INTEGRATOR_OPTIONS["implicit"],
     # ρ∞, the spectral radius of a step at infinite frequency: 1 keeps every frequency (the
@@ -112,16 +119,7 @@ INTEGRATOR_OPTIONS["generalized-alpha"] = {
     # ρ∞ 0.2 its kinetic-energy history is 22 % off with 0.1 against 9.5 % with 0.01).
     "truncation_fraction": 0.01,
 }
-INTEGRATOR_OPTIONS["tr-bdf2"] = {
-    **INTEGRATOR_OPTIONS["implicit"],
-    # With dt="auto" (and only then) the steps are chosen by TR-BDF2's embedded error estimate:
-    # a step is accepted when its estimate is at most atol (m) + rtol × the largest |x| of a
-    # free vertex; dt becomes the output interval; more than max_steps steps in one interval
-    # is SimulationDiverged. `adaptive` is what dt="auto" sets (state files keep it).
-    "adaptive": CORE_IMPLICIT["adaptive"],
-    "rtol": CORE_IMPLICIT["rtol"], "atol": CORE_IMPLICIT["atol"],
-    "max_steps": CORE_IMPLICIT["max_steps"],
-}
+INTEGRATOR_OPTIONS["tr-bdf2"] = {**INTEGRATOR_OPTIONS["implicit"], **_ADAPTIVE_OPTIONS}
 INTEGRATOR_OPTIONS["local-global"] = {
     # Iterations of a step stop once the estimated distance to the step's solution is at most
     # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap

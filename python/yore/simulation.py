@@ -89,9 +89,10 @@ class Simulation:
     dt : float or "auto", optional
         Time step, s. Default: explicit, ``EXPLICIT_DT_SAFETY`` (0.98) × the state-independent
         stable-step bound, rounded down to 1/N s (``default_explicit_dt``); the others 1/60 s.
-        For the error-controlled integrators (``"cvode"``, ``"arkode"``, and ``"tr-bdf2"``
-        with ``dt="auto"``) dt is the output interval: inside one, the steps are chosen by
-        the tolerance (``rtol``, ``atol``), and `advance` lands exactly on the time asked.
+        For the error-controlled integrators (``"cvode"``, ``"arkode"``, and ``"bdf2"`` or
+        ``"tr-bdf2"`` with ``dt="auto"``) dt is the output interval: inside one, the steps are
+        chosen by the tolerance (``rtol``, ``atol``), and `advance` lands exactly on the time
+        asked.
         "auto": error-controlled steps with an output interval of 1/60 s.
     gravity : (3,) array_like
         Gravitational acceleration, m/s².
@@ -293,7 +294,8 @@ class Simulation:
         history = state["history"]
         if history is not None:
             fields = (*sim._spec.history(sim._options), "dt")
-            if len(fields) == 1 or not isinstance(history, dict) or set(history) != set(fields):
+            if len(fields) == 1 or not isinstance(history, dict) or \
+                    not set(fields) <= set(history) <= {*fields, "next_dt"}:
                 got = sorted(history) if isinstance(history, dict) else type(history).__name__
                 expected = ("None (it keeps none)" if len(fields) == 1 else
                             f"None or a dict with {', '.join(fields)}")
@@ -339,8 +341,8 @@ class Simulation:
 
         Repeated calls aim at the sum of the requested durations, so a loop of
         ``advance(1/30)`` stays within dt/2 of the frame times instead of drifting. The
-        error-controlled integrators (cvode, arkode, tr-bdf2 with dt="auto") land exactly on
-        the time asked: whole output intervals, then one shortened to the target.
+        error-controlled integrators (cvode, arkode, bdf2 and tr-bdf2 with dt="auto") land
+        exactly on the time asked: whole output intervals, then one shortened to the target.
         """
         if not is_real(seconds) or seconds < 0.0:
             raise ValueError(f"seconds must be a finite number >= 0, got {show_value(seconds)}")

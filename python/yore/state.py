@@ -542,10 +542,13 @@ def _check_simulation(field, simulation):
                               "with these options",
                               f"null (only {keeping} and quasi-newton with method bdf2 keep a "
                               "history)")
-        field.keys(history, "simulation.history", (*fields, "dt"))
+        # next_dt: error-controlled BDF2's proposed step (absent elsewhere, and before it)
+        field.keys(history, "simulation.history", (*fields, "dt"), optional=("next_dt",))
         for name in fields:
             field.array(history[name], f"simulation.history.{name}", np.float64, (n, 3))
         field.real(history["dt"], "simulation.history.dt", MIN_DT)
+        if "next_dt" in history:
+            field.real(history["next_dt"], "simulation.history.next_dt", MIN_DT)
 
 
 def load_metadata(path):

@@ -140,13 +140,17 @@ struct ImplicitOptions {
   /// with Newton solved to its residual test) and the gathered 21² cloth at 0.5; 0.2–0.35 kept
   /// both bounded (docs/integrators.md).
   double rho_infinity = 0.3;
-  /// tr_bdf2 only: error-controlled steps. advance(dt, steps)'s dt becomes an output interval,
-  /// inside which the steps are chosen by TR-BDF2's embedded estimate (last_truncation_error):
-  /// a step is accepted when its estimate is at most atol + rtol × the largest |x| of a free
-  /// vertex, else retaken shorter; the next step is h × clamp(0.9 (tol/err)^(1/3), 0.2, 5),
-  /// and steps are spread evenly to end each interval exactly. The proposed step carries over
-  /// (it is the history's dt, so a state file resumes bit for bit). More than max_steps steps
-  /// (taken or retaken) in one interval is SimulationDiverged.
+  /// tr_bdf2 and bdf2 (Newton): error-controlled steps. advance(dt, steps)'s dt becomes an
+  /// output interval, inside which the steps are chosen by the method's local error estimate
+  /// (last_truncation_error: TR-BDF2's embedded pair; variable-step BDF2's from the second
+  /// divided difference of the velocities): a step is accepted when its estimate is at most
+  /// atol + rtol × the largest |x| of a free vertex, else retaken shorter; the next step is
+  /// h × clamp(0.9 (tol/err)^(1/3), 0.2, 5) (BDF2: at most 2, inside variable-step BDF2's
+  /// zero-stability bound 1 + √2), and steps are spread evenly to end each interval exactly.
+  /// The step proposed for the next interval is part of the history (TR-BDF2: its dt; BDF2:
+  /// its next_dt, its dt being the last step, which the formula needs), so a state file
+  /// resumes bit for bit. More than max_steps steps (taken or retaken) in one interval is
+  /// SimulationDiverged.
   bool adaptive = false;
   double rtol = 1e-3;
   double atol = 1e-4;  ///< m
@@ -371,7 +375,8 @@ class ImplicitIntegrator : public Integrator {
   void restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt);
   void step_generalized_alpha(Cloth& cloth, const Vec3& gravity, double dt);  // generalized_alpha.cpp
   void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);            // tr_bdf2.cpp
-  /// adaptive: one output interval of dt in error-controlled TR-BDF2 steps (tr_bdf2.cpp).
+  /// adaptive: one output interval of dt in error-controlled TR-BDF2 or BDF2 steps
+  /// (tr_bdf2.cpp).
   void adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt);
 
   ImplicitOptions m_options;
@@ -405,7 +410,13 @@ class ImplicitIntegrator : public Integrator {
   Positions m_acceleration, m_force_acceleration, m_predicted;
   Positions m_start_positions, m_start_velocities, m_mid_velocities;
   // adaptive: the state, velocities and accelerations at a step's start, for a rejection
+  // (BDF2: and its history, the state one step back)
   Positions m_step_positions, m_step_velocities, m_step_accelerations;
+  Positions m_step_previous_positions, m_step_previous_velocities;
+  // BDF2 with variable steps: w = h / h_previous of the step being solved, and its blend
+  // x̄ = a xₙ − b xₙ₋₁, a = (1 + w)²/(1 + 2w), b = w²/(1 + 2w), h̃ = h (1 + w)/(1 + 2w)
+  // (w = 1: 4/3, 1/3 and 2h/3, computed as the fixed-step formulas always were).
+  double m_bdf_ratio = 1.0, m_bdf_a = 4.0 / 3.0, m_bdf_b = 1.0 / 3.0;
   double m_beta_h2 = 0.0, m_error_constant = 0.0;
   /// The step's local truncation error at m_iterate, m, largest over the free vertices.
   double truncation_error(const Cloth& cloth) const;
@@ -465,7 +476,7 @@ class ImplicitIntegrator : public Integrator {
     Positions previous_positions, previous_velocities, acceleration, force_acceleration;
     bool history_valid = false;
     std::uint64_t history_topology = 0, history_edits = 0;
-    double history_dt = 0.0;
+    double history_dt = 0.0, history_proposal = 0.0;
     int exact_skip = 0, exact_backoff = 1, lag_skip = 0, lag_backoff = 1;
     double shift = 0.0, radius = 0.0;
   };
@@ -478,6 +489,7 @@ class ImplicitIntegrator : public Integrator {
   bool m_history_valid = false;
   std::uint64_t m_history_topology = 0, m_history_edits = 0;
   double m_history_dt = 0.0;
+  double m_history_proposal = 0.0;  // adaptive BDF2: the next interval's first step (next_dt)
 };
 
 }  // namespace yore

@@ -17,6 +17,9 @@ namespace yore {
 struct IntegratorHistory {
   bool valid = false;  ///< false: the next step starts afresh (none kept, or the cloth changed)
   double dt = 0.0;
+  /// Error-controlled BDF2 (dt = "auto"): the step proposed for the next output interval, s
+  /// (its dt is the last step taken, which the variable-step formula needs); 0: none.
+  double next_dt = 0.0;
   std::vector<std::pair<std::string, Positions>> arrays;
   /// The array called `name`. Throws std::invalid_argument naming it when it is absent.
   const Positions& array(const std::string& name) const;
