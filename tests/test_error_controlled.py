@@ -351,8 +351,8 @@ def test_the_reduced_newton_system_is_exact_on_a_linear_problem():
 
 
 @pytest.mark.parametrize("integrator,options", [
-    ("bdf2", {}), ("tr-bdf2", {"dt": "auto"}), ("generalized-alpha", {}),
-    ("quasi-newton", {"method": "bdf2"})])
+    ("bdf2", {}), ("tr-bdf2", {"dt": "auto"}), ("bdf2", {"dt": "auto"}),
+    ("generalized-alpha", {}), ("quasi-newton", {"method": "bdf2"})])
 def test_a_ctrl_c_keeps_the_history_so_the_run_continues_bit_for_bit(integrator, options):
     # `step` runs its steps in batches (one core call each); a Ctrl-C inside a batch leaves
     # the simulation as it was before that batch, its history (and the step the controller
@@ -377,3 +377,20 @@ def test_a_ctrl_c_keeps_the_history_so_the_run_continues_bit_for_bit(integrator,
     assert np.array_equal(sim.cloth.positions, straight.cloth.positions)
     assert np.array_equal(sim.cloth.velocities, straight.cloth.velocities)
 
+
+
+def test_auto_bdf2_starts_again_after_a_stroke_and_keeps_going():
+    # a stroke changes the topology: the history (and its proposed step) is dropped, the next
+    # step is backward Euler's at a tenth of the output interval, and the control goes on
+    sim = yore.scenes.hanging_cloth(resolution=9, integrator="bdf2", dt="auto", rtol=1e-4,
+                                    atol=1e-5)
+    sim.step(3)
+    assert sim.state()["history"]["next_dt"] > 0
+    restarts = sim.stats["counters"]["history_restarts"]
+    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    assert sim.state()["history"] is None
+    sim.step(3)
+    # (a restarting step the controller retakes shorter counts again)
+    assert sim.stats["counters"]["history_restarts"] > restarts
+    assert sim.time == pytest.approx(6 / 60, abs=1e-12)
+    assert np.all(np.isfinite(sim.cloth.positions)) and sim.state()["history"]["next_dt"] > 0
