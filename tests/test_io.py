@@ -351,3 +351,16 @@ def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_in
     import zlib
 
     assert vtu.zlib is zlib
+    # a block cut short is refused, as zlib.decompress refuses it
+    text = honest.read_text()
+    start = text.index('Name="pad"')
+    begin, end = text.index(">", start) + 1, text.index("</DataArray>", start)
+    import base64
+
+    block = zlib.compress(bytes(72), 9)[:-6]  # the stream's end and checksum cut off
+    cut = np.array([1, 72, 72, len(block)],
+                   dtype=np.uint64 if 'header_type="UInt64"' in text else np.uint32)
+    honest.write_text(text[:begin] + base64.b64encode(cut.tobytes()).decode()
+                      + base64.b64encode(block).decode() + text[end:])
+    with pytest.raises(ValueError, match="truncated"):
+        yore.io.load_frame(honest)

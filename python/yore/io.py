@@ -282,11 +282,14 @@ class _BudgetedDecompressor:
 
     def decompress(self, data):
         left = self.budget["left"]
-        inflated = self.make().decompress(data, left + 1)
+        decompressor = self.make()
+        inflated = decompressor.decompress(data, left + 1)
         if len(inflated) > left:
             raise _Inflated(f"its compressed arrays inflate to more than the "
                             f"{self.budget['total']} bytes its declared shapes allow "
                             "(refused while inflating)")
+        if not decompressor.eof:  # (what zlib.decompress would refuse)
+            raise ValueError("a compressed block is truncated")
         self.budget["left"] = left - len(inflated)
         return inflated
 
