@@ -520,3 +520,15 @@ def test_out_of_memory_ends_the_run_failed_with_its_last_frame_kept(tmp_path, mo
     assert record["frames"] and sim.time == pytest.approx(record["frames"][-1][0])
     assert resume(tmp_path) == 0
     assert_same_run(straight, tmp_path)
+
+
+def test_a_state_from_before_relative_paths_still_resumes_in_place(tmp_path, straight):
+    # records written before issue 41 hold absolute paths of the frames and of before.vtu
+    assert run_hanging(tmp_path, "--until", "0.15") == 0
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    record["frames"] = [[t, str((tmp_path / path).resolve())] for t, path in record["frames"]]
+    if record["before"] is not None:
+        record["before"]["file"] = str((tmp_path / record["before"]["file"]).resolve())
+    yore.save_state(tmp_path / "state.npz", sim, metadata=record)
+    assert resume(tmp_path) == 0
+    assert_same_run(straight, tmp_path)
