@@ -191,9 +191,22 @@ FAMILIES = {
                                        "atol": 1e-5, "newton_tol": 1e-7,
                                        "truncation_fraction": 0.0},
 }
+# "at tolerance" rows (issue 40, item 4): yore's own error-controlled BDF2 and TR-BDF2 and
+# CVODE at rtol 1e-2, 1e-3 (1e-4 above), atol = rtol / 10 m, as benchmarks.error_control sets them
+_TOLERANCES = {"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}
+for _name, _rtol in list(_TOLERANCES.items())[:2]:
+    FAMILIES[f"tr-bdf2 auto {_name}"] = {"integrator": "tr-bdf2", "adaptive": True,
+                                           "rtol": _rtol, "atol": _rtol / 10}
+    FAMILIES[f"cvode {_name}"] = {"integrator": "cvode", "rtol": _rtol, "atol": _rtol / 10}
+for _name, _rtol in _TOLERANCES.items():
+    FAMILIES[f"bdf2 auto {_name}"] = {"integrator": "bdf2", "adaptive": True, "rtol": _rtol,
+                                        "atol": _rtol / 10}
 #: families whose steps their tolerance chooses: dt is their output interval, one rung only
-ERROR_CONTROLLED = ("tr-bdf2 auto 1e-4", "cvode 1e-4", "tr-bdf2 auto 1e-4, truncation 0.01",
-                    "tr-bdf2 auto 1e-4, Newton 1e-7")
+ERROR_CONTROLLED = tuple(name for name, options in FAMILIES.items()
+                         if options.get("adaptive") or options["integrator"] == "cvode")
+#: the tolerance rows, per method: (family, rtol), loosest first (the proportionality slope)
+TOLERANCE_ROWS = {method: tuple((f"{method} {name}", r) for name, r in _TOLERANCES.items())
+                  for method in ("tr-bdf2 auto", "bdf2 auto", "cvode")}
 QUICK_FAMILIES = ("explicit", "implicit")
 #: the issue's targets: (name, size, k, bending, measure, threshold, goal ratio)
 TARGETS = (("64², k = 2e5, equal bending", 64, 2e5, "equal", LADDER_MEASURE, 0.05, 0.3),
