@@ -132,7 +132,7 @@ import numpy as np
 
 import yore
 
-from . import common, sensitivity
+from . import common, sensitivity, tolerance
 from . import crossover as cx
 from .common import arguments, machine_info, save
 
@@ -192,21 +192,13 @@ FAMILIES = {
                                        "truncation_fraction": 0.0},
 }
 # "at tolerance" rows (issue 40, item 4): yore's own error-controlled BDF2 and TR-BDF2 and
-# CVODE at rtol 1e-2, 1e-3 (1e-4 above), atol = rtol / 10 m, as benchmarks.error_control sets them
-_TOLERANCES = {"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}
-for _name, _rtol in list(_TOLERANCES.items())[:2]:
-    FAMILIES[f"tr-bdf2 auto {_name}"] = {"integrator": "tr-bdf2", "adaptive": True,
-                                           "rtol": _rtol, "atol": _rtol / 10}
-    FAMILIES[f"cvode {_name}"] = {"integrator": "cvode", "rtol": _rtol, "atol": _rtol / 10}
-for _name, _rtol in _TOLERANCES.items():
-    FAMILIES[f"bdf2 auto {_name}"] = {"integrator": "bdf2", "adaptive": True, "rtol": _rtol,
-                                        "atol": _rtol / 10}
+# CVODE at rtol 1e-2, 1e-3, 1e-4, atol = rtol / 10 m (benchmarks.tolerance); the 1e-4 rows of
+# TR-BDF2 and CVODE are the diagnostic rows above, unchanged
+FAMILIES.update({name: options for name, options in tolerance.families().items()
+                 if name not in FAMILIES})
 #: families whose steps their tolerance chooses: dt is their output interval, one rung only
 ERROR_CONTROLLED = tuple(name for name, options in FAMILIES.items()
-                         if options.get("adaptive") or options["integrator"] == "cvode")
-#: the tolerance rows, per method: (family, rtol), loosest first (the proportionality slope)
-TOLERANCE_ROWS = {method: tuple((f"{method} {name}", r) for name, r in _TOLERANCES.items())
-                  for method in ("tr-bdf2 auto", "bdf2 auto", "cvode")}
+                         if tolerance.is_error_controlled(options))
 QUICK_FAMILIES = ("explicit", "implicit")
 #: the issue's targets: (name, size, k, bending, measure, threshold, goal ratio)
 TARGETS = (("64², k = 2e5, equal bending", 64, 2e5, "equal", LADDER_MEASURE, 0.05, 0.3),
@@ -349,7 +341,8 @@ def history(make, options, per_sample, stride, duration, keep_until, cap_seconds
     if not np.isfinite(table).all():
         return {"diverged": True, "steps_done": steps}
     return {"snapshots": [np.array(positions), table], "cpu_seconds": cpu,
-            "counters": cx.numeric_counters(sim.stats["counters"])}
+            "counters": cx.numeric_counters(sim.stats["counters"]),
+            "internal_steps": tolerance.internal_steps(sim)}
 
 
 # -- one cell -----------------------------------------------------------------------------------
@@ -419,6 +412,7 @@ def measure_cell(cell, make, families, settings, log, journal=None):
                                              if k in counters), steps)),
                         factorizations=int(counters.get("factorizations", 0)),
                         unconverged_steps=unconverged, flagged=unconverged > 0, repeats=1,
+                        internal_steps=result.get("internal_steps"),
                         cpu_seconds_samples=[result["cpu_seconds"]],
                         kinetic_energy=result["snapshots"][1][:, 1].tolist(),
                         total_energy=result["snapshots"][1][:, 5].tolist())
@@ -563,6 +557,12 @@ def summarize(info, rows, families, thresholds):
     out["verdicts"] = {m: {f"at_{t:g}": judge(rows, families, limit, m, t,
                                              info["floors"][m]["floor"]) for t in thresholds}
                        for m in MEASURES}
+    groups = {m: tuple((f, r) for f, r in members if f in families)
+              for m, members in tolerance.groups().items()}
+    out["at_tolerance"] = tolerance.at_tolerance(
+        rows, info["floors"][LADDER_MEASURE]["floor"], limit["cost_seconds_per_simulated_second"],
+        [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED],
+        {m: g for m, g in groups.items() if g})
     return out
 
 

@@ -1,0 +1,149 @@
+"""Rows "at tolerance" (issue 40, item 4): the error-controlled integrators at rtol 1e-2, 1e-3
+and 1e-4 as families of the crossover and of the long-horizon benchmark, and what is read off
+them in each cell.
+
+A row at tolerance is one run whose steps its tolerance chooses; its `dt` is the output interval
+(1/64 s). Per cell and method (yore's own TR-BDF2 and BDF2 with dt="auto", and CVODE), for each
+tolerance, `at_tolerance` reports:
+- the achieved error (the benchmark's own: the crossover's trajectory error, the long horizon's
+  kinetic-energy history) beside the reference's floor;
+- the log–log slope of the error against rtol from the next looser tolerance, judged only where
+  both errors are above SLOPE_FLOOR times the floor (below that the floor, not the tolerance,
+  sets the error);
+- internal steps, factorizations and Newton iterations per internal step, CPU per internal step;
+- its cost over explicit's at the limit, and over the cheapest fixed-step implicit run of the same
+  cell (same task, same clock) that is at least as accurate, with that run's factorizations and
+  CPU per step: "at equal achieved error".
+"""
+
+from __future__ import annotations
+
+import math
+
+#: tolerance names and values: atol = rtol / 10 m (benchmarks.error_control's setting)
+TOLERANCES = {"1e-2": 1e-2, "1e-3": 1e-3, "1e-4": 1e-4}
+#: method → the options its rows share (each row adds rtol and atol)
+METHODS = {
+    "tr-bdf2 auto": {"integrator": "tr-bdf2", "adaptive": True},
+    "bdf2 auto": {"integrator": "bdf2", "adaptive": True},
+    "cvode": {"integrator": "cvode"},
+}
+SLOPE_FLOOR = 3.0  # a slope is judged where both errors exceed this × the floor
+OUTPUT_RATE = 64  # output intervals per simulated second (dt of a row at tolerance)
+
+
+def family_name(method, tolerance, label=None):
+    """The display name of one row: "tr-bdf2 auto 1e-3" (label maps the method's name)."""
+    return f"{(label or {}).get(method, method)} {tolerance}"
+
+
+def families(label=None, methods=None):
+    """{display name: yore.Simulation options} of every row at tolerance."""
+    return {family_name(m, name, label): {**METHODS[m], "rtol": rtol, "atol": rtol / 10}
+            for m in (methods or METHODS) for name, rtol in TOLERANCES.items()}
+
+
+def groups(label=None, methods=None):
+    """{method: ((display name, rtol), ...)}, loosest tolerance first."""
+    return {m: tuple((family_name(m, name, label), rtol) for name, rtol in TOLERANCES.items())
+            for m in (methods or METHODS)}
+
+
+def is_error_controlled(options):
+    """Whether a family's steps are chosen by a tolerance (one run, dt = output interval)."""
+    return bool(options.get("adaptive")) or options.get("integrator") in ("cvode", "arkode")
+
+
+def internal_steps(sim):
+    """The steps a run took: SUNDIALS' internal steps, else yore's own step count."""
+    counters = sim.stats["counters"]
+    if "internal_steps" in counters:
+        return int(counters["internal_steps"])
+    return int(sim.stats["steps"])
+
+
+def _usable(row):
+    return "error" in row and not row.get("unstable") and not row.get("flagged")
+
+
+def at_tolerance(rows, floor, explicit_cost, fixed, groups_):
+    """One entry per row at tolerance of one cell (see the module's docstring). rows: the
+    cell's run rows (method, error, cpu_seconds, cost_seconds_per_simulated_second, steps,
+    factorizations, iterations, horizon; internal_steps where recorded); floor: the
+    reference's floor of that error; explicit_cost: explicit's CPU s per simulated s at its
+    limit; fixed: the names of the fixed-step implicit families."""
+    cost = "cost_seconds_per_simulated_second"
+    fixed_rows = [r for r in rows if r["method"] in fixed and _usable(r)]
+    out = []
+    for method, members in groups_.items():
+        previous = None
+        for family, rtol in members:
+            r = next((r for r in rows if r["method"] == family), None)
+            if r is None:
+                continue
+            entry = {"method": method, "family": family, "rtol": rtol, "floor": floor}
+            if "error" not in r:
+                entry["failed"] = ("diverged" if r.get("diverged")
+                                   else r.get("aborted") or "no error measured")
+                out.append(entry)
+                previous = None
+                continue
+            steps = int(r.get("internal_steps") or r["steps"])
+            entry.update(error=r["error"], internal_steps=steps,
+                         mean_dt=r["horizon"] / max(steps, 1),
+                         factorizations_per_step=r["factorizations"] / max(steps, 1),
+                         iterations_per_step=r["iterations"] / max(steps, 1),
+                         cpu_per_step=r["cpu_seconds"] / max(steps, 1), cost=r[cost],
+                         repeats=r.get("repeats", 1), flagged=bool(r.get("flagged")),
+                         cost_over_explicit=(r[cost] / explicit_cost if explicit_cost
+                                             else None))
+            counters = r.get("counters") or {}
+            rejected = counters.get("rejected_steps", counters.get("error_test_failures"))
+            if rejected is not None:
+                entry["rejected_steps"] = int(rejected)
+            as_good = [f for f in fixed_rows if f["error"] <= r["error"]]
+            if as_good:
+                best = min(as_good, key=lambda f: f[cost])
+                entry.update(fixed=best["method"], fixed_dt=best["dt"],
+                             fixed_error=best["error"], cost_over_fixed=r[cost] / best[cost],
+                             fixed_factorizations_per_step=best["factorizations"] / best["steps"],
+                             fixed_cpu_per_step=best["cpu_seconds"] / best["steps"])
+            if previous is not None and floor is not None and \
+                    min(previous["error"], r["error"]) > SLOPE_FLOOR * floor:
+                entry["slope"] = (math.log10(previous["error"] / r["error"])
+                                  / math.log10(previous["rtol"] / rtol))
+            out.append(entry)
+            previous = entry
+    return out
+
+
+def slopes(entries):
+    """Every judged slope of a list of at_tolerance entries (for the summary)."""
+    return [e["slope"] for e in entries if "slope" in e]
+
+
+def table(entries, cell_name):
+    """Markdown rows of one cell's entries (for the Results page)."""
+    def number(value, form="{:.3g}"):
+        return "–" if value is None else form.format(value)
+
+    lines = []
+    for e in entries:
+        head = f"| {cell_name} | {e['family']} |"
+        if "failed" in e:
+            lines.append(head + f" failed: {str(e['failed'])[:70]} |" + " |" * 7)
+            continue
+        fixed = ("–" if "fixed" not in e else
+                 f"{e['cost_over_fixed']:.2f} ({e['fixed']} {e['fixed_dt']:.3g} s, "
+                 f"{e['fixed_factorizations_per_step']:.1f} fact./step)")
+        lines.append(head + f" {e['error']:.2e} (floor {number(e['floor'], '{:.1e}')}) | "
+                     f"{number(e.get('slope'), '{:.2f}')} | {e['internal_steps']} | "
+                     f"{e['factorizations_per_step']:.2f} | {e['iterations_per_step']:.1f} | "
+                     f"{1e3 * e['cpu_per_step']:.3g} | "
+                     f"{number(e['cost_over_explicit'], '{:.2f}')} | {fixed} |")
+    return lines
+
+
+TABLE_HEAD = ["| cell | row | error | slope vs rtol | internal steps | factorizations / step "
+              "| Newton / step | CPU ms / step | × explicit | × cheapest fixed step as accurate |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
