@@ -120,6 +120,7 @@ import numpy as np
 
 import yore
 
+from . import tolerance
 from .common import arguments, machine_info, save
 
 THRESHOLDS = (0.01, 0.001)  # relative errors the summary picks the cheapest run at
@@ -176,9 +177,17 @@ FAMILIES = {
     "quasi-Newton BE": {"integrator": "quasi-newton", "method": "backward-euler"},
     "quasi-Newton BDF2": {"integrator": "quasi-newton", "method": "bdf2"},
 }
+# rows "at tolerance" (issue 40, item 4; benchmarks.tolerance): yore's TR-BDF2 and BDF2 with
+# dt="auto" and CVODE at rtol 1e-2, 1e-3, 1e-4 (atol = rtol / 10 m), one run each with output
+# at T/2 and T only (the times the error is measured at), so the output does not cap the steps
+TOLERANCE_LABELS = {"tr-bdf2 auto": "TR-BDF2 auto", "bdf2 auto": "BDF2 auto", "cvode": "CVODE"}
+FAMILIES.update(tolerance.families(TOLERANCE_LABELS))
+#: families whose steps their tolerance chooses: one run, dt = the output interval
+ERROR_CONTROLLED = tuple(name for name, options in FAMILIES.items()
+                         if tolerance.is_error_controlled(options))
 QUICK_FAMILIES = ("explicit", "BE linearized", "BDF2", "quasi-Newton BE")
 ITERATION_COUNTERS = ("newton_iterations", "iterations", "lbfgs_iterations",
-                      "quasi_newton_iterations")
+                      "quasi_newton_iterations", "nonlinear_iterations")
 #: counters that are states or sizes, not totals over the steps (not divided by steps)
 STATE_COUNTERS = ("dofs", "factor_nonzeros", "factor_flops")
 
@@ -264,7 +273,8 @@ def _simulate(make, options, steps, duration, cap_seconds=math.inf, chunks=16):
                     "cost_estimate": predicted / duration, "steps_done": done}
     snapshots.append(sim.cloth.positions)
     return {"snapshots": snapshots, "cpu_seconds": cpu,
-            "counters": numeric_counters(sim.stats["counters"])}
+            "counters": numeric_counters(sim.stats["counters"]),
+            "internal_steps": tolerance.internal_steps(sim)}
 
 
 def relative_errors(snapshots, reference, scale):
@@ -498,7 +508,8 @@ def measure_cell(cell, make, families, settings, log, journal=None):
                         iterations=int(next((counters[k] for k in ITERATION_COUNTERS
                                              if k in counters), steps)),
                         factorizations=int(counters.get("factorizations", 0)),
-                        unconverged_steps=unconverged, flagged=unconverged > 0)
+                        unconverged_steps=unconverged, flagged=unconverged > 0,
+                        internal_steps=result.get("internal_steps"))
             set_cost(base, result["cpu_seconds"])
         elif result.get("aborted"):
             base["cost_estimate_seconds_per_simulated_second"] = result["cost_estimate"]
@@ -530,7 +541,9 @@ def measure_cell(cell, make, families, settings, log, journal=None):
         if family == "explicit":
             continue
         aborted_in_a_row, previous = 0, None
-        for rate in settings["rates"]:
+        # an error-controlled row: one run, output at T/2 and T only (its steps are its own)
+        rates = [2 / duration] if family in ERROR_CONTROLLED else settings["rates"]
+        for rate in rates:
             steps = even_steps(duration, 1.0 / rate)
             r = row(family, steps, simulate(make, options, steps, duration, cap))
             rows.append(r)
@@ -554,12 +567,15 @@ def measure_cell(cell, make, families, settings, log, journal=None):
 
 
 def set_cost(row, cpu):
+    """The row's cost from its CPU seconds; per step means per step taken (an error-controlled
+    row's internal steps, not its output intervals)."""
+    steps = row.get("internal_steps") or row["steps"]
     row["cpu_seconds"] = cpu
     row["cost_seconds_per_simulated_second"] = cpu / row["horizon"]
-    row["steps_per_simulated_second"] = row["steps"] / row["horizon"]
-    row["iterations_per_step"] = row["iterations"] / row["steps"]
-    row["factorizations_per_step"] = row["factorizations"] / row["steps"]
-    row["cpu_per_step"] = cpu / row["steps"]
+    row["steps_per_simulated_second"] = steps / row["horizon"]
+    row["iterations_per_step"] = row["iterations"] / steps
+    row["factorizations_per_step"] = row["factorizations"] / steps
+    row["cpu_per_step"] = cpu / steps
     row["cpu_per_iteration"] = cpu / max(1, row["iterations"])
 
 
@@ -614,7 +630,7 @@ def log_row(log, r):
 
 # -- a cell's summary ---------------------------------------------------------------------------
 def entry(row):
-    keys = ("method", "dt", "steps", "error", "error_half", "error_end",
+    keys = ("method", "dt", "steps", "internal_steps", "error", "error_half", "error_end",
             "cost_seconds_per_simulated_second", "cpu_seconds", "repeats",
             "steps_per_simulated_second", "cpu_per_step", "iterations_per_step",
             "factorizations_per_step", "cpu_per_iteration", "unconverged_steps", "flagged")
@@ -672,13 +688,23 @@ def summarize_cell(info, rows, families):
                 implicit_over_explicit_cost=ratio,
                 winner=best_implicit["method"] if ratio < 1 else "explicit",
                 # cost per simulated second = steps per simulated second × CPU per step
-                explicit_over_implicit_steps=best_explicit["steps"] / best_implicit["steps"],
+                explicit_over_implicit_steps=(
+                    (best_explicit.get("internal_steps") or best_explicit["steps"])
+                    / (best_implicit.get("internal_steps") or best_implicit["steps"])),
                 implicit_over_explicit_cpu_per_step=(best_implicit["cpu_per_step"]
                                                      / best_explicit["cpu_per_step"]))
         elif best_explicit:
             # every implicit run erred more or was stopped at its cap (≥ --max-ratio × explicit)
             verdict.update(winner="explicit", note="no implicit run reached it within the caps")
         out[f"at_{threshold:g}"] = verdict
+    groups = {m: tuple((f, rtol) for f, rtol in members if f in families)
+              for m, members in tolerance.groups(TOLERANCE_LABELS).items()}
+    groups = {m: g for m, g in groups.items() if g}
+    at_limit = [r for r in limit if "cost_seconds_per_simulated_second" in r]
+    if groups and at_limit:
+        out["at_tolerance"] = tolerance.at_tolerance(
+            rows, info["reference_error"], at_limit[0]["cost_seconds_per_simulated_second"],
+            [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED], groups)
     return out
 
 
@@ -960,7 +986,8 @@ def targets(cells, stiffnesses):
 
 
 def _cost(e):
-    return (f"{e['method']} dt {e['dt']:.3g} s: {e['steps']} steps × "
+    steps = e.get("internal_steps") or e["steps"]
+    return (f"{e['method']} dt {e['dt']:.3g} s: {steps} steps × "
             f"{duration_text(e['cpu_per_step'])} = {e['cost_seconds_per_simulated_second']:.3g} "
             "s/s")
 
@@ -1043,7 +1070,8 @@ def finding(payload):
         text += (f" ({where(wins)}): there its cheapest run takes a median {steps:.3g}× fewer "
                  f"steps than explicit at its stability limit, each costing {per_step:.3g}× an "
                  f"explicit step (best: {best['size']}², k = {best['stretch_stiffness']:g}, "
-                 f"{best['bending']} bending, {imp['method']} {imp['steps']} steps × "
+                 f"{best['bending']} bending, {imp['method']} "
+                 f"{imp.get('internal_steps') or imp['steps']} steps × "
                  f"{duration_text(imp['cpu_per_step'])} against {exp['steps']} × "
                  f"{duration_text(exp['cpu_per_step'])}, "
                  f"{at['implicit_over_explicit_cost']:.2f}×)")

@@ -221,7 +221,8 @@ def long_horizon_section(payload: dict, images: str) -> list:
             out.append(head + " | ".join(f"{r[m]:.2e}" for m in measures) + " | "
                        + ("–" if cost is None or r["method"].startswith("reference")
                           else f"{cost:.3g} ({r.get('repeats', 1)})") + " | "
-                       + (f"{r['iterations'] / r['steps']:.2f}" if r["method"] not in (
+                       + (f"{r['iterations'] / (r.get('internal_steps') or r['steps']):.2f}"
+                          if r["method"] not in (
                            "explicit", "reference", "reference, perturbed start",
                            "reference, quarter step") and "iterations" in r else "–")
                        + (f" ({r['unconverged_steps']} unconverged)"

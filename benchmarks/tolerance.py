@@ -131,7 +131,7 @@ def table(entries, cell_name):
     for e in entries:
         head = f"| {cell_name} | {e['family']} |"
         if "failed" in e:
-            lines.append(head + f" failed: {str(e['failed'])[:70]} |" + " |" * 7)
+            lines.append(head + f" failed: {str(e['failed'])[:70]} |" + " |" * 7)  # 10 columns
             continue
         fixed = ("–" if "fixed" not in e else
                  f"{e['cost_over_fixed']:.2f} ({e['fixed']} {e['fixed_dt']:.3g} s, "
