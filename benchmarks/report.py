@@ -347,6 +347,57 @@ def error_control_section(payload: dict, images: str) -> list:
     return out
 
 
+TOLERANCE_CROSSOVER = Path("crossover-tolerance") / "crossover.json"  # under the results
+
+
+def at_tolerance_section(crossover: dict | None, long_horizon: dict) -> list:
+    """The rows at tolerance (issue 40, item 4) of the crossover (a part of its grid run with
+    them, in crossover-tolerance/) and of the long horizon: one table each, and per method the
+    slope against rtol, factorizations per step and cost at equal achieved error."""
+    from . import tolerance
+    from .long_horizon import key
+
+    out = ["## At tolerance", "",
+           "The error-controlled rows as families of the crossover and of the long horizon "
+           "(`benchmarks/tolerance.py`): TR-BDF2 and BDF2 with `dt=\"auto\"` and CVODE at rtol "
+           "1e-2, 1e-3, 1e-4 (atol = rtol/10 m), one run each, in the same task as the "
+           "fixed-step rows and explicit. Error: the benchmark's own (the crossover's trajectory "
+           "error at T/2 and T; the long horizon's kinetic-energy history), beside the floor of "
+           "its reference. The slope of error against rtol is judged where both errors are "
+           f"above {tolerance.SLOPE_FLOOR:g} times the floor; \"per step\" is per internal step; "
+           "\"× cheapest fixed step as accurate\" is the CPU time over the cheapest fixed-step "
+           "implicit run of the cell with an error at most as large (– when none is). In the "
+           "crossover the rows write output at T/2 and T only; in the long horizon every 1/64 s "
+           "(the sampling grid), which caps their steps at 1/64 s.", ""]
+    lines = []
+    if crossover is None:
+        out += ["The crossover has not run with these rows here.", ""]
+    else:
+        cells = [c for c in crossover["summary"]["cells"] if c.get("at_tolerance")]
+        out += [f"**Crossover** ({len(cells)} cell{'s' * (len(cells) != 1)}, short horizon):",
+                ""] + tolerance.TABLE_HEAD
+        named = [(f"{c['size']}² k = {c['stretch_stiffness']:g} {c['bending']}",
+                  c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
+        for name, _, entries in named:
+            out += tolerance.table(entries, name)
+        lines += tolerance.summary_lines(named, "Crossover")
+        out.append("")
+    cells = sorted((c for c in long_horizon["summary"]["cells"] if c.get("at_tolerance")),
+                   key=key)
+    if cells:
+        out += [f"**Long horizon** ({len(cells)} cell{'s' * (len(cells) != 1)}, kinetic-energy "
+                "history):", ""]
+        out += tolerance.TABLE_HEAD
+        named = [(_cell_name(c), c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
+        for name, _, entries in named:
+            out += tolerance.table(entries, name)
+        lines += tolerance.summary_lines(named, "Long horizon")
+        out.append("")
+    else:
+        out += ["The long horizon has no cell with these rows yet.", ""]
+    return out + [f"- {line}" for line in lines]
+
+
 def section(data: dict, results: Path, images: str | None = None) -> str:
     """The generated part of the results page from the benchmarks' JSON (``load``); ``results``
     is the folder named in the text, ``images`` the folder of the PNG files as the page links
@@ -365,6 +416,9 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
     out += [""] + long_horizon_section(data["long_horizon"], images)
     out += [""] + numerical_damping_section(data["numerical_damping"], images)
     out += [""] + error_control_section(data["error_control"], images)
+    extra = Path(results) / TOLERANCE_CROSSOVER
+    out += [""] + at_tolerance_section(
+        json.loads(extra.read_text()) if extra.is_file() else None, data["long_horizon"])
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]

@@ -147,3 +147,40 @@ def table(entries, cell_name):
 TABLE_HEAD = ["| cell | row | error | slope vs rtol | internal steps | factorizations / step "
               "| Newton / step | CPU ms / step | × explicit | × cheapest fixed step as accurate |",
               "|---|---|---|---|---|---|---|---|---|---|"]
+
+
+STIFF = 2e5  # N/m: the stiff sheets of the issue's targets (k ≥ STIFF)
+
+
+def summary_lines(cells, what):
+    """Sentences over cells [(name, stiffness, entries)] of one benchmark (what: its name):
+    the judged slopes, factorizations per internal step on the stiff sheets, and the cost at
+    equal achieved error against the cheapest fixed-step run as accurate, per method."""
+    lines = []
+    methods = list(dict.fromkeys(e["method"] for _, _, entries in cells for e in entries))
+    for method in methods:
+        mine = [(name, k, e) for name, k, entries in cells for e in entries
+                if e["method"] == method]
+        done = [(name, k, e) for name, k, e in mine if "failed" not in e]
+        failed = len(mine) - len(done)
+        found = slopes([e for _, _, e in done])
+        stiff = [e for _, k, e in done if k >= STIFF]
+        versus = [e["cost_over_fixed"] for e in stiff if "cost_over_fixed" in e]
+        text = (f"{what}, {method}: {len(done)} of {len(mine)} rows ran"
+                + (f" ({failed} diverged or stopped at the CPU cap)" if failed else ""))
+        text += ("; slope of error against rtol " + (
+            f"{min(found):.2f}–{max(found):.2f} in the {len(found)} judged"
+            if found else "judged nowhere (no two consecutive rows both above "
+            f"{SLOPE_FLOOR:g} times the floor)"))
+        if stiff:
+            per_step = [e["factorizations_per_step"] for e in stiff]
+            text += (f"; on the stiff sheets (k ≥ {STIFF:g} N/m) {min(per_step):.2f}–"
+                     f"{max(per_step):.2f} factorizations per internal step")
+        if versus:
+            text += (f", {min(versus):.2f}–{max(versus):.2f} of the cheapest fixed-step run as "
+                     f"accurate ({sum(v <= 1.2 for v in versus)} of {len(versus)} at most 1.2, "
+                     f"{sum(v <= 0.5 for v in versus)} at most 0.5)")
+        elif stiff:
+            text += ", no fixed-step run as accurate to compare with"
+        lines.append(text + ".")
+    return lines

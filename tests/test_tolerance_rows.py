@@ -88,3 +88,25 @@ def test_the_table_has_one_line_of_ten_columns_per_row():
     head = tolerance.TABLE_HEAD[0].count("|")
     assert len(lines) == 2 and all(line.count("|") == head for line in lines)
     assert "failed: CPU cap" in lines[1]
+
+
+def test_the_summary_counts_the_stiff_cells_against_the_cheapest_fixed_step_run():
+    def entry(method, k_over, cost_over_fixed=None, slope=None, fact=0.5):
+        e = {"method": method, "family": method, "rtol": 1e-3, "error": 1e-3,
+             "factorizations_per_step": fact}
+        if cost_over_fixed is not None:
+            e["cost_over_fixed"] = cost_over_fixed
+        if slope is not None:
+            e["slope"] = slope
+        return e
+
+    cells = [("a", 2e5, [entry("m", 1, 0.4, fact=0.1), entry("m", 1, 1.1, slope=0.8)]),
+             ("b", 2e6, [entry("m", 1, 1.5, slope=1.2, fact=3.0)]),
+             ("soft", 2e3, [entry("m", 1, 0.1, fact=9.0)]),  # not stiff: not counted
+             ("c", 2e7, [{"method": "m", "family": "m", "rtol": 1e-2, "failed": "diverged"}])]
+    (line,) = tolerance.summary_lines(cells, "X")
+    assert "4 of 5 rows ran (1 diverged" in line
+    assert "0.80–1.20 in the 2 judged" in line
+    assert "0.10–3.00 factorizations per internal step" in line
+    assert "0.40–1.50 of the cheapest fixed-step run as accurate (2 of 3 at most 1.2, 1 at most " \
+           "0.5)" in line
