@@ -702,9 +702,13 @@ def summarize_cell(info, rows, families):
     groups = {m: g for m, g in groups.items() if g}
     at_limit = [r for r in limit if "cost_seconds_per_simulated_second" in r]
     if groups and at_limit:
+        fixed = [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED]
         out["at_tolerance"] = tolerance.at_tolerance(
             rows, info["reference_error"], at_limit[0]["cost_seconds_per_simulated_second"],
-            [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED], groups)
+            fixed, groups)
+        out["at_tolerance_verdicts"] = tolerance.at_thresholds(
+            rows, [t for t in THRESHOLDS if reference_serves(info, t)], fixed,
+            [f for f in families if f in ERROR_CONTROLLED])
     return out
 
 

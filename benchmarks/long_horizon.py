@@ -559,10 +559,14 @@ def summarize(info, rows, families, thresholds):
                        for m in MEASURES}
     groups = {m: tuple((f, r) for f, r in members if f in families)
               for m, members in tolerance.groups().items()}
+    fixed = [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED]
+    floor = info["floors"][LADDER_MEASURE]["floor"]
     out["at_tolerance"] = tolerance.at_tolerance(
-        rows, info["floors"][LADDER_MEASURE]["floor"], limit["cost_seconds_per_simulated_second"],
-        [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED],
+        rows, floor, limit["cost_seconds_per_simulated_second"], fixed,
         {m: g for m, g in groups.items() if g})
+    out["at_tolerance_verdicts"] = tolerance.at_thresholds(
+        rows, [t for t in thresholds if judged(floor, t)], fixed,
+        [f for f in families if f in ERROR_CONTROLLED])
     return out
 
 

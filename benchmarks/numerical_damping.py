@@ -417,11 +417,13 @@ def sheet_rows(size, families, cap_seconds=MAX_RUN_SECONDS, log=print):
 
 
 def sheet_families():
-    """Part 2's families: `long_horizon.FAMILIES` but explicit, then SHEET_EXTRA_FAMILIES, those
-    this build accepts; a family whose integrator and resolved options equal an earlier one's
+    """Part 2's families: `long_horizon.FAMILIES` but explicit and the error-controlled ones
+    (their dt is an output interval, not a step), then SHEET_EXTRA_FAMILIES, those this build
+    accepts; a family whose integrator and resolved options equal an earlier one's
     is measured once, under the earlier name. Returns ({name: options}, {name: why refused},
     {merged name: the name it runs under})."""
-    table = {**{n: o for n, o in lh.FAMILIES.items() if n != "explicit"}, **SHEET_EXTRA_FAMILIES}
+    table = {**{n: o for n, o in lh.FAMILIES.items()
+                if n != "explicit" and n not in lh.ERROR_CONTROLLED}, **SHEET_EXTRA_FAMILIES}
     refused = {n: lh.refusal(o) for n, o in table.items()}
     accepted_ = {n: o for n, o in table.items() if refused[n] is None}
     resolved = cx.resolved_families(accepted_)

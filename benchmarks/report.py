@@ -380,7 +380,9 @@ def at_tolerance_section(crossover: dict | None, long_horizon: dict) -> list:
                   c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
         for name, _, entries in named:
             out += tolerance.table(entries, name)
-        lines += tolerance.summary_lines(named, "Crossover")
+        lines += tolerance.summary_lines(named, "Crossover", [
+            (name, c["stretch_stiffness"], c.get("at_tolerance_verdicts", []))
+            for (name, _, _), c in zip(named, cells)])
         out.append("")
     cells = sorted((c for c in long_horizon["summary"]["cells"] if c.get("at_tolerance")),
                    key=key)
@@ -391,11 +393,43 @@ def at_tolerance_section(crossover: dict | None, long_horizon: dict) -> list:
         named = [(_cell_name(c), c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
         for name, _, entries in named:
             out += tolerance.table(entries, name)
-        lines += tolerance.summary_lines(named, "Long horizon")
+        lines += tolerance.summary_lines(named, "Long horizon", [
+            (name, c["stretch_stiffness"], c.get("at_tolerance_verdicts", []))
+            for (name, _, _), c in zip(named, cells)])
         out.append("")
     else:
         out += ["The long horizon has no cell with these rows yet.", ""]
     return out + [f"- {line}" for line in lines]
+
+
+def vibration_floor_section(payload: dict, images: str) -> list:
+    """Why the errors do not follow the tolerance: every family's error against its mean step
+    beside the explicit stable step (from vibration_floor.json)."""
+    out = ["### Why the error does not follow the tolerance on the stiff sheets", "",
+           f"![vibration floor]({images}/vibration_floor.png)", "",
+           "`benchmarks/vibration_floor.py`, one thread: the crossover's sheet (bending equal) "
+           f"over {payload['horizon']} s, the RMS distance at T over the diagonal against "
+           "explicit at a sixteenth of its stable step; tr-bdf2 at fixed steps with Newton solved "
+           "tight, so neither Newton's stop nor a controller is in its error. Slopes are "
+           "log–log, from the row above.", "",
+           "| cell | row | error | internal steps | mean step / stable step | slope vs step "
+           "| slope vs rtol |", "|---|---|---|---|---|---|---|"]
+    for r in payload["rows"]:
+        name = f"{r['size']}² k = {r['stiffness']:g}"
+        setting = (f"dt = stable / {r['setting']:g}" if r["family"] == "explicit" else
+                   f"dt = {r['setting']:.3g} s" if "fixed" in r["family"] else
+                   f"rtol {r['setting']:g}")
+        if "error" not in r:
+            out.append(f"| {name} | {r['family']}, {setting} | failed: "
+                       f"{str(r.get('failure'))[:60]} | | | | |")
+            continue
+        if r.get("unconverged_steps"):
+            setting += f" ({r['unconverged_steps']} steps at Newton's iteration cap)"
+        out.append(f"| {name} | {r['family']}, {setting} | {r['error']:.2e} | "
+                   f"{r['internal_steps']} | {r['mean_step_over_stable_dt']:.3g} | "
+                   + (f"{r['slope_vs_step']:.2f}" if "slope_vs_step" in r else "–") + " | "
+                   + (f"{r['slope_vs_rtol']:.2f}" if "slope_vs_rtol" in r else "–") + " |")
+    return out
 
 
 def section(data: dict, results: Path, images: str | None = None) -> str:
@@ -419,6 +453,7 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
     extra = Path(results) / TOLERANCE_CROSSOVER
     out += [""] + at_tolerance_section(
         json.loads(extra.read_text()) if extra.is_file() else None, data["long_horizon"])
+    out += [""] + vibration_floor_section(data["vibration_floor"], images)
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]

@@ -36,6 +36,8 @@ SCHEMAS = {
     "error_control": ({"benchmark", "machine", "rows", "quick", "horizon", "output_interval",
                        "velocity_time", "thresholds", "cells"},
                       {"size", "stiffness", "integrator", "error", "cpu_seconds"}),
+    "vibration_floor": ({"benchmark", "machine", "rows", "quick", "horizon", "cells"},
+                        {"size", "stiffness", "family", "setting"}),
     "rebuild_cost": ({"benchmark", "machine", "rows", "dense_matmul_gflops", "quick",
                       "local_global", "quasi_newton"},
                      {"case", "ordering_used", "dofs", "factor_nonzeros", "factor_flops",

@@ -117,6 +117,30 @@ def at_tolerance(rows, floor, explicit_cost, fixed, groups_):
     return out
 
 
+def at_thresholds(rows, thresholds, fixed, controlled):
+    """Per judged threshold: the cheapest error-controlled run and the cheapest fixed-step
+    implicit run meeting it, and the ratio of their costs (the issue's "≤ 1.2×, ≤ 0.5× in half
+    the cells"). thresholds: the judged ones; fixed, controlled: family names."""
+    cost = "cost_seconds_per_simulated_second"
+    out = []
+    for threshold in thresholds:
+        def cheapest(names):
+            meeting = [r for r in rows if r["method"] in names and _usable(r)
+                       and r["error"] <= threshold]
+            return min(meeting, key=lambda r: r[cost], default=None)
+
+        mine, theirs = cheapest(controlled), cheapest(fixed)
+        entry = {"threshold": threshold}
+        for side, r in (("controlled", mine), ("fixed", theirs)):
+            if r is not None:
+                entry[side] = {"method": r["method"], "dt": r["dt"], "error": r["error"],
+                               "cost": r[cost]}
+        if mine is not None and theirs is not None:
+            entry["controlled_over_fixed"] = mine[cost] / theirs[cost]
+        out.append(entry)
+    return out
+
+
 def slopes(entries):
     """Every judged slope of a list of at_tolerance entries (for the summary)."""
     return [e["slope"] for e in entries if "slope" in e]
@@ -152,11 +176,34 @@ TABLE_HEAD = ["| cell | row | error | slope vs rtol | internal steps | factoriza
 STIFF = 2e5  # N/m: the stiff sheets of the issue's targets (k ≥ STIFF)
 
 
-def summary_lines(cells, what):
+def summary_lines(cells, what, verdicts=()):
     """Sentences over cells [(name, stiffness, entries)] of one benchmark (what: its name):
     the judged slopes, factorizations per internal step on the stiff sheets, and the cost at
-    equal achieved error against the cheapest fixed-step run as accurate, per method."""
+    equal achieved error against the cheapest fixed-step run as accurate, per method; then,
+    from verdicts [(name, stiffness, at_thresholds entries)], per threshold on the stiff
+    sheets, the cheapest error-controlled run over the cheapest fixed-step one."""
     lines = []
+    thresholds = sorted({e["threshold"] for _, _, found in verdicts for e in found},
+                        reverse=True)
+    for threshold in thresholds:
+        found = [(name, e) for name, k, entries in verdicts if k >= STIFF for e in entries
+                 if e["threshold"] == threshold]
+        ratios = [(name, e["controlled_over_fixed"]) for name, e in found
+                  if "controlled_over_fixed" in e]
+        if not found:
+            continue
+        text = (f"{what} within {100 * threshold:g} %, stiff sheets (k ≥ {STIFF:g} N/m): "
+                f"{len(found)} cells judged")
+        if ratios:
+            values = [v for _, v in ratios]
+            text += (f"; the cheapest error-controlled run costs {min(values):.2f}–"
+                     f"{max(values):.2f} of the cheapest fixed-step implicit run in the "
+                     f"{len(ratios)} where both met it ({sum(v <= 1.2 for v in values)} at most "
+                     f"1.2, {sum(v <= 0.5 for v in values)} at most 0.5)")
+        missing = [name for name, e in found if "controlled_over_fixed" not in e]
+        if missing:
+            text += "; not both met it in " + ", ".join(missing)
+        lines.append(text + ".")
     methods = list(dict.fromkeys(e["method"] for _, _, entries in cells for e in entries))
     for method in methods:
         mine = [(name, k, e) for name, k, entries in cells for e in entries

@@ -845,3 +845,25 @@ def test_error_control_smoke(tmp_path):
     # SUNDIALS' factor is kept across steps: well under one factorization per BDF step
     cvode = [r for r in rows if r["integrator"] == "cvode" and r["error"] is not None]
     assert cvode and all(r["factorizations_per_step"] < 1 for r in cvode)
+
+
+def test_vibration_floor_smoke(tmp_path):
+    data = run_benchmark("vibration_floor", tmp_path, "--quick")
+    rows = data["rows"]
+    assert {r["family"] for r in rows} == {"explicit", "cvode", "tr-bdf2 auto",
+                                           "tr-bdf2 fixed, tight Newton"}
+    explicit = [r for r in rows if r["family"] == "explicit"]
+    # the reference is explicit at a sixteenth of the stable step: explicit converges towards it
+    assert explicit[0]["error"] > explicit[-1]["error"]
+    cell = data["cells"][0]
+    for r in rows:
+        if "error" in r:
+            assert r["mean_step"] == pytest.approx(data["horizon"] / r["internal_steps"])
+            assert r["mean_step_over_stable_dt"] == pytest.approx(r["mean_step"]
+                                                                  / cell["stable_dt"])
+    fixed = [r for r in rows if r["family"] == "tr-bdf2 fixed, tight Newton"]
+    # a fixed step is its setting; the slopes are the rows' own log-log differences
+    assert [r["mean_step"] for r in fixed] == pytest.approx([r["setting"] for r in fixed])
+    b, a = fixed[1], fixed[0]
+    assert b["slope_vs_step"] == pytest.approx(
+        math.log(a["error"] / b["error"]) / math.log(a["mean_step"] / b["mean_step"]))

@@ -110,3 +110,24 @@ def test_the_summary_counts_the_stiff_cells_against_the_cheapest_fixed_step_run(
     assert "0.10–3.00 factorizations per internal step" in line
     assert "0.40–1.50 of the cheapest fixed-step run as accurate (2 of 3 at most 1.2, 1 at most " \
            "0.5)" in line
+
+
+def test_per_threshold_the_cheapest_controlled_run_over_the_cheapest_fixed_step_run():
+    rows = [run("fixed", 2e-2, 1.0, 8), run("fixed", 5e-3, 3.0, 32),
+            run("fixed", 8e-4, 9.0, 128), run("fixed", 1e-4, 0.5, 128, flagged=True),
+            run("auto 1e-2", 6e-3, 1.2, 2), run("auto 1e-3", 9e-4, 2.0, 2)]
+    loose, tight, tightest = tolerance.at_thresholds(rows, [1e-2, 1e-3, 1e-4], ["fixed"],
+                                                     ["auto 1e-2", "auto 1e-3"])
+    # 1 %: auto 1e-2 (1.2 s) against fixed at 5e-3 (3 s); 0.1 %: auto 1e-3 (2 s) against 9 s
+    assert loose["controlled"]["method"] == "auto 1e-2"
+    assert loose["controlled_over_fixed"] == pytest.approx(1.2 / 3.0)
+    assert tight["controlled"]["method"] == "auto 1e-3"
+    assert tight["controlled_over_fixed"] == pytest.approx(2.0 / 9.0)
+    # 0.01 %: only a flagged (unconverged) fixed-step run got there, and it does not count
+    assert "controlled" not in tightest and "fixed" not in tightest
+    assert "controlled_over_fixed" not in tightest
+    verdicts = [("a", 2e5, [loose, tight]), ("b", 2e3, [loose])]
+    lines = tolerance.summary_lines([], "X", verdicts)
+    assert lines[0].startswith("X within 1 %, stiff sheets (k ≥ 200000 N/m): 1 cells judged")
+    assert "0.40–0.40" in lines[0] and "(1 at most 1.2, 1 at most 0.5)" in lines[0]
+    assert lines[1].startswith("X within 0.1 %")
