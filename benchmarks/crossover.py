@@ -37,6 +37,11 @@ on from the run it was on; a recorded cell's journal is removed.
 Families: one table, FAMILIES (display name → `yore.Simulation` options), filtered by what this
 build accepts (`available_families`: a family whose options `yore.Simulation` refuses is left
 out and named with the reason), so a new variant needs only a row. --quick runs QUICK_FAMILIES.
+The rows "at tolerance" (`benchmarks.tolerance`: TR-BDF2 and BDF2 with dt="auto" and CVODE at
+rtol 1e-2, 1e-3, 1e-4) are families too, each one run with output at T/2 and T only; per cell
+`at_tolerance` holds what is read off them (slope against rtol, factorizations per internal
+step, cost at equal error) and `at_tolerance_verdicts` the cheapest of them over the cheapest
+fixed-step run at each judged threshold.
 
 Inside each cell, the rules of the careful benchmark this replaces (speed_vs_error):
 
@@ -65,7 +70,8 @@ Inside each cell, the rules of the careful benchmark this replaces (speed_vs_err
 - Error: RMS vertex distance to the reference at T/2 and at T, each over the cloth's
   bounding-box diagonal at the start (√2 m); a run's error is the larger of the two.
 - Implicit families run a ladder dt = 1/32 … 1/1024 s (--quick: … 1/128), stopping once a run
-  reaches 0.1 % and the next one costs more.
+  reaches 0.1 % and the next one costs more; an error-controlled family runs once. Per-step
+  figures count the steps taken (an error-controlled run's internal steps).
 - Repeats: every run that could be its family's cheapest at 1 % or 0.1 % (it meets the
   threshold and costs at most REPEAT_MARGIN × the family's cheapest single run that does) runs
   --repeats times in all; its cost is the median. Other runs ran once and say so (`repeats`).

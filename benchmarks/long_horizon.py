@@ -72,7 +72,10 @@ build accepts (a refused row is left out and named with the reason): explicit at
 1e-9 of a rest length, no truncation test), and the error-controlled TR-BDF2 (dt="auto") and
 CVODE at rtol 1e-4, atol 1e-5 m, each one run with an output interval of 1/64 s (their steps
 are their tolerance's, so they have no step ladder), the former also with Newton stopped ten
-times tighter and by its residual test alone at 1e-7. --quick runs QUICK_FAMILIES.
+times tighter and by its residual test alone at 1e-7; and the rows "at tolerance"
+(`benchmarks.tolerance`: TR-BDF2 and BDF2 with dt="auto" and CVODE at rtol 1e-2, 1e-3, 1e-4,
+atol = rtol/10 m), read off per cell in `at_tolerance` and `at_tolerance_verdicts` as the
+crossover does. --quick runs QUICK_FAMILIES.
 
 Runs, as the crossover's: explicit at the limit over the whole horizon (diverged, or its
 kinetic-energy history over BLOW_UP from the reference: m grows by 5 % and it runs again); each
