@@ -670,8 +670,9 @@ MERGE_KEYS = ("quick", "repeats", "max_run_seconds", "max_ratio", "max_cell_seco
 
 def earlier_run(path, settings, resolved):
     """An earlier run's payload (--merge), checked before anything runs: BadInput when it cannot
-    be read, its settings differ from this run's, or a family of it is not this run's or ran
-    with other resolved options (its costs and verdicts would not compare)."""
+    be read, its settings differ from this run's, or a family both ran with other resolved
+    options (its costs and verdicts would not compare). A family only the earlier run has joins
+    the table (`join_families`): this run's cells did not run it."""
     try:
         earlier = json.loads(Path(path).read_text(encoding="utf-8"))
         theirs = earlier["family_resolved_options"]
@@ -686,12 +687,24 @@ def earlier_run(path, settings, resolved):
                            "settings merge")
     # options yore gained since the earlier run count as their old behaviour (cx.LEGACY_OPTIONS)
     theirs = cx.earlier_resolved(earlier, resolved, {})
-    other = sorted(n for n in theirs if json.dumps(theirs[n], sort_keys=True)
-                   != json.dumps(resolved.get(n), sort_keys=True))
-    if other:
-        raise BadInput(f"--merge {path}: families not run here, or with other options: "
-                       + ", ".join(other))
+    other = sorted(n for n in theirs if n in resolved and json.dumps(theirs[n], sort_keys=True)
+                   != json.dumps(resolved[n], sort_keys=True))
+    unknown = sorted(n for n in theirs if n not in resolved and (
+        not theirs[n] or n not in earlier.get("family_options", {})))
+    if other or unknown:
+        raise BadInput(f"--merge {path}: families run here with other options, or of unknown "
+                       "options: " + ", ".join(other + unknown))
     return earlier
+
+
+def join_families(settings, resolved, earlier):
+    """The families of an earlier run (`earlier_run`) that this run did not run join this run's
+    table, after them: its cells report them, this run's cells name them as not run."""
+    theirs = earlier["family_resolved_options"]
+    for name, options in earlier["family_options"].items():
+        if name not in settings["families"]:
+            settings["families"][name] = options
+            resolved[name] = theirs[name]
 
 
 def merge(settings, cells, rows, earlier, source):
@@ -943,6 +956,14 @@ def run(args):
             shutil.rmtree(cx.journal_folder(settings["journal"], cell), ignore_errors=True)
     merged_from = []
     for path, earlier in zip(args.merge, earlier_runs):
+        ran_here = list(settings["families"])
+        join_families(settings, resolved, earlier)
+        for cell in cells:
+            if cell.get("status") == "done":
+                missing = [n for n in settings["families"] if n not in ran_here]
+                if missing:
+                    cell["families_missing"] = sorted({*cell.get("families_missing", []),
+                                                       *missing})
         settings, cells, rows, origin = merge(settings, cells, rows, earlier, str(path))
         merged_from.append(origin)
     payload = {

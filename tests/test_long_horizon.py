@@ -272,3 +272,36 @@ def test_the_quick_run_writes_its_measures_picture_and_sweep(tmp_path):
                     verdict["implicit_over_explicit_cost"],
                     best["cost_seconds_per_simulated_second"]
                     / explicit["cost_seconds_per_simulated_second"])
+
+
+@pytest.mark.slow  # two small benchmark runs on Dask
+def test_a_merge_joins_the_families_only_the_earlier_run_has(tmp_path):
+    pytest.importorskip("matplotlib")
+
+    def quick(out, *argv):
+        return subprocess.run([sys.executable, "-m", "benchmarks.long_horizon", "--out",
+                               str(out), "--quick", "--workers", "1", *argv], cwd=ROOT,
+                              capture_output=True, text=True, timeout=600)
+
+    first = quick(tmp_path / "a", "--families", "implicit")
+    assert first.returncode == 0, first.stderr
+    earlier = tmp_path / "a" / "long_horizon.json"
+    second = quick(tmp_path / "b", "--families", "bdf2 auto 1e-2", "--merge", str(earlier))
+    assert second.returncode == 0, second.stderr
+    data = json.loads((tmp_path / "b" / "long_horizon.json").read_text())
+    # the union, this run's first; the earlier-only family keeps its options
+    assert data["families"] == ["explicit", "bdf2 auto 1e-2", "implicit"]
+    assert data["family_options"]["implicit"] == lh.FAMILIES["implicit"]
+    (cell,) = data["summary"]["cells"]  # the same cell in both: this run's, which lacks one
+    assert cell["families_missing"] == ["implicit"]
+    assert {r["method"] for r in data["rows"]} >= {"bdf2 auto 1e-2"}
+    assert "implicit" not in {r["method"] for r in data["rows"]}
+    (entry,) = cell["at_tolerance"]  # the row at tolerance, read off
+    assert entry["family"] == "bdf2 auto 1e-2" and entry["internal_steps"] > 0
+    # a family both ran, with other options, cannot merge
+    payload = json.loads(earlier.read_text())
+    payload["family_resolved_options"]["implicit"]["newton_tol"] = 1.0
+    earlier.write_text(json.dumps(payload))
+    third = quick(tmp_path / "c", "--families", "implicit", "--merge", str(earlier))
+    assert third.returncode == 2
+    assert "with other options" in third.stderr and "implicit" in third.stderr
