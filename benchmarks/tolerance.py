@@ -88,12 +88,14 @@ def at_tolerance(rows, floor, explicit_cost, fixed, groups_):
                 out.append(entry)
                 previous = None
                 continue
-            steps = int(r.get("internal_steps") or r["steps"])
+            # a row recorded before internal steps were has none: no per-step figures
+            steps = r.get("internal_steps")
+            per = (lambda value: value / max(int(steps), 1)) if steps else (lambda value: None)
             entry.update(error=r["error"], internal_steps=steps,
-                         mean_dt=r["horizon"] / max(steps, 1),
-                         factorizations_per_step=r["factorizations"] / max(steps, 1),
-                         iterations_per_step=r["iterations"] / max(steps, 1),
-                         cpu_per_step=r["cpu_seconds"] / max(steps, 1), cost=r[cost],
+                         mean_dt=per(r["horizon"]),
+                         factorizations_per_step=per(r["factorizations"]),
+                         iterations_per_step=per(r["iterations"]),
+                         cpu_per_step=per(r["cpu_seconds"]), cost=r[cost],
                          repeats=r.get("repeats", 1), flagged=bool(r.get("flagged")),
                          cost_over_explicit=(r[cost] / explicit_cost if explicit_cost
                                              else None))
@@ -160,10 +162,12 @@ def table(entries, cell_name):
         fixed = ("–" if "fixed" not in e else
                  f"{e['cost_over_fixed']:.2f} ({e['fixed']} {e['fixed_dt']:.3g} s, "
                  f"{e['fixed_factorizations_per_step']:.1f} fact./step)")
+        cpu_ms = None if e["cpu_per_step"] is None else 1e3 * e["cpu_per_step"]
         lines.append(head + f" {e['error']:.2e} (floor {number(e['floor'], '{:.1e}')}) | "
-                     f"{number(e.get('slope'), '{:.2f}')} | {e['internal_steps']} | "
-                     f"{e['factorizations_per_step']:.2f} | {e['iterations_per_step']:.1f} | "
-                     f"{1e3 * e['cpu_per_step']:.3g} | "
+                     f"{number(e.get('slope'), '{:.2f}')} | "
+                     f"{number(e['internal_steps'], '{}')} | "
+                     f"{number(e['factorizations_per_step'], '{:.2f}')} | "
+                     f"{number(e['iterations_per_step'], '{:.1f}')} | {number(cpu_ms)} | "
                      f"{number(e['cost_over_explicit'], '{:.2f}')} | {fixed} |")
     return lines
 
@@ -220,9 +224,11 @@ def summary_lines(cells, what, verdicts=()):
             if found else "judged nowhere (no two consecutive rows both above "
             f"{SLOPE_FLOOR:g} times the floor)"))
         if stiff:
-            per_step = [e["factorizations_per_step"] for e in stiff]
-            text += (f"; on the stiff sheets (k ≥ {STIFF:g} N/m) {min(per_step):.2f}–"
-                     f"{max(per_step):.2f} factorizations per internal step")
+            per_step = [e["factorizations_per_step"] for e in stiff
+                        if e["factorizations_per_step"] is not None]
+            if per_step:
+                text += (f"; on the stiff sheets (k ≥ {STIFF:g} N/m) {min(per_step):.2f}–"
+                         f"{max(per_step):.2f} factorizations per internal step")
         if versus:
             text += (f", {min(versus):.2f}–{max(versus):.2f} of the cheapest fixed-step run as "
                      f"accurate ({sum(v <= 1.2 for v in versus)} of {len(versus)} at most 1.2, "

@@ -131,3 +131,15 @@ def test_per_threshold_the_cheapest_controlled_run_over_the_cheapest_fixed_step_
     assert lines[0].startswith("X within 1 %, stiff sheets (k ≥ 200000 N/m): 1 cells judged")
     assert "0.40–0.40" in lines[0] and "(1 at most 1.2, 1 at most 0.5)" in lines[0]
     assert lines[1].startswith("X within 0.1 %")
+
+
+def test_a_row_recorded_without_its_internal_steps_has_no_per_step_figures():
+    groups = {"tr-bdf2 auto": (("t 1e-4", 1e-4),)}
+    rows = [run("t 1e-4", 1e-3, 4.0, 128, internal=None, factorizations=600)]
+    (entry,) = tolerance.at_tolerance(rows, 1e-5, 2.0, [], groups)
+    assert entry["internal_steps"] is None and entry["factorizations_per_step"] is None
+    assert entry["cpu_per_step"] is None and entry["cost_over_explicit"] == pytest.approx(4.0)
+    (line,) = tolerance.table([entry], "c")
+    assert line.count("| – |") >= 3 and "600" not in line
+    (summary,) = tolerance.summary_lines([("c", 2e5, [entry])], "X")
+    assert "factorizations" not in summary
