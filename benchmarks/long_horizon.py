@@ -689,8 +689,11 @@ def earlier_run(path, settings, resolved):
     theirs = cx.earlier_resolved(earlier, resolved, {})
     other = sorted(n for n in theirs if n in resolved and json.dumps(theirs[n], sort_keys=True)
                    != json.dumps(resolved[n], sort_keys=True))
-    unknown = sorted(n for n in theirs if n not in resolved and (
-        not theirs[n] or n not in earlier.get("family_options", {})))
+    # a family only the earlier run has joins with the options it recorded; one it did not
+    # record (a run from before the record) cannot join
+    recorded = earlier.get("family_resolved_options", {})
+    unknown = sorted(n for n in earlier.get("family_options", {})
+                     if n not in resolved and not recorded.get(n))
     if other or unknown:
         raise BadInput(f"--merge {path}: families run here with other options, or of unknown "
                        "options: " + ", ".join(other + unknown))
@@ -700,8 +703,8 @@ def earlier_run(path, settings, resolved):
 def join_families(settings, resolved, earlier):
     """The families of an earlier run (`earlier_run`) that this run did not run join this run's
     table, after them: its cells report them, this run's cells name them as not run."""
-    theirs = earlier["family_resolved_options"]
-    for name, options in earlier["family_options"].items():
+    theirs = earlier.get("family_resolved_options", {})
+    for name, options in earlier.get("family_options", {}).items():
         if name not in settings["families"]:
             settings["families"][name] = options
             resolved[name] = theirs[name]
