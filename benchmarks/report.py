@@ -370,33 +370,29 @@ def at_tolerance_section(crossover: dict | None, long_horizon: dict) -> list:
            "crossover the rows write output at T/2 and T only; in the long horizon every 1/64 s "
            "(the sampling grid), which caps their steps at 1/64 s.", ""]
     lines = []
+
+    def block(title, what, cells, name_of):
+        """One benchmark's table and summary lines, from its cells with rows at tolerance."""
+        named = [(name_of(c), c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
+        out.extend([f"**{title}** ({len(cells)} cell{'s' * (len(cells) != 1)}, {what}):", ""]
+                   + tolerance.TABLE_HEAD)
+        for name, _, entries in named:
+            out.extend(tolerance.table(entries, name))
+        out.append("")
+        lines.extend(tolerance.summary_lines(named, title, [
+            (name, c["stretch_stiffness"], c.get("at_tolerance_verdicts", []))
+            for (name, _, _), c in zip(named, cells)]))
+
     if crossover is None:
         out += ["The crossover has not run with these rows here.", ""]
     else:
-        cells = [c for c in crossover["summary"]["cells"] if c.get("at_tolerance")]
-        out += [f"**Crossover** ({len(cells)} cell{'s' * (len(cells) != 1)}, short horizon):",
-                ""] + tolerance.TABLE_HEAD
-        named = [(f"{c['size']}² k = {c['stretch_stiffness']:g} {c['bending']}",
-                  c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
-        for name, _, entries in named:
-            out += tolerance.table(entries, name)
-        lines += tolerance.summary_lines(named, "Crossover", [
-            (name, c["stretch_stiffness"], c.get("at_tolerance_verdicts", []))
-            for (name, _, _), c in zip(named, cells)])
-        out.append("")
+        block("Crossover", "short horizon",
+              [c for c in crossover["summary"]["cells"] if c.get("at_tolerance")],
+              lambda c: f"{c['size']}² k = {c['stretch_stiffness']:g} {c['bending']}")
     cells = sorted((c for c in long_horizon["summary"]["cells"] if c.get("at_tolerance")),
                    key=key)
     if cells:
-        out += [f"**Long horizon** ({len(cells)} cell{'s' * (len(cells) != 1)}, kinetic-energy "
-                "history):", ""]
-        out += tolerance.TABLE_HEAD
-        named = [(_cell_name(c), c["stretch_stiffness"], c["at_tolerance"]) for c in cells]
-        for name, _, entries in named:
-            out += tolerance.table(entries, name)
-        lines += tolerance.summary_lines(named, "Long horizon", [
-            (name, c["stretch_stiffness"], c.get("at_tolerance_verdicts", []))
-            for (name, _, _), c in zip(named, cells)])
-        out.append("")
+        block("Long horizon", "kinetic-energy history", cells, _cell_name)
     else:
         out += ["The long horizon has no cell with these rows yet.", ""]
     return out + [f"- {line}" for line in lines]
