@@ -664,8 +664,10 @@ def key(cell):
 
 
 #: Settings two runs must share for their cells to make one table (the grid may differ).
-MERGE_KEYS = ("quick", "repeats", "max_run_seconds", "max_ratio", "max_cell_seconds", "rates",
-              "thresholds", "horizon", "horizon_at")
+#: max_cell_seconds is not one: a budget that decides which cells run (a cell over it is
+#: skipped and says so), not what a cell that ran measures; the merged table keeps the larger.
+MERGE_KEYS = ("quick", "repeats", "max_run_seconds", "max_ratio", "rates", "thresholds",
+              "horizon", "horizon_at")
 
 
 def earlier_run(path, settings, resolved):
@@ -729,7 +731,9 @@ def merge(settings, cells, rows, earlier, source):
                 stiffness=sorted({*settings["stiffness"],
                                   *(c["stretch_stiffness"] for c in added)}),
                 bending=[b for b in BENDING_ROWS if b in settings["bending"]
-                         or any(c["bending"] == b for c in added)])
+                         or any(c["bending"] == b for c in added)],
+                max_cell_seconds=max(settings["max_cell_seconds"],
+                                     earlier["settings"].get("max_cell_seconds", 0.0)))
     origin = {"from": source, "machine": earlier.get("machine"),
               "cells": [list(key(c)) for c in added]}
     return grid, cells + added, [r for r in rows if key(r) in held] + joined, origin
