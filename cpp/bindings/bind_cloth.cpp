@@ -14,6 +14,9 @@ namespace {
 
 constexpr double kDefaultMass = 1e-3;  // kg per vertex
 constexpr double kDefaultBendStiffness = 100.0;  // N/m per bending spring
+constexpr double kDefaultStretchStiffness = 100.0;  // N/m per structural spring
+constexpr double kDefaultPoissonRatio = 0.3;  // a membrane's ν when not given
+
 
 /// A number given as one (an int or a float, numpy's too): bools, strings and anything
 /// pybind11 cannot make a double of are std::invalid_argument naming `name`.
@@ -81,6 +84,7 @@ py::dict energy_dict(const EnergyTerms& terms) {
   out["spring"] = terms.spring;
   out["gravity"] = terms.gravity;
   out["bending"] = terms.bending;
+  out["membrane"] = terms.membrane;
   out["total"] = terms.total();
   return out;
 }
@@ -107,15 +111,48 @@ double real_argument(const py::object& value, const char* name) {
   return value.cast<double>();
 }
 
+// The membrane of stretch="membrane" (young_modulus required, poisson_ratio defaulted), or
+// none with stretch="springs" (which takes neither); std::invalid_argument otherwise.
+MembraneMaterial membrane_argument(const std::string& stretch, const py::object& young_modulus,
+                                   const py::object& poisson_ratio) {
+  if (stretch != "springs" && stretch != "membrane") {
+    throw std::invalid_argument("stretch must be \"springs\" or \"membrane\", got \"" +
+                                stretch + "\"");
+  }
+  MembraneMaterial membrane;
+  if (stretch == "springs") {
+    if (!young_modulus.is_none() || !poisson_ratio.is_none()) {
+      throw std::invalid_argument(
+          "young_modulus and poisson_ratio are for stretch=\"membrane\"; springs take "
+          "stretch_stiffness (N/m)");
+    }
+    return membrane;
+  }
+  if (young_modulus.is_none()) {
+    throw std::invalid_argument("stretch=\"membrane\" needs young_modulus (N/m, > 0)");
+  }
+  membrane.young_modulus = real_argument(young_modulus, "young_modulus");
+  if (!(membrane.young_modulus > 0.0)) {
+    throw std::invalid_argument("young_modulus must be > 0 (N/m), got " +
+                                py::str(py::repr(young_modulus)).cast<std::string>());
+  }
+  membrane.poisson_ratio = poisson_ratio.is_none()
+                               ? kDefaultPoissonRatio
+                               : real_argument(poisson_ratio, "poisson_ratio");
+  return membrane;
+}
+
 }  // namespace
 
 void bind_cloth(py::module_& m) {
+  m.attr("DEFAULT_POISSON_RATIO") = kDefaultPoissonRatio;
   py::class_<Cloth>(m, "Cloth", R"doc(
 A mass-spring cloth on a triangle mesh, wired as the paper's Fig. 1: structural springs on every
 edge, bending springs across every interior edge between the two opposite vertices.
 
 Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.0, damping=0.0,
-      drag=0.0, density=None, bending="springs", bending_modulus=None)
+      drag=0.0, density=None, bending="springs", bending_modulus=None, stretch="springs",
+      young_modulus=None, poisson_ratio=None)
   vertices n×3 (m); faces f×3 integer indices; masses kg per vertex, a scalar (uniform, the
   paper's choice; 1e-3 when neither masses nor density is given) or an (n,) array (`mass`, its
   former name, still works for one version with a DeprecationWarning); density kg/m² instead of
@@ -125,14 +162,36 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
   bending="springs" (the paper's bending springs, default) or "quadratic": Bergou et al. 2006's
   quadratic bending energy ½ κ Σ_c x_cᵀ Q x_c with modulus κ = bending_modulus (N·m, required,
   >= 0; 0 adds no term) and Q from the rest shape of the faces in `vertices`; it creates no
-  bending springs (bend_stiffness must then be left out or 0). Raises ValueError on a bad mesh or
-  value.)doc")
+  bending springs (bend_stiffness must then be left out or 0).
+  stretch="springs" (the paper's structural springs, default) or "membrane": a continuum
+  membrane of constant-strain triangles (St. Venant–Kirchhoff, plane stress) with 2-D Young's
+  modulus young_modulus (N/m: Pa × thickness, required, > 0) and poisson_ratio (in (-1, 1),
+  default 0.3) resists stretching; the structural springs stay on every edge with 0 N/m, as the
+  carriers of the rest edge lengths the membrane's rest triangles are laid out from (strokes,
+  growth and smoothing edit them) and of the damping (stretch_stiffness must be left out or 0).
+  Raises ValueError on a bad mesh or value.)doc")
       .def(py::init([](const py::handle& vertices, const py::handle& faces,
-                       const py::object& masses, double stretch_stiffness,
+                       const py::object& masses, const py::object& stretch_stiffness,
                        const py::object& bend_stiffness, double damping, double drag,
                        const py::object& density, const std::string& bending,
-                       const py::object& bending_modulus, const py::object& mass) {
+                       const py::object& bending_modulus, const py::object& mass,
+                       const std::string& stretch, const py::object& young_modulus,
+                       const py::object& poisson_ratio) {
              const py::object given = masses_argument(masses, mass);
+             const MembraneMaterial membrane =
+                 membrane_argument(stretch, young_modulus, poisson_ratio);
+             double stretch_value = kDefaultStretchStiffness;
+             if (!stretch_stiffness.is_none()) {
+               stretch_value = real_argument(stretch_stiffness, "stretch_stiffness");
+             }
+             if (membrane.young_modulus > 0.0) {
+               if (!stretch_stiffness.is_none() && stretch_value != 0.0) {
+                 throw std::invalid_argument(
+                     "stretch=\"membrane\" resists stretching instead of springs: leave "
+                     "stretch_stiffness out (or 0), got " + std::to_string(stretch_value));
+               }
+               stretch_value = 0.0;
+             }
              const BendingModel model = bending_model(bending);
              if (model == BendingModel::springs && !bending_modulus.is_none()) {
                throw std::invalid_argument(
@@ -161,14 +220,15 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
              const Positions v = to_rows3(vertices, "vertices");
              const Faces f = to_faces(faces);
              const Eigen::VectorXd vertex_mass = vertex_masses(given, density, v, &f);
-             return Cloth(v, f, vertex_mass, stretch_stiffness, stiffness, damping, drag, model,
-                          modulus);
+             return Cloth(v, f, vertex_mass, stretch_value, stiffness, damping, drag, model,
+                          modulus, membrane);
            }),
            py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("masses") = py::none(),
-           py::arg("stretch_stiffness") = 100.0, py::arg("bend_stiffness") = py::none(),
+           py::arg("stretch_stiffness") = py::none(), py::arg("bend_stiffness") = py::none(),
            py::arg("damping") = 0.0, py::arg("drag") = 0.0, py::arg("density") = py::none(),
            py::arg("bending") = "springs", py::arg("bending_modulus") = py::none(),
-           py::arg("mass") = py::none())
+           py::arg("mass") = py::none(), py::arg("stretch") = "springs",
+           py::arg("young_modulus") = py::none(), py::arg("poisson_ratio") = py::none())
       .def_static(
           "from_springs",
           [](const py::handle& vertices, const py::handle& edges, const py::object& rest_lengths,
@@ -248,6 +308,33 @@ version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc
       .def_property_readonly(
           "bending", [](const Cloth& cloth) { return bending_name(idle(cloth).bending_model()); },
           "The bending model: \"springs\" or \"quadratic\".")
+      .def_property_readonly(
+          "stretch",
+          [](const Cloth& cloth) { return idle(cloth).has_membrane() ? "membrane" : "springs"; },
+          "What resists stretching: \"springs\" or \"membrane\".")
+      .def_property_readonly(
+          "young_modulus",
+          [](const Cloth& cloth) { return idle(cloth).membrane().young_modulus; },
+          "The membrane's 2-D Young's modulus, N/m (0 with springs).")
+      .def_property_readonly(
+          "poisson_ratio",
+          [](const Cloth& cloth) { return idle(cloth).membrane().poisson_ratio; },
+          "The membrane's Poisson's ratio (0 with springs).")
+      .def(
+          "membrane_status",
+          [](const Cloth& cloth) {
+            const MembraneStatus status = idle(cloth).membrane_status();
+            py::dict out;
+            out["clamped_rest_faces"] = status.clamped_rest_faces;
+            out["collapsed_faces"] = status.collapsed_faces;
+            out["rest_area"] = status.rest_area;
+            out["current_area"] = status.current_area;
+            return out;
+          },
+          R"doc(The membrane's faces now: clamped_rest_faces (rest triangles whose edge lengths
+nearly or no longer close a triangle, laid out with a height of 1 % of their longest side),
+collapsed_faces (current area below 1e-3 of the rest area), rest_area and current_area (m²).
+All zero with springs.)doc")
       .def_property_readonly(
           "bending_modulus", [](const Cloth& cloth) { return idle(cloth).bending_modulus(); },
           "Modulus of quadratic bending, N·m (0 with bending springs).")

@@ -20,10 +20,13 @@ const char* const kStateKeys[] = {
     "spring_damping",   "spring_kind",      "drag",             "stretch_stiffness",
     "bend_stiffness",   "damping",          "material_coordinates", "vertex_states",
     "drivers",          "clock_origin",     "clock_steps",      "clock_dt",
-    "bending",          "bending_modulus",  "bending_rest"};
-/// Keys a state may lack: states saved before quadratic bending existed are bending springs.
+    "bending",          "bending_modulus",  "bending_rest",     "young_modulus",
+    "poisson_ratio"};
+/// Keys a state may lack: states saved before quadratic bending existed are bending springs,
+/// before the membrane existed springs resist stretching.
 bool optional_state_key(const std::string& key) {
-  return key == "bending" || key == "bending_modulus" || key == "bending_rest";
+  return key == "bending" || key == "bending_modulus" || key == "bending_rest" ||
+         key == "young_modulus" || key == "poisson_ratio";
 }
 
 std::vector<double> double_list(const py::handle& object, const char* name, Eigen::Index size) {
@@ -97,6 +100,8 @@ py::dict state_dict(const Cloth& cloth) {
   out["bending_modulus"] = state.bending_modulus;
   out["bending_rest"] =
       state.bending_rest.rows() ? py::object(read_only_copy(state.bending_rest)) : py::none();
+  out["young_modulus"] = state.membrane.young_modulus;
+  out["poisson_ratio"] = state.membrane.poisson_ratio;
   return out;
 }
 
@@ -188,6 +193,12 @@ Cloth cloth_from_state(const py::dict& values) {
   }
   if (values.contains("bending_rest") && !values["bending_rest"].is_none()) {
     state.bending_rest = to_rows3(values["bending_rest"], "state bending_rest", n);
+  }
+  if (values.contains("young_modulus")) {
+    state.membrane.young_modulus = values["young_modulus"].cast<double>();
+  }
+  if (values.contains("poisson_ratio")) {
+    state.membrane.poisson_ratio = values["poisson_ratio"].cast<double>();
   }
   return Cloth::from_state(state);
 }

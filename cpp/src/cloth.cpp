@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <string>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -50,6 +51,24 @@ void check_positive(double value, const char* name) {
     std::ostringstream msg;
     msg << name << " must be a normal number in [" << std::numeric_limits<double>::min()
         << ", " << kMaxMaterialValue << "] (> 0), got " << value;
+    fail(msg.str());
+  }
+}
+
+// Young's modulus 0 (no membrane) or a normal number up to kMaxMaterialValue; Poisson's ratio
+// strictly inside the plane-stress range (−1, 1), where μ > 0 and μ + λ > 0.
+void check_membrane(const MembraneMaterial& membrane, const char* prefix) {
+  const std::string young = std::string(prefix) + "young_modulus";
+  check_non_negative(membrane.young_modulus, young.c_str());
+  const double nu = membrane.poisson_ratio;
+  if (!std::isfinite(nu) || !(nu > -1.0 && nu < 1.0)) {
+    std::ostringstream msg;
+    msg << prefix << "poisson_ratio must be in (-1, 1) (a 2-D membrane), got " << nu;
+    fail(msg.str());
+  }
+  if (membrane.young_modulus == 0.0 && nu != 0.0) {
+    std::ostringstream msg;
+    msg << prefix << "poisson_ratio is for a membrane (young_modulus > 0), got " << nu;
     fail(msg.str());
   }
 }
@@ -100,9 +119,19 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
 
 Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
              double stretch_stiffness, double bend_stiffness, double damping, double drag,
-             BendingModel bending, double bending_modulus) {
+             BendingModel bending, double bending_modulus, const MembraneMaterial& membrane) {
   validate_mesh(positions, faces);
-  check_positive(stretch_stiffness, "stretch_stiffness");
+  check_membrane(membrane, "");
+  if (membrane.young_modulus > 0.0) {
+    if (stretch_stiffness != 0.0) {
+      std::ostringstream msg;
+      msg << "a membrane resists stretching instead of springs: stretch_stiffness must be 0, got "
+          << stretch_stiffness;
+      fail(msg.str());
+    }
+  } else {
+    check_positive(stretch_stiffness, "stretch_stiffness");
+  }
   check_non_negative(bend_stiffness, "bend_stiffness");
   check_non_negative(damping, "damping");
   check_non_negative(bending_modulus, "bending_modulus");
@@ -127,6 +156,7 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
     update_quadratic_bending();  // throws on a face with no rest area
   }
   m_faces = faces;
+  m_membrane = membrane;
   m_stretch_stiffness = stretch_stiffness;
   m_bend_stiffness = bend_stiffness;
   m_spring_damping = damping;
@@ -156,6 +186,7 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
     }
   }
   rebuild_incidence();
+  if (has_membrane()) check_membrane_rest();
 }
 
 Cloth Cloth::from_springs(const Positions& positions, const Edges& edges,
@@ -236,12 +267,14 @@ ClothState Cloth::state() const {
   state.bending = m_bending;
   state.bending_modulus = m_bending_modulus;
   state.bending_rest = bending_rest_positions();
+  state.membrane = m_membrane;
   return state;
 }
 
 namespace {
 
-void check_state_springs(const SpringSet& springs, Eigen::Index n) {
+// with_membrane: structural springs carry the membrane's rest lengths and must have 0 N/m.
+void check_state_springs(const SpringSet& springs, Eigen::Index n, bool with_membrane) {
   const std::size_t s = springs.size();
   if (springs.second.size() != s || springs.rest_length.size() != s ||
       springs.stiffness.size() != s || springs.damping.size() != s || springs.kind.size() != s ||
@@ -258,7 +291,16 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n) {
     }
     const double values[] = {springs.rest_length[k], springs.reference_length[k],
                              springs.stiffness[k]};
-    if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
+    if (with_membrane && springs.kind[k] == SpringKind::structural) {
+      if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
+            values[1] > 0.0 && values[2] == 0.0)) {
+        std::ostringstream msg;
+        msg << "state: structural spring " << k << " of a membrane needs finite, positive rest "
+            << "and reference lengths and stiffness 0, got " << values[0] << ", " << values[1]
+            << ", " << values[2];
+        fail(msg.str());
+      }
+    } else if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
           values[1] > 0.0 && std::isfinite(values[2]) &&
           values[2] >= std::numeric_limits<double>::min() &&
           values[2] <= kMaxMaterialValue)) {
@@ -381,7 +423,7 @@ Cloth Cloth::from_state(const ClothState& state) {
     fail(msg.str());
   }
   check_finite_rows(state.velocities, "velocity");
-  check_state_springs(state.springs, n);
+  check_state_springs(state.springs, n, state.membrane.young_modulus > 0.0);
   if (state.springs.size() == 0) fail("state: the cloth has no springs");
   if (state.faces.rows() > 0) check_state_edges(state);
   check_state_constraints(state, n);
@@ -392,7 +434,13 @@ Cloth Cloth::from_state(const ClothState& state) {
     fail(msg.str());
   }
   if (!state.material.allFinite()) fail("state: material coordinates must be finite");
-  if (state.faces.rows() > 0) check_positive(state.stretch_stiffness, "state: stretch_stiffness");
+  check_membrane(state.membrane, "state: ");
+  if (state.membrane.young_modulus > 0.0) {
+    if (state.faces.rows() == 0) fail("state: a membrane needs faces");
+    if (state.stretch_stiffness != 0.0) fail("state: a membrane needs stretch_stiffness 0");
+  } else if (state.faces.rows() > 0) {
+    check_positive(state.stretch_stiffness, "state: stretch_stiffness");
+  }
   check_non_negative(state.bend_stiffness, "state: bend_stiffness");
   check_non_negative(state.spring_damping, "state: spring_damping");
   const SimulationClock& clock = state.clock;
@@ -436,8 +484,10 @@ Cloth Cloth::from_state(const ClothState& state) {
     cloth.m_bending_rest = state.bending_rest;
     cloth.update_quadratic_bending();
   }
+  cloth.m_membrane = state.membrane;
   cloth.update_inverse_masses();
   cloth.rebuild_incidence();
+  if (cloth.has_membrane()) cloth.check_membrane_rest();
   return cloth;
 }
 
@@ -1133,6 +1183,25 @@ void Cloth::finish_topology_change() {
   if (m_bending == BendingModel::quadratic) update_quadratic_bending();
 }
 
+const MembraneFaces& Cloth::membrane_faces() const {
+  if (!has_membrane()) {
+    m_membrane_faces.edge_springs.clear();
+  } else if (m_membrane_topology != m_topology_version) {
+    m_membrane_faces = yore::membrane_faces(m_faces, m_springs);
+    m_membrane_topology = m_topology_version;
+  }
+  return m_membrane_faces;
+}
+
+void Cloth::check_membrane_rest() const {
+  membrane_faces();  // throws on an edge without a structural spring
+}
+
+MembraneStatus Cloth::membrane_status() const {
+  if (!has_membrane()) return MembraneStatus{};
+  return yore::membrane_status(m_faces, membrane_faces(), m_springs, m_positions);
+}
+
 EnergyTerms Cloth::energy(const Vec3& gravity) const {
   EnergyTerms terms;
   for (Eigen::Index i = 0; i < vertex_count(); ++i) {
@@ -1147,6 +1216,9 @@ EnergyTerms Cloth::energy(const Vec3& gravity) const {
   if (has_quadratic_bending()) {
     terms.bending = quadratic_bending_energy(quadratic_bending(), m_bending_modulus, m_positions);
   }
+  if (has_membrane()) {
+    terms.membrane = membrane_energy(m_faces, membrane_faces(), m_springs, m_membrane, m_positions);
+  }
   return terms;
 }
 
@@ -1155,6 +1227,34 @@ bool Cloth::has_spring_damping() const {
                      [](double c) { return c > 0.0; });
 }
 
+namespace {
+
+// A membrane face's stiffness is bounded by c (L ⊗ I₃), L_kl = A d_k·d_l (its rest
+// "Laplacian", d_k the gradients of the shape functions): at rest the St. Venant–Kirchhoff
+// Hessian in F is at most max(2(μ + λ), 2μ) (pure dilation or pure shear), and the map from the
+// corners to F has Gram matrix L ⊗ I₃. StVK stiffens as it stretches: along a stretch s its
+// tangent modulus is Y (3s² − 1)/2, 1.315 Y at 10 %, the allowance taken here, so the bound
+// covers faces stretched by up to 10 %.
+constexpr double kMembraneStretchAllowance = 1.315;
+
+double membrane_bound_constant(const MembraneMaterial& material) {
+  const double mu = material.mu(), lambda = material.lambda();
+  return kMembraneStretchAllowance * std::max(2.0 * (mu + lambda), 2.0 * mu);
+}
+
+Eigen::Matrix3d membrane_rest_laplacian(const MembraneRest& rest) {
+  const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
+  const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
+  const Eigen::Vector2d d[3] = {-(d1 + d2), d1, d2};
+  Eigen::Matrix3d laplacian;
+  for (int k = 0; k < 3; ++k) {
+    for (int l = 0; l < 3; ++l) laplacian(k, l) = rest.area * d[k].dot(d[l]);
+  }
+  return laplacian;
+}
+
+}  // namespace
+
 double Cloth::gershgorin_time_step() const {
   // Row sums of |M^{-1/2} A M^{-1/2}| over free vertices bound the largest eigenvalue of the
   // mass-scaled stiffness (A = K, each spring block has norm <= k while the spring is not
@@ -1162,9 +1262,27 @@ double Cloth::gershgorin_time_step() const {
   double omega_squared = 0.0;
   double gamma = 0.0;
   const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
+  // The membrane's rows: Σ_faces c |L_kl| √(wₖ wₗ) (see membrane_bound_constant).
+  Eigen::VectorXd membrane_rows;
+  if (has_membrane()) {
+    membrane_rows.setZero(vertex_count());
+    const double c = membrane_bound_constant(m_membrane);
+    const MembraneFaces& map = membrane_faces();
+    for (Eigen::Index f = 0; f < face_count(); ++f) {
+      const Eigen::Matrix3d laplacian =
+          membrane_rest_laplacian(membrane_face_rest(map, m_springs, static_cast<std::size_t>(f)));
+      for (int k = 0; k < 3; ++k) {
+        for (int l = 0; l < 3; ++l) {
+          membrane_rows[m_faces(f, k)] +=
+              c * std::abs(laplacian(k, l)) *
+              std::sqrt(m_inverse_masses[m_faces(f, k)] * m_inverse_masses[m_faces(f, l)]);
+        }
+      }
+    }
+  }
   for (Eigen::Index i = 0; i < vertex_count(); ++i) {
     if (m_inverse_masses[i] == 0.0) continue;
-    double stiffness_row = 0.0, damping_row = 0.0;
+    double stiffness_row = membrane_rows.size() > 0 ? membrane_rows[i] : 0.0, damping_row = 0.0;
     for (std::int32_t slot = m_incidence_offsets[static_cast<std::size_t>(i)];
          slot < m_incidence_offsets[static_cast<std::size_t>(i) + 1]; ++slot) {
       const auto s = static_cast<std::size_t>(m_incident_springs[static_cast<std::size_t>(slot)]);
@@ -1230,6 +1348,31 @@ double Cloth::lanczos_time_step(bool every_state) const {
   const Eigen::Index n = vertex_count();
   // Quadratic bending's κ Q ⊗ I₃ is constant: the same in both modes, added to the stiffness.
   const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
+  // The membrane's per-face 9×9 stiffness: every_state, c (L ⊗ I₃) (membrane_bound_constant);
+  // otherwise its Hessian at the current positions, the stress term clamped (PSD).
+  std::vector<Mat9> membrane_blocks;
+  if (has_membrane()) {
+    membrane_blocks.resize(static_cast<std::size_t>(face_count()));
+    const MembraneFaces& map = membrane_faces();
+    const double c = membrane_bound_constant(m_membrane);
+    for (Eigen::Index f = 0; f < face_count(); ++f) {
+      const MembraneRest rest = membrane_face_rest(map, m_springs, static_cast<std::size_t>(f));
+      Mat9& block = membrane_blocks[static_cast<std::size_t>(f)];
+      if (every_state) {
+        const Eigen::Matrix3d laplacian = membrane_rest_laplacian(rest);
+        block.setZero();
+        for (int k = 0; k < 3; ++k) {
+          for (int l = 0; l < 3; ++l) {
+            block.block<3, 3>(3 * k, 3 * l) = c * laplacian(k, l) * Mat3::Identity();
+          }
+        }
+      } else {
+        membrane_face(m_positions.row(m_faces(f, 0)), m_positions.row(m_faces(f, 1)),
+                      m_positions.row(m_faces(f, 2)), rest, m_membrane.mu(), m_membrane.lambda(),
+                      nullptr, &block, TransverseFilter::clamp);
+      }
+    }
+  }
   auto apply = [&](const std::vector<Mat3>& blocks, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     y.setZero(3 * n);
     for (std::size_t s = 0; s < spring_count; ++s) {
@@ -1248,6 +1391,18 @@ double Cloth::lanczos_time_step(bool every_state) const {
           sum += bending->values[static_cast<std::size_t>(k)] * scale[j] * x.segment<3>(3 * j);
         }
         y.segment<3>(3 * i) += m_bending_modulus * scale[i] * sum;
+      }
+    }
+    if (!membrane_blocks.empty() && &blocks == &stiffness_blocks) {
+      Vec9 local;
+      for (Eigen::Index f = 0; f < face_count(); ++f) {
+        for (int k = 0; k < 3; ++k) {
+          local.segment<3>(3 * k) = scale[m_faces(f, k)] * x.segment<3>(3 * m_faces(f, k));
+        }
+        const Vec9 product = membrane_blocks[static_cast<std::size_t>(f)] * local;
+        for (int k = 0; k < 3; ++k) {
+          y.segment<3>(3 * m_faces(f, k)) += scale[m_faces(f, k)] * product.segment<3>(3 * k);
+        }
       }
     }
   };

@@ -454,6 +454,13 @@ void ErrorControlledIntegrator::right_hand_side(double t, const double* y, doubl
                                m_bending);
     m_force -= m_bending;
   }
+  if (cloth.has_membrane()) {
+    m_bending.resize(m_x.rows(), 3);  // no allocation once sized
+    m_bending.setZero();
+    membrane_add_gradient(cloth.faces(), cloth.membrane_faces(), springs, cloth.membrane(), m_x,
+                          m_bending);
+    m_force -= m_bending;
+  }
   const double drag = cloth.drag();
   const Eigen::VectorXd& inverse_mass = cloth.inverse_masses();
   for (std::size_t b = 0; b < free_count; ++b) {

@@ -101,8 +101,8 @@ void ExplicitIntegrator::prepare(const Cloth& cloth) {
     m_previous_positions.resize(n, 3);
   }
   m_with_spring_damping = cloth.has_spring_damping();
-  m_with_bending = cloth.has_quadratic_bending();
-  if (m_with_bending && m_bending_gradient.rows() != n) m_bending_gradient.resize(n, 3);
+  m_with_potentials = cloth.has_quadratic_bending() || cloth.has_membrane();
+  if (m_with_potentials && m_potential_gradient.rows() != n) m_potential_gradient.resize(n, 3);
 }
 
 double ExplicitIntegrator::compute_spring_forces(const Cloth& cloth, int threads) {
@@ -122,7 +122,7 @@ void ExplicitIntegrator::update_velocities_and_positions(Cloth& cloth, const Vec
   const std::int32_t* incident = cloth.incident_springs().data();
   const double* signs = cloth.incident_signs().data();
   const double* fs = m_spring_forces.data();
-  const double* bending = m_with_bending ? m_bending_gradient.data() : nullptr;
+  const double* bending = m_with_potentials ? m_potential_gradient.data() : nullptr;
   const double drag = cloth.drag();
   const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
   const std::int64_t chunk = chunk_size(n, threads);
@@ -236,9 +236,19 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     const int threads = m_thread_chooser.threads_for_next_step(configured);
     start = step_start;
     double spring_energy_before = compute_spring_forces(cloth, threads);
-    if (m_with_bending) {  // a sparse product with the constant Q; its energy is monitored too
-      spring_energy_before += quadratic_bending_gradient(
-          cloth.quadratic_bending(), cloth.bending_modulus(), cloth.positions(), m_bending_gradient);
+    if (m_with_potentials) {  // their energies are monitored too
+      if (cloth.has_quadratic_bending()) {  // a sparse product with the constant Q
+        spring_energy_before += quadratic_bending_gradient(cloth.quadratic_bending(),
+                                                           cloth.bending_modulus(),
+                                                           cloth.positions(), m_potential_gradient);
+      } else {
+        m_potential_gradient.setZero();
+      }
+      if (cloth.has_membrane()) {
+        spring_energy_before +=
+            membrane_add_gradient(cloth.faces(), cloth.membrane_faces(), cloth.springs(),
+                                  cloth.membrane(), cloth.positions(), m_potential_gradient);
+      }
     }
     m_statistics.forces_seconds += start.seconds();
 

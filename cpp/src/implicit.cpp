@@ -458,9 +458,67 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       }
     }
   }
+  if (cloth.has_membrane()) evaluate_membrane(cloth, x, with_gradient, with_hessian, filter,
+                                               energy, magnitude);
   m_energy_magnitude = magnitude;
   m_statistics.assemble_seconds += start.seconds();
   return energy;
+}
+
+void ImplicitIntegrator::evaluate_membrane(const Cloth& cloth, const Positions& x,
+                                           bool with_gradient, bool with_hessian,
+                                           TransverseFilter filter, double& energy,
+                                           double& magnitude) {
+  // Each face's 9×9 block: its corners' diagonal blocks, and per edge the off-diagonal block in
+  // the slots of the edge's structural spring (every face edge has one, so the springs'
+  // pattern already holds the membrane's).
+  const MembraneFaces& map = cloth.membrane_faces();
+  const Faces& faces = cloth.faces();
+  const SpringSet& springs = cloth.springs();
+  const double mu = cloth.membrane().mu(), lambda = cloth.membrane().lambda();
+  const auto& starts = m_pattern.column_starts;
+  Vec9 gradient;
+  Mat9 hessian;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
+    const double face_energy =
+        membrane_face(x.row(faces(f, 0)), x.row(faces(f, 1)), x.row(faces(f, 2)), rest, mu,
+                      lambda, with_gradient ? &gradient : nullptr,
+                      with_hessian ? &hessian : nullptr, filter);
+    energy += face_energy;
+    magnitude += face_energy;
+    std::int32_t dof[3];
+    for (int k = 0; k < 3; ++k) dof[k] = m_dof_of_vertex[static_cast<std::size_t>(faces(f, k))];
+    if (with_gradient) {
+      for (int k = 0; k < 3; ++k) {
+        if (dof[k] >= 0) m_gradient.segment<3>(dof[k]) += gradient.segment<3>(3 * k);
+      }
+    }
+    if (!with_hessian) continue;
+    for (int k = 0; k < 3; ++k) {
+      if (dof[k] < 0) continue;
+      for (int col = 0; col < 3; ++col) {
+        for (int row = col; row < 3; ++row) {
+          m_values[static_cast<std::size_t>(starts[static_cast<std::size_t>(dof[k] + col)] +
+                                            (row - col))] += hessian(3 * k + row, 3 * k + col);
+        }
+      }
+    }
+    for (int e = 0; e < 3; ++e) {
+      const int p = e, q = (e + 1) % 3;
+      if (dof[p] < 0 || dof[q] < 0) continue;
+      // the lower triangle: the column block is the smaller unknown
+      const int low = dof[p] < dof[q] ? p : q, high = low == p ? q : p;
+      const auto spring = static_cast<std::size_t>(
+          map.edge_springs[static_cast<std::size_t>(f)][static_cast<std::size_t>(e)]);
+      for (int col = 0; col < 3; ++col) {
+        const std::int64_t slot = m_spring_slots[3 * spring + static_cast<std::size_t>(col)];
+        for (int row = 0; row < 3; ++row) {
+          m_values[static_cast<std::size_t>(slot + row)] += hessian(3 * high + row, 3 * low + col);
+        }
+      }
+    }
+  }
 }
 
 void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {

@@ -437,6 +437,13 @@ double LocalGlobalIntegrator::ErrorEstimate::update(double change, int iteration
 }
 
 void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
+  if (cloth.has_membrane()) {
+    // Its local step projects springs (and bending's linear term): a membrane would need a
+    // projection of each face onto its rest shape, which it does not have.
+    throw std::invalid_argument(
+        "the local-global integrator takes springs and quadratic bending, not a membrane "
+        "(stretch=\"membrane\"); use the implicit or explicit integrator");
+  }
   ensure_matrix(cloth, dt);
   const double mean_rest_length = begin_step(cloth, gravity, dt);
   const double tolerance = m_options.tolerance * mean_rest_length;

@@ -99,6 +99,35 @@ void fill_scalar_spring_matrix(const Cloth& cloth, double h, const ScalarSpringP
       values[static_cast<std::size_t>(structure.spring_slot[s])] -= weight;
     }
   }
+  if (cloth.has_membrane()) {
+    // The membrane's rest stiffness averaged over the in-plane directions: per face
+    // (1.5 μ + 0.5 λ) A d_k·d_l (half the trace of its 2×2 in-plane block at rest), on the
+    // diagonal and on its edges' structural springs' entries. An approximation (the membrane
+    // couples the coordinates): good enough for quasi-Newton's initial Hessian.
+    const MembraneMaterial& material = cloth.membrane();
+    const double weight = 1.5 * material.mu() + 0.5 * material.lambda();
+    const MembraneFaces& map = cloth.membrane_faces();
+    const Faces& faces = cloth.faces();
+    for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+      const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
+      const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
+      const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
+      const Eigen::Vector2d d[3] = {-(d1 + d2), d1, d2};
+      for (int k = 0; k < 3; ++k) {
+        const std::int32_t a = structure.free_of_vertex[static_cast<std::size_t>(faces(f, k))];
+        if (a >= 0) {
+          values[static_cast<std::size_t>(pattern.column_starts[a])] +=
+              weight * rest.area * d[k].squaredNorm();
+        }
+        const std::int64_t slot = structure.spring_slot[static_cast<std::size_t>(
+            map.edge_springs[static_cast<std::size_t>(f)][static_cast<std::size_t>(k)])];
+        if (slot >= 0) {
+          values[static_cast<std::size_t>(slot)] +=
+              weight * rest.area * d[k].dot(d[(k + 1) % 3]);
+        }
+      }
+    }
+  }
   if (!structure.bending_slot.empty()) {
     const QuadraticBendingMatrix& bending = cloth.quadratic_bending();
     for (std::size_t k = 0; k < structure.bending_slot.size(); ++k) {
@@ -115,6 +144,12 @@ double spring_material_checksum(const Cloth& cloth) {
   for (std::size_t s = 0; s < springs.size(); ++s) {
     sum += springs.stiffness[s] * static_cast<double>(1 + s % 7) +
            springs.damping[s] * static_cast<double>(2 + s % 5);
+  }
+  if (cloth.has_membrane()) {  // its matrix follows the rest lengths too
+    for (std::size_t s = 0; s < springs.size(); ++s) {
+      sum += springs.rest_length[s] * static_cast<double>(3 + s % 11);
+    }
+    sum += 5.0 * cloth.membrane().young_modulus + 7.0 * cloth.membrane().poisson_ratio;
   }
   return sum + 3.0 * cloth.bending_modulus();
 }

@@ -497,6 +497,8 @@ MASS = 0.1
 #: Stiffness of the bending springs unless given (a scene file's material, with spring bending),
 #: N/m; `yore.scenes` uses it for the structural springs too (the paper's single constant).
 STIFFNESS = 200.0
+#: A membrane's Poisson's ratio unless given (stretch = "membrane"); the core's own default.
+POISSON_RATIO = float(_core.DEFAULT_POISSON_RATIO)
 #: Frames per simulated second a run writes unless [output] gives fps or every_steps.
 FRAMES_PER_SECOND = 30.0
 #: Animation formats; a run makes none unless its [output] asks, `yore render` of a run folder

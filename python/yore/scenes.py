@@ -40,10 +40,25 @@ def _bending_arguments(bending, bend_stiffness, bending_modulus):
     return arguments
 
 
+def _stretch_arguments(stretch, stretch_stiffness, young_modulus, poisson_ratio):
+    """Cloth keywords of the scenes' stretch choice: structural springs of stretch_stiffness
+    (default STIFFNESS), or a membrane of young_modulus and poisson_ratio; Cloth checks the
+    combination."""
+    if stretch == "springs" and young_modulus is None and poisson_ratio is None:
+        return {"stretch_stiffness": STIFFNESS if stretch_stiffness is None
+                else stretch_stiffness}
+    arguments = {"stretch": stretch, "young_modulus": young_modulus,
+                 "poisson_ratio": poisson_ratio}
+    if stretch_stiffness is not None:
+        arguments["stretch_stiffness"] = stretch_stiffness
+    return arguments
+
+
 def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
-                  stretch_stiffness=STIFFNESS, bend_stiffness=None, damping=DAMPING,
+                  stretch_stiffness=None, bend_stiffness=None, damping=DAMPING,
                   drag=DRAG, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
-                  bending="springs", bending_modulus=None, **options) -> Simulation:
+                  bending="springs", bending_modulus=None, stretch="springs",
+                  young_modulus=None, poisson_ratio=None, **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
     The cloth's pattern is a size × size square; its rest lengths come from the flat pattern.
@@ -55,9 +70,11 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     size : edge length, m. resolution : vertices per edge (>= 2). pin_spacing : distance of the
     two fixed corners as a fraction of the width, in (0, 1]. mass : total mass, kg, spread
     uniformly over the vertices (the paper's choice). stretch_stiffness, bend_stiffness : N/m
-    per spring (bend_stiffness default 200; not with quadratic bending). damping : N·s/m per
-    spring. drag : 1/s. bending : "springs" (the paper's, default) or "quadratic" (Bergou et
-    al. 2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern.
+    per spring (both default 200; bend_stiffness not with quadratic bending, stretch_stiffness
+    not with the membrane). damping : N·s/m per spring. drag : 1/s. bending : "springs" (the
+    paper's, default) or "quadratic" (Bergou et al. 2006) with bending_modulus, N·m (see
+    `yore.Cloth`); rest shape = the flat pattern. stretch : "springs" (the paper's, default) or
+    "membrane" (St. Venant–Kirchhoff triangles) with young_modulus, N/m, and poisson_ratio.
     """
     pin_spacing = float(pin_spacing)
     if not 0.0 < pin_spacing <= 1.0:
@@ -67,9 +84,10 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
     # clockwise about +y, i.e. the cloth's front faces up.
-    cloth = Cloth(pattern, F, masses=_per_vertex(mass, len(pattern)),
-                  stretch_stiffness=stretch_stiffness, damping=damping, drag=drag,
-                  **_bending_arguments(bending, bend_stiffness, bending_modulus))
+    cloth = Cloth(pattern, F, masses=_per_vertex(mass, len(pattern)), damping=damping,
+                  drag=drag, **_bending_arguments(bending, bend_stiffness, bending_modulus),
+                  **_stretch_arguments(stretch, stretch_stiffness, young_modulus,
+                                       poisson_ratio))
     gathered = pattern.copy()
     gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
     cloth.positions = gathered
@@ -82,10 +100,11 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
 
 
 def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
-                      omega=2.0 * math.pi, stretch_stiffness=STIFFNESS,
+                      omega=2.0 * math.pi, stretch_stiffness=None,
                       bend_stiffness=None, damping=DAMPING, drag=DRAG,
                       integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
-                      bending="springs", bending_modulus=None, **options) -> Simulation:
+                      bending="springs", bending_modulus=None, stretch="springs",
+                      young_modulus=None, poisson_ratio=None, **options) -> Simulation:
     """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
 
     The tube's axis is y, from y = 0 to y = height; the top rim is driven: it turns about the
@@ -93,14 +112,15 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
     paper) from t = 0, and the rest of the tube is dragged round by its springs.
 
     radius, height : m. rings : vertex rings (>= 2). segments : vertices per ring (>= 3).
-    mass : total mass, kg, uniform over the vertices. omega : rad/s. Material (and bending)
-    as hanging_cloth; quadratic bending takes the tube's faces as the rest shape, so, like a
+    mass : total mass, kg, uniform over the vertices. omega : rad/s. Material (bending and
+    stretch) as hanging_cloth; quadratic bending takes the tube's faces as the rest shape, so, like a
     tube sewn from flat cloth, it has bending energy at rest (the model's rest state is flat).
     """
     V, F = cylinder_mesh(radius, height, rings, segments)
-    cloth = Cloth(V, F, masses=_per_vertex(mass, len(V)), stretch_stiffness=stretch_stiffness,
-                  damping=damping, drag=drag,
-                  **_bending_arguments(bending, bend_stiffness, bending_modulus))
+    cloth = Cloth(V, F, masses=_per_vertex(mass, len(V)), damping=damping, drag=drag,
+                  **_bending_arguments(bending, bend_stiffness, bending_modulus),
+                  **_stretch_arguments(stretch, stretch_stiffness, young_modulus,
+                                       poisson_ratio))
     rim = cylinder_ring(rings, segments, -1)
     cloth.drive_rotation(rim, center=(0.0, height, 0.0), axis=(0.0, 1.0, 0.0), omega=omega)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)

@@ -712,6 +712,13 @@ class Simulation:
             # (interior edges) it couples, 0 when the modulus is 0 (no term at all)
             active["quadratic_bending"] = (int(cloth.quadratic_bending["hinges"])
                                            if cloth.bending_modulus > 0.0 else 0)
+        if cloth.stretch == "membrane":
+            # the continuum membrane, reported for cloths that chose it: its faces, and those
+            # whose rest triangle was clamped or that are collapsed now
+            status = cloth.membrane_status()
+            active["membrane_faces"] = int(cloth.face_count)
+            active["membrane_clamped_rest_faces"] = int(status["clamped_rest_faces"])
+            active["membrane_collapsed_faces"] = int(status["collapsed_faces"])
         return {
             "integrator": self._integrator_name,
             "dt": self._dt,

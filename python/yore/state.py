@@ -422,6 +422,7 @@ _CLOTH_FIELDS = ("positions", "velocities", "masses", "faces", "spring_ends", "s
                  "stretch_stiffness", "bend_stiffness", "damping", "material_coordinates",
                  "vertex_states", "drivers", "clock_origin", "clock_steps", "clock_dt")
 _CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest")
+_CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio")
 _SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
                       "target_time")
 _DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
@@ -456,9 +457,10 @@ def _check_simulation(field, simulation):
         raise field.error("simulation.integrator_restarts",
                           f"got {_show(simulation['integrator_restarts'])}", "true or false")
 
-    # The bending fields came with quadratic bending: a file without them is bending springs.
+    # The bending fields came with quadratic bending: a file without them is bending springs;
+    # the membrane's with the membrane: a file without them has springs that resist stretching.
     cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS,
-                       optional=_CLOTH_BENDING_FIELDS)
+                       optional=_CLOTH_BENDING_FIELDS + _CLOTH_MEMBRANE_FIELDS)
     where = "simulation.cloth."
     positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))
     n = len(positions)
@@ -497,6 +499,13 @@ def _check_simulation(field, simulation):
             if value is not None and not zero:
                 raise field.error(where + name, f"got {_show(value)}",
                                   "none (0 or null) with bending springs")
+    if "young_modulus" in cloth:
+        young = field.real(cloth["young_modulus"], where + "young_modulus", 0.0)
+        if "poisson_ratio" in cloth:
+            ratio = field.real(cloth["poisson_ratio"], where + "poisson_ratio")
+            if not -1.0 < ratio < 1.0 or (young == 0.0 and ratio != 0.0):
+                raise field.error(where + "poisson_ratio", f"got {_show(ratio)}",
+                                  "a number in (-1, 1) with a membrane, 0 without one")
     drivers = cloth["drivers"]
     if not isinstance(drivers, list):
         raise field.error(where + "drivers", f"got {_show(drivers)}", "a list of drivers")

@@ -3,6 +3,7 @@
 /// The cloth: topology, springs, masses, state, constraints — the one source of truth that every
 /// integrator reads and that strokes change.
 
+#include "yore/membrane.hpp"
 #include "yore/mesh.hpp"
 #include "yore/quadratic_bending.hpp"
 #include "yore/springs.hpp"
@@ -44,7 +45,8 @@ struct EnergyTerms {
   double spring = 0.0;   ///< Σ ½ k (ℓ − L)²
   double gravity = 0.0;  ///< −Σ m g·x (zero at the origin)
   double bending = 0.0;  ///< ½ κ Σ_c x_cᵀ Q x_c (quadratic bending; 0 with bending springs)
-  double total() const { return kinetic + spring + gravity + bending; }
+  double membrane = 0.0;  ///< Σ_faces A W of the membrane (0 without one)
+  double total() const { return kinetic + spring + gravity + bending + membrane; }
 };
 
 /// Simulated time kept as origin + steps × dt: it neither drifts with round-off nor depends on
@@ -76,6 +78,7 @@ struct ClothState {
   BendingModel bending = BendingModel::springs;
   double bending_modulus = 0.0;  ///< N·m (quadratic bending only)
   Positions bending_rest;        ///< n×3 rest positions of quadratic bending (m), else empty
+  MembraneMaterial membrane;     ///< young_modulus 0: no membrane
 };
 
 /// How faces are split (the paper's partial area expansion).
@@ -132,12 +135,19 @@ class Cloth {
   /// drag 1/s (force −drag·m·v on each vertex, still air).
   /// bending: BendingModel::springs (bend_stiffness) or BendingModel::quadratic (bending_modulus,
   /// N·m, rest geometry = `positions`; no bending springs, so bend_stiffness must be 0).
-  /// Throws std::invalid_argument on a bad mesh, non-positive masses or stretch stiffness,
-  /// negative/non-finite bend stiffness, bending modulus, damping or drag, or a bending modulus
-  /// with bending springs / a bend stiffness with quadratic bending.
+  /// membrane: with young_modulus > 0, a continuum membrane (membrane.hpp) resists stretching
+  /// instead of the structural springs, which are still wired on every edge but with 0 N/m:
+  /// they carry the rest edge lengths the membrane's rest triangles are laid out from, and the
+  /// damping. stretch_stiffness must then be 0.
+  /// Throws std::invalid_argument on a bad mesh, non-positive masses or stretch stiffness
+  /// (without a membrane), negative/non-finite bend stiffness, bending modulus, damping or
+  /// drag, a bending modulus with bending springs / a bend stiffness with quadratic bending, or
+  /// a membrane with a stretch stiffness, a Young's modulus that is not a normal number or a
+  /// Poisson's ratio outside (−1, 1).
   Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
         double stretch_stiffness, double bend_stiffness, double damping, double drag,
-        BendingModel bending = BendingModel::springs, double bending_modulus = 0.0);
+        BendingModel bending = BendingModel::springs, double bending_modulus = 0.0,
+        const MembraneMaterial& membrane = MembraneMaterial{});
 
   /// Builds a plain spring network with no faces. edges s×2; rest_lengths s (m) or empty for the
   /// distances in `positions`. Throws std::invalid_argument on bad indices, repeated pairs,
@@ -285,6 +295,17 @@ class Cloth {
     return m_bending_rest;
   }
 
+  /// Whether a membrane resists stretching (see the constructor).
+  bool has_membrane() const { return m_membrane.young_modulus > 0.0; }
+  /// The membrane's material (young_modulus 0 without one).
+  const MembraneMaterial& membrane() const { return m_membrane; }
+  /// Per face, the structural springs on its edges (empty without a membrane), rebuilt when the
+  /// topology version changed since it was last built.
+  const MembraneFaces& membrane_faces() const;
+  /// Clamped rest triangles, collapsed faces and areas of the membrane at the current
+  /// positions (all zero without a membrane).
+  MembraneStatus membrane_status() const;
+
   /// Largest time step (s) for which symplectic Euler is linearly stable at the current state:
   /// λ_max of M^{-1/2} H M^{-1/2} (H the PSD-projected spring Hessian at the current positions,
   /// fixed and driven vertices eliminated) by Lanczos (at most 60 iterations, stopped when the
@@ -320,6 +341,8 @@ class Cloth {
   static constexpr double kLanczosRelativeTolerance = 1e-6;
   void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
   void update_quadratic_bending() const;
+  // Builds the membrane's face→spring map (throws when an edge has no structural spring).
+  void check_membrane_rest() const;
   // Takes over a subdivision's vertices (interpolating velocities and material coordinates)
   // and faces; masses and springs are left to the caller.
   void adopt_subdivision(const Subdivision& mesh);
@@ -354,6 +377,9 @@ class Cloth {
   mutable Positions m_bending_rest;
   mutable QuadraticBendingMatrix m_quadratic;
   mutable std::uint64_t m_quadratic_topology = 0;
+  MembraneMaterial m_membrane;
+  mutable MembraneFaces m_membrane_faces;
+  mutable std::uint64_t m_membrane_topology = 0;
 };
 
 /// Largest step h (s) for which symplectic Euler keeps the damped mode x'' = −ω² x − γ x'

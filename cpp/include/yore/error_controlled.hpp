@@ -149,7 +149,7 @@ class ErrorControlledIntegrator : public Integrator {
   std::uint64_t m_edits = std::numeric_limits<std::uint64_t>::max();
   double m_time = std::numeric_limits<double>::quiet_NaN();  // SUNDIALS' time after the last
   bool m_restart = true;  // the next interval re-initializes SUNDIALS at the cloth's state
-  Positions m_x, m_v, m_force, m_bending;  // n×3 work arrays
+  Positions m_x, m_v, m_force, m_bending;  // n×3 work arrays (m_bending: non-spring gradients)
   Positions m_jacobian_positions;          // n×3: where J was last evaluated
   std::vector<double> m_stiffness;         // H at m_jacobian_positions, pattern order
   double m_setup_gamma = 0.0;              // γ of the current factor

@@ -106,8 +106,10 @@ class ExplicitIntegrator : public Integrator {
 
   // Buffers sized once per topology; the step itself allocates nothing.
   Positions m_spring_forces;  // s×3, force on each spring's first end
-  Positions m_bending_gradient;  // n×3, κ Q x of quadratic bending (when the cloth has it)
-  bool m_with_bending = false;
+  // n×3, the gradient of the energies that are not springs: κ Q x of quadratic bending and
+  // the membrane's (when the cloth has them)
+  Positions m_potential_gradient;
+  bool m_with_potentials = false;
   Positions m_previous_positions;
   Positions m_checkpoint_positions;
   Positions m_checkpoint_velocities;

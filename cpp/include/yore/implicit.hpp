@@ -292,6 +292,10 @@ class ImplicitIntegrator : public Integrator {
   void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
   double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
                   HessianProjection projection = HessianProjection::clamp);
+  // The membrane's share of evaluate: adds to energy, magnitude, m_gradient and m_values.
+  void evaluate_membrane(const Cloth& cloth, const Positions& x, bool with_gradient,
+                         bool with_hessian, TransverseFilter filter, double& energy,
+                         double& magnitude);
   double scaled_residual(const Cloth& cloth) const;
   /// Backtracking (Armijo) line search along m_direction from m_iterate (energy at it; slope =
   /// ∇E·d < 0); returns the step length, leaves the last trial's energy in trial_energy and

@@ -67,15 +67,19 @@ def build_simulation(scene):
             {"bending": "quadratic", "bending_modulus": material["bending_modulus"]}
             if material["bending"] == "quadratic"
             else {"bend_stiffness": material["bend_stiffness"]})
-        cloth = Cloth(pattern, F, stretch_stiffness=material["stretch_stiffness"],
-                      damping=material["damping"], drag=material["drag"], **mass_arguments,
-                      **bending_arguments)
+        stretch_arguments = (
+            {"stretch": "membrane", "young_modulus": material["young_modulus"],
+             "poisson_ratio": material["poisson_ratio"]}
+            if material["stretch"] == "membrane"
+            else {"stretch_stiffness": material["stretch_stiffness"]})
+        cloth = Cloth(pattern, F, damping=material["damping"], drag=material["drag"],
+                      **mass_arguments, **bending_arguments, **stretch_arguments)
     except ValueError as error:
         # The core checks the mesh, the per-vertex masses and the material's values; name the
         # key (or table) the value came from.
         text = str(error)
         for key in ("stretch_stiffness", "bend_stiffness", "bending_modulus", "damping",
-                    "drag"):
+                    "drag", "young_modulus", "poisson_ratio"):
             if text.startswith(key):
                 raise scene.error(f"material.{key}", text) from None
         if "mass" in text:

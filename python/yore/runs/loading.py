@@ -23,8 +23,8 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from .._core import Cloth
 from ..meshes import MAX_MESH_VERTICES
-from ..options import (FRAMES_PER_SECOND, INTEGRATOR_OPTIONS, MASS, REFERENCE_INTEGRATOR,
-                       STIFFNESS, OptionError, check_option)
+from ..options import (FRAMES_PER_SECOND, INTEGRATOR_OPTIONS, MASS, POISSON_RATIO,
+                       REFERENCE_INTEGRATOR, STIFFNESS, OptionError, check_option)
 from ..simulation import Simulation
 from ..checks import MAX_IMAGE_PIXELS
 from .building import build_simulation, apply_scene_stroke
@@ -275,6 +275,7 @@ def _check(scene, raw):
             raise scene.error("material.bending_modulus", "given with bending = \"springs\"",
                               "bending = \"quadratic\", or bend_stiffness for the springs")
         material.setdefault("bend_stiffness", STIFFNESS)
+    _check_stretch(scene, material, raw.get("material", {}))
     for k, entry in enumerate(data["fixed"]):
         _check_selection(scene, f"fixed[{k}]", entry)
     for k, entry in enumerate(data["driven"]):
@@ -439,3 +440,25 @@ def _find_line(text, key):
         if current == table and seen == index and found.group(1) == name:
             return number
     return header_line
+
+
+def _check_stretch(scene, material, given):
+    """stretch = "membrane" needs young_modulus and takes no stretch_stiffness; springs take
+    neither young_modulus nor poisson_ratio. `material` has the defaults applied; `given` is
+    the file's own table, which tells a stretch_stiffness the file gave from the default."""
+    if material["stretch"] == "membrane":
+        if "young_modulus" not in material:
+            raise scene.error("material.young_modulus", "missing with stretch = \"membrane\"",
+                              "a number > 0 (N/m)")
+        if "stretch_stiffness" in given:
+            raise scene.error("material.stretch_stiffness", "given with stretch = "
+                              "\"membrane\", whose structural springs carry no stiffness",
+                              "no stretch_stiffness")
+        material.pop("stretch_stiffness", None)
+        material.setdefault("poisson_ratio", POISSON_RATIO)
+    else:
+        for key in ("young_modulus", "poisson_ratio"):
+            if key in material:
+                raise scene.error(f"material.{key}", "given with stretch = \"springs\"",
+                                  "stretch = \"membrane\", or stretch_stiffness for the "
+                                  "springs")

@@ -664,6 +664,9 @@ def _measure(sim):
               "faces": cloth.face_count}
     if cloth.bending == "quadratic":  # (part of total; recorded for the cloths that have it)
         record["bending"] = energy["bending"]
+    if cloth.stretch == "membrane":  # likewise
+        record["membrane"] = energy["membrane"]
+        record["membrane_collapsed_faces"] = int(cloth.membrane_status()["collapsed_faces"])
     return record
 
 

@@ -83,12 +83,12 @@ def did_you_mean(key, candidates):
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
+def _number(minimum=None, maximum=None, strict_minimum=False, unit="", strict_maximum=False):
     bounds = []
     if minimum is not None:
         bounds.append(f"{'>' if strict_minimum else '>='} {minimum:g}")
     if maximum is not None:
-        bounds.append(f"<= {maximum:g}")
+        bounds.append(f"{'<' if strict_maximum else '<='} {maximum:g}")
     expected = "a number" + (f" {' and '.join(bounds)}" if bounds else "") + \
         (f" ({unit})" if unit else "")
 
@@ -100,7 +100,7 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit=""):
             raise Invalid(f"got {value}", expected)
         if minimum is not None and (value < minimum or (strict_minimum and value == minimum)):
             raise Invalid(f"got {value:g}", expected)
-        if maximum is not None and value > maximum:
+        if maximum is not None and (value > maximum or (strict_maximum and value == maximum)):
             raise Invalid(f"got {value:g}", expected)
         return value
     check.expected = expected
@@ -276,8 +276,17 @@ SCHEMA = {
         "mass_per_vertex": (_number(0, strict_minimum=True, unit="kg"), None, "per vertex"),
         "density": (_number(0, strict_minimum=True, unit="kg/m²"), None,
                     "areal density, lumped to the vertices by area"),
+        "stretch": (_choice("springs", "membrane"), "springs",
+                    "what resists stretching: the paper's structural springs, or a continuum "
+                    "membrane (St. Venant–Kirchhoff triangles) of young_modulus and "
+                    "poisson_ratio"),
         "stretch_stiffness": (_number(0, strict_minimum=True, unit="N/m"), 200.0,
-                              "structural springs"),
+                              "structural springs (not with stretch = membrane)"),
+        "young_modulus": (_number(0, strict_minimum=True, unit="N/m"), None,
+                          "the membrane's 2-D Young's modulus, Pa × thickness (required with "
+                          "stretch = membrane)"),
+        "poisson_ratio": (_number(-1, 1, strict_minimum=True, strict_maximum=True), None,
+                          "the membrane's Poisson's ratio (default 0.3)"),
         "bend_stiffness": (_number(0, unit="N/m"), None,
                            f"bending springs (default {STIFFNESS:g}; 0: none; not with quadratic "
                            "bending)"),
