@@ -1,6 +1,10 @@
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "yore/mesh.hpp"
+#include "yore/pattern_mesh.hpp"
+
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
 
 namespace yore::bindings {
 
@@ -43,6 +47,23 @@ void bind_mesh(py::module_& m) {
         return read_only_copy(lumped_vertex_areas(v, f));
       },
       py::arg("vertices"), py::arg("faces"), "Per-vertex third of the incident face areas, m².");
+  m.attr("PATTERN_MAX_ANGLE_DEGREES") = kPatternMaxAngleDegrees;
+  m.def(
+      "pattern_mesh",
+      [](const Polygon2& outline, const std::vector<Polygon2>& holes, double edge_length,
+         double min_angle, std::int64_t max_vertices) {
+        PatternMeshOptions options;
+        options.edge_length = edge_length;
+        options.min_angle_degrees = min_angle;
+        options.max_vertices = max_vertices;
+        const PatternMesh mesh = run_without_gil([&] { return pattern_mesh(outline, holes, options); });
+        return py::make_tuple(read_only_copy(mesh.points), read_only_copy(mesh.faces),
+                              mesh.outline_vertices);
+      },
+      py::arg("outline"), py::arg("holes"), py::arg("edge_length"), py::arg("min_angle"),
+      py::arg("max_vertices"),
+      "(points m×2, faces, outline vertex count) of a pattern meshed by CGAL; see "
+      "yore.pattern_mesh.");
 }
 
 }  // namespace yore::bindings

@@ -19,7 +19,7 @@ _guard_command_start()
 from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the guard)
 from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
-from .meshes import cylinder_mesh, grid_mesh
+from .meshes import cylinder_mesh, grid_mesh, pattern_mesh
 from .simulation import INTEGRATORS, Simulation
 from .state import load_state, save_state
 from .runs import RunError, SceneError, load_scene, resume_run, run_scene
@@ -52,6 +52,7 @@ __all__ = [
     "INTEGRATORS",
     "grid_mesh",
     "cylinder_mesh",
+    "pattern_mesh",
     "load_mesh",
     "save_mesh",
     "scenes",

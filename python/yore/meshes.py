@@ -9,13 +9,20 @@ stiffness in a mass-spring cloth.
 
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
 
+from . import _core
 from .checks import check_factor, check_integer
 
-__all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring", "MAX_MESH_VERTICES"]
+__all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring", "pattern_mesh", "MAX_MESH_VERTICES",
+           "PATTERN_MIN_ANGLE"]
+
+#: The smallest angle pattern_mesh asks for unless told, degrees: well inside what CGAL's
+#: mesher reaches (it proves termination to 20.7° and in practice goes to 30°, the ceiling here).
+PATTERN_MIN_ANGLE = 25.0
 
 #: Most vertices a generated mesh may have (e.g. 1000×1000), checked before anything is
 #: allocated: a cloth of a million vertices already needs some GB for its springs and factor.
@@ -175,3 +182,69 @@ def cylinder_ring(rings, segments, which):
         raise ValueError(f"which must be in [-{rings}, {rings}) for {rings} rings, got {which!r}")
     ring = int(which) % rings
     return np.arange(ring * segments, (ring + 1) * segments, dtype=np.int32)
+
+
+def _polygon(points, name):
+    try:
+        array = np.array(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a list of [u, v] points (m), got "
+                         f"{type(points).__name__}") from None
+    if array.ndim != 2 or array.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (m, 2): [u, v] points (m), got shape "
+                         f"{array.shape}")
+    return np.ascontiguousarray(array)
+
+
+def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGLE):
+    """Triangle mesh of a flat pattern: the region inside ``outline`` and outside every hole,
+    meshed by CGAL's 2-D constrained Delaunay mesher so that every edge is at most
+    ``edge_length`` long and every angle at least ``min_angle`` degrees: isotropic triangles
+    with no preferred directions (a grid's rows and diagonals are three of them).
+
+    Parameters
+    ----------
+    outline : (m, 2) array-like
+        The pattern's boundary, [u, v] points in metres, a simple polygon of at least 3 points
+        (either orientation; a last point equal to the first is dropped).
+    holes : sequence of (k, 2) array-likes
+        Holes, each a simple polygon strictly inside the outline and apart from the others.
+    edge_length : float
+        Longest edge, m (the mean edge comes out at about 0.6–0.7 of it).
+    min_angle : float
+        Smallest angle, degrees, in (0, 30].
+
+    Returns
+    -------
+    V : (n, 3) float64
+        Vertices in the z = 0 plane: (u, v, 0); ``V[:, :2]`` are the material coordinates.
+    F : (f, 3) int32
+        Faces, counter-clockwise about +z.
+
+    Raises
+    ------
+    ValueError
+        On a polygon with too few points, a non-finite point, zero area or a self-intersection;
+        a hole that leaves the outline or overlaps another; a bad edge_length or min_angle; or
+        a mesh of more than `MAX_MESH_VERTICES` vertices.
+    """
+    outline = _polygon(outline, "outline")
+    if isinstance(holes, np.ndarray) and holes.ndim == 2:
+        raise ValueError("holes must be a list of polygons, got one (k, 2) array: wrap it in "
+                         "a list")
+    holes = [_polygon(hole, f"hole {k}") for k, hole in enumerate(holes)]
+    edge_length = check_factor(edge_length, "edge_length", "m")
+    if isinstance(min_angle, (bool, np.bool_)) or not isinstance(min_angle, numbers.Real):
+        raise ValueError(f"min_angle must be a number of degrees, got {min_angle!r}")
+    # No triangle with edges at most edge_length is larger than the equilateral one, and a
+    # mesh has about two faces per vertex: fewer vertices than this cannot cover the outline.
+    u, v = outline[:, 0], outline[:, 1]
+    area = 0.5 * abs(float(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))))
+    if math.isfinite(area):
+        least = area / (math.sqrt(3.0) / 4.0 * edge_length ** 2) / 2.0
+        _check_vertex_count(int(least), f"edge_length {edge_length:g} m on an outline of "
+                            f"{area:g} m²")
+    points, faces, _ = _core.pattern_mesh(outline, holes, edge_length, float(min_angle),
+                                          MAX_MESH_VERTICES)
+    V = np.column_stack([points, np.zeros(len(points))])
+    return np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int32)

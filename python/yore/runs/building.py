@@ -15,7 +15,7 @@ import numpy as np
 
 from .._core import Cloth
 from ..io import load_mesh
-from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh
+from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh, pattern_mesh
 from ..options import GRAVITY
 from ..simulation import Simulation
 from ..camera import Camera, camera_from_settings
@@ -26,6 +26,13 @@ __all__ = ["scene_camera", "apply_scene_stroke"]
 
 
 # -- building -------------------------------------------------------------------------------------
+def _boundary_vertices(F):
+    """The vertices on a mesh's boundary: the ends of the edges that only one face has."""
+    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    return np.unique(unique[counts == 1]).astype(np.int32)
+
+
 def build_simulation(scene):
     data = scene.data
     mesh = data["mesh"]
@@ -37,6 +44,19 @@ def build_simulation(scene):
         pattern = V if mesh["plane"] == "xy" else np.column_stack(
             [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
         sets = _grid_sets(mesh["nx"], mesh["ny"])
+    elif generator == "pattern":
+        try:
+            V, F = pattern_mesh(mesh["outline"], mesh["holes"], mesh["edge_length"],
+                                mesh["min_angle"])
+        except ValueError as error:
+            text = str(error)
+            key = ("mesh.holes" if "hole" in text else "mesh.edge_length"
+                   if "edge_length" in text or "vertices" in text else "mesh.outline")
+            raise scene.error(key, text, "a pattern CGAL can mesh") from None
+        uv = V[:, :2].copy()
+        pattern = V if mesh["plane"] == "xy" else np.column_stack(
+            [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+        sets = {"boundary": _boundary_vertices(F)}
     elif generator == "cylinder":
         pattern, F = cylinder_mesh(mesh["radius"], mesh["height"], mesh["rings"],
                                    mesh["segments"])

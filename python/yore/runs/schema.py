@@ -30,6 +30,8 @@ from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAME
 from ..checks import (MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_MASS_SCALE, MAX_SETTLE_SECONDS,
                       MAX_THREADS, MAX_TIME, MIN_DT, MIN_EXPANSION)
 from ..camera import MAX_CAMERA_COORDINATE
+from ..meshes import PATTERN_MIN_ANGLE
+from .._core import PATTERN_MAX_ANGLE_DEGREES as PATTERN_MAX_ANGLE
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
@@ -181,6 +183,22 @@ def _points(dimension, what):
     return check
 
 
+def _polygons(value):
+    if not isinstance(value, list):
+        raise Invalid(f"got {describe_value(value)}", _polygons.expected)
+    points = _points(2, "[u, v]")
+    polygons = []
+    for k, polygon in enumerate(value):
+        try:
+            polygons.append(points(polygon))
+        except Invalid as error:
+            raise Invalid(f"hole {k}: {error.problem}", _polygons.expected) from None
+    return polygons
+
+
+_polygons.expected = "a list of polygons, each a list of [u, v] points"
+
+
 def _vector3(value):
     if (not isinstance(value, list) or len(value) != 3 or
             any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
@@ -233,6 +251,17 @@ GENERATOR_KEYS = {
         "rings": (_integer(2), 13, "vertex rings"),
         "segments": (_integer(3), 32, "vertices per ring"),
     },
+    "pattern": {
+        "outline": (_points(2, "[u, v]"), REQUIRED,
+                    "the pattern's boundary polygon, m (simple, at least 3 points)"),
+        "holes": (_polygons, [], "holes: a list of polygons strictly inside the outline"),
+        "edge_length": (_number(0, strict_minimum=True, unit="m"), 0.05,
+                        "longest edge of CGAL's constrained Delaunay mesh"),
+        "min_angle": (_number(0, PATTERN_MAX_ANGLE, strict_minimum=True, unit="degrees"),
+                      PATTERN_MIN_ANGLE, "smallest angle of the mesh"),
+        "plane": (_choice("xy", "xz"), "xy",
+                  "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)"),
+    },
     "file": {
         "path": (_string, REQUIRED, "mesh file (any meshio format), relative to the scene"),
         "scale": (_number(0, strict_minimum=True), 1.0, "factor applied to the coordinates"),
@@ -267,7 +296,7 @@ SCHEMA = {
         "description": (_string, None, "free text"),
     }, "table"),
     "mesh": ({
-        "generator": (_choice(*GENERATOR_KEYS), REQUIRED, "grid, cylinder or file"),
+        "generator": (_choice(*GENERATOR_KEYS), REQUIRED, "grid, cylinder, pattern or file"),
     }, "table"),
     "material": ({
         "mass": (_number(0, strict_minimum=True, unit="kg"), None,

@@ -1,0 +1,169 @@
+"""Pattern meshes (CGAL's 2-D constrained Delaunay mesher): the mesh covers exactly the pattern,
+is a manifold with the right Euler characteristic, keeps its edge and angle bounds, has no
+preferred directions, builds cloths and scenes whose pattern strokes work, and refuses bad
+outlines with one clear error."""
+
+import numpy as np
+import pytest
+
+import yore
+from yore import _core
+from yore.runs import SceneError, load_scene
+
+RECTANGLE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [0.0, 0.5]]
+
+
+def edges_of(F):
+    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    return np.unique(edges, axis=0)
+
+
+def signed_areas(V, F):
+    a, b, c = V[F[:, 0], :2], V[F[:, 1], :2], V[F[:, 2], :2]
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) -
+                  (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+def angles_of(V, F):
+    out = []
+    for k in range(3):
+        p, q, r = V[F[:, k]], V[F[:, (k + 1) % 3]], V[F[:, (k + 2) % 3]]
+        u, w = q - p, r - p
+        cos = np.einsum("ij,ij->i", u, w) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)
+        out.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.concatenate(out)
+
+
+@pytest.mark.parametrize("edge_length, min_angle", [(0.1, 20.0), (0.05, 25.0), (0.03, 30.0)])
+def test_a_rectangle_is_covered_exactly_within_the_bounds(edge_length, min_angle):
+    V, F = yore.pattern_mesh(RECTANGLE, edge_length=edge_length, min_angle=min_angle)
+    assert V.shape[1] == 3 and np.all(V[:, 2] == 0.0)
+    areas = signed_areas(V, F)
+    assert np.all(areas > 0.0)  # counter-clockwise about +z
+    assert areas.sum() == pytest.approx(0.5, rel=1e-12)
+    edges = edges_of(F)
+    lengths = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
+    assert lengths.max() <= edge_length * (1 + 1e-9)
+    # the mesher stops at the size bound, not far below it: the mean edge is 0.6–0.8 of it
+    assert 0.55 * edge_length < lengths.mean() < 0.85 * edge_length
+    # the corners are 90°, so CGAL's angle bound holds everywhere (rounding aside)
+    assert angles_of(V, F).min() >= min_angle - 1e-6
+    _core.validate_mesh(V, F)  # a manifold: no edge with three faces, no duplicate or sliver
+    # a disk: V − E + F = 1
+    assert len(V) - len(edges) + len(F) == 1
+    # every vertex inside the rectangle, the outline's corners among them
+    assert V[:, 0].min() == 0.0 and V[:, 0].max() == 1.0 and V[:, 1].max() == 0.5
+    for corner in RECTANGLE:
+        assert np.any(np.all(V[:, :2] == corner, axis=1))
+
+
+def test_holes_are_left_out_and_the_euler_characteristic_counts_them():
+    triangle = [[0.2, 0.1], [0.4, 0.1], [0.3, 0.35]]
+    square = [[0.6, 0.1], [0.8, 0.1], [0.8, 0.3], [0.6, 0.3]][::-1]  # either orientation
+    V, F = yore.pattern_mesh(RECTANGLE, holes=[triangle, square], edge_length=0.04)
+    hole_area = 0.5 * 0.2 * 0.25 + 0.04
+    assert signed_areas(V, F).sum() == pytest.approx(0.5 - hole_area, rel=1e-12)
+    assert len(V) - len(edges_of(F)) + len(F) == 1 - 2
+    # no face's centroid in a hole
+    centroids = V[F].mean(axis=1)[:, :2]
+    in_square = (centroids[:, 0] > 0.6) & (centroids[:, 0] < 0.8) & \
+        (centroids[:, 1] > 0.1) & (centroids[:, 1] < 0.3)
+    assert not in_square.any()
+
+
+def test_the_mesh_has_no_preferred_directions_unlike_the_grid():
+    def largest_direction_share(V, F):
+        edges = edges_of(F)
+        d = V[edges[:, 1]] - V[edges[:, 0]]
+        theta = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 180.0
+        counts, _ = np.histogram(theta, bins=36, range=(0, 180))
+        return counts.max() / len(edges)
+
+    V, F = yore.pattern_mesh(RECTANGLE, edge_length=0.03)
+    G, H = yore.grid_mesh(34, 17, width=1.0, height=0.5)
+    # a grid's edges lie in 4 bins (rows, columns, two diagonals): the largest holds ~1/3;
+    # 36 equal bins would hold 2.8 % each
+    assert largest_direction_share(G, H) > 0.25
+    assert largest_direction_share(V, F) < 0.08
+
+
+def test_a_pattern_cloth_takes_material_strokes_and_a_membrane():
+    outline = [[0.0, 0.0], [0.6, 0.0], [0.6, 0.6], [0.3, 0.8], [0.0, 0.6]]  # a house shape
+    V, F = yore.pattern_mesh(outline, edge_length=0.06)
+    cloth = yore.Cloth(V, F, masses=1e-3, stretch="membrane", young_modulus=500.0,
+                       bend_stiffness=0.0)
+    cloth.material_coordinates = V[:, :2]
+    top = int(np.argmax(V[:, 1]))
+    cloth.fix([top])
+    sim = yore.Simulation(cloth, integrator="implicit", dt=0.01)
+    sim.step(3)
+    report = sim.stroke_material([[0.1, 0.3], [0.5, 0.3]])
+    assert len(report.new_vertices) > 0
+    # new vertices got the pattern point they were added at: inside the outline, on the line
+    uv = sim.cloth.material_coordinates[report.new_vertices]
+    assert np.all((uv[:, 0] > 0.0) & (uv[:, 0] < 0.6))
+    sim.step(3)
+    assert np.isfinite(sim.energy()["total"])
+
+
+SCENE = """
+[mesh]
+generator = "pattern"
+{mesh}
+[simulation]
+duration = 0.02
+dt = 0.01
+"""
+
+
+def test_scene_files_mesh_patterns_and_name_bad_keys():
+    sim, sets = load_scene(text=SCENE.format(
+        mesh='outline = [[0, 0], [1, 0], [1, 0.5], [0, 0.5]]\nedge_length = 0.1\n'
+             'holes = [[[0.4, 0.2], [0.6, 0.2], [0.5, 0.3]]]\nplane = "xz"')).build()
+    cloth = sim.cloth
+    assert np.all(cloth.positions[:, 1] == 0.0)  # the xz plane
+    assert np.array_equal(cloth.material_coordinates, cloth.positions[:, [0, 2]])
+    for mesh, key in [
+        ('outline = [[0, 0], [1, 0]]', "mesh.outline"),
+        ('outline = [[0, 0], [1, 1], [1, 0], [0, 1]]', "mesh.outline"),  # a bow tie
+        ('outline = [[0, 0], [1, 0], [1, 1]]\nholes = [[[2, 2], [3, 2], [3, 3]]]', "mesh.holes"),
+        ('outline = [[0, 0], [1, 0], [1, 1]]\nedge_length = 0', "mesh.edge_length"),
+        ('outline = [[0, 0], [1, 0], [1, 1]]\nmin_angle = 40', "mesh.min_angle"),
+        ('edge_length = 0.1', "mesh.outline"),
+    ]:
+        with pytest.raises(SceneError) as caught:
+            load_scene(text=SCENE.format(mesh=mesh)).build()
+        assert caught.value.key == key, mesh
+
+
+@pytest.mark.parametrize("outline, holes, kwargs, message", [
+    ([[0, 0], [1, 0]], [], {}, "at least 3"),
+    ([[0, 0], [1, 0], [0, 0]], [], {}, "at least 3"),  # closed by repetition: 2 distinct
+    ([[0, 0], [1, 1], [1, 0], [0, 1]], [], {}, "intersects itself"),
+    ([[0, 0], [1, 0], [2, 0]], [], {}, "zero area|intersects itself"),
+    ([[0, 0], [1, 0], [float("nan"), 1]], [], {}, "not finite"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"edge_length": 0.0}, "edge_length"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"edge_length": float("nan")}, "edge_length"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"min_angle": 0.0}, "min_angle"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"min_angle": 31.0}, "min_angle"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"min_angle": True}, "min_angle"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"edge_length": 1e-5}, "more than the limit"),
+    ([[0, 0], [1, 0], [1, 1], [0, 1]], [[[2, 2], [3, 2], [3, 3]]], {}, "not inside"),
+    ([[0, 0], [1, 0], [1, 1], [0, 1]], [[[0.5, 0.5], [1.5, 0.5], [0.5, 0.7]]], {},
+     "not inside|crosses"),
+    ([[0, 0], [1, 0], [1, 1], [0, 1]],
+     [[[0.2, 0.2], [0.6, 0.2], [0.4, 0.6]], [[0.3, 0.25], [0.5, 0.25], [0.4, 0.4]]], {},
+     "overlaps"),
+    ([[0, 0], [1, 0], [1, 1]], [[[0.5, 0.1], [0.9, 0.1], [0.5, 0.8]]], {}, "not inside"),
+    ("square", [], {}, "list of \\[u, v\\] points"),
+    ([[0, 0, 0], [1, 0, 0], [1, 1, 0]], [], {}, "shape"),
+])
+def test_bad_patterns_are_value_errors(outline, holes, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        yore.pattern_mesh(outline, holes=holes, **kwargs)
+
+
+def test_a_refinement_past_the_vertex_limit_stops_with_an_error():
+    # the core counts the vertices as it refines: a limit far below the mesh's size stops it
+    with pytest.raises(ValueError, match="more than 100 vertices"):
+        _core.pattern_mesh(np.array(RECTANGLE), [], 0.01, 25.0, 100)
