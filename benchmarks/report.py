@@ -428,6 +428,78 @@ def vibration_floor_section(payload: dict, images: str) -> list:
     return out
 
 
+def wrinkles_section(payload: dict, images: str) -> list:
+    """The stretched sheet (springs and membrane) and the stroke against the mesh (from
+    wrinkles.json)."""
+    settings = payload["settings"]
+    base = settings["base"]
+    out = ["## Wrinkles: physics or mesh", "", f"![wrinkles]({images}/wrinkles.png)", "",
+           "`benchmarks/wrinkles.py`, one thread: `yore.scenes.stretched_sheet` (Cerda & "
+           f"Mahadevan's setting) {base['length']:g} m × {base['width']:g} m, clamped along its "
+           f"short edges and stretched {100 * base['strain']:g} %, on a CGAL pattern mesh, "
+           f"quadratic bending B, Y = {settings['young']:g} N/m (the membrane's; the springs' "
+           f"stiffness), ν = {settings['poisson']:g} (membrane), relaxed by `settle` with its "
+           "saddle test from the flat state plus "
+           f"{settings['noise']:g} m of noise. λ: the FFT peak of the mid-length cross-section; "
+           "predicted: (2π L)^½ (4 B / (Y γ))^¼ with the model's own Y (the lattice's under an "
+           "affine strain). Flat-state stable: the flat stretched state's true Hessian is "
+           "positive definite; compression: the membrane's largest S_yy there over the middle "
+           "fifth of the length (N/m).", "",
+           "| run | model | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | predicted (m) | "
+           "λ / edge | amplitude (m) | flat state stable | compression | CPU s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in payload["rows"]:
+        wavelength = "flat" if r["wavelength"] is None else f"{r['wavelength']:.4f}"
+        ratio = "–" if r["wavelength"] is None else f"{r['wavelength'] / r['mean_edge']:.1f}"
+        if r["zigzag"]:
+            ratio += " (zigzag)"
+        compression = ("–" if r.get("flat_state_compression") is None
+                       else f"{r['flat_state_compression']:.1f}")
+        out.append(f"| {r['label']} | {r['model']} | {r['bending_modulus']:g} | "
+                   f"{r['length']:g} | {r['strain']:g} | {r['mean_edge']:.4f} | {wavelength} | "
+                   f"{r['predicted_wavelength']:.4f} | {ratio} | {r['amplitude']:.2e} | "
+                   f"{r['flat_state_stable']} | {compression} | {r['cpu_seconds']:.0f} |")
+    summary = payload["summary"]
+    out += ["", "| model | wrinkled runs | zigzags | exponent in B (¼) | in L (½) | in γ (−¼) | "
+            "λ / predicted | λ change, two finest meshes |", "|---|---|---|---|---|---|---|---|"]
+
+    def number(value, digits=2):
+        return "–" if value is None else f"{value:.{digits}f}"
+
+    for model in ("membrane", "springs"):
+        m = summary[model]
+        ratios = m["ratio_to_prediction"]
+        spread = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
+        out.append(f"| {model} | {m['wrinkled']} of {m['runs']} | {m['zigzags']} | "
+                   f"{number(m['exponents']['bending_modulus'])} | "
+                   f"{number(m['exponents']['length'])} | {number(m['exponents']['strain'])} | "
+                   f"{spread} | {number(m['finest_meshes_change'], 3)} |")
+    threshold = summary["springs_threshold"]
+    if threshold:
+        out += ["", "The spring lattice against B, per mesh (largest B that wrinkled, smallest "
+                "that stayed flat): " + "; ".join(
+                    f"mean edge {t['mean_edge']:.4f} m: wrinkled up to "
+                    f"{number(t['wrinkled_up_to'], 6) if t['wrinkled_up_to'] else 'none'}, flat "
+                    f"from {t['flat_from'] if t['flat_from'] is not None else 'none'}"
+                    for t in threshold.values()) + "."]
+    strokes = payload["strokes"]
+    if strokes:
+        out += ["", "The hanging-cloth stroke (v = 0.8, u 0.2–0.8) against the mesh:", "",
+                "| model | vertices per side | faces split | wrinkle measure (m) | fold depth (m) "
+                "| CPU s |", "|---|---|---|---|---|---|"]
+        for s in strokes:
+            out.append(f"| {s['model']} | {s['resolution']} | {s['faces_split']} | "
+                       f"{s['wrinkle_measure']:.3e} | {s['fold_depth']:.3e} | "
+                       f"{s['cpu_seconds']:.0f} |")
+        for model, change in summary["stroke"].items():
+            out.append("")
+            out.append(f"{model}: between the two finest meshes the wrinkle measure changes by "
+                       f"{100 * change['wrinkle_measure_change']:.0f} %, the fold depth by "
+                       f"{100 * change['fold_depth_change']:.0f} % (target: < 10 % for one "
+                       "model).")
+    return out
+
+
 def section(data: dict, results: Path, images: str | None = None) -> str:
     """The generated part of the results page from the benchmarks' JSON (``load``); ``results``
     is the folder named in the text, ``images`` the folder of the PNG files as the page links
@@ -450,6 +522,8 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
     out += [""] + at_tolerance_section(
         json.loads(extra.read_text()) if extra.is_file() else None, data["long_horizon"])
     out += [""] + vibration_floor_section(data["vibration_floor"], images)
+    if "wrinkles" in data:
+        out += [""] + wrinkles_section(data["wrinkles"], images)
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]

@@ -867,3 +867,25 @@ def test_vibration_floor_smoke(tmp_path):
     b, a = fixed[1], fixed[0]
     assert b["slope_vs_step"] == pytest.approx(
         math.log(a["error"] / b["error"]) / math.log(a["mean_step"] / b["mean_step"]))
+
+
+def test_wrinkles_smoke(tmp_path):
+    data = run_benchmark("wrinkles", tmp_path, "--quick")
+    rows = data["rows"]
+    assert {r["model"] for r in rows} == {"membrane", "springs"}
+    for r in rows:
+        # the prediction is Cerda & Mahadevan's from the row's own numbers
+        assert r["predicted_wavelength"] == pytest.approx(
+            math.sqrt(2 * math.pi * r["length"])
+            * (4 * r["bending_modulus"] / (r["young"] * r["strain"])) ** 0.25)
+        assert r["flat"] == (r["wavelength"] is None)
+        if r["model"] == "membrane":
+            assert r["young"] == data["settings"]["young"]
+    # the small quick sheet stays flat and its flat state is stable for both models
+    assert all(r["flat"] and r["flat_state_stable"] for r in rows)
+    assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
+        (m, n) for m in ("springs", "membrane") for n in (9, 13)}
+    assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])
+    # a second run with --resume reads every run from the journal
+    again = run_benchmark("wrinkles", tmp_path, "--quick", "--resume")
+    assert again["rows"] == rows

@@ -364,3 +364,24 @@ def test_scene_files_pass_the_membrane_on_and_name_bad_keys(tmp_path):
         with pytest.raises(SceneError) as caught:
             load_scene(path).build()
         assert caught.value.key == key, material
+
+
+def test_the_stretched_sheet_wrinkles_as_springs_and_stays_flat_as_a_membrane():
+    # Cerda & Mahadevan's setting on a pattern mesh: the flat stretched state is a saddle for
+    # the spring lattice (its compressed springs buckle) and a stable rest for the membrane
+    # with the same stiffness scale (its compression across the width, ~1 % of the tension
+    # over a fifth of the length, is below what bending lets buckle here); `settle` says which
+    kwargs = dict(length=0.6, width=0.3, edge_length=0.03, bending_modulus=1e-5)
+    springs = yore.scenes.stretched_sheet(stretch="springs", stretch_stiffness=1e4, **kwargs)
+    membrane = yore.scenes.stretched_sheet(stretch="membrane", young_modulus=1e4, **kwargs)
+    assert np.array_equal(springs.scene["clamped"], membrane.scene["clamped"])
+    uv = springs.scene["uv"]
+    assert set(np.round(uv[springs.scene["clamped"], 0], 12)) == {0.0, 0.6}
+    for sim in (springs, membrane):
+        info = sim.settle(max_seconds=40.0, tolerance=1e-4)
+        assert info["converged"] and info["stable"] is True, info
+    assert np.abs(springs.cloth.positions[:, 2]).max() > 1e-4  # 10× the start's noise
+    assert np.abs(membrane.cloth.positions[:, 2]).max() < 1e-6
+    # the clamped edges stayed where the stretch put them
+    np.testing.assert_array_equal(springs.cloth.positions[springs.scene["clamped"], 0],
+                                  1.1 * uv[springs.scene["clamped"], 0])

@@ -228,6 +228,40 @@ def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator,
         unsettled.cloth.positions - start).max()
 
 
+def _compressed_strip(shortening=0.01):
+    """A 0.3 m × 0.05 m membrane strip, clamped at its ends, started exactly flat and shortened
+    by `shortening` of its length: a flat saddle (it is in balance, and it buckles)."""
+    V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.05], [0, 0.05]], edge_length=0.01)
+    cloth = yore.Cloth(V, F, density=0.1, stretch="membrane", young_modulus=1e4,
+                       poisson_ratio=0.3, bending="quadratic", bending_modulus=1e-4)
+    X = V.copy()
+    X[:, 0] *= 1 - shortening
+    cloth.positions = X
+    cloth.fix(np.flatnonzero((V[:, 0] <= 0.0) | (V[:, 0] >= 0.3)))
+    return yore.Simulation(cloth, integrator="implicit", gravity=(0.0, 0.0, 0.0))
+
+
+def test_settle_does_not_mistake_a_saddle_for_rest():
+    # Newton leaves a residual force of ~1e-7 of the sheet's, 0.2–0.4 m/s² on this light strip:
+    # a tolerance of 1 m/s² is met at once by the flat state
+    flat = _compressed_strip()
+    info = flat.settle(max_seconds=30.0, tolerance=1.0, check_stability=False)
+    assert info["converged"] and info["stable"] is None
+    assert np.abs(flat.cloth.positions[:, 2]).max() == 0.0  # the saddle, taken for rest
+    sim = _compressed_strip()
+    info = sim.settle(max_seconds=30.0, tolerance=1.0)
+    assert info["converged"] and info["stable"] is True and info["saddles_escaped"] >= 1
+    # the clamped strip buckled into the Euler mode w = A/2 (1 − cos 2πx/L), whose excess arc
+    # length A²π²/4L takes up the shortening Δ (the membrane barely stretches at Y = 1e4 N/m):
+    # A = 2 √(L Δ) / π
+    amplitude = np.abs(sim.cloth.positions[:, 2]).max()
+    expected = 2.0 * np.sqrt(0.3 * 0.003) / np.pi
+    assert amplitude == pytest.approx(expected, rel=0.05)
+    # and it is a minimum: the true Hessian is positive definite there
+    assert not yore.simulation._is_saddle(sim.cloth, (0.0, 0.0, 0.0))
+    assert yore.simulation._is_saddle(flat.cloth, (0.0, 0.0, 0.0))
+
+
 def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
     sim = _hanging()
     for bad in (-1.0, float("nan")):
@@ -238,11 +272,14 @@ def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
     spinning = yore.scenes.rotating_cylinder(rings=4, segments=8)
     with pytest.raises(ValueError, match="driven"):
         spinning.settle()
+    with pytest.raises(ValueError, match="check_stability"):
+        sim.settle(check_stability="yes")
     # zero seconds: nothing but the velocities (already zero) changes
     x = sim.cloth.positions.copy()
     info = sim.settle(max_seconds=0.0)
     assert info == {"seconds": 0.0, "steps": 0, "converged": False,
-                    "residual_acceleration": float("inf")}
+                    "residual_acceleration": float("inf"), "saddles_escaped": 0,
+                    "stable": None}
     assert np.array_equal(sim.cloth.positions, x)
 
 

@@ -83,12 +83,20 @@ void bind_implicit(py::module_& m) {
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
-             double dt, const py::handle& positions) {
+             double dt, const py::handle& positions, const std::string& projection) {
             check_idle(&integrator, "the integrator");
             idle(cloth);
+            if (projection != "clamp" && projection != "abs" && projection != "exact") {
+              throw std::invalid_argument(
+                  "projection must be \"clamp\", \"abs\" or \"exact\", got \"" +
+                  projection + "\"");
+            }
+            const HessianProjection chosen = projection == "exact" ? HessianProjection::exact
+                                             : projection == "abs" ? HessianProjection::abs
+                                                                   : HessianProjection::clamp;
             const NewtonSystem system = integrator.newton_system(
                 cloth, to_vec3(gravity, "gravity"), dt,
-                to_rows3(positions, "positions", cloth.vertex_count()));
+                to_rows3(positions, "positions", cloth.vertex_count()), chosen);
             py::dict out;
             out["energy"] = system.energy;
             out["gradient"] = read_only_copy(system.gradient);
@@ -101,10 +109,13 @@ void bind_implicit(py::module_& m) {
             return out;
           },
           py::arg("cloth"), py::arg("gravity"), py::arg("dt"), py::arg("positions"),
+          py::arg("projection") = "clamp",
           R"doc(The backward-Euler incremental potential of the next step from the cloth's state,
 at `positions` (n×3; only free vertices are unknowns): energy (J), gradient (N), the Hessian's
 lower triangle in CSC (hessian_data, hessian_indices, hessian_indptr, size) and the solver's
-Newton direction.)doc")
+Newton direction. projection: "clamp" (default) or "abs" filter the compressed springs' and
+faces' negative terms; "exact" keeps them and raises NotPositiveDefinite when the solver
+rejects the matrix.)doc")
       .def(
           "projection_memory",
           [](const ImplicitIntegrator& integrator) {

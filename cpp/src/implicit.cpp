@@ -966,7 +966,12 @@ void ImplicitIntegrator::restore_memory() {
 }
 
 NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity,
-                                               double dt, const Positions& positions) {
+                                               double dt, const Positions& positions,
+                                               HessianProjection projection) {
+  if (projection != HessianProjection::clamp && projection != HessianProjection::abs &&
+      projection != HessianProjection::exact) {
+    throw std::invalid_argument("newton_system: projection must be clamp, abs or exact");
+  }
   if (positions.rows() != cloth.vertex_count()) {
     std::ostringstream msg;
     msg << "positions must have shape (" << cloth.vertex_count() << ", 3), got ("
@@ -982,7 +987,7 @@ NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& g
   for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = positions.row(i);
   if (m_options.mixed) reset_tension(cloth, m_iterate);  // the true Hessian at the point
   NewtonSystem system;
-  system.energy = evaluate(cloth, m_iterate, true, true);
+  system.energy = evaluate(cloth, m_iterate, true, true, projection);
   system.gradient = m_gradient;
   system.pattern = m_pattern;
   system.hessian = m_values;

@@ -14,12 +14,12 @@ import math
 import numpy as np
 
 from ._core import Cloth
-from .meshes import cylinder_mesh, cylinder_ring, grid_mesh
+from .meshes import cylinder_mesh, cylinder_ring, grid_mesh, pattern_mesh
 from .options import DEFAULT_INTEGRATOR, GRAVITY, MASS
 from .options import STIFFNESS as OPTION_STIFFNESS
 from .simulation import Simulation
 
-__all__ = ["hanging_cloth", "rotating_cylinder"]
+__all__ = ["hanging_cloth", "rotating_cylinder", "stretched_sheet"]
 
 # Default material of both scenes. The paper gives all springs the same constant; per-spring
 # stiffness in N/m is independent of the mesh resolution for the in-plane response of a
@@ -128,6 +128,54 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
     # (sim.stroke_material needs them); use sim.stroke or sim.stroke_screen.
     sim.scene = {"name": "rotating_cylinder", "driven": rim,
                  "axis_center": np.array([0.0, height, 0.0]), "omega": omega}
+    return sim
+
+
+def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch="membrane",
+                    young_modulus=1e4, poisson_ratio=0.5, stretch_stiffness=None,
+                    bending_modulus=1e-4, density=0.1, noise=1e-5, seed=0,
+                    integrator=DEFAULT_INTEGRATOR, dt=None, **options) -> Simulation:
+    """A sheet clamped along its two short edges and stretched (Cerda & Mahadevan 2003's
+    setting, where Poisson contraction held back by the clamps compresses the middle across the
+    width and wrinkles along the length may form).
+
+    The pattern is a length × width rectangle (u along the length) meshed by `pattern_mesh`
+    (isotropic triangles, longest edge ``edge_length``); it starts in the z = 0 plane stretched
+    uniformly along u by 1 + ``strain``, with its two short edges clamped (fixed) there, and
+    ``noise`` m (RMS, seeded) of random height so that a flat state that is not stable can
+    leave it. No gravity. Bending is quadratic (``bending_modulus``, N·m); stretching is the
+    membrane (``young_modulus`` N/m, ``poisson_ratio``, the default) or springs (``stretch =
+    "springs"`` with ``stretch_stiffness``). Area density kg/m². Relax it with
+    ``sim.settle(...)``; Cerda & Mahadevan's wavelength is
+    ``(2π length)^½ (4 B / (Y strain))^¼`` for a sheet of 2-D modulus Y.
+
+    The simulation's ``scene`` holds "clamped" (the fixed vertices) and "uv" (the pattern)."""
+    length = float(length)
+    width = float(width)
+    strain = float(strain)
+    if not (math.isfinite(strain) and strain > -1.0):
+        raise ValueError(f"strain must be finite and > -1, got {strain}")
+    noise = float(noise)
+    if not (math.isfinite(noise) and noise >= 0.0):
+        raise ValueError(f"noise must be finite and >= 0 (m), got {noise}")
+    V, F = pattern_mesh([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
+                        edge_length=edge_length)
+    uv = V[:, :2].copy()
+    cloth = Cloth(V, F, density=density, damping=0.0, drag=0.0, bending="quadratic",
+                  bending_modulus=bending_modulus,
+                  **_stretch_arguments(stretch, stretch_stiffness,
+                                       young_modulus if stretch == "membrane" else None,
+                                       poisson_ratio if stretch == "membrane" else None))
+    start = V.copy()
+    start[:, 0] *= 1.0 + strain
+    start[:, 2] = np.random.default_rng(seed).normal(0.0, noise, len(V))
+    clamped = np.flatnonzero((uv[:, 0] <= 0.0) | (uv[:, 0] >= length)).astype(np.int32)
+    start[clamped, 2] = 0.0
+    cloth.positions = start
+    cloth.material_coordinates = uv
+    cloth.fix(clamped)
+    sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=(0.0, 0.0, 0.0), **options)
+    sim.scene = {"name": "stretched_sheet", "clamped": clamped, "uv": uv}
     return sim
 
 

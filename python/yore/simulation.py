@@ -27,6 +27,11 @@ IMPLICIT_DT = FIXED_DT
 
 #: Pseudo-time step of `Simulation.settle`'s backward-Euler relaxation, s.
 SETTLE_DT = 0.5
+#: A state `Simulation.settle` found to be a saddle is pushed off it by random displacements
+#: of the free vertices of this RMS, in mean structural rest lengths, before it settles on.
+SETTLE_PERTURBATION = 1e-3
+#: Most saddles one `Simulation.settle` call pushes off before it reports not converged.
+SETTLE_MAX_ESCAPES = 20
 
 # Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
 _BATCH_SECONDS = 0.1
@@ -55,6 +60,20 @@ def default_explicit_dt(cloth: Cloth, safety: float = EXPLICIT_DT_SAFETY) -> flo
         raise ValueError(f"no explicit time step is stable for this cloth (the bound is "
                          f"{stable:.3g} s): its stiffnesses or masses are out of range")
     return 1.0 / math.ceil(1.0 / (safety * stable))
+
+
+def _is_saddle(cloth, gravity) -> bool:
+    """Whether the cloth's positions are not a stable rest: the true (unprojected) Hessian of
+    the potential plus the relaxation's M/h² (h = SETTLE_DT) is not positive definite. At a
+    stable minimum the Hessian is positive semidefinite, so the sum is definite; on a saddle
+    (a flat stretched sheet before it wrinkles) it is not, whatever the residual says."""
+    probe = _core.ImplicitIntegrator(method="backward-euler")
+    try:
+        probe.newton_system(cloth, np.asarray(gravity, dtype=float), SETTLE_DT, cloth.positions,
+                            projection="exact")
+    except _core.NotPositiveDefinite:
+        return True
+    return False
 
 
 def _residual_acceleration(cloth, gravity) -> float:
@@ -372,7 +391,8 @@ class Simulation:
         self._target_time = target
         return steps
 
-    def settle(self, max_seconds: float = 10.0, tolerance: float = 0.02, progress=None) -> dict:
+    def settle(self, max_seconds: float = 10.0, tolerance: float = 0.02, progress=None,
+               check_stability: bool = True) -> dict:
         """Brings the cloth to rest at a static equilibrium before an experiment, by proximal
         point iteration (pseudo-time stepping): backward-Euler steps of `SETTLE_DT` from rest,
         the velocities zeroed after each, so every step minimises the potential plus
@@ -382,14 +402,22 @@ class Simulation:
         in an integrator of its own: this simulation's integrator, options and dt are not
         used or changed. It stops when the residual acceleration of the cloth at rest, the
         mass-weighted RMS of M⁻¹ f (m/s², f the net force at zero velocity), is at most
-        ``tolerance`` (0.02 is 0.2 % of gravity), or after ``max_seconds`` of pseudo-time. Afterwards the velocities
-        are zero and the clock is where it was, so strokes and outputs keep their times; BDF2
-        starts afresh (the velocities were edited).
+        ``tolerance`` (0.02 is 0.2 % of gravity) and the state is stable, or after
+        ``max_seconds`` of pseudo-time. A small residual alone cannot tell a minimum from a
+        saddle: a flat stretched sheet is in balance before it wrinkles. So, with
+        ``check_stability`` (the default), a state that meets the tolerance is accepted only if
+        the true Hessian of the potential plus M/h² is positive definite (a Cholesky
+        factorization succeeds); otherwise it is a saddle, the free vertices are moved by
+        random displacements of ``SETTLE_PERTURBATION`` mean rest lengths (RMS; a fixed seed)
+        and the relaxation goes on, at most ``SETTLE_MAX_ESCAPES`` times. Afterwards the
+        velocities are zero and the clock is where it was, so strokes and outputs keep their
+        times; BDF2 starts afresh (the velocities were edited).
 
         Returns {"seconds": pseudo-time spent, "steps": steps taken, "converged": bool,
-        "residual_acceleration": the last step's, m/s²}. Raises ValueError for bad arguments or
-        a cloth with driven vertices (a driven cloth has no rest to settle to),
-        SimulationDiverged if a step does."""
+        "residual_acceleration": the last step's, m/s², "saddles_escaped": saddles pushed off,
+        "stable": whether the last state passed the stability test (None when it was not
+        tested)}. Raises ValueError for bad arguments or a cloth with driven vertices (a driven
+        cloth has no rest to settle to), SimulationDiverged if a step does."""
         for name, value in (("max_seconds", max_seconds), ("tolerance", tolerance)):
             if not is_real(value):  # a number, not a string or None that float() would take
                 raise ValueError(f"{name} must be a finite number, got {show_value(value)}")
@@ -410,9 +438,13 @@ class Simulation:
         relax = _core.ImplicitIntegrator(method="backward-euler", projection="shifted",
                                          predictor="start", newton_tol=1e-7, max_newton=200)
         steps = int(math.ceil(max_seconds / SETTLE_DT - 1e-9)) if max_seconds > 0 else 0
-        converged, acceleration, done = False, math.inf, 0
+        if not isinstance(check_stability, (bool, np.bool_)):
+            raise ValueError(f"check_stability must be True or False, got "
+                             f"{show_value(check_stability)}")
+        converged, acceleration, done, escapes, stable = False, math.inf, 0, 0, None
         bar, started = None, _time.perf_counter()
         cloth.velocities = np.zeros_like(cloth.velocities)
+        free = np.setdiff1d(np.arange(cloth.vertex_count), cloth.fixed_vertices)
         try:
             for done in range(1, steps + 1):
                 before = cloth.positions
@@ -420,8 +452,22 @@ class Simulation:
                 cloth.velocities = np.zeros_like(before)
                 acceleration = _residual_acceleration(cloth, self._gravity)
                 if acceleration <= tolerance:
-                    converged = True
-                    break
+                    stable = None
+                    if check_stability:
+                        stable = not _is_saddle(cloth, self._gravity)
+                    if stable is not False:
+                        converged = True
+                        break
+                    if escapes == SETTLE_MAX_ESCAPES:
+                        break
+                    escapes += 1
+                    rest = cloth.springs.rest[cloth.springs.kind == 0]
+                    scale = SETTLE_PERTURBATION * float(rest.mean())
+                    moved = np.array(cloth.positions)
+                    moved[free] += np.random.default_rng(escapes).normal(
+                        0.0, scale / math.sqrt(3.0), (len(free), 3))
+                    cloth.positions = moved
+                    stable = None  # the moved state is not tested yet
                 if bar is None and progress is not False and (
                         progress or _time.perf_counter() - started > _PROGRESS_AFTER_SECONDS / 2):
                     from tqdm.auto import tqdm
@@ -440,7 +486,8 @@ class Simulation:
         cloth.time = start_time
         self._target_time = None
         return {"seconds": done * SETTLE_DT, "steps": done, "converged": converged,
-                "residual_acceleration": float(acceleration)}
+                "residual_acceleration": float(acceleration), "saddles_escaped": escapes,
+                "stable": stable}
 
     def _run(self, steps: int, progress, dt=None) -> None:
         if steps == 0:

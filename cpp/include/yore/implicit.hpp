@@ -235,9 +235,12 @@ class ImplicitIntegrator : public Integrator {
 
   /// The backward-Euler incremental potential of the next step from the cloth's current state,
   /// evaluated at free-vertex positions `positions` (n×3; rows of constrained vertices are
-  /// ignored), with the solver's Newton direction.
+  /// ignored), with the solver's Newton direction. The Hessian is projected as `projection`
+  /// says (clamp or abs; exact: the true Hessian, and NotPositiveDefinite when the solver
+  /// rejects it — how Simulation::settle tells a saddle from a minimum).
   NewtonSystem newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
-                             const Positions& positions);
+                             const Positions& positions,
+                             HessianProjection projection = HessianProjection::clamp);
 
   /// The history's arrays: BDF2's state one step back ("positions", m; "velocities", m/s),
   /// generalized-α's algorithmic accelerations and its true ones as solved for

@@ -218,14 +218,18 @@ def _check_record(state_path, record):
     if not expected_keys <= set(record) <= expected_keys | {"settle"}:
         fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
     settle = record.get("settle")
+    # saddles_escaped and stable came with settle's saddle test: absent from older records
+    basic = {"seconds", "steps", "converged", "residual_acceleration"}
     if settle is not None and not (
-            isinstance(settle, dict) and set(settle) == {"seconds", "steps", "converged",
-                                                         "residual_acceleration"}
+            isinstance(settle, dict)
+            and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
             and number(settle["seconds"]) and count(settle["steps"])
             and isinstance(settle["converged"], bool)
-            and isinstance(settle["residual_acceleration"], (int, float))):
-        fail("settle", "null or a table with seconds, steps, converged and "
-             "residual_acceleration")
+            and isinstance(settle["residual_acceleration"], (int, float))
+            and count(settle.get("saddles_escaped", 0))
+            and settle.get("stable") in (None, True, False)):
+        fail("settle", "null or a table with seconds, steps, converged, "
+             "residual_acceleration (and saddles_escaped, stable)")
     if not isinstance(record["scene_text"], str):
         fail("scene_text", "the scene file's text")
     if record["scene_path"] is not None and not isinstance(record["scene_path"], str):

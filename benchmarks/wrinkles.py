@@ -1,0 +1,401 @@
+"""Wrinkles that are physics, not mesh (issue 42): the stretched sheet of Cerda & Mahadevan
+(2003) for the spring lattice and for the membrane side by side, and the paper's hanging-cloth
+stroke at three resolutions.
+
+    python -m benchmarks.wrinkles [--out bench-results] [--quick] [--resume]
+
+One thread. `yore.scenes.stretched_sheet`: a length × width sheet on a pattern mesh (CGAL,
+isotropic triangles), clamped along its short edges and stretched by `strain`, quadratic
+bending B, 1e-5 m of seeded noise, relaxed by `Simulation.settle` (with its saddle test) from
+the flat stretched start. Per run, from the relaxed sheet's cross-section at mid-length (z
+interpolated along the width): the wavelength (peak of the zero-padded, Hann-windowed FFT), the
+number of wrinkles (half the sign changes), the amplitude (largest |z| of the section), and
+whether it is a mesh-scale zigzag (wavelength < 4 mean edges) or flat (amplitude < 10× the
+noise); the flat stretched state's stability (the true Hessian's Cholesky at it) and the
+largest compression across the width in it (the membrane's second Piola–Kirchhoff S_yy over
+its middle fifth). The prediction is Cerda & Mahadevan's λ = (2π L)^½ (4 B / (Y γ))^¼ from the
+model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
+spring lattice from the energies of three small affine strains; an upper bound, since its
+nodes may relax). Exponents of λ in B (16×), L (4×) and γ (4×) are fitted over the runs that
+wrinkled, not at the mesh scale. The stroke rows: `hanging_cloth` at resolutions 21, 31, 41,
+springs and a membrane of the grid lattice's affine Y and ν, simulated 1 s, stroked along
+v = 0.8 from u = 0.2 to 0.8 (the paper's stroke across the folds near the top), simulated 1 s
+more: the wrinkle measure of the stroke's region and its fold depth (range of the wrinkle
+height over the region).
+
+Every finished run is journaled (one JSON per run under <out>/wrinkles-runs/, written
+atomically): --resume skips them. Writes wrinkles.json and wrinkles.png.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+import yore
+from yore import metrics
+
+from . import common
+
+NOISE = 1e-5
+YOUNG = 1e4  # N/m, the membrane's, and the springs' stiffness scale
+POISSON = 0.5
+B0 = 2.5e-5  # N·m
+BASE = {"length": 1.0, "width": 0.5, "strain": 0.1, "edge_length": 0.014,
+        "bending_modulus": 4 * B0}
+SETTLE_SECONDS = 40.0  # pseudo-time cap of one relaxation
+SETTLE_TOLERANCE = 1e-5  # m/s²: 1e-6 of the sheet's tension over its areal density
+MESHES = [0.02, 0.014, 0.01]
+QUICK_BASE = {"length": 0.4, "width": 0.2, "strain": 0.1, "edge_length": 0.04,
+              "bending_modulus": 4 * B0}
+STROKE_RESOLUTIONS = [21, 31, 41]
+QUICK_STROKE_RESOLUTIONS = [9, 13]
+
+
+def sheet_runs(quick):
+    """(label, model, parameters) of the stretched-sheet runs: the base, B over 16×, L over 4×,
+    γ over 4×, three meshes, and for the springs B up to 64× at every mesh (their threshold)."""
+    base = QUICK_BASE if quick else BASE
+    runs = []
+
+    def add(label, model, **changes):
+        parameters = dict(base, **changes)
+        key = (model, tuple(sorted(parameters.items())))
+        if key not in {(m, tuple(sorted(p.items()))) for _, m, p in runs}:
+            runs.append((label, model, parameters))
+
+    for model in ("membrane", "springs"):
+        add("base", model)
+        if quick:
+            add("B", model, bending_modulus=B0)
+            continue
+        for factor in (1, 4, 16):
+            add("B", model, bending_modulus=factor * B0)
+        for length in (0.5, 2.0):
+            add("L", model, length=length)
+        for strain in (0.05, 0.2):
+            add("strain", model, strain=strain)
+        for edge in MESHES:
+            add("mesh", model, edge_length=edge)
+    for edge in MESHES if not quick else []:
+        for factor in (1, 16, 64, 256):
+            add("threshold", "springs", edge_length=edge, bending_modulus=factor * B0)
+    return runs
+
+
+def lattice_moduli(V, F, stiffness):
+    """The spring lattice's in-plane moduli under affine strains (J/m² per strain²): energies of
+    three small strains give C11, C22, C12; returns (Y along u under uniaxial stress, ν)."""
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
+                              axis=1), axis=0)
+    d = V[edges[:, 1], :2] - V[edges[:, 0], :2]
+    length = np.linalg.norm(d, axis=1)
+    n = d / length[:, None]
+    a, b = V[F[:, 1], :2] - V[F[:, 0], :2], V[F[:, 2], :2] - V[F[:, 0], :2]
+    area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()
+
+    def energy(exx, eyy):  # small strain: ΔL = L n·εn, energy Σ ½ k ΔL² per area
+        stretch = length * (n[:, 0] ** 2 * exx + n[:, 1] ** 2 * eyy)
+        return 0.5 * stiffness * np.sum(stretch ** 2) / area
+
+    e = 1e-4
+    c11, c22 = 2 * energy(e, 0) / e ** 2, 2 * energy(0, e) / e ** 2
+    c12 = (energy(e, e) - energy(e, 0) - energy(0, e)) / e ** 2
+    return c11 - c12 ** 2 / c22, c12 / c22
+
+
+def predicted_wavelength(length, bending, young, strain):
+    return math.sqrt(2 * math.pi * length) * (4 * bending / (young * strain)) ** 0.25
+
+
+def section(positions, length, strain, width, edge):
+    """z along the width at mid-length: (y, z) on 4096 points, interpolated from the vertices
+    within one mean edge of the plane x = L(1 + γ)/2."""
+    middle = 0.5 * length * (1 + strain)
+    near = np.flatnonzero(np.abs(positions[:, 0] - middle) < edge)
+    order = np.argsort(positions[near, 1])
+    y, z = positions[near[order], 1], positions[near[order], 2]
+    grid = np.linspace(max(y.min(), 0.0), min(y.max(), width), 4096)
+    return grid, np.interp(grid, y, z)
+
+
+def wavelength_of(y, z):
+    """Wavelength (m) of the largest peak of the Hann-windowed spectrum, zero-padded 16×, and
+    the number of wrinkles (half the sign changes of z)."""
+    span = y[-1] - y[0]
+    values = (z - z.mean()) * np.hanning(len(z))
+    padded = 16 * len(z)
+    spectrum = np.abs(np.fft.rfft(values, padded))
+    frequencies = np.fft.rfftfreq(padded, d=span / (len(z) - 1))
+    lowest = 1.5 / span  # a wave that fits the width at least 1.5 times
+    usable = frequencies >= lowest
+    peak = frequencies[usable][np.argmax(spectrum[usable])]
+    crossings = int(np.count_nonzero(np.diff(np.sign(z)) != 0))
+    return 1.0 / peak, crossings / 2.0
+
+
+def flat_state_check(model, parameters):
+    """The flat stretched state (relaxed without leaving the plane): whether it is stable (the
+    true Hessian's Cholesky), and the membrane's largest compression across the width over the
+    middle fifth of the length (S_yy, N/m; None for springs)."""
+    sim = make(model, parameters, noise=0.0)
+    sim.settle(max_seconds=SETTLE_SECONDS, tolerance=SETTLE_TOLERANCE, check_stability=False)
+    cloth = sim.cloth
+    stable = not yore.simulation._is_saddle(cloth, (0.0, 0.0, 0.0))
+    compression = None
+    if model == "membrane":
+        V, F, P = sim.scene["uv"], cloth.faces, cloth.positions
+        mu = YOUNG / (2 * (1 + POISSON))
+        lam = YOUNG * POISSON / (1 - POISSON ** 2)
+        rest = np.stack([V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]], axis=2)
+        now = np.stack([P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]], axis=2)
+        G = now @ np.linalg.inv(rest)
+        E = 0.5 * (np.transpose(G, (0, 2, 1)) @ G - np.eye(2))
+        Syy = 2 * mu * E[:, 1, 1] + lam * (E[:, 0, 0] + E[:, 1, 1])
+        centre = V[F].mean(axis=1)
+        middle = np.abs(centre[:, 0] - 0.5 * parameters["length"]) < 0.1 * parameters["length"]
+        compression = float(-Syy[middle].min())
+    return stable, compression
+
+
+def make(model, parameters, noise=NOISE):
+    options = dict(length=parameters["length"], width=parameters["width"],
+                   strain=parameters["strain"], edge_length=parameters["edge_length"],
+                   bending_modulus=parameters["bending_modulus"], noise=noise)
+    if model == "membrane":
+        return yore.scenes.stretched_sheet(stretch="membrane", young_modulus=YOUNG,
+                                           poisson_ratio=POISSON, **options)
+    return yore.scenes.stretched_sheet(stretch="springs", stretch_stiffness=YOUNG, **options)
+
+
+def sheet_run(label, model, parameters):
+    start = time.process_time()
+    sim = make(model, parameters)
+    settled = sim.settle(max_seconds=SETTLE_SECONDS, tolerance=SETTLE_TOLERANCE)
+    cloth = sim.cloth
+    F, uv = cloth.faces, sim.scene["uv"]
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
+                              axis=1), axis=0)
+    h = float(np.linalg.norm(uv[edges[:, 1]] - uv[edges[:, 0]], axis=1).mean())
+    y, z = section(cloth.positions, parameters["length"], parameters["strain"],
+                   parameters["width"], h)
+    amplitude = float(np.abs(z).max())
+    flat = amplitude < 10 * NOISE
+    wavelength, count = wavelength_of(y, z)
+    if model == "membrane":
+        young, nu = YOUNG, POISSON
+    else:
+        young, nu = lattice_moduli(np.column_stack([uv, np.zeros(len(uv))]), F, YOUNG)
+    stable_flat, compression = flat_state_check(model, parameters)
+    row = {"label": label, "model": model, **parameters, "vertices": int(cloth.vertex_count),
+           "mean_edge": h, "young": float(young), "poisson": float(nu),
+           "predicted_wavelength": predicted_wavelength(parameters["length"],
+                                                        parameters["bending_modulus"], young,
+                                                        parameters["strain"]),
+           "flat": bool(flat), "amplitude": amplitude,
+           "wavelength": None if flat else float(wavelength),
+           "wrinkles": None if flat else count,
+           "zigzag": bool(not flat and wavelength < 4 * h),
+           "settle": {k: settled[k] for k in ("seconds", "converged", "residual_acceleration",
+                                               "saddles_escaped", "stable")},
+           "flat_state_stable": stable_flat, "flat_state_compression": compression,
+           "section": {"y": y[::64].tolist(), "z": z[::64].tolist()},
+           "cpu_seconds": time.process_time() - start}
+    return row
+
+
+def stroke_run(model, resolution, quick):
+    """The paper's hanging cloth, stroked across its folds near the top."""
+    start = time.process_time()
+    kwargs = {}
+    if model == "membrane":
+        V, F = yore.grid_mesh(resolution, resolution)
+        young, nu = lattice_moduli(V, F, yore.scenes.STIFFNESS)
+        kwargs = {"stretch": "membrane", "young_modulus": young, "poisson_ratio": nu}
+    sim = yore.scenes.hanging_cloth(resolution=resolution, integrator="implicit", **kwargs)
+    seconds = 0.25 if quick else 1.0
+    sim.advance(seconds)
+    report = sim.stroke_material([[0.2, 0.8], [0.8, 0.8]])
+    sim.advance(seconds)
+    V, F = sim.cloth.positions, sim.cloth.faces
+    region = np.asarray(report.region_faces)
+    height = metrics.wrinkle_height(V, F)[np.unique(F[region])]
+    return {"model": model, "resolution": resolution, "faces_split": len(report.new_vertices),
+            "wrinkle_measure": metrics.wrinkle_measure(V, F, region),
+            "fold_depth": float(height.max() - height.min()),
+            "area_growth": float(report.rest_area_after / report.rest_area_before),
+            "cpu_seconds": time.process_time() - start}
+
+
+def fit_exponent(rows, key):
+    points = [(r[key], r["wavelength"]) for r in rows
+              if r["wavelength"] is not None and not r["zigzag"]]
+    if len(points) < 2 or len({p[0] for p in points}) < 2:
+        return None
+    x, y = np.log([p[0] for p in points]), np.log([p[1] for p in points])
+    return float(np.polyfit(x, y, 1)[0])
+
+
+def summarize(rows, strokes):
+    out = {}
+    for model in ("membrane", "springs"):
+        mine = [r for r in rows if r["model"] == model]
+        base = [r for r in mine if r["label"] in ("base", "B", "L", "strain", "mesh")]
+        at = {key: [r for r in base if all(r[k] == v for k, v in fixed.items())]
+              for key, fixed in (
+                  ("bending_modulus", {"length": BASE["length"], "strain": BASE["strain"],
+                                       "edge_length": BASE["edge_length"]}),
+                  ("length", {"bending_modulus": BASE["bending_modulus"],
+                              "strain": BASE["strain"], "edge_length": BASE["edge_length"]}),
+                  ("strain", {"bending_modulus": BASE["bending_modulus"],
+                              "length": BASE["length"], "edge_length": BASE["edge_length"]}))}
+        meshes = sorted((r for r in base if r["length"] == BASE["length"]
+                         and r["strain"] == BASE["strain"]
+                         and r["bending_modulus"] == BASE["bending_modulus"]),
+                        key=lambda r: -r["edge_length"])
+        finest = [r["wavelength"] for r in meshes[-2:]]
+        out[model] = {
+            "exponents": {key: fit_exponent(group, key) for key, group in at.items()},
+            "expected": {"bending_modulus": 0.25, "length": 0.5, "strain": -0.25},
+            "wrinkled": sum(r["wavelength"] is not None for r in mine),
+            "zigzags": sum(r["zigzag"] for r in mine),
+            "runs": len(mine),
+            "ratio_to_prediction": [r["wavelength"] / r["predicted_wavelength"] for r in mine
+                                    if r["wavelength"] is not None],
+            "finest_meshes_change": (abs(finest[1] - finest[0]) / finest[1]
+                                     if len(finest) == 2 and None not in finest else None),
+            "min_wavelength_over_edge": min((r["wavelength"] / r["mean_edge"] for r in mine
+                                             if r["wavelength"] is not None), default=None),
+        }
+    threshold = {}
+    for r in rows:
+        if r["model"] != "springs":
+            continue
+        entry = threshold.setdefault(f"{r['edge_length']:g}", {"mean_edge": r["mean_edge"],
+                                                               "wrinkled_up_to": None,
+                                                               "flat_from": None})
+        if r["wavelength"] is not None:
+            entry["wrinkled_up_to"] = max(entry["wrinkled_up_to"] or 0.0, r["bending_modulus"])
+        else:
+            entry["flat_from"] = min(entry["flat_from"] or math.inf, r["bending_modulus"])
+    out["springs_threshold"] = threshold
+    stroke_summary = {}
+    for model in ("springs", "membrane"):
+        mine = sorted((s for s in strokes if s["model"] == model), key=lambda s: s["resolution"])
+        if len(mine) >= 2:
+            a, b = mine[-2]["wrinkle_measure"], mine[-1]["wrinkle_measure"]
+            c, d = mine[-2]["fold_depth"], mine[-1]["fold_depth"]
+            stroke_summary[model] = {"wrinkle_measure_change": abs(b - a) / max(b, 1e-300),
+                                     "fold_depth_change": abs(d - c) / max(d, 1e-300)}
+    out["stroke"] = stroke_summary
+    return out
+
+
+def journal_path(out, name):
+    return Path(out) / "wrinkles-runs" / f"{name}.json"
+
+
+def journaled(out, name, resume, compute):
+    path = journal_path(out, name)
+    if resume and path.exists():
+        return json.loads(path.read_text(encoding="utf-8"))
+    value = compute()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_suffix(".tmp")
+    temporary.write_text(json.dumps(value), encoding="utf-8")
+    os.replace(temporary, path)
+    return value
+
+
+def run_name(model, parameters):
+    return model + "-" + "-".join(f"{k}={parameters[k]:g}" for k in sorted(parameters))
+
+
+def draw(rows, strokes, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.4))
+    colours = {"membrane": "tab:blue", "springs": "tab:red"}
+    ax = axes[0]
+    for r in rows:
+        if r["label"] == "base" or (r["label"] == "B" and r["bending_modulus"] == B0):
+            ax.plot(r["section"]["y"], 1e3 * np.array(r["section"]["z"]),
+                    color=colours[r["model"]], alpha=0.8,
+                    label=f"{r['model']}, B = {r['bending_modulus']:g} N·m")
+    ax.set_xlabel("y across the width (m)")
+    ax.set_ylabel("z at mid-length (mm)")
+    ax.set_title("cross-sections of the relaxed sheet")
+    ax.legend(fontsize=7)
+    ax = axes[1]
+    for r in rows:
+        if r["wavelength"] is None:
+            continue
+        marker = "x" if r["zigzag"] else "o"
+        ax.loglog(r["predicted_wavelength"], r["wavelength"], marker, color=colours[r["model"]])
+    lims = [0.01, 0.3]
+    ax.loglog(lims, lims, "k:", label="measured = Cerda & Mahadevan")
+    ax.set_xlabel("predicted wavelength (m), the model's own Y")
+    ax.set_ylabel("measured wavelength (m)")
+    ax.set_title("wavelength (x: mesh-scale zigzag); red springs, blue membrane")
+    ax.legend(fontsize=7)
+    ax = axes[2]
+    for model in ("springs", "membrane"):
+        mine = sorted((s for s in strokes if s["model"] == model), key=lambda s: s["resolution"])
+        if mine:
+            ax.plot([s["resolution"] for s in mine], [1e3 * s["fold_depth"] for s in mine], "o-",
+                    color=colours[model], label=f"{model}: fold depth")
+            ax.plot([s["resolution"] for s in mine], [1e3 * s["wrinkle_measure"] for s in mine],
+                    "s--", color=colours[model], label=f"{model}: wrinkle measure")
+    ax.set_xlabel("vertices per side")
+    ax.set_ylabel("mm")
+    ax.set_title("the hanging-cloth stroke against the mesh")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None):
+    args = common.arguments(__doc__, argv, extra=lambda parser: parser.add_argument(
+        "--resume", action="store_true", help="skip the runs already journaled in --out"))
+    yore.set_num_threads(1)
+    rows = []
+    for label, model, parameters in sheet_runs(args.quick):
+        row = journaled(args.out, run_name(model, parameters), args.resume,
+                        lambda: sheet_run(label, model, parameters))
+        row["label"] = label
+        rows.append(row)
+        print(f"  {label:9s} {model:8s} B={parameters['bending_modulus']:g} "
+              f"L={parameters['length']:g} γ={parameters['strain']:g} "
+              f"h={row['mean_edge']:.4f}: λ={row['wavelength']} "
+              f"(predicted {row['predicted_wavelength']:.4f}), amplitude "
+              f"{row['amplitude']:.2e}, flat state stable {row['flat_state_stable']}, "
+              f"{row['cpu_seconds']:.0f} s", flush=True)
+    strokes = []
+    for model in ("springs", "membrane"):
+        for resolution in (QUICK_STROKE_RESOLUTIONS if args.quick else STROKE_RESOLUTIONS):
+            strokes.append(journaled(args.out, f"stroke-{model}-{resolution}", args.resume,
+                                     lambda: stroke_run(model, resolution, args.quick)))
+            s = strokes[-1]
+            print(f"  stroke {model} {resolution}: measure {s['wrinkle_measure']:.3e}, fold "
+                  f"depth {s['fold_depth']:.3e}", flush=True)
+    payload = {"benchmark": "wrinkles", "machine": common.machine_info(), "quick": args.quick,
+               "settings": {"noise": NOISE, "young": YOUNG, "poisson": POISSON,
+                            "base": QUICK_BASE if args.quick else BASE,
+                            "settle_seconds": SETTLE_SECONDS,
+                            "settle_tolerance": SETTLE_TOLERANCE},
+               "rows": rows, "strokes": strokes, "summary": summarize(rows, strokes)}
+    common.save(args.out, "wrinkles", payload, lambda path: draw(rows, strokes, path))
+    print(json.dumps(payload["summary"], indent=1))
+
+
+if __name__ == "__main__":
+    main()
