@@ -432,11 +432,14 @@ def wrinkles_section(payload: dict, images: str) -> list:
     """The stretched sheet (springs and membrane) and the stroke against the mesh (from
     wrinkles.json)."""
     settings = payload["settings"]
-    base = settings["base"]
+    base = settings["bases"]["membrane"]
     out = ["## Wrinkles: physics or mesh", "", f"![wrinkles]({images}/wrinkles.png)", "",
            "`benchmarks/wrinkles.py`, one thread: `yore.scenes.stretched_sheet` (Cerda & "
            f"Mahadevan's setting) {base['length']:g} m × {base['width']:g} m, clamped along its "
-           f"short edges and stretched {100 * base['strain']:g} %, on a CGAL pattern mesh, "
+           f"short edges and stretched {100 * base['strain']:g} %, on a CGAL pattern mesh "
+           "(base runs: " + "; ".join(
+               f"{model} B = {b['bending_modulus']:g} N·m, longest edge {b['edge_length']:g} m"
+               for model, b in settings["bases"].items()) + "), "
            f"quadratic bending B, Y = {settings['young']:g} N/m (the membrane's; the springs' "
            f"stiffness), ν = {settings['poisson']:g} (membrane), relaxed by `settle` with its "
            "saddle test from the flat state plus "

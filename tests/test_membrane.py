@@ -385,3 +385,38 @@ def test_the_stretched_sheet_wrinkles_as_springs_and_stays_flat_as_a_membrane():
     # the clamped edges stayed where the stretch put them
     np.testing.assert_array_equal(springs.cloth.positions[springs.scene["clamped"], 0],
                                   1.1 * uv[springs.scene["clamped"], 0])
+
+
+def heron_rest_area(cloth):
+    """Σ over faces of Heron's area from the structural springs' rest lengths."""
+    springs = cloth.springs
+    structural = springs.kind == 0
+    rest = {tuple(sorted(e)): r for e, r in zip(springs.ends[structural].tolist(),
+                                                springs.rest[structural])}
+    total = 0.0
+    for a, b, c in cloth.faces.tolist():
+        x, y, z = rest[tuple(sorted((a, b)))], rest[tuple(sorted((b, c)))], rest[
+            tuple(sorted((c, a)))]
+        s = 0.5 * (x + y + z)
+        total += np.sqrt(max(s * (s - x) * (s - y) * (s - z), 0.0))
+    return total
+
+
+@pytest.mark.parametrize("growth", ["isotropic", "along", "across"])
+def test_growth_modes_grow_the_membranes_rest_metric(growth):
+    # the growth modes set rest lengths of the stroke band's springs; the membrane's rest
+    # triangles are laid out from them, so its rest area grows as the springs' does
+    sim = yore.scenes.hanging_cloth(size=0.5, resolution=9, stretch="membrane", pin_spacing=1.0,
+                                    young_modulus=2e3, integrator="implicit")
+    sim.step(2)
+    before = sim.cloth.membrane_status()["rest_area"]
+    assert before == pytest.approx(heron_rest_area(sim.cloth), rel=1e-12)
+    report = sim.stroke_material([[0.1, 0.25], [0.4, 0.25]], growth=growth, width=0.1)
+    after = sim.cloth.membrane_status()["rest_area"]
+    # every face's rest triangle follows its springs (the report measures the band's faces;
+    # the faces beside the band share grown edges and grow too)
+    assert after == pytest.approx(heron_rest_area(sim.cloth), rel=1e-12)
+    assert after - before >= (report.rest_area_after - report.rest_area_before) * (1 - 1e-9)
+    assert report.rest_area_after > report.rest_area_before
+    sim.step(3)
+    assert np.isfinite(sim.energy()["membrane"])

@@ -258,6 +258,27 @@ def test_undo_restores_the_state_before_the_stroke_bit_for_bit(integrator):
     assert viewer.sim.time == 0.0 and viewer.sim.cloth.vertex_count == len(V)
 
 
+def test_the_viewer_strokes_and_undoes_on_a_membrane_cloth():
+    V, F = wavy_cloth()
+    cloth = yore.Cloth(V, F, masses=0.1, stretch="membrane", young_modulus=400.0, damping=0.0)
+    cloth.fix([0, 16])
+    sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 120)
+    camera = Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300,
+                    height=300)
+    viewer = Viewer(sim, camera, headless=True)
+    viewer.advance(0.05)
+    before = viewer.sim.state()
+    rest_area = viewer.sim.cloth.membrane_status()["rest_area"]
+    reports = viewer.stroke_pixels([[80.0, 150.0], [220.0, 160.0]])
+    assert reports[0].faces_split > 0
+    assert viewer.sim.cloth.stretch == "membrane"
+    assert viewer.sim.cloth.membrane_status()["rest_area"] > rest_area  # eq. (1)'s growth
+    viewer.advance(0.02)
+    assert np.isfinite(viewer.sim.energy()["membrane"])
+    assert viewer.undo()
+    assert_same_state(viewer.sim.state(), before)
+
+
 def test_a_stroke_that_misses_the_cloth_changes_nothing():
     viewer = Viewer(wavy_simulation(), Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0),
                                               fov_degrees=30, width=300, height=300),
