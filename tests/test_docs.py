@@ -44,13 +44,14 @@ def test_the_first_python_script_runs_and_splits_faces(tmp_path):
     completed = subprocess.run([sys.executable, "-c", script], cwd=tmp_path,
                                capture_output=True, text=True, timeout=600)
     assert completed.returncode == 0, completed.stderr
-    first, iterations, kinetic = completed.stdout.strip().splitlines()
+    first, iterations, kinetic, settled = completed.stdout.strip().splitlines()
     split = int(first.split()[0])
     assert split > 0 and "faces split" in first
     before, after = (float(x) for x in re.findall(r"(\d+\.\d+)", first))
     assert after > before  # the stroke grew the rest area
     assert int(iterations) > 0
     assert 0.0 < float(kinetic) < 10.0  # the TR-BDF2 sheet still swings, and did not blow up
+    assert settled == "True True"  # the stretched membrane settled, on a stable state
     assert (tmp_path / "cloth.obj").is_file()
 
 
