@@ -60,7 +60,7 @@ BASES = {"membrane": {"length": 1.0, "width": 0.5, "strain": 0.1, "edge_length":
                      "bending_modulus": 4 * B0}}
 SETTLE_SECONDS = 40.0  # pseudo-time cap of one relaxation
 SETTLE_TOLERANCE = 1e-5  # m/s²: 1e-6 of the sheet's tension over its areal density
-MESHES = {"membrane": [0.007, 0.005, 0.0035], "springs": [0.02, 0.014, 0.01]}
+MESHES = {"membrane": [0.007, 0.005, 0.0035, 0.0025], "springs": [0.02, 0.014, 0.01]}
 QUICK_BASE = {"length": 0.4, "width": 0.2, "strain": 0.1, "edge_length": 0.04,
               "bending_modulus": 4 * B0}
 STROKE_RESOLUTIONS = [21, 31, 41]
