@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import yore
+from tests.newton_systems import dense_hessian
 from yore import _core
 
 NO_GRAVITY = (0.0, 0.0, 0.0)
@@ -117,17 +118,6 @@ def small_problem(stretched=True, seed=0):
     cloth.fix([0, 3])
     X = cloth.positions + rng.normal(0.0, 0.002, V.shape)
     return cloth, X
-
-
-def dense_hessian(system):
-    n = system["size"]
-    H = np.zeros((n, n))
-    indptr, indices, data = system["hessian_indptr"], system["hessian_indices"], system["hessian_data"]
-    for column in range(n):
-        for p in range(indptr[column], indptr[column + 1]):
-            H[indices[p], column] = data[p]
-            H[column, indices[p]] = data[p]
-    return H
 
 
 def perturbed(X, free, k, h):

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import yore
+from tests.newton_systems import dense_hessian
 from yore import _core
 from yore.runs import SceneError, load_scene
 from yore.state import load_state, save_state
@@ -92,17 +93,6 @@ def test_uniaxial_stress_contracts_by_poissons_ratio_in_green_strain():
         forces).max()
 
 
-def _dense(system):
-    n = system["size"]
-    H = np.zeros((n, n))
-    indptr, indices, data = (system["hessian_indptr"], system["hessian_indices"],
-                             system["hessian_data"])
-    for column in range(n):
-        for p in range(indptr[column], indptr[column + 1]):
-            H[indices[p], column] = H[column, indices[p]] = data[p]
-    return H
-
-
 def test_the_newton_system_matches_finite_differences_in_tension():
     # With springs of 0 N/m and no damping, the backward-Euler potential is inertia + gravity +
     # the membrane: its gradient and Hessian against central differences of its energy. All
@@ -119,7 +109,7 @@ def test_the_newton_system_matches_finite_differences_in_tension():
 
     base = system(X)
     free = base["free_vertices"]
-    gradient, hessian = np.asarray(base["gradient"]), _dense(base)
+    gradient, hessian = np.asarray(base["gradient"]), dense_hessian(base)
     h = 1e-6
     numeric_gradient, numeric_hessian = [], []
     for k in range(3 * len(free)):
@@ -144,7 +134,7 @@ def test_under_compression_the_projected_hessian_is_positive_semidefinite():
     integrator = _core.ImplicitIntegrator()
     system = integrator.newton_system(cloth, NO_GRAVITY, 1.0, X)
     inertia = 1e-6 / 1.0 ** 2
-    elastic = _dense(system) - inertia * np.eye(system["size"])
+    elastic = dense_hessian(system) - inertia * np.eye(system["size"])
     eigenvalues = np.linalg.eigvalsh(elastic)
     assert eigenvalues.min() >= -1e-10 * eigenvalues.max()
     # the exact Hessian (central differences of the gradient) is indefinite there (a

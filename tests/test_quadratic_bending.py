@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import yore
+from tests.newton_systems import dense_hessian
 from yore import _core
 from yore.runs import SceneError, load_scene
 from yore.state import load_state, save_state
@@ -66,17 +67,6 @@ def _newton_system(cloth, integrator, X):
     return integrator.newton_system(cloth, NO_GRAVITY, 0.01, X)
 
 
-def _dense(system):
-    n = system["size"]
-    H = np.zeros((n, n))
-    indptr, indices, data = (system["hessian_indptr"], system["hessian_indices"],
-                             system["hessian_data"])
-    for column in range(n):
-        for p in range(indptr[column], indptr[column + 1]):
-            H[indices[p], column] = H[column, indices[p]] = data[p]
-    return H
-
-
 def test_the_implicit_gradient_and_hessian_of_the_term_match_finite_differences():
     # The same cloth with and without the term: their incremental potentials differ by the
     # bending term alone, so the differences isolate its energy, gradient and Hessian.
@@ -96,7 +86,7 @@ def test_the_implicit_gradient_and_hessian_of_the_term_match_finite_differences(
     def bending(Y):
         sa, sb = _newton_system(with_term, a, Y), _newton_system(without, b, Y)
         return (sa["energy"] - sb["energy"], np.asarray(sa["gradient"]) - sb["gradient"],
-                _dense(sa) - _dense(sb))
+                dense_hessian(sa) - dense_hessian(sb))
 
     energy, gradient, hessian = bending(X)
     assert energy == pytest.approx(with_term.energy(NO_GRAVITY)["bending"], rel=1e-9)

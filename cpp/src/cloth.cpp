@@ -1243,12 +1243,13 @@ double membrane_bound_constant(const MembraneMaterial& material) {
 }
 
 Eigen::Matrix3d membrane_rest_laplacian(const MembraneRest& rest) {
-  const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
-  const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
-  const Eigen::Vector2d d[3] = {-(d1 + d2), d1, d2};
+  const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
   Eigen::Matrix3d laplacian;
-  for (int k = 0; k < 3; ++k) {
-    for (int l = 0; l < 3; ++l) laplacian(k, l) = rest.area * d[k].dot(d[l]);
+  for (std::size_t k = 0; k < 3; ++k) {
+    for (std::size_t l = 0; l < 3; ++l) {
+      laplacian(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l)) =
+          rest.area * d[k].dot(d[l]);
+    }
   }
   return laplacian;
 }

@@ -18,14 +18,6 @@ using Mat32 = Eigen::Matrix<double, 3, 2>;
 // A face's current area below this fraction of its rest area counts as collapsed.
 constexpr double kCollapsedArea = 1e-3;
 
-// d[k]: ∂F/∂x_k = d[k]ᵀ (per coordinate), F = Σ_k x_k d[k]ᵀ: the rows of Dm⁻¹ for corners 1
-// and 2, minus their sum for corner 0.
-std::array<Eigen::Vector2d, 3> shape_gradients(const MembraneRest& rest) {
-  const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
-  const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
-  return {-(d1 + d2), d1, d2};
-}
-
 // S filtered: its eigenvalues kept (exact), clamped at 0 or replaced by their magnitudes.
 Eigen::Matrix2d filtered_stress(const Eigen::Matrix2d& stress, TransverseFilter filter) {
   if (filter == TransverseFilter::exact) return stress;
@@ -39,6 +31,12 @@ Eigen::Matrix2d filtered_stress(const Eigen::Matrix2d& stress, TransverseFilter 
 }
 
 }  // namespace
+
+std::array<Eigen::Vector2d, 3> membrane_shape_gradients(const MembraneRest& rest) {
+  const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
+  const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
+  return {-(d1 + d2), d1, d2};
+}
 
 MembraneRest membrane_rest(double l01, double l12, double l20) {
   MembraneRest rest;
@@ -69,7 +67,7 @@ double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Membr
   const double energy = rest.area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
   if (gradient == nullptr && hessian == nullptr) return energy;
   const Eigen::Matrix2d S = 2.0 * mu * E + lambda * trace * Eigen::Matrix2d::Identity();
-  const std::array<Eigen::Vector2d, 3> d = shape_gradients(rest);
+  const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
   if (gradient != nullptr) {
     const Mat32 P = rest.area * F * S;
     for (int k = 0; k < 3; ++k) gradient->segment<3>(3 * k) = P * d[static_cast<std::size_t>(k)];

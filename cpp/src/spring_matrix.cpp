@@ -110,20 +110,19 @@ void fill_scalar_spring_matrix(const Cloth& cloth, double h, const ScalarSpringP
     const Faces& faces = cloth.faces();
     for (Eigen::Index f = 0; f < faces.rows(); ++f) {
       const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
-      const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
-      const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
-      const Eigen::Vector2d d[3] = {-(d1 + d2), d1, d2};
+      const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
       for (int k = 0; k < 3; ++k) {
         const std::int32_t a = structure.free_of_vertex[static_cast<std::size_t>(faces(f, k))];
         if (a >= 0) {
           values[static_cast<std::size_t>(pattern.column_starts[a])] +=
-              weight * rest.area * d[k].squaredNorm();
+              weight * rest.area * d[static_cast<std::size_t>(k)].squaredNorm();
         }
         const std::int64_t slot = structure.spring_slot[static_cast<std::size_t>(
             map.edge_springs[static_cast<std::size_t>(f)][static_cast<std::size_t>(k)])];
         if (slot >= 0) {
           values[static_cast<std::size_t>(slot)] +=
-              weight * rest.area * d[k].dot(d[(k + 1) % 3]);
+              weight * rest.area *
+              d[static_cast<std::size_t>(k)].dot(d[static_cast<std::size_t>((k + 1) % 3)]);
         }
       }
     }

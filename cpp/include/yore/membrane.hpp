@@ -54,6 +54,11 @@ struct MembraneRest {
 /// Lengths must be positive and finite (springs' rest lengths are).
 MembraneRest membrane_rest(double l01, double l12, double l20);
 
+/// d_k = ∂F/∂x_k (per coordinate) of a face with rest triangle `rest`, F = Σ_k x_k d_kᵀ: the
+/// gradients of its linear shape functions in the rest plane (1/m), the rows of Dm⁻¹ for
+/// corners 1 and 2 and minus their sum for corner 0.
+std::array<Eigen::Vector2d, 3> membrane_shape_gradients(const MembraneRest& rest);
+
 using Vec9 = Eigen::Matrix<double, 9, 1>;
 using Mat9 = Eigen::Matrix<double, 9, 9>;
 
