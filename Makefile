@@ -9,7 +9,7 @@ OUT ?= yore-out
 SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null) \
            CMakeLists.txt pyproject.toml
 
-.PHONY: setup system test test-fast docs lock demo bench bench-quick clean
+.PHONY: setup system test test-cpp test-fast docs lock demo bench bench-quick clean
 
 setup: system $(VENV)/.installed
 
@@ -33,10 +33,22 @@ $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
 	$(VPY) -m pip install --no-build-isolation --no-deps ".[test]"
 	@touch $@
 
-# The docs build first, so that pytest's summary is the closing line.
+# The C++ tests and the docs run first, so that pytest's summary is the closing line.
 test: setup
+	$(MAKE) --no-print-directory test-cpp
 	$(MAKE) --no-print-directory docs
 	$(VPY) -m pytest -q tests
+
+# The C++ tests (doctest, tests/cpp: one file per source unit, one ctest test per file) in their
+# own CMake folder, without the Python module: configured once, then built and run
+# incrementally. CMAKE_BUILD_PARALLEL_LEVEL, when set, is the parallel level of both.
+CPP_TESTS := build/cpp-tests
+CPP_PARALLEL := $(if $(CMAKE_BUILD_PARALLEL_LEVEL),--parallel $(CMAKE_BUILD_PARALLEL_LEVEL))
+test-cpp: system
+	@test -f $(CPP_TESTS)/CMakeCache.txt || cmake -S . -B $(CPP_TESTS) -G Ninja \
+	    -DYORE_BUILD_PYTHON=OFF -DYORE_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(CPP_TESTS) $(CPP_PARALLEL)
+	ctest --test-dir $(CPP_TESTS) --output-on-failure $(CPP_PARALLEL)
 
 # The tests a developer runs while editing: all but those marked slow (under a minute here).
 test-fast: setup

@@ -72,7 +72,8 @@ def scenes(quick):
 
     def strokes(**options):
         sim = yore.scenes.hanging_cloth(resolution=small, **options)
-        return sim, lambda k: sim.stroke_material([[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]])
+        return sim, lambda k: sim.stroke(yore.StrokePath.material(
+            [[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]]))
 
     return {f"hanging cloth, gathered, {gathered}²": (hanging_gathered, 1.0, seconds),
             f"hanging cloth, pin_spacing=1, {small}²": (hanging_flat, 1.0, short),

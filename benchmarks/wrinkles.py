@@ -230,7 +230,7 @@ def stroke_run(model, resolution, quick):
     sim = yore.scenes.hanging_cloth(resolution=resolution, integrator="implicit", **kwargs)
     seconds = 0.25 if quick else 1.0
     sim.advance(seconds)
-    report = sim.stroke_material([[0.2, 0.8], [0.8, 0.8]])
+    report = sim.stroke(yore.StrokePath.material([[0.2, 0.8], [0.8, 0.8]]))
     sim.advance(seconds)
     V, F = sim.cloth.positions, sim.cloth.faces
     region = np.asarray(report.region_faces)

@@ -53,7 +53,7 @@ def main(argv=None):
     # a horizontal line across the middle of the view, in pixels
     middle = camera.project(sim.cloth.positions.mean(axis=0))[0]
     line = np.array([[middle[0] - 120, middle[1]], [middle[0] + 120, middle[1]]])
-    report = sim.stroke_screen(line, camera, expansion=1.1)
+    report = sim.stroke(yore.StrokePath.screen(line, camera), expansion=1.1)
     smoothing = sim.smooth_rest_lengths(iterations=10, strength=0.5)
     area_before = metrics.area(sim.cloth.positions, sim.cloth.faces, report.region_faces)
     sim.advance(1.0, progress=False)

@@ -93,7 +93,7 @@ def test_a_busy_cloth_refuses_every_other_use_and_a_ctrl_c_undoes_the_interrupte
     def attempts(sim, record):
         cloth = sim.cloth
         record["messages"] = [
-            refused(lambda: sim.stroke_material([[0.05, 0.1], [0.15, 0.1]])),
+            refused(lambda: sim.stroke(yore.StrokePath.material([[0.05, 0.1], [0.15, 0.1]]))),
             refused(lambda: sim.stroke([[0.05, 0.1, 0.0], [0.15, 0.1, 0.0]])),
             refused(lambda: setattr(cloth, "positions", V)),
             refused(lambda: cloth.positions),
@@ -123,7 +123,7 @@ def test_a_busy_cloth_refuses_every_other_use_and_a_ctrl_c_undoes_the_interrupte
         np.testing.assert_array_equal(after[key], before[key])
     assert sim.time == 0.0
     sim.cloth.fix([1])
-    sim.stroke_material([[0.05, 0.1], [0.15, 0.1]])
+    sim.stroke(yore.StrokePath.material([[0.05, 0.1], [0.15, 0.1]]))
     assert sim.cloth.topology_version != before
 
 

@@ -144,7 +144,7 @@ def test_a_stroke_restarts_the_integrator_at_the_new_size(integrator):
     sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator)
     sim.step(3)
     before = sim.cloth.vertex_count
-    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.45]]))
     sim.step(3)
     counters = sim.stats["counters"]
     assert sim.cloth.vertex_count > before
@@ -387,7 +387,7 @@ def test_auto_bdf2_starts_again_after_a_stroke_and_keeps_going():
     sim.step(3)
     assert sim.state()["history"]["next_dt"] > 0
     restarts = sim.stats["counters"]["history_restarts"]
-    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.45]]))
     assert sim.state()["history"] is None
     sim.step(3)
     # (a restarting step the controller retakes shorter counts again)

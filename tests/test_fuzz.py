@@ -466,7 +466,7 @@ def test_stroke_options_are_accepted_or_are_value_errors(small_cloth_state, expa
     cloth.material_coordinates = V[:, :2]
     sim = yore.Simulation(cloth, dt=1e-3)
     try:
-        sim.stroke_material([[0.1, 0.5], [0.9, 0.5]], expansion=expansion,
+        sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.5]]), expansion=expansion,
                             mass_scale=mass_scale, width=width, growth=growth, refine=refine)
     except ValueError as error:
         assert "\n" not in str(error)

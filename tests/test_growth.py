@@ -53,23 +53,22 @@ def test_falloff_weights_are_in_0_1_monotone_and_smooth():
 
 
 # -- growth modes -----------------------------------------------------------------------------------
-def test_default_options_are_the_paper_mode_bit_for_bit():
+def test_default_options_are_the_paper_mode():
+    # (that the one core call equals the trace and the split done one at a time, to the bit,
+    # is tests/cpp/test_stroke_pipeline.cpp's)
     a, b = flat_sim(), flat_sim()
-    report = a.stroke_material(STROKE)
-    # the paper's operation by hand: trace, then split with the documented rules
-    cloth = b.cloth
-    flat = np.column_stack([cloth.material_coordinates, np.zeros(len(cloth.positions))])
-    trace = _core.trace_material(cloth, np.column_stack([STROKE, [0, 0]]), 1e-9 * math.sqrt(2),
-                                 0.25 * yore.stroke.mean_edge_length(flat, cloth.faces))
-    _core.split_faces(cloth, trace["faces"], trace["barycentric"], expansion=1.1,
-                      mass_scale=0.95, min_barycentric=0.1, min_angle_degrees=5.0)
+    report = a.stroke(yore.StrokePath.material(STROKE))
+    explicit = b.stroke(yore.StrokePath.material(STROKE), growth="paper", expansion=1.1,
+                        mass_scale=0.95, width=None, refine=0)
+    cloth = a.cloth
     for name in ("positions", "velocities", "masses", "faces"):
-        assert np.array_equal(getattr(a.cloth, name), getattr(cloth, name)), name
-    assert np.array_equal(a.cloth.springs.rest, cloth.springs.rest)
-    assert np.array_equal(a.cloth.springs.ends, cloth.springs.ends)
+        assert np.array_equal(getattr(b.cloth, name), getattr(cloth, name)), name
+    assert np.array_equal(b.cloth.springs.rest, cloth.springs.rest)
     assert report.growth == "paper" and report.refine == 0 and report.width is None
     assert np.array_equal(report.line_vertices, report.new_vertices)  # pictures as before
-    assert report.faces_split == len(trace["faces"]) and report.springs_grown == 0
+    # the line between two rows of vertices crosses the 2 (N - 1) faces of one row of cells
+    assert report.faces_split == explicit.faces_split == 2 * (N - 1)
+    assert report.springs_grown == 0
     # the report's added rest length is eq. (1)'s: (1.1 − 1) × the new springs' lengths
     new = slice(len(cloth.springs.rest) - report.springs_added, None)
     assert report.rest_length_added == pytest.approx(0.1 * cloth.springs.reference[new].sum(),
@@ -84,7 +83,7 @@ def test_isotropic_growth_scales_every_spring_of_the_band_by_its_weight():
     cloth = sim.cloth
     rest = cloth.springs.rest.copy()
     width = 0.5
-    report = sim.stroke_material(STROKE, expansion=1.2, width=width, growth="isotropic")
+    report = sim.stroke(yore.StrokePath.material(STROKE), expansion=1.2, width=width, growth="isotropic")
     assert report.faces_split == 0 and report.vertices_added == 0  # no split outside paper mode
     w = report.extra["spring_weights"]
     vertex_w = report.extra["vertex_weights"]
@@ -92,8 +91,11 @@ def test_isotropic_growth_scales_every_spring_of_the_band_by_its_weight():
     # the falloff, measured independently: the path is the line y = 0.45 on the flat cloth
     Y = cloth.positions[:, 1]
     crossed_corners = np.zeros(len(Y), bool)
-    crossed = np.unique(yore._core.trace_material(
-        cloth, np.column_stack([STROKE, [0, 0]]), 1e-9, 0.03)["faces"])
+    # the faces the line y = STROKE_Y crosses: the row of faces it runs through (it runs
+    # between two rows of vertices, from beyond one side of the cloth to beyond the other)
+    corner_y = Y[cloth.faces]
+    crossed = (corner_y.min(axis=1) < STROKE_Y) & (corner_y.max(axis=1) > STROKE_Y)
+    assert crossed.sum() == 2 * (N - 1)
     crossed_corners[cloth.faces[crossed].ravel()] = True
     expected_vertex = np.where(crossed_corners, 1.0, falloff_weight(np.abs(Y - STROKE_Y), width))
     # Samples up to the material tolerance (1e-9 × the diagonal) off the cloth's border still hit
@@ -125,7 +127,7 @@ def test_anisotropic_growth_grows_only_the_projected_component(growth):
     sim = flat_sim()
     cloth = sim.cloth
     rest = cloth.springs.rest.copy()
-    report = sim.stroke_material(STROKE, expansion=1.3, width=0.4, growth=growth)
+    report = sim.stroke(yore.StrokePath.material(STROKE), expansion=1.3, width=0.4, growth=growth)
     w = report.extra["spring_weights"]
     g = 1.0 + 0.3 * w
     c, s = spring_geometry(cloth)  # in the frame of the flat cloth at rest: rest = current
@@ -179,7 +181,7 @@ def test_refined_strokes_keep_the_mesh_the_rest_area_and_the_mass():
     mass = cloth.masses.sum()
     faces = len(cloth.faces)
     # expansion 1: refinement alone, nothing grows
-    report = sim.stroke_material(STROKE, expansion=1.0, width=0.3, growth="isotropic", refine=2)
+    report = sim.stroke(yore.StrokePath.material(STROKE), expansion=1.0, width=0.3, growth="isotropic", refine=2)
     check_invariants(cloth, 1)
     assert report.faces_refined > 0 and report.faces_bisected > 0 and report.springs_grown == 0
     assert len(cloth.faces) > faces + 3 * report.faces_refined
@@ -200,10 +202,10 @@ def test_the_refined_size_prediction_bounds_the_size_a_stroke_makes(width, passe
 
     sim = yore.scenes.hanging_cloth(resolution=20, integrator="explicit")
     before = sim.cloth.vertex_count
-    report = sim.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=passes, width=width)
+    report = sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=passes, width=width)
     band = report.faces_refined  # at least the first pass's band
     first = yore.scenes.hanging_cloth(resolution=20, integrator="explicit")
-    one = first.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=1, width=width)
+    one = first.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=1, width=width)
     assert one.faces_refined <= band
     assert sim.cloth.vertex_count <= predicted_refined_vertices(before, one.faces_refined
                                                                  + one.faces_bisected, passes)
@@ -215,7 +217,7 @@ def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tm
     sim = yore.scenes.hanging_cloth(resolution=120, integrator="explicit")
     version, vertices = sim.cloth.topology_version, sim.cloth.vertex_count
     with pytest.raises(RefinementTooLarge, match="more than the limit of 250000"):
-        sim.stroke_material([[0.1, 0.5], [0.9, 0.52]], refine=4, width=0.3)
+        sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=4, width=0.3)
     assert sim.cloth.topology_version == version and sim.cloth.vertex_count == vertices
     # in a scene file: one error naming the stroke's refine key, before the run
     text = ('[mesh]\ngenerator = "grid"\nnx = 120\nny = 120\n[simulation]\nduration = 0.01\n'
@@ -228,8 +230,8 @@ def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tm
 
 def test_paper_mode_with_refinement_splits_the_crossed_refined_faces():
     plain, refined = flat_sim(), flat_sim()
-    a = plain.stroke_material(STROKE)
-    b = refined.stroke_material(STROKE, refine=1)
+    a = plain.stroke(yore.StrokePath.material(STROKE))
+    b = refined.stroke(yore.StrokePath.material(STROKE), refine=1)
     check_invariants(refined.cloth, 1)
     assert b.faces_refined > 0
     # the crossed faces' children that the stroke crosses: about twice as many faces split
@@ -240,8 +242,8 @@ def test_paper_mode_with_refinement_splits_the_crossed_refined_faces():
 
 def test_conserving_mass_scale_keeps_the_total_mass():
     paper, conserve = flat_sim(), flat_sim()
-    a = paper.stroke_material(STROKE)
-    b = conserve.stroke_material(STROKE, mass_scale="conserve")
+    a = paper.stroke(yore.StrokePath.material(STROKE))
+    b = conserve.stroke(yore.StrokePath.material(STROKE), mass_scale="conserve")
     assert a.faces_split == b.faces_split == 16
     # the paper's rule: 0.100 kg → 0.1094 kg after these 16 splits; conserving: unchanged
     assert paper.cloth.masses.sum() == pytest.approx(0.1 + 16 * 0.95 * 0.1 / 81, rel=1e-12)
@@ -255,7 +257,7 @@ def test_conserving_mass_scale_keeps_the_total_mass():
 @pytest.mark.parametrize("growth", ["paper", "isotropic"])
 def test_smoothing_redistributes_the_added_rest_length(growth):
     sim = flat_sim()
-    sim.stroke_material(STROKE, growth=growth, width=None if growth == "paper" else 0.4)
+    sim.stroke(yore.StrokePath.material(STROKE), growth=growth, width=None if growth == "paper" else 0.4)
     springs = sim.cloth.springs
     added = np.sum(springs.rest - springs.reference)
     rest_before = springs.rest.copy()
@@ -268,7 +270,7 @@ def test_smoothing_redistributes_the_added_rest_length(growth):
     assert not np.array_equal(springs.rest, rest_before)
     # the plain ratio smoothing creates added rest length (the measured +29 % of issue 13)
     plain = flat_sim()
-    plain.stroke_material(STROKE, growth=growth, width=None if growth == "paper" else 0.4)
+    plain.stroke(yore.StrokePath.material(STROKE), growth=growth, width=None if growth == "paper" else 0.4)
     grown = plain.smooth_rest_lengths(iterations=20, strength=0.5, conserve=False)
     assert grown["rest_added_after"] != pytest.approx(added, rel=1e-3)
 
@@ -289,7 +291,7 @@ def _total_rest_area(cloth):
 def test_bad_stroke_options_are_value_errors_naming_the_problem(options, match):
     sim = flat_sim()
     version = sim.cloth.topology_version
-    for call in (lambda: sim.stroke_material(STROKE, **options),
+    for call in (lambda: sim.stroke(yore.StrokePath.material(STROKE), **options),
                  lambda: sim.stroke([[0.1, STROKE_Y, 0.0], [0.9, STROKE_Y, 0.0]], **options)):
         with pytest.raises(ValueError, match=match):
             call()
@@ -299,7 +301,7 @@ def test_bad_stroke_options_are_value_errors_naming_the_problem(options, match):
 def test_growth_modes_are_the_cores_table():
     assert tuple(_core.growth_modes()) == GROWTH_MODES
     with pytest.raises(ValueError, match="unknown growth 'x'"):
-        _core.grown_rest_lengths(flat_sim().cloth, np.zeros((1, 3)), [0], [0], 0.0, "x", 1.1)
+        _core.apply_stroke(flat_sim().cloth, "closest", np.zeros((1, 3)), growth="x")
 
 
 # -- scene files ------------------------------------------------------------------------------------
@@ -391,10 +393,10 @@ def test_screen_strokes_take_the_options_too():
     sim = flat_sim()
     camera = yore.Camera(eye=(0.5, 0.5, 3.0), target=(0.5, 0.5, 0.0))
     pixels = camera.project([[0.05, STROKE_Y, 0.0], [0.95, STROKE_Y, 0.0]])
-    report = sim.stroke_screen(pixels, camera, growth="across", width=0.3, refine=1)
+    report = sim.stroke(yore.StrokePath.screen(pixels, camera), growth="across", width=0.3, refine=1)
     assert report.faces_refined > 0 and report.springs_grown > 0 and report.faces_split == 0
     with pytest.raises(ValueError, match="growth"):
-        sim.stroke_screen(pixels, camera, growth="sideways")
+        sim.stroke(yore.StrokePath.screen(pixels, camera), growth="sideways")
 
 
 def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_not():
@@ -402,7 +404,7 @@ def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_no
     # to the default is re-derived (never raised), one the user gave is kept as given.
     sim = yore.scenes.hanging_cloth(resolution=9)
     before = sim.dt
-    report = sim.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2,
+    report = sim.stroke(yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2,
                                  refine=1)
     assert report.faces_refined > 0
     assert sim.dt == yore.simulation.default_explicit_dt(sim.cloth) < before
@@ -413,10 +415,10 @@ def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_no
     again = yore.Simulation.from_state(sim.state())
     assert again.dt_follows_cloth and again.dt == sim.dt
     given = yore.scenes.hanging_cloth(resolution=9, dt=before)
-    given.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2, refine=1)
+    given.stroke(yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1)
     assert given.dt == before
     implicit = yore.scenes.hanging_cloth(resolution=9, integrator="implicit")
-    implicit.stroke_material([[0.1, 0.3], [0.9, 0.3]], growth="isotropic", width=0.2, refine=1)
+    implicit.stroke(yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1)
     assert implicit.dt == yore.simulation.IMPLICIT_DT
 
 
@@ -434,10 +436,10 @@ def test_repeated_refining_strokes_stop_at_the_refined_vertex_limit(tmp_path, mo
     counts = []
     with pytest.raises(RefinementTooLarge, match="more than the limit of 3000"):
         for _ in range(8):
-            sim.stroke_material([[0.05, 0.5], [0.95, 0.5]], refine=1, width=2.0)
+            sim.stroke(yore.StrokePath.material([[0.05, 0.5], [0.95, 0.5]]), refine=1, width=2.0)
             counts.append(sim.cloth.vertex_count)
     assert len(counts) < 8 and counts[-1] <= 3000 and sim.cloth.vertex_count == counts[-1]
-    sim.stroke_material([[0.05, 0.5], [0.95, 0.5]])  # a stroke that does not refine still may
+    sim.stroke(yore.StrokePath.material([[0.05, 0.5], [0.95, 0.5]]))  # a stroke that does not refine still may
     stroke = ('[[strokes]]\ntime = 0.0\nmaterial = [[0.05, 0.5], [0.95, 0.5]]\nwidth = 2.0\n'
               'refine = 1\n')
     text = ('[mesh]\ngenerator = "grid"\nnx = 7\nny = 7\n[simulation]\nduration = 0.01\n'

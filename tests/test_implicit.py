@@ -289,19 +289,6 @@ def lower_csc(H):
     return n, np.array(indptr), np.array(indices), np.array(data)
 
 
-@pytest.mark.parametrize("solver", ["cholmod", "eigen-ldlt", "pcg"])
-def test_solvers_solve_spd_matrices_and_reject_indefinite_ones(solver):
-    rng = np.random.default_rng(2)
-    A = rng.normal(size=(12, 12))
-    spd = A @ A.T + 12 * np.eye(12)
-    b = rng.normal(size=12)
-    x = _core.solve_spd(*lower_csc(spd), b, solver=solver)
-    assert np.linalg.norm(spd @ x - b) / np.linalg.norm(b) < 1e-10
-    indefinite = spd - 40 * np.eye(12) if solver != "pcg" else spd - 100 * np.eye(12)
-    with pytest.raises(yore.NotPositiveDefinite, match="not positive definite"):
-        _core.solve_spd(*lower_csc(indefinite), b, solver=solver)
-
-
 @pytest.mark.parametrize("integrator", ["implicit", "bdf2"])
 def test_both_paper_scenes_run_implicitly_at_their_default_step(integrator):
     hanging = yore.scenes.hanging_cloth(resolution=9, integrator=integrator)
@@ -330,7 +317,7 @@ def test_adaptive_projection_reaches_the_same_steps_in_fewer_iterations():
                                         truncation_fraction=0.0)
         sim.step(5)
         # a stroke's springs start compressed (rest = 1.1 × length): the projection matters
-        sim.stroke_material([[0.2, 0.35], [0.8, 0.4]])
+        sim.stroke(yore.StrokePath.material([[0.2, 0.35], [0.8, 0.4]]))
         sim.step(5)
         results.append((sim.cloth.positions, sim.stats["counters"]))
     (projected, p_counters), (adaptive, a_counters) = results
@@ -413,17 +400,6 @@ def test_iteration_counts_beyond_32_bits_are_value_errors_naming_the_option():
             yore.Simulation(cloth, integrator="implicit", **{option: 2**31})
     with pytest.raises(ValueError, match="strain_limit_passes"):
         yore.Simulation(cloth, integrator="explicit", strain_limit=1.1, strain_limit_passes=2**32)
-
-
-def test_solve_spd_rejects_out_of_range_sizes_and_indices():
-    indptr, indices = np.array([0, 1]), np.array([0])
-    with pytest.raises(ValueError, match="size"):
-        _core.solve_spd(2**31, indptr, indices, [1.0], [1.0])
-    with pytest.raises(ValueError, match="indices holds the index"):
-        _core.solve_spd(1, indptr, np.array([2**40]), [1.0], [1.0])
-    with pytest.raises(ValueError, match="indptr"):
-        _core.solve_spd(1, np.array([0, 2]), indices, [1.0], [1.0])
-    assert _core.solve_spd(1, indptr, indices, [2.0], [1.0])[0] == pytest.approx(0.5)
 
 
 def test_a_step_cut_short_is_not_converged_and_max_newton_is_warned_about():

@@ -90,7 +90,7 @@ def test_second_order_with_damping_drag_and_bending_against_a_converged_referenc
 def stroked(integrator, **options):
     sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **options)
     sim.step(5)
-    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.45]]))
     return sim
 
 

@@ -104,7 +104,7 @@ def stroke_run(rebuild, **options):
     sim = yore.scenes.hanging_cloth(resolution=11, integrator="local-global", rebuild=rebuild,
                                     **options)
     sim.step(10)
-    sim.stroke_material([[0.15, 0.62], [0.85, 0.55]])
+    sim.stroke(yore.StrokePath.material([[0.15, 0.62], [0.85, 0.55]]))
     sim.step(3)
     return sim
 

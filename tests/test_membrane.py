@@ -246,7 +246,7 @@ def test_a_stroke_grows_the_membranes_rest_area(integrator):
                                     young_modulus=2e3, integrator=integrator)
     sim.step(2)
     before = sim.cloth.membrane_status()
-    report = sim.stroke_material([[0.1, 0.25], [0.4, 0.25]])
+    report = sim.stroke(yore.StrokePath.material([[0.1, 0.25], [0.4, 0.25]]))
     after = sim.cloth.membrane_status()
     assert len(report.new_vertices) > 0
     # the membrane's rest triangles are laid out from the springs' rest lengths: its rest area
@@ -401,7 +401,7 @@ def test_growth_modes_grow_the_membranes_rest_metric(growth):
     sim.step(2)
     before = sim.cloth.membrane_status()["rest_area"]
     assert before == pytest.approx(heron_rest_area(sim.cloth), rel=1e-12)
-    report = sim.stroke_material([[0.1, 0.25], [0.4, 0.25]], growth=growth, width=0.1)
+    report = sim.stroke(yore.StrokePath.material([[0.1, 0.25], [0.4, 0.25]]), growth=growth, width=0.1)
     after = sim.cloth.membrane_status()["rest_area"]
     # every face's rest triangle follows its springs (the report measures the band's faces;
     # the faces beside the band share grown edges and grow too)

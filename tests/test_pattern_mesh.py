@@ -97,7 +97,7 @@ def test_a_pattern_cloth_takes_material_strokes_and_a_membrane():
     cloth.fix([top])
     sim = yore.Simulation(cloth, integrator="implicit", dt=0.01)
     sim.step(3)
-    report = sim.stroke_material([[0.1, 0.3], [0.5, 0.3]])
+    report = sim.stroke(yore.StrokePath.material([[0.1, 0.3], [0.5, 0.3]]))
     assert len(report.new_vertices) > 0
     # new vertices got the pattern point they were added at: inside the outline, on the line
     uv = sim.cloth.material_coordinates[report.new_vertices]

@@ -323,7 +323,7 @@ def test_a_stroke_rebuilds_q_and_the_term_keeps_working(integrator):
                                     integrator=integrator)
     sim.step(2)
     before = sim.cloth.quadratic_bending
-    report = sim.stroke_material([[0.2, 0.5], [0.8, 0.5]])
+    report = sim.stroke(yore.StrokePath.material([[0.2, 0.5], [0.8, 0.5]]))
     after = sim.cloth.quadratic_bending
     added = len(report.new_vertices)
     assert added > 0
@@ -424,7 +424,7 @@ def test_refining_a_quadratic_cloth_keeps_its_flat_rest_and_rebuilds_q():
     cloth.material_coordinates = V[:, :2]
     sim = yore.Simulation(cloth, integrator="implicit", gravity=NO_GRAVITY)
     hinges = cloth.quadratic_bending["hinges"]
-    report = sim.stroke_material([[0.2, 0.5], [0.8, 0.5]], growth="isotropic", refine=1,
+    report = sim.stroke(yore.StrokePath.material([[0.2, 0.5], [0.8, 0.5]]), growth="isotropic", refine=1,
                                  width=0.2, expansion=1.0)
     assert report.faces_refined > 0
     assert cloth.quadratic_bending["hinges"] > hinges

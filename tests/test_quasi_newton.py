@@ -51,7 +51,7 @@ def test_the_scalar_matrix_is_analysed_per_topology_and_factored_per_step_size()
     sim.step(3)
     counters = sim.stats["counters"]
     assert (counters["analyses"], counters["factorizations"]) == (1, 2)
-    sim.stroke_material([[0.2, 0.5], [0.8, 0.5]])
+    sim.stroke(yore.StrokePath.material([[0.2, 0.5], [0.8, 0.5]]))
     sim.step(2)
     counters = sim.stats["counters"]
     assert (counters["analyses"], counters["factorizations"]) == (2, 3)

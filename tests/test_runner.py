@@ -123,7 +123,7 @@ def test_an_interrupt_during_a_stroke_applies_it_exactly_once(tmp_path, monkeypa
     elif point == "before it is counted":
         interrupt_on_call(monkeypatch, yore.runs.runner, "_stroke_record", 1, before=True)
     else:
-        interrupt_on_call(monkeypatch, yore.Simulation, "stroke_material", 2, by_signal=True)
+        interrupt_on_call(monkeypatch, yore.Simulation, "stroke", 2, by_signal=True)
     assert run_hanging(tmp_path) == 130
     monkeypatch.undo()
     sim, record = yore.load_state(tmp_path / "state.npz")

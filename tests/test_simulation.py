@@ -286,7 +286,7 @@ def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
 def test_api_values_of_the_wrong_kind_or_out_of_range_are_value_errors_naming_them():
     # issue 22, item 17: each was accepted, or raised something other than a ValueError
     sim = yore.scenes.hanging_cloth(resolution=5)
-    sim.stroke_material([[0.1, 0.5], [0.9, 0.5]])
+    sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.5]]))
     for conserve in ("yes", None, 1):
         with pytest.raises(ValueError, match="conserve"):
             sim.smooth_rest_lengths(conserve=conserve)
@@ -371,9 +371,9 @@ def test_a_strokes_factors_out_of_range_are_refused_before_the_cloth_changes(tmp
     before = sim.cloth.vertex_count
     limit = "in \\[0.1, 10\\]" if name == "expansion" else "at most 10"
     with pytest.raises(ValueError, match=f"{name} must be {limit}"):
-        sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], **{name: value})
+        sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.4]]), **{name: value})
     assert sim.cloth.vertex_count == before
-    sim.stroke_material([[0.2, 0.3], [0.8, 0.4]], **{name: bound})  # the bound itself is taken
+    sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.4]]), **{name: bound})  # the bound itself is taken
     assert np.isfinite(sim.energy()["total"])
     path = yore.save_state(tmp_path / "state.npz", sim)
     assert yore.load_state(path)[0].cloth.vertex_count == sim.cloth.vertex_count

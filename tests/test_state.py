@@ -12,7 +12,7 @@ import yore
 def stroked_hanging(integrator="explicit", **options):
     sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **options)
     sim.step(5)
-    sim.stroke_material([[0.2, 0.3], [0.8, 0.45]])
+    sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.45]]))
     return sim
 
 

@@ -29,12 +29,19 @@ def check_invariants(cloth, euler_characteristic):
     assert np.all(metrics.face_areas(V, F) > 0)
     assert np.all(cloth.springs.rest > 0) and np.all(np.isfinite(cloth.springs.rest))
     assert np.all(cloth.masses > 0) and np.all(np.isfinite(cloth.masses))
-    # the springs are exactly the wiring of the new mesh (paper Fig. 1)
-    wiring = yore._core.mesh_connectivity(V, F)
+    # the springs are exactly the wiring of the new mesh (paper Fig. 1), found here by hand:
+    # a structural spring on every edge, a bending spring between the two vertices opposite
+    # each interior edge unless they already share an edge
     structural = {tuple(e) for e in np.sort(cloth.springs.ends[cloth.springs.kind == 0], axis=1)}
     bending = {tuple(e) for e in np.sort(cloth.springs.ends[cloth.springs.kind == 1], axis=1)}
-    assert structural == {tuple(e) for e in wiring["edges"]}
-    assert bending == {tuple(e) for e in wiring["bending_pairs"]}
+    assert structural == {tuple(e) for e in edges}
+    opposite = {}
+    for face in F:
+        for k in range(3):
+            edge = tuple(sorted((face[k], face[(k + 1) % 3])))
+            opposite.setdefault(edge, []).append(face[(k + 2) % 3])
+    assert bending == {tuple(sorted(pair)) for pair in opposite.values()
+                       if len(pair) == 2 and tuple(sorted(pair)) not in structural}
 
 
 def test_a_stroke_splits_each_crossed_face_once_with_the_counts_of_the_formula():
@@ -80,7 +87,7 @@ def test_stroke_errors():
     with pytest.raises(yore.StrokeMissed):
         sim.stroke([[5.0, 5.0, 5.0], [6.0, 5.0, 5.0]])
     with pytest.raises(yore.StrokeMissed):
-        sim.stroke_material([[3.0, 3.0], [4.0, 3.0]])
+        sim.stroke(yore.StrokePath.material([[3.0, 3.0], [4.0, 3.0]]))
     assert issubclass(yore.StrokeMissed, ValueError)
     for bad, message in [(np.zeros((0, 3)), "empty"), ([[np.nan, 0, 0]], "non-finite"),
                          (np.zeros((3, 2)), r"shape \(k, 3\)"), ("abc", "numbers|shape")]:
@@ -92,7 +99,7 @@ def test_stroke_errors():
         with pytest.raises(ValueError, match=message):
             sim.stroke([[0.1, 0.1, 0.0], [0.9, 0.9, 0.0]], **options)
     with pytest.raises(ValueError, match="camera"):
-        sim.stroke_screen([[1.0, 2.0]], camera="front")
+        sim.stroke(yore.StrokePath.screen([[1.0, 2.0]], camera="front"))
     assert cloth.vertex_count == 25  # nothing was split by the failed calls
     net = yore.Cloth.from_springs([[0, 0, 0], [0, -1, 0]], [[0, 1]])
     with pytest.raises(ValueError, match="no faces"):
@@ -117,7 +124,7 @@ def test_screen_stroke_hits_the_same_faces_as_the_equivalent_3d_stroke():
         if draw == "3d":
             reports.append(sim.stroke(points))
         else:
-            reports.append(sim.stroke_screen(camera.project(points), camera))
+            reports.append(sim.stroke(yore.StrokePath.screen(camera.project(points), camera)))
     # a pinhole camera maps the 3-D segments on the flat cloth to straight pixel segments
     faces_3d = set(reports[0].region_faces[::3])  # parent index = first child
     assert faces_3d == set(reports[1].region_faces[::3])
@@ -139,7 +146,7 @@ def test_material_stroke_hits_the_faces_containing_its_points():
     sim = yore.Simulation(flat_cloth(), gravity=(0, 0, 0))
     cloth = sim.cloth
     cloth.positions = cloth.positions + np.array([0.0, 0.0, 1.0])  # current shape moved away
-    report = sim.stroke_material([[0.3, 0.3]])
+    report = sim.stroke(yore.StrokePath.material([[0.3, 0.3]]))
     assert report.faces_split == 1
     uv = cloth.material_coordinates[report.new_vertices[0]]
     # the new vertex sits inside the face that contained the point (moved inward at most)
@@ -242,7 +249,7 @@ def test_five_strokes_over_one_region_keep_angles_and_the_implicit_solver_health
     euler = 1
     for k in range(5):
         before = min_angle_degrees(sim.cloth.positions, sim.cloth.faces)
-        report = sim.stroke_material([[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]])
+        report = sim.stroke(yore.StrokePath.material([[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]]))
         assert report.faces_split > 0
         check_invariants(sim.cloth, euler)
         # The split rule never creates an angle below 5° (a face whose children would have one
@@ -320,16 +327,16 @@ def test_far_stroke_points_are_clipped_to_the_cloths_reach_before_sampling():
             sim.stroke([[far, 0.5, 0.0], [far, -far, 0.0]])
     for uv in ([[0.2, 0.5], [0.8, 0.5], [1e9, 0.5]], [[-1e9, 0.5], [1e9, 0.5]]):
         sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
-        assert sim.stroke_material(uv).faces_split > 0
+        assert sim.stroke(yore.StrokePath.material(uv)).faces_split > 0
     with pytest.raises(yore.StrokeMissed):
-        sim.stroke_material([[1e9, 0.5], [1e9, 1e9]])
+        sim.stroke(yore.StrokePath.material([[1e9, 0.5], [1e9, 1e9]]))
 
 
 def test_far_screen_strokes_are_clipped_to_the_projected_cloth():
     sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
     camera = yore.Camera(eye=(0.5, 0.5, 2.0), target=(0.5, 0.5, 0.0), width=200, height=200)
     a, b = camera.project([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0]])
-    report = sim.stroke_screen([a, b, [1e9, b[1]]], camera)
+    report = sim.stroke(yore.StrokePath.screen([a, b, [1e9, b[1]]], camera))
     assert report.faces_split > 0 and report.missed_fraction > 0.99
     assert report.samples - report.missed_samples < 10_000
 

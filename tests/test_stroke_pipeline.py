@@ -35,68 +35,6 @@ def assert_same(a, b):
         np.testing.assert_array_equal(a[key], b[key], err_msg=key, strict=True)
 
 
-def step_by_step(cloth, growth, refine, width, max_distance):
-    """The stroke from the core's primitives, one at a time (the Python pipeline it replaced)."""
-    def trace():
-        spacing = 0.25 * mean_edge_length(cloth.positions, cloth.faces)
-        return _core.trace_closest(cloth, STROKE, max_distance, spacing)
-
-    def path(found):
-        corners = cloth.positions[cloth.faces[found["path_faces"]]]
-        return np.einsum("mc,mcd->md", found["path_barycentric"], corners), found["path_part"]
-
-    found = trace()
-    area_before = float(metrics.face_areas(cloth.positions, cloth.faces)[found["faces"]].sum())
-    mass_before = float(cloth.masses.sum())
-    counts = {"faces_refined": 0, "springs_added": 0, "springs_removed": 0}
-    for _ in range(refine):
-        band = _core.stroke_band(cloth, *path(found), found["faces"], width)
-        refined = _core.refine_faces(cloth, band["faces"])
-        counts["faces_refined"] += len(refined["refined_faces"])
-        counts["springs_added"] += refined["springs_added"]
-        counts["springs_removed"] += refined["springs_removed"]
-        found = trace()
-    if growth == "paper":
-        split = _core.split_faces(cloth, found["faces"], found["barycentric"], expansion=1.1,
-                                  mass_scale=0.95, min_barycentric=MIN_BARYCENTRIC,
-                                  min_angle_degrees=MIN_ANGLE_DEGREES)
-        counts["springs_added"] += split["springs_added"]
-        counts["springs_removed"] += split["springs_removed"]
-        report = {"faces_split": len(split["split_faces"]),
-                  "rest_area_before": split["rest_area_before"],
-                  "rest_area_after": split["rest_area_after"]}
-    else:
-        grown = _core.grown_rest_lengths(cloth, *path(found), found["faces"], width, growth, 1.1)
-        report = {"faces_split": 0, "springs_grown": grown["springs_grown"],
-                  "rest_length_added": grown["rest_added"],
-                  "rest_area_before": metrics.rest_area(cloth, grown["faces"])}
-        cloth.springs.rest = grown["rest_lengths"]
-        report["rest_area_after"] = metrics.rest_area(cloth, grown["faces"])
-    report.update(counts, area_before=area_before, samples=found["samples"],
-                  missed_samples=found["missed_samples"],
-                  mass_added=float(cloth.masses.sum()) - mass_before)
-    return report
-
-
-@pytest.mark.parametrize("growth, refine, width",
-                         [("paper", 0, 0.0), ("paper", 1, 0.0), ("paper", 2, 0.2),
-                          ("isotropic", 0, 0.2), ("along", 1, 0.15), ("across", 2, 0.1)])
-def test_one_call_gives_the_cloth_and_report_of_the_step_by_step_pipeline(growth, refine, width):
-    max_distance = 0.05
-    by_hand, in_core = flat_cloth(), flat_cloth()
-    expected = step_by_step(by_hand, growth, refine, width, max_distance)
-    report = _core.apply_stroke(in_core, "closest", STROKE, max_distance=max_distance,
-                                growth=growth, width=width, refine=refine)
-    for key, value in expected.items():
-        assert report[key] == value, key  # to the bit: same numbers, same order of sums
-    expected_state, state = snapshot(by_hand), snapshot(in_core)
-    expected_state.pop("topology_version")
-    state.pop("topology_version")
-    assert_same(expected_state, state)
-    assert report["vertices_added"] == len(report["new_vertices"])
-    assert report["vertices_added"] == in_core.vertex_count - 81
-
-
 def test_a_simulation_stroke_is_one_core_call_with_the_python_report():
     sim = yore.Simulation(flat_cloth(), gravity=(0, 0, 0))
     report = sim.stroke(STROKE, growth="isotropic", width=0.2, refine=1)

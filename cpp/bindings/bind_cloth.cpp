@@ -12,9 +12,14 @@
 namespace yore::bindings {
 namespace {
 
+// A bare Cloth's material when the arguments leave it out, written here once and bound as
+// `Cloth.defaults` (a physics object: no dissipation unless asked; the scenes' material is
+// yore.options.SCENE_MATERIAL).
 constexpr double kDefaultMass = 1e-3;  // kg per vertex
 constexpr double kDefaultBendStiffness = 100.0;  // N/m per bending spring
 constexpr double kDefaultStretchStiffness = 100.0;  // N/m per structural spring
+constexpr double kDefaultDamping = 0.0;  // N·s/m along each spring
+constexpr double kDefaultDrag = 0.0;  // 1/s
 constexpr double kDefaultPoissonRatio = 0.3;  // a membrane's ν when not given
 
 
@@ -145,8 +150,7 @@ MembraneMaterial membrane_argument(const std::string& stretch, const py::object&
 }  // namespace
 
 void bind_cloth(py::module_& m) {
-  m.attr("DEFAULT_POISSON_RATIO") = kDefaultPoissonRatio;
-  py::class_<Cloth>(m, "Cloth", R"doc(
+  py::class_<Cloth> cloth_class(m, "Cloth", R"doc(
 A mass-spring cloth on a triangle mesh, wired as the paper's Fig. 1: structural springs on every
 edge, bending springs across every interior edge between the two opposite vertices.
 
@@ -169,7 +173,18 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
   default 0.3) resists stretching; the structural springs stay on every edge with 0 N/m, as the
   carriers of the rest edge lengths the membrane's rest triangles are laid out from (strokes,
   growth and smoothing edit them) and of the damping (stretch_stiffness must be left out or 0).
-  Raises ValueError on a bad mesh or value.)doc")
+  Raises ValueError on a bad mesh or value.)doc");
+  {
+    py::dict defaults;
+    defaults["masses"] = kDefaultMass;
+    defaults["stretch_stiffness"] = kDefaultStretchStiffness;
+    defaults["bend_stiffness"] = kDefaultBendStiffness;
+    defaults["damping"] = kDefaultDamping;
+    defaults["drag"] = kDefaultDrag;
+    defaults["poisson_ratio"] = kDefaultPoissonRatio;
+    cloth_class.attr("defaults") = defaults;
+  }
+  cloth_class
       .def(py::init([](const py::handle& vertices, const py::handle& faces,
                        const py::object& masses, const py::object& stretch_stiffness,
                        const py::object& bend_stiffness, double damping, double drag,
@@ -225,7 +240,8 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
            }),
            py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("masses") = py::none(),
            py::arg("stretch_stiffness") = py::none(), py::arg("bend_stiffness") = py::none(),
-           py::arg("damping") = 0.0, py::arg("drag") = 0.0, py::arg("density") = py::none(),
+           py::arg("damping") = kDefaultDamping, py::arg("drag") = kDefaultDrag,
+           py::arg("density") = py::none(),
            py::arg("bending") = "springs", py::arg("bending_modulus") = py::none(),
            py::arg("mass") = py::none(), py::arg("stretch") = "springs",
            py::arg("young_modulus") = py::none(), py::arg("poisson_ratio") = py::none())
@@ -245,7 +261,8 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
           },
           py::arg("vertices"), py::arg("edges"), py::kw_only(),
           py::arg("rest_lengths") = py::none(), py::arg("masses") = py::none(),
-          py::arg("stiffness") = 100.0, py::arg("damping") = 0.0, py::arg("drag") = 0.0,
+          py::arg("stiffness") = kDefaultStretchStiffness, py::arg("damping") = kDefaultDamping,
+          py::arg("drag") = kDefaultDrag,
           py::arg("mass") = py::none(),
           R"doc(A plain spring network with no faces (chains, single springs).
 vertices n×3 (m); edges s×2 vertex indices; rest_lengths (s,) metres, default the distances in

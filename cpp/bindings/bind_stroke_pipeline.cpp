@@ -69,20 +69,28 @@ py::dict result_dict(const StrokeResult& result) {
 }  // namespace
 
 void bind_stroke_pipeline(py::module_& m) {
-  // A missed stroke and a refused refinement become yore.stroke's exceptions (ValueErrors),
-  // looked up when raised: yore.stroke imports this module.
-  py::register_exception_translator([](std::exception_ptr pointer) {
-    try {
-      if (pointer) std::rethrow_exception(pointer);
-    } catch (const StrokeMissed& error) {
-      py::object type = py::module_::import("yore.stroke").attr("StrokeMissed");
-      PyErr_SetObject(type.ptr(), type(error.what()).ptr());
-    } catch (const RefinementTooLarge& error) {
-      py::object type = py::module_::import("yore.stroke").attr("RefinementTooLarge");
-      PyErr_SetObject(type.ptr(), type(error.what()).ptr());
-    }
-  });
+  // A missed stroke and a refused refinement are ValueErrors of their own, defined here and
+  // re-exported by yore.stroke (and yore).
+  py::register_exception<StrokeMissed>(m, "StrokeMissed", PyExc_ValueError)
+      .attr("__doc__") = "The stroke touches the cloth nowhere.";
+  py::register_exception<RefinementTooLarge>(m, "RefinementTooLarge", PyExc_ValueError)
+      .attr("__doc__") =
+      "A stroke's refinement could make the mesh larger than its vertex limit (the cloth is "
+      "unchanged).";
   const SplitOptions split_defaults;
+  // A stroke's options by their Python names, read from a default StrokeOptions (the split's
+  // are `split_defaults`): the one source of yore.options.STROKE_DEFAULTS.
+  const StrokeOptions stroke_defaults;
+  const std::string default_growth = growth_rule(stroke_defaults.growth).name;
+  {
+    py::dict defaults;
+    defaults["growth"] = default_growth;
+    defaults["width"] = stroke_defaults.width;
+    defaults["refine"] = stroke_defaults.refine;
+    defaults["max_vertices"] = stroke_defaults.max_vertices;
+    defaults["spacing_pixels"] = StrokeInput{}.spacing_pixels;
+    m.attr("stroke_defaults") = defaults;
+  }
   m.attr("max_refine") = kMaxRefine;
   m.attr("refine_vertices_per_face") = kRefineVerticesPerFace;
   m.attr("refine_band_growth") = kRefineBandGrowth;
@@ -116,20 +124,22 @@ void bind_stroke_pipeline(py::module_& m) {
       py::arg("cloth"), py::arg("trace"), py::arg("points"), py::kw_only(),
       py::arg("max_distance") = 0.0, py::arg("eye") = py::none(),
       py::arg("base_direction") = py::none(), py::arg("direction_per_pixel_x") = py::none(),
-      py::arg("direction_per_pixel_y") = py::none(), py::arg("spacing_pixels") = 0.5,
-      py::arg("growth") = "paper", py::arg("width") = 0.0, py::arg("refine") = 0,
+      py::arg("direction_per_pixel_y") = py::none(),
+      py::arg("spacing_pixels") = StrokeInput{}.spacing_pixels,
+      py::arg("growth") = default_growth, py::arg("width") = stroke_defaults.width,
+      py::arg("refine") = stroke_defaults.refine,
       py::arg("expansion") = split_defaults.expansion,
       py::arg("mass_scale") = split_defaults.mass_scale,
       py::arg("conserve_mass") = split_defaults.conserve_mass,
       py::arg("min_barycentric") = split_defaults.min_barycentric,
       py::arg("min_angle_degrees") = split_defaults.min_angle_degrees,
-      py::arg("max_vertices") = StrokeOptions{}.max_vertices,
+      py::arg("max_vertices") = stroke_defaults.max_vertices,
       R"doc(One stroke: trace → band → `refine` passes (traced again after each) → the paper's
 1→3 split (growth "paper") or the growth rule over the band. trace: "closest" (points k×3 m,
 max_distance m), "material" (points k×3 in rest-pattern m with z = 0, max_distance the
 tolerance) or "rays" (pixels k×3 with z = 0, eye and the camera's pixel rays, spacing_pixels).
-width m (0: the crossed faces). Returns the report's fields as a dict. Raises yore.StrokeMissed
-when a trace hits nothing, yore.stroke.RefinementTooLarge (cloth unchanged) when the refinement
+width m (0: the crossed faces). Returns the report's fields as a dict. Raises StrokeMissed
+when a trace hits nothing, RefinementTooLarge (cloth unchanged) when the refinement
 could pass max_vertices, ValueError on bad input.)doc");
 }
 

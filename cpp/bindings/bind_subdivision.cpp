@@ -70,26 +70,6 @@ void bind_subdivision(py::module_& m) {
       },
       py::arg("vertices"), py::arg("faces"), py::arg("refine"),
       "1→4 midpoint refinement of faces with a conforming closure, no springs.");
-  m.def(
-      "refine_faces",
-      [](Cloth& cloth, const py::handle& faces) {
-        idle(cloth);
-        const RefineReport report = cloth.refine_faces(to_indices(faces, "faces"));
-        py::dict out;
-        out["refined_faces"] = read_only_copy(report.refined_faces);
-        out["bisected_faces"] = read_only_copy(report.bisected_faces);
-        out["new_vertices"] = read_only_copy(report.new_vertices);
-        out["region_faces"] = read_only_copy(report.region_faces);
-        out["springs_added"] = report.springs_added;
-        out["springs_removed"] = report.springs_removed;
-        out["rest_area_before"] = report.rest_area_before;
-        out["rest_area_after"] = report.rest_area_after;
-        out["mass_added"] = report.mass_added;
-        return out;
-      },
-      py::arg("cloth"), py::arg("faces"),
-      "Refines a cloth's faces 1→4 (conforming closure), springs in the rest metric, masses "
-      "conserved; returns a report.");
 }
 
 }  // namespace yore::bindings

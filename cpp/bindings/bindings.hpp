@@ -10,7 +10,6 @@ void bind_mesh(pybind11::module_& m);
 void bind_cloth_springs(pybind11::module_& m);  // Cloth.springs, before bind_cloth
 void bind_cloth(pybind11::module_& m);
 void bind_explicit(pybind11::module_& m);
-void bind_linear_solver(pybind11::module_& m);
 void bind_implicit(pybind11::module_& m);
 void bind_stroke(pybind11::module_& m);
 void bind_stroke_pipeline(pybind11::module_& m);

@@ -57,7 +57,6 @@ PYBIND11_MODULE(_core, m) {
   yore::bindings::bind_cloth_springs(m);
   yore::bindings::bind_cloth(m);
   yore::bindings::bind_explicit(m);
-  yore::bindings::bind_linear_solver(m);
   yore::bindings::bind_implicit(m);
   yore::bindings::bind_stroke(m);
   yore::bindings::bind_stroke_pipeline(m);

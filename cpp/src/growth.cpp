@@ -12,7 +12,7 @@ namespace yore {
 namespace {
 
 // The growth table: one falloff, four rules.
-constexpr std::array<GrowthRule, 4> kGrowthRules{{
+constexpr std::array<GrowthRule, kGrowthModeCount> kGrowthRules{{
     {"paper", true, false, false},
     {"isotropic", false, true, true},
     {"along", false, true, false},

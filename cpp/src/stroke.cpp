@@ -409,4 +409,21 @@ StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Pos
   });
 }
 
+std::vector<std::optional<SurfaceHit>> pick_rays(const Positions& positions, const Faces& faces,
+                                                 const Positions& pixels,
+                                                 const Eigen::Vector3d& eye,
+                                                 const Eigen::Vector3d& base_direction,
+                                                 const Eigen::Vector3d& direction_per_pixel_x,
+                                                 const Eigen::Vector3d& direction_per_pixel_y) {
+  std::vector<std::optional<SurfaceHit>> hits(static_cast<std::size_t>(pixels.rows()));
+  if (pixels.rows() == 0) return hits;
+  const SurfaceLocator locator(positions, faces);
+  for (Eigen::Index k = 0; k < pixels.rows(); ++k) {
+    const Eigen::Vector3d direction = base_direction + pixels(k, 0) * direction_per_pixel_x +
+                                      pixels(k, 1) * direction_per_pixel_y;
+    hits[static_cast<std::size_t>(k)] = locator.first_hit(eye, direction);
+  }
+  return hits;
+}
+
 }  // namespace yore

@@ -25,7 +25,7 @@ from .state import load_state, save_state
 from .runs import RunError, SceneError, load_scene, resume_run, run_scene
 from . import camera, checks, runs, viz
 from .camera import Camera
-from .stroke import StrokeMissed, StrokeReport
+from .stroke import StrokeMissed, StrokeOptions, StrokePath, StrokeReport
 from . import _core as _threads_core
 
 # OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
@@ -46,6 +46,8 @@ __all__ = [
     "SimulationDiverged",
     "NotPositiveDefinite",
     "StrokeMissed",
+    "StrokeOptions",
+    "StrokePath",
     "StrokeReport",
     "Camera",
     "metrics",

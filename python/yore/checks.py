@@ -1,6 +1,7 @@
 """Argument checks shared across the package: one place for the rules every layer applies to
 numbers, points, faces, colours and images, so the same bad value gets the same message
-wherever it is passed (the core API, scene files, pictures, the viewer).
+wherever it is passed (the core API, scene files, pictures, the viewer). The rules of numbers
+are `yore.rules`' (the one rule type of options, scene files and state files).
 
 Each check returns the value in its canonical form (float, int, float64 or int64 array) or
 raises ValueError naming the argument, what it got and what it expects.
@@ -8,10 +9,9 @@ raises ValueError naming the argument, what it got and what it expects.
 
 from __future__ import annotations
 
-import math
-import numbers
-
 import numpy as np
+
+from . import rules
 
 __all__ = ["MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS", "check_image_size", "check_factor",
            "check_integer",
@@ -45,6 +45,11 @@ MAX_MASS_SCALE = 10.0
 MAX_IMAGE_SIDE = 16384
 MAX_IMAGE_PIXELS = 1 << 23
 
+# The rules of `yore.rules` these checks apply (their messages are the arguments' own).
+_IMAGE_SIDE = rules.count(1, MAX_IMAGE_SIDE)
+_FACTOR = rules.real(0.0)
+_COUNT = rules.count(0)
+
 
 def _short(value) -> str:
     text = repr(value)
@@ -55,8 +60,7 @@ def check_image_size(width, height, what="camera"):
     """(width, height) as ints if both are integers in [1, MAX_IMAGE_SIDE] whose product is at
     most MAX_IMAGE_PIXELS; ValueError naming the side, its value and the limit otherwise."""
     for name, value in (("width", width), ("height", height)):
-        if (isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral)
-                or not 1 <= value <= MAX_IMAGE_SIDE):
+        if not _IMAGE_SIDE.test(value)[0]:
             raise ValueError(f"{what} {name}: got {type(value).__name__} {_short(value)}; "
                              f"expected an integer number of pixels in [1, {MAX_IMAGE_SIDE}]")
     if int(width) * int(height) > MAX_IMAGE_PIXELS:
@@ -71,11 +75,11 @@ def check_factor(value, name: str, unit: str = "") -> float:
     if isinstance(value, (bool, np.bool_, str, bytes)):
         raise ValueError(f"{name} must be a number{unit and f' ({unit})'}, got {value!r}")
     try:
-        number = float(value)
+        number = float(value)  # numbers of any type float() takes (numpy scalars, 0-d arrays)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number{unit and f' ({unit})'}, "
                          f"got {_short(value)}") from None
-    if not math.isfinite(number) or number <= 0.0:
+    if not _FACTOR.test(number)[0]:
         raise ValueError(f"{name} must be finite and > 0{unit and f' ({unit})'}, got {number}")
     return number
 
@@ -83,10 +87,9 @@ def check_factor(value, name: str, unit: str = "") -> float:
 def check_integer(value, name, minimum, maximum=None) -> int:
     """`value` as an int if it is an integer (bool refused) in [minimum, maximum];
     ValueError naming `name` otherwise."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
-            or value < minimum or (maximum is not None and value > maximum):
-        bound = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
-        raise ValueError(f"{name} must be an integer {bound}, got {_short(value)}")
+    rule = rules.count(minimum, maximum)
+    if not rule.test(value)[0]:
+        raise ValueError(f"{name} must be {rule.expected}, got {_short(value)}")
     return int(value)
 
 
@@ -173,7 +176,6 @@ def check_image(image, name) -> np.ndarray:
 
 def check_count(value, name, unit="pixels") -> int:
     """An integer >= 0 (bool refused); ValueError otherwise."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
-            or value < 0:
-        raise ValueError(f"{name} must be an integer >= 0 ({unit}), got {_short(value)}")
+    if not _COUNT.test(value)[0]:
+        raise ValueError(f"{name} must be {_COUNT.expected} ({unit}), got {_short(value)}")
     return int(value)

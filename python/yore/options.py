@@ -20,20 +20,19 @@ line, which all read their names, defaults and checks from here.
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import dataclass
 from typing import Callable
 
-import numpy as np
-
-from . import _core
+from . import _core, rules
+from .rules import Invalid, is_integer, is_real, show  # noqa: F401  (re-exported)
 
 __all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "INTEGRATOR_SPECS", "IntegratorSpec",
            "DEFAULT_INTEGRATOR", "REFERENCE_INTEGRATOR", "FIXED_DT", "OptionError", "check_option", "option_expected",
            "resolve_options", "defaults", "STROKE_DEFAULTS", "GROWTH_MODES", "GRAVITY",
+           "SCENE_MATERIAL",
            "IMAGE_WIDTH", "IMAGE_HEIGHT", "FOV_DEGREES", "MAX_STEP_ITERATIONS",
-           "MAX_SOLVER_ITERATIONS", "MAX_SMOOTHING_ITERATIONS"]
+           "MAX_SOLVER_ITERATIONS", "MAX_SMOOTHING_ITERATIONS", "SMOOTHING_DEFAULTS",
+           "SMOOTHING_RULES"]
 
 
 #: Options each integrator accepts, with their defaults. Names and defaults come from the C++
@@ -184,6 +183,12 @@ MAX_STEP_ITERATIONS = int(CORE_RULES["max_newton"]["high"])  # newton, CG, passe
 MAX_SOLVER_ITERATIONS = int(CORE_RULES["pcg_max_iterations"]["high"])  # per linear solve
 #: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
 MAX_SMOOTHING_ITERATIONS = 100_000
+#: Rest-length smoothing's options (`Simulation.smooth_rest_lengths`, a scene file's
+#: ``strokes[].smooth``, the viewer's ``smooth``): the defaults and the rules, written once.
+SMOOTHING_DEFAULTS = {"iterations": 10, "strength": 0.5, "conserve": True}
+SMOOTHING_RULES = {"iterations": rules.count(0, MAX_SMOOTHING_ITERATIONS),
+                   "strength": rules.real(0.0, 1.0, expected="a number in (0, 1]"),
+                   "conserve": rules.flag()}
 
 
 class OptionError(ValueError):
@@ -195,99 +200,25 @@ class OptionError(ValueError):
         super().__init__(f"option {option}: got {got}; expected {expected}")
 
 
-class _Rule:
-    """How one option is checked: ``check(value)`` returns the value (as int, float, bool, str
-    or None) or raises ValueError naming the option, the value and ``expected``."""
-
-    def __init__(self, expected, test):
-        self.expected, self._test = expected, test
-
-    def check(self, name, value):
-        try:
-            ok, checked = self._test(value)
-        except (TypeError, ValueError, OverflowError):
-            ok, checked = False, None
-        if not ok:
-            raise OptionError(name, show_value(value), self.expected)
-        return checked
-
-
 def show_value(value):
-    text = repr(value)
-    if len(text) > 60:
-        text = text[:57] + "..."
-    return f"{type(value).__name__} {text}"
-
-
-def is_integer(value):
-    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
-
-
-def is_real(value):
-    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
-            and math.isfinite(value))
-
-
-def _flag():
-    return _Rule("True or False", lambda v: (isinstance(v, (bool, np.bool_)), bool(v)))
-
-
-def _count(low, high):
-    return _Rule(f"an integer in [{low}, {high}]",
-                 lambda v: (is_integer(v) and low <= v <= high, int(v)))
-
-
-def _real(low, high=None, low_open=True, high_open=False):
-    bounds = ("(" if low_open else "[") + f"{low:g}, " + \
-        ("inf)" if high is None else f"{high:g}" + (")" if high_open else "]"))
-
-    def test(v):
-        if not is_real(v):
-            return False, None
-        v = float(v)
-        above = v > low if low_open else v >= low
-        below = high is None or (v < high if high_open else v <= high)
-        return above and below, v
-    return _Rule(f"a finite number in {bounds}", test)
-
-
-def _one_of(*choices):
-    return _Rule(f"a name (valid: {', '.join(choices)})",
-                 lambda v: (isinstance(v, str) and v in choices, v))
-
-
-def _or_none(rule):
-    return _Rule(f"None or {rule.expected}",
-                 lambda v: (True, None) if v is None else (True, rule.check("", v)))
-
-
-def _core_rule(spec):
-    """A rule from one entry of a C++ option table's rules (`CORE_RULES`)."""
-    kind = spec["kind"]
-    if kind == "flag":
-        return _flag()
-    if kind == "count":
-        return _count(int(spec["low"]), int(spec["high"]))
-    if kind == "real":
-        return _real(spec["low"], spec["high"], low_open=spec["low_open"],
-                     high_open=spec["high_open"])
-    return _one_of(*spec["choices"])
+    """A value as option errors quote it (`yore.rules.show`)."""
+    return show(value)
 
 
 #: How each option is checked (one rule per name, whichever integrator takes it), built from the
 #: C++ option tables' rules (`CORE_RULES`); the defaults are in `INTEGRATOR_OPTIONS`.
 #: `check_option` applies them; the C++ constructors check again.
-_RULES = {name: _core_rule(spec) for name, spec in CORE_RULES.items()}
+_RULES = {name: rules.from_core(spec) for name, spec in CORE_RULES.items()}
 # The Python side's own: None for "decide from the others", and strain_limit's None for off
 # (the core's 0), so a limit is at least 1.
-_RULES.update(strain_limit=_or_none(_real(1.0, low_open=False)),
-              adaptive_projection=_or_none(_RULES["adaptive_projection"]),
-              projection=_or_none(_RULES["projection"]),
-              predictor=_or_none(_RULES["predictor"]),
-              mixed=_or_none(_RULES["mixed"]),
-              atol_velocity=_or_none(_real(0.0)),
-              acceleration=_one_of(*ACCELERATIONS),
-              method=_one_of(*QUASI_NEWTON_METHODS))
+_RULES.update(strain_limit=rules.real(1.0, low_open=False).or_none(),
+              adaptive_projection=_RULES["adaptive_projection"].or_none(),
+              projection=_RULES["projection"].or_none(),
+              predictor=_RULES["predictor"].or_none(),
+              mixed=_RULES["mixed"].or_none(),
+              atol_velocity=rules.real(0.0).or_none(),
+              acceleration=rules.choice(*ACCELERATIONS),
+              method=rules.choice(*QUASI_NEWTON_METHODS))
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
 
@@ -300,7 +231,10 @@ def check_option(integrator, name, value):
     if name not in valid:
         raise ValueError(f"unknown option {name!r} for integrator {integrator!r}; valid: "
                          f"{', '.join(sorted(valid)) or 'none'}")
-    return _RULES[name].check(name, value)
+    try:
+        return _RULES[name](value)
+    except Invalid as error:
+        raise OptionError(name, show(value), error.expected) from None
 
 
 def option_expected(name) -> str:
@@ -480,13 +414,16 @@ assert set(INTEGRATORS) == set(INTEGRATOR_OPTIONS)
 
 # -- strokes ------------------------------------------------------------------------------------
 #: How a stroke grows its band (see `yore.stroke`), in the order of the core's table.
-GROWTH_MODES = ("paper", "isotropic", "along", "across")
-#: A stroke's options and their defaults: expansion and mass_scale from the C++ SplitOptions
-#: (eq. (1) of the paper: 1.1; the new vertex's mass 0.95 × its corners' mean), width None (the
-#: faces the stroke crosses), growth "paper", refine 0 passes.
+GROWTH_MODES = tuple(_core.growth_modes())
+#: A stroke's options and their defaults, read from the C++ ``StrokeOptions`` and
+#: ``SplitOptions`` structs (``_core.stroke_defaults``, ``_core.split_defaults``): expansion
+#: and mass_scale (eq. (1) of the paper: 1.1; the new vertex's mass 0.95 × its corners' mean),
+#: width None (the core's 0: the faces the stroke crosses), growth "paper", refine 0 passes.
 STROKE_DEFAULTS = {"expansion": float(_core.split_defaults["expansion"]),
                    "mass_scale": float(_core.split_defaults["mass_scale"]),
-                   "width": None, "growth": "paper", "refine": 0}
+                   "width": _core.stroke_defaults["width"] or None,
+                   "growth": _core.stroke_defaults["growth"],
+                   "refine": int(_core.stroke_defaults["refine"])}
 
 # -- the scene and pictures -----------------------------------------------------------------------
 #: Gravitational acceleration of every scene unless given, m/s² (y is up).
@@ -498,7 +435,13 @@ MASS = 0.1
 #: N/m; `yore.scenes` uses it for the structural springs too (the paper's single constant).
 STIFFNESS = 200.0
 #: A membrane's Poisson's ratio unless given (stretch = "membrane"); the core's own default.
-POISSON_RATIO = float(_core.DEFAULT_POISSON_RATIO)
+POISSON_RATIO = float(_core.Cloth.defaults["poisson_ratio"])
+#: The material of `yore.scenes` and of scene files unless given: the paper's single stiffness
+#: for structural and bending springs, light damping along the springs (N·s/m) and still-air
+#: drag (1/s). A bare `yore.Cloth` has its own defaults (``Cloth.defaults``: 100 N/m, no
+#: damping, no drag), those of a physics object that dissipates nothing unless asked.
+SCENE_MATERIAL = {"stretch_stiffness": STIFFNESS, "bend_stiffness": STIFFNESS,
+                  "damping": 0.02, "drag": 0.3, "poisson_ratio": POISSON_RATIO}
 #: Frames per simulated second a run writes unless [output] gives fps or every_steps.
 FRAMES_PER_SECOND = 30.0
 #: Animation formats; a run makes none unless its [output] asks, `yore render` of a run folder

@@ -10,16 +10,17 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
-from .checks import MAX_EXPANSION, MAX_SETTLE_SECONDS, MIN_EXPANSION, MAX_STEPS, MIN_DT
+from .checks import MAX_SETTLE_SECONDS, MAX_STEPS, MIN_DT
 from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
-                      INTEGRATOR_SPECS, INTEGRATORS, MAX_SMOOTHING_ITERATIONS, STROKE_DEFAULTS,
-                      check_option, is_integer, is_real, resolve_options, show_value)
-from .camera import Camera
-from .stroke import apply_stroke, check_factor, check_stroke_options, check_stroke_points
+                      INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS, SMOOTHING_RULES,
+                      check_option, is_real, resolve_options,
+                      show_value)
+from . import rules
+from .rules import Invalid
+from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
 
-_STROKE = STROKE_DEFAULTS  # the stroke methods' defaults
 
 
 #: Default time step of the implicit integrators, s (`yore.options.FIXED_DT`).
@@ -363,8 +364,8 @@ class Simulation:
         error-controlled integrators (cvode, arkode, bdf2 and tr-bdf2 with dt="auto") land
         exactly on the time asked: whole output intervals, then one shortened to the target.
         """
-        if not is_real(seconds) or seconds < 0.0:
-            raise ValueError(f"seconds must be a finite number >= 0, got {show_value(seconds)}")
+        if not _DURATION.test(seconds)[0]:
+            raise ValueError(f"seconds must be {_DURATION.expected}, got {show_value(seconds)}")
         seconds = float(seconds)
         start = self.time
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
@@ -438,8 +439,8 @@ class Simulation:
         relax = _core.ImplicitIntegrator(method="backward-euler", projection="shifted",
                                          predictor="start", newton_tol=1e-7, max_newton=200)
         steps = int(math.ceil(max_seconds / SETTLE_DT - 1e-9)) if max_seconds > 0 else 0
-        if not isinstance(check_stability, (bool, np.bool_)):
-            raise ValueError(f"check_stability must be True or False, got "
+        if not _FLAG.test(check_stability)[0]:
+            raise ValueError(f"check_stability must be {_FLAG.expected}, got "
                              f"{show_value(check_stability)}")
         converged, acceleration, done, escapes, stable = False, math.inf, 0, 0, None
         bar, started = None, _time.perf_counter()
@@ -555,88 +556,72 @@ class Simulation:
                           stacklevel=3)
 
     # -- strokes ----------------------------------------------------------------------------
-    def stroke(self, points_3d, expansion=_STROKE["expansion"],
-               mass_scale=_STROKE["mass_scale"], max_distance=None, width=_STROKE["width"],
-               growth=_STROKE["growth"], refine=_STROKE["refine"]):
-        """Adds wrinkles along a 3-D polyline near the cloth (the paper's stroke).
+    def stroke(self, path, options=None, **changes) -> StrokeReport:
+        """Adds wrinkles along a stroke (the paper's partial area expansion).
 
-        points_3d : (k, 3) metres. Each point goes to the closest point of the current surface;
-        the polyline is refined until no face it crosses is skipped. Points farther than
-        ``max_distance`` (default 5 % of the cloth's bounding-box diagonal) miss.
-        expansion : rest length of new springs over their current length (eq. (1): 1.1); in the
-        other growth modes the factor a spring at full weight grows by.
-        mass_scale : new vertex mass over its face corners' mean (paper: 0.95), or "conserve"
-        (the new vertex takes its mass from the corners; the total mass is unchanged).
-        width : m, the band around the stroke (None: the faces it crosses, as in the paper).
-        growth : "paper" | "isotropic" | "along" | "across"; refine : 1→4 refinement passes of
-        the band before the growth (see `yore.stroke` for the rules).
+        path : a `yore.StrokePath` — ``StrokePath.world(points)`` (a 3-D polyline near the
+        cloth, metres; a bare (k, 3) array means this), ``StrokePath.screen(pixels, camera)``
+        (pixels of a `yore.Camera`: rays through the current surface, nearest hit) or
+        ``StrokePath.material(uv)`` (the cloth's rest-pattern coordinates).
+        options : a `yore.StrokeOptions` (or a dict of its fields; None: the defaults), and
+        ``changes`` any of its fields by name: expansion (eq. (1): 1.1), mass_scale (0.95 or
+        "conserve"), width (m; None: the faces the stroke crosses), growth ("paper" |
+        "isotropic" | "along" | "across"), refine (1→4 passes of the band first),
+        max_distance (3-D paths: default 5 % of the cloth's bounding-box diagonal), smooth
+        (rest-length smoothing as the last stage; its result lands in
+        ``report.extra["smoothing"]``). See `yore.stroke` for the rules.
         Returns a `yore.stroke.StrokeReport`; raises `yore.StrokeMissed` if nothing is hit,
         ValueError on bad input.
         """
-        points, expansion, options = self._stroke_arguments(
-            points_3d, 3, "points_3d", expansion, mass_scale, width, growth, refine)
-        X = self._cloth.positions
-        if max_distance is None:
-            max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
-        max_distance = check_factor(max_distance, "max_distance")
-
-        return self._finish_stroke("closest", points, expansion, options,
-                                   max_distance=max_distance)
-
-    def stroke_screen(self, points_px, camera, expansion=_STROKE["expansion"],
-                      mass_scale=_STROKE["mass_scale"], width=_STROKE["width"],
-                      growth=_STROKE["growth"], refine=_STROKE["refine"]):
-        """Adds wrinkles along a 2-D polyline drawn over a rendered view, as the paper's user
-        draws: points_px (k, 2) in pixels of `camera` (a `yore.Camera`); rays through the
-        current surface, nearest hit. Same options, report and errors as `stroke`."""
-        if not isinstance(camera, Camera):
-            raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
-        points, expansion, options = self._stroke_arguments(
-            points_px, 2, "points_px", expansion, mass_scale, width, growth, refine)
-        d0, dx, dy = camera.pixel_rays()
-        return self._finish_stroke("rays", points, expansion, options,
-                                   eye=np.asarray(camera.eye, float), base_direction=d0,
-                                   direction_per_pixel_x=dx, direction_per_pixel_y=dy,
-                                   spacing_pixels=0.5)
-
-    def stroke_material(self, points_uv, expansion=_STROKE["expansion"],
-                        mass_scale=_STROKE["mass_scale"], width=_STROKE["width"],
-                        growth=_STROKE["growth"], refine=_STROKE["refine"]):
-        """Adds wrinkles along a 2-D polyline in the cloth's rest-pattern coordinates
-        (``cloth.material_coordinates``, set by the scenes). Same options, report and errors as
-        `stroke` (width is still measured on the current surface)."""
-        points, expansion, options = self._stroke_arguments(
-            points_uv, 2, "points_uv", expansion, mass_scale, width, growth, refine)
-        uv = self._cloth.material_coordinates
-        if uv is None:
-            raise ValueError("the cloth has no material coordinates; set "
-                             "cloth.material_coordinates (n×2) first")
-        tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
-        return self._finish_stroke("material", points, expansion, options,
-                                   max_distance=tolerance)
-
-    def _stroke_arguments(self, points, dimension, name, expansion, mass_scale, width, growth,
-                          refine):
-        """Checked stroke points (k×3), expansion and options; ValueError naming what is
-        wrong."""
         if self._cloth.face_count == 0:
             raise ValueError("a spring network has no faces to stroke")
-        width, growth, refine, mass_scale = check_stroke_options(width, growth, refine,
-                                                                 mass_scale)
-        expansion = check_factor(expansion, "expansion")
-        if not MIN_EXPANSION <= expansion <= MAX_EXPANSION:
-            raise ValueError(f"expansion must be in [{MIN_EXPANSION:g}, {MAX_EXPANSION:g}] (a "
-                             "new spring's rest length over its current length; the paper's "
-                             f"is 1.1), got {expansion:g}")
-        return (check_stroke_points(points, dimension, name), expansion,
-                {"mass_scale": mass_scale, "width": width, "growth": growth, "refine": refine})
+        path = StrokePath.of(path)
+        options = StrokeOptions.of(options, **changes)
+        if path.space == "world":
+            max_distance = options.max_distance
+            if max_distance is None:
+                X = self._cloth.positions
+                max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
+            report = self._apply_stroke("closest", path, options, max_distance=max_distance)
+        elif path.space == "screen":
+            d0, dx, dy = path.camera.pixel_rays()
+            report = self._apply_stroke("rays", path, options,
+                                        eye=np.asarray(path.camera.eye, float),
+                                        base_direction=d0, direction_per_pixel_x=dx,
+                                        direction_per_pixel_y=dy)
+        else:
+            uv = self._cloth.material_coordinates
+            if uv is None:
+                raise ValueError("the cloth has no material coordinates; set "
+                                 "cloth.material_coordinates (n×2) first")
+            tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
+            report = self._apply_stroke("material", path, options, max_distance=tolerance)
+        if options.smooth is not None:
+            smooth = options.smooth
+            report.extra["smoothing"] = self.smooth_rest_lengths(
+                iterations=smooth["iterations"], strength=smooth["strength"],
+                region="all" if smooth["region"] == "all" else None,
+                conserve=smooth["conserve"])
+        return report
 
-    def _finish_stroke(self, trace, points, expansion, options, **trace_options):
+    def stroke_screen(self, points_px, camera, **options) -> StrokeReport:
+        """Deprecated: ``stroke(StrokePath.screen(points_px, camera), **options)``."""
+        warnings.warn("Simulation.stroke_screen is deprecated; use "
+                      "sim.stroke(yore.StrokePath.screen(points_px, camera), ...)",
+                      DeprecationWarning, stacklevel=2)
+        return self.stroke(StrokePath.screen(points_px, camera), **options)
+
+    def stroke_material(self, points_uv, **options) -> StrokeReport:
+        """Deprecated: ``stroke(StrokePath.material(points_uv), **options)``."""
+        warnings.warn("Simulation.stroke_material is deprecated; use "
+                      "sim.stroke(yore.StrokePath.material(points_uv), ...)",
+                      DeprecationWarning, stacklevel=2)
+        return self.stroke(StrokePath.material(points_uv), **options)
+
+    def _apply_stroke(self, trace, path, options, **trace_options):
         """Applies the stroke in one call of the core, which traces it (again after each
         refinement pass) the way ``trace`` names ("closest", "rays" or "material")."""
-        report = apply_stroke(self._cloth, trace, points, expansion, options["mass_scale"],
-                              width=options["width"], growth=options["growth"],
-                              refine=options["refine"], **trace_options)
+        report = apply_stroke(self._cloth, trace, path.points, options, **trace_options)
         self._pending_reports.append(report)
         self._last_stroke = report
         if self._dt_follows_cloth:
@@ -648,8 +633,9 @@ class Simulation:
                 self._dt = lowered
         return report
 
-    def smooth_rest_lengths(self, iterations=10, strength=0.5, region=None,
-                            conserve=True) -> dict:
+    def smooth_rest_lengths(self, iterations=SMOOTHING_DEFAULTS["iterations"],
+                            strength=SMOOTHING_DEFAULTS["strength"], region=None,
+                            conserve=SMOOTHING_DEFAULTS["conserve"]) -> dict:
         """Laplacian smoothing of rest lengths (the paper's remedy for uneven surfaces).
 
         The smoothed field is the ratio rest / reference length of each spring (1 for untouched
@@ -671,20 +657,10 @@ class Simulation:
         """
         from .metrics import spring_mean_around_ends, rest_ratio_roughness
 
-        if not is_integer(iterations) or not 0 <= iterations <= MAX_SMOOTHING_ITERATIONS:
-            raise ValueError(f"smooth_rest_lengths iterations: got {show_value(iterations)}; "
-                             "expected "
-                             f"an integer in [0, {MAX_SMOOTHING_ITERATIONS}]")
-        iterations = int(iterations)
-        if not is_real(strength) or not 0.0 < strength <= 1.0:
-            raise ValueError(f"smooth_rest_lengths strength: got {show_value(strength)}; "
-                             "expected a "
-                             "number in (0, 1]")
-        strength = float(strength)
-        if not isinstance(conserve, (bool, np.bool_)):
-            raise ValueError(f"smooth_rest_lengths conserve: got {show_value(conserve)}; expected "
-                             "True or False")
-        conserve = bool(conserve)
+        iterations, strength, conserve = (
+            _checked(SMOOTHING_RULES[name], value, f"smooth_rest_lengths {name}")
+            for name, value in (("iterations", iterations), ("strength", strength),
+                                ("conserve", conserve)))
         cloth = self._cloth
         ends = cloth.springs.ends
         if isinstance(region, str):
@@ -802,6 +778,18 @@ def _as_saved(integrator, options):
         options["projection"] = ("clamp" if options.get("linearized") or
                                  options.get("solver") == "pcg" else "steihaug")
     return options
+
+
+_DURATION = rules.real(0.0, low_open=False, expected="a finite number >= 0")
+_FLAG = rules.flag()
+
+
+def _checked(rule, value, what):
+    """``value`` checked by a `yore.rules.Rule`: ValueError "WHAT: got ...; expected ..."."""
+    try:
+        return rule(value)
+    except Invalid as invalid:
+        raise ValueError(f"{what}: {invalid.problem}; expected {invalid.expected}") from None
 
 
 def _region_indices(region, vertex_count):

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import rules
 from ._core import Cloth
 from .checks import MAX_TIME, MIN_DT
 from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
@@ -138,12 +139,11 @@ _MAX_DOCUMENT_CHARS = 64 * 2**20
 
 
 def _show(value):
-    if isinstance(value, np.ndarray):
-        return f"an array of dtype {value.dtype} and shape {value.shape}"
-    if isinstance(value, (dict, list)):
-        return f"a {'table' if isinstance(value, dict) else 'list'}"
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
+    return rules.describe(value)
+
+
+def _got(value):
+    return f"got {rules.describe(value)}"
 
 
 def _read_archive(path):
@@ -361,20 +361,22 @@ class _FieldChecker:
                              "one of " + ", ".join(sorted(set(required) | set(optional))))
         return value
 
+    def check(self, rule, value, field):
+        """``value`` checked by a `yore.rules.Rule`; the error names the field."""
+        try:
+            return rule(value)
+        except rules.Invalid as invalid:
+            raise self.error(field, invalid.problem, invalid.expected) from None
+
     def real(self, value, field, low=None, low_open=False, high=None):
-        if (isinstance(value, bool) or not isinstance(value, (int, float))
-                or not math.isfinite(value) or (low is not None and (
-                    value < low or (low_open and value == low)))
-                or (high is not None and value > high)):
-            bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
-            bounds += "" if high is None else f"{' and' if bounds else ''} <= {high:g}"
-            raise self.error(field, f"got {_show(value)}", f"a finite number{bounds}")
-        return float(value)
+        bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
+        bounds += "" if high is None else f"{' and' if bounds else ''} <= {high:g}"
+        return self.check(rules.real(low, high, low_open=low_open,
+                                     expected=f"a finite number{bounds}", problem=_got,
+                                     python_types=True), value, field)
 
     def integer(self, value, field, low, high):
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise self.error(field, f"got {_show(value)}", f"an integer in [{low}, {high}]")
-        return value
+        return self.check(rules.count(low, high, problem=_got, python_types=True), value, field)
 
     def array(self, value, field, dtype, shape, low=None, high=None, low_open=False,
               allowed=None):
@@ -426,6 +428,8 @@ _CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio")
 _SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
                       "target_time")
 _DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
+#: A flag of a state file (JSON's true or false).
+_FLAG = rules.flag("true or false", problem=_got, python_types=True)
 #: Smallest positive normal double: a mass below it is refused (1/m would overflow).
 _TINY = float(np.finfo(np.float64).tiny)
 
@@ -449,13 +453,9 @@ def _check_simulation(field, simulation):
     field.array(simulation["gravity"], "simulation.gravity", np.float64, (3,))
     if simulation["target_time"] is not None:
         field.real(simulation["target_time"], "simulation.target_time")
-    if "dt_follows_cloth" in simulation and not isinstance(simulation["dt_follows_cloth"], bool):
-        raise field.error("simulation.dt_follows_cloth",
-                          f"got {_show(simulation['dt_follows_cloth'])}", "true or false")
-    if "integrator_restarts" in simulation and \
-            not isinstance(simulation["integrator_restarts"], bool):
-        raise field.error("simulation.integrator_restarts",
-                          f"got {_show(simulation['integrator_restarts'])}", "true or false")
+    for name in ("dt_follows_cloth", "integrator_restarts"):
+        if name in simulation:
+            field.check(_FLAG, simulation[name], f"simulation.{name}")
 
     # The bending fields came with quadratic bending: a file without them is bending springs;
     # the membrane's with the membrane: a file without them has springs that resist stretching.

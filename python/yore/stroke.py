@@ -38,22 +38,28 @@ Options beyond the paper (all strokes, scene files alike):
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import _core
-from .checks import MAX_MASS_SCALE, check_factor
+from ._core import RefinementTooLarge, StrokeMissed
+from .camera import Camera
+from .checks import MAX_EXPANSION, MAX_MASS_SCALE, MIN_EXPANSION, check_factor
 from .meshes import MAX_MESH_VERTICES
-from .options import GROWTH_MODES  # in the order of the core's table (see the docstring)
+from .options import (GROWTH_MODES,  # in the order of the core's table (see the docstring)
+                      SMOOTHING_DEFAULTS, SMOOTHING_RULES, STROKE_DEFAULTS)
+from .rules import Invalid
 
-__all__ = ["StrokeMissed", "StrokeReport", "MIN_BARYCENTRIC", "MIN_ANGLE_DEGREES",
-           "GROWTH_MODES", "MAX_REFINE", "MAX_REFINED_VERTICES", "falloff_weight"]
+__all__ = ["StrokeMissed", "StrokeReport", "StrokeOptions", "StrokePath", "MIN_BARYCENTRIC",
+           "MIN_ANGLE_DEGREES", "GROWTH_MODES", "MAX_REFINE", "MAX_REFINED_VERTICES",
+           "RefinementTooLarge", "falloff_weight"]
 
-#: The degenerate-case rules (see the module docstring).
-MIN_BARYCENTRIC = 0.1
-MIN_ANGLE_DEGREES = 5.0
+#: The degenerate-case rules (see the module docstring), the C++ ``SplitOptions``' defaults.
+MIN_BARYCENTRIC = float(_core.split_defaults["min_barycentric"])
+MIN_ANGLE_DEGREES = float(_core.split_defaults["min_angle_degrees"])
 
 #: Vertices a refinement pass adds per band face, and the band's growth per pass, at most
 #: (an estimate from above for `predicted_refined_vertices`; measured 1.2–1.9 and 2–4.6).
@@ -66,10 +72,6 @@ MAX_REFINE = _core.max_refine
 #: cloth reached ~500 000 vertices, whose implicit factor then ran out of memory (2.9 GB). A
 #: mesh read or generated may still have up to `MAX_MESH_VERTICES`.
 MAX_REFINED_VERTICES = 250_000
-
-
-class StrokeMissed(ValueError):
-    """The stroke touches the cloth nowhere."""
 
 
 @dataclass
@@ -183,6 +185,156 @@ def check_stroke_options(width, growth, refine, mass_scale):
     return width, growth, int(refine), mass_scale
 
 
+def check_expansion(expansion) -> float:
+    """A stroke's expansion as a float in [`MIN_EXPANSION`, `MAX_EXPANSION`]; ValueError."""
+    expansion = check_factor(expansion, "expansion")
+    if not MIN_EXPANSION <= expansion <= MAX_EXPANSION:
+        raise ValueError(f"expansion must be in [{MIN_EXPANSION:g}, {MAX_EXPANSION:g}] (a "
+                         "new spring's rest length over its current length; the paper's "
+                         f"is 1.1), got {expansion:g}")
+    return expansion
+
+
+#: Where a stroke's smoothing stage smooths: the stroke's region and one ring, or everything.
+SMOOTHING_REGIONS = ("stroke", "all")
+
+
+def check_smoothing(smooth):
+    """A stroke's smoothing stage as None or {"iterations", "strength", "conserve", "region"}
+    (missing keys at their defaults, `yore.options.SMOOTHING_DEFAULTS`; an int is the
+    iterations); ValueError naming the key."""
+    if smooth is None:
+        return None
+    if isinstance(smooth, numbers.Integral) and not isinstance(smooth, (bool, np.bool_)):
+        smooth = {"iterations": smooth}
+    if not isinstance(smooth, dict):
+        raise ValueError(f"smooth: got {type(smooth).__name__} {smooth!r}; expected None, "
+                         "iterations or a dict of iterations, strength, conserve, region")
+    unknown = sorted(set(smooth) - set(SMOOTHING_DEFAULTS) - {"region"})
+    if unknown:
+        raise ValueError(f"smooth: unknown key {unknown[0]!r}; valid: "
+                         f"{', '.join(list(SMOOTHING_DEFAULTS) + ['region'])}")
+    checked = {**SMOOTHING_DEFAULTS, "region": SMOOTHING_REGIONS[0]}
+    for name, value in smooth.items():
+        if name == "region":
+            if value not in SMOOTHING_REGIONS:
+                raise ValueError(f"smooth region: got {value!r}; expected one of "
+                                 f"{', '.join(map(repr, SMOOTHING_REGIONS))}")
+            checked[name] = value
+            continue
+        try:
+            checked[name] = SMOOTHING_RULES[name](value)
+        except Invalid as invalid:
+            raise ValueError(f"smooth {name}: {invalid.problem}; expected "
+                             f"{invalid.expected}") from None
+    return checked
+
+
+@dataclass(frozen=True)
+class StrokeOptions:
+    """How a stroke changes the cloth: one value for `yore.Simulation.stroke`, the viewer and
+    scene files. The defaults are the C++ tables' (`yore.options.STROKE_DEFAULTS`).
+
+    expansion: rest length of new springs over their current length (eq. (1): 1.1), or the
+    factor a spring at full weight grows by in the other growth modes. mass_scale: a new
+    vertex's mass over its face corners' mean (0.95), or "conserve". width: m, the band (None:
+    the faces the stroke crosses). growth: "paper" | "isotropic" | "along" | "across". refine:
+    1→4 refinement passes of the band first. max_distance: m, 3-D paths only: the farthest a
+    point may be from the surface (None: 5 % of the cloth's bounding-box diagonal). smooth:
+    rest-length smoothing right after the stroke, the pipeline's optional last stage (None:
+    none; iterations, or a dict of iterations, strength, conserve and region "stroke" | "all";
+    see `yore.Simulation.smooth_rest_lengths`).
+    """
+
+    expansion: float = STROKE_DEFAULTS["expansion"]
+    mass_scale: object = STROKE_DEFAULTS["mass_scale"]
+    width: object = STROKE_DEFAULTS["width"]
+    growth: str = STROKE_DEFAULTS["growth"]
+    refine: int = STROKE_DEFAULTS["refine"]
+    max_distance: object = None
+    smooth: object = None
+
+    def checked(self) -> "StrokeOptions":
+        """These options with every value in canonical form; ValueError naming the first
+        wrong one."""
+        width, growth, refine, mass_scale = check_stroke_options(
+            self.width, self.growth, self.refine, self.mass_scale)
+        max_distance = None if self.max_distance is None else \
+            check_factor(self.max_distance, "max_distance")
+        return StrokeOptions(expansion=check_expansion(self.expansion), mass_scale=mass_scale,
+                             width=width, growth=growth, refine=refine,
+                             max_distance=max_distance, smooth=check_smoothing(self.smooth))
+
+    def replace(self, **changes) -> "StrokeOptions":
+        """A copy with ``changes``; ValueError naming an unknown option."""
+        unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(self)})
+        if unknown:
+            raise ValueError(f"unknown stroke option {unknown[0]!r}; valid: "
+                             f"{', '.join(f.name for f in dataclasses.fields(self))}")
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def of(cls, options=None, **changes) -> "StrokeOptions":
+        """``options`` (a StrokeOptions, a dict of options or None for the defaults) with
+        ``changes``, checked."""
+        if options is None:
+            options = cls()
+        elif isinstance(options, dict):
+            options = cls().replace(**options)
+        elif not isinstance(options, cls):
+            raise ValueError(f"options must be a yore.StrokeOptions, a dict or None, got "
+                             f"{type(options).__name__}")
+        return options.replace(**changes).checked()
+
+
+class StrokePath:
+    """Where a stroke is drawn, in one of three spaces (`yore.Simulation.stroke` takes any):
+
+    - ``StrokePath.world(points)``: a 3-D polyline (k, 3) in metres near the cloth; each point
+      goes to the closest point of the current surface (the paper's stroke). A bare (k, 3)
+      array passed to `Simulation.stroke` is this.
+    - ``StrokePath.screen(pixels, camera)``: a 2-D polyline (k, 2) in pixels of a
+      `yore.Camera`, as the paper's user draws over a view: rays through the current surface,
+      nearest hit.
+    - ``StrokePath.material(uv)``: a 2-D polyline (k, 2) in the cloth's rest-pattern
+      coordinates (``cloth.material_coordinates``, set by the scenes and pattern meshes).
+    """
+
+    SPACES = ("world", "screen", "material")
+
+    def __init__(self, space, points, camera=None):
+        if space not in self.SPACES:
+            raise ValueError(f"stroke path space: got {space!r}; expected one of "
+                             f"{', '.join(map(repr, self.SPACES))}")
+        if space == "screen" and not isinstance(camera, Camera):
+            raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
+        names = {"world": ("points_3d", 3), "screen": ("points_px", 2),
+                 "material": ("points_uv", 2)}
+        name, dimension = names[space]
+        self.space, self.camera = space, camera
+        self.points = check_stroke_points(points, dimension, name)  # k×3 (2-D: z = 0)
+
+    @classmethod
+    def world(cls, points) -> "StrokePath":
+        return cls("world", points)
+
+    @classmethod
+    def screen(cls, pixels, camera) -> "StrokePath":
+        return cls("screen", pixels, camera)
+
+    @classmethod
+    def material(cls, uv) -> "StrokePath":
+        return cls("material", uv)
+
+    @classmethod
+    def of(cls, path) -> "StrokePath":
+        """``path`` itself, or a (k, 3) array of points as a world path."""
+        return path if isinstance(path, cls) else cls.world(path)
+
+    def __repr__(self):
+        return f"StrokePath.{self.space}({len(self.points)} points)"
+
+
 def predicted_refined_vertices(vertices, band_faces, passes):
     """An estimate from above of the vertex count after ``passes`` refinement passes of a band
     of ``band_faces`` faces on a mesh of ``vertices``: each pass adds at most
@@ -192,12 +344,7 @@ def predicted_refined_vertices(vertices, band_faces, passes):
     return _core.predicted_refined_vertices(vertices, band_faces, passes)
 
 
-class RefinementTooLarge(ValueError):
-    """A stroke's refinement could make the mesh larger than `MAX_REFINED_VERTICES`."""
-
-
-def apply_stroke(cloth, trace, points, expansion, mass_scale, width=None, growth="paper",
-                 refine=0, **trace_options) -> StrokeReport:
+def apply_stroke(cloth, trace, points, options, **trace_options) -> StrokeReport:
     """Applies one stroke in one call of the core (`_core.apply_stroke`): traces it, refines
     its band ``refine`` times (tracing again after each pass), then splits or grows.
 
@@ -206,15 +353,16 @@ def apply_stroke(cloth, trace, points, expansion, mass_scale, width=None, growth
     with z = 0, ``eye``, ``base_direction``, ``direction_per_pixel_x``,
     ``direction_per_pixel_y``, ``spacing_pixels``), all in ``trace_options``. Raises
     StrokeMissed when a trace finds nothing, RefinementTooLarge (the cloth unchanged) when the
-    refinement could make the mesh larger than `MAX_REFINED_VERTICES`.
+    refinement could make the mesh larger than `MAX_REFINED_VERTICES`. ``options``: checked
+    `StrokeOptions`.
     """
+    expansion, mass_scale, width = options.expansion, options.mass_scale, options.width
+    growth, refine = options.growth, options.refine
     conserve = isinstance(mass_scale, str) and mass_scale == "conserve"
     fields = dict(_core.apply_stroke(
         cloth, trace, points, growth=growth, width=0.0 if width is None else float(width),
         refine=refine, expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
-        conserve_mass=conserve, min_barycentric=MIN_BARYCENTRIC,
-        min_angle_degrees=MIN_ANGLE_DEGREES,
-        max_vertices=MAX_REFINED_VERTICES if refine > 0 else MAX_MESH_VERTICES, **trace_options))
+        conserve_mass=conserve, max_vertices=MAX_REFINED_VERTICES if refine > 0 else MAX_MESH_VERTICES, **trace_options))
     weights = {"spring_weights": fields.pop("spring_weights"),
                "vertex_weights": fields.pop("vertex_weights")}
     for name in ("faces_skipped", "region_faces", "new_vertices", "line_vertices"):

@@ -21,6 +21,8 @@ enum class GrowthMode : std::int8_t {
   along = 2,      ///< only the component along the stroke tangent grows
   across = 3,     ///< only the component across the stroke tangent grows
 };
+/// Number of growth modes (the rows of the growth table).
+inline constexpr int kGrowthModeCount = 4;
 
 /// One row of the growth table. A spring of rest length L at angle θ to the stroke tangent
 /// (c = |cos θ|, s = sin θ) and weight w gets L √((a c)² + (b s)²), a and b being g = 1 +

@@ -126,4 +126,14 @@ StrokeTrace trace_rays(const Positions& positions, const Faces& faces, const Pos
                        const Eigen::Vector3d& direction_per_pixel_x,
                        const Eigen::Vector3d& direction_per_pixel_y, double spacing_pixels);
 
+/// The first surface hit of each pixel's ray, cast as trace_rays casts them (eye + t (base +
+/// px · per_pixel_x + py · per_pixel_y), t > 0; pixels k×3 with z = 0), with one AABB tree for
+/// all: picking under a mouse. std::nullopt where a ray misses.
+std::vector<std::optional<SurfaceHit>> pick_rays(const Positions& positions, const Faces& faces,
+                                                 const Positions& pixels,
+                                                 const Eigen::Vector3d& eye,
+                                                 const Eigen::Vector3d& base_direction,
+                                                 const Eigen::Vector3d& direction_per_pixel_x,
+                                                 const Eigen::Vector3d& direction_per_pixel_y);
+
 }  // namespace yore

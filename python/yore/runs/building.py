@@ -19,7 +19,7 @@ from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh, pattern_mesh
 from ..options import GRAVITY
 from ..simulation import Simulation
 from ..camera import Camera, camera_from_settings
-from ..stroke import RefinementTooLarge, StrokeMissed
+from ..stroke import RefinementTooLarge, StrokeMissed, StrokeOptions, StrokePath
 from .schema import STROKE_FORMS, did_you_mean
 
 __all__ = ["scene_camera", "apply_scene_stroke"]
@@ -192,30 +192,26 @@ def apply_scene_stroke(scene, sim, index, camera=None):
     report. A stroke that misses raises SceneError naming it."""
     stroke = scene.data["strokes"][index]
     where = f"strokes[{index}]"
-    options = {"expansion": stroke["expansion"], "mass_scale": stroke["mass_scale"],
-               "width": stroke.get("width"), "growth": stroke["growth"],
-               "refine": stroke["refine"]}
+    options = StrokeOptions(expansion=stroke["expansion"], mass_scale=stroke["mass_scale"],
+                            width=stroke.get("width"), growth=stroke["growth"],
+                            refine=stroke["refine"], max_distance=stroke.get("max_distance"),
+                            smooth=stroke.get("smooth"))
+    if "material" in stroke:
+        path = StrokePath.material(stroke["material"])
+    elif "points" in stroke:
+        path = StrokePath.world(stroke["points"])
+    else:
+        if "eye" not in scene.data["camera"]:
+            raise scene.error(f"{where}.screen", "a screen stroke needs a camera",
+                              "a [camera] table with eye and target")
+        camera = camera or scene_camera(scene, sim.cloth.positions)
+        path = StrokePath.screen(stroke["screen"], camera)
     try:
-        if "material" in stroke:
-            report = sim.stroke_material(stroke["material"], **options)
-        elif "points" in stroke:
-            report = sim.stroke(stroke["points"], max_distance=stroke.get("max_distance"),
-                                **options)
-        else:
-            if "eye" not in scene.data["camera"]:
-                raise scene.error(f"{where}.screen", "a screen stroke needs a camera",
-                                  "a [camera] table with eye and target")
-            camera = camera or scene_camera(scene, sim.cloth.positions)
-            report = sim.stroke_screen(stroke["screen"], camera, **options)
+        report = sim.stroke(path, options)
     except RefinementTooLarge as error:
         raise scene.error(f"{where}.refine", str(error).removeprefix("refine: ")) from None
     except StrokeMissed as error:
         form = next(f for f in STROKE_FORMS if f in stroke)
         raise scene.error(f"{where}.{form}", f"the stroke misses the cloth at t = "
                           f"{sim.time:.4g} s ({error})", "a polyline over the cloth") from None
-    smooth = stroke.get("smooth")
-    if smooth is not None:
-        sim.smooth_rest_lengths(iterations=smooth["iterations"], strength=smooth["strength"],
-                                region="all" if smooth["region"] == "all" else None,
-                                conserve=smooth["conserve"])
     return report

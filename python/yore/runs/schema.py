@@ -14,7 +14,7 @@ fit the core's int32); a generated mesh has at most `yore.meshes.MAX_MESH_VERTIC
 (nx·ny or rings·segments); the camera image at most `yore.checks.MAX_IMAGE_SIDE` pixels a side
 and `yore.checks.MAX_IMAGE_PIXELS` in all; integrator options follow
 `yore.simulation.check_option` (iteration counts up to `MAX_STEP_ITERATIONS`); smoothing
-iterations at most `MAX_SMOOTHING_ITERATIONS`; floats are finite.
+iterations at most `yore.options.MAX_SMOOTHING_ITERATIONS`; floats are finite.
 """
 
 from __future__ import annotations
@@ -24,8 +24,11 @@ import math
 
 import numpy as np
 
+from .. import rules
+from ..rules import Invalid
 from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAMES_PER_SECOND,
-                       IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, MASS, MAX_SMOOTHING_ITERATIONS, RUN_ANIMATION,
+                       IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, MASS, RUN_ANIMATION,
+                       SMOOTHING_DEFAULTS, SMOOTHING_RULES,
                        STIFFNESS, STROKE_DEFAULTS)
 from ..checks import (MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_MASS_SCALE, MAX_SETTLE_SECONDS,
                       MAX_THREADS, MAX_TIME, MIN_DT, MIN_EXPANSION)
@@ -65,24 +68,26 @@ class SceneError(ValueError):
 REQUIRED = object()
 
 
-class Invalid(Exception):
-    def __init__(self, problem, expected):
-        super().__init__(problem)
-        self.problem, self.expected = problem, expected
-
-
 def describe_value(value):
-    if isinstance(value, (dict, list)):
-        return f"a {'table' if isinstance(value, dict) else 'list'}"
-    text = repr(value)
-    if len(text) > 60:  # one readable line, whatever was given
-        text = text[:57] + "..."
-    return f"{type(value).__name__} {text}"
+    """A value as scene errors quote it (`yore.rules.describe`)."""
+    return rules.describe(value)
 
 
 def did_you_mean(key, candidates):
     close = difflib.get_close_matches(str(key), [str(c) for c in candidates], n=2, cutoff=0.6)
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
+# The scene file's rules: `yore.rules.Rule`s of TOML's own types (numpy's are no TOML value),
+# whose errors say "got float 3.5" and, for a number out of its bounds, just the number.
+def _got(value):
+    return f"got {describe_value(value)}"
+
+
+def _got_number(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return _got(value)
+    return f"got {float(value):g}" if math.isfinite(value) else f"got {float(value)}"
 
 
 def _number(minimum=None, maximum=None, strict_minimum=False, unit="", strict_maximum=False):
@@ -93,78 +98,43 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit="", strict_ma
         bounds.append(f"{'<' if strict_maximum else '<='} {maximum:g}")
     expected = "a number" + (f" {' and '.join(bounds)}" if bounds else "") + \
         (f" ({unit})" if unit else "")
-
-    def check(value):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise Invalid(f"got {describe_value(value)}", expected)
-        value = float(value)
-        if not math.isfinite(value):
-            raise Invalid(f"got {value}", expected)
-        if minimum is not None and (value < minimum or (strict_minimum and value == minimum)):
-            raise Invalid(f"got {value:g}", expected)
-        if maximum is not None and (value > maximum or (strict_maximum and value == maximum)):
-            raise Invalid(f"got {value:g}", expected)
-        return value
-    check.expected = expected
-    return check
+    return rules.real(minimum, maximum, low_open=strict_minimum, high_open=strict_maximum,
+                      expected=expected, problem=_got_number, python_types=True)
 
 
 def _number_or_auto(minimum=None, unit=""):
     number = _number(minimum, unit=unit)
-    expected = f'{number.expected} or "auto"'
 
-    def check(value):
-        if value == "auto":
-            return value
-        try:
-            return number(value)
-        except Invalid as error:
-            raise Invalid(error.problem, expected) from None
-    check.expected = expected
-    return check
+    def test(value):
+        return (True, value) if value == "auto" else number.test(value)
+    return rules.custom(test, f'{number.expected} or "auto"', problem=_got_number)
 
 
 def _integer(minimum, maximum=MAX_INTEGER):
     expected = (f"an integer >= {minimum}" if maximum == MAX_INTEGER else
                 f"an integer in [{minimum}, {maximum}]")
 
-    def check(value):
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise Invalid(f"got {describe_value(value)}", expected)
-        if value > maximum:
-            raise Invalid(f"got {describe_value(value)}, more than the limit {maximum}", expected)
-        return value
-    check.expected = expected
-    return check
+    def problem(value):
+        if not isinstance(value, bool) and isinstance(value, int) and value > maximum:
+            return f"{_got(value)}, more than the limit {maximum}"
+        return _got(value)
+    return rules.count(minimum, maximum, expected=expected, problem=problem, python_types=True)
 
 
-def _boolean(value):
-    if not isinstance(value, bool):
-        raise Invalid(f"got {describe_value(value)}", "true or false")
-    return value
-
-
-_boolean.expected = "true or false"
-
-
-def _string(value):
-    if not isinstance(value, str):
-        raise Invalid(f"got {describe_value(value)}", "a string")
-    return value
-
-
-_string.expected = "a string"
+_boolean = rules.flag("true or false", problem=_got, python_types=True)
+_string = rules.text(problem=_got)
 
 
 def _choice(*choices):
-    expected = "one of " + ", ".join(repr(c) for c in choices)
+    # TOML values compare by equality here (a choice of names only ever gets strings through)
+    return rules.custom(lambda value: (value in choices, value),
+                        "one of " + ", ".join(repr(c) for c in choices), problem=_got)
 
-    def check(value):
-        if value not in choices:
-            raise Invalid(f"got {describe_value(value)}", expected)
-        return value
-    check.expected = expected
-    return check
+
+def _shaped(check):
+    """A checker that returns the value or raises `Invalid` with its own problem (which point
+    of a list), as a `yore.rules.Rule`."""
+    return rules.custom(lambda value: (True, check(value)), check.expected, problem=_got)
 
 
 def _points(dimension, what):
@@ -180,7 +150,7 @@ def _points(dimension, what):
                 raise Invalid(f"got the point {point!r}", expected)
         return np.asarray(value, dtype=np.float64)
     check.expected = expected
-    return check
+    return _shaped(check)
 
 
 def _polygons(value):
@@ -232,6 +202,8 @@ def _indices(value):
 
 
 _indices.expected = "a list of vertex indices (integers in [0, 2147483647])"
+_polygons, _vector3, _camera_vector, _indices = map(_shaped, (_polygons, _vector3,
+                                                              _camera_vector, _indices))
 
 GENERATOR_KEYS = {
     "grid": {
@@ -288,6 +260,7 @@ def _mass_scale(value):
 
 _positive_factor = _number(0, MAX_MASS_SCALE, strict_minimum=True)
 _mass_scale.expected = f"a number in (0, {MAX_MASS_SCALE:g}] or 'conserve'"
+_mass_scale = _shaped(_mass_scale)
 SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in GENERATOR_KEYS)
 
 SCHEMA = {
@@ -399,10 +372,14 @@ SCHEMA = {
 }
 
 SMOOTH = {
-    "iterations": (_integer(0, MAX_SMOOTHING_ITERATIONS), 10, "smoothing iterations"),
-    "strength": (_number(0, 1, strict_minimum=True), 0.5, "fraction moved per iteration"),
+    "iterations": (_integer(0, SMOOTHING_RULES["iterations"].high),
+                   SMOOTHING_DEFAULTS["iterations"], "smoothing iterations"),
+    "strength": (_number(SMOOTHING_RULES["strength"].low, SMOOTHING_RULES["strength"].high,
+                         strict_minimum=True), SMOOTHING_DEFAULTS["strength"],
+                 "fraction moved per iteration"),
     "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
-    "conserve": (_boolean, True, "keep the region's added rest length (redistribute only)"),
+    "conserve": (_boolean, SMOOTHING_DEFAULTS["conserve"],
+                 "keep the region's added rest length (redistribute only)"),
 }
 BOX = {
     "min": (_vector3, REQUIRED, "lower corner, m"),

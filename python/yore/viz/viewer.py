@@ -32,11 +32,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _core
 from ..camera import Camera, fit_camera
-from ..options import IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, STROKE_DEFAULTS
+from ..options import (IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, SMOOTHING_RULES,
+                       STROKE_DEFAULTS)
 from ..simulation import Simulation
-from ..checks import check_factor, check_integer
-from ..stroke import GROWTH_MODES, StrokeMissed, check_stroke_options
+from ..checks import check_integer
+from ..stroke import GROWTH_MODES, StrokeMissed, StrokeOptions, StrokePath
 from . import backend
 
 __all__ = ["Viewer", "parse_pixels", "densify", "SAMPLE_SPACING_PX", "KEYS"]
@@ -157,7 +159,6 @@ class Viewer:
         self._last_frame = None
         self._topology = None
         self._mesh = None
-        self._adjacency = None
         self._ps = backend.ensure(window=not self.headless)
         backend.set_camera(self.camera)
         self._register()
@@ -199,8 +200,7 @@ class Viewer:
             self._mesh.set_selection_mode("faces_only")
             self._topology = version
             self._colored_version = None
-            self._adjacency = None
-        self._update_colors()
+            self._update_colors()
 
     def _update_colors(self, force=False):
         from ..metrics import vertex_expansion, wrinkle_height
@@ -240,65 +240,22 @@ class Viewer:
         cloth, the face under each and its barycentric coordinates (k×3, each row ≥ 0 summing
         to 1).
 
-        polyscope's pick buffer says which face is under a pixel (at whole-pixel resolution);
-        the point is then where the pixel's ray (`Camera.rays` of `view_camera`) meets that
-        face or, when it passes beside it by the buffer's rounding, one of its neighbours (else
-        the nearest point of the picked face)."""
+        Each pixel's ray of `view_camera` (`Camera.pixel_rays`) goes to its first hit on the
+        cloth in the C++ core (``_core.pick_rays``: the rays a screen stroke casts, one AABB
+        tree for all the samples)."""
         self._activate()
-        if self.headless:
-            backend.set_camera(self.camera)  # a picture in between may have moved the view
         pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        hits, faces, weights = [], [], []
-        hidden = self._ps.has_curve_network(DRAFT)
-        if hidden:
-            self._ps.get_curve_network(DRAFT).set_enabled(False)
-        try:
-            picked = []
-            for pixel in pixels:
-                result = backend.pick(pixel)
-                data = result.structure_data if result.is_hit else {}
-                if result.structure_name == CLOTH and data.get("element_type") == "face":
-                    picked.append((pixel, int(data["index"])))
-        finally:
-            if hidden:
-                self._ps.get_curve_network(DRAFT).set_enabled(True)
-        if not picked:
+        if len(pixels) == 0:
             return np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
         camera = self.view_camera()
-        eye = np.asarray(camera.eye, float)
-        directions = camera.rays(np.asarray([p for p, _ in picked]))
-        V, F = self.sim.cloth.positions, self.sim.cloth.faces
-        for (pixel, face), direction in zip(picked, directions):
-            candidates = self._neighbour_faces(face)
-            u, v, t = _ray_triangles(eye, direction, V[F[candidates]])
-            inside = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (t > 0)
-            if inside.any():
-                k = np.flatnonzero(inside)[np.argmin(t[inside])]
-                face, bary = int(candidates[k]), np.array([1 - u[k] - v[k], u[k], v[k]])
-            else:
-                k = int(np.flatnonzero(candidates == face)[0])
-                bary = np.array([1 - u[k] - v[k], u[k], v[k]])
-            bary = np.clip(bary, 0.0, None)
-            if not np.isfinite(bary).all() or bary.sum() <= 0:
-                continue
-            hits.append(pixel)
-            faces.append(face)
-            weights.append(bary / bary.sum())
-        return (np.asarray(hits, dtype=np.float64).reshape(-1, 2),
-                np.asarray(faces, dtype=np.int64), np.asarray(weights).reshape(-1, 3))
-
-    def _neighbour_faces(self, face) -> np.ndarray:
-        """``face`` first, then the faces sharing a vertex with it."""
-        if self._adjacency is None:
-            F = self.sim.cloth.faces
-            order = np.argsort(F.reshape(-1), kind="stable")
-            starts = np.searchsorted(F.reshape(-1)[order], np.arange(self.sim.cloth.vertex_count
-                                                                     + 1))
-            self._adjacency = (order // 3, starts)
-        faces_of, starts = self._adjacency
-        around = np.concatenate([faces_of[starts[v]:starts[v + 1]]
-                                 for v in self.sim.cloth.faces[face]])
-        return np.concatenate([[face], np.setdiff1d(around, [face])]).astype(np.int64)
+        d0, dx, dy = camera.pixel_rays()
+        picked = _core.pick_rays(self.sim.cloth, np.column_stack([pixels, np.zeros(len(pixels))]),
+                                 np.asarray(camera.eye, float), d0, dx, dy)
+        faces = np.asarray(picked["faces"], dtype=np.int64)
+        weights = np.clip(picked["barycentric"], 0.0, None)
+        total = weights.sum(axis=1)
+        hit = (faces >= 0) & np.isfinite(total) & (total > 0)
+        return (pixels[hit], faces[hit], weights[hit] / total[hit, None])
 
     def surface_points(self, faces, barycentric) -> np.ndarray:
         """3-D points (k×3) on the cloth as it is now at (face, barycentric) pairs."""
@@ -331,8 +288,7 @@ class Viewer:
         stroke options and smoothing; one undo step for all. Returns the reports."""
         if len(faces) == 0:
             raise StrokeMissed("the stroke's pixels miss the cloth (no sample lies on it)")
-        options = dict(self.stroke_options)
-        smooth = int(options.pop("smooth"))
+        options = self.stroke_value()
         saved = self.sim.state()
         reports = []
         # every run's points on the cloth as it is now, before the first stroke renumbers faces
@@ -340,11 +296,7 @@ class Viewer:
                   for a, b in self._runs(pixels, faces)]
         try:
             for points in pieces:
-                report = self.sim.stroke(points, **options)
-                reports.append(report)
-                if smooth > 0:
-                    # the stroke's region, conserving the rest length it added
-                    self.sim.smooth_rest_lengths(iterations=smooth)
+                reports.append(self.sim.stroke(StrokePath.world(points), options))
         except Exception:
             # a stroke that fails halfway leaves nothing behind
             self.sim = Simulation.from_state(saved)
@@ -380,13 +332,21 @@ class Viewer:
         self._register()
         self.message = "reset to the start"
 
+    def stroke_value(self) -> StrokeOptions:
+        """The stroke options in force as a `yore.StrokeOptions`: the panel's, with its
+        smoothing iterations (0: none) as the stroke's last stage over the stroke's region,
+        conserving the rest length it added."""
+        options = dict(self.stroke_options)
+        smooth = options.pop("smooth")
+        return StrokeOptions.of(options, smooth=smooth or None)
+
     def _check_stroke_options(self):
         options = self.stroke_options
-        options["width"], options["growth"], options["refine"], options["mass_scale"] = \
-            check_stroke_options(options["width"], options["growth"], options["refine"],
-                                 options["mass_scale"])
-        options["expansion"] = check_factor(options["expansion"], "expansion")
-        options["smooth"] = check_integer(options["smooth"], "smooth (iterations)", 0, 1000)
+        options["smooth"] = check_integer(options["smooth"], "smooth (iterations)",
+                                          SMOOTHING_RULES["iterations"].low,
+                                          SMOOTHING_RULES["iterations"].high)
+        checked = self.stroke_value()
+        options.update({name: getattr(checked, name) for name in STROKE_DEFAULTS})
 
     # -- time -----------------------------------------------------------------------------------
     def advance(self, seconds, progress=None) -> None:
@@ -690,22 +650,6 @@ class Viewer:
         except (ValueError, OSError, RuntimeError) as error:
             self.message = " ".join(str(error).split())
             return None
-
-
-def _ray_triangles(origin, direction, triangles):
-    """Möller–Trumbore: (u, v, t) of the ray origin + t·direction against k triangles (k×3×3);
-    the hit point is (1 − u − v)·a + u·b + v·c. Parallel triangles give inf."""
-    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-    e1, e2 = b - a, c - a
-    p = np.cross(direction, e2)
-    det = np.einsum("ij,ij->i", e1, p)
-    inverse = np.divide(1.0, det, out=np.full_like(det, np.inf), where=np.abs(det) > 1e-300)
-    s = origin - a
-    u = np.einsum("ij,ij->i", s, p) * inverse
-    q = np.cross(s, e1)
-    v = (q @ direction) * inverse
-    t = np.einsum("ij,ij->i", e2, q) * inverse
-    return u, v, t
 
 
 #: What the panel shows of an error-controlled (SUNDIALS) run, from its counters.
