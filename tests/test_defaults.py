@@ -168,3 +168,21 @@ def test_yores_exceptions_live_in_the_core_and_are_re_exported(name):
     assert error.__doc__
     if name == "StrokeMissed":
         assert yore.StrokeMissed is error
+
+
+def test_bad_material_names_its_argument_as_data():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    F = np.array([[0, 1, 2]])
+    for arguments, name in (({"damping": -1.0}, "damping"), ({"drag": 1e13}, "drag"),
+                            ({"stretch_stiffness": "x"}, "stretch_stiffness"),
+                            ({"masses": np.array([1.0, 0.0, 1.0])}, "masses"),
+                            ({"stretch": "membrane", "young_modulus": 1.0,
+                              "poisson_ratio": 1.5}, "poisson_ratio")):
+        with pytest.raises(yore.ArgumentError) as error:
+            yore.Cloth(V, F, **arguments)
+        assert error.value.argument == name
+        assert str(error.value).startswith(name.rstrip("es"))  # the text names it too
+        assert isinstance(error.value, ValueError)
+    with pytest.raises(ValueError) as error:  # not an argument's fault: no argument
+        yore.Cloth(V, np.array([[0, 1, 1]]))
+    assert not isinstance(error.value, yore.ArgumentError)

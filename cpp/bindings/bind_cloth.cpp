@@ -2,6 +2,7 @@
 #include "cloth_state.hpp"
 #include "convert.hpp"
 #include "yore/cloth.hpp"
+#include "yore/errors.hpp"
 
 #include <pybind11/stl.h>
 
@@ -109,9 +110,9 @@ double real_argument(const py::object& value, const char* name) {
   const py::object numpy_bool = py::module_::import("numpy").attr("bool_");
   if (py::isinstance<py::bool_>(value) || py::isinstance(value, numpy_bool) ||
       !py::isinstance(value, real)) {
-    throw std::invalid_argument(std::string(name) + ": got " +
-                                py::str(py::repr(value)).cast<std::string>() +
-                                "; expected a number");
+    throw InvalidArgument(std::string(name) + ": got " +
+                              py::str(py::repr(value)).cast<std::string>() + "; expected a number",
+                          name);
   }
   return value.cast<double>();
 }
@@ -127,9 +128,10 @@ MembraneMaterial membrane_argument(const std::string& stretch, const py::object&
   MembraneMaterial membrane;
   if (stretch == "springs") {
     if (!young_modulus.is_none() || !poisson_ratio.is_none()) {
-      throw std::invalid_argument(
+      throw InvalidArgument(
           "young_modulus and poisson_ratio are for stretch=\"membrane\"; springs take "
-          "stretch_stiffness (N/m)");
+          "stretch_stiffness (N/m)",
+          "young_modulus");
     }
     return membrane;
   }
@@ -138,8 +140,9 @@ MembraneMaterial membrane_argument(const std::string& stretch, const py::object&
   }
   membrane.young_modulus = real_argument(young_modulus, "young_modulus");
   if (!(membrane.young_modulus > 0.0)) {
-    throw std::invalid_argument("young_modulus must be > 0 (N/m), got " +
-                                py::str(py::repr(young_modulus)).cast<std::string>());
+    throw InvalidArgument("young_modulus must be > 0 (N/m), got " +
+                              py::str(py::repr(young_modulus)).cast<std::string>(),
+                          "young_modulus");
   }
   membrane.poisson_ratio = poisson_ratio.is_none()
                                ? kDefaultPoissonRatio
@@ -209,9 +212,10 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
              }
              const BendingModel model = bending_model(bending);
              if (model == BendingModel::springs && !bending_modulus.is_none()) {
-               throw std::invalid_argument(
+               throw InvalidArgument(
                    "bending_modulus is for bending=\"quadratic\"; bending springs take "
-                   "bend_stiffness (N/m)");
+                   "bend_stiffness (N/m)",
+                   "bending_modulus");
              }
              if (model == BendingModel::quadratic && bending_modulus.is_none()) {
                throw std::invalid_argument(

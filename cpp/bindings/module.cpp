@@ -16,6 +16,9 @@ PYBIND11_MODULE(_core, m) {
   // The type lives in the module (no static Python object to outlive the interpreter).
   py::exception<yore::SimulationDiverged>(m, "SimulationDiverged", PyExc_RuntimeError);
   py::register_exception<yore::NotPositiveDefinite>(m, "NotPositiveDefinite", PyExc_RuntimeError);
+  // Bad input that names its argument: a ValueError whose `argument` is that name.
+  py::exception<yore::InvalidArgument>(m, "ArgumentError", PyExc_ValueError)
+      .attr("__doc__") = "Bad input (a ValueError); `argument` names the argument at fault.";
   py::register_exception_translator([](std::exception_ptr pointer) {
     try {
       if (pointer) std::rethrow_exception(pointer);
@@ -26,6 +29,11 @@ PYBIND11_MODULE(_core, m) {
       instance.attr("time") = error.time();
       instance.attr("dt") = error.dt();
       instance.attr("stable_dt") = error.stable_dt();
+      PyErr_SetObject(type.ptr(), instance.ptr());
+    } catch (const yore::InvalidArgument& error) {
+      py::object type = py::module_::import("yore._core").attr("ArgumentError");
+      py::object instance = type(error.what());
+      instance.attr("argument") = error.argument();
       PyErr_SetObject(type.ptr(), instance.ptr());
     }
   });

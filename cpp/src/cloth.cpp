@@ -1,4 +1,5 @@
 #include "yore/cloth.hpp"
+#include "yore/errors.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -21,6 +22,12 @@ namespace {
 
 [[noreturn]] void fail(const std::string& message) { throw std::invalid_argument(message); }
 
+/// Bad input naming its argument: `name` without a "state: " prefix.
+[[noreturn]] void fail_argument(const std::string& message, const std::string& name) {
+  const std::string prefix = "state: ";
+  throw InvalidArgument(message, name.rfind(prefix, 0) == 0 ? name.substr(prefix.size()) : name);
+}
+
 /// Topology versions are unique across all cloths of the process, so a cache keyed by a version
 /// can never mistake one cloth (or an earlier topology) for another.
 std::uint64_t next_topology_version() {
@@ -41,7 +48,7 @@ void check_non_negative(double value, const char* name) {
     std::ostringstream msg;
     msg << name << " must be 0 or a normal number in [" << std::numeric_limits<double>::min()
         << ", " << kMaxMaterialValue << "], got " << value;
-    fail(msg.str());
+    fail_argument(msg.str(), name);
   }
 }
 
@@ -51,7 +58,7 @@ void check_positive(double value, const char* name) {
     std::ostringstream msg;
     msg << name << " must be a normal number in [" << std::numeric_limits<double>::min()
         << ", " << kMaxMaterialValue << "] (> 0), got " << value;
-    fail(msg.str());
+    fail_argument(msg.str(), name);
   }
 }
 
@@ -64,7 +71,7 @@ void check_membrane(const MembraneMaterial& membrane, const char* prefix) {
   if (!std::isfinite(nu) || !(nu > -1.0 && nu < 1.0)) {
     std::ostringstream msg;
     msg << prefix << "poisson_ratio must be in (-1, 1) (a 2-D membrane), got " << nu;
-    fail(msg.str());
+    fail_argument(msg.str(), "poisson_ratio");
   }
   if (membrane.young_modulus == 0.0 && nu != 0.0) {
     std::ostringstream msg;
@@ -94,7 +101,7 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
   if (masses.size() != n) {
     std::ostringstream msg;
     msg << "masses has " << masses.size() << " entries for " << n << " vertices";
-    fail(msg.str());
+    fail_argument(msg.str(), "masses");
   }
   for (Eigen::Index i = 0; i < n; ++i) {
     // A subnormal (or smaller) mass has no finite inverse mass or stable step to go with it.
@@ -104,7 +111,7 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
       msg << "mass of vertex " << i << " must be finite, >= "
           << std::numeric_limits<double>::min() << " kg (a normal number > 0) and <= "
           << kMaxMaterialValue << " kg, got " << masses[i];
-      fail(msg.str());
+      fail_argument(msg.str(), "masses");
     }
   }
   check_non_negative(drag, "drag");
@@ -139,7 +146,9 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
     fail("bending must be springs (0) or quadratic (1)");
   }
   if (bending == BendingModel::springs && bending_modulus != 0.0) {
-    fail("bending_modulus is for quadratic bending; with bending springs use bend_stiffness");
+    fail_argument("bending_modulus is for quadratic bending; with bending springs use "
+                  "bend_stiffness",
+                  "bending_modulus");
   }
   if (bending == BendingModel::quadratic && bend_stiffness != 0.0) {
     std::ostringstream msg;

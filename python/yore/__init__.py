@@ -17,7 +17,7 @@ _ignore_interrupts_in_sweep_workers()
 _guard_command_start()
 
 from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the guard)
-from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
+from ._core import ArgumentError, Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh
 from .meshes import cylinder_mesh, grid_mesh, pattern_mesh
 from .simulation import INTEGRATORS, Simulation
@@ -25,7 +25,7 @@ from .state import load_state, save_state
 from .runs import RunError, SceneError, load_scene, resume_run, run_scene
 from . import camera, checks, runs, viz
 from .camera import Camera
-from .stroke import StrokeMissed, StrokeOptions, StrokePath, StrokeReport
+from .stroke import RefinementTooLarge, StrokeMissed, StrokeOptions, StrokePath, StrokeReport
 from . import _core as _threads_core
 
 # OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
@@ -45,6 +45,8 @@ __all__ = [
     "Simulation",
     "SimulationDiverged",
     "NotPositiveDefinite",
+    "ArgumentError",
+    "RefinementTooLarge",
     "StrokeMissed",
     "StrokeOptions",
     "StrokePath",

@@ -1,10 +1,11 @@
 #pragma once
 /// @file errors.hpp
-/// Numerical failures that are not bad input.
+/// Numerical failures that are not bad input, and bad input that names its argument.
 
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace yore {
 
@@ -38,6 +39,23 @@ namespace yore {
 class NotPositiveDefinite : public std::runtime_error {
  public:
   explicit NotPositiveDefinite(const std::string& message) : std::runtime_error(message) {}
+};
+
+}  // namespace yore
+
+namespace yore {
+
+/// Bad input (a std::invalid_argument) that carries the name of the argument at fault, so a
+/// caller can point at where the value came from (a scene file's key) without reading the
+/// message. argument() is the bare name: "stretch_stiffness", "masses", "poisson_ratio".
+class InvalidArgument : public std::invalid_argument {
+ public:
+  InvalidArgument(const std::string& message, std::string argument)
+      : std::invalid_argument(message), m_argument(std::move(argument)) {}
+  const std::string& argument() const { return m_argument; }
+
+ private:
+  std::string m_argument;
 };
 
 }  // namespace yore

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._core import Cloth
+from .._core import ArgumentError, Cloth
 from ..io import load_mesh
 from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh, pattern_mesh
 from ..options import GRAVITY
@@ -31,6 +31,11 @@ def _boundary_vertices(F):
     edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     unique, counts = np.unique(edges, axis=0, return_counts=True)
     return np.unique(unique[counts == 1]).astype(np.int32)
+
+
+#: The Cloth arguments that are scene keys of [material] by the same name.
+MATERIAL_ARGUMENTS = ("stretch_stiffness", "bend_stiffness", "bending_modulus", "damping", "drag",
+                      "young_modulus", "poisson_ratio")
 
 
 def build_simulation(scene):
@@ -94,18 +99,17 @@ def build_simulation(scene):
             else {"stretch_stiffness": material["stretch_stiffness"]})
         cloth = Cloth(pattern, F, damping=material["damping"], drag=material["drag"],
                       **mass_arguments, **bending_arguments, **stretch_arguments)
-    except ValueError as error:
-        # The core checks the mesh, the per-vertex masses and the material's values; name the
-        # key (or table) the value came from.
-        text = str(error)
-        for key in ("stretch_stiffness", "bend_stiffness", "bending_modulus", "damping",
-                    "drag", "young_modulus", "poisson_ratio"):
-            if text.startswith(key):
-                raise scene.error(f"material.{key}", text) from None
-        if "mass" in text:
-            raise scene.error("material", text, "masses that are normal numbers > 0 per "
+    except ArgumentError as error:
+        # The core checks the material's values and the per-vertex masses, and names the
+        # argument at fault: the key (or table) the value came from.
+        if error.argument in MATERIAL_ARGUMENTS:
+            raise scene.error(f"material.{error.argument}", str(error)) from None
+        if error.argument == "masses":
+            raise scene.error("material", str(error), "masses that are normal numbers > 0 per "
                               "vertex, at most 1e12 kg") from None
-        raise scene.error("mesh", text, "a valid triangle mesh") from None
+        raise scene.error("mesh", str(error), "a valid triangle mesh") from None
+    except ValueError as error:  # the mesh
+        raise scene.error("mesh", str(error), "a valid triangle mesh") from None
     if generator == "grid" and mesh["gather"] != 1.0:
         gathered = pattern.copy()
         middle = 0.5 * mesh["width"]
