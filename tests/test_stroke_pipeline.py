@@ -64,7 +64,7 @@ def test_a_refused_refinement_leaves_the_cloth_unchanged(trace):
     assert_same(before, snapshot(cloth))
     # the same stroke under the limit refines
     report = _core.apply_stroke(cloth, trace, points, refine=2, width=0.2, **options)
-    assert report["faces_refined"] > 0 and cloth.vertex_count > 81
+    assert report.faces_refined > 0 and cloth.vertex_count > 81
 
 
 def test_the_size_check_is_the_documented_estimate():

@@ -28,13 +28,13 @@ void bind_explicit(py::module_& m) {
       .def_property_readonly("statistics", [](const ExplicitIntegrator& integrator) {
         check_idle(&integrator, "the integrator");
         const ExplicitStatistics& s = integrator.statistics();
-        py::dict out;
-        out["steps"] = s.steps;
-        out["forces_seconds"] = s.forces_seconds;
-        out["update_seconds"] = s.update_seconds;
-        out["constraints_seconds"] = s.constraints_seconds;
-        out["checks_seconds"] = s.checks_seconds;
-        out["strain_corrections"] = s.strain_corrections;
+        Statistics out;
+        out.steps = s.steps;
+        out.phase("forces_seconds", s.forces_seconds);
+        out.phase("update_seconds", s.update_seconds);
+        out.phase("constraints_seconds", s.constraints_seconds);
+        out.phase("checks_seconds", s.checks_seconds);
+        out.count("strain_corrections", s.strain_corrections);
         return out;
       })
       .def_property_readonly(

@@ -38,34 +38,6 @@ StrokeInput stroke_input(const std::string& trace, const py::handle& points, dou
   return input;
 }
 
-py::dict result_dict(const StrokeResult& result) {
-  py::dict out;
-  out["faces_split"] = result.faces_split;
-  out["faces_skipped"] = read_only_copy(result.faces_skipped);
-  out["vertices_added"] = static_cast<std::int64_t>(result.new_vertices.size());
-  out["springs_added"] = result.springs_added;
-  out["springs_removed"] = result.springs_removed;
-  out["region_faces"] = read_only_copy(result.region_faces);
-  out["new_vertices"] = read_only_copy(result.new_vertices);
-  out["area_before"] = result.area_before;
-  out["rest_area_before"] = result.rest_area_before;
-  out["rest_area_after"] = result.rest_area_after;
-  out["samples"] = result.samples;
-  out["missed_samples"] = result.missed_samples;
-  out["moved_inward"] = result.moved_inward;
-  out["locate_seconds"] = result.locate_seconds;
-  out["subdivide_seconds"] = result.subdivide_seconds;
-  out["faces_refined"] = result.faces_refined;
-  out["faces_bisected"] = result.faces_bisected;
-  out["springs_grown"] = result.springs_grown;
-  out["rest_length_added"] = result.rest_length_added;
-  out["mass_added"] = result.mass_added;
-  out["line_vertices"] = read_only_copy(result.line_vertices);
-  out["spring_weights"] = read_only_copy(result.spring_weights);
-  out["vertex_weights"] = read_only_copy(result.vertex_weights);
-  return out;
-}
-
 }  // namespace
 
 void bind_stroke_pipeline(py::module_& m) {
@@ -77,6 +49,41 @@ void bind_stroke_pipeline(py::module_& m) {
       .attr("__doc__") =
       "A stroke's refinement could make the mesh larger than its vertex limit (the cloth is "
       "unchanged).";
+  // What a stroke did: StrokeResult's fields by their C++ names, read-only (index lists and
+  // weights as read-only arrays). yore.stroke.StrokeReport shows them with the Python side's
+  // own (the options, the re-analysis time).
+  py::class_<StrokeResult>(m, "StrokeResult", "What one stroke did (see stroke_pipeline.hpp).")
+      .def_readonly("faces_split", &StrokeResult::faces_split)
+      .def_property_readonly(
+          "faces_skipped", [](const StrokeResult& r) { return read_only_copy(r.faces_skipped); })
+      .def_property_readonly(
+          "vertices_added",
+          [](const StrokeResult& r) { return static_cast<std::int64_t>(r.new_vertices.size()); })
+      .def_readonly("springs_added", &StrokeResult::springs_added)
+      .def_readonly("springs_removed", &StrokeResult::springs_removed)
+      .def_property_readonly(
+          "region_faces", [](const StrokeResult& r) { return read_only_copy(r.region_faces); })
+      .def_property_readonly(
+          "new_vertices", [](const StrokeResult& r) { return read_only_copy(r.new_vertices); })
+      .def_readonly("area_before", &StrokeResult::area_before)
+      .def_readonly("rest_area_before", &StrokeResult::rest_area_before)
+      .def_readonly("rest_area_after", &StrokeResult::rest_area_after)
+      .def_readonly("samples", &StrokeResult::samples)
+      .def_readonly("missed_samples", &StrokeResult::missed_samples)
+      .def_readonly("moved_inward", &StrokeResult::moved_inward)
+      .def_readonly("locate_seconds", &StrokeResult::locate_seconds)
+      .def_readonly("subdivide_seconds", &StrokeResult::subdivide_seconds)
+      .def_readonly("faces_refined", &StrokeResult::faces_refined)
+      .def_readonly("faces_bisected", &StrokeResult::faces_bisected)
+      .def_readonly("springs_grown", &StrokeResult::springs_grown)
+      .def_readonly("rest_length_added", &StrokeResult::rest_length_added)
+      .def_readonly("mass_added", &StrokeResult::mass_added)
+      .def_property_readonly(
+          "line_vertices", [](const StrokeResult& r) { return read_only_copy(r.line_vertices); })
+      .def_property_readonly(
+          "spring_weights", [](const StrokeResult& r) { return read_only_copy(r.spring_weights); })
+      .def_property_readonly(
+          "vertex_weights", [](const StrokeResult& r) { return read_only_copy(r.vertex_weights); });
   const SplitOptions split_defaults;
   // A stroke's options by their Python names, read from a default StrokeOptions (the split's
   // are `split_defaults`): the one source of yore.options.STROKE_DEFAULTS.
@@ -119,7 +126,7 @@ void bind_stroke_pipeline(py::module_& m) {
         options.split.min_angle_degrees = min_angle_degrees;
         options.max_vertices = max_vertices;
         const BusyGuard busy(&cloth, "the Cloth", "a stroke is being applied to it");
-        return result_dict(run_without_gil([&] { return apply_stroke(cloth, input, options); }));
+        return run_without_gil([&] { return apply_stroke(cloth, input, options); });
       },
       py::arg("cloth"), py::arg("trace"), py::arg("points"), py::kw_only(),
       py::arg("max_distance") = 0.0, py::arg("eye") = py::none(),
@@ -138,7 +145,7 @@ void bind_stroke_pipeline(py::module_& m) {
 1→3 split (growth "paper") or the growth rule over the band. trace: "closest" (points k×3 m,
 max_distance m), "material" (points k×3 in rest-pattern m with z = 0, max_distance the
 tolerance) or "rays" (pixels k×3 with z = 0, eye and the camera's pixel rays, spacing_pixels).
-width m (0: the crossed faces). Returns the report's fields as a dict. Raises StrokeMissed
+width m (0: the crossed faces). Returns a StrokeResult. Raises StrokeMissed
 when a trace hits nothing, RefinementTooLarge (cloth unchanged) when the refinement
 could pass max_vertices, ValueError on bad input.)doc");
 }

@@ -232,3 +232,23 @@ std::vector<std::int32_t> to_indices(const py::handle& object, const char* name)
 }
 
 }  // namespace yore::bindings
+
+namespace yore::bindings {
+
+void bind_statistics(py::module_& m) {
+  py::class_<Statistics>(m, "Statistics", R"doc(
+An integrator's statistics: steps (taken), phases ({name: cumulative wall seconds}) and counters
+({name: cumulative count or the last step's figure}). Read-only; phases and counters are copies.)doc")
+      .def_readonly("steps", &Statistics::steps)
+      .def_property_readonly("phases",
+                             [](const Statistics& s) { return s.phases.attr("copy")(); })
+      .def_property_readonly("counters",
+                             [](const Statistics& s) { return s.counters.attr("copy")(); })
+      .def("__repr__", [](const Statistics& s) {
+        return "Statistics(steps=" + std::to_string(s.steps) + ", " +
+               std::to_string(py::len(s.phases)) + " phases, " +
+               std::to_string(py::len(s.counters)) + " counters)";
+      });
+}
+
+}  // namespace yore::bindings

@@ -232,6 +232,23 @@ next output interval); None when the next step starts afresh or the method keeps
 }
 
 /// Adds the factor's size, flops and ordering (as every integrator's statistics report them).
+/// An integrator's statistics as Python sees them (bound as yore._core.Statistics): the steps
+/// taken, the wall time per phase (s) and the counters, each by one name. A phase is set with
+/// phase(), a counter with count(); their dicts keep the order they were set in.
+struct Statistics {
+  std::int64_t steps = 0;
+  py::dict phases;
+  py::dict counters;
+  void phase(const char* name, double seconds) { phases[name] = seconds; }
+  template <typename T>
+  void count(const char* name, T value) {
+    counters[name] = value;
+  }
+};
+
+/// Binds Statistics (module.cpp, once).
+void bind_statistics(py::module_& m);
+
 inline void add_factor_statistics(py::dict& out, const SolverStatistics& solver) {
   out["factor_nonzeros"] = solver.factor_nonzeros;
   out["factor_flops"] = solver.factor_flops;

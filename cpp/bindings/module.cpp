@@ -1,4 +1,5 @@
 #include "bindings.hpp"
+#include "convert.hpp"
 #include "yore/bandwidth.hpp"
 #include "yore/build_info.hpp"
 #include "yore/errors.hpp"
@@ -60,6 +61,7 @@ PYBIND11_MODULE(_core, m) {
         "Sets the threads of the core's parallel loops and of OpenBLAS (>= 1); raises "
         "ValueError for fewer than 1.");
 
+  yore::bindings::bind_statistics(m);
   yore::bindings::bind_springs(m);
   yore::bindings::bind_mesh(m);
   yore::bindings::bind_cloth_springs(m);

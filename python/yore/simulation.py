@@ -497,8 +497,8 @@ class Simulation:
         cloth = self._cloth
         saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
         before = self._integrator.statistics
-        analyzed_before = before.get("analyze_seconds", 0.0)
-        unconverged_before = before.get("unconverged_steps", 0)
+        analyzed_before = before.phases.get("analyze_seconds", 0.0)
+        unconverged_before = before.counters.get("unconverged_steps", 0)
         done, batch, bar = 0, 1, None
         started = _time.perf_counter()
         try:
@@ -506,7 +506,7 @@ class Simulation:
                 count = min(batch, steps - done)
                 self._integrator.advance(self._cloth, self._gravity, dt, count)
                 if self._pending_reports:
-                    analyzed = self._integrator.statistics.get("analyze_seconds", 0.0)
+                    analyzed = self._integrator.statistics.phases.get("analyze_seconds", 0.0)
                     for report in self._pending_reports:
                         report.reanalyze_seconds = analyzed - analyzed_before
                     self._pending_reports = []
@@ -540,7 +540,7 @@ class Simulation:
             self._wall_seconds += _time.perf_counter() - started
             if bar is not None:
                 bar.close()
-        after = self._integrator.statistics
+        after = self._integrator.statistics.counters
         unconverged = after.get("unconverged_steps", 0) - unconverged_before
         if unconverged:
             # once per call: the steps were taken at their last iterate, never silently
@@ -716,9 +716,8 @@ class Simulation:
         36 ms at 64², 0.3 s at 128²).
         """
         cloth = self._cloth
-        counters = dict(self._integrator.statistics)
-        steps = counters.pop("steps")
-        phases = {key: counters.pop(key) for key in list(counters) if key.endswith("_seconds")}
+        statistics = self._integrator.statistics
+        steps, phases, counters = statistics.steps, statistics.phases, statistics.counters
         kinds = cloth.springs.kind
         damping = cloth.springs.damping
         active = {

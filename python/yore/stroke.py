@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -74,51 +74,55 @@ MAX_REFINE = _core.max_refine
 MAX_REFINED_VERTICES = 250_000
 
 
-@dataclass
-class StrokeReport:
-    """What a stroke did. Areas in m², times in s. ``reanalyze_seconds`` is filled in by the
-    next step (0 for the explicit integrator, which has nothing to rebuild)."""
+#: The fields of a report the core fills in: `_core.StrokeResult`'s, by their C++ names.
+CORE_FIELDS = tuple(name for name in dir(_core.StrokeResult) if not name.startswith("_"))
 
-    faces_split: int
-    faces_skipped: np.ndarray
-    vertices_added: int
-    springs_added: int
-    springs_removed: int
-    region_faces: np.ndarray
-    new_vertices: np.ndarray
-    area_before: float
-    rest_area_before: float
-    rest_area_after: float
-    samples: int
-    missed_samples: int
-    moved_inward: int
-    locate_seconds: float
-    subdivide_seconds: float
-    reanalyze_seconds: float | None = None
-    topology_version: int = 0
-    extra: dict = field(default_factory=dict)
-    #: the options the stroke ran with
-    growth: str = "paper"
-    width: float | None = None
-    refine: int = 0
-    #: faces split 1→4 / bisected 1→2 by the refinement passes (all passes)
-    faces_refined: int = 0
-    faces_bisected: int = 0
-    #: springs whose rest length the growth rule changed (0 in paper mode: its springs are new)
-    springs_grown: int = 0
-    #: m, Σ (new − old rest length) of the grown springs, or of the split's new springs
-    #: (expansion − 1 times their length) in paper mode
-    rest_length_added: float = 0.0
-    #: kg, total mass after the stroke minus before
-    mass_added: float = 0.0
-    #: vertices that trace the stroke on the cloth, in stroke order (for pictures): the split's
-    #: new vertices in paper mode, else the corner nearest each sample of the path
-    line_vertices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
+
+class StrokeReport:
+    """What a stroke did. Areas in m², lengths in m, masses in kg, times in s.
+
+    The core's fields (`_core.StrokeResult`, named as in C++ and read-only; `CORE_FIELDS`):
+    faces_split, faces_skipped (faces left whole: their children would be slivers),
+    vertices_added, new_vertices, springs_added, springs_removed, region_faces (the split's
+    children, else the band), area_before, rest_area_before, rest_area_after, samples,
+    missed_samples, moved_inward, locate_seconds, subdivide_seconds, faces_refined and
+    faces_bisected (by the refinement passes), springs_grown, rest_length_added (Σ new − old
+    rest length), mass_added, line_vertices (the stroke's vertices in stroke order, for
+    pictures), spring_weights and vertex_weights (the band's, growth modes).
+
+    The Python side's own: growth, width and refine (the options the stroke ran with),
+    topology_version (the cloth's after it), reanalyze_seconds (filled in by the next step; 0
+    for the explicit integrator, which has nothing to rebuild) and extra (a dict: the band's
+    weights in the growth modes, the step's change when the stroke lowered it, the smoothing
+    stage's result).
+    """
+
+    def __init__(self, result, options, topology_version):
+        self._result = result
+        self.growth, self.width, self.refine = options.growth, options.width, options.refine
+        self.topology_version = topology_version
+        self.reanalyze_seconds = None
+        self.extra = {} if options.growth == "paper" else {
+            "spring_weights": result.spring_weights, "vertex_weights": result.vertex_weights}
+
+    def __setattr__(self, name, value):
+        if name in CORE_FIELDS:
+            raise AttributeError(f"StrokeReport.{name} is the core's, read-only")
+        super().__setattr__(name, value)
+
+    def __getattr__(self, name):
+        if name in CORE_FIELDS:
+            return getattr(self.__dict__["_result"], name)
+        raise AttributeError(f"'StrokeReport' object has no attribute {name!r}")
 
     @property
     def missed_fraction(self) -> float:
         """Fraction of the stroke's samples that touched no surface (a partly missing stroke)."""
         return self.missed_samples / self.samples if self.samples else 0.0
+
+    def __repr__(self):
+        return (f"StrokeReport(growth={self.growth!r}, faces_split={self.faces_split}, "
+                f"vertices_added={self.vertices_added}, springs_grown={self.springs_grown})")
 
 
 #: Largest stroke coordinate accepted (m or px): far beyond any cloth, small enough that the
@@ -359,14 +363,9 @@ def apply_stroke(cloth, trace, points, options, **trace_options) -> StrokeReport
     expansion, mass_scale, width = options.expansion, options.mass_scale, options.width
     growth, refine = options.growth, options.refine
     conserve = isinstance(mass_scale, str) and mass_scale == "conserve"
-    fields = dict(_core.apply_stroke(
+    result = _core.apply_stroke(
         cloth, trace, points, growth=growth, width=0.0 if width is None else float(width),
         refine=refine, expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
-        conserve_mass=conserve, max_vertices=MAX_REFINED_VERTICES if refine > 0 else MAX_MESH_VERTICES, **trace_options))
-    weights = {"spring_weights": fields.pop("spring_weights"),
-               "vertex_weights": fields.pop("vertex_weights")}
-    for name in ("faces_skipped", "region_faces", "new_vertices", "line_vertices"):
-        fields[name] = np.array(fields[name])
-    return StrokeReport(**fields, topology_version=cloth.topology_version,
-                        extra={} if growth == "paper" else weights, growth=growth, width=width,
-                        refine=refine)
+        conserve_mass=conserve, max_vertices=MAX_REFINED_VERTICES if refine > 0
+        else MAX_MESH_VERTICES, **trace_options)
+    return StrokeReport(result, options, cloth.topology_version)

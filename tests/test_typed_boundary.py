@@ -1,0 +1,68 @@
+"""The typed boundary: what crosses between C++ and Python is a bound class with read-only
+fields named as in C++ (a stroke's result, an integrator's statistics), not a dict rebuilt on
+each side."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import yore
+from yore import _core
+from yore.stroke import CORE_FIELDS, StrokePath
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _struct_fields(header, struct):
+    """Member names of a C++ struct, read from its header (``type name = ...;``/``type name;``)."""
+    text = (ROOT / "cpp" / "include" / "yore" / header).read_text(encoding="utf-8")
+    body = re.search(rf"struct {struct} {{(.*?)\n}};", text, re.S).group(1)
+    return set(re.findall(r"^\s+[\w:<>, ]+?\s(\w+)(?: = [^;]+)?;", body, re.M))
+
+
+def test_a_reports_core_fields_are_the_structs_by_the_same_names():
+    fields = _struct_fields("stroke_pipeline.hpp", "StrokeResult")
+    assert {"faces_split", "faces_skipped", "rest_length_added", "line_vertices"} <= fields
+    # every field of the struct is bound under its own name; vertices_added is derived
+    # (the count of new_vertices) and the only name C++ does not hold
+    assert set(CORE_FIELDS) == fields | {"vertices_added"}
+
+
+def test_a_stroke_result_is_read_only():
+    sim = yore.scenes.hanging_cloth(resolution=7)
+    report = sim.stroke(StrokePath.material([[0.2, 0.6], [0.8, 0.6]]))
+    with pytest.raises(AttributeError):
+        report.faces_split = 3
+    for name in ("faces_skipped", "region_faces", "new_vertices", "line_vertices"):
+        array = getattr(report, name)
+        assert isinstance(array, np.ndarray) and not array.flags.writeable, name
+    assert report.vertices_added == len(report.new_vertices) > 0
+    with pytest.raises(AttributeError, match="no attribute 'faces_crossed'"):
+        report.faces_crossed  # noqa: B018 - a name neither side has
+    # the Python side's own fields stay writable: the next step fills in the re-analysis
+    assert report.reanalyze_seconds is None
+    sim.step()
+    assert report.reanalyze_seconds == 0.0  # explicit: nothing to re-analyse
+
+
+@pytest.mark.parametrize("integrator", ["explicit", "implicit", "local-global", "cvode"])
+def test_statistics_name_each_phase_and_counter_once(integrator):
+    sim = yore.scenes.hanging_cloth(resolution=5, integrator=integrator)
+    sim.step(3)
+    statistics = sim._integrator.statistics
+    assert isinstance(statistics, _core.Statistics)
+    assert statistics.steps == 3
+    assert statistics.phases and all(name.endswith("_seconds") for name in statistics.phases)
+    assert not any(name.endswith("_seconds") for name in statistics.counters)
+    assert not set(statistics.phases) & set(statistics.counters)
+    assert all(value >= 0.0 for value in statistics.phases.values())
+    with pytest.raises(AttributeError):
+        statistics.steps = 0
+    statistics.phases.clear()  # a copy: the integrator's own are untouched
+    assert sim._integrator.statistics.phases
+    stats = sim.stats
+    assert stats["steps"] == 3
+    assert list(stats["phases"]) == list(sim._integrator.statistics.phases)
+    assert list(stats["counters"]) == list(sim._integrator.statistics.counters)
