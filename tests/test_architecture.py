@@ -167,3 +167,69 @@ def test_the_integrator_name_finder_finds_a_name(monkeypatch):
     tree = ast.parse('def f():\n    "implicit"\n\nx = "implicit"\ny = "implicit-ish"\n')
     monkeypatch.setitem(SOURCES, "yore.fake", (PACKAGE / "fake.py", tree))
     assert _integrator_names_outside_the_registry() == [("yore.fake", 4, "implicit")]
+
+
+#: Longest function (lines from its `def` to its last line) in python/yore and cpp/src, unless
+#: a comment right above it says why it is longer ("over 80 lines: ...").
+MAX_FUNCTION_LINES = 80
+
+
+def _long_python_functions():
+    found = []
+    for name, (path, tree) in SOURCES.items():
+        lines = path.read_text(encoding="utf-8").splitlines()
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                first = min([d.lineno for d in node.decorator_list] + [node.lineno])
+                length = node.end_lineno - node.lineno + 1
+                above = " ".join(lines[max(0, first - 4):first - 1])
+                if length > MAX_FUNCTION_LINES and "over 80 lines" not in above:
+                    found.append(f"{name}.{node.name} ({length} lines)")
+    return found
+
+
+def _long_cpp_functions(text):
+    """(name, lines) of every function definition in C++ source text longer than the limit
+    without an "over 80 lines" comment in the three lines above it. A definition starts at a
+    line at column 0 that holds '(' and is not a declaration, and ends at the next line that is
+    a lone '}' at column 0."""
+    lines = text.splitlines()
+    found, i = [], 0
+    skip = ("//", "#", "namespace", "}", "using", "template", "struct", "class", "static_assert")
+    while i < len(lines):
+        line = lines[i]
+        if line and not line[0].isspace() and "(" in line and not line.startswith(skip):
+            j = i
+            while j < len(lines) and not lines[j].rstrip().endswith(("{", ";")):
+                j += 1
+            if j < len(lines) and lines[j].rstrip().endswith("{") and \
+                    not lines[j].rstrip().endswith("{}"):
+                k = j + 1
+                while k < len(lines) and lines[k] != "}":
+                    k += 1
+                length = k - i + 1
+                above = " ".join(lines[max(0, i - 3):i])
+                if length > MAX_FUNCTION_LINES and "over 80 lines" not in above:
+                    found.append((line.split("(")[0].split()[-1], length))
+                i = k
+        i += 1
+    return found
+
+
+def test_no_python_function_is_over_80_lines_without_a_reason():
+    assert _long_python_functions() == []
+
+
+def test_no_cpp_function_is_over_80_lines_without_a_reason():
+    found = []
+    for path in sorted((PACKAGE.parents[1] / "cpp" / "src").glob("*.cpp")):
+        found += [f"{path.name}: {name} ({length} lines)"
+                  for name, length in _long_cpp_functions(path.read_text(encoding="utf-8"))]
+    assert found == []
+
+
+def test_the_long_function_finders_find_one():
+    body = "\n".join(f"  x += {k};" for k in range(85))
+    text = f"double f(int a) {{\n{body}\n}}\n\nint g() {{\n  return 1;\n}}\n"
+    assert _long_cpp_functions(text) == [("f", 87)]
+    assert _long_cpp_functions("// over 80 lines: one pass\n" + text) == []

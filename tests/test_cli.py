@@ -398,10 +398,11 @@ def test_render_colours_by_the_scene_unless_told_otherwise(tmp_path, monkeypatch
 
 
 def test_no_progress_bar_reaches_a_log_file(monkeypatch, capsys):
+    import yore.progress
     import yore.simulation
 
     # a bar is due at once (every batch is "slow"); stderr here is not a terminal
-    monkeypatch.setattr(yore.simulation, "_PROGRESS_AFTER_SECONDS", 0.0)
+    monkeypatch.setattr(yore.progress, "AFTER_SECONDS", 0.0)
     monkeypatch.setattr(yore.simulation, "_BATCH_SECONDS", 0.0)
     sim = yore.scenes.hanging_cloth(resolution=7)
     sim.step(40)

@@ -258,8 +258,8 @@ def test_settle_does_not_mistake_a_saddle_for_rest():
     expected = 2.0 * np.sqrt(0.3 * 0.003) / np.pi
     assert amplitude == pytest.approx(expected, rel=0.05)
     # and it is a minimum: the true Hessian is positive definite there
-    assert not yore.simulation._is_saddle(sim.cloth, (0.0, 0.0, 0.0))
-    assert yore.simulation._is_saddle(flat.cloth, (0.0, 0.0, 0.0))
+    assert not yore.settling.is_saddle(sim.cloth, (0.0, 0.0, 0.0))
+    assert yore.settling.is_saddle(flat.cloth, (0.0, 0.0, 0.0))
 
 
 def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():

@@ -10,13 +10,13 @@ import numpy as np
 
 from . import _core
 from ._core import Cloth, SimulationDiverged
-from .checks import MAX_SETTLE_SECONDS, MAX_STEPS, MIN_DT
+from .checks import MAX_STEPS, MIN_DT
 from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
                       INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS, SMOOTHING_RULES,
-                      check_option, is_real, resolve_options,
-                      show_value)
-from . import rules
+                      check_option, resolve_options, show_value)
+from . import progress as progress_bars, rules, settling, smoothing
 from .rules import Invalid
+from .settling import SETTLE_DT, SETTLE_MAX_ESCAPES, SETTLE_PERTURBATION  # noqa: F401
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
@@ -26,18 +26,8 @@ __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
 #: Default time step of the implicit integrators, s (`yore.options.FIXED_DT`).
 IMPLICIT_DT = FIXED_DT
 
-#: Pseudo-time step of `Simulation.settle`'s backward-Euler relaxation, s.
-SETTLE_DT = 0.5
-#: A state `Simulation.settle` found to be a saddle is pushed off it by random displacements
-#: of the free vertices of this RMS, in mean structural rest lengths, before it settles on.
-SETTLE_PERTURBATION = 1e-3
-#: Most saddles one `Simulation.settle` call pushes off before it reports not converged.
-SETTLE_MAX_ESCAPES = 20
-
 # Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
 _BATCH_SECONDS = 0.1
-# A run expected to take longer than this shows a progress bar (when progress=None).
-_PROGRESS_AFTER_SECONDS = 2.0
 
 
 #: Safety factor of the default explicit time step on ``Cloth.stable_time_step_bound()`` (the
@@ -61,32 +51,6 @@ def default_explicit_dt(cloth: Cloth, safety: float = EXPLICIT_DT_SAFETY) -> flo
         raise ValueError(f"no explicit time step is stable for this cloth (the bound is "
                          f"{stable:.3g} s): its stiffnesses or masses are out of range")
     return 1.0 / math.ceil(1.0 / (safety * stable))
-
-
-def _is_saddle(cloth, gravity) -> bool:
-    """Whether the cloth's positions are not a stable rest: the true (unprojected) Hessian of
-    the potential plus the relaxation's M/h² (h = SETTLE_DT) is not positive definite. At a
-    stable minimum the Hessian is positive semidefinite, so the sum is definite; on a saddle
-    (a flat stretched sheet before it wrinkles) it is not, whatever the residual says."""
-    probe = _core.ImplicitIntegrator(method="backward-euler")
-    try:
-        probe.newton_system(cloth, np.asarray(gravity, dtype=float), SETTLE_DT, cloth.positions,
-                            projection="exact")
-    except _core.NotPositiveDefinite:
-        return True
-    return False
-
-
-def _residual_acceleration(cloth, gravity) -> float:
-    """Mass-weighted RMS of M⁻¹ f at the cloth's positions and zero velocity, m/s²: one
-    symplectic-Euler step of a copy from rest gives v = dt M⁻¹ f exactly (damping and drag
-    vanish at v = 0), so nothing is recomputed by hand."""
-    probe = Cloth.from_state(cloth.state())
-    probe.velocities = np.zeros_like(probe.velocities)
-    dt = 1e-9
-    _core.ExplicitIntegrator().advance(probe, np.asarray(gravity, dtype=float), dt, 1)
-    v, m = probe.velocities, probe.masses
-    return math.sqrt(float(np.einsum("i,ij,ij->", m, v, v)) / float(m.sum())) / dt
 
 
 class Simulation:
@@ -419,76 +383,14 @@ class Simulation:
         "stable": whether the last state passed the stability test (None when it was not
         tested)}. Raises ValueError for bad arguments or a cloth with driven vertices (a driven
         cloth has no rest to settle to), SimulationDiverged if a step does."""
-        for name, value in (("max_seconds", max_seconds), ("tolerance", tolerance)):
-            if not is_real(value):  # a number, not a string or None that float() would take
-                raise ValueError(f"{name} must be a finite number, got {show_value(value)}")
-        max_seconds, tolerance = float(max_seconds), float(tolerance)
-        if not math.isfinite(max_seconds) or not 0.0 <= max_seconds <= MAX_SETTLE_SECONDS:
-            raise ValueError(f"max_seconds must be in [0, {MAX_SETTLE_SECONDS:g}] s, got "
-                             f"{max_seconds}")
-        if not math.isfinite(tolerance) or tolerance <= 0.0:
-            raise ValueError(f"tolerance must be finite and > 0, got {tolerance}")
-        cloth = self._cloth
-        if cloth.driven_vertices.size:
-            raise ValueError("settle needs a cloth without driven vertices (a driven cloth "
-                             "keeps moving: it has no rest to settle to)")
-        if cloth.fixed_vertices.size == 0 and np.any(self._gravity != 0.0):
-            raise ValueError("settle needs a fixed vertex: a free cloth falls under gravity "
-                             "forever and has no rest to settle to")
-        start_time = cloth.time
-        relax = _core.ImplicitIntegrator(method="backward-euler", projection="shifted",
-                                         predictor="start", newton_tol=1e-7, max_newton=200)
-        steps = int(math.ceil(max_seconds / SETTLE_DT - 1e-9)) if max_seconds > 0 else 0
-        if not _FLAG.test(check_stability)[0]:
-            raise ValueError(f"check_stability must be {_FLAG.expected}, got "
-                             f"{show_value(check_stability)}")
-        converged, acceleration, done, escapes, stable = False, math.inf, 0, 0, None
-        bar, started = None, _time.perf_counter()
-        cloth.velocities = np.zeros_like(cloth.velocities)
-        free = np.setdiff1d(np.arange(cloth.vertex_count), cloth.fixed_vertices)
+        started = _time.perf_counter()
         try:
-            for done in range(1, steps + 1):
-                before = cloth.positions
-                relax.advance(cloth, self._gravity, SETTLE_DT, 1)
-                cloth.velocities = np.zeros_like(before)
-                acceleration = _residual_acceleration(cloth, self._gravity)
-                if acceleration <= tolerance:
-                    stable = None
-                    if check_stability:
-                        stable = not _is_saddle(cloth, self._gravity)
-                    if stable is not False:
-                        converged = True
-                        break
-                    if escapes == SETTLE_MAX_ESCAPES:
-                        break
-                    escapes += 1
-                    rest = cloth.springs.rest[cloth.springs.kind == 0]
-                    scale = SETTLE_PERTURBATION * float(rest.mean())
-                    moved = np.array(cloth.positions)
-                    moved[free] += np.random.default_rng(escapes).normal(
-                        0.0, scale / math.sqrt(3.0), (len(free), 3))
-                    cloth.positions = moved
-                    stable = None  # the moved state is not tested yet
-                if bar is None and progress is not False and (
-                        progress or _time.perf_counter() - started > _PROGRESS_AFTER_SECONDS / 2):
-                    from tqdm.auto import tqdm
-
-                    # unasked, a bar shows on a terminal only (never in a log file)
-                    bar = tqdm(total=steps, initial=done, unit="step", desc="yore settle",
-                               leave=False, dynamic_ncols=True,
-                               disable=None if progress is None else False)
-                elif bar is not None:
-                    bar.update(1)
+            result = settling.settle(self._cloth, self._gravity, max_seconds, tolerance,
+                                     progress, check_stability)
         finally:
-            if bar is not None:
-                bar.close()
             self._wall_seconds += _time.perf_counter() - started
-        cloth.velocities = np.zeros_like(cloth.velocities)
-        cloth.time = start_time
         self._target_time = None
-        return {"seconds": done * SETTLE_DT, "steps": done, "converged": converged,
-                "residual_acceleration": float(acceleration), "saddles_escaped": escapes,
-                "stable": stable}
+        return result
 
     def _run(self, steps: int, progress, dt=None) -> None:
         if steps == 0:
@@ -518,13 +420,8 @@ class Simulation:
                     remaining = (steps - done) / rate
                     # The rate is trusted only after a few batches (the first step also prepares).
                     if progress or (elapsed > 2.5 * _BATCH_SECONDS
-                                    and elapsed + remaining > _PROGRESS_AFTER_SECONDS):
-                        from tqdm.auto import tqdm
-
-                        # unasked, a bar shows on a terminal only (never in a log file)
-                        bar = tqdm(total=steps, initial=done, unit="step", desc="yore",
-                                   leave=False, dynamic_ncols=True,
-                                   disable=None if progress is None else False)
+                                    and elapsed + remaining > progress_bars.AFTER_SECONDS):
+                        bar = progress_bars.open_bar(steps, done, "yore", progress)
                 elif bar is not None:
                     bar.update(count)
                     bar.set_postfix_str(f"t={self.time:.3f} s")
@@ -655,44 +552,13 @@ class Simulation:
         ``strength`` a number in (0, 1] and ``region`` None, "all" or integer vertex indices in
         range (floats and booleans are refused, not rounded).
         """
-        from .metrics import spring_mean_around_ends, rest_ratio_roughness
-
-        iterations, strength, conserve = (
-            _checked(SMOOTHING_RULES[name], value, f"smooth_rest_lengths {name}")
-            for name, value in (("iterations", iterations), ("strength", strength),
-                                ("conserve", conserve)))
-        cloth = self._cloth
-        ends = cloth.springs.ends
-        if isinstance(region, str):
-            if region != "all":
-                raise ValueError(f"region must be vertex indices, 'all' or None, got {region!r}")
-            selected = np.ones(len(ends), dtype=bool)
-        else:
-            if region is None:
-                if self._last_stroke is None:
-                    raise ValueError("no stroke yet: give region (vertex indices or 'all')")
-                region_vertices = np.unique(cloth.faces[self._last_stroke.region_faces])
-                ring = np.isin(ends, region_vertices).any(axis=1)
-                region = np.unique(ends[ring])  # one ring around the stroke's region
-            region = _region_indices(region, cloth.vertex_count)
-            selected = np.isin(ends, region).any(axis=1)
-        reference = cloth.springs.reference
-        ratio = cloth.springs.rest / reference
-        before = rest_ratio_roughness(cloth, np.flatnonzero(selected))
-        added_before = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
-        for _ in range(iterations):
-            neighbour = spring_mean_around_ends(cloth, ratio)
-            ratio = np.where(selected, (1.0 - strength) * ratio + strength * neighbour, ratio)
-        added_after = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
-        if conserve and added_before != 0.0 and added_after * added_before > 0.0:
-            scaled = np.where(selected, 1.0 + (ratio - 1.0) * (added_before / added_after), ratio)
-            if np.all(scaled > 0.0):  # a mixed-sign excess could scale a ratio through zero
-                ratio = scaled
-                added_after = float(np.sum((ratio[selected] - 1.0) * reference[selected]))
-        cloth.springs.rest = ratio * reference
-        return {"springs": int(selected.sum()), "roughness_before": before,
-                "roughness_after": rest_ratio_roughness(cloth, np.flatnonzero(selected)),
-                "rest_added_before": added_before, "rest_added_after": added_after}
+        smoothing.checked_arguments(iterations, strength, conserve)  # before the region
+        if region is None:
+            if self._last_stroke is None:
+                raise ValueError("no stroke yet: give region (vertex indices or 'all')")
+            region = smoothing.around_faces(self._cloth, self._last_stroke.region_faces)
+        return smoothing.smooth_rest_lengths(self._cloth, iterations, strength, region,
+                                             conserve)
 
     # -- measurements -----------------------------------------------------------------------
     def energy(self) -> dict:
@@ -783,35 +649,3 @@ _DURATION = rules.real(0.0, low_open=False, expected="a finite number >= 0")
 _FLAG = rules.flag()
 
 
-def _checked(rule, value, what):
-    """``value`` checked by a `yore.rules.Rule`: ValueError "WHAT: got ...; expected ..."."""
-    try:
-        return rule(value)
-    except Invalid as invalid:
-        raise ValueError(f"{what}: {invalid.problem}; expected {invalid.expected}") from None
-
-
-def _region_indices(region, vertex_count):
-    """``region`` of `Simulation.smooth_rest_lengths` as a 1-D int64 array of vertex indices in
-    [0, vertex_count); ValueError otherwise (floats, booleans, nested lists, out of range)."""
-    expected = f"None, 'all' or vertex indices (integers in [0, {vertex_count}))"
-    if isinstance(region, (bool, np.bool_, float, dict, set)):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; "
-                         f"expected {expected}")
-    try:
-        array = np.asarray(region)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; expected "
-                         f"{expected}") from None
-    if array.dtype.kind not in "iu" and not (array.size == 0 and array.dtype.kind == "f"):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)} (dtype "
-                         f"{array.dtype}); expected {expected}")
-    if array.ndim > 1:
-        raise ValueError(f"smooth_rest_lengths region: got an array of shape {array.shape}; "
-                         f"expected {expected}")
-    array = array.reshape(-1)
-    if array.size and (array.min() < 0 or array.max() >= vertex_count):
-        bad = array.min() if array.min() < 0 else array.max()
-        raise ValueError(f"smooth_rest_lengths region: vertex {int(bad)} is out of range; "
-                         f"expected {expected}")
-    return array.astype(np.int64)
