@@ -38,6 +38,8 @@ from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
 from .building import apply_scene_stroke, scene_camera
 from .loading import Scene, load_scene, step_of
+from .record import BEFORE_NAME, FRAMES_DIR, RunRecord, check_against, check_metadata
+from .schedule import EventSchedule
 from .schema import SceneError
 
 __all__ = ["run_scene", "resume_run", "check_scene", "RunError", "RunInterrupted", "SUMMARY_NAME",
@@ -45,7 +47,6 @@ __all__ = ["run_scene", "resume_run", "check_scene", "RunError", "RunInterrupted
 
 SUMMARY_NAME = "summary.json"
 STATE_NAME = "state.npz"
-BEFORE_NAME = "before.vtu"
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -87,11 +88,7 @@ def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
     if scene.data["simulation"]["settle"] > 0.0:
         # before t = 0 and before the folder is claimed: an interrupted settle leaves nothing
         settle = sim.settle(scene.data["simulation"]["settle"], progress=False if quiet else None)
-    record = {"scene_text": scene.text,
-              "scene_path": str(scene.path) if scene.path is not None else None,
-              "overrides": scene.overrides, "step": 0, "next_stroke": 0, "frames": [],
-              "records": [], "strokes": [], "before": None, "wall_seconds": 0.0,
-              "resumed_from": [], "phases": {}, "settle": settle}
+    record = RunRecord.new(scene, settle)
     out = Path(os.fspath(out))
     claim_folder(out, record, overwrite)
     return _run(scene, sim, record, out, until, quiet, render)
@@ -132,45 +129,44 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
     lists must still exist (ValueError otherwise). An ``out`` other than the state's folder is
     claimed as by `run_scene` (``overwrite`` replaces a run it holds); ``threads`` as there."""
     state_path = Path(os.fspath(state_path))
-    sim, record = load_state(state_path)
-    if not isinstance(record, dict) or "scene_text" not in record:
+    sim, metadata = load_state(state_path)
+    if not isinstance(metadata, dict) or "scene_text" not in metadata:
         raise ValueError(f"{state_path} is a simulation state but not a run's: it has no scene "
                          "(write run states with `yore run`)")
-    _check_record(state_path, record)
+    record = RunRecord.from_metadata(state_path, metadata)
     folder = state_path.parent  # the record's paths are relative to it (absolute in old files)
-    missing = [path for _, path in record["frames"] if not (folder / path).is_file()]
-    if record["before"] is not None and not (folder / record["before"]["file"]).is_file():
-        missing.insert(0, record["before"]["file"])
+    missing = [path for _, path in record.frames if not (folder / path).is_file()]
+    if record.before is not None and not (folder / record.before["file"]).is_file():
+        missing.insert(0, record.before["file"])
     if missing:
         raise ValueError(f"{state_path}: the run's record lists {len(missing)} file(s) that no "
                          f"longer exist, e.g. {missing[0]}; put them back, or start the run "
                          "again with --overwrite")
-    scene_path = record["scene_path"]
-    scene = load_scene(scene_path, text=record["scene_text"], overrides=record["overrides"])
-    if record["step"] != _steps(sim.time, sim.dt):
-        raise ValueError(f"{state_path}: field metadata.step: {record['step']} does not match "
+    scene = load_scene(record.scene_path, text=record.scene_text, overrides=record.overrides)
+    if record.step != _steps(sim.time, sim.dt):
+        raise ValueError(f"{state_path}: field metadata.step: {record.step} does not match "
                          f"the state's clock ({_steps(sim.time, sim.dt)} steps)")
-    if record["next_stroke"] > len(scene.data["strokes"]):
-        raise ValueError(f"{state_path}: field metadata.next_stroke: {record['next_stroke']} "
+    if record.next_stroke > len(scene.data["strokes"]):
+        raise ValueError(f"{state_path}: field metadata.next_stroke: {record.next_stroke} "
                          f"strokes done, but the scene has {len(scene.data['strokes'])}")
-    _check_record_against(state_path, record, scene, sim)
+    check_against(state_path, metadata, scene, sim)
     _set_threads(scene, threads)
     check_length(scene, sim, until, allow_long)
-    if until is not None and _steps(float(until), sim.dt) <= record["step"]:
+    if until is not None and _steps(float(until), sim.dt) <= record.step:
         raise ValueError(f"--until {float(until):g} s is not after the state's time "
                          f"(t = {sim.time:.6g} s): the run is already there; give a later "
                          "time, or none to run to the scene's end")
-    record["resumed_from"] = record["resumed_from"] + [str(state_path)]
+    record.resumed_from = record.resumed_from + [str(state_path)]
     if out is None or Path(os.fspath(out)).resolve() == folder.resolve():
         out = folder
     else:
         out = Path(os.fspath(out))
         claim_folder(out, record, overwrite)
         # the frames and the before picture stay where they are: relative to the new folder
-        record["frames"] = [[t, _relative(folder / path, out)] for t, path in record["frames"]]
-        if record["before"] is not None:
-            record["before"] = {**record["before"],
-                                "file": _relative(folder / record["before"]["file"], out)}
+        record.frames = [[t, _relative(folder / path, out)] for t, path in record.frames]
+        if record.before is not None:
+            record.before = {**record.before, "file": _relative(folder / record.before["file"],
+                                                                 out)}
     _check_pictures(scene, render)
     return _run(scene, sim, record, out, until, quiet, render)
 
@@ -199,121 +195,6 @@ def check_length(scene, sim, until=None, allow_long=False) -> int:
     return steps
 
 
-def _check_record(state_path, record):
-    """The run's record in a state file (its metadata), checked field by field: ValueError
-    naming the field, so a tampered record can only be refused, never half-used."""
-    def fail(field, expected):
-        raise ValueError(f"{state_path}: field metadata.{field}: expected {expected}")
-
-    def count(value):
-        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-    def number(value):
-        return isinstance(value, (int, float)) and not isinstance(value, bool) \
-            and math.isfinite(value)
-
-    expected_keys = {"scene_text", "scene_path", "overrides", "step", "next_stroke", "frames",
-                     "records", "strokes", "before", "wall_seconds", "resumed_from", "phases"}
-    # settle: absent from records written before it existed
-    if not expected_keys <= set(record) <= expected_keys | {"settle"}:
-        fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
-    settle = record.get("settle")
-    # saddles_escaped and stable came with settle's saddle test: absent from older records
-    basic = {"seconds", "steps", "converged", "residual_acceleration"}
-    if settle is not None and not (
-            isinstance(settle, dict)
-            and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
-            and number(settle["seconds"]) and count(settle["steps"])
-            and isinstance(settle["converged"], bool)
-            and isinstance(settle["residual_acceleration"], (int, float))
-            and count(settle.get("saddles_escaped", 0))
-            and settle.get("stable") in (None, True, False)):
-        fail("settle", "null or a table with seconds, steps, converged, "
-             "residual_acceleration (and saddles_escaped, stable)")
-    if not isinstance(record["scene_text"], str):
-        fail("scene_text", "the scene file's text")
-    if record["scene_path"] is not None and not isinstance(record["scene_path"], str):
-        fail("scene_path", "a path or null")
-    if not isinstance(record["overrides"], dict) or \
-            not all(isinstance(key, str) for key in record["overrides"]):
-        fail("overrides", "a table of dotted keys")
-    for field in ("step", "next_stroke"):
-        if not count(record[field]):
-            fail(field, "an integer >= 0")
-    if not isinstance(record["frames"], list) or not all(
-            isinstance(f, list) and len(f) == 2 and number(f[0]) and isinstance(f[1], str)
-            and _is_frame_path(f[1]) for f in record["frames"]):
-        fail("frames", f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN "
-             "file of a run")
-    for field in ("records", "strokes"):
-        if not isinstance(record[field], list) or \
-                not all(isinstance(entry, dict) for entry in record[field]):
-            fail(field, "a list of tables")
-    if not all(number(entry.get("time")) and all(
-            isinstance(key, str) and (number(value) or isinstance(value, float))
-            for key, value in entry.items()) for entry in record["records"]):
-        fail("records", "a list of tables of numbers, each with its time")
-    if len(record["strokes"]) != record["next_stroke"]:
-        fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
-    before = record["before"]
-    if before is not None and not (isinstance(before, dict) and number(before.get("time"))
-                                   and isinstance(before.get("file"), str)
-                                   and Path(before["file"]).name == BEFORE_NAME):
-        fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
-    if not number(record["wall_seconds"]) or record["wall_seconds"] < 0:
-        fail("wall_seconds", "a number >= 0")
-    if not isinstance(record["resumed_from"], list) or \
-            not all(isinstance(path, str) for path in record["resumed_from"]):
-        fail("resumed_from", "a list of paths")
-    if not isinstance(record["phases"], dict) or not all(
-            isinstance(k, str) and number(v) for k, v in record["phases"].items()):
-        fail("phases", "a table of seconds per phase")
-
-
-def _check_record_against(state_path, record, scene, sim):
-    """The record against the scene it holds and the state beside it: the same integrator,
-    and the frames and records a run of that scene writes up to the record's step (numbered
-    0, 1, ... in order). ValueError naming the field otherwise: a hand-edited record is
-    refused, never half-used (an emptied frame list would overwrite the first frames)."""
-    def fail(field, problem):
-        raise ValueError(f"{state_path}: field metadata.{field}: {problem}; the record does not "
-                         "match the run (was it edited?): start the run again with --overwrite")
-
-    integrator = scene.data["simulation"]["integrator"]
-    if integrator != sim.integrator:
-        fail("scene_text", f"its scene's integrator is {integrator!r}, the state's is "
-                           f"{sim.integrator!r}")
-    every = scene.frame_interval(sim.dt)
-    step = record["step"]
-    due = step // every + 1  # frames at 0, every, 2 every, ... up to step
-    if _frame_due(step, every, _steps(scene.data["simulation"]["duration"], sim.dt)):
-        if step % every:
-            due += 1  # the scene's end
-        # an interruption may come between the steps to a frame and the frame
-        allowed = (due - 1, due)
-    else:
-        # states written before runs stopped by --until wrote no frame there have one more
-        allowed = (due, due + 1)
-    if len(record["records"]) not in allowed:
-        fail("records", f"{len(record['records'])} entries, but the run writes {due} by step "
-                        f"{step}")
-    if scene.data["output"]["format"] != "none":
-        if len(record["frames"]) != len(record["records"]):
-            fail("frames", f"{len(record['frames'])} frames for {len(record['records'])} "
-                           "records (one per frame)")
-        for number, (_, path) in enumerate(record["frames"]):
-            if not Path(path).name.startswith(f"frame_{number:05d}."):
-                fail("frames", f"entry {number} is {Path(path).name}, expected frame "
-                               f"{number:05d}")
-
-
-def _is_frame_path(text):
-    """A frame file as a run writes it: OUT/frames/frame_NNNNN.EXT."""
-    path = Path(text)
-    return path.parent.name == FRAMES_DIR and re.fullmatch(
-        r"frame_\d{5,}\.(vtu|vtk|ply|obj)", path.name) is not None
-
-
 def _set_threads(scene, threads):
     threads = scene.data["simulation"].get("threads") if threads is None else threads
     if threads is not None:
@@ -331,7 +212,6 @@ CHECKPOINT_SHARE = 0.1
 #: Files a run writes into its folder (besides frames/).
 RUN_FILES = (SUMMARY_NAME, STATE_NAME, BEFORE_NAME, "before_after.png", "last.png",
              "animation.gif", "animation.mp4")
-FRAMES_DIR = "frames"
 
 
 def run_files(out) -> list:
@@ -363,12 +243,12 @@ def claim_folder(out, record, overwrite=False) -> None:
     if not overwrite:
         previous = _previous_run(out)
         same = (previous is not None and previous.get("status") == "finished"
-                and previous.get("scene_text") == record["scene_text"]
-                and previous.get("overrides") == record["overrides"])
+                and previous.get("scene_text") == record.scene_text
+                and previous.get("overrides") == record.overrides)
         if not same:
             what = ("an unfinished run of the same scene" if previous is not None
-                    and previous.get("scene_text") == record["scene_text"]
-                    and previous.get("overrides") == record["overrides"]
+                    and previous.get("scene_text") == record.scene_text
+                    and previous.get("overrides") == record.overrides
                     else "another run")
             hint = (f"continue it with `yore run --resume {out / STATE_NAME}`, "
                     if (out / STATE_NAME).is_file() else "")
@@ -405,15 +285,16 @@ class _Checkpoint:
     def __init__(self, sim, record, live_reports):
         self.state = sim.state()
         self.time = sim.time
-        self.lengths = {key: len(record[key]) for key in self._LISTS}
-        self.scalars = {key: record[key] for key in self._SCALARS}
+        self.lengths = {key: len(getattr(record, key)) for key in self._LISTS}
+        self.scalars = {key: getattr(record, key) for key in self._SCALARS}
         self.live_reports = len(live_reports)
 
     def restore(self, record, live_reports):
         """Puts ``record`` back as it was; returns a new simulation in the saved state."""
         for key, length in self.lengths.items():
-            del record[key][length:]
-        record.update(self.scalars)
+            del getattr(record, key)[length:]
+        for key, value in self.scalars.items():
+            setattr(record, key, value)
         del live_reports[self.live_reports:]
         return Simulation.from_state(self.state)
 
@@ -440,193 +321,236 @@ def _deferred_interrupt():
 
 
 def _run(scene, sim, record, out, until, quiet, render):
-    out.mkdir(parents=True, exist_ok=True)
-    data = scene.data
-    dt = sim.dt
-    duration = data["simulation"]["duration"]
-    # (the callers checked the length against the limit, before anything was written)
-    last_step = check_length(scene, sim, until, allow_long=True)
-    duration_step = _steps(duration, dt)
-    every = scene.frame_interval(dt)
-    schedule = sorted(((_steps(s["time"], dt), k) for k, s in enumerate(data["strokes"])))
-    fmt = data["output"]["format"]
-    frames = None
-    if fmt != "none":
-        frames = FrameSeries(out / FRAMES_DIR, stem="frame", fmt=fmt,
-                             frames=[(t, out / p) for t, p in record["frames"]])
-    camera = None
-    previous_phases = dict(record.get("phases", {}))  # wall time per phase of earlier parts
-    live_reports = []  # (record entry, StrokeReport): re-analysis time arrives with the next step
-    step = record["step"]
-    last_time = record["records"][-1]["time"] if record["records"] else None
-    if last_time is None:
-        bad = _non_finite(_measure(sim))
-        if bad:
-            raise ValueError(f"the scene's initial state is not finite ({bad}): a value in "
-                             "[material], [[driven]] or [simulation] is too large")
-    from tqdm.auto import tqdm
+    return _Run(scene, sim, record, out, until, quiet).execute(render)
 
-    started = saved_at = _time.perf_counter()
-    save_every = CHECKPOINT_SECONDS
-    # A state file before the first frame: from here on the folder always holds one, so an
-    # interruption (or a kill) at any point leaves a run that `--resume` continues.
-    with _deferred_interrupt():
-        _save(out, sim, record, previous_phases)
-    bar = tqdm(total=last_step, initial=min(step, last_step), unit="step", desc="yore run",
-               disable=quiet or None, delay=2.0, dynamic_ncols=True, leave=False)
-    status, message = None, None  # None: ran to its last step
-    missed = None  # the SceneError of a stroke that missed at its time
-    phases = None  # the live simulation's phases, when a rollback replaced it
-    good = None  # the last recorded frame's checkpoint
-    try:
-        if _frame_due(step, every, duration_step) and \
-                (last_time is None or last_time < sim.time - 0.5 * dt):
+
+class _Run:
+    """One part of a run, from the record's step to ``until`` or the scene's end: strokes and
+    frames at the steps of the event schedule, a state file saved on the way, then the summary.
+    Whatever stops it (a divergence, a miss, Ctrl-C, no memory) leaves a state and a summary."""
+
+    def __init__(self, scene, sim, record, out, until, quiet):
+        out.mkdir(parents=True, exist_ok=True)
+        self.scene, self.sim, self.record, self.out, self.quiet = scene, sim, record, out, quiet
+        self.data = scene.data
+        self.dt = sim.dt
+        # (the callers checked the length against the limit, before anything was written)
+        self.schedule = EventSchedule(scene, self.dt,
+                                      check_length(scene, sim, until, allow_long=True))
+        self.fmt = self.data["output"]["format"]
+        self.frames = None
+        if self.fmt != "none":
+            self.frames = FrameSeries(out / FRAMES_DIR, stem="frame", fmt=self.fmt,
+                                      frames=[(t, out / p) for t, p in record.frames])
+        self.camera = None
+        self.previous_phases = dict(record.phases)  # wall time per phase of earlier parts
+        self.live_reports = []  # (record entry, StrokeReport): re-analysis time comes later
+        self.step = record.step
+        self.status, self.message = None, None  # None: ran to its last step
+        self.missed = None  # the SceneError of a stroke that missed at its time
+        self.phases = None  # the live simulation's phases, when a rollback replaced it
+        self.good = None  # the last recorded frame's checkpoint
+
+    def execute(self, render):
+        """Runs the part; returns the summary (RunInterrupted, RunError or the miss's
+        SceneError when it stopped early, its state saved)."""
+        record = self.record
+        last_time = record.records[-1]["time"] if record.records else None
+        if last_time is None:
+            bad = _non_finite(_measure(self.sim))
+            if bad:
+                raise ValueError(f"the scene's initial state is not finite ({bad}): a value in "
+                                 "[material], [[driven]] or [simulation] is too large")
+        from tqdm.auto import tqdm
+
+        self.started = self.saved_at = _time.perf_counter()
+        self.save_every = CHECKPOINT_SECONDS
+        # A state file before the first frame: from here on the folder always holds one, so an
+        # interruption (or a kill) at any point leaves a run that `--resume` continues.
+        with _deferred_interrupt():
+            _save(self.out, self.sim, record, self.previous_phases)
+        last_step = self.schedule.last_step
+        self.bar = tqdm(total=last_step, initial=min(self.step, last_step), unit="step",
+                        desc="yore run", disable=self.quiet or None, delay=2.0,
+                        dynamic_ncols=True, leave=False)
+        try:
+            self._steps_and_events(last_time)
+        except (SimulationDiverged, _NonFinite) as error:
+            self.status, self.message = "diverged", str(error)
+        except _Unsaveable as error:
+            self.status, self.message = "failed", str(error)
+        except MemoryError:
+            self._out_of_memory()
+        except NotPositiveDefinite as error:
+            # the integrator put the cloth back where the failed call began
+            sim = self.sim
+            self.status, self.message = "diverged", (
+                f"the {sim.integrator} integrator's linear solver refused a step's matrix after "
+                f"t = {sim.time:.6g} s ({' '.join(str(error).split())}): check for extreme "
+                "stiffnesses or masses, or try a smaller dt. The run went back to "
+                f"t = {sim.time:.6g} s")
+        except KeyboardInterrupt:
+            self.status, self.message = "interrupted", None
+            # Steps completed so far, from the step-counting clock (the interruption may come
+            # between batches of a call).
+            record.step = _steps(self.sim.time, self.dt)
+        except SceneError as error:  # a stroke missed at its time: keep what was computed
+            self.status, self.message, self.missed = "stroke missed", str(error), error
+        finally:
+            self.bar.close()
+            record.wall_seconds += _time.perf_counter() - self.started
+        return self._finish(render)
+
+    def _steps_and_events(self, last_time):
+        """Steps to the end of the part, drawing strokes and writing frames when they are due."""
+        schedule = self.schedule
+        if schedule.frame_due(self.step) and \
+                (last_time is None or last_time < self.sim.time - 0.5 * self.dt):
             # the first frame, or a frame an interruption came before
-            _write_frame(sim, frames, record, fmt, _measure(sim))
-        good = _Checkpoint(sim, record, live_reports)  # the last recorded frame
-        while step < last_step:
-            while record["next_stroke"] < len(schedule) and \
-                    schedule[record["next_stroke"]][0] <= step:
-                index = schedule[record["next_stroke"]][1]
-                # A stroke and its record are one step: whatever stops it half-way (Ctrl-C,
-                # a miss, an error) puts the cloth and the record back as they were before it.
-                before_stroke = _Checkpoint(sim, record, live_reports)
-                try:
-                    if record["before"] is None:
-                        _save_before(sim, out, record)
-                    if camera is None and "screen" in data["strokes"][index]:
-                        camera = scene_camera(scene, sim.cloth.positions)
-                    report = apply_scene_stroke(scene, sim, index, camera)
-                    bad = _non_finite(_measure(sim))
-                    if bad:
-                        raise _NonFinite(f"stroke {index} at t = {sim.time:.6g} s made the "
-                                         f"cloth's energy or area non-finite ({bad}); check "
-                                         "its expansion. The stroke was undone")
-                    with _deferred_interrupt():
-                        record["strokes"].append(_stroke_record(index, sim.time, report))
-                        live_reports.append((record["strokes"][-1], report))
-                        record["next_stroke"] += 1
-                except BaseException:
-                    phases = sim.stats["phases"]
-                    sim = before_stroke.restore(record, live_reports)
-                    raise
-            next_stroke = schedule[record["next_stroke"]][0] \
-                if record["next_stroke"] < len(schedule) else last_step
-            next_frame = (step // every + 1) * every
+            _write_frame(self.sim, self.frames, self.record, self.fmt, _measure(self.sim))
+        self.good = _Checkpoint(self.sim, self.record, self.live_reports)  # the last frame's
+        while self.step < schedule.last_step:
+            self._draw_due_strokes()
             # (at most MAX_STEPS per call: a frame interval may be longer, with --allow-long)
-            target = min(next_stroke, next_frame, last_step, step + MAX_STEPS)
-            if target > step:
-                sim.step(target - step, progress=False)
-                bar.update(target - step)
-                bar.set_postfix_str(f"t={sim.time:.3f}/{last_step * dt:.3f} s", refresh=False)
-                step = target
-                record["step"] = step
-            due = _frame_due(step, every, duration_step)
-            if due or step == last_step:  # (a part's end is checked too, framed or not)
-                entry = _measure(sim)
-                bad = _non_finite(entry)
+            target = schedule.next_event(self.step, self.record.next_stroke, MAX_STEPS)
+            if target > self.step:
+                self.sim.step(target - self.step, progress=False)
+                self.bar.update(target - self.step)
+                self.bar.set_postfix_str(f"t={self.sim.time:.3f}/"
+                                         f"{schedule.last_step * self.dt:.3f} s", refresh=False)
+                self.step = target
+                self.record.step = target
+            due = schedule.frame_due(self.step)
+            if due or self.step == schedule.last_step:  # (a part's end is checked, framed or not)
+                entry = self._checked_measure()
+                if due:
+                    self._frame(entry)
+
+    def _draw_due_strokes(self):
+        """Draws every stroke due at the current step. A stroke and its record are one step:
+        whatever stops it half-way (Ctrl-C, a miss, an error) puts the cloth and the record
+        back as they were before it."""
+        record, scene = self.record, self.scene
+        while (index := self.schedule.stroke_due(self.step, record.next_stroke)) is not None:
+            before_stroke = _Checkpoint(self.sim, record, self.live_reports)
+            sim = self.sim
+            try:
+                if record.before is None:
+                    _save_before(sim, self.out, record)
+                if self.camera is None and "screen" in self.data["strokes"][index]:
+                    self.camera = scene_camera(scene, sim.cloth.positions)
+                report = apply_scene_stroke(scene, sim, index, self.camera)
+                bad = _non_finite(_measure(sim))
                 if bad:
-                    failed = sim.time
-                    phases = sim.stats["phases"]
-                    sim = good.restore(record, live_reports)
-                    raise _NonFinite(
-                        f"simulation diverged between t = {good.time:.6g} s and "
-                        f"t = {failed:.6g} s (dt = {dt:.6g} s, {sim.integrator} integrator): the "
-                        f"cloth's energy or area became non-finite ({bad}). "
-                        f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s")
-                if not due:
-                    continue  # (the loop ends: step == last_step)
-                _write_frame(sim, frames, record, fmt, entry)
-                good = _Checkpoint(sim, record, live_reports)
-                if _time.perf_counter() - saved_at > save_every:
-                    # a crash (or a kill) then costs at most this much of the run
-                    saving = _time.perf_counter()
-                    with _deferred_interrupt():
-                        _save(out, sim, _with_wall_time(record, started), previous_phases)
-                    saved_at = _time.perf_counter()
-                    # the record grows with the frames: saves take at most CHECKPOINT_SHARE
-                    # of the wall time, so a frame costs the same at frame 100 000 as at 1
-                    save_every = max(CHECKPOINT_SECONDS, (saved_at - saving) / CHECKPOINT_SHARE)
-    except (SimulationDiverged, _NonFinite) as error:
-        status, message = "diverged", str(error)
-    except _Unsaveable as error:
-        status, message = "failed", str(error)
-    except MemoryError:
-        # (CHOLMOD's out of memory is one too) back to the last recorded frame, whose state
-        # is then saved: the run fails cleanly, and can continue where there is more memory
-        failed = sim.time
-        phases = sim.stats["phases"]
-        if good is not None:
-            sim = good.restore(record, live_reports)
+                    raise _NonFinite(f"stroke {index} at t = {sim.time:.6g} s made the "
+                                     f"cloth's energy or area non-finite ({bad}); check "
+                                     "its expansion. The stroke was undone")
+                with _deferred_interrupt():
+                    record.strokes.append(_stroke_record(index, sim.time, report))
+                    self.live_reports.append((record.strokes[-1], report))
+                    record.next_stroke += 1
+            except BaseException:
+                self.phases = sim.stats["phases"]
+                self.sim = before_stroke.restore(record, self.live_reports)
+                raise
+
+    def _checked_measure(self):
+        """The frame record of now; _NonFinite (back at the last frame) when it is not finite."""
+        entry = _measure(self.sim)
+        bad = _non_finite(entry)
+        if bad:
+            failed = self.sim.time
+            self.phases = self.sim.stats["phases"]
+            good = self.good
+            self.sim = sim = good.restore(self.record, self.live_reports)
+            raise _NonFinite(
+                f"simulation diverged between t = {good.time:.6g} s and "
+                f"t = {failed:.6g} s (dt = {self.dt:.6g} s, {sim.integrator} integrator): the "
+                f"cloth's energy or area became non-finite ({bad}). "
+                f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s")
+        return entry
+
+    def _frame(self, entry):
+        """Writes a frame, makes it the point to go back to, and saves the state when due."""
+        _write_frame(self.sim, self.frames, self.record, self.fmt, entry)
+        self.good = _Checkpoint(self.sim, self.record, self.live_reports)
+        if _time.perf_counter() - self.saved_at > self.save_every:
+            # a crash (or a kill) then costs at most this much of the run
+            saving = _time.perf_counter()
+            with _deferred_interrupt():
+                _save(self.out, self.sim,
+                      self.record.with_wall_time(_time.perf_counter() - self.started),
+                      self.previous_phases)
+            self.saved_at = _time.perf_counter()
+            # the record grows with the frames: saves take at most CHECKPOINT_SHARE of the
+            # wall time, so a frame costs the same at frame 100 000 as at 1
+            self.save_every = max(CHECKPOINT_SECONDS,
+                                  (self.saved_at - saving) / CHECKPOINT_SHARE)
+
+    def _out_of_memory(self):
+        """(CHOLMOD's out of memory is a MemoryError too) back to the last recorded frame, whose
+        state is then saved: the run fails cleanly, and can continue with more memory."""
+        failed = self.sim.time
+        self.phases = self.sim.stats["phases"]
+        if self.good is not None:
+            self.sim = self.good.restore(self.record, self.live_reports)
+        sim = self.sim
         back = sim.time
-        status, message = "failed", (
+        self.status, self.message = "failed", (
             f"out of memory between t = {back:.6g} s and t = {failed:.6g} s "
             f"({sim.cloth.vertex_count} vertices, {sim.integrator} integrator): the "
             "integrator's matrices do not fit; try integrator = \"explicit\", or fewer or "
             f"narrower refining strokes. The run went back to t = {back:.6g} s")
-    except NotPositiveDefinite as error:
-        # the integrator put the cloth back where the failed call began
-        status, message = "diverged", (
-            f"the {sim.integrator} integrator's linear solver refused a step's matrix after "
-            f"t = {sim.time:.6g} s ({' '.join(str(error).split())}): check for extreme "
-            "stiffnesses or masses, or try a smaller dt. The run went back to "
-            f"t = {sim.time:.6g} s")
-    except KeyboardInterrupt:
-        status, message = "interrupted", None
-        # Steps completed so far, from the step-counting clock (the interruption may come
-        # between batches of a call).
-        record["step"] = _steps(sim.time, dt)
-    except SceneError as error:  # a stroke missed at its time: keep what was computed
-        status, message, missed = "stroke missed", str(error), error
-    finally:
-        bar.close()
-        record["wall_seconds"] += _time.perf_counter() - started
-    if status is None:
-        status = ("finished" if sim.time >= duration - 0.5 * dt else "stopped at --until")
-        for entry, report in live_reports:
-            entry["reanalyze_seconds"] = report.reanalyze_seconds
-    try:
-        with _deferred_interrupt():
-            try:
-                state_path = _save(out, sim, record, previous_phases, phases)
-            except _Unsaveable as error:
-                # kept from the last state file the run wrote (if any); said in the summary
-                state_path = None
-                status, message = "failed", str(error)
-            summary = _summary(scene, sim, record, out, state_path, status, message)
-            summary_path = out / SUMMARY_NAME
-            write_json(summary_path, summary)
-    except KeyboardInterrupt:
-        # a (second) Ctrl-C held back while the state and summary were written: they are
-        # complete, so the run stops as interrupted there, with its resume hint
-        raise RunInterrupted(state_path, sim.time) from None
-    if status == "interrupted":
-        raise RunInterrupted(state_path, sim.time)
-    if missed is not None:
-        raise missed
-    if status == "diverged":
-        raise RunError(f"{message} State kept: {state_path}", state_path)
-    if status == "failed":
-        raise RunError(message if state_path is None else f"{message} State kept: {state_path}",
-                       state_path)
-    if render and frames is not None:
-        from ..viz.pictures import render_run
 
-        output = data["output"]
-        if output["pictures"] or output["animation"] != "none":
-            summary["outputs"].update(render_run(
-                out, pictures=output["pictures"],
-                animation=None if output["animation"] == "none" else output["animation"],
-                color_by=output["color_by"], framing=output["framing"], quiet=quiet))
-            write_json(summary_path, summary)
-    return summary
+    def _finish(self, render):
+        """Saves the state and the summary; raises for a part that stopped early; renders."""
+        sim, record, out = self.sim, self.record, self.out
+        duration = self.data["simulation"]["duration"]
+        if self.status is None:
+            self.status = ("finished" if sim.time >= duration - 0.5 * self.dt
+                           else "stopped at --until")
+            for entry, report in self.live_reports:
+                entry["reanalyze_seconds"] = report.reanalyze_seconds
+        try:
+            with _deferred_interrupt():
+                try:
+                    state_path = _save(out, sim, record, self.previous_phases, self.phases)
+                except _Unsaveable as error:
+                    # kept from the last state file the run wrote (if any); said in the summary
+                    state_path = None
+                    self.status, self.message = "failed", str(error)
+                summary = _summary(self.scene, sim, record, out, state_path, self.status,
+                                   self.message)
+                summary_path = out / SUMMARY_NAME
+                write_json(summary_path, summary)
+        except KeyboardInterrupt:
+            # a (second) Ctrl-C held back while the state and summary were written: they are
+            # complete, so the run stops as interrupted there, with its resume hint
+            raise RunInterrupted(state_path, sim.time) from None
+        self._raise_if_stopped(state_path)
+        if render and self.frames is not None:
+            from ..viz.pictures import render_run
 
+            output = self.data["output"]
+            if output["pictures"] or output["animation"] != "none":
+                summary["outputs"].update(render_run(
+                    out, pictures=output["pictures"],
+                    animation=None if output["animation"] == "none" else output["animation"],
+                    color_by=output["color_by"], framing=output["framing"], quiet=self.quiet))
+                write_json(summary_path, summary)
+        return summary
 
-def _frame_due(step, every, duration_step):
-    """Whether a frame is written at ``step``: every ``every`` steps and at the scene's end. A
-    part stopped by ``until`` between frames writes none there (its state file holds the
-    cloth), so a run split and resumed writes the frames a straight run writes."""
-    return step % every == 0 or step == duration_step
+    def _raise_if_stopped(self, state_path):
+        status, message = self.status, self.message
+        if status == "interrupted":
+            raise RunInterrupted(state_path, self.sim.time)
+        if self.missed is not None:
+            raise self.missed
+        if status == "diverged":
+            raise RunError(f"{message} State kept: {state_path}", state_path)
+        if status == "failed":
+            raise RunError(message if state_path is None else
+                           f"{message} State kept: {state_path}", state_path)
 
 
 class _Unsaveable(ValueError):
@@ -649,11 +573,6 @@ def _stable_advice(sim):
 
 
 _steps = step_of  # the one rounding of times to steps (Scene.check_strokes uses it too)
-
-
-def _with_wall_time(record, started):
-    """The record as it would be saved now (its wall time including this part so far)."""
-    return {**record, "wall_seconds": record["wall_seconds"] + _time.perf_counter() - started}
 
 
 def _measure(sim):
@@ -690,8 +609,8 @@ def _write_frame(sim, frames, record, fmt, entry):
                 "velocity": cloth.velocities, "expansion": metrics.vertex_expansion(cloth)}
             path = frames.write(sim.time, cloth.positions, cloth.faces, point_data=point_data)
             # relative to the run folder, so the folder can be moved
-            record["frames"].append((sim.time, _relative(path, frames.folder.parent)))
-        record["records"].append(entry)
+            record.frames.append((sim.time, _relative(path, frames.folder.parent)))
+        record.records.append(entry)
 
 
 def _save_before(sim, out, record):
@@ -699,7 +618,7 @@ def _save_before(sim, out, record):
     path = out / BEFORE_NAME
     save_mesh(path, cloth.positions, cloth.faces,
               point_data={"expansion": metrics.vertex_expansion(cloth)})
-    record["before"] = {"time": sim.time, "file": BEFORE_NAME}  # relative to the run folder
+    record.before = {"time": sim.time, "file": BEFORE_NAME}  # relative to the run folder
 
 
 def _stroke_record(index, time, report):
@@ -726,10 +645,10 @@ def _save(out, sim, record, previous_phases, phases=None):
     """Saves the state with the record; ``phases``: this part's wall time per phase (default:
     ``sim``'s, unless a rollback replaced the simulation that ran)."""
     phases = sim.stats["phases"] if phases is None else phases
-    record["phases"] = {name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
-                        for name in set(previous_phases) | set(phases)}
+    record.phases = {name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
+                     for name in set(previous_phases) | set(phases)}
     try:
-        return save_state(out / STATE_NAME, sim, metadata=_finite_json(record)[0])
+        return save_state(out / STATE_NAME, sim, metadata=_finite_json(record.to_dict())[0])
     except ValueError as error:
         raise _Unsaveable(f"the run stopped at t = {sim.time:.6g} s: {error}. Nothing can "
                           "continue it; check the scene's extreme values") from None
@@ -745,43 +664,43 @@ def _summary(scene, sim, record, out, state_path, status, message):
     # Paths in the summary are relative to the run folder, so the folder can be moved.
     outputs = {"state": None if state_path is None else _relative(state_path, out),
                "summary": SUMMARY_NAME}
-    if record["frames"]:
-        outputs["frames"] = _relative((out / record["frames"][-1][1]).parent, out)
+    if record.frames:
+        outputs["frames"] = _relative((out / record.frames[-1][1]).parent, out)
         pvd = out / "frames" / "frame.pvd"
         if pvd.exists():
             outputs["pvd"] = _relative(pvd, out)
     before = None
-    if record["before"]:
-        before = {"time": record["before"]["time"],
-                  "file": _relative(out / record["before"]["file"], out)}
+    if record.before:
+        before = {"time": record.before["time"],
+                  "file": _relative(out / record.before["file"], out)}
         outputs["before"] = before["file"]
     summary = {
         "yore": build_info(),
         # finished | stopped at --until | interrupted | diverged | stroke missed | failed
         "status": status,
         "message": message,
-        "scene": record["scene_path"],
-        "overrides": record["overrides"],
-        "resumed_from": record["resumed_from"],
+        "scene": record.scene_path,
+        "overrides": record.overrides,
+        "resumed_from": record.resumed_from,
         "finished": sim.time >= scene.data["simulation"]["duration"] - 0.5 * sim.dt,
         "time": sim.time,
-        "steps": record["step"],
+        "steps": record.step,
         "dt": sim.dt,
         "integrator": sim.integrator,
-        "wall_seconds": record["wall_seconds"],
+        "wall_seconds": record.wall_seconds,
         # wall time per phase over the whole run (all resumed parts); counters of the last part
-        "phases": record["phases"],
+        "phases": record.phases,
         "counters": stats["counters"],
         "active_terms": stats["active_terms"],
         "vertices": stats["vertices"],
         "springs": stats["springs"],
         "settings": settings,
-        "records": record["records"],
-        "strokes": record["strokes"],
+        "records": record.records,
+        "strokes": record.strokes,
         # relaxation to rest before t = 0 ([simulation] settle), or null
-        "settle": record.get("settle"),
+        "settle": record.settled(),
         "before": before,
-        "frames": [{"time": t, "file": _relative(out / p, out)} for t, p in record["frames"]],
+        "frames": [{"time": t, "file": _relative(out / p, out)} for t, p in record.frames],
         "camera": scene.data["camera"],
         "outputs": outputs,
     }

@@ -1,0 +1,197 @@
+"""A run's record (`RunRecord`): what a run has done so far — its step, the strokes drawn,
+the frames written, timings — as a state file's metadata holds it, with the checks a record
+read back from a file must pass (a tampered record is refused, never half-used)."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+
+from .loading import step_of
+from .schedule import frame_due
+
+__all__ = ["RunRecord", "FRAMES_DIR", "BEFORE_NAME", "check_metadata", "check_against"]
+
+#: The run folder's frames folder and its "before" mesh (relative to the run folder).
+FRAMES_DIR = "frames"
+BEFORE_NAME = "before.vtu"
+
+#: The record written before [simulation] settle existed has no "settle" key.
+_NO_SETTLE = object()
+
+
+@dataclass
+class RunRecord:
+    """What a run has done, field by field, in the order a state file's metadata lists them.
+
+    scene_text, scene_path, overrides: the scene as run. step: steps taken. next_stroke:
+    strokes drawn (the index of the next). frames: [time, path] of each frame written (paths
+    relative to the run folder). records: one measure per frame (time, energies, areas,
+    counts). strokes: one entry per stroke drawn. before: {time, file} of the mesh just before
+    the first stroke, or None. wall_seconds: over all parts. resumed_from: the state files the
+    run was resumed from. phases: wall time per phase over all parts. settle: the relaxation's
+    figures before t = 0, or None (absent from records written before it existed).
+    """
+
+    scene_text: str
+    scene_path: object
+    overrides: dict
+    step: int = 0
+    next_stroke: int = 0
+    frames: list = field(default_factory=list)
+    records: list = field(default_factory=list)
+    strokes: list = field(default_factory=list)
+    before: object = None
+    wall_seconds: float = 0.0
+    resumed_from: list = field(default_factory=list)
+    phases: dict = field(default_factory=dict)
+    settle: object = _NO_SETTLE
+
+    @classmethod
+    def new(cls, scene, settle) -> "RunRecord":
+        """The record of a run of ``scene`` about to start (``settle``: its relaxation's)."""
+        return cls(scene_text=scene.text,
+                   scene_path=str(scene.path) if scene.path is not None else None,
+                   overrides=scene.overrides, settle=settle)
+
+    @classmethod
+    def from_metadata(cls, state_path, metadata) -> "RunRecord":
+        """The record a state file holds, checked field by field (`check_metadata`)."""
+        check_metadata(state_path, metadata)
+        return cls(**metadata)
+
+    def to_dict(self) -> dict:
+        """The record as a state file's metadata holds it (the same keys in the same order)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        if out["settle"] is _NO_SETTLE:
+            del out["settle"]
+        return out
+
+    def settled(self):
+        """The relaxation's figures, or None (also for records from before settle)."""
+        return None if self.settle is _NO_SETTLE else self.settle
+
+    def with_wall_time(self, seconds) -> "RunRecord":
+        """A copy whose wall time includes ``seconds`` more (the record as saved now)."""
+        return replace(self, wall_seconds=self.wall_seconds + seconds)
+
+
+def check_metadata(state_path, record):
+    """The run's record in a state file (its metadata), checked field by field: ValueError
+    naming the field, so a tampered record can only be refused, never half-used."""
+    def fail(field, expected):
+        raise ValueError(f"{state_path}: field metadata.{field}: expected {expected}")
+
+    def count(value):
+        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+    def number(value):
+        return isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value)
+
+    expected_keys = {"scene_text", "scene_path", "overrides", "step", "next_stroke", "frames",
+                     "records", "strokes", "before", "wall_seconds", "resumed_from", "phases"}
+    # settle: absent from records written before it existed
+    if not expected_keys <= set(record) <= expected_keys | {"settle"}:
+        fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
+    settle = record.get("settle")
+    # saddles_escaped and stable came with settle's saddle test: absent from older records
+    basic = {"seconds", "steps", "converged", "residual_acceleration"}
+    if settle is not None and not (
+            isinstance(settle, dict)
+            and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
+            and number(settle["seconds"]) and count(settle["steps"])
+            and isinstance(settle["converged"], bool)
+            and isinstance(settle["residual_acceleration"], (int, float))
+            and count(settle.get("saddles_escaped", 0))
+            and settle.get("stable") in (None, True, False)):
+        fail("settle", "null or a table with seconds, steps, converged, "
+             "residual_acceleration (and saddles_escaped, stable)")
+    if not isinstance(record["scene_text"], str):
+        fail("scene_text", "the scene file's text")
+    if record["scene_path"] is not None and not isinstance(record["scene_path"], str):
+        fail("scene_path", "a path or null")
+    if not isinstance(record["overrides"], dict) or \
+            not all(isinstance(key, str) for key in record["overrides"]):
+        fail("overrides", "a table of dotted keys")
+    for field in ("step", "next_stroke"):
+        if not count(record[field]):
+            fail(field, "an integer >= 0")
+    if not isinstance(record["frames"], list) or not all(
+            isinstance(f, list) and len(f) == 2 and number(f[0]) and isinstance(f[1], str)
+            and _is_frame_path(f[1]) for f in record["frames"]):
+        fail("frames", f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN "
+             "file of a run")
+    for field in ("records", "strokes"):
+        if not isinstance(record[field], list) or \
+                not all(isinstance(entry, dict) for entry in record[field]):
+            fail(field, "a list of tables")
+    if not all(number(entry.get("time")) and all(
+            isinstance(key, str) and (number(value) or isinstance(value, float))
+            for key, value in entry.items()) for entry in record["records"]):
+        fail("records", "a list of tables of numbers, each with its time")
+    if len(record["strokes"]) != record["next_stroke"]:
+        fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
+    before = record["before"]
+    if before is not None and not (isinstance(before, dict) and number(before.get("time"))
+                                   and isinstance(before.get("file"), str)
+                                   and Path(before["file"]).name == BEFORE_NAME):
+        fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
+    if not number(record["wall_seconds"]) or record["wall_seconds"] < 0:
+        fail("wall_seconds", "a number >= 0")
+    if not isinstance(record["resumed_from"], list) or \
+            not all(isinstance(path, str) for path in record["resumed_from"]):
+        fail("resumed_from", "a list of paths")
+    if not isinstance(record["phases"], dict) or not all(
+            isinstance(k, str) and number(v) for k, v in record["phases"].items()):
+        fail("phases", "a table of seconds per phase")
+
+
+
+def check_against(state_path, record, scene, sim):
+    """The record against the scene it holds and the state beside it: the same integrator,
+    and the frames and records a run of that scene writes up to the record's step (numbered
+    0, 1, ... in order). ValueError naming the field otherwise: a hand-edited record is
+    refused, never half-used (an emptied frame list would overwrite the first frames)."""
+    def fail(field, problem):
+        raise ValueError(f"{state_path}: field metadata.{field}: {problem}; the record does not "
+                         "match the run (was it edited?): start the run again with --overwrite")
+
+    integrator = scene.data["simulation"]["integrator"]
+    if integrator != sim.integrator:
+        fail("scene_text", f"its scene's integrator is {integrator!r}, the state's is "
+                           f"{sim.integrator!r}")
+    every = scene.frame_interval(sim.dt)
+    step = record["step"]
+    due = step // every + 1  # frames at 0, every, 2 every, ... up to step
+    if frame_due(step, every, step_of(scene.data["simulation"]["duration"], sim.dt)):
+        if step % every:
+            due += 1  # the scene's end
+        # an interruption may come between the steps to a frame and the frame
+        allowed = (due - 1, due)
+    else:
+        # states written before runs stopped by --until wrote no frame there have one more
+        allowed = (due, due + 1)
+    if len(record["records"]) not in allowed:
+        fail("records", f"{len(record['records'])} entries, but the run writes {due} by step "
+                        f"{step}")
+    if scene.data["output"]["format"] != "none":
+        if len(record["frames"]) != len(record["records"]):
+            fail("frames", f"{len(record['frames'])} frames for {len(record['records'])} "
+                           "records (one per frame)")
+        for number, (_, path) in enumerate(record["frames"]):
+            if not Path(path).name.startswith(f"frame_{number:05d}."):
+                fail("frames", f"entry {number} is {Path(path).name}, expected frame "
+                               f"{number:05d}")
+
+
+
+def _is_frame_path(text):
+    """A frame file as a run writes it: OUT/frames/frame_NNNNN.EXT."""
+    path = Path(text)
+    return path.parent.name == FRAMES_DIR and re.fullmatch(
+        r"frame_\d{5,}\.(vtu|vtk|ply|obj)", path.name) is not None
+
+
