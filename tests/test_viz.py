@@ -362,7 +362,7 @@ def test_parse_pixels():
     dense = densify([[0.0, 0.0], [10.0, 0.0]])
     assert np.all(np.diff(dense[:, 0]) <= 2.0 + 1e-12) and dense[-1, 0] == 10.0
     assert len(dense) == 6 and np.array_equal(densify([[3.0, 4.0]]), [[3.0, 4.0]])
-    from yore.viz.viewer import MAX_STROKE_SAMPLES
+    from yore.viz.viewer_model import MAX_STROKE_SAMPLES
     at_limit = densify([[0.0, 0.0], [2.0 * (MAX_STROKE_SAMPLES - 1), 0.0]])
     assert len(at_limit) == MAX_STROKE_SAMPLES
     with pytest.raises(ValueError, match="samples long"):

@@ -12,10 +12,9 @@ from . import _core
 from ._core import Cloth, SimulationDiverged
 from .checks import MAX_STEPS, MIN_DT
 from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
-                      INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS, SMOOTHING_RULES,
+                      INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS,
                       check_option, resolve_options, show_value)
 from . import progress as progress_bars, rules, settling, smoothing
-from .rules import Invalid
 from .settling import SETTLE_DT, SETTLE_MAX_ESCAPES, SETTLE_PERTURBATION  # noqa: F401
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 

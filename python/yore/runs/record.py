@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field as _field, fields, replace
 from pathlib import Path
 
 from .loading import step_of
@@ -40,13 +40,13 @@ class RunRecord:
     overrides: dict
     step: int = 0
     next_stroke: int = 0
-    frames: list = field(default_factory=list)
-    records: list = field(default_factory=list)
-    strokes: list = field(default_factory=list)
+    frames: list = _field(default_factory=list)
+    records: list = _field(default_factory=list)
+    strokes: list = _field(default_factory=list)
     before: object = None
     wall_seconds: float = 0.0
-    resumed_from: list = field(default_factory=list)
-    phases: dict = field(default_factory=dict)
+    resumed_from: list = _field(default_factory=list)
+    phases: dict = _field(default_factory=dict)
     settle: object = _NO_SETTLE
 
     @classmethod

@@ -21,7 +21,6 @@ import contextlib
 import json
 import math
 import os
-import re
 import signal
 import threading
 import time as _time
@@ -38,7 +37,7 @@ from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
 from .building import apply_scene_stroke, scene_camera
 from .loading import Scene, load_scene, step_of
-from .record import BEFORE_NAME, FRAMES_DIR, RunRecord, check_against, check_metadata
+from .record import BEFORE_NAME, FRAMES_DIR, RunRecord, check_against
 from .schedule import EventSchedule
 from .schema import SceneError
 

@@ -18,6 +18,9 @@ Headless (`Viewer(sim, headless=True)`, ``yore view --headless``) the same metho
 window: `stroke_pixels` turns pixels into picked points by the very function the mouse uses
 (`pick_surface`), `advance` steps, `screenshot` renders the view.
 
+What the viewer does to the simulation (picking, strokes, undo, stepping, the panel's figures)
+is `yore.viz.viewer_model.ViewerModel`, which needs no window; `Viewer` shows it in polyscope.
+
 Undo restores the simulation saved before the stroke (`Simulation.state`, so bit for bit,
 BDF2's history and Newton's memory included); `Viewer.sim` is then a new `Simulation` object.
 The mesh is registered again with polyscope after every change of topology.
@@ -27,30 +30,18 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from .. import _core
-from ..camera import Camera, fit_camera
-from ..options import (IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, SMOOTHING_RULES,
-                       STROKE_DEFAULTS)
-from ..simulation import Simulation
-from ..checks import check_integer
-from ..stroke import GROWTH_MODES, StrokeMissed, StrokeOptions, StrokePath
+from ..camera import Camera
+from ..options import INTEGRATORS
+from ..stroke import GROWTH_MODES
 from . import backend
+from .viewer_model import SAMPLE_SPACING_PX, ViewerModel, densify, parse_pixels
 
-__all__ = ["Viewer", "parse_pixels", "densify", "SAMPLE_SPACING_PX", "KEYS"]
+__all__ = ["Viewer", "ViewerModel", "parse_pixels", "densify", "SAMPLE_SPACING_PX", "KEYS"]
 
-#: Mouse or given pixels are densified so that consecutive samples are at most this far apart.
-SAMPLE_SPACING_PX = 2.0
-#: Most samples one stroke may have after densifying (a drag across a 16384-pixel screen).
-MAX_STROKE_SAMPLES = 100_000
-#: Undo keeps this many strokes.
-MAX_UNDO = 32
-#: Wall time the live loop may spend stepping per frame, s (keeps the window responsive).
-FRAME_BUDGET_SECONDS = 0.05
 #: Width of the viewer's panel, pixels.
 PANEL_WIDTH = 330
 #: The keys, as listed in docs/viewer.md and the window's help line.
@@ -63,51 +54,9 @@ COLORINGS = ("expansion", "wrinkles", "none")
 _ACTIVE = [None]  # the viewer whose cloth polyscope shows
 
 
-def parse_pixels(text) -> np.ndarray:
-    """``"x,y x,y ..."`` → (k, 2) float array of pixel coordinates; ValueError naming the
-    sample that is not a pair of finite numbers."""
-    if not isinstance(text, str) or not text.strip():
-        raise ValueError('--stroke-px needs pixels as "x,y x,y ...", got an empty value')
-    pixels = []
-    for k, item in enumerate(text.replace(";", " ").split()):
-        parts = item.split(",")
-        try:
-            if len(parts) != 2:
-                raise ValueError
-            x, y = float(parts[0]), float(parts[1])
-        except ValueError:
-            raise ValueError(f'--stroke-px sample {k + 1} is {item!r}; expected "x,y" (two '
-                             'numbers, pixels)') from None
-        if not (math.isfinite(x) and math.isfinite(y)) or max(abs(x), abs(y)) > 1e6:
-            raise ValueError(f"--stroke-px sample {k + 1} is {item!r}; pixels must be finite "
-                             "and within ±1e6")
-        pixels.append((x, y))
-    return np.asarray(pixels, dtype=np.float64)
-
-
-def densify(pixels, spacing=SAMPLE_SPACING_PX) -> np.ndarray:
-    """The polyline through ``pixels`` (k×2) resampled so that consecutive samples are at
-    most ``spacing`` apart (the given pixels are kept)."""
-    pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-    if len(pixels) < 2:
-        return pixels
-    # The size is counted before anything is allocated (a few far-apart pixels would
-    # otherwise ask for gigabytes).
-    lengths = np.linalg.norm(np.diff(pixels, axis=0), axis=1)
-    pieces = np.maximum(1, np.ceil(lengths / spacing))
-    total = 1 + float(pieces.sum())
-    if total > MAX_STROKE_SAMPLES:
-        raise ValueError(f"the stroke would be {total:.0f} samples long at {spacing} px spacing "
-                         f"({lengths.sum():.6g} px in all); at most {MAX_STROKE_SAMPLES}")
-    out = [pixels[:1]]
-    for a, b, count in zip(pixels[:-1], pixels[1:], pieces.astype(np.int64)):
-        t = np.arange(1, count + 1)[:, None] / count
-        out.append(a + t * (b - a))
-    return np.concatenate(out)
-
-
-class Viewer:
-    """A live view of ``sim`` where strokes are drawn with the mouse (see the module docstring).
+class Viewer(ViewerModel):
+    """A live view of ``sim`` where strokes are drawn with the mouse (see the module docstring):
+    the `ViewerModel` (picking, strokes, undo, stepping, figures) in a polyscope window.
 
     Parameters
     ----------
@@ -126,36 +75,15 @@ class Viewer:
 
     def __init__(self, sim, camera=None, *, headless=False, stroke_options=None,
                  coloring="expansion"):
-        if not isinstance(sim, Simulation):
-            raise ValueError(f"sim must be a yore.Simulation, got {type(sim).__name__}")
-        if camera is not None and not isinstance(camera, Camera):
-            raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
+        super().__init__(sim, camera, stroke_options=stroke_options)
         if coloring not in COLORINGS:
             raise ValueError(f"coloring must be one of {', '.join(COLORINGS)}, got {coloring!r}")
-        self.sim = sim
         self.headless = bool(headless)
-        self.camera = camera or fit_camera(sim.cloth.positions, IMAGE_WIDTH, IMAGE_HEIGHT)
         self.coloring = coloring
-        self.stroke_options = {**STROKE_DEFAULTS, "smooth": 0}
-        for name, value in (stroke_options or {}).items():
-            if name not in self.stroke_options:
-                raise ValueError(f"unknown stroke option {name!r}; valid: "
-                                 f"{', '.join(self.stroke_options)}")
-            if value is not None or name == "width":
-                self.stroke_options[name] = value
-        self._check_stroke_options()
-        self.start_state = sim.state()
-        self.undo_states = []
-        self.reports = []
-        self.playing = False
         self.draw_mode = False
         self.polyscope_panels = False
-        self._message = ""
-        self.log = None  # a callable given each message (yore view: print)
-        self.speed = 1.0
         self._draft = []  # (pixel, face, barycentric) of the drag being drawn
         self._drag_pixel = None  # the drag's last mouse sample
-        self._frame_steps, self._frame_seconds = 0, 0.0
         self._last_frame = None
         self._topology = None
         self._mesh = None
@@ -163,18 +91,20 @@ class Viewer:
         backend.set_camera(self.camera)
         self._register()
 
-    @property
-    def message(self) -> str:
-        """The last thing the viewer did or refused (shown in the panel)."""
-        return self._message
-
-    @message.setter
-    def message(self, text):
-        self._message = text
-        if self.log is not None and text:
-            self.log(text)
-
     # -- the scene in polyscope -------------------------------------------------------------
+    def _changed(self):
+        self._register()
+
+    def view_camera(self) -> Camera:
+        """The camera of the current view (the window's, as the user turned it; headless:
+        the viewer's camera)."""
+        return self.camera if self.headless else backend.camera_from_view()
+
+    def pick_surface(self, pixels):
+        """`ViewerModel.pick_surface` in the view polyscope shows."""
+        self._activate()
+        return super().pick_surface(pixels)
+
     def _activate(self):
         """Makes this viewer's cloth and camera polyscope's (a process has one polyscope
         scene; several viewers, e.g. in a script or tests, take turns)."""
@@ -228,168 +158,7 @@ class Viewer:
                                        enabled=True, onscreen_colorbar_enabled=not self.headless)
         self._colored_version = key
 
-    # -- picking: the one path from screen samples to points on the cloth --------------------
-    def view_camera(self) -> Camera:
-        """The camera of the current view (the window's, as the user turned it; headless:
-        the viewer's camera)."""
-        return self.camera if self.headless else backend.camera_from_view()
-
-    def pick_surface(self, pixels):
-        """Picks each pixel (k×2, yore pixel coordinates of the current view, fractions
-        allowed) on the cloth. Returns (pixels, faces, barycentric): the samples that hit the
-        cloth, the face under each and its barycentric coordinates (k×3, each row ≥ 0 summing
-        to 1).
-
-        Each pixel's ray of `view_camera` (`Camera.pixel_rays`) goes to its first hit on the
-        cloth in the C++ core (``_core.pick_rays``: the rays a screen stroke casts, one AABB
-        tree for all the samples)."""
-        self._activate()
-        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        if len(pixels) == 0:
-            return np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
-        camera = self.view_camera()
-        d0, dx, dy = camera.pixel_rays()
-        picked = _core.pick_rays(self.sim.cloth, np.column_stack([pixels, np.zeros(len(pixels))]),
-                                 np.asarray(camera.eye, float), d0, dx, dy)
-        faces = np.asarray(picked["faces"], dtype=np.int64)
-        weights = np.clip(picked["barycentric"], 0.0, None)
-        total = weights.sum(axis=1)
-        hit = (faces >= 0) & np.isfinite(total) & (total > 0)
-        return (pixels[hit], faces[hit], weights[hit] / total[hit, None])
-
-    def surface_points(self, faces, barycentric) -> np.ndarray:
-        """3-D points (k×3) on the cloth as it is now at (face, barycentric) pairs."""
-        cloth = self.sim.cloth
-        corners = cloth.positions[cloth.faces[np.asarray(faces, dtype=np.int64)]]
-        return np.einsum("kj,kji->ki", np.asarray(barycentric, dtype=np.float64), corners)
-
-    @staticmethod
-    def _runs(pixels, faces):
-        """Index ranges of consecutive samples: a gap (a sample that missed the cloth, seen as
-        a jump of more than 1.5 spacings between kept samples) starts a new run."""
-        if len(faces) == 0:
-            return []
-        gaps = np.flatnonzero(np.linalg.norm(np.diff(pixels, axis=0), axis=1)
-                              > 1.5 * SAMPLE_SPACING_PX) + 1
-        bounds = [0, *gaps.tolist(), len(faces)]
-        return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
-
-    # -- strokes ------------------------------------------------------------------------------
-    def stroke_pixels(self, pixels) -> list:
-        """Draws a stroke through ``pixels`` (k×2, pixels of the current view: x right, y
-        down, (0, 0) the top-left pixel's centre), exactly as a mouse drag through them
-        would: densify, pick, then `apply_picked`. Returns the stroke reports. Raises
-        yore.StrokeMissed when no sample lies on the cloth."""
-        hits, faces, weights = self.pick_surface(densify(pixels))
-        return self.apply_picked(hits, faces, weights)
-
-    def apply_picked(self, pixels, faces, barycentric) -> list:
-        """Applies picked samples as strokes (one per run of consecutive samples), with the
-        stroke options and smoothing; one undo step for all. Returns the reports."""
-        if len(faces) == 0:
-            raise StrokeMissed("the stroke's pixels miss the cloth (no sample lies on it)")
-        options = self.stroke_value()
-        saved = self.sim.state()
-        reports = []
-        # every run's points on the cloth as it is now, before the first stroke renumbers faces
-        pieces = [self.surface_points(faces[a:b], barycentric[a:b])
-                  for a, b in self._runs(pixels, faces)]
-        try:
-            for points in pieces:
-                reports.append(self.sim.stroke(StrokePath.world(points), options))
-        except Exception:
-            # a stroke that fails halfway leaves nothing behind
-            self.sim = Simulation.from_state(saved)
-            self._register()
-            raise
-        self.undo_states.append(saved)
-        del self.undo_states[:-MAX_UNDO]
-        self.reports.append(reports)
-        del self.reports[:-MAX_UNDO]
-        self._register()
-        split = sum(r.faces_split for r in reports)
-        added = sum(r.vertices_added for r in reports)
-        self.message = (f"stroke at t = {self.sim.time:.3f} s: {split} faces split, "
-                        f"{added} vertices added")
-        return reports
-
-    def undo(self) -> bool:
-        """Restores the simulation saved before the last stroke; False when there is none."""
-        if not self.undo_states:
-            self.message = "nothing to undo"
-            return False
-        self.sim = Simulation.from_state(self.undo_states.pop())
-        self.reports.pop()
-        self._register()
-        self.message = f"stroke undone (t = {self.sim.time:.3f} s)"
-        return True
-
-    def reset(self) -> None:
-        """Back to the simulation the viewer started with (strokes and undo steps dropped)."""
-        self.sim = Simulation.from_state(self.start_state)
-        self.undo_states.clear()
-        self.reports.clear()
-        self._register()
-        self.message = "reset to the start"
-
-    def stroke_value(self) -> StrokeOptions:
-        """The stroke options in force as a `yore.StrokeOptions`: the panel's, with its
-        smoothing iterations (0: none) as the stroke's last stage over the stroke's region,
-        conserving the rest length it added."""
-        options = dict(self.stroke_options)
-        smooth = options.pop("smooth")
-        return StrokeOptions.of(options, smooth=smooth or None)
-
-    def _check_stroke_options(self):
-        options = self.stroke_options
-        options["smooth"] = check_integer(options["smooth"], "smooth (iterations)",
-                                          SMOOTHING_RULES["iterations"].low,
-                                          SMOOTHING_RULES["iterations"].high)
-        checked = self.stroke_value()
-        options.update({name: getattr(checked, name) for name in STROKE_DEFAULTS})
-
-    # -- time -----------------------------------------------------------------------------------
-    def advance(self, seconds, progress=None) -> None:
-        """Advances the simulation by ``seconds`` and updates the view."""
-        self.sim.advance(seconds, progress=progress)
-        self._register()
-
-    def step_frame(self, wall_seconds=1.0 / 30.0) -> int:
-        """One frame of the live loop: steps for ``speed × wall_seconds`` of simulated time,
-        at least one, at most what fits in `FRAME_BUDGET_SECONDS` at the last frame's cost per
-        step. A divergence pauses the viewer with its message. Returns the steps taken."""
-        dt = self.sim.dt
-        wanted = max(1, int(round(self.speed * min(wall_seconds, 0.1) / dt)))
-        if self._frame_steps:
-            per_step = self._frame_seconds / self._frame_steps
-            wanted = max(1, min(wanted, int(FRAME_BUDGET_SECONDS / max(per_step, 1e-9))))
-        start = time.perf_counter()
-        try:
-            with warnings.catch_warnings():
-                # unconverged steps are counted in the statistics the panel shows
-                warnings.simplefilter("ignore", RuntimeWarning)
-                self.sim.step(wanted)
-        except RuntimeError as error:  # yore.SimulationDiverged
-            self.playing = False
-            self.message = " ".join(str(error).split())
-            self._register()
-            return 0
-        self._frame_steps, self._frame_seconds = wanted, time.perf_counter() - start
-        self._register()
-        return wanted
-
-    def set_integrator(self, integrator, dt=None) -> None:
-        """Rebuilds the integrator (its default options) from the current state; dt None takes
-        the integrator's default for this cloth."""
-        if integrator not in INTEGRATORS:
-            raise ValueError(f"unknown integrator {integrator!r}; valid: "
-                             f"{', '.join(INTEGRATORS)}")
-        sim = Simulation(self.sim.cloth, integrator=integrator, dt=dt, gravity=self.sim.gravity)
-        self.sim = sim
-        self._frame_steps = 0
-        self.message = f"{integrator}, dt = {sim.dt:.4g} s"
-
-    # -- pictures and files ---------------------------------------------------------------------
+    # -- pictures -------------------------------------------------------------------------------
     def screenshot(self, panel=False) -> np.ndarray:
         """The current view as an (h, w, 3) uint8 image; ``panel``: with polyscope's and the
         viewer's panels drawn over it, as the window shows them."""
@@ -432,35 +201,6 @@ class Viewer:
         path = save_png(path, self.screenshot(panel=panel))
         self.message = f"picture saved: {path}"
         return path
-
-    def save_state(self, path) -> Path:
-        from ..state import save_state
-
-        path = save_state(path, self.sim, metadata={"source": "yore view"})
-        self.message = f"state saved: {path}"
-        return path
-
-    def statistics(self) -> dict:
-        """What the panel shows: time, steps, last frame's step time, steps per second,
-        iterations per step, analyses, factorization time, vertices, faces."""
-        stats = self.sim.stats
-        counters, phases = stats["counters"], stats["phases"]
-        steps = max(stats["steps"], 1)
-        iterations = counters.get("newton_iterations", counters.get("iterations"))
-        # the live loop's last frame, else the mean over the simulation's steps so far
-        per_step = (self._frame_seconds / self._frame_steps if self._frame_steps else
-                    stats["wall_seconds"] / stats["steps"] if stats["steps"] else None)
-        return {"time": self.sim.time, "steps": stats["steps"], "integrator": stats["integrator"],
-                "dt": stats["dt"], "step_ms": None if per_step is None else 1e3 * per_step,
-                "steps_per_second": None if not per_step else 1.0 / per_step,
-                "iterations_per_step": None if iterations is None else iterations / steps,
-                "unconverged_steps": counters.get("unconverged_steps"),
-                "analyses": counters.get("analyses"),
-                "factorize_seconds": phases.get("factorize_seconds"),
-                "vertices": stats["vertices"], "faces": int(len(self.sim.cloth.faces)),
-                "strokes": len(self.reports),
-                # the error-controlled integrators' own (SUNDIALS): None for the others
-                **{name: counters.get(name) for name in _SUNDIALS_FIGURES}}
 
     # -- the window -----------------------------------------------------------------------------
     def show(self) -> None:
@@ -650,12 +390,6 @@ class Viewer:
         except (ValueError, OSError, RuntimeError) as error:
             self.message = " ".join(str(error).split())
             return None
-
-
-#: What the panel shows of an error-controlled (SUNDIALS) run, from its counters.
-_SUNDIALS_FIGURES = ("internal_steps", "current_order", "current_internal_dt",
-                     "error_test_failures", "nonlinear_iterations", "nonlinear_failures",
-                     "linear_setups", "linear_solves")
 
 
 def _statistics_lines(s) -> list:
