@@ -156,7 +156,7 @@ def flat_state_check(model, parameters):
     sim = make(model, parameters, noise=0.0)
     sim.settle(max_seconds=SETTLE_SECONDS, tolerance=SETTLE_TOLERANCE, check_stability=False)
     cloth = sim.cloth
-    stable = not yore.simulation._is_saddle(cloth, (0.0, 0.0, 0.0))
+    stable = not yore.settling.is_saddle(cloth, (0.0, 0.0, 0.0))
     compression = None
     if model == "membrane":
         V, F, P = sim.scene["uv"], cloth.faces, cloth.positions

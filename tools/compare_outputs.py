@@ -2,7 +2,7 @@
 scripted strokes and quick benchmarks with one installed yore, digest everything they produce
 that is not wall time, and compare two digests.
 
-    # in each checkout, with its own interpreter (old and new code):
+    # in each checkout (examples/, benchmarks/, python/yore/data/), with its own interpreter:
     python tools/compare_outputs.py digest --out /tmp/new.json
     /tmp/oldvenv/bin/python tools/compare_outputs.py digest --out /tmp/old.json   # (cwd: old)
     python tools/compare_outputs.py compare /tmp/old.json /tmp/new.json
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import io
 import json
 import re
 import subprocess
@@ -49,25 +50,34 @@ def _strip(value):
 
 
 def _state_digest(path):
-    """SHA-256 of each array of a state file, and its JSON document without wall time."""
+    """SHA-256 of each array of a state file, and its JSON document (stored as an array of
+    text) without wall time."""
     out = {}
     with zipfile.ZipFile(path) as archive:
         for name in sorted(archive.namelist()):
             data = archive.read(name)
-            if name.endswith(".json"):
-                out[name] = _strip(json.loads(data))
+            if name.startswith("__document__"):
+                document = np.load(io.BytesIO(data), allow_pickle=False)
+                out[name] = _strip(json.loads(str(document)))
             else:
                 out[name] = hashlib.sha256(data).hexdigest()
     return out
 
 
+def _without_root(item, root):
+    """``item`` with the checkout's own path written as <root> (no output of yore's)."""
+    return json.loads(json.dumps(item).replace(str(root), "<root>"))
+
+
 def _run(command, cwd):
     done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False)
-    lines = [line for line in done.stdout.splitlines()
+    # the checkout's own path is no output of yore's
+    stdout, stderr = (text.replace(str(cwd), "<root>") for text in (done.stdout, done.stderr))
+    lines = [line for line in stdout.splitlines()
              if not re.search(r"\d+(\.\d+)? ?(s|ms)\b.*(wall|took|elapsed)|wall|seconds",
                               line)]
     return {"code": done.returncode, "stdout": lines,
-            "stderr": done.stderr.strip().splitlines()[-1:] if done.returncode else []}
+            "stderr": stderr.strip().splitlines()[-1:] if done.returncode else []}
 
 
 def _scenes(root, work):
@@ -139,6 +149,7 @@ def digest(out):
     with tempfile.TemporaryDirectory() as temporary:
         work = Path(temporary)
         found = {**_scenes(root, work), **_scripted(), **_benchmarks(root, work)}
+        found = _without_root(_without_root(found, root), work)
     Path(out).write_text(json.dumps(found, indent=1, sort_keys=True) + "\n")
 
 

@@ -165,6 +165,24 @@ def default_direction(up) -> np.ndarray:
             + axis * (axis @ direction) * (1.0 - cosine))
 
 
+def _fit_arguments(up, direction, margin, fov_degrees, width, height):
+    """`fit_camera`'s arguments checked, in its order; ValueError naming the wrong one."""
+    up = check_vector(up, "up")
+    direction = default_direction(up) if direction is None else check_vector(direction,
+                                                                              "direction")
+    sine = np.linalg.norm(np.cross(direction, up)) / np.linalg.norm(direction) / np.linalg.norm(up)
+    if sine <= 1e-9:
+        raise ValueError(f"direction {tuple(direction)} must not be parallel to up {tuple(up)}")
+    margin = check_factor(margin, "margin")
+    if margin < 1.0:
+        raise ValueError(f"margin must be >= 1, got {margin}")
+    fov_degrees = check_factor(fov_degrees, "fov_degrees")
+    if fov_degrees >= 180.0:
+        raise ValueError(f"fov_degrees must be in (0, 180), got {fov_degrees}")
+    width, height = check_image_size(width, height, "fit_camera")
+    return up, direction, margin, fov_degrees, width, height
+
+
 def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, up=(0.0, 1.0, 0.0),
                fov_degrees=DEFAULT_FOV_DEGREES, margin=DEFAULT_MARGIN) -> Camera:
     """A camera looking along ``-direction`` that frames ``points`` tightly.
@@ -200,19 +218,8 @@ def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, u
         zero or along ``up``, or a number is out of range.
     """
     stacked = np.concatenate(_point_arrays(points))
-    up = check_vector(up, "up")
-    direction = default_direction(up) if direction is None else check_vector(direction,
-                                                                              "direction")
-    sine = np.linalg.norm(np.cross(direction, up)) / np.linalg.norm(direction) / np.linalg.norm(up)
-    if sine <= 1e-9:
-        raise ValueError(f"direction {tuple(direction)} must not be parallel to up {tuple(up)}")
-    margin = check_factor(margin, "margin")
-    if margin < 1.0:
-        raise ValueError(f"margin must be >= 1, got {margin}")
-    fov_degrees = check_factor(fov_degrees, "fov_degrees")
-    if fov_degrees >= 180.0:
-        raise ValueError(f"fov_degrees must be in (0, 180), got {fov_degrees}")
-    width, height = check_image_size(width, height, "fit_camera")
+    up, direction, margin, fov_degrees, width, height = _fit_arguments(
+        up, direction, margin, fov_degrees, width, height)
 
     backward = direction / np.linalg.norm(direction)
     forward = -backward

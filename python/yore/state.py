@@ -436,6 +436,14 @@ _TINY = float(np.finfo(np.float64).tiny)
 
 def _check_simulation(field, simulation):
     """The schema of a version-1 state (`Simulation.state`, `yore.Cloth.state`)."""
+    integrator = _check_stepping(field, simulation)
+    n = _check_cloth(field, simulation["cloth"])
+    _check_projection_memory(field, simulation.get("projection_memory"), integrator)
+    _check_history(field, simulation, integrator, n)
+
+
+def _check_stepping(field, simulation):
+    """The integrator, its options, dt, gravity and the clock's target; the integrator."""
     field.keys(simulation, "simulation", _SIMULATION_FIELDS,
                optional=("projection_memory", "dt_follows_cloth", "integrator_restarts"))
     integrator = simulation["integrator"]
@@ -457,9 +465,14 @@ def _check_simulation(field, simulation):
         if name in simulation:
             field.check(_FLAG, simulation[name], f"simulation.{name}")
 
+    return integrator
+
+
+def _check_cloth(field, cloth):
+    """The cloth's arrays, material, bending, membrane, drivers and clock; its vertex count."""
     # The bending fields came with quadratic bending: a file without them is bending springs;
     # the membrane's with the membrane: a file without them has springs that resist stretching.
-    cloth = field.keys(simulation["cloth"], "simulation.cloth", _CLOTH_FIELDS,
+    cloth = field.keys(cloth, "simulation.cloth", _CLOTH_FIELDS,
                        optional=_CLOTH_BENDING_FIELDS + _CLOTH_MEMBRANE_FIELDS)
     where = "simulation.cloth."
     positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))
@@ -486,6 +499,17 @@ def _check_simulation(field, simulation):
                     (n, 2))
     field.array(cloth["vertex_states"], where + "vertex_states", np.uint8, (n,),
                 allowed=(0, 1, 2))
+    _check_cloth_models(field, cloth, n)
+    _check_drivers(field, cloth["drivers"], n)
+    field.real(cloth["clock_origin"], where + "clock_origin", -MAX_TIME, high=MAX_TIME)
+    field.integer(cloth["clock_steps"], where + "clock_steps", 0, 2**62)
+    field.real(cloth["clock_dt"], where + "clock_dt", 0.0)
+    return n
+
+
+def _check_cloth_models(field, cloth, n):
+    """Quadratic bending's fields (or none with bending springs) and the membrane's."""
+    where = "simulation.cloth."
     bending = cloth.get("bending", "springs")
     if bending not in ("springs", "quadratic"):
         raise field.error(where + "bending", f"got {_show(bending)}", '"springs" or "quadratic"')
@@ -506,7 +530,10 @@ def _check_simulation(field, simulation):
             if not -1.0 < ratio < 1.0 or (young == 0.0 and ratio != 0.0):
                 raise field.error(where + "poisson_ratio", f"got {_show(ratio)}",
                                   "a number in (-1, 1) with a membrane, 0 without one")
-    drivers = cloth["drivers"]
+
+
+def _check_drivers(field, drivers, n):
+    where = "simulation.cloth."
     if not isinstance(drivers, list):
         raise field.error(where + "drivers", f"got {_show(drivers)}", "a list of drivers")
     for k, driver in enumerate(drivers):
@@ -521,11 +548,9 @@ def _check_simulation(field, simulation):
             raise field.error(at + "axis", "is zero", "a direction")
         field.real(driver["omega"], at + "omega")
         field.real(driver["start_time"], at + "start_time")
-    field.real(cloth["clock_origin"], where + "clock_origin", -MAX_TIME, high=MAX_TIME)
-    field.integer(cloth["clock_steps"], where + "clock_steps", 0, 2**62)
-    field.real(cloth["clock_dt"], where + "clock_dt", 0.0)
 
-    memory = simulation.get("projection_memory")
+
+def _check_projection_memory(field, memory, integrator):
     if memory is not None:
         if not INTEGRATOR_SPECS[integrator].newton:
             raise field.error("simulation.projection_memory", f"given for integrator "
@@ -541,6 +566,9 @@ def _check_simulation(field, simulation):
             field.real(memory["shift"], "simulation.projection_memory.shift", 0.0, high=1e12)
         if "radius" in memory:
             field.real(memory["radius"], "simulation.projection_memory.radius", 0.0)
+
+
+def _check_history(field, simulation, integrator, n):
     history = simulation["history"]
     if history is not None:
         fields = INTEGRATOR_SPECS[integrator].history(simulation["options"])

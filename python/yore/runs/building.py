@@ -40,6 +40,28 @@ MATERIAL_ARGUMENTS = ("stretch_stiffness", "bend_stiffness", "bending_modulus", 
 
 def build_simulation(scene):
     data = scene.data
+    pattern, F, uv, sets = _build_mesh(scene)
+    cloth = _build_cloth(scene, pattern, F, uv)
+    _constrain(scene, cloth, sets)
+    simulation = data["simulation"]
+    gravity = simulation.get("gravity")
+    try:
+        sim = Simulation(cloth, integrator=simulation["integrator"], dt=simulation.get("dt"),
+                         gravity=GRAVITY if gravity is None else gravity,
+                         **data["integrator"])
+    except ValueError as error:
+        raise scene.error("integrator", str(error)) from None
+    # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an
+    # explicit scene that refines gives its [simulation] dt, else the run stops with advice).
+    sim.keep_dt()
+    sim.scene = {"name": data["scene"].get("name", scene.source), "sets": sets, "uv": uv}
+    return sim, sets
+
+
+def _build_mesh(scene):
+    """(rest pattern n×3, faces, material coordinates or None, named vertex sets) of the
+    scene's [mesh]."""
+    data = scene.data
     mesh = data["mesh"]
     generator = mesh["generator"]
     uv = None
@@ -79,6 +101,13 @@ def build_simulation(scene):
         sets = {}
     sets["all"] = np.arange(len(pattern), dtype=np.int32)
 
+    return pattern, F, uv, sets
+
+
+def _build_cloth(scene, pattern, F, uv):
+    """The cloth of the scene's [material] on the mesh (gathered as [mesh] says)."""
+    data = scene.data
+    mesh = data["mesh"]
     material = data["material"]
     n = len(pattern)
     if "density" in material:
@@ -110,7 +139,7 @@ def build_simulation(scene):
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
     except ValueError as error:  # the mesh
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
-    if generator == "grid" and mesh["gather"] != 1.0:
+    if mesh["generator"] == "grid" and mesh["gather"] != 1.0:
         gathered = pattern.copy()
         middle = 0.5 * mesh["width"]
         gathered[:, 0] = middle + mesh["gather"] * (pattern[:, 0] - middle)
@@ -118,6 +147,12 @@ def build_simulation(scene):
     if uv is not None:
         cloth.material_coordinates = uv
 
+    return cloth
+
+
+def _constrain(scene, cloth, sets):
+    """The scene's [[fixed]] and [[driven]] vertices."""
+    data = scene.data
     positions = cloth.positions
     for k, entry in enumerate(data["fixed"]):
         vertices = _select(scene, f"fixed[{k}]", entry, sets, positions)
@@ -132,20 +167,6 @@ def build_simulation(scene):
                                  omega=entry["omega"])
         except ValueError as error:
             raise scene.error(f"driven[{k}]", str(error)) from None
-
-    simulation = data["simulation"]
-    gravity = simulation.get("gravity")
-    try:
-        sim = Simulation(cloth, integrator=simulation["integrator"], dt=simulation.get("dt"),
-                         gravity=GRAVITY if gravity is None else gravity,
-                         **data["integrator"])
-    except ValueError as error:
-        raise scene.error("integrator", str(error)) from None
-    # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an
-    # explicit scene that refines gives its [simulation] dt, else the run stops with advice).
-    sim.keep_dt()
-    sim.scene = {"name": data["scene"].get("name", scene.source), "sets": sets, "uv": uv}
-    return sim, sets
 
 
 def _grid_sets(nx, ny):

@@ -217,6 +217,17 @@ def _dotted(parts):
 
 
 def _check(scene, raw):
+    data = _check_tables(scene, raw)
+    _check_material(scene, data["material"], raw)
+    _check_vertices_and_strokes(scene, data)
+    _check_output(scene, data)
+    data["integrator"] = _check_integrator(scene, raw.get("integrator", {}),
+                                           data["simulation"]["integrator"])
+    return data
+
+
+def _check_tables(scene, raw):
+    """Every table of the schema, checked key by key (the [integrator] table aside)."""
     unknown = [key for key in raw if key not in SCHEMA]
     if unknown:
         key = unknown[0]
@@ -255,7 +266,11 @@ def _check(scene, raw):
                 _check_mesh_size(scene, data[name])
             if name == "camera":
                 _check_camera_size(scene, data[name])
-    material = data["material"]
+    return data
+
+
+def _check_material(scene, material, raw):
+    """One way to give the mass; bending and stretching models with their own keys."""
     given = [k for k in ("mass", "mass_per_vertex", "density") if k in material]
     if len(given) > 1:
         raise scene.error(f"material.{given[1]}", f"given together with material.{given[0]}",
@@ -276,6 +291,10 @@ def _check(scene, raw):
                               "bending = \"quadratic\", or bend_stiffness for the springs")
         material.setdefault("bend_stiffness", STIFFNESS)
     _check_stretch(scene, material, raw.get("material", {}))
+
+
+def _check_vertices_and_strokes(scene, data):
+    """Fixed and driven selections; each stroke one form, before the run's end."""
     for k, entry in enumerate(data["fixed"]):
         _check_selection(scene, f"fixed[{k}]", entry)
     for k, entry in enumerate(data["driven"]):
@@ -292,6 +311,10 @@ def _check(scene, raw):
             raise scene.error(f"strokes[{k}].time", f"{stroke['time']:g} s is not before the "
                               f"end of the run ({data['simulation']['duration']:g} s)",
                               "a time before simulation.duration")
+
+
+def _check_output(scene, data):
+    """Frames, pictures and animations that fit together; settle without driven vertices."""
     output = data["output"]
     if output.get("fps") is not None and output.get("every_steps") is not None:
         raise scene.error("output.every_steps", "given together with output.fps",
@@ -306,10 +329,6 @@ def _check(scene, raw):
     if data["simulation"]["settle"] > 0.0 and data["driven"]:
         raise scene.error("simulation.settle", "given for a scene with [[driven]] vertices, "
                           "which keep moving and have no rest to settle to", "settle = 0")
-    data["integrator"] = _check_integrator(scene, raw.get("integrator", {}),
-                                           data["simulation"]["integrator"])
-    return data
-
 
 def _check_mesh_size(scene, mesh):
     """The generated mesh's vertex count, estimated before anything is built."""

@@ -205,6 +205,16 @@ def _client(scheduler, workers, quiet):
     return client, cluster
 
 
+def _check_workers(workers):
+    most = max_local_workers()
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= most):
+        raise SweepError(f"workers must be an integer in [1, {most}], got {workers!r}: at "
+                         f"most twice this machine's {most // 2} core(s) (a worker is a "
+                         "process of about 80 MB running one cell on one core; more only "
+                         "share the cores)")
+
+
 def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
         resume=False, cell_function=None,
         connect_timeout=CONNECT_TIMEOUT_SECONDS) -> Results:
@@ -215,13 +225,7 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
     ``workers`` processes. resume : skip the cells ``out`` already holds. cell_function : what
     runs a cell (default `run_cell`; tests pass stand-ins). Raises SweepError before anything
     runs when the sweep or the folder is wrong."""
-    most = max_local_workers()
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or not 1 <= workers <= most):
-        raise SweepError(f"workers must be an integer in [1, {most}], got {workers!r}: at "
-                         f"most twice this machine's {most // 2} core(s) (a worker is a "
-                         "process of about 80 MB running one cell on one core; more only "
-                         "share the cores)")
+    _check_workers(workers)
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
     out = Path(os.fspath(out))
@@ -251,54 +255,8 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
         results.reference_errors()
         results.write()
         raise
-    from dask.distributed import as_completed
-    from tqdm.auto import tqdm
-
     try:
-        if not quiet:
-            print(f"yore sweep: {todo} of {sweep.cell_count} cells to run on "
-                  f"{len(client.scheduler_info()['workers'])} Dask workers; dashboard "
-                  f"{client.dashboard_link}", flush=True)
-        limit = IN_FLIGHT_PER_WORKER * max(1, len(client.scheduler_info()["workers"]))
-        running = {}
-        queue = as_completed()
-
-        def submit_next():
-            cell = next(pending, None)
-            if cell is None:
-                return False
-            future = client.submit(function, sweep.scene_text,
-                                   str(sweep.scene_path) if sweep.scene_path else None,
-                                   cell.overrides, key=f"yore-cell-{cell.key}-{os.getpid()}",
-                                   pure=False)
-            running[future.key] = cell
-            queue.add(future)
-            return True
-
-        for _ in range(limit):
-            if not submit_next():
-                break
-        last_write = time.monotonic()
-        failed = 0
-        with tqdm(total=todo, desc="yore sweep", unit="cell", disable=quiet or None,
-                  delay=2.0) as bar:
-            for future in queue:
-                cell = running.pop(future.key)
-                try:
-                    result = future.result()
-                except Exception as error:  # noqa: BLE001 - the task itself failed (worker)
-                    result = {"status": "failed",
-                              "message": f"{type(error).__name__}: {error}",
-                              "values": {}, "positions": None, "faces": None}
-                future.release()
-                results.add(cell, result)
-                failed += result["status"] != "done"
-                bar.update(1)
-                bar.set_postfix(not_done=failed, refresh=False)
-                submit_next()
-                if time.monotonic() - last_write >= WRITE_INTERVAL_SECONDS:
-                    results.write()
-                    last_write = time.monotonic()
+        _run_cells(client, sweep, pending, todo, function, results, quiet)
     finally:
         client.close()
         if cluster is not None:
@@ -307,6 +265,58 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
         results.reference_errors()
         results.write()
     return results
+
+
+def _run_cells(client, sweep, pending, todo, function, results, quiet):
+    """Submits the pending cells to the cluster, a few per worker at a time, and adds each
+    result as it comes (the Dataset written every WRITE_INTERVAL_SECONDS)."""
+    from dask.distributed import as_completed
+    from tqdm.auto import tqdm
+
+    if not quiet:
+        print(f"yore sweep: {todo} of {sweep.cell_count} cells to run on "
+              f"{len(client.scheduler_info()['workers'])} Dask workers; dashboard "
+              f"{client.dashboard_link}", flush=True)
+    limit = IN_FLIGHT_PER_WORKER * max(1, len(client.scheduler_info()["workers"]))
+    running = {}
+    queue = as_completed()
+
+    def submit_next():
+        cell = next(pending, None)
+        if cell is None:
+            return False
+        future = client.submit(function, sweep.scene_text,
+                               str(sweep.scene_path) if sweep.scene_path else None,
+                               cell.overrides, key=f"yore-cell-{cell.key}-{os.getpid()}",
+                               pure=False)
+        running[future.key] = cell
+        queue.add(future)
+        return True
+
+    for _ in range(limit):
+        if not submit_next():
+            break
+    last_write = time.monotonic()
+    failed = 0
+    with tqdm(total=todo, desc="yore sweep", unit="cell", disable=quiet or None,
+              delay=2.0) as bar:
+        for future in queue:
+            cell = running.pop(future.key)
+            try:
+                result = future.result()
+            except Exception as error:  # noqa: BLE001 - the task itself failed (worker)
+                result = {"status": "failed",
+                          "message": f"{type(error).__name__}: {error}",
+                          "values": {}, "positions": None, "faces": None}
+            future.release()
+            results.add(cell, result)
+            failed += result["status"] != "done"
+            bar.update(1)
+            bar.set_postfix(not_done=failed, refresh=False)
+            submit_next()
+            if time.monotonic() - last_write >= WRITE_INTERVAL_SECONDS:
+                results.write()
+                last_write = time.monotonic()
 
 
 def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None,

@@ -175,6 +175,23 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
     """Reads and checks a sweep file (or ``text``, relative paths then from the current folder
     or ``path``'s). ``check_cells``: load every cell's scene too (the default; a resumed sweep
     was checked when it started). Raises SweepError (a ValueError) naming the problem."""
+    source, path, text, raw = _read(path, text)
+    scene_text, scene_path, repeats, sets = _sweep_table(source, path, raw)
+    dimensions = _dimensions(source, raw, sets, repeats)
+    frames, reference = _record_table(source, raw, dimensions)
+    sweep = Sweep(text=text, path=path, scene_text=scene_text, scene_path=scene_path,
+                  sets=dict(sets), dimensions=dimensions, repeats=repeats, frames=frames,
+                  reference=dict(reference))
+    if sweep.cell_count > MAX_CELLS:
+        raise _error(source, "axes", f"{sweep.cell_count} cells", f"at most {MAX_CELLS}")
+    _try_set_and_values(sweep, source, dimensions)
+    if check_cells:
+        _check_cells(sweep, source)
+    return sweep
+
+
+def _read(path, text):
+    """(source name, path, text, parsed TOML) of a sweep file or text; SweepError."""
     if text is None:
         if path is None:
             raise ValueError("give a sweep file path or its text")
@@ -196,6 +213,11 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         raise SweepError(f"{source}: not valid TOML: {' '.join(str(error).split())}") from None
     except RecursionError:
         raise SweepError(f"{source}: nested too deeply to be a sweep file") from None
+    return source, path, text, raw
+
+
+def _sweep_table(source, path, raw):
+    """(scene text, scene path, repeats, [sweep.set]) of the [sweep] table."""
     unknown = sorted(set(raw) - _TOP)
     if unknown:
         raise _error(source, unknown[0], "unknown table", "one of " + ", ".join(sorted(_TOP)))
@@ -211,6 +233,11 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         raise _error(source, "sweep.repeats", f"got {repeats!r}",
                      f"an integer in [1, {MAX_REPEATS}]")
     sets = _table(source, sweep_table, "set", where="sweep.set")
+    return scene_text, scene_path, repeats, sets
+
+
+def _dimensions(source, raw, sets, repeats):
+    """The dimensions of [axes], [zip] and repeats, with names results.nc can hold."""
     dimensions = []
     axes = _table(source, raw, "axes")
     for key, values in axes.items():
@@ -254,6 +281,11 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         dimensions.append(Dimension("repeat", ("repeat",), tuple((k,) for k in range(repeats))))
     if not dimensions:
         raise _error(source, "axes", "no axis, zip or repeat", "at least one axis to sweep")
+    return dimensions
+
+
+def _record_table(source, raw, dimensions):
+    """(frames, reference) of the [record] table, the reference one of the swept values."""
     record = _table(source, raw, "record")
     unknown = sorted(set(record) - _RECORD_KEYS)
     if unknown:
@@ -283,11 +315,11 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
         if not any(_same(value, values[column]) for values in dimension.values):
             raise _error(source, f"record.reference.{key}", f"{value!r} is not one of its "
                          "values", ", ".join(repr(v[column]) for v in dimension.values))
-    sweep = Sweep(text=text, path=path, scene_text=scene_text, scene_path=scene_path,
-                  sets=dict(sets), dimensions=dimensions, repeats=repeats, frames=frames,
-                  reference=dict(reference))
-    if sweep.cell_count > MAX_CELLS:
-        raise _error(source, "axes", f"{sweep.cell_count} cells", f"at most {MAX_CELLS}")
+    return frames, reference
+
+
+def _try_set_and_values(sweep, source, dimensions):
+    """[sweep.set] with the base scene, then every swept value alone."""
     # [sweep.set] on the base scene alone first: a conflict there is named as the set's, not
     # as the first axis value's
     try:
@@ -306,20 +338,22 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
                 continue
             for key, value in dimension.overrides(k).items():
                 _try_overrides(sweep, source, key, {key: value})
-    if check_cells:
-        from ..runs.runner import check_scene
-        from .cell import OUTPUT_OVERRIDES
 
-        for cell in sweep.cells():
-            try:
-                # what a cell's run checks before it runs (the same as `yore check`): a cell
-                # that would only end "failed" is refused up front
-                check_scene(load_scene(sweep.scene_path, text=sweep.scene_text,
-                                       overrides={**cell.overrides, **OUTPUT_OVERRIDES}))
-            except (SceneError, ValueError) as error:
-                raise _error(source, f"cell {cell.index} ({describe_value(sweep, cell)})",
-                             " ".join(str(error).split())) from None
-    return sweep
+
+def _check_cells(sweep, source):
+    """Every cell's scene, checked as its run would check it."""
+    from ..runs.runner import check_scene
+    from .cell import OUTPUT_OVERRIDES
+
+    for cell in sweep.cells():
+        try:
+            # what a cell's run checks before it runs (the same as `yore check`): a cell
+            # that would only end "failed" is refused up front
+            check_scene(load_scene(sweep.scene_path, text=sweep.scene_text,
+                                   overrides={**cell.overrides, **OUTPUT_OVERRIDES}))
+        except (SceneError, ValueError) as error:
+            raise _error(source, f"cell {cell.index} ({describe_value(sweep, cell)})",
+                         " ".join(str(error).split())) from None
 
 
 #: Variable names results.nc always holds (a dimension or zip key may not take them).

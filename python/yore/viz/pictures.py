@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -223,7 +224,6 @@ def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=Non
     before = summary.get("before")
     before_path = run_dir / before["file"] if before else paths[0]
     before_mesh = _read_frame(before_path) if before else loaded[0]
-    last = len(paths) - 1
     settings = summary.get("camera")
     painter = _Painter(color_by, summary.get("strokes", []))
 
@@ -234,50 +234,74 @@ def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=Non
                        titled)
 
     written = {}
+    frames_of_run = SimpleNamespace(paths=paths, times=times, loaded=loaded, chosen=chosen,
+                                    before=before, before_mesh=before_mesh,
+                                    before_path=before_path, settings=settings)
     if pictures:
-        painter.share_range([(before_mesh, before_path), (loaded[last], paths[last])])
-        everything = [before_mesh[0], loaded[last][0]]
-        if framing == "run":
-            everything += [mesh[0] for mesh in loaded.values()]
-        # both states in one camera, so they compare at one scale
-        camera = camera_for(everything, False)
-        first_title = (f"before the stroke, t = {before['time']:.2f} s" if before
-                       else f"t = {times[0]:.2f} s")
-        pair = [painter(before_mesh, before_path, camera),
-                painter(loaded[last], paths[last], camera)]
-        written["before_after"] = save_png(
-            out / "before_after.png",
-            side_by_side(pair, titles=[first_title, f"t = {times[-1]:.2f} s"]))
-        last_camera = camera_for(everything if framing == "run" else loaded[last][0], True)
-        written["last"] = save_png(out / "last.png",
-                                   painter(loaded[last], paths[last], last_camera,
-                                           title=f"t = {times[-1]:.2f} s"))
+        written.update(_render_pictures(out, frames_of_run, painter, camera_for, framing))
     if animation:
-        from tqdm.auto import tqdm
-
-        painter.share_range([(loaded[k], paths[k]) for k in chosen])
-        frames_shown = [loaded[k][0] for k in chosen]
-        if framing == "run" or _fixed(settings, eye, target):
-            cameras = [camera_for(frames_shown, True)] * len(chosen)
-        else:
-            full = camera_from_settings(settings, frames_shown[0], width, height, None, None,
-                                        up, fov_degrees)
-            inner_width, inner_height = picture_layout(full.width, full.height, colored, True)
-            cameras = [framing_camera(inner, full.width, full.height) for inner in
-                       follow_cameras(frames_shown, inner_width, inner_height, None, full.up,
-                                      full.fov_degrees)]
-        # animation frames supersampled 2× (half the cost of 3×; they are seen moving)
-        images = [painter(loaded[k], paths[k], camera, title=f"t = {times[k]:.2f} s",
-                          antialias=2)
-                  for k, camera in tqdm(list(zip(chosen, cameras)), desc="yore render",
-                                        unit="frame", leave=False, disable=quiet or None,
-                                        delay=2.0)]
-        spacing = np.diff([times[k] for k in chosen])
-        fps = 1.0 / float(np.median(spacing)) if spacing.size and np.median(spacing) > 0 else 15.0
-        written["animation"] = save_animation(out / f"animation.{animation}", images,
-                                              fps=min(max(fps, 1.0), 50.0))
+        written["animation"] = _render_animation(
+            out, animation, frames_of_run, painter, camera_for, framing,
+            (eye, target, width, height, up, fov_degrees, colored), quiet)
     return {name: (Path(os.path.relpath(path, run_dir)).as_posix() if out == run_dir
                    else str(path)) for name, path in written.items()}
+
+
+def _render_pictures(out, run, painter, camera_for, framing) -> dict:
+    """before_after.png (before the first stroke and the last frame, one camera) and
+    last.png."""
+    paths, times, loaded, before = run.paths, run.times, run.loaded, run.before
+    before_mesh, before_path = run.before_mesh, run.before_path
+    last = len(paths) - 1
+    written = {}
+    painter.share_range([(before_mesh, before_path), (loaded[last], paths[last])])
+    everything = [before_mesh[0], loaded[last][0]]
+    if framing == "run":
+        everything += [mesh[0] for mesh in loaded.values()]
+    # both states in one camera, so they compare at one scale
+    camera = camera_for(everything, False)
+    first_title = (f"before the stroke, t = {before['time']:.2f} s" if before
+                   else f"t = {times[0]:.2f} s")
+    pair = [painter(before_mesh, before_path, camera),
+            painter(loaded[last], paths[last], camera)]
+    written["before_after"] = save_png(
+        out / "before_after.png",
+        side_by_side(pair, titles=[first_title, f"t = {times[-1]:.2f} s"]))
+    last_camera = camera_for(everything if framing == "run" else loaded[last][0], True)
+    written["last"] = save_png(out / "last.png",
+                               painter(loaded[last], paths[last], last_camera,
+                                       title=f"t = {times[-1]:.2f} s"))
+    return written
+
+
+def _render_animation(out, animation, run, painter, camera_for, framing, view, quiet):
+    """animation.<gif|mp4> of the chosen frames, framed on the run or following the cloth."""
+    from tqdm.auto import tqdm
+
+    eye, target, width, height, up, fov_degrees, colored = view
+    paths, times, loaded, chosen, settings = run.paths, run.times, run.loaded, run.chosen, \
+        run.settings
+    painter.share_range([(loaded[k], paths[k]) for k in chosen])
+    frames_shown = [loaded[k][0] for k in chosen]
+    if framing == "run" or _fixed(settings, eye, target):
+        cameras = [camera_for(frames_shown, True)] * len(chosen)
+    else:
+        full = camera_from_settings(settings, frames_shown[0], width, height, None, None,
+                                    up, fov_degrees)
+        inner_width, inner_height = picture_layout(full.width, full.height, colored, True)
+        cameras = [framing_camera(inner, full.width, full.height) for inner in
+                   follow_cameras(frames_shown, inner_width, inner_height, None, full.up,
+                                  full.fov_degrees)]
+    # animation frames supersampled 2× (half the cost of 3×; they are seen moving)
+    images = [painter(loaded[k], paths[k], camera, title=f"t = {times[k]:.2f} s",
+                      antialias=2)
+              for k, camera in tqdm(list(zip(chosen, cameras)), desc="yore render",
+                                    unit="frame", leave=False, disable=quiet or None,
+                                    delay=2.0)]
+    spacing = np.diff([times[k] for k in chosen])
+    fps = 1.0 / float(np.median(spacing)) if spacing.size and np.median(spacing) > 0 else 15.0
+    return save_animation(out / f"animation.{animation}", images,
+                          fps=min(max(fps, 1.0), 50.0))
 
 
 def save_panels(path, panels, width=480, height=400, camera=None, values=None,

@@ -115,6 +115,30 @@ def _value_range(values, value_range, colormap):
     return low, high
 
 
+def _checked_picture(V, F, camera, vertex_values, face_values, color, background, strokes,
+                     colormap):
+    """`render_image`'s arguments checked, in its order: (V, F, colour, background, stroke
+    polylines, values or None, "vertices" | "faces" | None)."""
+    V = check_points(V, "V")
+    F = check_faces(F, len(V))
+    if not isinstance(camera, Camera):
+        raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
+    if vertex_values is not None and face_values is not None:
+        raise ValueError("give vertex_values or face_values, not both")
+    base_color = check_unit_rgb(color, "color")
+    background = check_unit_rgb(background, "background")
+    polylines = _check_strokes(strokes)
+    values, defined_on = None, None
+    if vertex_values is not None:
+        values, defined_on = check_vertex_values(vertex_values, len(V), "vertex_values"), \
+            "vertices"
+    elif face_values is not None:
+        values, defined_on = check_vertex_values(face_values, len(F), "face_values"), "faces"
+    if colormap not in COLORMAPS:
+        raise ValueError(f"colormap must be one of {', '.join(COLORMAPS)}, got {colormap!r}")
+    return V, F, base_color, background, polylines, values, defined_on
+
+
 def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_range=None,
                  colormap="viridis", colorbar=None, strokes=(), color=CLOTH_COLOR,
                  background=(1.0, 1.0, 1.0), edges=False, ground=True, title=None,
@@ -169,23 +193,8 @@ def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_ra
     yore.viz.BackendUnavailable
         polyscope or EGL is missing.
     """
-    V = check_points(V, "V")
-    F = check_faces(F, len(V))
-    if not isinstance(camera, Camera):
-        raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
-    if vertex_values is not None and face_values is not None:
-        raise ValueError("give vertex_values or face_values, not both")
-    base_color = check_unit_rgb(color, "color")
-    background = check_unit_rgb(background, "background")
-    polylines = _check_strokes(strokes)
-    values, defined_on = None, None
-    if vertex_values is not None:
-        values, defined_on = check_vertex_values(vertex_values, len(V), "vertex_values"), \
-            "vertices"
-    elif face_values is not None:
-        values, defined_on = check_vertex_values(face_values, len(F), "face_values"), "faces"
-    if colormap not in COLORMAPS:
-        raise ValueError(f"colormap must be one of {', '.join(COLORMAPS)}, got {colormap!r}")
+    V, F, base_color, background, polylines, values, defined_on = _checked_picture(
+        V, F, camera, vertex_values, face_values, color, background, strokes, colormap)
 
     width, height = camera.width, camera.height
     if values is not None:
