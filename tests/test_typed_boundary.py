@@ -66,3 +66,25 @@ def test_statistics_name_each_phase_and_counter_once(integrator):
     assert stats["steps"] == 3
     assert list(stats["phases"]) == list(sim._integrator.statistics.phases)
     assert list(stats["counters"]) == list(sim._integrator.statistics.counters)
+
+
+@pytest.mark.parametrize("integrator", sorted(yore.options.INTEGRATORS))
+def test_an_integrators_options_cross_as_a_read_only_struct(integrator):
+    # the registry's factory turns the resolved options into the C++ struct: read back as a
+    # bound class, every core option the row passes is the value the Simulation resolved
+    sim = yore.scenes.hanging_cloth(resolution=5, integrator=integrator)
+    options = sim._integrator.options
+    assert type(options).__name__.endswith("Options")
+    core = type(sim._integrator).defaults
+    resolved = sim.resolved_options
+    shared = [name for name in resolved if name in core and resolved[name] is not None]
+    assert shared  # every integrator hands some of its options to the core
+    for name in shared:
+        value = getattr(options, name)
+        if name == "chebyshev_rho" and resolved.get("acceleration") == "none":
+            assert value == 0.0
+        else:
+            assert value == resolved[name], name
+    with pytest.raises(AttributeError):
+        setattr(options, shared[0], resolved[shared[0]])
+    assert repr(options).startswith(type(options).__name__ + "(")

@@ -20,6 +20,10 @@ void bind_explicit(py::module_& m) {
       plain_option("divergence_energy_factor", &ExplicitOptions::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, ExplicitOptions{});
+  bind_options_class(m, "ExplicitOptions", table);
+  integrator_class.def_property_readonly(
+      "options", [](const ExplicitIntegrator& integrator) { return integrator.options(); },
+      "The options this integrator runs with (ExplicitOptions, read-only).");
   integrator_class.attr("option_rules") = option_rules(table);
   integrator_class.def(py::init([](const py::kwargs& kwargs) {
              return ExplicitIntegrator(options_from_kwargs(table, kwargs));

@@ -74,6 +74,10 @@ void bind_implicit(py::module_& m) {
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
+  bind_options_class(m, "ImplicitOptions", table);
+  integrator_class.def_property_readonly(
+      "options", [](const ImplicitIntegrator& integrator) { return integrator.options(); },
+      "The options this integrator runs with (ImplicitOptions, read-only).");
   integrator_class.attr("option_rules") = option_rules(table);
   integrator_class.def(py::init([](const py::kwargs& kwargs) {
                          return std::make_unique<ImplicitIntegrator>(

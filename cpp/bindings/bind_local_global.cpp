@@ -35,6 +35,10 @@ void bind_local_global(py::module_& m) {
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
+  bind_options_class(m, "LocalGlobalOptions", table);
+  integrator_class.def_property_readonly(
+      "options", [](const LocalGlobalIntegrator& integrator) { return integrator.options(); },
+      "The options this integrator runs with (LocalGlobalOptions, read-only).");
   integrator_class.attr("option_rules") = option_rules(table);
   integrator_class
       .def(py::init([](const py::kwargs& kwargs) {

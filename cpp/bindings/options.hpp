@@ -87,6 +87,28 @@ OptionField<Options> one_of(OptionField<Options> field, std::vector<std::string>
 template <typename Options>
 using OptionTable = std::vector<OptionField<Options>>;
 
+/// Binds `Options` as the Python class `name` with one read-only property per field of
+/// `table` (its Python name, its value as the table reads it): an integrator's options as
+/// they cross the boundary. `table` must outlive the module (the bindings' tables are static).
+template <typename Options>
+void bind_options_class(py::module_& m, const char* name, const OptionTable<Options>& table) {
+  py::class_<Options> options_class(m, name,
+                                    "An integrator's options, read-only (see `defaults`).");
+  for (const OptionField<Options>& field : table) {
+    const auto get = field.get;
+    options_class.def_property_readonly(field.name.c_str(),
+                                        [get](const Options& o) { return get(o); });
+  }
+  options_class.def("__repr__", [name, &table](const Options& o) {
+    std::string text = std::string(name) + "(";
+    for (std::size_t k = 0; k < table.size(); ++k) {
+      if (k) text += ", ";
+      text += table[k].name + "=" + py::repr(table[k].get(o)).template cast<std::string>();
+    }
+    return text + ")";
+  });
+}
+
 /// A double, bool, 32-bit int or string member, under `name`.
 template <typename Options, typename Holder, typename T>
 OptionField<Options> plain_option(const char* name, Holder Options::*holder, T Holder::*member) {

@@ -5,6 +5,7 @@ command's handling of Ctrl-C while it starts. Imports only the standard library 
 
 from __future__ import annotations
 
+import contextlib
 import numbers
 import os
 import signal
@@ -12,7 +13,7 @@ import sys
 import threading
 
 __all__ = ["VERSION", "build_info", "set_num_threads", "guard_command_start",
-           "end_command_start", "end_command"]
+           "end_command_start", "end_command", "deferred_interrupt"]
 
 #: yore's version (also `yore.__version__`).
 VERSION = "0.1.0"
@@ -149,3 +150,24 @@ def end_command() -> None:
     command writes is written and closed before main() returns)."""
     if _command[0] and threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def deferred_interrupt():
+    """Ctrl-C inside the block is held back until the block is done, so bookkeeping that must
+    not be split (a frame and its record, a saved state) completes. Main thread only; elsewhere
+    the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
+        # elsewhere, or where SIGINT is ignored (nohup, a parent's choice): nothing to defer,
+        # and a handler of ours would make Ctrl-C stop a run that was started not to stop
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda number, frame: caught.append(number))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt

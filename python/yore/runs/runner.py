@@ -17,12 +17,9 @@ So a run split by ``until`` and resumed takes exactly the steps a straight run t
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
-import signal
-import threading
 import time as _time
 from pathlib import Path
 
@@ -33,6 +30,7 @@ from ..checks import MAX_STEPS
 from .._core import NotPositiveDefinite, SimulationDiverged
 from ..io import FrameSeries, save_mesh
 from ..options import INTEGRATOR_SPECS
+from ..runtime import deferred_interrupt
 from ..simulation import Simulation
 from ..state import load_metadata, load_state, save_state
 from .building import apply_scene_stroke, scene_camera
@@ -298,27 +296,6 @@ class _Checkpoint:
         return Simulation.from_state(self.state)
 
 
-@contextlib.contextmanager
-def _deferred_interrupt():
-    """Ctrl-C inside the block is held back until the block is done, so bookkeeping that must
-    not be split (a frame and its record, a saved state) completes. Main thread only; elsewhere
-    the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
-        # elsewhere, or where SIGINT is ignored (nohup, a parent's choice): nothing to defer,
-        # and a handler of ours would make Ctrl-C stop a run that was started not to stop
-        yield
-        return
-    caught = []
-    previous = signal.signal(signal.SIGINT, lambda number, frame: caught.append(number))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if caught:
-        raise KeyboardInterrupt
-
-
 def _run(scene, sim, record, out, until, quiet, render):
     return _Run(scene, sim, record, out, until, quiet).execute(render)
 
@@ -366,7 +343,7 @@ class _Run:
         self.save_every = CHECKPOINT_SECONDS
         # A state file before the first frame: from here on the folder always holds one, so an
         # interruption (or a kill) at any point leaves a run that `--resume` continues.
-        with _deferred_interrupt():
+        with deferred_interrupt():
             _save(self.out, self.sim, record, self.previous_phases)
         last_step = self.schedule.last_step
         self.bar = tqdm(total=last_step, initial=min(self.step, last_step), unit="step",
@@ -444,7 +421,7 @@ class _Run:
                     raise _NonFinite(f"stroke {index} at t = {sim.time:.6g} s made the "
                                      f"cloth's energy or area non-finite ({bad}); check "
                                      "its expansion. The stroke was undone")
-                with _deferred_interrupt():
+                with deferred_interrupt():
                     record.strokes.append(_stroke_record(index, sim.time, report))
                     self.live_reports.append((record.strokes[-1], report))
                     record.next_stroke += 1
@@ -476,7 +453,7 @@ class _Run:
         if _time.perf_counter() - self.saved_at > self.save_every:
             # a crash (or a kill) then costs at most this much of the run
             saving = _time.perf_counter()
-            with _deferred_interrupt():
+            with deferred_interrupt():
                 _save(self.out, self.sim,
                       self.record.with_wall_time(_time.perf_counter() - self.started),
                       self.previous_phases)
@@ -511,7 +488,7 @@ class _Run:
             for entry, report in self.live_reports:
                 entry["reanalyze_seconds"] = report.reanalyze_seconds
         try:
-            with _deferred_interrupt():
+            with deferred_interrupt():
                 try:
                     state_path = _save(out, sim, record, self.previous_phases, self.phases)
                 except _Unsaveable as error:
@@ -602,7 +579,7 @@ def _write_frame(sim, frames, record, fmt, entry):
     """Writes the frame file (atomically), then records it: an interruption before the record
     is complete leaves no trace in the record, and the resumed run writes the frame again."""
     cloth = sim.cloth
-    with _deferred_interrupt():
+    with deferred_interrupt():
         if frames is not None:
             point_data = None if fmt == "obj" else {
                 "velocity": cloth.velocities, "expansion": metrics.vertex_expansion(cloth)}

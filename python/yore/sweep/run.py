@@ -27,7 +27,7 @@ import threading
 import time
 from pathlib import Path
 
-from ..runtime import SWEEP_WORKER_ENV
+from ..runtime import SWEEP_WORKER_ENV, deferred_interrupt
 from .cell import run_cell
 from .results import CELLS_DIR, RESULTS_NAME, Results
 from .spec import Sweep, SweepError, load_sweep
@@ -282,15 +282,18 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
     queue = as_completed()
 
     def submit_next():
-        cell = next(pending, None)
-        if cell is None:
-            return False
-        future = client.submit(function, sweep.scene_text,
-                               str(sweep.scene_path) if sweep.scene_path else None,
-                               cell.overrides, key=f"yore-cell-{cell.key}-{os.getpid()}",
-                               pure=False)
-        running[future.key] = cell
-        queue.add(future)
+        # a Ctrl-C waits until the future is whole and tracked (one landing inside Dask's
+        # Future() left a half-built object whose __del__ printed a traceback)
+        with deferred_interrupt():
+            cell = next(pending, None)
+            if cell is None:
+                return False
+            future = client.submit(function, sweep.scene_text,
+                                   str(sweep.scene_path) if sweep.scene_path else None,
+                                   cell.overrides, key=f"yore-cell-{cell.key}-{os.getpid()}",
+                                   pure=False)
+            running[future.key] = cell
+            queue.add(future)
         return True
 
     for _ in range(limit):
