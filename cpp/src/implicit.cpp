@@ -14,11 +14,10 @@
 namespace yore {
 using namespace implicit_detail;
 
-ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
-    : m_options(given), m_monitor(given.divergence_energy_factor) {
-  if (m_options.adaptive_projection) m_options.projection = HessianProjection::exact;
-  m_options.adaptive_projection = m_options.projection == HessianProjection::exact;
-  const ImplicitOptions& options = m_options;
+namespace {
+
+// The options' values one by one (tolerances, counts), in the order their errors are reported.
+void check_option_values(const ImplicitOptions& options) {
   if (!std::isfinite(options.newton_tol) || options.newton_tol <= 0.0) {
     std::ostringstream msg;
     msg << "newton_tol must be finite and > 0, got " << options.newton_tol;
@@ -47,6 +46,10 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     msg << "max_newton must be >= 1, got " << options.max_newton;
     throw std::invalid_argument(msg.str());
   }
+}
+
+// Options that exclude one another (solvers, projections, adaptivity).
+void check_option_combinations(const ImplicitOptions& options) {
   if (options.lagged_factorization &&
       (options.linear_solver.solver == "pcg" || options.adaptive_projection)) {
     throw std::invalid_argument(
@@ -83,20 +86,36 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
         "the shifted projection needs a Cholesky backend (cholmod or eigen-ldlt) to detect an "
         "indefinite Hessian, and no lagged factorization");
   }
+}
+
+// Quasi-Newton's own options.
+void check_lbfgs_options(const ImplicitOptions& options) {
+  if (options.linearized || options.lagged_factorization) {
+    throw std::invalid_argument(
+        "quasi-Newton (lbfgs) takes neither linearized nor lagged_factorization");
+  }
+  if (options.method != ImplicitMethod::backward_euler &&
+      options.method != ImplicitMethod::bdf2) {
+    throw std::invalid_argument("quasi-Newton (lbfgs) takes method backward-euler or bdf2");
+  }
+  if (options.lbfgs_history < 1 || options.lbfgs_history > 1000) {
+    std::ostringstream msg;
+    msg << "lbfgs_history must be in [1, 1000], got " << options.lbfgs_history;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+}  // namespace
+
+ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
+    : m_options(given), m_monitor(given.divergence_energy_factor) {
+  if (m_options.adaptive_projection) m_options.projection = HessianProjection::exact;
+  m_options.adaptive_projection = m_options.projection == HessianProjection::exact;
+  const ImplicitOptions& options = m_options;
+  check_option_values(options);
+  check_option_combinations(options);
   if (options.minimizer == ImplicitMinimizer::lbfgs) {
-    if (options.linearized || options.lagged_factorization) {
-      throw std::invalid_argument(
-          "quasi-Newton (lbfgs) takes neither linearized nor lagged_factorization");
-    }
-    if (options.method != ImplicitMethod::backward_euler &&
-        options.method != ImplicitMethod::bdf2) {
-      throw std::invalid_argument("quasi-Newton (lbfgs) takes method backward-euler or bdf2");
-    }
-    if (options.lbfgs_history < 1 || options.lbfgs_history > 1000) {
-      std::ostringstream msg;
-      msg << "lbfgs_history must be in [1, 1000], got " << options.lbfgs_history;
-      throw std::invalid_argument(msg.str());
-    }
+    check_lbfgs_options(options);
     // the projection never applies (no Hessian is factored); clamp keeps the exact
     // projection's memory untouched
     m_options.projection = HessianProjection::clamp;
@@ -113,6 +132,70 @@ const SolverStatistics& ImplicitIntegrator::solver_statistics() const {
   if (m_scalar_solver) return m_scalar_solver->statistics();  // lbfgs: Q's factor
   return m_solver->statistics();
 }
+
+namespace {
+
+// The lower triangle of the block pattern: each 3×3 column block's diagonal block (its lower
+// triangle), then 3 rows per coupled row block, in the order of `coupled` (sorted by column
+// block; first_neighbour[b] is where column block b's entries start).
+void fill_block_pattern(std::int32_t blocks,
+                        const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+                        const std::vector<std::int32_t>& first_neighbour,
+                        SymmetricPattern& pattern) {
+  pattern.size = 3 * blocks;
+  pattern.column_starts.assign(static_cast<std::size_t>(pattern.size) + 1, 0);
+  pattern.row_indices.clear();
+  pattern.row_indices.reserve(static_cast<std::size_t>(blocks) * 6 + coupled.size() * 9);
+  for (std::int32_t b = 0; b < blocks; ++b) {
+    for (int c = 0; c < 3; ++c) {
+      const auto column = static_cast<std::size_t>(3 * b + c);
+      pattern.column_starts[column] = static_cast<std::int32_t>(pattern.row_indices.size());
+      for (int r = c; r < 3; ++r) pattern.row_indices.push_back(3 * b + r);
+      for (std::int32_t k = first_neighbour[static_cast<std::size_t>(b)];
+           k < first_neighbour[static_cast<std::size_t>(b) + 1]; ++k) {
+        const std::int32_t row_block = coupled[static_cast<std::size_t>(k)].second;
+        for (int r = 0; r < 3; ++r) pattern.row_indices.push_back(3 * row_block + r);
+      }
+    }
+  }
+  pattern.column_starts.back() = static_cast<std::int32_t>(pattern.row_indices.size());
+}
+
+// Where each free entry of quadratic bending's Q ⊗ I₃ goes in the pattern's values: slots
+// (nnz(Q)×3) gets one index per entry and coordinate, -1 for entries of constrained vertices.
+void bending_slots(const QuadraticBendingMatrix& bending,
+                   const std::vector<std::int32_t>& dof_of_vertex,
+                   const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+                   const std::vector<std::int32_t>& first_neighbour,
+                   const SymmetricPattern& pattern, std::vector<std::int64_t>& slots) {
+  slots.assign(3 * bending.columns.size(), -1);
+  // the lower triangle holds each pair once
+  for_each_free_entry(bending, dof_of_vertex, [&](std::int32_t k, std::int32_t i,
+                                                     std::int32_t j, std::int32_t a,
+                                                     std::int32_t b) {
+    const std::int32_t column_block = a / 3;
+    std::int64_t base = -1;
+    if (j > i) {
+      const std::int32_t row_block = b / 3;
+      const auto begin =
+          coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+      const auto end =
+          coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+      base = 3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) -
+                  begin);
+    }
+    for (int c = 0; c < 3; ++c) {
+      // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
+      // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
+      const std::int64_t column_start =
+          pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
+      slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
+          j == i ? column_start : column_start + (3 - c) + base + c;
+    }
+  });
+}
+
+}  // namespace
 
 void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   if (cloth.topology_version() == m_topology) return;
@@ -160,23 +243,7 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   }
 
   SymmetricPattern& pattern = m_pattern;
-  pattern.size = 3 * blocks;
-  pattern.column_starts.assign(static_cast<std::size_t>(pattern.size) + 1, 0);
-  pattern.row_indices.clear();
-  pattern.row_indices.reserve(static_cast<std::size_t>(blocks) * 6 + coupled.size() * 9);
-  for (std::int32_t b = 0; b < blocks; ++b) {
-    for (int c = 0; c < 3; ++c) {
-      const auto column = static_cast<std::size_t>(3 * b + c);
-      pattern.column_starts[column] = static_cast<std::int32_t>(pattern.row_indices.size());
-      for (int r = c; r < 3; ++r) pattern.row_indices.push_back(3 * b + r);
-      for (std::int32_t k = first_neighbour[static_cast<std::size_t>(b)];
-           k < first_neighbour[static_cast<std::size_t>(b) + 1]; ++k) {
-        const std::int32_t row_block = coupled[static_cast<std::size_t>(k)].second;
-        for (int r = 0; r < 3; ++r) pattern.row_indices.push_back(3 * row_block + r);
-      }
-    }
-  }
-  pattern.column_starts.back() = static_cast<std::int32_t>(pattern.row_indices.size());
+  fill_block_pattern(blocks, coupled, first_neighbour, pattern);
 
   m_spring_slots.assign(3 * s, -1);
   double rest_sum = 0.0;
@@ -198,40 +265,27 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   m_mean_rest_length = s ? rest_sum / static_cast<double>(s) : 1.0;
   m_bending_slots.clear();
   if (bending != nullptr) {
-    m_bending_slots.assign(3 * bending->columns.size(), -1);
-    // the lower triangle holds each pair once
-    for_each_free_entry(*bending, m_dof_of_vertex, [&](std::int32_t k, std::int32_t i,
-                                                       std::int32_t j, std::int32_t a,
-                                                       std::int32_t b) {
-      const std::int32_t column_block = a / 3;
-      std::int64_t base = -1;
-      if (j > i) {
-        const std::int32_t row_block = b / 3;
-        const auto begin =
-            coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
-        const auto end =
-            coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
-        base = 3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) -
-                    begin);
-      }
-      for (int c = 0; c < 3; ++c) {
-        // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
-        // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
-        const std::int64_t column_start =
-            pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
-        m_bending_slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
-            j == i ? column_start : column_start + (3 - c) + base + c;
-      }
-    });
+    bending_slots(*bending, m_dof_of_vertex, coupled, first_neighbour, pattern, m_bending_slots);
   }
 
   const auto dofs = static_cast<Eigen::Index>(pattern.size);
+  size_workspace(cloth, dofs);
+  const bool newton = m_options.minimizer == ImplicitMinimizer::newton;
+
+  if (pattern.size > 0 && newton) m_solver->analyze(pattern);
+  m_topology = cloth.topology_version();
+  m_statistics.analyze_seconds += start.seconds();
+}
+
+void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
+  const Eigen::Index n = cloth.vertex_count();
+  const std::size_t s = cloth.springs().size();
   m_gradient.resize(dofs);
   m_direction.resize(dofs);
   m_rhs.resize(dofs);
   const bool newton = m_options.minimizer == ImplicitMinimizer::newton;
   // quasi-Newton never assembles the 3n×3n Hessian: no values, no analysis of it
-  m_values.assign(newton ? static_cast<std::size_t>(pattern.nonzeros()) : 0, 0.0);
+  m_values.assign(newton ? static_cast<std::size_t>(m_pattern.nonzeros()) : 0, 0.0);
   m_exact_values.assign(m_options.projection == HessianProjection::steihaug ? m_values.size() : 0,
                         0.0);
   m_anchor.resize(n, 3);
@@ -258,10 +312,6 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   }
   m_factor_valid = false;
   m_cg.resize(dofs);
-
-  if (pattern.size > 0 && newton) m_solver->analyze(pattern);
-  m_topology = cloth.topology_version();
-  m_statistics.analyze_seconds += start.seconds();
 }
 
 void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, double dt,
@@ -339,6 +389,9 @@ void ImplicitIntegrator::update_tension(const Cloth& cloth, double alpha) {
   }
 }
 
+// over 80 lines: the assembly pass (inertia, springs, quadratic bending into one energy sum,
+// gradient and Hessian values) runs in every Newton iteration and line-search trial; its
+// stages share the running sums whose order fixes the round-off, so it stays one pass.
 double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
                                     bool with_hessian, HessianProjection projection) {
   const TransverseFilter filter = projection == HessianProjection::exact ||

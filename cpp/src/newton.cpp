@@ -247,19 +247,19 @@ bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
   }
 }
 
+// Preconditioned CG on H d = −g from d = 0, P the clamped Hessian (Steihaug–Toint; Nocedal &
+// Wright, Alg. 7.2), inside ‖d‖_P ≤ Δ. It stops at the relative residual `forcing` in the P⁻¹
+// norm, where ‖d‖_P reaches Δ (then along p to the edge), or on curvature pᵀHp ≤ 0: on the
+// first iteration (p the clamped Newton step) it goes to the edge along p, later it keeps d.
+// Unlike Steihaug's it never follows negative curvature past the clamped step: a compressed
+// spring's negative transverse stiffness k(1 − L/ℓ) holds only within ~√(2ℓ(L − ℓ)) of its
+// line, a stiff spring's quartic term takes over beyond it, and steps along it were refused
+// by the ratio test at ρ ≈ −10…−10⁶ (measured on the 32² stiff sheet). ‖d‖_P and dᵀPp are
+// carried by recurrences (no product with P). `exhausted`: CG stopped at max_iterations.
 double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool same,
                                               int max_iterations, bool& boundary,
                                               double& length, bool& exhausted,
                                               bool& negative) {
-  // Preconditioned CG on H d = −g from d = 0, P the clamped Hessian (Steihaug–Toint; Nocedal &
-  // Wright, Alg. 7.2), inside ‖d‖_P ≤ Δ. It stops at the relative residual `forcing` in the P⁻¹
-  // norm, where ‖d‖_P reaches Δ (then along p to the edge), or on curvature pᵀHp ≤ 0: on the
-  // first iteration (p the clamped Newton step) it goes to the edge along p, later it keeps d.
-  // Unlike Steihaug's it never follows negative curvature past the clamped step: a compressed
-  // spring's negative transverse stiffness k(1 − L/ℓ) holds only within ~√(2ℓ(L − ℓ)) of its
-  // line, a stiff spring's quartic term takes over beyond it, and steps along it were refused
-  // by the ratio test at ρ ≈ −10…−10⁶ (measured on the 32² stiff sheet). ‖d‖_P and dᵀPp are
-  // carried by recurrences (no product with P). `exhausted`: CG stopped at max_iterations.
   CgWorkspace& w = m_cg;
   exhausted = negative = false;
   m_direction.setZero();
@@ -338,6 +338,9 @@ void ImplicitIntegrator::refactor_clamped(const Cloth& cloth, bool& same) {
   m_factor_valid = true;
 }
 
+// over 80 lines: one trust-region Newton–CG loop; the flags that say what the factor and the
+// assembled values are of (assembled, current, same, fresh) and the radius change together
+// within an iteration, and splitting the loop would pass them all by reference.
 void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, double& residual,
                                           int& iterations, int& backtracks, bool& converged) {
   // Trust-region Newton–CG: each accepted iterate assembles the exact and the clamped Hessian

@@ -89,8 +89,9 @@ Point interior_point(const Polygon& polygon) {
 
 }  // namespace
 
-PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& holes,
-                         const PatternMeshOptions& options) {
+namespace {
+
+void check_pattern_options(const PatternMeshOptions& options) {
   if (!std::isfinite(options.edge_length) || !(options.edge_length > 0.0)) {
     std::ostringstream msg;
     msg << "edge_length must be finite and > 0 (m), got " << options.edge_length;
@@ -104,8 +105,11 @@ PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& h
     fail(msg.str());
   }
   if (options.max_vertices < 3) fail("max_vertices must be at least 3");
+}
 
-  const Polygon outer = checked_polygon(outline, "the outline");
+// The holes as polygons, each checked (checked_polygon) and strictly inside the outline and
+// apart from the others; throws naming the first that is not.
+std::vector<Polygon> checked_holes(const Polygon& outer, const std::vector<Polygon2>& holes) {
   std::vector<Polygon> inner;
   for (std::size_t h = 0; h < holes.size(); ++h) {
     const std::string name = "hole " + std::to_string(h);
@@ -126,6 +130,17 @@ PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& h
       }
     }
   }
+  return inner;
+}
+
+}  // namespace
+
+PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& holes,
+                         const PatternMeshOptions& options) {
+  check_pattern_options(options);
+
+  const Polygon outer = checked_polygon(outline, "the outline");
+  const std::vector<Polygon> inner = checked_holes(outer, holes);
 
   Cdt cdt;
   cdt.insert_constraint(outer.vertices_begin(), outer.vertices_end(), true);

@@ -19,6 +19,9 @@ double cotangent(const Point& u, const Point& v) { return u.dot(v) / u.cross(v).
 
 }  // namespace
 
+// over 80 lines: the hinge stencil (Bergou et al. 2006: cotangent weights, the normalisation
+// by the two faces' rest areas, the outer product into Q) is one formula per hinge, read best
+// in one piece beside the edge sort that finds the hinges.
 QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
                                                 const Faces& faces) {
   const Eigen::Index n = rest_positions.rows();

@@ -118,6 +118,26 @@ std::optional<SurfaceHit> SurfaceLocator::first_hit(const Eigen::Vector3d& origi
   return hit;
 }
 
+namespace {
+
+// The error of a stroke that needs more than max_samples samples: about `needed` (> 0) at this
+// spacing over this length, or (needed 0) reached while refining where it crosses faces.
+std::invalid_argument too_many_samples(std::int64_t max_samples, double needed, double spacing,
+                                       double length) {
+  std::ostringstream msg;
+  msg << "the stroke needs more than " << max_samples << " samples (the limit; ";
+  if (needed > 0.0) {
+    msg << "about " << needed << " at a spacing of " << spacing << " over " << length
+        << " of its length near the cloth";
+  } else {
+    msg << "reached while refining where it crosses faces";
+  }
+  msg << "); draw a shorter stroke or split it";
+  return std::invalid_argument(msg.str());
+}
+
+}  // namespace
+
 StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
                          double length, double spacing, double resolution, const Faces& faces,
                          const std::vector<double>& breakpoints, std::int64_t max_samples) {
@@ -125,20 +145,8 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
     throw std::invalid_argument(
         "trace_stroke: length finite and >= 0, spacing > 0 and resolution > 0");
   }
-  auto too_many = [&](double needed) {
-    std::ostringstream msg;
-    msg << "the stroke needs more than " << max_samples << " samples (the limit; ";
-    if (needed > 0.0) {
-      msg << "about " << needed << " at a spacing of " << spacing << " over " << length
-          << " of its length near the cloth";
-    } else {
-      msg << "reached while refining where it crosses faces";
-    }
-    msg << "); draw a shorter stroke or split it";
-    return std::invalid_argument(msg.str());
-  };
   const double needed = std::ceil(length / spacing) + 1.0 + static_cast<double>(breakpoints.size());
-  if (!(needed <= static_cast<double>(max_samples))) throw too_many(needed);
+  if (!(needed <= static_cast<double>(max_samples))) throw too_many_samples(max_samples, needed, spacing, length);
   struct Sample {
     double s;
     std::optional<SurfaceHit> hit;
@@ -146,7 +154,7 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
   StrokeTrace trace;
   std::vector<Sample> samples;
   auto evaluate = [&](double s) {
-    if (trace.samples >= max_samples) throw too_many(0.0);
+    if (trace.samples >= max_samples) throw too_many_samples(max_samples, 0.0, spacing, length);
     if (trace.samples % 64 == 0) poll_interrupt();
     ++trace.samples;
     Sample sample{s, query(s)};

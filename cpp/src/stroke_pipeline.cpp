@@ -217,8 +217,10 @@ double predicted_refined_vertices(double vertices, double band_faces, int passes
   return vertices + kRefineVerticesPerFace * band_faces * growth;
 }
 
-StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOptions& options) {
-  if (cloth.face_count() == 0) fail("a spring network has no faces to stroke");
+namespace {
+
+// The options apply_stroke checks before the cloth changes.
+void check_stroke_options(const StrokeOptions& options) {
   if (options.refine < 0 || options.refine > kMaxRefine) {
     std::ostringstream msg;
     msg << "refine: got " << options.refine << "; expected an integer in [0, " << kMaxRefine
@@ -242,6 +244,23 @@ StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOp
     msg << "mass_scale must be finite and > 0, got " << options.split.mass_scale;
     fail(msg.str());
   }
+}
+
+// Σ (rest − reference length) of the split's springs, the last `springs_added` ones (m).
+double split_rest_length_added(const SpringSet& springs, std::int64_t springs_added) {
+  std::vector<double> added;
+  for (std::size_t k = springs.size() - static_cast<std::size_t>(springs_added);
+       k < springs.size(); ++k) {
+    added.push_back(springs.rest_length[k] - springs.reference_length[k]);
+  }
+  return pairwise_sum(added);
+}
+
+}  // namespace
+
+StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOptions& options) {
+  if (cloth.face_count() == 0) fail("a spring network has no faces to stroke");
+  check_stroke_options(options);
   StrokeResult result;
   Stopwatch watch;
   StrokeTrace trace = trace_stroke_input(cloth, input);
@@ -292,14 +311,7 @@ StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOp
     result.rest_area_before = split.rest_area_before;
     result.rest_area_after = split.rest_area_after;
     result.moved_inward = split.moved_inward;
-    // The split's springs are the last springs_added ones.
-    const SpringSet& springs = cloth.springs();
-    std::vector<double> added;
-    for (std::size_t k = springs.size() - static_cast<std::size_t>(split.springs_added);
-         k < springs.size(); ++k) {
-      added.push_back(springs.rest_length[k] - springs.reference_length[k]);
-    }
-    result.rest_length_added = pairwise_sum(added);
+    result.rest_length_added = split_rest_length_added(cloth.springs(), split.springs_added);
     result.mass_added = pairwise_sum(cloth.masses()) - mass_before;
     result.line_vertices = split.new_vertices;
     return result;

@@ -41,13 +41,10 @@ VertexPair sorted_pair(std::int32_t i, std::int32_t j) {
 
 }  // namespace
 
-Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
-                           const std::vector<FaceSplit>& splits, double min_barycentric,
-                           double min_angle_degrees_limit) {
-  if (!(min_barycentric >= 0.0 && min_barycentric < 1.0 / 3.0)) {
-    fail("min_barycentric must be in [0, 1/3)");
-  }
-  const Eigen::Index face_count = faces.rows();
+namespace {
+
+// Every split names a face in range, at most once, with weights >= 0 that sum to 1.
+void check_splits(const std::vector<FaceSplit>& splits, Eigen::Index face_count) {
   std::vector<char> seen(static_cast<std::size_t>(face_count), 0);
   for (const FaceSplit& split : splits) {
     check_face_index(split.face, face_count);
@@ -63,6 +60,18 @@ Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
       fail(msg.str());
     }
   }
+}
+
+}  // namespace
+
+Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
+                           const std::vector<FaceSplit>& splits, double min_barycentric,
+                           double min_angle_degrees_limit) {
+  if (!(min_barycentric >= 0.0 && min_barycentric < 1.0 / 3.0)) {
+    fail("min_barycentric must be in [0, 1/3)");
+  }
+  const Eigen::Index face_count = faces.rows();
+  check_splits(splits, face_count);
 
   Split1to3 out;
   // Choose the split points.
@@ -125,6 +134,8 @@ Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
   return out;
 }
 
+// over 80 lines: the conforming closure and the children it makes share the split-edge map and
+// the midpoints' numbering, in the order the output documents; not yet split into stages.
 Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
                              const std::vector<std::int32_t>& refine) {
   const Eigen::Index face_count = faces.rows();

@@ -74,6 +74,9 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
   finish_step(cloth, dt, true, iterations, backtracks);
 }
 
+// over 80 lines: the error-controlled loop of one output interval (propose, take, estimate,
+// accept or restore state, clock and history) shares the proposal and the saved state across
+// its stages; the controller reads best as the one loop it is.
 void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt) {
   // The interval's end on the clock the fixed-step integrators keep (origin + k dt): the
   // substeps move the clock by their own sizes, and it is set to this at the end, so frames

@@ -6,11 +6,14 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstdint>
 #include <functional>
+#include <set>
 #include <vector>
 
 namespace yore_test {
@@ -114,6 +117,36 @@ inline Eigen::MatrixXd random_spd(int n, unsigned seed) {
   std::srand(seed);
   const Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
   return a * a.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+}
+
+/// The springs of one kind as sorted vertex pairs.
+inline std::set<yore::VertexPair> pairs_of_kind(const yore::Cloth& cloth, yore::SpringKind kind) {
+  std::set<yore::VertexPair> out;
+  const auto& s = cloth.springs();
+  for (std::size_t k = 0; k < s.size(); ++k)
+    if (s.kind[k] == kind)
+      out.insert({std::min(s.first[k], s.second[k]), std::max(s.first[k], s.second[k])});
+  return out;
+}
+
+/// Checks that the springs are exactly the paper's Fig. 1 wiring of the cloth's current faces.
+inline void check_wiring(const yore::Cloth& cloth) {
+  const yore::MeshConnectivity c = yore::mesh_connectivity(cloth.faces());
+  CHECK(pairs_of_kind(cloth, yore::SpringKind::structural) ==
+        std::set<yore::VertexPair>(c.edges.begin(), c.edges.end()));
+  CHECK(pairs_of_kind(cloth, yore::SpringKind::bending) ==
+        std::set<yore::VertexPair>(c.bending_pairs.begin(), c.bending_pairs.end()));
+  CHECK(cloth.springs().size() == c.edges.size() + c.bending_pairs.size());
+}
+
+/// A spring network of three vertices in a bent chain (two springs, 40 N/m).
+inline yore::Cloth chain() {
+  Positions positions(3, 3);
+  positions << 0, 0, 0, 0.4, 0, 0, 0.8, 0.1, 0;
+  yore::Edges edges(2, 2);
+  edges << 0, 1, 1, 2;
+  return yore::Cloth::from_springs(positions, edges, Eigen::VectorXd(),
+                                   Eigen::VectorXd::Constant(3, 0.1), 40.0, 0.01, 0.1);
 }
 
 }  // namespace yore_test

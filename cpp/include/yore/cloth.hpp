@@ -336,7 +336,10 @@ class Cloth {
   void initialise_state(const Positions& positions, const Eigen::VectorXd& masses, double drag);
   void rebuild_incidence();
   void update_inverse_masses();
+  // stable_step.cpp: the Lanczos estimate behind stable_time_step and stable_time_step_bound,
+  // and the membrane's per-face 9×9 stiffness blocks it applies (empty without a membrane).
   double lanczos_time_step(bool every_state) const;
+  std::vector<Mat9> membrane_stiffness_blocks(bool every_state) const;
   static constexpr int kLanczosMaxIterations = 60;
   static constexpr double kLanczosRelativeTolerance = 1e-6;
   void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
@@ -348,6 +351,17 @@ class Cloth {
   void adopt_subdivision(const Subdivision& mesh);
   // Masses of a subdivided mesh with the same total: the mass-conserving rule of refine_faces.
   Eigen::VectorXd conserving_masses(const Subdivision& mesh) const;
+  // split_faces without conserve_mass: throws unless every split face's new vertex gets a
+  // normal mass up to the material limit (mass_scale × its corners' mean); then appends them.
+  void check_split_masses(const std::vector<std::int32_t>& faces,
+                          const SplitOptions& options) const;
+  void append_split_masses(const std::vector<std::int32_t>& faces, double mass_scale);
+  // refine_faces' rest metric (cloth_rewiring.cpp), and its springs: the kept ones and the new
+  // pairs in that metric (which gains the new structural springs), built aside from m_springs;
+  // fills the report's spring counts.
+  struct RestMetric;
+  SpringSet refined_springs(const Refinement& surgery, RestMetric& rest_metric,
+                            RefineReport& report) const;
   // The end of every change of the mesh (split_faces, refine_faces): incidence, a new topology
   // version, and for quadratic bending the rest positions of the new vertices (at this time).
   void finish_topology_change();

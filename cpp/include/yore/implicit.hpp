@@ -292,6 +292,8 @@ class ImplicitIntegrator : public Integrator {
 
  private:
   void ensure_structure(const Cloth& cloth);
+  // ensure_structure's last stage: every work array sized for the topology (dofs unknowns).
+  void size_workspace(const Cloth& cloth, Eigen::Index dofs);
   void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
   double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
                   HessianProjection projection = HessianProjection::clamp);

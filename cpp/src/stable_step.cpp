@@ -1,0 +1,283 @@
+// The stable time steps of Cloth: Gershgorin bounds, Lanczos estimates (at the current state
+// or for every state) and the step limit of symplectic Euler on one damped mode.
+#include "yore/cloth.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+namespace yore {
+namespace {
+
+// A membrane face's stiffness is bounded by c (L ⊗ I₃), L_kl = A d_k·d_l (its rest
+// "Laplacian", d_k the gradients of the shape functions): at rest the St. Venant–Kirchhoff
+// Hessian in F is at most max(2(μ + λ), 2μ) (pure dilation or pure shear), and the map from the
+// corners to F has Gram matrix L ⊗ I₃. StVK stiffens as it stretches: along a stretch s its
+// tangent modulus is Y (3s² − 1)/2, 1.315 Y at 10 %, the allowance taken here, so the bound
+// covers faces stretched by up to 10 %.
+constexpr double kMembraneStretchAllowance = 1.315;
+
+double membrane_bound_constant(const MembraneMaterial& material) {
+  const double mu = material.mu(), lambda = material.lambda();
+  return kMembraneStretchAllowance * std::max(2.0 * (mu + lambda), 2.0 * mu);
+}
+
+Eigen::Matrix3d membrane_rest_laplacian(const MembraneRest& rest) {
+  const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+  Eigen::Matrix3d laplacian;
+  for (std::size_t k = 0; k < 3; ++k) {
+    for (std::size_t l = 0; l < 3; ++l) {
+      laplacian(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l)) =
+          rest.area * d[k].dot(d[l]);
+    }
+  }
+  return laplacian;
+}
+
+// Per-spring 3×3 stiffness and damping blocks (each vector has one per spring). every_state:
+// k·I and c·I, which bound the spring's Hessian k[d̂d̂ᵀ + (1 − L/ℓ)(I − d̂d̂ᵀ)] (ℓ >= 0) and its
+// damping c d̂d̂ᵀ whatever the cloth's shape. Otherwise the Hessian at the current positions,
+// projected to PSD (the transverse factor clamped to [0, 1]), and the damping along the current
+// directions.
+void spring_blocks(const SpringSet& springs, const Positions& positions, bool every_state,
+                   std::vector<Mat3>& stiffness_blocks, std::vector<Mat3>& damping_blocks) {
+  const std::size_t spring_count = springs.size();
+  for (std::size_t s = 0; s < spring_count; ++s) {
+    const double k = springs.stiffness[s], c = springs.damping[s];
+    const Vec3 d = positions.row(springs.first[s]) - positions.row(springs.second[s]);
+    const double length = d.norm();
+    if (every_state || !(length > 0.0) || !std::isfinite(length)) {
+      stiffness_blocks[s] = k * Mat3::Identity();
+      damping_blocks[s] = c * Mat3::Identity();
+      continue;
+    }
+    const Vec3 direction = d / length;
+    const Mat3 along = direction * direction.transpose();
+    const double transverse = std::clamp(1.0 - springs.rest_length[s] / length, 0.0, 1.0);
+    stiffness_blocks[s] = k * (along + transverse * (Mat3::Identity() - along));
+    damping_blocks[s] = c * along;
+  }
+}
+
+}  // namespace
+
+double Cloth::gershgorin_time_step() const {
+  // Row sums of |M^{-1/2} A M^{-1/2}| over free vertices bound the largest eigenvalue of the
+  // mass-scaled stiffness (A = K, each spring block has norm <= k while the spring is not
+  // compressed) and damping (A = C) matrices.
+  double omega_squared = 0.0;
+  double gamma = 0.0;
+  const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
+  // The membrane's rows: Σ_faces c |L_kl| √(wₖ wₗ) (see membrane_bound_constant).
+  Eigen::VectorXd membrane_rows;
+  if (has_membrane()) {
+    membrane_rows.setZero(vertex_count());
+    const double c = membrane_bound_constant(m_membrane);
+    const MembraneFaces& map = membrane_faces();
+    for (Eigen::Index f = 0; f < face_count(); ++f) {
+      const Eigen::Matrix3d laplacian =
+          membrane_rest_laplacian(membrane_face_rest(map, m_springs, static_cast<std::size_t>(f)));
+      for (int k = 0; k < 3; ++k) {
+        for (int l = 0; l < 3; ++l) {
+          membrane_rows[m_faces(f, k)] +=
+              c * std::abs(laplacian(k, l)) *
+              std::sqrt(m_inverse_masses[m_faces(f, k)] * m_inverse_masses[m_faces(f, l)]);
+        }
+      }
+    }
+  }
+  for (Eigen::Index i = 0; i < vertex_count(); ++i) {
+    if (m_inverse_masses[i] == 0.0) continue;
+    double stiffness_row = membrane_rows.size() > 0 ? membrane_rows[i] : 0.0, damping_row = 0.0;
+    for (std::int32_t slot = m_incidence_offsets[static_cast<std::size_t>(i)];
+         slot < m_incidence_offsets[static_cast<std::size_t>(i) + 1]; ++slot) {
+      const auto s = static_cast<std::size_t>(m_incident_springs[static_cast<std::size_t>(slot)]);
+      const std::int32_t other = m_springs.first[s] == i ? m_springs.second[s] : m_springs.first[s];
+      const double coupling =
+          m_inverse_masses[i] + std::sqrt(m_inverse_masses[i] * m_inverse_masses[other]);
+      stiffness_row += m_springs.stiffness[s] * coupling;
+      damping_row += m_springs.damping[s] * coupling;
+    }
+    if (bending != nullptr) {
+      // κ Q ⊗ I₃ adds κ Σ_j |Q_ij| √(wᵢ wⱼ) to the row (constrained j have w = 0).
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        stiffness_row += m_bending_modulus * std::abs(bending->values[static_cast<std::size_t>(k)]) *
+                         std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
+      }
+    }
+    omega_squared = std::max(omega_squared, stiffness_row);
+    gamma = std::max(gamma, damping_row);
+  }
+  gamma += m_drag;
+  return symplectic_euler_step_limit(omega_squared, gamma);
+}
+
+double Cloth::stable_time_step() const { return lanczos_time_step(false); }
+
+double Cloth::stable_time_step_bound() const { return lanczos_time_step(true); }
+
+// The membrane's per-face 9×9 stiffness: every_state, c (L ⊗ I₃) (membrane_bound_constant);
+// otherwise its Hessian at the current positions, the stress term clamped (PSD). Empty without
+// a membrane.
+std::vector<Mat9> Cloth::membrane_stiffness_blocks(bool every_state) const {
+  std::vector<Mat9> membrane_blocks;
+  if (has_membrane()) {
+    membrane_blocks.resize(static_cast<std::size_t>(face_count()));
+    const MembraneFaces& map = membrane_faces();
+    const double c = membrane_bound_constant(m_membrane);
+    for (Eigen::Index f = 0; f < face_count(); ++f) {
+      const MembraneRest rest = membrane_face_rest(map, m_springs, static_cast<std::size_t>(f));
+      Mat9& block = membrane_blocks[static_cast<std::size_t>(f)];
+      if (every_state) {
+        const Eigen::Matrix3d laplacian = membrane_rest_laplacian(rest);
+        block.setZero();
+        for (int k = 0; k < 3; ++k) {
+          for (int l = 0; l < 3; ++l) {
+            block.block<3, 3>(3 * k, 3 * l) = c * laplacian(k, l) * Mat3::Identity();
+          }
+        }
+      } else {
+        membrane_face(m_positions.row(m_faces(f, 0)), m_positions.row(m_faces(f, 1)),
+                      m_positions.row(m_faces(f, 2)), rest, m_membrane.mu(), m_membrane.lambda(),
+                      nullptr, &block, TransverseFilter::clamp);
+      }
+    }
+  }
+  return membrane_blocks;
+}
+
+// over 80 lines: the Lanczos iteration and the operator it applies (springs, bending, membrane)
+// read as one algorithm; its stages (blocks, iteration, damping of the mode) share every local.
+double Cloth::lanczos_time_step(bool every_state) const {
+  const double gershgorin = gershgorin_time_step();
+  // Overflowing k / m (no step is stable) or nothing elastic moving (only damping limits the
+  // step): the Gershgorin answer is exact, and Lanczos would only see zeros or non-finite values.
+  if (!(gershgorin > 0.0) || !std::isfinite(gershgorin) || m_springs.size() == 0) return gershgorin;
+  bool any_free = false;
+  for (Eigen::Index i = 0; i < vertex_count(); ++i) any_free = any_free || m_inverse_masses[i] > 0.0;
+  if (!any_free) return gershgorin;
+
+  // Per-spring 3×3 stiffness and damping blocks (see spring_blocks).
+  const std::size_t spring_count = m_springs.size();
+  std::vector<Mat3> stiffness_blocks(spring_count), damping_blocks(spring_count);
+  spring_blocks(m_springs, m_positions, every_state, stiffness_blocks, damping_blocks);
+  // Constrained (fixed or driven) vertices have zero inverse mass, so S = M^{-1/2} eliminates
+  // their rows and columns.
+  const Eigen::VectorXd scale = m_inverse_masses.cwiseSqrt();
+  const Eigen::Index n = vertex_count();
+  // Quadratic bending's κ Q ⊗ I₃ is constant: the same in both modes, added to the stiffness.
+  const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
+  // The membrane's per-face 9×9 stiffness (see membrane_stiffness_blocks).
+  const std::vector<Mat9> membrane_blocks = membrane_stiffness_blocks(every_state);
+  auto apply = [&](const std::vector<Mat3>& blocks, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+    y.setZero(3 * n);
+    for (std::size_t s = 0; s < spring_count; ++s) {
+      const std::int32_t i = m_springs.first[s], j = m_springs.second[s];
+      const Vec3 f = blocks[s] * (scale[i] * x.segment<3>(3 * i) - scale[j] * x.segment<3>(3 * j));
+      y.segment<3>(3 * i) += scale[i] * f;
+      y.segment<3>(3 * j) -= scale[j] * f;
+    }
+    if (bending != nullptr && &blocks == &stiffness_blocks) {
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (scale[i] == 0.0) continue;
+        Vec3 sum = Vec3::Zero();
+        for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+             k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+          const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+          sum += bending->values[static_cast<std::size_t>(k)] * scale[j] * x.segment<3>(3 * j);
+        }
+        y.segment<3>(3 * i) += m_bending_modulus * scale[i] * sum;
+      }
+    }
+    if (!membrane_blocks.empty() && &blocks == &stiffness_blocks) {
+      Vec9 local;
+      for (Eigen::Index f = 0; f < face_count(); ++f) {
+        for (int k = 0; k < 3; ++k) {
+          local.segment<3>(3 * k) = scale[m_faces(f, k)] * x.segment<3>(3 * m_faces(f, k));
+        }
+        const Vec9 product = membrane_blocks[static_cast<std::size_t>(f)] * local;
+        for (int k = 0; k < 3; ++k) {
+          y.segment<3>(3 * m_faces(f, k)) += scale[m_faces(f, k)] * product.segment<3>(3 * k);
+        }
+      }
+    }
+  };
+
+  // Lanczos with full reorthogonalization on S K S. Ritz values approach λ_max from below; the
+  // top one usually converges in a few dozen iterations (the top of the spectrum is where
+  // Krylov methods are fastest). A fixed deterministic start vector keeps the estimate
+  // reproducible.
+  const Eigen::Index dim = 3 * n;
+  const int max_iterations = static_cast<int>(std::min<Eigen::Index>(dim, kLanczosMaxIterations));
+  Eigen::MatrixXd basis(dim, max_iterations);
+  Eigen::VectorXd q(dim), w(dim);
+  std::uint64_t seed = 0x9E3779B97F4A7C15ULL;
+  for (Eigen::Index r = 0; r < dim; ++r) {
+    seed ^= seed >> 12; seed ^= seed << 25; seed ^= seed >> 27;  // xorshift64*
+    const double u = static_cast<double>((seed * 0x2545F4914F6CDD1DULL) >> 11) * 0x1.0p-53;
+    q[r] = scale[r / 3] > 0.0 ? 2.0 * u - 1.0 : 0.0;
+  }
+  q.normalize();
+  std::vector<double> alpha, beta;
+  double top = 0.0, previous_top = -1.0;
+  Eigen::VectorXd ritz_coefficients;
+  int steps = 0;
+  for (int it = 0; it < max_iterations; ++it) {
+    basis.col(it) = q;
+    apply(stiffness_blocks, q, w);
+    alpha.push_back(q.dot(w));
+    // Two passes of classical Gram–Schmidt against the whole basis.
+    for (int pass = 0; pass < 2; ++pass) {
+      w -= basis.leftCols(it + 1) * (basis.leftCols(it + 1).transpose() * w);
+    }
+    steps = it + 1;
+    const double b = w.norm();
+    const bool last = it + 1 == max_iterations || !(b > 1e-12 * std::abs(alpha.front()) + 1e-300);
+    if ((it + 1) % 5 == 0 || last) {
+      Eigen::MatrixXd tridiagonal = Eigen::MatrixXd::Zero(steps, steps);
+      for (int r = 0; r < steps; ++r) {
+        tridiagonal(r, r) = alpha[static_cast<std::size_t>(r)];
+        if (r + 1 < steps) {
+          tridiagonal(r, r + 1) = tridiagonal(r + 1, r) = beta[static_cast<std::size_t>(r)];
+        }
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(tridiagonal);
+      if (eigen.info() != Eigen::Success) break;
+      top = eigen.eigenvalues()[steps - 1];
+      ritz_coefficients = eigen.eigenvectors().col(steps - 1);
+      if (!std::isfinite(top)) return 0.0;
+      if (last || std::abs(top - previous_top) <= kLanczosRelativeTolerance * top) break;
+      previous_top = top;
+    }
+    beta.push_back(b);
+    q = w / b;
+  }
+  if (!(top > 0.0) || ritz_coefficients.size() != steps) return gershgorin;
+  // Damping of the top mode: the Rayleigh quotient of S C S at its Ritz vector (exact when the
+  // damping is proportional to the stiffness, as with the scenes' uniform springs), plus drag.
+  const Eigen::VectorXd mode = (basis.leftCols(steps) * ritz_coefficients).normalized();
+  apply(damping_blocks, mode, w);
+  const double gamma = std::max(0.0, mode.dot(w)) + m_drag;
+  return symplectic_euler_step_limit(top, gamma);
+}
+
+double symplectic_euler_step_limit(double omega_squared, double gamma) {
+  // Masses are normal numbers, but k / m can still overflow: then no step is stable.
+  if (!std::isfinite(omega_squared) || !std::isfinite(gamma)) return 0.0;
+  if (omega_squared == 0.0) {
+    // Nothing elastic moves: only damping limits the step (h γ < 2), if anything.
+    return gamma > 0.0 ? 2.0 / gamma : std::numeric_limits<double>::infinity();
+  }
+  // The mode x'' = −ω² x − γ x' under v⁺ = v + h a(x, v), x⁺ = x + h v⁺ is stable while
+  // h² ω² + 2 h γ < 4 (and h γ < 2, implied).
+  return (std::sqrt(gamma * gamma + 4.0 * omega_squared) - gamma) / omega_squared;
+}
+
+}  // namespace yore
