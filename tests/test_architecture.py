@@ -200,7 +200,8 @@ def _long_cpp_functions(text):
         line = lines[i]
         if line and not line[0].isspace() and "(" in line and not line.startswith(skip):
             j = i
-            while j < len(lines) and not lines[j].rstrip().endswith(("{", ";")):
+            # (a one-line definition ends with its closing brace: nothing to count)
+            while j < len(lines) and not lines[j].rstrip().endswith(("{", ";", "}")):
                 j += 1
             if j < len(lines) and lines[j].rstrip().endswith("{") and \
                     not lines[j].rstrip().endswith("{}"):
@@ -230,6 +231,7 @@ def test_no_cpp_function_is_over_80_lines_without_a_reason():
 
 def test_the_long_function_finders_find_one():
     body = "\n".join(f"  x += {k};" for k in range(85))
-    text = f"double f(int a) {{\n{body}\n}}\n\nint g() {{\n  return 1;\n}}\n"
+    text = (f"double f(int a) {{\n{body}\n}}\n\nint g() {{\n  return 1;\n}}\n"
+            "int h() { return 2; }\n\nint k() {\n  return 3;\n}\n")
     assert _long_cpp_functions(text) == [("f", 87)]
     assert _long_cpp_functions("// over 80 lines: one pass\n" + text) == []
