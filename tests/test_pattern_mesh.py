@@ -167,3 +167,19 @@ def test_a_refinement_past_the_vertex_limit_stops_with_an_error():
     # the core counts the vertices as it refines: a limit far below the mesh's size stops it
     with pytest.raises(ValueError, match="more than 100 vertices"):
         _core.pattern_mesh(np.array(RECTANGLE), [], 0.01, 25.0, 100)
+
+
+@pytest.mark.parametrize("outline, holes, kwargs, argument", [
+    ([[0, 0], [1, 0]], [], {}, "outline"),  # Python's check: too few points in C++
+    ([[0, 0], [1, 1], [1, 0], [0, 1]], [], {}, "outline"),  # C++: self-intersecting
+    ([[0, 0], [1, 0], [1, 1]], [], {"edge_length": 0.0}, "edge_length"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"edge_length": 1e-5}, "edge_length"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"min_angle": 31.0}, "min_angle"),
+    ([[0, 0], [1, 0], [1, 1], [0, 1]], [[[2, 2], [3, 2], [3, 3]]], {}, "holes"),
+    ("square", [], {}, "outline"),
+])
+def test_a_bad_pattern_names_its_argument(outline, holes, kwargs, argument):
+    # the scene-file key at fault comes from the error's argument, not from its text
+    with pytest.raises(yore.ArgumentError) as caught:
+        yore.pattern_mesh(outline, holes=holes, **kwargs)
+    assert caught.value.argument == argument

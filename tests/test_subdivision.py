@@ -92,7 +92,7 @@ def test_split_1to3_skips_slivers_and_refuses_bad_requests():
     V, F = yore.grid_mesh(4, 4)
     # No child of a right triangle split anywhere has all angles above 59°: every face skipped.
     out = split_faces_1to3(V, F, [0, 1], min_angle_degrees=59.0)
-    assert list(out["skipped_faces"]) == [0, 1] and len(out["split_faces"]) == 0
+    assert list(out["faces_skipped"]) == [0, 1] and len(out["split_faces"]) == 0
     np.testing.assert_array_equal(out["faces"], F)
     with pytest.raises(ValueError, match="out of range"):
         split_faces_1to3(V, F, [len(F)])

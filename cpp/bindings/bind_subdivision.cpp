@@ -47,7 +47,7 @@ void bind_subdivision(py::module_& m) {
         py::dict out;
         put_subdivision(out, result.mesh);
         out["split_faces"] = read_only_copy(result.split_faces);
-        out["skipped_faces"] = read_only_copy(result.skipped_faces);
+        out["faces_skipped"] = read_only_copy(result.faces_skipped);
         out["moved_inward"] = result.moved_inward;
         return out;
       },

@@ -251,7 +251,7 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
                                              options.min_barycentric, options.min_angle_degrees);
 
   SplitReport report;
-  report.skipped_faces = surgery.skipped_faces;
+  report.faces_skipped = surgery.faces_skipped;
   report.moved_inward = surgery.moved_inward;
   // Rest lengths of the structural springs by vertex pair, for rest areas.
   std::unordered_map<std::uint64_t, double> structural_rest =

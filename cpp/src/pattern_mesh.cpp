@@ -1,6 +1,7 @@
 // A CGAL translation unit of yore_geometry: flat patterns meshed by the 2-D constrained
 // Delaunay mesher.
 #include "yore/pattern_mesh.hpp"
+#include "yore/errors.hpp"
 
 #include "yore/interrupt.hpp"
 
@@ -35,8 +36,14 @@ using Mesher = CGAL::Delaunay_mesher_2<Cdt, Criteria>;
 
 constexpr double kPi = 3.14159265358979323846;
 
-[[noreturn]] void fail(const std::string& message) {
-  throw std::invalid_argument("pattern: " + message);
+/// Bad input naming the argument at fault: "outline", "holes", "edge_length" or "min_angle"
+/// (a mesh too fine for max_vertices is edge_length's).
+[[noreturn]] void fail(const std::string& message, const std::string& argument) {
+  throw InvalidArgument("pattern: " + message, argument);
+}
+
+std::string polygon_argument(const std::string& name) {
+  return name.rfind("hole", 0) == 0 ? "holes" : "outline";
 }
 
 // The polygon of `points` (a closing repeat of the first point dropped), checked: at least 3
@@ -47,21 +54,22 @@ Polygon checked_polygon(const Polygon2& points, const std::string& name) {
   if (count < 3) {
     std::ostringstream msg;
     msg << name << " has " << count << " distinct points; a polygon needs at least 3";
-    fail(msg.str());
+    fail(msg.str(), polygon_argument(name));
   }
   Polygon polygon;
   for (Eigen::Index i = 0; i < count; ++i) {
     if (!std::isfinite(points(i, 0)) || !std::isfinite(points(i, 1))) {
       std::ostringstream msg;
       msg << name << " point " << i << " is not finite";
-      fail(msg.str());
+      fail(msg.str(), polygon_argument(name));
     }
     polygon.push_back(Point(points(i, 0), points(i, 1)));
   }
   if (!polygon.is_simple()) {
-    fail(name + " intersects itself (or repeats a point): it must be a simple polygon");
+    fail(name + " intersects itself (or repeats a point): it must be a simple polygon",
+         polygon_argument(name));
   }
-  if (!(std::abs(polygon.area()) > 0.0)) fail(name + " has zero area");
+  if (!(std::abs(polygon.area()) > 0.0)) fail(name + " has zero area", polygon_argument(name));
   return polygon;
 }
 
@@ -84,7 +92,7 @@ Point interior_point(const Polygon& polygon) {
                                    face->vertex(2)->point());
     if (polygon.bounded_side(c) == CGAL::ON_BOUNDED_SIDE) return c;
   }
-  fail("could not find a point inside a hole");  // unreachable for a simple polygon
+  fail("could not find a point inside a hole", "holes");  // unreachable for a simple polygon
 }
 
 }  // namespace
@@ -95,16 +103,16 @@ void check_pattern_options(const PatternMeshOptions& options) {
   if (!std::isfinite(options.edge_length) || !(options.edge_length > 0.0)) {
     std::ostringstream msg;
     msg << "edge_length must be finite and > 0 (m), got " << options.edge_length;
-    fail(msg.str());
+    fail(msg.str(), "edge_length");
   }
   if (!std::isfinite(options.min_angle_degrees) || !(options.min_angle_degrees > 0.0) ||
       options.min_angle_degrees > kPatternMaxAngleDegrees) {
     std::ostringstream msg;
     msg << "min_angle must be in (0, " << kPatternMaxAngleDegrees << "] degrees, got "
         << options.min_angle_degrees;
-    fail(msg.str());
+    fail(msg.str(), "min_angle");
   }
-  if (options.max_vertices < 3) fail("max_vertices must be at least 3");
+  if (options.max_vertices < 3) fail("max_vertices must be at least 3", "edge_length");
 }
 
 // The holes as polygons, each checked (checked_polygon) and strictly inside the outline and
@@ -116,9 +124,11 @@ std::vector<Polygon> checked_holes(const Polygon& outer, const std::vector<Polyg
     inner.push_back(checked_polygon(holes[h], name));
     const Polygon& hole = inner.back();
     for (auto v = hole.vertices_begin(); v != hole.vertices_end(); ++v) {
-      if (outer.bounded_side(*v) != CGAL::ON_BOUNDED_SIDE) fail(name + " is not inside the outline");
+      if (outer.bounded_side(*v) != CGAL::ON_BOUNDED_SIDE) {
+        fail(name + " is not inside the outline", "holes");
+      }
     }
-    if (edges_meet(hole, outer)) fail(name + " crosses the outline");
+    if (edges_meet(hole, outer)) fail(name + " crosses the outline", "holes");
     for (std::size_t g = 0; g < h; ++g) {
       const Polygon& other = inner[g];
       if (edges_meet(hole, other) ||
@@ -126,7 +136,7 @@ std::vector<Polygon> checked_holes(const Polygon& outer, const std::vector<Polyg
           hole.bounded_side(*other.vertices_begin()) != CGAL::ON_UNBOUNDED_SIDE) {
         std::ostringstream msg;
         msg << name << " overlaps hole " << g << ": holes must lie apart";
-        fail(msg.str());
+        fail(msg.str(), "holes");
       }
     }
   }
@@ -163,7 +173,7 @@ PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& h
       std::ostringstream msg;
       msg << "meshing at edge_length " << options.edge_length << " m needs more than "
           << options.max_vertices << " vertices; use a larger edge_length";
-      fail(msg.str());
+      fail(msg.str(), "edge_length");
     }
     if (++steps % 1024 == 0) poll_interrupt();
   }

@@ -302,7 +302,7 @@ StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOp
     const SplitReport split = cloth.split_faces(splits, split_options);
     result.subdivide_seconds = watch.seconds();
     result.faces_split = static_cast<std::int64_t>(split.split_faces.size());
-    result.faces_skipped = split.skipped_faces;
+    result.faces_skipped = split.faces_skipped;
     result.springs_added += split.springs_added;
     result.springs_removed += split.springs_removed;
     result.region_faces = split.region_faces;

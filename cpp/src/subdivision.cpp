@@ -94,7 +94,7 @@ Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
     };
     if (!children_ok(weights)) weights = Eigen::Vector3d::Constant(1.0 / 3.0);
     if (!children_ok(weights)) {
-      out.skipped_faces.push_back(split.face);
+      out.faces_skipped.push_back(split.face);
       continue;
     }
     out.split_faces.push_back(split.face);
@@ -134,10 +134,16 @@ Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
   return out;
 }
 
-// over 80 lines: the conforming closure and the children it makes share the split-edge map and
-// the midpoints' numbering, in the order the output documents; not yet split into stages.
-Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
-                             const std::vector<std::int32_t>& refine) {
+namespace {
+
+/// The conforming closure of a 1→4 refinement: the faces refined ("red": those asked for and
+/// every face left with two or three split edges) and the edges that get a midpoint.
+struct Closure {
+  std::vector<char> red;
+  std::map<VertexPair, char> split;
+};
+
+Closure conforming_closure(const Faces& faces, const std::vector<std::int32_t>& refine) {
   const Eigen::Index face_count = faces.rows();
   std::vector<char> red(static_cast<std::size_t>(face_count), 0);
   for (const std::int32_t f : refine) {
@@ -159,7 +165,8 @@ Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
                             std::pair<VertexPair, std::int32_t>{edge, -1},
                             [](const auto& x, const auto& y) { return x.first < y.first; });
   };
-  std::map<VertexPair, char> split;  // edges with a midpoint
+  Closure closure;
+  std::map<VertexPair, char>& split = closure.split;  // edges with a midpoint
   std::vector<std::int32_t> queue;
   for (Eigen::Index f = 0; f < face_count; ++f) {
     if (red[static_cast<std::size_t>(f)]) queue.push_back(static_cast<std::int32_t>(f));
@@ -188,8 +195,15 @@ Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
       }
     }
   }
+  closure.red = std::move(red);
+  return closure;
+}
 
-  Refinement out;
+/// The midpoints of the split edges, numbered after the old vertices in the edges' order;
+/// fills `out`'s split edges, positions and new vertices' interpolation, returns the numbering.
+std::map<VertexPair, std::int32_t> add_midpoints(const Positions& positions,
+                                                 const std::map<VertexPair, char>& split,
+                                                 Refinement& out) {
   std::map<VertexPair, std::int32_t> midpoint;
   const Eigen::Index old_vertices = positions.rows();
   for (const auto& entry : split) {
@@ -209,7 +223,15 @@ Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
     mesh.new_vertex_corners.row(k) << edge[0], edge[1], edge[1];
     mesh.new_vertex_weights.row(k) << 0.5, 0.5, 0.0;
   }
+  return midpoint;
+}
 
+/// The children: a red face becomes four (its corner children in place, three appended), a
+/// face with one split edge two (bisected); parents listed for every face.
+void make_children(const Faces& faces, const std::vector<char>& red,
+                   const std::map<VertexPair, std::int32_t>& midpoint, Refinement& out) {
+  const Eigen::Index face_count = faces.rows();
+  Subdivision& mesh = out.mesh;
   std::vector<std::array<std::int32_t, 3>> appended;
   std::vector<std::int32_t> appended_parents;
   mesh.faces = faces;
@@ -247,6 +269,16 @@ Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
     mesh.faces.row(row) << appended[k][0], appended[k][1], appended[k][2];
   }
   mesh.parents.insert(mesh.parents.end(), appended_parents.begin(), appended_parents.end());
+}
+
+}  // namespace
+
+Refinement refine_faces_1to4(const Positions& positions, const Faces& faces,
+                             const std::vector<std::int32_t>& refine) {
+  const Closure closure = conforming_closure(faces, refine);
+  Refinement out;
+  const std::map<VertexPair, std::int32_t> midpoint = add_midpoints(positions, closure.split, out);
+  make_children(faces, closure.red, midpoint, out);
   return out;
 }
 

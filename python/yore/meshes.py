@@ -29,10 +29,19 @@ PATTERN_MIN_ANGLE = 25.0
 MAX_MESH_VERTICES = 1_000_000
 
 
-def _check_vertex_count(count: int, what: str) -> None:
+def _check_vertex_count(count: int, what: str, argument=None) -> None:
+    """ValueError past MAX_MESH_VERTICES (an `yore.ArgumentError` naming ``argument`` if
+    given)."""
     if count > MAX_MESH_VERTICES:
-        raise ValueError(f"{what} gives {count} vertices, more than the limit of "
-                         f"{MAX_MESH_VERTICES}")
+        message = f"{what} gives {count} vertices, more than the limit of {MAX_MESH_VERTICES}"
+        raise ValueError(message) if argument is None else _invalid(message, argument)
+
+
+def _invalid(message, argument):
+    """A `yore.ArgumentError` (a ValueError) naming ``argument``."""
+    error = _core.ArgumentError(message)
+    error.argument = argument
+    return error
 
 
 def _split_quads(a, b, c, d, even) -> np.ndarray:
@@ -185,14 +194,15 @@ def cylinder_ring(rings, segments, which):
 
 
 def _polygon(points, name):
+    argument = "holes" if name.startswith("hole") else "outline"
     try:
         array = np.array(points, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a list of [u, v] points (m), got "
-                         f"{type(points).__name__}") from None
+        raise _invalid(f"{name} must be a list of [u, v] points (m), got "
+                       f"{type(points).__name__}", argument) from None
     if array.ndim != 2 or array.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (m, 2): [u, v] points (m), got shape "
-                         f"{array.shape}")
+        raise _invalid(f"{name} must have shape (m, 2): [u, v] points (m), got shape "
+                       f"{array.shape}", argument)
     return np.ascontiguousarray(array)
 
 
@@ -230,12 +240,16 @@ def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGL
     """
     outline = _polygon(outline, "outline")
     if isinstance(holes, np.ndarray) and holes.ndim == 2:
-        raise ValueError("holes must be a list of polygons, got one (k, 2) array: wrap it in "
-                         "a list")
+        raise _invalid("holes must be a list of polygons, got one (k, 2) array: wrap it in "
+                       "a list", "holes")
     holes = [_polygon(hole, f"hole {k}") for k, hole in enumerate(holes)]
-    edge_length = check_factor(edge_length, "edge_length", "m")
+    try:
+        edge_length = check_factor(edge_length, "edge_length", "m")
+    except ValueError as error:
+        raise _invalid(str(error), "edge_length") from None
     if isinstance(min_angle, (bool, np.bool_)) or not isinstance(min_angle, numbers.Real):
-        raise ValueError(f"min_angle must be a number of degrees, got {min_angle!r}")
+        raise _invalid(f"min_angle must be a number of degrees, got {min_angle!r}",
+                       "min_angle")
     # No triangle with edges at most edge_length is larger than the equilateral one, and a
     # mesh has about two faces per vertex: fewer vertices than this cannot cover the outline.
     u, v = outline[:, 0], outline[:, 1]
@@ -243,7 +257,7 @@ def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGL
     if math.isfinite(area):
         least = area / (math.sqrt(3.0) / 4.0 * edge_length ** 2) / 2.0
         _check_vertex_count(int(least), f"edge_length {edge_length:g} m on an outline of "
-                            f"{area:g} m²")
+                            f"{area:g} m²", "edge_length")
     points, faces, _ = _core.pattern_mesh(outline, holes, edge_length, float(min_angle),
                                           MAX_MESH_VERTICES)
     V = np.column_stack([points, np.zeros(len(points))])

@@ -29,7 +29,7 @@ def split_faces_1to3(V, F, faces, barycentric=None, min_barycentric=MIN_BARYCENT
 
     Returns a dict: ``vertices`` (n+k')×3, ``faces``, ``parents`` (per output face, its input
     face), ``new_vertex_corners`` / ``new_vertex_weights`` (k'×3: each new vertex as weights of
-    input vertices), ``split_faces``, ``skipped_faces`` and ``moved_inward``. Raises ValueError
+    input vertices), ``split_faces``, ``faces_skipped`` and ``moved_inward``. Raises ValueError
     on a bad mesh, faces out of range or repeated, or bad weights.
     """
     faces = np.asarray(faces, dtype=np.int64).reshape(-1)

@@ -89,7 +89,7 @@ TEST_CASE("split 1→3: the paper's rows, parents and barycentric points") {
   CHECK(out.mesh.faces.rows() == F + 8);
   CHECK(out.mesh.positions.rows() == V + 4);
   CHECK(out.split_faces == std::vector<std::int32_t>{0, 7, 8, 19});
-  CHECK(out.skipped_faces.empty());
+  CHECK(out.faces_skipped.empty());
   CHECK(out.moved_inward == 0);
   // (a, b, p) in the parent's row, (b, c, p) and (c, a, p) appended in order
   const std::int32_t a = mesh.faces(7, 0), b = mesh.faces(7, 1), c = mesh.faces(7, 2);
@@ -122,7 +122,7 @@ TEST_CASE("split 1→3 moves points near a corner inward and skips slivers") {
   const yore::Split1to3 skipped = yore::split_faces_1to3(
       mesh.positions, mesh.faces, {{0, Eigen::Vector3d::Constant(1.0 / 3)},
                                    {1, Eigen::Vector3d::Constant(1.0 / 3)}}, 0.1, 59.0);
-  CHECK(skipped.skipped_faces == std::vector<std::int32_t>{0, 1});
+  CHECK(skipped.faces_skipped == std::vector<std::int32_t>{0, 1});
   CHECK(skipped.split_faces.empty());
   CHECK(skipped.mesh.faces == mesh.faces);
 }

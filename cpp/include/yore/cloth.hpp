@@ -101,7 +101,7 @@ struct SplitOptions {
 /// What split_faces did.
 struct SplitReport {
   std::vector<std::int32_t> split_faces;    ///< original indices of the faces split
-  std::vector<std::int32_t> skipped_faces;  ///< faces left whole (their children would be slivers)
+  std::vector<std::int32_t> faces_skipped;  ///< faces left whole (their children would be slivers)
   std::vector<std::int32_t> new_vertices;
   std::vector<std::int32_t> region_faces;   ///< the 3 children of every split face
   std::int64_t springs_added = 0;

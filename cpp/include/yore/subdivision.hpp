@@ -38,7 +38,7 @@ struct FaceSplit {
 struct Split1to3 {
   Subdivision mesh;
   std::vector<std::int32_t> split_faces;    ///< the faces split, in the order given
-  std::vector<std::int32_t> skipped_faces;  ///< faces left whole (their children would be slivers)
+  std::vector<std::int32_t> faces_skipped;  ///< faces left whole (their children would be slivers)
   std::vector<Eigen::Vector3d> weights;     ///< per split face, the barycentric point used
   std::int64_t moved_inward = 0;            ///< split points moved by the min_barycentric rule
 };

@@ -75,11 +75,9 @@ def _build_mesh(scene):
         try:
             V, F = pattern_mesh(mesh["outline"], mesh["holes"], mesh["edge_length"],
                                 mesh["min_angle"])
-        except ValueError as error:
-            text = str(error)
-            key = ("mesh.holes" if "hole" in text else "mesh.edge_length"
-                   if "edge_length" in text or "vertices" in text else "mesh.outline")
-            raise scene.error(key, text, "a pattern CGAL can mesh") from None
+        except ArgumentError as error:  # the key at fault, by the argument's name
+            raise scene.error(f"mesh.{error.argument}", str(error),
+                              "a pattern CGAL can mesh") from None
         uv = V[:, :2].copy()
         pattern = V if mesh["plane"] == "xy" else np.column_stack(
             [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
