@@ -154,10 +154,7 @@ rejects the matrix.)doc")
         const SolverStatistics& solver = integrator.solver_statistics();
         Statistics out;
         out.steps = s.steps;
-        out.phase("assemble_seconds", s.assemble_seconds);
-        out.phase("analyze_seconds", s.analyze_seconds);
-        out.phase("factorize_seconds", s.factorize_seconds);
-        out.phase("solve_seconds", s.solve_seconds);
+        add_solver_phases(out, s);
         out.count("newton_iterations", s.newton_iterations);
         out.count("line_search_backtracks", s.line_search_backtracks);
         out.count("unconverged_steps", s.unconverged_steps);

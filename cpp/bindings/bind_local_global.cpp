@@ -58,10 +58,7 @@ void bind_local_global(py::module_& m) {
         const SolverStatistics& solver = integrator.solver_statistics();
         Statistics out;
         out.steps = s.steps;
-        out.phase("assemble_seconds", s.assemble_seconds);
-        out.phase("analyze_seconds", s.analyze_seconds);
-        out.phase("factorize_seconds", s.factorize_seconds);
-        out.phase("solve_seconds", s.solve_seconds);
+        add_solver_phases(out, s);
         out.phase("rebuild_seconds", s.rebuild_seconds);
         out.count("iterations", s.iterations);
         out.count("unconverged_steps", s.unconverged_steps);

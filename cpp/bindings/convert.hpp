@@ -246,6 +246,16 @@ struct Statistics {
   }
 };
 
+/// The phases of an integrator built on a linear solver, in the order its statistics list
+/// them: assemble, analyze, factorize, solve.
+template <typename S>
+void add_solver_phases(Statistics& out, const S& s) {
+  out.phase("assemble_seconds", s.assemble_seconds);
+  out.phase("analyze_seconds", s.analyze_seconds);
+  out.phase("factorize_seconds", s.factorize_seconds);
+  out.phase("solve_seconds", s.solve_seconds);
+}
+
 /// Binds Statistics (module.cpp, once).
 void bind_statistics(py::module_& m);
 

@@ -149,4 +149,19 @@ inline yore::Cloth chain() {
                                    Eigen::VectorXd::Constant(3, 0.1), 40.0, 0.01, 0.1);
 }
 
+/// A mass on a spring of rest length 1 m hanging from a fixed point, pulled down by
+/// `amplitude` (m): it moves on the spring's line, where the force −k(ℓ − L) is linear, so every
+/// method is a linear recurrence and the exact motion is y(t) = −1 − A cos(ωt), ω² = k/m.
+inline yore::Cloth oscillator(double mass, double stiffness, double amplitude) {
+  yore::Positions positions(2, 3);
+  positions << 0, 0, 0, 0, -(1.0 + amplitude), 0;
+  yore::Edges edges(1, 2);
+  edges << 0, 1;
+  yore::Cloth cloth = yore::Cloth::from_springs(positions, edges, Eigen::VectorXd::Ones(1),
+                                                Eigen::VectorXd::Constant(2, mass), stiffness,
+                                                0.0, 0.0);
+  cloth.fix({0});
+  return cloth;
+}
+
 }  // namespace yore_test

@@ -21,17 +21,8 @@ namespace {
 
 constexpr double kMass = 0.2, kStiffness = 50.0, kAmplitude = 0.1;
 
-// A mass on a spring along its line (a linear oscillator, see test_implicit.cpp).
-Cloth oscillator() {
-  Positions positions(2, 3);
-  positions << 0, 0, 0, 0, -(1.0 + kAmplitude), 0;
-  yore::Edges edges(1, 2);
-  edges << 0, 1;
-  Cloth cloth = Cloth::from_springs(positions, edges, Eigen::VectorXd::Ones(1),
-                                    Eigen::VectorXd::Constant(2, kMass), kStiffness, 0.0, 0.0);
-  cloth.fix({0});
-  return cloth;
-}
+// The linear oscillator (yore_test::oscillator: exact motion y(t) = −1 − A cos(ωt)).
+Cloth oscillator() { return yore_test::oscillator(kMass, kStiffness, kAmplitude); }
 
 double error_at(ErrorControlledMethod method, double rtol) {
   ErrorControlledOptions options;

@@ -75,13 +75,7 @@ TEST_CASE("one step is v⁺ = v + h M⁻¹ f(x, v), x⁺ = x + h v⁺ with sprin
 
 TEST_CASE("a mass on a spring returns after one period (analytic oscillator)") {
   const double m = 0.2, k = 50.0, amplitude = 0.1;
-  Positions positions(2, 3);
-  positions << 0, 0, 0, 0, -(1.0 + amplitude), 0;
-  yore::Edges edges(1, 2);
-  edges << 0, 1;
-  Cloth cloth = Cloth::from_springs(positions, edges, Eigen::VectorXd::Ones(1),
-                                    Eigen::VectorXd::Constant(2, m), k, 0.0, 0.0);
-  cloth.fix({0});
+  Cloth cloth = yore_test::oscillator(m, k, amplitude);
   const double omega = std::sqrt(k / m), period = 2 * M_PI / omega, dt = period / 2000;
   ExplicitIntegrator integrator;
   integrator.advance(cloth, Vec3::Zero(), dt, 2000);

@@ -26,19 +26,8 @@ namespace {
 
 constexpr double kMass = 0.2, kStiffness = 50.0, kAmplitude = 0.1;
 
-// A mass on a spring of rest length 1 m hanging from a fixed point, pulled down by kAmplitude:
-// it moves on the spring's line, where the force −k(ℓ − L) is linear, so every method is a
-// linear recurrence and the exact motion is y(t) = −1 − A cos(ωt).
-Cloth oscillator() {
-  Positions positions(2, 3);
-  positions << 0, 0, 0, 0, -(1.0 + kAmplitude), 0;
-  yore::Edges edges(1, 2);
-  edges << 0, 1;
-  Cloth cloth = Cloth::from_springs(positions, edges, Eigen::VectorXd::Ones(1),
-                                    Eigen::VectorXd::Constant(2, kMass), kStiffness, 0.0, 0.0);
-  cloth.fix({0});
-  return cloth;
-}
+// The linear oscillator (yore_test::oscillator: exact motion y(t) = −1 − A cos(ωt)).
+Cloth oscillator() { return yore_test::oscillator(kMass, kStiffness, kAmplitude); }
 
 ImplicitOptions tight(ImplicitMethod method) {
   ImplicitOptions options;
