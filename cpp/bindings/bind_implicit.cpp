@@ -79,6 +79,32 @@ void bind_implicit(py::module_& m) {
       "options", [](const ImplicitIntegrator& integrator) { return integrator.options(); },
       "The options this integrator runs with (ImplicitOptions, read-only).");
   integrator_class.attr("option_rules") = option_rules(table);
+  integrator_class.def_static(
+      "resolve_choices",
+      [](const py::dict& given) {
+        // None (or absent) leaves a choice open; the rest are options as the constructor takes
+        static const char* const kChoices[] = {"adaptive_projection", "projection", "predictor",
+                                               "mixed"};
+        py::kwargs rest;
+        for (const auto& [key, value] : given) {
+          if (!value.is_none()) rest[key] = value;
+        }
+        const ImplicitOptions options = options_from_kwargs(table, rest);
+        ImplicitChoices choices;
+        const auto is_given = [&](const char* name) { return rest.contains(name); };
+        if (is_given(kChoices[0])) choices.adaptive_projection = options.adaptive_projection;
+        if (is_given(kChoices[1])) choices.projection = options.projection;
+        if (is_given(kChoices[2])) choices.predictor = options.predictor;
+        if (is_given(kChoices[3])) choices.mixed = options.mixed;
+        const py::dict all = option_values(table, resolve_choices(options, choices));
+        py::dict out;
+        for (const char* name : {"projection", "predictor", "mixed"}) out[name] = all[name];
+        return out;
+      },
+      py::arg("options"),
+      "The choices `options` leaves open (None or absent: adaptive_projection, projection, "
+      "predictor, mixed) decided from the others, as yore runs them: {projection, predictor, "
+      "mixed}. ValueError when adaptive_projection and projection disagree.");
   integrator_class.def(py::init([](const py::kwargs& kwargs) {
                          return std::make_unique<ImplicitIntegrator>(
                              options_from_kwargs(table, kwargs));

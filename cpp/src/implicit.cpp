@@ -107,6 +107,48 @@ void check_lbfgs_options(const ImplicitOptions& options) {
 
 }  // namespace
 
+namespace {
+
+/// A projection by its name in the option tables (yore.options, scene and state files).
+const char* projection_name(HessianProjection projection) {
+  switch (projection) {
+    case HessianProjection::clamp: return "clamp";
+    case HessianProjection::abs: return "abs";
+    case HessianProjection::exact: return "exact";
+    case HessianProjection::trust_region: return "trust-region";
+    case HessianProjection::shifted: return "shifted";
+    case HessianProjection::steihaug: return "steihaug";
+  }
+  return "clamp";
+}
+
+}  // namespace
+
+ImplicitOptions resolve_choices(ImplicitOptions options, const ImplicitChoices& choices) {
+  options.predictor = choices.predictor.value_or(options.linearized ? NewtonPredictor::start
+                                                                    : NewtonPredictor::inertial);
+  if (options.minimizer != ImplicitMinimizer::newton) return options;
+  HessianProjection projection = HessianProjection::clamp;
+  if (choices.projection) {
+    projection = *choices.projection;
+  } else if (choices.adaptive_projection) {
+    projection = *choices.adaptive_projection ? HessianProjection::exact
+                                              : HessianProjection::clamp;
+  }
+  if (choices.adaptive_projection && choices.projection &&
+      *choices.adaptive_projection != (projection == HessianProjection::exact)) {
+    throw std::invalid_argument(
+        std::string("adaptive_projection=") + (*choices.adaptive_projection ? "True" : "False") +
+        " contradicts projection='" + projection_name(projection) + "'; give one of them");
+  }
+  options.projection = projection;
+  options.adaptive_projection = false;  // mapped into projection
+  // the one linearized step is the same either way (to round-off)
+  options.mixed = choices.mixed.value_or(projection == HessianProjection::clamp &&
+                                         !options.linearized);
+  return options;
+}
+
 ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     : m_options(given), m_monitor(given.divergence_energy_factor) {
   if (m_options.adaptive_projection) m_options.projection = HessianProjection::exact;

@@ -9,8 +9,9 @@ line, which all read their names, defaults and checks from here.
   one is a C++ file, its binding and one row here. Names and defaults come
   from the C++ option structs (``_core.*Integrator.defaults``, a table in the bindings); written
   here are only the options that exist on the Python side alone and the defaults that differ by
-  integrator. A default of None means "decided from the other options": `resolve_options` is the
-  one place that decides, and `defaults` gives an integrator's defaults so resolved.
+  integrator. A default of None means "decided from the other options": the core decides
+  (C++ ``resolve_choices``, its choices ``std::optional``), `resolve_options` asks it, and
+  `defaults` gives an integrator's defaults so resolved.
   `check_option` checks a value (type and range, with an error naming the option); the C++
   constructors check again.
 - Strokes: `STROKE_DEFAULTS` (the paper's expansion and mass scale come from the C++
@@ -242,44 +243,23 @@ def option_expected(name) -> str:
     return _RULES[name].expected
 
 
-def _projection(options):
-    """The projection option in force: explicit, else mapped from adaptive_projection, else
-    the clamp where the exact Hessian cannot be used (linearized, pcg)."""
-    if options["projection"] is not None:
-        return options["projection"]
-    if options["adaptive_projection"] is not None:
-        return "exact" if options["adaptive_projection"] else "clamp"
-    # The clamp with the mixed matrices, stopped by the truncation test: no factorization
-    # thrown away, and on the stiff and the buckling scenes the fewest iterations (see
-    # docs/integrators.md and benchmarks/newton_projection.py). pcg and linearized need it
-    # (no Cholesky to find an indefinite matrix; one step).
-    return "clamp"
-
-
-def _predictor(options):
-    """Where Newton starts, when not given: xₙ for the linearized step (Baraff–Witkin's),
-    the inertial guess xₙ + h vₙ otherwise."""
-    if options["predictor"] is not None:
-        return options["predictor"]
-    return "start" if options["linearized"] else "inertial"
-
-
 def resolve_options(integrator, options) -> dict:
     """``options`` (all of ``integrator``'s, checked) with every None that stands for "decide from
-    the others" decided: the one place that does it. ValueError where two options contradict."""
+    the others" decided — by the core (``_core.ImplicitIntegrator.resolve_choices``, the one
+    place that decides: C++'s ``resolve_choices``, its choices ``std::optional``). ValueError
+    where two options contradict."""
     options = dict(options)
-    if "predictor" in options and options["predictor"] is None:
-        options["predictor"] = _predictor({"linearized": False, **options})
-    if INTEGRATOR_SPECS[integrator].newton:
-        projection = _projection(options)
-        if options["adaptive_projection"] is not None and options["projection"] is not None \
-                and options["adaptive_projection"] != (projection == "exact"):
-            raise ValueError(f"adaptive_projection={options['adaptive_projection']} contradicts "
-                             f"projection={projection!r}; give one of them")
-        mixed = options["mixed"]
-        if mixed is None:  # the one linearized step is the same either way (to round-off)
-            mixed = projection == "clamp" and not options["linearized"]
-        options.update(projection=projection, predictor=_predictor(options), mixed=mixed)
+    spec = INTEGRATOR_SPECS[integrator]
+    if not spec.newton and "predictor" not in options:
+        return options
+    given = {name: value for name, value in options.items() if name in CORE_IMPLICIT}
+    if not spec.newton:
+        given["minimizer"] = "lbfgs"  # quasi-Newton: the predictor alone is decided
+    decided = _core.ImplicitIntegrator.resolve_choices(given)
+    if spec.newton:
+        options.update(decided)
+    elif options["predictor"] is None:
+        options["predictor"] = decided["predictor"]
     return options
 
 

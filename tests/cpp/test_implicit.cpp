@@ -332,3 +332,47 @@ TEST_CASE("bad options are std::invalid_argument naming them") {
   CHECK_THROWS_WITH_AS(integrator.advance(cloth, Vec3::Zero(), -0.01, 1),
                        doctest::Contains("dt must be finite and > 0"), std::invalid_argument);
 }
+
+TEST_CASE("resolve_choices decides only what is left open, and refuses a contradiction") {
+  using yore::ImplicitChoices;
+  using yore::NewtonPredictor;
+  // nothing given: the clamp with the mixed matrices, from the inertial guess
+  ImplicitOptions decided = yore::resolve_choices(ImplicitOptions{}, ImplicitChoices{});
+  CHECK(decided.projection == HessianProjection::clamp);
+  CHECK(decided.predictor == NewtonPredictor::inertial);
+  CHECK(decided.mixed);
+  CHECK_FALSE(decided.adaptive_projection);
+  // the linearized step starts at xₙ and takes no mixed matrices
+  ImplicitOptions linearized;
+  linearized.linearized = true;
+  decided = yore::resolve_choices(linearized, ImplicitChoices{});
+  CHECK(decided.predictor == NewtonPredictor::start);
+  CHECK_FALSE(decided.mixed);
+  // adaptive_projection maps into projection; mixed goes with the clamp only
+  ImplicitChoices adaptive;
+  adaptive.adaptive_projection = true;
+  decided = yore::resolve_choices(ImplicitOptions{}, adaptive);
+  CHECK(decided.projection == HessianProjection::exact);
+  CHECK_FALSE(decided.mixed);
+  // given choices are kept as given
+  ImplicitChoices given;
+  given.projection = HessianProjection::steihaug;
+  given.predictor = NewtonPredictor::start;
+  given.mixed = true;
+  decided = yore::resolve_choices(ImplicitOptions{}, given);
+  CHECK(decided.projection == HessianProjection::steihaug);
+  CHECK(decided.predictor == NewtonPredictor::start);
+  CHECK(decided.mixed);
+  // quasi-Newton decides its predictor alone
+  ImplicitOptions lbfgs;
+  lbfgs.minimizer = yore::ImplicitMinimizer::lbfgs;
+  decided = yore::resolve_choices(lbfgs, ImplicitChoices{});
+  CHECK(decided.predictor == NewtonPredictor::inertial);
+  CHECK_FALSE(decided.mixed);  // untouched: the struct's default
+  ImplicitChoices contradicting;
+  contradicting.adaptive_projection = true;
+  contradicting.projection = HessianProjection::clamp;
+  CHECK_THROWS_WITH_AS(yore::resolve_choices(ImplicitOptions{}, contradicting),
+                       "adaptive_projection=True contradicts projection='clamp'; give one of them",
+                       std::invalid_argument);
+}
