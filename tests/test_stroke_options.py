@@ -85,6 +85,13 @@ def test_one_stroke_call_for_every_path_and_the_old_ones_give_the_same_cloth():
         _same_cloth(new, old)
 
 
+def test_max_distance_is_refused_for_paths_it_does_not_apply_to():
+    sim = _sim()
+    with pytest.raises(ValueError, match="max_distance is for 3-D"):
+        sim.stroke(StrokePath.material(LINE_UV), max_distance=0.1)
+    assert sim.cloth.vertex_count == 81  # nothing changed
+
+
 def test_a_bare_array_is_a_world_path():
     a, b = _sim(), _sim()
     X = a.cloth.positions

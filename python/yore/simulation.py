@@ -473,6 +473,9 @@ class Simulation:
             raise ValueError("a spring network has no faces to stroke")
         path = StrokePath.of(path)
         options = StrokeOptions.of(options, **changes)
+        if options.max_distance is not None and path.space != "world":
+            raise ValueError(f"max_distance is for 3-D (world) paths, not a {path.space} path "
+                             "(its samples are found by rays or in the rest pattern)")
         if path.space == "world":
             max_distance = options.max_distance
             if max_distance is None:
