@@ -1,14 +1,13 @@
-"""The stroke pipeline in one call of the core (stroke_pipeline.hpp ↔ _core.apply_stroke):
-the same cloth and report as the step-by-step primitives, refusals that leave the cloth as it
-was, and its errors."""
+"""The stroke pipeline in one call of the core (stroke_pipeline.hpp ↔ _core.apply_stroke), as
+Python sees it: the report, refusals that leave the cloth as it was, and its errors. (That one
+call equals the step-by-step primitives, to the bit, is tests/cpp/test_stroke_pipeline.cpp's.)"""
 
 import numpy as np
 import pytest
 
 import yore
-from yore import _core, metrics
-from yore.stroke import (MIN_ANGLE_DEGREES, MIN_BARYCENTRIC, RefinementTooLarge, StrokeMissed,
-                         mean_edge_length, predicted_refined_vertices)
+from yore import _core
+from yore.stroke import RefinementTooLarge, StrokeMissed, predicted_refined_vertices
 
 STROKE = np.array([[0.08, 0.3, 0.0], [0.5, 0.62, 0.0], [0.93, 0.41, 0.0]])
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import _core, rules
-from .rules import Invalid, is_integer, is_real, show  # noqa: F401  (re-exported)
+from .rules import Invalid, show
 
 __all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "INTEGRATOR_SPECS", "IntegratorSpec",
            "DEFAULT_INTEGRATOR", "REFERENCE_INTEGRATOR", "FIXED_DT", "OptionError", "check_option", "option_expected",

@@ -12,9 +12,8 @@ import numpy as np
 from . import _core
 from ._core import Cloth
 from .checks import MAX_SETTLE_SECONDS
-from .options import is_real, show_value
 from . import progress as progress_bars
-from .rules import flag
+from .rules import flag, is_real, show as show_value
 
 __all__ = ["SETTLE_DT", "SETTLE_PERTURBATION", "SETTLE_MAX_ESCAPES", "settle", "is_saddle",
            "residual_acceleration"]

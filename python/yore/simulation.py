@@ -15,7 +15,6 @@ from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
                       INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS,
                       check_option, resolve_options, show_value)
 from . import progress as progress_bars, rules, settling, smoothing
-from .settling import SETTLE_DT, SETTLE_MAX_ESCAPES, SETTLE_PERTURBATION  # noqa: F401
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
@@ -358,7 +357,7 @@ class Simulation:
     def settle(self, max_seconds: float = 10.0, tolerance: float = 0.02, progress=None,
                check_stability: bool = True) -> dict:
         """Brings the cloth to rest at a static equilibrium before an experiment, by proximal
-        point iteration (pseudo-time stepping): backward-Euler steps of `SETTLE_DT` from rest,
+        point iteration (pseudo-time stepping): backward-Euler steps of `yore.settling.SETTLE_DT` from rest,
         the velocities zeroed after each, so every step minimises the potential plus
         ½‖x − xₖ‖²_M / h² and the sequence descends to a local minimum of the potential
         (gravity, springs, bending) — whatever the stiffness, and without simulating the
@@ -372,8 +371,8 @@ class Simulation:
         ``check_stability`` (the default), a state that meets the tolerance is accepted only if
         the true Hessian of the potential plus M/h² is positive definite (a Cholesky
         factorization succeeds); otherwise it is a saddle, the free vertices are moved by
-        random displacements of ``SETTLE_PERTURBATION`` mean rest lengths (RMS; a fixed seed)
-        and the relaxation goes on, at most ``SETTLE_MAX_ESCAPES`` times. Afterwards the
+        random displacements of ``yore.settling.SETTLE_PERTURBATION`` mean rest lengths (RMS; a fixed seed)
+        and the relaxation goes on, at most ``yore.settling.SETTLE_MAX_ESCAPES`` times. Afterwards the
         velocities are zero and the clock is where it was, so strokes and outputs keep their
         times; BDF2 starts afresh (the velocities were edited).
 

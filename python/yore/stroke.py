@@ -152,10 +152,6 @@ def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:
     return np.ascontiguousarray(array)
 
 
-def mean_edge_length(V, F) -> float:
-    V = np.asarray(V, dtype=float)
-    return float(np.mean([np.linalg.norm(V[F[:, a]] - V[F[:, b]], axis=1).mean()
-                          for a, b in ((0, 1), (1, 2), (2, 0))]))
 
 
 def falloff_weight(distance, width):
