@@ -32,6 +32,8 @@ def machine_info() -> dict:
         "platform": platform.platform(),
         "yore": yore.build_info(),
         "blas_loaded": blas,
+        # the kernels CHOLMOD's BLAS runs and who chose them (yore.blas): "SkylakeX", "yore"
+        "blas_kernels": yore.blas.report(),
         "thread_environment": {name: os.environ.get(name) for name in
                                ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")},
     }

@@ -19,7 +19,7 @@ def _sources():
 
 
 SOURCES = _sources()
-MODULES = set(SOURCES) | {"yore._core"}  # the extension module
+MODULES = set(SOURCES) | {"yore._core", "yore._cpu"}  # the extension modules
 
 
 def _imports(name, tree, path):

@@ -65,6 +65,9 @@ std::map<std::string, std::string> build_info() {
   using GetConfig = char* (*)();
   auto config = reinterpret_cast<GetConfig>(openblas_symbol("openblas_get_config"));
   info["blas"] = config != nullptr ? std::string(config()) : "not OpenBLAS";
+  // The kernel set OpenBLAS chose when it loaded (its DYNAMIC_ARCH builds pick one per CPU).
+  auto corename = reinterpret_cast<GetConfig>(openblas_symbol("openblas_get_corename"));
+  info["blas_kernel"] = corename != nullptr ? std::string(corename()) : "";
   return info;
 }
 

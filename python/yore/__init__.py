@@ -16,6 +16,16 @@ from .runtime import ignore_interrupts_in_sweep_workers as _ignore_interrupts_in
 _ignore_interrupts_in_sweep_workers()
 _guard_command_start()
 
+# Next, before anything loads the core (and with it CHOLMOD's BLAS, which picks its kernels as it
+# loads): the BLAS kernels this CPU runs, unless the user chose (yore.blas).
+from . import blas as _blas  # noqa: E402
+from .runtime import is_command as _is_command  # noqa: E402
+
+_blas.prepare(in_command=_is_command())
+from . import _core as _loaded_core  # noqa: E402,F401  (the load the choice is for)
+
+_blas.finish(in_command=_is_command())
+
 from . import metrics, scenes, springs, stroke, subdivision  # noqa: E402  (after the guard)
 from ._core import ArgumentError, Cloth, NotPositiveDefinite, SimulationDiverged
 from .io import load_mesh, save_mesh

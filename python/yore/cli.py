@@ -12,6 +12,7 @@
     yore sweep SWEEP.toml [-o OUT] [--scheduler tcp://host:8786] [--workers N] [--overwrite]
     yore sweep --resume OUT [--scheduler ...] [--workers N]
     yore sweep plot OUT --x DIM --y DIM --value NAME [--select DIM=VALUE ...] [-o PNG]
+    yore info [--threads N]
     yore --version
 Every command takes --threads N (the threads of the core's loops and of BLAS, see
 `yore.set_num_threads`; default: the scene's [simulation] threads, else the machine's cores).
@@ -58,6 +59,7 @@ def _parser():
     _add_view(commands)
     _add_sweep(commands)
     _add_sweep_plot(commands)
+    _add_info(commands)
     return parser
 
 
@@ -245,6 +247,15 @@ def _add_sweep_plot(commands):
     _add_common(plot, quiet=False)
 
 
+def _add_info(commands):
+    """`yore info`: what yore runs on."""
+    info = commands.add_parser("info", help="versions, threads and the BLAS kernels in use",
+                               description="The versions yore was built with, its threads, the "
+                               "CPU's widest BLAS kernels and the ones in use, and who chose "
+                               "them (the user's OPENBLAS_CORETYPE, yore, or OpenBLAS itself).")
+    _add_common(info, quiet=False)
+
+
 def _add_view_options(parser):
     parser.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"),
                         help="the world direction shown upwards (default: the scene's, else "
@@ -308,6 +319,17 @@ def _report(summary, out, quiet):
     for key, label in where.items():
         if key in outputs:
             print(f"{label + ':':28s}{(out / outputs[key]).resolve()}")
+
+
+def _info(arguments):
+    from . import blas
+    from .runtime import build_info
+
+    info = build_info()
+    width = max(len(key) for key in info)
+    for key in sorted(info):
+        print(f"{key:<{width}}  {info[key]}")
+    print(f"{'BLAS':<{width}}  {blas.describe()}")
 
 
 def _run(arguments):
@@ -602,7 +624,7 @@ def _main(argv) -> int:
         return EXIT_INTERRUPTED
 
     handlers = {"run": _run, "check": _check, "demo": _demo, "render": _render, "view": _view,
-                "sweep": _sweep, "sweep-plot": _sweep_plot}
+                "sweep": _sweep, "sweep-plot": _sweep_plot, "info": _info}
     try:
         if getattr(arguments, "threads", None) is not None:
             from . import set_num_threads

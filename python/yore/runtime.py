@@ -12,7 +12,7 @@ import signal
 import sys
 import threading
 
-__all__ = ["VERSION", "build_info", "set_num_threads", "guard_command_start",
+__all__ = ["VERSION", "build_info", "set_num_threads", "guard_command_start", "is_command",
            "end_command_start", "end_command", "deferred_interrupt"]
 
 #: yore's version (also `yore.__version__`).
@@ -20,10 +20,20 @@ VERSION = "0.1.0"
 
 
 def build_info() -> dict:
-    """Versions of the libraries yore was built and linked with, and its thread count."""
+    """Versions of the libraries yore was built and linked with, the BLAS kernels in use
+    (``blas_kernel``, ``blas_kernel_chosen_by``: "user", "yore" or "openblas",
+    ``blas_kernel_tier``, ``blas_library``, ``cpu_kernel``: the widest this CPU runs; see
+    `yore.blas`), and its thread count."""
     from . import _core
 
+    from . import blas
+
     info = dict(_core.build_info())
+    kernels = blas.report()
+    info["blas_kernel_chosen_by"] = kernels["chosen_by"]
+    info["blas_kernel_tier"] = kernels["tier"]
+    info["blas_library"] = ", ".join(kernels["library"])
+    info["cpu_kernel"] = kernels["cpu_kernel"] or ""
     info["threads"] = _core.max_threads()
     info["yore"] = VERSION
     return info
@@ -134,6 +144,11 @@ def guard_command_start() -> None:
         signal.signal(signal.SIGINT, _interrupted_while_starting)
         _guarding[0] = True
         _command[0] = True
+
+
+def is_command() -> bool:
+    """This process is the `yore` command (known from `guard_command_start` on)."""
+    return _command[0]
 
 
 def end_command_start() -> None:

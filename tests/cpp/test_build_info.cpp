@@ -14,6 +14,14 @@ TEST_CASE("build_info names every documented library with a non-empty value") {
     CHECK_FALSE(info.at(key).empty());
   }
   CHECK(info.at("eigen").find('3') == 0);  // Eigen 3.x
+  // OpenBLAS names the kernel it runs inside its configuration string; another BLAS has none
+  REQUIRE(info.count("blas_kernel") == 1);
+  if (info.at("blas").rfind("OpenBLAS", 0) == 0) {
+    CHECK_FALSE(info.at("blas_kernel").empty());
+    CHECK(info.at("blas").find(info.at("blas_kernel")) != std::string::npos);
+  } else {
+    CHECK(info.at("blas_kernel").empty());
+  }
 }
 
 TEST_CASE("set_max_threads sets what max_threads reports; below one is refused") {

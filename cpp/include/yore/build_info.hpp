@@ -8,7 +8,8 @@
 namespace yore {
 
 /// Versions and build facts of the physics core as name → text ("eigen", "cholmod", "compiler",
-/// "openmp", "build_type", "blas").
+/// "openmp", "build_type", "blas": the loaded OpenBLAS's configuration, "blas_kernel": the
+/// kernel set it chose when it loaded, "" for another BLAS).
 std::map<std::string, std::string> build_info();
 
 /// Threads the core's parallel loops may use: the last set_max_threads, else OpenMP's default

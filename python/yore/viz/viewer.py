@@ -411,4 +411,5 @@ def _statistics_lines(s) -> list:
             f"unconverged {number(s['unconverged_steps'], '{}')}",
             f"analyses {number(s['analyses'], '{}')}, "
             f"factorization {number(s['factorize_seconds'], '{:.3f}')} s",
-            f"{s['vertices']} vertices, {s['faces']} faces; strokes: {s['strokes']}"]
+            f"{s['vertices']} vertices, {s['faces']} faces; strokes: {s['strokes']}"] + (
+            [f"BLAS: {s['blas']}"] if s.get("blas") else [])

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _core
+from .. import _core, blas
 from ..camera import Camera, fit_camera
 from ..checks import check_integer
 from ..options import (IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, SMOOTHING_RULES,
@@ -113,6 +113,7 @@ class ViewerModel:
         self.log = None  # a callable given each message (yore view: print)
         self.speed = 1.0
         self._frame_steps, self._frame_seconds = 0, 0.0
+        self._blas = blas.describe()  # fixed for the process: OpenBLAS chose when it loaded
 
     def _changed(self):
         """Called after the simulation changed (a step, a stroke, undo): the window redraws."""
@@ -297,7 +298,7 @@ class ViewerModel:
 
     def statistics(self) -> dict:
         """What the panel shows: time, steps, last frame's step time, steps per second,
-        iterations per step, analyses, factorization time, vertices, faces."""
+        iterations per step, analyses, factorization time, vertices, faces, the BLAS kernels."""
         stats = self.sim.stats
         counters, phases = stats["counters"], stats["phases"]
         steps = max(stats["steps"], 1)
@@ -314,5 +315,8 @@ class ViewerModel:
                 "factorize_seconds": phases.get("factorize_seconds"),
                 "vertices": stats["vertices"], "faces": int(len(self.sim.cloth.faces)),
                 "strokes": len(self.reports),
+                # the BLAS kernels CHOLMOD's factorization runs on (yore.blas)
+                "blas": self._blas,
                 # the error-controlled integrators' own (SUNDIALS): None for the others
                 **{name: counters.get(name) for name in SUNDIALS_FIGURES}}
+
