@@ -63,7 +63,7 @@ demo: setup
 	$(VENV)/bin/yore demo -o $(OUT)
 
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
-BENCHMARKS := explicit_step implicit_step rebuild_cost crossover long_horizon numerical_damping \
+BENCHMARKS := explicit_step implicit_step factorization rebuild_cost crossover long_horizon numerical_damping \
               error_control vibration_floor wrinkles \
               sensitivity scaling newton_projection factor_reuse newton_stop stability_map stable_dt \
               threads pictures

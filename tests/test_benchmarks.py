@@ -48,6 +48,32 @@ def test_explicit_step_benchmark_smoke(tmp_path):
         assert row["vertices"] == row["grid"] ** 2 and row["springs"] > row["vertices"]
 
 
+def test_factorization_benchmark_smoke(tmp_path):
+    data = run_benchmark("factorization", tmp_path, "--quick", "--sizes", "8", "12")
+    rows = data["rows"]
+    assert {(r["ordering_requested"], r["supernode_relaxation"]) for r in rows if r["grid"] == 8} \
+        == {("amd", 0.0), ("amd", 1.0), ("amd", 3.0), ("metis", 1.0), ("nesdis", 0.0),
+            ("nesdis", 1.0), ("nesdis", 3.0), ("auto", 1.0)}
+    assert {r["blas_threads"] for r in rows} == {1, 2}
+    for row in rows:
+        assert row["dofs"] == 3 * (row["grid"] ** 2 - 2)  # the two pinned corners
+        assert row["ordering_used"] == ("amd" if row["ordering_requested"] == "auto"
+                                        else row["ordering_requested"])  # 144 vertices: AMD's
+        assert row["factor_flops"] > row["factor_nonzeros"] >= row["dofs"]
+        assert is_timing(row["factorize_seconds"]) and is_timing(row["analyze_seconds"])
+    # the true nonzeros of L do not depend on how supernodes are amalgamated
+    for grid in (8, 12):
+        fills = {r["factor_nonzeros"] for r in rows if r["grid"] == grid
+                 and r["ordering_requested"] == "amd"}
+        assert len(fills) == 1
+    assert data["machine"]["blas_kernels"]["kernel"] == data["machine"]["yore"]["blas_kernel"]
+    # part 2: one fresh process per kernel the CPU runs, each really on that kernel
+    for run in data["kernels"]:
+        assert run["chosen_by"] == "user" and run["kernel"] in ("SkylakeX", "Haswell",
+                                                                  "Sandybridge", "Prescott")
+        assert {(r["grid"], r["ordering"]) for r in run["rows"]} == {(8, "amd"), (8, "auto")}
+
+
 def test_implicit_step_benchmark_smoke(tmp_path):
     data = run_benchmark("implicit_step", tmp_path, "--quick", "--sizes", "6", "8")
     assert data["dense_matmul_gflops"] > 0

@@ -264,7 +264,7 @@ def test_heavily_damped_cloth_reaches_the_same_static_shape_explicitly_and_impli
 
 @pytest.mark.parametrize("options, message", [
     ({"solver": "lu"}, "valid: cholmod, eigen-ldlt, pcg"),
-    ({"ordering": "rcm"}, "valid: amd, metis, natural"),
+    ({"ordering": "rcm"}, "valid: amd, metis, nesdis, auto, natural"),
     ({"factorization": "dense"}, "valid: supernodal, simplicial"),
     ({"newton_tol": -1.0}, "newton_tol"),
     ({"max_newton": 0}, "max_newton"),

@@ -36,6 +36,9 @@ void bind_error_controlled(py::module_& m) {
       choice_option<O, FactorKind>(
           "factorization", [](O& o) -> FactorKind& { return o.linear_solver.factorization; },
           factor_kind_choices()),
+      in_range(plain_option("supernode_relaxation", &O::linear_solver,
+                            &LinearSolverOptions::supernode_relaxation),
+               0.0, 16.0, false, false),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
   };
   integrator_class.attr("defaults") = option_values(table, O{});

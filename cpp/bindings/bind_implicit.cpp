@@ -66,6 +66,9 @@ void bind_implicit(py::module_& m) {
       choice_option<O, FactorKind>(
           "factorization", [](O& o) -> FactorKind& { return o.linear_solver.factorization; },
           factor_kind_choices()),
+      in_range(plain_option("supernode_relaxation", &O::linear_solver,
+                            &LinearSolverOptions::supernode_relaxation),
+               0.0, 16.0, false, false),
       in_range(plain_option("pcg_tol", &O::linear_solver, &LinearSolverOptions::pcg_tol), 0.0,
                1.0, true, true),
       in_range(plain_option("pcg_max_iterations", &O::linear_solver,

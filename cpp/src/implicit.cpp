@@ -163,7 +163,8 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
     m_options.projection = HessianProjection::clamp;
     m_options.adaptive_projection = false;
     m_scalar_solver = std::make_unique<SparseCholesky>(options.linear_solver.factorization,
-                                                       options.linear_solver.ordering);
+                                                       options.linear_solver.ordering,
+                                                       options.linear_solver.supernode_relaxation);
   }
   m_solver = make_linear_solver(options.linear_solver);
 }
@@ -185,6 +186,7 @@ void fill_block_pattern(std::int32_t blocks,
                         const std::vector<std::int32_t>& first_neighbour,
                         SymmetricPattern& pattern) {
   pattern.size = 3 * blocks;
+  pattern.block_size = 3;
   pattern.column_starts.assign(static_cast<std::size_t>(pattern.size) + 1, 0);
   pattern.row_indices.clear();
   pattern.row_indices.reserve(static_cast<std::size_t>(blocks) * 6 + coupled.size() * 9);

@@ -31,8 +31,15 @@ Enum parse_named(const std::string& name, const char* what,
 
 const std::vector<std::pair<std::string, Ordering>>& ordering_choices() {
   static const std::vector<std::pair<std::string, Ordering>> choices = {
-      {"amd", Ordering::amd}, {"metis", Ordering::metis}, {"natural", Ordering::natural}};
+      {"amd", Ordering::amd},         {"metis", Ordering::metis},
+      {"nesdis", Ordering::nesdis},   {"auto", Ordering::automatic},
+      {"natural", Ordering::natural}};
   return choices;
+}
+
+Ordering resolve_ordering(Ordering ordering, std::int32_t vertices) {
+  if (ordering != Ordering::automatic) return ordering;
+  return vertices >= kNestedDissectionFromVertices ? Ordering::nesdis : Ordering::amd;
 }
 
 const std::vector<std::pair<std::string, FactorKind>>& factor_kind_choices() {
@@ -68,8 +75,9 @@ SparseMatrix matrix_with_pattern(const SymmetricPattern& pattern) {
 class EigenLdlt final : public LinearSolver {
  public:
   explicit EigenLdlt(Ordering ordering) {
-    if (ordering != Ordering::amd) {
-      throw std::invalid_argument("backend 'eigen-ldlt' orders with AMD only; valid ordering: amd");
+    if (ordering != Ordering::amd && ordering != Ordering::automatic) {
+      throw std::invalid_argument(
+          "backend 'eigen-ldlt' orders with AMD only; valid ordering: amd, auto");
     }
   }
   void analyze(const SymmetricPattern& pattern) override {
@@ -156,8 +164,10 @@ class PollingJacobi {
 class JacobiPcg final : public LinearSolver {
  public:
   JacobiPcg(Ordering ordering, double tolerance, int max_iterations) {
-    if (ordering != Ordering::amd && ordering != Ordering::natural) {
-      throw std::invalid_argument("backend 'pcg' does not reorder; valid ordering: amd, natural");
+    if (ordering != Ordering::amd && ordering != Ordering::natural &&
+        ordering != Ordering::automatic) {
+      throw std::invalid_argument(
+          "backend 'pcg' does not reorder; valid ordering: amd, auto, natural");
     }
     if (!(tolerance > 0.0) || max_iterations < 1) {
       std::ostringstream msg;
@@ -250,7 +260,8 @@ std::vector<std::string> linear_solver_backends() { return {"cholmod", "eigen-ld
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options) {
   if (options.solver == "cholmod") {
-    return std::make_unique<SparseCholesky>(options.factorization, options.ordering);
+    return std::make_unique<SparseCholesky>(options.factorization, options.ordering,
+                                            options.supernode_relaxation);
   }
   if (options.solver == "eigen-ldlt") return std::make_unique<EigenLdlt>(options.ordering);
   if (options.solver == "pcg") {

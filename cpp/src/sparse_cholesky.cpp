@@ -9,6 +9,7 @@
 #endif
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <new>
@@ -19,6 +20,17 @@
 
 namespace yore {
 namespace {
+
+int cholmod_ordering(Ordering ordering) {
+  switch (ordering) {
+    case Ordering::amd: return CHOLMOD_AMD;
+    case Ordering::metis: return CHOLMOD_METIS;
+    case Ordering::nesdis: return CHOLMOD_NESDIS;
+    case Ordering::natural: return CHOLMOD_NATURAL;
+    case Ordering::automatic: break;  // resolved by size before it gets here
+  }
+  return CHOLMOD_AMD;
+}
 
 const char* ordering_name(int code) {
   switch (code) {
@@ -121,20 +133,19 @@ struct SparseCholesky::Impl {
   cholmod_dense* block_e = nullptr;
   SolverStatistics statistics;
   bool factored = false;
+  Ordering ordering = Ordering::automatic;
 
-  Impl(FactorKind kind, Ordering ordering) {
+  Impl(FactorKind kind, Ordering requested, double relaxation) : ordering(requested) {
     cholmod_start(&common);
     common.print = 0;  // errors are reported through common.status and exceptions
     common.supernodal = kind == FactorKind::supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
     common.final_ll = 1;  // LLᵀ also for the simplicial factor
     common.nmethods = 1;
-    switch (ordering) {
-      case Ordering::amd: common.method[0].ordering = CHOLMOD_AMD; break;
-      case Ordering::metis: common.method[0].ordering = CHOLMOD_METIS; break;
-      case Ordering::natural:
-        common.method[0].ordering = CHOLMOD_NATURAL;
-        common.postorder = 0;
-        break;
+    common.method[0].ordering = cholmod_ordering(resolve_ordering(requested, 0));
+    if (requested == Ordering::natural) common.postorder = 0;
+    for (int k = 0; k < 3; ++k) {
+      common.nrelax[k] = static_cast<std::size_t>(std::lround(relaxation *
+                                                              static_cast<double>(common.nrelax[k])));
     }
   }
 
@@ -170,18 +181,92 @@ struct SparseCholesky::Impl {
   }
 };
 
-SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering) {
-  if (ordering == Ordering::metis && !cholmod_has_metis()) {
-    throw std::invalid_argument("ordering 'metis' is not available: CHOLMOD was built without "
-                                "METIS; valid: amd, natural");
+SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering,
+                               double supernode_relaxation) {
+  const bool partitions = ordering == Ordering::metis || ordering == Ordering::nesdis ||
+                          ordering == Ordering::automatic;
+  if (partitions && !cholmod_has_metis()) {
+    throw std::invalid_argument("orderings 'metis', 'nesdis' and 'auto' are not available: "
+                                "CHOLMOD was built without METIS; valid: amd, natural");
   }
-  m_impl = std::make_unique<Impl>(factor, ordering);
+  if (!(supernode_relaxation >= 0.0 && supernode_relaxation <= 16.0)) {
+    std::ostringstream msg;
+    msg << "supernode_relaxation must be in [0, 16], got " << supernode_relaxation;
+    throw std::invalid_argument(msg.str());
+  }
+  m_impl = std::make_unique<Impl>(factor, ordering, supernode_relaxation);
 }
 
 SparseCholesky::~SparseCholesky() = default;
 
+namespace {
+
+// The vertex graph of a pattern of b×b blocks: the lower triangle, one entry per coupled pair
+// of blocks (read off each block's first column).
+cholmod_sparse* block_graph(const SymmetricPattern& pattern, cholmod_common& common) {
+  const std::int32_t b = pattern.block_size;
+  const std::int32_t blocks = pattern.size / b;
+  std::vector<std::int32_t> starts(static_cast<std::size_t>(blocks) + 1, 0), rows;
+  rows.reserve(static_cast<std::size_t>(pattern.nonzeros() / (b * b) + blocks));
+  for (std::int32_t block = 0; block < blocks; ++block) {
+    const auto column = static_cast<std::size_t>(b * block);
+    for (std::int32_t k = pattern.column_starts[column]; k < pattern.column_starts[column + 1];
+         ++k) {
+      const std::int32_t row = pattern.row_indices[static_cast<std::size_t>(k)] / b;
+      if (rows.empty() || static_cast<std::int32_t>(rows.size()) == starts[block] ||
+          rows.back() != row) {
+        rows.push_back(row);
+      }
+    }
+    starts[static_cast<std::size_t>(block) + 1] = static_cast<std::int32_t>(rows.size());
+  }
+  cholmod_sparse* graph = cholmod_allocate_sparse(static_cast<std::size_t>(blocks),
+                                                  static_cast<std::size_t>(blocks), rows.size(),
+                                                  1, 1, -1, CHOLMOD_PATTERN, &common);
+  if (graph == nullptr) return nullptr;
+  std::memcpy(graph->p, starts.data(), starts.size() * sizeof(std::int32_t));
+  std::memcpy(graph->i, rows.data(), rows.size() * sizeof(std::int32_t));
+  return graph;
+}
+
+}  // namespace
+
 void SparseCholesky::analyze(const SymmetricPattern& pattern) {
-  analyze_with_permutation(pattern, {});
+  Impl& d = *m_impl;
+  const std::int32_t b = std::max(pattern.block_size, 1);
+  const Ordering ordering = resolve_ordering(d.ordering, pattern.size / b);
+  if (b == 1 || pattern.size % b != 0 || ordering == Ordering::natural) {
+    d.common.method[0].ordering = cholmod_ordering(ordering);
+    analyze_with_permutation(pattern, {});
+    return;
+  }
+  cholmod_sparse* graph = block_graph(pattern, d.common);
+  d.check("allocate_sparse");
+  const auto blocks = static_cast<std::size_t>(pattern.size / b);
+  std::vector<std::int32_t> order(blocks), parents(blocks), members(blocks);
+  {
+    const SerialOpenMP serial;
+    switch (ordering) {
+      case Ordering::metis:
+        cholmod_metis(graph, nullptr, 0, 1, order.data(), &d.common);
+        break;
+      case Ordering::nesdis:
+        cholmod_nested_dissection(graph, nullptr, 0, order.data(), parents.data(),
+                                  members.data(), &d.common);
+        break;
+      default:
+        cholmod_amd(graph, nullptr, 0, order.data(), &d.common);
+        break;
+    }
+  }
+  cholmod_free_sparse(&graph, &d.common);
+  d.check("ordering");
+  std::vector<std::int32_t> expanded(static_cast<std::size_t>(pattern.size));
+  for (std::size_t k = 0; k < blocks; ++k) {
+    for (std::int32_t c = 0; c < b; ++c) expanded[b * k + static_cast<std::size_t>(c)] = b * order[k] + c;
+  }
+  analyze_with_permutation(pattern, expanded);
+  d.statistics.ordering = ordering_name(cholmod_ordering(ordering));
 }
 
 void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,

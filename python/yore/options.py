@@ -66,7 +66,8 @@ INTEGRATOR_OPTIONS = {
         # the residual max |∇ᵢE|·h̃²/mᵢ (the gradient as a displacement) is at most newton_tol ×
         # the mean rest length; a step that reaches max_newton is counted in stats
         # (unconverged_steps) and warned about. solver: "cholmod" | "eigen-ldlt" | "pcg";
-        # ordering: "amd" | "metis" | "natural"; factorization: "supernodal" | "simplicial".
+        # ordering: "auto" | "amd" | "metis" | "nesdis" | "natural"; factorization:
+        # "supernodal" | "simplicial"; supernode_relaxation: CHOLMOD's amalgamation, scaled.
         # lagged_factorization: keep the factor across Newton iterations and steps, CG
         # preconditioned by it on the current matrix (steihaug: the exact Hessian), refactor
         # when CG needs more than lag_max_cg_iterations (and, after the k-th such failure in

@@ -18,17 +18,35 @@ namespace yore {
 /// indices increase within each column.
 struct SymmetricPattern {
   std::int32_t size = 0;                    ///< N
+  /// 3 when the matrix is made of 3×3 blocks, one per vertex (unknowns 3b, 3b + 1, 3b + 2 share
+  /// their pattern): orderings are then computed on the vertex graph, 9 times smaller, and
+  /// expanded. 1 for a scalar pattern.
+  std::int32_t block_size = 1;
   std::vector<std::int32_t> column_starts;  ///< N + 1
   std::vector<std::int32_t> row_indices;    ///< nnz
   std::int64_t nonzeros() const { return static_cast<std::int64_t>(row_indices.size()); }
 };
 
-/// Fill-reducing orderings of the sparse Cholesky factorization.
-enum class Ordering { amd, metis, natural };
+/// Fill-reducing orderings of the sparse Cholesky factorization: approximate minimum degree,
+/// METIS's nested dissection, CHOLMOD's nested dissection (METIS's separators, constrained
+/// minimum degree within), automatic (AMD below kNestedDissectionFromVertices vertices, CHOLMOD's
+/// nested dissection from there: measured by benchmarks/factorization.py), or none.
+enum class Ordering { amd, metis, nesdis, automatic, natural };
+
+/// The automatic ordering's switch from AMD to nested dissection, in vertices (3×3 blocks) of
+/// the system. Measured on grid cloths (one thread, AVX-512 kernels): at 32² both factor alike
+/// and AMD's analysis is twice as cheap; at 64² nested dissection factors about 12 % faster
+/// (13 % fewer flops) and its extra analysis (≈ 11 ms) is repaid within four factorizations, half
+/// a TR-BDF2 step; at 128² 18 % faster (30 % fewer flops), at 256² 27 %.
+constexpr std::int32_t kNestedDissectionFromVertices = 2500;
+
+/// The ordering `automatic` stands for on a system of that many vertices (blocks); any other
+/// ordering is itself.
+Ordering resolve_ordering(Ordering ordering, std::int32_t vertices);
 /// Supernodal (BLAS-3 dense blocks) or simplicial (column by column) factorization.
 enum class FactorKind { supernodal, simplicial };
 
-/// The names of the orderings ("amd", "metis", "natural") and of the factorizations
+/// The names of the orderings ("amd", "metis", "nesdis", "auto", "natural") and of the factorizations
 /// ("supernodal", "simplicial"): the one list the parsers and the bindings use.
 const std::vector<std::pair<std::string, Ordering>>& ordering_choices();
 const std::vector<std::pair<std::string, FactorKind>>& factor_kind_choices();
@@ -74,8 +92,11 @@ class LinearSolver {
 /// Options of the solver backends.
 struct LinearSolverOptions {
   std::string solver = "cholmod";  ///< "cholmod", "eigen-ldlt" or "pcg"
-  Ordering ordering = Ordering::amd;
+  Ordering ordering = Ordering::automatic;
   FactorKind factorization = FactorKind::supernodal;
+  /// Scale of CHOLMOD's relaxed supernode amalgamation (its nrelax sizes 4, 16, 48 columns):
+  /// 0 merges only where no zero is added, 1 is CHOLMOD's default (measured best).
+  double supernode_relaxation = 1.0;
   double pcg_tol = 1e-12;  ///< relative residual of the Jacobi-preconditioned CG
   int pcg_max_iterations = 20000;
 };

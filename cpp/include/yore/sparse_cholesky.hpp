@@ -12,12 +12,17 @@ namespace yore {
 /// side. Owns its cholmod_common and every CHOLMOD object; every CHOLMOD status is checked.
 class SparseCholesky final : public LinearSolver {
  public:
-  /// Throws std::invalid_argument if METIS is asked for and CHOLMOD has none.
-  SparseCholesky(FactorKind factor, Ordering ordering);
+  /// `supernode_relaxation` scales CHOLMOD's relaxed amalgamation (LinearSolverOptions).
+  /// Throws std::invalid_argument if METIS (metis, nesdis, auto) is asked for and CHOLMOD has
+  /// none, or for a relaxation outside [0, 16].
+  SparseCholesky(FactorKind factor, Ordering ordering, double supernode_relaxation = 1.0);
   ~SparseCholesky() override;
   SparseCholesky(const SparseCholesky&) = delete;
   SparseCholesky& operator=(const SparseCholesky&) = delete;
 
+  /// Symbolic analysis with the solver's ordering; on a pattern of 3×3 blocks the ordering is
+  /// computed on the block (vertex) graph and expanded: the same factor for 9 times less
+  /// ordering work.
   void analyze(const SymmetricPattern& pattern) override;
   /// Symbolic analysis with a given fill-reducing permutation (cholmod_analyze_p with
   /// CHOLMOD_GIVEN): permutation[k] is the k-th unknown eliminated. Throws std::invalid_argument
