@@ -503,6 +503,49 @@ def wrinkles_section(payload: dict, images: str) -> list:
     return out
 
 
+def factorization_section(payload: dict, images: str) -> list:
+    """The factorization against DGEMM, the orderings, and the BLAS kernels."""
+    kernel = payload["machine"]["yore"].get("blas_kernel", "?")
+    out = ["", "## The factorization and the BLAS kernels", "",
+           f"![factorization]({images}/factorization.png)", "",
+           f"From `factorization` (one thread, {kernel} kernels; DGEMM of the BLAS CHOLMOD calls: "
+           f"{payload['dgemm_gflops']:.1f} GFlop/s in the same run). The linearized step's "
+           "matrix on grid cloths, CHOLMOD's own supernode amalgamation:", "",
+           "| grid | ordering | nnz(L) | GFlop | analysis | factorization | GFlop/s | of DGEMM |",
+           "|---|---|---|---|---|---|---|---|"]
+    for r in payload["rows"]:
+        if r["supernode_relaxation"] != 1.0 or r["blas_threads"] != 1:
+            continue
+        out.append(f"| {r['grid']}² | {r['ordering_used']} | {r['factor_nonzeros']:.3g} | "
+                   f"{r['factor_flops'] / 1e9:.3f} | {duration(r['analyze_seconds'])} | "
+                   f"{duration(r['factorize_seconds'])} | {r['factorize_gflops']:.1f} | "
+                   f"{r['factorize_fraction_of_dgemm']:.0%} |")
+    target = payload["targets"]["factorize_fraction_of_dgemm_at_least"]
+    judged = [r for r in payload["rows"] if r["grid"] in payload["targets"]["at_grids"]
+              and r["supernode_relaxation"] == 1.0 and r["blas_threads"] == 1]
+    if judged:
+        best = {g: max(r["factorize_fraction_of_dgemm"] for r in judged if r["grid"] == g)
+                for g in sorted({r["grid"] for r in judged})}
+        out += ["", "Best rate per judged grid (target ≥ " f"{target:.0%}): " + ", ".join(
+            f"{g}² {f:.0%} ({verdict(f >= target)})" for g, f in best.items()) + "."]
+    if payload["kernels"]:
+        out += ["", "OpenBLAS's kernels, one fresh process each (`OPENBLAS_CORETYPE`): DGEMM "
+                "(n = 1200) and one Newton iteration in explicit steps of the same process:", "",
+                "| kernels | DGEMM GFlop/s | " + " | ".join(
+                    f"{r['grid']}² {r['ordering']}" for r in payload["kernels"][0]["rows"]) + " |",
+                "|---|---|" + "---|" * len(payload["kernels"][0]["rows"])]
+        for k in payload["kernels"]:
+            out.append(f"| {k['kernel']} | {k['dgemm_gflops']:.1f} | " + " | ".join(
+                f"{r['iteration_over_explicit']:.0f}" for r in k["rows"]) + " |")
+        goals = payload["targets"]["newton_iteration_new_over_old_at_most"]
+        out += [""] + [f"{s['grid']}²: a Newton iteration with {s['new_kernel']} and the "
+                       f"automatic ordering costs {s['new_over_old']:.2f} of one with Prescott and "
+                       f"AMD (target ≤ {goals[str(s['grid'])]}: "
+                       f"{verdict(s['new_over_old'] <= goals[str(s['grid'])])})."
+                       for s in payload["kernel_summary"] if str(s["grid"]) in goals]
+    return out
+
+
 def section(data: dict, results: Path, images: str | None = None) -> str:
     """The generated part of the results page from the benchmarks' JSON (``load``); ``results``
     is the folder named in the text, ``images`` the folder of the PNG files as the page links
@@ -616,6 +659,8 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
                     f"Newton iteration ({duration(r['quasi_newton_iteration_seconds'])} against "
                     f"{duration(r['newton_iteration_seconds'])}; target ≤ 0.1: "
                     f"{verdict(r['quasi_over_newton'] <= 0.1)})."]
+
+    out += factorization_section(data["factorization"], images)
 
     # -- scaling --------------------------------------------------------------------------------
     scaling = data["scaling"]
