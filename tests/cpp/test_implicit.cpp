@@ -225,6 +225,7 @@ TEST_CASE("the extrapolated predictor is exact in free fall and falls back to xÌ
   a.fix({0, 3});
   b.fix({0, 3});
   ImplicitOptions options;
+  options.predictor = yore::NewtonPredictor::inertial;
   ImplicitIntegrator inertial(options);
   options.predictor = yore::NewtonPredictor::extrapolated;
   ImplicitIntegrator extrapolated(options);
