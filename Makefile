@@ -65,7 +65,8 @@ demo: setup
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
 BENCHMARKS := explicit_step implicit_step factorization rebuild_cost crossover long_horizon numerical_damping \
               error_control vibration_floor wrinkles \
-              sensitivity scaling newton_projection factor_reuse newton_stop stability_map stable_dt \
+              sensitivity scaling newton_projection factor_reuse newton_stop newton_predictor \
+              stability_map stable_dt \
               threads pictures
 BENCH_ENV := OPENBLAS_NUM_THREADS=1
 

@@ -319,6 +319,34 @@ def test_factor_reuse_smoke(tmp_path):
                 / rows[resolution, actual]["newton_per_step"])
 
 
+def test_newton_predictor_smoke(tmp_path):
+    data = run_benchmark("newton_predictor", tmp_path, "--quick")
+    schemes = {r["scheme"] for r in data["rows"]}
+    assert {"BE", "BDF2", "generalized-alpha", "TR-BDF2", "BDF2 auto", "TR-BDF2 auto"} == schemes
+    for r in data["rows"]:
+        assert r["run"] in ("inertial", "extrapolated", "tight")
+        two_stages = r["scheme"].startswith("TR-BDF2")
+        # a TR-BDF2 step is two stages, a restart (backward Euler) one; the others one each
+        assert r["stages"] == (2 * r["steps"] - r["history_restarts"] if two_stages
+                               else r["steps"])
+        assert (r["trapezoid_newton_iterations"] > 0) == two_stages
+        assert r["factorizations_per_step"] == pytest.approx(r["factorizations"] / r["steps"])
+        assert r["iterations_per_stage"] == pytest.approx(r["newton_iterations"] / r["stages"])
+        assert r["thrown_away"] == 0 and r["unconverged_steps"] == 0  # the clamp, uncapped
+        assert len(r["kinetic_energy"]) == round(data["duration"] / data["sample_dt"])
+        # every stage with a history to extrapolate from does, in the extrapolated runs only
+        # (backward Euler keeps none)
+        expected = (r["stages"] - r["history_restarts"]
+                    if r["run"] == "extrapolated" and r["scheme"] != "BE" else 0)
+        assert r["extrapolated_stages"] == expected
+    (be,) = [c for c in data["comparisons"] if c["scheme"] == "BE"]
+    assert be["extrapolated_vs_inertial"] == {"kinetic_energy": 0.0, "positions_max": 0.0,
+                                              "positions_rms": 0.0}  # the same start: same bits
+    assert data["goal_met"] == any(
+        r["scheme"] == "TR-BDF2" and r["run"] == "inertial" and r["iterations_per_stage"] <= 3
+        for r in data["rows"])
+
+
 def test_newton_stop_smoke(tmp_path):
     data = run_benchmark("newton_stop", tmp_path, "--quick")
     fractions = sorted({r["truncation_fraction"] for r in data["rows"]})

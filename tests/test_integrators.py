@@ -128,6 +128,79 @@ def test_the_history_is_what_makes_the_resume_exact(integrator):
     assert not np.array_equal(forgetful.cloth.positions, straight.cloth.positions)
 
 
+# The schemes whose Newton start can extrapolate from a history, with the dt="auto" variants.
+EXTRAPOLATING = [("bdf2", {}), ("generalized-alpha", {}), ("tr-bdf2", {}),
+                 ("bdf2", {"adaptive": True}), ("tr-bdf2", {"adaptive": True})]
+
+
+@pytest.mark.parametrize("integrator, extra", EXTRAPOLATING)
+def test_the_extrapolated_start_resumes_bit_for_bit_and_restarts_after_a_stroke(
+        tmp_path, integrator, extra):
+    # ã comes from the history a state file keeps (TR-BDF2's a₀, generalized-α's ẍₙ, BDF2's
+    # vₙ₋₁; a_γ is solved within the step), so a resumed run starts every stage where the
+    # straight one did; the stroke leaves no history, and its next step starts from x̂.
+    options = {"predictor": "extrapolated", **extra}
+    straight = stroked(integrator, **options)
+    straight.step(8)
+    sim = stroked(integrator, **options)
+    sim.step(3)
+    path = yore.save_state(tmp_path / "state.npz", sim)
+    resumed, _ = yore.load_state(path)
+    resumed.step(5)
+    assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)
+    assert np.array_equal(resumed.cloth.velocities, straight.cloth.velocities)
+    counters = straight.stats["counters"]
+    assert counters["history_restarts"] >= 2  # the first step and the one after the stroke
+    # every stage but a restart's (one backward-Euler solve from x̂) starts extrapolated
+    assert counters["extrapolated_stages"] == counters["stages"] - counters["history_restarts"]
+
+
+@pytest.mark.parametrize("integrator", SECOND_ORDER)
+def test_the_extrapolated_start_converges_to_the_same_step(integrator):
+    # One step from one saved state, Newton solved tight from each start: the same minimiser.
+    # Each run ends with its residual, as a displacement through the inertia, below
+    # newton_tol × the mean rest length; that bounds the distance to the minimiser where the
+    # Hessian is at least the inertia M/h̃², and the clamp keeps the springs' part PSD but the
+    # stopped iterate's exact Hessian need not be: a margin of 10 over twice the bound.
+    sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **TIGHT)
+    sim.step(4)
+    state = sim.state()
+    inertial = yore.Simulation.from_state(state)
+    extrapolated = yore.Simulation.from_state(
+        {**state, "options": {**state["options"], "predictor": "extrapolated"}})
+    inertial.step(1)
+    extrapolated.step(1)
+    assert extrapolated.stats["counters"]["extrapolated_stages"] >= 1
+    assert inertial.stats["counters"]["extrapolated_stages"] == 0
+    bound = 2 * 10 * TIGHT["newton_tol"] * float(np.mean(sim.cloth.springs.rest))
+    distance = np.abs(extrapolated.cloth.positions - inertial.cloth.positions).max()
+    assert distance <= bound
+    # and the starts did differ: the extrapolated one is not the inertial one in disguise
+    assert (extrapolated.stats["counters"]["newton_iterations"]
+            != inertial.stats["counters"]["newton_iterations"]
+            or not np.array_equal(extrapolated.cloth.positions, inertial.cloth.positions))
+
+
+@pytest.mark.parametrize("integrator", SECOND_ORDER)
+def test_the_extrapolated_start_is_exact_in_free_fall(integrator):
+    # Nothing stretched, no damping or drag: every stage's solution is x̂ + h̃² g. The inertial
+    # start x̂ takes one Newton step per stage; the extrapolated one (ã = g, held from the last
+    # stage) passes the residual test before any, except on the first step (a restart from x̂).
+    V, F = yore.grid_mesh(6, 6)
+    runs = {}
+    for predictor in ("inertial", "extrapolated"):
+        cloth = yore.Cloth(V, F, masses=0.01, stretch_stiffness=2e4, damping=0.0, drag=0.0)
+        sim = yore.Simulation(cloth, integrator=integrator, dt=1 / 64, predictor=predictor)
+        sim.step(8)
+        runs[predictor] = sim
+    inertial, extrapolated = (runs[p].stats["counters"] for p in ("inertial", "extrapolated"))
+    assert inertial["newton_iterations"] == inertial["stages"]
+    assert extrapolated["newton_iterations"] == extrapolated["history_restarts"] == 1
+    # the same steps to round-off (positions of order 1 m)
+    assert np.allclose(runs["extrapolated"].cloth.positions, runs["inertial"].cloth.positions,
+                       rtol=0.0, atol=1e-12)
+
+
 def test_a_state_file_with_a_history_field_missing_is_a_value_error(tmp_path):
     sim = stroked("generalized-alpha")
     sim.step(2)

@@ -44,7 +44,9 @@ void bind_implicit(py::module_& m) {
            {"steihaug", HessianProjection::steihaug}}),
       choice_option<O, NewtonPredictor>(
           "predictor", [](O& o) -> NewtonPredictor& { return o.predictor; },
-          {{"start", NewtonPredictor::start}, {"inertial", NewtonPredictor::inertial}}),
+          {{"start", NewtonPredictor::start},
+           {"inertial", NewtonPredictor::inertial},
+           {"extrapolated", NewtonPredictor::extrapolated}}),
       plain_option("lagged_factorization", &O::lagged_factorization),
       plain_option("lag_max_cg_iterations", &O::lag_max_cg_iterations),
       in_range(plain_option("lag_cg_tol", &O::lag_cg_tol), 0.0, 1.0, true, true),
@@ -207,6 +209,8 @@ rejects the matrix.)doc")
         out.count("trust_region_rejections", s.trust_region_rejections);
         out.count("negative_curvature_steps", s.negative_curvature_steps);
         out.count("stages", s.stages);
+        out.count("trapezoid_newton_iterations", s.trapezoid_newton_iterations);
+        out.count("extrapolated_stages", s.extrapolated_stages);
         out.count("history_restarts", s.history_restarts);
         out.count("rejected_steps", s.rejected_steps);
         out.count("intervals", s.intervals);

@@ -53,6 +53,10 @@ void ImplicitIntegrator::step_generalized_alpha(Cloth& cloth, const Vec3& gravit
     m_anchor.row(i) =
         m_predicted.row(i) - m_hv * (v.row(i) + (1.0 - gamma) * dt * m_acceleration.row(i));
   }
+  if (m_options.predictor == NewtonPredictor::extrapolated) {
+    m_stage_acceleration = m_force_acceleration;  // ẍₙ held for ẍₙ₊₁; no allocation
+    m_stage_extrapolated = true;
+  }
   const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(new_time);
   finish_stage_setup(cloth);

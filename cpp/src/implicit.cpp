@@ -337,6 +337,8 @@ void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
   m_trial.resize(n, 3);
   m_iterate.resize(n, 3);
   m_directions.resize(static_cast<Eigen::Index>(s), 3);
+  m_stage_acceleration.resize(n, 3);
+  m_stage_extrapolated = false;
   if (m_options.method == ImplicitMethod::generalized_alpha) m_predicted.resize(n, 3);
   if (m_options.method == ImplicitMethod::tr_bdf2) {
     m_start_positions.resize(n, 3);
@@ -390,6 +392,13 @@ void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, dou
     m_target = x + dt * v;
   }
   m_hv = m_h;
+  if (second_order && m_options.predictor == NewtonPredictor::extrapolated) {
+    // The last step's mean acceleration, from the history alone (a state file holds it).
+    for (const std::int32_t i : m_free_vertices) {
+      m_stage_acceleration.row(i) = (v.row(i) - m_previous_velocities.row(i)) / m_history_dt;
+    }
+    m_stage_extrapolated = true;
+  }
   // Damping directions of the inertial prediction x̂ (constrained vertices included: x̂ − x̄ is
   // their velocity times h̃ too), an O(h̃²) extrapolation of the end-of-step directions: frozen at
   // xₙ they would be O(h) off, which costs BDF2 its order and damps a rigid rotation.
@@ -686,9 +695,18 @@ bool ImplicitIntegrator::history_matches(const Cloth& cloth) const {
 bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& backtracks) {
   if (m_options.mixed) reset_tension(cloth, cloth.positions());
   m_iterate = cloth.positions();
-  if (m_options.predictor == NewtonPredictor::inertial) {
-    for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = m_target.row(i);
+  if (m_options.predictor != NewtonPredictor::start) {
+    // The stage solves M (x − x̂)/h̃² = f: its solution is x̂ + h̃² a⁺, so the start x̂ + h̃² ã
+    // is off by h̃² (a⁺ − ã), the error of ã's extrapolation, where x̂ alone is off by h̃² a⁺.
+    const bool extrapolate = m_stage_extrapolated;
+    const double scale = m_h * m_h;
+    for (const std::int32_t i : m_free_vertices) {
+      m_iterate.row(i) = m_target.row(i);
+      if (extrapolate) m_iterate.row(i) += scale * m_stage_acceleration.row(i);
+    }
+    if (extrapolate) ++m_statistics.extrapolated_stages;
   }
+  m_stage_extrapolated = false;  // each stage's setup provides its own
   int stage_iterations = 0, stage_backtracks = 0;
   bool converged = m_pattern.size == 0;
   double energy = 0.0, residual = 0.0;
@@ -717,6 +735,7 @@ bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& b
   }
   ++m_statistics.stages;
   m_statistics.newton_iterations += stage_iterations;
+  if (m_stage == StageKind::trapezoid) m_statistics.trapezoid_newton_iterations += stage_iterations;
   m_statistics.line_search_backtracks += stage_backtracks;
   m_statistics.last_dofs = m_pattern.size;
   iterations += stage_iterations;

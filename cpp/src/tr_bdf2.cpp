@@ -47,6 +47,11 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
     m_target.row(i) = m_anchor.row(i) +
                       m_h * (m_start_velocities.row(i) + m_h * m_force_acceleration.row(i));
   }
+  const bool extrapolate = m_options.predictor == NewtonPredictor::extrapolated;
+  if (extrapolate) {
+    m_stage_acceleration = m_force_acceleration;  // a₀ held for a_γ; same shape: no allocation
+    m_stage_extrapolated = true;
+  }
   const double start_time = cloth.time();
   const double new_time = cloth.advance_time(dt);
   cloth.apply_drivers(start_time + gamma * dt);
@@ -55,6 +60,13 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
   solve_stage(cloth, iterations, backtracks);
   write_stage(cloth);
   m_mid_velocities = cloth.velocities();
+  if (extrapolate) {
+    // a_γ as the stage solved for it, (x_γ − x̂)/h̃², held for a₁
+    for (const std::int32_t i : m_free_vertices) {
+      m_stage_acceleration.row(i) = (m_iterate.row(i) - m_target.row(i)) / (m_h * m_h);
+    }
+    m_stage_extrapolated = true;
+  }
 
   // The BDF2 stage through xₙ, x_γ and xₙ₊₁.
   m_stage = StageKind::tr_bdf2;

@@ -94,8 +94,8 @@ class Simulation:
         reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
         about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
         "exact" | "trust-region" | "shifted" | "steihaug", see `yore.options`; None: "clamp"),
-        ``predictor`` (None | "start" |
-        "inertial"), ``mixed`` (None = on with the clamp, off otherwise: Newton's matrices
+        ``predictor`` (None | "start" | "inertial" | "extrapolated"; None: "start" when
+        linearized, else "inertial"), ``mixed`` (None = on with the clamp, off otherwise: Newton's matrices
         take the springs' forces from the step's linearization, the mixed formulation, which
         saves ~40 % of the clamp's iterations on stiff sheets), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
         ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
@@ -121,7 +121,8 @@ class Simulation:
         quasi-newton: ``method`` ("backward-euler" | "bdf2"), ``lbfgs_history`` (8 pairs, kept
         within a step), ``newton_tol`` (1e-5, Newton's residual test), ``max_newton`` (1000:
         the iteration cap, counted and warned about as for Newton), ``predictor`` ("inertial"
-        | "start"), ``ordering``, ``factorization`` ("simplicial": it solves faster),
+        | "start" | "extrapolated"), ``ordering``, ``factorization`` ("simplicial": it solves
+        faster),
         ``divergence_energy_factor``.
 
     Raises

@@ -184,6 +184,57 @@ TEST_CASE("a free network keeps its momentum; fixed vertices stay; one analysis 
   CHECK(cloth.positions().row(3) == pinned.row(3));
 }
 
+TEST_CASE("the extrapolated predictor is exact in free fall and falls back to x̂ without history") {
+  // No spring stretched, no damping, no drag: every stage's solution is x̂ + h̃² g, so the start
+  // x̂ + h̃² ã with ã = g (held from the last stage) passes the residual test before any Newton
+  // step, while the inertial start x̂ needs exactly one (the quadratic model is exact along a
+  // uniform translation). The first step restarts with backward Euler from x̂: one iteration.
+  const Vec3 gravity(0.0, 0.0, -9.81);
+  for (const ImplicitMethod method : {ImplicitMethod::bdf2, ImplicitMethod::tr_bdf2,
+                                      ImplicitMethod::generalized_alpha}) {
+    CAPTURE(static_cast<int>(method));
+    Cloth falling = yore_test::grid_cloth(4, 300.0, 30.0);
+    Cloth reference = yore_test::grid_cloth(4, 300.0, 30.0);
+    ImplicitOptions options;
+    options.method = method;
+    options.predictor = yore::NewtonPredictor::inertial;
+    ImplicitIntegrator inertial(options);
+    options.predictor = yore::NewtonPredictor::extrapolated;
+    ImplicitIntegrator extrapolated(options);
+    inertial.advance(reference, gravity, 1.0 / 60, 6);
+    extrapolated.advance(falling, gravity, 1.0 / 60, 6);
+    const yore::ImplicitStatistics& s = extrapolated.statistics();
+    CHECK(s.history_restarts == 1);
+    CHECK(s.extrapolated_stages == s.stages - 1);  // every stage but the restart's
+    CHECK(s.newton_iterations == 1);               // the restart's alone
+    CHECK(inertial.statistics().newton_iterations == inertial.statistics().stages);
+    CHECK(inertial.statistics().extrapolated_stages == 0);
+    // the same minimiser: both at it to round-off (positions ~1 m, 6 steps)
+    CHECK((falling.positions() - reference.positions()).cwiseAbs().maxCoeff() < 1e-12);
+    // a topology change (a vertex fixed) leaves no history: the next step restarts from x̂
+    const std::int64_t before = s.extrapolated_stages;
+    falling.fix({0});
+    extrapolated.advance(falling, gravity, 1.0 / 60, 1);
+    CHECK(s.history_restarts == 2);
+    CHECK(s.extrapolated_stages == before);
+    extrapolated.advance(falling, gravity, 1.0 / 60, 1);
+    CHECK(s.extrapolated_stages == before + (method == ImplicitMethod::tr_bdf2 ? 2 : 1));
+  }
+  // backward Euler holds no acceleration: extrapolated is the inertial start, bit for bit
+  Cloth a = yore_test::grid_cloth(4, 300.0, 30.0), b = yore_test::grid_cloth(4, 300.0, 30.0);
+  a.fix({0, 3});
+  b.fix({0, 3});
+  ImplicitOptions options;
+  options.predictor = yore::NewtonPredictor::inertial;
+  ImplicitIntegrator inertial(options);
+  options.predictor = yore::NewtonPredictor::extrapolated;
+  ImplicitIntegrator extrapolated(options);
+  inertial.advance(a, gravity, 1.0 / 60, 5);
+  extrapolated.advance(b, gravity, 1.0 / 60, 5);
+  CHECK(a.positions() == b.positions());
+  CHECK(extrapolated.statistics().extrapolated_stages == 0);
+}
+
 TEST_CASE("linearized mode takes one Newton iteration per step") {
   Cloth cloth = yore_test::grid_cloth(4, 300.0, 30.0);
   cloth.fix({0, 3});

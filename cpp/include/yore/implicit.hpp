@@ -56,6 +56,13 @@ enum class HessianProjection {
 enum class NewtonPredictor {
   start,     ///< xₙ (BE) or x̄ (BDF2): the step's start; linearized mode's Baraff–Witkin step
   inertial,  ///< x̂ = x̄ + h̃ v̄, the inertial (free-flight, no gravity) prediction
+  extrapolated,  ///< x̂ + h̃² ã: a stage's solution is x̂ + h̃² a⁺ (a⁺ = M⁻¹f at its end), and
+                 ///< ã holds the latest acceleration the method knows (TR-BDF2: a₀ for the
+                 ///< trapezoid stage, a_γ as solved for the BDF2 stage; generalized-α: ẍₙ;
+                 ///< BDF2: (vₙ − vₙ₋₁)/hₙ₋₁, from its history); x̂ where there is none
+                 ///< (backward Euler, the first step, after a stroke or an edit). Exact under
+                 ///< a constant force (free fall), but on hanging sheets it takes more Newton
+                 ///< iterations than `inertial` (docs/integrators.md), so it is not the default
 };
 
 /// How each step's incremental potential is minimised.
@@ -203,6 +210,10 @@ struct ImplicitStatistics {
   std::int64_t trust_region_rejections = 0;     ///< steihaug: trial steps the ratio test refused
   std::int64_t negative_curvature_steps = 0;    ///< steihaug: steps CG ended on ≤ 0 curvature
   std::int64_t stages = 0;  ///< nonlinear solves (one per step; two for tr_bdf2)
+  std::int64_t trapezoid_newton_iterations = 0;  ///< tr_bdf2: the trapezoid stages' share of
+                                                 ///< newton_iterations
+  std::int64_t extrapolated_stages = 0;  ///< stages Newton started from x̂ + h̃² ã (predictor
+                                         ///< extrapolated with a history to extrapolate from)
   std::int64_t history_restarts = 0;  ///< bdf2, generalized_alpha: steps that began afresh
                                       ///< (first step, after a stroke, an edit or a restore)
   std::int64_t rejected_steps = 0;  ///< adaptive: steps retaken shorter (counted in steps too)
@@ -441,6 +452,10 @@ class ImplicitIntegrator : public Integrator {
   // history) and the first stage's velocities.
   Positions m_acceleration, m_force_acceleration, m_predicted;
   Positions m_start_positions, m_start_velocities, m_mid_velocities;
+  // predictor extrapolated: ã, the acceleration expected at the end of the stage being set up,
+  // and whether the stage's setup provided one (it holds for that one stage)
+  Positions m_stage_acceleration;
+  bool m_stage_extrapolated = false;
   // adaptive: the state, velocities and accelerations at a step's start, for a rejection
   // (BDF2: and its history, the state one step back)
   Positions m_step_positions, m_step_velocities, m_step_accelerations;
