@@ -34,10 +34,11 @@ struct SymmetricPattern {
 enum class Ordering { amd, metis, nesdis, automatic, natural };
 
 /// The automatic ordering's switch from AMD to nested dissection, in vertices (3×3 blocks) of
-/// the system. Measured on grid cloths (one thread, AVX-512 kernels): at 32² both factor alike
-/// and AMD's analysis is twice as cheap; at 64² nested dissection factors about 12 % faster
-/// (13 % fewer flops) and its extra analysis (≈ 11 ms) is repaid within four factorizations, half
-/// a TR-BDF2 step; at 128² 18 % faster (30 % fewer flops), at 256² 27 %.
+/// the system. Measured on grid cloths by benchmarks/factorization.py (one thread, AVX-512
+/// kernels): at 32² both factor alike and AMD's analysis is twice as cheap; at 64² nested
+/// dissection factors about 10 % faster (17 % fewer flops) and its extra analysis (≈ 10 ms) is
+/// repaid within four factorizations, half a TR-BDF2 step; at 128² 9 % faster (28 % fewer
+/// flops), at 256² 26 % (34 %).
 constexpr std::int32_t kNestedDissectionFromVertices = 2500;
 
 /// The ordering `automatic` stands for on a system of that many vertices (blocks); any other
