@@ -85,7 +85,7 @@ def test_the_documented_integrator_options_and_defaults_are_the_registrys():
     newton = tables["implicit, bdf2 and tr-bdf2"]
     auto = tables["bdf2 and tr-bdf2"]
     documented = {"explicit": tables["explicit"], "implicit": newton,
-                  "bdf2": {**newton, **auto}, "tr-bdf2": {**newton, **auto},
+                  "bdf2": {**newton, **auto}, "tr-bdf2": {**newton, **auto, **tables["tr-bdf2"]},
                   "generalized-alpha": {**newton, **tables["generalized-alpha"]},
                   "local-global": tables["local-global"], "quasi-newton": tables["quasi-newton"],
                   "cvode": {name: value for name, value in tables["cvode and arkode"].items()

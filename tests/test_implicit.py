@@ -269,7 +269,7 @@ def test_heavily_damped_cloth_reaches_the_same_static_shape_explicitly_and_impli
     ({"newton_tol": -1.0}, "newton_tol"),
     ({"max_newton": 0}, "max_newton"),
     ({"solver": "eigen-ldlt", "ordering": "metis"}, "amd"),
-    ({"linearised": True}, "valid: adaptive_projection, divergence_energy_factor, factorization"),
+    ({"linearised": True}, "valid: adaptive_projection, divergence_energy_factor, energy_growth_tolerance, factorization"),
 ])
 def test_bad_implicit_options_are_value_errors_listing_the_valid_ones(options, message):
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))

@@ -130,6 +130,8 @@ def test_scene_files_mesh_patterns_and_name_bad_keys():
         ('outline = [[0, 0], [1, 0], [1, 1]]\nedge_length = 0', "mesh.edge_length"),
         ('outline = [[0, 0], [1, 0], [1, 1]]\nmin_angle = 40', "mesh.min_angle"),
         ('edge_length = 0.1', "mesh.outline"),
+        ('outline = [[0, 0], [1, 0], [1, 1e-9]]\nedge_length = 0.5', "mesh.outline"),  # R01
+        ('outline = [[0, 0], [1, 0], [1, 1]]\nedge_length = 1e-300', "mesh.edge_length"),
     ]:
         with pytest.raises(SceneError) as caught:
             load_scene(text=SCENE.format(mesh=mesh)).build()
@@ -161,6 +163,40 @@ def test_scene_files_mesh_patterns_and_name_bad_keys():
 def test_bad_patterns_are_value_errors(outline, holes, kwargs, message):
     with pytest.raises(ValueError, match=message):
         yore.pattern_mesh(outline, holes=holes, **kwargs)
+
+
+@pytest.mark.parametrize("outline, kwargs, message, argument", [
+    # R01: needles 1e-9 … 1e-15 of their length high crashed CGAL's mesher (SIGSEGV) or made it
+    # spin; a huge outline ended in SIGFPE
+    ([[0, 0], [1, 0], [1, 1e-9]], {"edge_length": 0.5}, "thinner than", "outline"),
+    ([[0, 0], [1, 0], [1, 1e-15]], {"edge_length": 0.5}, "thinner than", "outline"),
+    ([[0, 0], [1, 0], [0.5, 1e-9], [0, 1]], {"edge_length": 0.5}, "thinner than", "outline"),
+    ([[0, 0], [1e200, 0], [0, 1e200]], {}, "beyond", "outline"),
+    ([[0, 0], [1e300, 0], [1e300, 1e300]], {"edge_length": 1e300}, "beyond", "outline"),
+    # R02: arithmetic before the checks (ZeroDivisionError, OverflowError)
+    ([[0, 0], [1, 0], [1, 1]], {"edge_length": 5e-324}, "more than the limit", "edge_length"),
+    ([[0, 0], [1, 0], [1, 1]], {"edge_length": 1e-300}, "more than the limit", "edge_length"),
+    ([[0, 0], [1, 0], [1, 1]], {"edge_length": 1e-160}, "more than the limit", "edge_length"),
+    ([[0, 0], [1e-300, 0], [0, 1e-300]], {}, "zero area|thinner than", "outline"),
+])
+def test_degenerate_and_extreme_patterns_are_refused_not_crashes(outline, kwargs, message,
+                                                                 argument):
+    with pytest.raises(yore.ArgumentError, match=message) as caught:
+        yore.pattern_mesh(outline, **kwargs)
+    assert caught.value.argument == argument
+
+
+def test_a_hole_too_near_the_outline_is_refused():
+    with pytest.raises(yore.ArgumentError, match="thinner than") as caught:
+        yore.pattern_mesh(RECTANGLE, holes=[[[0.2, 1e-8], [0.4, 1e-8], [0.3, 0.2]]])
+    assert caught.value.argument == "holes"
+
+
+def test_a_huge_edge_length_meshes_the_outline_alone():
+    # 1e308 m: no refinement by size; its square overflows, which the estimate must not do
+    V, F = yore.pattern_mesh(RECTANGLE, edge_length=1e308)
+    assert len(V) >= 4 and np.all(signed_areas(V, F) > 0)
+    assert np.isclose(signed_areas(V, F).sum(), 0.5)
 
 
 def test_a_refinement_past_the_vertex_limit_stops_with_an_error():

@@ -15,7 +15,8 @@ def test_unknown_integrator_and_option_names_list_the_valid_ones(cloth):
     with pytest.raises(ValueError, match="valid: explicit, implicit, bdf2, generalized-alpha, tr-bdf2, local-global"):
         yore.Simulation(cloth, integrator="rk4")
     with pytest.raises(ValueError, match="'strain_limt'.*valid: divergence_energy_factor, "
-                                         "strain_limit, strain_limit_passes"):
+                                         "energy_growth_tolerance, strain_limit, "
+                                         "strain_limit_passes"):
         yore.Simulation(cloth, strain_limt=1.1)
 
 

@@ -40,6 +40,8 @@ void bind_error_controlled(py::module_& m) {
                             &LinearSolverOptions::supernode_relaxation),
                0.0, 16.0, false, false),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
+      in_range(plain_option("energy_growth_tolerance", &O::energy_growth_tolerance), 0.0, 1e6,
+               false),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
   bind_options_class(m, "ErrorControlledOptions", table);
@@ -60,6 +62,7 @@ void bind_error_controlled(py::module_& m) {
         const ImplicitStatistics& inner = integrator.assembly_statistics();
         Statistics out;
         out.steps = s.steps;
+        out.count("energy_gain", integrator.monitor().largest_gain());
         out.phase("rhs_seconds", s.rhs_seconds);
         out.phase("setup_seconds", s.setup_seconds);
         out.phase("solve_seconds", s.solve_seconds);

@@ -18,6 +18,8 @@ void bind_explicit(py::module_& m) {
                std::numeric_limits<double>::infinity(), false),
       plain_option("strain_limit_passes", &ExplicitOptions::strain_limit_passes),
       plain_option("divergence_energy_factor", &ExplicitOptions::divergence_energy_factor),
+      in_range(plain_option("energy_growth_tolerance", &ExplicitOptions::energy_growth_tolerance), 0.0, 1e6,
+               false),
   };
   integrator_class.attr("defaults") = option_values(table, ExplicitOptions{});
   bind_options_class(m, "ExplicitOptions", table);
@@ -34,6 +36,7 @@ void bind_explicit(py::module_& m) {
         const ExplicitStatistics& s = integrator.statistics();
         Statistics out;
         out.steps = s.steps;
+        out.count("energy_gain", integrator.monitor().largest_gain());
         out.phase("forces_seconds", s.forces_seconds);
         out.phase("update_seconds", s.update_seconds);
         out.phase("constraints_seconds", s.constraints_seconds);

@@ -77,6 +77,8 @@ void bind_implicit(py::module_& m) {
                             &LinearSolverOptions::pcg_max_iterations),
                1.0, kMaxSolverIterations),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
+      in_range(plain_option("energy_growth_tolerance", &O::energy_growth_tolerance), 0.0, 1e6,
+               false),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
   bind_options_class(m, "ImplicitOptions", table);
@@ -185,6 +187,7 @@ rejects the matrix.)doc")
         const SolverStatistics& solver = integrator.solver_statistics();
         Statistics out;
         out.steps = s.steps;
+        out.count("energy_gain", integrator.monitor().largest_gain());
         add_solver_phases(out, s);
         out.count("newton_iterations", s.newton_iterations);
         out.count("line_search_backtracks", s.line_search_backtracks);

@@ -33,6 +33,8 @@ void bind_local_global(py::module_& m) {
       in_range(plain_option("stale_pcg_tol", &O::stale_pcg_tol), 0.0, 1.0, true, true),
       plain_option("record_objective", &O::record_objective),
       plain_option("divergence_energy_factor", &O::divergence_energy_factor),
+      in_range(plain_option("energy_growth_tolerance", &O::energy_growth_tolerance), 0.0, 1e6,
+               false),
   };
   integrator_class.attr("defaults") = option_values(table, O{});
   bind_options_class(m, "LocalGlobalOptions", table);
@@ -58,6 +60,7 @@ void bind_local_global(py::module_& m) {
         const SolverStatistics& solver = integrator.solver_statistics();
         Statistics out;
         out.steps = s.steps;
+        out.count("energy_gain", integrator.monitor().largest_gain());
         add_solver_phases(out, s);
         out.phase("rebuild_seconds", s.rebuild_seconds);
         out.count("iterations", s.iterations);

@@ -10,12 +10,26 @@
 
 namespace yore {
 
-DivergenceMonitor::DivergenceMonitor(double factor) : m_factor(factor) {
+DivergenceMonitor::DivergenceMonitor(double factor, double growth)
+    : m_factor(factor), m_growth(growth) {
   if (!std::isfinite(factor) || factor <= 0.0) {
     std::ostringstream msg;
     msg << "divergence_energy_factor must be finite and > 0, got " << factor;
     throw std::invalid_argument(msg.str());
   }
+  if (!std::isfinite(growth) || growth < 0.0) {
+    std::ostringstream msg;
+    msg << "energy_growth_tolerance must be finite and >= 0 (0 = off), got " << growth;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+DivergenceMonitor::Verdict DivergenceMonitor::judge(double energy) {
+  if (energy > m_limit) return Verdict::past_bound;
+  m_lowest = std::min(m_lowest, energy);
+  const double gain = energy - m_lowest;
+  m_largest_gain = std::max(m_largest_gain, gain);
+  return gain > m_allowance ? Verdict::gained : Verdict::ok;
 }
 
 double DivergenceMonitor::monitored_energy(const Cloth& cloth, const Vec3& gravity) {
@@ -57,10 +71,20 @@ void DivergenceMonitor::prepare(const Cloth& cloth, const Vec3& gravity, double 
   if (cloth.has_membrane()) {
     rest_energy += cloth.membrane().young_modulus * cloth.membrane_status().rest_area;
   }
-  const double scale = energy.kinetic + energy.spring + total_mass * gravity.norm() * diagonal +
-                       0.5 * total_mass * (omega_max * diagonal) * (omega_max * diagonal) +
-                       rest_energy + energy.bending + energy.membrane;
-  m_limit = monitored_energy(cloth, gravity) + m_factor * scale;
+  const double elastic = energy.spring + energy.bending + energy.membrane;
+  const double lifting = total_mass * gravity.norm() * diagonal;
+  const double driving = total_mass * (omega_max * diagonal) * (omega_max * diagonal);
+  const double scale = energy.kinetic + elastic + lifting + 0.5 * driving + rest_energy;
+  const double baseline = monitored_energy(cloth, gravity);
+  m_limit = baseline + m_factor * scale;
+  m_lowest = baseline;
+  // A round-off floor: a cloth at rest without gravity has no energy to scale by, and its
+  // energy still moves in the last digits of the terms it sums.
+  const double round_off = 1e-12 * (std::abs(baseline) + scale);
+  m_allowance = m_growth > 0.0 ? m_growth * (std::max(energy.kinetic, 0.0) +
+                                             std::max(elastic, 0.0) + lifting) +
+                                     driving + round_off
+                               : std::numeric_limits<double>::infinity();
   m_topology = cloth.topology_version();
   m_edits = cloth.edit_count();
   m_gravity = gravity;
@@ -109,9 +133,14 @@ void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t 
     }
     const double energy = DivergenceMonitor::monitored_energy(cloth, gravity);
     const bool finite = std::isfinite(energy) && cloth.positions().allFinite();
-    if (!finite || energy > monitor.limit()) {
+    const DivergenceMonitor::Verdict verdict =
+        finite ? monitor.judge(energy) : DivergenceMonitor::Verdict::past_bound;
+    if (verdict != DivergenceMonitor::Verdict::ok) {
       const double failed_time = cloth.time();
       restore();
+      if (verdict == DivergenceMonitor::Verdict::gained) {
+        throw energy_gain_error(cloth, monitor, energy, integrator, step_index(), failed_time, dt);
+      }
       throw diverged_error(cloth, integrator, step_index(), failed_time, dt, finite);
     }
   }
@@ -137,6 +166,34 @@ SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, st
         << " s, or more Newton iterations (max_newton).";
   }
   return SimulationDiverged(msg.str(), step, time, dt, stable);
+}
+
+SimulationDiverged energy_gain_error(const Cloth& cloth, const DivergenceMonitor& monitor,
+                                     double energy, const char* integrator, std::int64_t step,
+                                     double time, double dt) {
+  const std::string name = integrator;
+  std::ostringstream msg;
+  msg << "simulation gained energy at step " << step << " (t = " << time << " s, dt = " << dt
+      << " s, " << name << " integrator): its energy rose " << energy - monitor.lowest()
+      << " J above the lowest it had reached (" << monitor.lowest()
+      << " J), more than energy_growth_tolerance = " << monitor.growth()
+      << " of its energy scale allows (" << monitor.allowance()
+      << " J); damping, drag and gravity cannot feed energy in. ";
+  if (name == "explicit") {
+    msg << "Use dt <= " << 0.98 * cloth.stable_time_step_bound()
+        << " s or an implicit integrator.";
+  } else if (name == "cvode" || name == "arkode") {
+    msg << "Tighten rtol and atol, or set max_dt.";
+  } else if (name == "quasi-newton") {
+    msg << "Lower newton_tol, or try dt <= " << dt / 4 << " s.";
+  } else if (name == "local-global") {
+    msg << "Lower its tolerance or dt (try dt <= " << dt / 4 << " s).";
+  } else {
+    msg << "Newton stopped short of the step's solution or the step is too long: lower "
+           "truncation_fraction (e.g. 0.01) or newton_tol, or try dt <= "
+        << dt / 4 << " s.";
+  }
+  return SimulationDiverged(msg.str(), step, time, dt, cloth.stable_time_step());
 }
 
 }  // namespace yore

@@ -284,7 +284,7 @@ struct ErrorControlledIntegrator::Backend {
 ErrorControlledIntegrator::ErrorControlledIntegrator(const ErrorControlledOptions& options)
     : m_options((check_options(options), options)),
       m_newton(inner_options(options)),
-      m_monitor(options.divergence_energy_factor) {}
+      m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {}
 
 ErrorControlledIntegrator::~ErrorControlledIntegrator() = default;
 
@@ -350,10 +350,10 @@ void ErrorControlledIntegrator::ensure_backend(const Cloth& cloth, const Vec3& g
   if (new_topology) {
     m_free = m_newton.prepare_structure(cloth);
     const Eigen::Index n = cloth.vertex_count();
-    m_x.resize(n, 3);
-    m_v.resize(n, 3);
-    m_force.resize(n, 3);
-    m_jacobian_positions.resize(n, 3);
+    m_x.setZero(n, 3);
+    m_v.setZero(n, 3);
+    m_force.setZero(n, 3);
+    m_jacobian_positions.setZero(n, 3);
     const auto dofs = static_cast<Eigen::Index>(3 * m_free.size());
     m_rhs.resize(dofs);
     m_zv.resize(dofs);

@@ -78,7 +78,7 @@ double spring_forces(const Cloth& cloth, Positions& out, int threads) {
 }  // namespace
 
 ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options)
-    : m_options(options), m_monitor(options.divergence_energy_factor) {
+    : m_options(options), m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {
   if (!std::isfinite(options.strain_limit) || options.strain_limit < 0.0 ||
       (options.strain_limit > 0.0 && options.strain_limit < 1.0)) {
     std::ostringstream msg;
@@ -98,7 +98,7 @@ void ExplicitIntegrator::prepare(const Cloth& cloth) {
   const auto s = static_cast<Eigen::Index>(cloth.springs().size());
   if (m_spring_forces.rows() != s) m_spring_forces.resize(s, 3);
   if (m_options.strain_limit > 0.0 && m_previous_positions.rows() != n) {
-    m_previous_positions.resize(n, 3);
+    m_previous_positions.setZero(n, 3);
   }
   m_with_spring_damping = cloth.has_spring_damping();
   m_with_potentials = cloth.has_quadratic_bending() || cloth.has_membrane();
@@ -290,12 +290,13 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     }
     monitored += spring_energy_before;
     const bool finite = std::isfinite(monitored) && std::isfinite(position_sum);
-    if (!finite || monitored > m_monitor.limit()) {
-      const std::int64_t failed_step = m_statistics.steps;
-      cloth.integrator_positions() = m_checkpoint_positions;
-      cloth.integrator_velocities() = m_checkpoint_velocities;
-      cloth.set_clock(checkpoint_clock);
-      throw diverged_error(cloth, "explicit", failed_step, new_time, dt, finite);
+    // The elastic energy above is the step's start's (the forces' by-product): a blow-up shows
+    // one step late, so the call's last step is judged again on its own state below.
+    judge_or_restore(cloth, finite, monitored, m_statistics.steps, new_time, dt, checkpoint_clock);
+    if (step + 1 == steps) {
+      const double exact = DivergenceMonitor::monitored_energy(cloth, gravity);
+      judge_or_restore(cloth, std::isfinite(exact), exact, m_statistics.steps, new_time, dt,
+                       checkpoint_clock);
     }
     ++m_statistics.steps;
     m_statistics.checks_seconds += start.seconds();
@@ -303,6 +304,21 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     m_statistics.last_step_threads = threads;
     if (threads > 1) ++m_statistics.parallel_steps;
   }
+}
+
+void ExplicitIntegrator::judge_or_restore(Cloth& cloth, bool finite, double energy,
+                                          std::int64_t step, double time, double dt,
+                                          const SimulationClock& checkpoint_clock) {
+  const DivergenceMonitor::Verdict verdict =
+      finite ? m_monitor.judge(energy) : DivergenceMonitor::Verdict::past_bound;
+  if (verdict == DivergenceMonitor::Verdict::ok) return;
+  cloth.integrator_positions() = m_checkpoint_positions;
+  cloth.integrator_velocities() = m_checkpoint_velocities;
+  cloth.set_clock(checkpoint_clock);
+  if (verdict == DivergenceMonitor::Verdict::gained) {
+    throw energy_gain_error(cloth, m_monitor, energy, "explicit", step, time, dt);
+  }
+  throw diverged_error(cloth, "explicit", step, time, dt, finite);
 }
 
 int StepThreadChooser::threads_for_next_step(int configured) {

@@ -150,7 +150,7 @@ ImplicitOptions resolve_choices(ImplicitOptions options, const ImplicitChoices& 
 }
 
 ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
-    : m_options(given), m_monitor(given.divergence_energy_factor) {
+    : m_options(given), m_monitor(given.divergence_energy_factor, given.energy_growth_tolerance) {
   if (m_options.adaptive_projection) m_options.projection = HessianProjection::exact;
   m_options.adaptive_projection = m_options.projection == HessianProjection::exact;
   const ImplicitOptions& options = m_options;
@@ -332,28 +332,28 @@ void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
   m_values.assign(newton ? static_cast<std::size_t>(m_pattern.nonzeros()) : 0, 0.0);
   m_exact_values.assign(m_options.projection == HessianProjection::steihaug ? m_values.size() : 0,
                         0.0);
-  m_anchor.resize(n, 3);
-  m_target.resize(n, 3);
-  m_trial.resize(n, 3);
-  m_iterate.resize(n, 3);
+  m_anchor.setZero(n, 3);
+  m_target.setZero(n, 3);
+  m_trial.setZero(n, 3);
+  m_iterate.setZero(n, 3);
   m_directions.resize(static_cast<Eigen::Index>(s), 3);
-  m_stage_acceleration.resize(n, 3);
+  m_stage_acceleration.setZero(n, 3);
   m_stage_extrapolated = false;
-  if (m_options.method == ImplicitMethod::generalized_alpha) m_predicted.resize(n, 3);
+  if (m_options.method == ImplicitMethod::generalized_alpha) m_predicted.setZero(n, 3);
   if (m_options.method == ImplicitMethod::tr_bdf2) {
-    m_start_positions.resize(n, 3);
-    m_start_velocities.resize(n, 3);
-    m_mid_velocities.resize(n, 3);
+    m_start_positions.setZero(n, 3);
+    m_start_velocities.setZero(n, 3);
+    m_mid_velocities.setZero(n, 3);
   }
   // A history restored by set_history for this very topology survives the first step's setup.
   if (m_history_topology != cloth.topology_version()) {
-    if (m_options.method == ImplicitMethod::generalized_alpha) m_acceleration.resize(n, 3);
+    if (m_options.method == ImplicitMethod::generalized_alpha) m_acceleration.setZero(n, 3);
     if (m_options.method == ImplicitMethod::generalized_alpha ||
         m_options.method == ImplicitMethod::tr_bdf2) {
-      m_force_acceleration.resize(n, 3);
+      m_force_acceleration.setZero(n, 3);
     }
-    m_previous_positions.resize(n, 3);
-    m_previous_velocities.resize(n, 3);
+    m_previous_positions.setZero(n, 3);
+    m_previous_velocities.setZero(n, 3);
     m_history_valid = false;
   }
   m_factor_valid = false;
@@ -1013,7 +1013,8 @@ void ImplicitIntegrator::set_history(const Cloth& cloth, const IntegratorHistory
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                  std::int64_t steps) {
-  const char* name = m_options.method == ImplicitMethod::bdf2                ? "bdf2"
+  const char* name = m_options.minimizer == ImplicitMinimizer::lbfgs         ? "quasi-newton"
+                     : m_options.method == ImplicitMethod::bdf2                ? "bdf2"
                      : m_options.method == ImplicitMethod::generalized_alpha ? "generalized-alpha"
                      : m_options.method == ImplicitMethod::tr_bdf2           ? "tr-bdf2"
                                                                              : "implicit";

@@ -14,7 +14,7 @@
 namespace yore {
 
 LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
-    : m_options(options), m_monitor(options.divergence_energy_factor) {
+    : m_options(options), m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {
   if (options.iterations < 1) {
     std::ostringstream msg;
     msg << "iterations must be >= 1, got " << options.iterations;
@@ -58,11 +58,11 @@ void LocalGlobalIntegrator::build_pattern(const Cloth& cloth) {
   m_work_rhs.resize(rows);
   m_work_x.resize(rows);
   m_cg.resize(rows);
-  m_start.resize(n, 3);
-  m_target.resize(n, 3);
-  m_iterate.resize(n, 3);
-  m_previous_iterate.resize(n, 3);
-  m_solution.resize(n, 3);
+  m_start.setZero(n, 3);
+  m_target.setZero(n, 3);
+  m_iterate.setZero(n, 3);
+  m_previous_iterate.setZero(n, 3);
+  m_solution.setZero(n, 3);
   m_directions.resize(static_cast<Eigen::Index>(springs.size()), 3);
 }
 

@@ -14,6 +14,7 @@
 #include <CGAL/Polygon_2.h>
 
 #include <array>
+#include <cstddef>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -63,6 +64,13 @@ Polygon checked_polygon(const Polygon2& points, const std::string& name) {
       msg << name << " point " << i << " is not finite";
       fail(msg.str(), polygon_argument(name));
     }
+    if (std::abs(points(i, 0)) > kPatternMaxCoordinate ||
+        std::abs(points(i, 1)) > kPatternMaxCoordinate) {
+      std::ostringstream msg;
+      msg << name << " point " << i << " (" << points(i, 0) << ", " << points(i, 1)
+          << ") is beyond +-" << kPatternMaxCoordinate << " m";
+      fail(msg.str(), polygon_argument(name));
+    }
     polygon.push_back(Point(points(i, 0), points(i, 1)));
   }
   if (!polygon.is_simple()) {
@@ -80,6 +88,35 @@ bool edges_meet(const Polygon& a, const Polygon& b) {
     }
   }
   return false;
+}
+
+// Throws naming the first point closer than `least` to an edge (of any of the polygons) that it
+// is not an end of; `names` are the polygons' names in messages.
+void check_thin_features(const std::vector<const Polygon*>& polygons,
+                         const std::vector<std::string>& names, double least) {
+  const double least_squared = least * least;
+  for (std::size_t a = 0; a < polygons.size(); ++a) {
+    const Polygon& points = *polygons[a];
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Point& p = points.vertex(static_cast<std::ptrdiff_t>(i));
+      for (std::size_t b = 0; b < polygons.size(); ++b) {
+        const Polygon& edges = *polygons[b];
+        const std::size_t n = edges.size();
+        for (std::size_t j = 0; j < n; ++j) {
+          if (a == b && (j == i || (j + 1) % n == i)) continue;  // an edge p is an end of
+          const Segment edge = edges.edge(static_cast<std::ptrdiff_t>(j));
+          if (CGAL::to_double(CGAL::squared_distance(p, edge)) >= least_squared) continue;
+          std::ostringstream msg;
+          msg << names[a] << " point " << i << " is "
+              << std::sqrt(CGAL::to_double(CGAL::squared_distance(p, edge))) << " m from edge "
+              << j << " of " << names[b] << ": thinner than " << kPatternFeatureFraction
+              << " of the outline's size (" << least << " m), which the mesher cannot resolve; "
+              << "widen the feature or leave it out";
+          fail(msg.str(), polygon_argument(names[a]));
+        }
+      }
+    }
+  }
 }
 
 // A point strictly inside a simple polygon: the centroid of a face of its own constrained
@@ -143,14 +180,68 @@ std::vector<Polygon> checked_holes(const Polygon& outer, const std::vector<Polyg
   return inner;
 }
 
+void check_point_count(const Polygon2& outline, const std::vector<Polygon2>& holes) {
+  std::int64_t total = outline.rows();
+  for (const Polygon2& hole : holes) total += hole.rows();
+  if (total > kPatternMaxPoints) {
+    std::ostringstream msg;
+    msg << "the outline and holes have " << total << " points; at most " << kPatternMaxPoints
+        << " are meshed";
+    fail(msg.str(), holes.empty() ? "outline" : "holes");
+  }
+}
+
+// check_thin_features over the outline and the holes, at kPatternFeatureFraction of the
+// outline's bounding-box diagonal.
+void check_thin_features(const Polygon& outer, const std::vector<Polygon>& inner) {
+  const CGAL::Bbox_2 box = outer.bbox();
+  const double size = std::hypot(box.xmax() - box.xmin(), box.ymax() - box.ymin());
+  std::vector<const Polygon*> all{&outer};
+  std::vector<std::string> names{"the outline"};
+  for (std::size_t h = 0; h < inner.size(); ++h) {
+    all.push_back(&inner[h]);
+    names.push_back("hole " + std::to_string(h));
+  }
+  check_thin_features(all, names, kPatternFeatureFraction * size);
+}
+
+// Refines one point at a time, so that a refinement too fine for max_vertices stops with an
+// error (and Ctrl-C is answered) instead of running on.
+void refine(Mesher& mesher, const Cdt& cdt, const PatternMeshOptions& options) {
+  // Every refinement step inserts a point; a run of steps that adds none is a mesher going in
+  // circles on an input it cannot resolve, stopped rather than left to spin.
+  std::int64_t steps = 0, idle = 0;
+  std::size_t last_count = cdt.number_of_vertices();
+  while (!mesher.is_refinement_done()) {
+    mesher.try_one_step_refine_mesh();
+    const std::size_t count = cdt.number_of_vertices();
+    if (static_cast<std::int64_t>(count) > options.max_vertices) {
+      std::ostringstream msg;
+      msg << "meshing at edge_length " << options.edge_length << " m needs more than "
+          << options.max_vertices << " vertices; use a larger edge_length";
+      fail(msg.str(), "edge_length");
+    }
+    idle = count == last_count ? idle + 1 : 0;
+    last_count = count;
+    if (idle > 10'000) {
+      fail("the mesher stopped adding points on this outline (an angle or a feature too small "
+           "for it to resolve): smooth the outline or lower min_angle",
+           "outline");
+    }
+    if (++steps % 64 == 0) poll_interrupt();
+  }
+}
+
 }  // namespace
 
 PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& holes,
                          const PatternMeshOptions& options) {
   check_pattern_options(options);
 
+  check_point_count(outline, holes);
   const Polygon outer = checked_polygon(outline, "the outline");
   const std::vector<Polygon> inner = checked_holes(outer, holes);
+  check_thin_features(outer, inner);
 
   Cdt cdt;
   cdt.insert_constraint(outer.vertices_begin(), outer.vertices_end(), true);
@@ -164,19 +255,7 @@ PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& h
   mesher.set_criteria(Criteria(sine * sine, options.edge_length));
   mesher.set_seeds(seeds.begin(), seeds.end(), false);
   mesher.init();
-  // One point at a time, so that a refinement too fine for max_vertices stops with an error
-  // (and Ctrl-C is answered) instead of running on.
-  std::int64_t steps = 0;
-  while (!mesher.is_refinement_done()) {
-    mesher.try_one_step_refine_mesh();
-    if (static_cast<std::int64_t>(cdt.number_of_vertices()) > options.max_vertices) {
-      std::ostringstream msg;
-      msg << "meshing at edge_length " << options.edge_length << " m needs more than "
-          << options.max_vertices << " vertices; use a larger edge_length";
-      fail(msg.str(), "edge_length");
-    }
-    if (++steps % 1024 == 0) poll_interrupt();
-  }
+  refine(mesher, cdt, options);
 
   PatternMesh mesh;
   std::unordered_map<const void*, std::int32_t> index;

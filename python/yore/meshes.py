@@ -27,6 +27,8 @@ PATTERN_MIN_ANGLE = 25.0
 #: Most vertices a generated mesh may have (e.g. 1000×1000), checked before anything is
 #: allocated: a cloth of a million vertices already needs some GB for its springs and factor.
 MAX_MESH_VERTICES = 1_000_000
+#: Largest |u| or |v| of a pattern point, m (the core's kPatternMaxCoordinate).
+MAX_PATTERN_COORDINATE = 1e6
 
 
 def _check_vertex_count(count: int, what: str, argument=None) -> None:
@@ -250,12 +252,19 @@ def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGL
     if isinstance(min_angle, (bool, np.bool_)) or not isinstance(min_angle, numbers.Real):
         raise _invalid(f"min_angle must be a number of degrees, got {min_angle!r}",
                        "min_angle")
+    # The core refuses non-finite points and points past its coordinate bound; the estimate
+    # below runs only on points it would accept, and in ratios that cannot overflow.
     # No triangle with edges at most edge_length is larger than the equilateral one, and a
     # mesh has about two faces per vertex: fewer vertices than this cannot cover the outline.
-    u, v = outline[:, 0], outline[:, 1]
-    area = 0.5 * abs(float(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))))
-    if math.isfinite(area):
-        least = area / (math.sqrt(3.0) / 4.0 * edge_length ** 2) / 2.0
+    if np.isfinite(outline).all() and np.abs(outline).max() <= MAX_PATTERN_COORDINATE:
+        u, v = outline[:, 0], outline[:, 1]
+        area = 0.5 * abs(float(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))))
+        ratio = math.sqrt(area) / edge_length  # inf (no exception) for a subnormal edge_length
+        if ratio > math.sqrt(MAX_MESH_VERTICES):
+            raise _invalid(f"edge_length {edge_length:g} m on an outline of {area:g} m² gives "
+                           f"more than the limit of {MAX_MESH_VERTICES} vertices; use a larger "
+                           "edge_length", "edge_length")
+        least = ratio * ratio / (math.sqrt(3.0) / 4.0) / 2.0
         _check_vertex_count(int(least), f"edge_length {edge_length:g} m on an outline of "
                             f"{area:g} m²", "edge_length")
     points, faces, _ = _core.pattern_mesh(outline, holes, edge_length, float(min_angle),

@@ -50,6 +50,42 @@ TEST_CASE("the bound: baseline plus factor × the documented energy scale") {
   CHECK_THROWS_AS(DivergenceMonitor(std::nan("")), std::invalid_argument);
 }
 
+TEST_CASE("the growth check: a rise above the lowest energy by more than the allowance") {
+  // one free mass on a spring stretched by 0.5 m (k = 8: 1 J), no gravity, no drivers:
+  // allowance = growth × (kinetic + elastic) = 0.25 × 1 J
+  Positions x(2, 3);
+  x << 0, 0, 0, 1, 0, 0;
+  yore::Edges e(1, 2);
+  e << 0, 1;
+  Cloth spring = Cloth::from_springs(x, e, {}, Eigen::Vector2d(1.0, 1.0), 8.0, 0.0, 0.0);
+  spring.fix({0});
+  x(1, 0) = 1.5;
+  spring.set_positions(x);
+  DivergenceMonitor monitor(10.0, 0.25);
+  monitor.prepare(spring, Vec3::Zero(), 1e-3);
+  // plus the round-off floor, 1e-12 × (|1 J| + E_scale = 1 J + ½ k L² = 4 J)
+  CHECK(monitor.allowance() == doctest::Approx(0.25 + 6e-12).epsilon(1e-12));
+  CHECK(monitor.lowest() == doctest::Approx(1.0).epsilon(1e-15));
+  CHECK(monitor.judge(0.5) == DivergenceMonitor::Verdict::ok);   // lost energy
+  CHECK(monitor.judge(0.74) == DivergenceMonitor::Verdict::ok);  // 0.24 above the lowest
+  CHECK(monitor.largest_gain() == doctest::Approx(0.24));
+  CHECK(monitor.judge(0.76) == DivergenceMonitor::Verdict::gained);
+  CHECK(monitor.judge(1e9) == DivergenceMonitor::Verdict::past_bound);
+  // a new baseline (an edit) starts the lowest afresh; the largest gain is kept
+  spring.set_positions(x);
+  monitor.prepare(spring, Vec3::Zero(), 1e-3);
+  CHECK(monitor.lowest() == doctest::Approx(1.0).epsilon(1e-15));
+  CHECK(monitor.largest_gain() == doctest::Approx(0.26));
+  // a turning driver may feed in M(ωD)² more; off: no allowance is ever passed
+  DivergenceMonitor off(10.0, 0.0);
+  off.prepare(spring, Vec3::Zero(), 1e-3);
+  CHECK(std::isinf(off.allowance()));
+  CHECK(off.judge(9.0) == DivergenceMonitor::Verdict::ok);
+  CHECK_THROWS_WITH_AS(DivergenceMonitor(10.0, -1.0), doctest::Contains("energy_growth_tolerance"),
+                       std::invalid_argument);
+  CHECK_THROWS_AS(DivergenceMonitor(10.0, INFINITY), std::invalid_argument);
+}
+
 TEST_CASE("check_advance_arguments names the bad argument") {
   CHECK_NOTHROW(yore::check_advance_arguments(1e-3, Vec3::Zero(), 0));
   CHECK_THROWS_WITH_AS(yore::check_advance_arguments(-1.0, Vec3::Zero(), 1),
@@ -95,6 +131,21 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);
     CHECK(cloth.time() == 0.0);
+  }
+  SUBCASE("a step that feeds energy in: SimulationDiverged saying so, the cloth restored") {
+    const auto step = [&] {
+      ++steps_taken;
+      cloth.advance_time(1e-3);
+      cloth.integrator_velocities().row(4) += Vec3(0, 0, 0.5).transpose();  // a push from nowhere
+    };
+    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3(0, 0, -9.81), 1e-3, 1000, monitor,
+                                               "tr-bdf2", checkpoint_x, checkpoint_v, step,
+                                               index, on_restore),
+                         doctest::Contains("gained energy"), yore::SimulationDiverged);
+    CHECK(restores == 1);
+    CHECK(cloth.positions() == start);
+    CHECK(cloth.time() == 0.0);
+    CHECK(steps_taken < 1000);
   }
   SUBCASE("a non-finite state") {
     const auto step = [&] {

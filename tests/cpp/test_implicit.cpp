@@ -275,6 +275,36 @@ TEST_CASE("BDF2's history round-trips: a restored run continues bit for bit") {
   CHECK_FALSE(original.history(cloth).valid);
 }
 
+TEST_CASE("the history's rows of fixed vertices are zeros, whatever the heap held (R11)") {
+  // Heap blocks of the history's size, filled with NaN and freed, are what the integrator's
+  // arrays are carved from next: rows no step writes must still be defined.
+  for (const ImplicitMethod method : {ImplicitMethod::tr_bdf2, ImplicitMethod::generalized_alpha,
+                                      ImplicitMethod::bdf2}) {
+    CAPTURE(static_cast<int>(method));
+    Cloth cloth = yore_test::grid_cloth(5, 300.0, 30.0, 0.02, 0.1);
+    cloth.fix({20, 24});
+    {
+      std::vector<std::vector<double>> junk;
+      for (int k = 0; k < 64; ++k) {
+        junk.emplace_back(static_cast<std::size_t>(3 * cloth.vertex_count()), std::nan(""));
+      }
+    }
+    ImplicitOptions options;
+    options.method = method;
+    ImplicitIntegrator integrator(options);
+    integrator.advance(cloth, Vec3(0, 0, -9.81), 0.01, 3);
+    const yore::IntegratorHistory history = integrator.history(cloth);
+    REQUIRE(history.valid);
+    for (const auto& [name, rows] : history.arrays) {
+      CAPTURE(name);
+      CHECK(rows.allFinite());
+      if (name != "positions") {  // BDF2 keeps the fixed vertices' positions
+        for (const int fixed : {20, 24}) CHECK(rows.row(fixed).isZero(0.0));
+      }
+    }
+  }
+}
+
 TEST_CASE("history checks name the problem (integrator.cpp)") {
   Cloth cloth = yore_test::grid_cloth(3);
   ImplicitOptions options;

@@ -59,6 +59,9 @@ struct ErrorControlledOptions {
   HessianProjection projection = HessianProjection::clamp;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
+  /// Largest rise of the energy above its lowest since the last change, in energy scales
+  /// (DivergenceMonitor); 0 = no growth check.
+  double energy_growth_tolerance = 0.1;
 };
 
 /// Counters, cumulative over the integrator's life (across re-initializations), plus the
@@ -114,6 +117,8 @@ class ErrorControlledIntegrator : public Integrator {
 
   const ErrorControlledOptions& options() const { return m_options; }
   const ErrorControlledStatistics& statistics() const;
+  /// The energy checks (their largest gain is reported as the energy_gain counter).
+  const DivergenceMonitor& monitor() const { return m_monitor; }
   /// The linear solver's counters (analyses, factorizations, nnz(L), ...).
   const SolverStatistics& solver_statistics() const;
   /// Wall time of the inner assembly, analysis and factorization, s.

@@ -165,6 +165,9 @@ struct ImplicitOptions {
   int max_steps = 5000;
   LinearSolverOptions linear_solver;
   double divergence_energy_factor = 10.0;
+  /// Largest rise of the energy above its lowest since the last change, in energy scales
+  /// (DivergenceMonitor); 0 = no growth check.
+  double energy_growth_tolerance = 0.1;
 };
 
 /// The options whose value a caller may leave open (std::nullopt) for yore to decide from the
@@ -321,6 +324,8 @@ class ImplicitIntegrator : public Integrator {
 
   const ImplicitOptions& options() const { return m_options; }
   const ImplicitStatistics& statistics() const { return m_statistics; }
+  /// The energy checks (their largest gain is reported as the energy_gain counter).
+  const DivergenceMonitor& monitor() const { return m_monitor; }
   /// The linear solver's counters (analyses, factorizations, nnz(L), flops, ordering).
   const SolverStatistics& solver_statistics() const;
 

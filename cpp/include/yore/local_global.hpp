@@ -50,6 +50,9 @@ struct LocalGlobalOptions {
   double stale_pcg_tol = 1e-12;  ///< relative residual of the stale-factor PCG
   bool record_objective = false;       ///< keep the objective after every iteration (tests)
   double divergence_energy_factor = 10.0;
+  /// Largest rise of the energy above its lowest since the last change, in energy scales
+  /// (DivergenceMonitor); 0 = no growth check.
+  double energy_growth_tolerance = 0.1;
 };
 
 /// Counters and wall time per phase, cumulative.
@@ -99,6 +102,8 @@ class LocalGlobalIntegrator : public Integrator {
 
   const LocalGlobalOptions& options() const { return m_options; }
   const LocalGlobalStatistics& statistics() const { return m_statistics; }
+  /// The energy checks (their largest gain is reported as the energy_gain counter).
+  const DivergenceMonitor& monitor() const { return m_monitor; }
   /// The factorization's counters (analyses, factorizations, nnz(L), flops, ordering).
   const SolverStatistics& solver_statistics() const;
   /// The objective E after each iteration of the last step (record_objective only), J.
