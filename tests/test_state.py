@@ -171,7 +171,9 @@ def test_a_state_document_that_is_not_json_is_named(state_file):
     ("positions", np.full((9, 3), np.nan), "positions: entry .* is nan"),
     ("positions", np.zeros((9, 3), dtype=np.float32), "positions: got an array of dtype float32"),
     ("faces", np.full((8, 3), 2**31 - 1, dtype=np.int32), "faces: entry .* is 2147483647"),
-    ("velocities", np.zeros((4, 3)), "velocities: got an array of dtype float64 and shape"),
+    # refused from its header, before it is read (issue 53, N09)
+    ("velocities", np.zeros((4, 3)), "velocities: its header declares 4 rows where the "
+                                     "positions declare 9 vertices"),
     ("spring_kind", np.full(24, 7, dtype=np.int8), "spring_kind: entry 0 is 7"),
 ])
 def test_a_tampered_cloth_array_is_named(state_file, field, value, match):
@@ -410,6 +412,74 @@ def test_a_small_state_that_would_inflate_into_gigabytes_is_refused_unread(tmp_p
         tracemalloc.stop()
     with pytest.raises(ValueError, match="more than the limit"):  # the document, likewise
         yore.state._read_npy(_FakeStream(big), big, limit=1 << 20)
+
+
+def _forge_positions(path, bomb, vertices):
+    """``bomb``: the state at ``path`` with its positions member replaced by a deflated block of
+    zeros whose header declares ``vertices`` rows (a few hundred kB per 100 MB inflated)."""
+    import zipfile
+
+    with zipfile.ZipFile(path) as source, \
+            zipfile.ZipFile(bomb, "w", compression=zipfile.ZIP_DEFLATED) as target:
+        for entry in source.infolist():
+            if entry.filename == "simulation/cloth/positions.npy":
+                header = np.lib.format.header_data_from_array_1_0(np.zeros((0, 3)))
+                header["shape"] = (vertices, 3)
+                with target.open(entry.filename, "w", force_zip64=True) as stream:
+                    np.lib.format.write_array_header_1_0(stream, header)
+                    block, left = bytes(1 << 20), vertices * 24
+                    while left > 0:
+                        stream.write(block[:min(left, len(block))])
+                        left -= len(block)
+            else:
+                target.writestr(entry, source.read(entry))
+
+
+@pytest.mark.parametrize("vertices, message", [
+    # past any cloth a state may hold: 11 million vertices from a 300 kB member
+    (11 << 20, r"field simulation.cloth.positions: its header declares \d+ vertices, more than "
+               r"the 4000000 a state may hold"),
+    # within the cap, but the other per-vertex members still say 9
+    (2_000_000, r"field simulation.cloth.velocities: its header declares 9 rows where the "
+                r"positions declare 2000000 vertices"),
+])
+def test_a_forged_vertex_count_does_not_set_the_budget(tmp_path, vertices, message):
+    """Issue 53, N09: the budget trusted the vertex count the bomb's own positions header
+    declared (a 1 MB state inflating to 1 GiB peaked at 2.15 GB before it was refused). The
+    count is capped, and every per-vertex member must agree with it, before anything is read."""
+    import tracemalloc
+
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01))
+    path = yore.save_state(tmp_path / "state.npz", sim)
+    bomb = tmp_path / "bomb.npz"
+    _forge_positions(path, bomb, vertices)
+    assert bomb.stat().st_size < 2 << 20
+    tracemalloc.start()
+    try:
+        one_line_error(bomb, message + ".*refused before reading")
+        assert tracemalloc.get_traced_memory()[1] < 32 << 20
+    finally:
+        tracemalloc.stop()
+
+
+def test_arrays_are_inflated_into_one_buffer(tmp_path):
+    # _read_npy reads straight into the array: the peak is the array, not the array twice
+    import io
+    import tracemalloc
+
+    data = np.arange(4 << 20, dtype=np.float64)  # 32 MiB
+    buffer = io.BytesIO()
+    np.lib.format.write_array(buffer, data)
+    size = buffer.tell()
+    buffer.seek(0)
+    tracemalloc.start()
+    try:
+        read = yore.state._read_npy(buffer, size)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert np.array_equal(read, data)
+    assert peak < 1.25 * data.nbytes
 
 
 class _FakeStream:

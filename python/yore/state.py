@@ -36,11 +36,12 @@ import numpy as np
 from . import rules
 from ._core import Cloth
 from .checks import MAX_TIME, MIN_DT
+from .meshes import MAX_MESH_VERTICES
 from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
 from .simulation import Simulation
 
 __all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
-           "MAX_STATE_FILE_BYTES"]
+           "MAX_STATE_FILE_BYTES", "MAX_STATE_VERTICES"]
 
 STATE_FORMAT = "yore-state"
 STATE_VERSION = 1
@@ -125,6 +126,10 @@ def _check_written(path, document, arrays):
     field = _FieldChecker(f"{path} (not written)")
     simulation = field.join(document["simulation"], arrays, "simulation")
     _check_simulation(field, simulation)
+    vertices = len(simulation["cloth"]["positions"])
+    if vertices > MAX_STATE_VERTICES:
+        raise ValueError(f"{path} (not written): the cloth has {vertices} vertices, more than "
+                         f"the {MAX_STATE_VERTICES} a state file may hold")
     try:
         Cloth.from_state(simulation["cloth"])
     except (ValueError, TypeError, RuntimeError) as error:
@@ -263,6 +268,14 @@ _BYTES_PER_VERTEX = 2048
 _FIXED_BYTES = 1 << 20
 _METADATA_ARRAY_BYTES = 256 << 20
 _POSITIONS = "simulation/cloth/positions.npy"
+#: Most vertices a state's cloth may have: four times the largest mesh yore generates or reads
+#: (`yore.meshes.MAX_MESH_VERTICES`; strokes stay within it). The positions' header alone must
+#: not set the budget: a 1 MB file whose positions inflate to 1 GiB declared 45 million.
+MAX_STATE_VERTICES = 4 * MAX_MESH_VERTICES
+#: Members with one row per vertex: their headers must agree with the positions' before any of
+#: them is inflated, so a forged vertex count must be forged (and inflated) in all of them.
+_PER_VERTEX = ("simulation/cloth/velocities.npy", "simulation/cloth/masses.npy",
+               "simulation/cloth/material_coordinates.npy", "simulation/cloth/vertex_states.npy")
 
 
 def _check_budget(path, headers):
@@ -274,6 +287,17 @@ def _check_budget(path, headers):
 
     shape = headers.get(_POSITIONS, ((0,), None))[0]
     vertices = shape[0] if len(shape) == 2 else 0
+    if vertices > MAX_STATE_VERTICES:
+        raise _DocumentError(f"{path}: field simulation.cloth.positions: its header declares "
+                             f"{vertices} vertices, more than the {MAX_STATE_VERTICES} a state "
+                             "may hold; refused before reading")
+    per_vertex = _PER_VERTEX + tuple(n for n in headers if n.startswith("simulation/history/"))
+    for name in per_vertex if _POSITIONS in headers else ():  # (no positions: named later)
+        rows = headers[name][0][:1] if name in headers else None
+        if rows is not None and rows != (vertices,):
+            raise _DocumentError(f"{path}: field {name[:-4].replace('/', '.')}: its header "
+                                 f"declares {rows[0] if rows else 0} rows where the positions "
+                                 f"declare {vertices} vertices; refused before reading")
     for prefix, budget, what in (
             ("simulation/", _FIXED_BYTES + _BYTES_PER_VERTEX * vertices,
              f"{_FIXED_BYTES + _BYTES_PER_VERTEX * vertices} for a cloth of {vertices} "
@@ -315,13 +339,19 @@ def _read_npy(stream, size, limit=None):
     if limit is not None and count * dtype.itemsize > limit:
         raise ValueError(f"the header announces {count * dtype.itemsize} bytes, more than the "
                          f"limit of {limit}; refused before reading")
-    data = stream.read(count * dtype.itemsize)
-    if len(data) != count * dtype.itemsize:
-        raise ValueError(f"truncated: {len(data)} of {count * dtype.itemsize} bytes")
+    # inflated straight into the array (one copy in memory, not two)
+    array = np.empty(count, dtype=dtype)
+    view, got = memoryview(array.view(np.uint8)), 0
+    while got < len(view):
+        read = stream.readinto(view[got:])
+        if not read:
+            break
+        got += read
+    if got != count * dtype.itemsize:
+        raise ValueError(f"truncated: {got} of {count * dtype.itemsize} bytes")
     if stream.read(1):
         raise ValueError("more bytes than its header announces")
-    array = np.frombuffer(data, dtype=dtype, count=count)
-    return array.reshape(shape, order="F" if fortran else "C").copy()
+    return array.reshape(shape, order="F" if fortran else "C")
 
 
 class _FieldChecker:
