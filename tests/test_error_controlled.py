@@ -394,3 +394,16 @@ def test_auto_bdf2_starts_again_after_a_stroke_and_keeps_going():
     assert sim.stats["counters"]["history_restarts"] > restarts
     assert sim.time == pytest.approx(6 / 60, abs=1e-12)
     assert np.all(np.isfinite(sim.cloth.positions)) and sim.state()["history"]["next_dt"] > 0
+
+
+@pytest.mark.parametrize("integrator, extra", [("cvode", {}), ("arkode", {}),
+                                               ("tr-bdf2", {"dt": "auto"}),
+                                               ("bdf2", {"dt": "auto"})])
+def test_a_tolerance_below_round_off_is_refused_naming_rtol(integrator, extra):
+    # Issue 53, R06: rtol 1e-14 (atol 1e-300, max_steps 1e7) kept CVODE in a 6×6 cloth's first
+    # 1/60 s interval for minutes; below 1e-12 the error test measures round-off
+    with pytest.raises(ValueError, match=r"option rtol: got float 1e-14; expected .*\[1e-12, 1\)"):
+        yore.scenes.hanging_cloth(resolution=6, integrator=integrator, rtol=1e-14, atol=1e-300,
+                                  max_steps=10_000_000, **extra)
+    sim = yore.scenes.hanging_cloth(resolution=6, integrator=integrator, rtol=1e-12, **extra)
+    assert sim.resolved_options["rtol"] == 1e-12

@@ -19,7 +19,7 @@ void bind_error_controlled(py::module_& m) {
       choice_option<O, ErrorControlledMethod>(
           "method", [](O& o) -> ErrorControlledMethod& { return o.method; },
           {{"cvode", ErrorControlledMethod::cvode}, {"arkode", ErrorControlledMethod::arkode}}),
-      in_range(plain_option("rtol", &O::rtol), 0.0, 1.0, true, true),
+      in_range(plain_option("rtol", &O::rtol), kMinRelativeTolerance, 1.0, false, true),
       plain_option("atol", &O::atol),
       in_range(plain_option("atol_velocity", &O::atol_velocity), 0.0,
                std::numeric_limits<double>::infinity(), false, false),

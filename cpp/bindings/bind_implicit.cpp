@@ -58,7 +58,7 @@ void bind_implicit(py::module_& m) {
       plain_option("max_newton", &O::max_newton),
       in_range(plain_option("rho_infinity", &O::rho_infinity), 0.0, 1.0, false, false),
       plain_option("adaptive", &O::adaptive),
-      in_range(plain_option("rtol", &O::rtol), 0.0, 1.0, true, true),
+      in_range(plain_option("rtol", &O::rtol), kMinRelativeTolerance, 1.0, false, true),
       plain_option("atol", &O::atol),
       in_range(plain_option("max_steps", &O::max_steps), 1.0, 10'000'000.0),
       one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
