@@ -251,3 +251,17 @@ def test_the_former_mass_keyword_still_works_for_one_version_with_a_deprecation_
     assert np.array_equal(chain.masses, [1e-3, 1e-3])
     with pytest.raises(ValueError, match="not also its former name"):
         yore.Cloth(V, F, masses=masses, mass=masses)
+
+
+@pytest.mark.parametrize("keyword, value, message", [
+    # issue 53: these were pybind11's TypeError ("incompatible constructor arguments")
+    ("stretch", None, 'stretch must be "springs" or "membrane", got None'),
+    ("bending", 3, 'bending must be "springs" or "quadratic", got 3'),
+    ("damping", None, "damping: got None; expected a number"),
+    ("drag", "still", "drag: got 'still'; expected a number"),
+])
+def test_a_wrongly_typed_keyword_is_a_value_error_naming_it(keyword, value, message):
+    V, F = yore.grid_mesh(3, 3)
+    with pytest.raises(ValueError, match=message) as caught:
+        yore.Cloth(V, F, **{keyword: value})
+    assert caught.value.argument == keyword

@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 
 import yore
 
@@ -71,3 +72,11 @@ def test_scenes_accept_material_and_integrator_options():
     assert np.all(sim.cloth.springs.stiffness == 50.0)
     sim.step(50)
     assert sim.stats["active_terms"]["strain_limiting"] and sim.stats["steps"] == 50
+
+
+@pytest.mark.parametrize("keyword, value", [("width", -0.5), ("length", 0.0),
+                                            ("width", float("nan")), ("length", None)])
+def test_a_stretched_sheet_of_no_size_is_refused_naming_the_size(keyword, value):
+    # issue 53: a negative width meshed the mirror-image rectangle without a word
+    with pytest.raises(ValueError, match=f"{keyword} must be"):
+        yore.scenes.stretched_sheet(**{keyword: value}, edge_length=0.1)

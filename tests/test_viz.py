@@ -365,7 +365,8 @@ def test_parse_pixels():
     from yore.viz.viewer_model import MAX_STROKE_SAMPLES
     at_limit = densify([[0.0, 0.0], [2.0 * (MAX_STROKE_SAMPLES - 1), 0.0]])
     assert len(at_limit) == MAX_STROKE_SAMPLES
-    with pytest.raises(ValueError, match="samples long"):
+    with pytest.raises(ValueError,
+                       match=r"px long: sampled every .* px it would pass the \d+ samples"):
         densify([[0.0, 0.0], [2.0 * MAX_STROKE_SAMPLES, 0.0]])
 
 
@@ -534,7 +535,7 @@ def test_yore_view_continues_a_saved_run(tmp_path, capsys):
      "at least 16 px with --panel"),
     # 100 pixels in range, 1.4e6 px apart: counted before any sample is made (was ~2.3 GB)
     (["--headless", "--screenshot", "x.png", "--stroke-px",
-      " ".join(["0,0 999999,999999"] * 50)], "samples long"),
+      " ".join(["0,0 999999,999999"] * 50)], "samples a stroke may have"),
 ])
 def test_yore_view_bad_input_is_one_error_line(tmp_path, capsys, monkeypatch, arguments,
                                                 message):

@@ -117,6 +117,17 @@ double real_argument(const py::object& value, const char* name) {
   return value.cast<double>();
 }
 
+// A string argument (bending, stretch): a Python str, or std::invalid_argument (ValueError)
+// naming the argument and what it takes (a None or a number used to be pybind11's TypeError).
+std::string text_argument(const py::object& value, const char* name, const char* expected) {
+  if (!py::isinstance<py::str>(value)) {
+    throw InvalidArgument(std::string(name) + " must be " + expected + ", got " +
+                              py::str(py::repr(value)).cast<std::string>(),
+                          name);
+  }
+  return value.cast<std::string>();
+}
+
 // The membrane of stretch="membrane" (young_modulus required, poisson_ratio defaulted), or
 // none with stretch="springs" (which takes neither); std::invalid_argument otherwise.
 MembraneMaterial membrane_argument(const std::string& stretch, const py::object& young_modulus,
@@ -190,11 +201,17 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
   cloth_class
       .def(py::init([](const py::handle& vertices, const py::handle& faces,
                        const py::object& masses, const py::object& stretch_stiffness,
-                       const py::object& bend_stiffness, double damping, double drag,
-                       const py::object& density, const std::string& bending,
-                       const py::object& bending_modulus, const py::object& mass,
-                       const std::string& stretch, const py::object& young_modulus,
-                       const py::object& poisson_ratio) {
+                       const py::object& bend_stiffness, const py::object& damping_given,
+                       const py::object& drag_given, const py::object& density,
+                       const py::object& bending_given, const py::object& bending_modulus,
+                       const py::object& mass, const py::object& stretch_given,
+                       const py::object& young_modulus, const py::object& poisson_ratio) {
+             const double damping = real_argument(damping_given, "damping");
+             const double drag = real_argument(drag_given, "drag");
+             const std::string bending = text_argument(
+                 bending_given, "bending", "\"springs\" or \"quadratic\"");
+             const std::string stretch = text_argument(
+                 stretch_given, "stretch", "\"springs\" or \"membrane\"");
              const py::object given = masses_argument(masses, mass);
              const MembraneMaterial membrane =
                  membrane_argument(stretch, young_modulus, poisson_ratio);

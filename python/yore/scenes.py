@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from ._core import Cloth
+from .checks import check_factor
 from .meshes import cylinder_mesh, cylinder_ring, grid_mesh, pattern_mesh
 from .options import DEFAULT_INTEGRATOR, GRAVITY, MASS
 from .options import STIFFNESS as OPTION_STIFFNESS
@@ -150,8 +151,8 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
     ``(2π length)^½ (4 B / (Y strain))^¼`` for a sheet of 2-D modulus Y.
 
     The simulation's ``scene`` holds "clamped" (the fixed vertices) and "uv" (the pattern)."""
-    length = float(length)
-    width = float(width)
+    length = check_factor(length, "length", "m")  # a negative width meshed the mirror image
+    width = check_factor(width, "width", "m")
     strain = float(strain)
     if not (math.isfinite(strain) and strain > -1.0):
         raise ValueError(f"strain must be finite and > -1, got {strain}")

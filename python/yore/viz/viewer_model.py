@@ -73,8 +73,9 @@ def densify(pixels, spacing=SAMPLE_SPACING_PX) -> np.ndarray:
     pieces = np.maximum(1, np.ceil(lengths / spacing))
     total = 1 + float(pieces.sum())
     if total > MAX_STROKE_SAMPLES:
-        raise ValueError(f"the stroke would be {total:.0f} samples long at {spacing} px spacing "
-                         f"({lengths.sum():.6g} px in all); at most {MAX_STROKE_SAMPLES}")
+        raise ValueError(f"the stroke is {lengths.sum():.6g} px long: sampled every {spacing} "
+                         f"px it would pass the {MAX_STROKE_SAMPLES} samples a stroke may have; "
+                         f"draw one at most {(MAX_STROKE_SAMPLES - 1) * spacing:.6g} px long")
     out = [pixels[:1]]
     for a, b, count in zip(pixels[:-1], pixels[1:], pieces.astype(np.int64)):
         t = np.arange(1, count + 1)[:, None] / count
