@@ -152,3 +152,27 @@ def test_a_predictor_of_none_is_decided_not_passed_to_the_core():
                                           predictor="inertial")
     reference.step(1)
     assert np.array_equal(sim.cloth.positions, reference.cloth.positions)
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # steps at the cap are not the subject
+@pytest.mark.parametrize("integrator", ["quasi-newton", "implicit"])
+def test_a_resume_after_a_growing_stroke_is_exact(integrator):
+    # Issue 53, R05: a growth stroke changes rest lengths without changing the topology; the
+    # stopping tests' length scale (the mean rest length) was taken at the last topology
+    # change, so the straight run stopped on the old scale and a resumed one on the new: 7e-6 m
+    # apart. It is now the rest lengths' of every step.
+    path = yore.StrokePath.material([[0.2, 0.3], [0.8, 0.45]])
+    growth = {"growth": "isotropic", "width": 0.5, "expansion": 10}
+    straight = yore.scenes.hanging_cloth(resolution=9, integrator=integrator)
+    straight.step(5)
+    before = yore.Simulation.from_state(straight.state())
+    straight.stroke(path, **growth)
+    before.stroke(path, **growth)
+    straight.step(2)
+    before.step(2)
+    after = yore.Simulation.from_state(straight.state())
+    for sim in (straight, before, after):
+        sim.step(3)
+    assert np.array_equal(straight.cloth.positions, before.cloth.positions)
+    assert np.array_equal(straight.cloth.positions, after.cloth.positions)
+    assert np.array_equal(straight.cloth.velocities, after.cloth.velocities)

@@ -290,9 +290,7 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   fill_block_pattern(blocks, coupled, first_neighbour, pattern);
 
   m_spring_slots.assign(3 * s, -1);
-  double rest_sum = 0.0;
   for (std::size_t k = 0; k < s; ++k) {
-    rest_sum += springs.rest_length[k];
     const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
     const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
     if (a < 0 || b < 0) continue;
@@ -306,7 +304,6 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
           3 * rank;
     }
   }
-  m_mean_rest_length = s ? rest_sum / static_cast<double>(s) : 1.0;
   m_bending_slots.clear();
   if (bending != nullptr) {
     bending_slots(*bending, m_dof_of_vertex, coupled, first_neighbour, pattern, m_bending_slots);
@@ -629,6 +626,13 @@ void ImplicitIntegrator::evaluate_membrane(const Cloth& cloth, const Positions& 
 
 void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   ensure_structure(cloth);
+  // The stopping tests' length scale follows the rest lengths every step: a growth stroke
+  // changes them without changing the topology, and a scale kept from before it made a run
+  // resumed after the stroke stop Newton elsewhere than the straight run (issue 53, R05).
+  const SpringSet& springs = cloth.springs();
+  double rest_sum = 0.0;
+  for (const double rest : springs.rest_length) rest_sum += rest;
+  m_mean_rest_length = springs.size() ? rest_sum / static_cast<double>(springs.size()) : 1.0;
   if (m_options.method == ImplicitMethod::generalized_alpha) {
     step_generalized_alpha(cloth, gravity, dt);
     return;
