@@ -407,3 +407,29 @@ def test_a_tolerance_below_round_off_is_refused_naming_rtol(integrator, extra):
                                   max_steps=10_000_000, **extra)
     sim = yore.scenes.hanging_cloth(resolution=6, integrator=integrator, rtol=1e-12, **extra)
     assert sim.resolved_options["rtol"] == 1e-12
+
+
+@pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
+def test_a_run_restarted_where_another_resumed_takes_the_same_steps(integrator, tmp_path):
+    # restart_integrator() at the state's time: the run that goes on and the one resumed from
+    # the state start SUNDIALS afresh at the same point, so they agree bit for bit
+    sim = yore.Simulation(chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0),
+                          rtol=1e-4, atol=1e-6)
+    sim.step(15)
+    resumed, _ = yore.load_state(yore.save_state(tmp_path / "resume.npz", sim))
+    assert resumed.restarts_on_resume and sim.restarts_on_resume
+    sim.restart_integrator()
+    sim.step(15)
+    resumed.step(15)
+    assert np.array_equal(sim.cloth.positions, resumed.cloth.positions)
+    assert np.array_equal(sim.cloth.velocities, resumed.cloth.velocities)
+    assert sim.stats["counters"]["restarts"] == 2
+
+
+def test_restarting_is_a_no_op_for_integrators_whose_history_the_state_keeps():
+    sim = yore.scenes.hanging_cloth(resolution=5, integrator="bdf2")
+    assert not sim.restarts_on_resume
+    sim.step(2)
+    sim.restart_integrator()
+    sim.step(1)
+    assert sim.stats["counters"]["history_restarts"] == 1  # the first step only

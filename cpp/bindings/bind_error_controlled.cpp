@@ -55,6 +55,13 @@ void bind_error_controlled(py::module_& m) {
                  options_from_kwargs(table, kwargs));
            }),
            "Keyword options as in `defaults`.")
+      .def(
+          "request_restart",
+          [](ErrorControlledIntegrator& integrator) {
+            check_idle(&integrator, "the integrator");
+            integrator.request_restart();
+          },
+          "The next interval starts SUNDIALS afresh at the cloth's state, as a resumed run does.")
       .def_property_readonly("statistics", [](const ErrorControlledIntegrator& integrator) {
         check_idle(&integrator, "the integrator");
         const ErrorControlledStatistics& s = integrator.statistics();

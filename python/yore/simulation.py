@@ -567,6 +567,21 @@ class Simulation:
         """Kinetic, spring, gravitational and (quadratic) bending energy and their total, J."""
         return self._cloth.energy(self._gravity)
 
+    @property
+    def restarts_on_resume(self) -> bool:
+        """Whether a simulation rebuilt from this one's `state` starts its integrator afresh
+        (cvode and arkode: SUNDIALS' step history is not saved; see `restart_integrator`)."""
+        return bool(self._spec.error_controlled)
+
+    def restart_integrator(self) -> None:
+        """Makes an error-controlled integrator (cvode, arkode) start afresh at the next step,
+        as it does in a simulation rebuilt from a `state` (SUNDIALS' step history cannot be
+        saved). A run that calls this wherever another was resumed takes the same steps as that
+        one from there, bit for bit; ``yore run`` calls it at every frame. No effect on the other
+        integrators, whose history the state keeps."""
+        if self._spec.error_controlled:
+            self._integrator.request_restart()
+
     def stable_dt(self) -> float:
         """Estimated largest stable explicit time step for the cloth as it is now, s."""
         return self._cloth.stable_time_step()

@@ -115,6 +115,11 @@ class ErrorControlledIntegrator : public Integrator {
   /// passes the divergence bound; std::invalid_argument on bad arguments.
   void advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) override;
 
+  /// The next interval starts SUNDIALS afresh at the cloth's state (order 1, a new first step),
+  /// as it does after an edit or a resume from a state: a run that restarts where another was
+  /// resumed takes the same steps from there.
+  void request_restart() { m_restart = true; }
+
   const ErrorControlledOptions& options() const { return m_options; }
   const ErrorControlledStatistics& statistics() const;
   /// The energy checks (their largest gain is reported as the energy_gain counter).

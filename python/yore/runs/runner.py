@@ -367,6 +367,12 @@ class _Run:
                 f"t = {sim.time:.6g} s")
         except KeyboardInterrupt:
             self.status, self.message = "interrupted", None
+            if self.sim.restarts_on_resume and self.good is not None and \
+                    self.sim.time != self.good.time:
+                # SUNDIALS' step history is not in the state: only at a frame, where the
+                # straight run restarts it too, does a resumed run go on as that one would
+                self.phases = self.sim.stats["phases"]
+                self.sim = self.good.restore(record, self.live_reports)
             # Steps completed so far, from the step-counting clock (the interruption may come
             # between batches of a call).
             record.step = _steps(self.sim.time, self.dt)
@@ -450,6 +456,9 @@ class _Run:
         """Writes a frame, makes it the point to go back to, and saves the state when due."""
         _write_frame(self.sim, self.frames, self.record, self.fmt, entry)
         self.good = _Checkpoint(self.sim, self.record, self.live_reports)
+        # SUNDIALS starts afresh at every frame, where a resumed run starts it (an interrupted
+        # run goes back to its last frame): straight and resumed runs take the same steps
+        self.sim.restart_integrator()
         if _time.perf_counter() - self.saved_at > self.save_every:
             # a crash (or a kill) then costs at most this much of the run
             saving = _time.perf_counter()
