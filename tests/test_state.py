@@ -500,3 +500,16 @@ class _FakeStream:
         if self.buffer.tell() >= self.header_end:
             raise AssertionError("read past the header")
         return self.buffer.read(count)
+
+
+def test_a_state_too_large_to_load_is_not_written(tmp_path):
+    # Issue 53, N02: a 70 MB metadata string was written, and load_state refused the file
+    sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01))
+    target = tmp_path / "state.npz"
+    with pytest.raises(ValueError, match=r"not written\): the state's document is \d+ characters"):
+        yore.save_state(target, sim, metadata={"note": "x" * (65 << 20)})
+    with pytest.raises(ValueError, match=r"not written\): the metadata's arrays hold \d+ bytes"):
+        yore.save_state(target, sim, metadata={"big": np.zeros((257 << 20) // 8)})
+    assert not target.exists() and not list(tmp_path.iterdir())
+    near = yore.save_state(target, sim, metadata={"note": "x" * (1 << 20)})
+    assert yore.state.load_metadata(near)["note"] == "x" * (1 << 20)

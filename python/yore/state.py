@@ -72,6 +72,15 @@ def save_state(path, sim: Simulation, metadata=None) -> Path:
         text = json.dumps(document, allow_nan=False)
     except (TypeError, ValueError) as error:
         raise ValueError(f"state metadata must be JSON-able: {error}") from None
+    # what load_state would refuse is not written (a 70 MB metadata string used to be)
+    if len(text) > _MAX_DOCUMENT_CHARS:
+        raise ValueError(f"{path} (not written): the state's document is {len(text)} characters "
+                         f"long, more than the {_MAX_DOCUMENT_CHARS} a state file may hold; "
+                         "keep large metadata in arrays or beside the state")
+    metadata_bytes = sum(a.nbytes for name, a in arrays.items() if name.startswith("metadata/"))
+    if metadata_bytes > _METADATA_ARRAY_BYTES:
+        raise ValueError(f"{path} (not written): the metadata's arrays hold {metadata_bytes} "
+                         f"bytes, more than the {_METADATA_ARRAY_BYTES} a state file may hold")
     _check_written(path, json.loads(text), arrays)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(path.name + ".part.npz")
