@@ -176,6 +176,21 @@ def test_material_values_past_their_limit_fail_the_check_naming_the_key(tmp_path
     assert code == 2 and "material.stretch_stiffness" in error and "1e+12" in error
 
 
+@pytest.mark.parametrize("scene, setting, key", [
+    # issue 53, N17: a 1e150 m grid failed as "degenerate" naming no key; a driver's centre at
+    # 1e300 m passed the check and made the run's first positions infinite
+    ("hanging_paper.toml", "mesh.width=1e150", "mesh.width"),
+    ("cylinder.toml", "mesh.radius=1e150", "mesh.radius"),
+    ("cylinder.toml", "driven.0.center=[1e300, 0.5, 0.0]", "driven[0].center"),
+])
+def test_sizes_and_points_past_a_thousand_kilometres_fail_the_check_naming_the_key(
+        capsys, scene, setting, key):
+    code = main(["check", str(EXAMPLES / scene), "--set", setting])
+    error = capsys.readouterr().err
+    assert code == 2 and error.count("\n") == 1 and error.startswith("yore: error:")
+    assert f"{key}:" in error and "1e+06" in error
+
+
 @pytest.mark.slow
 def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, capsys):
     run("hanging", tmp_path)

@@ -39,6 +39,18 @@ def _check_vertex_count(count: int, what: str, argument=None) -> None:
         raise ValueError(message) if argument is None else _invalid(message, argument)
 
 
+def _size(value, name):
+    """A mesh's width or height, m: finite, > 0 and at most `MAX_PATTERN_COORDINATE` (a 1e150 m
+    grid was refused only later, as "degenerate", naming no key); an ArgumentError naming it."""
+    try:
+        size = check_factor(value, name, "m")
+    except ValueError as error:
+        raise _invalid(str(error), name) from None
+    if size > MAX_PATTERN_COORDINATE:
+        raise _invalid(f"{name} must be at most {MAX_PATTERN_COORDINATE:g} m, got {size:g}", name)
+    return size
+
+
 def _invalid(message, argument):
     """A `yore.ArgumentError` (a ValueError) naming ``argument``."""
     error = _core.ArgumentError(message)
@@ -87,8 +99,8 @@ def grid_mesh(nx, ny, width=1.0, height=1.0):
     """
     nx = check_integer(nx, "nx", 2)
     ny = check_integer(ny, "ny", 2)
-    width = check_factor(width, "width", "m")
-    height = check_factor(height, "height", "m")
+    width = _size(width, "width")
+    height = _size(height, "height")
     _check_vertex_count(nx * ny, f"nx × ny = {nx} × {ny}")
 
     # linspace pins the last coordinate to exactly width/height.
@@ -137,8 +149,8 @@ def cylinder_mesh(radius, height, rings, segments):
         If radius or height is not finite and > 0, rings is not an integer >= 2, segments
         is not an integer >= 3, or rings·segments is more than `MAX_MESH_VERTICES`.
     """
-    radius = check_factor(radius, "radius", "m")
-    height = check_factor(height, "height", "m")
+    radius = _size(radius, "radius")
+    height = _size(height, "height")
     rings = check_integer(rings, "rings", 2)
     segments = check_integer(segments, "segments", 3)
     _check_vertex_count(rings * segments, f"rings × segments = {rings} × {segments}")

@@ -66,7 +66,11 @@ def _build_mesh(scene):
     generator = mesh["generator"]
     uv = None
     if generator == "grid":
-        V, F = grid_mesh(mesh["nx"], mesh["ny"], width=mesh["width"], height=mesh["height"])
+        try:
+            V, F = grid_mesh(mesh["nx"], mesh["ny"], width=mesh["width"], height=mesh["height"])
+        except ArgumentError as error:  # a size out of range, by the argument's name
+            raise scene.error(f"mesh.{error.argument}", str(error), "a grid yore can mesh") \
+                from None
         uv = V[:, :2].copy()
         pattern = V if mesh["plane"] == "xy" else np.column_stack(
             [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
@@ -83,8 +87,12 @@ def _build_mesh(scene):
             [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
         sets = {"boundary": _boundary_vertices(F)}
     elif generator == "cylinder":
-        pattern, F = cylinder_mesh(mesh["radius"], mesh["height"], mesh["rings"],
-                                   mesh["segments"])
+        try:
+            pattern, F = cylinder_mesh(mesh["radius"], mesh["height"], mesh["rings"],
+                                       mesh["segments"])
+        except ArgumentError as error:
+            raise scene.error(f"mesh.{error.argument}", str(error), "a tube yore can mesh") \
+                from None
         sets = {"bottom rim": cylinder_ring(mesh["rings"], mesh["segments"], 0),
                 "top rim": cylinder_ring(mesh["rings"], mesh["segments"], -1)}
     else:

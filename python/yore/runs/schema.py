@@ -33,7 +33,7 @@ from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAME
 from ..checks import (MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_MASS_SCALE, MAX_SETTLE_SECONDS,
                       MAX_THREADS, MAX_TIME, MIN_DT, MIN_EXPANSION)
 from ..camera import MAX_CAMERA_COORDINATE
-from ..meshes import PATTERN_MIN_ANGLE
+from ..meshes import MAX_PATTERN_COORDINATE, PATTERN_MIN_ANGLE
 from .._core import PATTERN_MAX_ANGLE_DEGREES as PATTERN_MAX_ANGLE
 from ..stroke import GROWTH_MODES, MAX_REFINE
 
@@ -191,6 +191,19 @@ def _camera_vector(value):
 _camera_vector.expected = f"3 numbers [x, y, z] within ±{MAX_CAMERA_COORDINATE:g}"
 
 
+def _point(value):
+    """A point of the scene, m (a driver's centre, a box's corner): within the coordinates a
+    pattern may have, `MAX_PATTERN_COORDINATE` (a centre at 1e300 m passed `yore check` and
+    made the run's first positions infinite)."""
+    vector = _vector3(value)
+    if np.abs(vector).max() > MAX_PATTERN_COORDINATE:
+        raise Invalid("got [" + ", ".join(f"{c:g}" for c in vector) + "]", _point.expected)
+    return vector
+
+
+_point.expected = f"3 numbers [x, y, z] within ±{MAX_PATTERN_COORDINATE:g} m"
+
+
 def _indices(value):
     expected = _indices.expected
     if not isinstance(value, list) or not value:
@@ -202,8 +215,8 @@ def _indices(value):
 
 
 _indices.expected = "a list of vertex indices (integers in [0, 2147483647])"
-_polygons, _vector3, _camera_vector, _indices = map(_shaped, (_polygons, _vector3,
-                                                              _camera_vector, _indices))
+_polygons, _vector3, _camera_vector, _point, _indices = map(
+    _shaped, (_polygons, _vector3, _camera_vector, _point, _indices))
 
 GENERATOR_KEYS = {
     "grid": {
@@ -303,7 +316,7 @@ SCHEMA = {
     "driven": ({
         **SELECTION,
         "motion": (_choice("rotation"), "rotation", "the kind of prescribed motion"),
-        "center": (_vector3, REQUIRED, "a point on the rotation axis, m"),
+        "center": (_point, REQUIRED, "a point on the rotation axis, m"),
         "axis": (_vector3, REQUIRED, "axis direction"),
         "omega": (_number(unit="rad/s"), REQUIRED, "angular speed, right-handed about axis"),
     }, "array"),
@@ -382,6 +395,6 @@ SMOOTH = {
                  "keep the region's added rest length (redistribute only)"),
 }
 BOX = {
-    "min": (_vector3, REQUIRED, "lower corner, m"),
-    "max": (_vector3, REQUIRED, "upper corner, m"),
+    "min": (_point, REQUIRED, "lower corner, m"),
+    "max": (_point, REQUIRED, "upper corner, m"),
 }
