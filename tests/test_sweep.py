@@ -536,3 +536,29 @@ def test_workers_are_bounded_by_the_machines_cores(tmp_path):
                                          rf"{most + 1}: at most twice this machine's"):
         run(path, tmp_path / "out", workers=most + 1, quiet=True)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("failure", ["KeyboardInterrupt", "NameError", "AttributeError"])
+def test_ctrl_c_during_a_sweeps_start_up_is_one_line_and_exit_130(tmp_path, capsys,
+                                                                    monkeypatch, failure):
+    # Issue 53, R03: a Ctrl-C inside dask's imports left half-initialised modules whose next
+    # use raised NameError/AttributeError (a traceback, exit 1), or the message named an output
+    # folder that was never created
+    import yore.sweep
+
+    def start_up(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            if failure == "NameError":
+                raise NameError("name 'coroutines' is not defined")
+            if failure == "AttributeError":
+                raise AttributeError("module 'dask' has no attribute 'utils'")
+            raise
+
+    monkeypatch.setattr(yore.sweep, "run", start_up)
+    out = tmp_path / "out"
+    assert main(["sweep", str(write(tmp_path, SMALL)), "-o", str(out), "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("yore: interrupted")
+    assert str(out) not in err and not out.exists()

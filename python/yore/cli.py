@@ -408,6 +408,9 @@ def _sweep(arguments):
     except KeyboardInterrupt:
         # the cells finished so far are on disk and in results.nc (written on the way out)
         out = arguments.resume or arguments.out or Path("yore-out") / arguments.sweep.stem
+        if not (Path(out) / "sweep.json").is_file():  # before the folder was made
+            raise KeyboardInterrupt("interrupted before the sweep started; nothing was "
+                                    "written") from None
         raise KeyboardInterrupt(f"interrupted; the finished cells are in {out}, "
                                 f"`yore sweep --resume {out}` runs the rest") from None
 
@@ -641,9 +644,30 @@ def _main(argv) -> int:
         _fail(error)
         return EXIT_FAILED
     except (ValueError, OSError) as error:
+        if _interrupted(error):
+            print("yore: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
         _fail(error)
         return EXIT_BAD_INPUT
+    except Exception as error:
+        if not _interrupted(error):
+            raise
+        # a Ctrl-C inside an import (dask's, on a sweep's start-up) leaves a half-initialised
+        # module whose next use fails with a NameError or AttributeError: still an interruption
+        print("yore: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return EXIT_OK
+
+
+def _interrupted(error) -> bool:
+    """Whether a KeyboardInterrupt is in the chain of exceptions that led to ``error``."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 def _fail(error):
