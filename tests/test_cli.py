@@ -191,6 +191,28 @@ def test_sizes_and_points_past_a_thousand_kilometres_fail_the_check_naming_the_k
     assert f"{key}:" in error and "1e+06" in error
 
 
+@pytest.mark.parametrize("settings, key, needs", [
+    (["--set", "integrator.rtol=1e-3"], "integrator.rtol", 'dt="auto"'),
+    (["--set", 'integrator.solver="eigen-ldlt"', "--set", 'integrator.factorization='
+      '"simplicial"'], "integrator.factorization", 'solver="cholmod"'),
+    (["--set", "integrator.pcg_tol=1e-8"], "integrator.pcg_tol", 'solver="pcg"')])
+def test_check_and_run_refuse_an_option_the_scene_would_ignore_alike(tmp_path, capsys,
+                                                                    settings, key, needs):
+    # issue 53 (and R04): the stiff scene's bdf2 has a fixed dt and Newton's tolerance given
+    scene = str(EXAMPLES / "stiff.toml")
+    errors = []
+    for command in (["check", scene], ["run", scene, "-o", str(tmp_path / "out"), "--quiet"]):
+        assert main([*command, *settings]) == 2
+        error = capsys.readouterr().err
+        assert error.startswith("yore: error:") and error.count("\n") == 1
+        assert f"{key}: {key.split('.')[1]} acts only with {needs}" in error
+        errors.append(error)
+    assert errors[0] == errors[1]  # the check says what the run would
+    assert not (tmp_path / "out").exists()
+    assert main(["check", scene, "--set", 'simulation.dt="auto"', *settings]) == \
+        (0 if key == "integrator.rtol" else 2)
+
+
 @pytest.mark.slow
 def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, capsys):
     run("hanging", tmp_path)

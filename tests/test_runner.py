@@ -551,3 +551,144 @@ def test_an_interrupted_sundials_run_resumes_bit_for_bit(tmp_path, monkeypatch, 
     assert summary["time"] == summary["frames"][-1]["time"]  # back at its last frame
     assert resume(split) == 0
     assert_same_run(straight, split)
+
+
+# -- issue 53, R07: a state's settings are its scene's ------------------------------------------
+SMALL_SCENE = """\
+[mesh]
+generator = "grid"
+nx = 6
+ny = 6
+plane = "xz"
+
+[material]
+{material}
+
+[[fixed]]
+set = "bottom corners"
+
+[simulation]
+integrator = "{integrator}"
+duration = 0.2
+{simulation}
+
+[integrator]
+{options}
+
+[[strokes]]
+time = 0.05
+material = [[0.1, 0.3], [0.9, 0.3]]
+
+[output]
+fps = 20
+"""
+
+
+def _edit_option(name, value):
+    def edit(state):
+        state["options"] = {**state["options"], name: value}
+    return edit
+
+
+def _edit_cloth(name, value):
+    def edit(state):
+        state["cloth"] = {**state["cloth"], name: value}
+    return edit
+
+
+def _edit_array(name, index, factor):
+    def edit(state):
+        values = state["cloth"][name].copy()
+        values[index] *= factor
+        state["cloth"] = {**state["cloth"], name: values}
+    return edit
+
+
+def _gravity(state):
+    state["gravity"] = np.array([0.0, -1.62, 0.0])
+
+
+@pytest.mark.parametrize("scene, edit, until, key, expected, got", [
+    # the issue's three: error control switched off, ρ∞ raised, ν near its limit
+    ({"integrator": "tr-bdf2", "simulation": 'dt = "auto"'}, _edit_option("adaptive", False),
+     0.1, "simulation.dt", '"auto" (error-controlled steps)', "a fixed step"),
+    ({"integrator": "generalized-alpha", "options": "rho_infinity = 0.5"},
+     _edit_option("rho_infinity", 1.0), 0.1, "integrator.rho_infinity", "0.5", "1.0"),
+    ({"material": 'stretch = "membrane"\nyoung_modulus = 100.0'},
+     _edit_cloth("poisson_ratio", 0.99999), 0.1, "material.poisson_ratio", "0.3", "0.99999"),
+    # a default the scene leaves alone, the other constants, a spring, gravity, the masses
+    ({}, _edit_option("newton_tol", 1e-3), 0.1, "integrator.newton_tol (not given: the "
+     "default)", "1e-05", "0.001"),
+    ({"material": "bend_stiffness = 50.0"}, _edit_cloth("bend_stiffness", 5.0), 0.1,
+     "material.bend_stiffness", "50.0", "5.0"),
+    ({"material": 'bending = "quadratic"\nbending_modulus = 1e-4'},
+     _edit_cloth("bending_modulus", 1e-2), 0.1, "material.bending_modulus", "0.0001", "0.01"),
+    ({}, _edit_cloth("drag", 0.0), 0.1, "material.drag", "0.3", "0.0"),
+    ({"material": "damping = 0.05"}, _edit_cloth("damping", 0.5), 0.1, "material.damping",
+     "0.05", "0.5"),
+    ({}, _edit_array("spring_stiffness", 3, 0.5), 0.1, "material.stretch_stiffness", "200.0",
+     "100.0"),
+    ({}, _gravity, 0.1, "simulation.gravity", "[0.0, -9.81, 0.0]", "[0.0, -1.62, 0.0]"),
+    ({"material": "mass_per_vertex = 0.01"}, _edit_array("masses", 7, 2.0), 0.03,
+     "material.mass_per_vertex", "0.01", "0.02"),
+])
+def test_a_state_whose_settings_were_edited_is_refused_naming_both_values(
+        tmp_path, capsys, scene, edit, until, key, expected, got):
+    settings = {"material": "", "integrator": "implicit", "simulation": "", "options": "",
+                **scene}
+    path = tmp_path / "scene.toml"
+    path.write_text(SMALL_SCENE.format(**settings), encoding="utf-8")
+    assert main(["run", str(path), "-o", str(tmp_path), "--until", str(until), "--quiet",
+                 "--no-render"]) == 0
+    capsys.readouterr()
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    state = sim.state()
+    edit(state)
+    yore.save_state(tmp_path / "state.npz", yore.Simulation.from_state(state), metadata=record)
+    written = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    assert resume(tmp_path) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("yore: error:") and "\n" not in error
+    assert f"{key} is {expected} in its scene but {got} in the state" in error
+    # nothing written: the state, the summary and the frames are as they were
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == written
+
+
+@pytest.mark.parametrize("scene", [
+    {"integrator": "tr-bdf2", "simulation": 'dt = "auto"', "options": "rtol = 1e-4"},
+    {"integrator": "explicit", "options": "strain_limit = 1.1"},
+    {"integrator": "local-global", "options": 'rebuild = "stale-pcg"'},
+    {"integrator": "generalized-alpha", "material": 'stretch = "membrane"\nyoung_modulus = '
+     '100.0\ndensity = 0.2'},
+    {"integrator": "bdf2", "options": "linearized = true",
+     "material": 'bending = "quadratic"\nbending_modulus = 1e-4'}])
+def test_an_unedited_state_resumes_past_its_strokes_with_every_setting_checked(tmp_path, scene):
+    # the check compares settings only: the stroke's new springs, vertices and masses pass
+    settings = {"material": "", "integrator": "implicit", "simulation": "", "options": "",
+                **scene}
+    path = tmp_path / "scene.toml"
+    path.write_text(SMALL_SCENE.format(**settings), encoding="utf-8")
+    assert main(["run", str(path), "-o", str(tmp_path), "--until", "0.1", "--quiet",
+                 "--no-render"]) == 0
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    assert record["next_stroke"] == 1 and sim.cloth.vertex_count > 36
+    assert resume(tmp_path) == 0
+    assert strict_json(tmp_path / "summary.json")["status"] == "finished"
+
+
+def test_a_run_whose_scene_gives_an_idle_option_still_resumes(tmp_path):
+    # runs started before such options were refused hold them in their scene: a resume
+    # continues what ran (rtol with a fixed dt did nothing then and does nothing now)
+    path = tmp_path / "scene.toml"
+    path.write_text(SMALL_SCENE.format(material="", integrator="tr-bdf2", simulation="dt = 0.02",
+                                       options=""), encoding="utf-8")
+    assert main(["run", str(path), "-o", str(tmp_path), "--until", "0.1", "--quiet",
+                 "--no-render"]) == 0
+    sim, record = yore.load_state(tmp_path / "state.npz")
+    record["scene_text"] = record["scene_text"].replace("[integrator]\n",
+                                                        "[integrator]\nrtol = 0.001\n")
+    with pytest.raises(yore.runs.SceneError, match="integrator.rtol: rtol acts only with"):
+        yore.load_scene(text=record["scene_text"]).build()
+    yore.save_state(tmp_path / "state.npz", sim, metadata=record)
+    assert resume(tmp_path) == 0
+    assert strict_json(tmp_path / "summary.json")["status"] == "finished"

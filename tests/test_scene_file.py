@@ -217,6 +217,21 @@ def test_integrator_options_are_checked_by_the_simulation_rules(option, value):
     assert error.key == f"integrator.{option}" and error.line is not None
 
 
+def test_an_option_the_scene_does_not_use_is_named_with_its_line():
+    # issue 53: rtol with a fixed dt was accepted and ignored; defaults never count
+    text = MINIMAL.replace("duration = 0.1", 'duration = 0.1\nintegrator = "tr-bdf2"\ndt = 0.01')
+    error = error_of(text + "[integrator]\nnewton_tol = 1e-6\nrtol = 1e-3\n")
+    assert error.key == "integrator.rtol" and error.line == 12
+    assert 'acts only with dt="auto"' in error.problem and "with a fixed dt" in error.problem
+    scene = load_scene(text=text.replace("dt = 0.01", 'dt = "auto"') +
+                       "[integrator]\nrtol = 1e-3\n")
+    sim, _ = scene.build()
+    assert sim.options["rtol"] == 1e-3 and sim.options["adaptive"] is True
+    error = error_of(text.replace("tr-bdf2", "local-global") +
+                     '[integrator]\nacceleration = "none"\nchebyshev_rho = 0.5\n')
+    assert error.key == "integrator.chebyshev_rho" and 'acceleration="chebyshev"' in str(error)
+
+
 def test_non_finite_numbers_are_refused_where_they_make_no_sense():
     for text in (MINIMAL.replace("duration = 0.1", "duration = inf"),
                  MINIMAL + "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, nan], [0.5, 0.5]]\n",

@@ -142,6 +142,70 @@ def test_options_given_correctly_are_kept_as_given(cloth):
     assert type(options["max_newton"]) is int and type(options["newton_tol"]) is float
 
 
+# -- issue 53: an option of a mode not in use is refused, not ignored -------------------------
+@pytest.mark.parametrize("integrator, options, option, needs", [
+    ("tr-bdf2", {"dt": 0.01, "rtol": 1e-3}, "rtol", 'dt="auto"'),
+    ("bdf2", {"atol": 1e-6}, "atol", 'dt="auto"'),
+    ("tr-bdf2", {"max_steps": 10}, "max_steps", 'dt="auto"'),
+    ("implicit", {"lag_cg_tol": 1e-6}, "lag_cg_tol", "lagged_factorization=True"),
+    ("generalized-alpha", {"lagged_factorization": False, "lag_max_cg_iterations": 5},
+     "lag_max_cg_iterations", "lagged_factorization=True"),
+    ("implicit", {"pcg_tol": 1e-6}, "pcg_tol", 'solver="pcg"'),
+    ("implicit", {"solver": "eigen-ldlt", "pcg_max_iterations": 10}, "pcg_max_iterations",
+     'solver="pcg"'),
+    ("implicit", {"solver": "pcg", "factorization": "simplicial"}, "factorization",
+     'solver="cholmod"'),
+    ("explicit", {"strain_limit_passes": 8}, "strain_limit_passes", "a strain_limit"),
+    ("local-global", {"stale_pcg_tol": 1e-6}, "stale_pcg_tol", 'rebuild="stale-pcg"'),
+    ("local-global", {"acceleration": "none", "chebyshev_rho": 0.9}, "chebyshev_rho",
+     'acceleration="chebyshev"'),
+])
+def test_an_option_of_a_mode_not_in_use_is_refused_naming_the_mode(cloth, integrator, options,
+                                                                   option, needs):
+    with pytest.raises(yore.options.InactiveOptionError) as caught:
+        yore.Simulation(cloth, integrator=integrator, **options)
+    message = str(caught.value)
+    assert message.startswith(f"{option} acts only with {needs}") and "\n" not in message
+    assert "would be ignored" in message and caught.value.option == option
+    assert isinstance(caught.value, ValueError)
+
+
+@pytest.mark.parametrize("integrator, options", [
+    ("tr-bdf2", {"dt": "auto", "rtol": 1e-4, "atol": 1e-6, "max_steps": 100}),
+    ("bdf2", {"dt": "auto", "rtol": 1e-4}),
+    ("implicit", {"lagged_factorization": True, "lag_cg_tol": 1e-8}),
+    ("implicit", {"solver": "pcg", "pcg_tol": 1e-8, "pcg_max_iterations": 100}),
+    ("implicit", {"solver": "cholmod", "factorization": "simplicial"}),
+    ("explicit", {"strain_limit": 1.1, "strain_limit_passes": 8}),
+    ("local-global", {"rebuild": "stale-pcg", "stale_pcg_tol": 1e-8, "chebyshev_rho": 0.9}),
+])
+def test_the_same_options_in_their_mode_are_taken(cloth, integrator, options):
+    sim = yore.Simulation(cloth, integrator=integrator, **options)
+    given = {name: value for name, value in options.items() if name != "dt"}
+    assert {name: sim.options[name] for name in given} == given
+
+
+@pytest.mark.parametrize("integrator", yore.simulation.INTEGRATORS)
+def test_defaults_of_modes_not_in_use_are_never_judged(cloth, integrator):
+    # every integrator at its defaults, and with a mode switched off: its other modes'
+    # defaults stay silent, and a state (which holds them all) continues
+    switches = {"implicit": {"solver": "pcg"}, "bdf2": {"solver": "eigen-ldlt"},
+                "tr-bdf2": {"solver": "pcg"}, "explicit": {"strain_limit": None},
+                "local-global": {"acceleration": "none"}}
+    for options in ({}, switches.get(integrator, {})):
+        sim = yore.Simulation(cloth, integrator=integrator, **options)
+        again = yore.Simulation.from_state(sim.state())
+        assert again.resolved_options == sim.resolved_options
+
+
+def test_every_mode_only_option_and_its_setting_belong_to_one_integrator():
+    tables = yore.options.INTEGRATOR_OPTIONS
+    for option, mode in yore.options.MODE_ONLY.items():
+        together = [name for name, table in tables.items()
+                    if option in table and mode.setting in table]
+        assert together, option  # an entry no integrator can act on would be dead
+
+
 @pytest.mark.parametrize("arguments, match", [
     ({"region": [0.5, 1.7]}, "region: got list"), ({"region": True}, "region: got bool"),
     ({"region": "some"}, "region"), ({"region": [[0, 1]]}, "region: got an array of shape"),

@@ -13,7 +13,8 @@ from ._core import Cloth, SimulationDiverged
 from .checks import MAX_STEPS, MIN_DT
 from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
                       INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS,
-                      check_option, resolve_options, show_value)
+                      check_modes, check_option, options_in_force, resolve_options,
+                      show_value)
 from . import progress as progress_bars, rules, settling, smoothing
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
@@ -130,13 +131,23 @@ class Simulation:
     ValueError
         Unknown integrator or option name (the message lists the valid ones), an option of the
         wrong type or out of range (see `check_option`: booleans must be True/False, counts
-        integers up to `MAX_STEP_ITERATIONS`, tolerances finite), bad dt or gravity.
+        integers up to `MAX_STEP_ITERATIONS`, tolerances finite), bad dt or gravity, and an
+        option given for a mode not in use, which would do nothing
+        (`yore.options.InactiveOptionError`, see `yore.options.MODE_ONLY`: e.g. ``rtol``
+        with a fixed dt, ``pcg_tol`` without ``solver="pcg"``). Only the options passed
+        here are judged, never the defaults, nor a state's options in `from_state`.
     NotImplementedError
         An integrator of the API that this version does not build yet.
     """
 
     def __init__(self, cloth, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                  **options):
+        # the options passed here are the user's: each is judged against the mode in use
+        self._build(cloth, integrator, dt, gravity, options, given=tuple(options))
+
+    def _build(self, cloth, integrator, dt, gravity, options, given):
+        """The constructor's work; ``given`` names the options a user chose (`check_modes`
+        refuses those that act only in a mode not in use), not those a state file holds."""
         if not isinstance(cloth, Cloth):
             raise TypeError(f"cloth must be a yore.Cloth, got {type(cloth).__name__}")
         if not isinstance(integrator, str) or integrator not in INTEGRATORS:
@@ -148,8 +159,10 @@ class Simulation:
             raise ValueError(
                 f"unknown option(s) {', '.join(map(repr, unknown))} for integrator "
                 f"{integrator!r}; valid: {', '.join(sorted(valid)) or 'none'}")
-        self._options = {**valid, **{name: check_option(integrator, name, value)
-                                     for name, value in options.items()}}
+        # the defaults filled in; dt="auto" selects error control (checked below)
+        self._options = options_in_force(
+            integrator, {name: check_option(integrator, name, value)
+                         for name, value in options.items()}, dt)
         gravity = np.asarray(gravity, dtype=np.float64)
         if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
             raise ValueError(f"gravity must be 3 finite numbers (m/s²), got {gravity!r}")
@@ -166,9 +179,8 @@ class Simulation:
                 raise ValueError(f"dt='auto' chooses the steps by error control, which "
                                  f"integrator {integrator!r} does not have; use one of "
                                  f"{', '.join(adaptive)}")
-            if "adaptive" in self._options:
-                self._options["adaptive"] = True
             dt = FIXED_DT  # the output interval
+        check_modes(integrator, given, self._options)
         # Error-controlled: dt is an output interval, inside which the steps are chosen.
         self._error_controlled = self._spec.error_controlled or bool(
             self._options.get("adaptive"))
@@ -271,9 +283,14 @@ class Simulation:
             got = sorted(state) if isinstance(state, dict) else type(state).__name__
             raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, "
                              f"got {got}")
+        if not isinstance(state["options"], dict):
+            raise ValueError(f"options must be a dict, got {type(state['options']).__name__}")
         cloth = Cloth.from_state(state["cloth"])
-        sim = cls(cloth, integrator=state["integrator"], dt=state["dt"],
-                  gravity=state["gravity"], **_as_saved(state["integrator"], state["options"]))
+        # A state holds every option as it ran, defaults included (also those of modes not in
+        # use): none of them is a user's choice to judge.
+        sim = cls.__new__(cls)
+        sim._build(cloth, state["integrator"], state["dt"], state["gravity"],
+                   _as_saved(state["integrator"], state["options"]), given=())
         history = state["history"]
         if history is not None:
             fields = (*sim._spec.history(sim._options), "dt")

@@ -16,7 +16,7 @@ import numpy as np
 from .._core import ArgumentError, Cloth
 from ..io import load_mesh
 from ..meshes import cylinder_mesh, cylinder_ring, grid_mesh, pattern_mesh
-from ..options import GRAVITY
+from ..options import GRAVITY, InactiveOptionError
 from ..simulation import Simulation
 from ..camera import Camera, camera_from_settings
 from ..stroke import RefinementTooLarge, StrokeMissed, StrokeOptions, StrokePath
@@ -49,6 +49,10 @@ def build_simulation(scene):
         sim = Simulation(cloth, integrator=simulation["integrator"], dt=simulation.get("dt"),
                          gravity=GRAVITY if gravity is None else gravity,
                          **data["integrator"])
+    except InactiveOptionError as error:
+        # an [integrator] option of a mode the scene does not select: named by its key, here
+        # where `yore check` and the run both build (a resumed run does not: it continues)
+        raise scene.error(f"integrator.{error.option}", str(error)) from None
     except ValueError as error:
         raise scene.error("integrator", str(error)) from None
     # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an

@@ -9,10 +9,15 @@ import re
 from dataclasses import dataclass, field as _field, fields, replace
 from pathlib import Path
 
+import numpy as np
+
+from ..options import (FIXED_DT, GRAVITY, INTEGRATOR_SPECS, options_in_force,
+                       resolve_options)
 from .loading import step_of
 from .schedule import frame_due
 
-__all__ = ["RunRecord", "FRAMES_DIR", "BEFORE_NAME", "check_metadata", "check_against"]
+__all__ = ["RunRecord", "FRAMES_DIR", "BEFORE_NAME", "check_metadata", "check_against",
+           "check_settings"]
 
 #: The run folder's frames folder and its "before" mesh (relative to the run folder).
 FRAMES_DIR = "frames"
@@ -163,6 +168,7 @@ def check_against(state_path, record, scene, sim):
     if integrator != sim.integrator:
         fail("scene_text", f"its scene's integrator is {integrator!r}, the state's is "
                            f"{sim.integrator!r}")
+    check_settings(state_path, scene, sim, record["next_stroke"])
     every = scene.frame_interval(sim.dt)
     step = record["step"]
     due = step // every + 1  # frames at 0, every, 2 every, ... up to step
@@ -186,6 +192,109 @@ def check_against(state_path, record, scene, sim):
                 fail("frames", f"entry {number} is {Path(path).name}, expected frame "
                                f"{number:05d}")
 
+
+
+def check_settings(state_path, scene, sim, strokes_done):
+    """The state's settings against its scene's (the integrator being the same): every
+    integrator option as resolved, dt where the scene sets it, gravity, and the material —
+    stretching and bending models and constants, damping, drag, each spring's stiffness and
+    damping (a stroke's springs take the cloth's constants), and while no stroke is drawn
+    (``strokes_done`` 0; strokes move mass) the masses of a scene that gives ``mass`` or
+    ``mass_per_vertex``. Only settings are compared, never what a run changes (positions, rest
+    lengths, topology). ValueError naming the scene's key, its value and the state's."""
+    def fail(key, field, expected, got):
+        raise ValueError(f"{state_path}: {key} is {_shown(expected)} in its scene but "
+                         f"{_shown(got)} in the state (field simulation.{field}); the state "
+                         "does not match its scene (was it edited?): start the run again "
+                         "with --overwrite")
+
+    def steps(adaptive):
+        return _Shown('"auto" (error-controlled steps)' if adaptive else "a fixed step")
+
+    data = scene.data
+    simulation = data["simulation"]
+    integrator = simulation["integrator"]
+    expected = resolve_options(integrator, options_in_force(integrator, data["integrator"],
+                                                            simulation.get("dt")))
+    options = sim.resolved_options
+    for name, value in expected.items():
+        got = options.get(name)
+        if got == value and type(got) is type(value):
+            continue
+        if name == "adaptive" and name not in data["integrator"]:  # what dt = "auto" sets
+            fail("simulation.dt", "options.adaptive", steps(value), steps(got))
+        fail(f"integrator.{name}" if name in data["integrator"] else
+             f"integrator.{name} (not given: the default)", f"options.{name}", value, got)
+    dt = simulation.get("dt")
+    if dt == "auto" or (dt is None and not INTEGRATOR_SPECS[integrator].conditionally_stable):
+        dt = FIXED_DT  # (an explicit scene's default dt follows its cloth: not checked)
+    if dt is not None and sim.dt != dt:
+        fail("simulation.dt", "dt", dt, sim.dt)
+    gravity = GRAVITY if simulation.get("gravity") is None else simulation["gravity"]
+    if not np.array_equal(np.asarray(gravity, dtype=np.float64), sim.gravity):
+        fail("simulation.gravity", "gravity", list(map(float, gravity)),
+             sim.gravity.tolist())
+    _check_material(data["material"], sim.cloth, strokes_done, fail)
+
+
+def _check_material(material, cloth, strokes_done, fail):
+    state = cloth.state()
+    membrane, quadratic = material["stretch"] == "membrane", material["bending"] == "quadratic"
+    if cloth.stretch != material["stretch"]:
+        fail("material.stretch", "cloth.young_modulus", material["stretch"], cloth.stretch)
+    if cloth.bending != material["bending"]:
+        fail("material.bending", "cloth.bending", material["bending"], cloth.bending)
+    constants = {"damping": state["damping"], "drag": state["drag"]}
+    if membrane:
+        constants.update(young_modulus=state["young_modulus"],
+                         poisson_ratio=state["poisson_ratio"])
+    else:
+        constants["stretch_stiffness"] = state["stretch_stiffness"]
+    if quadratic:
+        constants["bending_modulus"] = state["bending_modulus"]
+    else:
+        constants["bend_stiffness"] = state["bend_stiffness"]
+    for key, value in constants.items():
+        if float(material[key]) != value:
+            fail(f"material.{key}", f"cloth.{key}", float(material[key]), value)
+    # each spring as made: structural ones at stretch_stiffness (0 under a membrane), bending
+    # ones at bend_stiffness, all at the damping
+    stiffness = {0: 0.0 if membrane else float(material["stretch_stiffness"]),
+                 1: 0.0 if quadratic else float(material["bend_stiffness"])}
+    names = {0: "stretch_stiffness", 1: "bend_stiffness"}
+    for kind, value in stiffness.items():
+        chosen = state["spring_kind"] == kind
+        wrong = np.flatnonzero(state["spring_stiffness"][chosen] != value)
+        if wrong.size:
+            index = int(np.flatnonzero(chosen)[wrong[0]])
+            fail(f"material.{names[kind]}", f"cloth.spring_stiffness[{index}]", value,
+                 float(state["spring_stiffness"][index]))
+    wrong = np.flatnonzero(state["spring_damping"] != float(material["damping"]))
+    if wrong.size:
+        index = int(wrong[0])
+        fail("material.damping", f"cloth.spring_damping[{index}]", float(material["damping"]),
+             float(state["spring_damping"][index]))
+    if strokes_done == 0 and ("mass" in material or "mass_per_vertex" in material):
+        n = cloth.vertex_count
+        key = "mass" if "mass" in material else "mass_per_vertex"
+        per_vertex = material["mass"] / n if key == "mass" else material["mass_per_vertex"]
+        wrong = np.flatnonzero(state["masses"] != per_vertex)
+        if wrong.size:
+            index = int(wrong[0])
+            scene_value = material[key]
+            got = float(state["masses"].sum()) if key == "mass" else \
+                float(state["masses"][index])
+            fail(f"material.{key}", "cloth.masses" if key == "mass" else
+                 f"cloth.masses[{index}]", scene_value, got)
+
+
+class _Shown(str):
+    """Text that error messages quote as it is."""
+
+
+def _shown(value):
+    return str(value) if isinstance(value, _Shown) else \
+        repr(value) if isinstance(value, str) else str(value)
 
 
 def _is_frame_path(text):
