@@ -1,5 +1,6 @@
 """Real Ctrl-Cs at random moments of `yore run`, then `--resume`: does every interrupted run end
-bit for bit where a straight run ends? (Issue 41's acceptance: 30 trials per integrator.)
+bit for bit where a straight run ends? (Issue 41's acceptance: 30 trials per integrator; issue
+53 added every other integrator, the error-controlled steps and a growing stroke.)
 
 For each integrator, one straight run of a small scene (the paper's hanging cloth at 15×15 or
 21×21, a stroke at 0.5 s, frames every 0.05 s, 2–5 s in all: SIZES) is the reference. Each trial starts the same
@@ -41,17 +42,30 @@ SCENE = ROOT / "examples" / "hanging_paper.toml"
 SETTINGS = ["--set", "strokes.0.time=0.5", "--set", "simulation.settle=0",
             "--set", "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]", "--set", "output.fps=20",
             "--no-render", "--quiet"]
-INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton")
-# per integrator, a run of a few seconds here (so that most signals land in the stepping)
+INTEGRATORS = ("explicit", "implicit", "bdf2", "local-global", "quasi-newton",
+               "generalized-alpha", "tr-bdf2", "tr-bdf2 auto", "bdf2 auto", "cvode", "arkode",
+               "quasi-newton, growing stroke")
+# per trial kind, a run of a few seconds here (so that most signals land in the stepping):
+# (nx = ny, duration s, dt s or default, "auto" for error-controlled steps)
 SIZES = {"explicit": ("31", "5.0", None), "implicit": ("15", "2.0", "0.0005"),
          "bdf2": ("15", "2.0", "0.0005"), "local-global": ("15", "2.0", "0.0005"),
-         "quasi-newton": ("15", "2.0", "0.0001")}  # (nx = ny, duration s, dt s or default)
+         "quasi-newton": ("15", "2.0", "0.0001"), "generalized-alpha": ("15", "2.0", "0.002"),
+         "tr-bdf2": ("15", "2.0", "0.002"), "tr-bdf2 auto": ("15", "2.0", '"auto"'),
+         "bdf2 auto": ("15", "2.0", '"auto"'), "cvode": ("15", "2.0", None),
+         "arkode": ("15", "2.0", None), "quasi-newton, growing stroke": ("15", "2.0", "0.0001")}
+# kinds that are an integrator with more settings (issue 53: a stroke that grows rest lengths
+# tenfold changed the quasi-Newton stopping scale unseen)
+VARIANTS = {"tr-bdf2 auto": ("tr-bdf2", []), "bdf2 auto": ("bdf2", []),
+            "quasi-newton, growing stroke": ("quasi-newton", [
+                "--set", 'strokes.0.growth="isotropic"', "--set", "strokes.0.width=0.5",
+                "--set", "strokes.0.expansion=10"])}
 
 
-def command(integrator, out, *extra):
-    size, duration, dt = SIZES[integrator]
+def command(kind, out, *extra):
+    size, duration, dt = SIZES[kind]
+    integrator, more = VARIANTS.get(kind, (kind, []))
     settings = ["--set", f"simulation.integrator=\"{integrator}\"", "--set", f"mesh.nx={size}",
-                "--set", f"mesh.ny={size}", "--set", f"simulation.duration={duration}"]
+                "--set", f"mesh.ny={size}", "--set", f"simulation.duration={duration}", *more]
     if dt is not None:
         settings += ["--set", f"simulation.dt={dt}"]
     return [YORE, "run", str(SCENE), "-o", str(out), *SETTINGS, *settings, *extra]
@@ -124,20 +138,20 @@ def main():
     with tempfile.TemporaryDirectory(prefix="yore-interrupts-") as scratch:
         scratch = Path(scratch)
         for integrator in arguments.integrators:
-            straight = scratch / f"{integrator}-straight"
+            straight = scratch / f"{integrator.replace(' ', '_')}-straight"
             started = time.perf_counter()
             subprocess.run(command(integrator, straight), check=True, timeout=600)
             wall = time.perf_counter() - started
             reference = fingerprint(straight)
             rows = []
             for number in range(arguments.trials):
-                folder = scratch / f"{integrator}-{number}"
+                folder = scratch / f"{integrator.replace(' ', '_')}-{number}"
                 delay = rng.uniform(0.0, wall)
                 passed, where, resumes = trial(integrator, reference, delay, folder)
                 rows.append({"delay_seconds": round(delay, 3), "passed": passed,
                              "where": where, "resumes": resumes})
                 shutil.rmtree(folder, ignore_errors=True)
-                print(f"{integrator:13s} trial {number + 1:2d}: "
+                print(f"{integrator:28s} trial {number + 1:2d}: "
                       f"{'same' if passed else 'DIFFERENT'} ({where}, signal at {delay:.2f} s)",
                       flush=True)
             results["integrators"][integrator] = {
