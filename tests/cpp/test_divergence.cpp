@@ -32,13 +32,22 @@ TEST_CASE("the monitored energy leaves out the kinetic and potential energy of c
   CHECK(DivergenceMonitor::monitored_energy(cloth, g) == doctest::Approx(expected).epsilon(1e-14));
 }
 
-TEST_CASE("the bound: baseline plus factor × the documented energy scale") {
-  // one free mass on one spring at rest, no gravity, no drivers: E_scale = ½ k L²
+namespace {
+
+// Two 1 kg masses on one spring along x at its rest length, 1 m (k = 8 N/m, no damping or drag).
+Cloth one_spring() {
   Positions x(2, 3);
   x << 0, 0, 0, 1, 0, 0;
   yore::Edges e(1, 2);
   e << 0, 1;
-  Cloth spring = Cloth::from_springs(x, e, {}, Eigen::Vector2d(1.0, 1.0), 8.0, 0.0, 0.0);
+  return Cloth::from_springs(x, e, {}, Eigen::Vector2d(1.0, 1.0), 8.0, 0.0, 0.0);
+}
+
+}  // namespace
+
+TEST_CASE("the bound: baseline plus factor × the documented energy scale") {
+  // one free mass on one spring at rest, no gravity, no drivers: E_scale = ½ k L²
+  Cloth spring = one_spring();
   DivergenceMonitor monitor(3.0);
   monitor.prepare(spring, Vec3::Zero(), 1e-3);
   CHECK(monitor.limit() == doctest::Approx(3.0 * 0.5 * 8.0).epsilon(1e-15));
@@ -53,11 +62,8 @@ TEST_CASE("the bound: baseline plus factor × the documented energy scale") {
 TEST_CASE("the growth check: a rise above the lowest energy by more than the allowance") {
   // one free mass on a spring stretched by 0.5 m (k = 8: 1 J), no gravity, no drivers:
   // allowance = growth × (kinetic + elastic) = 0.25 × 1 J
-  Positions x(2, 3);
-  x << 0, 0, 0, 1, 0, 0;
-  yore::Edges e(1, 2);
-  e << 0, 1;
-  Cloth spring = Cloth::from_springs(x, e, {}, Eigen::Vector2d(1.0, 1.0), 8.0, 0.0, 0.0);
+  Cloth spring = one_spring();
+  Positions x = spring.positions();
   spring.fix({0});
   x(1, 0) = 1.5;
   spring.set_positions(x);
