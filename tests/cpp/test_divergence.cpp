@@ -82,7 +82,12 @@ TEST_CASE("the growth check: a rise above the lowest energy by more than the all
   monitor.prepare(spring, Vec3::Zero(), 1e-3);
   CHECK(monitor.lowest() == doctest::Approx(1.0).epsilon(1e-15));
   CHECK(monitor.largest_gain() == doctest::Approx(0.26));
-  // a turning driver may feed in M(ωD)² more; off: no allowance is ever passed
+  // a turning driver does work the monitor cannot bound: no allowance is ever passed
+  spring.drive_rotation({1}, Vec3::Zero(), Vec3(0, 0, 1), 1.0);
+  monitor.prepare(spring, Vec3::Zero(), 1e-3);
+  CHECK(std::isinf(monitor.allowance()));
+  CHECK(monitor.judge(9.0) == DivergenceMonitor::Verdict::ok);
+  // 0 turns the check off
   DivergenceMonitor off(10.0, 0.0);
   off.prepare(spring, Vec3::Zero(), 1e-3);
   CHECK(std::isinf(off.allowance()));
