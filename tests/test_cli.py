@@ -584,3 +584,15 @@ def test_only_the_yore_command_guards_its_start(monkeypatch, orig_argv, guarded)
         assert signal.getsignal(signal.SIGINT) is before
     finally:
         signal.signal(signal.SIGINT, before)
+
+
+def test_a_runs_report_says_its_largest_energy_rise(tmp_path, capsys):
+    # issue 53: the growth check's measure is in the summary's counters and the report
+    code = main(["run", str(EXAMPLES / "hanging_paper.toml"), "-o", str(tmp_path), "--no-render",
+                 "--set", "mesh.nx=7", "--set", "mesh.ny=7", "--set", "simulation.duration=0.2",
+                 "--set", "strokes.0.time=0.1",
+                 "--set", "simulation.settle=0"])
+    out = capsys.readouterr().out
+    gain = json.loads((tmp_path / "summary.json").read_text())["counters"]["energy_gain"]
+    assert code == 0 and gain > 0
+    assert f"largest energy rise above its lowest: {gain:.3g} J" in out

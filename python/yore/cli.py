@@ -311,6 +311,8 @@ def _report(summary, out, quiet):
     if counters.get("analyses") is not None:
         print(f"symbolic analyses: {counters['analyses']}, factorizations: "
               f"{counters.get('factorizations')}")
+    if counters.get("energy_gain"):  # the growth check's measure (docs/integrators.md)
+        print(f"largest energy rise above its lowest: {counters['energy_gain']:.3g} J")
     outputs = summary["outputs"]
     where = {"frames": "frames", "pvd": "ParaView collection", "before_after": "before/after",
              "demo": "no stroke / paper / yore",
