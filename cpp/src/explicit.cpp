@@ -78,7 +78,8 @@ double spring_forces(const Cloth& cloth, Positions& out, int threads) {
 }  // namespace
 
 ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options)
-    : m_options(options), m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {
+    : m_options(options),
+      m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {
   if (!std::isfinite(options.strain_limit) || options.strain_limit < 0.0 ||
       (options.strain_limit > 0.0 && options.strain_limit < 1.0)) {
     std::ostringstream msg;

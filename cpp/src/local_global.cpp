@@ -14,7 +14,8 @@
 namespace yore {
 
 LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
-    : m_options(options), m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {
+    : m_options(options),
+      m_monitor(options.divergence_energy_factor, options.energy_growth_tolerance) {
   if (options.iterations < 1) {
     std::ostringstream msg;
     msg << "iterations must be >= 1, got " << options.iterations;
