@@ -120,10 +120,12 @@ void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t 
   checkpoint_positions = cloth.positions();  // same size call to call: no reallocation
   checkpoint_velocities = cloth.velocities();
   const SimulationClock checkpoint_clock = cloth.clock();
+  const double lowest_at_start = monitor.lowest();
   auto restore = [&] {
     cloth.integrator_positions() = checkpoint_positions;
     cloth.integrator_velocities() = checkpoint_velocities;
     cloth.set_clock(checkpoint_clock);
+    monitor.restore_lowest(lowest_at_start);
     if (on_restore) on_restore();
   };
   for (std::int64_t k = 0; k < steps; ++k) {

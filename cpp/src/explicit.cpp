@@ -216,6 +216,7 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   m_checkpoint_positions = cloth.positions();  // same size every call: no reallocation
   m_checkpoint_velocities = cloth.velocities();
   const SimulationClock checkpoint_clock = cloth.clock();
+  m_lowest_at_start = m_monitor.lowest();
   m_statistics.checks_seconds += start.seconds();
 
   const bool limiting = m_options.strain_limit > 0.0;
@@ -313,6 +314,7 @@ void ExplicitIntegrator::judge_or_restore(Cloth& cloth, bool finite, double ener
   const DivergenceMonitor::Verdict verdict =
       finite ? m_monitor.judge(energy) : DivergenceMonitor::Verdict::past_bound;
   if (verdict == DivergenceMonitor::Verdict::ok) return;
+  m_monitor.restore_lowest(m_lowest_at_start);
   cloth.integrator_positions() = m_checkpoint_positions;
   cloth.integrator_velocities() = m_checkpoint_velocities;
   cloth.set_clock(checkpoint_clock);

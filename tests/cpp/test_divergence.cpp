@@ -157,6 +157,9 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
     CHECK(cloth.positions() == start);
     CHECK(cloth.time() == 0.0);
     CHECK(steps_taken < 1000);
+    // the undone steps' energies are gone from the monitor's memory too
+    CHECK(monitor.lowest() == doctest::Approx(DivergenceMonitor::monitored_energy(
+                                  cloth, Vec3(0, 0, -9.81))).epsilon(1e-12));
   }
   SUBCASE("a non-finite state") {
     const auto step = [&] {

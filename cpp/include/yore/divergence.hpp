@@ -49,6 +49,9 @@ class DivergenceMonitor {
   double lowest() const { return m_lowest; }
   /// Largest rise allowed above the lowest, J (infinity with the check off).
   double allowance() const { return m_allowance; }
+  /// Puts back the lowest energy a call started with, when the call is undone (its states are
+  /// gone, and so is what they reached).
+  void restore_lowest(double lowest) { m_lowest = lowest; }
   /// Largest rise above the lowest seen by judge() over the monitor's life, J.
   double largest_gain() const { return m_largest_gain; }
   double growth() const { return m_growth; }

@@ -124,6 +124,7 @@ class ExplicitIntegrator : public Integrator {
   Positions m_checkpoint_velocities;
   bool m_with_spring_damping = false;
   DivergenceMonitor m_monitor;
+  double m_lowest_at_start = 0.0;  // the monitor's lowest energy when the call began
   /// Judges a step's monitored energy; on a blow-up or a gain restores the call's checkpoint and
   /// throws SimulationDiverged.
   void judge_or_restore(Cloth& cloth, bool finite, double energy, std::int64_t step, double time,
