@@ -21,12 +21,14 @@ const char* const kStateKeys[] = {
     "bend_stiffness",   "damping",          "material_coordinates", "vertex_states",
     "drivers",          "clock_origin",     "clock_steps",      "clock_dt",
     "bending",          "bending_modulus",  "bending_rest",     "young_modulus",
-    "poisson_ratio"};
+    "poisson_ratio",    "bending_operator"};
 /// Keys a state may lack: states saved before quadratic bending existed are bending springs,
-/// before the membrane existed springs resist stretching.
+/// before the membrane existed springs resist stretching, and before the fitted operator
+/// (issue 52) "quadratic" meant the hinge energy: such a state loads as bending="hinge", so it
+/// goes on with the physics it was saved with.
 bool optional_state_key(const std::string& key) {
   return key == "bending" || key == "bending_modulus" || key == "bending_rest" ||
-         key == "young_modulus" || key == "poisson_ratio";
+         key == "young_modulus" || key == "poisson_ratio" || key == "bending_operator";
 }
 
 std::vector<double> double_list(const py::handle& object, const char* name, Eigen::Index size) {
@@ -40,12 +42,17 @@ std::vector<double> double_list(const py::handle& object, const char* name, Eige
 BendingModel bending_model(const std::string& name) {
   if (name == "springs") return BendingModel::springs;
   if (name == "quadratic") return BendingModel::quadratic;
-  throw std::invalid_argument("bending must be \"springs\" or \"quadratic\", got \"" + name +
-                              "\"");
+  if (name == "hinge") return BendingModel::hinge;
+  throw std::invalid_argument("bending must be \"springs\", \"quadratic\" or \"hinge\", got \"" +
+                              name + "\"");
 }
 
 const char* bending_name(BendingModel model) {
-  return model == BendingModel::quadratic ? "quadratic" : "springs";
+  switch (model) {
+    case BendingModel::quadratic: return "quadratic";
+    case BendingModel::hinge: return "hinge";
+    default: return "springs";
+  }
 }
 
 py::dict state_dict(const Cloth& cloth) {
@@ -97,6 +104,9 @@ py::dict state_dict(const Cloth& cloth) {
   out["clock_steps"] = state.clock.steps;
   out["clock_dt"] = state.clock.dt;
   out["bending"] = bending_name(state.bending);
+  // Which Q "quadratic" means in this file (issue 52); a file without it holds the hinge Q.
+  out["bending_operator"] = state.bending == BendingModel::quadratic ? py::object(py::str("fitted"))
+                                                                     : py::object(py::none());
   out["bending_modulus"] = state.bending_modulus;
   out["bending_rest"] =
       state.bending_rest.rows() ? py::object(read_only_copy(state.bending_rest)) : py::none();
@@ -188,6 +198,12 @@ Cloth cloth_from_state(const py::dict& values) {
   state.clock.steps = values["clock_steps"].cast<std::int64_t>();
   state.clock.dt = values["clock_dt"].cast<double>();
   if (values.contains("bending")) state.bending = bending_model(values["bending"].cast<std::string>());
+  if (state.bending == BendingModel::quadratic) {  // "fitted", or a file from before it: hinges
+    const bool fitted = values.contains("bending_operator") &&
+                        !values["bending_operator"].is_none() &&
+                        values["bending_operator"].cast<std::string>() == "fitted";
+    if (!fitted) state.bending = BendingModel::hinge;
+  }
   if (values.contains("bending_modulus") && !values["bending_modulus"].is_none()) {
     state.bending_modulus = values["bending_modulus"].cast<double>();
   }

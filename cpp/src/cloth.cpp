@@ -136,15 +136,15 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
   check_non_negative(bend_stiffness, "bend_stiffness");
   check_non_negative(damping, "damping");
   check_non_negative(bending_modulus, "bending_modulus");
-  if (bending != BendingModel::springs && bending != BendingModel::quadratic) {
-    fail("bending must be springs (0) or quadratic (1)");
+  if (bending != BendingModel::springs && !is_quadratic(bending)) {
+    fail("bending must be springs (0), quadratic (1) or hinge (2)");
   }
   if (bending == BendingModel::springs && bending_modulus != 0.0) {
     fail_argument("bending_modulus is for quadratic bending; with bending springs use "
                   "bend_stiffness",
                   "bending_modulus");
   }
-  if (bending == BendingModel::quadratic && bend_stiffness != 0.0) {
+  if (is_quadratic(bending) && bend_stiffness != 0.0) {
     std::ostringstream msg;
     msg << "quadratic bending creates no bending springs: bend_stiffness must be 0, got "
         << bend_stiffness;
@@ -153,7 +153,7 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
   initialise_state(positions, masses, drag);
   m_bending = bending;
   m_bending_modulus = bending_modulus;
-  if (bending == BendingModel::quadratic) {
+  if (is_quadratic(bending)) {
     m_bending_rest = positions;  // the rest state: the shape of each face as given
     m_faces = faces;
     update_quadratic_bending();  // throws on a face with no rest area
@@ -247,7 +247,7 @@ Cloth Cloth::from_springs(const Positions& positions, const Edges& edges,
 }
 
 const QuadraticBendingMatrix& Cloth::quadratic_bending() const {
-  if (m_bending == BendingModel::quadratic && m_quadratic_topology != m_topology_version) {
+  if (is_quadratic(m_bending) && m_quadratic_topology != m_topology_version) {
     update_quadratic_bending();
   }
   return m_quadratic;
@@ -324,7 +324,8 @@ void Cloth::update_quadratic_bending() const {
       }
     }
   }
-  m_quadratic = quadratic_bending_matrix(m_bending_rest, m_faces);
+  m_quadratic = m_bending == BendingModel::hinge ? quadratic_bending_matrix(m_bending_rest, m_faces)
+                                                 : fitted_bending_matrix(m_bending_rest, m_faces);
   m_quadratic_topology = m_topology_version;
 }
 
@@ -332,7 +333,7 @@ void Cloth::finish_topology_change() {
   rebuild_incidence();
   m_topology_version = next_topology_version();
   ++m_edit_count;
-  if (m_bending == BendingModel::quadratic) update_quadratic_bending();
+  if (is_quadratic(m_bending)) update_quadratic_bending();
 }
 
 const MembraneFaces& Cloth::membrane_faces() const {

@@ -243,8 +243,8 @@ Cloth Cloth::from_state(const ClothState& state) {
   cloth.m_vertex_states = state.vertex_states;
   cloth.m_drivers = state.drivers;
   cloth.m_clock = clock;
-  if (state.bending != BendingModel::springs && state.bending != BendingModel::quadratic) {
-    fail("state: bending must be 0 (springs) or 1 (quadratic)");
+  if (state.bending != BendingModel::springs && !is_quadratic(state.bending)) {
+    fail("state: bending must be 0 (springs), 1 (quadratic) or 2 (hinge)");
   }
   check_non_negative(state.bending_modulus, "state: bending_modulus");
   cloth.m_bending = state.bending;

@@ -1,6 +1,7 @@
 #include "yore/quadratic_bending.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
 #include <algorithm>
 #include <array>
@@ -8,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
+#include <utility>
 
 namespace yore {
 namespace {
@@ -16,6 +18,41 @@ using Point = Eigen::Vector3d;
 
 /// cot of the angle between u and v (both non-zero, not parallel: checked by the caller's area).
 double cotangent(const Point& u, const Point& v) { return u.dot(v) / u.cross(v).norm(); }
+
+/// (row, column, value) triplets, summed, into out's CSR arrays (out.size rows; the diagonal
+/// first in every row, even if 0, then the other columns in increasing order).
+void fill_rows(std::vector<std::tuple<std::int32_t, std::int32_t, double>>& triplets,
+               QuadraticBendingMatrix& out) {
+  const std::int64_t n = out.size;
+  // Stable sort: equal entries are summed in the order they were made (reproducible values).
+  std::stable_sort(triplets.begin(), triplets.end(), [](const auto& a, const auto& b) {
+    return std::get<0>(a) != std::get<0>(b) ? std::get<0>(a) < std::get<0>(b)
+                                            : std::get<1>(a) < std::get<1>(b);
+  });
+  out.row_starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  out.columns.reserve(triplets.size() / 2 + static_cast<std::size_t>(n));
+  out.values.reserve(out.columns.capacity());
+  std::size_t t = 0;
+  for (std::int64_t row = 0; row < n; ++row) {
+    out.row_starts[static_cast<std::size_t>(row)] = static_cast<std::int32_t>(out.columns.size());
+    const std::size_t diagonal = out.columns.size();
+    out.columns.push_back(static_cast<std::int32_t>(row));  // the diagonal first, even if 0
+    out.values.push_back(0.0);
+    for (; t < triplets.size() && std::get<0>(triplets[t]) == row; ++t) {
+      const std::int32_t column = std::get<1>(triplets[t]);
+      const double value = std::get<2>(triplets[t]);
+      if (column == row) {
+        out.values[diagonal] += value;
+      } else if (out.columns.size() > diagonal + 1 && out.columns.back() == column) {
+        out.values.back() += value;
+      } else {
+        out.columns.push_back(column);
+        out.values.push_back(value);
+      }
+    }
+  }
+  out.row_starts.back() = static_cast<std::int32_t>(out.columns.size());
+}
 
 }  // namespace
 
@@ -85,34 +122,7 @@ QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
     ++out.hinge_count;
     ++s;  // both sides consumed
   }
-  // Stable sort: equal entries are summed in hinge order, so the values are reproducible.
-  std::stable_sort(triplets.begin(), triplets.end(), [](const auto& a, const auto& b) {
-    return std::get<0>(a) != std::get<0>(b) ? std::get<0>(a) < std::get<0>(b)
-                                            : std::get<1>(a) < std::get<1>(b);
-  });
-  out.row_starts.assign(static_cast<std::size_t>(n) + 1, 0);
-  out.columns.reserve(triplets.size() / 2 + static_cast<std::size_t>(n));
-  out.values.reserve(out.columns.capacity());
-  std::size_t t = 0;
-  for (Eigen::Index row = 0; row < n; ++row) {
-    out.row_starts[static_cast<std::size_t>(row)] = static_cast<std::int32_t>(out.columns.size());
-    const std::size_t diagonal = out.columns.size();
-    out.columns.push_back(static_cast<std::int32_t>(row));  // the diagonal first, even if 0
-    out.values.push_back(0.0);
-    for (; t < triplets.size() && std::get<0>(triplets[t]) == row; ++t) {
-      const std::int32_t column = std::get<1>(triplets[t]);
-      const double value = std::get<2>(triplets[t]);
-      if (column == row) {
-        out.values[diagonal] += value;
-      } else if (out.columns.size() > diagonal + 1 && out.columns.back() == column) {
-        out.values.back() += value;
-      } else {
-        out.columns.push_back(column);
-        out.values.push_back(value);
-      }
-    }
-  }
-  out.row_starts.back() = static_cast<std::int32_t>(out.columns.size());
+  fill_rows(triplets, out);
   return out;
 }
 
@@ -151,6 +161,165 @@ double quadratic_bending_energy(const QuadraticBendingMatrix& matrix, double mod
     twice_energy += positions.row(i).dot(row_product(matrix, positions, i));
   }
   return 0.5 * modulus * twice_energy;
+}
+
+}  // namespace yore
+
+namespace yore {
+namespace {
+
+/// Smallest singular value allowed of a patch's design matrix, relative to its largest (in
+/// coordinates scaled by the patch radius): below it the fitted curvature would amplify the
+/// positions' round-off and the patch grows instead. A regular 1-ring (6 neighbours) has 0.2,
+/// a valence-5 one 0.1; a valence-4 one is rank deficient and grows.
+constexpr double kFitConditioning = 1e-2;
+
+/// One vertex's fit: the vertices of its patch and, per patch vertex, the three weights that
+/// give the fitted Hessian's (H_uu, √2 H_uv, H_vv) from the vertex's value.
+struct VertexFit {
+  std::vector<std::int32_t> patch;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> weights;
+};
+
+/// The least-squares quadratic over `patch` (tangent-plane coordinates about `centre`, axes
+/// `u`, `v`): its Hessian weights, or an empty weight matrix when the patch is too small or
+/// its points too nearly on one conic (kFitConditioning).
+Eigen::Matrix<double, Eigen::Dynamic, 3> fit_weights(const Positions& rest,
+                                                     const std::vector<std::int32_t>& patch,
+                                                     const Point& centre, const Point& u,
+                                                     const Point& v) {
+  const auto m = static_cast<Eigen::Index>(patch.size());
+  Eigen::Matrix<double, Eigen::Dynamic, 3> none;
+  if (m < 6) return none;
+  Eigen::MatrixX2d s(m, 2);
+  for (Eigen::Index k = 0; k < m; ++k) {
+    const Point d = rest.row(patch[static_cast<std::size_t>(k)]).transpose() - centre;
+    s(k, 0) = d.dot(u);
+    s(k, 1) = d.dot(v);
+  }
+  const double radius = s.rowwise().norm().maxCoeff();
+  if (!(radius > 0.0)) return none;
+  s /= radius;
+  Eigen::MatrixXd design(m, 6);
+  design.col(0).setOnes();
+  design.col(1) = s.col(0);
+  design.col(2) = s.col(1);
+  design.col(3) = s.col(0).cwiseProduct(s.col(0));
+  design.col(4) = s.col(0).cwiseProduct(s.col(1));
+  design.col(5) = s.col(1).cwiseProduct(s.col(1));
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(design, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd sigma = svd.singularValues();
+  if (!(sigma(5) >= kFitConditioning * sigma(0))) return none;
+  // Coefficients c = V Σ⁻¹ Uᵀ f; rows 3–5 (a, b, c of a s_u² + b s_u s_v + c s_v²) give the
+  // Hessian [[2a, b], [b, 2c]] / radius²; its Frobenius norm² is (2a)² + 2b² + (2c)².
+  const Eigen::MatrixXd coefficients =
+      svd.matrixV() * sigma.cwiseInverse().asDiagonal() * svd.matrixU().transpose();
+  Eigen::Matrix<double, Eigen::Dynamic, 3> out(m, 3);
+  const double scale = 1.0 / (radius * radius);
+  out.col(0) = 2.0 * scale * coefficients.row(3).transpose();
+  out.col(1) = std::sqrt(2.0) * scale * coefficients.row(4).transpose();
+  out.col(2) = 2.0 * scale * coefficients.row(5).transpose();
+  return out;
+}
+
+/// Unit axes of the plane normal to `normal` (not zero).
+std::pair<Point, Point> tangent_axes(const Point& normal) {
+  const Point n = normal.normalized();
+  const Point seed = std::abs(n.x()) < 0.9 ? Point::UnitX() : Point::UnitY();
+  const Point u = (seed - seed.dot(n) * n).normalized();
+  return {u, n.cross(u)};
+}
+
+/// Vertex `c`'s fit: its 1-ring, grown by the nearest vertices of the next ring, one at a
+/// time, until the fit is well posed. Throws std::invalid_argument when its whole mesh
+/// component cannot pose one.
+VertexFit fit_vertex(const Positions& rest, const std::vector<std::vector<std::int32_t>>& ring,
+                     std::int32_t c, const Point& normal) {
+  const auto [u, v] = tangent_axes(normal);
+  const Point centre = rest.row(c).transpose();
+  VertexFit fit;
+  fit.patch = ring[static_cast<std::size_t>(c)];
+  fit.patch.push_back(c);
+  std::sort(fit.patch.begin(), fit.patch.end());
+  std::vector<std::int32_t> candidates;
+  for (;;) {
+    fit.weights = fit_weights(rest, fit.patch, centre, u, v);
+    if (fit.weights.rows() > 0) return fit;
+    if (candidates.empty()) {  // the next ring, nearest last
+      for (const std::int32_t p : fit.patch) {
+        for (const std::int32_t q : ring[static_cast<std::size_t>(p)]) {
+          if (!std::binary_search(fit.patch.begin(), fit.patch.end(), q)) candidates.push_back(q);
+        }
+      }
+      std::sort(candidates.begin(), candidates.end());
+      candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+      std::stable_sort(candidates.begin(), candidates.end(), [&](std::int32_t a, std::int32_t b) {
+        return (rest.row(a).transpose() - centre).squaredNorm() >
+               (rest.row(b).transpose() - centre).squaredNorm();
+      });
+      if (candidates.empty()) {
+        std::ostringstream msg;
+        msg << "quadratic bending: vertex " << c << "'s part of the mesh has only "
+            << fit.patch.size() << " vertices, or all of them near one conic: the fitted "
+            << "curvature needs 6 well spread; use bending=\"hinge\" or \"springs\" here";
+        throw std::invalid_argument(msg.str());
+      }
+    }
+    fit.patch.insert(std::upper_bound(fit.patch.begin(), fit.patch.end(), candidates.back()),
+                     candidates.back());
+    candidates.pop_back();
+  }
+}
+
+}  // namespace
+
+QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
+                                             const Faces& faces) {
+  // The hinge builder checks indices and areas and gives the scale terms (fold_energy, the
+  // hinge count); its values are replaced below.
+  QuadraticBendingMatrix out = quadratic_bending_matrix(rest_positions, faces);
+  const Eigen::Index n = rest_positions.rows();
+  std::vector<std::vector<std::int32_t>> ring(static_cast<std::size_t>(n));
+  std::vector<Point> normal(static_cast<std::size_t>(n), Point::Zero());
+  Eigen::VectorXd area = Eigen::VectorXd::Zero(n);  // a third of each face at each corner
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Point a = rest_positions.row(faces(f, 0)), b = rest_positions.row(faces(f, 1)),
+                c = rest_positions.row(faces(f, 2));
+    const Point twice_area = (b - a).cross(c - a);
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t p = faces(f, k);
+      area(p) += twice_area.norm() / 6.0;
+      normal[static_cast<std::size_t>(p)] += twice_area;
+      for (int d = 1; d < 3; ++d) ring[static_cast<std::size_t>(p)].push_back(faces(f, (k + d) % 3));
+    }
+  }
+  std::vector<std::tuple<std::int32_t, std::int32_t, double>> triplets;
+  for (Eigen::Index p = 0; p < n; ++p) {
+    auto& r = ring[static_cast<std::size_t>(p)];
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+  }
+  for (Eigen::Index p = 0; p < n; ++p) {
+    if (!(area(p) > 0.0)) continue;  // on no face: no curvature to measure
+    Point axis = normal[static_cast<std::size_t>(p)];
+    if (!(axis.norm() > 0.0)) axis = Point::UnitZ();  // a fold's faces cancel: any plane
+    const VertexFit fit = fit_vertex(rest_positions, ring, static_cast<std::int32_t>(p), axis);
+    // A_p W Wᵀ, each pair's value computed once and stored at (i, j) and (j, i): Q is
+    // symmetric to the bit.
+    for (Eigen::Index i = 0; i < fit.weights.rows(); ++i) {
+      for (Eigen::Index j = i; j < fit.weights.rows(); ++j) {
+        const double value = area(p) * fit.weights.row(i).dot(fit.weights.row(j));
+        const std::int32_t a = fit.patch[static_cast<std::size_t>(i)];
+        const std::int32_t b = fit.patch[static_cast<std::size_t>(j)];
+        triplets.emplace_back(a, b, value);
+        if (b != a) triplets.emplace_back(b, a, value);
+      }
+    }
+  }
+  out.columns.clear();
+  out.values.clear();
+  fill_rows(triplets, out);
+  return out;
 }
 
 }  // namespace yore

@@ -73,8 +73,8 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     uniformly over the vertices (the paper's choice). stretch_stiffness, bend_stiffness : N/m
     per spring (both default 200; bend_stiffness not with quadratic bending, stretch_stiffness
     not with the membrane). damping : N·s/m per spring. drag : 1/s. bending : "springs" (the
-    paper's, default) or "quadratic" (Bergou et al. 2006) with bending_modulus, N·m (see
-    `yore.Cloth`); rest shape = the flat pattern. stretch : "springs" (the paper's, default) or
+    paper's, default), "quadratic" (fitted, the same on any mesh) or "hinge" (Bergou et al.
+    2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern. stretch : "springs" (the paper's, default) or
     "membrane" (St. Venant–Kirchhoff triangles) with young_modulus, N/m, and poisson_ratio.
     """
     pin_spacing = float(pin_spacing)

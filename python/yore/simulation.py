@@ -629,9 +629,9 @@ class Simulation:
             "fixed_vertices": int(cloth.fixed_vertices.size),
             "driven_vertices": int(cloth.driven_vertices.size),
         }
-        if cloth.bending == "quadratic":
-            # Bergou et al.'s term, reported for cloths that chose it: the number of hinges
-            # (interior edges) it couples, 0 when the modulus is 0 (no term at all)
+        if cloth.bending in ("quadratic", "hinge"):
+            # the constant-matrix bending term, reported for cloths that chose it: the number
+            # of interior edges (hinges) of its mesh, 0 when the modulus is 0 (no term at all)
             active["quadratic_bending"] = (int(cloth.quadratic_bending["hinges"])
                                            if cloth.bending_modulus > 0.0 else 0)
         if cloth.stretch == "membrane":

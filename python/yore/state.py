@@ -462,7 +462,7 @@ _CLOTH_FIELDS = ("positions", "velocities", "masses", "faces", "spring_ends", "s
                  "spring_reference", "spring_stiffness", "spring_damping", "spring_kind", "drag",
                  "stretch_stiffness", "bend_stiffness", "damping", "material_coordinates",
                  "vertex_states", "drivers", "clock_origin", "clock_steps", "clock_dt")
-_CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest")
+_CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest", "bending_operator")
 _CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio")
 _SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
                       "target_time")
@@ -550,9 +550,16 @@ def _check_cloth_models(field, cloth, n):
     """Quadratic bending's fields (or none with bending springs) and the membrane's."""
     where = "simulation.cloth."
     bending = cloth.get("bending", "springs")
-    if bending not in ("springs", "quadratic"):
-        raise field.error(where + "bending", f"got {_show(bending)}", '"springs" or "quadratic"')
-    if bending == "quadratic":
+    if bending not in ("springs", "quadratic", "hinge"):
+        raise field.error(where + "bending", f"got {_show(bending)}",
+                          '"springs", "quadratic" or "hinge"')
+    # "fitted" with bending "quadratic"; absent or null otherwise (a file written before the
+    # fitted operator holds "quadratic" without it, and loads as the hinge energy it ran with)
+    operator = cloth.get("bending_operator")
+    if operator is not None and (bending != "quadratic" or operator != "fitted"):
+        raise field.error(where + "bending_operator", f"got {_show(operator)}",
+                          '"fitted" with bending "quadratic", else null')
+    if bending in ("quadratic", "hinge"):
         field.real(cloth.get("bending_modulus"), where + "bending_modulus", 0.0)
         field.array(cloth.get("bending_rest"), where + "bending_rest", np.float64, (n, 3))
     else:

@@ -36,8 +36,14 @@ struct RotationDriver {
 /// How a cloth resists bending.
 enum class BendingModel : std::uint8_t {
   springs = 0,    ///< the paper's bending springs across interior edges (bend_stiffness, N/m)
-  quadratic = 1,  ///< Bergou et al. 2006's quadratic energy (bending_modulus, N·m); no springs
+  quadratic = 1,  ///< ½ κ ∫ |∇∇x|² with fitted vertex Hessians (bending_modulus, N·m); no springs
+  hinge = 2,      ///< Bergou et al. 2006's hinge energy (bending_modulus, N·m); no springs
 };
+
+/// Whether `model` is a constant-matrix energy ½ κ Σ_c x_cᵀ Q x_c (quadratic or hinge).
+constexpr bool is_quadratic(BendingModel model) {
+  return model == BendingModel::quadratic || model == BendingModel::hinge;
+}
 
 /// Energy of the cloth, joules.
 struct EnergyTerms {
@@ -133,8 +139,9 @@ class Cloth {
   /// rest lengths from `positions`.
   /// positions n×3 (m), faces f×3, masses n (kg), stiffnesses N/m, damping N·s/m along each spring,
   /// drag 1/s (force −drag·m·v on each vertex, still air).
-  /// bending: BendingModel::springs (bend_stiffness) or BendingModel::quadratic (bending_modulus,
-  /// N·m, rest geometry = `positions`; no bending springs, so bend_stiffness must be 0).
+  /// bending: BendingModel::springs (bend_stiffness), or BendingModel::quadratic or ::hinge
+  /// (bending_modulus, N·m, rest geometry = `positions`; no bending springs, so bend_stiffness
+  /// must be 0; quadratic_bending.hpp says how the two differ).
   /// membrane: with young_modulus > 0, a continuum membrane (membrane.hpp) resists stretching
   /// instead of the structural springs, which are still wired on every edge but with 0 N/m:
   /// they carry the rest edge lengths the membrane's rest triangles are laid out from, and the
@@ -282,7 +289,7 @@ class Cloth {
   /// Whether the quadratic bending term exists (quadratic model and κ > 0): integrators add
   /// κ Q ⊗ I₃ only then.
   bool has_quadratic_bending() const {
-    return m_bending == BendingModel::quadratic && m_bending_modulus > 0.0;
+    return is_quadratic(m_bending) && m_bending_modulus > 0.0;
   }
   /// Q of quadratic bending for the current faces (see quadratic_bending.hpp), rebuilt when the
   /// topology version changed since it was last built; empty (size 0) with bending springs.

@@ -128,8 +128,8 @@ def _build_cloth(scene, pattern, F, uv):
         mass_arguments = {"masses": material["mass"] / n}
     try:
         bending_arguments = (
-            {"bending": "quadratic", "bending_modulus": material["bending_modulus"]}
-            if material["bending"] == "quadratic"
+            {"bending": material["bending"], "bending_modulus": material["bending_modulus"]}
+            if material["bending"] in ("quadratic", "hinge")
             else {"bend_stiffness": material["bend_stiffness"]})
         stretch_arguments = (
             {"stretch": "membrane", "young_modulus": material["young_modulus"],

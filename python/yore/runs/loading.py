@@ -277,12 +277,13 @@ def _check_material(scene, material, raw):
                           "one of mass (total), mass_per_vertex or density")
     if not given:
         material["mass"] = MASS
-    if material["bending"] == "quadratic":
+    if material["bending"] in ("quadratic", "hinge"):
+        model = material["bending"]
         if "bending_modulus" not in material:
-            raise scene.error("material.bending_modulus", "missing with bending = \"quadratic\"",
+            raise scene.error("material.bending_modulus", f"missing with bending = \"{model}\"",
                               "a number >= 0 (N·m)")
         if material.get("bend_stiffness", 0.0) != 0.0:
-            raise scene.error("material.bend_stiffness", "given with bending = \"quadratic\", "
+            raise scene.error("material.bend_stiffness", f"given with bending = \"{model}\", "
                               "which creates no bending springs", "no bend_stiffness (or 0)")
         material.pop("bend_stiffness", None)
     else:

@@ -239,7 +239,8 @@ def check_settings(state_path, scene, sim, strokes_done):
 
 def _check_material(material, cloth, strokes_done, fail):
     state = cloth.state()
-    membrane, quadratic = material["stretch"] == "membrane", material["bending"] == "quadratic"
+    membrane = material["stretch"] == "membrane"
+    quadratic = material["bending"] in ("quadratic", "hinge")
     if cloth.stretch != material["stretch"]:
         fail("material.stretch", "cloth.young_modulus", material["stretch"], cloth.stretch)
     if cloth.bending != material["bending"]:

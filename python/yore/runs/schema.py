@@ -305,8 +305,10 @@ SCHEMA = {
         "bend_stiffness": (_number(0, unit="N/m"), None,
                            f"bending springs (default {STIFFNESS:g}; 0: none; not with quadratic "
                            "bending)"),
-        "bending": (_choice("springs", "quadratic"), "springs",
-                    "bending model: the paper's springs or Bergou et al. 2006's quadratic energy"),
+        "bending": (_choice("springs", "quadratic", "hinge"), "springs",
+                    "bending model: the paper's springs, the quadratic energy ½ B ∫ |∇∇x|² "
+                    "(fitted per vertex, the same on any mesh) or Bergou et al. 2006's hinge "
+                    "energy (depends on the mesh's directions)"),
         "bending_modulus": (_number(0, unit="N·m"), None,
                             "quadratic bending's modulus (required with bending = quadratic)"),
         "damping": (_number(0, unit="N·s/m"), 0.02, "along each spring"),
