@@ -13,11 +13,19 @@ number of wrinkles (half the sign changes), the amplitude (largest |z| of the se
 whether it is a mesh-scale zigzag (wavelength < 4 mean edges) or flat (amplitude under a tenth
 of the noise, which relaxation takes off a stable flat state); the flat stretched state's stability (the true Hessian's Cholesky at it) and the
 largest compression across the width in it (the membrane's second Piola–Kirchhoff S_yy over
-its middle fifth). The prediction is Cerda & Mahadevan's λ = (2π L)^½ (4 B / (Y γ))^¼ from the
+its middle fifth). Per run also, after issue 52: the bending modulus the mesh realises (its
+energy of the pattern rolled onto a cylinder across the width, over the continuum's), the
+artificial modulus B_art the piecewise-linear interpolation adds (a wrinkle z = sin kv of the
+measured wavelength has a spurious slope along u in every triangle not aligned with u, which
+the flat state's tension S_uu charges like bending: `artificial_bending`), the tension, points
+per wavelength, the wrinkled zone's length along u, and whether the row is judged (wrinkled,
+not a zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B). The membrane runs on pattern meshes
+and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no spurious slope), each
+base also from a second seed. The prediction is Cerda & Mahadevan's λ = (2π L)^½ (4 B / (Y γ))^¼ from the
 model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
 spring lattice from the energies of three small affine strains; an upper bound, since its
-nodes may relax). Exponents of λ in B (16×), L (4×) and γ (4×) are fitted over the runs that
-wrinkled, not at the mesh scale. The stroke rows: `hanging_cloth` at resolutions 21, 31, 41,
+nodes may relax). Exponents of λ in B (16×), L (4×) and γ (4×) are fitted over the judged
+runs only, per mesh kind. The stroke rows: `hanging_cloth` at resolutions 21, 31, 41,
 springs and a membrane of the grid lattice's affine Y and ν, simulated 1 s, stroked along
 v = 0.8 from u = 0.2 to 0.8 (the paper's stroke across the folds near the top), simulated 1 s
 more: the wrinkle measure of the stroke's region and its fold depth (range of the wrinkle
@@ -69,29 +77,36 @@ QUICK_STROKE_RESOLUTIONS = [9, 13]
 
 def sheet_runs(quick):
     """(label, model, parameters) of the stretched-sheet runs: the base, B over 16×, L over 4×,
-    γ over 4×, three meshes, and for the springs B up to 64× at every mesh (their threshold)."""
+    γ over 4×, three meshes (the membrane on pattern meshes and aligned grids, each base with a
+    second seed), and for the springs B up to 64× at every mesh (their threshold)."""
     runs = []
 
     def add(label, model, **changes):
         parameters = dict(QUICK_BASE if quick else BASES[model], **changes)
+        parameters.setdefault("mesh", "pattern")
+        parameters.setdefault("seed", 0)
         key = (model, tuple(sorted(parameters.items())))
         if key not in {(m, tuple(sorted(p.items()))) for _, m, p in runs}:
             runs.append((label, model, parameters))
 
-    for model in ("membrane", "springs"):
-        add("base", model)
+    # the membrane on pattern meshes and, beside them, on grids aligned with the sheet (no
+    # interpolation slope along the wrinkles: the reference); a second seeded start of each base
+    for model, mesh in (("membrane", "pattern"), ("membrane", "grid"), ("springs", "pattern")):
+        add("base", model, mesh=mesh)
+        if model == "membrane":
+            add("seed", model, mesh=mesh, seed=1)
         if quick:
-            add("B", model, bending_modulus=B0)
+            add("B", model, bending_modulus=B0, mesh=mesh)
             continue
         factors = (0.25, 1, 4) if model == "membrane" else (1, 4, 16)
         for factor in factors:
-            add("B", model, bending_modulus=factor * B0)
+            add("B", model, bending_modulus=factor * B0, mesh=mesh)
         for length in (0.5, 2.0):
-            add("L", model, length=length)
+            add("L", model, length=length, mesh=mesh)
         for strain in (0.05, 0.2):
-            add("strain", model, strain=strain)
+            add("strain", model, strain=strain, mesh=mesh)
         for edge in MESHES[model]:
-            add("mesh", model, edge_length=edge)
+            add("mesh", model, edge_length=edge, mesh=mesh)
     for edge in MESHES["springs"] if not quick else []:
         for factor in (1, 16, 64, 256):
             add("threshold", "springs", edge_length=edge, bending_modulus=factor * B0)
@@ -149,34 +164,84 @@ def wavelength_of(y, z):
     return 1.0 / peak, crossings / 2.0
 
 
-def flat_state_check(model, parameters):
+def face_stress(uv, F, P):
+    """The membrane's second Piola–Kirchhoff stress per face (f×2×2, N/m; St. Venant–Kirchhoff,
+    plane stress, YOUNG and POISSON) at positions P, with rest triangles from the pattern uv."""
+    mu = YOUNG / (2 * (1 + POISSON))
+    lam = YOUNG * POISSON / (1 - POISSON ** 2)
+    rest = np.stack([uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]], axis=2)
+    now = np.stack([P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]], axis=2)
+    G = now @ np.linalg.inv(rest)
+    E = 0.5 * (np.transpose(G, (0, 2, 1)) @ G - np.eye(2))
+    return 2 * mu * E + lam * np.trace(E, axis1=1, axis2=2)[:, None, None] * np.eye(2)
+
+
+def realized_bending(uv, F, bending_modulus, radius=0.5):
+    """The bending modulus the mesh's bending energy realises (N·m): the pattern rolled
+    isometrically onto a cylinder of `radius` about an axis along u (so it bends across the
+    width, as the wrinkles do), its energy over the continuum ½ A / R²."""
+    V = np.column_stack([uv, np.zeros(len(uv))])
+    cloth = yore.Cloth(V, F, bending="quadratic", bending_modulus=bending_modulus)
+    angle = uv[:, 1] / radius
+    cloth.positions = np.column_stack([uv[:, 0], radius * np.sin(angle),
+                                       radius * (1 - np.cos(angle))])
+    area = metrics.area(V, F)
+    return cloth.energy((0.0, 0.0, 0.0))["bending"] / (0.5 * area / radius ** 2)
+
+
+def artificial_bending(uv, F, stress, wavelength, middle):
+    """B_art (N·m): the bending modulus the interpolation error adds. A wrinkle z = sin(k v + φ)
+    has no slope along u, but its piecewise-linear interpolant has one, g_u, in every triangle
+    whose edges are not aligned with u; under the flat state's stress S it costs
+    ½ Σ_f A_f (S_uu g_u² + 2 S_uv g_u g_v) beyond the continuum's ½ ∫ S_vv z_v², which acts
+    as ½ B_art ∫ z_vv² = ½ B_art k⁴ ∫ z². Over the faces in `middle` (where wrinkles form),
+    averaged over four phases φ."""
+    k = 2 * math.pi / wavelength
+    a, b = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
+    twice_area = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    area = 0.5 * np.abs(twice_area)
+    spurious, reference = 0.0, 0.0
+    for phase in np.arange(4) * math.pi / 4:
+        z = np.sin(k * uv[:, 1] + phase)
+        dz1, dz2 = z[F[:, 1]] - z[F[:, 0]], z[F[:, 2]] - z[F[:, 0]]
+        gu = (dz1 * b[:, 1] - dz2 * a[:, 1]) / twice_area
+        gv = (dz2 * a[:, 0] - dz1 * b[:, 0]) / twice_area
+        density = stress[:, 0, 0] * gu ** 2 + 2 * stress[:, 0, 1] * gu * gv
+        spurious += np.sum((area * density)[middle])
+        reference += np.sum((area * (z[F] ** 2).mean(axis=1))[middle]) * k ** 4
+    return float(spurious / reference)
+
+
+def flat_state_check(model, parameters, wavelength):
     """The flat stretched state (relaxed without leaving the plane): whether it is stable (the
-    true Hessian's Cholesky), and the membrane's largest compression across the width over the
-    middle fifth of the length (S_yy, N/m; None for springs)."""
+    true Hessian's Cholesky); for the membrane its largest compression across the width and
+    mean tension along the length over the middle fifth (S_vv, S_uu, N/m) and, for a wrinkle
+    of `wavelength`, the interpolation's artificial bending modulus B_art under that stress
+    over the middle half (None for springs)."""
     sim = make(model, parameters, noise=0.0)
     sim.settle(max_seconds=SETTLE_SECONDS, tolerance=SETTLE_TOLERANCE, check_stability=False)
     cloth = sim.cloth
     stable = not yore.settling.is_saddle(cloth, (0.0, 0.0, 0.0))
-    compression = None
+    out = {"flat_state_stable": stable, "flat_state_compression": None, "tension": None,
+           "artificial_bending": None}
     if model == "membrane":
-        V, F, P = sim.scene["uv"], cloth.faces, cloth.positions
-        mu = YOUNG / (2 * (1 + POISSON))
-        lam = YOUNG * POISSON / (1 - POISSON ** 2)
-        rest = np.stack([V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]], axis=2)
-        now = np.stack([P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]], axis=2)
-        G = now @ np.linalg.inv(rest)
-        E = 0.5 * (np.transpose(G, (0, 2, 1)) @ G - np.eye(2))
-        Syy = 2 * mu * E[:, 1, 1] + lam * (E[:, 0, 0] + E[:, 1, 1])
-        centre = V[F].mean(axis=1)
-        middle = np.abs(centre[:, 0] - 0.5 * parameters["length"]) < 0.1 * parameters["length"]
-        compression = float(-Syy[middle].min())
-    return stable, compression
+        uv, F = sim.scene["uv"], cloth.faces
+        S = face_stress(uv, F, cloth.positions)
+        centre = uv[F].mean(axis=1)
+        offset = np.abs(centre[:, 0] - 0.5 * parameters["length"])
+        fifth = offset < 0.1 * parameters["length"]
+        out["flat_state_compression"] = float(-S[fifth, 1, 1].min())
+        out["tension"] = float(S[fifth, 0, 0].mean())
+        out["artificial_bending"] = artificial_bending(uv, F, S, wavelength,
+                                                       offset < 0.25 * parameters["length"])
+    return out
 
 
 def make(model, parameters, noise=NOISE):
     options = dict(length=parameters["length"], width=parameters["width"],
                    strain=parameters["strain"], edge_length=parameters["edge_length"],
-                   bending_modulus=parameters["bending_modulus"], noise=noise)
+                   bending_modulus=parameters["bending_modulus"], noise=noise,
+                   mesh=parameters.get("mesh", "pattern"), seed=parameters.get("seed", 0))
     if model == "membrane":
         return yore.scenes.stretched_sheet(stretch="membrane", young_modulus=YOUNG,
                                            poisson_ratio=POISSON, **options)
@@ -201,19 +266,34 @@ def sheet_run(label, model, parameters):
         young, nu = YOUNG, POISSON
     else:
         young, nu = lattice_moduli(np.column_stack([uv, np.zeros(len(uv))]), F, YOUNG)
-    stable_flat, compression = flat_state_check(model, parameters)
+    predicted = predicted_wavelength(parameters["length"], parameters["bending_modulus"], young,
+                                     parameters["strain"])
+    flat_state = flat_state_check(model, parameters, predicted if flat else wavelength)
+    # the wrinkled zone: the span along the length (pattern u) of the vertices whose height is
+    # over a tenth of the largest
+    heights = np.abs(cloth.positions[:, 2])
+    lifted = uv[heights > 0.1 * heights.max(), 0] if heights.max() > FLAT else np.zeros(0)
+    zone = float(lifted.max() - lifted.min()) if len(lifted) else 0.0
+    realized = realized_bending(uv, F, parameters["bending_modulus"])
+    b_art = flat_state["artificial_bending"]
+    zigzag = bool(not flat and wavelength < 4 * h)
     row = {"label": label, "model": model, **parameters, "vertices": int(cloth.vertex_count),
            "mean_edge": h, "young": float(young), "poisson": float(nu),
-           "predicted_wavelength": predicted_wavelength(parameters["length"],
-                                                        parameters["bending_modulus"], young,
-                                                        parameters["strain"]),
+           "predicted_wavelength": predicted,
+           "realized_bending": realized, "artificial_bending": b_art,
+           "points_per_wavelength": None if flat else float(wavelength / h),
+           "wrinkled_zone": zone,
+           # judged for the exponents and the targets: wrinkled, resolved (8 points a
+           # wavelength), not a zigzag, and the interpolation adds at most a tenth of B
+           "judged": bool(not flat and not zigzag and wavelength / h >= 8
+                          and (b_art is None or b_art <= 0.1 * parameters["bending_modulus"])),
            "flat": bool(flat), "amplitude": amplitude,
            "wavelength": None if flat else float(wavelength),
            "wrinkles": None if flat else count,
-           "zigzag": bool(not flat and wavelength < 4 * h),
+           "zigzag": zigzag,
            "settle": {k: settled[k] for k in ("seconds", "converged", "residual_acceleration",
                                                "saddles_escaped", "stable")},
-           "flat_state_stable": stable_flat, "flat_state_compression": compression,
+           **flat_state,
            "section": {"y": y[::64].tolist(), "z": z[::64].tolist()},
            "cpu_seconds": time.process_time() - start}
     return row
@@ -243,8 +323,9 @@ def stroke_run(model, resolution, quick):
 
 
 def fit_exponent(rows, key):
-    points = [(r[key], r["wavelength"]) for r in rows
-              if r["wavelength"] is not None and not r["zigzag"]]
+    """Slope of log λ against log `key` over the judged rows (resolved, not zigzags, B_art at
+    most a tenth of B: issue 52), None with fewer than two values of `key`."""
+    points = [(r[key], r["wavelength"]) for r in rows if r.get("judged")]
     if len(points) < 2 or len({p[0] for p in points}) < 2:
         return None
     x, y = np.log([p[0] for p in points]), np.log([p[1] for p in points])
@@ -253,9 +334,12 @@ def fit_exponent(rows, key):
 
 def summarize(rows, strokes, quick=False):
     out = {}
-    for model in ("membrane", "springs"):
+    for model, mesh in (("membrane", "pattern"), ("membrane", "grid"), ("springs", "pattern")):
         base_run = BASES[model] if not quick else QUICK_BASE
-        mine = [r for r in rows if r["model"] == model]
+        mine = [r for r in rows if r["model"] == model and r.get("mesh", "pattern") == mesh
+                and r.get("seed", 0) == 0]
+        if not mine:
+            continue
         base = [r for r in mine if r["label"] in ("base", "B", "L", "strain", "mesh")]
         at = {key: [r for r in base if all(r[k] == v for k, v in fixed.items())]
               for key, fixed in (
@@ -270,7 +354,19 @@ def summarize(rows, strokes, quick=False):
                          and r["bending_modulus"] == base_run["bending_modulus"]),
                         key=lambda r: -r["edge_length"])
         finest = [r["wavelength"] for r in meshes[-2:]]
-        out[model] = {
+        seeds = [(r, o) for r in mine for o in rows if o.get("seed", 0) != 0
+                 and o["model"] == model and o.get("mesh", "pattern") == mesh
+                 and all(o[k] == r[k] for k in ("bending_modulus", "length", "strain",
+                                                 "edge_length"))]
+        out[model if mesh == "pattern" else f"{model} on an aligned grid"] = {
+            "judged": sum(bool(r.get("judged")) for r in mine),
+            "realized_bending_ratio": [r["realized_bending"] / r["bending_modulus"]
+                                       for r in mine if r.get("realized_bending")],
+            "artificial_over_bending": [r["artificial_bending"] / r["bending_modulus"]
+                                        for r in mine if r.get("artificial_bending") is not None],
+            "second_seed_wavelength_change": [
+                abs(o["wavelength"] - r["wavelength"]) / r["wavelength"] for r, o in seeds
+                if r["wavelength"] is not None and o["wavelength"] is not None],
             "exponents": {key: fit_exponent(group, key) for key, group in at.items()},
             "expected": {"bending_modulus": 0.25, "length": 0.5, "strain": -0.25},
             "wrinkled": sum(r["wavelength"] is not None for r in mine),
@@ -326,7 +422,9 @@ def journaled(out, name, resume, compute, still_good=lambda value: True):
 
 
 def run_name(model, parameters):
-    return model + "-" + "-".join(f"{k}={parameters[k]:g}" for k in sorted(parameters))
+    def shown(value):
+        return value if isinstance(value, str) else f"{value:g}"
+    return model + "-" + "-".join(f"{k}={shown(parameters[k])}" for k in sorted(parameters))
 
 
 def draw(rows, strokes, path):
@@ -389,11 +487,14 @@ def main(argv=None):
                         lambda r: not (r["flat"] and r["amplitude"] >= FLAT))
         row["label"] = label
         rows.append(row)
-        print(f"  {label:9s} {model:8s} B={parameters['bending_modulus']:g} "
+        print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "
+              f"B={parameters['bending_modulus']:g} "
               f"L={parameters['length']:g} γ={parameters['strain']:g} "
               f"h={row['mean_edge']:.4f}: λ={row['wavelength']} "
               f"(predicted {row['predicted_wavelength']:.4f}), amplitude "
               f"{row['amplitude']:.2e}, flat state stable {row['flat_state_stable']}, "
+              f"B realised {row['realized_bending']:.3g}, B_art {row['artificial_bending']}, "
+              f"judged {row['judged']}, "
               f"{row['cpu_seconds']:.0f} s", flush=True)
     strokes = []
     for model in ("springs", "membrane"):

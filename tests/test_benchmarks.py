@@ -937,9 +937,51 @@ def test_wrinkles_smoke(tmp_path):
             assert r["young"] == data["settings"]["young"]
     # the small quick sheet stays flat and its flat state is stable for both models
     assert all(r["flat"] and r["flat_state_stable"] for r in rows)
+    # issue 52's measures: the realised bending modulus is B (the fitted energy's cylinder,
+    # 0.2 % at these coarse meshes); an aligned grid's interpolation adds no bending, a pattern
+    # mesh's does; both kinds and a second seed ran for the membrane; flat rows are not judged
+    assert all(abs(r["realized_bending"] / r["bending_modulus"] - 1) < 0.02 for r in rows)
+    membrane = [r for r in rows if r["model"] == "membrane"]
+    assert {(r["mesh"], r["seed"]) for r in membrane} >= {("pattern", 0), ("grid", 0),
+                                                          ("pattern", 1), ("grid", 1)}
+    for r in membrane:
+        if r["mesh"] == "grid":
+            assert abs(r["artificial_bending"]) <= 1e-12 * r["bending_modulus"]
+        else:
+            assert r["artificial_bending"] > 0.0
+        assert r["tension"] > 0.0 and not r["judged"]
     assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
         (m, n) for m in ("springs", "membrane") for n in (9, 13)}
     assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])
     # a second run with --resume reads every run from the journal
     again = run_benchmark("wrinkles", tmp_path, "--quick", "--resume")
     assert again["rows"] == rows
+
+
+def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared():
+    # B_art = Σ A S_uu g_u² / (k⁴ Σ A z²) for z = sin k v: the piecewise-linear slope error
+    # g_u is O(h k² z) in a triangle not aligned with u, so B_art ∝ h² T (issue 52 measured
+    # ≈ 0.018 h² S_uu on CGAL meshes); on a grid aligned with u it is zero.
+    import numpy as np
+
+    import yore
+    from benchmarks import wrinkles
+
+    tension, wavelength = 1100.0, 0.04
+    values = []
+    for edge in (0.008, 0.004):
+        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge)
+        stress = np.zeros((len(F), 2, 2))
+        stress[:, 0, 0] = tension
+        edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+        h = np.linalg.norm(V[edges[:, 1]] - V[edges[:, 0]], axis=1).mean()
+        b_art = wrinkles.artificial_bending(V[:, :2], F, stress, wavelength,
+                                            np.ones(len(F), bool))
+        values.append(b_art)
+        assert 0.005 < b_art / (h * h * tension) < 0.05, b_art / (h * h * tension)
+    assert 3.0 < values[0] / values[1] < 5.5, values
+    V, F = yore.grid_mesh(31, 21, width=0.3, height=0.2)
+    stress = np.zeros((len(F), 2, 2))
+    stress[:, 0, 0] = tension
+    assert wrinkles.artificial_bending(V[:, :2], F, stress, wavelength,
+                                       np.ones(len(F), bool)) == 0.0

@@ -256,7 +256,7 @@ def test_the_former_mass_keyword_still_works_for_one_version_with_a_deprecation_
 @pytest.mark.parametrize("keyword, value, message", [
     # issue 53: these were pybind11's TypeError ("incompatible constructor arguments")
     ("stretch", None, 'stretch must be "springs" or "membrane", got None'),
-    ("bending", 3, 'bending must be "springs" or "quadratic", got 3'),
+    ("bending", 3, 'bending must be "springs", "quadratic" or "hinge", got 3'),
     ("damping", None, "damping: got None; expected a number"),
     ("drag", "still", "drag: got 'still'; expected a number"),
 ])

@@ -17,13 +17,14 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 @pytest.mark.slow
 def test_the_demo_shows_wrinkles_where_the_paper_makes_spikes(tmp_path):
-    # 13 × 13 vertices instead of 21 × 21 (measured at 21²: wrinkles ×6.3, spike index 0.05
-    # for yore's stroke; ×2.9 and 0.40 for the paper's). The issue's targets: the stroke
+    # At the demo's own 21 × 21 vertices, where its targets are stated (~9 s): the stroke
     # region's wrinkle measure at least twice the no-stroke run's at the same time, and a
-    # spike index at most 0.1 on the stroke's new vertices.
+    # spike index at most 0.1 on the stroke's new vertices. Measured with the fitted bending
+    # energy (issue 52): wrinkles ×4.0, spike index 0.062 for yore's stroke; ×4.1 and 0.34
+    # for the paper's. (This test ran at 13² before; there the fitted energy, softer than the
+    # hinge energy for a one-vertex spike, gives 0.11.)
     out = tmp_path / "demo"
-    assert main(["demo", "-o", str(out), "-q", "--set", "mesh.nx=13", "--set", "mesh.ny=13",
-                 "--set", "output.animation=none"]) == 0
+    assert main(["demo", "-o", str(out), "-q", "--set", "output.animation=none"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     demo = summary["demo"]
     assert demo["yore"]["wrinkle_ratio"] >= 2.0

@@ -513,7 +513,8 @@ def test_scene_functions_and_scene_files_pass_the_bending_choice_on():
                           ('bending_modulus = 1e-3\n', "material.bending_modulus"),
                           ('bending = "quadratic"\nbending_modulus = 1e-3\nbend_stiffness = 5\n',
                            "material.bend_stiffness"),
-                          ('bending = "hinge"\n', "material.bending"),
+                          ('bending = "hinge"\n', "material.bending_modulus"),
+                          ('bending = "cotangent"\n', "material.bending"),
                           ('bending = "quadratic"\nbending_modulus = -1\n',
                            "material.bending_modulus")):
         with pytest.raises(SceneError) as caught:

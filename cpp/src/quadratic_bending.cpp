@@ -174,32 +174,50 @@ namespace {
 /// a valence-5 one 0.1; a valence-4 one is rank deficient and grows.
 constexpr double kFitConditioning = 1e-2;
 
-/// One vertex's fit: the vertices of its patch and, per patch vertex, the three weights that
-/// give the fitted Hessian's (H_uu, √2 H_uv, H_vv) from the vertex's value.
+/// Weight of the fit's residual in the energy, per point, in units of the patch's curvature
+/// scale (below). The Hessian of a least-squares quadratic is blind to what the quadratic does
+/// not explain (a valence-6 patch has one such pattern: a spike of the centre against its
+/// ring); without this term those mesh-scale shapes would cost nothing from this patch, and
+/// sharp one-face tents would be cheaper than with the hinge energy. The residual of a
+/// quadratic field is zero, so it keeps the energy exact there; on a smooth surface it is
+/// O(h³) per point, an O(h²) relative term (the cylinder test: below 0.1 % at 9 vertices
+/// across).
+constexpr double kResidualWeight = 1.0;
+
+/// Largest patch a fit may grow to (a 1-ring has ~7 points, a corner's grown patch ~10).
+constexpr std::size_t kMaxPatch = 40;
+
+/// One vertex's fit: the vertices of its patch and the patch's energy matrix per unit area,
+/// K = W Wᵀ + β/(m ρ⁴) (I − P) (W: the three weights per point that give the fitted Hessian's
+/// (H_uu, √2 H_uv, H_vv); P the fit's projection; β = kResidualWeight; ρ² the patch's mean
+/// squared distance from its vertex), so the vertex adds A_p fᵀ K f for a field f.
 struct VertexFit {
   std::vector<std::int32_t> patch;
-  Eigen::Matrix<double, Eigen::Dynamic, 3> weights;
+  Eigen::MatrixXd energy;
 };
 
 /// The least-squares quadratic over `patch` (tangent-plane coordinates about `centre`, axes
-/// `u`, `v`): its Hessian weights, or an empty weight matrix when the patch is too small or
-/// its points too nearly on one conic (kFitConditioning).
-Eigen::Matrix<double, Eigen::Dynamic, 3> fit_weights(const Positions& rest,
-                                                     const std::vector<std::int32_t>& patch,
-                                                     const Point& centre, const Point& u,
-                                                     const Point& v) {
+/// `u`, `v`) and its energy matrix K (above), or an empty matrix when the patch is too small or
+/// its points too nearly on one conic (kFitConditioning). The fit runs in coordinates whitened
+/// by the patch's own spread (an affine map, under which quadratics stay quadratics), so a
+/// stretched mesh's patch is judged like the regular one it is an image of.
+Eigen::MatrixXd fit_energy(const Positions& rest, const std::vector<std::int32_t>& patch,
+                           const Point& centre, const Point& u, const Point& v) {
   const auto m = static_cast<Eigen::Index>(patch.size());
-  Eigen::Matrix<double, Eigen::Dynamic, 3> none;
+  const Eigen::MatrixXd none;
   if (m < 6) return none;
-  Eigen::MatrixX2d s(m, 2);
+  Eigen::MatrixX2d d(m, 2);
   for (Eigen::Index k = 0; k < m; ++k) {
-    const Point d = rest.row(patch[static_cast<std::size_t>(k)]).transpose() - centre;
-    s(k, 0) = d.dot(u);
-    s(k, 1) = d.dot(v);
+    const Point offset = rest.row(patch[static_cast<std::size_t>(k)]).transpose() - centre;
+    d(k, 0) = offset.dot(u);
+    d(k, 1) = offset.dot(v);
   }
-  const double radius = s.rowwise().norm().maxCoeff();
-  if (!(radius > 0.0)) return none;
-  s /= radius;
+  const Eigen::Matrix2d spread = d.transpose() * d / static_cast<double>(m);
+  const double scale2 = spread.trace();  // ρ²
+  if (!(scale2 > 0.0) || !(spread.determinant() > 1e-12 * scale2 * scale2)) return none;
+  const Eigen::Matrix2d lower = spread.llt().matrixL();  // spread = L Lᵀ
+  const Eigen::Matrix2d to_white = lower.inverse();        // s = L⁻¹ d
+  const Eigen::MatrixX2d s = d * to_white.transpose();
   Eigen::MatrixXd design(m, 6);
   design.col(0).setOnes();
   design.col(1) = s.col(0);
@@ -210,16 +228,24 @@ Eigen::Matrix<double, Eigen::Dynamic, 3> fit_weights(const Positions& rest,
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(design, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const Eigen::VectorXd sigma = svd.singularValues();
   if (!(sigma(5) >= kFitConditioning * sigma(0))) return none;
-  // Coefficients c = V Σ⁻¹ Uᵀ f; rows 3–5 (a, b, c of a s_u² + b s_u s_v + c s_v²) give the
-  // Hessian [[2a, b], [b, 2c]] / radius²; its Frobenius norm² is (2a)² + 2b² + (2c)².
+  // Coefficients c = V Σ⁻¹ Uᵀ f; rows 3–5 (a, b, c of a s₁² + b s₁ s₂ + c s₂²) give the
+  // whitened Hessian [[2a, b], [b, 2c]], and the tangent-plane one is L⁻ᵀ H_s L⁻¹.
   const Eigen::MatrixXd coefficients =
       svd.matrixV() * sigma.cwiseInverse().asDiagonal() * svd.matrixU().transpose();
-  Eigen::Matrix<double, Eigen::Dynamic, 3> out(m, 3);
-  const double scale = 1.0 / (radius * radius);
-  out.col(0) = 2.0 * scale * coefficients.row(3).transpose();
-  out.col(1) = std::sqrt(2.0) * scale * coefficients.row(4).transpose();
-  out.col(2) = 2.0 * scale * coefficients.row(5).transpose();
-  return out;
+  Eigen::MatrixX3d weights(m, 3);
+  for (Eigen::Index k = 0; k < m; ++k) {
+    Eigen::Matrix2d white;
+    white << 2.0 * coefficients(3, k), coefficients(4, k), coefficients(4, k),
+        2.0 * coefficients(5, k);
+    const Eigen::Matrix2d hessian = to_white.transpose() * white * to_white;
+    weights(k, 0) = hessian(0, 0);
+    weights(k, 1) = std::sqrt(2.0) * hessian(0, 1);
+    weights(k, 2) = hessian(1, 1);
+  }
+  const Eigen::MatrixXd residual =
+      Eigen::MatrixXd::Identity(m, m) - svd.matrixU() * svd.matrixU().transpose();
+  return weights * weights.transpose() +
+         (kResidualWeight / (static_cast<double>(m) * scale2 * scale2)) * residual;
 }
 
 /// Unit axes of the plane normal to `normal` (not zero).
@@ -243,8 +269,15 @@ VertexFit fit_vertex(const Positions& rest, const std::vector<std::vector<std::i
   std::sort(fit.patch.begin(), fit.patch.end());
   std::vector<std::int32_t> candidates;
   for (;;) {
-    fit.weights = fit_weights(rest, fit.patch, centre, u, v);
-    if (fit.weights.rows() > 0) return fit;
+    fit.energy = fit_energy(rest, fit.patch, centre, u, v);
+    if (fit.energy.rows() > 0) return fit;
+    if (fit.patch.size() >= kMaxPatch) {
+      std::ostringstream msg;
+      msg << "quadratic bending: vertex " << c << " has no well-posed fit within its nearest "
+          << kMaxPatch << " vertices (slivers, or points along one curve); use "
+          << "bending=\"hinge\" or \"springs\" here";
+      throw std::invalid_argument(msg.str());
+    }
     if (candidates.empty()) {  // the next ring, nearest last
       for (const std::int32_t p : fit.patch) {
         for (const std::int32_t q : ring[static_cast<std::size_t>(p)]) {
@@ -304,11 +337,11 @@ QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
     Point axis = normal[static_cast<std::size_t>(p)];
     if (!(axis.norm() > 0.0)) axis = Point::UnitZ();  // a fold's faces cancel: any plane
     const VertexFit fit = fit_vertex(rest_positions, ring, static_cast<std::int32_t>(p), axis);
-    // A_p W Wᵀ, each pair's value computed once and stored at (i, j) and (j, i): Q is
-    // symmetric to the bit.
-    for (Eigen::Index i = 0; i < fit.weights.rows(); ++i) {
-      for (Eigen::Index j = i; j < fit.weights.rows(); ++j) {
-        const double value = area(p) * fit.weights.row(i).dot(fit.weights.row(j));
+    // A_p K, each pair's value taken from one triangle of K and stored at (i, j) and (j, i):
+    // Q is symmetric to the bit.
+    for (Eigen::Index i = 0; i < fit.energy.rows(); ++i) {
+      for (Eigen::Index j = i; j < fit.energy.rows(); ++j) {
+        const double value = area(p) * fit.energy(i, j);
         const std::int32_t a = fit.patch[static_cast<std::size_t>(i)];
         const std::int32_t b = fit.patch[static_cast<std::size_t>(j)];
         triplets.emplace_back(a, b, value);

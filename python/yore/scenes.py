@@ -135,13 +135,17 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
 def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch="membrane",
                     young_modulus=1e4, poisson_ratio=0.5, stretch_stiffness=None,
                     bending_modulus=1e-4, density=0.1, noise=1e-5, seed=0,
-                    integrator=DEFAULT_INTEGRATOR, dt=None, **options) -> Simulation:
+                    integrator=DEFAULT_INTEGRATOR, dt=None, mesh="pattern",
+                    **options) -> Simulation:
     """A sheet clamped along its two short edges and stretched (Cerda & Mahadevan 2003's
     setting, where Poisson contraction held back by the clamps compresses the middle across the
     width and wrinkles along the length may form).
 
     The pattern is a length × width rectangle (u along the length) meshed by `pattern_mesh`
-    (isotropic triangles, longest edge ``edge_length``); it starts in the z = 0 plane stretched
+    (isotropic triangles, longest edge ``edge_length``), or with ``mesh="grid"`` by `grid_mesh`
+    aligned with its sides (squares of side ``edge_length``/√2 split by alternating diagonals,
+    so the longest edge is ``edge_length`` too: a wrinkle along u has no spurious slope along u
+    in any triangle, the reference for the pattern mesh's interpolation error); it starts in the z = 0 plane stretched
     uniformly along u by 1 + ``strain``, with its two short edges clamped (fixed) there, and
     ``noise`` m (RMS, seeded) of random height so that a flat state that is not stable can
     leave it. No gravity. Bending is quadratic (``bending_modulus``, N·m); stretching is the
@@ -159,8 +163,15 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
     noise = float(noise)
     if not (math.isfinite(noise) and noise >= 0.0):
         raise ValueError(f"noise must be finite and >= 0 (m), got {noise}")
-    V, F = pattern_mesh([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
-                        edge_length=edge_length)
+    if mesh == "grid":
+        spacing = check_factor(edge_length, "edge_length", "m") / math.sqrt(2.0)
+        V, F = grid_mesh(max(2, math.ceil(length / spacing) + 1),
+                         max(2, math.ceil(width / spacing) + 1), width=length, height=width)
+    elif mesh == "pattern":
+        V, F = pattern_mesh([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
+                            edge_length=edge_length)
+    else:
+        raise ValueError(f'mesh must be "pattern" or "grid", got {mesh!r}')
     uv = V[:, :2].copy()
     cloth = Cloth(V, F, density=density, damping=0.0, drag=0.0, bending="quadratic",
                   bending_modulus=bending_modulus,
