@@ -177,3 +177,36 @@ TEST_CASE("Q refuses a hinge face without rest area, and faces out of range") {
                        doctest::Contains("face 0 has a vertex index out of range"),
                        std::invalid_argument);
 }
+
+TEST_CASE("fitted Q: symmetric PSD, exact for quadratic fields, affine-free, refused when tiny") {
+  // A grid stretched 5:1 (whitened fits keep its 1-rings), lifted to a paraboloid z = ½ (a u²
+  // + 2b uv + c v²): each vertex's fit reproduces the constant Hessian, the residual term is
+  // zero, so E = ½ κ A (a² + 2b² + c²) to round-off. Affine fields cost nothing.
+  const yore_test::Mesh mesh = yore_test::grid_mesh(7, 6, 1.0, 0.2);
+  const yore::QuadraticBendingMatrix q = yore::fitted_bending_matrix(mesh.positions, mesh.faces);
+  REQUIRE(q.size == 42);
+  const Eigen::MatrixXd Q = dense_q(q);
+  const double scale = Q.norm();
+  CHECK((Q - Q.transpose()).norm() == 0.0);
+  const Eigen::VectorXd eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues();
+  CHECK(eigenvalues[0] > -1e-12 * scale);
+  CHECK(eigenvalues[3] > 1e-9 * scale);  // only the three affine fields are free
+  CHECK((Q * Eigen::VectorXd::Ones(42)).norm() < 1e-10 * scale);
+  CHECK((Q * mesh.positions.col(0)).norm() < 1e-10 * scale);
+  CHECK((Q * mesh.positions.col(1)).norm() < 1e-10 * scale);
+  const double a = 1.7, b = -0.6, c = 0.4, modulus = 3e-3;
+  Positions lifted = mesh.positions;
+  for (Eigen::Index i = 0; i < lifted.rows(); ++i) {
+    const double u = lifted(i, 0), v = lifted(i, 1);
+    lifted(i, 2) = 0.5 * (a * u * u + 2.0 * b * u * v + c * v * v);
+  }
+  const double expected = 0.5 * modulus * 0.2 * (a * a + 2.0 * b * b + c * c);
+  CHECK(yore::quadratic_bending_energy(q, modulus, lifted) ==
+        doctest::Approx(expected).epsilon(1e-9));
+  // a mesh of four vertices holds no quadratic fit: refused, naming the other models
+  Positions p(4, 3);
+  p << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0;
+  yore::Faces f(2, 3);
+  f << 0, 1, 2, 1, 3, 2;
+  CHECK_THROWS_AS(yore::fitted_bending_matrix(p, f), std::invalid_argument);
+}
