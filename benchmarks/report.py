@@ -428,6 +428,36 @@ def vibration_floor_section(payload: dict, images: str) -> list:
     return out
 
 
+def bending_consistency_section(payload: dict, images: str) -> list:
+    """The cylinder test of both bending energies on every mesh kind and size, and the fitted
+    energy's cost in an implicit step (bending_consistency.json)."""
+    summary = payload["summary"]
+    out = ["## Bending on any mesh", "", f"![bending consistency]({images}/bending_consistency.png)",
+           "", "`benchmarks/bending_consistency.py`, one thread: a 1 m × 0.5 m sheet rolled "
+           f"isometrically onto a cylinder of radius {payload['radius']:g} m, its bending energy "
+           "over the continuum's ½ B A / R², for `bending=\"quadratic\"` (fitted vertex "
+           "Hessians) and `bending=\"hinge\"` (Bergou et al. 2006); target: within "
+           f"{100 * summary['target']:g} % on every mesh kind and size.", "",
+           "| mesh | longest edge (m) | vertices | quadratic | hinge | Q entries a row "
+           "(quadratic / hinge) |", "|---|---|---|---|---|---|"]
+    for r in payload["rows"]:
+        out.append(f"| {r['kind']} | {r['edge_length']:g} | {r['vertices']} | "
+                   f"{r['quadratic']['ratio']:.4f} | {r['hinge']['ratio']:.4f} | "
+                   f"{r['quadratic']['entries_per_row']:.1f} / "
+                   f"{r['hinge']['entries_per_row']:.1f} |")
+    for model in ("quadratic", "hinge"):
+        s = summary[model]
+        out += ["", f"`{model}`: largest error {100 * s['largest_error']:.2f} % ({s['worst']['kind']}"
+                f", edge {s['worst']['edge_length']:g} m): {verdict(s['within_target'])}."]
+    for c in summary["cost"]:
+        out += ["", f"Cost on `hanging_cloth` {c['resolution']}² (TR-BDF2, 1/64 s, B = "
+                f"{payload['bending_modulus']:g} N·m): a step with the fitted energy costs "
+                f"{c['step_quadratic_over_hinge']:.2f}× the hinge energy's, a Newton iteration "
+                f"{c['iteration_quadratic_over_hinge']:.2f}×, with "
+                f"{c['factor_nonzeros_quadratic_over_hinge']:.2f}× the factor's non-zeros."]
+    return out
+
+
 def wrinkles_section(payload: dict, images: str) -> list:
     """The stretched sheet (springs and membrane) and the stroke against the mesh (from
     wrinkles.json)."""
@@ -570,6 +600,7 @@ def section(data: dict, results: Path, images: str | None = None) -> str:
     out += [""] + vibration_floor_section(data["vibration_floor"], images)
     if "wrinkles" in data:
         out += [""] + wrinkles_section(data["wrinkles"], images)
+    out += [""] + bending_consistency_section(data["bending_consistency"], images)
 
     # -- rebuild cost ---------------------------------------------------------------------------
     rebuild = data["rebuild_cost"]

@@ -923,6 +923,23 @@ def test_vibration_floor_smoke(tmp_path):
         math.log(a["error"] / b["error"]) / math.log(a["mean_step"] / b["mean_step"]))
 
 
+def test_bending_consistency_smoke(tmp_path):
+    data = run_benchmark("bending_consistency", tmp_path, "--quick")
+    rows = data["rows"]
+    assert {r["kind"] for r in rows} == {"grid 0°", "grid 30°", "grid 45°", "pattern",
+                                         "equilateral"}
+    # the fitted energy meets the 2 % target on every mesh; the hinge energy does not at 45°
+    assert data["summary"]["quadratic"]["within_target"]
+    assert all(abs(r["quadratic"]["ratio"] - 1) < 0.01 for r in rows)
+    assert not data["summary"]["hinge"]["within_target"]
+    assert next(r for r in rows if r["kind"] == "grid 45°")["hinge"]["ratio"] > 1.3
+    # the fitted Q is wider (pairs within two rings), and the factor holds more non-zeros
+    assert all(r["quadratic"]["entries_per_row"] > r["hinge"]["entries_per_row"] for r in rows)
+    (cost,) = data["summary"]["cost"]
+    assert cost["factor_nonzeros_quadratic_over_hinge"] > 1.0
+    assert (tmp_path / "bending_consistency.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_wrinkles_smoke(tmp_path):
     data = run_benchmark("wrinkles", tmp_path, "--quick")
     rows = data["rows"]
