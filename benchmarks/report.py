@@ -478,9 +478,16 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "affine strain). Flat-state stable: the flat stretched state's true Hessian is "
            "positive definite; compression: the membrane's largest S_yy there over the middle "
            "fifth of the length (N/m).", "",
-           "| run | model | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | predicted (m) | "
-           "λ / edge | amplitude (m) | flat state stable | compression | CPU s |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "Since issue 52 also per run: the mesh (CGAL pattern or a grid aligned with the "
+           "sheet) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
+           "the interpolation's artificial modulus B_art over B (the flat state's tension "
+           "charging a wrinkle's spurious slope along the length), and whether the row is "
+           "judged (wrinkled, no zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B); exponents "
+           "are fitted on judged rows only (rows without these columns predate it).", "",
+           "| run | model | mesh, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
+           "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
+           "realised B / B | B_art / B | judged | CPU s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in payload["rows"]:
         wavelength = "flat" if r["wavelength"] is None else f"{r['wavelength']:.4f}"
         ratio = "–" if r["wavelength"] is None else f"{r['wavelength'] / r['mean_edge']:.1f}"
@@ -488,10 +495,17 @@ def wrinkles_section(payload: dict, images: str) -> list:
             ratio += " (zigzag)"
         compression = ("–" if r.get("flat_state_compression") is None
                        else f"{r['flat_state_compression']:.1f}")
-        out.append(f"| {r['label']} | {r['model']} | {r['bending_modulus']:g} | "
+        realised = ("–" if r.get("realized_bending") is None
+                    else f"{r['realized_bending'] / r['bending_modulus']:.3f}")
+        artificial = ("–" if r.get("artificial_bending") is None
+                      else f"{r['artificial_bending'] / r['bending_modulus']:.3g}")
+        judged = "–" if "judged" not in r else ("yes" if r["judged"] else "no")
+        out.append(f"| {r['label']} | {r['model']} | {r.get('mesh', 'pattern')}, "
+                   f"{r.get('seed', 0)} | {r['bending_modulus']:g} | "
                    f"{r['length']:g} | {r['strain']:g} | {r['mean_edge']:.4f} | {wavelength} | "
                    f"{r['predicted_wavelength']:.4f} | {ratio} | {r['amplitude']:.2e} | "
-                   f"{r['flat_state_stable']} | {compression} | {r['cpu_seconds']:.0f} |")
+                   f"{r['flat_state_stable']} | {compression} | {realised} | {artificial} | "
+                   f"{judged} | {r['cpu_seconds']:.0f} |")
     summary = payload["summary"]
     out += ["", "| model | wrinkled runs | zigzags | exponent in B (¼) | in L (½) | in γ (−¼) | "
             "λ / predicted | λ change, two finest meshes |", "|---|---|---|---|---|---|---|---|"]
@@ -499,7 +513,8 @@ def wrinkles_section(payload: dict, images: str) -> list:
     def number(value, digits=2):
         return "–" if value is None else f"{value:.{digits}f}"
 
-    for model in ("membrane", "springs"):
+    for model in [key for key in summary if key in ("membrane", "springs")
+                  or key.endswith("aligned grid")]:
         m = summary[model]
         ratios = m["ratio_to_prediction"]
         spread = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"
