@@ -80,3 +80,25 @@ def test_a_stretched_sheet_of_no_size_is_refused_naming_the_size(keyword, value)
     # issue 53: a negative width meshed the mirror-image rectangle without a word
     with pytest.raises(ValueError, match=f"{keyword} must be"):
         yore.scenes.stretched_sheet(**{keyword: value}, edge_length=0.1)
+
+
+def test_hanging_cloth_on_a_pattern_mesh_hangs_from_the_same_two_corners():
+    # mesh="pattern" (issue 52's stroke experiment on CGAL meshes): the pins are the pattern's
+    # corners (0, 0) and (1, 0), 0.8 m apart, about resolution² vertices; the grid stays the
+    # default, with its pins at vertices 0 and resolution − 1 as before.
+    grid = yore.scenes.hanging_cloth(resolution=13)
+    assert list(grid.scene["fixed"]) == [0, 12]
+    sim = yore.scenes.hanging_cloth(resolution=13, mesh="pattern", bending="quadratic",
+                                    bending_modulus=1e-4, stretch="membrane",
+                                    young_modulus=400.0, poisson_ratio=0.3)
+    uv = sim.scene["uv"]
+    pins = sim.scene["fixed"]
+    assert np.allclose(uv[pins], [[0.0, 0.0], [1.0, 0.0]])
+    assert 0.5 * 13**2 < sim.cloth.vertex_count < 2.0 * 13**2
+    start = sim.cloth.positions[pins].copy()
+    assert np.linalg.norm(start[0] - start[1]) == pytest.approx(0.8)
+    sim.advance(0.5)
+    X = sim.cloth.positions
+    assert np.array_equal(X[pins], start) and X[:, 1].mean() < -0.1
+    with pytest.raises(ValueError, match="mesh"):
+        yore.scenes.hanging_cloth(mesh="hexagons")

@@ -6,6 +6,8 @@ indices (a stroke report's ``region_faces``).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "wrinkle_measure",
@@ -113,6 +115,20 @@ def vertex_normals(V, F) -> np.ndarray:
         np.add.at(normals, F[:, c], face_normals)
     length = np.linalg.norm(normals, axis=1)
     return normals / np.where(length > 0.0, length, 1.0)[:, None]
+
+
+def smoothing_iterations(V, F, length) -> int:
+    """Taubin iterations whose filter reaches about `length` (m) on the mesh (V, F): 10 reach
+    about 6 mean edges h (a ripple of 8 edges is kept at 0.96, one of 4 removed to 0.56) and the
+    reach grows as h √iterations, so 10 (length / 6h)², at least 1. With it a wrinkle measure
+    sees the same wrinkles, those shorter than about `length`, on coarse and fine meshes."""
+    V, F = np.asarray(V, dtype=float), np.asarray(F)
+    length = float(length)
+    if not (math.isfinite(length) and length > 0.0):
+        raise ValueError(f"length must be finite and > 0 (m), got {length}")
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    h = float(np.linalg.norm(V[edges[:, 1]] - V[edges[:, 0]], axis=1).mean())
+    return max(1, int(round(10.0 * (length / (6.0 * h)) ** 2)))
 
 
 def wrinkle_measure(V, F, region=None, iterations=10, lam=0.5, mu=-0.53) -> float:

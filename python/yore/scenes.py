@@ -59,7 +59,8 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
                   stretch_stiffness=None, bend_stiffness=None, damping=DAMPING,
                   drag=DRAG, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                   bending="springs", bending_modulus=None, stretch="springs",
-                  young_modulus=None, poisson_ratio=None, **options) -> Simulation:
+                  young_modulus=None, poisson_ratio=None, mesh="grid",
+                  **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
     The cloth's pattern is a size × size square; its rest lengths come from the flat pattern.
@@ -76,11 +77,23 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     paper's, default), "quadratic" (fitted, the same on any mesh) or "hinge" (Bergou et al.
     2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern. stretch : "springs" (the paper's, default) or
     "membrane" (St. Venant–Kirchhoff triangles) with young_modulus, N/m, and poisson_ratio.
+    mesh : "grid" (`grid_mesh`, resolution × resolution vertices, default) or "pattern" (a CGAL
+    `pattern_mesh` of the square whose longest edge is the grid's diagonal, √2 · size /
+    (resolution − 1): isotropic triangles, about as many vertices).
     """
     pin_spacing = float(pin_spacing)
     if not 0.0 < pin_spacing <= 1.0:
         raise ValueError(f"pin_spacing must be in (0, 1], got {pin_spacing}")
-    V, F = grid_mesh(resolution, resolution, width=size, height=size)
+    if mesh == "grid":
+        V, F = grid_mesh(resolution, resolution, width=size, height=size)
+    elif mesh == "pattern":
+        if not isinstance(resolution, (int, np.integer)) or resolution < 2:
+            raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
+        size = check_factor(size, "size", "m")
+        V, F = pattern_mesh([[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
+                            edge_length=math.sqrt(2.0) * size / (resolution - 1))
+    else:
+        raise ValueError(f'mesh must be "grid" or "pattern", got {mesh!r}')
     uv = V[:, :2].copy()
     pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
@@ -93,7 +106,9 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
     cloth.positions = gathered
     cloth.material_coordinates = uv  # the flat pattern, for sim.stroke_material
-    pinned = np.array([0, resolution - 1], dtype=np.int32)  # the corners of the edge z = 0
+    # the corners of the edge z = 0 (the outline's first two points: vertices of either mesh)
+    pinned = np.array([np.argmin(np.hypot(uv[:, 0], uv[:, 1])),
+                       np.argmin(np.hypot(uv[:, 0] - uv[:, 0].max(), uv[:, 1]))], dtype=np.int32)
     cloth.fix(pinned)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
     sim.scene = {"name": "hanging_cloth", "fixed": pinned, "uv": uv}
