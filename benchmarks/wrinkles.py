@@ -29,7 +29,11 @@ runs only, per mesh kind. The stroke rows: `hanging_cloth` at resolutions 21, 31
 springs and a membrane of the grid lattice's affine Y and ν, simulated 1 s, stroked along
 v = 0.8 from u = 0.2 to 0.8 (the paper's stroke across the folds near the top), simulated 1 s
 more: the wrinkle measure of the stroke's region and its fold depth (range of the wrinkle
-height over the region).
+height over the region). Since issue 52 also the stroke in physical units: `hanging_cloth` on a
+grid and on a CGAL pattern mesh at 41, 81 and 161 vertices a side (membrane, fitted bending
+1e-4 N·m), settled, stroked with a band 6 cm wide along v = 0.8 (isotropic growth 1.1),
+settled again; fold depth and wrinkle measure over the same material band on every mesh, with
+the smoothing's reach in metres (15 cm).
 
 Every finished run is journaled (one JSON per run under <out>/wrinkles-runs/, written
 atomically): --resume skips them. Writes wrinkles.json and wrinkles.png.
@@ -73,6 +77,16 @@ QUICK_BASE = {"length": 0.4, "width": 0.2, "strain": 0.1, "edge_length": 0.04,
               "bending_modulus": 4 * B0}
 STROKE_RESOLUTIONS = [21, 31, 41]
 QUICK_STROKE_RESOLUTIONS = [9, 13]
+#: Issue 52's stroke against the mesh, in physical units: a band 6 cm wide along v = 0.8 from
+#: u = 0.2 to 0.8, isotropic growth 1.1 (area × 1.21), on the hanging cloth with the membrane
+#: and the fitted bending, settled before and after; measured over the material band (the
+#: same region on every mesh) with a smoothing reach of 15 cm.
+BAND = {"v": 0.8, "u": (0.2, 0.8), "width": 0.06, "growth": "isotropic", "expansion": 1.1}
+BAND_BENDING = 1e-4  # N·m: a bending length (B / ρg)^⅓ ≈ 5 cm at 0.1 kg/m²
+BAND_REACH = 0.15  # m
+BAND_RESOLUTIONS = [41, 81, 161]
+QUICK_BAND_RESOLUTIONS = [9, 13]
+BAND_SETTLE_SECONDS = 120.0  # pseudo-time cap; the 41² cloth settles in ~55 s
 
 
 def sheet_runs(quick):
@@ -322,6 +336,58 @@ def stroke_run(model, resolution, quick):
             "cpu_seconds": time.process_time() - start}
 
 
+def band_run(mesh, resolution, quick):
+    """The hanging cloth (membrane of the 41² grid lattice's affine Y and ν, fitted bending
+    BAND_BENDING) on `mesh` at `resolution`, settled, stroked along BAND in material
+    coordinates, settled again: the fold depth (range of the wrinkle height) and wrinkle
+    measure (RMS) over the faces whose material centroid lies in the band, with the smoothing's
+    reach BAND_REACH in metres (`metrics.smoothing_iterations`), and the band's area gain."""
+    start = time.process_time()
+    V, F = yore.grid_mesh(41, 41)
+    young, nu = lattice_moduli(V, F, yore.scenes.STIFFNESS)
+    sim = yore.scenes.hanging_cloth(resolution=resolution, mesh=mesh, stretch="membrane",
+                                    young_modulus=young, poisson_ratio=nu, bending="quadratic",
+                                    bending_modulus=BAND_BENDING, integrator="implicit")
+    seconds = 2.0 if quick else BAND_SETTLE_SECONDS
+    before = sim.settle(max_seconds=seconds)
+    u0, u1 = BAND["u"]
+    report = sim.stroke(yore.StrokePath.material([[u0, BAND["v"]], [u1, BAND["v"]]]),
+                        width=BAND["width"], growth=BAND["growth"],
+                        expansion=BAND["expansion"])
+    after = sim.settle(max_seconds=seconds)
+    X, F = sim.cloth.positions, sim.cloth.faces
+    uv = sim.cloth.material_coordinates
+    centre = uv[F].mean(axis=1)
+    band = np.flatnonzero((np.abs(centre[:, 1] - BAND["v"]) < 0.5 * BAND["width"])
+                          & (centre[:, 0] > u0) & (centre[:, 0] < u1))
+    iterations = metrics.smoothing_iterations(X, F, BAND_REACH)
+    height = metrics.wrinkle_height(X, F, iterations)[np.unique(F[band])]
+    return {"mesh": mesh, "resolution": resolution, "vertices": int(sim.cloth.vertex_count),
+            "faces_split": len(report.new_vertices), "band_faces": int(len(band)),
+            "smoothing_iterations": iterations,
+            "wrinkle_measure": float(np.sqrt(np.mean(height ** 2))),
+            "fold_depth": float(height.max() - height.min()),
+            "area_gain": float(report.rest_area_after / report.rest_area_before),
+            "settled_before": bool(before["converged"]), "settled_after": bool(after["converged"]),
+            "cpu_seconds": time.process_time() - start}
+
+
+def band_summary(bands):
+    """Per mesh kind, the change of the fold depth and the wrinkle measure between its two
+    finest resolutions (issue 52's target: < 5 % between 81 and 161)."""
+    out = {}
+    for mesh in ("grid", "pattern"):
+        mine = sorted((b for b in bands if b["mesh"] == mesh), key=lambda b: b["resolution"])
+        if len(mine) >= 2:
+            a, b = mine[-2], mine[-1]
+            out[mesh] = {"resolutions": [a["resolution"], b["resolution"]],
+                         "fold_depth_change": abs(b["fold_depth"] - a["fold_depth"])
+                         / max(b["fold_depth"], 1e-300),
+                         "wrinkle_measure_change": abs(b["wrinkle_measure"] - a["wrinkle_measure"])
+                         / max(b["wrinkle_measure"], 1e-300)}
+    return out
+
+
 def fit_exponent(rows, key):
     """Slope of log λ against log `key` over the judged rows (resolved, not zigzags, B_art at
     most a tenth of B: issue 52), None with fewer than two values of `key`."""
@@ -504,13 +570,25 @@ def main(argv=None):
             s = strokes[-1]
             print(f"  stroke {model} {resolution}: measure {s['wrinkle_measure']:.3e}, fold "
                   f"depth {s['fold_depth']:.3e}", flush=True)
+    bands = []
+    for mesh in ("grid", "pattern"):
+        for resolution in (QUICK_BAND_RESOLUTIONS if args.quick else BAND_RESOLUTIONS):
+            bands.append(journaled(args.out, f"band-{mesh}-{resolution}", args.resume,
+                                   lambda: band_run(mesh, resolution, args.quick)))
+            b = bands[-1]
+            print(f"  band stroke {mesh} {resolution}: fold depth {b['fold_depth']:.3e}, "
+                  f"measure {b['wrinkle_measure']:.3e}, area × {b['area_gain']:.3f}, "
+                  f"{b['cpu_seconds']:.0f} s", flush=True)
     payload = {"benchmark": "wrinkles", "machine": common.machine_info(), "quick": args.quick,
                "settings": {"noise": NOISE, "young": YOUNG, "poisson": POISSON,
                             "bases": ({m: QUICK_BASE for m in BASES} if args.quick
                                       else BASES),
                             "settle_seconds": SETTLE_SECONDS,
                             "settle_tolerance": SETTLE_TOLERANCE},
-               "rows": rows, "strokes": strokes, "summary": summarize(rows, strokes, args.quick)}
+               "rows": rows, "strokes": strokes, "band_strokes": bands,
+               "band_settings": {**BAND, "bending_modulus": BAND_BENDING, "reach": BAND_REACH},
+               "summary": {**summarize(rows, strokes, args.quick),
+                           "band_strokes": band_summary(bands)}}
     common.save(args.out, "wrinkles", payload, lambda path: draw(rows, strokes, path))
     print(json.dumps(payload["summary"], indent=1))
 
