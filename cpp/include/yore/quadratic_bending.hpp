@@ -20,8 +20,12 @@
 /// map of the positions that is exact for quadratic fields on any mesh, and
 ///   E(x) = ½ κ Σ_p A_p Σ_c |H_p x_c|²_F      (A_p a third of p's faces' rest area),
 /// ½ κ ∫ |∇∇x|² dA, which for isometric bending of a flat sheet is ½ κ ∫ (κ₁² + κ₂²) dA =
-/// ½ κ ∫ (2H)² dA, the hinge model's limit. Same form, Q = Σ_p A_p W_p W_pᵀ; a wider
-/// stencil (pairs within two rings, ~23 entries a row on CGAL meshes against ~13).
+/// ½ κ ∫ (2H)² dA, the hinge model's limit; plus, per patch, β/(m ρ⁴) times the squared
+/// residual of its fit (zero for quadratic fields, O(h²) relative on smooth ones), so that no
+/// mesh-scale shape the fit cannot see is free. Same form, Q = Σ_p A_p K_p; a wider stencil
+/// (pairs within two rings, ~20 entries a row against the hinge's ~12). Fits run in
+/// coordinates whitened by each patch's spread, so a stretched mesh is fitted like the
+/// regular one it is an affine image of.
 
 #include "yore/mesh.hpp"
 
