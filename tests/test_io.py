@@ -299,9 +299,10 @@ def test_load_frame_returns_point_data_and_checks_its_length(tmp_path):
         yore.io.load_frame(tmp_path / "missing.vtu")
 
 
-def _vtu_with_an_inflating_array(path, inflated_bytes):
-    """A valid .vtu of a 3×3 grid (meshio, zlib) whose point array "pad" is one zlib block
-    that inflates to ``inflated_bytes`` zero bytes (a few hundred kB compressed)."""
+def _vtu_with_an_inflating_array(path, inflated_bytes, name="pad"):
+    """A valid .vtu of a 3×3 grid (meshio, zlib) whose array `name` (the point array "pad",
+    or "Points", the positions) is one zlib block that inflates to ``inflated_bytes`` zero
+    bytes (a few hundred kB compressed)."""
     import base64
     import zlib
 
@@ -309,7 +310,7 @@ def _vtu_with_an_inflating_array(path, inflated_bytes):
     meshio.write(path, meshio.Mesh(V, [("triangle", F)], point_data={"pad": np.zeros(len(V))}),
                  compression="zlib")
     text = path.read_text()
-    start = text.index('Name="pad"')
+    start = text.index(f'Name="{name}"')
     begin = text.index(">", start) + 1
     end = text.index("</DataArray>", begin)
     block = zlib.compress(bytes(inflated_bytes), 9)
@@ -319,6 +320,39 @@ def _vtu_with_an_inflating_array(path, inflated_bytes):
     payload = base64.b64encode(header.tobytes()).decode() + base64.b64encode(block).decode()
     path.write_text(text[:begin] + payload + text[end:])
     return path
+
+
+def test_a_forged_point_count_does_not_raise_the_inflation_budget(tmp_path):
+    """Issue 53, N08: a 1.4 MB .vtu whose XML declared a huge point count was refused only
+    after inflating to the budget that count allows (peak 1.1 GB). The budget is now also at
+    most 64 × the file's size + 1 MiB: the bomb below (a 512 MiB block, NumberOfPoints forged
+    to 10⁸, 0.7 MB of file) is refused after ~46 MB, while yore's own frames — whose zero point data
+    compress best — still read (they inflate ~20× at most)."""
+    import tracemalloc
+
+    path = _vtu_with_an_inflating_array(tmp_path / "bomb.vtu", 512 << 20, name="Points")
+    text = path.read_text()
+    forged = tmp_path / "forged.vtu"
+    forged.write_text(text.replace('NumberOfPoints="9"', 'NumberOfPoints="100000000"', 1))
+    data = forged.read_bytes()
+    budget = yore.io.vtu_inflation_budget(data)
+    # 0.7 MB of file: at most ~46 MB, not the 1.8 GB the forged count would allow
+    assert budget <= yore.io.VTU_MAX_INFLATION_RATIO * len(data) + (1 << 20) < 48 << 20
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=rf"inflate to more than the {budget} bytes"):
+            yore.load_mesh(forged)
+        assert tracemalloc.get_traced_memory()[1] < 112 << 20
+    finally:
+        tracemalloc.stop()
+    # a frame of zeros (the first frame of a run: velocities and forces at rest) still reads
+    V, F = yore.grid_mesh(120, 120)
+    zeros = np.zeros((len(V), 3))
+    frame = tmp_path / "frame.vtu"
+    yore.save_mesh(frame, V, F, point_data={"velocities": zeros, "forces": zeros,
+                                            "expansion": np.ones(len(V))})
+    V2, _, fields = yore.io.load_frame(frame)
+    assert np.array_equal(V2, V) and np.array_equal(fields["forces"], zeros)
 
 
 def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_inflating(

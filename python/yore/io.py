@@ -256,11 +256,20 @@ _VTU_ITEM_BYTES = {b"Int8": 1, b"UInt8": 1, b"Int16": 2, b"UInt16": 2, b"Int32":
 _INFLATION_LOCK = threading.Lock()
 
 
+#: A .vtu file's compressed arrays may inflate to at most this many times the file's own size
+#: (plus 1 MiB). The shapes its XML declares are the file's word only: a forged point count
+#: let a 1.4 MB file inflate to 1.1 GB before it was refused (issue 53, N08). Measured on
+#: yore's own files: 6× for meshes, ~20× for frames whose point data are zeros; zlib cannot
+#: pass ~1030× on anything.
+VTU_MAX_INFLATION_RATIO = 64
+
+
 def vtu_inflation_budget(data: bytes) -> int:
     """Bytes a .vtu file's compressed arrays may inflate to, from the shapes its XML declares:
     8 × (points + cells) entries of every DataArray (components × item size each; a triangle's
-    connectivity is 3 entries per cell), at most `MAX_MESH_FILE_BYTES` (content past it is
-    refused as a file past it would be)."""
+    connectivity is 3 entries per cell), at most `VTU_MAX_INFLATION_RATIO` × the file's size
+    + 1 MiB (a forged count does not raise it past that) and at most `MAX_MESH_FILE_BYTES`
+    (content past it is refused as a file past it would be)."""
     entities = sum(int(n) for n in re.findall(rb'NumberOf(?:Points|Cells)\s*=\s*"(\d{1,18})"',
                                               data))
     per_entity = 0
@@ -269,7 +278,8 @@ def vtu_inflation_budget(data: bytes) -> int:
         components = re.search(rb'NumberOfComponents\s*=\s*"(\d{1,9})"', tag)
         per_entity += _VTU_ITEM_BYTES.get(kind.group(1) if kind else b"", 8) * \
             (int(components.group(1)) if components else 1)
-    return min(8 * entities * per_entity + (64 << 10), MAX_MESH_FILE_BYTES)
+    return min(8 * entities * per_entity + (64 << 10),
+               VTU_MAX_INFLATION_RATIO * len(data) + (1 << 20), MAX_MESH_FILE_BYTES)
 
 
 class _BudgetedDecompressor:
