@@ -482,12 +482,13 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "sheet) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
            "the interpolation's artificial modulus B_art over B (the flat state's tension "
            "charging a wrinkle's spurious slope along the length), and whether the row is "
-           "judged (wrinkled, no zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B); exponents "
+           "judged (wrinkled, no zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B), and the B_art "
+           "a membrane with fitted gradients (the candidate remedy, not built) would leave; exponents "
            "are fitted on judged rows only (rows without these columns predate it).", "",
            "| run | model | mesh, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
            "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
-           "realised B / B | B_art / B | judged | CPU s |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "realised B / B | B_art / B | B_art / B, fitted gradients | judged | CPU s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in payload["rows"]:
         wavelength = "flat" if r["wavelength"] is None else f"{r['wavelength']:.4f}"
         ratio = "–" if r["wavelength"] is None else f"{r['wavelength'] / r['mean_edge']:.1f}"
@@ -499,13 +500,15 @@ def wrinkles_section(payload: dict, images: str) -> list:
                     else f"{r['realized_bending'] / r['bending_modulus']:.3f}")
         artificial = ("–" if r.get("artificial_bending") is None
                       else f"{r['artificial_bending'] / r['bending_modulus']:.3g}")
+        remedy = ("–" if r.get("artificial_bending_fitted_gradients") is None
+                  else f"{r['artificial_bending_fitted_gradients'] / r['bending_modulus']:.2g}")
         judged = "–" if "judged" not in r else ("yes" if r["judged"] else "no")
         out.append(f"| {r['label']} | {r['model']} | {r.get('mesh', 'pattern')}, "
                    f"{r.get('seed', 0)} | {r['bending_modulus']:g} | "
                    f"{r['length']:g} | {r['strain']:g} | {r['mean_edge']:.4f} | {wavelength} | "
                    f"{r['predicted_wavelength']:.4f} | {ratio} | {r['amplitude']:.2e} | "
                    f"{r['flat_state_stable']} | {compression} | {realised} | {artificial} | "
-                   f"{judged} | {r['cpu_seconds']:.0f} |")
+                   f"{remedy} | {judged} | {r['cpu_seconds']:.0f} |")
     summary = payload["summary"]
     out += ["", "| model | wrinkled runs | zigzags | exponent in B (¼) | in L (½) | in γ (−¼) | "
             "λ / predicted | λ change, two finest meshes |", "|---|---|---|---|---|---|---|---|"]

@@ -17,7 +17,9 @@ its middle fifth). Per run also, after issue 52: the bending modulus the mesh re
 energy of the pattern rolled onto a cylinder across the width, over the continuum's), the
 artificial modulus B_art the piecewise-linear interpolation adds (a wrinkle z = sin kv of the
 measured wavelength has a spurious slope along u in every triangle not aligned with u, which
-the flat state's tension S_uu charges like bending: `artificial_bending`), the tension, points
+the flat state's tension S_uu charges like bending: `artificial_bending`; and what a membrane
+whose faces take their corners' fitted gradients, the candidate remedy, would leave), the
+tension, points
 per wavelength, the wrinkled zone's length along u, and whether the row is judged (wrinkled,
 not a zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B). The membrane runs on pattern meshes
 and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no spurious slope), each
@@ -203,13 +205,53 @@ def realized_bending(uv, F, bending_modulus, radius=0.5):
     return cloth.energy((0.0, 0.0, 0.0))["bending"] / (0.5 * area / radius ** 2)
 
 
-def artificial_bending(uv, F, stress, wavelength, middle):
+def fitted_gradient_weights(uv, F, vertices):
+    """Per vertex p of `vertices`: (patch, C) with C (2 × m) the weights that give the gradient
+    at p of the least-squares quadratic through p's 1-ring (grown by the next ring until 6 or
+    more points pose a well-conditioned fit, in coordinates whitened by the patch's spread:
+    the fit of the fitted bending energy), so ∇f(p) ≈ C f[patch]."""
+    ring = [set() for _ in range(len(uv))]
+    for a, b, c in F:
+        ring[a].update((b, c))
+        ring[b].update((a, c))
+        ring[c].update((a, b))
+    out = {}
+    for p in vertices:
+        patch = set(ring[p]) | {p}
+        while True:
+            index = np.array(sorted(patch))
+            d = uv[index] - uv[p]
+            spread = d.T @ d / len(index)
+            if len(index) >= 6 and np.linalg.det(spread) > 1e-12 * np.trace(spread) ** 2:
+                to_white = np.linalg.inv(np.linalg.cholesky(spread))
+                s = d @ to_white.T
+                design = np.column_stack([np.ones(len(index)), s, s[:, 0] ** 2,
+                                          s[:, 0] * s[:, 1], s[:, 1] ** 2])
+                sigma = np.linalg.svd(design, compute_uv=False)
+                if sigma[-1] >= 1e-2 * sigma[0]:
+                    out[p] = (index, to_white.T @ np.linalg.pinv(design)[1:3])
+                    break
+            grown = set().union(*(ring[q] for q in patch)) - patch
+            if not grown:
+                raise ValueError(f"vertex {p}: no well-posed fit")
+            nearest = min(grown, key=lambda q: float(np.sum((uv[q] - uv[p]) ** 2)))
+            patch.add(nearest)
+    return out
+
+
+def artificial_bending(uv, F, stress, wavelength, middle, gradients="linear"):
     """B_art (N·m): the bending modulus the interpolation error adds. A wrinkle z = sin(k v + φ)
     has no slope along u, but its piecewise-linear interpolant has one, g_u, in every triangle
     whose edges are not aligned with u; under the flat state's stress S it costs
     ½ Σ_f A_f (S_uu g_u² + 2 S_uv g_u g_v) beyond the continuum's ½ ∫ S_vv z_v², which acts
     as ½ B_art ∫ z_vv² = ½ B_art k⁴ ∫ z². Over the faces in `middle` (where wrinkles form),
-    averaged over four phases φ."""
+    averaged over four phases φ. gradients="fitted": the same for the candidate remedy, a
+    membrane whose face gradient is the mean of its corners' fitted gradients
+    (`fitted_gradient_weights`) instead of its linear interpolant's."""
+    if gradients not in ("linear", "fitted"):
+        raise ValueError(f'gradients must be "linear" or "fitted", got {gradients!r}')
+    fits = (fitted_gradient_weights(uv, F, np.unique(F[middle])) if gradients == "fitted"
+            else None)
     k = 2 * math.pi / wavelength
     a, b = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
     twice_area = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
@@ -220,6 +262,10 @@ def artificial_bending(uv, F, stress, wavelength, middle):
         dz1, dz2 = z[F[:, 1]] - z[F[:, 0]], z[F[:, 2]] - z[F[:, 0]]
         gu = (dz1 * b[:, 1] - dz2 * a[:, 1]) / twice_area
         gv = (dz2 * a[:, 0] - dz1 * b[:, 0]) / twice_area
+        if fits is not None:  # the faces in `middle` only: their corners' fitted gradients
+            at = {p: C @ z[index] for p, (index, C) in fits.items()}
+            for f in np.flatnonzero(middle):
+                gu[f], gv[f] = np.mean([at[p] for p in F[f]], axis=0)
         density = stress[:, 0, 0] * gu ** 2 + 2 * stress[:, 0, 1] * gu * gv
         spurious += np.sum((area * density)[middle])
         reference += np.sum((area * (z[F] ** 2).mean(axis=1))[middle]) * k ** 4
@@ -237,7 +283,7 @@ def flat_state_check(model, parameters, wavelength):
     cloth = sim.cloth
     stable = not yore.settling.is_saddle(cloth, (0.0, 0.0, 0.0))
     out = {"flat_state_stable": stable, "flat_state_compression": None, "tension": None,
-           "artificial_bending": None}
+           "artificial_bending": None, "artificial_bending_fitted_gradients": None}
     if model == "membrane":
         uv, F = sim.scene["uv"], cloth.faces
         S = face_stress(uv, F, cloth.positions)
@@ -246,8 +292,11 @@ def flat_state_check(model, parameters, wavelength):
         fifth = offset < 0.1 * parameters["length"]
         out["flat_state_compression"] = float(-S[fifth, 1, 1].min())
         out["tension"] = float(S[fifth, 0, 0].mean())
-        out["artificial_bending"] = artificial_bending(uv, F, S, wavelength,
-                                                       offset < 0.25 * parameters["length"])
+        middle = offset < 0.25 * parameters["length"]
+        out["artificial_bending"] = artificial_bending(uv, F, S, wavelength, middle)
+        # what the candidate remedy would leave (issue 52, item 1: not built yet)
+        out["artificial_bending_fitted_gradients"] = artificial_bending(
+            uv, F, S, wavelength, middle, gradients="fitted")
     return out
 
 
