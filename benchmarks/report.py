@@ -432,7 +432,8 @@ def bending_consistency_section(payload: dict, images: str) -> list:
     """The cylinder test of both bending energies on every mesh kind and size, and the fitted
     energy's cost in an implicit step (bending_consistency.json)."""
     summary = payload["summary"]
-    out = ["## Bending on any mesh", "", f"![bending consistency]({images}/bending_consistency.png)",
+    out = ["## Bending on any mesh", "",
+           f"![bending consistency]({images}/bending_consistency.png)",
            "", "`benchmarks/bending_consistency.py`, one thread: a 1 m × 0.5 m sheet rolled "
            f"isometrically onto a cylinder of radius {payload['radius']:g} m, its bending energy "
            "over the continuum's ½ B A / R², for `bending=\"quadratic\"` (fitted vertex "
@@ -447,8 +448,9 @@ def bending_consistency_section(payload: dict, images: str) -> list:
                    f"{r['hinge']['entries_per_row']:.1f} |")
     for model in ("quadratic", "hinge"):
         s = summary[model]
-        out += ["", f"`{model}`: largest error {100 * s['largest_error']:.2f} % ({s['worst']['kind']}"
-                f", edge {s['worst']['edge_length']:g} m): {verdict(s['within_target'])}."]
+        out += ["", f"`{model}`: largest error {100 * s['largest_error']:.2f} % "
+                f"({s['worst']['kind']}, edge {s['worst']['edge_length']:g} m): "
+                f"{verdict(s['within_target'])}."]
     for c in summary["cost"]:
         out += ["", f"Cost on `hanging_cloth` {c['resolution']}² (TR-BDF2, 1/64 s, B = "
                 f"{payload['bending_modulus']:g} N·m): a step with the fitted energy costs "
@@ -482,8 +484,9 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "sheet) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
            "the interpolation's artificial modulus B_art over B (the flat state's tension "
            "charging a wrinkle's spurious slope along the length), and whether the row is "
-           "judged (wrinkled, no zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B), and the B_art "
-           "a membrane with fitted gradients (the candidate remedy, not built) would leave; exponents "
+           "judged (wrinkled, no zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B), and the "
+           "B_art a membrane with fitted gradients (the candidate remedy, not built) would "
+           "leave; exponents "
            "are fitted on judged rows only (rows without these columns predate it).", "",
            "| run | model | mesh, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
            "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
