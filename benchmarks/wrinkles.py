@@ -19,12 +19,11 @@ artificial modulus B_art the piecewise-linear interpolation adds (a wrinkle z = 
 measured wavelength has a spurious slope along u in every triangle not aligned with u, which
 the flat state's tension S_uu charges like bending: `artificial_bending`; and what a membrane
 whose faces take their corners' fitted gradients, the candidate remedy, would leave), the
-tension, points
-per wavelength, the wrinkled zone's length along u, and whether the row is judged (wrinkled,
-not a zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B). The membrane runs on pattern meshes
-and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no spurious slope), each
-base also from a second seed. The prediction is Cerda & Mahadevan's λ = (2π L)^½ (4 B / (Y γ))^¼ from the
-model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
+tension, points per wavelength, the wrinkled zone's length along u, and whether the row is
+judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B). The membrane runs
+on pattern meshes and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no
+spurious slope), each base also from a second seed. The prediction is Cerda & Mahadevan's
+λ = (2π L)^½ (4 B / (Y γ))^¼ from the model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
 spring lattice from the energies of three small affine strains; an upper bound, since its
 nodes may relax). Exponents of λ in B (16×), L (4×) and γ (4×) are fitted over the judged
 runs only, per mesh kind. The stroke rows: `hanging_cloth` at resolutions 21, 31, 41,

@@ -421,6 +421,13 @@ def test_a_quadratic_state_from_before_the_fitted_operator_resumes_as_the_hinge_
 
     with pytest.raises(ValueError, match="bending_operator"):
         load_state(_rewrite_document(fitted, tmp_path / "forged.npz", forged))
+    # and Cloth.from_state, given a dict directly, refuses the same (any type) naming it
+    state = load_state(fitted)[0].cloth.state()
+    for bad in (3, "cotangent"):
+        with pytest.raises(ValueError, match="bending_operator"):
+            yore.Cloth.from_state({**state, "bending_operator": bad})
+    with pytest.raises(ValueError, match="bending_operator"):
+        yore.Cloth.from_state({**state, "bending": "hinge"})  # "fitted" names quadratic only
 
 
 @pytest.mark.parametrize("integrator", ["implicit", "explicit", "local-global", "quasi-newton"])

@@ -198,11 +198,15 @@ Cloth cloth_from_state(const py::dict& values) {
   state.clock.steps = values["clock_steps"].cast<std::int64_t>();
   state.clock.dt = values["clock_dt"].cast<double>();
   if (values.contains("bending")) state.bending = bending_model(values["bending"].cast<std::string>());
-  if (state.bending == BendingModel::quadratic) {  // "fitted", or a file from before it: hinges
-    const bool fitted = values.contains("bending_operator") &&
-                        !values["bending_operator"].is_none() &&
-                        values["bending_operator"].cast<std::string>() == "fitted";
-    if (!fitted) state.bending = BendingModel::hinge;
+  if (values.contains("bending_operator") && !values["bending_operator"].is_none()) {
+    const py::object given = values["bending_operator"];
+    if (!py::isinstance<py::str>(given) || given.cast<std::string>() != "fitted" ||
+        state.bending != BendingModel::quadratic) {
+      throw std::invalid_argument(
+          "state bending_operator must be \"fitted\" with bending \"quadratic\", else None");
+    }
+  } else if (state.bending == BendingModel::quadratic) {
+    state.bending = BendingModel::hinge;  // a state from before the fitted operator: hinges
   }
   if (values.contains("bending_modulus") && !values["bending_modulus"].is_none()) {
     state.bending_modulus = values["bending_modulus"].cast<double>();

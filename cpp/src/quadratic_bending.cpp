@@ -323,7 +323,8 @@ QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
       const std::int32_t p = faces(f, k);
       area(p) += twice_area.norm() / 6.0;
       normal[static_cast<std::size_t>(p)] += twice_area;
-      for (int d = 1; d < 3; ++d) ring[static_cast<std::size_t>(p)].push_back(faces(f, (k + d) % 3));
+      auto& neighbours = ring[static_cast<std::size_t>(p)];
+      for (int d = 1; d < 3; ++d) neighbours.push_back(faces(f, (k + d) % 3));
     }
   }
   std::vector<std::tuple<std::int32_t, std::int32_t, double>> triplets;

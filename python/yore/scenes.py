@@ -75,8 +75,9 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     per spring (both default 200; bend_stiffness not with quadratic bending, stretch_stiffness
     not with the membrane). damping : N·s/m per spring. drag : 1/s. bending : "springs" (the
     paper's, default), "quadratic" (fitted, the same on any mesh) or "hinge" (Bergou et al.
-    2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern. stretch : "springs" (the paper's, default) or
-    "membrane" (St. Venant–Kirchhoff triangles) with young_modulus, N/m, and poisson_ratio.
+    2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern.
+    stretch : "springs" (the paper's, default) or "membrane" (St. Venant–Kirchhoff triangles)
+    with young_modulus, N/m, and poisson_ratio.
     mesh : "grid" (`grid_mesh`, resolution × resolution vertices, default) or "pattern" (a CGAL
     `pattern_mesh` of the square whose longest edge is the grid's diagonal, √2 · size /
     (resolution − 1): isotropic triangles, about as many vertices).
@@ -160,9 +161,9 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
     (isotropic triangles, longest edge ``edge_length``), or with ``mesh="grid"`` by `grid_mesh`
     aligned with its sides (squares of side ``edge_length``/√2 split by alternating diagonals,
     so the longest edge is ``edge_length`` too: a wrinkle along u has no spurious slope along u
-    in any triangle, the reference for the pattern mesh's interpolation error); it starts in the z = 0 plane stretched
-    uniformly along u by 1 + ``strain``, with its two short edges clamped (fixed) there, and
-    ``noise`` m (RMS, seeded) of random height so that a flat state that is not stable can
+    in any triangle, the reference for the pattern mesh's interpolation error); it starts in
+    the z = 0 plane stretched uniformly along u by 1 + ``strain``, with its two short edges
+    clamped (fixed) there, and ``noise`` m (RMS, seeded) of random height so that a flat state that is not stable can
     leave it. No gravity. Bending is quadratic (``bending_modulus``, N·m); stretching is the
     membrane (``young_modulus`` N/m, ``poisson_ratio``, the default) or springs (``stretch =
     "springs"`` with ``stretch_stiffness``). Area density kg/m². Relax it with
