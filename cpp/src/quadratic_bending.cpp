@@ -56,11 +56,14 @@ void fill_rows(std::vector<std::tuple<std::int32_t, std::int32_t, double>>& trip
 
 }  // namespace
 
+namespace {
+
 // over 80 lines: the hinge stencil (Bergou et al. 2006: cotangent weights, the normalisation
 // by the two faces' rest areas, the outer product into Q) is one formula per hinge, read best
-// in one piece beside the edge sort that finds the hinges.
-QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
-                                                const Faces& faces) {
+// in one piece beside the edge sort that finds the hinges. With values false it only checks
+// the mesh and counts the hinges and their fold energy (the fitted builder's scales).
+QuadraticBendingMatrix hinge_matrix(const Positions& rest_positions, const Faces& faces,
+                                    bool values) {
   const Eigen::Index n = rest_positions.rows();
   QuadraticBendingMatrix out;
   out.size = n;
@@ -115,15 +118,22 @@ QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
     // to its lines and on an equilateral mesh (tests/test_quadratic_bending.py), so κ is the
     // plate's bending rigidity D. Bergou et al.'s 3/(A₀ + A₁) gives three times that.
     const double scale = 1.0 / area;
-    for (int r = 0; r < 4; ++r) {
+    for (int r = 0; r < 4 && values; ++r) {
       for (int c = 0; c < 4; ++c) triplets.emplace_back(v[r], v[c], scale * weights[r] * weights[c]);
     }
     out.fold_energy += 2.0 * e.squaredNorm() / area;  // ½ (2|e|)² / (A₀ + A₁) at θ = π
     ++out.hinge_count;
     ++s;  // both sides consumed
   }
-  fill_rows(triplets, out);
+  if (values) fill_rows(triplets, out);
   return out;
+}
+
+}  // namespace
+
+QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
+                                                const Faces& faces) {
+  return hinge_matrix(rest_positions, faces, true);
 }
 
 namespace {
@@ -308,9 +318,9 @@ VertexFit fit_vertex(const Positions& rest, const std::vector<std::vector<std::i
 
 QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
                                              const Faces& faces) {
-  // The hinge builder checks indices and areas and gives the scale terms (fold_energy, the
-  // hinge count); its values are replaced below.
-  QuadraticBendingMatrix out = quadratic_bending_matrix(rest_positions, faces);
+  // The hinge walk checks indices and areas and gives the scale terms (fold_energy, the
+  // hinge count); the values are the fits'.
+  QuadraticBendingMatrix out = hinge_matrix(rest_positions, faces, false);
   const Eigen::Index n = rest_positions.rows();
   std::vector<std::vector<std::int32_t>> ring(static_cast<std::size_t>(n));
   std::vector<Point> normal(static_cast<std::size_t>(n), Point::Zero());
@@ -350,8 +360,6 @@ QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
       }
     }
   }
-  out.columns.clear();
-  out.values.clear();
   fill_rows(triplets, out);
   return out;
 }
