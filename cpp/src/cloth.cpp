@@ -346,6 +346,31 @@ const MembraneFaces& Cloth::membrane_faces() const {
   return m_membrane_faces;
 }
 
+const MembraneElements& Cloth::membrane_elements() const {
+  if (!has_membrane()) {
+    build_membrane_elements(Faces(0, 3), MembraneFaces{}, m_springs, nullptr, m_membrane_elements);
+    m_membrane_elements_topology = 0;
+    return m_membrane_elements;
+  }
+  const MembraneFaces& map = membrane_faces();
+  const MembraneReference* reference = nullptr;
+  if (has_fitted_membrane()) {
+    const Positions& rest = bending_rest_positions();
+    if (m_membrane_reference_topology != m_topology_version) {
+      m_membrane_reference = membrane_reference(rest, m_faces);
+      m_membrane_reference_topology = m_topology_version;
+    }
+    reference = &m_membrane_reference;
+  }
+  if (m_membrane_elements_topology != m_topology_version ||
+      m_membrane_elements_rest != m_springs.rest_length) {
+    build_membrane_elements(m_faces, map, m_springs, reference, m_membrane_elements);
+    m_membrane_elements_topology = m_topology_version;
+    m_membrane_elements_rest = m_springs.rest_length;
+  }
+  return m_membrane_elements;
+}
+
 void Cloth::check_membrane_rest() const {
   membrane_faces();  // throws on an edge without a structural spring
 }
@@ -370,7 +395,7 @@ EnergyTerms Cloth::energy(const Vec3& gravity) const {
     terms.bending = quadratic_bending_energy(quadratic_bending(), m_bending_modulus, m_positions);
   }
   if (has_membrane()) {
-    terms.membrane = membrane_energy(m_faces, membrane_faces(), m_springs, m_membrane, m_positions);
+    terms.membrane = membrane_energy(membrane_elements(), m_membrane, m_positions);
   }
   return terms;
 }

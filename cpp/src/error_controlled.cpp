@@ -457,8 +457,8 @@ void ErrorControlledIntegrator::right_hand_side(double t, const double* y, doubl
   if (cloth.has_membrane()) {
     m_bending.resize(m_x.rows(), 3);  // no allocation once sized
     m_bending.setZero();
-    membrane_add_gradient(cloth.faces(), cloth.membrane_faces(), springs, cloth.membrane(), m_x,
-                          m_bending);
+    membrane_add_gradient(cloth.membrane_elements(), cloth.membrane(), m_x, m_bending,
+                          m_membrane_work);
     m_force -= m_bending;
   }
   const double drag = cloth.drag();

@@ -251,8 +251,8 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
       }
       if (cloth.has_membrane()) {
         spring_energy_before +=
-            membrane_add_gradient(cloth.faces(), cloth.membrane_faces(), cloth.springs(),
-                                  cloth.membrane(), cloth.positions(), m_potential_gradient);
+            membrane_add_gradient(cloth.membrane_elements(), cloth.membrane(),
+                                  cloth.positions(), m_potential_gradient, m_membrane_work);
       }
     }
     m_statistics.forces_seconds += start.seconds();

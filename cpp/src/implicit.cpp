@@ -278,6 +278,15 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
                           if (j > i) coupled.emplace_back(a / 3, b / 3);
                         });
   }
+  // The membrane's elements couple every pair of their corners (a fitted vertex its patch).
+  const MembraneElements* elements = cloth.has_membrane() ? &cloth.membrane_elements() : nullptr;
+  if (elements != nullptr) {
+    for_each_membrane_pair(*elements, [&](std::size_t, std::int32_t i, std::int32_t j) {
+      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+      const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
+      if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
+    });
+  }
   std::sort(coupled.begin(), coupled.end());
   coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
   std::vector<std::int32_t> first_neighbour(static_cast<std::size_t>(blocks) + 1, 0);
@@ -308,6 +317,7 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   if (bending != nullptr) {
     bending_slots(*bending, m_dof_of_vertex, coupled, first_neighbour, pattern, m_bending_slots);
   }
+  membrane_ranks(elements, coupled, first_neighbour);
 
   const auto dofs = static_cast<Eigen::Index>(pattern.size);
   size_workspace(cloth, dofs);
@@ -316,6 +326,31 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   if (pattern.size > 0 && newton) m_solver->analyze(pattern);
   m_topology = cloth.topology_version();
   m_statistics.analyze_seconds += start.seconds();
+}
+
+void ImplicitIntegrator::membrane_ranks(
+    const MembraneElements* elements,
+    const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+    const std::vector<std::int32_t>& first_neighbour) {
+  m_membrane_pair_starts.clear();
+  m_membrane_pair_ranks.clear();
+  if (elements == nullptr) return;
+  m_membrane_pair_starts.push_back(0);
+  for (std::size_t e = 0; e < elements->size(); ++e) {
+    const std::int64_t m = elements->starts[e + 1] - elements->starts[e];
+    m_membrane_pair_starts.push_back(m_membrane_pair_starts.back() + m * (m - 1) / 2);
+  }
+  m_membrane_pair_ranks.assign(static_cast<std::size_t>(m_membrane_pair_starts.back()), -1);
+  for_each_membrane_pair(*elements, [&](std::size_t slot, std::int32_t i, std::int32_t j) {
+    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
+    if (a < 0 || b < 0) return;
+    const std::int32_t column_block = std::min(a, b) / 3, row_block = std::max(a, b) / 3;
+    const auto begin = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+    const auto end = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+    m_membrane_pair_ranks[slot] = static_cast<std::int32_t>(
+        std::lower_bound(begin, end, std::make_pair(column_block, row_block)) - begin);
+  });
 }
 
 void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
@@ -572,52 +607,54 @@ void ImplicitIntegrator::evaluate_membrane(const Cloth& cloth, const Positions& 
                                            bool with_gradient, bool with_hessian,
                                            TransverseFilter filter, double& energy,
                                            double& magnitude) {
-  // Each face's 9×9 block: its corners' diagonal blocks, and per edge the off-diagonal block in
-  // the slots of the edge's structural spring (every face edge has one, so the springs'
-  // pattern already holds the membrane's).
-  const MembraneFaces& map = cloth.membrane_faces();
-  const Faces& faces = cloth.faces();
-  const SpringSet& springs = cloth.springs();
+  // Each element's corner blocks: the diagonal ones in their unknowns' diagonal blocks, each
+  // pair's in the block ensure_structure ranked for it (m_membrane_pair_ranks).
+  const MembraneElements& elements = cloth.membrane_elements();
   const double mu = cloth.membrane().mu(), lambda = cloth.membrane().lambda();
   const auto& starts = m_pattern.column_starts;
-  Vec9 gradient;
-  Mat9 hessian;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
-    const double face_energy =
-        membrane_face(x.row(faces(f, 0)), x.row(faces(f, 1)), x.row(faces(f, 2)), rest, mu,
-                      lambda, with_gradient ? &gradient : nullptr,
-                      with_hessian ? &hessian : nullptr, filter);
-    energy += face_energy;
-    magnitude += face_energy;
-    std::int32_t dof[3];
-    for (int k = 0; k < 3; ++k) dof[k] = m_dof_of_vertex[static_cast<std::size_t>(faces(f, k))];
+  MembraneElementWork& work = m_membrane_work;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    const double element_energy = membrane_element(elements, e, x, mu, lambda, filter, work,
+                                                   with_gradient, with_hessian);
+    energy += element_energy;
+    magnitude += element_energy;
+    const auto begin = static_cast<std::size_t>(elements.starts[e]);
+    const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+    auto dof = [&](std::size_t k) {
+      return m_dof_of_vertex[static_cast<std::size_t>(elements.corners[begin + k])];
+    };
     if (with_gradient) {
-      for (int k = 0; k < 3; ++k) {
-        if (dof[k] >= 0) m_gradient.segment<3>(dof[k]) += gradient.segment<3>(3 * k);
+      for (std::size_t k = 0; k < m; ++k) {
+        if (dof(k) >= 0) m_gradient.segment<3>(dof(k)) += work.gradient[k];
       }
     }
     if (!with_hessian) continue;
-    for (int k = 0; k < 3; ++k) {
-      if (dof[k] < 0) continue;
+    const auto pairs = static_cast<std::size_t>(m_membrane_pair_starts[e]);
+    for (std::size_t p = 0; p < m; ++p) {
+      const std::int32_t a = dof(p);
+      if (a < 0) continue;
+      const Mat3& diagonal = work.blocks[p * (p + 1) / 2 + p];
       for (int col = 0; col < 3; ++col) {
         for (int row = col; row < 3; ++row) {
-          m_values[static_cast<std::size_t>(starts[static_cast<std::size_t>(dof[k] + col)] +
-                                            (row - col))] += hessian(3 * k + row, 3 * k + col);
+          m_values[static_cast<std::size_t>(starts[static_cast<std::size_t>(a + col)] +
+                                            (row - col))] += diagonal(row, col);
         }
       }
-    }
-    for (int e = 0; e < 3; ++e) {
-      const int p = e, q = (e + 1) % 3;
-      if (dof[p] < 0 || dof[q] < 0) continue;
-      // the lower triangle: the column block is the smaller unknown
-      const int low = dof[p] < dof[q] ? p : q, high = low == p ? q : p;
-      const auto spring = static_cast<std::size_t>(
-          map.edge_springs[static_cast<std::size_t>(f)][static_cast<std::size_t>(e)]);
-      for (int col = 0; col < 3; ++col) {
-        const std::int64_t slot = m_spring_slots[3 * spring + static_cast<std::size_t>(col)];
-        for (int row = 0; row < 3; ++row) {
-          m_values[static_cast<std::size_t>(slot + row)] += hessian(3 * high + row, 3 * low + col);
+      for (std::size_t q = 0; q < p; ++q) {
+        const std::int32_t rank = m_membrane_pair_ranks[pairs + p * (p - 1) / 2 + q];
+        if (rank < 0) continue;
+        const std::int32_t b = dof(q);
+        const Mat3& block = work.blocks[p * (p + 1) / 2 + q];  // ∂gradient_p/∂x_q
+        // the lower triangle: the column block is the smaller unknown
+        const bool p_below = a > b;
+        const std::int32_t column = p_below ? b : a;
+        for (int col = 0; col < 3; ++col) {
+          const std::int64_t slot = starts[static_cast<std::size_t>(column + col)] + (3 - col) +
+                                    3 * static_cast<std::int64_t>(rank);
+          for (int row = 0; row < 3; ++row) {
+            m_values[static_cast<std::size_t>(slot + row)] +=
+                p_below ? block(row, col) : block(col, row);
+          }
         }
       }
     }

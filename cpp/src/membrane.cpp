@@ -1,7 +1,9 @@
 #include "yore/membrane.hpp"
 
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 
 #include <algorithm>
 #include <cmath>
@@ -129,29 +131,238 @@ MembraneRest membrane_face_rest(const MembraneFaces& map, const SpringSet& sprin
                        springs.rest_length[static_cast<std::size_t>(s[2])]);
 }
 
-double membrane_energy(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
-                       const MembraneMaterial& material, const Positions& x) {
-  const double mu = material.mu(), lambda = material.lambda();
-  double energy = 0.0;
+MembraneReference membrane_reference(const Positions& rest_positions, const Faces& faces) {
+  MembraneReference reference;
+  reference.gradients = fitted_gradients(rest_positions, faces, false);
+  const Eigen::Index n = rest_positions.rows();
+  reference.face_starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    for (int k = 0; k < 3; ++k) ++reference.face_starts[static_cast<std::size_t>(faces(f, k)) + 1];
+  }
+  for (Eigen::Index p = 0; p < n; ++p) {
+    reference.face_starts[static_cast<std::size_t>(p) + 1] +=
+        reference.face_starts[static_cast<std::size_t>(p)];
+  }
+  // boundary edges: on one face only
+  std::vector<std::array<std::int32_t, 2>> edges;
+  edges.reserve(3 * static_cast<std::size_t>(faces.rows()));
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = faces(f, k), b = faces(f, (k + 1) % 3);
+      edges.push_back({std::min(a, b), std::max(a, b)});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  reference.boundary.assign(static_cast<std::size_t>(n), 0);
+  for (std::size_t k = 0; k < edges.size();) {
+    std::size_t next = k + 1;
+    while (next < edges.size() && edges[next] == edges[k]) ++next;
+    if (next - k == 1) {
+      reference.boundary[static_cast<std::size_t>(edges[k][0])] = 1;
+      reference.boundary[static_cast<std::size_t>(edges[k][1])] = 1;
+    }
+    k = next;
+  }
+  const auto total = static_cast<std::size_t>(reference.face_starts.back());
+  reference.incident_faces.assign(total, -1);
+  reference.reference_inverse.assign(4 * total, 0.0);
+  std::vector<std::int32_t> fill(reference.face_starts.begin(), reference.face_starts.end() - 1);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Vec3 x0 = rest_positions.row(faces(f, 0));
+    const Vec3 e1 = Vec3(rest_positions.row(faces(f, 1))) - x0;
+    const Vec3 e2 = Vec3(rest_positions.row(faces(f, 2))) - x0;
+    const double twice_area = e1.cross(e2).norm();
+    for (int k = 0; k < 3; ++k) {
+      const auto p = static_cast<std::size_t>(faces(f, k));
+      const auto slot = static_cast<std::size_t>(fill[p]++);
+      reference.incident_faces[slot] = static_cast<std::int32_t>(f);
+      const Vec3& u = reference.gradients.axis_u[p];
+      const Vec3& v = reference.gradients.axis_v[p];
+      Eigen::Matrix2d edge_vectors;
+      edge_vectors << e1.dot(u), e2.dot(u), e1.dot(v), e2.dot(v);
+      // A face nearly edge-on to the vertex's plane (under 1 % of its area seen) says nothing
+      // about the metric there: it keeps D⁻¹ = 0 and is skipped.
+      if (!(std::abs(edge_vectors.determinant()) > 1e-2 * twice_area)) continue;
+      Eigen::Map<Eigen::Matrix2d>(&reference.reference_inverse[4 * slot]) = edge_vectors.inverse();
+    }
+  }
+  return reference;
+}
+
+namespace {
+
+// Appends the faces' constant-strain elements: their whole energy without a reference, with
+// one kMembraneFaceShare of it plus (1 − kMembraneFaceShare)/3 per boundary corner.
+void add_face_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                       const MembraneReference* reference, MembraneElements& out) {
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
     const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
-    energy += membrane_face(x.row(faces(f, 0)), x.row(faces(f, 1)), x.row(faces(f, 2)), rest,
-                            mu, lambda, nullptr, nullptr, TransverseFilter::exact);
+    double share = 1.0;
+    if (reference != nullptr) {
+      int boundary_corners = 0;
+      for (int k = 0; k < 3; ++k) {
+        boundary_corners += reference->boundary[static_cast<std::size_t>(faces(f, k))];
+      }
+      share = kMembraneFaceShare + (1.0 - kMembraneFaceShare) * boundary_corners / 3.0;
+    }
+    const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+    for (int k = 0; k < 3; ++k) {
+      out.corners.push_back(faces(f, k));
+      out.gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+      out.gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+    }
+    out.area.push_back(share * rest.area);
+    out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+  }
+}
+
+// Appends one fitted element per interior vertex (see membrane.hpp). An interior vertex with
+// no fit (its part of the mesh under 6 vertices, or slivers) or no usable metric (every face
+// edge-on to its plane) gives its share to its faces instead: elements of three corners with
+// (1 − kMembraneFaceShare)/3 of each face's area, after the fitted ones' places.
+void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                         const MembraneReference& reference, MembraneElements& out) {
+  const FittedGradients& fits = reference.gradients;
+  const std::size_t n = fits.starts.size() - 1;
+  std::vector<std::size_t> fallback;
+  for (std::size_t p = 0; p < n; ++p) {
+    const auto begin = static_cast<std::size_t>(fits.starts[p]);
+    const auto end = static_cast<std::size_t>(fits.starts[p + 1]);
+    const auto first_face = static_cast<std::size_t>(reference.face_starts[p]);
+    const auto last_face = static_cast<std::size_t>(reference.face_starts[p + 1]);
+    if (reference.boundary[p] || first_face == last_face) continue;
+    Eigen::Matrix2d metric = Eigen::Matrix2d::Zero();
+    double weight = 0.0, area = 0.0;
+    for (std::size_t slot = first_face; slot < last_face; ++slot) {
+      const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
+      const MembraneRest rest = membrane_face_rest(map, springs, f);
+      area += rest.area / 3.0;
+      const Eigen::Map<const Eigen::Matrix2d> inverse(&reference.reference_inverse[4 * slot]);
+      if (inverse.isZero(0.0)) continue;
+      const Eigen::Matrix2d rest_edges = rest.inverse.inverse();
+      metric += rest.area * inverse.transpose() * rest_edges.transpose() * rest_edges * inverse;
+      weight += rest.area;
+    }
+    const Eigen::LLT<Eigen::Matrix2d> cholesky(metric / (weight > 0.0 ? weight : 1.0));
+    if (begin == end || !(weight > 0.0) || cholesky.info() != Eigen::Success) {
+      fallback.push_back(p);
+      continue;
+    }
+    const Eigen::Matrix2d lower_inverse = Eigen::Matrix2d(cholesky.matrixL()).inverse();
+    for (std::size_t k = begin; k < end; ++k) {
+      const Eigen::Vector2d d = lower_inverse * Eigen::Vector2d(fits.weight_u[k], fits.weight_v[k]);
+      out.corners.push_back(fits.points[k]);
+      out.gradient_u.push_back(d.x());
+      out.gradient_v.push_back(d.y());
+    }
+    out.area.push_back((1.0 - kMembraneFaceShare) * area);
+    out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+  }
+  for (const std::size_t p : fallback) {
+    for (auto slot = static_cast<std::size_t>(reference.face_starts[p]);
+         slot < static_cast<std::size_t>(reference.face_starts[p + 1]); ++slot) {
+      const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
+      const MembraneRest rest = membrane_face_rest(map, springs, f);
+      const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+      for (int k = 0; k < 3; ++k) {
+        out.corners.push_back(faces(static_cast<Eigen::Index>(f), k));
+        out.gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+        out.gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+      }
+      out.area.push_back((1.0 - kMembraneFaceShare) * rest.area / 3.0);
+      out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+    }
+  }
+}
+
+}  // namespace
+
+void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
+                             const SpringSet& springs, const MembraneReference* reference,
+                             MembraneElements& out) {
+  out.starts.clear();
+  out.corners.clear();
+  out.gradient_u.clear();
+  out.gradient_v.clear();
+  out.area.clear();
+  out.starts.push_back(0);
+  add_face_elements(faces, map, springs, reference, out);
+  out.face_elements = faces.rows();
+  if (reference != nullptr) add_vertex_elements(faces, map, springs, *reference, out);
+}
+
+double membrane_element(const MembraneElements& elements, std::size_t e, const Positions& x,
+                        double mu, double lambda, TransverseFilter filter,
+                        MembraneElementWork& work, bool with_gradient, bool with_hessian) {
+  const auto begin = static_cast<std::size_t>(elements.starts[e]);
+  const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+  const double area = elements.area[e];
+  Mat32 F = Mat32::Zero();
+  for (std::size_t k = 0; k < m; ++k) {
+    const Vec3 xk = x.row(elements.corners[begin + k]);
+    F.col(0) += elements.gradient_u[begin + k] * xk;
+    F.col(1) += elements.gradient_v[begin + k] * xk;
+  }
+  const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
+  const double trace = E.trace();
+  const double energy = area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
+  if (!with_gradient && !with_hessian) return energy;
+  const Eigen::Matrix2d S = 2.0 * mu * E + lambda * trace * Eigen::Matrix2d::Identity();
+  auto d = [&](std::size_t k) {
+    return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
+  };
+  if (with_gradient) {
+    if (work.gradient.size() < m) work.gradient.resize(m);
+    const Mat32 P = area * F * S;
+    for (std::size_t k = 0; k < m; ++k) work.gradient[k] = P * d(k);
+  }
+  if (with_hessian) {
+    // ∂grad_p/∂x_q = A [(d_pᵀ S̃ d_q) I + μ f_q f_pᵀ + μ (d_p·d_q) F Fᵀ + λ f_p f_qᵀ], f_k = F d_k,
+    // S̃ the filtered stress (the derivative of A F S d_p with S = 2μE + λ tr(E) I).
+    if (work.directions.size() < m) work.directions.resize(m);
+    if (work.blocks.size() < m * (m + 1) / 2) work.blocks.resize(m * (m + 1) / 2);
+    const Eigen::Matrix2d stress = filtered_stress(S, filter);
+    const Mat3 outer = F * F.transpose();
+    for (std::size_t k = 0; k < m; ++k) work.directions[k] = F * d(k);
+    for (std::size_t p = 0; p < m; ++p) {
+      const Eigen::Vector2d dp = d(p);
+      const Vec3& fp = work.directions[p];
+      for (std::size_t q = 0; q <= p; ++q) {
+        const Eigen::Vector2d dq = d(q);
+        const Vec3& fq = work.directions[q];
+        Mat3& block = work.blocks[p * (p + 1) / 2 + q];
+        block = (mu * dp.dot(dq)) * outer + mu * fq * fp.transpose() + lambda * fp * fq.transpose();
+        block.diagonal().array() += dp.dot(stress * dq);
+        block *= area;
+      }
+    }
   }
   return energy;
 }
 
-double membrane_add_gradient(const Faces& faces, const MembraneFaces& map,
-                             const SpringSet& springs, const MembraneMaterial& material,
-                             const Positions& x, Positions& gradient) {
-  const double mu = material.mu(), lambda = material.lambda();
+double membrane_energy(const MembraneElements& elements, const MembraneMaterial& material,
+                       const Positions& x) {
+  MembraneElementWork work;
   double energy = 0.0;
-  Vec9 g;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
-    energy += membrane_face(x.row(faces(f, 0)), x.row(faces(f, 1)), x.row(faces(f, 2)), rest,
-                            mu, lambda, &g, nullptr, TransverseFilter::exact);
-    for (int k = 0; k < 3; ++k) gradient.row(faces(f, k)) += g.segment<3>(3 * k).transpose();
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    energy += membrane_element(elements, e, x, material.mu(), material.lambda(),
+                               TransverseFilter::exact, work, false, false);
+  }
+  return energy;
+}
+
+double membrane_add_gradient(const MembraneElements& elements, const MembraneMaterial& material,
+                             const Positions& x, Positions& gradient,
+                             MembraneElementWork& work) {
+  double energy = 0.0;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    energy += membrane_element(elements, e, x, material.mu(), material.lambda(),
+                               TransverseFilter::exact, work, true, false);
+    const auto begin = static_cast<std::size_t>(elements.starts[e]);
+    const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+    for (std::size_t k = 0; k < m; ++k) {
+      gradient.row(elements.corners[begin + k]) += work.gradient[k].transpose();
+    }
   }
   return energy;
 }

@@ -14,7 +14,7 @@
 namespace yore {
 namespace {
 
-// A membrane face's stiffness is bounded by c (L ⊗ I₃), L_kl = A d_k·d_l (its rest
+// A membrane element's stiffness is bounded by c (L ⊗ I₃), L_kl = A d_k·d_l (its rest
 // "Laplacian", d_k the gradients of the shape functions): at rest the St. Venant–Kirchhoff
 // Hessian in F is at most max(2(μ + λ), 2μ) (pure dilation or pure shear), and the map from the
 // corners to F has Gram matrix L ⊗ I₃. StVK stiffens as it stretches: along a stretch s its
@@ -27,16 +27,46 @@ double membrane_bound_constant(const MembraneMaterial& material) {
   return kMembraneStretchAllowance * std::max(2.0 * (mu + lambda), 2.0 * mu);
 }
 
-Eigen::Matrix3d membrane_rest_laplacian(const MembraneRest& rest) {
-  const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
-  Eigen::Matrix3d laplacian;
-  for (std::size_t k = 0; k < 3; ++k) {
-    for (std::size_t l = 0; l < 3; ++l) {
-      laplacian(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l)) =
-          rest.area * d[k].dot(d[l]);
+// y += S K S x for the membrane's elements, S = diag(scale) per vertex: every_state
+// K_e = c (L ⊗ I₃), L_kl = A d_k·d_l (membrane_bound_constant); otherwise its Hessian at
+// `positions`, the stress term clamped (PSD), applied per element in O(corners): with
+// X = Σ_q x_q d_qᵀ, Σ_q H_pq x_q = A [X S̃ d_p + μ F Xᵀ F d_p + μ F Fᵀ X d_p + λ tr(F Xᵀ) F d_p]
+// (membrane_element's blocks summed).
+void add_membrane_product(const MembraneElements& elements, const MembraneMaterial& material,
+                          const Positions& positions, bool every_state,
+                          const Eigen::VectorXd& scale, const Eigen::VectorXd& x,
+                          Eigen::VectorXd& y) {
+  using Mat32 = Eigen::Matrix<double, 3, 2>;
+  const double mu = material.mu(), lambda = material.lambda();
+  const double c = membrane_bound_constant(material);
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    const auto begin = static_cast<std::size_t>(elements.starts[e]);
+    const auto end = static_cast<std::size_t>(elements.starts[e + 1]);
+    Mat32 X = Mat32::Zero(), F = Mat32::Zero();
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::int32_t i = elements.corners[k];
+      const Eigen::RowVector2d d(elements.gradient_u[k], elements.gradient_v[k]);
+      X += scale[i] * x.segment<3>(3 * i) * d;
+      if (!every_state) F += positions.row(i).transpose() * d;
+    }
+    Mat32 Y;  // Σ_q H_pq x_q = Y d_p
+    if (every_state) {
+      Y = c * elements.area[e] * X;
+    } else {
+      const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
+      Eigen::Matrix2d S = 2.0 * mu * E + lambda * E.trace() * Eigen::Matrix2d::Identity();
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(S);
+      S = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
+          eigen.eigenvectors().transpose();
+      Y = elements.area[e] * (X * S + mu * F * X.transpose() * F + mu * F * F.transpose() * X +
+                              lambda * (F.cwiseProduct(X)).sum() * F);
+    }
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::int32_t i = elements.corners[k];
+      y.segment<3>(3 * i) +=
+          scale[i] * (Y * Eigen::Vector2d(elements.gradient_u[k], elements.gradient_v[k]));
     }
   }
-  return laplacian;
 }
 
 // Per-spring 3×3 stiffness and damping blocks (each vector has one per spring). every_state:
@@ -73,20 +103,23 @@ double Cloth::gershgorin_time_step() const {
   double omega_squared = 0.0;
   double gamma = 0.0;
   const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
-  // The membrane's rows: Σ_faces c |L_kl| √(wₖ wₗ) (see membrane_bound_constant).
+  // The membrane's rows: Σ_elements c |L_kl| √(wₖ wₗ) (see membrane_bound_constant).
   Eigen::VectorXd membrane_rows;
   if (has_membrane()) {
     membrane_rows.setZero(vertex_count());
     const double c = membrane_bound_constant(m_membrane);
-    const MembraneFaces& map = membrane_faces();
-    for (Eigen::Index f = 0; f < face_count(); ++f) {
-      const Eigen::Matrix3d laplacian =
-          membrane_rest_laplacian(membrane_face_rest(map, m_springs, static_cast<std::size_t>(f)));
-      for (int k = 0; k < 3; ++k) {
-        for (int l = 0; l < 3; ++l) {
-          membrane_rows[m_faces(f, k)] +=
-              c * std::abs(laplacian(k, l)) *
-              std::sqrt(m_inverse_masses[m_faces(f, k)] * m_inverse_masses[m_faces(f, l)]);
+    const MembraneElements& elements = membrane_elements();
+    for (std::size_t e = 0; e < elements.size(); ++e) {
+      const auto begin = static_cast<std::size_t>(elements.starts[e]);
+      const auto end = static_cast<std::size_t>(elements.starts[e + 1]);
+      for (std::size_t k = begin; k < end; ++k) {
+        for (std::size_t l = begin; l < end; ++l) {
+          const double laplacian =
+              elements.area[e] * (elements.gradient_u[k] * elements.gradient_u[l] +
+                                  elements.gradient_v[k] * elements.gradient_v[l]);
+          const std::int32_t i = elements.corners[k], j = elements.corners[l];
+          membrane_rows[i] += c * std::abs(laplacian) *
+                              std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
         }
       }
     }
@@ -123,36 +156,6 @@ double Cloth::stable_time_step() const { return lanczos_time_step(false); }
 
 double Cloth::stable_time_step_bound() const { return lanczos_time_step(true); }
 
-// The membrane's per-face 9×9 stiffness: every_state, c (L ⊗ I₃) (membrane_bound_constant);
-// otherwise its Hessian at the current positions, the stress term clamped (PSD). Empty without
-// a membrane.
-std::vector<Mat9> Cloth::membrane_stiffness_blocks(bool every_state) const {
-  std::vector<Mat9> membrane_blocks;
-  if (has_membrane()) {
-    membrane_blocks.resize(static_cast<std::size_t>(face_count()));
-    const MembraneFaces& map = membrane_faces();
-    const double c = membrane_bound_constant(m_membrane);
-    for (Eigen::Index f = 0; f < face_count(); ++f) {
-      const MembraneRest rest = membrane_face_rest(map, m_springs, static_cast<std::size_t>(f));
-      Mat9& block = membrane_blocks[static_cast<std::size_t>(f)];
-      if (every_state) {
-        const Eigen::Matrix3d laplacian = membrane_rest_laplacian(rest);
-        block.setZero();
-        for (int k = 0; k < 3; ++k) {
-          for (int l = 0; l < 3; ++l) {
-            block.block<3, 3>(3 * k, 3 * l) = c * laplacian(k, l) * Mat3::Identity();
-          }
-        }
-      } else {
-        membrane_face(m_positions.row(m_faces(f, 0)), m_positions.row(m_faces(f, 1)),
-                      m_positions.row(m_faces(f, 2)), rest, m_membrane.mu(), m_membrane.lambda(),
-                      nullptr, &block, TransverseFilter::clamp);
-      }
-    }
-  }
-  return membrane_blocks;
-}
-
 // over 80 lines: the Lanczos iteration and the operator it applies (springs, bending, membrane)
 // read as one algorithm; its stages (blocks, iteration, damping of the mode) share every local.
 double Cloth::lanczos_time_step(bool every_state) const {
@@ -174,8 +177,7 @@ double Cloth::lanczos_time_step(bool every_state) const {
   const Eigen::Index n = vertex_count();
   // Quadratic bending's κ Q ⊗ I₃ is constant: the same in both modes, added to the stiffness.
   const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
-  // The membrane's per-face 9×9 stiffness (see membrane_stiffness_blocks).
-  const std::vector<Mat9> membrane_blocks = membrane_stiffness_blocks(every_state);
+  const MembraneElements* membrane = has_membrane() ? &membrane_elements() : nullptr;
   auto apply = [&](const std::vector<Mat3>& blocks, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     y.setZero(3 * n);
     for (std::size_t s = 0; s < spring_count; ++s) {
@@ -196,17 +198,8 @@ double Cloth::lanczos_time_step(bool every_state) const {
         y.segment<3>(3 * i) += m_bending_modulus * scale[i] * sum;
       }
     }
-    if (!membrane_blocks.empty() && &blocks == &stiffness_blocks) {
-      Vec9 local;
-      for (Eigen::Index f = 0; f < face_count(); ++f) {
-        for (int k = 0; k < 3; ++k) {
-          local.segment<3>(3 * k) = scale[m_faces(f, k)] * x.segment<3>(3 * m_faces(f, k));
-        }
-        const Vec9 product = membrane_blocks[static_cast<std::size_t>(f)] * local;
-        for (int k = 0; k < 3; ++k) {
-          y.segment<3>(3 * m_faces(f, k)) += scale[m_faces(f, k)] * product.segment<3>(3 * k);
-        }
-      }
+    if (membrane != nullptr && &blocks == &stiffness_blocks) {
+      add_membrane_product(*membrane, m_membrane, m_positions, every_state, scale, x, y);
     }
   };
 

@@ -309,6 +309,13 @@ class Cloth {
   /// Per face, the structural springs on its edges (empty without a membrane), rebuilt when the
   /// topology version changed since it was last built.
   const MembraneFaces& membrane_faces() const;
+  /// Whether the membrane reads the fitted strain (membrane.hpp): with a membrane and a bending
+  /// model that keeps the rest state ("quadratic" or "hinge"); with bending springs the faces'
+  /// constant strain alone.
+  bool has_fitted_membrane() const { return has_membrane() && is_quadratic(m_bending); }
+  /// The membrane's elements at the current rest lengths (empty without a membrane): rebuilt
+  /// when the topology or a rest length changed since the last call.
+  const MembraneElements& membrane_elements() const;
   /// Clamped rest triangles, collapsed faces and areas of the membrane at the current
   /// positions (all zero without a membrane).
   MembraneStatus membrane_status() const;
@@ -343,10 +350,8 @@ class Cloth {
   void initialise_state(const Positions& positions, const Eigen::VectorXd& masses, double drag);
   void rebuild_incidence();
   void update_inverse_masses();
-  // stable_step.cpp: the Lanczos estimate behind stable_time_step and stable_time_step_bound,
-  // and the membrane's per-face 9×9 stiffness blocks it applies (empty without a membrane).
+  // stable_step.cpp: the Lanczos estimate behind stable_time_step and stable_time_step_bound.
   double lanczos_time_step(bool every_state) const;
-  std::vector<Mat9> membrane_stiffness_blocks(bool every_state) const;
   static constexpr int kLanczosMaxIterations = 60;
   static constexpr double kLanczosRelativeTolerance = 1e-6;
   void check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const;
@@ -401,6 +406,11 @@ class Cloth {
   MembraneMaterial m_membrane;
   mutable MembraneFaces m_membrane_faces;
   mutable std::uint64_t m_membrane_topology = 0;
+  mutable MembraneReference m_membrane_reference;
+  mutable std::uint64_t m_membrane_reference_topology = 0;
+  mutable MembraneElements m_membrane_elements;
+  mutable std::uint64_t m_membrane_elements_topology = 0;
+  mutable std::vector<double> m_membrane_elements_rest;  // the rest lengths they were built at
 };
 
 /// Largest step h (s) for which symplectic Euler keeps the damped mode x'' = −ω² x − γ x'

@@ -160,6 +160,7 @@ class ErrorControlledIntegrator : public Integrator {
   double m_time = std::numeric_limits<double>::quiet_NaN();  // SUNDIALS' time after the last
   bool m_restart = true;  // the next interval re-initializes SUNDIALS at the cloth's state
   Positions m_x, m_v, m_force, m_bending;  // n×3 work arrays (m_bending: non-spring gradients)
+  MembraneElementWork m_membrane_work;  // scratch of the membrane's elements
   Positions m_jacobian_positions;          // n×3: where J was last evaluated
   std::vector<double> m_stiffness;         // H at m_jacobian_positions, pattern order
   double m_setup_gamma = 0.0;              // γ of the current factor

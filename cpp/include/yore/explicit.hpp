@@ -118,6 +118,7 @@ class ExplicitIntegrator : public Integrator {
   // n×3, the gradient of the energies that are not springs: κ Q x of quadratic bending and
   // the membrane's (when the cloth has them)
   Positions m_potential_gradient;
+  MembraneElementWork m_membrane_work;  // scratch of the membrane's elements
   bool m_with_potentials = false;
   Positions m_previous_positions;
   Positions m_checkpoint_positions;

@@ -336,6 +336,10 @@ class ImplicitIntegrator : public Integrator {
   void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
   double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
                   HessianProjection projection = HessianProjection::clamp);
+  // The membrane's pair ranks in the pattern (ensure_structure's coupled blocks).
+  void membrane_ranks(const MembraneElements* elements,
+                      const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+                      const std::vector<std::int32_t>& first_neighbour);
   // The membrane's share of evaluate: adds to energy, magnitude, m_gradient and m_values.
   void evaluate_membrane(const Cloth& cloth, const Positions& x, bool with_gradient,
                          bool with_hessian, TransverseFilter filter, double& energy,
@@ -439,6 +443,11 @@ class ImplicitIntegrator : public Integrator {
   SymmetricPattern m_pattern;
   std::vector<std::int64_t> m_spring_slots;   // s×3: slot of the (0,c) entry of the
                                               // off-diagonal block, or −1
+  // per element pair of the membrane (for_each_membrane_pair), its block's rank among its
+  // column block's neighbours, -1 for a constrained corner; pairs start per element
+  std::vector<std::int64_t> m_membrane_pair_starts;
+  std::vector<std::int32_t> m_membrane_pair_ranks;
+  MembraneElementWork m_membrane_work;
   std::vector<std::int64_t> m_bending_slots;  // nnz(Q)×3: slot of quadratic bending's entry
                                               // (i, j), j >= i, coordinate c; or −1
   double m_mean_rest_length = 1.0;

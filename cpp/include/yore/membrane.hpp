@@ -15,6 +15,7 @@
 /// Pure functions; Cloth keeps the face→spring map.
 
 #include "yore/mesh.hpp"
+#include "yore/quadratic_bending.hpp"
 #include "yore/springs.hpp"
 
 #include <Eigen/Core>
@@ -73,6 +74,56 @@ double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Membr
                      double mu, double lambda, Vec9* gradient, Mat9* hessian,
                      TransverseFilter filter);
 
+/// The fitted strain (issue 52). A face's constant strain sees the piecewise-linear
+/// interpolant's gradient, which on a triangle not aligned with a wrinkle has a spurious slope
+/// across it (of order h k² times the amplitude); the membrane's tension charges that slope
+/// like bending, an artificial modulus ∝ h² S that set the wavelength on pattern meshes. With
+/// the rest state known (Cloth keeps it for its bending model) the membrane instead reads the
+/// deformation gradient at each vertex p from the least-squares quadratic of its bending patch
+/// (FittedGradients: exact for quadratic fields), F_p = Σ_k x_k d_pkᵀ, and charges
+///   E = (1 − s) Σ_p A_p W(F_p) + s Σ_faces A_f W(F_f),      s = kMembraneFaceShare,
+/// A_p a third of p's faces' rest areas. The faces' small share keeps the in-plane patterns a
+/// quadratic fit cannot see (a regular mesh's checkerboard) from being free; its artificial
+/// bending is s times the constant-strain membrane's. Each vertex's rest metric in its tangent
+/// axes (u) is the area-weighted mean over its faces of C_f = D⁻ᵀ G_f D⁻¹ (D the face's
+/// reference edges in those axes, G_f the Gram matrix of its rest triangle from the springs'
+/// rest lengths), so strokes and growth act on it as on the faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ
+/// for G_p the fitted ∂x/∂u, i.e. d_pk = L⁻¹ w_pk.
+/// A vertex on the mesh's boundary keeps no element: its one-sided quadratic extrapolates, and
+/// its spurious slope was larger than the faces' (measured: ε² 5.6e-3 against the interior's
+/// 3.4e-6 and the faces' 2.7e-3 on a CGAL square); its share A_p goes to its faces (each face
+/// gets (1 − s)/3 of its area per boundary corner), so a boundary strip one face wide keeps the
+/// constant strain, and the energy of a homogeneous deformation stays exact.
+constexpr double kMembraneFaceShare = 0.01;
+
+/// The membrane's quadrature as elements, each A W(F) with F = Σ_k x_k d_kᵀ over its corners:
+/// the faces first (three corners, the constant-strain gradients), then with the fitted strain
+/// one per vertex on a face (its patch). Structure of arrays; the corners of every element
+/// depend on the topology only, the gradients and areas on the rest lengths too.
+struct MembraneElements {
+  std::vector<std::int32_t> starts;   ///< elements + 1
+  std::vector<std::int32_t> corners;  ///< vertices, per element in increasing order
+  std::vector<double> gradient_u;     ///< d_k's first component, 1/m
+  std::vector<double> gradient_v;     ///< d_k's second component, 1/m
+  std::vector<double> area;           ///< per element: its share of the energy × its rest area, m²
+  std::int64_t face_elements = 0;     ///< the first this many are the faces
+  std::size_t size() const { return area.size(); }
+};
+
+/// What the fitted strain keeps per topology: the fitted gradients of the rest state and, per
+/// vertex and incident face, D⁻¹ of the face's reference edges in the vertex's tangent axes
+/// (4 values, column-major; all 0 when the face stands edge-on to that plane).
+struct MembraneReference {
+  FittedGradients gradients;
+  std::vector<std::int32_t> face_starts;     ///< n + 1
+  std::vector<std::int32_t> incident_faces;  ///< per vertex, its faces
+  std::vector<double> reference_inverse;     ///< 4 per incident face
+  std::vector<char> boundary;                ///< n: 1 for a vertex on a boundary edge
+};
+
+/// The reference of rest positions (n×3, m) and faces: the fitted gradients' checks and errors.
+MembraneReference membrane_reference(const Positions& rest_positions, const Faces& faces);
+
 /// Per face, the structural spring on each of its edges: edges (v0, v1), (v1, v2), (v2, v0).
 struct MembraneFaces {
   std::vector<std::array<std::int32_t, 3>> edge_springs;  ///< f
@@ -86,15 +137,52 @@ MembraneFaces membrane_faces(const Faces& faces, const SpringSet& springs);
 MembraneRest membrane_face_rest(const MembraneFaces& map, const SpringSet& springs,
                                 std::size_t face);
 
-/// Σ_faces energy (J) at positions x (n×3, m).
-double membrane_energy(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
-                       const MembraneMaterial& material, const Positions& x);
+/// Fills `out` with the elements at the springs' current rest lengths: the faces alone
+/// (share 1) without a reference, with one the faces (share kMembraneFaceShare, more at the
+/// boundary) and the fitted interior vertices. Reuses out's storage.
+void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
+                             const SpringSet& springs, const MembraneReference* reference,
+                             MembraneElements& out);
+
+/// Calls visit(slot, i, j) for every pair of distinct corners (p > q, vertices i and j) of every
+/// element, slot counting the pairs in element order and, within one, at p(p − 1)/2 + q.
+template <class Visit>
+void for_each_membrane_pair(const MembraneElements& elements, Visit&& visit) {
+  std::size_t slot = 0;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    const auto begin = static_cast<std::size_t>(elements.starts[e]);
+    const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+    for (std::size_t p = 0; p < m; ++p) {
+      for (std::size_t q = 0; q < p; ++q) {
+        visit(slot++, elements.corners[begin + p], elements.corners[begin + q]);
+      }
+    }
+  }
+}
+
+/// Scratch of membrane_element, grown to the largest element and reused.
+struct MembraneElementWork {
+  std::vector<Vec3> gradient;    ///< per corner, N
+  std::vector<Vec3> directions;  ///< per corner, F d_k
+  /// ∂gradient_p/∂x_q for q ≤ p at p(p+1)/2 + q (N/m), the stress term filtered (membrane_face)
+  std::vector<Mat3> blocks;
+};
+
+/// Energy (J) of element e at positions x; with_gradient fills work.gradient, with_hessian
+/// work.blocks (both per corner, in the element's corner order).
+double membrane_element(const MembraneElements& elements, std::size_t e, const Positions& x,
+                        double mu, double lambda, TransverseFilter filter,
+                        MembraneElementWork& work, bool with_gradient, bool with_hessian);
+
+/// Σ_elements energy (J) at positions x (n×3, m).
+double membrane_energy(const MembraneElements& elements, const MembraneMaterial& material,
+                       const Positions& x);
 
 /// Adds the membrane's gradient at x (N) to `gradient` (n×3, sized by the caller); returns the
 /// energy (J).
-double membrane_add_gradient(const Faces& faces, const MembraneFaces& map,
-                             const SpringSet& springs, const MembraneMaterial& material,
-                             const Positions& x, Positions& gradient);
+double membrane_add_gradient(const MembraneElements& elements, const MembraneMaterial& material,
+                             const Positions& x, Positions& gradient,
+                             MembraneElementWork& work);
 
 /// What the membrane's faces look like at positions x.
 struct MembraneStatus {
