@@ -490,7 +490,7 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "are fitted on judged rows only (rows without these columns predate it).", "",
            "| run | model | mesh, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
            "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
-           "realised B / B | B_art / B | B_art / B, fitted gradients | judged | CPU s |",
+           "realised B / B | B_art / B | B_art / B, faces' strain | judged | CPU s |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in payload["rows"]:
         wavelength = "flat" if r["wavelength"] is None else f"{r['wavelength']:.4f}"
@@ -503,8 +503,8 @@ def wrinkles_section(payload: dict, images: str) -> list:
                     else f"{r['realized_bending'] / r['bending_modulus']:.3f}")
         artificial = ("–" if r.get("artificial_bending") is None
                       else f"{r['artificial_bending'] / r['bending_modulus']:.3g}")
-        remedy = ("–" if r.get("artificial_bending_fitted_gradients") is None
-                  else f"{r['artificial_bending_fitted_gradients'] / r['bending_modulus']:.2g}")
+        remedy = ("–" if r.get("artificial_bending_faces") is None
+                  else f"{r['artificial_bending_faces'] / r['bending_modulus']:.2g}")
         judged = "–" if "judged" not in r else ("yes" if r["judged"] else "no")
         out.append(f"| {r['label']} | {r['model']} | {r.get('mesh', 'pattern')}, "
                    f"{r.get('seed', 0)} | {r['bending_modulus']:g} | "

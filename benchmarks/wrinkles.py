@@ -17,8 +17,10 @@ its middle fifth). Per run also, after issue 52: the bending modulus the mesh re
 energy of the pattern rolled onto a cylinder across the width, over the continuum's), the
 artificial modulus B_art the piecewise-linear interpolation adds (a wrinkle z = sin kv of the
 measured wavelength has a spurious slope along u in every triangle not aligned with u, which
-the flat state's tension S_uu charges like bending: `artificial_bending`; and what a membrane
-whose faces take their corners' fitted gradients, the candidate remedy, would leave), the
+the flat state's tension S_uu charges like bending), measured from the library's own membrane
+energy (`membrane_artificial_bending`: a probe wrinkle over the middle half of the length, the
+continuum's energy subtracted) for the membrane as built (the smoothed strain, issue 52) and
+for the same state with the faces' constant strain (what the membrane carried before), the
 tension, points per wavelength, the wrinkled zone's length along u, and whether the row is
 judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B). The membrane runs
 on pattern meshes and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no
@@ -244,9 +246,11 @@ def artificial_bending(uv, F, stress, wavelength, middle, gradients="linear"):
     whose edges are not aligned with u; under the flat state's stress S it costs
     ½ Σ_f A_f (S_uu g_u² + 2 S_uv g_u g_v) beyond the continuum's ½ ∫ S_vv z_v², which acts
     as ½ B_art ∫ z_vv² = ½ B_art k⁴ ∫ z². Over the faces in `middle` (where wrinkles form),
-    averaged over four phases φ. gradients="fitted": the same for the candidate remedy, a
-    membrane whose face gradient is the mean of its corners' fitted gradients
-    (`fitted_gradient_weights`) instead of its linear interpolant's."""
+    averaged over four phases φ. gradients="fitted": the same for a membrane whose face
+    gradient is the mean of its corners' fitted gradients (`fitted_gradient_weights`), the
+    remedy measured first; not built, since a fitted gradient per vertex fails the patch test
+    (a homogeneous stress is not in balance). The library's membranes are measured by
+    `membrane_artificial_bending`."""
     if gradients not in ("linear", "fitted"):
         raise ValueError(f'gradients must be "linear" or "fitted", got {gradients!r}')
     fits = (fitted_gradient_weights(uv, F, np.unique(F[middle])) if gradients == "fitted"
@@ -271,6 +275,69 @@ def artificial_bending(uv, F, stress, wavelength, middle, gradients="linear"):
     return float(spurious / reference)
 
 
+#: The probe wrinkle's amplitudes (m): small enough that the membrane's quartic terms are
+#: under 1e-2 of its artificial bending at these moduli, large enough for round-off; the two
+#: amplitudes cancel the quartic term (Richardson).
+PROBE_AMPLITUDE = 1e-6
+
+
+def _subtriangle_points(uv, F):
+    """Quadrature of ∫ over each face: 12 points (the edge midpoints of its four midpoint
+    subtriangles, exact for quadratics on each) with equal weights, as (f, 12, 2) points."""
+    a, b, c = uv[F[:, 0]], uv[F[:, 1]], uv[F[:, 2]]
+    ab, bc, ca = (a + b) / 2, (b + c) / 2, (c + a) / 2
+    points = []
+    for p, q, r in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca)):
+        points += [(p + q) / 2, (q + r) / 2, (r + p) / 2]
+    return np.stack(points, axis=1)
+
+
+def membrane_artificial_bending(cloth, uv, F, stress, wavelength, length):
+    """B_art of the library's own membrane (N·m), measured from its energy at the cloth's
+    current flat state: a probe wrinkle z = a w(u) sin(k v + φ), w = sin²(π s) over the middle
+    half of the length (s from 0 at u = L/4 to 1 at 3L/4), adds the membrane energy
+    ½ ∫ ∇zᵀ S ∇z dA of the continuum (S the flat state's stress per face, ∇z exact, 12-point
+    quadrature per face) plus what the discretization adds, ½ B_art ∫ z_vv² ≈ ½ B_art k⁴ ∫ z²;
+    four phases, two amplitudes (the quartic term cancelled). For constant-strain faces this is
+    the interpolation's spurious slope under the tension (`artificial_bending`'s "linear"); the
+    fitted strain's is what remains of it (issue 52)."""
+    k = 2 * math.pi / wavelength
+    u0, u1 = 0.25 * length, 0.75 * length
+    flat = np.array(cloth.positions)
+
+    def window(u):
+        s = np.clip((u - u0) / (u1 - u0), 0.0, 1.0)
+        return np.sin(math.pi * s) ** 2, math.pi / (u1 - u0) * np.sin(2 * math.pi * s)
+
+    points = _subtriangle_points(uv, F)
+    a_, b_ = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
+    area = 0.5 * np.abs(a_[:, 0] * b_[:, 1] - a_[:, 1] * b_[:, 0])
+    w_vertex = window(uv[:, 0])[0]
+    w_point, dw_point = window(points[..., 0])
+    before = cloth.energy((0.0, 0.0, 0.0))["membrane"]
+    increments, continuum, squared = [], 0.0, 0.0
+    for amplitude in (PROBE_AMPLITUDE, 2 * PROBE_AMPLITUDE):
+        increase = 0.0
+        for phase in np.arange(4) * math.pi / 4:
+            probe = flat.copy()
+            probe[:, 2] += amplitude * w_vertex * np.sin(k * uv[:, 1] + phase)
+            cloth.positions = probe
+            increase += cloth.energy((0.0, 0.0, 0.0))["membrane"] - before
+            if amplitude == PROBE_AMPLITUDE:
+                angle = k * points[..., 1] + phase
+                gu = dw_point * np.sin(angle)
+                gv = w_point * k * np.cos(angle)
+                density = (stress[:, None, 0, 0] * gu * gu + 2 * stress[:, None, 0, 1] * gu * gv
+                           + stress[:, None, 1, 1] * gv * gv)
+                continuum += 0.5 * np.sum(area * density.mean(axis=1))
+                squared += np.sum(area * ((w_point * np.sin(angle)) ** 2).mean(axis=1))
+        increments.append(increase / amplitude ** 2)
+    cloth.positions = flat
+    quadratic = (4 * increments[0] - increments[1]) / 3  # per a², the quartic term cancelled
+    # continuum and squared were summed at amplitude 1 (per a²)
+    return float((quadratic - continuum) / (0.5 * k ** 4 * squared))
+
+
 def flat_state_check(model, parameters, wavelength):
     """The flat stretched state (relaxed without leaving the plane): whether it is stable (the
     true Hessian's Cholesky); for the membrane its largest compression across the width and
@@ -282,7 +349,7 @@ def flat_state_check(model, parameters, wavelength):
     cloth = sim.cloth
     stable = not yore.settling.is_saddle(cloth, (0.0, 0.0, 0.0))
     out = {"flat_state_stable": stable, "flat_state_compression": None, "tension": None,
-           "artificial_bending": None, "artificial_bending_fitted_gradients": None}
+           "artificial_bending": None, "artificial_bending_faces": None}
     if model == "membrane":
         uv, F = sim.scene["uv"], cloth.faces
         S = face_stress(uv, F, cloth.positions)
@@ -291,11 +358,15 @@ def flat_state_check(model, parameters, wavelength):
         fifth = offset < 0.1 * parameters["length"]
         out["flat_state_compression"] = float(-S[fifth, 1, 1].min())
         out["tension"] = float(S[fifth, 0, 0].mean())
-        middle = offset < 0.25 * parameters["length"]
-        out["artificial_bending"] = artificial_bending(uv, F, S, wavelength, middle)
-        # what the candidate remedy would leave (issue 52, item 1: not built yet)
-        out["artificial_bending_fitted_gradients"] = artificial_bending(
-            uv, F, S, wavelength, middle, gradients="fitted")
+        # B_art of the membrane as built (the smoothed strain, issue 52), and of the same state
+        # with the faces' constant strain (a state without "membrane_strain" loads so): what
+        # the membrane carried before
+        out["artificial_bending"] = membrane_artificial_bending(
+            cloth, uv, F, S, wavelength, parameters["length"])
+        faces_state = cloth.state()
+        faces_state.pop("membrane_strain", None)
+        out["artificial_bending_faces"] = membrane_artificial_bending(
+            yore.Cloth.from_state(faces_state), uv, F, S, wavelength, parameters["length"])
     return out
 
 
@@ -340,6 +411,7 @@ def sheet_run(label, model, parameters):
     b_art = flat_state["artificial_bending"]
     zigzag = bool(not flat and wavelength < 4 * h)
     row = {"label": label, "model": model, **parameters, "vertices": int(cloth.vertex_count),
+           "membrane_strain": cloth.membrane_strain,
            "mean_edge": h, "young": float(young), "poisson": float(nu),
            "predicted_wavelength": predicted,
            "realized_bending": realized, "artificial_bending": b_art,
@@ -596,9 +668,13 @@ def main(argv=None):
     for label, model, parameters in sheet_runs(args.quick):
         # a run journaled when flat meant under 10× the noise is redone if it was not flat
         # by today's measure (its wavelength was not kept)
+        # (and a membrane run journaled before the smoothed strain is redone: its membrane is
+        # not today's)
         row = journaled(args.out, run_name(model, parameters), args.resume,
                         lambda: sheet_run(label, model, parameters),
-                        lambda r: not (r["flat"] and r["amplitude"] >= FLAT))
+                        lambda r: not (r["flat"] and r["amplitude"] >= FLAT)
+                        and r.get("membrane_strain") == ("smoothed" if model == "membrane"
+                                                         else None))
         row["label"] = label
         rows.append(row)
         print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "

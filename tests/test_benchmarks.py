@@ -962,14 +962,14 @@ def test_wrinkles_smoke(tmp_path):
     assert {(r["mesh"], r["seed"]) for r in membrane} >= {("pattern", 0), ("grid", 0),
                                                           ("pattern", 1), ("grid", 1)}
     for r in membrane:
-        if r["mesh"] == "grid":
-            assert abs(r["artificial_bending"]) <= 1e-12 * r["bending_modulus"]
-        else:
-            assert r["artificial_bending"] > 0.0
+        # the membrane as built reads the smoothed strain; B_art is measured from its own
+        # energy, and from the same state with the faces' constant strain: on a pattern mesh
+        # the smoothed strain leaves a small part of the faces' artificial bending
+        assert r["membrane_strain"] == "smoothed"
         assert r["tension"] > 0.0 and not r["judged"]
-        # (the stress's shear term makes either sign possible at round-off)
-        assert abs(r["artificial_bending_fitted_gradients"]) < max(
-            r["artificial_bending"], 1e-9 * r["bending_modulus"])
+        if r["mesh"] == "pattern":
+            assert r["artificial_bending_faces"] > 0.0
+            assert abs(r["artificial_bending"]) < 0.5 * r["artificial_bending_faces"]
     assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
         (m, n) for m in ("springs", "membrane") for n in (9, 13)}
     assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])

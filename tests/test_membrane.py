@@ -280,6 +280,32 @@ def test_the_state_round_trips_and_a_saved_membrane_run_resumes_bit_for_bit(tmp_
     for key in ("young_modulus", "poisson_ratio"):
         springs.pop(key)
     assert yore.Cloth.from_state(springs).stretch == "springs"
+    # the smoothed strain round-trips; a membrane state from before it (no membrane_strain)
+    # goes on with the faces' constant strain it ran with, and bit for bit against such a run
+    fitted = yore.scenes.hanging_cloth(resolution=7, stretch="membrane", young_modulus=1e3,
+                                       bending="quadratic", bending_modulus=1e-4,
+                                       integrator="implicit")
+    fitted.step(2)
+    fitted_state = fitted.cloth.state()
+    assert fitted_state["membrane_strain"] == "smoothed"
+    assert yore.Cloth.from_state(fitted_state).membrane_strain == "smoothed"
+    older = dict(fitted_state)
+    older.pop("membrane_strain")
+    restored = yore.Cloth.from_state(older)
+    assert restored.membrane_strain == "faces"
+    assert restored.energy(NO_GRAVITY)["membrane"] != fitted.cloth.energy(NO_GRAVITY)["membrane"]
+    twin = yore.Cloth.from_state(older)
+    runs = [yore.Simulation(c, integrator="implicit", dt=fitted.dt) for c in (restored, twin)]
+    for run in runs:
+        run.step(2)
+    assert np.array_equal(runs[0].cloth.positions, runs[1].cloth.positions)
+    fitted_path = save_state(tmp_path / "fitted.npz", fitted)
+    assert load_state(fitted_path)[0].cloth.membrane_strain == "smoothed"
+    assert state["membrane_strain"] is None  # bending springs: the faces'
+    for bad_strain, base in (("fitted", fitted_state), ("smoothed", state), (3, fitted_state)):
+        bad = dict(base, membrane_strain=bad_strain)
+        with pytest.raises(ValueError, match="membrane_strain|smoothed membrane strain"):
+            yore.Cloth.from_state(bad)
     # a membrane state whose structural springs have stiffness is refused
     bad = dict(state)
     stiffness = np.array(bad["spring_stiffness"])
@@ -356,14 +382,17 @@ def test_scene_files_pass_the_membrane_on_and_name_bad_keys(tmp_path):
         assert caught.value.key == key, material
 
 
-def test_the_stretched_sheet_wrinkles_as_springs_and_stays_flat_as_a_membrane():
+def test_the_stretched_sheet_settles_and_the_spring_lattice_wrinkles():
     # Cerda & Mahadevan's setting on a pattern mesh: the flat stretched state is a saddle for
-    # the spring lattice (its compressed springs buckle) and a stable rest for the membrane
-    # with the same stiffness scale (its compression across the width, ~1 % of the tension
-    # over a fifth of the length, is below what bending lets buckle here); `settle` says which
+    # the spring lattice (its compressed springs buckle); both models settle to a stable rest.
+    # (Whether the membrane wrinkles here is not asserted: its wrinkles, λ ≈ 12 mm at this B,
+    # are not resolved by 3 cm edges. Before the smoothed strain it stayed flat because the
+    # interpolation's artificial bending stiffened it; benchmarks/wrinkles.py measures the
+    # resolved case.)
     kwargs = dict(length=0.6, width=0.3, edge_length=0.03, bending_modulus=1e-5)
     springs = yore.scenes.stretched_sheet(stretch="springs", stretch_stiffness=1e4, **kwargs)
     membrane = yore.scenes.stretched_sheet(stretch="membrane", young_modulus=1e4, **kwargs)
+    assert membrane.cloth.membrane_strain == "smoothed"
     assert np.array_equal(springs.scene["clamped"], membrane.scene["clamped"])
     uv = springs.scene["uv"]
     assert set(np.round(uv[springs.scene["clamped"], 0], 12)) == {0.0, 0.6}
@@ -371,10 +400,51 @@ def test_the_stretched_sheet_wrinkles_as_springs_and_stays_flat_as_a_membrane():
         info = sim.settle(max_seconds=40.0, tolerance=1e-4)
         assert info["converged"] and info["stable"] is True, info
     assert np.abs(springs.cloth.positions[:, 2]).max() > 1e-4  # 10× the start's noise
-    assert np.abs(membrane.cloth.positions[:, 2]).max() < 1e-6
     # the clamped edges stayed where the stretch put them
     np.testing.assert_array_equal(springs.cloth.positions[springs.scene["clamped"], 0],
                                   1.1 * uv[springs.scene["clamped"], 0])
+
+
+def spurious_slope_squared(cloth, V, k, amplitude=1e-6):
+    """ε²: the membrane energy a wrinkle z = a sin(k y + φ) adds to the sheet stretched by 1.1
+    along x (ν = 0), over ½ S_xx a² k² A / 2 — zero in the continuum (no slope along x, no
+    stress across), so it is the interpolation's spurious slope squared; four phases."""
+    flat = V * np.array([1.1, 1.0, 1.0])
+    cloth.positions = flat
+    before = cloth.energy(NO_GRAVITY)["membrane"]
+    increase = 0.0
+    for phase in np.arange(4) * np.pi / 4:
+        wrinkled = flat.copy()
+        wrinkled[:, 2] = amplitude * np.sin(k * V[:, 1] + phase)
+        cloth.positions = wrinkled
+        increase += cloth.energy(NO_GRAVITY)["membrane"] - before
+    mu = YOUNG / 2.0
+    stress = 2 * mu * 0.5 * (1.1 ** 2 - 1)
+    area = np.ptp(V[:, 0]) * np.ptp(V[:, 1])
+    return increase / (0.5 * stress * amplitude ** 2 * k ** 2 * area * 2.0)
+
+
+def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending():
+    # Issue 52: on CGAL's irregular triangles the constant-strain faces charge a wrinkle
+    # running along the tension for a slope it does not have (ε² 2.7e-3 here, at 12 points a
+    # wavelength); the smoothed strain (the default with quadratic bending) 2.6 % of that, most
+    # of it from the boundary strip and the faces' 1 % share. Bending springs keep no rest
+    # state: their membrane is the faces'.
+    V, F = yore.pattern_mesh([[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125)
+    V = np.column_stack([V[:, :2], np.zeros(len(V))])
+    common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0,
+                  bend_stiffness=0.0, masses=1e-3)
+    faces = yore.Cloth(V, F, bending="springs", **common)
+    fitted = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0, **common)
+    hinge = yore.Cloth(V, F, bending="hinge", bending_modulus=0.0, **common)
+    assert (faces.membrane_strain, fitted.membrane_strain, hinge.membrane_strain) == (
+        "faces", "smoothed", "smoothed")
+    k = 2 * np.pi / 0.15
+    with_faces = spurious_slope_squared(faces, V, k)
+    with_fit = spurious_slope_squared(fitted, V, k)
+    assert with_faces > 1e-3
+    assert 0.0 <= with_fit < 0.05 * with_faces
+    assert spurious_slope_squared(hinge, V, k) == pytest.approx(with_fit, rel=1e-9)
 
 
 def heron_rest_area(cloth):

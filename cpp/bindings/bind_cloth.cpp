@@ -364,6 +364,18 @@ version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc
           "poisson_ratio",
           [](const Cloth& cloth) { return idle(cloth).membrane().poisson_ratio; },
           "The membrane's Poisson's ratio (0 with springs).")
+      .def_property_readonly(
+          "membrane_strain",
+          [](const Cloth& cloth) -> py::object {
+            const Cloth& c = idle(cloth);
+            if (!c.has_membrane()) return py::none();
+            return py::str(c.has_smoothed_membrane() ? "smoothed" : "faces");
+          },
+          R"doc(How the membrane reads strain: "smoothed" (at each vertex the area-weighted
+mean of its faces' deformation gradients, the faces keeping 1 %: the default with bending
+"quadratic" or "hinge"), "faces" (constant-strain triangles: with
+bending springs, which keep no rest state, or restored from a state saved before the fitted
+strain), None without a membrane.)doc")
       .def(
           "membrane_status",
           [](const Cloth& cloth) {

@@ -21,14 +21,16 @@ const char* const kStateKeys[] = {
     "bend_stiffness",   "damping",          "material_coordinates", "vertex_states",
     "drivers",          "clock_origin",     "clock_steps",      "clock_dt",
     "bending",          "bending_modulus",  "bending_rest",     "young_modulus",
-    "poisson_ratio",    "bending_operator"};
+    "poisson_ratio",    "bending_operator", "membrane_strain"};
 /// Keys a state may lack: states saved before quadratic bending existed are bending springs,
 /// before the membrane existed springs resist stretching, and before the fitted operator
 /// (issue 52) "quadratic" meant the hinge energy: such a state loads as bending="hinge", so it
-/// goes on with the physics it was saved with.
+/// goes on with the physics it was saved with; likewise a membrane saved before the smoothed strain
+/// (no "membrane_strain") keeps the faces' constant strain.
 bool optional_state_key(const std::string& key) {
   return key == "bending" || key == "bending_modulus" || key == "bending_rest" ||
-         key == "young_modulus" || key == "poisson_ratio" || key == "bending_operator";
+         key == "young_modulus" || key == "poisson_ratio" || key == "bending_operator" ||
+         key == "membrane_strain";
 }
 
 std::vector<double> double_list(const py::handle& object, const char* name, Eigen::Index size) {
@@ -112,6 +114,8 @@ py::dict state_dict(const Cloth& cloth) {
       state.bending_rest.rows() ? py::object(read_only_copy(state.bending_rest)) : py::none();
   out["young_modulus"] = state.membrane.young_modulus;
   out["poisson_ratio"] = state.membrane.poisson_ratio;
+  out["membrane_strain"] =
+      state.membrane_smoothed ? py::object(py::str("smoothed")) : py::object(py::none());
   return out;
 }
 
@@ -219,6 +223,13 @@ Cloth cloth_from_state(const py::dict& values) {
   }
   if (values.contains("poisson_ratio")) {
     state.membrane.poisson_ratio = values["poisson_ratio"].cast<double>();
+  }
+  if (values.contains("membrane_strain") && !values["membrane_strain"].is_none()) {
+    const py::object given = values["membrane_strain"];
+    if (!py::isinstance<py::str>(given) || given.cast<std::string>() != "smoothed") {
+      throw std::invalid_argument("state membrane_strain must be \"smoothed\" or None");
+    }
+    state.membrane_smoothed = true;
   }
   return Cloth::from_state(state);
 }

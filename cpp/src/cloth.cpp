@@ -160,6 +160,7 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
   }
   m_faces = faces;
   m_membrane = membrane;
+  m_membrane_smoothed = is_quadratic(bending);
   m_stretch_stiffness = stretch_stiffness;
   m_bend_stiffness = bend_stiffness;
   m_spring_damping = damping;
@@ -354,7 +355,7 @@ const MembraneElements& Cloth::membrane_elements() const {
   }
   const MembraneFaces& map = membrane_faces();
   const MembraneReference* reference = nullptr;
-  if (has_fitted_membrane()) {
+  if (has_smoothed_membrane()) {
     const Positions& rest = bending_rest_positions();
     if (m_membrane_reference_topology != m_topology_version) {
       m_membrane_reference = membrane_reference(rest, m_faces);

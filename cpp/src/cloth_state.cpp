@@ -41,6 +41,7 @@ ClothState Cloth::state() const {
   state.bending_modulus = m_bending_modulus;
   state.bending_rest = bending_rest_positions();
   state.membrane = m_membrane;
+  state.membrane_smoothed = has_smoothed_membrane();
   return state;
 }
 
@@ -267,6 +268,11 @@ Cloth Cloth::from_state(const ClothState& state) {
     cloth.update_quadratic_bending();
   }
   cloth.m_membrane = state.membrane;
+  if (state.membrane_smoothed && !(is_quadratic(state.bending) && cloth.has_membrane())) {
+    fail("state: the smoothed membrane strain needs a membrane and bending \"quadratic\" or "
+         "\"hinge\"");
+  }
+  cloth.m_membrane_smoothed = state.membrane_smoothed;
   cloth.update_inverse_masses();
   cloth.rebuild_incidence();
   if (cloth.has_membrane()) cloth.check_membrane_rest();

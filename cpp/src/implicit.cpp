@@ -239,6 +239,45 @@ void bending_slots(const QuadraticBendingMatrix& bending,
   });
 }
 
+// The lower triangle's off-diagonal blocks (column block, row block), sorted, once each: one per
+// spring between two free vertices, quadratic bending's pairs and the membrane elements'.
+std::vector<std::pair<std::int32_t, std::int32_t>> coupled_blocks(
+    const Cloth& cloth, const std::vector<std::int32_t>& dof_of_vertex) {
+  const SpringSet& springs = cloth.springs();
+  // Off-diagonal blocks of the lower triangle: (row block > column block), one per spring
+  // between two free vertices.
+  std::vector<std::pair<std::int32_t, std::int32_t>> coupled;  // (column block, row block)
+  coupled.reserve(springs.size());
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t a = dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
+    const std::int32_t b = dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
+    if (a < 0 || b < 0) continue;
+    coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
+  }
+  // Quadratic bending couples every pair of a hinge's four vertices (more than the springs).
+  const QuadraticBendingMatrix* bending =
+      cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
+  if (bending != nullptr) {
+    for_each_free_entry(*bending, dof_of_vertex,
+                        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a,
+                            std::int32_t b) {
+                          if (j > i) coupled.emplace_back(a / 3, b / 3);
+                        });
+  }
+  // The membrane's elements couple every pair of their corners (a smoothed vertex its 1-ring).
+  const MembraneElements* elements = cloth.has_membrane() ? &cloth.membrane_elements() : nullptr;
+  if (elements != nullptr) {
+    for_each_membrane_pair(*elements, [&](std::size_t, std::int32_t i, std::int32_t j) {
+      const std::int32_t a = dof_of_vertex[static_cast<std::size_t>(i)];
+      const std::int32_t b = dof_of_vertex[static_cast<std::size_t>(j)];
+      if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
+    });
+  }
+  std::sort(coupled.begin(), coupled.end());
+  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
+  return coupled;
+}
+
 }  // namespace
 
 void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
@@ -258,37 +297,11 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   }
   const auto blocks = static_cast<std::int32_t>(m_free_vertices.size());
 
-  // Off-diagonal blocks of the lower triangle: (row block > column block), one per spring
-  // between two free vertices.
-  std::vector<std::pair<std::int32_t, std::int32_t>> coupled;  // (column block, row block)
-  coupled.reserve(s);
-  for (std::size_t k = 0; k < s; ++k) {
-    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
-    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
-    if (a < 0 || b < 0) continue;
-    coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
-  }
-  // Quadratic bending couples every pair of a hinge's four vertices (more than the springs).
+  const std::vector<std::pair<std::int32_t, std::int32_t>> coupled =
+      coupled_blocks(cloth, m_dof_of_vertex);
   const QuadraticBendingMatrix* bending =
       cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
-  if (bending != nullptr) {
-    for_each_free_entry(*bending, m_dof_of_vertex,
-                        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a,
-                            std::int32_t b) {
-                          if (j > i) coupled.emplace_back(a / 3, b / 3);
-                        });
-  }
-  // The membrane's elements couple every pair of their corners (a fitted vertex its patch).
   const MembraneElements* elements = cloth.has_membrane() ? &cloth.membrane_elements() : nullptr;
-  if (elements != nullptr) {
-    for_each_membrane_pair(*elements, [&](std::size_t, std::int32_t i, std::int32_t j) {
-      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
-      const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(j)];
-      if (a >= 0 && b >= 0) coupled.emplace_back(std::min(a, b) / 3, std::max(a, b) / 3);
-    });
-  }
-  std::sort(coupled.begin(), coupled.end());
-  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
   std::vector<std::int32_t> first_neighbour(static_cast<std::size_t>(blocks) + 1, 0);
   for (const auto& pair : coupled) ++first_neighbour[static_cast<std::size_t>(pair.first) + 1];
   for (std::int32_t b = 0; b < blocks; ++b) {

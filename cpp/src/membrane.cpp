@@ -131,37 +131,36 @@ MembraneRest membrane_face_rest(const MembraneFaces& map, const SpringSet& sprin
                        springs.rest_length[static_cast<std::size_t>(s[2])]);
 }
 
+namespace {
+
+// Unit axes of vertex p's tangent plane: normal to the area-weighted normal of its faces (any
+// plane when they cancel).
+std::pair<Vec3, Vec3> tangent_axes(const Vec3& normal) {
+  const Vec3 n = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3::UnitZ();
+  const Vec3 seed = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 u = (seed - seed.dot(n) * n).normalized();
+  return {u, n.cross(u)};
+}
+
+}  // namespace
+
 MembraneReference membrane_reference(const Positions& rest_positions, const Faces& faces) {
   MembraneReference reference;
-  reference.gradients = fitted_gradients(rest_positions, faces, false);
   const Eigen::Index n = rest_positions.rows();
   reference.face_starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  std::vector<Vec3> normal(static_cast<std::size_t>(n), Vec3::Zero());
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    for (int k = 0; k < 3; ++k) ++reference.face_starts[static_cast<std::size_t>(faces(f, k)) + 1];
+    const Vec3 x0 = rest_positions.row(faces(f, 0));
+    const Vec3 twice_area = (Vec3(rest_positions.row(faces(f, 1))) - x0)
+                                .cross(Vec3(rest_positions.row(faces(f, 2))) - x0);
+    for (int k = 0; k < 3; ++k) {
+      ++reference.face_starts[static_cast<std::size_t>(faces(f, k)) + 1];
+      normal[static_cast<std::size_t>(faces(f, k))] += twice_area;
+    }
   }
   for (Eigen::Index p = 0; p < n; ++p) {
     reference.face_starts[static_cast<std::size_t>(p) + 1] +=
         reference.face_starts[static_cast<std::size_t>(p)];
-  }
-  // boundary edges: on one face only
-  std::vector<std::array<std::int32_t, 2>> edges;
-  edges.reserve(3 * static_cast<std::size_t>(faces.rows()));
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = faces(f, k), b = faces(f, (k + 1) % 3);
-      edges.push_back({std::min(a, b), std::max(a, b)});
-    }
-  }
-  std::sort(edges.begin(), edges.end());
-  reference.boundary.assign(static_cast<std::size_t>(n), 0);
-  for (std::size_t k = 0; k < edges.size();) {
-    std::size_t next = k + 1;
-    while (next < edges.size() && edges[next] == edges[k]) ++next;
-    if (next - k == 1) {
-      reference.boundary[static_cast<std::size_t>(edges[k][0])] = 1;
-      reference.boundary[static_cast<std::size_t>(edges[k][1])] = 1;
-    }
-    k = next;
   }
   const auto total = static_cast<std::size_t>(reference.face_starts.back());
   reference.incident_faces.assign(total, -1);
@@ -176,35 +175,41 @@ MembraneReference membrane_reference(const Positions& rest_positions, const Face
       const auto p = static_cast<std::size_t>(faces(f, k));
       const auto slot = static_cast<std::size_t>(fill[p]++);
       reference.incident_faces[slot] = static_cast<std::int32_t>(f);
-      const Vec3& u = reference.gradients.axis_u[p];
-      const Vec3& v = reference.gradients.axis_v[p];
+      const auto [u, v] = tangent_axes(normal[p]);
       Eigen::Matrix2d edge_vectors;
       edge_vectors << e1.dot(u), e2.dot(u), e1.dot(v), e2.dot(v);
-      // A face nearly edge-on to the vertex's plane (under 1 % of its area seen) says nothing
-      // about the metric there: it keeps D⁻¹ = 0 and is skipped.
+      // A face nearly edge-on to the vertex's plane (under 1 % of its area seen) cannot be
+      // averaged there: it keeps D⁻¹ = 0, and the vertex gives its share back to its faces.
       if (!(std::abs(edge_vectors.determinant()) > 1e-2 * twice_area)) continue;
       Eigen::Map<Eigen::Matrix2d>(&reference.reference_inverse[4 * slot]) = edge_vectors.inverse();
     }
+  }
+  // each vertex's corners: itself and its 1-ring, in increasing order
+  reference.corner_starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  std::vector<std::int32_t> corners;
+  for (Eigen::Index p = 0; p < n; ++p) {
+    corners.clear();
+    for (auto slot = static_cast<std::size_t>(reference.face_starts[static_cast<std::size_t>(p)]);
+         slot < static_cast<std::size_t>(reference.face_starts[static_cast<std::size_t>(p) + 1]);
+         ++slot) {
+      for (int k = 0; k < 3; ++k) corners.push_back(faces(reference.incident_faces[slot], k));
+    }
+    std::sort(corners.begin(), corners.end());
+    corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+    reference.corners.insert(reference.corners.end(), corners.begin(), corners.end());
+    reference.corner_starts[static_cast<std::size_t>(p) + 1] =
+        static_cast<std::int32_t>(reference.corners.size());
   }
   return reference;
 }
 
 namespace {
 
-// Appends the faces' constant-strain elements: their whole energy without a reference, with
-// one kMembraneFaceShare of it plus (1 − kMembraneFaceShare)/3 per boundary corner.
+// Appends the faces' constant-strain elements with their share of the energy.
 void add_face_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
-                       const MembraneReference* reference, MembraneElements& out) {
+                       double share, MembraneElements& out) {
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
     const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
-    double share = 1.0;
-    if (reference != nullptr) {
-      int boundary_corners = 0;
-      for (int k = 0; k < 3; ++k) {
-        boundary_corners += reference->boundary[static_cast<std::size_t>(faces(f, k))];
-      }
-      share = kMembraneFaceShare + (1.0 - kMembraneFaceShare) * boundary_corners / 3.0;
-    }
     const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
     for (int k = 0; k < 3; ++k) {
       out.corners.push_back(faces(f, k));
@@ -216,44 +221,63 @@ void add_face_elements(const Faces& faces, const MembraneFaces& map, const Sprin
   }
 }
 
-// Appends one fitted element per interior vertex (see membrane.hpp). An interior vertex with
-// no fit (its part of the mesh under 6 vertices, or slivers) or no usable metric (every face
-// edge-on to its plane) gives its share to its faces instead: elements of three corners with
-// (1 − kMembraneFaceShare)/3 of each face's area, after the fitted ones' places.
+// Appends one smoothed element per vertex (see membrane.hpp). A vertex with no usable metric
+// (every face edge-on to its plane, or a metric that is not positive definite) gives its share
+// to its faces instead: elements of three corners with (1 − kMembraneFaceShare)/3 of each
+// face's area, after the smoothed ones.
 void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
                          const MembraneReference& reference, MembraneElements& out) {
-  const FittedGradients& fits = reference.gradients;
-  const std::size_t n = fits.starts.size() - 1;
+  const std::size_t n = reference.face_starts.size() - 1;
   std::vector<std::size_t> fallback;
   for (std::size_t p = 0; p < n; ++p) {
-    const auto begin = static_cast<std::size_t>(fits.starts[p]);
-    const auto end = static_cast<std::size_t>(fits.starts[p + 1]);
     const auto first_face = static_cast<std::size_t>(reference.face_starts[p]);
     const auto last_face = static_cast<std::size_t>(reference.face_starts[p + 1]);
-    if (reference.boundary[p] || first_face == last_face) continue;
+    if (first_face == last_face) continue;  // on no face
+    const auto first_corner = static_cast<std::size_t>(reference.corner_starts[p]);
+    const auto last_corner = static_cast<std::size_t>(reference.corner_starts[p + 1]);
+    const std::size_t start = out.corners.size();
+    out.corners.insert(out.corners.end(), reference.corners.begin() + first_corner,
+                       reference.corners.begin() + last_corner);
+    out.gradient_u.resize(out.corners.size(), 0.0);
+    out.gradient_v.resize(out.corners.size(), 0.0);
     Eigen::Matrix2d metric = Eigen::Matrix2d::Zero();
-    double weight = 0.0, area = 0.0;
+    double area = 0.0;
+    bool usable = true;
     for (std::size_t slot = first_face; slot < last_face; ++slot) {
       const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
       const MembraneRest rest = membrane_face_rest(map, springs, f);
-      area += rest.area / 3.0;
       const Eigen::Map<const Eigen::Matrix2d> inverse(&reference.reference_inverse[4 * slot]);
-      if (inverse.isZero(0.0)) continue;
+      usable = usable && !inverse.isZero(0.0);
       const Eigen::Matrix2d rest_edges = rest.inverse.inverse();
       metric += rest.area * inverse.transpose() * rest_edges.transpose() * rest_edges * inverse;
-      weight += rest.area;
+      area += rest.area / 3.0;
+      // the face's linear gradients in p's tangent axes, weighted by its third of the area
+      const Eigen::Vector2d d1 = inverse.row(0).transpose(), d2 = inverse.row(1).transpose();
+      const std::array<Eigen::Vector2d, 3> d{-(d1 + d2), d1, d2};
+      for (int k = 0; k < 3; ++k) {
+        const std::int32_t vertex = faces(static_cast<Eigen::Index>(f), k);
+        const auto at = static_cast<std::size_t>(
+            std::lower_bound(reference.corners.begin() + first_corner,
+                             reference.corners.begin() + last_corner, vertex) -
+            (reference.corners.begin() + first_corner));
+        out.gradient_u[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].x();
+        out.gradient_v[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].y();
+      }
     }
-    const Eigen::LLT<Eigen::Matrix2d> cholesky(metric / (weight > 0.0 ? weight : 1.0));
-    if (begin == end || !(weight > 0.0) || cholesky.info() != Eigen::Success) {
+    const Eigen::LLT<Eigen::Matrix2d> cholesky(metric / (3.0 * area));
+    if (!usable || !(area > 0.0) || cholesky.info() != Eigen::Success) {
+      out.corners.resize(start);
+      out.gradient_u.resize(start);
+      out.gradient_v.resize(start);
       fallback.push_back(p);
       continue;
     }
-    const Eigen::Matrix2d lower_inverse = Eigen::Matrix2d(cholesky.matrixL()).inverse();
-    for (std::size_t k = begin; k < end; ++k) {
-      const Eigen::Vector2d d = lower_inverse * Eigen::Vector2d(fits.weight_u[k], fits.weight_v[k]);
-      out.corners.push_back(fits.points[k]);
-      out.gradient_u.push_back(d.x());
-      out.gradient_v.push_back(d.y());
+    // G_p = Σ_f (A_f/3) G_f / A_p in the tangent axes; F_p = G_p L⁻ᵀ, so d = L⁻¹ c / A_p
+    const Eigen::Matrix2d lower_inverse = Eigen::Matrix2d(cholesky.matrixL()).inverse() / area;
+    for (std::size_t k = start; k < out.corners.size(); ++k) {
+      const Eigen::Vector2d d = lower_inverse * Eigen::Vector2d(out.gradient_u[k], out.gradient_v[k]);
+      out.gradient_u[k] = d.x();
+      out.gradient_v[k] = d.y();
     }
     out.area.push_back((1.0 - kMembraneFaceShare) * area);
     out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
@@ -286,7 +310,7 @@ void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
   out.gradient_v.clear();
   out.area.clear();
   out.starts.push_back(0);
-  add_face_elements(faces, map, springs, reference, out);
+  add_face_elements(faces, map, springs, reference != nullptr ? kMembraneFaceShare : 1.0, out);
   out.face_elements = faces.rows();
   if (reference != nullptr) add_vertex_elements(faces, map, springs, *reference, out);
 }

@@ -204,8 +204,6 @@ constexpr std::size_t kMaxPatch = 40;
 struct VertexFit {
   std::vector<std::int32_t> patch;
   Eigen::MatrixXd energy;
-  Eigen::MatrixX2d gradient;  ///< per point, the weights of the fitted gradient (u, v), 1/m
-  Point u = Point::UnitX(), v = Point::UnitY();  ///< the tangent axes
 };
 
 /// The least-squares quadratic over `patch` (tangent-plane coordinates about `centre`, axes
@@ -214,8 +212,7 @@ struct VertexFit {
 /// by the patch's own spread (an affine map, under which quadratics stay quadratics), so a
 /// stretched mesh's patch is judged like the regular one it is an image of.
 Eigen::MatrixXd fit_energy(const Positions& rest, const std::vector<std::int32_t>& patch,
-                           const Point& centre, const Point& u, const Point& v,
-                           Eigen::MatrixX2d* gradient_weights = nullptr) {
+                           const Point& centre, const Point& u, const Point& v) {
   const auto m = static_cast<Eigen::Index>(patch.size());
   const Eigen::MatrixXd none;
   if (m < 6) return none;
@@ -245,15 +242,6 @@ Eigen::MatrixXd fit_energy(const Positions& rest, const std::vector<std::int32_t
   // whitened Hessian [[2a, b], [b, 2c]], and the tangent-plane one is L⁻ᵀ H_s L⁻¹.
   const Eigen::MatrixXd coefficients =
       svd.matrixV() * sigma.cwiseInverse().asDiagonal() * svd.matrixU().transpose();
-  if (gradient_weights != nullptr) {
-    // rows 1–2: the whitened gradient at the centre; the tangent-plane one is L⁻ᵀ g_s
-    gradient_weights->resize(m, 2);
-    for (Eigen::Index k = 0; k < m; ++k) {
-      gradient_weights->row(k) =
-          (to_white.transpose() * Eigen::Vector2d(coefficients(1, k), coefficients(2, k)))
-              .transpose();
-    }
-  }
   Eigen::MatrixX3d weights(m, 3);
   for (Eigen::Index k = 0; k < m; ++k) {
     Eigen::Matrix2d white;
@@ -286,14 +274,12 @@ VertexFit fit_vertex(const Positions& rest, const std::vector<std::vector<std::i
   const auto [u, v] = tangent_axes(normal);
   const Point centre = rest.row(c).transpose();
   VertexFit fit;
-  fit.u = u;
-  fit.v = v;
   fit.patch = ring[static_cast<std::size_t>(c)];
   fit.patch.push_back(c);
   std::sort(fit.patch.begin(), fit.patch.end());
   std::vector<std::int32_t> candidates;
   for (;;) {
-    fit.energy = fit_energy(rest, fit.patch, centre, u, v, &fit.gradient);
+    fit.energy = fit_energy(rest, fit.patch, centre, u, v);
     if (fit.energy.rows() > 0) return fit;
     if (fit.patch.size() >= kMaxPatch) {
       std::ostringstream msg;
@@ -328,12 +314,13 @@ VertexFit fit_vertex(const Positions& rest, const std::vector<std::vector<std::i
   }
 }
 
-// Calls visit(p, A_p, fit) for every vertex p on a face (A_p a third of its faces' rest area),
-// in vertex order.
-// Vertices with no well-posed fit: fit_vertex's error, or with throw_unfit false, no visit.
-template <class Visit>
-void for_each_vertex_fit(const Positions& rest_positions, const Faces& faces, Visit&& visit,
-                         bool throw_unfit = true) {
+}  // namespace
+
+QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
+                                             const Faces& faces) {
+  // The hinge walk checks indices and areas and gives the scale terms (fold_energy, the
+  // hinge count); the values are the fits'.
+  QuadraticBendingMatrix out = hinge_matrix(rest_positions, faces, false);
   const Eigen::Index n = rest_positions.rows();
   std::vector<std::vector<std::int32_t>> ring(static_cast<std::size_t>(n));
   std::vector<Point> normal(static_cast<std::size_t>(n), Point::Zero());
@@ -350,75 +337,30 @@ void for_each_vertex_fit(const Positions& rest_positions, const Faces& faces, Vi
       for (int d = 1; d < 3; ++d) neighbours.push_back(faces(f, (k + d) % 3));
     }
   }
+  std::vector<std::tuple<std::int32_t, std::int32_t, double>> triplets;
   for (Eigen::Index p = 0; p < n; ++p) {
     auto& r = ring[static_cast<std::size_t>(p)];
     std::sort(r.begin(), r.end());
     r.erase(std::unique(r.begin(), r.end()), r.end());
   }
   for (Eigen::Index p = 0; p < n; ++p) {
-    if (!(area(p) > 0.0)) continue;  // on no face: nothing to measure
+    if (!(area(p) > 0.0)) continue;  // on no face: no curvature to measure
     Point axis = normal[static_cast<std::size_t>(p)];
     if (!(axis.norm() > 0.0)) axis = Point::UnitZ();  // a fold's faces cancel: any plane
-    if (throw_unfit) {
-      visit(static_cast<std::int32_t>(p), area(p),
-            fit_vertex(rest_positions, ring, static_cast<std::int32_t>(p), axis));
-      continue;
-    }
-    try {
-      visit(static_cast<std::int32_t>(p), area(p),
-            fit_vertex(rest_positions, ring, static_cast<std::int32_t>(p), axis));
-    } catch (const std::invalid_argument&) {  // this vertex has no fit: its patch stays empty
-    }
-  }
-}
-
-}  // namespace
-
-QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
-                                             const Faces& faces) {
-  // The hinge walk checks indices and areas and gives the scale terms (fold_energy, the
-  // hinge count); the values are the fits'.
-  QuadraticBendingMatrix out = hinge_matrix(rest_positions, faces, false);
-  std::vector<std::tuple<std::int32_t, std::int32_t, double>> triplets;
-  for_each_vertex_fit(rest_positions, faces, [&](std::int32_t, double area, const VertexFit& fit) {
+    const VertexFit fit = fit_vertex(rest_positions, ring, static_cast<std::int32_t>(p), axis);
     // A_p K, each pair's value taken from one triangle of K and stored at (i, j) and (j, i):
     // Q is symmetric to the bit.
     for (Eigen::Index i = 0; i < fit.energy.rows(); ++i) {
       for (Eigen::Index j = i; j < fit.energy.rows(); ++j) {
-        const double value = area * fit.energy(i, j);
+        const double value = area(p) * fit.energy(i, j);
         const std::int32_t a = fit.patch[static_cast<std::size_t>(i)];
         const std::int32_t b = fit.patch[static_cast<std::size_t>(j)];
         triplets.emplace_back(a, b, value);
         if (b != a) triplets.emplace_back(b, a, value);
       }
     }
-  });
+  }
   fill_rows(triplets, out);
-  return out;
-}
-
-FittedGradients fitted_gradients(const Positions& rest_positions, const Faces& faces,
-                                 bool throw_unfit) {
-  hinge_matrix(rest_positions, faces, false);  // the same checks as the bending matrices
-  FittedGradients out;
-  const Eigen::Index n = rest_positions.rows();
-  out.starts.assign(static_cast<std::size_t>(n) + 1, 0);
-  out.axis_u.assign(static_cast<std::size_t>(n), Point::UnitX());
-  out.axis_v.assign(static_cast<std::size_t>(n), Point::UnitY());
-  std::int32_t next = 0;  // the first vertex whose start is not yet written
-  for_each_vertex_fit(rest_positions, faces, [&](std::int32_t p, double, const VertexFit& fit) {
-    for (; next <= p; ++next) out.starts[static_cast<std::size_t>(next)] =
-        static_cast<std::int32_t>(out.points.size());
-    out.axis_u[static_cast<std::size_t>(p)] = fit.u;
-    out.axis_v[static_cast<std::size_t>(p)] = fit.v;
-    for (std::size_t k = 0; k < fit.patch.size(); ++k) {
-      out.points.push_back(fit.patch[k]);
-      out.weight_u.push_back(fit.gradient(static_cast<Eigen::Index>(k), 0));
-      out.weight_v.push_back(fit.gradient(static_cast<Eigen::Index>(k), 1));
-    }
-  }, throw_unfit);
-  for (; next <= n; ++next) out.starts[static_cast<std::size_t>(next)] =
-      static_cast<std::int32_t>(out.points.size());
   return out;
 }
 

@@ -463,7 +463,7 @@ _CLOTH_FIELDS = ("positions", "velocities", "masses", "faces", "spring_ends", "s
                  "stretch_stiffness", "bend_stiffness", "damping", "material_coordinates",
                  "vertex_states", "drivers", "clock_origin", "clock_steps", "clock_dt")
 _CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest", "bending_operator")
-_CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio")
+_CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio", "membrane_strain")
 _SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
                       "target_time")
 _DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
@@ -576,6 +576,16 @@ def _check_cloth_models(field, cloth, n):
             if not -1.0 < ratio < 1.0 or (young == 0.0 and ratio != 0.0):
                 raise field.error(where + "poisson_ratio", f"got {_show(ratio)}",
                                   "a number in (-1, 1) with a membrane, 0 without one")
+    # "smoothed" for a membrane that reads the smoothed strain (it needs the rest state of bending
+    # "quadratic" or "hinge"); absent or null for the faces' constant strain (files saved
+    # before the smoothed strain load with the physics they ran with)
+    strain = cloth.get("membrane_strain")
+    membrane = isinstance(cloth.get("young_modulus"), (int, float)) and cloth["young_modulus"] > 0
+    if strain is not None and (strain != "smoothed" or not membrane
+                               or bending not in ("quadratic", "hinge")):
+        raise field.error(where + "membrane_strain", f"got {_show(strain)}",
+                          '"smoothed" with a membrane and bending "quadratic" or "hinge", else '
+                          'null')
 
 
 def _check_drivers(field, drivers, n):

@@ -188,7 +188,7 @@ TEST_CASE("a membrane cloth: 0 N/m structural springs, summed energy and gradien
   x(4, 2) = 0.05;
   cloth.set_positions(x);
   REQUIRE(cloth.membrane_faces().edge_springs.size() == 8);
-  REQUIRE_FALSE(cloth.has_fitted_membrane());  // bending springs keep no rest state
+  REQUIRE_FALSE(cloth.has_smoothed_membrane());  // bending springs keep no rest state
   const yore::MembraneElements& elements = cloth.membrane_elements();
   REQUIRE(elements.size() == 8);  // the faces alone, each with its whole energy
   const double energy = yore::membrane_energy(elements, material(), x);
@@ -265,7 +265,7 @@ yore_test::Mesh irregular_mesh(int nx, int ny, double width, double height) {
   return mesh;
 }
 
-yore::Cloth fitted_cloth(const yore_test::Mesh& mesh, const yore::MembraneMaterial& m) {
+yore::Cloth smoothed_cloth(const yore_test::Mesh& mesh, const yore::MembraneMaterial& m) {
   return yore::Cloth(mesh.positions, mesh.faces,
                      Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01), 0.0, 0.0, 0.0, 0.0,
                      yore::BendingModel::quadratic, 0.0, m);
@@ -309,14 +309,14 @@ TEST_CASE("an element of three corners is the constant-strain face") {
   }
 }
 
-TEST_CASE("the fitted strain is exact for homogeneous deformations on an irregular mesh") {
+TEST_CASE("the smoothed strain is exact for homogeneous deformations and passes the patch test") {
   const yore_test::Mesh mesh = irregular_mesh(9, 7, 0.4, 0.3);
-  yore::Cloth cloth = fitted_cloth(mesh, material());
-  REQUIRE(cloth.has_fitted_membrane());
+  yore::Cloth cloth = smoothed_cloth(mesh, material());
+  REQUIRE(cloth.has_smoothed_membrane());
   const yore::MembraneElements& elements = cloth.membrane_elements();
   CHECK(elements.face_elements == mesh.faces.rows());
-  // one per interior vertex (7 × 5 of the 9 × 7): the boundary's go to their faces
-  CHECK(elements.size() == static_cast<std::size_t>(mesh.faces.rows() + 35));
+  // one per vertex
+  CHECK(elements.size() == static_cast<std::size_t>(mesh.faces.rows() + mesh.positions.rows()));
   // the shares sum to the sheet's area
   double area = 0.0;
   for (const double a : elements.area) area += a;
@@ -338,11 +338,23 @@ TEST_CASE("the fitted strain is exact for homogeneous deformations on an irregul
   const auto m = material();
   const double W = m.mu() * E.squaredNorm() + 0.5 * m.lambda() * E.trace() * E.trace();
   CHECK(cloth.energy(Vec3::Zero()).membrane == doctest::Approx(0.12 * W).epsilon(1e-10));
+  // the patch test: that homogeneous stress is in balance at every interior vertex (the mean
+  // runs over exactly the face thirds that make up each vertex's area)
+  yore::Positions gradient = yore::Positions::Zero(x.rows(), 3);
+  yore::MembraneElementWork work;
+  yore::membrane_add_gradient(elements, m, x, gradient, work);
+  const double largest = gradient.cwiseAbs().maxCoeff();
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    const double u = mesh.positions(i, 0), v = mesh.positions(i, 1);
+    if (u > 1e-9 && u < 0.4 - 1e-9 && v > 1e-9 && v < 0.3 - 1e-9) {
+      CHECK(gradient.row(i).cwiseAbs().maxCoeff() <= 1e-12 * largest);
+    }
+  }
 }
 
-TEST_CASE("the fitted strain's gradient and blocks match finite differences") {
+TEST_CASE("the smoothed strain's gradient and blocks match finite differences") {
   const yore_test::Mesh mesh = irregular_mesh(6, 6, 0.3, 0.3);
-  yore::Cloth cloth = fitted_cloth(mesh, material());
+  yore::Cloth cloth = smoothed_cloth(mesh, material());
   std::uint64_t seed = 7;
   auto next = [&]() {
     seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
@@ -372,10 +384,10 @@ TEST_CASE("the fitted strain's gradient and blocks match finite differences") {
     }
   }
   // one interior vertex's element: its exact blocks against differences of its gradient
-  const std::size_t e = static_cast<std::size_t>(elements.face_elements) + 6;
+  const std::size_t e = static_cast<std::size_t>(elements.face_elements) + 14;
   const auto begin = static_cast<std::size_t>(elements.starts[e]);
   const std::size_t corners = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
-  REQUIRE(corners >= 6);
+  REQUIRE(corners >= 5);
   yore::membrane_element(elements, e, x, m.mu(), m.lambda(), TransverseFilter::exact, work, true,
                          true);
   const std::vector<yore::Mat3> blocks = work.blocks;
@@ -401,9 +413,9 @@ TEST_CASE("the fitted strain's gradient and blocks match finite differences") {
   }
 }
 
-TEST_CASE("rest lengths set the fitted metric: a sheet grown by 1.1 rests at 1.1 its size") {
+TEST_CASE("rest lengths set the smoothed metric: a sheet grown by 1.1 rests at 1.1 its size") {
   const yore_test::Mesh mesh = irregular_mesh(7, 6, 0.3, 0.25);
-  yore::Cloth cloth = fitted_cloth(mesh, material());
+  yore::Cloth cloth = smoothed_cloth(mesh, material());
   const Eigen::VectorXd rest =
       Eigen::Map<const Eigen::VectorXd>(cloth.springs().rest_length.data(),
                                         static_cast<Eigen::Index>(cloth.springs().size()));
@@ -418,20 +430,20 @@ TEST_CASE("rest lengths set the fitted metric: a sheet grown by 1.1 rests at 1.1
   CHECK(cloth.energy(Vec3::Zero()).membrane == doctest::Approx(0.075 * 1.21 * W).epsilon(1e-10));
 }
 
-TEST_CASE("the fitted strain charges a wrinkle across the tension ~100× less than the faces") {
+TEST_CASE("the smoothed strain charges a wrinkle along the tension ~20× less than the faces") {
   // A sheet stretched along x by 1.1 (ν = 0: no stress across), then a wrinkle z = a sin(k y)
   // running along x: the continuum's energy does not change to second order in a (∂z/∂x = 0,
   // S_yy = 0), so the increment over ½ S_xx a² k² A/2 is ε², the square of the spurious slope
   // the interpolation gives it (its "artificial bending"). Averaged over four phases (their
-  // cos² sum to 2 everywhere) and over the elements inside [0.06, 0.24]² (away from the
-  // boundary strip, which keeps the faces' constant strain), at 12 points per wavelength.
+  // cos² sum to 2 everywhere), over the elements inside [0.06, 0.24]² and over the whole
+  // sheet, at 12 points per wavelength.
   const yore_test::Mesh mesh = irregular_mesh(25, 25, 0.3, 0.3);
   const yore::MembraneMaterial no_poisson{kYoung, 0.0};
-  yore::Cloth fitted = fitted_cloth(mesh, no_poisson);
+  yore::Cloth smoothed = smoothed_cloth(mesh, no_poisson);
   yore::Cloth faces(mesh.positions, mesh.faces,
                     Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01), 0.0, 0.0, 0.0, 0.0,
                     yore::BendingModel::springs, 0.0, no_poisson);
-  REQUIRE_FALSE(faces.has_fitted_membrane());
+  REQUIRE_FALSE(faces.has_smoothed_membrane());
   const double a = 1e-6, k = 2.0 * M_PI / 0.15;  // 0.15 m: 12 spacings of 12.5 mm
   const double Sxx = 2.0 * no_poisson.mu() * 0.5 * (1.21 - 1.0);
   auto inside = [&](Eigen::Index i) {
@@ -466,11 +478,11 @@ TEST_CASE("the fitted strain charges a wrinkle across the tension ~100× less th
     return increment / (0.5 * Sxx * a * a * k * k * 2.0 * area);
   };
   const double with_faces = epsilon_squared(faces, true);
-  const double with_fit = epsilon_squared(fitted, true);
-  // measured: inside, faces 5.3e-3 and fitted 1.2e-4 (the faces' 1 % share is 5e-5 of it);
-  // over the whole sheet 4.4e-3 and 2.2e-4 (the boundary strip keeps the faces' strain)
+  const double with_fit = epsilon_squared(smoothed, true);
+  // measured: inside, faces 5.3e-3 and smoothed 2.8e-4 (the faces' 1 % share is 5e-5 of it);
+  // over the whole sheet 4.4e-3 and 2.0e-4 (this jittered grid is rougher than CGAL's meshes)
   CHECK(with_faces > 1e-3);  // the artefact is there to remove
-  CHECK(with_fit < 0.03 * with_faces);
+  CHECK(with_fit < 0.08 * with_faces);
   CHECK(with_fit >= 0.0);
-  CHECK(epsilon_squared(fitted, false) < 0.1 * epsilon_squared(faces, false));
+  CHECK(epsilon_squared(smoothed, false) < 0.08 * epsilon_squared(faces, false));
 }

@@ -85,6 +85,9 @@ struct ClothState {
   double bending_modulus = 0.0;  ///< N·m (quadratic bending only)
   Positions bending_rest;        ///< n×3 rest positions of quadratic bending (m), else empty
   MembraneMaterial membrane;     ///< young_modulus 0: no membrane
+  /// the membrane reads the smoothed strain (needs a membrane and the rest state of bending
+  /// "quadratic" or "hinge"); false: the faces' constant strain (states saved before it)
+  bool membrane_smoothed = false;
 };
 
 /// How faces are split (the paper's partial area expansion).
@@ -309,10 +312,11 @@ class Cloth {
   /// Per face, the structural springs on its edges (empty without a membrane), rebuilt when the
   /// topology version changed since it was last built.
   const MembraneFaces& membrane_faces() const;
-  /// Whether the membrane reads the fitted strain (membrane.hpp): with a membrane and a bending
-  /// model that keeps the rest state ("quadratic" or "hinge"); with bending springs the faces'
+  /// Whether the membrane reads the smoothed strain (membrane.hpp): every new cloth with a
+  /// membrane and a bending model that keeps the rest state ("quadratic" or "hinge"); with
+  /// bending springs, or restored from a state saved before the smoothed strain, the faces'
   /// constant strain alone.
-  bool has_fitted_membrane() const { return has_membrane() && is_quadratic(m_bending); }
+  bool has_smoothed_membrane() const { return has_membrane() && m_membrane_smoothed; }
   /// The membrane's elements at the current rest lengths (empty without a membrane): rebuilt
   /// when the topology or a rest length changed since the last call.
   const MembraneElements& membrane_elements() const;
@@ -404,6 +408,7 @@ class Cloth {
   mutable QuadraticBendingMatrix m_quadratic;
   mutable std::uint64_t m_quadratic_topology = 0;
   MembraneMaterial m_membrane;
+  bool m_membrane_smoothed = false;
   mutable MembraneFaces m_membrane_faces;
   mutable std::uint64_t m_membrane_topology = 0;
   mutable MembraneReference m_membrane_reference;

@@ -15,7 +15,6 @@
 /// Pure functions; Cloth keeps the face→spring map.
 
 #include "yore/mesh.hpp"
-#include "yore/quadratic_bending.hpp"
 #include "yore/springs.hpp"
 
 #include <Eigen/Core>
@@ -74,31 +73,29 @@ double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Membr
                      double mu, double lambda, Vec9* gradient, Mat9* hessian,
                      TransverseFilter filter);
 
-/// The fitted strain (issue 52). A face's constant strain sees the piecewise-linear
+/// The smoothed strain (issue 52). A face's constant strain sees the piecewise-linear
 /// interpolant's gradient, which on a triangle not aligned with a wrinkle has a spurious slope
 /// across it (of order h k² times the amplitude); the membrane's tension charges that slope
 /// like bending, an artificial modulus ∝ h² S that set the wavelength on pattern meshes. With
-/// the rest state known (Cloth keeps it for its bending model) the membrane instead reads the
-/// deformation gradient at each vertex p from the least-squares quadratic of its bending patch
-/// (FittedGradients: exact for quadratic fields), F_p = Σ_k x_k d_pkᵀ, and charges
+/// the rest state known (Cloth keeps it for its bending model) the membrane reads instead, at
+/// each vertex p, the area-weighted mean of its faces' gradients (nodal strain smoothing:
+/// the faces' spurious slopes, of alternating sign around p, largely cancel), and charges
 ///   E = (1 − s) Σ_p A_p W(F_p) + s Σ_faces A_f W(F_f),      s = kMembraneFaceShare,
-/// A_p a third of p's faces' rest areas. The faces' small share keeps the in-plane patterns a
-/// quadratic fit cannot see (a regular mesh's checkerboard) from being free; its artificial
-/// bending is s times the constant-strain membrane's. Each vertex's rest metric in its tangent
-/// axes (u) is the area-weighted mean over its faces of C_f = D⁻ᵀ G_f D⁻¹ (D the face's
-/// reference edges in those axes, G_f the Gram matrix of its rest triangle from the springs'
-/// rest lengths), so strokes and growth act on it as on the faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ
-/// for G_p the fitted ∂x/∂u, i.e. d_pk = L⁻¹ w_pk.
-/// A vertex on the mesh's boundary keeps no element: its one-sided quadratic extrapolates, and
-/// its spurious slope was larger than the faces' (measured: ε² 5.6e-3 against the interior's
-/// 3.4e-6 and the faces' 2.7e-3 on a CGAL square); its share A_p goes to its faces (each face
-/// gets (1 − s)/3 of its area per boundary corner), so a boundary strip one face wide keeps the
-/// constant strain, and the energy of a homogeneous deformation stays exact.
+/// A_p a third of p's faces' rest areas. The mean is over exactly the face thirds that make up
+/// A_p, so Σ_p A_p F_p = Σ_f A_f F_f: a homogeneous stress is in balance at every interior
+/// vertex (the patch test; a least-squares fitted gradient per vertex, tried first, is not:
+/// 9 N of spurious force per vertex against 12 N of edge traction). The faces' small share
+/// keeps the in-plane patterns the mean cannot see (a regular mesh's checkerboard) from being
+/// free; its artificial bending is s times the constant strain's. The gradients are averaged
+/// in p's tangent axes u of the rest state, and p's rest metric there is the area-weighted
+/// mean over its faces of C_f = D⁻ᵀ G_f D⁻¹ (D the face's reference edges in those axes, G_f
+/// the Gram matrix of its rest triangle from the springs' rest lengths), so strokes and growth
+/// act on it as on the faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ for G_p the mean ∂x/∂u.
 constexpr double kMembraneFaceShare = 0.01;
 
 /// The membrane's quadrature as elements, each A W(F) with F = Σ_k x_k d_kᵀ over its corners:
-/// the faces first (three corners, the constant-strain gradients), then with the fitted strain
-/// one per vertex on a face (its patch). Structure of arrays; the corners of every element
+/// the faces first (three corners, the constant-strain gradients), then with the smoothed
+/// strain one per vertex on a face (its 1-ring). Structure of arrays; the corners of every element
 /// depend on the topology only, the gradients and areas on the rest lengths too.
 struct MembraneElements {
   std::vector<std::int32_t> starts;   ///< elements + 1
@@ -110,18 +107,18 @@ struct MembraneElements {
   std::size_t size() const { return area.size(); }
 };
 
-/// What the fitted strain keeps per topology: the fitted gradients of the rest state and, per
-/// vertex and incident face, D⁻¹ of the face's reference edges in the vertex's tangent axes
-/// (4 values, column-major; all 0 when the face stands edge-on to that plane).
+/// What the smoothed strain keeps per topology: per vertex and incident face, D⁻¹ of the face's
+/// reference edges in the vertex's tangent axes (4 values, column-major; all 0 when the face
+/// stands edge-on to that plane), and per vertex its element's corners (itself and its 1-ring).
 struct MembraneReference {
-  FittedGradients gradients;
   std::vector<std::int32_t> face_starts;     ///< n + 1
   std::vector<std::int32_t> incident_faces;  ///< per vertex, its faces
   std::vector<double> reference_inverse;     ///< 4 per incident face
-  std::vector<char> boundary;                ///< n: 1 for a vertex on a boundary edge
+  std::vector<std::int32_t> corner_starts;   ///< n + 1
+  std::vector<std::int32_t> corners;         ///< per vertex, in increasing order
 };
 
-/// The reference of rest positions (n×3, m) and faces: the fitted gradients' checks and errors.
+/// The reference of rest positions (n×3, m) and faces (indices already checked).
 MembraneReference membrane_reference(const Positions& rest_positions, const Faces& faces);
 
 /// Per face, the structural spring on each of its edges: edges (v0, v1), (v1, v2), (v2, v0).
@@ -138,8 +135,8 @@ MembraneRest membrane_face_rest(const MembraneFaces& map, const SpringSet& sprin
                                 std::size_t face);
 
 /// Fills `out` with the elements at the springs' current rest lengths: the faces alone
-/// (share 1) without a reference, with one the faces (share kMembraneFaceShare, more at the
-/// boundary) and the fitted interior vertices. Reuses out's storage.
+/// (share 1) without a reference, with one the faces (share kMembraneFaceShare) and the
+/// smoothed vertices. Reuses out's storage.
 void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
                              const SpringSet& springs, const MembraneReference* reference,
                              MembraneElements& out);

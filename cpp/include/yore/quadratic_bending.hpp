@@ -64,26 +64,6 @@ QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
 QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
                                              const Faces& faces);
 
-/// The gradients the fitted model's least-squares quadratics give at their own vertices: per
-/// vertex p, its patch (as in fitted_bending_matrix) and weights w such that the tangent-plane
-/// gradient of a field f at p is Σ_k f(points_k) (weight_u_k, weight_v_k), exact for quadratic
-/// fields, in p's rest tangent axes (axis_u, axis_v; unit, orthogonal). A vertex on no face
-/// has an empty patch. Structure of arrays; the membrane's fitted strain reads it.
-struct FittedGradients {
-  std::vector<std::int32_t> starts;  ///< n + 1: vertex p's points are [starts[p], starts[p+1])
-  std::vector<std::int32_t> points;  ///< the patches' vertices, each patch in increasing order
-  std::vector<double> weight_u;      ///< 1/m, per point
-  std::vector<double> weight_v;      ///< 1/m, per point
-  std::vector<Eigen::Vector3d> axis_u;  ///< n
-  std::vector<Eigen::Vector3d> axis_v;  ///< n
-};
-
-/// The fitted gradients of rest positions and faces: the same checks and patches as
-/// fitted_bending_matrix, and its errors; with throw_unfit false a vertex with no well-posed
-/// fit gets an empty patch instead.
-FittedGradients fitted_gradients(const Positions& rest_positions, const Faces& faces,
-                                 bool throw_unfit = true);
-
 /// ½ κ Σ_c x_cᵀ Q x_c, joules, for positions x (n×3, m) and modulus κ (N·m).
 double quadratic_bending_energy(const QuadraticBendingMatrix& matrix, double modulus,
                                 const Positions& positions);
