@@ -483,11 +483,13 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "Since issue 52 also per run: the mesh (CGAL pattern or a grid aligned with the "
            "sheet) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
            "the interpolation's artificial modulus B_art over B (the flat state's tension "
-           "charging a wrinkle's spurious slope along the length), and whether the row is "
-           "judged (wrinkled, no zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B), and the "
-           "B_art a membrane with fitted gradients (the candidate remedy, not built) would "
-           "leave; exponents "
-           "are fitted on judged rows only (rows without these columns predate it).", "",
+           "charging a wrinkle's spurious slope along the length; measured on the library's "
+           "own energy since the smoothed strain, for the membrane as built and for the same "
+           "state with the faces' constant strain), and whether the row is judged (wrinkled, "
+           "no zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B); exponents "
+           "are fitted on judged rows only (rows without these columns predate it; rows "
+           "from before the smoothed strain show the former membrane's B_art and no faces' "
+           "column).", "",
            "| run | model | mesh, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
            "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
            "realised B / B | B_art / B | B_art / B, faces' strain | judged | CPU s |",

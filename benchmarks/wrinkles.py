@@ -22,7 +22,7 @@ energy (`membrane_artificial_bending`: a probe wrinkle over the middle half of t
 continuum's energy subtracted) for the membrane as built (the smoothed strain, issue 52) and
 for the same state with the faces' constant strain (what the membrane carried before), the
 tension, points per wavelength, the wrinkled zone's length along u, and whether the row is
-judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, B_art ≤ 0.1 B). The membrane runs
+judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B). The membrane runs
 on pattern meshes and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no
 spurious slope), each base also from a second seed. The prediction is Cerda & Mahadevan's
 λ = (2π L)^½ (4 B / (Y γ))^¼ from the model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
@@ -420,7 +420,8 @@ def sheet_run(label, model, parameters):
            # judged for the exponents and the targets: wrinkled, resolved (8 points a
            # wavelength), not a zigzag, and the interpolation adds at most a tenth of B
            "judged": bool(not flat and not zigzag and wavelength / h >= 8
-                          and (b_art is None or b_art <= 0.1 * parameters["bending_modulus"])),
+                          and (b_art is None
+                               or abs(b_art) <= 0.1 * parameters["bending_modulus"])),
            "flat": bool(flat), "amplitude": amplitude,
            "wavelength": None if flat else float(wavelength),
            "wrinkles": None if flat else count,
