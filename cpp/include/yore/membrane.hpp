@@ -84,14 +84,20 @@ double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Membr
 /// A_p a third of p's faces' rest areas. The mean is over exactly the face thirds that make up
 /// A_p, so Σ_p A_p F_p = Σ_f A_f F_f: a homogeneous stress is in balance at every interior
 /// vertex (the patch test; a least-squares fitted gradient per vertex, tried first, is not:
-/// 9 N of spurious force per vertex against 12 N of edge traction). The faces' small share
-/// keeps the in-plane patterns the mean cannot see (a regular mesh's checkerboard) from being
-/// free; its artificial bending is s times the constant strain's. The gradients are averaged
-/// in p's tangent axes u of the rest state, and p's rest metric there is the area-weighted
-/// mean over its faces of C_f = D⁻ᵀ G_f D⁻¹ (D the face's reference edges in those axes, G_f
-/// the Gram matrix of its rest triangle from the springs' rest lengths), so strokes and growth
-/// act on it as on the faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ for G_p the mean ∂x/∂u.
-constexpr double kMembraneFaceShare = 0.01;
+/// 9 N of spurious force per vertex against 12 N of edge traction). The mean cannot see the
+/// mesh-scale patterns whose face gradients cancel around each vertex (hourglass modes); the
+/// faces' share s is what resists them, and it brings back s times the faces' artificial
+/// bending. Measured (21² hanging cloth, implicit, 1 s; 13² explicit after a stroke): at s = 1 %
+/// the faces' energy at the smoothed run's positions was 16× and 49× the smoothed energy
+/// (mesh-scale strain the mean did not resist), at 10 % 4.3×, at 25 % 2.0× and 1.9×, at 50 %
+/// 1.02× and 0.73×; B_art on a CGAL sheet was 4.5 %, 13 %, 28 % and 52 % of the faces'. So
+/// s = 50 %: the largest cut of B_art with no hidden mesh-scale strain. The gradients are
+/// averaged in p's tangent axes u of the rest state, and p's rest metric there is the
+/// area-weighted mean over its faces of C_f = D⁻ᵀ G_f D⁻¹ (D the face's reference edges in
+/// those axes, G_f the Gram matrix of its rest triangle from the springs' rest lengths), so
+/// strokes and growth act on it as on the faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ for G_p the
+/// mean ∂x/∂u.
+constexpr double kMembraneFaceShare = 0.5;
 
 /// The membrane's quadrature as elements, each A W(F) with F = Σ_k x_k d_kᵀ over its corners:
 /// the faces first (three corners, the constant-strain gradients), then with the smoothed
