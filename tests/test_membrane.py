@@ -427,9 +427,10 @@ def spurious_slope_squared(cloth, V, k, amplitude=1e-6):
 def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending():
     # Issue 52: on CGAL's irregular triangles the constant-strain faces charge a wrinkle
     # running along the tension for a slope it does not have (ε² 2.7e-3 here, at 12 points a
-    # wavelength); the smoothed strain (the default with quadratic bending) charges 4.5 % of
-    # that with a 1 % share of the faces, 52 % with the 50 % share it keeps against hourglass
-    # modes. Bending springs keep no rest state: their membrane is the faces'.
+    # wavelength); the smoothed strain (the default with quadratic bending) 3.5 % of that (its
+    # penalty against hourglass modes adds nothing at second order in the amplitude; a 50 %
+    # share of the faces' energy, tried instead, brought back half). Bending springs keep no
+    # rest state: their membrane is the faces'.
     V, F = yore.pattern_mesh([[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125)
     V = np.column_stack([V[:, :2], np.zeros(len(V))])
     common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0,
@@ -443,7 +444,7 @@ def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending(
     with_faces = spurious_slope_squared(faces, V, k)
     with_fit = spurious_slope_squared(fitted, V, k)
     assert with_faces > 1e-3
-    assert 0.5 * with_faces < with_fit < 0.6 * with_faces
+    assert 0.0 <= with_fit < 0.06 * with_faces
     assert spurious_slope_squared(hinge, V, k) == pytest.approx(with_fit, rel=1e-9)
 
 
@@ -452,10 +453,11 @@ def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending(
 def test_the_smoothed_strain_leaves_no_mesh_scale_strain_unresisted(integrator, resolution,
                                                                     stroke):
     # The vertex means cannot see mesh-scale patterns whose face gradients cancel around each
-    # vertex (hourglass modes); the faces' share resists them. Measured as the faces' energy
-    # at the run's positions over the smoothed energy: with a 1 % share 16 (implicit, 1 s)
-    # and 49 (explicit, after a stroke), with the 50 % share 1.02 and 0.73. A cloth whose
-    # mesh-scale strain went unresisted would read far above 1.
+    # vertex (hourglass modes); the subcells' strain-difference penalty resists them. Measured
+    # as the faces' energy at the run's positions over the smoothed energy: without the
+    # penalty (a 1 % share of the faces instead) 16 (implicit, 1 s) and 49 (explicit, after a
+    # stroke); with it 0.88 and 1.17. A cloth whose mesh-scale strain went unresisted reads
+    # far above 1.
     sim = yore.scenes.hanging_cloth(resolution=resolution, stretch="membrane",
                                     young_modulus=300.0, poisson_ratio=0.3,
                                     integrator=integrator, bending="quadratic",
@@ -470,7 +472,7 @@ def test_the_smoothed_strain_leaves_no_mesh_scale_strain_unresisted(integrator, 
     state = sim.cloth.state()
     state.pop("membrane_strain")
     faces = yore.Cloth.from_state(state).energy(NO_GRAVITY)["membrane"]
-    assert faces < 1.3 * sim.cloth.energy(NO_GRAVITY)["membrane"]
+    assert faces < 1.5 * sim.cloth.energy(NO_GRAVITY)["membrane"]
 
 
 def heron_rest_area(cloth):

@@ -218,6 +218,7 @@ void add_face_elements(const Faces& faces, const MembraneFaces& map, const Sprin
     }
     out.area.push_back(share * rest.area);
     out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+    if (!out.subcell_starts.empty()) out.subcell_starts.push_back(out.subcell_starts.back());
   }
 }
 
@@ -228,6 +229,7 @@ void add_face_elements(const Faces& faces, const MembraneFaces& map, const Sprin
 void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
                          const MembraneReference& reference, MembraneElements& out) {
   const std::size_t n = reference.face_starts.size() - 1;
+  const bool stabilised = !out.subcell_starts.empty();
   std::vector<std::size_t> fallback;
   for (std::size_t p = 0; p < n; ++p) {
     const auto first_face = static_cast<std::size_t>(reference.face_starts[p]);
@@ -243,6 +245,7 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
     Eigen::Matrix2d metric = Eigen::Matrix2d::Zero();
     double area = 0.0;
     bool usable = true;
+    const std::size_t first_subcell = out.subcell_area.size();
     for (std::size_t slot = first_face; slot < last_face; ++slot) {
       const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
       const MembraneRest rest = membrane_face_rest(map, springs, f);
@@ -262,13 +265,23 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
             (reference.corners.begin() + first_corner));
         out.gradient_u[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].x();
         out.gradient_v[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].y();
+        if (stabilised) {
+          out.subcell_corner.push_back(static_cast<std::int32_t>(at));
+          out.subcell_gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+          out.subcell_gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+        }
       }
+      if (stabilised) out.subcell_area.push_back(kMembraneStabilisation * rest.area / 3.0);
     }
     const Eigen::LLT<Eigen::Matrix2d> cholesky(metric / (3.0 * area));
     if (!usable || !(area > 0.0) || cholesky.info() != Eigen::Success) {
       out.corners.resize(start);
       out.gradient_u.resize(start);
       out.gradient_v.resize(start);
+      out.subcell_area.resize(first_subcell);
+      out.subcell_corner.resize(3 * first_subcell);
+      out.subcell_gradient_u.resize(3 * first_subcell);
+      out.subcell_gradient_v.resize(3 * first_subcell);
       fallback.push_back(p);
       continue;
     }
@@ -279,8 +292,18 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
       out.gradient_u[k] = d.x();
       out.gradient_v[k] = d.y();
     }
+    // the subcells' face gradients in the same rest frame: L⁻¹ c (no mean's 1/A_p)
+    for (std::size_t k = 3 * first_subcell; k < out.subcell_corner.size(); ++k) {
+      const Eigen::Vector2d d = area * lower_inverse *
+                                Eigen::Vector2d(out.subcell_gradient_u[k], out.subcell_gradient_v[k]);
+      out.subcell_gradient_u[k] = d.x();
+      out.subcell_gradient_v[k] = d.y();
+    }
     out.area.push_back((1.0 - kMembraneFaceShare) * area);
     out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+    if (stabilised) {
+      out.subcell_starts.push_back(static_cast<std::int32_t>(out.subcell_area.size()));
+    }
   }
   for (const std::size_t p : fallback) {
     for (auto slot = static_cast<std::size_t>(reference.face_starts[p]);
@@ -295,6 +318,7 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
       }
       out.area.push_back((1.0 - kMembraneFaceShare) * rest.area / 3.0);
       out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+      if (stabilised) out.subcell_starts.push_back(out.subcell_starts.back());
     }
   }
 }
@@ -309,11 +333,99 @@ void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
   out.gradient_u.clear();
   out.gradient_v.clear();
   out.area.clear();
+  out.subcell_starts.clear();
+  out.subcell_area.clear();
+  out.subcell_corner.clear();
+  out.subcell_gradient_u.clear();
+  out.subcell_gradient_v.clear();
   out.starts.push_back(0);
-  add_face_elements(faces, map, springs, reference != nullptr ? kMembraneFaceShare : 1.0, out);
-  out.face_elements = faces.rows();
+  if (reference != nullptr && kMembraneStabilisation > 0.0) out.subcell_starts.push_back(0);
+  // (with a reference and no faces' share, the faces carry nothing: no elements)
+  const double share = reference != nullptr ? kMembraneFaceShare : 1.0;
+  if (share > 0.0) add_face_elements(faces, map, springs, share, out);
+  out.face_elements = share > 0.0 ? faces.rows() : 0;
   if (reference != nullptr) add_vertex_elements(faces, map, springs, *reference, out);
 }
+
+namespace {
+
+// The bilinear form of 𝒞 (2μ A:B + λ tr A tr B) between the strain changes of two gradients,
+// F_a = Σ x d_aᵀ moved at corner k and F_b moved at corner l: the 3×3 block
+// μ (d·e) F_a F_bᵀ + μ (F_a e)(F_b d)ᵀ + λ (F_a d)(F_b e)ᵀ, d = d_ak, e = d_bl.
+Mat3 material_block(const Mat32& Fa, const Eigen::Vector2d& d, const Mat32& Fb,
+                    const Eigen::Vector2d& e, double mu, double lambda) {
+  return mu * d.dot(e) * Fa * Fb.transpose() + mu * (Fa * e) * (Fb * d).transpose() +
+         lambda * (Fa * d) * (Fb * e).transpose();
+}
+
+double stvk_density(const Eigen::Matrix2d& E, double mu, double lambda) {
+  const double trace = E.trace();
+  return mu * E.squaredNorm() + 0.5 * lambda * trace * trace;
+}
+
+// The subcells' share of membrane_element (see MembraneElements): adds their energy, and
+// to the gradient and the blocks; F, E of the element's mean.
+double add_subcells(const MembraneElements& elements, std::size_t e, const Positions& x,
+                    const Mat32& F, const Eigen::Matrix2d& E, double mu, double lambda,
+                    TransverseFilter filter, MembraneElementWork& work, bool with_gradient,
+                    bool with_hessian) {
+  const auto begin = static_cast<std::size_t>(elements.starts[e]);
+  const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+  auto d = [&](std::size_t k) {
+    return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
+  };
+  double energy = 0.0;
+  for (auto c = static_cast<std::size_t>(elements.subcell_starts[e]);
+       c < static_cast<std::size_t>(elements.subcell_starts[e + 1]); ++c) {
+    const double a = elements.subcell_area[c];
+    std::array<std::size_t, 3> at{};
+    std::array<Eigen::Vector2d, 3> dc;
+    Mat32 Fc = Mat32::Zero();
+    for (std::size_t j = 0; j < 3; ++j) {
+      at[j] = static_cast<std::size_t>(elements.subcell_corner[3 * c + j]);
+      dc[j] = Eigen::Vector2d(elements.subcell_gradient_u[3 * c + j],
+                              elements.subcell_gradient_v[3 * c + j]);
+      Fc += x.row(elements.corners[begin + at[j]]).transpose() * dc[j].transpose();
+    }
+    const Eigen::Matrix2d difference =
+        0.5 * (Fc.transpose() * Fc - Eigen::Matrix2d::Identity()) - E;
+    energy += a * stvk_density(difference, mu, lambda);
+    if (!with_gradient && !with_hessian) continue;
+    const Eigen::Matrix2d S =
+        2.0 * mu * difference + lambda * difference.trace() * Eigen::Matrix2d::Identity();
+    if (with_gradient) {
+      const Mat32 mean = a * F * S, face = a * Fc * S;
+      for (std::size_t k = 0; k < m; ++k) work.gradient[k] -= mean * d(k);
+      for (std::size_t j = 0; j < 3; ++j) work.gradient[at[j]] += face * dc[j];
+    }
+    if (!with_hessian) continue;
+    // 𝒞 between (face − mean) strain changes: face–face, minus the two cross terms, plus
+    // mean–mean; the stress terms (S on the face's gradients, −S on the mean's) only for the
+    // exact Hessian (the filtered ones keep this penalty's Gauss–Newton part, which is PSD)
+    const bool exact = filter == TransverseFilter::exact;
+    std::vector<std::ptrdiff_t>& in_face = work.in_face;
+    in_face.assign(m, -1);  // no allocation once grown
+    for (std::size_t j = 0; j < 3; ++j) in_face[at[j]] = static_cast<std::ptrdiff_t>(j);
+    for (std::size_t p = 0; p < m; ++p) {
+      for (std::size_t q = 0; q <= p; ++q) {
+        Mat3 block = material_block(F, d(p), F, d(q), mu, lambda);
+        if (exact) block.diagonal().array() -= d(p).dot(S * d(q));
+        const std::ptrdiff_t fp = in_face[p], fq = in_face[q];
+        if (fp >= 0) block -= material_block(Fc, dc[static_cast<std::size_t>(fp)], F, d(q), mu, lambda);
+        if (fq >= 0) block -= material_block(F, d(p), Fc, dc[static_cast<std::size_t>(fq)], mu, lambda);
+        if (fp >= 0 && fq >= 0) {
+          const auto u = static_cast<std::size_t>(fp), v = static_cast<std::size_t>(fq);
+          block += material_block(Fc, dc[u], Fc, dc[v], mu, lambda);
+          if (exact) block.diagonal().array() += dc[u].dot(S * dc[v]);
+        }
+        work.blocks[p * (p + 1) / 2 + q] += a * block;
+      }
+    }
+  }
+  return energy;
+}
+
+}  // namespace
 
 double membrane_element(const MembraneElements& elements, std::size_t e, const Positions& x,
                         double mu, double lambda, TransverseFilter filter,
@@ -329,8 +441,15 @@ double membrane_element(const MembraneElements& elements, std::size_t e, const P
   }
   const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
   const double trace = E.trace();
-  const double energy = area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
-  if (!with_gradient && !with_hessian) return energy;
+  double energy = area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
+  const bool subcells = !elements.subcell_starts.empty() &&
+                        elements.subcell_starts[e + 1] > elements.subcell_starts[e];
+  if (!with_gradient && !with_hessian) {
+    if (subcells) {
+      energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, false, false);
+    }
+    return energy;
+  }
   const Eigen::Matrix2d S = 2.0 * mu * E + lambda * trace * Eigen::Matrix2d::Identity();
   auto d = [&](std::size_t k) {
     return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
@@ -360,6 +479,10 @@ double membrane_element(const MembraneElements& elements, std::size_t e, const P
         block *= area;
       }
     }
+  }
+  if (subcells) {
+    energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, with_gradient,
+                           with_hessian);
   }
   return energy;
 }

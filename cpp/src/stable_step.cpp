@@ -27,6 +27,28 @@ double membrane_bound_constant(const MembraneMaterial& material) {
   return kMembraneStretchAllowance * std::max(2.0 * (mu + lambda), 2.0 * mu);
 }
 
+// Calls visit(a, Δd) per subcell of element e: its area a (with β) and per corner of the element
+// Δd_k = d_ck − d_k (the face's gradient, 0 off the face, minus the mean's).
+template <class Visit>
+void for_each_subcell_difference(const MembraneElements& elements, std::size_t e, Visit&& visit) {
+  if (elements.subcell_starts.empty()) return;
+  const auto begin = static_cast<std::size_t>(elements.starts[e]);
+  const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+  std::vector<Eigen::Vector2d> delta(m);
+  for (auto c = static_cast<std::size_t>(elements.subcell_starts[e]);
+       c < static_cast<std::size_t>(elements.subcell_starts[e + 1]); ++c) {
+    for (std::size_t k = 0; k < m; ++k) {
+      delta[k] = -Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
+    }
+    for (std::size_t j = 0; j < 3; ++j) {
+      delta[static_cast<std::size_t>(elements.subcell_corner[3 * c + j])] +=
+          Eigen::Vector2d(elements.subcell_gradient_u[3 * c + j],
+                          elements.subcell_gradient_v[3 * c + j]);
+    }
+    visit(elements.subcell_area[c], delta);
+  }
+}
+
 // y += S K S x for the membrane's elements, S = diag(scale) per vertex: every_state
 // K_e = c (L ⊗ I₃), L_kl = A d_k·d_l (membrane_bound_constant); otherwise its Hessian at
 // `positions`, the stress term clamped (PSD), applied per element in O(corners): with
@@ -39,9 +61,42 @@ void add_membrane_product(const MembraneElements& elements, const MembraneMateri
   using Mat32 = Eigen::Matrix<double, 3, 2>;
   const double mu = material.mu(), lambda = material.lambda();
   const double c = membrane_bound_constant(material);
+  MembraneElementWork work;
   for (std::size_t e = 0; e < elements.size(); ++e) {
     const auto begin = static_cast<std::size_t>(elements.starts[e]);
     const auto end = static_cast<std::size_t>(elements.starts[e + 1]);
+    const bool subcells = !elements.subcell_starts.empty() &&
+                          elements.subcell_starts[e + 1] > elements.subcell_starts[e];
+    if (subcells && !every_state) {  // its clamped blocks, applied
+      membrane_element(elements, e, positions, mu, lambda, TransverseFilter::clamp, work, false,
+                       true);
+      for (std::size_t p = begin; p < end; ++p) {
+        for (std::size_t q = begin; q <= p; ++q) {
+          const Mat3& block = work.blocks[(p - begin) * (p - begin + 1) / 2 + (q - begin)];
+          const std::int32_t i = elements.corners[p], j = elements.corners[q];
+          y.segment<3>(3 * i) += scale[i] * (block * (scale[j] * x.segment<3>(3 * j)));
+          if (p != q) {
+            y.segment<3>(3 * j) +=
+                scale[j] * (block.transpose() * (scale[i] * x.segment<3>(3 * i)));
+          }
+        }
+      }
+      continue;
+    }
+    if (subcells) {
+      for_each_subcell_difference(elements, e, [&](double a,
+                                                    const std::vector<Eigen::Vector2d>& delta) {
+        Mat32 Xc = Mat32::Zero();
+        for (std::size_t k = begin; k < end; ++k) {
+          const std::int32_t i = elements.corners[k];
+          Xc += scale[i] * x.segment<3>(3 * i) * delta[k - begin].transpose();
+        }
+        for (std::size_t k = begin; k < end; ++k) {
+          const std::int32_t i = elements.corners[k];
+          y.segment<3>(3 * i) += scale[i] * (c * a * (Xc * delta[k - begin]));
+        }
+      });
+    }
     Mat32 X = Mat32::Zero(), F = Mat32::Zero();
     for (std::size_t k = begin; k < end; ++k) {
       const std::int32_t i = elements.corners[k];
@@ -122,6 +177,15 @@ double Cloth::gershgorin_time_step() const {
                               std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
         }
       }
+      for_each_subcell_difference(elements, e, [&](double a, const std::vector<Eigen::Vector2d>& delta) {
+        for (std::size_t k = begin; k < end; ++k) {
+          for (std::size_t l = begin; l < end; ++l) {
+            const std::int32_t i = elements.corners[k], j = elements.corners[l];
+            membrane_rows[i] += c * a * std::abs(delta[k - begin].dot(delta[l - begin])) *
+                                std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
+          }
+        }
+      });
     }
   }
   for (Eigen::Index i = 0; i < vertex_count(); ++i) {

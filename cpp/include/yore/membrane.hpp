@@ -80,28 +80,38 @@ double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Membr
 /// the rest state known (Cloth keeps it for its bending model) the membrane reads instead, at
 /// each vertex p, the area-weighted mean of its faces' gradients (nodal strain smoothing:
 /// the faces' spurious slopes, of alternating sign around p, largely cancel), and charges
-///   E = (1 − s) Σ_p A_p W(F_p) + s Σ_faces A_f W(F_f),      s = kMembraneFaceShare,
+///   E = (1 − s) Σ_p A_p W(F_p) + s Σ_faces A_f W(F_f),      s = kMembraneFaceShare (0),
 /// A_p a third of p's faces' rest areas. The mean is over exactly the face thirds that make up
 /// A_p, so Σ_p A_p F_p = Σ_f A_f F_f: a homogeneous stress is in balance at every interior
 /// vertex (the patch test; a least-squares fitted gradient per vertex, tried first, is not:
 /// 9 N of spurious force per vertex against 12 N of edge traction). The mean cannot see the
-/// mesh-scale patterns whose face gradients cancel around each vertex (hourglass modes); the
-/// faces' share s is what resists them, and it brings back s times the faces' artificial
-/// bending. Measured (21² hanging cloth, implicit, 1 s; 13² explicit after a stroke): at s = 1 %
-/// the faces' energy at the smoothed run's positions was 16× and 49× the smoothed energy
-/// (mesh-scale strain the mean did not resist), at 10 % 4.3×, at 25 % 2.0× and 1.9×, at 50 %
-/// 1.02× and 0.73×; B_art on a CGAL sheet was 4.5 %, 13 %, 28 % and 52 % of the faces'. So
-/// s = 50 %: the largest cut of B_art with no hidden mesh-scale strain. The gradients are
-/// averaged in p's tangent axes u of the rest state, and p's rest metric there is the
-/// area-weighted mean over its faces of C_f = D⁻ᵀ G_f D⁻¹ (D the face's reference edges in
-/// those axes, G_f the Gram matrix of its rest triangle from the springs' rest lengths), so
-/// strokes and growth act on it as on the faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ for G_p the
-/// mean ∂x/∂u.
-constexpr double kMembraneFaceShare = 0.5;
+/// mesh-scale patterns whose face gradients cancel around each vertex (hourglass modes), so
+/// each vertex element also charges, per subcell c (a third of one of its faces),
+///   β (A_f/3) W(E_c − E_p),   E_c the face's strain read in p's rest frame,
+/// a penalty on the face's strain deviating from the vertex's mean: zero for homogeneous
+/// deformations (the patch test holds), second order in an in-plane hourglass mode (which
+/// changes E linearly), fourth order in a smooth wrinkle (its spurious slope g changes E_c by
+/// ½ g g, already second order) — so it resists the modes without bringing back the
+/// interpolation's bending, which the faces' own energy would (a share s of the faces' energy
+/// brings back s of their B_art). β = 1: the deviation costs what that strain would. Measured
+/// (21² hanging cloth, implicit, 1 s; 13² explicit after a stroke; the faces' energy at the
+/// run's positions over the membrane's): with s = 1 % and no penalty 16× and 49× (mesh-scale
+/// strain let through), s = 50 % 1.02× and 0.73× at 52 % of the faces' B_art; with β = 1 and
+/// no faces' share 0.88× and 1.17× at 3.5 %, and the explicit stable step is the faces' (6.8e-4
+/// s there; β = 2 halves it). The gradients are averaged in p's tangent axes u of the rest
+/// state, and p's rest metric there is the area-weighted mean over its faces of
+/// C_f = D⁻ᵀ G_f D⁻¹ (D the face's reference edges in those axes, G_f the Gram matrix of its
+/// rest triangle from the springs' rest lengths), so strokes and growth act on it as on the
+/// faces; with C = L Lᵀ, F_p = G_p L⁻ᵀ for G_p the mean ∂x/∂u.
+constexpr double kMembraneFaceShare = 0.0;
+
+/// β of the strain-difference penalty of the vertex elements (above).
+constexpr double kMembraneStabilisation = 1.0;
 
 /// The membrane's quadrature as elements, each A W(F) with F = Σ_k x_k d_kᵀ over its corners:
-/// the faces first (three corners, the constant-strain gradients), then with the smoothed
-/// strain one per vertex on a face (its 1-ring). Structure of arrays; the corners of every element
+/// the faces first (three corners, the constant-strain gradients; none with the smoothed strain
+/// when kMembraneFaceShare is 0), then with the smoothed strain one per vertex on a face (its
+/// 1-ring, with its subcells' penalty). Structure of arrays; the corners of every element
 /// depend on the topology only, the gradients and areas on the rest lengths too.
 struct MembraneElements {
   std::vector<std::int32_t> starts;   ///< elements + 1
@@ -110,6 +120,14 @@ struct MembraneElements {
   std::vector<double> gradient_v;     ///< d_k's second component, 1/m
   std::vector<double> area;           ///< per element: its share of the energy × its rest area, m²
   std::int64_t face_elements = 0;     ///< the first this many are the faces
+  /// A vertex element's penalty (kMembraneStabilisation): per subcell (a third of one of its
+  /// faces) β W(E_c − E) with E_c the face's strain in the vertex's rest frame; empty starts
+  /// (or equal entries) for elements without.
+  std::vector<std::int32_t> subcell_starts;     ///< elements + 1, or empty
+  std::vector<double> subcell_area;             ///< β × a third of the face's rest area, m²
+  std::vector<std::int32_t> subcell_corner;     ///< 3 per subcell: local corner indices
+  std::vector<double> subcell_gradient_u;       ///< 3 per subcell, 1/m
+  std::vector<double> subcell_gradient_v;       ///< 3 per subcell, 1/m
   std::size_t size() const { return area.size(); }
 };
 
@@ -169,6 +187,7 @@ struct MembraneElementWork {
   std::vector<Vec3> directions;  ///< per corner, F d_k
   /// ∂gradient_p/∂x_q for q ≤ p at p(p+1)/2 + q (N/m), the stress term filtered (membrane_face)
   std::vector<Mat3> blocks;
+  std::vector<std::ptrdiff_t> in_face;  ///< per corner, its place in a subcell (−1: none)
 };
 
 /// Energy (J) of element e at positions x; with_gradient fills work.gradient, with_hessian
