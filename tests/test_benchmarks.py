@@ -952,8 +952,15 @@ def test_wrinkles_smoke(tmp_path):
         assert r["flat"] == (r["wavelength"] is None)
         if r["model"] == "membrane":
             assert r["young"] == data["settings"]["young"]
-    # the small quick sheet stays flat and its flat state is stable for both models
-    assert all(r["flat"] and r["flat_state_stable"] for r in rows)
+    # the small quick sheet (28 mm edges) cannot carry the ~40 mm wrinkle its B predicts: the
+    # lattice stays flat on a stable flat state; the membrane's smoothed strain (which no
+    # longer stiffens short waves with the interpolation's artificial bending, as the faces
+    # did) buckles at the mesh scale instead, flagged as a zigzag and not judged
+    for r in rows:
+        if r["model"] == "springs":
+            assert r["flat"] and r["flat_state_stable"]
+        else:
+            assert r["flat"] or r["zigzag"]
     # issue 52's measures: the realised bending modulus is B (the fitted energy's cylinder,
     # 0.2 % at these coarse meshes); an aligned grid's interpolation adds no bending, a pattern
     # mesh's does; both kinds and a second seed ran for the membrane; flat rows are not judged

@@ -222,6 +222,41 @@ void add_face_elements(const Faces& faces, const MembraneFaces& map, const Sprin
   }
 }
 
+// Drops what an unfinished element appended: corners from `corners`, subcells from `subcells`.
+void truncate(MembraneElements& out, std::size_t corners, std::size_t subcells) {
+  out.corners.resize(corners);
+  out.gradient_u.resize(corners);
+  out.gradient_v.resize(corners);
+  out.subcell_area.resize(subcells);
+  out.subcell_corner.resize(3 * subcells);
+  out.subcell_gradient_u.resize(3 * subcells);
+  out.subcell_gradient_v.resize(3 * subcells);
+}
+
+// The fallback of add_vertex_elements: each listed vertex's faces as elements of three corners
+// with (1 − kMembraneFaceShare)/3 of the face's area (no subcells).
+void add_fallback_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                           const MembraneReference& reference,
+                           const std::vector<std::size_t>& fallback, bool stabilised,
+                           MembraneElements& out) {
+  for (const std::size_t p : fallback) {
+    for (auto slot = static_cast<std::size_t>(reference.face_starts[p]);
+         slot < static_cast<std::size_t>(reference.face_starts[p + 1]); ++slot) {
+      const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
+      const MembraneRest rest = membrane_face_rest(map, springs, f);
+      const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+      for (int k = 0; k < 3; ++k) {
+        out.corners.push_back(faces(static_cast<Eigen::Index>(f), k));
+        out.gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+        out.gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+      }
+      out.area.push_back((1.0 - kMembraneFaceShare) * rest.area / 3.0);
+      out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+      if (stabilised) out.subcell_starts.push_back(out.subcell_starts.back());
+    }
+  }
+}
+
 // Appends one smoothed element per vertex (see membrane.hpp). A vertex with no usable metric
 // (every face edge-on to its plane, or a metric that is not positive definite) gives its share
 // to its faces instead: elements of three corners with (1 − kMembraneFaceShare)/3 of each
@@ -275,13 +310,7 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
     }
     const Eigen::LLT<Eigen::Matrix2d> cholesky(metric / (3.0 * area));
     if (!usable || !(area > 0.0) || cholesky.info() != Eigen::Success) {
-      out.corners.resize(start);
-      out.gradient_u.resize(start);
-      out.gradient_v.resize(start);
-      out.subcell_area.resize(first_subcell);
-      out.subcell_corner.resize(3 * first_subcell);
-      out.subcell_gradient_u.resize(3 * first_subcell);
-      out.subcell_gradient_v.resize(3 * first_subcell);
+      truncate(out, start, first_subcell);  // the element is dropped
       fallback.push_back(p);
       continue;
     }
@@ -305,22 +334,7 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
       out.subcell_starts.push_back(static_cast<std::int32_t>(out.subcell_area.size()));
     }
   }
-  for (const std::size_t p : fallback) {
-    for (auto slot = static_cast<std::size_t>(reference.face_starts[p]);
-         slot < static_cast<std::size_t>(reference.face_starts[p + 1]); ++slot) {
-      const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
-      const MembraneRest rest = membrane_face_rest(map, springs, f);
-      const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
-      for (int k = 0; k < 3; ++k) {
-        out.corners.push_back(faces(static_cast<Eigen::Index>(f), k));
-        out.gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
-        out.gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
-      }
-      out.area.push_back((1.0 - kMembraneFaceShare) * rest.area / 3.0);
-      out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
-      if (stabilised) out.subcell_starts.push_back(out.subcell_starts.back());
-    }
-  }
+  add_fallback_elements(faces, map, springs, reference, fallback, stabilised, out);
 }
 
 }  // namespace
