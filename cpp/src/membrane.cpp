@@ -378,17 +378,30 @@ double stvk_density(const Eigen::Matrix2d& E, double mu, double lambda) {
 }
 
 // The subcells' share of membrane_element (see MembraneElements): adds their energy, and
-// to the gradient and the blocks; F, E of the element's mean.
+// to the gradient and the blocks; F, E of the element's mean. The mean–mean part of each
+// subcell's 𝒞 form is the same for every subcell up to its area, so the caller adds it once
+// (mean_material, the subcells' total area); here only the pairs that touch a subcell's face.
 double add_subcells(const MembraneElements& elements, std::size_t e, const Positions& x,
                     const Mat32& F, const Eigen::Matrix2d& E, double mu, double lambda,
                     TransverseFilter filter, MembraneElementWork& work, bool with_gradient,
-                    bool with_hessian) {
+                    bool with_hessian, double& mean_material, Eigen::Matrix2d& mean_stress) {
   const auto begin = static_cast<std::size_t>(elements.starts[e]);
   const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
   auto d = [&](std::size_t k) {
     return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
   };
+  const bool exact = filter == TransverseFilter::exact;
+  // the block (p, q), p ≥ q, of the lower triangle, given the full block (k, l)
+  auto add = [&](std::size_t k, std::size_t l, const Mat3& block) {
+    if (k >= l) {
+      work.blocks[k * (k + 1) / 2 + l] += block;
+    } else {
+      work.blocks[l * (l + 1) / 2 + k] += block.transpose();
+    }
+  };
   double energy = 0.0;
+  mean_material = 0.0;
+  mean_stress.setZero();
   for (auto c = static_cast<std::size_t>(elements.subcell_starts[e]);
        c < static_cast<std::size_t>(elements.subcell_starts[e + 1]); ++c) {
     const double a = elements.subcell_area[c];
@@ -413,26 +426,28 @@ double add_subcells(const MembraneElements& elements, std::size_t e, const Posit
       for (std::size_t j = 0; j < 3; ++j) work.gradient[at[j]] += face * dc[j];
     }
     if (!with_hessian) continue;
-    // 𝒞 between (face − mean) strain changes: face–face, minus the two cross terms, plus
-    // mean–mean; the stress terms (S on the face's gradients, −S on the mean's) only for the
-    // exact Hessian (the filtered ones keep this penalty's Gauss–Newton part, which is PSD)
-    const bool exact = filter == TransverseFilter::exact;
-    std::vector<std::ptrdiff_t>& in_face = work.in_face;
-    in_face.assign(m, -1);  // no allocation once grown
-    for (std::size_t j = 0; j < 3; ++j) in_face[at[j]] = static_cast<std::ptrdiff_t>(j);
-    for (std::size_t p = 0; p < m; ++p) {
-      for (std::size_t q = 0; q <= p; ++q) {
-        Mat3 block = material_block(F, d(p), F, d(q), mu, lambda);
-        if (exact) block.diagonal().array() -= d(p).dot(S * d(q));
-        const std::ptrdiff_t fp = in_face[p], fq = in_face[q];
-        if (fp >= 0) block -= material_block(Fc, dc[static_cast<std::size_t>(fp)], F, d(q), mu, lambda);
-        if (fq >= 0) block -= material_block(F, d(p), Fc, dc[static_cast<std::size_t>(fq)], mu, lambda);
-        if (fp >= 0 && fq >= 0) {
-          const auto u = static_cast<std::size_t>(fp), v = static_cast<std::size_t>(fq);
-          block += material_block(Fc, dc[u], Fc, dc[v], mu, lambda);
-          if (exact) block.diagonal().array() += dc[u].dot(S * dc[v]);
+    // 𝒞 between (face − mean) strain changes: face–face, minus the two cross terms (here),
+    // plus mean–mean (the caller); the stress terms (S on the face's gradients, −S on the
+    // mean's) only for the exact Hessian (the filtered ones keep this penalty's Gauss–Newton
+    // part, which is positive semidefinite)
+    mean_material += a;
+    if (exact) mean_stress -= a * S;
+    for (std::size_t u = 0; u < 3; ++u) {
+      for (std::size_t l = 0; l < m; ++l) {
+        // −a M(c, mean) at the full block (at[u], l); M(mean, c) is its mirror, which the
+        // symmetric storage implies — except on the diagonal block, which holds both
+        const Mat3 cross = a * material_block(Fc, dc[u], F, d(l), mu, lambda);
+        if (l == at[u]) {
+          work.blocks[l * (l + 1) / 2 + l] -= cross + cross.transpose();
+        } else {
+          add(at[u], l, -cross);
         }
-        work.blocks[p * (p + 1) / 2 + q] += a * block;
+      }
+      for (std::size_t v = 0; v < 3; ++v) {
+        if (at[v] > at[u]) continue;  // each lower pair once (the diagonal too)
+        Mat3 block = material_block(Fc, dc[u], Fc, dc[v], mu, lambda);
+        if (exact) block.diagonal().array() += dc[u].dot(S * dc[v]);
+        work.blocks[at[u] * (at[u] + 1) / 2 + at[v]] += a * block;
       }
     }
   }
@@ -458,9 +473,12 @@ double membrane_element(const MembraneElements& elements, std::size_t e, const P
   double energy = area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
   const bool subcells = !elements.subcell_starts.empty() &&
                         elements.subcell_starts[e + 1] > elements.subcell_starts[e];
+  double mean_material = 0.0;  // the subcells' share of the mean–mean 𝒞 form (their area)
+  Eigen::Matrix2d mean_stress = Eigen::Matrix2d::Zero();  // and of its stress term
   if (!with_gradient && !with_hessian) {
     if (subcells) {
-      energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, false, false);
+      energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, false, false,
+                             mean_material, mean_stress);
     }
     return energy;
   }
@@ -496,7 +514,16 @@ double membrane_element(const MembraneElements& elements, std::size_t e, const P
   }
   if (subcells) {
     energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, with_gradient,
-                           with_hessian);
+                           with_hessian, mean_material, mean_stress);
+    if (with_hessian) {  // the subcells' mean–mean part, once for all of them
+      for (std::size_t p = 0; p < m; ++p) {
+        for (std::size_t q = 0; q <= p; ++q) {
+          Mat3 block = mean_material * material_block(F, d(p), F, d(q), mu, lambda);
+          block.diagonal().array() += d(p).dot(mean_stress * d(q));
+          work.blocks[p * (p + 1) / 2 + q] += block;
+        }
+      }
+    }
   }
   return energy;
 }
