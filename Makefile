@@ -73,7 +73,7 @@ demo: setup
 
 # Benchmarks pin BLAS to one thread: CHOLMOD and the dense reference then compete on equal terms.
 BENCHMARKS := explicit_step implicit_step factorization rebuild_cost crossover long_horizon numerical_damping \
-              error_control vibration_floor wrinkles bending_consistency \
+              error_control vibration_floor wrinkles interpolation_bending bending_consistency \
               sensitivity scaling newton_projection factor_reuse newton_stop newton_predictor \
               stability_map stable_dt \
               threads pictures

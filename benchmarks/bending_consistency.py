@@ -58,8 +58,9 @@ def equilateral_mesh(edge, length=1.0, width=0.5):
 
 def mesh(kind, edge):
     """(V, F) of a 1 m × 0.5 m sheet of `kind` whose longest edge is about `edge`."""
-    if kind == "pattern":
-        return yore.pattern_mesh([[0, 0], [1, 0], [1, 0.5], [0, 0.5]], edge_length=edge)
+    if kind == "pattern":  # CGAL's irregular triangles throughout (the lattice is "equilateral")
+        return yore.pattern_mesh([[0, 0], [1, 0], [1, 0.5], [0, 0.5]], edge_length=edge,
+                                 interior="delaunay")
     if kind == "equilateral":
         return equilateral_mesh(edge)
     degrees = float(kind.split()[1].rstrip("°"))

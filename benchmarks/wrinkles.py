@@ -4,8 +4,10 @@ stroke at three resolutions.
 
     python -m benchmarks.wrinkles [--out bench-results] [--quick] [--resume]
 
-One thread. `yore.scenes.stretched_sheet`: a length × width sheet on a pattern mesh (CGAL,
-isotropic triangles), clamped along its short edges and stretched by `strain`, quadratic
+One thread. `yore.scenes.stretched_sheet`: a length × width sheet on a pattern mesh (the
+default `pattern_mesh`: an equilateral lattice with rows along the length inside, CGAL along the
+edges; rows on CGAL's Delaunay mesh throughout, `mesh="delaunay"`, show what pattern meshes
+were before issue 52), clamped along its short edges and stretched by `strain`, quadratic
 bending B, 1e-5 m of seeded noise, relaxed by `Simulation.settle` (with its saddle test) from
 the flat stretched start. Per run, from the relaxed sheet's cross-section at mid-length (z
 interpolated along the width): the wavelength (peak of the zero-padded, Hann-windowed FFT), the
@@ -24,7 +26,8 @@ for the same state with the faces' constant strain (what the membrane carried be
 tension, points per wavelength, the wrinkled zone's length along u, and whether the row is
 judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B). The membrane runs
 on pattern meshes and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no
-spurious slope), each base also from a second seed. The prediction is Cerda & Mahadevan's
+spurious slope), each base also from a second seed, and on Delaunay meshes (the base and the
+mesh sizes). The prediction is Cerda & Mahadevan's
 λ = (2π L)^½ (4 B / (Y γ))^¼ from the model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
 spring lattice from the energies of three small affine strains; an upper bound, since its
 nodes may relax). Exponents of λ in B (16×), L (4×) and γ (4×) are fitted over the judged
@@ -90,6 +93,19 @@ BAND_REACH = 0.15  # m
 BAND_RESOLUTIONS = [41, 81, 161]
 QUICK_BAND_RESOLUTIONS = [9, 13]
 BAND_SETTLE_SECONDS = 120.0  # pseudo-time cap; the 41² cloth settles in ~55 s
+#: The inside of each mesh kind's pattern mesh (`pattern_mesh`'s interior); rows journaled
+#: before the lattice (issue 52) have none and are redone.
+INTERIORS = {"pattern": "lattice", "delaunay": "delaunay"}
+#: The summary's name of each (model, mesh) kind.
+KINDS = {("membrane", "pattern"): "membrane", ("membrane", "grid"): "membrane on an aligned grid",
+         ("membrane", "delaunay"): "membrane on a Delaunay mesh", ("springs", "pattern"): "springs"}
+
+
+def current(row, model, mesh):
+    """Whether a journaled row measured today's models: the smoothed membrane (issue 52) and
+    the mesh kind's pattern interior."""
+    return (row.get("membrane_strain") == ("smoothed" if model == "membrane" else None)
+            and row.get("pattern_interior") == INTERIORS.get(mesh))
 
 
 def sheet_runs(quick):
@@ -106,10 +122,17 @@ def sheet_runs(quick):
         if key not in {(m, tuple(sorted(p.items()))) for _, m, p in runs}:
             runs.append((label, model, parameters))
 
-    # the membrane on pattern meshes and, beside them, on grids aligned with the sheet (no
-    # interpolation slope along the wrinkles: the reference); a second seeded start of each base
-    for model, mesh in (("membrane", "pattern"), ("membrane", "grid"), ("springs", "pattern")):
+    # the membrane on pattern meshes (a lattice inside, the default) and, beside them, on grids
+    # aligned with the sheet (no interpolation slope along the wrinkles: the reference); a
+    # second seeded start of each base; on CGAL's Delaunay meshes throughout (what pattern
+    # meshes were before issue 52) the base and the meshes only
+    for model, mesh in (("membrane", "pattern"), ("membrane", "grid"), ("springs", "pattern"),
+                        ("membrane", "delaunay")):
         add("base", model, mesh=mesh)
+        if mesh == "delaunay":
+            for edge in MESHES[model] if not quick else []:
+                add("mesh", model, edge_length=edge, mesh=mesh)
+            continue
         if model == "membrane":
             add("seed", model, mesh=mesh, seed=1)
         if quick:
@@ -412,6 +435,7 @@ def sheet_run(label, model, parameters):
     zigzag = bool(not flat and wavelength < 4 * h)
     row = {"label": label, "model": model, **parameters, "vertices": int(cloth.vertex_count),
            "membrane_strain": cloth.membrane_strain,
+           "pattern_interior": INTERIORS.get(parameters.get("mesh", "pattern")),
            "mean_edge": h, "young": float(young), "poisson": float(nu),
            "predicted_wavelength": predicted,
            "realized_bending": realized, "artificial_bending": b_art,
@@ -485,6 +509,7 @@ def band_run(mesh, resolution, quick):
     height = metrics.wrinkle_height(X, F, iterations)[np.unique(F[band])]
     return {"mesh": mesh, "resolution": resolution, "vertices": int(sim.cloth.vertex_count),
             "membrane_strain": sim.cloth.membrane_strain,
+            "pattern_interior": INTERIORS.get(mesh),
             "faces_split": len(report.new_vertices), "band_faces": int(len(band)),
             "smoothing_iterations": iterations,
             "wrinkle_measure": float(np.sqrt(np.mean(height ** 2))),
@@ -522,7 +547,7 @@ def fit_exponent(rows, key):
 
 def summarize(rows, strokes, quick=False):
     out = {}
-    for model, mesh in (("membrane", "pattern"), ("membrane", "grid"), ("springs", "pattern")):
+    for (model, mesh), kind in KINDS.items():
         base_run = BASES[model] if not quick else QUICK_BASE
         mine = [r for r in rows if r["model"] == model and r.get("mesh", "pattern") == mesh
                 and r.get("seed", 0) == 0]
@@ -546,7 +571,7 @@ def summarize(rows, strokes, quick=False):
                  and o["model"] == model and o.get("mesh", "pattern") == mesh
                  and all(o[k] == r[k] for k in ("bending_modulus", "length", "strain",
                                                  "edge_length"))]
-        out[model if mesh == "pattern" else f"{model} on an aligned grid"] = {
+        out[kind] = {
             "judged": sum(bool(r.get("judged")) for r in mine),
             "realized_bending_ratio": [r["realized_bending"] / r["bending_modulus"]
                                        for r in mine if r.get("realized_bending")],
@@ -670,13 +695,12 @@ def main(argv=None):
     for label, model, parameters in sheet_runs(args.quick):
         # a run journaled when flat meant under 10× the noise is redone if it was not flat
         # by today's measure (its wavelength was not kept)
-        # (and a membrane run journaled before the smoothed strain is redone: its membrane is
-        # not today's)
+        # (and a run journaled before the smoothed strain or the lattice pattern meshes is
+        # redone: its membrane or mesh is not today's)
         row = journaled(args.out, run_name(model, parameters), args.resume,
                         lambda: sheet_run(label, model, parameters),
                         lambda r: not (r["flat"] and r["amplitude"] >= FLAT)
-                        and r.get("membrane_strain") == ("smoothed" if model == "membrane"
-                                                         else None))
+                        and current(r, model, parameters["mesh"]))
         row["label"] = label
         rows.append(row)
         print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "
@@ -699,11 +723,11 @@ def main(argv=None):
     bands = []
     for mesh in ("grid", "pattern"):
         for resolution in (QUICK_BAND_RESOLUTIONS if args.quick else BAND_RESOLUTIONS):
-            # a band journaled before the smoothed strain is redone (its membrane is not
-            # today's)
+            # a band journaled before the smoothed strain or the lattice is redone (its
+            # membrane or mesh is not today's)
             bands.append(journaled(args.out, f"band-{mesh}-{resolution}", args.resume,
                                    lambda: band_run(mesh, resolution, args.quick),
-                                   lambda b: b.get("membrane_strain") == "smoothed"))
+                                   lambda b: current(b, "membrane", mesh)))
             b = bands[-1]
             print(f"  band stroke {mesh} {resolution}: fold depth {b['fold_depth']:.3e}, "
                   f"measure {b['wrinkle_measure']:.3e}, area × {b['area_gain']:.3f}, "

@@ -940,6 +940,30 @@ def test_bending_consistency_smoke(tmp_path):
     assert (tmp_path / "bending_consistency.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_interpolation_bending_smoke(tmp_path):
+    # issue 52's remedy on the library's energy: the smoothed strain on the default pattern
+    # mesh (a lattice inside) leaks a small fraction of the Delaunay faces' bending in every
+    # direction; the faces on the lattice are exact along its rows only; every mesh smooths the
+    # compressed slope, the smoothed strain more (its 1-ring mean)
+    data = run_benchmark("interpolation_bending", tmp_path, "--quick")
+    rows = data["rows"]
+
+    def at(kind, strain, degrees):
+        return next(r for r in rows if (r["kind"], r["strain"], r["degrees"]) ==
+                    (kind, strain, degrees))
+    for degrees in (0.0, 30.0):
+        assert at("lattice", "smoothed", degrees)["membrane_strain"] == "smoothed"
+        assert at("lattice", "faces", degrees)["membrane_strain"] == "faces"
+        assert at("lattice", "smoothed", degrees)["c_leak"] < 0.1 * at(
+            "delaunay", "faces", degrees)["c_leak"]
+    assert at("lattice", "faces", 0.0)["c_leak"] < 0.2 * at("lattice", "faces", 30.0)["c_leak"]
+    assert abs(at("grid", "faces", 0.0)["c_leak"]) < 1e-6
+    assert all(0.0 < r["c_compression"] < 0.4 for r in rows)
+    assert all(at(kind, "smoothed", 0.0)["c_compression"] > at(kind, "faces", 0.0)["c_compression"]
+               for kind in ("lattice", "delaunay", "grid"))
+    assert (tmp_path / "interpolation_bending.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_wrinkles_smoke(tmp_path):
     data = run_benchmark("wrinkles", tmp_path, "--quick")
     rows = data["rows"]
@@ -966,15 +990,18 @@ def test_wrinkles_smoke(tmp_path):
     # mesh's does; both kinds and a second seed ran for the membrane; flat rows are not judged
     assert all(abs(r["realized_bending"] / r["bending_modulus"] - 1) < 0.02 for r in rows)
     membrane = [r for r in rows if r["model"] == "membrane"]
-    assert {(r["mesh"], r["seed"]) for r in membrane} >= {("pattern", 0), ("grid", 0),
-                                                          ("pattern", 1), ("grid", 1)}
+    assert {(r["mesh"], r["seed"]) for r in membrane} >= {
+        ("pattern", 0), ("grid", 0), ("pattern", 1), ("grid", 1), ("delaunay", 0)}
     for r in membrane:
         # the membrane as built reads the smoothed strain; B_art is measured from its own
-        # energy, and from the same state with the faces' constant strain: on a pattern mesh
-        # the smoothed strain leaves a small part of the faces' artificial bending
+        # energy, and from the same state with the faces' constant strain: on CGAL's Delaunay
+        # mesh the smoothed strain leaves a small part of the faces' artificial bending; each
+        # row records its pattern mesh's interior
         assert r["membrane_strain"] == "smoothed"
         assert r["tension"] > 0.0 and not r["judged"]
-        if r["mesh"] == "pattern":
+        assert r["pattern_interior"] == {"pattern": "lattice", "delaunay": "delaunay",
+                                         "grid": None}[r["mesh"]]
+        if r["mesh"] == "delaunay":
             assert r["artificial_bending_faces"] > 0.0
             assert abs(r["artificial_bending"]) < 0.5 * r["artificial_bending_faces"]
     assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
@@ -1005,7 +1032,8 @@ def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared()
     tension, wavelength = 1100.0, 0.04
     values = []
     for edge in (0.008, 0.004):
-        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge)
+        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge,
+                                 interior="delaunay")
         stress = np.zeros((len(F), 2, 2))
         stress[:, 0, 0] = tension
         edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
@@ -1019,7 +1047,8 @@ def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared()
     # quadratics): measured 0.3 % of the linear interpolant's B_art at 8 mm and 0.07 % at 4 mm
     # (its error is O(h²) in the slope, so B_art ∝ h⁴ h-wise), so it converges much faster
     for edge, linear in zip((0.008, 0.004), values):
-        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge)
+        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge,
+                                 interior="delaunay")
         stress = np.zeros((len(F), 2, 2))
         stress[:, 0, 0] = tension
         centre = V[F].mean(axis=1)

@@ -1,7 +1,8 @@
-"""Pattern meshes (CGAL's 2-D constrained Delaunay mesher): the mesh covers exactly the pattern,
-is a manifold with the right Euler characteristic, keeps its edge and angle bounds, has no
-preferred directions, builds cloths and scenes whose pattern strokes work, and refuses bad
-outlines with one clear error."""
+"""Pattern meshes (an equilateral lattice inside, CGAL's 2-D constrained Delaunay mesher along
+the edges; or CGAL's throughout): the mesh covers exactly the pattern, is a manifold with the
+right Euler characteristic, keeps its edge and angle bounds, has point-symmetric stars inside
+(the lattice) or no preferred directions (Delaunay), builds cloths and scenes whose pattern
+strokes work, and refuses bad outlines with one clear error."""
 
 import numpy as np
 import pytest
@@ -34,9 +35,11 @@ def angles_of(V, F):
     return np.concatenate(out)
 
 
+@pytest.mark.parametrize("interior", ["lattice", "delaunay"])
 @pytest.mark.parametrize("edge_length, min_angle", [(0.1, 20.0), (0.05, 25.0), (0.03, 30.0)])
-def test_a_rectangle_is_covered_exactly_within_the_bounds(edge_length, min_angle):
-    V, F = yore.pattern_mesh(RECTANGLE, edge_length=edge_length, min_angle=min_angle)
+def test_a_rectangle_is_covered_exactly_within_the_bounds(edge_length, min_angle, interior):
+    V, F = yore.pattern_mesh(RECTANGLE, edge_length=edge_length, min_angle=min_angle,
+                             interior=interior)
     assert V.shape[1] == 3 and np.all(V[:, 2] == 0.0)
     areas = signed_areas(V, F)
     assert np.all(areas > 0.0)  # counter-clockwise about +z
@@ -57,10 +60,13 @@ def test_a_rectangle_is_covered_exactly_within_the_bounds(edge_length, min_angle
         assert np.any(np.all(V[:, :2] == corner, axis=1))
 
 
-def test_holes_are_left_out_and_the_euler_characteristic_counts_them():
+@pytest.mark.parametrize("interior", ["lattice", "delaunay"])
+def test_holes_are_left_out_and_the_euler_characteristic_counts_them(interior):
     triangle = [[0.2, 0.1], [0.4, 0.1], [0.3, 0.35]]
     square = [[0.6, 0.1], [0.8, 0.1], [0.8, 0.3], [0.6, 0.3]][::-1]  # either orientation
-    V, F = yore.pattern_mesh(RECTANGLE, holes=[triangle, square], edge_length=0.04)
+    V, F = yore.pattern_mesh(RECTANGLE, holes=[triangle, square], edge_length=0.04,
+                             interior=interior)
+    _core.validate_mesh(V, F)
     hole_area = 0.5 * 0.2 * 0.25 + 0.04
     assert signed_areas(V, F).sum() == pytest.approx(0.5 - hole_area, rel=1e-12)
     assert len(V) - len(edges_of(F)) + len(F) == 1 - 2
@@ -79,12 +85,66 @@ def test_the_mesh_has_no_preferred_directions_unlike_the_grid():
         counts, _ = np.histogram(theta, bins=36, range=(0, 180))
         return counts.max() / len(edges)
 
-    V, F = yore.pattern_mesh(RECTANGLE, edge_length=0.03)
+    V, F = yore.pattern_mesh(RECTANGLE, edge_length=0.03, interior="delaunay")
     G, H = yore.grid_mesh(34, 17, width=1.0, height=0.5)
     # a grid's edges lie in 4 bins (rows, columns, two diagonals): the largest holds ~1/3;
     # 36 equal bins would hold 2.8 % each
     assert largest_direction_share(G, H) > 0.25
     assert largest_direction_share(V, F) < 0.08
+
+
+CIRCLE = [[0.3 * np.cos(t), 0.3 * np.sin(t)] for t in np.linspace(0, 2 * np.pi, 60,
+                                                                     endpoint=False)]
+STAR = [[r * np.cos(t), r * np.sin(t)] for r, t in zip(
+    [0.5, 0.22] * 7, np.linspace(0, 2 * np.pi, 14, endpoint=False))]
+
+
+def test_the_lattice_interior_has_point_symmetric_stars():
+    # What the default interior is for (issue 52): a vertex whose star is point-symmetric has
+    # no first-order error in its faces' mean slope, in any direction. Away from the CGAL strip
+    # (over two edge lengths from the outline) every vertex has six neighbours at ±a along
+    # three directions 60° apart, a = 0.7 edge_length, the rows along u.
+    edge_length = 0.03
+    V, F = yore.pattern_mesh(RECTANGLE, edge_length=edge_length)
+    edges = edges_of(F)
+    inner = np.flatnonzero((V[:, 0] > 2 * edge_length) & (V[:, 0] < 1 - 2 * edge_length)
+                           & (V[:, 1] > 2 * edge_length) & (V[:, 1] < 0.5 - 2 * edge_length))
+    assert len(inner) > 0.6 * len(V)
+    side = 0.7 * edge_length
+    for p in inner:
+        ring = np.concatenate([edges[edges[:, 0] == p, 1], edges[edges[:, 1] == p, 0]])
+        offsets = V[ring, :2] - V[p, :2]
+        assert len(ring) == 6
+        assert np.allclose(np.linalg.norm(offsets, axis=1), side, rtol=1e-9)
+        angles = np.sort(np.degrees(np.arctan2(offsets[:, 1], offsets[:, 0])) % 360.0)
+        assert np.allclose(angles, np.arange(0.0, 360.0, 60.0), atol=1e-6)
+
+
+@pytest.mark.parametrize("outline, holes, edge_length", [
+    (CIRCLE, [[[0.1 * np.cos(t), 0.1 * np.sin(t)] for t in np.linspace(0, 2 * np.pi, 30,
+                                                                         endpoint=False)]],
+     0.1),  # CGAL splits lattice edges here: the lattice gives those triangles up
+    (CIRCLE, [], 0.02),
+    (STAR, [], 0.013),
+    ([[0.0, 0.0], [1.0, 0.0], [1.0, 0.03], [0.0, 0.03]], [], 0.02),  # no lattice fits: CGAL
+])
+def test_lattice_and_strip_meet_edge_to_edge_on_any_outline(outline, holes, edge_length):
+    # a manifold with the outline's Euler characteristic and exactly its area, within the
+    # bounds: the strip's points on the lattice's boundary are the lattice's own
+    V, F = yore.pattern_mesh(outline, holes=holes, edge_length=edge_length)
+    _core.validate_mesh(V, F)
+    edges = edges_of(F)
+    assert len(V) - len(edges) + len(F) == 1 - len(holes)
+
+    def area(polygon):
+        x, y = np.asarray(polygon).T
+        return 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    expected = area(outline) - sum(area(h) for h in holes)
+    assert signed_areas(V, F).min() > 0
+    assert signed_areas(V, F).sum() == pytest.approx(expected, rel=1e-12)
+    lengths = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
+    assert lengths.max() <= edge_length * (1 + 1e-9)
+    assert angles_of(V, F).min() >= yore.meshes.PATTERN_MIN_ANGLE - 1e-6
 
 
 def test_a_pattern_cloth_takes_material_strokes_and_a_membrane():
@@ -123,6 +183,14 @@ def test_scene_files_mesh_patterns_and_name_bad_keys():
     cloth = sim.cloth
     assert np.all(cloth.positions[:, 1] == 0.0)  # the xz plane
     assert np.array_equal(cloth.material_coordinates, cloth.positions[:, [0, 2]])
+    # interior = "delaunay": CGAL's triangles throughout, a different mesh of the same pattern
+    other, _ = load_scene(text=SCENE.format(
+        mesh='outline = [[0, 0], [1, 0], [1, 0.5], [0, 0.5]]\nedge_length = 0.1\n'
+             'holes = [[[0.4, 0.2], [0.6, 0.2], [0.5, 0.3]]]\ninterior = "delaunay"')).build()
+    V, F = yore.pattern_mesh(RECTANGLE, holes=[[[0.4, 0.2], [0.6, 0.2], [0.5, 0.3]]],
+                             edge_length=0.1, interior="delaunay")
+    assert np.array_equal(other.cloth.positions, V)
+    assert other.cloth.vertex_count != cloth.vertex_count
     for mesh, key in [
         ('outline = [[0, 0], [1, 0]]', "mesh.outline"),
         ('outline = [[0, 0], [1, 1], [1, 0], [0, 1]]', "mesh.outline"),  # a bow tie
@@ -132,6 +200,7 @@ def test_scene_files_mesh_patterns_and_name_bad_keys():
         ('edge_length = 0.1', "mesh.outline"),
         ('outline = [[0, 0], [1, 0], [1, 1e-9]]\nedge_length = 0.5', "mesh.outline"),  # R01
         ('outline = [[0, 0], [1, 0], [1, 1]]\nedge_length = 1e-300', "mesh.edge_length"),
+        ('outline = [[0, 0], [1, 0], [1, 1]]\ninterior = "grid"', "mesh.interior"),
     ]:
         with pytest.raises(SceneError) as caught:
             load_scene(text=SCENE.format(mesh=mesh)).build()
@@ -213,6 +282,7 @@ def test_a_refinement_past_the_vertex_limit_stops_with_an_error():
     ([[0, 0], [1, 0], [1, 1]], [], {"min_angle": 31.0}, "min_angle"),
     ([[0, 0], [1, 0], [1, 1], [0, 1]], [[[2, 2], [3, 2], [3, 3]]], {}, "holes"),
     ("square", [], {}, "outline"),
+    ([[0, 0], [1, 0], [1, 1]], [], {"interior": "grid"}, "interior"),
 ])
 def test_a_bad_pattern_names_its_argument(outline, holes, kwargs, argument):
     # the scene-file key at fault comes from the error's argument, not from its text

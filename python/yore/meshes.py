@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _core
 from .checks import check_factor, check_integer
+from .pattern_lattice import lattice_pattern_mesh
 
 __all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring", "pattern_mesh", "MAX_MESH_VERTICES",
            "PATTERN_MIN_ANGLE"]
@@ -220,50 +221,8 @@ def _polygon(points, name):
     return np.ascontiguousarray(array)
 
 
-def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGLE):
-    """Triangle mesh of a flat pattern: the region inside ``outline`` and outside every hole,
-    meshed by CGAL's 2-D constrained Delaunay mesher so that every edge is at most
-    ``edge_length`` long and every angle at least ``min_angle`` degrees: isotropic triangles
-    with no preferred directions (a grid's rows and diagonals are three of them).
-
-    Parameters
-    ----------
-    outline : (m, 2) array-like
-        The pattern's boundary, [u, v] points in metres, a simple polygon of at least 3 points
-        (either orientation; a last point equal to the first is dropped).
-    holes : sequence of (k, 2) array-likes
-        Holes, each a simple polygon strictly inside the outline and apart from the others.
-    edge_length : float
-        Longest edge, m (the mean edge comes out at about 0.6–0.7 of it).
-    min_angle : float
-        Smallest angle, degrees, in (0, 30].
-
-    Returns
-    -------
-    V : (n, 3) float64
-        Vertices in the z = 0 plane: (u, v, 0); ``V[:, :2]`` are the material coordinates.
-    F : (f, 3) int32
-        Faces, counter-clockwise about +z.
-
-    Raises
-    ------
-    ValueError
-        On a polygon with too few points, a non-finite point, zero area or a self-intersection;
-        a hole that leaves the outline or overlaps another; a bad edge_length or min_angle; or
-        a mesh of more than `MAX_MESH_VERTICES` vertices.
-    """
-    outline = _polygon(outline, "outline")
-    if isinstance(holes, np.ndarray) and holes.ndim == 2:
-        raise _invalid("holes must be a list of polygons, got one (k, 2) array: wrap it in "
-                       "a list", "holes")
-    holes = [_polygon(hole, f"hole {k}") for k, hole in enumerate(holes)]
-    try:
-        edge_length = check_factor(edge_length, "edge_length", "m")
-    except ValueError as error:
-        raise _invalid(str(error), "edge_length") from None
-    if isinstance(min_angle, (bool, np.bool_)) or not isinstance(min_angle, numbers.Real):
-        raise _invalid(f"min_angle must be a number of degrees, got {min_angle!r}",
-                       "min_angle")
+def _check_pattern_size(outline, edge_length):
+    """Refuses an edge_length that needs more than MAX_MESH_VERTICES vertices on `outline`."""
     # The core refuses non-finite points and points past its coordinate bound; the estimate
     # below runs only on points it would accept, and in ratios that cannot overflow.
     # No triangle with edges at most edge_length is larger than the equilateral one, and a
@@ -279,7 +238,78 @@ def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGL
         least = ratio * ratio / (math.sqrt(3.0) / 4.0) / 2.0
         _check_vertex_count(int(least), f"edge_length {edge_length:g} m on an outline of "
                             f"{area:g} m²", "edge_length")
-    points, faces, _ = _core.pattern_mesh(outline, holes, edge_length, float(min_angle),
-                                          MAX_MESH_VERTICES)
+
+
+def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGLE,
+                 interior="lattice"):
+    """Triangle mesh of a flat pattern: the region inside ``outline`` and outside every hole,
+    every edge at most ``edge_length`` long and every angle at least ``min_angle`` degrees.
+
+    By default (``interior="lattice"``) the inside is an equilateral lattice of side
+    0.7 × ``edge_length`` with rows along u (the grain), and a strip along the pattern's edges
+    (0.75–1.6 sides wide) is meshed by CGAL's 2-D constrained Delaunay mesher. Every lattice
+    vertex's star is point-symmetric, so the membrane's smoothed strain has no interpolation
+    bending there in any direction (issue 52; docs/limitations.md). ``interior="delaunay"``
+    meshes the whole pattern with CGAL: isotropic triangles with no preferred directions, whose
+    interpolation adds a bending modulus of ~0.0007 h² × the tension to the smoothed membrane
+    (~0.018 h² to constant-strain faces). A pattern too small for one lattice triangle away
+    from its edges is meshed by CGAL alone.
+
+    Parameters
+    ----------
+    outline : (m, 2) array-like
+        The pattern's boundary, [u, v] points in metres, a simple polygon of at least 3 points
+        (either orientation; a last point equal to the first is dropped).
+    holes : sequence of (k, 2) array-likes
+        Holes, each a simple polygon strictly inside the outline and apart from the others.
+    edge_length : float
+        Longest edge, m (the mean edge comes out at about 0.6–0.7 of it).
+    min_angle : float
+        Smallest angle, degrees, in (0, 30].
+    interior : {"lattice", "delaunay"}
+        The inside's triangles: an equilateral lattice, or CGAL's.
+
+    Returns
+    -------
+    V : (n, 3) float64
+        Vertices in the z = 0 plane: (u, v, 0); ``V[:, :2]`` are the material coordinates.
+    F : (f, 3) int32
+        Faces, counter-clockwise about +z.
+
+    Raises
+    ------
+    ValueError
+        On a polygon with too few points, a non-finite point, zero area or a self-intersection;
+        a hole that leaves the outline or overlaps another; a bad edge_length or min_angle; or
+        a mesh of more than `MAX_MESH_VERTICES` vertices; an unknown interior.
+    """
+    if interior not in ("lattice", "delaunay"):
+        raise _invalid(f'interior must be "lattice" or "delaunay", got {interior!r}',
+                       "interior")
+    outline = _polygon(outline, "outline")
+    if isinstance(holes, np.ndarray) and holes.ndim == 2:
+        raise _invalid("holes must be a list of polygons, got one (k, 2) array: wrap it in "
+                       "a list", "holes")
+    holes = [_polygon(hole, f"hole {k}") for k, hole in enumerate(holes)]
+    try:
+        edge_length = check_factor(edge_length, "edge_length", "m")
+    except ValueError as error:
+        raise _invalid(str(error), "edge_length") from None
+    if isinstance(min_angle, (bool, np.bool_)) or not isinstance(min_angle, numbers.Real):
+        raise _invalid(f"min_angle must be a number of degrees, got {min_angle!r}",
+                       "min_angle")
+    _check_pattern_size(outline, edge_length)
+    lattice = None
+    if interior == "lattice":
+        # the core checks the polygons and the angle (and names them): here on the outline
+        # alone, with no size bound
+        _core.pattern_mesh(outline, holes, 1e308, float(min_angle), MAX_MESH_VERTICES)
+        lattice = lattice_pattern_mesh(outline, holes, edge_length, float(min_angle),
+                                       MAX_MESH_VERTICES)
+    if lattice is None:
+        points, faces, _ = _core.pattern_mesh(outline, holes, edge_length, float(min_angle),
+                                              MAX_MESH_VERTICES)
+    else:
+        points, faces = lattice
     V = np.column_stack([points, np.zeros(len(points))])
     return np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int32)

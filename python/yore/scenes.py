@@ -78,23 +78,25 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern.
     stretch : "springs" (the paper's, default) or "membrane" (St. Venant–Kirchhoff triangles)
     with young_modulus, N/m, and poisson_ratio.
-    mesh : "grid" (`grid_mesh`, resolution × resolution vertices, default) or "pattern" (a CGAL
+    mesh : "grid" (`grid_mesh`, resolution × resolution vertices, default), "pattern" (a
     `pattern_mesh` of the square whose longest edge is the grid's diagonal, √2 · size /
-    (resolution − 1): isotropic triangles, about as many vertices).
+    (resolution − 1), about as many vertices: an equilateral lattice inside, CGAL's triangles
+    along the edges) or "delaunay" (the same with CGAL's isotropic triangles throughout).
     """
     pin_spacing = float(pin_spacing)
     if not 0.0 < pin_spacing <= 1.0:
         raise ValueError(f"pin_spacing must be in (0, 1], got {pin_spacing}")
     if mesh == "grid":
         V, F = grid_mesh(resolution, resolution, width=size, height=size)
-    elif mesh == "pattern":
+    elif mesh in ("pattern", "delaunay"):
         if not isinstance(resolution, (int, np.integer)) or resolution < 2:
             raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
         size = check_factor(size, "size", "m")
         V, F = pattern_mesh([[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
-                            edge_length=math.sqrt(2.0) * size / (resolution - 1))
+                            edge_length=math.sqrt(2.0) * size / (resolution - 1),
+                            interior="lattice" if mesh == "pattern" else "delaunay")
     else:
-        raise ValueError(f'mesh must be "grid" or "pattern", got {mesh!r}')
+        raise ValueError(f'mesh must be "grid", "pattern" or "delaunay", got {mesh!r}')
     uv = V[:, :2].copy()
     pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
@@ -158,7 +160,9 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
     width and wrinkles along the length may form).
 
     The pattern is a length × width rectangle (u along the length) meshed by `pattern_mesh`
-    (isotropic triangles, longest edge ``edge_length``), or with ``mesh="grid"`` by `grid_mesh`
+    (longest edge ``edge_length``: an equilateral lattice with rows along u inside, CGAL's
+    triangles along the edges; ``mesh="delaunay"``: CGAL's isotropic triangles throughout),
+    or with ``mesh="grid"`` by `grid_mesh`
     aligned with its sides (squares of side ``edge_length``/√2 split by alternating diagonals,
     so the longest edge is ``edge_length`` too: a wrinkle along u has no spurious slope along u
     in any triangle, the reference for the pattern mesh's interpolation error); it starts in
@@ -183,11 +187,12 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
         spacing = check_factor(edge_length, "edge_length", "m") / math.sqrt(2.0)
         V, F = grid_mesh(max(2, math.ceil(length / spacing) + 1),
                          max(2, math.ceil(width / spacing) + 1), width=length, height=width)
-    elif mesh == "pattern":
+    elif mesh in ("pattern", "delaunay"):
         V, F = pattern_mesh([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
-                            edge_length=edge_length)
+                            edge_length=edge_length,
+                            interior="lattice" if mesh == "pattern" else "delaunay")
     else:
-        raise ValueError(f'mesh must be "pattern" or "grid", got {mesh!r}')
+        raise ValueError(f'mesh must be "pattern", "delaunay" or "grid", got {mesh!r}')
     uv = V[:, :2].copy()
     cloth = Cloth(V, F, density=density, damping=0.0, drag=0.0, bending="quadratic",
                   bending_modulus=bending_modulus,

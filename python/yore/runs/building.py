@@ -82,7 +82,7 @@ def _build_mesh(scene):
     elif generator == "pattern":
         try:
             V, F = pattern_mesh(mesh["outline"], mesh["holes"], mesh["edge_length"],
-                                mesh["min_angle"])
+                                mesh["min_angle"], mesh["interior"])
         except ArgumentError as error:  # the key at fault, by the argument's name
             raise scene.error(f"mesh.{error.argument}", str(error),
                               "a pattern CGAL can mesh") from None

@@ -241,9 +241,12 @@ GENERATOR_KEYS = {
                     "the pattern's boundary polygon, m (simple, at least 3 points)"),
         "holes": (_polygons, [], "holes: a list of polygons strictly inside the outline"),
         "edge_length": (_number(0, strict_minimum=True, unit="m"), 0.05,
-                        "longest edge of CGAL's constrained Delaunay mesh"),
+                        "longest edge of the mesh"),
         "min_angle": (_number(0, PATTERN_MAX_ANGLE, strict_minimum=True, unit="degrees"),
                       PATTERN_MIN_ANGLE, "smallest angle of the mesh"),
+        "interior": (_choice("lattice", "delaunay"), "lattice",
+                     "lattice: an equilateral lattice inside, CGAL along the edges; "
+                     "delaunay: CGAL's isotropic triangles throughout"),
         "plane": (_choice("xy", "xz"), "xy",
                   "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)"),
     },
