@@ -96,15 +96,18 @@ BAND_SETTLE_SECONDS = 120.0  # pseudo-time cap; the 41² cloth settles in ~55 s
 #: The inside of each mesh kind's pattern mesh (`pattern_mesh`'s interior); rows journaled
 #: before the lattice (issue 52) have none and are redone.
 INTERIORS = {"pattern": "lattice", "delaunay": "delaunay"}
-#: The summary's name of each (model, mesh) kind.
-KINDS = {("membrane", "pattern"): "membrane", ("membrane", "grid"): "membrane on an aligned grid",
-         ("membrane", "delaunay"): "membrane on a Delaunay mesh", ("springs", "pattern"): "springs"}
+#: The summary's name of each (model, mesh, membrane strain) kind.
+KINDS = {("membrane", "pattern", "smoothed"): "membrane",
+         ("membrane", "grid", "smoothed"): "membrane on an aligned grid",
+         ("membrane", "grid", "faces"): "membrane, the faces' strain, on an aligned grid",
+         ("membrane", "delaunay", "smoothed"): "membrane on a Delaunay mesh",
+         ("springs", "pattern", None): "springs"}
 
 
-def current(row, model, mesh):
-    """Whether a journaled row measured today's models: the smoothed membrane (issue 52) and
-    the mesh kind's pattern interior."""
-    return (row.get("membrane_strain") == ("smoothed" if model == "membrane" else None)
+def current(row, model, mesh, strain="smoothed"):
+    """Whether a journaled row measured today's models: the membrane's strain (smoothed since
+    issue 52, unless the row asks for the faces') and the mesh kind's pattern interior."""
+    return (row.get("membrane_strain") == (strain if model == "membrane" else None)
             and row.get("pattern_interior") == INTERIORS.get(mesh))
 
 
@@ -132,6 +135,10 @@ def sheet_runs(quick):
         if mesh == "delaunay":
             for edge in MESHES[model] if not quick else []:
                 add("mesh", model, edge_length=edge, mesh=mesh)
+            # and the faces' constant strain on the aligned grid: exact there, the reference
+            add("base", model, mesh="grid", membrane_strain="faces")
+            for edge in MESHES[model] if not quick else []:
+                add("mesh", model, edge_length=edge, mesh="grid", membrane_strain="faces")
             continue
         if model == "membrane":
             add("seed", model, mesh=mesh, seed=1)
@@ -400,7 +407,9 @@ def make(model, parameters, noise=NOISE):
                    mesh=parameters.get("mesh", "pattern"), seed=parameters.get("seed", 0))
     if model == "membrane":
         return yore.scenes.stretched_sheet(stretch="membrane", young_modulus=YOUNG,
-                                           poisson_ratio=POISSON, **options)
+                                           poisson_ratio=POISSON,
+                                           membrane_strain=parameters.get("membrane_strain"),
+                                           **options)
     return yore.scenes.stretched_sheet(stretch="springs", stretch_stiffness=YOUNG, **options)
 
 
@@ -547,10 +556,10 @@ def fit_exponent(rows, key):
 
 def summarize(rows, strokes, quick=False):
     out = {}
-    for (model, mesh), kind in KINDS.items():
+    for (model, mesh, strain), kind in KINDS.items():
         base_run = BASES[model] if not quick else QUICK_BASE
         mine = [r for r in rows if r["model"] == model and r.get("mesh", "pattern") == mesh
-                and r.get("seed", 0) == 0]
+                and r.get("seed", 0) == 0 and r.get("membrane_strain") == strain]
         if not mine:
             continue
         base = [r for r in mine if r["label"] in ("base", "B", "L", "strain", "mesh")]
@@ -569,6 +578,7 @@ def summarize(rows, strokes, quick=False):
         finest = [r["wavelength"] for r in meshes[-2:]]
         seeds = [(r, o) for r in mine for o in rows if o.get("seed", 0) != 0
                  and o["model"] == model and o.get("mesh", "pattern") == mesh
+                 and o.get("membrane_strain") == strain
                  and all(o[k] == r[k] for k in ("bending_modulus", "length", "strain",
                                                  "edge_length"))]
         out[kind] = {
@@ -700,7 +710,8 @@ def main(argv=None):
         row = journaled(args.out, run_name(model, parameters), args.resume,
                         lambda: sheet_run(label, model, parameters),
                         lambda r: not (r["flat"] and r["amplitude"] >= FLAT)
-                        and current(r, model, parameters["mesh"]))
+                        and current(r, model, parameters["mesh"],
+                                    parameters.get("membrane_strain", "smoothed")))
         row["label"] = label
         rows.append(row)
         print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "

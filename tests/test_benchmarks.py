@@ -997,13 +997,16 @@ def test_wrinkles_smoke(tmp_path):
         # energy, and from the same state with the faces' constant strain: on CGAL's Delaunay
         # mesh the smoothed strain leaves a small part of the faces' artificial bending; each
         # row records its pattern mesh's interior
-        assert r["membrane_strain"] == "smoothed"
+        assert r["membrane_strain"] == r.get("membrane_strain_asked", "smoothed") or (
+            r["mesh"] == "grid" and r["membrane_strain"] == "faces")
         assert r["tension"] > 0.0 and not r["judged"]
         assert r["pattern_interior"] == {"pattern": "lattice", "delaunay": "delaunay",
                                          "grid": None}[r["mesh"]]
         if r["mesh"] == "delaunay":
             assert r["artificial_bending_faces"] > 0.0
             assert abs(r["artificial_bending"]) < 0.5 * r["artificial_bending_faces"]
+        if r["membrane_strain"] == "faces":  # the reference: the same two readings
+            assert r["artificial_bending"] == r["artificial_bending_faces"]
     assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
         (m, n) for m in ("springs", "membrane") for n in (9, 13)}
     assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])

@@ -449,6 +449,40 @@ def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending(
     assert spurious_slope_squared(hinge, V, k) == pytest.approx(with_fit, rel=1e-9)
 
 
+def test_the_membrane_strain_can_be_chosen_and_is_what_a_state_restores():
+    # Cloth(..., membrane_strain="faces") with a bending model that keeps the rest state is the
+    # faces' constant strain: the same energy as that cloth's state restored without the key
+    # (which loads as faces), and its own state round-trips bit for bit; "smoothed" is the
+    # default there. Bad choices are one ValueError naming the key.
+    V, F = yore.grid_mesh(7, 6, width=0.3, height=0.25)
+    common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.3, masses=1e-3,
+                  bending="quadratic", bending_modulus=1e-4)
+    smoothed = yore.Cloth(V, F, **common)
+    faces = yore.Cloth(V, F, membrane_strain="faces", **common)
+    assert (smoothed.membrane_strain, faces.membrane_strain) == ("smoothed", "faces")
+    assert yore.Cloth(V, F, membrane_strain="smoothed", **common).membrane_strain == "smoothed"
+    X = V + np.random.default_rng(3).normal(0.0, 0.01, V.shape)
+    state = smoothed.state()
+    state.pop("membrane_strain")
+    restored = yore.Cloth.from_state(state)
+    for cloth in (smoothed, faces, restored):
+        cloth.positions = X
+    assert faces.energy(NO_GRAVITY)["membrane"] == restored.energy(NO_GRAVITY)["membrane"]
+    assert faces.energy(NO_GRAVITY)["membrane"] != smoothed.energy(NO_GRAVITY)["membrane"]
+    again = yore.Cloth.from_state(faces.state())
+    assert again.membrane_strain == "faces"
+    assert again.energy(NO_GRAVITY)["membrane"] == faces.energy(NO_GRAVITY)["membrane"]
+    for kwargs, message in [
+            (dict(common, membrane_strain="grid"), "membrane_strain must be"),
+            (dict(common, bending="springs", bending_modulus=None, membrane_strain="smoothed"),
+             "needs the rest state"),
+            (dict(masses=1e-3, membrane_strain="faces"), "is for stretch"),
+            (dict(common, membrane_strain=1), "membrane_strain must be")]:
+        with pytest.raises(yore.ArgumentError, match=message) as caught:
+            yore.Cloth(V, F, **kwargs)
+        assert caught.value.argument == "membrane_strain"
+
+
 @pytest.mark.parametrize("degrees", [0.0, 15.0, 30.0, 45.0, 90.0])
 def test_on_the_lattice_pattern_mesh_no_wrinkle_direction_has_interpolation_bending(degrees):
     # pattern_mesh's default interior is an equilateral lattice: every vertex's star is

@@ -170,7 +170,7 @@ edge, bending springs across every interior edge between the two opposite vertic
 
 Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.0, damping=0.0,
       drag=0.0, density=None, bending="springs", bending_modulus=None, stretch="springs",
-      young_modulus=None, poisson_ratio=None)
+      young_modulus=None, poisson_ratio=None, membrane_strain=None)
   vertices n×3 (m); faces f×3 integer indices; masses kg per vertex, a scalar (uniform, the
   paper's choice; 1e-3 when neither masses nor density is given) or an (n,) array (`mass`, its
   former name, still works for one version with a DeprecationWarning); density kg/m² instead of
@@ -192,6 +192,8 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
   default 0.3) resists stretching; the structural springs stay on every edge with 0 N/m, as the
   carriers of the rest edge lengths the membrane's rest triangles are laid out from (strokes,
   growth and smoothing edit them) and of the damping (stretch_stiffness must be left out or 0).
+  membrane_strain: None (the default: "smoothed" with bending "quadratic" or "hinge", else
+  "faces"), "smoothed" or "faces" (see the membrane_strain property).
   Raises ValueError on a bad mesh or value.)doc");
   {
     py::dict defaults;
@@ -210,7 +212,8 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
                        const py::object& drag_given, const py::object& density,
                        const py::object& bending_given, const py::object& bending_modulus,
                        const py::object& mass, const py::object& stretch_given,
-                       const py::object& young_modulus, const py::object& poisson_ratio) {
+                       const py::object& young_modulus, const py::object& poisson_ratio,
+                       const py::object& membrane_strain) {
              const double damping = real_argument(damping_given, "damping");
              const double drag = real_argument(drag_given, "drag");
              const std::string bending = text_argument(
@@ -262,8 +265,23 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
              const Positions v = to_rows3(vertices, "vertices");
              const Faces f = to_faces(faces);
              const Eigen::VectorXd vertex_mass = vertex_masses(given, density, v, &f);
-             return Cloth(v, f, vertex_mass, stretch_value, stiffness, damping, drag, model,
-                          modulus, membrane);
+             Cloth cloth(v, f, vertex_mass, stretch_value, stiffness, damping, drag, model,
+                         modulus, membrane);
+             if (!membrane_strain.is_none()) {
+               const std::string strain = text_argument(membrane_strain, "membrane_strain",
+                                                        "\"smoothed\" or \"faces\"");
+               if (strain != "smoothed" && strain != "faces") {
+                 throw InvalidArgument(
+                     "membrane_strain must be \"smoothed\" or \"faces\", got \"" + strain + "\"",
+                     "membrane_strain");
+               }
+               try {
+                 cloth.set_membrane_smoothed(strain == "smoothed");
+               } catch (const std::invalid_argument& error) {
+                 throw InvalidArgument(error.what(), "membrane_strain");
+               }
+             }
+             return cloth;
            }),
            py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("masses") = py::none(),
            py::arg("stretch_stiffness") = py::none(), py::arg("bend_stiffness") = py::none(),
@@ -271,7 +289,8 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
            py::arg("density") = py::none(),
            py::arg("bending") = "springs", py::arg("bending_modulus") = py::none(),
            py::arg("mass") = py::none(), py::arg("stretch") = "springs",
-           py::arg("young_modulus") = py::none(), py::arg("poisson_ratio") = py::none())
+           py::arg("young_modulus") = py::none(), py::arg("poisson_ratio") = py::none(),
+           py::arg("membrane_strain") = py::none())
       .def_static(
           "from_springs",
           [](const py::handle& vertices, const py::handle& edges, const py::object& rest_lengths,
@@ -372,10 +391,12 @@ version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc
             return py::str(c.has_smoothed_membrane() ? "smoothed" : "faces");
           },
           R"doc(How the membrane reads strain: "smoothed" (at each vertex the area-weighted
-mean of its faces' deformation gradients, the faces keeping 1 %: the default with bending
-"quadratic" or "hinge"), "faces" (constant-strain triangles: with
-bending springs, which keep no rest state, or restored from a state saved before the fitted
-strain), None without a membrane.)doc")
+mean of its faces' deformation gradients, with a penalty on each face's deviating from it: the
+default with bending "quadratic" or "hinge"; no interpolation bending on point-symmetric stars,
+a low-pass of ~0.25 (kh)² on short waves), "faces" (constant-strain triangles: with bending
+springs, which keep no rest state, chosen by Cloth(..., membrane_strain="faces"), or restored
+from a state saved before the smoothed strain; exact along a lattice's rows, an artificial
+bending ~0.02 h² × tension across them), None without a membrane.)doc")
       .def(
           "membrane_status",
           [](const Cloth& cloth) {

@@ -347,6 +347,20 @@ const MembraneFaces& Cloth::membrane_faces() const {
   return m_membrane_faces;
 }
 
+void Cloth::set_membrane_smoothed(bool smoothed) {
+  if (!has_membrane()) {
+    throw std::invalid_argument("membrane_strain is for stretch=\"membrane\"");
+  }
+  if (smoothed && !is_quadratic(m_bending)) {
+    throw std::invalid_argument(
+        "membrane_strain=\"smoothed\" needs the rest state a bending model keeps: "
+        "bending=\"quadratic\" or \"hinge\"");
+  }
+  if (smoothed == m_membrane_smoothed) return;
+  m_membrane_smoothed = smoothed;
+  ++m_topology_version;
+}
+
 const MembraneElements& Cloth::membrane_elements() const {
   if (!has_membrane()) {
     build_membrane_elements(Faces(0, 3), MembraneFaces{}, m_springs, nullptr, m_membrane_elements);

@@ -185,10 +185,13 @@ def lattice_pattern_mesh(outline, holes, edge_length, min_angle, max_vertices):
         if len(tri) == 0:
             return None
         pieces, split = [], set()
-        for region, inner in _strips(outline, holes, tri, lattice):
-            points, faces, _ = _core.pattern_mesh(region, inner, edge_length, min_angle,
-                                                  max_vertices)
-            pieces.append((points, faces))
+        try:
+            for region, inner in _strips(outline, holes, tri, lattice):
+                points, faces, _ = _core.pattern_mesh(region, inner, edge_length, min_angle,
+                                                      max_vertices)
+                pieces.append((points, faces))
+        except _core.ArgumentError:
+            return None  # a strip CGAL refuses (the pattern itself passed): CGAL throughout
         boundary = _boundary(tri)
         split = _split_edges(boundary, lattice, pieces)
         if not split:

@@ -41,15 +41,17 @@ def _bending_arguments(bending, bend_stiffness, bending_modulus):
     return arguments
 
 
-def _stretch_arguments(stretch, stretch_stiffness, young_modulus, poisson_ratio):
+def _stretch_arguments(stretch, stretch_stiffness, young_modulus, poisson_ratio,
+                       membrane_strain=None):
     """Cloth keywords of the scenes' stretch choice: structural springs of stretch_stiffness
-    (default STIFFNESS), or a membrane of young_modulus and poisson_ratio; Cloth checks the
-    combination."""
-    if stretch == "springs" and young_modulus is None and poisson_ratio is None:
+    (default STIFFNESS), or a membrane of young_modulus and poisson_ratio (and its strain);
+    Cloth checks the combination."""
+    if (stretch == "springs" and young_modulus is None and poisson_ratio is None
+            and membrane_strain is None):
         return {"stretch_stiffness": STIFFNESS if stretch_stiffness is None
                 else stretch_stiffness}
     arguments = {"stretch": stretch, "young_modulus": young_modulus,
-                 "poisson_ratio": poisson_ratio}
+                 "poisson_ratio": poisson_ratio, "membrane_strain": membrane_strain}
     if stretch_stiffness is not None:
         arguments["stretch_stiffness"] = stretch_stiffness
     return arguments
@@ -59,7 +61,7 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
                   stretch_stiffness=None, bend_stiffness=None, damping=DAMPING,
                   drag=DRAG, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                   bending="springs", bending_modulus=None, stretch="springs",
-                  young_modulus=None, poisson_ratio=None, mesh="grid",
+                  young_modulus=None, poisson_ratio=None, mesh="grid", membrane_strain=None,
                   **options) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
@@ -77,7 +79,8 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     paper's, default), "quadratic" (fitted, the same on any mesh) or "hinge" (Bergou et al.
     2006) with bending_modulus, N·m (see `yore.Cloth`); rest shape = the flat pattern.
     stretch : "springs" (the paper's, default) or "membrane" (St. Venant–Kirchhoff triangles)
-    with young_modulus, N/m, and poisson_ratio.
+    with young_modulus, N/m, and poisson_ratio; membrane_strain "smoothed" or "faces" (default:
+    `yore.Cloth`'s choice).
     mesh : "grid" (`grid_mesh`, resolution × resolution vertices, default), "pattern" (a
     `pattern_mesh` of the square whose longest edge is the grid's diagonal, √2 · size /
     (resolution − 1), about as many vertices: an equilateral lattice inside, CGAL's triangles
@@ -104,7 +107,7 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
     cloth = Cloth(pattern, F, masses=_per_vertex(mass, len(pattern)), damping=damping,
                   drag=drag, **_bending_arguments(bending, bend_stiffness, bending_modulus),
                   **_stretch_arguments(stretch, stretch_stiffness, young_modulus,
-                                       poisson_ratio))
+                                       poisson_ratio, membrane_strain))
     gathered = pattern.copy()
     gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
     cloth.positions = gathered
@@ -123,7 +126,8 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
                       bend_stiffness=None, damping=DAMPING, drag=DRAG,
                       integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
                       bending="springs", bending_modulus=None, stretch="springs",
-                      young_modulus=None, poisson_ratio=None, **options) -> Simulation:
+                      young_modulus=None, poisson_ratio=None, membrane_strain=None,
+                      **options) -> Simulation:
     """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
 
     The tube's axis is y, from y = 0 to y = height; the top rim is driven: it turns about the
@@ -139,7 +143,7 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
     cloth = Cloth(V, F, masses=_per_vertex(mass, len(V)), damping=damping, drag=drag,
                   **_bending_arguments(bending, bend_stiffness, bending_modulus),
                   **_stretch_arguments(stretch, stretch_stiffness, young_modulus,
-                                       poisson_ratio))
+                                       poisson_ratio, membrane_strain))
     rim = cylinder_ring(rings, segments, -1)
     cloth.drive_rotation(rim, center=(0.0, height, 0.0), axis=(0.0, 1.0, 0.0), omega=omega)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
@@ -154,7 +158,7 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
                     young_modulus=1e4, poisson_ratio=0.5, stretch_stiffness=None,
                     bending_modulus=1e-4, density=0.1, noise=1e-5, seed=0,
                     integrator=DEFAULT_INTEGRATOR, dt=None, mesh="pattern",
-                    **options) -> Simulation:
+                    membrane_strain=None, **options) -> Simulation:
     """A sheet clamped along its two short edges and stretched (Cerda & Mahadevan 2003's
     setting, where Poisson contraction held back by the clamps compresses the middle across the
     width and wrinkles along the length may form).
@@ -170,7 +174,8 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
     clamped (fixed) there, and ``noise`` m (RMS, seeded) of random height so that a flat state that is not stable can
     leave it. No gravity. Bending is quadratic (``bending_modulus``, N·m); stretching is the
     membrane (``young_modulus`` N/m, ``poisson_ratio``, the default) or springs (``stretch =
-    "springs"`` with ``stretch_stiffness``). Area density kg/m². Relax it with
+    "springs"`` with ``stretch_stiffness``); ``membrane_strain`` "smoothed" (the default) or
+    "faces" (see `yore.Cloth`). Area density kg/m². Relax it with
     ``sim.settle(...)``; Cerda & Mahadevan's wavelength is
     ``(2π length)^½ (4 B / (Y strain))^¼`` for a sheet of 2-D modulus Y.
 
@@ -198,7 +203,8 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
                   bending_modulus=bending_modulus,
                   **_stretch_arguments(stretch, stretch_stiffness,
                                        young_modulus if stretch == "membrane" else None,
-                                       poisson_ratio if stretch == "membrane" else None))
+                                       poisson_ratio if stretch == "membrane" else None,
+                                       membrane_strain))
     start = V.copy()
     start[:, 0] *= 1.0 + strain
     start[:, 2] = np.random.default_rng(seed).normal(0.0, noise, len(V))

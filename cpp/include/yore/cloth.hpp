@@ -317,6 +317,11 @@ class Cloth {
   /// bending springs, or restored from a state saved before the smoothed strain, the faces'
   /// constant strain alone.
   bool has_smoothed_membrane() const { return has_membrane() && m_membrane_smoothed; }
+  /// Chooses the membrane's strain: smoothed (needs a membrane and bending "quadratic" or
+  /// "hinge") or the faces' constant strain (needs a membrane). A change counts as a change of
+  /// topology (the elements, and every integrator's matrix pattern, are rebuilt). Throws
+  /// std::invalid_argument otherwise.
+  void set_membrane_smoothed(bool smoothed);
   /// The membrane's elements at the current rest lengths (empty without a membrane): rebuilt
   /// when the topology or a rest length changed since the last call.
   const MembraneElements& membrane_elements() const;
