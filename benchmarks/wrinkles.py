@@ -2,7 +2,7 @@
 (2003) for the spring lattice and for the membrane side by side, and the paper's hanging-cloth
 stroke at three resolutions.
 
-    python -m benchmarks.wrinkles [--out bench-results] [--quick] [--resume]
+    python -m benchmarks.wrinkles [--out bench-results] [--quick] [--resume | --collect]
 
 One thread. `yore.scenes.stretched_sheet`: a length × width sheet on a pattern mesh (the
 default `pattern_mesh`: an equilateral lattice with rows along the length inside, CGAL along the
@@ -100,6 +100,7 @@ INTERIORS = {"pattern": "lattice", "delaunay": "delaunay"}
 KINDS = {("membrane", "pattern", "smoothed"): "membrane",
          ("membrane", "grid", "smoothed"): "membrane on an aligned grid",
          ("membrane", "grid", "faces"): "membrane, the faces' strain, on an aligned grid",
+         ("membrane", "pattern", "faces"): "membrane, the faces' strain",
          ("membrane", "delaunay", "smoothed"): "membrane on a Delaunay mesh",
          ("springs", "pattern", None): "springs"}
 
@@ -135,10 +136,13 @@ def sheet_runs(quick):
         if mesh == "delaunay":
             for edge in MESHES[model] if not quick else []:
                 add("mesh", model, edge_length=edge, mesh=mesh)
-            # and the faces' constant strain on the aligned grid: exact there, the reference
-            add("base", model, mesh="grid", membrane_strain="faces")
-            for edge in MESHES[model] if not quick else []:
-                add("mesh", model, edge_length=edge, mesh="grid", membrane_strain="faces")
+            # and the faces' constant strain on the aligned grid (exact there: the reference)
+            # and on the pattern mesh (exact along the lattice's rows, not in its edge strip)
+            for faces_mesh in ("grid", "pattern"):
+                add("base", model, mesh=faces_mesh, membrane_strain="faces")
+                for edge in MESHES[model] if not quick else []:
+                    add("mesh", model, edge_length=edge, mesh=faces_mesh,
+                        membrane_strain="faces")
             continue
         if model == "membrane":
             add("seed", model, mesh=mesh, seed=1)
@@ -630,12 +634,16 @@ def journal_path(out, name):
     return Path(out) / "wrinkles-runs" / f"{name}.json"
 
 
-def journaled(out, name, resume, compute, still_good=lambda value: True):
+def journaled(out, name, resume, compute, still_good=lambda value: True, collect=False):
+    """The journaled run `name` if resuming (or collecting) and it is still good, else
+    compute() journaled atomically; with collect, None instead of computing."""
     path = journal_path(out, name)
-    if resume and path.exists():
+    if (resume or collect) and path.exists():
         value = json.loads(path.read_text(encoding="utf-8"))
         if still_good(value):
             return value
+    if collect:
+        return None
     value = compute()
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_suffix(".tmp")
@@ -698,8 +706,13 @@ def draw(rows, strokes, path):
 
 
 def main(argv=None):
-    args = common.arguments(__doc__, argv, extra=lambda parser: parser.add_argument(
-        "--resume", action="store_true", help="skip the runs already journaled in --out"))
+    def extra(parser):
+        parser.add_argument("--resume", action="store_true",
+                            help="skip the runs already journaled in --out")
+        parser.add_argument("--collect", action="store_true",
+                            help="run nothing: write the results of the runs journaled so far "
+                                 "(today's models only)")
+    args = common.arguments(__doc__, argv, extra=extra)
     yore.set_num_threads(1)
     rows = []
     for label, model, parameters in sheet_runs(args.quick):
@@ -711,7 +724,10 @@ def main(argv=None):
                         lambda: sheet_run(label, model, parameters),
                         lambda r: not (r["flat"] and r["amplitude"] >= FLAT)
                         and current(r, model, parameters["mesh"],
-                                    parameters.get("membrane_strain", "smoothed")))
+                                    parameters.get("membrane_strain", "smoothed")),
+                        args.collect)
+        if row is None:
+            continue
         row["label"] = label
         rows.append(row)
         print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "
@@ -726,9 +742,11 @@ def main(argv=None):
     strokes = []
     for model in ("springs", "membrane"):
         for resolution in (QUICK_STROKE_RESOLUTIONS if args.quick else STROKE_RESOLUTIONS):
-            strokes.append(journaled(args.out, f"stroke-{model}-{resolution}", args.resume,
-                                     lambda: stroke_run(model, resolution, args.quick)))
-            s = strokes[-1]
+            s = journaled(args.out, f"stroke-{model}-{resolution}", args.resume,
+                          lambda: stroke_run(model, resolution, args.quick), collect=args.collect)
+            if s is None:
+                continue
+            strokes.append(s)
             print(f"  stroke {model} {resolution}: measure {s['wrinkle_measure']:.3e}, fold "
                   f"depth {s['fold_depth']:.3e}", flush=True)
     bands = []
@@ -736,10 +754,12 @@ def main(argv=None):
         for resolution in (QUICK_BAND_RESOLUTIONS if args.quick else BAND_RESOLUTIONS):
             # a band journaled before the smoothed strain or the lattice is redone (its
             # membrane or mesh is not today's)
-            bands.append(journaled(args.out, f"band-{mesh}-{resolution}", args.resume,
-                                   lambda: band_run(mesh, resolution, args.quick),
-                                   lambda b: current(b, "membrane", mesh)))
-            b = bands[-1]
+            b = journaled(args.out, f"band-{mesh}-{resolution}", args.resume,
+                          lambda: band_run(mesh, resolution, args.quick),
+                          lambda b: current(b, "membrane", mesh), args.collect)
+            if b is None:
+                continue
+            bands.append(b)
             print(f"  band stroke {mesh} {resolution}: fold depth {b['fold_depth']:.3e}, "
                   f"measure {b['wrinkle_measure']:.3e}, area × {b['area_gain']:.3f}, "
                   f"{b['cpu_seconds']:.0f} s", flush=True)
