@@ -490,7 +490,8 @@ def wrinkles_section(payload: dict, images: str) -> list:
     out = ["## Wrinkles: physics or mesh", "", f"![wrinkles]({images}/wrinkles.png)", "",
            "`benchmarks/wrinkles.py`, one thread: `yore.scenes.stretched_sheet` (Cerda & "
            f"Mahadevan's setting) {base['length']:g} m × {base['width']:g} m, clamped along its "
-           f"short edges and stretched {100 * base['strain']:g} %, on a CGAL pattern mesh "
+           f"short edges and stretched {100 * base['strain']:g} %, on a pattern mesh (an "
+           "equilateral lattice inside, CGAL along the edges) "
            "(base runs: " + "; ".join(
                f"{model} B = {b['bending_modulus']:g} N·m, longest edge {b['edge_length']:g} m"
                for model, b in settings["bases"].items()) + "), "
@@ -502,8 +503,9 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "affine strain). Flat-state stable: the flat stretched state's true Hessian is "
            "positive definite; compression: the membrane's largest S_yy there over the middle "
            "fifth of the length (N/m).", "",
-           "Since issue 52 also per run: the mesh (CGAL pattern or a grid aligned with the "
-           "sheet) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
+           "Since issue 52 also per run: the mesh (pattern, CGAL's Delaunay mesh throughout, "
+           "or a grid aligned with the sheet), the membrane's strain (the faces', the default, "
+           "or smoothed) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
            "the interpolation's artificial modulus B_art over B (the flat state's tension "
            "charging a wrinkle's spurious slope along the length; measured on the library's "
            "own energy since the smoothed strain, for the membrane as built and for the same "
@@ -512,7 +514,7 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "are fitted on judged rows only (rows without these columns predate it; rows "
            "from before the smoothed strain show the former membrane's B_art and no faces' "
            "column).", "",
-           "| run | model | mesh, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
+           "| run | model | mesh, strain, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
            "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
            "realised B / B | B_art / B | B_art / B, faces' strain | judged | CPU s |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -530,7 +532,8 @@ def wrinkles_section(payload: dict, images: str) -> list:
         remedy = ("–" if r.get("artificial_bending_faces") is None
                   else f"{r['artificial_bending_faces'] / r['bending_modulus']:.2g}")
         judged = "–" if "judged" not in r else ("yes" if r["judged"] else "no")
-        out.append(f"| {r['label']} | {r['model']} | {r.get('mesh', 'pattern')}, "
+        strain = f"{r['membrane_strain']}, " if r.get("membrane_strain") else ""
+        out.append(f"| {r['label']} | {r['model']} | {r.get('mesh', 'pattern')}, {strain}"
                    f"{r.get('seed', 0)} | {r['bending_modulus']:g} | "
                    f"{r['length']:g} | {r['strain']:g} | {r['mean_edge']:.4f} | {wavelength} | "
                    f"{r['predicted_wavelength']:.4f} | {ratio} | {r['amplitude']:.2e} | "
@@ -543,8 +546,8 @@ def wrinkles_section(payload: dict, images: str) -> list:
     def number(value, digits=2):
         return "–" if value is None else f"{value:.{digits}f}"
 
-    for model in [key for key in summary if key in ("membrane", "springs")
-                  or key.endswith("aligned grid")]:
+    for model in [key for key, value in summary.items()
+                  if isinstance(value, dict) and "exponents" in value]:
         m = summary[model]
         ratios = m["ratio_to_prediction"]
         spread = f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "–"

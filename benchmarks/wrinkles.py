@@ -21,7 +21,8 @@ artificial modulus B_art the piecewise-linear interpolation adds (a wrinkle z = 
 measured wavelength has a spurious slope along u in every triangle not aligned with u, which
 the flat state's tension S_uu charges like bending), measured from the library's own membrane
 energy (`membrane_artificial_bending`: a probe wrinkle over the middle half of the length, the
-continuum's energy subtracted) for the membrane as built (the smoothed strain, issue 52) and
+continuum's energy subtracted) for the membrane as built (the faces' strain by default, the
+smoothed strain in the rows that ask for it, issue 52) and
 for the same state with the faces' constant strain (what the membrane carried before), the
 tension, points per wavelength, the wrinkled zone's length along u, and whether the row is
 judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B). The membrane runs
@@ -97,17 +98,18 @@ BAND_SETTLE_SECONDS = 120.0  # pseudo-time cap; the 41² cloth settles in ~55 s
 #: before the lattice (issue 52) have none and are redone.
 INTERIORS = {"pattern": "lattice", "delaunay": "delaunay"}
 #: The summary's name of each (model, mesh, membrane strain) kind.
-KINDS = {("membrane", "pattern", "smoothed"): "membrane",
-         ("membrane", "grid", "smoothed"): "membrane on an aligned grid",
-         ("membrane", "grid", "faces"): "membrane, the faces' strain, on an aligned grid",
-         ("membrane", "pattern", "faces"): "membrane, the faces' strain",
-         ("membrane", "delaunay", "smoothed"): "membrane on a Delaunay mesh",
+KINDS = {("membrane", "pattern", "faces"): "membrane",
+         ("membrane", "grid", "faces"): "membrane on an aligned grid",
+         ("membrane", "delaunay", "faces"): "membrane on a Delaunay mesh",
+         ("membrane", "pattern", "smoothed"): "membrane, smoothed strain",
+         ("membrane", "grid", "smoothed"): "membrane, smoothed strain, on an aligned grid",
+         ("membrane", "delaunay", "smoothed"): "membrane, smoothed strain, on a Delaunay mesh",
          ("springs", "pattern", None): "springs"}
 
 
-def current(row, model, mesh, strain="smoothed"):
-    """Whether a journaled row measured today's models: the membrane's strain (smoothed since
-    issue 52, unless the row asks for the faces') and the mesh kind's pattern interior."""
+def current(row, model, mesh, strain="faces"):
+    """Whether a journaled row measured today's models: the membrane's strain (the faces', the
+    default, unless the row asks for the smoothed one) and the mesh kind's pattern interior."""
     return (row.get("membrane_strain") == (strain if model == "membrane" else None)
             and row.get("pattern_interior") == INTERIORS.get(mesh))
 
@@ -136,13 +138,14 @@ def sheet_runs(quick):
         if mesh == "delaunay":
             for edge in MESHES[model] if not quick else []:
                 add("mesh", model, edge_length=edge, mesh=mesh)
-            # and the faces' constant strain on the aligned grid (exact there: the reference)
-            # and on the pattern mesh (exact along the lattice's rows, not in its edge strip)
-            for faces_mesh in ("grid", "pattern"):
-                add("base", model, mesh=faces_mesh, membrane_strain="faces")
+            # and the smoothed strain (`membrane_strain="smoothed"`) on every mesh kind: no
+            # interpolation bending on point-symmetric stars in any direction, a low-pass of
+            # ~0.25 (kh)² (issue 52)
+            for smoothed_mesh in ("pattern", "grid", "delaunay"):
+                add("base", model, mesh=smoothed_mesh, membrane_strain="smoothed")
                 for edge in MESHES[model] if not quick else []:
-                    add("mesh", model, edge_length=edge, mesh=faces_mesh,
-                        membrane_strain="faces")
+                    add("mesh", model, edge_length=edge, mesh=smoothed_mesh,
+                        membrane_strain="smoothed")
             continue
         if model == "membrane":
             add("seed", model, mesh=mesh, seed=1)
@@ -392,7 +395,7 @@ def flat_state_check(model, parameters, wavelength):
         fifth = offset < 0.1 * parameters["length"]
         out["flat_state_compression"] = float(-S[fifth, 1, 1].min())
         out["tension"] = float(S[fifth, 0, 0].mean())
-        # B_art of the membrane as built (the smoothed strain, issue 52), and of the same state
+        # B_art of the membrane as built (faces or smoothed strain, issue 52), and of the same state
         # with the faces' constant strain (a state without "membrane_strain" loads so): what
         # the membrane carried before
         out["artificial_bending"] = membrane_artificial_bending(
@@ -724,7 +727,7 @@ def main(argv=None):
                         lambda: sheet_run(label, model, parameters),
                         lambda r: not (r["flat"] and r["amplitude"] >= FLAT)
                         and current(r, model, parameters["mesh"],
-                                    parameters.get("membrane_strain", "smoothed")),
+                                    parameters.get("membrane_strain", "faces")),
                         args.collect)
         if row is None:
             continue

@@ -284,7 +284,7 @@ def test_the_state_round_trips_and_a_saved_membrane_run_resumes_bit_for_bit(tmp_
     # goes on with the faces' constant strain it ran with, and bit for bit against such a run
     fitted = yore.scenes.hanging_cloth(resolution=7, stretch="membrane", young_modulus=1e3,
                                        bending="quadratic", bending_modulus=1e-4,
-                                       integrator="implicit")
+                                       integrator="implicit", membrane_strain="smoothed")
     fitted.step(2)
     fitted_state = fitted.cloth.state()
     assert fitted_state["membrane_strain"] == "smoothed"
@@ -386,13 +386,11 @@ def test_the_stretched_sheet_settles_and_the_spring_lattice_wrinkles():
     # Cerda & Mahadevan's setting on a pattern mesh: the flat stretched state is a saddle for
     # the spring lattice (its compressed springs buckle); both models settle to a stable rest.
     # (Whether the membrane wrinkles here is not asserted: its wrinkles, λ ≈ 12 mm at this B,
-    # are not resolved by 3 cm edges. Before the smoothed strain it stayed flat because the
-    # interpolation's artificial bending stiffened it; benchmarks/wrinkles.py measures the
-    # resolved case.)
+    # are not resolved by 3 cm edges; benchmarks/wrinkles.py measures the resolved case.)
     kwargs = dict(length=0.6, width=0.3, edge_length=0.03, bending_modulus=1e-5)
     springs = yore.scenes.stretched_sheet(stretch="springs", stretch_stiffness=1e4, **kwargs)
     membrane = yore.scenes.stretched_sheet(stretch="membrane", young_modulus=1e4, **kwargs)
-    assert membrane.cloth.membrane_strain == "smoothed"
+    assert membrane.cloth.membrane_strain == "faces"  # the default
     assert np.array_equal(springs.scene["clamped"], membrane.scene["clamped"])
     uv = springs.scene["uv"]
     assert set(np.round(uv[springs.scene["clamped"], 0], 12)) == {0.0, 0.6}
@@ -427,7 +425,7 @@ def spurious_slope_squared(cloth, V, k, amplitude=1e-6):
 def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending():
     # Issue 52: on CGAL's irregular triangles the constant-strain faces charge a wrinkle
     # running along the tension for a slope it does not have (ε² 2.7e-3 here, at 12 points a
-    # wavelength); the smoothed strain (the default with quadratic bending) 3.5 % of that (its
+    # wavelength); the smoothed strain (membrane_strain="smoothed") 3.5 % of that (its
     # penalty against hourglass modes adds nothing at second order in the amplitude; a 50 %
     # share of the faces' energy, tried instead, brought back half). Bending springs keep no
     # rest state: their membrane is the faces'.
@@ -437,8 +435,10 @@ def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending(
     common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0,
                   bend_stiffness=0.0, masses=1e-3)
     faces = yore.Cloth(V, F, bending="springs", **common)
-    fitted = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0, **common)
-    hinge = yore.Cloth(V, F, bending="hinge", bending_modulus=0.0, **common)
+    fitted = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0,
+                        membrane_strain="smoothed", **common)
+    hinge = yore.Cloth(V, F, bending="hinge", bending_modulus=0.0, membrane_strain="smoothed",
+                       **common)
     assert (faces.membrane_strain, fitted.membrane_strain, hinge.membrane_strain) == (
         "faces", "smoothed", "smoothed")
     k = 2 * np.pi / 0.15
@@ -452,15 +452,15 @@ def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending(
 def test_the_membrane_strain_can_be_chosen_and_is_what_a_state_restores():
     # Cloth(..., membrane_strain="faces") with a bending model that keeps the rest state is the
     # faces' constant strain: the same energy as that cloth's state restored without the key
-    # (which loads as faces), and its own state round-trips bit for bit; "smoothed" is the
-    # default there. Bad choices are one ValueError naming the key.
+    # (which loads as faces), and its own state round-trips bit for bit; "faces" is the
+    # default. Bad choices are one ValueError naming the key.
     V, F = yore.grid_mesh(7, 6, width=0.3, height=0.25)
     common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.3, masses=1e-3,
                   bending="quadratic", bending_modulus=1e-4)
-    smoothed = yore.Cloth(V, F, **common)
+    smoothed = yore.Cloth(V, F, membrane_strain="smoothed", **common)
     faces = yore.Cloth(V, F, membrane_strain="faces", **common)
     assert (smoothed.membrane_strain, faces.membrane_strain) == ("smoothed", "faces")
-    assert yore.Cloth(V, F, membrane_strain="smoothed", **common).membrane_strain == "smoothed"
+    assert yore.Cloth(V, F, **common).membrane_strain == "faces"
     X = V + np.random.default_rng(3).normal(0.0, 0.01, V.shape)
     state = smoothed.state()
     state.pop("membrane_strain")
@@ -498,11 +498,13 @@ def test_on_the_lattice_pattern_mesh_no_wrinkle_direction_has_interpolation_bend
     V = np.column_stack([(V[:, :2] - 0.3) @ rotation.T, np.zeros(len(V))])
     common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0,
                   bend_stiffness=0.0, masses=1e-3)
-    smoothed = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0, **common)
+    smoothed = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0,
+                          membrane_strain="smoothed", **common)
     D, G = yore.pattern_mesh([[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125,
                              interior="delaunay")
     D = np.column_stack([D[:, :2], np.zeros(len(D))])
-    on_delaunay = yore.Cloth(D, G, bending="quadratic", bending_modulus=0.0, **common)
+    on_delaunay = yore.Cloth(D, G, bending="quadratic", bending_modulus=0.0,
+                             membrane_strain="smoothed", **common)
     k = 2 * np.pi / 0.15
     with_lattice = spurious_slope_squared(smoothed, V, k)
     assert abs(with_lattice) < 0.15 * spurious_slope_squared(on_delaunay, D, k)
@@ -521,7 +523,7 @@ def test_the_smoothed_strain_leaves_no_mesh_scale_strain_unresisted(integrator, 
     sim = yore.scenes.hanging_cloth(resolution=resolution, stretch="membrane",
                                     young_modulus=300.0, poisson_ratio=0.3,
                                     integrator=integrator, bending="quadratic",
-                                    bending_modulus=1e-4)
+                                    bending_modulus=1e-4, membrane_strain="smoothed")
     assert sim.cloth.membrane_strain == "smoothed"
     if stroke:
         sim.advance(0.2)

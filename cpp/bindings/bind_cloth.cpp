@@ -192,8 +192,8 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
   default 0.3) resists stretching; the structural springs stay on every edge with 0 N/m, as the
   carriers of the rest edge lengths the membrane's rest triangles are laid out from (strokes,
   growth and smoothing edit them) and of the damping (stretch_stiffness must be left out or 0).
-  membrane_strain: None (the default: "smoothed" with bending "quadratic" or "hinge", else
-  "faces"), "smoothed" or "faces" (see the membrane_strain property).
+  membrane_strain: "faces" (None, the default) or "smoothed" (needs bending "quadratic" or
+  "hinge"; see the membrane_strain property).
   Raises ValueError on a bad mesh or value.)doc");
   {
     py::dict defaults;
@@ -390,13 +390,13 @@ version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc
             if (!c.has_membrane()) return py::none();
             return py::str(c.has_smoothed_membrane() ? "smoothed" : "faces");
           },
-          R"doc(How the membrane reads strain: "smoothed" (at each vertex the area-weighted
-mean of its faces' deformation gradients, with a penalty on each face's deviating from it: the
-default with bending "quadratic" or "hinge"; no interpolation bending on point-symmetric stars,
-a low-pass of ~0.25 (kh)² on short waves), "faces" (constant-strain triangles: with bending
-springs, which keep no rest state, chosen by Cloth(..., membrane_strain="faces"), or restored
-from a state saved before the smoothed strain; exact along a lattice's rows, an artificial
-bending ~0.02 h² × tension across them), None without a membrane.)doc")
+          R"doc(How the membrane reads strain: "faces" (constant-strain triangles, the
+default: exact along a lattice's rows, an artificial bending ~0.02 h² × tension across them and
+on irregular meshes), "smoothed" (Cloth(..., membrane_strain="smoothed"), with bending
+"quadratic" or "hinge": at each vertex the area-weighted mean of its faces' deformation
+gradients, with a penalty on each face's deviating from it; no interpolation bending on
+point-symmetric stars in any direction, a low-pass of ~0.25 (kh)² on short waves), None
+without a membrane.)doc")
       .def(
           "membrane_status",
           [](const Cloth& cloth) {

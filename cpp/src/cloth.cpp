@@ -160,7 +160,7 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
   }
   m_faces = faces;
   m_membrane = membrane;
-  m_membrane_smoothed = is_quadratic(bending);
+  m_membrane_smoothed = false;  // the faces' strain unless set_membrane_smoothed (issue 52)
   m_stretch_stiffness = stretch_stiffness;
   m_bend_stiffness = bend_stiffness;
   m_spring_damping = damping;

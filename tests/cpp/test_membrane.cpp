@@ -266,9 +266,11 @@ yore_test::Mesh irregular_mesh(int nx, int ny, double width, double height) {
 }
 
 yore::Cloth smoothed_cloth(const yore_test::Mesh& mesh, const yore::MembraneMaterial& m) {
-  return yore::Cloth(mesh.positions, mesh.faces,
-                     Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01), 0.0, 0.0, 0.0, 0.0,
-                     yore::BendingModel::quadratic, 0.0, m);
+  yore::Cloth cloth(mesh.positions, mesh.faces,
+                    Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01), 0.0, 0.0, 0.0, 0.0,
+                    yore::BendingModel::quadratic, 0.0, m);
+  cloth.set_membrane_smoothed(true);
+  return cloth;
 }
 
 }  // namespace

@@ -312,10 +312,9 @@ class Cloth {
   /// Per face, the structural springs on its edges (empty without a membrane), rebuilt when the
   /// topology version changed since it was last built.
   const MembraneFaces& membrane_faces() const;
-  /// Whether the membrane reads the smoothed strain (membrane.hpp): every new cloth with a
-  /// membrane and a bending model that keeps the rest state ("quadratic" or "hinge"); with
-  /// bending springs, or restored from a state saved before the smoothed strain, the faces'
-  /// constant strain alone.
+  /// Whether the membrane reads the smoothed strain (membrane.hpp): chosen by
+  /// set_membrane_smoothed (it needs bending "quadratic" or "hinge", which keep the rest state)
+  /// or restored from a state; a new cloth reads the faces' constant strain.
   bool has_smoothed_membrane() const { return has_membrane() && m_membrane_smoothed; }
   /// Chooses the membrane's strain: smoothed (needs a membrane and bending "quadratic" or
   /// "hinge") or the faces' constant strain (needs a membrane). A change counts as a change of
