@@ -375,11 +375,22 @@ def test_scene_files_pass_the_membrane_on_and_name_bad_keys(tmp_path):
         ('stretch = "membrane"\nyoung_modulus = 800.0\npoisson_ratio = 1.0',
          "material.poisson_ratio"),
         ('stretch = "membrane"\nyoung_modulus = -1.0', "material.young_modulus"),
+        ('membrane_strain = "faces"', "material.membrane_strain"),  # springs
+        ('stretch = "membrane"\nyoung_modulus = 800.0\nmembrane_strain = "smoothed"',
+         "material.membrane_strain"),  # bending springs keep no rest state
+        ('stretch = "membrane"\nyoung_modulus = 800.0\nmembrane_strain = "fitted"',
+         "material.membrane_strain"),
     ]:
         path.write_text(SCENE.format(material=material))
         with pytest.raises(SceneError) as caught:
             load_scene(path).build()
         assert caught.value.key == key, material
+    # the strain is a material key: the faces' by default, smoothed when asked
+    chosen = 'stretch = "membrane"\nyoung_modulus = 800.0\nbending = "quadratic"\n' \
+             'bending_modulus = 1e-4'
+    for extra, strain in (("", "faces"), ('\nmembrane_strain = "smoothed"', "smoothed")):
+        path.write_text(SCENE.format(material=chosen + extra))
+        assert load_scene(path).build()[0].cloth.membrane_strain == strain
 
 
 def test_the_stretched_sheet_settles_and_the_spring_lattice_wrinkles():

@@ -631,6 +631,11 @@ def _gravity(state):
     ({}, _gravity, 0.1, "simulation.gravity", "[0.0, -9.81, 0.0]", "[0.0, -1.62, 0.0]"),
     ({"material": "mass_per_vertex = 0.01"}, _edit_array("masses", 7, 2.0), 0.03,
      "material.mass_per_vertex", "0.01", "0.02"),
+    # the membrane's strain (issue 52): a state switched to the smoothed strain
+    ({"material": 'stretch = "membrane"\nyoung_modulus = 100.0\nbending = "quadratic"\n'
+                  'bending_modulus = 1e-4'},
+     _edit_cloth("membrane_strain", "smoothed"), 0.1, "material.membrane_strain", "'faces'",
+     "'smoothed'"),
 ])
 def test_a_state_whose_settings_were_edited_is_refused_naming_both_values(
         tmp_path, capsys, scene, edit, until, key, expected, got):

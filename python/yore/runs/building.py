@@ -35,7 +35,7 @@ def _boundary_vertices(F):
 
 #: The Cloth arguments that are scene keys of [material] by the same name.
 MATERIAL_ARGUMENTS = ("stretch_stiffness", "bend_stiffness", "bending_modulus", "damping", "drag",
-                      "young_modulus", "poisson_ratio")
+                      "young_modulus", "poisson_ratio", "membrane_strain")
 
 
 def build_simulation(scene):
@@ -133,7 +133,8 @@ def _build_cloth(scene, pattern, F, uv):
             else {"bend_stiffness": material["bend_stiffness"]})
         stretch_arguments = (
             {"stretch": "membrane", "young_modulus": material["young_modulus"],
-             "poisson_ratio": material["poisson_ratio"]}
+             "poisson_ratio": material["poisson_ratio"],
+             "membrane_strain": material.get("membrane_strain")}
             if material["stretch"] == "membrane"
             else {"stretch_stiffness": material["stretch_stiffness"]})
         cloth = Cloth(pattern, F, damping=material["damping"], drag=material["drag"],

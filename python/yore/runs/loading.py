@@ -477,8 +477,8 @@ def _check_stretch(scene, material, given):
         material.pop("stretch_stiffness", None)
         material.setdefault("poisson_ratio", POISSON_RATIO)
     else:
-        for key in ("young_modulus", "poisson_ratio"):
-            if key in material:
+        for key in ("young_modulus", "poisson_ratio", "membrane_strain"):
+            if material.get(key) is not None:
                 raise scene.error(f"material.{key}", "given with stretch = \"springs\"",
                                   "stretch = \"membrane\", or stretch_stiffness for the "
                                   "springs")

@@ -249,6 +249,10 @@ def _check_material(material, cloth, strokes_done, fail):
     if membrane:
         constants.update(young_modulus=state["young_modulus"],
                          poisson_ratio=state["poisson_ratio"])
+        strain = state.get("membrane_strain") or "faces"
+        if (material.get("membrane_strain") or "faces") != strain:
+            fail("material.membrane_strain", "cloth.membrane_strain",
+                 material.get("membrane_strain") or "faces", strain)
     else:
         constants["stretch_stiffness"] = state["stretch_stiffness"]
     if quadratic:

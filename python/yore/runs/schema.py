@@ -305,6 +305,10 @@ SCHEMA = {
                           "stretch = membrane)"),
         "poisson_ratio": (_number(-1, 1, strict_minimum=True, strict_maximum=True), None,
                           "the membrane's Poisson's ratio (default 0.3)"),
+        "membrane_strain": (_choice("faces", "smoothed"), None,
+                            "the membrane's strain: the faces' (default) or smoothed at the "
+                            "vertices (with quadratic or hinge bending; for tension across "
+                            "the mesh's rows)"),
         "bend_stiffness": (_number(0, unit="N/m"), None,
                            f"bending springs (default {STIFFNESS:g}; 0: none; not with quadratic "
                            "bending)"),
