@@ -247,9 +247,10 @@ def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGL
 
     By default (``interior="lattice"``) the inside is an equilateral lattice of side
     0.7 × ``edge_length`` with rows along u (the grain), and a strip along the pattern's edges
-    (0.75–1.6 sides wide) is meshed by CGAL's 2-D constrained Delaunay mesher. Every lattice
-    vertex's star is point-symmetric, so the membrane's smoothed strain has no interpolation
-    bending there in any direction (issue 52; docs/limitations.md). ``interior="delaunay"``
+    (0.75–1.6 sides wide) is meshed by CGAL's 2-D constrained Delaunay mesher. A membrane's
+    faces read a wrinkle along the rows exactly, and every lattice vertex's star is
+    point-symmetric, so its smoothed strain has no interpolation bending there in any direction
+    (issue 52; docs/limitations.md). ``interior="delaunay"``
     meshes the whole pattern with CGAL: isotropic triangles with no preferred directions, whose
     interpolation adds a bending modulus of ~0.0007 h² × the tension to the smoothed membrane
     (~0.018 h² to constant-strain faces). A pattern too small for one lattice triangle away
