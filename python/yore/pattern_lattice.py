@@ -184,7 +184,7 @@ def lattice_pattern_mesh(outline, holes, edge_length, min_angle, max_vertices):
     for _ in range(LATTICE_ROUNDS):
         if len(tri) == 0:
             return None
-        pieces, split = [], set()
+        pieces = []
         try:
             for region, inner in _strips(outline, holes, tri, lattice):
                 points, faces, _ = _core.pattern_mesh(region, inner, edge_length, min_angle,

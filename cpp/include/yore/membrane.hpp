@@ -76,8 +76,9 @@ double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Membr
 /// The smoothed strain (issue 52). A face's constant strain sees the piecewise-linear
 /// interpolant's gradient, which on a triangle not aligned with a wrinkle has a spurious slope
 /// across it (of order h k² times the amplitude); the membrane's tension charges that slope
-/// like bending, an artificial modulus ∝ h² S that set the wavelength on pattern meshes. With
-/// the rest state known (Cloth keeps it for its bending model) the membrane reads instead, at
+/// like bending, an artificial modulus ∝ h² S that set the wavelength on CGAL's meshes. When
+/// asked (Cloth::set_membrane_smoothed; it needs the rest state Cloth keeps for its bending
+/// model; the faces' strain is the default, exact along a lattice's rows) the membrane reads, at
 /// each vertex p, the area-weighted mean of its faces' gradients (nodal strain smoothing:
 /// the faces' spurious slopes, of alternating sign around p, largely cancel), and charges
 ///   E = (1 − s) Σ_p A_p W(F_p) + s Σ_faces A_f W(F_f),      s = kMembraneFaceShare (0),
@@ -187,7 +188,6 @@ struct MembraneElementWork {
   std::vector<Vec3> directions;  ///< per corner, F d_k
   /// ∂gradient_p/∂x_q for q ≤ p at p(p+1)/2 + q (N/m), the stress term filtered (membrane_face)
   std::vector<Mat3> blocks;
-  std::vector<std::ptrdiff_t> in_face;  ///< per corner, its place in a subcell (−1: none)
 };
 
 /// Energy (J) of element e at positions x; with_gradient fills work.gradient, with_hessian
