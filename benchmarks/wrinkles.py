@@ -21,18 +21,18 @@ artificial modulus B_art the piecewise-linear interpolation adds (a wrinkle z = 
 measured wavelength has a spurious slope along u in every triangle not aligned with u, which
 the flat state's tension S_uu charges like bending), measured from the library's own membrane
 energy (`membrane_artificial_bending`: a probe wrinkle over the middle half of the length, the
-continuum's energy subtracted) for the membrane as built (the faces' strain by default, the
-smoothed strain in the rows that ask for it, issue 52) and
-for the same state with the faces' constant strain (what the membrane carried before), the
-tension, points per wavelength, the wrinkled zone's length along u, and whether the row is
-judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B). The membrane runs
+continuum's energy subtracted) on the same mesh under a uniform tension along u scaled to the
+run's (`tension_artificial_bending`; the flat state's probe, which also charges the
+compression deficit, is kept beside it for the membrane as built and for the faces' constant
+strain), the tension, points per wavelength, the wrinkled zone's length along u, and whether
+the row is judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B). The membrane runs
 on pattern meshes and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no
 spurious slope), each base also from a second seed, and on Delaunay meshes (the base and the
 mesh sizes). The prediction is Cerda & Mahadevan's
 λ = (2π L)^½ (4 B / (Y γ))^¼ from the model's own Y: the membrane's, or the lattice's under an affine strain (the moduli of the
 spring lattice from the energies of three small affine strains; an upper bound, since its
 nodes may relax). Exponents of λ in B (16×), L (4×) and γ (4×) are fitted over the judged
-runs only, per mesh kind. The stroke rows: `hanging_cloth` at resolutions 21, 31, 41,
+runs only, per mesh kind, each value on its finest judged mesh. The stroke rows: `hanging_cloth` at resolutions 21, 31, 41,
 springs and a membrane of the grid lattice's affine Y and ν, simulated 1 s, stroked along
 v = 0.8 from u = 0.2 to 0.8 (the paper's stroke across the folds near the top), simulated 1 s
 more: the wrinkle measure of the stroke's region and its fold depth (range of the wrinkle
@@ -155,6 +155,8 @@ def sheet_runs(quick):
         factors = (0.25, 1, 4) if model == "membrane" else (1, 4, 16)
         for factor in factors:
             add("B", model, bending_modulus=factor * B0, mesh=mesh)
+        if model == "membrane":  # the smallest B again on a mesh with 8 points a wavelength
+            add("B", model, bending_modulus=0.25 * B0, mesh=mesh, edge_length=0.003)
         for length in (0.5, 2.0):
             add("L", model, length=length, mesh=mesh)
         for strain in (0.05, 0.2):
@@ -375,6 +377,61 @@ def membrane_artificial_bending(cloth, uv, F, stress, wavelength, length):
     return float((quadratic - continuum) / (0.5 * k ** 4 * squared))
 
 
+def tension_artificial_bending(model, parameters, tension, wavelength):
+    """B_art (N·m) the judged rows are held to: what the interpolation's spurious slope along u
+    costs under the tension (issue 52's B_art ≈ c h² S_uu), without the compression deficit
+    the flat-state probe also holds. The same probe (`membrane_artificial_bending`) on the
+    same mesh, stretched uniformly by the run's strain along u and relaxed across (S_vv = 0,
+    S_uv = 0 exactly), scaled to the run's measured tension. Why the compression is left out:
+    the piecewise-linear interpolant reads ∫ z_v² short by ~(kh)²/12, so under the flat
+    state's compression S_vv the probe charges ~|S_vv| h² k⁴ like bending; but a wrinkled sheet
+    takes up its slack, the compression is whatever buckles it, and the deficit only scales
+    the slack: minimising (B k² + T π² / (k L)²)(1 + (kh)²/12) gives B (1 + (kh)²/6), an
+    error proportional to B (λ 2.6 % long at 8 points a wavelength), not an added
+    |S_vv| h². The aligned grid shows it: its probe reads 0.40 B and 0.21 B at h = 5.6 and
+    4.0 mm (B = 2.5e-5), which as bending would make λ converge from above by 9 % and 5 %; it
+    converges from below."""
+    if model != "membrane":
+        return None
+    sim = make(model, parameters, noise=0.0)
+    cloth, uv = sim.cloth, sim.scene["uv"]
+    F = cloth.faces
+    mu = YOUNG / (2 * (1 + POISSON))
+    lam = YOUNG * POISSON / (1 - POISSON ** 2)
+    stretch = 1 + parameters["strain"]
+    e_uu = 0.5 * (stretch ** 2 - 1)
+    e_vv = -lam * e_uu / (2 * mu + lam)  # St. Venant–Kirchhoff: S_vv = 0
+    P = np.column_stack([uv[:, 0] * stretch, uv[:, 1] * math.sqrt(1 + 2 * e_vv),
+                         np.zeros(len(uv))])
+    cloth.positions = P
+    S = face_stress(uv, F, P)
+    probe = membrane_artificial_bending(cloth, uv, F, S, wavelength, parameters["length"])
+    return float(probe * tension / S[:, 0, 0].mean())
+
+
+def judge(row):
+    """Set the row's tension B_art (`tension_artificial_bending`; a row journaled before it
+    keeps its flat-state probe under `flat_state_probe_bending`) and whether it is judged for
+    the exponents and the targets: wrinkled, resolved (8 points a wavelength), not a zigzag,
+    and the interpolation adds at most a tenth of B under the tension."""
+    if "flat_state_probe_bending" not in row:
+        row["flat_state_probe_bending"] = row.pop("artificial_bending", None)
+    if row.get("artificial_bending") is None and row["model"] == "membrane":
+        parameters = {k: row[k] for k in ("length", "width", "strain", "edge_length",
+                                          "bending_modulus", "mesh", "seed")}
+        if row.get("membrane_strain") == "smoothed":
+            parameters["membrane_strain"] = "smoothed"
+        row["artificial_bending"] = tension_artificial_bending(
+            row["model"], parameters, row["tension"],
+            row["wavelength"] or row["predicted_wavelength"])
+    row.setdefault("artificial_bending", None)
+    b_art, wavelength = row["artificial_bending"], row["wavelength"]
+    row["judged"] = bool(wavelength is not None and not row["zigzag"]
+                         and wavelength / row["mean_edge"] >= 8
+                         and (b_art is None or abs(b_art) <= 0.1 * row["bending_modulus"]))
+    return row
+
+
 def flat_state_check(model, parameters, wavelength):
     """The flat stretched state (relaxed without leaving the plane): whether it is stable (the
     true Hessian's Cholesky); for the membrane its largest compression across the width and
@@ -386,7 +443,7 @@ def flat_state_check(model, parameters, wavelength):
     cloth = sim.cloth
     stable = not yore.settling.is_saddle(cloth, (0.0, 0.0, 0.0))
     out = {"flat_state_stable": stable, "flat_state_compression": None, "tension": None,
-           "artificial_bending": None, "artificial_bending_faces": None}
+           "flat_state_probe_bending": None, "artificial_bending_faces": None}
     if model == "membrane":
         uv, F = sim.scene["uv"], cloth.faces
         S = face_stress(uv, F, cloth.positions)
@@ -398,7 +455,7 @@ def flat_state_check(model, parameters, wavelength):
         # B_art of the membrane as built (faces or smoothed strain, issue 52), and of the same state
         # with the faces' constant strain (a state without "membrane_strain" loads so): what
         # the membrane carried before
-        out["artificial_bending"] = membrane_artificial_bending(
+        out["flat_state_probe_bending"] = membrane_artificial_bending(
             cloth, uv, F, S, wavelength, parameters["length"])
         faces_state = cloth.state()
         faces_state.pop("membrane_strain", None)
@@ -447,21 +504,15 @@ def sheet_run(label, model, parameters):
     lifted = uv[heights > 0.1 * heights.max(), 0] if heights.max() > FLAT else np.zeros(0)
     zone = float(lifted.max() - lifted.min()) if len(lifted) else 0.0
     realized = realized_bending(uv, F, parameters["bending_modulus"])
-    b_art = flat_state["artificial_bending"]
     zigzag = bool(not flat and wavelength < 4 * h)
     row = {"label": label, "model": model, **parameters, "vertices": int(cloth.vertex_count),
            "membrane_strain": cloth.membrane_strain,
            "pattern_interior": INTERIORS.get(parameters.get("mesh", "pattern")),
            "mean_edge": h, "young": float(young), "poisson": float(nu),
            "predicted_wavelength": predicted,
-           "realized_bending": realized, "artificial_bending": b_art,
+           "realized_bending": realized,
            "points_per_wavelength": None if flat else float(wavelength / h),
            "wrinkled_zone": zone,
-           # judged for the exponents and the targets: wrinkled, resolved (8 points a
-           # wavelength), not a zigzag, and the interpolation adds at most a tenth of B
-           "judged": bool(not flat and not zigzag and wavelength / h >= 8
-                          and (b_art is None
-                               or abs(b_art) <= 0.1 * parameters["bending_modulus"])),
            "flat": bool(flat), "amplitude": amplitude,
            "wavelength": None if flat else float(wavelength),
            "wrinkles": None if flat else count,
@@ -469,8 +520,9 @@ def sheet_run(label, model, parameters):
            "settle": {k: settled[k] for k in ("seconds", "converged", "residual_acceleration",
                                                "saddles_escaped", "stable")},
            **flat_state,
-           "section": {"y": y[::64].tolist(), "z": z[::64].tolist()},
-           "cpu_seconds": time.process_time() - start}
+           "section": {"y": y[::64].tolist(), "z": z[::64].tolist()}}
+    judge(row)
+    row["cpu_seconds"] = time.process_time() - start
     return row
 
 
@@ -551,6 +603,18 @@ def band_summary(bands):
     return out
 
 
+def finest_judged(rows, key):
+    """Per value of `key`, the judged row on the finest mesh: an exponent is fitted over
+    converged rows, whichever mesh resolves each (a small B's short wavelength needs a finer
+    mesh than a large B's)."""
+    best = {}
+    for r in rows:
+        if r.get("judged") and (r[key] not in best
+                                or r["mean_edge"] < best[r[key]]["mean_edge"]):
+            best[r[key]] = r
+    return list(best.values())
+
+
 def fit_exponent(rows, key):
     """Slope of log λ against log `key` over the judged rows (resolved, not zigzags, B_art at
     most a tenth of B: issue 52), None with fewer than two values of `key`."""
@@ -570,14 +634,10 @@ def summarize(rows, strokes, quick=False):
         if not mine:
             continue
         base = [r for r in mine if r["label"] in ("base", "B", "L", "strain", "mesh")]
-        at = {key: [r for r in base if all(r[k] == v for k, v in fixed.items())]
-              for key, fixed in (
-                  ("bending_modulus", {"length": base_run["length"], "strain": base_run["strain"],
-                                       "edge_length": base_run["edge_length"]}),
-                  ("length", {"bending_modulus": base_run["bending_modulus"],
-                              "strain": base_run["strain"], "edge_length": base_run["edge_length"]}),
-                  ("strain", {"bending_modulus": base_run["bending_modulus"],
-                              "length": base_run["length"], "edge_length": base_run["edge_length"]}))}
+        at = {key: finest_judged([r for r in base if all(r[k] == base_run[k] for k in
+                                                         ("bending_modulus", "length", "strain")
+                                                         if k != key)], key)
+              for key in ("bending_modulus", "length", "strain")}
         meshes = sorted((r for r in base if r["length"] == base_run["length"]
                          and r["strain"] == base_run["strain"]
                          and r["bending_modulus"] == base_run["bending_modulus"]),
@@ -648,11 +708,17 @@ def journaled(out, name, resume, compute, still_good=lambda value: True, collect
     if collect:
         return None
     value = compute()
+    write_journal(out, name, value)
+    return value
+
+
+def write_journal(out, name, value):
+    """Journal one run atomically (a temporary file, then a rename)."""
+    path = journal_path(out, name)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_suffix(".tmp")
     temporary.write_text(json.dumps(value), encoding="utf-8")
     os.replace(temporary, path)
-    return value
 
 
 def run_name(model, parameters):
@@ -731,6 +797,8 @@ def main(argv=None):
                         args.collect)
         if row is None:
             continue
+        if "flat_state_probe_bending" not in row:  # journaled before the tension B_art
+            write_journal(args.out, run_name(model, parameters), judge(row))
         row["label"] = label
         rows.append(row)
         print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "
