@@ -90,6 +90,12 @@ QUICK_STROKE_RESOLUTIONS = [9, 13]
 #: same region on every mesh) with a smoothing reach of 15 cm.
 BAND = {"v": 0.8, "u": (0.2, 0.8), "width": 0.06, "growth": "isotropic", "expansion": 1.1}
 BAND_BENDING = 1e-4  # N·m: a bending length (B / ρg)^⅓ ≈ 5 cm at 0.1 kg/m²
+#: The band strokes' bending moduli (N·m): BAND_BENDING, whose band wrinkles finer than these
+#: meshes resolve, and a stiff cloth's (bending length ≈ 21 cm), whose band bulges
+BAND_BENDINGS = (BAND_BENDING, 1e-2)
+#: How a journaled band row's growth was weighted: a spring's weight the falloff's Simpson mean
+#: along it (issue 52); rows without it took the smaller weight of its ends and are redone
+BAND_WEIGHTS = "simpson"
 BAND_REACH = 0.15  # m
 BAND_RESOLUTIONS = [41, 81, 161]
 QUICK_BAND_RESOLUTIONS = [9, 13]
@@ -483,9 +489,7 @@ def sheet_run(label, model, parameters):
     settled = sim.settle(max_seconds=SETTLE_SECONDS, tolerance=SETTLE_TOLERANCE)
     cloth = sim.cloth
     F, uv = cloth.faces, sim.scene["uv"]
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
-    h = float(np.linalg.norm(uv[edges[:, 1]] - uv[edges[:, 0]], axis=1).mean())
+    h = mean_edge(uv, F)
     y, z = section(cloth.positions, parameters["length"], parameters["strain"],
                    parameters["width"], h)
     amplitude = float(np.abs(z).max())
@@ -549,20 +553,33 @@ def stroke_run(model, resolution, quick):
             "cpu_seconds": time.process_time() - start}
 
 
-def band_run(mesh, resolution, quick):
+def mean_edge(points, F):
+    """The mesh's mean edge length (each edge once), in the units of `points`."""
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
+                              axis=1), axis=0)
+    return float(np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1).mean())
+
+
+def band_run(mesh, resolution, quick, bending=BAND_BENDING):
     """The hanging cloth (membrane of the 41² grid lattice's affine Y and ν, fitted bending
-    BAND_BENDING) on `mesh` at `resolution`, settled, stroked along BAND in material
-    coordinates, settled again: the fold depth (range of the wrinkle height) and wrinkle
-    measure (RMS) over the faces whose material centroid lies in the band, with the smoothing's
-    reach BAND_REACH in metres (`metrics.smoothing_iterations`), and the band's area gain."""
+    `bending`) on `mesh` at `resolution`, settled, stroked along BAND in material coordinates,
+    settled again. Over the vertices of the faces whose material centroid lies in the band:
+    the fold depth (range of the displacement the stroke caused, along the settled surface's
+    normals before it: the fold's own size, no filter) and its RMS; the wrinkle measure (RMS
+    of the wrinkle height over the surface smoothed with a reach of BAND_REACH metres,
+    `metrics.smoothing_iterations`) and the wavelength of that height along the band's centre
+    line in mean edges (the same number of edges on every mesh: the mesh sets the wrinkles);
+    the rest area the stroke added (m²) and the band faces' area gain."""
     start = time.process_time()
     V, F = yore.grid_mesh(41, 41)
     young, nu = lattice_moduli(V, F, yore.scenes.STIFFNESS)
     sim = yore.scenes.hanging_cloth(resolution=resolution, mesh=mesh, stretch="membrane",
                                     young_modulus=young, poisson_ratio=nu, bending="quadratic",
-                                    bending_modulus=BAND_BENDING, integrator="implicit")
+                                    bending_modulus=bending, integrator="implicit")
     seconds = 2.0 if quick else BAND_SETTLE_SECONDS
     before = sim.settle(max_seconds=seconds)
+    settled, normals = np.array(sim.cloth.positions), metrics.vertex_normals(
+        sim.cloth.positions, sim.cloth.faces)
     u0, u1 = BAND["u"]
     report = sim.stroke(yore.StrokePath.material([[u0, BAND["v"]], [u1, BAND["v"]]]),
                         width=BAND["width"], growth=BAND["growth"],
@@ -573,33 +590,61 @@ def band_run(mesh, resolution, quick):
     centre = uv[F].mean(axis=1)
     band = np.flatnonzero((np.abs(centre[:, 1] - BAND["v"]) < 0.5 * BAND["width"])
                           & (centre[:, 0] > u0) & (centre[:, 0] < u1))
+    corners = np.unique(F[band])
     iterations = metrics.smoothing_iterations(X, F, BAND_REACH)
-    height = metrics.wrinkle_height(X, F, iterations)[np.unique(F[band])]
-    return {"mesh": mesh, "resolution": resolution, "vertices": int(sim.cloth.vertex_count),
+    height = metrics.wrinkle_height(X, F, iterations)
+    moved = np.einsum("ij,ij->i", X - settled, normals)[corners]
+    h = mean_edge(uv, F)
+    line = np.flatnonzero((np.abs(uv[:, 1] - BAND["v"]) < 0.51 * h) & (uv[:, 0] > u0)
+                          & (uv[:, 0] < u1))
+    line = line[np.argsort(uv[line, 0])]
+    crossings = int(np.count_nonzero(np.diff(np.sign(height[line] - height[line].mean()))))
+    return {"mesh": mesh, "resolution": resolution, "bending_modulus": bending,
+            "vertices": int(sim.cloth.vertex_count),
             "membrane_strain": sim.cloth.membrane_strain,
-            "pattern_interior": INTERIORS.get(mesh),
+            "pattern_interior": INTERIORS.get(mesh), "band_weights": BAND_WEIGHTS,
             "faces_split": len(report.new_vertices), "band_faces": int(len(band)),
-            "smoothing_iterations": iterations,
-            "wrinkle_measure": float(np.sqrt(np.mean(height ** 2))),
-            "fold_depth": float(height.max() - height.min()),
+            "smoothing_iterations": iterations, "mean_edge": h,
+            "fold_depth": float(np.ptp(moved)), "fold_rms": float(np.std(moved)),
+            "wrinkle_measure": float(np.sqrt(np.mean(height[corners] ** 2))),
+            "wrinkle_height_range": float(np.ptp(height[corners])),
+            "wrinkle_wavelength_edges": (float(2 * (uv[line[-1], 0] - uv[line[0], 0])
+                                               / (max(crossings, 1) * h))
+                                         if len(line) > 1 else None),
+            "rest_area_added": float(report.rest_area_after - report.rest_area_before),
             "area_gain": float(report.rest_area_after / report.rest_area_before),
             "settled_before": bool(before["converged"]), "settled_after": bool(after["converged"]),
             "cpu_seconds": time.process_time() - start}
 
 
+def band_runs(quick):
+    """(bending, mesh, resolution) of the band strokes."""
+    resolutions = QUICK_BAND_RESOLUTIONS if quick else BAND_RESOLUTIONS
+    return [(bending, mesh, n) for bending in BAND_BENDINGS for mesh in ("grid", "pattern")
+            for n in resolutions]
+
+
+def band_name(mesh, resolution, bending):
+    suffix = "" if bending == BAND_BENDING else f"-B{bending:g}"
+    return f"band-{mesh}-{resolution}{suffix}"
+
+
 def band_summary(bands):
-    """Per mesh kind, the change of the fold depth and the wrinkle measure between its two
-    finest resolutions (issue 52's target: < 5 % between 81 and 161)."""
+    """Per bending modulus and mesh kind, the change of each measure between its two finest
+    resolutions (issue 52's target: < 5 % between 81 and 161)."""
     out = {}
-    for mesh in ("grid", "pattern"):
-        mine = sorted((b for b in bands if b["mesh"] == mesh), key=lambda b: b["resolution"])
-        if len(mine) >= 2:
+    for bending in BAND_BENDINGS:
+        for mesh in ("grid", "pattern"):
+            mine = sorted((b for b in bands if b["mesh"] == mesh
+                           and b.get("bending_modulus", BAND_BENDING) == bending),
+                          key=lambda b: b["resolution"])
+            if len(mine) < 2:
+                continue
             a, b = mine[-2], mine[-1]
-            out[mesh] = {"resolutions": [a["resolution"], b["resolution"]],
-                         "fold_depth_change": abs(b["fold_depth"] - a["fold_depth"])
-                         / max(b["fold_depth"], 1e-300),
-                         "wrinkle_measure_change": abs(b["wrinkle_measure"] - a["wrinkle_measure"])
-                         / max(b["wrinkle_measure"], 1e-300)}
+            entry = {"resolutions": [a["resolution"], b["resolution"]]}
+            for key in ("fold_depth", "fold_rms", "wrinkle_measure", "rest_area_added"):
+                entry[f"{key}_change"] = abs(b[key] - a[key]) / max(abs(b[key]), 1e-300)
+            out[f"{mesh}, B = {bending:g}"] = entry
     return out
 
 
@@ -821,19 +866,20 @@ def main(argv=None):
             print(f"  stroke {model} {resolution}: measure {s['wrinkle_measure']:.3e}, fold "
                   f"depth {s['fold_depth']:.3e}", flush=True)
     bands = []
-    for mesh in ("grid", "pattern"):
-        for resolution in (QUICK_BAND_RESOLUTIONS if args.quick else BAND_RESOLUTIONS):
-            # a band journaled before the smoothed strain or the lattice is redone (its
-            # membrane or mesh is not today's)
-            b = journaled(args.out, f"band-{mesh}-{resolution}", args.resume,
-                          lambda: band_run(mesh, resolution, args.quick),
-                          lambda b: current(b, "membrane", mesh), args.collect)
-            if b is None:
-                continue
-            bands.append(b)
-            print(f"  band stroke {mesh} {resolution}: fold depth {b['fold_depth']:.3e}, "
-                  f"measure {b['wrinkle_measure']:.3e}, area × {b['area_gain']:.3f}, "
-                  f"{b['cpu_seconds']:.0f} s", flush=True)
+    for bending, mesh, resolution in band_runs(args.quick):
+        # a band journaled before the smoothed strain, the lattice or the Simpson weights
+        # is redone (its membrane, mesh or growth is not today's)
+        b = journaled(args.out, band_name(mesh, resolution, bending), args.resume,
+                      lambda: band_run(mesh, resolution, args.quick, bending),
+                      lambda b: current(b, "membrane", mesh)
+                      and b.get("band_weights") == BAND_WEIGHTS, args.collect)
+        if b is None:
+            continue
+        bands.append(b)
+        print(f"  band stroke {mesh} {resolution} B={bending:g}: fold depth "
+              f"{b['fold_depth']:.3e}, measure {b['wrinkle_measure']:.3e}, wrinkles of "
+              f"{b['wrinkle_wavelength_edges']} edges, rest area + {b['rest_area_added']:.3e} "
+              f"m², {b['cpu_seconds']:.0f} s", flush=True)
     payload = {"benchmark": "wrinkles", "machine": common.machine_info(), "quick": args.quick,
                "settings": {"noise": NOISE, "young": YOUNG, "poisson": POISSON,
                             "bases": ({m: QUICK_BASE for m in BASES} if args.quick
@@ -841,7 +887,8 @@ def main(argv=None):
                             "settle_seconds": SETTLE_SECONDS,
                             "settle_tolerance": SETTLE_TOLERANCE},
                "rows": rows, "strokes": strokes, "band_strokes": bands,
-               "band_settings": {**BAND, "bending_modulus": BAND_BENDING, "reach": BAND_REACH},
+               "band_settings": {**BAND, "bending_moduli": list(BAND_BENDINGS),
+                                 "reach": BAND_REACH, "weights": BAND_WEIGHTS},
                "summary": {**summarize(rows, strokes, args.quick),
                            "band_strokes": band_summary(bands)}}
     common.save(args.out, "wrinkles", payload, lambda path: draw(rows, strokes, path))

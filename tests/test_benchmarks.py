@@ -1019,14 +1019,16 @@ def test_wrinkles_smoke(tmp_path):
     assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
         (m, n) for m in ("springs", "membrane") for n in (9, 13)}
     assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])
-    # the stroke in physical units (issue 52): both mesh kinds at both resolutions, a band
-    # of the same material width on each, grown (its rest area rises), measured over the band
+    # the stroke in physical units (issue 52): both bending moduli and mesh kinds at both
+    # resolutions, a band of the same material width on each, grown (its rest area rises),
+    # measured over the band: the fold (the stroke's displacement) and the wrinkles
     bands = data["band_strokes"]
-    assert {(b["mesh"], b["resolution"]) for b in bands} == {
-        (m, n) for m in ("grid", "pattern") for n in (9, 13)}
+    assert {(b["bending_modulus"], b["mesh"], b["resolution"]) for b in bands} == {
+        (B, m, n) for B in (1e-4, 1e-2) for m in ("grid", "pattern") for n in (9, 13)}
     assert all(b["band_faces"] > 0 and b["area_gain"] > 1.0 and b["fold_depth"] > 0
-               for b in bands)
-    assert set(data["summary"]["band_strokes"]) == {"grid", "pattern"}
+               and b["rest_area_added"] > 0 and b["band_weights"] == "simpson" for b in bands)
+    assert set(data["summary"]["band_strokes"]) == {
+        f"{m}, B = {B:g}" for B in (1e-4, 1e-2) for m in ("grid", "pattern")}
     # a second run with --resume reads every run from the journal
     again = run_benchmark("wrinkles", tmp_path, "--quick", "--resume")
     assert again["rows"] == rows

@@ -199,6 +199,7 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
     }
   }
   band.reach = reach;
+  band.half_width = 0.5 * width;
   band.tangent_span = crossed_faces.empty() ? 0.0 : edge_sum / (3.0 * static_cast<double>(crossed_faces.size()));
   if (path.rows() > 0) {
     const PathGeometry geometry(path, path_part, reach);
@@ -216,8 +217,12 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
   std::vector<char> in_band(static_cast<std::size_t>(faces.rows()), 0);
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
     if (crossed[static_cast<std::size_t>(f)]) {
+      // with a width the weights are the falloff's alone (forcing the crossed faces' corners
+      // to 1 would grow a strip one face wide in full: O(h) more area on coarser meshes)
       in_band[static_cast<std::size_t>(f)] = 1;
-      for (int c = 0; c < 3; ++c) band.vertex_weight[faces(f, c)] = 1.0;
+      if (!(width > 0.0)) {
+        for (int c = 0; c < 3; ++c) band.vertex_weight[faces(f, c)] = 1.0;
+      }
       continue;
     }
     if (width > 0.0) {
@@ -245,7 +250,24 @@ Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
     throw std::invalid_argument("grow_rest_lengths: the band was made for another mesh");
   }
   const GrowthRule& rule = growth_rule(mode);
-  const PathGeometry geometry(band.path, band.path_part, band.reach);
+  // the springs' midpoints are looked up too: reach half the longest spring with an end in
+  // the band further, so every spring that grows finds its tangent
+  double half_spring = 0.0;
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    if (band.vertex_weight[i] > 0.0 || band.vertex_weight[j] > 0.0) {
+      half_spring = std::max(half_spring, 0.5 * (positions.row(j) - positions.row(i)).norm());
+    }
+  }
+  const PathGeometry geometry(band.path, band.path_part, band.reach + half_spring);
+  Eigen::RowVector3d lower = Eigen::RowVector3d::Zero(), upper = Eigen::RowVector3d::Zero();
+  if (band.path.rows() > 0) {  // midpoints outside the path's box grown by reach: weight 0
+    lower = band.path.colwise().minCoeff().array() - band.reach;
+    upper = band.path.colwise().maxCoeff().array() + band.reach;
+  } else {
+    lower.setConstant(std::numeric_limits<double>::infinity());
+    upper.setConstant(-std::numeric_limits<double>::infinity());
+  }
   const auto count = static_cast<Eigen::Index>(springs.size());
   Growth growth;
   growth.rest_lengths = Eigen::Map<const Eigen::VectorXd>(springs.rest_length.data(), count);
@@ -253,7 +275,13 @@ Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
   for (Eigen::Index k = 0; k < count; ++k) {
     const std::int32_t i = springs.first[static_cast<std::size_t>(k)];
     const std::int32_t j = springs.second[static_cast<std::size_t>(k)];
-    const double w = std::min(band.vertex_weight[i], band.vertex_weight[j]);
+    const Eigen::RowVector3d middle = 0.5 * (positions.row(i) + positions.row(j));
+    double w = std::min(band.vertex_weight[i], band.vertex_weight[j]);
+    if (band.half_width > 0.0 && (band.vertex_weight[i] > 0.0 || band.vertex_weight[j] > 0.0 ||
+                                  !outside(middle, lower, upper))) {
+      const double centre = falloff_weight(geometry.nearest(middle).distance, band.half_width);
+      w = (band.vertex_weight[i] + 4.0 * centre + band.vertex_weight[j]) / 6.0;
+    }
     growth.weights[k] = w;
     if (!(w > 0.0) || !(rule.grows_along || rule.grows_across)) continue;
     const double g = 1.0 + (expansion - 1.0) * w;
@@ -261,7 +289,6 @@ Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
     double grown = rest * g;
     if (rule.grows_along != rule.grows_across) {
       const Eigen::RowVector3d d = positions.row(j) - positions.row(i);
-      const Eigen::RowVector3d middle = 0.5 * (positions.row(i) + positions.row(j));
       const Eigen::RowVector3d tangent =
           geometry.tangent(geometry.nearest(middle), band.tangent_span);
       const double length = d.norm();

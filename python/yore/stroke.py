@@ -17,9 +17,11 @@ Options beyond the paper (all strokes, scene files alike):
   crosses. A width takes every face with a corner closer than width/2 to the stroke's path, the
   distance measured in 3-D on the *current* surface (the path is the stroke's samples on the
   surface, so a 3-D, screen or material stroke all give the same kind of path). Each vertex gets
-  the falloff weight w = 1 − smoothstep(d / (width/2)) (1 on the corners of a crossed face, 0
-  from width/2 on), each spring the smaller weight of its two ends. In paper mode the split
-  stays on the crossed faces (eq. (1)); width there only widens the band that ``refine`` refines.
+  the falloff weight w = 1 − smoothstep(d / (width/2)) (0 from width/2 on), each spring the
+  falloff's mean along it (Simpson's rule: its two ends and its midpoint), so the rest metric
+  carries the growth field to O(h²) and a band grows the same area on every mesh (issue 52; a
+  band under ~2 edges wide is not resolved: ``refine`` it). In paper mode the split stays on
+  the crossed faces (eq. (1)); width there only widens the band that ``refine`` refines.
 - ``growth``: "paper" (default) splits the crossed faces 1→3 and lengthens only the new springs
   (eq. (1)); "isotropic", "along" and "across" split nothing and lengthen every spring in the
   band (structural and bending, original or not) from its rest length L: with g = 1 + (expansion

@@ -93,10 +93,9 @@ TEST_CASE("the band: distances, weights and tangents of a straight stroke") {
       CHECK(band.vertex_distance[i] == doctest::Approx(distance).epsilon(1e-12));
       CHECK(std::abs(band.vertex_tangent(i, 0)) == doctest::Approx(1.0).epsilon(1e-12));
     }
-    const double expected = crossed_corner[static_cast<std::size_t>(i)]
-                                ? 1.0
-                                : yore::falloff_weight(distance, 0.5 * width);
-    CHECK(band.vertex_weight[i] == doctest::Approx(expected).epsilon(1e-12));
+    // with a width the falloff alone (the crossed faces' corners are not forced to 1)
+    CHECK(band.vertex_weight[i] ==
+          doctest::Approx(yore::falloff_weight(distance, 0.5 * width)).epsilon(1e-12));
   }
   // the band: crossed faces and faces with a corner within width/2, sorted
   CHECK(std::is_sorted(band.faces.begin(), band.faces.end()));
@@ -143,9 +142,12 @@ TEST_CASE("growth rules: L(1 + (e − 1)w) for isotropic, the projected componen
     double added = 0.0;
     std::int64_t grown = 0;
     for (std::size_t k = 0; k < springs.size(); ++k) {
-      const double w = std::min(band.vertex_weight[springs.first[k]],
-                                band.vertex_weight[springs.second[k]]);
-      CHECK(growth.weights[static_cast<Eigen::Index>(k)] == w);
+      // Simpson's mean of the falloff along the spring: its ends and its midpoint
+      const double middle_y = 0.5 * (x(springs.first[k], 1) + x(springs.second[k], 1));
+      const double w = (band.vertex_weight[springs.first[k]] +
+                        4.0 * yore::falloff_weight(std::abs(middle_y - kLineY), 0.25) +
+                        band.vertex_weight[springs.second[k]]) / 6.0;
+      CHECK(growth.weights[static_cast<Eigen::Index>(k)] == doctest::Approx(w).epsilon(1e-12));
       const double g = 1.0 + (expansion - 1.0) * w, rest = springs.rest_length[k];
       // the path's tangent is x everywhere: c = |d̂_x|, s = |d̂_y| on the flat cloth
       const Eigen::RowVector3d d = (x.row(springs.second[k]) - x.row(springs.first[k])).normalized();

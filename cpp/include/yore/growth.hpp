@@ -49,7 +49,9 @@ double falloff_weight(double distance, double half_width);
 /// The region a stroke affects, per vertex.
 struct StrokeBand {
   Eigen::VectorXd vertex_distance;  ///< n, m, to the stroke's path (+inf beyond `reach`)
-  Eigen::VectorXd vertex_weight;    ///< n in [0, 1]; 1 on every corner of a crossed face
+  /// n in [0, 1]: the falloff of the distance (width > 0), or 1 on every corner of a crossed
+  /// face and 0 elsewhere (width 0, the paper)
+  Eigen::VectorXd vertex_weight;
   Positions vertex_tangent;         ///< n×3, unit tangent of the path at the nearest point (or 0)
   std::vector<std::int32_t> faces;  ///< the band: crossed faces and faces with a corner within
                                     ///< width/2, sorted
@@ -60,6 +62,7 @@ struct StrokeBand {
   /// and the bisection's tiny steps do not turn it)
   double tangent_span = 0.0;
   double reach = 0.0;  ///< m, distances are measured up to this: max(width/2, longest crossed edge)
+  double half_width = 0.0;  ///< m, width/2 (0: the crossed faces only)
 };
 
 /// The band of a stroke whose path on the surface is the polyline `path` (m×3, metres, points
@@ -75,7 +78,10 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
 /// Rest lengths after growth (grow_rest_lengths).
 struct Growth {
   Eigen::VectorXd rest_lengths;  ///< s, metres
-  Eigen::VectorXd weights;       ///< s in [0, 1]: min of the two ends' vertex weights
+  /// s in [0, 1]: with a width, the falloff's mean along the spring by Simpson's rule (its
+  /// ends and its midpoint), so the grown rest length is ∫ g ds along it to O(h³) and the band
+  /// grows the same area on every mesh; without one, the smaller of its ends' vertex weights
+  Eigen::VectorXd weights;
   std::int64_t springs_grown = 0;  ///< springs whose rest length changed
   double rest_added = 0.0;         ///< m, Σ (new − old rest length)
 };
