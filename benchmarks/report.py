@@ -506,18 +506,20 @@ def wrinkles_section(payload: dict, images: str) -> list:
            "Since issue 52 also per run: the mesh (pattern, CGAL's Delaunay mesh throughout, "
            "or a grid aligned with the sheet), the membrane's strain (the faces', the default, "
            "or smoothed) and seed, the bending modulus the mesh realises (its cylinder test) over B, "
-           "the interpolation's artificial modulus B_art over B (the flat state's tension "
-           "charging a wrinkle's spurious slope along the length; measured on the library's "
-           "own energy since the smoothed strain, for the membrane as built and for the same "
-           "state with the faces' constant strain), and whether the row is judged (wrinkled, "
-           "no zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B); exponents "
-           "are fitted on judged rows only (rows without these columns predate it; rows "
-           "from before the smoothed strain show the former membrane's B_art and no faces' "
-           "column).", "",
+           "the interpolation's artificial modulus B_art over B (the run's tension charging a "
+           "wrinkle's spurious slope along the length: the library's own energy on the run's "
+           "mesh under a uniform tension, scaled to the measured one), beside it the "
+           "flat-state probe (the same under the flat state's stress, which also charges the "
+           "compression deficit, an error proportional to B that 8 points a wavelength bound; "
+           "for the membrane as built and with the faces' constant strain), and whether the "
+           "row is judged (wrinkled, no zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B); "
+           "exponents are fitted on judged rows only, each value of the varied parameter on "
+           "its finest judged mesh.", "",
            "| run | model | mesh, strain, seed | B (N·m) | L (m) | γ | mean edge (m) | λ (m) | "
            "predicted (m) | λ / edge | amplitude (m) | flat state stable | compression | "
-           "realised B / B | B_art / B | B_art / B, faces' strain | judged | CPU s |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "realised B / B | B_art / B | flat-state probe / B | probe / B, faces' strain | "
+           "judged | CPU s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in payload["rows"]:
         wavelength = "flat" if r["wavelength"] is None else f"{r['wavelength']:.4f}"
         ratio = "–" if r["wavelength"] is None else f"{r['wavelength'] / r['mean_edge']:.1f}"
@@ -531,6 +533,8 @@ def wrinkles_section(payload: dict, images: str) -> list:
                       else f"{r['artificial_bending'] / r['bending_modulus']:.3g}")
         remedy = ("–" if r.get("artificial_bending_faces") is None
                   else f"{r['artificial_bending_faces'] / r['bending_modulus']:.2g}")
+        probe = ("–" if r.get("flat_state_probe_bending") is None
+                 else f"{r['flat_state_probe_bending'] / r['bending_modulus']:.2g}")
         judged = "–" if "judged" not in r else ("yes" if r["judged"] else "no")
         strain = f"{r['membrane_strain']}, " if r.get("membrane_strain") else ""
         out.append(f"| {r['label']} | {r['model']} | {r.get('mesh', 'pattern')}, {strain}"
@@ -538,7 +542,7 @@ def wrinkles_section(payload: dict, images: str) -> list:
                    f"{r['length']:g} | {r['strain']:g} | {r['mean_edge']:.4f} | {wavelength} | "
                    f"{r['predicted_wavelength']:.4f} | {ratio} | {r['amplitude']:.2e} | "
                    f"{r['flat_state_stable']} | {compression} | {realised} | {artificial} | "
-                   f"{remedy} | {judged} | {r['cpu_seconds']:.0f} |")
+                   f"{probe} | {remedy} | {judged} | {r['cpu_seconds']:.0f} |")
     summary = payload["summary"]
     out += ["", "| model | wrinkled runs | zigzags | exponent in B (¼) | in L (½) | in γ (−¼) | "
             "λ / predicted | λ change, two finest meshes |", "|---|---|---|---|---|---|---|---|"]
@@ -578,6 +582,43 @@ def wrinkles_section(payload: dict, images: str) -> list:
                        f"{100 * change['wrinkle_measure_change']:.0f} %, the fold depth by "
                        f"{100 * change['fold_depth_change']:.0f} % (target: < 10 % for one "
                        "model).")
+    return out + band_lines(payload)
+
+
+def band_lines(payload: dict) -> list:
+    """The band strokes in physical units (issue 52) against the mesh."""
+    bands = payload.get("band_strokes") or []
+    if not bands:
+        return []
+    settings = payload["band_settings"]
+    out = ["", f"The band stroke in physical units (issue 52): the hanging cloth (membrane, "
+           f"fitted bending B), settled, stroked along v = {settings['v']:g} from u = "
+           f"{settings['u'][0]:g} to {settings['u'][1]:g} with a band {settings['width']:g} m "
+           f"wide grown {settings['growth']} × {settings['expansion']:g} (spring weights: "
+           f"{settings.get('weights', 'the smaller end')}), settled again. Over the band: the "
+           "fold depth and RMS (the stroke's displacement along the settled surface's normals), "
+           f"the wrinkle measure (RMS height over the surface smoothed over "
+           f"{settings['reach']:g} m) and the wrinkles' wavelength along the band in mean "
+           "edges, and the rest area the stroke added:", "",
+           "| B (N·m) | mesh | vertices a side | fold depth (mm) | fold RMS (mm) | "
+           "wrinkle measure (mm) | wrinkles (edges) | rest area added (cm²) | CPU s |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for b in sorted(bands, key=lambda b: (b.get("bending_modulus", 0), b["mesh"],
+                                          b["resolution"])):
+        edges = b.get("wrinkle_wavelength_edges")
+        out.append(f"| {b.get('bending_modulus', '–')} | {b['mesh']} | {b['resolution']} | "
+                   f"{1e3 * b['fold_depth']:.2f} | {1e3 * b.get('fold_rms', float('nan')):.2f} | "
+                   f"{1e3 * b['wrinkle_measure']:.2f} | "
+                   f"{'–' if edges is None else f'{edges:.1f}'} | "
+                   f"{1e4 * b.get('rest_area_added', float('nan')):.1f} | "
+                   f"{b['cpu_seconds']:.0f} |")
+    for key, change in payload["summary"].get("band_strokes", {}).items():
+        out.append("")
+        out.append(f"{key}, {change['resolutions'][0]} → {change['resolutions'][1]} a side: "
+                   + ", ".join(f"{name.replace('_', ' ')} {100 * change[name + '_change']:.1f} %"
+                               for name in ("fold_depth", "fold_rms", "wrinkle_measure",
+                                            "rest_area_added") if name + "_change" in change)
+                   + " (target: < 5 %).")
     return out
 
 
