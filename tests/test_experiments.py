@@ -20,8 +20,8 @@ def test_the_demo_shows_wrinkles_where_the_paper_makes_spikes(tmp_path):
     # At the demo's own 21 × 21 vertices, where its targets are stated (~9 s): the stroke
     # region's wrinkle measure at least twice the no-stroke run's at the same time, and a
     # spike index at most 0.1 on the stroke's new vertices. Measured with the fitted bending
-    # energy (issue 52): wrinkles ×4.0, spike index 0.062 for yore's stroke; ×4.1 and 0.34
-    # for the paper's. (This test ran at 13² before; there the fitted energy, softer than the
+    # energy and the band's Simpson spring weights (issue 52): wrinkles ×4.1, spike index
+    # 0.059 for yore's stroke; ×4.1 and 0.34 for the paper's. (This test ran at 13² before; there the fitted energy, softer than the
     # hinge energy for a one-vertex spike, gives 0.11.)
     out = tmp_path / "demo"
     assert main(["demo", "-o", str(out), "-q", "--set", "output.animation=none"]) == 0
