@@ -596,7 +596,8 @@ def band_lines(payload: dict) -> list:
            f"{settings['u'][0]:g} to {settings['u'][1]:g} with a band {settings['width']:g} m "
            f"wide grown {settings['growth']} × {settings['expansion']:g} (spring weights: "
            f"{settings.get('weights', 'the smaller end')}), settled again. Over the band: the "
-           "fold depth and RMS (the stroke's displacement along the settled surface's normals), "
+           "fold depth and RMS (the range, and the RMS about its mean, of the stroke's "
+           "displacement along the settled surface's normals), "
            f"the wrinkle measure (RMS height over the surface smoothed over "
            f"{settings['reach']:g} m) and the wrinkles' wavelength along the band in mean "
            "edges, and the rest area the stroke added:", "",

@@ -565,9 +565,9 @@ def band_run(mesh, resolution, quick, bending=BAND_BENDING):
     `bending`) on `mesh` at `resolution`, settled, stroked along BAND in material coordinates,
     settled again. Over the vertices of the faces whose material centroid lies in the band:
     the fold depth (range of the displacement the stroke caused, along the settled surface's
-    normals before it: the fold's own size, no filter) and its RMS; the wrinkle measure (RMS
-    of the wrinkle height over the surface smoothed with a reach of BAND_REACH metres,
-    `metrics.smoothing_iterations`) and the wavelength of that height along the band's centre
+    normals before it: the fold's own size, no filter) and its RMS about its mean (fold_rms);
+    the wrinkle measure (RMS of the wrinkle height over the surface smoothed with a reach of
+    BAND_REACH metres, `metrics.smoothing_iterations`) and the wavelength of that height along the band's centre
     line in mean edges (the same number of edges on every mesh: the mesh sets the wrinkles);
     the rest area the stroke added (m²) and the band faces' area gain."""
     start = time.process_time()
