@@ -67,7 +67,7 @@ def main():
     runs = args.out / "runs"
     results = {}
 
-    hanging_size = ["--set", "mesh.nx=13", "--set", "mesh.ny=13"] if args.small else []
+    hanging_size = ["--set", "mesh.nx=17", "--set", "mesh.ny=17"] if args.small else []
     plain, _ = run("hanging.toml", runs / "hanging-plain", *hanging_size, "--set", "strokes=[]")
     scene = yore.load_scene(EXAMPLES / "hanging.toml")
     shown = [(plain, [], "no stroke")]

@@ -71,13 +71,11 @@ def test_the_gallery_script_writes_its_pictures_and_measures(tmp_path):
     data = json.loads((tmp_path / "gallery.json").read_text())
     assert data["small"] is True
     assert set(data) >= {"hanging", "hanging_paper", "cylinder", "cylinder_paper"}
-    # the measures of tests/test_experiments.py, through the script; at --small's 13² the
-    # absolute spike target (0.1, stated and tested at the demo's 21²) is 0.10 with the fitted
-    # bending energy, so here yore's stroke must be a small fraction of the paper's tents.
-    # The wrinkle target (≥ 2) is stated and tested at 21² (×4.1); at 13² the 15 cm band is
-    # under two 8.3 cm edges wide before its refinement and measures ×1.96 since the band's
-    # spring weights are the falloff's mean along each spring (issue 52; ×2.28 before, when the
-    # crossed faces' corners grew in full): here it must clearly beat the no-stroke run
-    assert data["hanging"]["wrinkle_ratio"] >= 1.5
+    # the measures of tests/test_experiments.py, through the script; at --small's 17² (13²
+    # left the 15 cm band under two edges wide before its refinement: ×1.96 once the band's
+    # springs took the falloff's mean, issue 52) the wrinkle target holds (×3.1 measured); the
+    # absolute spike target (0.1) is stated and tested at the demo's 21², so here yore's stroke
+    # must be a small fraction of the paper's tents (0.083 against 0.35 measured)
+    assert data["hanging"]["wrinkle_ratio"] >= 2.0
     assert data["hanging"]["spike_index"] <= 0.5 * data["hanging_paper"]["spike_index"]
     assert data["cylinder"]["hem_ratio"] >= 1.2 > data["cylinder_paper"]["hem_ratio"]
