@@ -6,7 +6,7 @@ VENV := .venv
 VPY := $(VENV)/bin/python
 OUT ?= yore-out
 # Everything the installed package is built from; a change re-runs the (incremental) install.
-SOURCES := $(shell find cpp python cmake -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null) \
+SOURCES := $(shell find cpp python cmake tests/cpp -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null) \
            CMakeLists.txt pyproject.toml
 
 .PHONY: test-valgrind setup system test test-cpp test-fast docs lock demo bench bench-quick clean
@@ -29,8 +29,13 @@ $(VENV)/.deps: $(VPY) requirements.in $(LOCK)
 	$(VPY) -m pip install --quiet -r requirements.in -c $(LOCK)
 	@touch $@
 
+# The C++ core is compiled once: the package's CMake folder (build/core) also builds the C++
+# tests (YORE_BUILD_TESTS=ON here; a plain `pip install .` leaves them out), and `make test-cpp`
+# runs them from there.
+CORE_BUILD := build/core
 $(VENV)/.installed: $(VENV)/.deps $(SOURCES)
-	$(VPY) -m pip install --no-build-isolation --no-deps ".[test]"
+	$(VPY) -m pip install --no-build-isolation --no-deps \
+	    --config-settings=cmake.define.YORE_BUILD_TESTS=ON ".[test]"
 	@touch $@
 
 # The C++ tests and the docs run first, so that pytest's summary is the closing line.
@@ -39,16 +44,12 @@ test: setup
 	$(MAKE) --no-print-directory docs
 	$(VPY) -m pytest -q tests
 
-# The C++ tests (doctest, tests/cpp: one file per source unit, one ctest test per file) in their
-# own CMake folder, without the Python module: configured once, then built and run
-# incrementally. CMAKE_BUILD_PARALLEL_LEVEL, when set, is the parallel level of both.
-CPP_TESTS := build/cpp-tests
+# The C++ tests (doctest, tests/cpp: one file per source unit, one ctest test per file), built
+# with the package in build/core (above) and run incrementally. CMAKE_BUILD_PARALLEL_LEVEL, when
+# set, is ctest's parallel level too.
 CPP_PARALLEL := $(if $(CMAKE_BUILD_PARALLEL_LEVEL),--parallel $(CMAKE_BUILD_PARALLEL_LEVEL))
-test-cpp: system
-	@test -f $(CPP_TESTS)/CMakeCache.txt || cmake -S . -B $(CPP_TESTS) -G Ninja \
-	    -DYORE_BUILD_PYTHON=OFF -DYORE_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=Release
-	cmake --build $(CPP_TESTS) $(CPP_PARALLEL)
-	ctest --test-dir $(CPP_TESTS) --output-on-failure $(CPP_PARALLEL)
+test-cpp: setup
+	ctest --test-dir $(CORE_BUILD) --output-on-failure $(CPP_PARALLEL)
 
 # The C++ tests under valgrind's memcheck (reads of uninitialised memory, invalid accesses),
 # after a change to the core's memory handling (issue 53: a TR-BDF2 history held heap garbage).
@@ -56,7 +57,7 @@ test-cpp: system
 # without AVX-512, so the test comparing CPUID with /proc/cpuinfo is left out.
 test-valgrind: test-cpp
 	@command -v valgrind >/dev/null || { echo "make test-valgrind needs valgrind (apt-get install valgrind)"; exit 2; }
-	valgrind --error-exitcode=9 --track-origins=yes -q $(CPP_TESTS)/tests/cpp/yore_tests \
+	valgrind --error-exitcode=9 --track-origins=yes -q $(CORE_BUILD)/tests/cpp/yore_tests \
 	    -tce="cpu_features agrees with the Linux kernel*"
 
 # The tests a developer runs while editing: all but those marked slow (under a minute here).
