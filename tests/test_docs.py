@@ -21,11 +21,36 @@ def _blocks(language):
 
 def test_the_readme_stays_short_and_links_pages_that_exist():
     text = README.read_text(encoding="utf-8")
-    assert len(text.splitlines()) <= 300
+    assert len(text.splitlines()) <= 200
     links = re.findall(r"\]\((docs/[^)#]+)", text)
     assert links, "the README links into the documentation"
     for link in links:
         assert (README.parent / link).exists(), link
+
+
+def test_the_readmes_limitations_are_a_short_table_with_a_link_per_row():
+    """At most 25 lines (issue 54): one row per limitation, its number, and a link to the
+    section of docs/limitations.md that holds the measurements."""
+    text = README.read_text(encoding="utf-8")
+    section = text[text.index("## Limitations"):]
+    section = section[:section.index("\n## ", 1)] if "\n## " in section[1:] else section
+    lines = section.strip().splitlines()
+    assert len(lines) <= 25
+    rows = [line for line in lines if line.startswith("| ") and not line.startswith("| What")]
+    assert len(rows) >= 10
+    headings = {_slug(line[3:]) for line in
+                (README.parent / "docs" / "limitations.md").read_text("utf-8").splitlines()
+                if line.startswith("## ")}
+    for row in rows:
+        anchors = re.findall(r"\(docs/limitations\.md#([a-z0-9-]+)\)", row)
+        assert len(anchors) == 1, row
+        assert anchors[0] in headings, row
+
+
+def _slug(heading):
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    kept = re.sub(r"[^\w\- ]", "", heading.strip().lower().replace("`", ""))
+    return kept.replace(" ", "-")
 
 
 def test_the_first_scene_file_loads_and_has_its_stroke(tmp_path):
