@@ -122,3 +122,21 @@ def test_the_documented_integrator_options_and_defaults_are_the_registrys():
         for name, value in options.items():
             # "0 = off" style notes follow the value
             assert _matches(documented[integrator][name], value), (integrator, name, value)
+
+
+def test_the_docs_integrator_lists_are_the_registrys():
+    """python.md and scene-files.md list the integrators between markers that
+    tools/docs_lists.py fills from yore.options.INTEGRATOR_SPECS: every registered name, none
+    by hand (issue 54)."""
+    sys.path.insert(0, str(README.parent / "tools"))
+    try:
+        import docs_lists
+    finally:
+        sys.path.pop(0)
+    pages = {path.name for path in docs_lists.pages_with_lists()}
+    assert {"python.md", "scene-files.md"} <= pages
+    for name in pages:
+        text = (README.parent / "docs" / name).read_text("utf-8")
+        assert docs_lists.refreshed(text) == text, f"{name} is stale: run tools/docs_lists.py"
+        listed = re.search(r"<!-- integrators -->(.*?)<!-- /integrators -->", text).group(1)
+        assert re.findall(r'`"([a-z0-9-]+)"`', listed) == list(yore.INTEGRATORS)

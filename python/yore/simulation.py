@@ -60,15 +60,10 @@ class Simulation:
     cloth : yore.Cloth
         The cloth to simulate (the simulation steps it in place).
     integrator : str
-        One of ``yore.simulation.INTEGRATORS``: ``"explicit"`` (symplectic Euler, the
-        reference), ``"implicit"`` (backward Euler by Newton on a sparse Cholesky factorization),
-        ``"bdf2"`` (second order on the same machinery), ``"local-global"`` (prefactored
-        local/global backward Euler, Liu et al. 2013), ``"generalized-alpha"`` (Chung &
-        Hulbert's second-order method on the same Newton machinery; ``rho_infinity`` sets how
-        much of the highest frequencies survives a step), ``"tr-bdf2"`` (a trapezoidal stage
-        and a BDF2 stage per step: second order, L-stable), ``"quasi-newton"`` (L-BFGS on the
-        backward-Euler or BDF2 potential with the constant local-global matrix as initial
-        Hessian, Liu, Bouaziz & Kavan 2017).
+        One of ``yore.INTEGRATORS``, the names of the registry
+        ``yore.options.INTEGRATOR_SPECS`` (each row's ``summary`` says what it is):
+        ``"explicit"``, the paper's symplectic Euler, is the reference; the others are
+        implicit (the Integrators page of the documentation has them all, and which one to use).
     dt : float or "auto", optional
         Time step, s. Default: explicit, ``EXPLICIT_DT_SAFETY`` (0.98) × the state-independent
         stable-step bound, rounded down to 1/N s (``default_explicit_dt``); the others 1/60 s.
