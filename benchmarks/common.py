@@ -23,8 +23,13 @@ def machine_info() -> dict:
                     break
     except OSError:
         pass
-    blas = sorted({line.split()[-1] for line in _maps() if "blas" in line.lower()
-                   and line.split()[-1].startswith("/")})
+    blas = sorted(
+        {
+            line.split()[-1]
+            for line in _maps()
+            if "blas" in line.lower() and line.split()[-1].startswith("/")
+        }
+    )
     return {
         "cpu": cpu,
         "logical_cores": os.cpu_count(),
@@ -34,8 +39,9 @@ def machine_info() -> dict:
         "blas_loaded": blas,
         # the kernels CHOLMOD's BLAS runs and who chose them (yore.blas): "SkylakeX", "yore"
         "blas_kernels": yore.blas.report(),
-        "thread_environment": {name: os.environ.get(name) for name in
-                               ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")},
+        "thread_environment": {
+            name: os.environ.get(name) for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+        },
     }
 
 
@@ -56,8 +62,12 @@ def median_seconds(run, repeats: int, warmup: int = 1) -> dict:
         start = time.perf_counter()
         run()
         samples.append(time.perf_counter() - start)
-    return {"median": statistics.median(samples), "min": min(samples), "max": max(samples),
-            "repeats": repeats}
+    return {
+        "median": statistics.median(samples),
+        "min": min(samples),
+        "max": max(samples),
+        "repeats": repeats,
+    }
 
 
 def arguments(doc: str, argv=None, extra=None):
@@ -90,8 +100,15 @@ def grid_cloth(n: int) -> "yore.Cloth":
     """The benchmarks' cloth: an n × n-vertex, 1 m square with the scenes' material (200 N/m
     structural and bending springs, damping, drag, 0.1 kg), fixed at two corners."""
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
-                       damping=0.02, drag=0.3)
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=0.1 / (n * n),
+        stretch_stiffness=200.0,
+        bend_stiffness=200.0,
+        damping=0.02,
+        drag=0.3,
+    )
     cloth.fix([0, n - 1])
     return cloth
 
@@ -102,8 +119,9 @@ def explicit_step_seconds(n: int, target_seconds: float, repeats: int) -> dict:
     probe = median_seconds(lambda: sim.step(5, progress=False), repeats=1, warmup=1)
     steps = max(1, int(target_seconds / (probe["median"] / 5)))
     timing = median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)
-    return {key: (value / steps if key != "repeats" else value) for key, value in timing.items()} | {
-        "steps_per_batch": steps}
+    return {
+        key: (value / steps if key != "repeats" else value) for key, value in timing.items()
+    } | {"steps_per_batch": steps}
 
 
 def grouped_bars(axes, rows, group, series, metrics):

@@ -166,16 +166,34 @@ FAMILIES = {
     "BDF2 linearized": {"integrator": "bdf2", "linearized": True, "mixed": False, **TIGHT},
     "BE Newton": {"integrator": "implicit", "projection": "steihaug", **TIGHT},
     "BDF2": {"integrator": "bdf2", "projection": "steihaug", **TIGHT},
-    "BE lagged factors": {"integrator": "implicit", "projection": "steihaug",
-                          "lagged_factorization": True, **TIGHT},
-    "BDF2 lagged factors": {"integrator": "bdf2", "projection": "steihaug",
-                            "lagged_factorization": True, **TIGHT},
+    "BE lagged factors": {
+        "integrator": "implicit",
+        "projection": "steihaug",
+        "lagged_factorization": True,
+        **TIGHT,
+    },
+    "BDF2 lagged factors": {
+        "integrator": "bdf2",
+        "projection": "steihaug",
+        "lagged_factorization": True,
+        **TIGHT,
+    },
     # the loose stops measured on stiff sheets (docs/limitations.md): clamp, no factor thrown
     # away, Newton ended by the step test, the springs' forces from the linearization (mixed)
-    "BE clamp, step test": {"integrator": "implicit", "projection": "clamp", "step_tol": 3e-3,
-                            "mixed": True, **TIGHT},
-    "BDF2 clamp, step test": {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3,
-                              "mixed": True, **TIGHT},
+    "BE clamp, step test": {
+        "integrator": "implicit",
+        "projection": "clamp",
+        "step_tol": 3e-3,
+        "mixed": True,
+        **TIGHT,
+    },
+    "BDF2 clamp, step test": {
+        "integrator": "bdf2",
+        "projection": "clamp",
+        "step_tol": 3e-3,
+        "mixed": True,
+        **TIGHT,
+    },
     # yore's defaults (the clamp with the mixed matrices, the truncation test): a change of the
     # defaults changes their resolved options, and a merge then leaves their rows out
     "BE default": {"integrator": "implicit"},
@@ -193,11 +211,17 @@ FAMILIES = {
 TOLERANCE_LABELS = {"tr-bdf2 auto": "TR-BDF2 auto", "bdf2 auto": "BDF2 auto", "cvode": "CVODE"}
 FAMILIES.update(tolerance.families(TOLERANCE_LABELS))
 #: families whose steps their tolerance chooses: one run, dt = the output interval
-ERROR_CONTROLLED = tuple(name for name, options in FAMILIES.items()
-                         if tolerance.is_error_controlled(options))
+ERROR_CONTROLLED = tuple(
+    name for name, options in FAMILIES.items() if tolerance.is_error_controlled(options)
+)
 QUICK_FAMILIES = ("explicit", "BE linearized", "BDF2", "quasi-Newton BE")
-ITERATION_COUNTERS = ("newton_iterations", "iterations", "lbfgs_iterations",
-                      "quasi_newton_iterations", "nonlinear_iterations")
+ITERATION_COUNTERS = (
+    "newton_iterations",
+    "iterations",
+    "lbfgs_iterations",
+    "quasi_newton_iterations",
+    "nonlinear_iterations",
+)
 #: counters that are states or sizes, not totals over the steps (not divided by steps)
 STATE_COUNTERS = ("dofs", "factor_nonzeros", "factor_flops")
 
@@ -233,8 +257,9 @@ def bending_arguments(bending, stiffness):
         return {"bend_stiffness": SOFT_BENDING}
     if bending == "real cloth":
         return {"bending": "quadratic", "bending_modulus": FABRIC_BENDING_MODULUS}
-    raise ValueError(f"bending row must be one of {', '.join(BENDING_ROWS)} or 'equal, damped', "
-                     f"got {bending!r}")
+    raise ValueError(
+        f"bending row must be one of {', '.join(BENDING_ROWS)} or 'equal, damped', got {bending!r}"
+    )
 
 
 def sheet(size, stiffness, bending):
@@ -242,9 +267,15 @@ def sheet(size, stiffness, bending):
     material = bending_arguments(bending, stiffness)
 
     def make(**options):
-        return yore.scenes.hanging_cloth(resolution=size, pin_spacing=1.0, mass=0.1,
-                                         stretch_stiffness=float(stiffness), **material,
-                                         **options)
+        return yore.scenes.hanging_cloth(
+            resolution=size,
+            pin_spacing=1.0,
+            mass=0.1,
+            stretch_stiffness=float(stiffness),
+            **material,
+            **options,
+        )
+
     return make
 
 
@@ -255,8 +286,11 @@ def even_steps(duration, dt):
 
 
 def numeric_counters(counters):
-    return {k: float(v) for k, v in counters.items()
-            if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    return {
+        k: float(v)
+        for k, v in counters.items()
+        if isinstance(v, (int, float)) and not isinstance(v, bool)
+    }
 
 
 def _simulate(make, options, steps, duration, cap_seconds=math.inf, chunks=16):
@@ -266,8 +300,12 @@ def _simulate(make, options, steps, duration, cap_seconds=math.inf, chunks=16):
     extrapolated cost."""
     sim = make(dt=duration / steps, **options)
     half = steps // 2
-    bounds = sorted({*np.linspace(0, half, chunks // 2 + 1).astype(int),
-                     *np.linspace(half, steps, chunks // 2 + 1).astype(int)})
+    bounds = sorted(
+        {
+            *np.linspace(0, half, chunks // 2 + 1).astype(int),
+            *np.linspace(half, steps, chunks // 2 + 1).astype(int),
+        }
+    )
     snapshots, cpu, done = [], 0.0, 0
     for target in bounds[1:]:
         start = time.thread_time()
@@ -281,19 +319,27 @@ def _simulate(make, options, steps, duration, cap_seconds=math.inf, chunks=16):
             snapshots.append(sim.cloth.positions)
         predicted = cpu * steps / done
         if done < steps and max(cpu, predicted) > cap_seconds:
-            return {"aborted": f"CPU {cpu:.3g} s after {done} of {steps} steps, "
-                               f"extrapolated {predicted:.3g} s > cap {cap_seconds:.3g} s",
-                    "cost_estimate": predicted / duration, "steps_done": done}
+            return {
+                "aborted": f"CPU {cpu:.3g} s after {done} of {steps} steps, "
+                f"extrapolated {predicted:.3g} s > cap {cap_seconds:.3g} s",
+                "cost_estimate": predicted / duration,
+                "steps_done": done,
+            }
     snapshots.append(sim.cloth.positions)
-    return {"snapshots": snapshots, "cpu_seconds": cpu,
-            "counters": numeric_counters(sim.stats["counters"]),
-            "internal_steps": tolerance.internal_steps(sim)}
+    return {
+        "snapshots": snapshots,
+        "cpu_seconds": cpu,
+        "counters": numeric_counters(sim.stats["counters"]),
+        "internal_steps": tolerance.internal_steps(sim),
+    }
 
 
 def relative_errors(snapshots, reference, scale):
     """RMS vertex distance at T/2 and at T over scale."""
-    return [float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1)))) / scale
-            for a, b in zip(snapshots, reference)]
+    return [
+        float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1)))) / scale
+        for a, b in zip(snapshots, reference)
+    ]
 
 
 def is_stable(make, dt):
@@ -304,8 +350,10 @@ def is_stable(make, dt):
         sim.step(SEARCH_STEPS, progress=False)
     except yore.SimulationDiverged as error:
         return False, (time.thread_time() - start) / max(1, getattr(error, "step", 1))
-    return (bool(np.isfinite(sim.cloth.positions).all()),
-            (time.thread_time() - start) / SEARCH_STEPS)
+    return (
+        bool(np.isfinite(sim.cloth.positions).all()),
+        (time.thread_time() - start) / SEARCH_STEPS,
+    )
 
 
 def trial_limit(make, estimate, check=None):
@@ -362,8 +410,10 @@ def build_fingerprint():
 
 
 def journal_folder(root, cell):
-    return Path(root) / (f"{int(cell['size'])}-{float(cell['stretch_stiffness']):g}-"
-                         + str(cell["bending"]).replace(" ", "_"))
+    return Path(root) / (
+        f"{int(cell['size'])}-{float(cell['stretch_stiffness']):g}-"
+        + str(cell["bending"]).replace(" ", "_")
+    )
 
 
 class Journal:
@@ -439,8 +489,13 @@ class Journal:
             buffer = io.BytesIO()
             np.savez(buffer, half=result["snapshots"][0], end=result["snapshots"][1])
             self._write(arrays, buffer.getvalue())
-        self._write(record, json.dumps({"asked": asked, "result": kept, "cpu_seconds": cpu,
-                                        "arrays": has_arrays}, default=float).encode())
+        self._write(
+            record,
+            json.dumps(
+                {"asked": asked, "result": kept, "cpu_seconds": cpu, "arrays": has_arrays},
+                default=float,
+            ).encode(),
+        )
         return result
 
 
@@ -458,78 +513,140 @@ def measure_cell(cell, make, families, settings, log, journal=None):
     probe = make()
     estimate = probe.stable_dt()
     scale = float(np.linalg.norm(np.ptp(probe.cloth.positions, axis=0)))
-    limit, trials = trial_limit(make, estimate, lambda dt: journal.run(
-        {"stability trial": dt, "steps": SEARCH_STEPS}, lambda: is_stable(make, dt)))
+    limit, trials = trial_limit(
+        make,
+        estimate,
+        lambda dt: journal.run(
+            {"stability trial": dt, "steps": SEARCH_STEPS}, lambda: is_stable(make, dt)
+        ),
+    )
     explicit = families["explicit"]
     steps_limit = even_steps(duration, limit)
-    info = dict(cell, stable_dt_estimate=estimate, trial_limit_dt=limit, stability_trials=trials,
-                scale=scale)
+    info = dict(
+        cell,
+        stable_dt_estimate=estimate,
+        trial_limit_dt=limit,
+        stability_trials=trials,
+        scale=scale,
+    )
     # explicit's least work in this cell: the run at the limit, its repeats, the reference pair
     per_step = statistics.median(t["cpu_per_step"] for t in trials)
     predicted = per_step * steps_limit * (settings["repeats"] + 2 + 4)
     info["predicted_explicit_cpu_seconds"] = predicted
     if predicted > settings["max_cell_seconds"]:
-        log(f"{describe(cell)}: explicit's runs would take ~{predicted:.0f} CPU s > "
-            f"--max-cell-seconds {settings['max_cell_seconds']:g}; cell skipped")
-        info["skipped"] = (f"explicit's runs and reference ~{predicted:.0f} CPU s > "
-                           f"--max-cell-seconds {settings['max_cell_seconds']:g}")
+        log(
+            f"{describe(cell)}: explicit's runs would take ~{predicted:.0f} CPU s > "
+            f"--max-cell-seconds {settings['max_cell_seconds']:g}; cell skipped"
+        )
+        info["skipped"] = (
+            f"explicit's runs and reference ~{predicted:.0f} CPU s > "
+            f"--max-cell-seconds {settings['max_cell_seconds']:g}"
+        )
         return [], info
     # reference chain: steps_limit × 2, × 4, ... until the last two agree or the budget ends
     chain = [(2 * steps_limit, simulate(make, explicit, 2 * steps_limit, duration))]
-    links = [{"steps": 2 * steps_limit, "dt": duration / (2 * steps_limit),
-              "cpu_seconds": chain[0][1].get("cpu_seconds"), "difference_to_previous": None}]
+    links = [
+        {
+            "steps": 2 * steps_limit,
+            "dt": duration / (2 * steps_limit),
+            "cpu_seconds": chain[0][1].get("cpu_seconds"),
+            "difference_to_previous": None,
+        }
+    ]
     info["reference_chain"] = links
     while True:
         steps = 2 * chain[-1][0]
         chain.append((steps, simulate(make, explicit, steps, duration)))
         if any(result.get("diverged") for _, result in chain[-2:]):
             log(f"{describe(cell)}: the reference diverged; cell left out")
-            info.update(reference_converged=False, reference_error=None,
-                        reference_diverged=True)
-            return [dict(cell, method="reference", dt=duration / steps, steps=steps,
-                         diverged=True, aborted=None, reference_converged=False)], info
-        reference_error = max(relative_errors(chain[-2][1]["snapshots"],
-                                              chain[-1][1]["snapshots"], scale))
+            info.update(reference_converged=False, reference_error=None, reference_diverged=True)
+            return [
+                dict(
+                    cell,
+                    method="reference",
+                    dt=duration / steps,
+                    steps=steps,
+                    diverged=True,
+                    aborted=None,
+                    reference_converged=False,
+                )
+            ], info
+        reference_error = max(
+            relative_errors(chain[-2][1]["snapshots"], chain[-1][1]["snapshots"], scale)
+        )
         converged = reference_error <= REFERENCE_TOLERANCE
-        links.append({"steps": steps, "dt": duration / steps,
-                      "cpu_seconds": chain[-1][1]["cpu_seconds"],
-                      "difference_to_previous": reference_error})
-        if (converged or len(chain) > MAX_REFERENCE_HALVINGS
-                or 2 * chain[-1][1]["cpu_seconds"] > settings["max_reference_seconds"]):
+        links.append(
+            {
+                "steps": steps,
+                "dt": duration / steps,
+                "cpu_seconds": chain[-1][1]["cpu_seconds"],
+                "difference_to_previous": reference_error,
+            }
+        )
+        if (
+            converged
+            or len(chain) > MAX_REFERENCE_HALVINGS
+            or 2 * chain[-1][1]["cpu_seconds"] > settings["max_reference_seconds"]
+        ):
             break
     reference = chain[-1][1]
-    info.update(reference_error=reference_error, reference_converged=converged,
-                reference_dt=duration / chain[-1][0])
-    log(f"{describe(cell)}: stable_dt() {estimate:.3g} s, trial limit {limit:.3g} s, reference "
-        f"error {reference_error:.2e}{'' if converged else ' (NOT converged: left out)'}")
+    info.update(
+        reference_error=reference_error,
+        reference_converged=converged,
+        reference_dt=duration / chain[-1][0],
+    )
+    log(
+        f"{describe(cell)}: stable_dt() {estimate:.3g} s, trial limit {limit:.3g} s, reference "
+        f"error {reference_error:.2e}{'' if converged else ' (NOT converged: left out)'}"
+    )
 
     def row(method, steps, result, **extra):
-        base = dict(cell, method=method, dt=duration / steps, steps=steps, scale=scale,
-                    sample_steps=[steps // 2, steps], sample_times=[duration / 2, duration],
-                    reference_converged=converged, diverged=bool(result.get("diverged")),
-                    aborted=result.get("aborted"), repeats=0, **extra)
+        base = dict(
+            cell,
+            method=method,
+            dt=duration / steps,
+            steps=steps,
+            scale=scale,
+            sample_steps=[steps // 2, steps],
+            sample_times=[duration / 2, duration],
+            reference_converged=converged,
+            diverged=bool(result.get("diverged")),
+            aborted=result.get("aborted"),
+            repeats=0,
+            **extra,
+        )
         if "snapshots" in result:
             half, end = relative_errors(result["snapshots"], reference["snapshots"], scale)
             counters = result["counters"]
             unconverged = int(counters.get("unconverged_steps", 0))
-            base.update(error_half=half, error_end=end, error=max(half, end),
-                        cpu_seconds_samples=[result["cpu_seconds"]], repeats=1,
-                        counters=counters,
-                        counters_per_step={k: v / steps for k, v in counters.items()
-                                           if k not in STATE_COUNTERS
-                                           and not k.startswith("last_")},
-                        iterations=int(next((counters[k] for k in ITERATION_COUNTERS
-                                             if k in counters), steps)),
-                        factorizations=int(counters.get("factorizations", 0)),
-                        unconverged_steps=unconverged, flagged=unconverged > 0,
-                        internal_steps=result.get("internal_steps"))
+            base.update(
+                error_half=half,
+                error_end=end,
+                error=max(half, end),
+                cpu_seconds_samples=[result["cpu_seconds"]],
+                repeats=1,
+                counters=counters,
+                counters_per_step={
+                    k: v / steps
+                    for k, v in counters.items()
+                    if k not in STATE_COUNTERS and not k.startswith("last_")
+                },
+                iterations=int(
+                    next((counters[k] for k in ITERATION_COUNTERS if k in counters), steps)
+                ),
+                factorizations=int(counters.get("factorizations", 0)),
+                unconverged_steps=unconverged,
+                flagged=unconverged > 0,
+                internal_steps=result.get("internal_steps"),
+            )
             set_cost(base, result["cpu_seconds"])
         elif result.get("aborted"):
             base["cost_estimate_seconds_per_simulated_second"] = result["cost_estimate"]
         return base
 
-    rows = [dict(row("reference", chain[-1][0], reference), error=0.0,
-                 reference_error=reference_error)]
+    rows = [
+        dict(row("reference", chain[-1][0], reference), error=0.0, reference_error=reference_error)
+    ]
     # explicit at the limit over the whole interval: cut by 5 % until it runs and stays close
     steps = steps_limit
     for _ in range(6):
@@ -545,9 +662,14 @@ def measure_cell(cell, make, families, settings, log, journal=None):
     for steps, result in chain[:-1]:  # the coarser runs of the chain are explicit's ladder
         rows.append(row("explicit", steps, result))
         log_row(log, rows[-1])
-    best_explicit = min((r["cost_seconds_per_simulated_second"] for r in rows
-                         if r["method"] == "explicit" and usable(r)
-                         and r["error"] <= max(THRESHOLDS)), default=math.inf)
+    best_explicit = min(
+        (
+            r["cost_seconds_per_simulated_second"]
+            for r in rows
+            if r["method"] == "explicit" and usable(r) and r["error"] <= max(THRESHOLDS)
+        ),
+        default=math.inf,
+    )
     cap = min(settings["max_run_seconds"], settings["max_ratio"] * best_explicit * duration)
 
     for family, options in families.items():
@@ -565,17 +687,22 @@ def measure_cell(cell, make, families, settings, log, journal=None):
             if aborted_in_a_row >= 2:
                 break
             if "error" in r:
-                if (previous is not None and previous["error"] <= min(THRESHOLDS)
-                        and r["cost_seconds_per_simulated_second"]
-                        > previous["cost_seconds_per_simulated_second"]):
+                if (
+                    previous is not None
+                    and previous["error"] <= min(THRESHOLDS)
+                    and r["cost_seconds_per_simulated_second"]
+                    > previous["cost_seconds_per_simulated_second"]
+                ):
                     break
                 previous = r
 
     repeat_candidates(rows, make, families, duration, settings["repeats"], log, simulate)
     if journal.replayed:
         info.update(replayed_runs=journal.replayed, replayed_cpu_seconds=journal.replayed_cpu)
-        log(f"{describe(cell)}: {journal.replayed} runs replayed from the journal "
-            f"({journal.replayed_cpu:.0f} CPU s measured before the cell was stopped)")
+        log(
+            f"{describe(cell)}: {journal.replayed} runs replayed from the journal "
+            f"({journal.replayed_cpu:.0f} CPU s measured before the cell was stopped)"
+        )
     return rows, info
 
 
@@ -610,8 +737,9 @@ def repeat_candidates(rows, make, families, duration, repeats, log, simulate=Non
             meeting = [i for i in sel if rows[i]["error"] <= threshold]
             if meeting:
                 cheapest = min(rows[i]["cpu_seconds"] for i in meeting)
-                candidates |= {i for i in meeting
-                               if rows[i]["cpu_seconds"] <= REPEAT_MARGIN * cheapest}
+                candidates |= {
+                    i for i in meeting if rows[i]["cpu_seconds"] <= REPEAT_MARGIN * cheapest
+                }
     for i in sorted(candidates):
         r = rows[i]
         for _ in range(repeats - 1):
@@ -619,13 +747,17 @@ def repeat_candidates(rows, make, families, duration, repeats, log, simulate=Non
             r["cpu_seconds_samples"].append(again["cpu_seconds"])
         r["repeats"] = len(r["cpu_seconds_samples"])
         set_cost(r, statistics.median(r["cpu_seconds_samples"]))
-        log(f"    repeated {r['method']} dt={r['dt']:.3g}: median CPU {r['cpu_seconds']:.3g} s "
-            f"of {', '.join(f'{s:.3g}' for s in r['cpu_seconds_samples'])}")
+        log(
+            f"    repeated {r['method']} dt={r['dt']:.3g}: median CPU {r['cpu_seconds']:.3g} s "
+            f"of {', '.join(f'{s:.3g}' for s in r['cpu_seconds_samples'])}"
+        )
 
 
 def describe(cell):
-    return (f"{cell['size']}² k={cell['stretch_stiffness']:g} bending {cell['bending']} "
-            f"T={cell['horizon']:g} s")
+    return (
+        f"{cell['size']}² k={cell['stretch_stiffness']:g} bending {cell['bending']} "
+        f"T={cell['horizon']:g} s"
+    )
 
 
 def log_row(log, r):
@@ -634,19 +766,36 @@ def log_row(log, r):
     elif r["aborted"]:
         state = f"aborted ({r['aborted']})"
     else:
-        state = (f"error {r['error']:.2e} cost {r['cost_seconds_per_simulated_second']:.3g} s/s "
-                 f"it/step {r['iterations_per_step']:.1f}"
-                 + (f" UNCONVERGED {r['unconverged_steps']}" if r["flagged"] else "")
-                 + (" UNSTABLE" if r.get("unstable") else ""))
+        state = (
+            f"error {r['error']:.2e} cost {r['cost_seconds_per_simulated_second']:.3g} s/s "
+            f"it/step {r['iterations_per_step']:.1f}"
+            + (f" UNCONVERGED {r['unconverged_steps']}" if r["flagged"] else "")
+            + (" UNSTABLE" if r.get("unstable") else "")
+        )
     log(f"    {r['method']:20s} dt={r['dt']:.3g} {state}")
 
 
 # -- a cell's summary ---------------------------------------------------------------------------
 def entry(row):
-    keys = ("method", "dt", "steps", "internal_steps", "error", "error_half", "error_end",
-            "cost_seconds_per_simulated_second", "cpu_seconds", "repeats",
-            "steps_per_simulated_second", "cpu_per_step", "iterations_per_step",
-            "factorizations_per_step", "cpu_per_iteration", "unconverged_steps", "flagged")
+    keys = (
+        "method",
+        "dt",
+        "steps",
+        "internal_steps",
+        "error",
+        "error_half",
+        "error_end",
+        "cost_seconds_per_simulated_second",
+        "cpu_seconds",
+        "repeats",
+        "steps_per_simulated_second",
+        "cpu_per_step",
+        "iterations_per_step",
+        "factorizations_per_step",
+        "cpu_per_iteration",
+        "unconverged_steps",
+        "flagged",
+    )
     return {k: row[k] for k in keys if k in row}
 
 
@@ -668,60 +817,87 @@ def summarize_cell(info, rows, families):
         return out
     for threshold in THRESHOLDS:
         if not reference_serves(info, threshold):
-            out[f"at_{threshold:g}"] = {"families": {}, "best_implicit": None,
-                                        "best_explicit": None,
-                                        "reference_too_coarse": info["reference_error"]}
+            out[f"at_{threshold:g}"] = {
+                "families": {},
+                "best_implicit": None,
+                "best_explicit": None,
+                "reference_too_coarse": info["reference_error"],
+            }
             continue
         per_family = {}
         for family in families:
-            sel = [r for r in rows if r["method"] == family and usable(r)
-                   and r["error"] <= threshold]
+            sel = [
+                r for r in rows if r["method"] == family and usable(r) and r["error"] <= threshold
+            ]
             best = min(sel, key=lambda r: r["cost_seconds_per_simulated_second"], default=None)
             if best is None:
                 tried = [r for r in rows if r["method"] == family]
-                estimates = [r["cost_estimate_seconds_per_simulated_second"] for r in tried
-                             if r.get("aborted")]
-                per_family[family] = {"none": "no run reached the error" if tried else "not run",
-                                      "aborted_runs": len(estimates),
-                                      "least_extrapolated_cost": min(estimates, default=None)}
+                estimates = [
+                    r["cost_estimate_seconds_per_simulated_second"]
+                    for r in tried
+                    if r.get("aborted")
+                ]
+                per_family[family] = {
+                    "none": "no run reached the error" if tried else "not run",
+                    "aborted_runs": len(estimates),
+                    "least_extrapolated_cost": min(estimates, default=None),
+                }
             else:
                 per_family[family] = entry(best)
         implicit = [e for f, e in per_family.items() if f != "explicit" and "method" in e]
-        best_implicit = min(implicit, key=lambda e: e["cost_seconds_per_simulated_second"],
-                            default=None)
+        best_implicit = min(
+            implicit, key=lambda e: e["cost_seconds_per_simulated_second"], default=None
+        )
         best_explicit = per_family.get("explicit")
         if best_explicit is not None and "method" not in best_explicit:
             best_explicit = None
-        verdict = {"families": per_family, "best_implicit": best_implicit,
-                   "best_explicit": best_explicit}
+        verdict = {
+            "families": per_family,
+            "best_implicit": best_implicit,
+            "best_explicit": best_explicit,
+        }
         if best_implicit and best_explicit:
-            ratio = (best_implicit["cost_seconds_per_simulated_second"]
-                     / best_explicit["cost_seconds_per_simulated_second"])
+            ratio = (
+                best_implicit["cost_seconds_per_simulated_second"]
+                / best_explicit["cost_seconds_per_simulated_second"]
+            )
             verdict.update(
                 implicit_over_explicit_cost=ratio,
                 winner=best_implicit["method"] if ratio < 1 else "explicit",
                 # cost per simulated second = steps per simulated second × CPU per step
                 explicit_over_implicit_steps=(
                     (best_explicit.get("internal_steps") or best_explicit["steps"])
-                    / (best_implicit.get("internal_steps") or best_implicit["steps"])),
-                implicit_over_explicit_cpu_per_step=(best_implicit["cpu_per_step"]
-                                                     / best_explicit["cpu_per_step"]))
+                    / (best_implicit.get("internal_steps") or best_implicit["steps"])
+                ),
+                implicit_over_explicit_cpu_per_step=(
+                    best_implicit["cpu_per_step"] / best_explicit["cpu_per_step"]
+                ),
+            )
         elif best_explicit:
             # every implicit run erred more or was stopped at its cap (≥ --max-ratio × explicit)
             verdict.update(winner="explicit", note="no implicit run reached it within the caps")
         out[f"at_{threshold:g}"] = verdict
-    groups = {m: tuple((f, rtol) for f, rtol in members if f in families)
-              for m, members in tolerance.groups(TOLERANCE_LABELS).items()}
+    groups = {
+        m: tuple((f, rtol) for f, rtol in members if f in families)
+        for m, members in tolerance.groups(TOLERANCE_LABELS).items()
+    }
     groups = {m: g for m, g in groups.items() if g}
     at_limit = [r for r in limit if "cost_seconds_per_simulated_second" in r]
     if groups and at_limit:
         fixed = [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED]
         out["at_tolerance"] = tolerance.at_tolerance(
-            rows, info["reference_error"], at_limit[0]["cost_seconds_per_simulated_second"],
-            fixed, groups)
+            rows,
+            info["reference_error"],
+            at_limit[0]["cost_seconds_per_simulated_second"],
+            fixed,
+            groups,
+        )
         out["at_tolerance_verdicts"] = tolerance.at_thresholds(
-            rows, [t for t in THRESHOLDS if reference_serves(info, t)], fixed,
-            [f for f in families if f in ERROR_CONTROLLED])
+            rows,
+            [t for t in THRESHOLDS if reference_serves(info, t)],
+            fixed,
+            [f for f in families if f in ERROR_CONTROLLED],
+        )
     return out
 
 
@@ -732,9 +908,18 @@ def percent(threshold):
 def cell_values(summary, rows):
     """The cell's numbers for the sweep's Dataset (floats only; NaN-free)."""
     values = {}
-    for key in ("horizon", "stable_dt_estimate", "trial_limit_dt", "explicit_limit_dt",
-                "reference_error", "reference_dt", "predicted_explicit_cpu_seconds",
-                "cell_thread_cpu_seconds", "cell_process_cpu_seconds", "cell_wall_seconds"):
+    for key in (
+        "horizon",
+        "stable_dt_estimate",
+        "trial_limit_dt",
+        "explicit_limit_dt",
+        "reference_error",
+        "reference_dt",
+        "predicted_explicit_cpu_seconds",
+        "cell_thread_cpu_seconds",
+        "cell_process_cpu_seconds",
+        "cell_wall_seconds",
+    ):
         if isinstance(summary.get(key), (int, float)):
             values[key] = float(summary[key])
     if "reference_converged" in summary:
@@ -772,10 +957,14 @@ def cell_of(overrides, horizon_seconds):
     stiffness = float(overrides["crossover.stretch_stiffness"])
     bending = str(overrides["crossover.bending"])
     material = bending_arguments(bending, stiffness)
-    return {"size": size, "stretch_stiffness": stiffness, "bending": bending,
-            "bend_stiffness": material.get("bend_stiffness"),
-            "bending_modulus": material.get("bending_modulus"),
-            "horizon": horizon_seconds(size, bending)}
+    return {
+        "size": size,
+        "stretch_stiffness": stiffness,
+        "bending": bending,
+        "bend_stiffness": material.get("bend_stiffness"),
+        "bending_modulus": material.get("bending_modulus"),
+        "horizon": horizon_seconds(size, bending),
+    }
 
 
 def crossover_cell(settings_toml, scene_path, overrides) -> dict:
@@ -796,33 +985,45 @@ def crossover_cell(settings_toml, scene_path, overrides) -> dict:
             warnings.filterwarnings("ignore", UNCONVERGED_WARNING, RuntimeWarning)
             root = settings.get("journal")
             journal = Journal(journal_folder(root, cell) if root else None, log.append)
-            rows, info = measure_cell(cell, sheet(size, stiffness, bending), families,
-                                      settings, log.append, journal)
+            rows, info = measure_cell(
+                cell, sheet(size, stiffness, bending), families, settings, log.append, journal
+            )
         summary = info if "skipped" in info else summarize_cell(info, rows, families)
     except Exception as error:  # noqa: BLE001 - a cell's failure is its result
         message = f"{type(error).__name__}: {' '.join(str(error).split())}"
         last = traceback.extract_tb(error.__traceback__)[-1:]
         if last:
             message += f" (at {Path(last[0].filename).name}:{last[0].lineno})"
-        return {"status": "failed", "message": message,
-                "values": {"cell_wall_seconds": time.perf_counter() - wall},
-                "positions": None, "faces": None}
-    summary.update(cell_thread_cpu_seconds=time.thread_time() - thread,
-                   cell_process_cpu_seconds=time.process_time() - process,
-                   cell_wall_seconds=time.perf_counter() - wall,
-                   worker={"cpu": _cpu_model(), "yore_threads_set": 1,
-                           "python": platform.python_version()})
+        return {
+            "status": "failed",
+            "message": message,
+            "values": {"cell_wall_seconds": time.perf_counter() - wall},
+            "positions": None,
+            "faces": None,
+        }
+    summary.update(
+        cell_thread_cpu_seconds=time.thread_time() - thread,
+        cell_process_cpu_seconds=time.process_time() - process,
+        cell_wall_seconds=time.perf_counter() - wall,
+        worker={"cpu": _cpu_model(), "yore_threads_set": 1, "python": platform.python_version()},
+    )
     record = {"cell": summary, "rows": rows, "log": log}
-    return {"status": "skipped" if "skipped" in summary else "done",
-            "message": json.dumps(record, separators=(",", ":"), default=float),
-            "values": cell_values(summary, rows), "positions": None, "faces": None}
+    return {
+        "status": "skipped" if "skipped" in summary else "done",
+        "message": json.dumps(record, separators=(",", ":"), default=float),
+        "values": cell_values(summary, rows),
+        "positions": None,
+        "faces": None,
+    }
 
 
 def _cpu_model():
     try:
         with open("/proc/cpuinfo") as f:
-            return next((line.split(":", 1)[1].strip() for line in f
-                         if line.startswith("model name")), platform.processor())
+            return next(
+                (line.split(":", 1)[1].strip() for line in f if line.startswith("model name")),
+                platform.processor(),
+            )
     except OSError:
         return platform.processor() or "unknown"
 
@@ -840,8 +1041,10 @@ def toml_value(value):
 
 def settings_text(settings):
     """The settings as the TOML every cell reads (the sweep's scene.toml)."""
-    lines = ["# benchmarks/crossover.py: the settings every cell of this crossover runs with",
-             "# (python -m benchmarks.crossover --resume reads them back)"]
+    lines = [
+        "# benchmarks/crossover.py: the settings every cell of this crossover runs with",
+        "# (python -m benchmarks.crossover --resume reads them back)",
+    ]
     for key, value in settings.items():
         if key != "families":
             lines.append(f"{key} = {toml_value(value)}")
@@ -857,19 +1060,30 @@ def grid_sweep(settings):
     it (no such scene), `python -m benchmarks.crossover --resume` continues it."""
     from yore.sweep.spec import Dimension, Sweep
 
-    axes = (("size", "crossover.size", sorted(settings["sizes"], reverse=True)),
-            ("stiffness", "crossover.stretch_stiffness",
-             sorted(settings["stiffness"], reverse=True)),
-            ("bending", "crossover.bending", list(settings["bending"])))
-    text = ["# benchmarks/crossover.py's cells: one task each, run by its cell function",
-            "# (crossover_cell), not by `yore sweep`; scene.toml holds the settings.",
-            "[sweep]", 'scene = "benchmarks.crossover settings (scene.toml)"']
+    axes = (
+        ("size", "crossover.size", sorted(settings["sizes"], reverse=True)),
+        ("stiffness", "crossover.stretch_stiffness", sorted(settings["stiffness"], reverse=True)),
+        ("bending", "crossover.bending", list(settings["bending"])),
+    )
+    text = [
+        "# benchmarks/crossover.py's cells: one task each, run by its cell function",
+        "# (crossover_cell), not by `yore sweep`; scene.toml holds the settings.",
+        "[sweep]",
+        'scene = "benchmarks.crossover settings (scene.toml)"',
+    ]
     dimensions = []
     for name, key, values in axes:
         text += [f"[zip.{name}]", f"{json.dumps(key)} = {toml_value(values)}"]
         dimensions.append(Dimension(name, (key,), tuple((v,) for v in values)))
-    return Sweep(text="\n".join(text) + "\n", path=None, scene_text=settings_text(settings),
-                 scene_path=None, sets={}, dimensions=dimensions, repeats=1)
+    return Sweep(
+        text="\n".join(text) + "\n",
+        path=None,
+        scene_text=settings_text(settings),
+        scene_path=None,
+        sets={},
+        dimensions=dimensions,
+        repeats=1,
+    )
 
 
 def collect(sweep, results, families=None):
@@ -880,9 +1094,11 @@ def collect(sweep, results, families=None):
     for cell in sweep.cells():
         status = str(results.status[cell.position])
         message = str(results.message[cell.position])
-        where = {"size": int(cell.overrides["crossover.size"]),
-                 "stretch_stiffness": float(cell.overrides["crossover.stretch_stiffness"]),
-                 "bending": str(cell.overrides["crossover.bending"])}
+        where = {
+            "size": int(cell.overrides["crossover.size"]),
+            "stretch_stiffness": float(cell.overrides["crossover.stretch_stiffness"]),
+            "bending": str(cell.overrides["crossover.bending"]),
+        }
         if status in ("done", "skipped"):
             record = json.loads(message)
             rows.extend(record["rows"])
@@ -892,17 +1108,21 @@ def collect(sweep, results, families=None):
                 cell = summarize_cell(info, record["rows"], list(families))
             cells.append(dict(cell, status=status, log=record["log"]))
         else:
-            cells.append(dict(where, horizon=horizon(where["size"], where["bending"]),
-                              status=status or "not run",
-                              skipped=f"{status or 'not run'}: {message}".rstrip(": ")))
+            cells.append(
+                dict(
+                    where,
+                    horizon=horizon(where["size"], where["bending"]),
+                    status=status or "not run",
+                    skipped=f"{status or 'not run'}: {message}".rstrip(": "),
+                )
+            )
     return rows, cells
 
 
 # -- the grid's summary ---------------------------------------------------------------------------
 def measured(cells):
     """The cells judged at the largest threshold (1 %)."""
-    return [c for c in cells if c.get("status") == "done"
-            and reference_serves(c, max(THRESHOLDS))]
+    return [c for c in cells if c.get("status") == "done" and reference_serves(c, max(THRESHOLDS))]
 
 
 def crossovers(cells):
@@ -911,29 +1131,46 @@ def crossovers(cells):
     out = []
     for bending in [b for b in BENDING_ROWS if any(c["bending"] == b for c in cells)]:
         for size in sorted({c["size"] for c in cells if c["bending"] == bending}):
-            points = sorted((c["stretch_stiffness"], c["at_0.01"]["implicit_over_explicit_cost"])
-                            for c in cells if c["bending"] == bending and c["size"] == size
-                            and "implicit_over_explicit_cost" in c.get("at_0.01", {}))
+            points = sorted(
+                (c["stretch_stiffness"], c["at_0.01"]["implicit_over_explicit_cost"])
+                for c in cells
+                if c["bending"] == bending
+                and c["size"] == size
+                and "implicit_over_explicit_cost" in c.get("at_0.01", {})
+            )
             found = None
             for (k0, r0), (k1, r1) in zip(points, points[1:]):
                 if r0 >= 1.0 > r1:
                     f = math.log(r0) / (math.log(r0) - math.log(r1))
                     found = math.exp(math.log(k0) + f * (math.log(k1) - math.log(k0)))
-            item = {"bending": bending, "size": size, "ratios": points,
-                    "crossover_stiffness": found}
+            item = {
+                "bending": bending,
+                "size": size,
+                "ratios": points,
+                "crossover_stiffness": found,
+            }
             if found is None and points:
-                item["bound"] = ("implicit cheaper at every stiffness measured"
-                                 if all(r < 1 for _, r in points) else
-                                 "explicit cheaper at every stiffness measured"
-                                 if all(r >= 1 for _, r in points) else "no single crossing")
+                item["bound"] = (
+                    "implicit cheaper at every stiffness measured"
+                    if all(r < 1 for _, r in points)
+                    else "explicit cheaper at every stiffness measured"
+                    if all(r >= 1 for _, r in points)
+                    else "no single crossing"
+                )
             out.append(item)
     return out
 
 
 def _cell_verdict(cells, size, stiffness, bending, threshold):
     """A target's view of one cell: its ratio at threshold (None: not measured, and why)."""
-    cell = next((c for c in cells if c["size"] == size and c["stretch_stiffness"] == stiffness
-                 and c["bending"] == bending), None)
+    cell = next(
+        (
+            c
+            for c in cells
+            if c["size"] == size and c["stretch_stiffness"] == stiffness and c["bending"] == bending
+        ),
+        None,
+    )
     item = {"size": size, "stretch_stiffness": stiffness, "bending": bending, "ratio": None}
     if cell is None:
         item["why"] = "not in the grid"
@@ -941,16 +1178,24 @@ def _cell_verdict(cells, size, stiffness, bending, threshold):
         item["why"] = cell.get("skipped") or cell.get("status")
     elif not reference_serves(cell, threshold):
         error = cell.get("reference_error")
-        item["why"] = (f"reference not converged to {REFERENCE_FRACTION * threshold:g}"
-                       + (f" ({error:.2g})" if error is not None else ""))
+        item["why"] = f"reference not converged to {REFERENCE_FRACTION * threshold:g}" + (
+            f" ({error:.2g})" if error is not None else ""
+        )
     else:
         at = cell[f"at_{threshold:g}"]
         if "implicit_over_explicit_cost" in at:
-            item.update(ratio=at["implicit_over_explicit_cost"], winner=at["winner"],
-                        implicit=at["best_implicit"], explicit=at["best_explicit"])
+            item.update(
+                ratio=at["implicit_over_explicit_cost"],
+                winner=at["winner"],
+                implicit=at["best_implicit"],
+                explicit=at["best_explicit"],
+            )
         elif at["best_explicit"]:  # decided: explicit, by more than the caps allow
-            item.update(winner="explicit", explicit=at["best_explicit"],
-                        why=f"no implicit run reached {100 * threshold:g} % within the caps")
+            item.update(
+                winner="explicit",
+                explicit=at["best_explicit"],
+                why=f"no implicit run reached {100 * threshold:g} % within the caps",
+            )
         else:
             item["why"] = f"no explicit run reached {100 * threshold:g} %"
     return item
@@ -959,42 +1204,76 @@ def _cell_verdict(cells, size, stiffness, bending, threshold):
 def targets(cells, stiffnesses):
     """The issue's targets, each with its measured value and met/missed (not measured: not
     met). A target over several bending rows is met by the best of them."""
-    goals = [("64², k = 2e5, equal bending", 64, 2e5, ("equal",), 0.01, 0.5, False),
-             ("64², k = 2e6, equal bending", 64, 2e6, ("equal",), 0.01, 0.25, False),
-             ("128², k = 2e6, soft or real cloth bending", 128, 2e6, ("soft", "real cloth"),
-              0.01, 0.2, False),
-             ("moonshot: 128², k = 2e7, soft or real cloth bending", 128, 2e7,
-              ("soft", "real cloth"), 0.01, 0.1, True)]
+    goals = [
+        ("64², k = 2e5, equal bending", 64, 2e5, ("equal",), 0.01, 0.5, False),
+        ("64², k = 2e6, equal bending", 64, 2e6, ("equal",), 0.01, 0.25, False),
+        (
+            "128², k = 2e6, soft or real cloth bending",
+            128,
+            2e6,
+            ("soft", "real cloth"),
+            0.01,
+            0.2,
+            False,
+        ),
+        (
+            "moonshot: 128², k = 2e7, soft or real cloth bending",
+            128,
+            2e7,
+            ("soft", "real cloth"),
+            0.01,
+            0.1,
+            True,
+        ),
+    ]
     out = []
     for name, size, k, rows, threshold, goal, moonshot in goals:
         seen = [_cell_verdict(cells, size, k, b, threshold) for b in rows]
-        best = min((s for s in seen if s["ratio"] is not None), key=lambda s: s["ratio"],
-                   default=None)
-        out.append({"target": name, "threshold": threshold, "goal_ratio": goal,
-                    "moonshot": moonshot, "cells": seen,
-                    "ratio": best["ratio"] if best else None,
-                    "measured": any("winner" in s for s in seen),
-                    "met": best is not None and best["ratio"] <= goal,
-                    "best": best})
+        best = min(
+            (s for s in seen if s["ratio"] is not None), key=lambda s: s["ratio"], default=None
+        )
+        out.append(
+            {
+                "target": name,
+                "threshold": threshold,
+                "goal_ratio": goal,
+                "moonshot": moonshot,
+                "cells": seen,
+                "ratio": best["ratio"] if best else None,
+                "measured": any("winner" in s for s in seen),
+                "met": best is not None and best["ratio"] <= goal,
+                "best": best,
+            }
+        )
     # at 0.1 %: implicit cheaper in the stiffest cell of each row of the map (bending × size)
     top = max(stiffnesses)
     sizes = sorted({c["size"] for c in cells})
     for bending in [b for b in BENDING_ROWS if any(c["bending"] == b for c in cells)]:
         for size in sizes:
             seen = _cell_verdict(cells, size, top, bending, 0.001)
-            item = {"target": f"0.1 %: implicit cheaper at {size}², k = {top:g}, "
-                              f"{bending} bending (the row's stiffest cell)",
-                    "threshold": 0.001, "goal_ratio": 1.0, "moonshot": False,
-                    "cells": [seen], "ratio": seen["ratio"],
-                    "measured": "winner" in seen,
-                    "met": seen["ratio"] is not None and seen["ratio"] < 1.0,
-                    "best": seen if seen["ratio"] is not None else None}
+            item = {
+                "target": f"0.1 %: implicit cheaper at {size}², k = {top:g}, "
+                f"{bending} bending (the row's stiffest cell)",
+                "threshold": 0.001,
+                "goal_ratio": 1.0,
+                "moonshot": False,
+                "cells": [seen],
+                "ratio": seen["ratio"],
+                "measured": "winner" in seen,
+                "met": seen["ratio"] is not None and seen["ratio"] < 1.0,
+                "best": seen if seen["ratio"] is not None else None,
+            }
             if "winner" not in seen:
                 # not judged at the grid's stiffest: the row's stiffest cell that was, shown
                 # beside it (the target itself stays unmeasured)
-                judged = [c for c in cells if c["size"] == size and c["bending"] == bending
-                          and "winner" in _cell_verdict(cells, size, c["stretch_stiffness"],
-                                                        bending, 0.001)]
+                judged = [
+                    c
+                    for c in cells
+                    if c["size"] == size
+                    and c["bending"] == bending
+                    and "winner"
+                    in _cell_verdict(cells, size, c["stretch_stiffness"], bending, 0.001)
+                ]
                 if judged:
                     k = max(c["stretch_stiffness"] for c in judged)
                     item["stiffest_judged"] = _cell_verdict(cells, size, k, bending, 0.001)
@@ -1004,9 +1283,11 @@ def targets(cells, stiffnesses):
 
 def _cost(e):
     steps = e.get("internal_steps") or e["steps"]
-    return (f"{e['method']} dt {e['dt']:.3g} s: {steps} steps × "
-            f"{duration_text(e['cpu_per_step'])} = {e['cost_seconds_per_simulated_second']:.3g} "
-            "s/s")
+    return (
+        f"{e['method']} dt {e['dt']:.3g} s: {steps} steps × "
+        f"{duration_text(e['cpu_per_step'])} = {e['cost_seconds_per_simulated_second']:.3g} "
+        "s/s"
+    )
 
 
 def duration_text(seconds):
@@ -1015,47 +1296,77 @@ def duration_text(seconds):
 
 def summary_table(payload):
     """The summary table (markdown): one line per cell."""
-    out = ["| bending | size | k (N/m) | T | explicit at 1 % | cheapest implicit at 1 % "
-           "| implicit / explicit at 1 % | at 0.1 % | reference |",
-           "|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        "| bending | size | k (N/m) | T | explicit at 1 % | cheapest implicit at 1 % "
+        "| implicit / explicit at 1 % | at 0.1 % | reference |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     order = {b: i for i, b in enumerate(BENDING_ROWS)}
-    for c in sorted(payload["summary"]["cells"], key=lambda c: (
-            order.get(c["bending"], 9), c["size"], c["stretch_stiffness"])):
-        head = (f"| {c['bending']} | {c['size']}² | {c['stretch_stiffness']:g} | "
-                f"{c['horizon']:g} s |")
+    for c in sorted(
+        payload["summary"]["cells"],
+        key=lambda c: (order.get(c["bending"], 9), c["size"], c["stretch_stiffness"]),
+    ):
+        head = (
+            f"| {c['bending']} | {c['size']}² | {c['stretch_stiffness']:g} | {c['horizon']:g} s |"
+        )
         if c.get("status") != "done":
             out.append(f"{head} {c.get('status')}: {c.get('skipped', '')} | | | | |")
             continue
         if not reference_serves(c, max(THRESHOLDS)):
             error = c.get("reference_error")
-            out.append(f"{head} | | | | reference not converged"
-                       + (f" ({error:.1e})" if error is not None else "") + " |")
+            out.append(
+                f"{head} | | | | reference not converged"
+                + (f" ({error:.1e})" if error is not None else "")
+                + " |"
+            )
             continue
         one, tenth = c["at_0.01"], c["at_0.001"]
         explicit = _cost(one["best_explicit"]) if one["best_explicit"] else "none"
         implicit = one["best_implicit"]
-        implicit = (_cost(implicit) + f" ({implicit['iterations_per_step']:.1f} it, "
-                    f"{implicit['factorizations_per_step']:.2g} fact. per step"
-                    + (f"; {implicit['unconverged_steps']} unconverged steps"
-                       if implicit.get("flagged") else "") + ")") if implicit else "none"
-        ratios = [f"{a['implicit_over_explicit_cost']:.2f} ({a['winner']})"
-                  if "implicit_over_explicit_cost" in a else
-                  "> caps (explicit)" if a.get("winner") else
-                  f"reference too coarse ({a['reference_too_coarse']:.1e} > "
-                  f"{REFERENCE_FRACTION * t:g})" if "reference_too_coarse" in a else "—"
-                  for a, t in ((one, THRESHOLDS[0]), (tenth, THRESHOLDS[1]))]
-        out.append(f"{head} {explicit} | {implicit} | {ratios[0]} | {ratios[1]} | "
-                   f"{c['reference_error']:.1e} at dt {c['reference_dt']:.2g} s |")
+        implicit = (
+            (
+                _cost(implicit) + f" ({implicit['iterations_per_step']:.1f} it, "
+                f"{implicit['factorizations_per_step']:.2g} fact. per step"
+                + (
+                    f"; {implicit['unconverged_steps']} unconverged steps"
+                    if implicit.get("flagged")
+                    else ""
+                )
+                + ")"
+            )
+            if implicit
+            else "none"
+        )
+        ratios = [
+            f"{a['implicit_over_explicit_cost']:.2f} ({a['winner']})"
+            if "implicit_over_explicit_cost" in a
+            else "> caps (explicit)"
+            if a.get("winner")
+            else f"reference too coarse ({a['reference_too_coarse']:.1e} > "
+            f"{REFERENCE_FRACTION * t:g})"
+            if "reference_too_coarse" in a
+            else "—"
+            for a, t in ((one, THRESHOLDS[0]), (tenth, THRESHOLDS[1]))
+        ]
+        out.append(
+            f"{head} {explicit} | {implicit} | {ratios[0]} | {ratios[1]} | "
+            f"{c['reference_error']:.1e} at dt {c['reference_dt']:.2g} s |"
+        )
     return out
 
 
 def finding(payload):
     """One sentence: who wins where at 1 %, and why, in steps × CPU per step."""
-    cells = [c for c in measured(payload["summary"]["cells"])
-             if "implicit_over_explicit_cost" in c.get("at_0.01", {})]
+    cells = [
+        c
+        for c in measured(payload["summary"]["cells"])
+        if "implicit_over_explicit_cost" in c.get("at_0.01", {})
+    ]
     if not cells:
-        return ("No cell has both an explicit and an implicit run at 1 % with a converged "
-                "reference: nothing to compare yet.")
+        return (
+            "No cell has both an explicit and an implicit run at 1 % with a converged "
+            "reference: nothing to compare yet."
+        )
     wins = [c for c in cells if c["at_0.01"]["winner"] != "explicit"]
     losses = [c for c in cells if c["at_0.01"]["winner"] == "explicit"]
 
@@ -1067,15 +1378,20 @@ def finding(payload):
                 if c["bending"] == bending:
                     sizes.setdefault(c["size"], []).append(c["stretch_stiffness"])
             if sizes:
-                parts.append(f"{bending} bending at " + ", ".join(
-                    f"{n}² k = " + "/".join(f"{k:g}" for k in sorted(ks))
-                    for n, ks in sorted(sizes.items())))
+                parts.append(
+                    f"{bending} bending at "
+                    + ", ".join(
+                        f"{n}² k = " + "/".join(f"{k:g}" for k in sorted(ks))
+                        for n, ks in sorted(sizes.items())
+                    )
+                )
         return "; ".join(parts)
 
     def medians(group):
         steps = statistics.median(c["at_0.01"]["explicit_over_implicit_steps"] for c in group)
-        per_step = statistics.median(c["at_0.01"]["implicit_over_explicit_cpu_per_step"]
-                                     for c in group)
+        per_step = statistics.median(
+            c["at_0.01"]["implicit_over_explicit_cpu_per_step"] for c in group
+        )
         return steps, per_step
 
     text = f"At 1 % error implicit is cheaper in {len(wins)} of {len(cells)} measured cells"
@@ -1084,19 +1400,23 @@ def finding(payload):
         best = min(wins, key=lambda c: c["at_0.01"]["implicit_over_explicit_cost"])
         at = best["at_0.01"]
         imp, exp = at["best_implicit"], at["best_explicit"]
-        text += (f" ({where(wins)}): there its cheapest run takes a median {steps:.3g}× fewer "
-                 f"steps than explicit at its stability limit, each costing {per_step:.3g}× an "
-                 f"explicit step (best: {best['size']}², k = {best['stretch_stiffness']:g}, "
-                 f"{best['bending']} bending, {imp['method']} "
-                 f"{imp.get('internal_steps') or imp['steps']} steps × "
-                 f"{duration_text(imp['cpu_per_step'])} against {exp['steps']} × "
-                 f"{duration_text(exp['cpu_per_step'])}, "
-                 f"{at['implicit_over_explicit_cost']:.2f}×)")
+        text += (
+            f" ({where(wins)}): there its cheapest run takes a median {steps:.3g}× fewer "
+            f"steps than explicit at its stability limit, each costing {per_step:.3g}× an "
+            f"explicit step (best: {best['size']}², k = {best['stretch_stiffness']:g}, "
+            f"{best['bending']} bending, {imp['method']} "
+            f"{imp.get('internal_steps') or imp['steps']} steps × "
+            f"{duration_text(imp['cpu_per_step'])} against {exp['steps']} × "
+            f"{duration_text(exp['cpu_per_step'])}, "
+            f"{at['implicit_over_explicit_cost']:.2f}×)"
+        )
     if losses:
         steps, per_step = medians(losses)
-        text += (f"; explicit wins the other {len(losses)}, where the implicit step's cost "
-                 f"({per_step:.3g}× an explicit one, median) outweighs its {steps:.3g}× fewer "
-                 "steps")
+        text += (
+            f"; explicit wins the other {len(losses)}, where the implicit step's cost "
+            f"({per_step:.3g}× an explicit one, median) outweighs its {steps:.3g}× fewer "
+            "steps"
+        )
     return text + "."
 
 
@@ -1106,8 +1426,11 @@ def stiffest_judged_text(g):
     seen = g.get("stiffest_judged")
     if not seen:
         return ""
-    verdict = (f"{seen['ratio']:.2f}, {seen['winner']}" if seen["ratio"] is not None
-               else f"{seen['winner']}, no implicit run within the caps")
+    verdict = (
+        f"{seen['ratio']:.2f}, {seen['winner']}"
+        if seen["ratio"] is not None
+        else f"{seen['winner']}, no implicit run within the caps"
+    )
     return f"; the row's stiffest judged cell, k = {seen['stretch_stiffness']:g}: {verdict}"
 
 
@@ -1118,19 +1441,25 @@ def target_text(g):
         return f"not measured ({whys})" + stiffest_judged_text(g)
     if g["ratio"] is None:
         return f"missed ({whys})"
-    return (f"{'met' if g['met'] else 'missed'} ({g['ratio']:.2f}, {g['best']['bending']} "
-            "bending)")
+    return f"{'met' if g['met'] else 'missed'} ({g['ratio']:.2f}, {g['best']['bending']} bending)"
 
 
 def summary_lines(payload):
     lines = []
     for item in payload["summary"]["crossovers"]:
-        lines.append(f"crossover {item['bending']} bending {item['size']}²: "
-                     + (f"k ≈ {item['crossover_stiffness']:.3g} N/m"
-                        if item["crossover_stiffness"] else item.get("bound", "no data")))
+        lines.append(
+            f"crossover {item['bending']} bending {item['size']}²: "
+            + (
+                f"k ≈ {item['crossover_stiffness']:.3g} N/m"
+                if item["crossover_stiffness"]
+                else item.get("bound", "no data")
+            )
+        )
     for g in payload["summary"]["targets"]:
-        lines.append(f"target {g['target']} (goal {'<' if g['goal_ratio'] == 1.0 else '≤'} "
-                     f"{g['goal_ratio']:g}): " + target_text(g))
+        lines.append(
+            f"target {g['target']} (goal {'<' if g['goal_ratio'] == 1.0 else '≤'} "
+            f"{g['goal_ratio']:g}): " + target_text(g)
+        )
     for c in payload["summary"]["cells"]:
         for name, why in c.get("families_dropped", {}).items():
             lines.append(f"{describe(c)}: {name} left out ({why})")
@@ -1140,45 +1469,104 @@ def summary_lines(payload):
 
 # -- main -----------------------------------------------------------------------------------------
 def options(parser):
-    parser.add_argument("--workers", type=int, default=None,
-                        help="local Dask workers, one thread each (default: the cores)")
-    parser.add_argument("--scheduler", default=None,
-                        help="a running Dask scheduler (tcp://host:8786) instead of a local "
-                             "cluster; its workers need yore installed")
-    parser.add_argument("--resume", action="store_true",
-                        help="run only the cells OUT/sweeps/crossover does not hold yet, with "
-                             "the settings it was started with; a cell stopped part-way "
-                             "replays the runs it had finished (OUT/sweeps/crossover/journal, "
-                             "kept on local clusters) and goes on from there")
-    parser.add_argument("--sizes", type=int, nargs="+", default=None,
-                        help="sheet resolutions, vertices per edge (default 32 64 128)")
-    parser.add_argument("--stiffness", type=float, nargs="+", default=None,
-                        help="stretch stiffnesses, N/m (default 2e3 2e4 2e5 2e6 2e7)")
-    parser.add_argument("--bending", nargs="+", choices=BENDING_ROWS, default=None,
-                        help="bending rows (default all three)")
-    parser.add_argument("--families", nargs="+", choices=list(FAMILIES), default=None,
-                        help="families to run (default all this build accepts; quick: "
-                             + ", ".join(QUICK_FAMILIES) + "); explicit is always run")
-    parser.add_argument("--repeats", type=int, default=3,
-                        help="runs of every candidate-cheapest run; its cost is the median "
-                             "(default 3)")
-    parser.add_argument("--max-run-seconds", type=float, default=None,
-                        help="CPU cap of one implicit run (default 120; quick: 2)")
-    parser.add_argument("--max-ratio", type=float, default=8.0,
-                        help="cap of one implicit run over explicit's cost (default 8)")
-    parser.add_argument("--max-reference-seconds", type=float, default=1800.0,
-                        help="CPU budget of one more reference halving (default 1800)")
-    parser.add_argument("--collect", action="store_true",
-                        help="run no cell: write the results of the cells OUT/sweeps/crossover "
-                             "holds (e.g. while a run goes on, or after it was stopped)")
-    parser.add_argument("--merge", type=Path, action="append", default=[], metavar="JSON",
-                        help="a crossover.json of an earlier run with the same families and "
-                             "budgets: its cells join this run's (this run's win where both "
-                             "hold a cell), so the grid can be measured a part at a time")
-    parser.add_argument("--max-cell-seconds", type=float, default=3600.0,
-                        help="skip a cell whose explicit runs (limit, repeats, reference pair) "
-                             "would take more CPU seconds, predicted from the stability trials "
-                             "(default 3600)")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local Dask workers, one thread each (default: the cores)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        help="a running Dask scheduler (tcp://host:8786) instead of a local "
+        "cluster; its workers need yore installed",
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="run only the cells OUT/sweeps/crossover does not hold yet, with "
+        "the settings it was started with; a cell stopped part-way "
+        "replays the runs it had finished (OUT/sweeps/crossover/journal, "
+        "kept on local clusters) and goes on from there",
+    )
+    parser.add_argument(
+        "--sizes",
+        type=int,
+        nargs="+",
+        default=None,
+        help="sheet resolutions, vertices per edge (default 32 64 128)",
+    )
+    parser.add_argument(
+        "--stiffness",
+        type=float,
+        nargs="+",
+        default=None,
+        help="stretch stiffnesses, N/m (default 2e3 2e4 2e5 2e6 2e7)",
+    )
+    parser.add_argument(
+        "--bending",
+        nargs="+",
+        choices=BENDING_ROWS,
+        default=None,
+        help="bending rows (default all three)",
+    )
+    parser.add_argument(
+        "--families",
+        nargs="+",
+        choices=list(FAMILIES),
+        default=None,
+        help="families to run (default all this build accepts; quick: "
+        + ", ".join(QUICK_FAMILIES)
+        + "); explicit is always run",
+    )
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=3,
+        help="runs of every candidate-cheapest run; its cost is the median (default 3)",
+    )
+    parser.add_argument(
+        "--max-run-seconds",
+        type=float,
+        default=None,
+        help="CPU cap of one implicit run (default 120; quick: 2)",
+    )
+    parser.add_argument(
+        "--max-ratio",
+        type=float,
+        default=8.0,
+        help="cap of one implicit run over explicit's cost (default 8)",
+    )
+    parser.add_argument(
+        "--max-reference-seconds",
+        type=float,
+        default=1800.0,
+        help="CPU budget of one more reference halving (default 1800)",
+    )
+    parser.add_argument(
+        "--collect",
+        action="store_true",
+        help="run no cell: write the results of the cells OUT/sweeps/crossover "
+        "holds (e.g. while a run goes on, or after it was stopped)",
+    )
+    parser.add_argument(
+        "--merge",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="JSON",
+        help="a crossover.json of an earlier run with the same families and "
+        "budgets: its cells join this run's (this run's win where both "
+        "hold a cell), so the grid can be measured a part at a time",
+    )
+    parser.add_argument(
+        "--max-cell-seconds",
+        type=float,
+        default=3600.0,
+        help="skip a cell whose explicit runs (limit, repeats, reference pair) "
+        "would take more CPU seconds, predicted from the stability trials "
+        "(default 3600)",
+    )
 
 
 def new_settings(args):
@@ -1191,8 +1579,10 @@ def new_settings(args):
     settings = {
         "quick": quick,
         "sizes": list(args.sizes or (QUICK_GRID["sizes"] if quick else SIZES)),
-        "stiffness": [float(k) for k in (args.stiffness or (QUICK_GRID["stiffness"] if quick
-                                                            else STIFFNESSES))],
+        "stiffness": [
+            float(k)
+            for k in (args.stiffness or (QUICK_GRID["stiffness"] if quick else STIFFNESSES))
+        ],
         "bending": list(args.bending or (QUICK_GRID["bending"] if quick else BENDING_ROWS)),
         "repeats": args.repeats,
         "max_run_seconds": args.max_run_seconds or (2.0 if quick else 120.0),
@@ -1209,8 +1599,15 @@ def new_settings(args):
 
 
 #: Settings two runs must share for their cells to make one table (the grid may differ).
-MERGE_KEYS = ("quick", "repeats", "max_run_seconds", "max_ratio", "max_reference_seconds",
-              "max_cell_seconds", "rates")
+MERGE_KEYS = (
+    "quick",
+    "repeats",
+    "max_run_seconds",
+    "max_ratio",
+    "max_reference_seconds",
+    "max_cell_seconds",
+    "rates",
+)
 
 
 def _cell_key(cell):
@@ -1220,17 +1617,25 @@ def _cell_key(cell):
 #: Options that yore gained after runs were recorded, with the value that reproduces what those
 #: runs ran (the behaviour before the option existed): a family of such a run that takes one of
 #: them ran with this value.
-LEGACY_OPTIONS = {"mixed": False, "truncation_fraction": 0.0,
-                  # tr-bdf2's error control (dt="auto"): off, and its tolerances idle
-                  "adaptive": False, "rtol": 1e-3, "atol": 1e-4, "max_steps": 5000}
+LEGACY_OPTIONS = {
+    "mixed": False,
+    "truncation_fraction": 0.0,
+    # tr-bdf2's error control (dt="auto"): off, and its tolerances idle
+    "adaptive": False,
+    "rtol": 1e-3,
+    "atol": 1e-4,
+    "max_steps": 5000,
+}
 
 
 def resolved_families(families):
     """Each family's options as yore resolves them (defaults and None decided), so two runs
     can tell whether a family ran the same way: {name: {option: value}}."""
     V, F = yore.grid_mesh(3, 3)
-    return {name: dict(yore.Simulation(yore.Cloth(V, F), dt=1e-3, **options).resolved_options)
-            for name, options in families.items()}
+    return {
+        name: dict(yore.Simulation(yore.Cloth(V, F), dt=1e-3, **options).resolved_options)
+        for name, options in families.items()
+    }
 
 
 def earlier_resolved(earlier, current, given):
@@ -1240,16 +1645,30 @@ def earlier_resolved(earlier, current, given):
     apart from those; a family given otherwise counts as unknown ({})."""
     if "family_resolved_options" in earlier:
         # a recorded family ran an option added since as it was then (LEGACY_OPTIONS)
-        return {name: ({**{k: v for k, v in LEGACY_OPTIONS.items() if k in current.get(name, {})},
-                        **options} if options else options)
-                for name, options in earlier["family_resolved_options"].items()}
+        return {
+            name: (
+                {
+                    **{k: v for k, v in LEGACY_OPTIONS.items() if k in current.get(name, {})},
+                    **options,
+                }
+                if options
+                else options
+            )
+            for name, options in earlier["family_resolved_options"].items()
+        }
     theirs = earlier.get("family_options", {})
 
     def core(options):
         return {k: v for k, v in options.items() if k not in LEGACY_OPTIONS}
-    return {name: ({k: LEGACY_OPTIONS.get(k, v) for k, v in options.items()}
-                   if name in theirs and core(theirs[name]) == core(given.get(name, {})) else {})
-            for name, options in current.items()}
+
+    return {
+        name: (
+            {k: LEGACY_OPTIONS.get(k, v) for k, v in options.items()}
+            if name in theirs and core(theirs[name]) == core(given.get(name, {}))
+            else {}
+        )
+        for name, options in current.items()
+    }
 
 
 def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=None):
@@ -1264,34 +1683,51 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
     theirs = earlier.get("settings", {})
     for key in MERGE_KEYS:
         if theirs.get(key) != settings.get(key):
-            raise SystemExit(f"--merge {source}: its {key} is {theirs.get(key)!r}, this run's "
-                             f"{settings.get(key)!r}; only runs with the same settings merge")
+            raise SystemExit(
+                f"--merge {source}: its {key} is {theirs.get(key)!r}, this run's "
+                f"{settings.get(key)!r}; only runs with the same settings merge"
+            )
     theirs_names = set(earlier.get("family_options", {}))
     if not theirs_names <= set(settings["families"]):
-        raise SystemExit(f"--merge {source}: it has families this run has not: "
-                         + ", ".join(sorted(theirs_names - set(settings["families"]))))
+        raise SystemExit(
+            f"--merge {source}: it has families this run has not: "
+            + ", ".join(sorted(theirs_names - set(settings["families"])))
+        )
     new = [name for name in settings["families"] if name not in theirs_names]
-    if list(earlier.get("thresholds", ())) != list(THRESHOLDS) or \
-            earlier.get("reference_tolerance") != REFERENCE_TOLERANCE:
+    if (
+        list(earlier.get("thresholds", ())) != list(THRESHOLDS)
+        or earlier.get("reference_tolerance") != REFERENCE_TOLERANCE
+    ):
         raise SystemExit(f"--merge {source}: its thresholds differ from this run's")
     # a cell this run did not finish (stopped, skipped) gives way to the earlier run's cell
     # when that one finished: an interrupted run never erases a measured cell
-    finished_before = {_cell_key(c) for c in earlier["summary"]["cells"]
-                       if c.get("status") == "done"}
+    finished_before = {
+        _cell_key(c) for c in earlier["summary"]["cells"] if c.get("status") == "done"
+    }
     cells = [c for c in cells if c.get("status") == "done" or _cell_key(c) not in finished_before]
     held = {_cell_key(c) for c in cells}
     rows = [r for r in rows if _cell_key(r) in held]
     added = [c for c in earlier["summary"]["cells"] if _cell_key(c) not in held]
     keys = {_cell_key(c) for c in added}
-    theirs_resolved = (earlier_resolved(earlier, resolved, settings["families"])
-                       if resolved is not None else {})
-    dropped = {name: sorted(k for k in set(options) | set(theirs_resolved.get(name, {}))
-                            if options.get(k) != theirs_resolved.get(name, {}).get(k))
-               for name, options in (resolved or {}).items() if name not in new}
+    theirs_resolved = (
+        earlier_resolved(earlier, resolved, settings["families"]) if resolved is not None else {}
+    )
+    dropped = {
+        name: sorted(
+            k
+            for k in set(options) | set(theirs_resolved.get(name, {}))
+            if options.get(k) != theirs_resolved.get(name, {}).get(k)
+        )
+        for name, options in (resolved or {}).items()
+        if name not in new
+    }
     dropped = {name: changed for name, changed in dropped.items() if changed}
-    earlier_rows = [r for r in earlier["rows"]
-                    if (int(r["size"]), float(r["stretch_stiffness"]), str(r["bending"])) in keys
-                    and r["method"] not in dropped]
+    earlier_rows = [
+        r
+        for r in earlier["rows"]
+        if (int(r["size"]), float(r["stretch_stiffness"]), str(r["bending"])) in keys
+        and r["method"] not in dropped
+    ]
     rows = rows + earlier_rows
     # the earlier cells are summarised again by this run's rules (families, reference rule)
     kept = [name for name in settings["families"] if name not in dropped and name not in new]
@@ -1303,23 +1739,33 @@ def merge_runs(settings, cells, rows, earlier, source="earlier run", resolved=No
             mine = [r for r in earlier_rows if _cell_key(r) == _cell_key(c)]
             cell = summarize_cell(info, mine, kept)
         if dropped or new:
-            cell["families_dropped"] = {**c.get("families_dropped", {}), **{
-                name: "measured with other options: " + ", ".join(
-                    f"{k} {theirs_resolved.get(name, {}).get(k)!r} (now {resolved[name].get(k)!r})"
-                    for k in changed)
-                for name, changed in dropped.items()}, **{
-                name: "not run: not a family yet when the cell ran" for name in new}}
+            cell["families_dropped"] = {
+                **c.get("families_dropped", {}),
+                **{
+                    name: "measured with other options: "
+                    + ", ".join(
+                        f"{k} {theirs_resolved.get(name, {}).get(k)!r} (now {resolved[name].get(k)!r})"
+                        for k in changed
+                    )
+                    for name, changed in dropped.items()
+                },
+                **{name: "not run: not a family yet when the cell ran" for name in new},
+            }
         resummarized.append(cell)
     added = resummarized
     merged = dict(settings)
     merged["sizes"] = sorted({*settings["sizes"], *(k[0] for k in keys)})
     merged["stiffness"] = sorted({*settings["stiffness"], *(k[1] for k in keys)})
-    merged["bending"] = [b for b in BENDING_ROWS
-                         if b in settings["bending"] or any(k[2] == b for k in keys)]
-    origin = {"from": source, "machine": earlier.get("machine"),
-              "cells": [list(k) for k in sorted(keys, key=str)],
-              "families_dropped": {name: changed for name, changed in dropped.items()},
-              "families_new": new}
+    merged["bending"] = [
+        b for b in BENDING_ROWS if b in settings["bending"] or any(k[2] == b for k in keys)
+    ]
+    origin = {
+        "from": source,
+        "machine": earlier.get("machine"),
+        "cells": [list(k) for k in sorted(keys, key=str)],
+        "families_dropped": {name: changed for name, changed in dropped.items()},
+        "families_new": new,
+    }
     return merged, cells + added, rows, origin
 
 
@@ -1335,8 +1781,10 @@ def main(argv=None):
         if not scene.is_file():
             raise SystemExit(f"{folder} holds no crossover to resume (no scene.toml)")
         settings = tomllib.loads(scene.read_text(encoding="utf-8"))
-        print(f"{'collecting' if args.collect else 'resuming'} {folder} with its settings "
-              "(grid and budget flags ignored)")
+        print(
+            f"{'collecting' if args.collect else 'resuming'} {folder} with its settings "
+            "(grid and budget flags ignored)"
+        )
     else:
         settings = new_settings(args)
         shutil.rmtree(folder / "journal", ignore_errors=True)  # a new run measures afresh
@@ -1353,9 +1801,15 @@ def main(argv=None):
         results = Results(sweep, folder)
         results.load_finished()
     else:
-        results = run(sweep, folder, scheduler=args.scheduler, workers=args.workers,
-                      overwrite=not args.resume, resume=args.resume,
-                      cell_function=crossover_cell)
+        results = run(
+            sweep,
+            folder,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            overwrite=not args.resume,
+            resume=args.resume,
+            cell_function=crossover_cell,
+        )
     rows, cells = collect(sweep, results, settings["families"])
     if settings.get("journal"):  # a recorded cell needs its runs no more
         for cell in cells:
@@ -1370,26 +1824,32 @@ def main(argv=None):
         merged_from.append(origin)
     good = measured(cells)
     payload = {
-        "benchmark": "crossover", "machine": machine_info(), "quick": settings["quick"],
+        "benchmark": "crossover",
+        "machine": machine_info(),
+        "quick": settings["quick"],
         "clock": "time.thread_time() of the task's thread around the stepping only; yore "
-                 "pinned to one thread",
+        "pinned to one thread",
         "families": list(settings["families"]),
         "family_options": settings["families"],
         # as this code resolves them (a run resumed or collected after yore changed: today's)
         "family_resolved_options": resolved,
         "families_unavailable": settings["families_unavailable"],
-        "thresholds": list(THRESHOLDS), "reference_tolerance": REFERENCE_TOLERANCE,
+        "thresholds": list(THRESHOLDS),
+        "reference_tolerance": REFERENCE_TOLERANCE,
         "sample_times": "T/2 and T of each cell (its horizon); a run's error is the larger",
         "settings": {k: v for k, v in grid.items() if k != "families"},
-        "sweep": folder.as_posix(), "cells": len(cells),
+        "sweep": folder.as_posix(),
+        "cells": len(cells),
         "statuses": dict(Counter(c.get("status", "not run") for c in cells)),
         "merged_from": merged_from,
         "wall_seconds": time.perf_counter() - started,
         "cell_cpu_seconds": sum(c.get("cell_thread_cpu_seconds", 0.0) for c in cells),
         "rows": rows,
-        "summary": {"cells": [{k: v for k, v in c.items() if k != "log"} for c in cells],
-                    "crossovers": crossovers(good),
-                    "targets": targets(cells, grid["stiffness"])},
+        "summary": {
+            "cells": [{k: v for k, v in c.items() if k != "log"} for c in cells],
+            "crossovers": crossovers(good),
+            "targets": targets(cells, grid["stiffness"]),
+        },
     }
     payload["summary"]["lines"] = summary_lines(payload)
     save(Path(args.out), "crossover", payload, lambda path: plot(payload, path))
@@ -1420,13 +1880,20 @@ def plot(payload, path):
     bendings = [b for b in BENDING_ROWS if any(c["bending"] == b for c in cells)] or ["equal"]
     sizes = sorted({c["size"] for c in cells}) or [0]
     stiffnesses = sorted({c["stretch_stiffness"] for c in cells}) or [0.0]
-    fig, axes = plt.subplots(len(bendings), len(THRESHOLDS), squeeze=False,
-                             figsize=(1.5 * len(stiffnesses) * len(THRESHOLDS) + 1.5,
-                                      (0.7 * len(sizes) + 0.8) * len(bendings) + 0.8))
+    fig, axes = plt.subplots(
+        len(bendings),
+        len(THRESHOLDS),
+        squeeze=False,
+        figsize=(
+            1.5 * len(stiffnesses) * len(THRESHOLDS) + 1.5,
+            (0.7 * len(sizes) + 0.8) * len(bendings) + 0.8,
+        ),
+    )
     norm = LogNorm(0.1, 10.0)  # symmetric about 1 in log: implicit 10× cheaper … 10× dearer
     image = None
-    for (b, bending), (t, threshold) in ((x, y) for x in enumerate(bendings)
-                                          for y in enumerate(THRESHOLDS)):
+    for (b, bending), (t, threshold) in (
+        (x, y) for x in enumerate(bendings) for y in enumerate(THRESHOLDS)
+    ):
         ax = axes[b][t]
         grid = np.full((len(sizes), len(stiffnesses)), np.nan)
         for c in cells:
@@ -1441,22 +1908,38 @@ def plot(payload, path):
                 text = "\n".join(textwrap.wrap(item["winner"], 12) + [f"{item['ratio']:.2g}"])
                 if item["winner"] == "explicit":
                     text += "\n" + "\n".join(
-                        textwrap.wrap(f"(vs {item['implicit']['method']})", 14))
+                        textwrap.wrap(f"(vs {item['implicit']['method']})", 14)
+                    )
             elif item.get("winner"):
                 text = "explicit\n(no implicit run\nwithin the caps)"
             elif c.get("status") != "done":
                 text = str(c.get("status"))
             elif not reference_serves(c, threshold):
                 error = c.get("reference_error")
-                text = ("reference\ndiverged" if error is None else
-                        f"reference\ntoo coarse\n({error:.1e})")
+                text = (
+                    "reference\ndiverged"
+                    if error is None
+                    else f"reference\ntoo coarse\n({error:.1e})"
+                )
             else:
                 text = item["why"].replace(" reached", "\nat")
             dark = np.isfinite(grid[i, j]) and abs(math.log10(grid[i, j])) > 0.6
-            ax.text(j, i, text, ha="center", va="center", fontsize=5.5,
-                    color="white" if dark else "black")
-        image = ax.imshow(np.ma.masked_invalid(np.clip(grid, 0.1, 10.0)), cmap="RdBu_r",
-                          norm=norm, origin="lower", aspect="auto")
+            ax.text(
+                j,
+                i,
+                text,
+                ha="center",
+                va="center",
+                fontsize=5.5,
+                color="white" if dark else "black",
+            )
+        image = ax.imshow(
+            np.ma.masked_invalid(np.clip(grid, 0.1, 10.0)),
+            cmap="RdBu_r",
+            norm=norm,
+            origin="lower",
+            aspect="auto",
+        )
         ax.set_xticks(range(len(stiffnesses)), [f"{k:g}" for k in stiffnesses], fontsize=6)
         ax.set_yticks(range(len(sizes)), [f"{n}²" for n in sizes], fontsize=6)
         if b == len(bendings) - 1:
@@ -1465,10 +1948,13 @@ def plot(payload, path):
             ax.set_ylabel(f"{bending} bending\nsheet, vertices", fontsize=7)
         if b == 0:
             ax.set_title(f"at {100 * threshold:g} % error", fontsize=8)
-    fig.suptitle("cheapest implicit / cheapest explicit CPU cost (cell: winner, ratio)",
-                 fontsize=9)
-    fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
-                 label="implicit / explicit cost (blue: implicit cheaper)")
+    fig.suptitle("cheapest implicit / cheapest explicit CPU cost (cell: winner, ratio)", fontsize=9)
+    fig.colorbar(
+        image,
+        ax=axes.ravel().tolist(),
+        shrink=0.8,
+        label="implicit / explicit cost (blue: implicit cheaper)",
+    )
     fig.savefig(path, dpi=110, bbox_inches="tight")  # the colour bar's label fits
     plt.close(fig)
 

@@ -53,8 +53,15 @@ SLOW_RUN = 20.0  # s: a run this long is not repeated
 
 
 def sheet(n, k, integrator, **options):
-    return hanging_cloth(resolution=n, pin_spacing=1.0, mass=0.1, stretch_stiffness=k,
-                         bend_stiffness=k, integrator=integrator, **options)
+    return hanging_cloth(
+        resolution=n,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=k,
+        bend_stiffness=k,
+        integrator=integrator,
+        **options,
+    )
 
 
 def run(n, k, integrator, repeats, **options):
@@ -83,8 +90,10 @@ def run(n, k, integrator, repeats, **options):
 def crossover_error(sim, reference):
     """The crossover's error: the RMS vertex distance to the reference at T/2 and at T over the
     sheet's diagonal at the start (√2 m), the larger of the two."""
-    return max(float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1)))) / math.sqrt(2.0)
-               for a, b in zip(sim.snapshots, reference.snapshots))
+    return max(
+        float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1)))) / math.sqrt(2.0)
+        for a, b in zip(sim.snapshots, reference.snapshots)
+    )
 
 
 def measure_cell(n, k, repeats, velocity_time=None, families=ERROR_CONTROLLED):
@@ -97,19 +106,22 @@ def measure_cell(n, k, repeats, velocity_time=None, families=ERROR_CONTROLLED):
         row, sim = run(n, k, "bdf2", repeats, dt=dt)
         if sim is not None:
             counters = sim.stats["counters"]
-            row.update(error=crossover_error(sim, reference),
-                       factorizations_per_step=counters["factorizations"] / sim.stats["steps"])
+            row.update(
+                error=crossover_error(sim, reference),
+                factorizations_per_step=counters["factorizations"] / sim.stats["steps"],
+            )
         rows.append({"integrator": "bdf2", "dt": dt, **row})
     for integrator in families:
         for tol in TOLERANCES:
             if integrator in OWN_CONTROL:
-                row, sim = run(n, k, OWN_CONTROL[integrator], repeats, dt="auto", rtol=tol,
-                               atol=tol / 10)
+                row, sim = run(
+                    n, k, OWN_CONTROL[integrator], repeats, dt="auto", rtol=tol, atol=tol / 10
+                )
             else:
-                extra = {} if velocity_time is None else {
-                    "atol_velocity": tol / 10 / velocity_time}
-                row, sim = run(n, k, integrator, repeats, dt=OUTPUT_INTERVAL, rtol=tol,
-                               atol=tol / 10, **extra)
+                extra = {} if velocity_time is None else {"atol_velocity": tol / 10 / velocity_time}
+                row, sim = run(
+                    n, k, integrator, repeats, dt=OUTPUT_INTERVAL, rtol=tol, atol=tol / 10, **extra
+                )
             if sim is not None and integrator in OWN_CONTROL:
                 c = sim.stats["counters"]
                 row.update(
@@ -118,7 +130,8 @@ def measure_cell(n, k, repeats, velocity_time=None, families=ERROR_CONTROLLED):
                     factorizations_per_step=c["factorizations"] / sim.stats["steps"],
                     mean_internal_dt=HORIZON / sim.stats["steps"],
                     newton_iterations_per_step=c["newton_iterations"] / sim.stats["steps"],
-                    error_test_failures=c["rejected_steps"])
+                    error_test_failures=c["rejected_steps"],
+                )
             elif sim is not None:
                 c = sim.stats["counters"]
                 row.update(
@@ -128,7 +141,8 @@ def measure_cell(n, k, repeats, velocity_time=None, families=ERROR_CONTROLLED):
                     mean_internal_dt=HORIZON / max(c["internal_steps"], 1),
                     newton_iterations_per_step=c["nonlinear_iterations"]
                     / max(c["internal_steps"], 1),
-                    error_test_failures=c["error_test_failures"])
+                    error_test_failures=c["error_test_failures"],
+                )
             rows.append({"integrator": integrator, "rtol": tol, **row})
     derive(rows, floor)
     verdicts = {}
@@ -144,9 +158,15 @@ def measure_cell(n, k, repeats, velocity_time=None, families=ERROR_CONTROLLED):
                     cheapest[r["integrator"]] = r
         verdicts[f"{threshold:g}"] = {
             "judged": True,
-            "cheapest": {name: {"cpu_seconds": r["cpu_seconds"], "error": r["error"],
-                                "setting": r.get("rtol", r.get("dt"))}
-                         for name, r in cheapest.items()}}
+            "cheapest": {
+                name: {
+                    "cpu_seconds": r["cpu_seconds"],
+                    "error": r["error"],
+                    "setting": r.get("rtol", r.get("dt")),
+                }
+                for name, r in cheapest.items()
+            },
+        }
     for r in rows:
         r.update(size=n, stiffness=k)
         r.setdefault("error", None)  # a failed run has none
@@ -180,15 +200,25 @@ def draw(cells, path):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(cells), figsize=(5 * len(cells), 4), squeeze=False)
-    styles = {"explicit": ("k", "*"), "bdf2": ("tab:blue", "o"), "cvode": ("tab:red", "s"),
-              "arkode": ("tab:green", "^"), "tr-bdf2 auto": ("tab:purple", "D"),
-              "bdf2 auto": ("tab:cyan", "v")}
+    styles = {
+        "explicit": ("k", "*"),
+        "bdf2": ("tab:blue", "o"),
+        "cvode": ("tab:red", "s"),
+        "arkode": ("tab:green", "^"),
+        "tr-bdf2 auto": ("tab:purple", "D"),
+        "bdf2 auto": ("tab:cyan", "v"),
+    }
     for ax, cell in zip(axes[0], cells):
         for name, (colour, marker) in styles.items():
             rows = [r for r in cell["rows"] if r["integrator"] == name and r["error"] is not None]
             if rows:
-                ax.loglog([r["cpu_seconds"] for r in rows], [max(r["error"], 1e-9) for r in rows],
-                          marker=marker, color=colour, label=name)
+                ax.loglog(
+                    [r["cpu_seconds"] for r in rows],
+                    [max(r["error"], 1e-9) for r in rows],
+                    marker=marker,
+                    color=colour,
+                    label=name,
+                )
         ax.axhline(cell["floor"], color="grey", ls=":", label="reference floor")
         ax.set_title(f"{cell['size']}², k = {cell['stiffness']:g} N/m, {HORIZON} s")
         ax.set_xlabel("CPU s (one thread)")
@@ -202,32 +232,54 @@ def draw(cells, path):
 def main(argv=None):
     def extra(parser):
         parser.add_argument("--repeats", type=int, default=3)
-        parser.add_argument("--velocity-time", type=float, default=None, metavar="SECONDS",
-                            help="cvode/arkode: atol_velocity = atol / SECONDS (default: "
-                            "the integrators' default, the same number as atol)")
+        parser.add_argument(
+            "--velocity-time",
+            type=float,
+            default=None,
+            metavar="SECONDS",
+            help="cvode/arkode: atol_velocity = atol / SECONDS (default: "
+            "the integrators' default, the same number as atol)",
+        )
         parser.add_argument("--name", default="error_control", help="output file name")
-        parser.add_argument("--families", nargs="+", choices=ERROR_CONTROLLED,
-                            default=list(ERROR_CONTROLLED),
-                            help="error-controlled families to run (explicit and the bdf2 "
-                            "ladder always run: the ratios are measured in the same run)")
+        parser.add_argument(
+            "--families",
+            nargs="+",
+            choices=ERROR_CONTROLLED,
+            default=list(ERROR_CONTROLLED),
+            help="error-controlled families to run (explicit and the bdf2 "
+            "ladder always run: the ratios are measured in the same run)",
+        )
 
     args = common.arguments(__doc__, argv, extra)
     yore.set_num_threads(1)
     cells = []
-    for n, k in (QUICK_CELLS if args.quick else CELLS):
+    for n, k in QUICK_CELLS if args.quick else CELLS:
         print(f"== {n}² k = {k:g}", flush=True)
-        cells.append(measure_cell(n, k, 1 if args.quick else args.repeats,
-                                  args.velocity_time, tuple(args.families)))
+        cells.append(
+            measure_cell(
+                n, k, 1 if args.quick else args.repeats, args.velocity_time, tuple(args.families)
+            )
+        )
         for r in cells[-1]["rows"]:
-            print("  ", {key: (f"{v:.3g}" if isinstance(v, float) else v) for key, v in r.items()},
-                  flush=True)
-    payload = {"benchmark": "error_control", "machine": common.machine_info(),
-               "quick": args.quick, "horizon": HORIZON, "output_interval": OUTPUT_INTERVAL,
-               "velocity_time": args.velocity_time, "families": list(args.families),
-               "thresholds": list(THRESHOLDS),
-               "cells": [{key: c[key] for key in ("size", "stiffness", "floor", "verdicts")}
-                         for c in cells],
-               "rows": [r for c in cells for r in c["rows"]]}
+            print(
+                "  ",
+                {key: (f"{v:.3g}" if isinstance(v, float) else v) for key, v in r.items()},
+                flush=True,
+            )
+    payload = {
+        "benchmark": "error_control",
+        "machine": common.machine_info(),
+        "quick": args.quick,
+        "horizon": HORIZON,
+        "output_interval": OUTPUT_INTERVAL,
+        "velocity_time": args.velocity_time,
+        "families": list(args.families),
+        "thresholds": list(THRESHOLDS),
+        "cells": [
+            {key: c[key] for key in ("size", "stiffness", "floor", "verdicts")} for c in cells
+        ],
+        "rows": [r for c in cells for r in c["rows"]],
+    }
     common.save(args.out, args.name, payload, lambda path: draw(cells, path))
 
 

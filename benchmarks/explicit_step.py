@@ -11,12 +11,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
 import yore
 
-from .common import (arguments, explicit_step_seconds, grid_cloth, machine_info, median_seconds,
-                     save)
+from .common import arguments, explicit_step_seconds, grid_cloth, machine_info, save
 
 # Least memory traffic of one explicit step, bytes: every array read or written once.
 # Per spring: ends (2 × 4), rest + stiffness + damping (3 × 8), its force written and read back
@@ -39,11 +37,18 @@ def measure(sizes, threads_list, target_seconds: float, repeats: int) -> list:
         for threads in threads_list:
             yore.set_num_threads(threads)
             timing = explicit_step_seconds(n, target_seconds, repeats)
-            rows.append({"grid": n, "vertices": n * n, "springs": grid_cloth(n).spring_count,
-                         "threads": threads, "steps_per_batch": timing["steps_per_batch"],
-                         "step_seconds_median": timing["median"],
-                         "step_seconds_min": timing["min"],
-                         "step_seconds_max": timing["max"]})
+            rows.append(
+                {
+                    "grid": n,
+                    "vertices": n * n,
+                    "springs": grid_cloth(n).spring_count,
+                    "threads": threads,
+                    "steps_per_batch": timing["steps_per_batch"],
+                    "step_seconds_median": timing["median"],
+                    "step_seconds_min": timing["min"],
+                    "step_seconds_max": timing["max"],
+                }
+            )
     yore.set_num_threads(default_threads)
     return rows
 
@@ -57,8 +62,12 @@ def plot(rows, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4))
     for threads in sorted({r["threads"] for r in rows}):
         sel = [r for r in rows if r["threads"] == threads]
-        ax.loglog([r["vertices"] for r in sel], [1e3 * r["step_seconds_median"] for r in sel],
-                  "o-", label=f"{threads} thread{'s' if threads > 1 else ''}")
+        ax.loglog(
+            [r["vertices"] for r in sel],
+            [1e3 * r["step_seconds_median"] for r in sel],
+            "o-",
+            label=f"{threads} thread{'s' if threads > 1 else ''}",
+        )
     ax.set_xlabel("vertices")
     ax.set_ylabel("ms per explicit step (median)")
     ax.set_title("yore: symplectic Euler step cost")
@@ -73,8 +82,9 @@ def main(argv=None) -> None:
     args = arguments(__doc__, argv)
     sizes = [16, 32, 64] if args.quick else [16, 32, 64, 128, 256]
     threads = sorted({1, min(2, yore.build_info()["threads"])} | {yore.build_info()["threads"]})
-    rows = measure(sizes, threads, target_seconds=0.02 if args.quick else 0.2,
-                   repeats=3 if args.quick else 7)
+    rows = measure(
+        sizes, threads, target_seconds=0.02 if args.quick else 0.2, repeats=3 if args.quick else 7
+    )
     speedups = {}
     for n in sizes:
         one = next(r for r in rows if r["grid"] == n and r["threads"] == 1)
@@ -88,27 +98,40 @@ def main(argv=None) -> None:
     yore.set_num_threads(default_threads)
     bandwidth = max(bandwidth_by_threads.values())
     for row in rows:
-        row["bytes_per_step"] = (BYTES_PER_SPRING * row["springs"]
-                                 + BYTES_PER_VERTEX * row["vertices"])
+        row["bytes_per_step"] = (
+            BYTES_PER_SPRING * row["springs"] + BYTES_PER_VERTEX * row["vertices"]
+        )
         bound_bandwidth = bandwidth_by_threads[row["threads"]]
         row["bandwidth_bound_seconds"] = row["bytes_per_step"] / bound_bandwidth
         row["over_bandwidth_bound"] = row["step_seconds_median"] / row["bandwidth_bound_seconds"]
-    payload = {"benchmark": "explicit_step", "machine": machine_info(), "quick": args.quick,
-               "rows": rows,
-               "speedup_best_threads_vs_1": speedups, "stream_bandwidth_bytes_per_second":
-               bandwidth, "stream_bandwidth_by_threads": {str(k): v for k, v in
-                                                          bandwidth_by_threads.items()},
-               "targets": {"over_bandwidth_bound_at_most": 2.0}}
+    payload = {
+        "benchmark": "explicit_step",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "rows": rows,
+        "speedup_best_threads_vs_1": speedups,
+        "stream_bandwidth_bytes_per_second": bandwidth,
+        "stream_bandwidth_by_threads": {str(k): v for k, v in bandwidth_by_threads.items()},
+        "targets": {"over_bandwidth_bound_at_most": 2.0},
+    }
     save(args.out, "explicit_step", payload, lambda path: plot(rows, path))
     print(f"{'grid':>6} {'threads':>7} {'ms/step':>10} {'x bound':>8}")
     for r in rows:
-        print(f"{r['grid']:>5}² {r['threads']:>7} {1e3 * r['step_seconds_median']:>10.4f} "
-              f"{r['over_bandwidth_bound']:>8.2f}")
-    print("STREAM triad bandwidth (same run): " + ", ".join(
-        f"{threads} thread(s) {value / 1e9:.1f} GB/s"
-        for threads, value in bandwidth_by_threads.items()))
-    print("speed-up of the best thread count over 1 thread:",
-          {k: round(v, 2) for k, v in speedups.items()})
+        print(
+            f"{r['grid']:>5}² {r['threads']:>7} {1e3 * r['step_seconds_median']:>10.4f} "
+            f"{r['over_bandwidth_bound']:>8.2f}"
+        )
+    print(
+        "STREAM triad bandwidth (same run): "
+        + ", ".join(
+            f"{threads} thread(s) {value / 1e9:.1f} GB/s"
+            for threads, value in bandwidth_by_threads.items()
+        )
+    )
+    print(
+        "speed-up of the best thread count over 1 thread:",
+        {k: round(v, 2) for k, v in speedups.items()},
+    )
 
 
 if __name__ == "__main__":

@@ -44,16 +44,24 @@ VARIANTS = {
     "default (clamp, mixed, truncation test)": {},
     "default, lagged factor": {"lagged_factorization": True},
     "steihaug, residual test": {"projection": "steihaug", **RESIDUAL},
-    "steihaug, lagged factor": {"projection": "steihaug", "lagged_factorization": True,
-                                **RESIDUAL},
+    "steihaug, lagged factor": {"projection": "steihaug", "lagged_factorization": True, **RESIDUAL},
     "shifted, residual test": {"projection": "shifted", **RESIDUAL},
     "clamp, step test": {"projection": "clamp", "step_tol": 3e-3, "mixed": True, **RESIDUAL},
-    "clamp, step test, lagged factor": {"projection": "clamp", "step_tol": 3e-3, "mixed": True,
-                                        "lagged_factorization": True, **RESIDUAL},
+    "clamp, step test, lagged factor": {
+        "projection": "clamp",
+        "step_tol": 3e-3,
+        "mixed": True,
+        "lagged_factorization": True,
+        **RESIDUAL,
+    },
     # what the mixed matrices change, in the same run: steihaug with them, the clamp without
     "steihaug, mixed": {"projection": "steihaug", "mixed": True, **RESIDUAL},
-    "clamp, step test, actual forces": {"projection": "clamp", "step_tol": 3e-3,
-                                        "mixed": False, **RESIDUAL},
+    "clamp, step test, actual forces": {
+        "projection": "clamp",
+        "step_tol": 3e-3,
+        "mixed": False,
+        **RESIDUAL,
+    },
 }
 
 
@@ -69,9 +77,16 @@ def sizes(quick, only=None):
 
 
 def run(resolution, duration, options, max_seconds):
-    sim = yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0, mass=0.1,
-                                    stretch_stiffness=STIFFNESS, bend_stiffness=STIFFNESS,
-                                    integrator="bdf2", dt=DT, **options)
+    sim = yore.scenes.hanging_cloth(
+        resolution=resolution,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=STIFFNESS,
+        bend_stiffness=STIFFNESS,
+        integrator="bdf2",
+        dt=DT,
+        **options,
+    )
     planned = max(1, round(duration / DT))
     start = time.process_time()
     steps = 0
@@ -85,14 +100,18 @@ def run(resolution, duration, options, max_seconds):
     phases = sim.stats["phases"]
     fresh = c["factorizations"] - c["factorizations_thrown_away"]
     return sim, {
-        "resolution": resolution, "steps": steps, "planned_steps": planned,
-        "stopped_by_cpu_cap": steps < planned, "simulated_seconds": steps * DT,
+        "resolution": resolution,
+        "steps": steps,
+        "planned_steps": planned,
+        "stopped_by_cpu_cap": steps < planned,
+        "simulated_seconds": steps * DT,
         "newton_per_step": c["newton_iterations"] / steps,
         "fresh_factorizations_per_step": fresh / steps,
         "factor_reuses_per_step": c["factor_reuses"] / steps,
         "thrown_away_per_step": c["factorizations_thrown_away"] / steps,
-        "lagged_cg_iterations_per_reuse": (c["lagged_cg_iterations"] / c["factor_reuses"]
-                                           if c["factor_reuses"] else 0.0),
+        "lagged_cg_iterations_per_reuse": (
+            c["lagged_cg_iterations"] / c["factor_reuses"] if c["factor_reuses"] else 0.0
+        ),
         # CG runs on a kept factor that missed their bound (each followed by a factorization)
         "lagged_failures_per_step": c["lagged_failures"] / steps,
         "lagged_cg_iterations_per_step": c["lagged_cg_iterations"] / steps,
@@ -106,11 +125,20 @@ def run(resolution, duration, options, max_seconds):
 
 
 def options(parser):
-    parser.add_argument("--sizes", type=int, nargs="+", metavar="N",
-                        help="run only these resolutions (of 64 128; --quick: 12 16)")
-    parser.add_argument("--max-run-seconds", type=float, default=900.0,
-                        help="CPU seconds after which a run stops at the end of its step "
-                             "(default 900); its figures are then per step done")
+    parser.add_argument(
+        "--sizes",
+        type=int,
+        nargs="+",
+        metavar="N",
+        help="run only these resolutions (of 64 128; --quick: 12 16)",
+    )
+    parser.add_argument(
+        "--max-run-seconds",
+        type=float,
+        default=900.0,
+        help="CPU seconds after which a run stops at the end of its step "
+        "(default 900); its figures are then per step done",
+    )
 
 
 def main(argv=None):
@@ -125,38 +153,63 @@ def main(argv=None):
                 reference = (positions, row["steps"])
             size = float(np.ptp(positions, axis=0).max())
             # (None when the two runs did not reach the same time)
-            deviation = (float(np.linalg.norm(positions - reference[0], axis=1).max() / size)
-                         if row["steps"] == reference[1] else None)
+            deviation = (
+                float(np.linalg.norm(positions - reference[0], axis=1).max() / size)
+                if row["steps"] == reference[1]
+                else None
+            )
             row.update(variant=name, options=variant_options, deviation_from_default=deviation)
             rows.append(row)
-            print(f"{resolution:4d}² {name:34s} {row['newton_per_step']:6.1f} it/step, fresh "
-                  f"{row['fresh_factorizations_per_step']:5.1f}, reused "
-                  f"{row['factor_reuses_per_step']:5.1f}, thrown "
-                  f"{row['thrown_away_per_step']:4.1f}, capped {row['unconverged_steps']}, "
-                  f"{row['cpu_seconds_per_simulated_second']:8.2f} CPU s/s, deviation "
-                  f"{row['deviation_from_default']}"
-                  + (f" (stopped by the CPU cap after {row['steps']} of {row['planned_steps']} "
-                     "steps)" if row["stopped_by_cpu_cap"] else ""), flush=True)
-    pairs = (("default, lagged factor", "default (clamp, mixed, truncation test)"),
-             ("steihaug, lagged factor", "steihaug, residual test"),
-             ("clamp, step test, lagged factor", "clamp, step test"))
-    mixed_pairs = (("steihaug, mixed", "steihaug, residual test"),
-                   ("clamp, step test", "clamp, step test, actual forces"))
+            print(
+                f"{resolution:4d}² {name:34s} {row['newton_per_step']:6.1f} it/step, fresh "
+                f"{row['fresh_factorizations_per_step']:5.1f}, reused "
+                f"{row['factor_reuses_per_step']:5.1f}, thrown "
+                f"{row['thrown_away_per_step']:4.1f}, capped {row['unconverged_steps']}, "
+                f"{row['cpu_seconds_per_simulated_second']:8.2f} CPU s/s, deviation "
+                f"{row['deviation_from_default']}"
+                + (
+                    f" (stopped by the CPU cap after {row['steps']} of {row['planned_steps']} "
+                    "steps)"
+                    if row["stopped_by_cpu_cap"]
+                    else ""
+                ),
+                flush=True,
+            )
+    pairs = (
+        ("default, lagged factor", "default (clamp, mixed, truncation test)"),
+        ("steihaug, lagged factor", "steihaug, residual test"),
+        ("clamp, step test, lagged factor", "clamp, step test"),
+    )
+    mixed_pairs = (
+        ("steihaug, mixed", "steihaug, residual test"),
+        ("clamp, step test", "clamp, step test, actual forces"),
+    )
     for resolution in sizes(args.quick, args.sizes):
         chosen = {r["variant"]: r for r in rows if r["resolution"] == resolution}
         for lagged_name, plain_name in pairs:
             lagged, plain = chosen[lagged_name], chosen[plain_name]
-            lagged["cpu_over_unlagged"] = (lagged["cpu_seconds_per_simulated_second"]
-                                           / plain["cpu_seconds_per_simulated_second"])
+            lagged["cpu_over_unlagged"] = (
+                lagged["cpu_seconds_per_simulated_second"]
+                / plain["cpu_seconds_per_simulated_second"]
+            )
         for mixed_name, actual_name in mixed_pairs:
             mixed, actual = chosen[mixed_name], chosen[actual_name]
-            mixed["newton_over_actual_forces"] = (mixed["newton_per_step"]
-                                                  / actual["newton_per_step"])
-            mixed["cpu_over_actual_forces"] = (mixed["cpu_seconds_per_simulated_second"]
-                                               / actual["cpu_seconds_per_simulated_second"])
-    payload = {"benchmark": "factor_reuse", "machine": machine_info(), "quick": args.quick,
-               "rows": rows, "dt": DT, "stretch_stiffness": STIFFNESS,
-               "variants": list(VARIANTS)}
+            mixed["newton_over_actual_forces"] = (
+                mixed["newton_per_step"] / actual["newton_per_step"]
+            )
+            mixed["cpu_over_actual_forces"] = (
+                mixed["cpu_seconds_per_simulated_second"]
+                / actual["cpu_seconds_per_simulated_second"]
+            )
+    payload = {
+        "benchmark": "factor_reuse",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "rows": rows,
+        "dt": DT,
+        "stretch_stiffness": STIFFNESS,
+        "variants": list(VARIANTS),
+    }
     save(args.out, "factor_reuse", payload, lambda path: plot(rows, path))
     return payload
 
@@ -168,17 +221,23 @@ def plot(rows, path):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    x, resolutions = grouped_bars(axes, rows, "resolution", "variant",
-                                  ("fresh_factorizations_per_step",
-                                   "cpu_seconds_per_simulated_second"))
+    x, resolutions = grouped_bars(
+        axes,
+        rows,
+        "resolution",
+        "variant",
+        ("fresh_factorizations_per_step", "cpu_seconds_per_simulated_second"),
+    )
     axes[0].set_ylabel("fresh factorizations per step")
     axes[1].set_ylabel("CPU s per simulated s")
     axes[1].set_yscale("log")
     for ax in axes:
         ax.set_xticks(x, [f"{n}²" for n in resolutions])
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"stiff sheet (k = {STIFFNESS:g} N/m, bending equal), BDF2, dt = 1/60 s, "
-                 "one thread", fontsize=9)
+    fig.suptitle(
+        f"stiff sheet (k = {STIFFNESS:g} N/m, bending equal), BDF2, dt = 1/60 s, one thread",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

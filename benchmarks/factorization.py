@@ -47,17 +47,32 @@ def blas_dgemm_gflops(size: int, repeats: int) -> float:
     rng = np.random.default_rng(0)
     a, b = (np.asfortranarray(rng.standard_normal((size, size))) for _ in range(2))
     c = np.zeros((size, size), order="F")
-    n, one, zero, plain = ctypes.c_int(size), ctypes.c_double(1.0), ctypes.c_double(0.0), \
-        ctypes.c_char(b"N")
+    n, one, zero, plain = (
+        ctypes.c_int(size),
+        ctypes.c_double(1.0),
+        ctypes.c_double(0.0),
+        ctypes.c_char(b"N"),
+    )
 
     def pointer(array):
         return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
     def multiply():
-        library.dgemm_(ctypes.byref(plain), ctypes.byref(plain), ctypes.byref(n),
-                       ctypes.byref(n), ctypes.byref(n), ctypes.byref(one), pointer(a),
-                       ctypes.byref(n), pointer(b), ctypes.byref(n), ctypes.byref(zero),
-                       pointer(c), ctypes.byref(n))
+        library.dgemm_(
+            ctypes.byref(plain),
+            ctypes.byref(plain),
+            ctypes.byref(n),
+            ctypes.byref(n),
+            ctypes.byref(n),
+            ctypes.byref(one),
+            pointer(a),
+            ctypes.byref(n),
+            pointer(b),
+            ctypes.byref(n),
+            ctypes.byref(zero),
+            pointer(c),
+            ctypes.byref(n),
+        )
 
     multiply()  # warm-up (and OpenBLAS's buffers)
     samples = []
@@ -74,8 +89,14 @@ def measure_factorization(n: int, ordering: str, relaxation: float, repeats: int
     """Analysis and numeric factorization of the linearized implicit step's matrix on the
     benchmarks' n × n grid cloth (medians)."""
     cloth = grid_cloth(n)
-    sim = yore.Simulation(cloth, integrator="implicit", linearized=True, ordering=ordering,
-                          supernode_relaxation=relaxation, dt=1.0 / 60.0)
+    sim = yore.Simulation(
+        cloth,
+        integrator="implicit",
+        linearized=True,
+        ordering=ordering,
+        supernode_relaxation=relaxation,
+        dt=1.0 / 60.0,
+    )
     sim.step(1, progress=False)
     steady = [phase_deltas(sim, lambda: sim.step(1, progress=False)) for _ in range(repeats)]
     counters = sim.stats["counters"]  # of the analysis the steady factorizations used
@@ -84,11 +105,19 @@ def measure_factorization(n: int, ordering: str, relaxation: float, repeats: int
         cloth.fix([n * (n // 2) + n // 2 + k])  # a change of topology: the next step re-analyses
         analyses.append(phase_deltas(sim, lambda: sim.step(1, progress=False))["analyze_seconds"])
     factorize = statistics.median(s["factorize_seconds"] for s in steady)
-    return {"grid": n, "dofs": counters["dofs"], "ordering_requested": ordering,
-            "ordering_used": counters["ordering"], "supernode_relaxation": relaxation,
-            "factor_nonzeros": counters["factor_nonzeros"], "factor_flops": counters["factor_flops"],
-            "factorize_seconds": factorize, "analyze_seconds": statistics.median(analyses),
-            "factorize_gflops": counters["factor_flops"] / factorize / 1e9, "repeats": repeats}
+    return {
+        "grid": n,
+        "dofs": counters["dofs"],
+        "ordering_requested": ordering,
+        "ordering_used": counters["ordering"],
+        "supernode_relaxation": relaxation,
+        "factor_nonzeros": counters["factor_nonzeros"],
+        "factor_flops": counters["factor_flops"],
+        "factorize_seconds": factorize,
+        "analyze_seconds": statistics.median(analyses),
+        "factorize_gflops": counters["factor_flops"] / factorize / 1e9,
+        "repeats": repeats,
+    }
 
 
 def cpu_per_newton_iteration(n: int, ordering: str, repeats: int) -> float:
@@ -96,8 +125,15 @@ def cpu_per_newton_iteration(n: int, ordering: str, repeats: int) -> float:
     factorize, solve, line search) on the grid cloth, median over steps."""
     import warnings
 
-    sim = yore.Simulation(grid_cloth(n), integrator="implicit", dt=1.0 / 64.0, ordering=ordering,
-                          newton_tol=1e-300, max_newton=8, truncation_fraction=0.0)
+    sim = yore.Simulation(
+        grid_cloth(n),
+        integrator="implicit",
+        dt=1.0 / 64.0,
+        ordering=ordering,
+        newton_tol=1e-300,
+        max_newton=8,
+        truncation_fraction=0.0,
+    )
     samples = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # every step is at its cap on purpose
@@ -106,8 +142,10 @@ def cpu_per_newton_iteration(n: int, ordering: str, repeats: int) -> float:
             before = sim.stats["counters"]["newton_iterations"]
             start = time.process_time()
             sim.step(1, progress=False)
-            samples.append((time.process_time() - start) /
-                           (sim.stats["counters"]["newton_iterations"] - before))
+            samples.append(
+                (time.process_time() - start)
+                / (sim.stats["counters"]["newton_iterations"] - before)
+            )
     return statistics.median(samples)
 
 
@@ -130,15 +168,25 @@ def kernel_worker(sizes, repeats) -> dict:
     """Part 2's child: this process's kernels, DGEMM, and Newton iteration over explicit step."""
     yore.set_num_threads(1)
     info = yore.blas.report()
-    out = {"kernel": info["kernel"], "chosen_by": info["chosen_by"],
-           "dgemm_gflops": blas_dgemm_gflops(1200, repeats), "rows": []}
+    out = {
+        "kernel": info["kernel"],
+        "chosen_by": info["chosen_by"],
+        "dgemm_gflops": blas_dgemm_gflops(1200, repeats),
+        "rows": [],
+    }
     for n in sizes:
         explicit = cpu_per_explicit_step(n, repeats)
         for ordering in ("amd", "auto"):
             iteration = cpu_per_newton_iteration(n, ordering, repeats)
-            out["rows"].append({"grid": n, "ordering": ordering, "explicit_cpu_seconds": explicit,
-                                "newton_iteration_cpu_seconds": iteration,
-                                "iteration_over_explicit": iteration / explicit})
+            out["rows"].append(
+                {
+                    "grid": n,
+                    "ordering": ordering,
+                    "explicit_cpu_seconds": explicit,
+                    "newton_iteration_cpu_seconds": iteration,
+                    "iteration_over_explicit": iteration / explicit,
+                }
+            )
     return out
 
 
@@ -151,16 +199,37 @@ def run_kernels(sizes, repeats, quick) -> list:
     for kernel in KERNELS:
         if not yore.blas.KERNEL_NEEDS[kernel.lower()] <= extensions:
             continue
-        env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "OPENBLAS_NUM_THREADS": "1",
-               "OMP_NUM_THREADS": "1"}
-        command = [sys.executable, "-m", "benchmarks.factorization", "--kernel-worker",
-                   "--sizes", *map(str, sizes)] + (["--quick"] if quick else [])
-        done = subprocess.run(command, env=env, capture_output=True, text=True, check=True,
-                              cwd=Path(__file__).resolve().parents[1])
+        env = {
+            **os.environ,
+            "OPENBLAS_CORETYPE": kernel,
+            "OPENBLAS_NUM_THREADS": "1",
+            "OMP_NUM_THREADS": "1",
+        }
+        command = [
+            sys.executable,
+            "-m",
+            "benchmarks.factorization",
+            "--kernel-worker",
+            "--sizes",
+            *map(str, sizes),
+        ] + (["--quick"] if quick else [])
+        done = subprocess.run(
+            command,
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=Path(__file__).resolve().parents[1],
+        )
         runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
-        print(f"{kernel:>12}: DGEMM {runs[-1]['dgemm_gflops']:.1f} GFlop/s; " + ", ".join(
-            f"{r['grid']}² {r['ordering']} iteration/explicit {r['iteration_over_explicit']:.0f}"
-            for r in runs[-1]["rows"]), flush=True)
+        print(
+            f"{kernel:>12}: DGEMM {runs[-1]['dgemm_gflops']:.1f} GFlop/s; "
+            + ", ".join(
+                f"{r['grid']}² {r['ordering']} iteration/explicit {r['iteration_over_explicit']:.0f}"
+                for r in runs[-1]["rows"]
+            ),
+            flush=True,
+        )
     return runs
 
 
@@ -177,8 +246,13 @@ def kernel_summary(runs) -> list:
         if old["ordering"] != "amd":
             continue
         new = next(r for r in best["rows"] if r["grid"] == old["grid"] and r["ordering"] == "auto")
-        out.append({"grid": old["grid"], "new_kernel": best["kernel"],
-                    "new_over_old": new["iteration_over_explicit"] / old["iteration_over_explicit"]})
+        out.append(
+            {
+                "grid": old["grid"],
+                "new_kernel": best["kernel"],
+                "new_over_old": new["iteration_over_explicit"] / old["iteration_over_explicit"],
+            }
+        )
     return out
 
 
@@ -191,20 +265,39 @@ def plot(payload, path: Path) -> None:
     rows, dense = payload["rows"], payload["dgemm_gflops"]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.3))
     for ordering, marker in zip(ORDERINGS, "osd"):
-        chosen = [r for r in rows if r["ordering_requested"] == ordering
-                  and r["supernode_relaxation"] == 1.0 and r["blas_threads"] == 1]
+        chosen = [
+            r
+            for r in rows
+            if r["ordering_requested"] == ordering
+            and r["supernode_relaxation"] == 1.0
+            and r["blas_threads"] == 1
+        ]
         grids = [r["grid"] for r in chosen]
         axes[0].plot(grids, [r["factorize_gflops"] for r in chosen], marker=marker, label=ordering)
-        axes[1].loglog(grids, [1e3 * r["factorize_seconds"] for r in chosen], marker=marker,
-                       label=f"factorize ({ordering})")
-        axes[1].loglog(grids, [1e3 * r["analyze_seconds"] for r in chosen], marker=marker,
-                       linestyle=":", label=f"analyze ({ordering})")
+        axes[1].loglog(
+            grids,
+            [1e3 * r["factorize_seconds"] for r in chosen],
+            marker=marker,
+            label=f"factorize ({ordering})",
+        )
+        axes[1].loglog(
+            grids,
+            [1e3 * r["analyze_seconds"] for r in chosen],
+            marker=marker,
+            linestyle=":",
+            label=f"analyze ({ordering})",
+        )
     axes[0].axhline(dense, color="k", linestyle="--", label="DGEMM (same BLAS)")
     axes[0].axhline(0.4 * dense, color="gray", linestyle=":", label="40 % of DGEMM")
-    axes[0].set(xlabel="grid (vertices per side)", ylabel="GFlop/s", xscale="log",
-                title=f"factorization rate ({payload['machine']['yore']['blas_kernel']} kernels)")
-    axes[1].set(xlabel="grid (vertices per side)", ylabel="ms (median)",
-                title="factorization and analysis")
+    axes[0].set(
+        xlabel="grid (vertices per side)",
+        ylabel="GFlop/s",
+        xscale="log",
+        title=f"factorization rate ({payload['machine']['yore']['blas_kernel']} kernels)",
+    )
+    axes[1].set(
+        xlabel="grid (vertices per side)", ylabel="ms (median)", title="factorization and analysis"
+    )
     for ax in axes[:2]:
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
@@ -216,9 +309,16 @@ def plot(payload, path: Path) -> None:
         axes[2].set_title("OpenBLAS kernels on this CPU")
         for x, k in enumerate(kernels):
             ratios = [r for r in k["rows"] if r["ordering"] == "auto"]
-            axes[2].annotate("\n".join(f"{r['grid']}²: iteration = {r['iteration_over_explicit']:.0f}"
-                                       " explicit steps" for r in ratios),
-                             (x, k["dgemm_gflops"]), ha="center", va="bottom", fontsize=7)
+            axes[2].annotate(
+                "\n".join(
+                    f"{r['grid']}²: iteration = {r['iteration_over_explicit']:.0f} explicit steps"
+                    for r in ratios
+                ),
+                (x, k["dgemm_gflops"]),
+                ha="center",
+                va="bottom",
+                fontsize=7,
+            )
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -230,8 +330,9 @@ def factorization_rows(sizes, repeats, dense_by_threads) -> list:
     for n in sizes:
         for ordering in ORDERINGS:
             for relaxation in RELAXATIONS if ordering != "metis" else (1.0,):
-                rows.append(measure_factorization(n, ordering, relaxation, repeats)
-                            | {"blas_threads": 1})
+                rows.append(
+                    measure_factorization(n, ordering, relaxation, repeats) | {"blas_threads": 1}
+                )
         yore.set_num_threads(2)
         try:
             rows.append(measure_factorization(n, "auto", 1.0, repeats) | {"blas_threads": 2})
@@ -248,8 +349,11 @@ def main(argv=None) -> dict:
     def extra(parser):
         parser.add_argument("--sizes", type=int, nargs="*", help="grid sizes (vertices per side)")
         parser.add_argument("--kernel-worker", action="store_true", help=argparse_hidden())
-        parser.add_argument("--no-kernels", action="store_true",
-                            help="leave out part 2 (the kernels, in fresh processes)")
+        parser.add_argument(
+            "--no-kernels",
+            action="store_true",
+            help="leave out part 2 (the kernels, in fresh processes)",
+        )
 
     args = arguments(__doc__, argv, extra)
     sizes = args.sizes or ([12, 16] if args.quick else [32, 64, 128, 256])
@@ -265,25 +369,42 @@ def main(argv=None) -> dict:
     rows = factorization_rows(sizes, repeats, dense)
     kernel_sizes = [n for n in sizes if n in (64, 128)] or sizes[:1]
     kernels = [] if args.no_kernels else run_kernels(kernel_sizes, repeats, args.quick)
-    payload = {"benchmark": "factorization", "machine": machine_info(), "quick": args.quick,
-               "dgemm_gflops": dense[1], "dgemm_gflops_two_threads": dense[2], "rows": rows,
-               "kernels": kernels, "kernel_summary": kernel_summary(kernels),
-               "targets": {"factorize_fraction_of_dgemm_at_least": 0.4,
-                           "at_grids": [128, 256],
-                           "newton_iteration_new_over_old_at_most": {"64": 0.5, "128": 0.4}}}
+    payload = {
+        "benchmark": "factorization",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "dgemm_gflops": dense[1],
+        "dgemm_gflops_two_threads": dense[2],
+        "rows": rows,
+        "kernels": kernels,
+        "kernel_summary": kernel_summary(kernels),
+        "targets": {
+            "factorize_fraction_of_dgemm_at_least": 0.4,
+            "at_grids": [128, 256],
+            "newton_iteration_new_over_old_at_most": {"64": 0.5, "128": 0.4},
+        },
+    }
     save(args.out, "factorization", payload, lambda path: plot(payload, path))
-    print(f"DGEMM of the BLAS CHOLMOD calls ({payload['machine']['yore']['blas_kernel']}): "
-          f"{dense[1]:.1f} GFlop/s, two threads {dense[2]:.1f}")
-    print(f"{'grid':>5} {'order':>7} {'relax':>5} {'thr':>3} {'nnz(L)':>9} {'GFlop':>7} "
-          f"{'anal ms':>8} {'fact ms':>8} {'GF/s':>6} {'%DGEMM':>6}")
+    print(
+        f"DGEMM of the BLAS CHOLMOD calls ({payload['machine']['yore']['blas_kernel']}): "
+        f"{dense[1]:.1f} GFlop/s, two threads {dense[2]:.1f}"
+    )
+    print(
+        f"{'grid':>5} {'order':>7} {'relax':>5} {'thr':>3} {'nnz(L)':>9} {'GFlop':>7} "
+        f"{'anal ms':>8} {'fact ms':>8} {'GF/s':>6} {'%DGEMM':>6}"
+    )
     for r in rows:
-        print(f"{r['grid']:>4}² {r['ordering_used']:>7} {r['supernode_relaxation']:>5.0f} "
-              f"{r['blas_threads']:>3} {r['factor_nonzeros']:>9.3g} {r['factor_flops'] / 1e9:>7.3f} "
-              f"{1e3 * r['analyze_seconds']:>8.1f} {1e3 * r['factorize_seconds']:>8.1f} "
-              f"{r['factorize_gflops']:>6.1f} {100 * r['factorize_fraction_of_dgemm']:>5.0f}%")
+        print(
+            f"{r['grid']:>4}² {r['ordering_used']:>7} {r['supernode_relaxation']:>5.0f} "
+            f"{r['blas_threads']:>3} {r['factor_nonzeros']:>9.3g} {r['factor_flops'] / 1e9:>7.3f} "
+            f"{1e3 * r['analyze_seconds']:>8.1f} {1e3 * r['factorize_seconds']:>8.1f} "
+            f"{r['factorize_gflops']:>6.1f} {100 * r['factorize_fraction_of_dgemm']:>5.0f}%"
+        )
     for s in payload["kernel_summary"]:
-        print(f"{s['grid']}²: a Newton iteration (in explicit steps), {s['new_kernel']} + auto "
-              f"over Prescott + AMD: {s['new_over_old']:.2f}")
+        print(
+            f"{s['grid']}²: a Newton iteration (in explicit steps), {s['new_kernel']} + auto "
+            f"over Prescott + AMD: {s['new_over_old']:.2f}"
+        )
     return payload
 
 

@@ -20,8 +20,7 @@ import numpy as np
 
 import yore
 
-from .common import (arguments, explicit_step_seconds, grid_cloth, machine_info, median_seconds,
-                     save)
+from .common import arguments, explicit_step_seconds, grid_cloth, machine_info, median_seconds, save
 
 PHASES = ("assemble_seconds", "analyze_seconds", "factorize_seconds", "solve_seconds")
 
@@ -48,8 +47,9 @@ def phase_deltas(sim, action) -> dict:
 
 def measure_implicit(n: int, ordering: str, repeats: int) -> dict:
     cloth = grid_cloth(n)
-    sim = yore.Simulation(cloth, integrator="implicit", linearized=True, ordering=ordering,
-                          dt=1.0 / 60.0)
+    sim = yore.Simulation(
+        cloth, integrator="implicit", linearized=True, ordering=ordering, dt=1.0 / 60.0
+    )
     sim.step(1, progress=False)  # warm-up: first analysis and factorization
     steady = [phase_deltas(sim, lambda: sim.step(1, progress=False)) for _ in range(repeats)]
     # A change of topology (one more fixed vertex) before each step: that step re-analyses.
@@ -59,12 +59,15 @@ def measure_implicit(n: int, ordering: str, repeats: int) -> dict:
         cloth.fix([vertex])
         after_change.append(phase_deltas(sim, lambda: sim.step(1, progress=False)))
     counters = sim.stats["counters"]
-    median = {key: statistics.median(sample[key] for sample in steady)
-              for key in steady[0]}
+    median = {key: statistics.median(sample[key] for sample in steady) for key in steady[0]}
     analysis = statistics.median(sample["analyze_seconds"] for sample in after_change)
     return {
-        "grid": n, "vertices": n * n, "dofs": counters["dofs"], "ordering_requested": ordering,
-        "ordering_used": counters["ordering"], "factor_nonzeros": counters["factor_nonzeros"],
+        "grid": n,
+        "vertices": n * n,
+        "dofs": counters["dofs"],
+        "ordering_requested": ordering,
+        "ordering_used": counters["ordering"],
+        "factor_nonzeros": counters["factor_nonzeros"],
         "factor_flops": counters["factor_flops"],
         "step_seconds": median["wall_seconds"],
         "assemble_seconds": median["assemble_seconds"],
@@ -72,8 +75,10 @@ def measure_implicit(n: int, ordering: str, repeats: int) -> dict:
         "solve_seconds": median["solve_seconds"],
         "analyze_seconds": analysis,
         "step_after_topology_change_seconds": statistics.median(
-            sample["wall_seconds"] for sample in after_change),
-        "analyses": counters["analyses"], "repeats": repeats,
+            sample["wall_seconds"] for sample in after_change
+        ),
+        "analyses": counters["analyses"],
+        "repeats": repeats,
     }
 
 
@@ -89,13 +94,26 @@ def plot(rows, path: Path) -> None:
         if not sel:
             continue
         dofs = [r["dofs"] for r in sel]
-        for key, label in (("factorize_seconds", "factorize"), ("analyze_seconds", "analyze"),
-                           ("assemble_seconds", "assemble"), ("solve_seconds", "solve")):
-            axes[0].loglog(dofs, [1e3 * r[key] for r in sel], marker=marker, linestyle="-",
-                           label=f"{label} ({ordering})")
+        for key, label in (
+            ("factorize_seconds", "factorize"),
+            ("analyze_seconds", "analyze"),
+            ("assemble_seconds", "assemble"),
+            ("solve_seconds", "solve"),
+        ):
+            axes[0].loglog(
+                dofs,
+                [1e3 * r[key] for r in sel],
+                marker=marker,
+                linestyle="-",
+                label=f"{label} ({ordering})",
+            )
     sel = [r for r in rows if r["ordering_requested"] == "amd"]
-    axes[0].loglog([r["dofs"] for r in sel], [1e3 * r["explicit_step_seconds"] for r in sel],
-                   "k--", label="explicit step")
+    axes[0].loglog(
+        [r["dofs"] for r in sel],
+        [1e3 * r["explicit_step_seconds"] for r in sel],
+        "k--",
+        label="explicit step",
+    )
     axes[0].set_xlabel("unknowns (3 per free vertex)")
     axes[0].set_ylabel("ms (median)")
     axes[0].set_title("implicit step phases vs explicit step")
@@ -103,13 +121,19 @@ def plot(rows, path: Path) -> None:
     axes[0].legend(fontsize=7)
     for ordering, marker in (("amd", "o"), ("metis", "s")):
         sel = [r for r in rows if r["ordering_requested"] == ordering]
-        axes[1].semilogx([r["dofs"] for r in sel], [r["factorize_gflops"] for r in sel],
-                         marker=marker, label=f"factorization ({ordering})")
+        axes[1].semilogx(
+            [r["dofs"] for r in sel],
+            [r["factorize_gflops"] for r in sel],
+            marker=marker,
+            label=f"factorization ({ordering})",
+        )
     if rows:
-        axes[1].axhline(rows[0]["dense_gflops"], color="k", linestyle="--",
-                        label="numpy dense matmul")
-        axes[1].axhline(0.3 * rows[0]["dense_gflops"], color="gray", linestyle=":",
-                        label="30 % of dense")
+        axes[1].axhline(
+            rows[0]["dense_gflops"], color="k", linestyle="--", label="numpy dense matmul"
+        )
+        axes[1].axhline(
+            0.3 * rows[0]["dense_gflops"], color="gray", linestyle=":", label="30 % of dense"
+        )
     axes[1].set_xlabel("unknowns")
     axes[1].set_ylabel("GFlop/s")
     axes[1].set_title("CHOLMOD factorization rate")
@@ -129,8 +153,9 @@ def iteration_seconds(n: int, integrator: str, repeats: int) -> dict:
 
     # (Newton's truncation test off: it would end a step before its 8 iterations)
     stop = {"truncation_fraction": 0.0} if integrator in ("implicit", "bdf2") else {}
-    sim = yore.Simulation(grid_cloth(n), integrator=integrator, dt=1.0 / 60.0,
-                          newton_tol=1e-300, max_newton=8, **stop)
+    sim = yore.Simulation(
+        grid_cloth(n), integrator=integrator, dt=1.0 / 60.0, newton_tol=1e-300, max_newton=8, **stop
+    )
     samples = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # every step is at its cap on purpose
@@ -139,10 +164,16 @@ def iteration_seconds(n: int, integrator: str, repeats: int) -> dict:
             before = sim.stats["counters"]["newton_iterations"]
             start = time.perf_counter()
             sim.step(1, progress=False)
-            samples.append((time.perf_counter() - start)
-                           / (sim.stats["counters"]["newton_iterations"] - before))
-    return {"median": statistics.median(samples), "min": min(samples), "max": max(samples),
-            "repeats": repeats}
+            samples.append(
+                (time.perf_counter() - start)
+                / (sim.stats["counters"]["newton_iterations"] - before)
+            )
+    return {
+        "median": statistics.median(samples),
+        "min": min(samples),
+        "max": max(samples),
+        "repeats": repeats,
+    }
 
 
 def main(argv=None) -> dict:
@@ -170,33 +201,54 @@ def main(argv=None) -> dict:
     for n in sizes:
         newton = iteration_seconds(n, "implicit", repeats)
         quasi = iteration_seconds(n, "quasi-newton", repeats)
-        iterations.append({"grid": n, "newton_iteration_seconds": newton["median"],
-                           "quasi_newton_iteration_seconds": quasi["median"],
-                           "quasi_over_newton": quasi["median"] / newton["median"],
-                           "repeats": repeats})
-        print(f"{n:>4}² one Newton iteration {1e3 * newton['median']:.2f} ms, one quasi-Newton "
-              f"iteration {1e3 * quasi['median']:.3f} ms: ratio "
-              f"{iterations[-1]['quasi_over_newton']:.3f}")
-    payload = {"benchmark": "implicit_step", "machine": machine_info(), "quick": args.quick,
-               "dense_matmul_gflops": dense, "rows": rows, "iterations": iterations,
-               "targets": {"step_over_factorize_at_most": 1.5,
-                           "factorize_fraction_of_dense_at_least": 0.3,
-                           "analyze_over_factorize_at_most": 1.0,
-                           "quasi_over_newton_iteration_at_64_at_most": 0.1}}
+        iterations.append(
+            {
+                "grid": n,
+                "newton_iteration_seconds": newton["median"],
+                "quasi_newton_iteration_seconds": quasi["median"],
+                "quasi_over_newton": quasi["median"] / newton["median"],
+                "repeats": repeats,
+            }
+        )
+        print(
+            f"{n:>4}² one Newton iteration {1e3 * newton['median']:.2f} ms, one quasi-Newton "
+            f"iteration {1e3 * quasi['median']:.3f} ms: ratio "
+            f"{iterations[-1]['quasi_over_newton']:.3f}"
+        )
+    payload = {
+        "benchmark": "implicit_step",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "dense_matmul_gflops": dense,
+        "rows": rows,
+        "iterations": iterations,
+        "targets": {
+            "step_over_factorize_at_most": 1.5,
+            "factorize_fraction_of_dense_at_least": 0.3,
+            "analyze_over_factorize_at_most": 1.0,
+            "quasi_over_newton_iteration_at_64_at_most": 0.1,
+        },
+    }
     save(args.out, "implicit_step", payload, lambda path: plot(rows, path))
-    header = (f"{'grid':>5} {'order':>6} {'dofs':>7} {'nnz(L)':>9} {'expl ms':>8} {'asm ms':>7} "
-              f"{'fact ms':>8} {'solve ms':>8} {'anal ms':>8} {'step/fact':>9} {'anal/fact':>9} "
-              f"{'anal/expl':>9} {'GF/s':>6} {'%dense':>6}")
+    header = (
+        f"{'grid':>5} {'order':>6} {'dofs':>7} {'nnz(L)':>9} {'expl ms':>8} {'asm ms':>7} "
+        f"{'fact ms':>8} {'solve ms':>8} {'anal ms':>8} {'step/fact':>9} {'anal/fact':>9} "
+        f"{'anal/expl':>9} {'GF/s':>6} {'%dense':>6}"
+    )
     print(header)
     for r in rows:
-        print(f"{r['grid']:>4}² {r['ordering_used']:>6} {r['dofs']:>7} {r['factor_nonzeros']:>9.3g} "
-              f"{1e3 * r['explicit_step_seconds']:>8.3f} {1e3 * r['assemble_seconds']:>7.2f} "
-              f"{1e3 * r['factorize_seconds']:>8.2f} {1e3 * r['solve_seconds']:>8.2f} "
-              f"{1e3 * r['analyze_seconds']:>8.2f} {r['step_over_factorize']:>9.2f} "
-              f"{r['analyze_over_factorize']:>9.2f} {r['analyze_over_explicit_step']:>9.1f} "
-              f"{r['factorize_gflops']:>6.2f} {100 * r['factorize_fraction_of_dense']:>5.0f}%")
-    print(f"dense matmul (numpy, same run): {dense:.1f} GFlop/s; BLAS loaded: "
-          f"{payload['machine']['blas_loaded']}")
+        print(
+            f"{r['grid']:>4}² {r['ordering_used']:>6} {r['dofs']:>7} {r['factor_nonzeros']:>9.3g} "
+            f"{1e3 * r['explicit_step_seconds']:>8.3f} {1e3 * r['assemble_seconds']:>7.2f} "
+            f"{1e3 * r['factorize_seconds']:>8.2f} {1e3 * r['solve_seconds']:>8.2f} "
+            f"{1e3 * r['analyze_seconds']:>8.2f} {r['step_over_factorize']:>9.2f} "
+            f"{r['analyze_over_factorize']:>9.2f} {r['analyze_over_explicit_step']:>9.1f} "
+            f"{r['factorize_gflops']:>6.2f} {100 * r['factorize_fraction_of_dense']:>5.0f}%"
+        )
+    print(
+        f"dense matmul (numpy, same run): {dense:.1f} GFlop/s; BLAS loaded: "
+        f"{payload['machine']['blas_loaded']}"
+    )
     return payload
 
 

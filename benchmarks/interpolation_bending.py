@@ -39,8 +39,10 @@ QUICK_EDGE = 0.04
 ANGLES = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0]
 QUICK_ANGLES = [0.0, 30.0]
 KINDS = ["lattice", "delaunay", "grid"]
-STRAINS = {"faces": dict(bending="quadratic", bending_modulus=0.0, membrane_strain="faces"),
-           "smoothed": dict(bending="quadratic", bending_modulus=0.0, membrane_strain="smoothed")}
+STRAINS = {
+    "faces": dict(bending="quadratic", bending_modulus=0.0, membrane_strain="faces"),
+    "smoothed": dict(bending="quadratic", bending_modulus=0.0, membrane_strain="smoothed"),
+}
 YOUNG = 1e4  # N/m
 AMPLITUDE = 1e-6  # m
 POINTS_PER_WAVELENGTH = 10
@@ -60,8 +62,9 @@ def sheet(kind, edge, degrees):
 
 
 def mean_edge(V, F):
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0
+    )
     return float(np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).mean())
 
 
@@ -82,24 +85,39 @@ def wrinkle_energy(cloth, V, scale, k):
 
 def row(kind, strain, edge, degrees):
     V, F = sheet(kind, edge, degrees)
-    cloth = yore.Cloth(V, F, masses=1e-3, stretch="membrane", young_modulus=YOUNG,
-                       poisson_ratio=0.0, **STRAINS[strain])
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=1e-3,
+        stretch="membrane",
+        young_modulus=YOUNG,
+        poisson_ratio=0.0,
+        **STRAINS[strain],
+    )
     h = mean_edge(V, F)
     k = 2 * math.pi / (POINTS_PER_WAVELENGTH * h)
     area = yore.metrics.area(V, F)
     # Σ_φ ½ S ∫ (k a cos)² = S a² k² A over the four phases; ν = 0: S = Y E
-    tension = YOUNG * 0.5 * (1.1 ** 2 - 1)
-    leak = wrinkle_energy(cloth, V, (1.1, 1.0, 1.0), k) / (tension * AMPLITUDE ** 2 * k ** 2
-                                                         * area)
-    compression = YOUNG * 0.5 * (0.99 ** 2 - 1)
-    charged = wrinkle_energy(cloth, V, (1.0, 0.99, 1.0), k) / (compression * AMPLITUDE ** 2
-                                                             * k ** 2 * area)
+    tension = YOUNG * 0.5 * (1.1**2 - 1)
+    leak = wrinkle_energy(cloth, V, (1.1, 1.0, 1.0), k) / (tension * AMPLITUDE**2 * k**2 * area)
+    compression = YOUNG * 0.5 * (0.99**2 - 1)
+    charged = wrinkle_energy(cloth, V, (1.0, 0.99, 1.0), k) / (
+        compression * AMPLITUDE**2 * k**2 * area
+    )
     kh = k * h
-    return {"kind": kind, "strain": strain, "degrees": degrees, "vertices": int(len(V)),
-            "mean_edge": h, "kh": kh, "spurious_slope_squared": leak,
-            "c_leak": leak / kh ** 2, "compression_deficit": 1.0 - charged,
-            "c_compression": (1.0 - charged) / kh ** 2,
-            "membrane_strain": cloth.membrane_strain}
+    return {
+        "kind": kind,
+        "strain": strain,
+        "degrees": degrees,
+        "vertices": int(len(V)),
+        "mean_edge": h,
+        "kh": kh,
+        "spurious_slope_squared": leak,
+        "c_leak": leak / kh**2,
+        "compression_deficit": 1.0 - charged,
+        "c_compression": (1.0 - charged) / kh**2,
+        "membrane_strain": cloth.membrane_strain,
+    }
 
 
 def summarize(rows):
@@ -110,7 +128,8 @@ def summarize(rows):
             out[f"{kind}, {strain}"] = {
                 "c_leak_largest": max(r["c_leak"] for r in mine),
                 "c_leak_smallest": min(r["c_leak"] for r in mine),
-                "c_compression_mean": float(np.mean([r["c_compression"] for r in mine]))}
+                "c_compression_mean": float(np.mean([r["c_compression"] for r in mine])),
+            }
     return out
 
 
@@ -123,13 +142,25 @@ def draw(rows, path):
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     for kind, colour in zip(KINDS, ("tab:blue", "tab:orange", "tab:green")):
         for strain, style in (("faces", "s--"), ("smoothed", "o-")):
-            mine = sorted((r for r in rows if r["kind"] == kind and r["strain"] == strain),
-                          key=lambda r: r["degrees"])
+            mine = sorted(
+                (r for r in rows if r["kind"] == kind and r["strain"] == strain),
+                key=lambda r: r["degrees"],
+            )
             x = [r["degrees"] for r in mine]
-            axes[0].semilogy(x, [max(r["c_leak"], 1e-7) for r in mine], style, color=colour,
-                             label=f"{kind}, {strain}")
-            axes[1].plot(x, [r["c_compression"] for r in mine], style, color=colour,
-                         label=f"{kind}, {strain}")
+            axes[0].semilogy(
+                x,
+                [max(r["c_leak"], 1e-7) for r in mine],
+                style,
+                color=colour,
+                label=f"{kind}, {strain}",
+            )
+            axes[1].plot(
+                x,
+                [r["c_compression"] for r in mine],
+                style,
+                color=colour,
+                label=f"{kind}, {strain}",
+            )
     axes[0].set_title("tension leak: B_art = c h² S (a wrinkle along the tension)")
     axes[0].set_ylabel("c_leak (floored at 1e-7)")
     axes[1].set_title("compression deficit: d = c (k h)²")
@@ -149,17 +180,28 @@ def main(argv=None):
     rows = []
     for kind in KINDS:
         for strain in STRAINS:
-            for degrees in (QUICK_ANGLES if args.quick else ANGLES):
+            for degrees in QUICK_ANGLES if args.quick else ANGLES:
                 rows.append(row(kind, strain, edge, degrees))
                 r = rows[-1]
-                print(f"  {kind:8s} {strain:8s} {degrees:4.0f}°: c_leak {r['c_leak']:.2e}, "
-                      f"c_compression {r['c_compression']:.3f}", flush=True)
-    payload = {"benchmark": "interpolation_bending", "machine": common.machine_info(),
-               "quick": args.quick,
-               "settings": {"side": SIDE, "edge_length": edge, "young": YOUNG,
-                            "amplitude": AMPLITUDE,
-                            "points_per_wavelength": POINTS_PER_WAVELENGTH},
-               "rows": rows, "summary": summarize(rows)}
+                print(
+                    f"  {kind:8s} {strain:8s} {degrees:4.0f}°: c_leak {r['c_leak']:.2e}, "
+                    f"c_compression {r['c_compression']:.3f}",
+                    flush=True,
+                )
+    payload = {
+        "benchmark": "interpolation_bending",
+        "machine": common.machine_info(),
+        "quick": args.quick,
+        "settings": {
+            "side": SIDE,
+            "edge_length": edge,
+            "young": YOUNG,
+            "amplitude": AMPLITUDE,
+            "points_per_wavelength": POINTS_PER_WAVELENGTH,
+        },
+        "rows": rows,
+        "summary": summarize(rows),
+    }
     common.save(args.out, "interpolation_bending", payload, lambda path: draw(rows, path))
     return payload
 

@@ -169,8 +169,17 @@ MEASURES = {
 }
 LADDER_MEASURE = "kinetic_energy_history"  # the implicit ladder stops on this one
 #: columns of a run's sample table
-COLUMNS = ("grid_point", "kinetic", "spring", "gravity", "bending", "total",
-           "centroid_x", "centroid_y", "centroid_z")
+COLUMNS = (
+    "grid_point",
+    "kinetic",
+    "spring",
+    "gravity",
+    "bending",
+    "total",
+    "centroid_x",
+    "centroid_y",
+    "centroid_z",
+)
 
 # The families, one row each: display name → yore.Simulation options. Every family but
 # "explicit" counts as implicit. A row the build does not accept is left out (available_families).
@@ -186,31 +195,43 @@ FAMILIES = {
     "bdf2 tight Newton": {"integrator": "bdf2", "newton_tol": 1e-9, "truncation_fraction": 0.0},
     # error-controlled at one tolerance (rtol 1e-4, atol 1e-5 m): one run at an output
     # interval of the sampling grid (1/64 s), no step ladder
-    "tr-bdf2 auto 1e-4": {"integrator": "tr-bdf2", "adaptive": True, "rtol": 1e-4,
-                          "atol": 1e-5},
+    "tr-bdf2 auto 1e-4": {"integrator": "tr-bdf2", "adaptive": True, "rtol": 1e-4, "atol": 1e-5},
     "cvode 1e-4": {"integrator": "cvode", "rtol": 1e-4, "atol": 1e-5},
     # the same TR-BDF2 with Newton stopped ten times tighter, and by its residual test alone at
     # 1e-7 of a rest length: does the plateau move with Newton's stop?
-    "tr-bdf2 auto 1e-4, truncation 0.01": {"integrator": "tr-bdf2", "adaptive": True,
-                                           "rtol": 1e-4, "atol": 1e-5,
-                                           "truncation_fraction": 0.01},
-    "tr-bdf2 auto 1e-4, Newton 1e-7": {"integrator": "tr-bdf2", "adaptive": True, "rtol": 1e-4,
-                                       "atol": 1e-5, "newton_tol": 1e-7,
-                                       "truncation_fraction": 0.0},
+    "tr-bdf2 auto 1e-4, truncation 0.01": {
+        "integrator": "tr-bdf2",
+        "adaptive": True,
+        "rtol": 1e-4,
+        "atol": 1e-5,
+        "truncation_fraction": 0.01,
+    },
+    "tr-bdf2 auto 1e-4, Newton 1e-7": {
+        "integrator": "tr-bdf2",
+        "adaptive": True,
+        "rtol": 1e-4,
+        "atol": 1e-5,
+        "newton_tol": 1e-7,
+        "truncation_fraction": 0.0,
+    },
 }
 # "at tolerance" rows (issue 40, item 4): yore's own error-controlled BDF2 and TR-BDF2 and
 # CVODE at rtol 1e-2, 1e-3, 1e-4, atol = rtol / 10 m (benchmarks.tolerance); the 1e-4 rows of
 # TR-BDF2 and CVODE are the diagnostic rows above, unchanged
-FAMILIES.update({name: options for name, options in tolerance.families().items()
-                 if name not in FAMILIES})
+FAMILIES.update(
+    {name: options for name, options in tolerance.families().items() if name not in FAMILIES}
+)
 #: families whose steps their tolerance chooses: dt is their output interval, one rung only
-ERROR_CONTROLLED = tuple(name for name, options in FAMILIES.items()
-                         if tolerance.is_error_controlled(options))
+ERROR_CONTROLLED = tuple(
+    name for name, options in FAMILIES.items() if tolerance.is_error_controlled(options)
+)
 QUICK_FAMILIES = ("explicit", "implicit")
 #: the issue's targets: (name, size, k, bending, measure, threshold, goal ratio)
-TARGETS = (("64², k = 2e5, equal bending", 64, 2e5, "equal", LADDER_MEASURE, 0.05, 0.3),
-           ("64², k = 2e6, equal bending", 64, 2e6, "equal", LADDER_MEASURE, 0.05, 0.1),
-           ("128², k = 2e7, real cloth", 128, 2e7, "real cloth", LADDER_MEASURE, 0.05, 0.1))
+TARGETS = (
+    ("64², k = 2e5, equal bending", 64, 2e5, "equal", LADDER_MEASURE, 0.05, 0.3),
+    ("64², k = 2e6, equal bending", 64, 2e6, "equal", LADDER_MEASURE, 0.05, 0.1),
+    ("128², k = 2e7, real cloth", 128, 2e7, "real cloth", LADDER_MEASURE, 0.05, 0.1),
+)
 
 
 class BadInput(ValueError):
@@ -229,14 +250,17 @@ def refusal(options):
 def available_families(names):
     """The families of `names` this build can construct, and why the others are left out."""
     why = {name: refusal(FAMILIES[name]) for name in names}
-    return ({name: FAMILIES[name] for name in names if why[name] is None},
-            {name: reason for name, reason in why.items() if reason is not None})
+    return (
+        {name: FAMILIES[name] for name in names if why[name] is None},
+        {name: reason for name, reason in why.items() if reason is not None},
+    )
 
 
 def horizon(settings, size):
     """T of a size, s: --horizon-at's where given, else --horizon."""
-    return float(dict((int(n), t) for n, t in settings["horizon_at"]).get(int(size),
-                                                                         settings["horizon"]))
+    return float(
+        dict((int(n), t) for n, t in settings["horizon_at"]).get(int(size), settings["horizon"])
+    )
 
 
 # -- the measures -------------------------------------------------------------------------------
@@ -280,8 +304,13 @@ def run_measures(run, reference, scales, until):
         "total_energy_history": relative_l2(table[:, 5], ref[:, 5], norm_of=ref_kinetic),
         "centroid_path": largest_distance(table[:, 6:9], ref[:, 6:9], scales["sheet_size"]),
         "energy_retained": abs(retained - 1.0),
-        "trajectory": max((rms_distance(positions[i], ref_positions[points[i]],
-                                        scales["diagonal"]) for i in within), default=0.0),
+        "trajectory": max(
+            (
+                rms_distance(positions[i], ref_positions[points[i]], scales["diagonal"])
+                for i in within
+            ),
+            default=0.0,
+        ),
         "kinetic_energy_retained_at_end": float(kinetic[-1] / ref_kinetic[-1]),
         "kinetic_energy_retained_last_quarter_second": retained,
     }
@@ -308,8 +337,9 @@ def perturb(sim, epsilon):
     sim.cloth.positions = positions + epsilon * directions
 
 
-def history(make, options, per_sample, stride, duration, keep_until, cap_seconds=math.inf,
-            epsilon=0.0):
+def history(
+    make, options, per_sample, stride, duration, keep_until, cap_seconds=math.inf, epsilon=0.0
+):
     """Runs from the start (moved by epsilon) with steps of stride / (GRID_RATE · per_sample) s,
     sampling every `stride` grid points: {"snapshots": [positions at the samples up to
     keep_until (k×n×3), the sample table (COLUMNS)], "cpu_seconds": of the stepping alone,
@@ -341,15 +371,21 @@ def history(make, options, per_sample, stride, duration, keep_until, cap_seconds
         sample(k)
         predicted = cpu * samples / k
         if k < samples and 16 * k >= samples and max(cpu, predicted) > cap_seconds:
-            return {"aborted": f"CPU {cpu:.3g} s after {k * per_sample} of {steps} steps, "
-                               f"extrapolated {predicted:.3g} s > cap {cap_seconds:.3g} s",
-                    "cost_estimate": predicted / duration, "steps_done": k * per_sample}
+            return {
+                "aborted": f"CPU {cpu:.3g} s after {k * per_sample} of {steps} steps, "
+                f"extrapolated {predicted:.3g} s > cap {cap_seconds:.3g} s",
+                "cost_estimate": predicted / duration,
+                "steps_done": k * per_sample,
+            }
     table = np.array(table)
     if not np.isfinite(table).all():
         return {"diverged": True, "steps_done": steps}
-    return {"snapshots": [np.array(positions), table], "cpu_seconds": cpu,
-            "counters": cx.numeric_counters(sim.stats["counters"]),
-            "internal_steps": tolerance.internal_steps(sim)}
+    return {
+        "snapshots": [np.array(positions), table],
+        "cpu_seconds": cpu,
+        "counters": cx.numeric_counters(sim.stats["counters"]),
+        "internal_steps": tolerance.internal_steps(sim),
+    }
 
 
 # -- one cell -----------------------------------------------------------------------------------
@@ -367,85 +403,140 @@ def measure_cell(cell, make, families, settings, log, journal=None):
     thresholds = settings["thresholds"]
 
     def simulate(options, per_sample, stride, keep_until, cap=math.inf, epsilon=0.0):
-        asked = {"run": options, "per_sample": per_sample, "stride": stride,
-                 "duration": duration, "keep_until": keep_until, "cap": cap, "epsilon": epsilon}
-        return journal.run(asked, lambda: history(make, options, per_sample, stride, duration,
-                                                  keep_until, cap, epsilon))
+        asked = {
+            "run": options,
+            "per_sample": per_sample,
+            "stride": stride,
+            "duration": duration,
+            "keep_until": keep_until,
+            "cap": cap,
+            "epsilon": epsilon,
+        }
+        return journal.run(
+            asked,
+            lambda: history(make, options, per_sample, stride, duration, keep_until, cap, epsilon),
+        )
 
     probe = make()
     extent = np.ptp(np.asarray(probe.cloth.positions), axis=0)
     scales = {"sheet_size": float(extent.max()), "diagonal": float(np.linalg.norm(extent))}
     estimate = probe.stable_dt()
-    limit, trials = cx.trial_limit(make, estimate, lambda dt: journal.run(
-        {"stability trial": dt, "steps": cx.SEARCH_STEPS}, lambda: cx.is_stable(make, dt)))
+    limit, trials = cx.trial_limit(
+        make,
+        estimate,
+        lambda dt: journal.run(
+            {"stability trial": dt, "steps": cx.SEARCH_STEPS}, lambda: cx.is_stable(make, dt)
+        ),
+    )
     per_sample = math.ceil(1.0 / (GRID_RATE * limit) - 1e-9)  # explicit's step ≤ the limit
     grid_points = round(duration * GRID_RATE)
-    info = dict(cell, stable_dt_estimate=estimate, trial_limit_dt=limit,
-                stability_trials=trials, **scales)
+    info = dict(
+        cell, stable_dt_estimate=estimate, trial_limit_dt=limit, stability_trials=trials, **scales
+    )
     per_step = statistics.median(t["cpu_per_step"] for t in trials)
     predicted = per_step * per_sample * grid_points * (settings["repeats"] + 8)
     info["predicted_explicit_cpu_seconds"] = predicted
     if predicted > settings["max_cell_seconds"]:
-        info["skipped"] = (f"explicit's runs and references ~{predicted:.0f} CPU s > "
-                           f"--max-cell-seconds {settings['max_cell_seconds']:g}")
+        info["skipped"] = (
+            f"explicit's runs and references ~{predicted:.0f} CPU s > "
+            f"--max-cell-seconds {settings['max_cell_seconds']:g}"
+        )
         log(f"{cx.describe(cell)}: {info['skipped']}; cell skipped")
         return [], info
     explicit = families["explicit"]
     reference = simulate(explicit, 2 * per_sample, 1, duration)
-    perturbed = simulate(explicit, 2 * per_sample, 1, duration,
-                         epsilon=PERTURBATION * scales["sheet_size"])
+    perturbed = simulate(
+        explicit, 2 * per_sample, 1, duration, epsilon=PERTURBATION * scales["sheet_size"]
+    )
     if reference.get("diverged") or perturbed.get("diverged"):
         log(f"{cx.describe(cell)}: the reference diverged; cell left out")
         info["reference_diverged"] = True
-        return [dict(cell, method="reference", dt=1 / (2 * GRID_RATE * per_sample),
-                     steps=2 * per_sample * grid_points, diverged=True, aborted=None)], info
+        return [
+            dict(
+                cell,
+                method="reference",
+                dt=1 / (2 * GRID_RATE * per_sample),
+                steps=2 * per_sample * grid_points,
+                diverged=True,
+                aborted=None,
+            )
+        ], info
     until, parted, distances = predictability_time(perturbed, reference, scales["diagonal"])
-    info.update(predictability_time=until, predictability_reached=parted,
-                perturbed_distance_at_end=distances[-1], perturbation_m=PERTURBATION *
-                scales["sheet_size"], reference_dt=1 / (2 * GRID_RATE * per_sample))
+    info.update(
+        predictability_time=until,
+        predictability_reached=parted,
+        perturbed_distance_at_end=distances[-1],
+        perturbation_m=PERTURBATION * scales["sheet_size"],
+        reference_dt=1 / (2 * GRID_RATE * per_sample),
+    )
 
     def row(method, per_sample, stride, result, **extra):
         steps = per_sample * (grid_points // stride)
-        base = dict(cell, method=method, dt=duration / steps, steps=steps,
-                    steps_per_sample=per_sample, sample_stride=stride,
-                    sample_seconds=stride / GRID_RATE, diverged=bool(result.get("diverged")),
-                    aborted=result.get("aborted"), repeats=0, **extra)
+        base = dict(
+            cell,
+            method=method,
+            dt=duration / steps,
+            steps=steps,
+            steps_per_sample=per_sample,
+            sample_stride=stride,
+            sample_seconds=stride / GRID_RATE,
+            diverged=bool(result.get("diverged")),
+            aborted=result.get("aborted"),
+            repeats=0,
+            **extra,
+        )
         if "snapshots" in result:
             counters = result["counters"]
             found = run_measures(result, reference, scales, until)
             unconverged = int(counters.get("unconverged_steps", 0))
-            base.update(found, error=found[LADDER_MEASURE], counters=counters,
-                        iterations=int(next((counters[k] for k in cx.ITERATION_COUNTERS
-                                             if k in counters), steps)),
-                        factorizations=int(counters.get("factorizations", 0)),
-                        unconverged_steps=unconverged, flagged=unconverged > 0, repeats=1,
-                        internal_steps=result.get("internal_steps"),
-                        cpu_seconds_samples=[result["cpu_seconds"]],
-                        kinetic_energy=result["snapshots"][1][:, 1].tolist(),
-                        total_energy=result["snapshots"][1][:, 5].tolist())
+            base.update(
+                found,
+                error=found[LADDER_MEASURE],
+                counters=counters,
+                iterations=int(
+                    next((counters[k] for k in cx.ITERATION_COUNTERS if k in counters), steps)
+                ),
+                factorizations=int(counters.get("factorizations", 0)),
+                unconverged_steps=unconverged,
+                flagged=unconverged > 0,
+                repeats=1,
+                internal_steps=result.get("internal_steps"),
+                cpu_seconds_samples=[result["cpu_seconds"]],
+                kinetic_energy=result["snapshots"][1][:, 1].tolist(),
+                total_energy=result["snapshots"][1][:, 5].tolist(),
+            )
             cx.set_cost(base, result["cpu_seconds"])
         elif result.get("aborted"):
             base["cost_estimate_seconds_per_simulated_second"] = result["cost_estimate"]
         return base
 
     quarter = simulate(explicit, 4 * per_sample, 1, until)
-    rows = [row("reference", 2 * per_sample, 1, reference),
-            row("reference, perturbed start", 2 * per_sample, 1, perturbed),
-            row("reference, quarter step", 4 * per_sample, 1, quarter)]
+    rows = [
+        row("reference", 2 * per_sample, 1, reference),
+        row("reference, perturbed start", 2 * per_sample, 1, perturbed),
+        row("reference, quarter step", 4 * per_sample, 1, quarter),
+    ]
     if rows[2]["diverged"]:
         info["floors"] = None
         log(f"{cx.describe(cell)}: explicit at a quarter of its limit diverged; no floors")
         return rows, info
-    info["floors"] = {m: {"quarter_step": rows[2][m], "perturbed_start": rows[1][m],
-                          "floor": max(rows[2][m], rows[1][m])} for m in MEASURES}
-    log(f"{cx.describe(cell)}: limit {limit:.3g} s, explicit {per_sample} steps per 1/64 s; "
+    info["floors"] = {
+        m: {
+            "quarter_step": rows[2][m],
+            "perturbed_start": rows[1][m],
+            "floor": max(rows[2][m], rows[1][m]),
+        }
+        for m in MEASURES
+    }
+    log(
+        f"{cx.describe(cell)}: limit {limit:.3g} s, explicit {per_sample} steps per 1/64 s; "
         f"predictability {until:g} s{'' if parted else ' (never parted)'}; floors "
-        + ", ".join(f"{m} {f['floor']:.1e}" for m, f in info["floors"].items()))
+        + ", ".join(f"{m} {f['floor']:.1e}" for m, f in info["floors"].items())
+    )
 
     # explicit at its limit over the whole horizon: 5 % more steps until it stays close
     for _ in range(6):
-        r = row("explicit", per_sample, 1, simulate(explicit, per_sample, 1, until),
-                at_limit=True)
+        r = row("explicit", per_sample, 1, simulate(explicit, per_sample, 1, until), at_limit=True)
         r["unstable"] = r["diverged"] or not r.get("error", math.inf) <= BLOW_UP
         rows.append(r)
         log_run(log, r)
@@ -472,24 +563,30 @@ def measure_cell(cell, make, families, settings, log, journal=None):
                 break
             if "error" not in r:
                 continue
-            if previous and previous["error"] <= min(thresholds) and r["cpu_seconds"] > \
-                    previous["cpu_seconds"]:
+            if (
+                previous
+                and previous["error"] <= min(thresholds)
+                and r["cpu_seconds"] > previous["cpu_seconds"]
+            ):
                 break
             previous = r
 
     for r in repeat_candidates(rows, info["floors"], families, thresholds):
         for _ in range(settings["repeats"] - 1):
-            again = simulate(families[r["method"]], r["steps_per_sample"], r["sample_stride"],
-                             -1.0)
+            again = simulate(families[r["method"]], r["steps_per_sample"], r["sample_stride"], -1.0)
             r["cpu_seconds_samples"].append(again["cpu_seconds"])
         r["repeats"] = len(r["cpu_seconds_samples"])
         cx.set_cost(r, statistics.median(r["cpu_seconds_samples"]))
-        log(f"    repeated {r['method']} dt={r['dt']:.3g}: median CPU {r['cpu_seconds']:.3g} s "
-            f"of {', '.join(f'{s:.3g}' for s in r['cpu_seconds_samples'])}")
+        log(
+            f"    repeated {r['method']} dt={r['dt']:.3g}: median CPU {r['cpu_seconds']:.3g} s "
+            f"of {', '.join(f'{s:.3g}' for s in r['cpu_seconds_samples'])}"
+        )
     if journal.replayed:
         info.update(replayed_runs=journal.replayed, replayed_cpu_seconds=journal.replayed_cpu)
-        log(f"{cx.describe(cell)}: {journal.replayed} runs replayed from the journal "
-            f"({journal.replayed_cpu:.0f} CPU s measured before the cell was stopped)")
+        log(
+            f"{cx.describe(cell)}: {journal.replayed} runs replayed from the journal "
+            f"({journal.replayed_cpu:.0f} CPU s measured before the cell was stopped)"
+        )
     return rows, info
 
 
@@ -513,10 +610,12 @@ def log_run(log, r):
     if r["diverged"] or r["aborted"]:
         state = "diverged" if r["diverged"] else f"aborted ({r['aborted']})"
     else:
-        state = (" ".join(f"{m.split('_')[0]} {r[m]:.2e}" for m in MEASURES)
-                 + f" cost {r['cost_seconds_per_simulated_second']:.3g} s/s"
-                 + (f" UNCONVERGED {r['unconverged_steps']}" if r["flagged"] else "")
-                 + (" UNSTABLE" if r.get("unstable") else ""))
+        state = (
+            " ".join(f"{m.split('_')[0]} {r[m]:.2e}" for m in MEASURES)
+            + f" cost {r['cost_seconds_per_simulated_second']:.3g} s/s"
+            + (f" UNCONVERGED {r['unconverged_steps']}" if r["flagged"] else "")
+            + (" UNSTABLE" if r.get("unstable") else "")
+        )
     log(f"    {r['method']:26s} dt={r['dt']:.3g} {state}")
 
 
@@ -533,7 +632,8 @@ def judge(rows, families, explicit, measure, threshold, floor):
     scale = cx.THRESHOLDS[0] / threshold
     scaled = [dict(r, error=r[measure] * scale) if cx.usable(r) else r for r in rows]
     picked = cx.summarize_cell({"reference_error": 0.0}, scaled, list(families))[
-        f"at_{cx.THRESHOLDS[0]:g}"]
+        f"at_{cx.THRESHOLDS[0]:g}"
+    ]
     value = {(r["method"], r["steps"]): r[measure] for r in rows if cx.usable(r)}
     for e in picked["families"].values():
         if "method" in e:
@@ -541,12 +641,17 @@ def judge(rows, families, explicit, measure, threshold, floor):
             e[measure] = value[(e["method"], e["steps"])]
     best = picked["best_implicit"]
     cost = explicit["cost_seconds_per_simulated_second"]
-    verdict.update(families=picked["families"], best_implicit=best, explicit_cost=cost,
-                   explicit_meets=explicit[measure] <= threshold)
+    verdict.update(
+        families=picked["families"],
+        best_implicit=best,
+        explicit_cost=cost,
+        explicit_meets=explicit[measure] <= threshold,
+    )
     if best:
         ratio = best["cost_seconds_per_simulated_second"] / cost
-        verdict.update(implicit_over_explicit_cost=ratio,
-                       winner=best["method"] if ratio < 1 else "explicit")
+        verdict.update(
+            implicit_over_explicit_cost=ratio, winner=best["method"] if ratio < 1 else "explicit"
+        )
     else:
         verdict.update(winner="explicit", note="no implicit run met it within the caps")
     return verdict
@@ -557,32 +662,56 @@ def summarize(info, rows, families, thresholds):
     verdict (`judge`)."""
     out = {k: v for k, v in info.items() if k != "verdicts"}
     limit = next((r for r in rows if r.get("at_limit") and cx.usable(r)), None)
-    out["explicit"] = None if limit is None else dict(
-        cx.entry(limit), **{m: limit[m] for m in MEASURES})
+    out["explicit"] = (
+        None if limit is None else dict(cx.entry(limit), **{m: limit[m] for m in MEASURES})
+    )
     if limit is None or not info.get("floors"):
         return out
-    out["verdicts"] = {m: {f"at_{t:g}": judge(rows, families, limit, m, t,
-                                             info["floors"][m]["floor"]) for t in thresholds}
-                       for m in MEASURES}
-    groups = {m: tuple((f, r) for f, r in members if f in families)
-              for m, members in tolerance.groups().items()}
+    out["verdicts"] = {
+        m: {
+            f"at_{t:g}": judge(rows, families, limit, m, t, info["floors"][m]["floor"])
+            for t in thresholds
+        }
+        for m in MEASURES
+    }
+    groups = {
+        m: tuple((f, r) for f, r in members if f in families)
+        for m, members in tolerance.groups().items()
+    }
     fixed = [f for f in families if f != "explicit" and f not in ERROR_CONTROLLED]
     floor = info["floors"][LADDER_MEASURE]["floor"]
     out["at_tolerance"] = tolerance.at_tolerance(
-        rows, floor, limit["cost_seconds_per_simulated_second"], fixed,
-        {m: g for m, g in groups.items() if g})
+        rows,
+        floor,
+        limit["cost_seconds_per_simulated_second"],
+        fixed,
+        {m: g for m, g in groups.items() if g},
+    )
     out["at_tolerance_verdicts"] = tolerance.at_thresholds(
-        rows, [t for t in thresholds if judged(floor, t)], fixed,
-        [f for f in families if f in ERROR_CONTROLLED])
+        rows,
+        [t for t in thresholds if judged(floor, t)],
+        fixed,
+        [f for f in families if f in ERROR_CONTROLLED],
+    )
     return out
 
 
 def cell_values(summary, rows):
     """The cell's numbers for the sweep's Dataset (finite floats only)."""
-    values = {k: summary[k] for k in ("horizon", "trial_limit_dt", "reference_dt",
-                                      "predictability_time", "predicted_explicit_cpu_seconds",
-                                      "cell_thread_cpu_seconds", "cell_process_cpu_seconds",
-                                      "cell_wall_seconds") if isinstance(summary.get(k), float)}
+    values = {
+        k: summary[k]
+        for k in (
+            "horizon",
+            "trial_limit_dt",
+            "reference_dt",
+            "predictability_time",
+            "predicted_explicit_cpu_seconds",
+            "cell_thread_cpu_seconds",
+            "cell_process_cpu_seconds",
+            "cell_wall_seconds",
+        )
+        if isinstance(summary.get(k), float)
+    }
     values["runs"] = float(sum(not r["method"].startswith("reference") for r in rows))
     if summary.get("explicit"):
         values["explicit_cost"] = summary["explicit"]["cost_seconds_per_simulated_second"]
@@ -614,24 +743,36 @@ def long_horizon_cell(settings_toml, scene_path, overrides) -> dict:
             warnings.filterwarnings("ignore", cx.UNCONVERGED_WARNING, RuntimeWarning)
             root = settings.get("journal")
             journal = cx.Journal(cx.journal_folder(root, cell) if root else None, log.append)
-            rows, info = measure_cell(cell, cx.sheet(size, stiffness, bending), families,
-                                      settings, log.append, journal)
-        summary = info if "skipped" in info else summarize(info, rows, families,
-                                                           settings["thresholds"])
+            rows, info = measure_cell(
+                cell, cx.sheet(size, stiffness, bending), families, settings, log.append, journal
+            )
+        summary = (
+            info if "skipped" in info else summarize(info, rows, families, settings["thresholds"])
+        )
     except Exception as error:  # noqa: BLE001 - a cell's failure is its result
         where = traceback.extract_tb(error.__traceback__)[-1:]
-        return {"status": "failed", "message": f"{type(error).__name__}: "
-                f"{' '.join(str(error).split())}"
-                + "".join(f" (at {Path(w.filename).name}:{w.lineno})" for w in where),
-                "values": {"cell_wall_seconds": time.perf_counter() - wall},
-                "positions": None, "faces": None}
-    summary.update(cell_thread_cpu_seconds=time.thread_time() - thread,
-                   cell_process_cpu_seconds=time.process_time() - process,
-                   cell_wall_seconds=time.perf_counter() - wall)
+        return {
+            "status": "failed",
+            "message": f"{type(error).__name__}: "
+            f"{' '.join(str(error).split())}"
+            + "".join(f" (at {Path(w.filename).name}:{w.lineno})" for w in where),
+            "values": {"cell_wall_seconds": time.perf_counter() - wall},
+            "positions": None,
+            "faces": None,
+        }
+    summary.update(
+        cell_thread_cpu_seconds=time.thread_time() - thread,
+        cell_process_cpu_seconds=time.process_time() - process,
+        cell_wall_seconds=time.perf_counter() - wall,
+    )
     record = {"cell": summary, "rows": rows, "log": log}
-    return {"status": "skipped" if "skipped" in summary else "done",
-            "message": json.dumps(record, separators=(",", ":"), default=float),
-            "values": cell_values(summary, rows), "positions": None, "faces": None}
+    return {
+        "status": "skipped" if "skipped" in summary else "done",
+        "message": json.dumps(record, separators=(",", ":"), default=float),
+        "values": cell_values(summary, rows),
+        "positions": None,
+        "faces": None,
+    }
 
 
 # -- the sweep ------------------------------------------------------------------------------------
@@ -641,12 +782,15 @@ def grid_sweep(settings):
     sweep = cx.grid_sweep(settings)
 
     def own(text):
-        for theirs, mine in (("benchmarks/crossover.py", "benchmarks/long_horizon.py"),
-                             ("benchmarks.crossover", "benchmarks.long_horizon"),
-                             ("crossover_cell", "long_horizon_cell"),
-                             ("this crossover", "this long-horizon run")):
+        for theirs, mine in (
+            ("benchmarks/crossover.py", "benchmarks/long_horizon.py"),
+            ("benchmarks.crossover", "benchmarks.long_horizon"),
+            ("crossover_cell", "long_horizon_cell"),
+            ("this crossover", "this long-horizon run"),
+        ):
             text = text.replace(theirs, mine)
         return text
+
     return dataclasses.replace(sweep, text=own(sweep.text), scene_text=own(sweep.scene_text))
 
 
@@ -658,8 +802,11 @@ def collect(sweep, results, settings):
         cell["horizon"] = horizon(settings, cell["size"])
         if cell["status"] == "done":
             mine = [r for r in rows if key(r) == key(cell)]
-            cells[i] = dict(summarize(cell, mine, settings["families"], settings["thresholds"]),
-                            status="done", log=cell["log"])
+            cells[i] = dict(
+                summarize(cell, mine, settings["families"], settings["thresholds"]),
+                status="done",
+                log=cell["log"],
+            )
     return rows, cells
 
 
@@ -670,8 +817,16 @@ def key(cell):
 #: Settings two runs must share for their cells to make one table (the grid may differ).
 #: max_cell_seconds is not one: a budget that decides which cells run (a cell over it is
 #: skipped and says so), not what a cell that ran measures; the merged table keeps the larger.
-MERGE_KEYS = ("quick", "repeats", "max_run_seconds", "max_ratio", "rates", "thresholds",
-              "horizon", "horizon_at")
+MERGE_KEYS = (
+    "quick",
+    "repeats",
+    "max_run_seconds",
+    "max_ratio",
+    "rates",
+    "thresholds",
+    "horizon",
+    "horizon_at",
+)
 
 
 def earlier_run(path, settings, resolved):
@@ -688,21 +843,30 @@ def earlier_run(path, settings, resolved):
         raise BadInput(f"--merge {path}: not a long_horizon.json ({error})") from None
     for name in MERGE_KEYS:
         if json.dumps(earlier["settings"].get(name)) != json.dumps(settings.get(name)):
-            raise BadInput(f"--merge {path}: its {name} is {earlier['settings'].get(name)!r}, "
-                           f"this run's {settings.get(name)!r}; only runs with the same "
-                           "settings merge")
+            raise BadInput(
+                f"--merge {path}: its {name} is {earlier['settings'].get(name)!r}, "
+                f"this run's {settings.get(name)!r}; only runs with the same "
+                "settings merge"
+            )
     # options yore gained since the earlier run count as their old behaviour (cx.LEGACY_OPTIONS)
     theirs = cx.earlier_resolved(earlier, resolved, {})
-    other = sorted(n for n in theirs if n in resolved and json.dumps(theirs[n], sort_keys=True)
-                   != json.dumps(resolved[n], sort_keys=True))
+    other = sorted(
+        n
+        for n in theirs
+        if n in resolved
+        and json.dumps(theirs[n], sort_keys=True) != json.dumps(resolved[n], sort_keys=True)
+    )
     # a family only the earlier run has joins with the options it recorded; one it did not
     # record (a run from before the record) cannot join
     recorded = earlier.get("family_resolved_options", {})
-    unknown = sorted(n for n in earlier.get("family_options", {})
-                     if n not in resolved and not recorded.get(n))
+    unknown = sorted(
+        n for n in earlier.get("family_options", {}) if n not in resolved and not recorded.get(n)
+    )
     if other or unknown:
-        raise BadInput(f"--merge {path}: families run here with other options, or of unknown "
-                       "options: " + ", ".join(other + unknown))
+        raise BadInput(
+            f"--merge {path}: families run here with other options, or of unknown "
+            "options: " + ", ".join(other + unknown)
+        )
     return earlier
 
 
@@ -729,17 +893,26 @@ def merge(settings, cells, rows, earlier, source):
     for c in added:
         if c.get("status") == "done":
             mine = [r for r in joined if key(r) == key(c)]
-            c.update(summarize(c, mine, settings["families"], settings["thresholds"]),
-                     families_missing=[n for n in settings["families"] if n not in theirs])
-    grid = dict(settings, sizes=sorted({*settings["sizes"], *(c["size"] for c in added)}),
-                stiffness=sorted({*settings["stiffness"],
-                                  *(c["stretch_stiffness"] for c in added)}),
-                bending=[b for b in ALL_ROWS if b in settings["bending"]
-                         or any(c["bending"] == b for c in added)],
-                max_cell_seconds=max(settings["max_cell_seconds"],
-                                     earlier["settings"].get("max_cell_seconds", 0.0)))
-    origin = {"from": source, "machine": earlier.get("machine"),
-              "cells": [list(key(c)) for c in added]}
+            c.update(
+                summarize(c, mine, settings["families"], settings["thresholds"]),
+                families_missing=[n for n in settings["families"] if n not in theirs],
+            )
+    grid = dict(
+        settings,
+        sizes=sorted({*settings["sizes"], *(c["size"] for c in added)}),
+        stiffness=sorted({*settings["stiffness"], *(c["stretch_stiffness"] for c in added)}),
+        bending=[
+            b for b in ALL_ROWS if b in settings["bending"] or any(c["bending"] == b for c in added)
+        ],
+        max_cell_seconds=max(
+            settings["max_cell_seconds"], earlier["settings"].get("max_cell_seconds", 0.0)
+        ),
+    )
+    origin = {
+        "from": source,
+        "machine": earlier.get("machine"),
+        "cells": [list(key(c)) for c in added],
+    }
     return grid, cells + added, [r for r in rows if key(r) in held] + joined, origin
 
 
@@ -751,18 +924,27 @@ def summary_lines(cells, thresholds):
         for t in thresholds:
             verdicts = [c["verdicts"][measure][f"at_{t:g}"] for c in cells if "verdicts" in c]
             judged_here = [v for v in verdicts if v["judged"]]
-            ratios = [v["implicit_over_explicit_cost"] for v in judged_here
-                      if "implicit_over_explicit_cost" in v]
+            ratios = [
+                v["implicit_over_explicit_cost"]
+                for v in judged_here
+                if "implicit_over_explicit_cost" in v
+            ]
             wins = sum(v["winner"] != "explicit" for v in judged_here)
-            lines.append(f"{measure} within {100 * t:g} %: judged in {len(judged_here)} of "
-                         f"{len(verdicts)} cells, implicit cheaper in {wins}"
-                         + (f", median implicit/explicit {statistics.median(ratios):.2f}"
-                            if ratios else ""))
+            lines.append(
+                f"{measure} within {100 * t:g} %: judged in {len(judged_here)} of "
+                f"{len(verdicts)} cells, implicit cheaper in {wins}"
+                + (f", median implicit/explicit {statistics.median(ratios):.2f}" if ratios else "")
+            )
     for target in targets(cells):
-        lines.append(f"target {target['target']} ({target['measure']} within "
-                     f"{100 * target['threshold']:g} %, goal ≤ {target['goal_ratio']:g}×): "
-                     + (f"{'met' if target['met'] else 'missed'} ({target['ratio']:.2f})"
-                        if target["ratio"] is not None else f"not measured ({target['why']})"))
+        lines.append(
+            f"target {target['target']} ({target['measure']} within "
+            f"{100 * target['threshold']:g} %, goal ≤ {target['goal_ratio']:g}×): "
+            + (
+                f"{'met' if target['met'] else 'missed'} ({target['ratio']:.2f})"
+                if target["ratio"] is not None
+                else f"not measured ({target['why']})"
+            )
+        )
     return lines
 
 
@@ -773,11 +955,24 @@ def targets(cells):
         cell = next((c for c in cells if key(c) == (size, k, bending)), None)
         verdict = (cell or {}).get("verdicts", {}).get(measure, {}).get(f"at_{threshold:g}", {})
         ratio = verdict.get("implicit_over_explicit_cost")
-        why = ("not in the grid" if cell is None else cell.get("skipped") or cell.get("status")
-               if cell.get("status") != "done" else verdict.get("why", "no implicit run met it"))
-        out.append({"target": name, "measure": measure, "threshold": threshold,
-                    "goal_ratio": goal, "ratio": ratio, "met": ratio is not None and ratio <= goal,
-                    "why": None if ratio is not None else why})
+        why = (
+            "not in the grid"
+            if cell is None
+            else cell.get("skipped") or cell.get("status")
+            if cell.get("status") != "done"
+            else verdict.get("why", "no implicit run met it")
+        )
+        out.append(
+            {
+                "target": name,
+                "measure": measure,
+                "threshold": threshold,
+                "goal_ratio": goal,
+                "ratio": ratio,
+                "met": ratio is not None and ratio <= goal,
+                "why": None if ratio is not None else why,
+            }
+        )
     return out
 
 
@@ -795,15 +990,24 @@ def table_lines(cells, thresholds):
             texts = []
             for t in thresholds:
                 v = c["verdicts"][measure][f"at_{t:g}"]
-                texts.append(f"{100 * t:g} %: " + (
-                    "not judged" if not v["judged"] else
-                    f"{v['implicit_over_explicit_cost']:.2f} ({v['best_implicit']['method']} "
-                    f"{v['best_implicit']['dt']:.3g} s)" if "implicit_over_explicit_cost" in v
-                    else "explicit (no implicit run met it)"))
+                texts.append(
+                    f"{100 * t:g} %: "
+                    + (
+                        "not judged"
+                        if not v["judged"]
+                        else f"{v['implicit_over_explicit_cost']:.2f} ({v['best_implicit']['method']} "
+                        f"{v['best_implicit']['dt']:.3g} s)"
+                        if "implicit_over_explicit_cost" in v
+                        else "explicit (no implicit run met it)"
+                    )
+                )
             parts.append(f"floor {c['floors'][measure]['floor']:.1e}; " + "; ".join(texts))
-        out.append(f"{start} | {c['predictability_time']:g} s | "
-                   f"{c['explicit']['cost_seconds_per_simulated_second']:.3g} | "
-                   + " | ".join(parts) + " |")
+        out.append(
+            f"{start} | {c['predictability_time']:g} s | "
+            f"{c['explicit']['cost_seconds_per_simulated_second']:.3g} | "
+            + " | ".join(parts)
+            + " |"
+        )
     return out
 
 
@@ -811,6 +1015,7 @@ def table_lines(cells, thresholds):
 def number(convert, valid, expected):
     """A command-line value: convert(text), refused (ValueError naming what was expected)
     unless valid(value)."""
+
     def parse(text):
         try:
             value = convert(text)
@@ -819,13 +1024,16 @@ def number(convert, valid, expected):
         if value is None or not valid(value):
             raise ValueError(f"expected {expected}, got {text!r}")
         return value
+
     return parse
 
 
 # every run ends on a sample of the 1/32 s rung: a horizon is a multiple of 1/32 s
-horizon_value = number(float, lambda t: math.isfinite(t) and t > 0
-                       and abs(32 * t - round(32 * t)) < 1e-9,
-                       "a horizon in seconds, a positive multiple of 1/32 s")
+horizon_value = number(
+    float,
+    lambda t: math.isfinite(t) and t > 0 and abs(32 * t - round(32 * t)) < 1e-9,
+    "a horizon in seconds, a positive multiple of 1/32 s",
+)
 threshold_value = number(float, lambda t: 0.0 < t < 1.0, "a threshold in (0, 1)")
 size_value = number(int, lambda n: n >= 4, "a size of at least 4 vertices per edge")
 count = number(int, lambda n: n >= 1, "a whole number of at least 1")
@@ -833,7 +1041,7 @@ positive = number(float, lambda x: math.isfinite(x) and x > 0, "a positive numbe
 
 
 def horizon_at(text):
-    """"SIZE=T" -> [size, horizon]."""
+    """ "SIZE=T" -> [size, horizon]."""
     size, _, value = text.partition("=")
     return [size_value(size), horizon_value(value)]
 
@@ -848,50 +1056,100 @@ def options(parser):
                 return function(text)
             except ValueError as error:
                 raise argparse.ArgumentTypeError(str(error)) from None
+
         return parse
 
     parser.error = lambda message: parser.exit(2, f"yore: error: {message}\n")
     add = parser.add_argument
     add("--workers", type=checked(count), default=None, help="local Dask workers, one thread each")
     add("--scheduler", default=None, help="a running Dask scheduler instead of a local cluster")
-    add("--resume", action="store_true", help="run only the cells OUT/sweeps/long_horizon does "
-        "not hold yet, with its settings; a cell stopped part-way replays its journal")
+    add(
+        "--resume",
+        action="store_true",
+        help="run only the cells OUT/sweeps/long_horizon does "
+        "not hold yet, with its settings; a cell stopped part-way replays its journal",
+    )
     add("--collect", action="store_true", help="run no cell: write the results held so far")
-    add("--merge", type=Path, action="append", default=[], metavar="JSON",
-        help="a long_horizon.json of an earlier run with the same settings: its cells join")
+    add(
+        "--merge",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="JSON",
+        help="a long_horizon.json of an earlier run with the same settings: its cells join",
+    )
     add("--sizes", type=checked(size_value), nargs="+", default=None)
     add("--stiffness", type=checked(positive), nargs="+", default=None)
-    add("--bending", nargs="+", choices=ALL_ROWS, default=None,
-        help="bending rows (default: equal, real cloth; also: equal, damped)")
-    add("--families", nargs="+", choices=list(FAMILIES), default=None,
-        help="families to run (explicit always runs)")
+    add(
+        "--bending",
+        nargs="+",
+        choices=ALL_ROWS,
+        default=None,
+        help="bending rows (default: equal, real cloth; also: equal, damped)",
+    )
+    add(
+        "--families",
+        nargs="+",
+        choices=list(FAMILIES),
+        default=None,
+        help="families to run (explicit always runs)",
+    )
     add("--horizon", type=checked(horizon_value), default=None, help="T, s (default 2)")
-    add("--horizon-at", type=checked(horizon_at), action="append", default=None,
-        metavar="SIZE=T", help="T at one size (default 128=1; e.g. 32=4)")
-    add("--thresholds", type=checked(threshold_value), nargs="+", default=None,
-        help="relative thresholds (default 0.05 0.01)")
-    add("--repeats", type=checked(count), default=3,
-        help="runs of explicit at its limit and of every candidate winner (default 3)")
-    add("--max-run-seconds", type=checked(positive), default=None,
-        help="CPU cap of one implicit run (default 600; quick 5)")
-    add("--max-ratio", type=checked(positive), default=8.0,
-        help="cap of one implicit run over explicit's cost (default 8)")
-    add("--max-cell-seconds", type=checked(positive), default=3600.0,
-        help="skip a cell whose explicit runs are predicted to take longer (default 3600)")
+    add(
+        "--horizon-at",
+        type=checked(horizon_at),
+        action="append",
+        default=None,
+        metavar="SIZE=T",
+        help="T at one size (default 128=1; e.g. 32=4)",
+    )
+    add(
+        "--thresholds",
+        type=checked(threshold_value),
+        nargs="+",
+        default=None,
+        help="relative thresholds (default 0.05 0.01)",
+    )
+    add(
+        "--repeats",
+        type=checked(count),
+        default=3,
+        help="runs of explicit at its limit and of every candidate winner (default 3)",
+    )
+    add(
+        "--max-run-seconds",
+        type=checked(positive),
+        default=None,
+        help="CPU cap of one implicit run (default 600; quick 5)",
+    )
+    add(
+        "--max-ratio",
+        type=checked(positive),
+        default=8.0,
+        help="cap of one implicit run over explicit's cost (default 8)",
+    )
+    add(
+        "--max-cell-seconds",
+        type=checked(positive),
+        default=3600.0,
+        help="skip a cell whose explicit runs are predicted to take longer (default 3600)",
+    )
 
 
 def new_settings(args):
     quick = args.quick
-    names = ("explicit",) + tuple(n for n in args.families or (
-        QUICK_FAMILIES if quick else FAMILIES) if n != "explicit")
+    names = ("explicit",) + tuple(
+        n for n in args.families or (QUICK_FAMILIES if quick else FAMILIES) if n != "explicit"
+    )
     families, missing = available_families(names)
     if "explicit" not in families:
         raise BadInput(f"explicit cannot be built: {missing['explicit']}")
     return {
         "quick": quick,
         "sizes": list(args.sizes or (QUICK_GRID["sizes"] if quick else SIZES)),
-        "stiffness": [float(k) for k in args.stiffness or (
-            QUICK_GRID["stiffness"] if quick else STIFFNESSES)],
+        "stiffness": [
+            float(k) for k in args.stiffness or (QUICK_GRID["stiffness"] if quick else STIFFNESSES)
+        ],
         "bending": list(args.bending or (QUICK_GRID["bending"] if quick else BENDING_ROWS)),
         "horizon": args.horizon or (QUICK_GRID["horizon"] if quick else HORIZON),
         "horizon_at": args.horizon_at or ([] if quick else [list(h) for h in HORIZON_AT]),
@@ -942,9 +1200,15 @@ def results_of(args, sweep, folder):
     from yore.sweep.results import Results
 
     if not args.collect:
-        return run_sweep(sweep, folder, scheduler=args.scheduler, workers=args.workers,
-                         overwrite=not args.resume, resume=args.resume,
-                         cell_function=long_horizon_cell)
+        return run_sweep(
+            sweep,
+            folder,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            overwrite=not args.resume,
+            resume=args.resume,
+            cell_function=long_horizon_cell,
+        )
     results = Results(sweep, folder)
     results.load_finished()
     return results
@@ -974,31 +1238,40 @@ def run(args):
             if cell.get("status") == "done":
                 missing = [n for n in settings["families"] if n not in ran_here]
                 if missing:
-                    cell["families_missing"] = sorted({*cell.get("families_missing", []),
-                                                       *missing})
+                    cell["families_missing"] = sorted({*cell.get("families_missing", []), *missing})
         settings, cells, rows, origin = merge(settings, cells, rows, earlier, str(path))
         merged_from.append(origin)
     payload = {
-        "benchmark": "long_horizon", "machine": machine_info(), "quick": settings["quick"],
+        "benchmark": "long_horizon",
+        "machine": machine_info(),
+        "quick": settings["quick"],
         "clock": "time.thread_time() of the task's thread around the stepping only; yore "
-                 "pinned to one thread",
-        "families": list(settings["families"]), "family_options": settings["families"],
+        "pinned to one thread",
+        "families": list(settings["families"]),
+        "family_options": settings["families"],
         "family_resolved_options": resolved,
         "families_unavailable": settings["families_unavailable"],
-        "thresholds": settings["thresholds"], "floor_fraction": FLOOR_FRACTION,
-        "measures": MEASURES, "predictability_distance": PREDICTABILITY,
-        "perturbation": PERTURBATION, "sample_rate": GRID_RATE,
+        "thresholds": settings["thresholds"],
+        "floor_fraction": FLOOR_FRACTION,
+        "measures": MEASURES,
+        "predictability_distance": PREDICTABILITY,
+        "perturbation": PERTURBATION,
+        "sample_rate": GRID_RATE,
         "sample_times": f"every 1/{GRID_RATE} s from 0 to T (the 1/32 s rung: every 1/32 s)",
         "settings": {k: v for k, v in settings.items() if k != "families"},
-        "sweep": folder.as_posix(), "cells": len(cells),
+        "sweep": folder.as_posix(),
+        "cells": len(cells),
         "statuses": dict(Counter(c.get("status", "not run") for c in cells)),
-        "merged_from": merged_from, "wall_seconds": time.perf_counter() - started,
+        "merged_from": merged_from,
+        "wall_seconds": time.perf_counter() - started,
         "cell_cpu_seconds": sum(c.get("cell_thread_cpu_seconds", 0.0) for c in cells),
         "rows": rows,
-        "summary": {"cells": [{k: v for k, v in c.items() if k != "log"} for c in cells],
-                    "targets": targets(cells),
-                    "lines": summary_lines(cells, settings["thresholds"]),
-                    "table": table_lines(cells, settings["thresholds"])},
+        "summary": {
+            "cells": [{k: v for k, v in c.items() if k != "log"} for c in cells],
+            "targets": targets(cells),
+            "lines": summary_lines(cells, settings["thresholds"]),
+            "table": table_lines(cells, settings["thresholds"]),
+        },
     }
     save(Path(args.out), "long_horizon", payload, lambda path: plot(payload, path))
     for line in payload["summary"]["table"] + [""] + payload["summary"]["lines"]:
@@ -1050,18 +1323,29 @@ def plot(payload, path):
             else:
                 text = "explicit\n(no implicit\nrun met it)"
             ax.text(j, i, text, ha="center", va="center", fontsize=6)
-        image = ax.imshow(np.ma.masked_invalid(np.clip(grid, 0.1, 10.0)), cmap="RdBu_r",
-                          norm=norm, origin="lower", aspect="auto")
+        image = ax.imshow(
+            np.ma.masked_invalid(np.clip(grid, 0.1, 10.0)),
+            cmap="RdBu_r",
+            norm=norm,
+            origin="lower",
+            aspect="auto",
+        )
         ax.set_xticks(range(len(stiffnesses)), [f"{k:g}" for k in stiffnesses], fontsize=6)
         ax.set_yticks(range(len(lines)), [f"{n}² {b}" for b, n in lines], fontsize=6)
         ax.set_xlabel("stretch stiffness, N/m", fontsize=7)
         ax.set_title(f"{measure.replace('_', ' ')} within {100 * threshold:g} %", fontsize=8)
-    fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.6,
-                 label="cheapest implicit / explicit at its limit (blue: implicit cheaper)")
+    fig.colorbar(
+        image,
+        ax=axes.ravel().tolist(),
+        shrink=0.6,
+        label="cheapest implicit / explicit at its limit (blue: implicit cheaper)",
+    )
     plot_histories(axes.flat[5], payload)
-    fig.suptitle(f"long horizon: implicit / explicit CPU cost at {100 * threshold:g} % "
-                 f"(a measure is judged where its floor < {FLOOR_FRACTION:.2g} × threshold)",
-                 fontsize=9)
+    fig.suptitle(
+        f"long horizon: implicit / explicit CPU cost at {100 * threshold:g} % "
+        f"(a measure is judged where its floor < {FLOOR_FRACTION:.2g} × threshold)",
+        fontsize=9,
+    )
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
 
@@ -1074,18 +1358,28 @@ def plot_histories(ax, payload):
     if not shown:
         ax.set_title("no measured cell", fontsize=8)
         return
-    cell = (32, 2e5, "equal") if (32, 2e5, "equal") in shown else max(
-        shown, key=lambda k: sum(key(r) == k and math.isclose(r["dt"], 1 / 32) for r in runs))
+    cell = (
+        (32, 2e5, "equal")
+        if (32, 2e5, "equal") in shown
+        else max(
+            shown, key=lambda k: sum(key(r) == k and math.isclose(r["dt"], 1 / 32) for r in runs)
+        )
+    )
     for r in runs:
-        if key(r) != cell or not (r["method"] in ("reference", "explicit")
-                                  or math.isclose(r["dt"], 1 / 32)):
+        if key(r) != cell or not (
+            r["method"] in ("reference", "explicit") or math.isclose(r["dt"], 1 / 32)
+        ):
             continue
         times = np.arange(len(r["kinetic_energy"])) * r["sample_seconds"]
-        label = r["method"] if r["method"] in ("reference", "explicit") else \
-            f"{r['method']} 1/32 s"
-        ax.plot(times, r["kinetic_energy"], lw=1.6 if r["method"] == "reference" else 0.9,
-                color="k" if r["method"] == "reference" else None,
-                ls="--" if r["method"] == "explicit" else "-", label=label)
+        label = r["method"] if r["method"] in ("reference", "explicit") else f"{r['method']} 1/32 s"
+        ax.plot(
+            times,
+            r["kinetic_energy"],
+            lw=1.6 if r["method"] == "reference" else 0.9,
+            color="k" if r["method"] == "reference" else None,
+            ls="--" if r["method"] == "explicit" else "-",
+            label=label,
+        )
     ax.set_xlabel("time, s", fontsize=7)
     ax.set_ylabel("kinetic energy, J", fontsize=7)
     ax.set_title(f"{cell[0]}² k={cell[1]:g} {cell[2]}: kinetic energy", fontsize=8)

@@ -35,22 +35,32 @@ from .common import arguments, grouped_bars, machine_info, save
 PROJECTIONS = ("clamp", "abs", "exact", "trust-region", "shifted", "steihaug")
 # row name → options: the default, then each projection under the residual test alone
 DEFAULT_ROW = "default"
-VARIANTS = {DEFAULT_ROW: {},
-            **{p: {"projection": p, "truncation_fraction": 0.0, "mixed": False}
-               for p in PROJECTIONS}}
+VARIANTS = {
+    DEFAULT_ROW: {},
+    **{p: {"projection": p, "truncation_fraction": 0.0, "mixed": False} for p in PROJECTIONS},
+}
 DT = 1 / 60
 # Every this many steps, the step is also solved tight from the same state (step_deviation).
 PROBE_EVERY = 10
-TIGHT = {"projection": "shifted", "newton_tol": 1e-9, "max_newton": 1000,
-         "truncation_fraction": 0.0, "mixed": False}
+TIGHT = {
+    "projection": "shifted",
+    "newton_tol": 1e-9,
+    "max_newton": 1000,
+    "truncation_fraction": 0.0,
+    "mixed": False,
+}
 MAX_NEWTON = yore._core.ImplicitIntegrator.defaults["max_newton"]  # the cap the rows run with
 # The target on the 32² gathered cloth (iterations, thrown-away factorizations, capped
 # steps), and as accuracy that each probed step lands within its own estimated truncation error
 # of the tight solve (step_deviation_over_truncation <= 1): Newton's error below the
 # discretization's. (The whole run's deviation on a buckling cloth is the folds settling in
 # other mirror-image minima, which no tolerance fixes: docs/limitations.md.)
-TARGET = {"median_iterations": 5, "rejected_per_step": 0.5, "unconverged_steps": 0,
-          "step_deviation_over_truncation": 1.0}
+TARGET = {
+    "median_iterations": 5,
+    "rejected_per_step": 0.5,
+    "unconverged_steps": 0,
+    "step_deviation_over_truncation": 1.0,
+}
 
 
 def scenes(quick):
@@ -72,13 +82,16 @@ def scenes(quick):
 
     def strokes(**options):
         sim = yore.scenes.hanging_cloth(resolution=small, **options)
-        return sim, lambda k: sim.stroke(yore.StrokePath.material(
-            [[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]]))
+        return sim, lambda k: sim.stroke(
+            yore.StrokePath.material([[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]])
+        )
 
-    return {f"hanging cloth, gathered, {gathered}²": (hanging_gathered, 1.0, seconds),
-            f"hanging cloth, pin_spacing=1, {small}²": (hanging_flat, 1.0, short),
-            f"rotating cylinder, {rings}×{segments}": (cylinder, 0.5, short),
-            f"hanging cloth, gathered, {small}², 5 strokes": (strokes, 1.0, short)}
+    return {
+        f"hanging cloth, gathered, {gathered}²": (hanging_gathered, 1.0, seconds),
+        f"hanging cloth, pin_spacing=1, {small}²": (hanging_flat, 1.0, short),
+        f"rotating cylinder, {rings}×{segments}": (cylinder, 0.5, short),
+        f"hanging cloth, gathered, {small}², 5 strokes": (strokes, 1.0, short),
+    }
 
 
 def run(make, seconds, probe_every=0, **options):
@@ -120,9 +133,16 @@ def run(make, seconds, probe_every=0, **options):
             before_iterations = counters["newton_iterations"]
             before_rejected = counters["exact_hessian_rejected"]
     cpu = time.process_time() - start - probe_cpu
-    return (sim.cloth.positions[:original].copy(), np.array(iterations), np.array(rejected),
-            sim.stats["counters"]["unconverged_steps"], cpu, sim.time, np.array(step_deviations),
-            np.array(step_ratios))
+    return (
+        sim.cloth.positions[:original].copy(),
+        np.array(iterations),
+        np.array(rejected),
+        sim.stats["counters"]["unconverged_steps"],
+        cpu,
+        sim.time,
+        np.array(step_deviations),
+        np.array(step_ratios),
+    )
 
 
 def main(argv=None):
@@ -133,37 +153,61 @@ def main(argv=None):
         print(f"{scene}: tight solve max {its.max()} it/step, {unconverged} unconverged")
         for projection, options in VARIANTS.items():
             x, its, rejected, unconverged, cpu, simulated, probes, ratios = run(
-                make, seconds, probe_every=PROBE_EVERY, **options)
-            rows.append({
-                "scene": scene, "projection": projection, "steps": int(its.size),
-                "median_iterations": float(np.median(its)),
-                "mean_iterations": float(its.mean()), "max_iterations": int(its.max()),
-                "rejected_per_step": float(rejected.mean()),
-                "unconverged_steps": int(unconverged),
-                "cpu_seconds_per_simulated_second": cpu / simulated,
-                "deviation": float(np.abs(x - reference).max() / size),
-                "step_deviation": float(probes.max() / size) if probes.size else None,
-                "step_deviation_over_truncation": (float(ratios.max()) if ratios.size
-                                                   else None)})
+                make, seconds, probe_every=PROBE_EVERY, **options
+            )
+            rows.append(
+                {
+                    "scene": scene,
+                    "projection": projection,
+                    "steps": int(its.size),
+                    "median_iterations": float(np.median(its)),
+                    "mean_iterations": float(its.mean()),
+                    "max_iterations": int(its.max()),
+                    "rejected_per_step": float(rejected.mean()),
+                    "unconverged_steps": int(unconverged),
+                    "cpu_seconds_per_simulated_second": cpu / simulated,
+                    "deviation": float(np.abs(x - reference).max() / size),
+                    "step_deviation": float(probes.max() / size) if probes.size else None,
+                    "step_deviation_over_truncation": (
+                        float(ratios.max()) if ratios.size else None
+                    ),
+                }
+            )
             r = rows[-1]
-            print(f"  {projection:12s} median {r['median_iterations']:4.1f} mean "
-                  f"{r['mean_iterations']:5.1f} max {r['max_iterations']:3d} it/step, "
-                  f"{r['rejected_per_step']:5.2f} rejected/step, {r['unconverged_steps']:3d} "
-                  f"at max_newton, {r['cpu_seconds_per_simulated_second']:7.2f} CPU s/s, "
-                  f"deviation {r['deviation']:.1e} (one step {r['step_deviation']:.1e}, "
-                  f"{r['step_deviation_over_truncation']:.2f} of its truncation error)",
-                  flush=True)
+            print(
+                f"  {projection:12s} median {r['median_iterations']:4.1f} mean "
+                f"{r['mean_iterations']:5.1f} max {r['max_iterations']:3d} it/step, "
+                f"{r['rejected_per_step']:5.2f} rejected/step, {r['unconverged_steps']:3d} "
+                f"at max_newton, {r['cpu_seconds_per_simulated_second']:7.2f} CPU s/s, "
+                f"deviation {r['deviation']:.1e} (one step {r['step_deviation']:.1e}, "
+                f"{r['step_deviation_over_truncation']:.2f} of its truncation error)",
+                flush=True,
+            )
     target_scene = next(iter(scenes(args.quick)))
-    met = {r["projection"]: (r["median_iterations"] <= TARGET["median_iterations"]
-                             and r["rejected_per_step"] <= TARGET["rejected_per_step"]
-                             and r["unconverged_steps"] <= TARGET["unconverged_steps"]
-                             and r["step_deviation_over_truncation"]
-                             <= TARGET["step_deviation_over_truncation"])
-           for r in rows if r["scene"] == target_scene}
-    payload = {"benchmark": "newton_projection", "machine": machine_info(), "quick": args.quick,
-               "rows": rows, "projections": list(VARIANTS), "max_newton": MAX_NEWTON,
-               "newton_tol": 1e-5, "dt": DT, "tight": TIGHT, "target": TARGET,
-               "target_scene": target_scene, "target_met": met}
+    met = {
+        r["projection"]: (
+            r["median_iterations"] <= TARGET["median_iterations"]
+            and r["rejected_per_step"] <= TARGET["rejected_per_step"]
+            and r["unconverged_steps"] <= TARGET["unconverged_steps"]
+            and r["step_deviation_over_truncation"] <= TARGET["step_deviation_over_truncation"]
+        )
+        for r in rows
+        if r["scene"] == target_scene
+    }
+    payload = {
+        "benchmark": "newton_projection",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "rows": rows,
+        "projections": list(VARIANTS),
+        "max_newton": MAX_NEWTON,
+        "newton_tol": 1e-5,
+        "dt": DT,
+        "tight": TIGHT,
+        "target": TARGET,
+        "target_scene": target_scene,
+        "target_met": met,
+    }
     save(args.out, "newton_projection", payload, lambda path: plot(rows, path))
     return payload
 
@@ -175,8 +219,9 @@ def plot(rows, path):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    x, scenes = grouped_bars(axes, rows, "scene", "projection",
-                             ("median_iterations", "rejected_per_step"))
+    x, scenes = grouped_bars(
+        axes, rows, "scene", "projection", ("median_iterations", "rejected_per_step")
+    )
     axes[0].set_ylabel("median Newton iterations per step")
     axes[1].set_ylabel("rejected factorizations per step")
     for ax in axes:
@@ -184,8 +229,9 @@ def plot(rows, path):
     axes[0].axhline(TARGET["median_iterations"], color="k", lw=0.8, ls="--")
     axes[1].axhline(TARGET["rejected_per_step"], color="k", lw=0.8, ls="--")
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"backward Euler, dt = 1/60 s, newton_tol = 1e-5, max_newton = {MAX_NEWTON}",
-                 fontsize=9)
+    fig.suptitle(
+        f"backward Euler, dt = 1/60 s, newton_tol = 1e-5, max_newton = {MAX_NEWTON}", fontsize=9
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -38,14 +38,25 @@ FRACTIONS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.45)  # 0: the residual test alone (the 
 DEFAULT_FRACTION = yore._core.ImplicitIntegrator.defaults["truncation_fraction"]
 INTEGRATORS = {"BE": "implicit", "BDF2": "bdf2"}
 SAMPLES = 3  # error sampled at T/3, 2T/3, T
-GOAL = {"mean_iterations": 5.0, "median_iterations": 5.0, "thrown_away_per_step": 0.5,
-        "unconverged_steps": 0}
+GOAL = {
+    "mean_iterations": 5.0,
+    "median_iterations": 5.0,
+    "thrown_away_per_step": 0.5,
+    "unconverged_steps": 0,
+}
 
 
 def make(resolution, integrator, dt, **options):
-    return yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0, mass=0.1,
-                                     stretch_stiffness=STIFFNESS, bend_stiffness=STIFFNESS,
-                                     integrator=integrator, dt=dt, **options)
+    return yore.scenes.hanging_cloth(
+        resolution=resolution,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=STIFFNESS,
+        bend_stiffness=STIFFNESS,
+        integrator=integrator,
+        dt=dt,
+        **options,
+    )
 
 
 def run(resolution, integrator, steps, duration, **options):
@@ -90,39 +101,52 @@ def main(argv=None):
     _, reference, _, _ = run(resolution, "explicit", fine, duration)
     _, coarse, _, _ = run(resolution, "explicit", fine // 2, duration)
     reference_check = largest(reference, coarse) / size
-    print(f"{resolution}² sheet, reference: explicit dt {duration / fine:.3g} s, "
-          f"{reference_check:.2e} of the size from the run at twice that step", flush=True)
+    print(
+        f"{resolution}² sheet, reference: explicit dt {duration / fine:.3g} s, "
+        f"{reference_check:.2e} of the size from the run at twice that step",
+        flush=True,
+    )
     rows = []
     for name, integrator in INTEGRATORS.items():
         tight = None
         for fraction in FRACTIONS:
-            sim, samples, per_step, cpu = run(resolution, integrator, steps, duration,
-                                              truncation_fraction=fraction)
+            sim, samples, per_step, cpu = run(
+                resolution, integrator, steps, duration, truncation_fraction=fraction
+            )
             counters = sim.stats["counters"]
             if fraction == 0.0:
                 tight = samples
             error = largest(samples, reference) / size
             from_tight = largest(samples, tight) / size
-            row = {"integrator": name, "truncation_fraction": fraction,
-                   "default": fraction == DEFAULT_FRACTION, "steps": steps,
-                   "iterations": per_step,
-                   "mean_iterations": float(np.mean(per_step)),
-                   "median_iterations": float(np.median(per_step)),
-                   "max_iterations": int(max(per_step)),
-                   "thrown_away_per_step": counters["factorizations_thrown_away"] / steps,
-                   "unconverged_steps": int(counters["unconverged_steps"]),
-                   "cpu_seconds_per_simulated_second": cpu / duration,
-                   "error": error, "rms_error": rms(samples, reference) / size,
-                   "from_tight": from_tight}
+            row = {
+                "integrator": name,
+                "truncation_fraction": fraction,
+                "default": fraction == DEFAULT_FRACTION,
+                "steps": steps,
+                "iterations": per_step,
+                "mean_iterations": float(np.mean(per_step)),
+                "median_iterations": float(np.median(per_step)),
+                "max_iterations": int(max(per_step)),
+                "thrown_away_per_step": counters["factorizations_thrown_away"] / steps,
+                "unconverged_steps": int(counters["unconverged_steps"]),
+                "cpu_seconds_per_simulated_second": cpu / duration,
+                "error": error,
+                "rms_error": rms(samples, reference) / size,
+                "from_tight": from_tight,
+            }
             rows.append(row)
-            print(f"{name:4s} truncation_fraction {fraction:<4g} {row['mean_iterations']:5.2f} "
-                  f"it/step (median {row['median_iterations']:g}, max "
-                  f"{row['max_iterations']}), thrown {row['thrown_away_per_step']:.2f}, capped "
-                  f"{row['unconverged_steps']}, {row['cpu_seconds_per_simulated_second']:.2f} "
-                  f"CPU s/s, error {error:.2e} (RMS {row['rms_error']:.2e}), from tight "
-                  f"{from_tight:.2e}", flush=True)
-        tight_error = next(r["error"] for r in rows
-                           if r["integrator"] == name and r["truncation_fraction"] == 0.0)
+            print(
+                f"{name:4s} truncation_fraction {fraction:<4g} {row['mean_iterations']:5.2f} "
+                f"it/step (median {row['median_iterations']:g}, max "
+                f"{row['max_iterations']}), thrown {row['thrown_away_per_step']:.2f}, capped "
+                f"{row['unconverged_steps']}, {row['cpu_seconds_per_simulated_second']:.2f} "
+                f"CPU s/s, error {error:.2e} (RMS {row['rms_error']:.2e}), from tight "
+                f"{from_tight:.2e}",
+                flush=True,
+            )
+        tight_error = next(
+            r["error"] for r in rows if r["integrator"] == name and r["truncation_fraction"] == 0.0
+        )
         for r in rows:
             if r["integrator"] == name:
                 r["from_tight_over_tight_error"] = r["from_tight"] / tight_error
@@ -133,12 +157,24 @@ def main(argv=None):
                 r["mean_iterations"] <= GOAL["mean_iterations"]
                 and r["median_iterations"] <= GOAL["median_iterations"]
                 and r["thrown_away_per_step"] <= GOAL["thrown_away_per_step"]
-                and r["unconverged_steps"] <= GOAL["unconverged_steps"])
-    payload = {"benchmark": "newton_stop", "machine": machine_info(), "quick": args.quick,
-               "rows": rows, "dt": DT, "stretch_stiffness": STIFFNESS,
-               "resolution": resolution, "duration": duration, "size": size,
-               "reference_dt": duration / fine, "reference_check": reference_check,
-               "default_fraction": DEFAULT_FRACTION, "goal": GOAL, "goal_met": goal_met}
+                and r["unconverged_steps"] <= GOAL["unconverged_steps"]
+            )
+    payload = {
+        "benchmark": "newton_stop",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "rows": rows,
+        "dt": DT,
+        "stretch_stiffness": STIFFNESS,
+        "resolution": resolution,
+        "duration": duration,
+        "size": size,
+        "reference_dt": duration / fine,
+        "reference_check": reference_check,
+        "default_fraction": DEFAULT_FRACTION,
+        "goal": GOAL,
+        "goal_met": goal_met,
+    }
     save(args.out, "newton_stop", payload, lambda path: plot(payload, path))
     return payload
 
@@ -154,13 +190,20 @@ def plot(payload, path):
     for name in INTEGRATORS:
         for ax, key in zip(axes, ("error", "from_tight")):
             # the tight run is 0 from itself: no point on the log axis
-            mine = [r for r in payload["rows"] if r["integrator"] == name
-                    and (key == "error" or r["truncation_fraction"] > 0)]
-            ax.plot([r["mean_iterations"] for r in mine], [r[key] for r in mine], "o-",
-                    label=name)
+            mine = [
+                r
+                for r in payload["rows"]
+                if r["integrator"] == name and (key == "error" or r["truncation_fraction"] > 0)
+            ]
+            ax.plot([r["mean_iterations"] for r in mine], [r[key] for r in mine], "o-", label=name)
             for r in mine:
-                ax.annotate(f"{r['truncation_fraction']:g}", (r["mean_iterations"], r[key]),
-                            fontsize=7, textcoords="offset points", xytext=(3, 3))
+                ax.annotate(
+                    f"{r['truncation_fraction']:g}",
+                    (r["mean_iterations"], r[key]),
+                    fontsize=7,
+                    textcoords="offset points",
+                    xytext=(3, 3),
+                )
     axes[0].set_ylabel("error against explicit / size")
     axes[1].set_ylabel("distance from the tight run / size")
     for ax in axes:
@@ -168,13 +211,19 @@ def plot(payload, path):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        ticks = [t for t in (2, 3, 5, 10, 20, 50, 100) if t <= max(
-            r["mean_iterations"] for r in payload["rows"]) * 1.5]
+        ticks = [
+            t
+            for t in (2, 3, 5, 10, 20, 50, 100)
+            if t <= max(r["mean_iterations"] for r in payload["rows"]) * 1.5
+        ]
         ax.set_xticks(ticks, [str(t) for t in ticks])
         ax.axvline(GOAL["mean_iterations"], color="grey", lw=0.8, ls="--")
         ax.legend(fontsize=8)
-    fig.suptitle(f"{payload['resolution']}² stiff sheet (k = {STIFFNESS:g} N/m, bending equal), "
-                 "dt = 1/60 s; labels: truncation_fraction (0: residual test alone)", fontsize=9)
+    fig.suptitle(
+        f"{payload['resolution']}² stiff sheet (k = {STIFFNESS:g} N/m, bending equal), "
+        "dt = 1/60 s; labels: truncation_fraction (0: residual test alone)",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

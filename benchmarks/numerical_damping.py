@@ -117,7 +117,8 @@ STIFFNESS = 2e5  # N/m, bending springs as stiff ("equal")
 RATES = (32, 64, 128)  # implicit steps per second
 #: part 2's families beside long_horizon's: generalized-α at Chung & Hulbert's usual ρ∞ = 0.8
 SHEET_EXTRA_FAMILIES = {
-    "generalized-alpha rho 0.8": {"integrator": "generalized-alpha", "rho_infinity": 0.8}}
+    "generalized-alpha rho 0.8": {"integrator": "generalized-alpha", "rho_infinity": 0.8}
+}
 TIMES = (1.0, 2.0)  # s: energy kept here ...
 WINDOW = 0.125  # s: ... averaged over ± this
 HISTORY_UNTIL = 2.0  # s: the kinetic-energy history's span
@@ -156,15 +157,16 @@ def amplification(integrator, z, rho_infinity=None):
     if integrator == "bdf2":
         # yₙ₊₁ − 4/3 yₙ + 1/3 yₙ₋₁ = 2/3 h J yₙ₊₁
         solve = np.linalg.inv(identity - 2.0 / 3.0 * rate)
-        return np.block([[4.0 / 3.0 * solve, -1.0 / 3.0 * solve],
-                         [identity, np.zeros((2, 2))]])
+        return np.block([[4.0 / 3.0 * solve, -1.0 / 3.0 * solve], [identity, np.zeros((2, 2))]])
     if integrator == "generalized-alpha":
         alpha_m, alpha_f, gamma, beta = generalized_alpha_parameters(rho_infinity)
         w2 = z * z
-        new = np.array([[1.0, 0.0, -beta], [0.0, 1.0, -gamma],
-                        [(1.0 - alpha_f) * w2, 0.0, 1.0 - alpha_m]])
-        old = np.array([[1.0, 1.0, 0.5 - beta], [0.0, 1.0, 1.0 - gamma],
-                        [-alpha_f * w2, 0.0, -alpha_m]])
+        new = np.array(
+            [[1.0, 0.0, -beta], [0.0, 1.0, -gamma], [(1.0 - alpha_f) * w2, 0.0, 1.0 - alpha_m]]
+        )
+        old = np.array(
+            [[1.0, 1.0, 0.5 - beta], [0.0, 1.0, 1.0 - gamma], [-alpha_f * w2, 0.0, -alpha_m]]
+        )
         return np.linalg.solve(new, old)
     raise ValueError(f"no amplification matrix for integrator {integrator!r}")
 
@@ -186,9 +188,12 @@ def analytic(integrator, z, rho_infinity=None):
     principal = principal_eigenvalue(integrator, z, rho_infinity)
     radius = float(np.max(np.abs(np.linalg.eigvals(amplification(integrator, z, rho_infinity)))))
     decay = abs(principal)
-    return {"decay_per_step": decay, "spectral_radius": radius,
-            "energy_kept_per_period": decay ** (2.0 * 2.0 * math.pi / z),
-            "period_elongation": z / abs(math.atan2(principal.imag, principal.real)) - 1.0}
+    return {
+        "decay_per_step": decay,
+        "spectral_radius": radius,
+        "energy_kept_per_period": decay ** (2.0 * 2.0 * math.pi / z),
+        "period_elongation": z / abs(math.atan2(principal.imag, principal.real)) - 1.0,
+    }
 
 
 def backward_euler_decay(z):
@@ -221,8 +226,9 @@ def mode_history(integrator, z, free=CHAIN_FREE, periods=MODE_PERIODS, **options
     positions = rest.copy()
     positions[1:-1, 0] += MODE_AMPLITUDE * CHAIN_SPACING * shape
     cloth.positions = positions
-    sim = yore.Simulation(cloth, integrator=integrator, dt=z / omega, gravity=(0.0, 0.0, 0.0),
-                          **options)
+    sim = yore.Simulation(
+        cloth, integrator=integrator, dt=z / omega, gravity=(0.0, 0.0, 0.0), **options
+    )
     steps = max(MODE_MIN_STEPS, math.ceil(periods * 2.0 * math.pi / z))
     norm = float(shape @ shape)
     q, p = [], []
@@ -234,9 +240,14 @@ def mode_history(integrator, z, free=CHAIN_FREE, periods=MODE_PERIODS, **options
         if (omega * q[-1]) ** 2 + p[-1] ** 2 < MODE_FLOOR * (omega * q[0]) ** 2:
             break
     counters = sim.stats["counters"]
-    return {"q": np.array(q[1:]), "p": np.array(p[1:]), "omega": omega, "steps": len(q) - 1,
-            "newton_iterations": int(counters.get("newton_iterations", 0)),
-            "unconverged_steps": int(counters.get("unconverged_steps", 0))}
+    return {
+        "q": np.array(q[1:]),
+        "p": np.array(p[1:]),
+        "omega": omega,
+        "steps": len(q) - 1,
+        "newton_iterations": int(counters.get("newton_iterations", 0)),
+        "unconverged_steps": int(counters.get("unconverged_steps", 0)),
+    }
 
 
 def fit_recurrence(signal, lags=MODE_LAGS, tolerance=MODE_RANK_TOLERANCE):
@@ -248,7 +259,7 @@ def fit_recurrence(signal, lags=MODE_LAGS, tolerance=MODE_RANK_TOLERANCE):
     columns = count - lags
     if columns < 2:
         raise ValueError(f"{count} samples cannot fit a recurrence of {lags} lags")
-    hankel = np.vstack([signal[:, j:j + columns + 1] for j in range(lags)])
+    hankel = np.vstack([signal[:, j : j + columns + 1] for j in range(lags)])
     before, after = hankel[:, :-1], hankel[:, 1:]
     u, s, vt = np.linalg.svd(before, full_matrices=False)
     rank = int(np.sum(s > tolerance * s[0]))
@@ -268,10 +279,13 @@ def measured_decay(history):
     eigenvalues, amplitudes, residual = fit_recurrence(signal)
     upper = [i for i, e in enumerate(eigenvalues) if e.imag >= 0.0]
     principal = eigenvalues[max(upper, key=lambda i: amplitudes[i])]
-    return {"decay_per_step": float(abs(principal)),
-            "argument": float(abs(math.atan2(principal.imag, principal.real))),
-            "fit_residual": residual, "fit_rank": len(eigenvalues),
-            "samples": len(history["q"])}
+    return {
+        "decay_per_step": float(abs(principal)),
+        "argument": float(abs(math.atan2(principal.imag, principal.real))),
+        "fit_residual": residual,
+        "fit_rank": len(eigenvalues),
+        "samples": len(history["q"]),
+    }
 
 
 def mode_row(integrator, z, rho_infinity=None):
@@ -285,27 +299,35 @@ def mode_row(integrator, z, rho_infinity=None):
     exact = analytic(integrator, z, rho_infinity)
     decay = found["decay_per_step"]
     per_period = 2.0 * math.pi / z
-    return {"integrator": integrator, "rho_infinity": rho_infinity, "omega_h": z,
-            "steps_per_period": per_period, "free_masses": free, "omega": history["omega"],
-            "dt": z / history["omega"], "steps": history["steps"],
-            "decay_per_step": decay, "analytic_decay_per_step": exact["decay_per_step"],
-            "relative_difference": decay / exact["decay_per_step"] - 1.0,
-            "analytic_spectral_radius": exact["spectral_radius"],
-            "energy_kept_per_period": decay ** (2.0 * per_period),
-            "analytic_energy_kept_per_period": exact["energy_kept_per_period"],
-            "period_elongation": z / found["argument"] - 1.0,
-            "analytic_period_elongation": exact["period_elongation"],
-            "fit_residual": found["fit_residual"], "fit_rank": found["fit_rank"],
-            "newton_iterations": history["newton_iterations"],
-            "unconverged_steps": history["unconverged_steps"]}
+    return {
+        "integrator": integrator,
+        "rho_infinity": rho_infinity,
+        "omega_h": z,
+        "steps_per_period": per_period,
+        "free_masses": free,
+        "omega": history["omega"],
+        "dt": z / history["omega"],
+        "steps": history["steps"],
+        "decay_per_step": decay,
+        "analytic_decay_per_step": exact["decay_per_step"],
+        "relative_difference": decay / exact["decay_per_step"] - 1.0,
+        "analytic_spectral_radius": exact["spectral_radius"],
+        "energy_kept_per_period": decay ** (2.0 * per_period),
+        "analytic_energy_kept_per_period": exact["energy_kept_per_period"],
+        "period_elongation": z / found["argument"] - 1.0,
+        "analytic_period_elongation": exact["period_elongation"],
+        "fit_residual": found["fit_residual"],
+        "fit_rank": found["fit_rank"],
+        "newton_iterations": history["newton_iterations"],
+        "unconverged_steps": history["unconverged_steps"],
+    }
 
 
 def accepted(integrator, **options):
     """Why this build refuses an integrator (the first line of yore's error), or None."""
     cloth = chain(1)[0]
     try:
-        yore.Simulation(cloth, integrator=integrator, dt=1e-3, gravity=(0.0, 0.0, 0.0),
-                        **options)
+        yore.Simulation(cloth, integrator=integrator, dt=1e-3, gravity=(0.0, 0.0, 0.0), **options)
     except (ValueError, TypeError, NotImplementedError) as error:
         return str(error).splitlines()[0]
     return None
@@ -328,9 +350,11 @@ def mode_rows(omega_h, rho_values, log=print):
             for z in steps:
                 row = mode_row(integrator, z, rho)
                 rows.append(row)
-                log(f"{integrator:18s} {'' if rho is None else f'ρ∞={rho:g}':7s} ωh={z:.3g} "
+                log(
+                    f"{integrator:18s} {'' if rho is None else f'ρ∞={rho:g}':7s} ωh={z:.3g} "
                     f"decay {row['decay_per_step']:.9f} analytic "
-                    f"{row['analytic_decay_per_step']:.9f} ({row['relative_difference']:+.1e})")
+                    f"{row['analytic_decay_per_step']:.9f} ({row['relative_difference']:+.1e})"
+                )
     return rows, missing
 
 
@@ -351,12 +375,16 @@ def sheet_measures(run, reference, scales):
     ref_positions, ref_table = reference["snapshots"]
     keep = table[:, 0] <= HISTORY_UNTIL * lh.GRID_RATE + 1e-9
     ref_keep = ref_table[:, 0] <= HISTORY_UNTIL * lh.GRID_RATE + 1e-9
-    found = lh.run_measures({"snapshots": [positions, table[keep]]},
-                            {"snapshots": [ref_positions, ref_table[ref_keep]]}, scales, -1.0)
-    out = {f"kinetic_energy_kept_at_{t:g}s": window_mean_ratio(table, ref_table, t)
-           for t in TIMES}
-    out.update({m: found[m] for m in ("kinetic_energy_history", "total_energy_history",
-                                       "centroid_path")})
+    found = lh.run_measures(
+        {"snapshots": [positions, table[keep]]},
+        {"snapshots": [ref_positions, ref_table[ref_keep]]},
+        scales,
+        -1.0,
+    )
+    out = {f"kinetic_energy_kept_at_{t:g}s": window_mean_ratio(table, ref_table, t) for t in TIMES}
+    out.update(
+        {m: found[m] for m in ("kinetic_energy_history", "total_energy_history", "centroid_path")}
+    )
     return out
 
 
@@ -374,43 +402,67 @@ def sheet_rows(size, families, cap_seconds=MAX_RUN_SECONDS, log=print):
     reference = lh.history(make, explicit, 2 * per_sample, 1, DURATION, -1.0)
     if "snapshots" not in reference:
         raise RuntimeError(f"{size}²: the reference (explicit at half its limit) diverged")
-    info = {"size": size, "stretch_stiffness": STIFFNESS, "bending": "equal",
-            "stable_dt_estimate": estimate, "trial_limit_dt": limit, "stability_trials": trials,
-            "reference_dt": 1.0 / (2 * lh.GRID_RATE * per_sample),
-            "reference_cpu_seconds": reference["cpu_seconds"], **scales}
-    log(f"{size}²: limit {limit:.3g} s, reference dt {info['reference_dt']:.3g} s "
-        f"({reference['cpu_seconds']:.0f} CPU s)")
+    info = {
+        "size": size,
+        "stretch_stiffness": STIFFNESS,
+        "bending": "equal",
+        "stable_dt_estimate": estimate,
+        "trial_limit_dt": limit,
+        "stability_trials": trials,
+        "reference_dt": 1.0 / (2 * lh.GRID_RATE * per_sample),
+        "reference_cpu_seconds": reference["cpu_seconds"],
+        **scales,
+    }
+    log(
+        f"{size}²: limit {limit:.3g} s, reference dt {info['reference_dt']:.3g} s "
+        f"({reference['cpu_seconds']:.0f} CPU s)"
+    )
     runs = [("explicit at its limit", explicit, per_sample, 1)]
     for family, options in families.items():
         for rate in RATES:
-            runs.append((family, options, max(1, rate // lh.GRID_RATE),
-                         max(1, lh.GRID_RATE // rate)))
+            runs.append(
+                (family, options, max(1, rate // lh.GRID_RATE), max(1, lh.GRID_RATE // rate))
+            )
     rows = []
     for family, options, per, stride in runs:
         result = lh.history(make, options, per, stride, DURATION, -1.0, cap_seconds)
         steps = per * (round(DURATION * lh.GRID_RATE) // stride)
-        row = {"size": size, "stretch_stiffness": STIFFNESS, "family": family,
-               "integrator": options["integrator"],
-               "options": {k: v for k, v in options.items() if k != "integrator"},
-               "dt": DURATION / steps, "steps": steps, "duration": DURATION,
-               "diverged": bool(result.get("diverged")), "aborted": result.get("aborted")}
+        row = {
+            "size": size,
+            "stretch_stiffness": STIFFNESS,
+            "family": family,
+            "integrator": options["integrator"],
+            "options": {k: v for k, v in options.items() if k != "integrator"},
+            "dt": DURATION / steps,
+            "steps": steps,
+            "duration": DURATION,
+            "diverged": bool(result.get("diverged")),
+            "aborted": result.get("aborted"),
+        }
         if "snapshots" in result:
             counters = result["counters"]
-            row.update(sheet_measures(result, reference, scales),
-                       cpu_seconds=result["cpu_seconds"],
-                       cost_seconds_per_simulated_second=result["cpu_seconds"] / DURATION,
-                       newton_iterations_per_step=counters.get("newton_iterations", 0.0) / steps,
-                       unconverged_steps=int(counters.get("unconverged_steps", 0)),
-                       kinetic_energy=result["snapshots"][1][:, 1].tolist(),
-                       sample_seconds=stride / lh.GRID_RATE)
-            log(f"  {family:28s} dt={row['dt']:.3g} kept "
-                + ", ".join(f"{row[f'kinetic_energy_kept_at_{t:g}s']:.3f} at {t:g} s"
-                            for t in TIMES)
+            row.update(
+                sheet_measures(result, reference, scales),
+                cpu_seconds=result["cpu_seconds"],
+                cost_seconds_per_simulated_second=result["cpu_seconds"] / DURATION,
+                newton_iterations_per_step=counters.get("newton_iterations", 0.0) / steps,
+                unconverged_steps=int(counters.get("unconverged_steps", 0)),
+                kinetic_energy=result["snapshots"][1][:, 1].tolist(),
+                sample_seconds=stride / lh.GRID_RATE,
+            )
+            log(
+                f"  {family:28s} dt={row['dt']:.3g} kept "
+                + ", ".join(
+                    f"{row[f'kinetic_energy_kept_at_{t:g}s']:.3f} at {t:g} s" for t in TIMES
+                )
                 + f"; history {row['kinetic_energy_history']:.3f}; "
-                f"{row['cost_seconds_per_simulated_second']:.3g} CPU s/s")
+                f"{row['cost_seconds_per_simulated_second']:.3g} CPU s/s"
+            )
         else:
-            log(f"  {family:28s} dt={row['dt']:.3g} "
-                + ("diverged" if row["diverged"] else f"aborted: {row['aborted']}"))
+            log(
+                f"  {family:28s} dt={row['dt']:.3g} "
+                + ("diverged" if row["diverged"] else f"aborted: {row['aborted']}")
+            )
         rows.append(row)
     info["reference_kinetic_energy"] = reference["snapshots"][1][:, 1].tolist()
     return rows, info
@@ -422,8 +474,12 @@ def sheet_families():
     accepts; a family whose integrator and resolved options equal an earlier one's
     is measured once, under the earlier name. Returns ({name: options}, {name: why refused},
     {merged name: the name it runs under})."""
-    table = {**{n: o for n, o in lh.FAMILIES.items()
-                if n != "explicit" and n not in lh.ERROR_CONTROLLED}, **SHEET_EXTRA_FAMILIES}
+    table = {
+        **{
+            n: o for n, o in lh.FAMILIES.items() if n != "explicit" and n not in lh.ERROR_CONTROLLED
+        },
+        **SHEET_EXTRA_FAMILIES,
+    }
     refused = {n: lh.refusal(o) for n, o in table.items()}
     accepted_ = {n: o for n, o in table.items() if refused[n] is None}
     resolved = cx.resolved_families(accepted_)
@@ -445,14 +501,23 @@ def summary_lines(mode, sheet):
     lines = []
     for integrator in dict.fromkeys(r["integrator"] for r in mode):
         worst = max(abs(r["relative_difference"]) for r in mode if r["integrator"] == integrator)
-        lines.append(f"{integrator}: measured decay per step within {worst:.1e} of the "
-                     "analytic value at every ωh")
+        lines.append(
+            f"{integrator}: measured decay per step within {worst:.1e} of the "
+            "analytic value at every ωh"
+        )
     for size in dict.fromkeys(r["size"] for r in sheet):
-        coarse = [r for r in sheet if r["size"] == size and math.isclose(r["dt"], 1 / 32)
-                  and "kinetic_energy_kept_at_2s" in r]
+        coarse = [
+            r
+            for r in sheet
+            if r["size"] == size
+            and math.isclose(r["dt"], 1 / 32)
+            and "kinetic_energy_kept_at_2s" in r
+        ]
         if coarse:
-            lines.append(f"{size}², 1/32 s: kinetic energy kept at 2 s " + ", ".join(
-                f"{r['family']} {r['kinetic_energy_kept_at_2s']:.2f}" for r in coarse))
+            lines.append(
+                f"{size}², 1/32 s: kinetic energy kept at 2 s "
+                + ", ".join(f"{r['family']} {r['kinetic_energy_kept_at_2s']:.2f}" for r in coarse)
+            )
     return lines
 
 
@@ -475,24 +540,40 @@ def main(argv=None):
             sheet += rows
             references.append(info)
     payload = {
-        "benchmark": "numerical_damping", "machine": machine_info(), "quick": args.quick,
+        "benchmark": "numerical_damping",
+        "machine": machine_info(),
+        "quick": args.quick,
         "integrators": [i for i in INTEGRATORS if i not in missing],
         "integrators_unavailable": [f"{n}: {why}" for n, why in missing.items()],
         "rho_infinity": list(rho_values),
-        "chain": {"free_masses": CHAIN_FREE, "explicit_free_masses": 1, "mass": CHAIN_MASS,
-                  "stiffness": CHAIN_STIFFNESS, "spacing": CHAIN_SPACING,
-                  "amplitude": MODE_AMPLITUDE * CHAIN_SPACING, "periods": MODE_PERIODS,
-                  "energy_floor": MODE_FLOOR, "lags": MODE_LAGS, "newton": TIGHT_NEWTON},
+        "chain": {
+            "free_masses": CHAIN_FREE,
+            "explicit_free_masses": 1,
+            "mass": CHAIN_MASS,
+            "stiffness": CHAIN_STIFFNESS,
+            "spacing": CHAIN_SPACING,
+            "amplitude": MODE_AMPLITUDE * CHAIN_SPACING,
+            "periods": MODE_PERIODS,
+            "energy_floor": MODE_FLOOR,
+            "lags": MODE_LAGS,
+            "newton": TIGHT_NEWTON,
+        },
         "rows": mode,
         "sheet_families": list(families),
         "sheet_families_unavailable": [f"{n}: {why}" for n, why in unavailable.items()],
         "sheet_families_merged": merged,
         "sheet_family_options": families,
-        "sheet_settings": {"stretch_stiffness": STIFFNESS, "bending": "equal",
-                           "rates": list(RATES), "times": list(TIMES), "window": WINDOW,
-                           "history_until": HISTORY_UNTIL, "duration": DURATION,
-                           "sample_rate": lh.GRID_RATE,
-                           "clock": "time.thread_time() around the stepping; one thread"},
+        "sheet_settings": {
+            "stretch_stiffness": STIFFNESS,
+            "bending": "equal",
+            "rates": list(RATES),
+            "times": list(TIMES),
+            "window": WINDOW,
+            "history_until": HISTORY_UNTIL,
+            "duration": DURATION,
+            "sample_rate": lh.GRID_RATE,
+            "clock": "time.thread_time() around the stepping; one thread",
+        },
         "sheet_references": references,
         "sheet_rows": sheet,
         "summary": {"lines": summary_lines(mode, sheet)},
@@ -525,8 +606,9 @@ def plot(payload, path):
     curves = list(dict.fromkeys((r["integrator"], r["rho_infinity"]) for r in payload["rows"]))
     colours = plt.cm.tab10(np.linspace(0, 1, 10))
     for k, (integrator, rho) in enumerate(curves):
-        mine = [r for r in payload["rows"] if (r["integrator"], r["rho_infinity"]) ==
-                (integrator, rho)]
+        mine = [
+            r for r in payload["rows"] if (r["integrator"], r["rho_infinity"]) == (integrator, rho)
+        ]
         top = 0.999 * EXPLICIT_LIMIT if integrator == "explicit" else max(OMEGA_H)
         fine = np.geomspace(min(OMEGA_H) * 0.8, top, 80)
         exact = np.array([analytic(integrator, z, rho)["decay_per_step"] for z in fine])
@@ -536,10 +618,16 @@ def plot(payload, path):
         linear.plot(fine, exact, color=colour, lw=1.0, label=label(integrator, rho))
         linear.plot(zs, measured, "o", color=colour, ms=4, mfc="none")
         # 1 − |λ| on a log scale: a non-dissipative scheme sits at the floor
-        logarithmic.plot(fine, np.maximum(1.0 - exact, DAMPING_FLOOR), color=colour, lw=1.0,
-                         label=label(integrator, rho))
-        logarithmic.plot(zs, np.maximum(1.0 - measured, DAMPING_FLOOR), "o", color=colour,
-                         ms=4, mfc="none")
+        logarithmic.plot(
+            fine,
+            np.maximum(1.0 - exact, DAMPING_FLOOR),
+            color=colour,
+            lw=1.0,
+            label=label(integrator, rho),
+        )
+        logarithmic.plot(
+            zs, np.maximum(1.0 - measured, DAMPING_FLOOR), "o", color=colour, ms=4, mfc="none"
+        )
     for ax in (linear, logarithmic):
         ax.set_xscale("log")
         ax.set_xlabel("ωh (2π / steps per period)")
@@ -551,11 +639,15 @@ def plot(payload, path):
     logarithmic.set_title("the same, as the amplitude lost per step", fontsize=9)
     linear.legend(fontsize=6)
     for ax, size in zip(axes[1:], sizes):
-        rows = [r for r in payload["sheet_rows"] if r["size"] == size
-                and "kinetic_energy_kept_at_1s" in r]
+        rows = [
+            r
+            for r in payload["sheet_rows"]
+            if r["size"] == size and "kinetic_energy_kept_at_1s" in r
+        ]
         names = list(dict.fromkeys(r["family"] for r in rows))
-        dts = sorted({r["dt"] for r in rows if r["family"] != "explicit at its limit"},
-                     reverse=True)
+        dts = sorted(
+            {r["dt"] for r in rows if r["family"] != "explicit at its limit"}, reverse=True
+        )
         width = 0.8 / max(1, 2 * len(names))
         for k, name in enumerate(names):
             for r in (r for r in rows if r["family"] == name):
@@ -563,18 +655,34 @@ def plot(payload, path):
                 for j, t in enumerate(TIMES):
                     x = group + (2 * k + j - (2 * len(names) - 1) / 2) * width
                     value = r[f"kinetic_energy_kept_at_{t:g}s"]
-                    ax.bar(x, min(value, KEPT_CLIP), width, color=colours[k % 10],
-                           alpha=0.45 if j == 0 else 1.0,
-                           label=name if j == 1 and group in (-1, 0) else None)
+                    ax.bar(
+                        x,
+                        min(value, KEPT_CLIP),
+                        width,
+                        color=colours[k % 10],
+                        alpha=0.45 if j == 0 else 1.0,
+                        label=name if j == 1 and group in (-1, 0) else None,
+                    )
                     if value > KEPT_CLIP:  # energy gained: the bar is cut, the value written
-                        ax.text(x, KEPT_CLIP, f"{value:.2g}", rotation=90, ha="center",
-                                va="top", fontsize=5, color="w")
+                        ax.text(
+                            x,
+                            KEPT_CLIP,
+                            f"{value:.2g}",
+                            rotation=90,
+                            ha="center",
+                            va="top",
+                            fontsize=5,
+                            color="w",
+                        )
         ax.axhline(1.0, color="k", lw=0.8)
         ax.set_ylim(0.0, KEPT_CLIP)
-        ax.set_xticks(range(-1, len(dts)),
-                      ["explicit\nat limit"] + [f"1/{round(1 / dt)} s" for dt in dts])
-        ax.set_ylabel(f"kinetic energy kept / reference's (pale: at {TIMES[0]:g} s, solid: at "
-                      f"{TIMES[1]:g} s; cut at {KEPT_CLIP:g})")
+        ax.set_xticks(
+            range(-1, len(dts)), ["explicit\nat limit"] + [f"1/{round(1 / dt)} s" for dt in dts]
+        )
+        ax.set_ylabel(
+            f"kinetic energy kept / reference's (pale: at {TIMES[0]:g} s, solid: at "
+            f"{TIMES[1]:g} s; cut at {KEPT_CLIP:g})"
+        )
         ax.set_title(f"{size}² sheet, k = {STIFFNESS:g} N/m, bending equal", fontsize=9)
         ax.legend(fontsize=6)
     fig.savefig(path, dpi=110, bbox_inches="tight")

@@ -24,15 +24,18 @@ from yore.viz.render import render_image
 
 from .common import arguments, machine_info, median_seconds, save
 
-START = ("import time; t = time.perf_counter(); from yore.viz import backend; "
-         "backend.ensure(); print(time.perf_counter() - t)")
+START = (
+    "import time; t = time.perf_counter(); from yore.viz import backend; "
+    "backend.ensure(); print(time.perf_counter() - t)"
+)
 
 
 def start_seconds(repeats):
     samples = []
     for _ in range(repeats):
-        out = subprocess.run([sys.executable, "-c", START], capture_output=True, text=True,
-                             check=True, timeout=300).stdout.split()
+        out = subprocess.run(
+            [sys.executable, "-c", START], capture_output=True, text=True, check=True, timeout=300
+        ).stdout.split()
         samples.append(float(out[-1]))
     return statistics.median(samples)
 
@@ -45,8 +48,11 @@ def cloth(n):
 
 def main(argv=None):
     args = arguments(__doc__, argv)
-    sizes = [(320, 240), (640, 480)] if args.quick else [(320, 240), (640, 480), (1280, 720),
-                                                         (1920, 1080)]
+    sizes = (
+        [(320, 240), (640, 480)]
+        if args.quick
+        else [(320, 240), (640, 480), (1280, 720), (1920, 1080)]
+    )
     factors = [1, 3] if args.quick else [1, 2, 3]
     meshes = [21] if args.quick else [21, 64]
     repeats = 2 if args.quick else 7
@@ -63,17 +69,31 @@ def main(argv=None):
                 if backend.supersampling(width, height, factor) != factor:
                     continue  # too large for this factor: render_image lowers it
                 timing = median_seconds(
-                    lambda: render_image(V, F, camera, vertex_values=values,
-                                         colorbar="expansion", strokes=[stroke],
-                                         antialias=factor if factor > 1 else False),
-                    repeats=repeats)
-                row = {"width": width, "height": height, "pixels": width * height,
-                       "factor": factor, "vertices": sim.cloth.vertex_count,
-                       "render_seconds_median": timing["median"],
-                       "render_seconds_min": timing["min"], "repeats": repeats}
+                    lambda: render_image(
+                        V,
+                        F,
+                        camera,
+                        vertex_values=values,
+                        colorbar="expansion",
+                        strokes=[stroke],
+                        antialias=factor if factor > 1 else False,
+                    ),
+                    repeats=repeats,
+                )
+                row = {
+                    "width": width,
+                    "height": height,
+                    "pixels": width * height,
+                    "factor": factor,
+                    "vertices": sim.cloth.vertex_count,
+                    "render_seconds_median": timing["median"],
+                    "render_seconds_min": timing["min"],
+                    "repeats": repeats,
+                }
                 rows.append(row)
-                print(f"{n:3d}² {width:4d}×{height:<4d} ×{factor}: "
-                      f"{1e3 * timing['median']:7.1f} ms")
+                print(
+                    f"{n:3d}² {width:4d}×{height:<4d} ×{factor}: {1e3 * timing['median']:7.1f} ms"
+                )
     # the viewer's pick of one pixel (polyscope's pick buffer, then the ray test)
     from yore.viz.viewer import Viewer
 
@@ -82,10 +102,15 @@ def main(argv=None):
     pixels = np.array([[320.0, 240.0]])
     pick = median_seconds(lambda: viewer.pick_surface(pixels), repeats=repeats * 5)
     start = start_seconds(2 if args.quick else 5)
-    payload = {"benchmark": "pictures", "machine": machine_info(), "quick": args.quick,
-               "renderer": "polyscope " + _polyscope_version() + ", EGL",
-               "start_seconds_median": start, "pick_seconds_median": pick["median"],
-               "rows": rows}
+    payload = {
+        "benchmark": "pictures",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "renderer": "polyscope " + _polyscope_version() + ", EGL",
+        "start_seconds_median": start,
+        "pick_seconds_median": pick["median"],
+        "rows": rows,
+    }
     print(f"polyscope start {start:.2f} s, one pick {1e3 * pick['median']:.2f} ms")
     save(args.out, "pictures", payload, lambda path: plot(payload, path))
     return payload
@@ -108,15 +133,20 @@ def plot(payload, path):
     for vertices in sorted({r["vertices"] for r in rows}):
         for factor in sorted({r["factor"] for r in rows}):
             cells = [r for r in rows if r["vertices"] == vertices and r["factor"] == factor]
-            ax.plot([r["pixels"] / 1e6 for r in cells],
-                    [r["render_seconds_median"] for r in cells], "o-",
-                    label=f"{vertices} vertices, supersampling ×{factor}")
+            ax.plot(
+                [r["pixels"] / 1e6 for r in cells],
+                [r["render_seconds_median"] for r in cells],
+                "o-",
+                label=f"{vertices} vertices, supersampling ×{factor}",
+            )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("picture size (megapixels)")
     ax.set_ylabel("seconds per picture (median)")
-    ax.set_title(f"{payload['renderer']} (llvmpipe); start "
-                 f"{payload['start_seconds_median']:.2f} s", fontsize=9)
+    ax.set_title(
+        f"{payload['renderer']} (llvmpipe); start {payload['start_seconds_median']:.2f} s",
+        fontsize=9,
+    )
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()

@@ -32,8 +32,7 @@ def step(integrator):
 
 def grid_case(n):
     def make(integrator, **options):
-        return yore.Simulation(grid_cloth(n), integrator=integrator, dt=step(integrator),
-                               **options)
+        return yore.Simulation(grid_cloth(n), integrator=integrator, dt=step(integrator), **options)
 
     def stroke(sim, k):
         # a straight stroke across the cloth, a little lower each time
@@ -45,16 +44,18 @@ def grid_case(n):
 
 def cylinder_case(rings, segments):
     def make(integrator, **options):
-        return yore.scenes.rotating_cylinder(rings=rings, segments=segments,
-                                             integrator=integrator, dt=step(integrator), **options)
+        return yore.scenes.rotating_cylinder(
+            rings=rings, segments=segments, integrator=integrator, dt=step(integrator), **options
+        )
 
     def stroke(sim, k):
         X = sim.cloth.positions
         y = X[:, 1].min() + (0.15 + 0.08 * k) * np.ptp(X[:, 1])
         r = float(np.median(np.hypot(X[:, 0], X[:, 2])))
         angles = np.linspace(0.0, 2.0 * math.pi, 4 * segments + 1) + 0.013 * k
-        return sim.stroke(np.column_stack([r * np.cos(angles), np.full_like(angles, y),
-                                           r * np.sin(angles)]))
+        return sim.stroke(
+            np.column_stack([r * np.cos(angles), np.full_like(angles, y), r * np.sin(angles)])
+        )
 
     return make, stroke
 
@@ -63,7 +64,9 @@ def explicit_seconds(make, target_seconds, repeats):
     sim = make("explicit")
     probe = median_seconds(lambda: sim.step(5, progress=False), repeats=1, warmup=1)
     steps = max(1, int(target_seconds / (probe["median"] / 5)))
-    return median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)["median"] / steps
+    return (
+        median_seconds(lambda: sim.step(steps, progress=False), repeats=repeats)["median"] / steps
+    )
 
 
 def dense_supernode_gflops(columns, rows, repeats=5):
@@ -102,9 +105,13 @@ def measure(name, make, stroke, ordering, repeats, explicit):
         return statistics.median(sample[key] for sample in samples)
 
     row = {
-        "case": name, "ordering_requested": ordering, "ordering_used": counters["ordering"],
-        "vertices": sim.cloth.vertex_count, "dofs": counters["dofs"],
-        "factor_nonzeros": counters["factor_nonzeros"], "factor_flops": counters["factor_flops"],
+        "case": name,
+        "ordering_requested": ordering,
+        "ordering_used": counters["ordering"],
+        "vertices": sim.cloth.vertex_count,
+        "dofs": counters["dofs"],
+        "factor_nonzeros": counters["factor_nonzeros"],
+        "factor_flops": counters["factor_flops"],
         "explicit_step_seconds": explicit,
         "implicit_step_seconds": median(steady, "wall_seconds"),
         "assemble_seconds": median(steady, "assemble_seconds"),
@@ -115,18 +122,21 @@ def measure(name, make, stroke, ordering, repeats, explicit):
         "stroke_faces_split": statistics.median(r.faces_split for r in reports),
         "stroke_locate_seconds": statistics.median(r.locate_seconds for r in reports),
         "stroke_subdivide_seconds": statistics.median(r.subdivide_seconds for r in reports),
-        "analyses": counters["analyses"], "repeats": repeats,
+        "analyses": counters["analyses"],
+        "repeats": repeats,
     }
     row["analyze_over_factorize"] = row["analyze_seconds"] / row["factorize_seconds"]
     row["analyze_over_implicit_step"] = row["analyze_seconds"] / row["implicit_step_seconds"]
     row["analyze_over_explicit_step"] = row["analyze_seconds"] / explicit
-    row["step_after_stroke_over_step"] = (row["step_after_stroke_seconds"]
-                                          / row["implicit_step_seconds"])
+    row["step_after_stroke_over_step"] = (
+        row["step_after_stroke_seconds"] / row["implicit_step_seconds"]
+    )
     row["factorize_gflops"] = row["factor_flops"] / row["factorize_seconds"] / 1e9
     row["supernode_median_columns"] = counters["supernode_median_columns"]
     row["supernode_median_rows"] = counters["supernode_median_rows"]
-    row["dense_at_supernode_gflops"] = dense_supernode_gflops(row["supernode_median_columns"],
-                                                              row["supernode_median_rows"])
+    row["dense_at_supernode_gflops"] = dense_supernode_gflops(
+        row["supernode_median_columns"], row["supernode_median_rows"]
+    )
     return row
 
 
@@ -140,27 +150,41 @@ def measure_local_global(name, make, stroke, repeats, after_steps=10):
     for strategy in STRATEGIES:
         # the configuration these rows have always measured (and the 64² target is set for):
         # 10 plain iterations per step, no convergence test
-        sim = make("local-global", rebuild=strategy, iterations=10, acceleration="none",
-                   tolerance=0.0)
+        sim = make(
+            "local-global", rebuild=strategy, iterations=10, acceleration="none", tolerance=0.0
+        )
         sim.step(2, progress=False)
-        ordinary = statistics.median(phase_deltas(sim, lambda: sim.step(1, progress=False))
-                                     ["wall_seconds"] for _ in range(repeats))
+        ordinary = statistics.median(
+            phase_deltas(sim, lambda: sim.step(1, progress=False))["wall_seconds"]
+            for _ in range(repeats)
+        )
         extras = []
         for k in range(repeats):
             stroke(sim, k)
-            spent = sum(phase_deltas(sim, lambda: sim.step(1, progress=False))["wall_seconds"]
-                        for _ in range(after_steps))
+            spent = sum(
+                phase_deltas(sim, lambda: sim.step(1, progress=False))["wall_seconds"]
+                for _ in range(after_steps)
+            )
             extras.append(spent - after_steps * ordinary)
         counters = sim.stats["counters"]
-        rows.append({"case": name, "strategy": strategy, "ordinary_step_seconds": ordinary,
-                     "rebuild_extra_seconds": statistics.median(extras),
-                     "rebuild_in_ordinary_steps": statistics.median(extras) / ordinary,
-                     "steps_observed_after_stroke": after_steps,
-                     "stale_solves": counters["stale_solves"],
-                     "factorizations": counters["factorizations"], "dofs": counters["dofs"]})
+        rows.append(
+            {
+                "case": name,
+                "strategy": strategy,
+                "ordinary_step_seconds": ordinary,
+                "rebuild_extra_seconds": statistics.median(extras),
+                "rebuild_in_ordinary_steps": statistics.median(extras) / ordinary,
+                "steps_observed_after_stroke": after_steps,
+                "stale_solves": counters["stale_solves"],
+                "factorizations": counters["factorizations"],
+                "dofs": counters["dofs"],
+            }
+        )
         r = rows[-1]
-        print(f"{name:16s} local-global {strategy:15s} step {1e3 * ordinary:8.2f} ms, rebuild "
-              f"{r['rebuild_in_ordinary_steps']:6.1f} ordinary steps")
+        print(
+            f"{name:16s} local-global {strategy:15s} step {1e3 * ordinary:8.2f} ms, rebuild "
+            f"{r['rebuild_in_ordinary_steps']:6.1f} ordinary steps"
+        )
     return rows
 
 
@@ -184,30 +208,45 @@ def measure_quasi_newton(name, make, stroke, repeats):
             rebuilds.append(after["analyze_seconds"] + after["factorize_seconds"])
     counters = sim.stats["counters"]
     ordinary = statistics.median(d["wall_seconds"] for d in steady)
-    per_iteration = ordinary / max(1.0, (counters["newton_iterations"] - iterations_before)
-                                   / (sim.stats["steps"] - steps_before))
+    per_iteration = ordinary / max(
+        1.0,
+        (counters["newton_iterations"] - iterations_before) / (sim.stats["steps"] - steps_before),
+    )
     rebuild = statistics.median(rebuilds)
-    row = {"case": name, "ordinary_step_seconds": ordinary,
-           "seconds_per_iteration": per_iteration, "rebuild_seconds": rebuild,
-           "rebuild_in_ordinary_steps": rebuild / ordinary,
-           "rebuild_in_iterations": rebuild / per_iteration,
-           "iterations_per_step": counters["newton_iterations"] / sim.stats["steps"],
-           "unconverged_steps": counters["unconverged_steps"], "steps": sim.stats["steps"],
-           "analyses": counters["analyses"], "factorizations": counters["factorizations"],
-           "factor_nonzeros": counters["factor_nonzeros"], "dofs": counters["dofs"]}
-    print(f"{name:16s} quasi-newton step {1e3 * ordinary:8.2f} ms "
-          f"({row['iterations_per_step']:.0f} it, {1e3 * per_iteration:.3f} ms/it), rebuild "
-          f"{1e3 * rebuild:.2f} ms = {row['rebuild_in_ordinary_steps']:.3f} ordinary steps")
+    row = {
+        "case": name,
+        "ordinary_step_seconds": ordinary,
+        "seconds_per_iteration": per_iteration,
+        "rebuild_seconds": rebuild,
+        "rebuild_in_ordinary_steps": rebuild / ordinary,
+        "rebuild_in_iterations": rebuild / per_iteration,
+        "iterations_per_step": counters["newton_iterations"] / sim.stats["steps"],
+        "unconverged_steps": counters["unconverged_steps"],
+        "steps": sim.stats["steps"],
+        "analyses": counters["analyses"],
+        "factorizations": counters["factorizations"],
+        "factor_nonzeros": counters["factor_nonzeros"],
+        "dofs": counters["dofs"],
+    }
+    print(
+        f"{name:16s} quasi-newton step {1e3 * ordinary:8.2f} ms "
+        f"({row['iterations_per_step']:.0f} it, {1e3 * per_iteration:.3f} ms/it), rebuild "
+        f"{1e3 * rebuild:.2f} ms = {row['rebuild_in_ordinary_steps']:.3f} ordinary steps"
+    )
     return row
 
 
 def main(argv=None):
     args = arguments(__doc__, argv)
     repeats = 3 if args.quick else 5
-    cases = ([(f"grid {n}²", *grid_case(n)) for n in ((16, 32) if args.quick
-                                                        else (32, 64, 128, 256))]
-             + [("cylinder 32×32" if args.quick else "cylinder 64×64",
-                 *cylinder_case(*((32, 32) if args.quick else (64, 64))))])
+    cases = [
+        (f"grid {n}²", *grid_case(n)) for n in ((16, 32) if args.quick else (32, 64, 128, 256))
+    ] + [
+        (
+            "cylinder 32×32" if args.quick else "cylinder 64×64",
+            *cylinder_case(*((32, 32) if args.quick else (64, 64))),
+        )
+    ]
     dense = dense_gflops(size=500 if args.quick else 2000)
     rows = []
     for name, make, stroke in cases:
@@ -218,23 +257,34 @@ def main(argv=None):
             row["factorize_fraction_of_dense"] = row["factorize_gflops"] / dense
             row["dense_at_supernode_fraction_of_dense"] = row["dense_at_supernode_gflops"] / dense
             rows.append(row)
-            print(f"{name:16s} {ordering:6s} dofs {row['dofs']:7d} explicit "
-                  f"{1e3 * explicit:8.3f} ms  implicit {1e3 * row['implicit_step_seconds']:9.2f} ms"
-                  f"  analyze {1e3 * row['analyze_seconds']:8.2f} ms  after stroke "
-                  f"{1e3 * row['step_after_stroke_seconds']:9.2f} ms  analyze/factorize "
-                  f"{row['analyze_over_factorize']:.2f}  analyze/explicit "
-                  f"{row['analyze_over_explicit_step']:.0f}  {row['factorize_gflops']:.1f} GF/s")
+            print(
+                f"{name:16s} {ordering:6s} dofs {row['dofs']:7d} explicit "
+                f"{1e3 * explicit:8.3f} ms  implicit {1e3 * row['implicit_step_seconds']:9.2f} ms"
+                f"  analyze {1e3 * row['analyze_seconds']:8.2f} ms  after stroke "
+                f"{1e3 * row['step_after_stroke_seconds']:9.2f} ms  analyze/factorize "
+                f"{row['analyze_over_factorize']:.2f}  analyze/explicit "
+                f"{row['analyze_over_explicit_step']:.0f}  {row['factorize_gflops']:.1f} GF/s"
+            )
     local_global = []
     for name, make, stroke in cases:
         local_global += measure_local_global(name, make, stroke, repeats)
-    quasi_newton = [measure_quasi_newton(name, make, stroke, repeats)
-                    for name, make, stroke in cases]
-    payload = {"benchmark": "rebuild_cost", "machine": machine_info(), "quick": args.quick,
-               "dense_matmul_gflops": dense, "rows": rows, "local_global": local_global,
-               "quasi_newton": quasi_newton,
-               "targets": {"analyze_over_implicit_step_at_most": 1.0,
-                           "local_global_rebuild_in_steps_at_most_128": 10.0,
-                           "local_global_step_seconds_at_most_64": 0.005}}
+    quasi_newton = [
+        measure_quasi_newton(name, make, stroke, repeats) for name, make, stroke in cases
+    ]
+    payload = {
+        "benchmark": "rebuild_cost",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "dense_matmul_gflops": dense,
+        "rows": rows,
+        "local_global": local_global,
+        "quasi_newton": quasi_newton,
+        "targets": {
+            "analyze_over_implicit_step_at_most": 1.0,
+            "local_global_rebuild_in_steps_at_most_128": 10.0,
+            "local_global_step_seconds_at_most_64": 0.005,
+        },
+    }
     save(args.out, "rebuild_cost", payload, lambda path: plot(rows, path))
     print(f"dense matmul (numpy, same run): {dense:.1f} GFlop/s")
     return payload
@@ -251,13 +301,23 @@ def plot(rows, path):
         sel = [r for r in rows if r["ordering_requested"] == ordering]
         labels = [r["case"] for r in sel]
         x = np.arange(len(sel))
-        axes[0].semilogy(x, [r["analyze_over_explicit_step"] for r in sel], marker=marker,
-                         label=f"analysis / explicit step ({ordering})")
-        axes[0].semilogy(x, [r["analyze_over_implicit_step"] for r in sel], marker=marker,
-                         linestyle="--", label=f"analysis / implicit step ({ordering})")
+        axes[0].semilogy(
+            x,
+            [r["analyze_over_explicit_step"] for r in sel],
+            marker=marker,
+            label=f"analysis / explicit step ({ordering})",
+        )
+        axes[0].semilogy(
+            x,
+            [r["analyze_over_implicit_step"] for r in sel],
+            marker=marker,
+            linestyle="--",
+            label=f"analysis / implicit step ({ordering})",
+        )
         axes[0].set_xticks(x, labels, rotation=20, fontsize=8)
-        axes[1].plot(x, [r["step_after_stroke_over_step"] for r in sel], marker=marker,
-                     label=f"{ordering}")
+        axes[1].plot(
+            x, [r["step_after_stroke_over_step"] for r in sel], marker=marker, label=f"{ordering}"
+        )
         axes[1].set_xticks(x, labels, rotation=20, fontsize=8)
     axes[0].axhline(1.0, color="k", linewidth=0.8)
     axes[0].set_title("the rebuild (symbolic analysis) after a stroke")

@@ -46,26 +46,43 @@ def main(argv=None):
         explicit = explicit_step_seconds(n, 0.02 if args.quick else 0.2, repeats)["median"]
         linearized, _ = implicit_step_seconds(n, repeats, linearized=True)
         newton_sizes_limit = 64 if args.quick else 128  # Newton at 256² takes minutes per step
-        newton, iterations = (implicit_step_seconds(n, repeats) if n <= newton_sizes_limit
-                              else (None, None))
-        rows.append({"grid": n, "vertices": n * n, "explicit_step_seconds": explicit,
-                     "implicit_linearized_step_seconds": linearized,
-                     "implicit_newton_step_seconds": newton,
-                     "newton_iterations_per_step": iterations})
-        print(f"{n:>4}² explicit {1e3 * explicit:9.3f} ms  linearized {1e3 * linearized:9.2f} ms"
-              + (f"  Newton {1e3 * newton:9.2f} ms ({iterations:.1f} it)" if newton else ""))
+        newton, iterations = (
+            implicit_step_seconds(n, repeats) if n <= newton_sizes_limit else (None, None)
+        )
+        rows.append(
+            {
+                "grid": n,
+                "vertices": n * n,
+                "explicit_step_seconds": explicit,
+                "implicit_linearized_step_seconds": linearized,
+                "implicit_newton_step_seconds": newton,
+                "newton_iterations_per_step": iterations,
+            }
+        )
+        print(
+            f"{n:>4}² explicit {1e3 * explicit:9.3f} ms  linearized {1e3 * linearized:9.2f} ms"
+            + (f"  Newton {1e3 * newton:9.2f} ms ({iterations:.1f} it)" if newton else "")
+        )
     vertices = [r["vertices"] for r in rows]
     slopes = {
         "explicit": slope(vertices, [r["explicit_step_seconds"] for r in rows]),
-        "implicit_linearized": slope(vertices, [r["implicit_linearized_step_seconds"]
-                                                for r in rows]),
+        "implicit_linearized": slope(
+            vertices, [r["implicit_linearized_step_seconds"] for r in rows]
+        ),
     }
     newton_rows = [r for r in rows if r["implicit_newton_step_seconds"]]
     if len(newton_rows) >= 2:
-        slopes["implicit_newton"] = slope([r["vertices"] for r in newton_rows],
-                                          [r["implicit_newton_step_seconds"] for r in newton_rows])
-    payload = {"benchmark": "scaling", "machine": machine_info(), "quick": args.quick,
-               "rows": rows, "slopes": slopes}
+        slopes["implicit_newton"] = slope(
+            [r["vertices"] for r in newton_rows],
+            [r["implicit_newton_step_seconds"] for r in newton_rows],
+        )
+    payload = {
+        "benchmark": "scaling",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "rows": rows,
+        "slopes": slopes,
+    }
     save(args.out, "scaling", payload, lambda path: plot(rows, slopes, path))
     print("fitted slopes (cost ∝ vertices^slope):", {k: round(v, 2) for k, v in slopes.items()})
     return payload
@@ -78,15 +95,19 @@ def plot(rows, slopes, path):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    for key, label, name in (("explicit_step_seconds", "explicit step", "explicit"),
-                             ("implicit_linearized_step_seconds", "implicit, linearized",
-                              "implicit_linearized"),
-                             ("implicit_newton_step_seconds", "implicit, Newton",
-                              "implicit_newton")):
+    for key, label, name in (
+        ("explicit_step_seconds", "explicit step", "explicit"),
+        ("implicit_linearized_step_seconds", "implicit, linearized", "implicit_linearized"),
+        ("implicit_newton_step_seconds", "implicit, Newton", "implicit_newton"),
+    ):
         sel = [r for r in rows if r[key]]
         if sel and name in slopes:
-            ax.loglog([r["vertices"] for r in sel], [1e3 * r[key] for r in sel], "o-",
-                      label=f"{label} (slope {slopes[name]:.2f})")
+            ax.loglog(
+                [r["vertices"] for r in sel],
+                [1e3 * r[key] for r in sel],
+                "o-",
+                label=f"{label} (slope {slopes[name]:.2f})",
+            )
     ax.set_xlabel("vertices")
     ax.set_ylabel("ms per step (median)")
     ax.set_title("yore: step cost against size")

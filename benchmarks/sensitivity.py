@@ -50,8 +50,10 @@ from .common import arguments, machine_info, save
 
 EPSILONS = (1e-14, 1e-10)  # m: how far each free vertex's start moves
 SEED = 20261203
-QUICK_CELLS = ({"size": 12, "stretch_stiffness": 2e3, "bending": "soft"},
-               {"size": 12, "stretch_stiffness": 2e6, "bending": "equal"})
+QUICK_CELLS = (
+    {"size": 12, "stretch_stiffness": 2e3, "bending": "soft"},
+    {"size": 12, "stretch_stiffness": 2e6, "bending": "equal"},
+)
 
 
 def run(make, dt_steps, duration, epsilon):
@@ -85,15 +87,26 @@ def cells_from(crossover_json, max_run_seconds):
             left_out.append(dict(where, reason="not run"))
             continue
         if chain[0]["cpu_seconds"] > max_run_seconds:
-            left_out.append(dict(where, reason=f"its reference's first run cost "
-                                 f"{chain[0]['cpu_seconds']:.0f} CPU s > --max-run-seconds"))
+            left_out.append(
+                dict(
+                    where,
+                    reason=f"its reference's first run cost "
+                    f"{chain[0]['cpu_seconds']:.0f} CPU s > --max-run-seconds",
+                )
+            )
             continue
-        chosen.append((dict(where, horizon=c["horizon"]), chain[0]["steps"],
-                       {"reference_converged": c["reference_converged"],
-                        "reference_error": c["reference_error"],
-                        "reference_steps": [link["steps"] for link in chain],
-                        "reference_differences": [link["difference_to_previous"]
-                                                  for link in chain[1:]]}))
+        chosen.append(
+            (
+                dict(where, horizon=c["horizon"]),
+                chain[0]["steps"],
+                {
+                    "reference_converged": c["reference_converged"],
+                    "reference_error": c["reference_error"],
+                    "reference_steps": [link["steps"] for link in chain],
+                    "reference_differences": [link["difference_to_previous"] for link in chain[1:]],
+                },
+            )
+        )
     return chosen, left_out
 
 
@@ -104,9 +117,15 @@ def measure(cell, steps, facts):
     scale = float(np.linalg.norm(np.ptp(probe.cloth.positions, axis=0)))
     base, cpu = run(make, steps, duration, 0.0)
     again, _ = run(make, steps, duration, 0.0)
-    row = dict(cell, **facts, steps=steps, dt=duration / steps, scale=scale,
-               cpu_seconds_per_run=cpu,
-               repeat_distance=max(cx.relative_errors(again, base, scale)))
+    row = dict(
+        cell,
+        **facts,
+        steps=steps,
+        dt=duration / steps,
+        scale=scale,
+        cpu_seconds_per_run=cpu,
+        repeat_distance=max(cx.relative_errors(again, base, scale)),
+    )
     for epsilon in EPSILONS:
         moved, _ = run(make, steps, duration, epsilon)
         half, end = cx.relative_errors(moved, base, scale)
@@ -136,26 +155,54 @@ def floor_aware(crossover, rows):
             continue
         families = [f for f in crossover["families"] if f not in cell.get("families_dropped", {})]
         for threshold in cx.THRESHOLDS:
-            if (cx.reference_serves(cell, threshold)
-                    and floors[k] <= cx.REFERENCE_FRACTION * threshold):
+            if (
+                cx.reference_serves(cell, threshold)
+                and floors[k] <= cx.REFERENCE_FRACTION * threshold
+            ):
                 continue  # the crossover's verdict stands as it is
             allowance = max(cell["reference_error"], floors[k])
-            found = dict(size=k[0], stretch_stiffness=k[1], bending=k[2], threshold=threshold,
-                         allowance=allowance, reference_error=cell["reference_error"],
-                         floor=floors[k], ratio=None, implicit=None, explicit=None)
-            errors = [r["error"] for r in crossover["rows"] if key(r) == k and cx.usable(r)
-                      and r["method"] in families and r["method"] != "explicit"]
+            found = dict(
+                size=k[0],
+                stretch_stiffness=k[1],
+                bending=k[2],
+                threshold=threshold,
+                allowance=allowance,
+                reference_error=cell["reference_error"],
+                floor=floors[k],
+                ratio=None,
+                implicit=None,
+                explicit=None,
+            )
+            errors = [
+                r["error"]
+                for r in crossover["rows"]
+                if key(r) == k
+                and cx.usable(r)
+                and r["method"] in families
+                and r["method"] != "explicit"
+            ]
             found["least_implicit_error"] = min(errors, default=None)
             if allowance < threshold:
-                shifted = [dict(r, error=r["error"] + allowance) for r in crossover["rows"]
-                           if key(r) == k and "error" in r]
-                verdict = cx.summarize_cell(dict(cell, reference_error=0.0), shifted,
-                                            families)[f"at_{threshold:g}"]
+                shifted = [
+                    dict(r, error=r["error"] + allowance)
+                    for r in crossover["rows"]
+                    if key(r) == k and "error" in r
+                ]
+                verdict = cx.summarize_cell(dict(cell, reference_error=0.0), shifted, families)[
+                    f"at_{threshold:g}"
+                ]
                 for side in ("implicit", "explicit"):
                     best = verdict[f"best_{side}"]
                     if best:
-                        found[side] = {n: best.get(n) for n in (
-                            "method", "dt", "repeats", "cost_seconds_per_simulated_second")}
+                        found[side] = {
+                            n: best.get(n)
+                            for n in (
+                                "method",
+                                "dt",
+                                "repeats",
+                                "cost_seconds_per_simulated_second",
+                            )
+                        }
                         found[side]["error"] = best["error"] - allowance
                 found["ratio"] = verdict.get("implicit_over_explicit_cost")
             out.append(found)
@@ -181,22 +228,30 @@ def merged(earlier, rows, left_out):
 
 
 def parse_cell(text):
-    """"SIZE:K:BENDING" -> the cell's key; ValueError naming the problem."""
+    """ "SIZE:K:BENDING" -> the cell's key; ValueError naming the problem."""
     parts = text.split(":")
     if len(parts) != 3 or parts[2] not in cx.BENDING_ROWS:
-        raise ValueError(f"--cell wants SIZE:K:BENDING with BENDING one of "
-                         f"{', '.join(cx.BENDING_ROWS)}, got {text!r}")
+        raise ValueError(
+            f"--cell wants SIZE:K:BENDING with BENDING one of "
+            f"{', '.join(cx.BENDING_ROWS)}, got {text!r}"
+        )
     return int(parts[0]), float(parts[1]), parts[2]
 
 
 def main(argv=None):
-    args = arguments(__doc__, argv, extra=lambda parser: (
-        parser.add_argument("--crossover", type=Path,
-                            default=Path("bench-results") / "crossover.json"),
-        parser.add_argument("--max-run-seconds", type=float, default=200.0),
-        parser.add_argument("--cell", action="append", default=[], type=parse_cell),
-        parser.add_argument("--merge", type=Path, default=None),
-        parser.add_argument("--verdicts-only", action="store_true")))
+    args = arguments(
+        __doc__,
+        argv,
+        extra=lambda parser: (
+            parser.add_argument(
+                "--crossover", type=Path, default=Path("bench-results") / "crossover.json"
+            ),
+            parser.add_argument("--max-run-seconds", type=float, default=200.0),
+            parser.add_argument("--cell", action="append", default=[], type=parse_cell),
+            parser.add_argument("--merge", type=Path, default=None),
+            parser.add_argument("--verdicts-only", action="store_true"),
+        ),
+    )
     if args.verdicts_only and (args.merge is None or args.cell or args.quick):
         raise SystemExit("--verdicts-only takes --merge EARLIER.json and no --cell or --quick")
     if args.verdicts_only:
@@ -207,8 +262,18 @@ def main(argv=None):
             cell = dict(cell, horizon=0.125)
             make = cx.sheet(cell["size"], cell["stretch_stiffness"], cell["bending"])
             steps = cx.even_steps(cell["horizon"], 0.5 * make().stable_dt())
-            jobs.append((cell, steps, {"reference_converged": None, "reference_error": None,
-                                       "reference_steps": [], "reference_differences": []}))
+            jobs.append(
+                (
+                    cell,
+                    steps,
+                    {
+                        "reference_converged": None,
+                        "reference_error": None,
+                        "reference_steps": [],
+                        "reference_differences": [],
+                    },
+                )
+            )
     else:
         named = set(args.cell)
         jobs, left_out = cells_from(args.crossover, math.inf if named else args.max_run_seconds)
@@ -221,18 +286,29 @@ def main(argv=None):
         row = measure(cell, steps, facts)
         rows.append(row)
         reference = row["reference_error"]
-        print(f"{describe(row)}: {steps} steps, floor {row['floor']:.2e}, at 1e-10 m "
-              f"{row['distance_1e-10']:.2e} (growth {row['growth']:.3g}), reference "
-              f"{'—' if reference is None else format(reference, '.2e')}, "
-              f"repeat {row['repeat_distance']:.1e}", flush=True)
+        print(
+            f"{describe(row)}: {steps} steps, floor {row['floor']:.2e}, at 1e-10 m "
+            f"{row['distance_1e-10']:.2e} (growth {row['growth']:.3g}), reference "
+            f"{'—' if reference is None else format(reference, '.2e')}, "
+            f"repeat {row['repeat_distance']:.1e}",
+            flush=True,
+        )
     if args.merge is not None:
         rows, left_out = merged(json.loads(args.merge.read_text()), rows, left_out)
     crossover = None if args.quick else json.loads(args.crossover.read_text())
     verdicts = floor_aware(crossover, rows) if crossover else []
-    payload = {"benchmark": "sensitivity", "machine": machine_info(), "quick": args.quick,
-               "rows": rows, "left_out": left_out, "epsilons": list(EPSILONS), "seed": SEED,
-               "thresholds": list(cx.THRESHOLDS), "reference_fraction": cx.REFERENCE_FRACTION,
-               "floor_aware": verdicts}
+    payload = {
+        "benchmark": "sensitivity",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "rows": rows,
+        "left_out": left_out,
+        "epsilons": list(EPSILONS),
+        "seed": SEED,
+        "thresholds": list(cx.THRESHOLDS),
+        "reference_fraction": cx.REFERENCE_FRACTION,
+        "floor_aware": verdicts,
+    }
     save(args.out, "sensitivity", payload, lambda path: plot(payload, path))
     return payload
 
@@ -249,33 +325,60 @@ def plot(payload, path):
     small, large = (f"distance_{e:g}" for e in payload["epsilons"])
     for r in payload["rows"]:
         for key, filled in ((small, True), (large, False)):
-            ax.plot(r["stretch_stiffness"], max(r[key], 1e-16), markers[r["bending"]],
-                    color=colors.get(r["size"], "k"), mfc=colors.get(r["size"], "k")
-                    if filled else "none")
+            ax.plot(
+                r["stretch_stiffness"],
+                max(r[key], 1e-16),
+                markers[r["bending"]],
+                color=colors.get(r["size"], "k"),
+                mfc=colors.get(r["size"], "k") if filled else "none",
+            )
         if r["reference_error"]:
-            ax.plot(r["stretch_stiffness"], r["reference_error"], "_", ms=14,
-                    color=colors.get(r["size"], "k"))
+            ax.plot(
+                r["stretch_stiffness"],
+                r["reference_error"],
+                "_",
+                ms=14,
+                color=colors.get(r["size"], "k"),
+            )
     for t in payload["thresholds"]:
         ax.axhline(payload["reference_fraction"] * t, color="grey", lw=0.8, ls="--")
-        ax.annotate(f"a tenth of {t:g}", (ax.get_xlim()[0], payload["reference_fraction"] * t),
-                    fontsize=7, va="bottom")
+        ax.annotate(
+            f"a tenth of {t:g}",
+            (ax.get_xlim()[0], payload["reference_fraction"] * t),
+            fontsize=7,
+            va="bottom",
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("stretch stiffness k, N/m")
     ax.set_ylabel("distance at max(T/2, T) / size")
-    handles = [plt.Line2D([], [], ls="", marker=m, color="k", label=b)
-               for b, m in markers.items()]
-    handles += [plt.Line2D([], [], ls="", marker="o", color=c, label=f"{s}²")
-                for s, c in colors.items() if any(r["size"] == s for r in payload["rows"])]
-    handles += [plt.Line2D([], [], ls="", marker="o", color="k", label=f"start moved "
-                           f"{payload['epsilons'][0]:g} m"),
-                plt.Line2D([], [], ls="", marker="o", mfc="none", color="k",
-                           label=f"start moved {payload['epsilons'][1]:g} m"),
-                plt.Line2D([], [], ls="", marker="_", ms=14, color="k",
-                           label="reference's last difference")]
+    handles = [plt.Line2D([], [], ls="", marker=m, color="k", label=b) for b, m in markers.items()]
+    handles += [
+        plt.Line2D([], [], ls="", marker="o", color=c, label=f"{s}²")
+        for s, c in colors.items()
+        if any(r["size"] == s for r in payload["rows"])
+    ]
+    handles += [
+        plt.Line2D(
+            [], [], ls="", marker="o", color="k", label=f"start moved {payload['epsilons'][0]:g} m"
+        ),
+        plt.Line2D(
+            [],
+            [],
+            ls="",
+            marker="o",
+            mfc="none",
+            color="k",
+            label=f"start moved {payload['epsilons'][1]:g} m",
+        ),
+        plt.Line2D(
+            [], [], ls="", marker="_", ms=14, color="k", label="reference's last difference"
+        ),
+    ]
     ax.legend(handles=handles, fontsize=7, ncol=2)
-    ax.set_title("How far a start moved by ε ends up (explicit at the reference's step)",
-                 fontsize=9)
+    ax.set_title(
+        "How far a start moved by ε ends up (explicit at the reference's step)", fontsize=9
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -38,12 +38,21 @@ def classify(status, gain, released):
 def main(argv=None):
     from yore.sweep import load_sweep, run
 
-    args = arguments(__doc__, argv, extra=lambda p: p.add_argument(
-        "--workers", type=int, default=None, help="Dask workers (default: the cores)"))
-    sweep = load_sweep(HERE / ("stability_map_quick.toml" if args.quick
-                               else "stability_map.toml"))
-    results = run(sweep, Path(args.out) / "sweeps" / "stability_map", workers=args.workers,
-                  overwrite=True, quiet=True)
+    args = arguments(
+        __doc__,
+        argv,
+        extra=lambda p: p.add_argument(
+            "--workers", type=int, default=None, help="Dask workers (default: the cores)"
+        ),
+    )
+    sweep = load_sweep(HERE / ("stability_map_quick.toml" if args.quick else "stability_map.toml"))
+    results = run(
+        sweep,
+        Path(args.out) / "sweeps" / "stability_map",
+        workers=args.workers,
+        overwrite=True,
+        quiet=True,
+    )
     dataset = results.dataset()
     methods = [str(m) for m in dataset["method"].values]
     stiffness = [float(k) for k in dataset["material.stretch_stiffness"].values]
@@ -54,17 +63,33 @@ def main(argv=None):
         for j, k in enumerate(stiffness):
             for m, dt in enumerate(dts):
                 cell = dataset.isel(method=i, stiffness=j, step=m)
-                state, gain = classify(str(cell["status"].values),
-                                       float(cell["max_energy_gain"].values),
-                                       float(cell["gravity_released"].values))
-                rows.append({"integrator": name, "stiffness": k, "dt": dt, "state": state,
-                             "energy_gain": gain})
+                state, gain = classify(
+                    str(cell["status"].values),
+                    float(cell["max_energy_gain"].values),
+                    float(cell["gravity_released"].values),
+                )
+                rows.append(
+                    {
+                        "integrator": name,
+                        "stiffness": k,
+                        "dt": dt,
+                        "state": state,
+                        "energy_gain": gain,
+                    }
+                )
         print(name, " ".join(r["state"][0] for r in rows if r["integrator"] == name))
-    payload = {"benchmark": "stability_map", "machine": machine_info(), "quick": args.quick,
-               "resolution": int(sweep.sets["mesh.nx"]), "steps": steps,
-               "stiffness_values": stiffness, "dt_values": dts, "integrators": methods,
-               "sweep": str((Path(args.out) / "sweeps" / "stability_map").as_posix()),
-               "rows": rows}
+    payload = {
+        "benchmark": "stability_map",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "resolution": int(sweep.sets["mesh.nx"]),
+        "steps": steps,
+        "stiffness_values": stiffness,
+        "dt_values": dts,
+        "integrators": methods,
+        "sweep": str((Path(args.out) / "sweeps" / "stability_map").as_posix()),
+        "rows": rows,
+    }
     save(args.out, "stability_map", payload, lambda path: plot(payload, path))
     return payload
 
@@ -78,24 +103,29 @@ def plot(payload, path):
 
     stiffness, dts = payload["stiffness_values"], payload["dt_values"]
     integrators = payload["integrators"]
-    fig, axes = plt.subplots(1, len(integrators), figsize=(3.3 * len(integrators), 3.6),
-                             sharey=True)
+    fig, axes = plt.subplots(
+        1, len(integrators), figsize=(3.3 * len(integrators), 3.6), sharey=True
+    )
     cmap = ListedColormap(["#5cb85c", "#f0ad4e", "#d9534f"])
     for ax, name in zip(axes, integrators):
         grid = np.zeros((len(stiffness), len(dts)))
         for row in payload["rows"]:
             if row["integrator"] == name:
                 grid[stiffness.index(row["stiffness"]), dts.index(row["dt"])] = (
-                    STATES.index(row["state"]) if row["state"] in STATES else np.nan)
+                    STATES.index(row["state"]) if row["state"] in STATES else np.nan
+                )
         ax.imshow(grid, cmap=cmap, vmin=0, vmax=2, origin="lower", aspect="auto")
-        ax.set_xticks(range(len(dts)), [f"1/{round(1 / dt)}" for dt in dts], rotation=45,
-                      fontsize=7)
+        ax.set_xticks(
+            range(len(dts)), [f"1/{round(1 / dt)}" for dt in dts], rotation=45, fontsize=7
+        )
         ax.set_yticks(range(len(stiffness)), [f"{k:g}" for k in stiffness], fontsize=7)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("dt (s)")
     axes[0].set_ylabel("spring stiffness (N/m)")
-    fig.suptitle("green: stable, orange: energy gain, red: diverged "
-                 f"({payload['steps']} steps, undamped)", fontsize=9)
+    fig.suptitle(
+        f"green: stable, orange: energy gain, red: diverged ({payload['steps']} steps, undamped)",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -28,10 +28,15 @@ def hung_grid(resolution=15, dt=None, **material):
     """A vertical grid (x–y plane) held along its top edge, under gravity."""
     V, F = yore.grid_mesh(resolution, resolution, width=1.0, height=1.0)
     mass = 0.1 / len(V)
-    cloth = yore.Cloth(V, F, masses=mass, stretch_stiffness=material["stretch_stiffness"],
-                       bend_stiffness=material["bend_stiffness"],
-                       damping=material.get("damping", yore.scenes.DAMPING),
-                       drag=material.get("drag", yore.scenes.DRAG))
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=mass,
+        stretch_stiffness=material["stretch_stiffness"],
+        bend_stiffness=material["bend_stiffness"],
+        damping=material.get("damping", yore.scenes.DAMPING),
+        drag=material.get("drag", yore.scenes.DRAG),
+    )
     top = np.flatnonzero(V[:, 1] >= V[:, 1].max() - 1e-12).astype(np.int32)
     cloth.fix(top)
     return yore.Simulation(cloth, dt=dt)
@@ -39,12 +44,17 @@ def hung_grid(resolution=15, dt=None, **material):
 
 def scenes(quick):
     if quick:
-        return {"hanging_cloth": lambda **kw: yore.scenes.hanging_cloth(resolution=9, **kw),
-                "rotating_cylinder": lambda **kw: yore.scenes.rotating_cylinder(
-                    rings=5, segments=12, **kw)}
-    return {"hanging_cloth": yore.scenes.hanging_cloth,
-            "rotating_cylinder": yore.scenes.rotating_cylinder,
-            "hung_grid": hung_grid}
+        return {
+            "hanging_cloth": lambda **kw: yore.scenes.hanging_cloth(resolution=9, **kw),
+            "rotating_cylinder": lambda **kw: yore.scenes.rotating_cylinder(
+                rings=5, segments=12, **kw
+            ),
+        }
+    return {
+        "hanging_cloth": yore.scenes.hanging_cloth,
+        "rotating_cylinder": yore.scenes.rotating_cylinder,
+        "hung_grid": hung_grid,
+    }
 
 
 def is_stable(make, dt, steps):
@@ -82,8 +92,10 @@ def main(argv=None):
     for name, scene in scenes(args.quick).items():
         for multiplier in multipliers:
             for damped in (True, False):
-                material = {"stretch_stiffness": BASE_STIFFNESS * multiplier,
-                            "bend_stiffness": BASE_STIFFNESS * multiplier}
+                material = {
+                    "stretch_stiffness": BASE_STIFFNESS * multiplier,
+                    "bend_stiffness": BASE_STIFFNESS * multiplier,
+                }
                 if not damped:
                     material.update(damping=0.0, drag=0.0)
 
@@ -97,20 +109,37 @@ def main(argv=None):
                 tight = cloth.stable_time_step()
                 found = largest_stable_dt(make, gershgorin, 1.5 * tight, steps, iterations)
                 default = probe.dt
-                row = {"scene": name, "stiffness": BASE_STIFFNESS * multiplier, "damped": damped,
-                       "vertices": cloth.vertex_count, "gershgorin_dt": gershgorin,
-                       "bound_dt": bound, "estimate_dt": tight, "found_dt": found,
-                       "default_dt": default, "gershgorin_ratio": gershgorin / found,
-                       "bound_ratio": bound / found, "estimate_ratio": tight / found,
-                       "default_ratio": default / found}
+                row = {
+                    "scene": name,
+                    "stiffness": BASE_STIFFNESS * multiplier,
+                    "damped": damped,
+                    "vertices": cloth.vertex_count,
+                    "gershgorin_dt": gershgorin,
+                    "bound_dt": bound,
+                    "estimate_dt": tight,
+                    "found_dt": found,
+                    "default_dt": default,
+                    "gershgorin_ratio": gershgorin / found,
+                    "bound_ratio": bound / found,
+                    "estimate_ratio": tight / found,
+                    "default_ratio": default / found,
+                }
                 rows.append(row)
-                print(f"{name:18s} k={row['stiffness']:8g} damped={damped!s:5s} "
-                      f"gersh {gershgorin:.4g} bound {bound:.4g} est {tight:.4g} "
-                      f"found {found:.4g} default {default:.4g} "
-                      f"default/found {row['default_ratio']:.3f}")
-    payload = {"benchmark": "stable_dt", "machine": machine_info(), "quick": args.quick,
-               "steps": steps, "bisection_iterations": iterations,
-               "safety": EXPLICIT_DT_SAFETY, "rows": rows}
+                print(
+                    f"{name:18s} k={row['stiffness']:8g} damped={damped!s:5s} "
+                    f"gersh {gershgorin:.4g} bound {bound:.4g} est {tight:.4g} "
+                    f"found {found:.4g} default {default:.4g} "
+                    f"default/found {row['default_ratio']:.3f}"
+                )
+    payload = {
+        "benchmark": "stable_dt",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "steps": steps,
+        "bisection_iterations": iterations,
+        "safety": EXPLICIT_DT_SAFETY,
+        "rows": rows,
+    }
     save(args.out, "stable_dt", payload, lambda path: plot(payload, path))
     return payload
 
@@ -122,14 +151,18 @@ def plot(payload, path):
     import matplotlib.pyplot as plt
 
     rows = payload["rows"]
-    labels = [f"{r['scene'].replace('_', ' ')}\nk={r['stiffness']:g}"
-              f"{'' if r['damped'] else ', undamped'}" for r in rows]
+    labels = [
+        f"{r['scene'].replace('_', ' ')}\nk={r['stiffness']:g}{'' if r['damped'] else ', undamped'}"
+        for r in rows
+    ]
     x = np.arange(len(rows))
     fig, ax = plt.subplots(figsize=(max(6.0, 0.55 * len(rows) + 2), 4.2))
-    for offset, key, label in ((-0.3, "gershgorin_ratio", "Gershgorin"),
-                               (-0.1, "bound_ratio", "Laplacian bound"),
-                               (0.1, "estimate_ratio", "Lanczos estimate"),
-                               (0.3, "default_ratio", f"default dt ({payload['safety']} ×)")):
+    for offset, key, label in (
+        (-0.3, "gershgorin_ratio", "Gershgorin"),
+        (-0.1, "bound_ratio", "Laplacian bound"),
+        (0.1, "estimate_ratio", "Lanczos estimate"),
+        (0.3, "default_ratio", f"default dt ({payload['safety']} ×)"),
+    ):
         ax.bar(x + offset, [r[key] for r in rows], width=0.2, label=label)
     ax.axhline(1.0, color="k", lw=0.8)
     ax.axhline(0.8, color="k", lw=0.8, ls="--")

@@ -27,8 +27,7 @@ import time
 from .common import arguments, grid_cloth, machine_info, save
 
 TARGET_RATIO = 1.2
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OMP_WAIT_POLICY", "GOMP_SPINCOUNT",
-                    "OPENBLAS_NUM_THREADS")
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "OPENBLAS_NUM_THREADS")
 # scene → (steps per measurement at full size, at --quick size)
 SCENES = {"demo": (20000, 2000), "grid128": (400, 40), "grid64-implicit": (12, 3)}
 QUICK_GRID = {"grid128": 32, "grid64-implicit": 16}  # smaller cloths for --quick
@@ -88,8 +87,12 @@ class Burner:
         core = max(os.sched_getaffinity(0))
         self.core = core
         self.process = subprocess.Popen(
-            [sys.executable, "-c", f"import os\nos.sched_setaffinity(0, {{{core}}})\n"
-             "while True:\n    pass\n"])
+            [
+                sys.executable,
+                "-c",
+                f"import os\nos.sched_setaffinity(0, {{{core}}})\nwhile True:\n    pass\n",
+            ]
+        )
         time.sleep(0.2)  # let it start spinning
         return self
 
@@ -109,7 +112,7 @@ def measure(quick: bool, repeats: int, env_extra: dict) -> tuple[list, list]:
                 burner.__enter__()
             try:
                 for r in range(repeats):
-                    for mode in (("one", "default") if r % 2 == 0 else ("default", "one")):
+                    for mode in ("one", "default") if r % 2 == 0 else ("default", "one"):
                         out = run_worker(scene, mode, quick, env_extra)
                         samples[mode].append(out["step_seconds"])
                         used[mode] = out["threads"]
@@ -117,18 +120,33 @@ def measure(quick: bool, repeats: int, env_extra: dict) -> tuple[list, list]:
                 if burner:
                     burner.__exit__(None, None, None)
             for mode, values in samples.items():
-                rows.append({"scene": scene, "load": load, "mode": mode,
-                             "threads_configured": used[mode]["configured"],
-                             "threads_used": used[mode],
-                             "step_seconds_median": statistics.median(values),
-                             "step_seconds_min": min(values), "step_seconds_max": max(values),
-                             "repeats": len(values)})
+                rows.append(
+                    {
+                        "scene": scene,
+                        "load": load,
+                        "mode": mode,
+                        "threads_configured": used[mode]["configured"],
+                        "threads_used": used[mode],
+                        "step_seconds_median": statistics.median(values),
+                        "step_seconds_min": min(values),
+                        "step_seconds_max": max(values),
+                        "repeats": len(values),
+                    }
+                )
             ratio = statistics.median(samples["default"]) / statistics.median(samples["one"])
-            cells.append({"scene": scene, "load": load, "default_over_one_thread": ratio,
-                          "met": ratio <= TARGET_RATIO})
-            print(f"{load:5s} {scene:16s} one thread {1e3 * statistics.median(samples['one']):8.3f}"
-                  f" ms  default ({used['default']['configured']} configured) "
-                  f"{1e3 * statistics.median(samples['default']):8.3f} ms  ratio {ratio:.2f}")
+            cells.append(
+                {
+                    "scene": scene,
+                    "load": load,
+                    "default_over_one_thread": ratio,
+                    "met": ratio <= TARGET_RATIO,
+                }
+            )
+            print(
+                f"{load:5s} {scene:16s} one thread {1e3 * statistics.median(samples['one']):8.3f}"
+                f" ms  default ({used['default']['configured']} configured) "
+                f"{1e3 * statistics.median(samples['default']):8.3f} ms  ratio {ratio:.2f}"
+            )
     return rows, cells
 
 
@@ -141,12 +159,26 @@ def plot(rows, cells, path):
     fig, ax = plt.subplots(figsize=(7, 4.2))
     labels = [f"{c['scene']}\n{c['load']}" for c in cells]
     for offset, mode, color in ((-0.2, "one", "tab:gray"), (0.2, "default", "tab:blue")):
-        values = [next(r["step_seconds_median"] for r in rows if r["scene"] == c["scene"]
-                       and r["load"] == c["load"] and r["mode"] == mode)
-                  / next(r["step_seconds_median"] for r in rows if r["scene"] == c["scene"]
-                         and r["load"] == c["load"] and r["mode"] == "one") for c in cells]
-        ax.bar([i + offset for i in range(len(cells))], values, width=0.4, color=color,
-               label="one thread" if mode == "one" else "default")
+        values = [
+            next(
+                r["step_seconds_median"]
+                for r in rows
+                if r["scene"] == c["scene"] and r["load"] == c["load"] and r["mode"] == mode
+            )
+            / next(
+                r["step_seconds_median"]
+                for r in rows
+                if r["scene"] == c["scene"] and r["load"] == c["load"] and r["mode"] == "one"
+            )
+            for c in cells
+        ]
+        ax.bar(
+            [i + offset for i in range(len(cells))],
+            values,
+            width=0.4,
+            color=color,
+            label="one thread" if mode == "one" else "default",
+        )
     ax.axhline(TARGET_RATIO, color="tab:red", linestyle="--", label=f"target {TARGET_RATIO}×")
     ax.set_xticks(range(len(cells)))
     ax.set_xticklabels(labels, fontsize=8)
@@ -165,20 +197,34 @@ def main(argv=None):
         return None
 
     def extra(parser):
-        parser.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
-                            help="a thread variable for the default runs (repeatable)")
+        parser.add_argument(
+            "--env",
+            action="append",
+            default=[],
+            metavar="NAME=VALUE",
+            help="a thread variable for the default runs (repeatable)",
+        )
         parser.add_argument("--repeats", type=int, default=None)
 
     args = arguments(__doc__, argv, extra)
     env_extra = dict(item.split("=", 1) for item in args.env)
     repeats = args.repeats or (1 if args.quick else 7)
     rows, cells = measure(args.quick, repeats, env_extra)
-    payload = {"benchmark": "threads", "machine": machine_info(), "quick": args.quick,
-               "target_ratio": TARGET_RATIO, "target_met": all(c["met"] for c in cells),
-               "default_environment": env_extra, "rows": rows, "cells": cells}
+    payload = {
+        "benchmark": "threads",
+        "machine": machine_info(),
+        "quick": args.quick,
+        "target_ratio": TARGET_RATIO,
+        "target_met": all(c["met"] for c in cells),
+        "default_environment": env_extra,
+        "rows": rows,
+        "cells": cells,
+    }
     save(args.out, "threads", payload, lambda path: plot(rows, cells, path))
-    print(f"target: default at most {TARGET_RATIO}× one thread in every cell — "
-          f"{'met' if payload['target_met'] else 'missed'}")
+    print(
+        f"target: default at most {TARGET_RATIO}× one thread in every cell — "
+        f"{'met' if payload['target_met'] else 'missed'}"
+    )
     return payload
 
 

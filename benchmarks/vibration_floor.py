@@ -79,48 +79,84 @@ def measure_cell(n, k, quick=False):
             row["failure"] = cpu
         else:
             steps = steps_of(sim)
-            row.update(error=error(positions), cpu_seconds=cpu, internal_steps=steps,
-                       mean_step=HORIZON / steps, unconverged_steps=int(
-                           sim.stats["counters"].get("unconverged_steps", 0)))
+            row.update(
+                error=error(positions),
+                cpu_seconds=cpu,
+                internal_steps=steps,
+                mean_step=HORIZON / steps,
+                unconverged_steps=int(sim.stats["counters"].get("unconverged_steps", 0)),
+            )
         rows.append(row)
         return row
 
     for divisor in (1, 2, 4, 8):
-        add("explicit", divisor, {"integrator": "explicit", "dt": stable / divisor},
-            lambda sim: sim.stats["steps"])
+        add(
+            "explicit",
+            divisor,
+            {"integrator": "explicit", "dt": stable / divisor},
+            lambda sim: sim.stats["steps"],
+        )
     for rtol in CVODE_TOLERANCES[:3] if quick else CVODE_TOLERANCES:
-        r = add("cvode", rtol, {"integrator": "cvode", "dt": 1 / 64, "rtol": rtol,
-                                "atol": rtol / 10, "max_steps": 10 ** 6},
-                lambda sim: int(sim.stats["counters"]["internal_steps"]))
+        r = add(
+            "cvode",
+            rtol,
+            {
+                "integrator": "cvode",
+                "dt": 1 / 64,
+                "rtol": rtol,
+                "atol": rtol / 10,
+                "max_steps": 10**6,
+            },
+            lambda sim: int(sim.stats["counters"]["internal_steps"]),
+        )
         if r.get("cpu_seconds", 0.0) > MAX_SECONDS:
             break
     for rtol in AUTO_TOLERANCES[:3] if quick else AUTO_TOLERANCES:
-        r = add("tr-bdf2 auto", rtol, {"integrator": "tr-bdf2", "dt": HORIZON / 2,
-                                       "adaptive": True, "rtol": rtol, "atol": rtol / 10,
-                                       "max_steps": 10 ** 6},
-                lambda sim: sim.stats["steps"])
+        r = add(
+            "tr-bdf2 auto",
+            rtol,
+            {
+                "integrator": "tr-bdf2",
+                "dt": HORIZON / 2,
+                "adaptive": True,
+                "rtol": rtol,
+                "atol": rtol / 10,
+                "max_steps": 10**6,
+            },
+            lambda sim: sim.stats["steps"],
+        )
         if r.get("cpu_seconds", 0.0) > MAX_SECONDS:
             break
     for rate in FIXED_RATES[:3] if quick else FIXED_RATES:
-        r = add("tr-bdf2 fixed, tight Newton", 1 / rate,
-                {"integrator": "tr-bdf2", "dt": 1 / rate, **TIGHT},
-                lambda sim: sim.stats["steps"])
+        r = add(
+            "tr-bdf2 fixed, tight Newton",
+            1 / rate,
+            {"integrator": "tr-bdf2", "dt": 1 / rate, **TIGHT},
+            lambda sim: sim.stats["steps"],
+        )
         if r.get("cpu_seconds", 0.0) > MAX_SECONDS:
             break
     for family in ("cvode", "tr-bdf2 auto", "tr-bdf2 fixed, tight Newton"):
         mine = [r for r in rows if r["family"] == family and "error" in r]
         for a, b in zip(mine, mine[1:]):
             b["slope_vs_step"] = math.log(a["error"] / b["error"]) / math.log(
-                a["mean_step"] / b["mean_step"])
+                a["mean_step"] / b["mean_step"]
+            )
             if family != "tr-bdf2 fixed, tight Newton":
                 b["slope_vs_rtol"] = math.log(a["error"] / b["error"]) / math.log(
-                    a["setting"] / b["setting"])
+                    a["setting"] / b["setting"]
+                )
     for r in rows:
         r.update(size=n, stiffness=k)
         if "mean_step" in r:
             r["mean_step_over_stable_dt"] = r["mean_step"] / stable
-    return {"size": n, "stiffness": k, "stable_dt": stable, "reference_dt":
-            stable / REFERENCE_DIVISOR, "rows": rows}
+    return {
+        "size": n,
+        "stiffness": k,
+        "stable_dt": stable,
+        "reference_dt": stable / REFERENCE_DIVISOR,
+        "rows": rows,
+    }
 
 
 def draw(cells, path):
@@ -130,14 +166,23 @@ def draw(cells, path):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(cells), figsize=(5.5 * len(cells), 4.2), squeeze=False)
-    styles = {"explicit": ("k", "*"), "cvode": ("tab:red", "s"),
-              "tr-bdf2 auto": ("tab:purple", "D"), "tr-bdf2 fixed, tight Newton": ("tab:blue", "o")}
+    styles = {
+        "explicit": ("k", "*"),
+        "cvode": ("tab:red", "s"),
+        "tr-bdf2 auto": ("tab:purple", "D"),
+        "tr-bdf2 fixed, tight Newton": ("tab:blue", "o"),
+    }
     for ax, cell in zip(axes[0], cells):
         for family, (colour, marker) in styles.items():
             rows = [r for r in cell["rows"] if r["family"] == family and "error" in r]
             if rows:
-                ax.loglog([r["mean_step"] for r in rows], [r["error"] for r in rows],
-                          marker=marker, color=colour, label=family)
+                ax.loglog(
+                    [r["mean_step"] for r in rows],
+                    [r["error"] for r in rows],
+                    marker=marker,
+                    color=colour,
+                    label=family,
+                )
         ax.axvline(cell["stable_dt"], color="grey", ls=":", label="explicit stable step")
         ax.set_title(f"{cell['size']}², k = {cell['stiffness']:g} N/m, T = {HORIZON} s")
         ax.set_xlabel("mean internal step (s)")
@@ -152,17 +197,30 @@ def main(argv=None):
     args = common.arguments(__doc__, argv)
     yore.set_num_threads(1)
     cells = []
-    for n, k in (QUICK_CELLS if args.quick else CELLS):
+    for n, k in QUICK_CELLS if args.quick else CELLS:
         print(f"== {n}² k = {k:g}", flush=True)
         cells.append(measure_cell(n, k, args.quick))
         for r in cells[-1]["rows"]:
-            print("  ", {key: (f"{v:.3g}" if isinstance(v, float) else v) for key, v in r.items()
-                         if key not in ("size", "stiffness")}, flush=True)
-    payload = {"benchmark": "vibration_floor", "machine": common.machine_info(),
-               "quick": args.quick, "horizon": HORIZON,
-               "cells": [{key: c[key] for key in ("size", "stiffness", "stable_dt",
-                                                  "reference_dt")} for c in cells],
-               "rows": [r for c in cells for r in c["rows"]]}
+            print(
+                "  ",
+                {
+                    key: (f"{v:.3g}" if isinstance(v, float) else v)
+                    for key, v in r.items()
+                    if key not in ("size", "stiffness")
+                },
+                flush=True,
+            )
+    payload = {
+        "benchmark": "vibration_floor",
+        "machine": common.machine_info(),
+        "quick": args.quick,
+        "horizon": HORIZON,
+        "cells": [
+            {key: c[key] for key in ("size", "stiffness", "stable_dt", "reference_dt")}
+            for c in cells
+        ],
+        "rows": [r for c in cells for r in c["rows"]],
+    }
     common.save(args.out, "vibration_floor", payload, lambda path: draw(cells, path))
 
 

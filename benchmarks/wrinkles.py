@@ -73,15 +73,32 @@ B0 = 2.5e-5  # N·m
 #: wrinkles at onset are short (λ ≈ 2π (2B/|S_yy|)^½ with the compression S_yy ≈ 12 N/m of
 #: the flat state): it needs B ≲ 1e-4 N·m and edges of a few mm (at 7–10 mm every membrane run
 #: stayed flat, measured). The lattice wrinkles on coarser meshes and at larger B.
-BASES = {"membrane": {"length": 1.0, "width": 0.5, "strain": 0.1, "edge_length": 0.005,
-                      "bending_modulus": B0},
-         "springs": {"length": 1.0, "width": 0.5, "strain": 0.1, "edge_length": 0.014,
-                     "bending_modulus": 4 * B0}}
+BASES = {
+    "membrane": {
+        "length": 1.0,
+        "width": 0.5,
+        "strain": 0.1,
+        "edge_length": 0.005,
+        "bending_modulus": B0,
+    },
+    "springs": {
+        "length": 1.0,
+        "width": 0.5,
+        "strain": 0.1,
+        "edge_length": 0.014,
+        "bending_modulus": 4 * B0,
+    },
+}
 SETTLE_SECONDS = 40.0  # pseudo-time cap of one relaxation
 SETTLE_TOLERANCE = 1e-5  # m/s²: 1e-6 of the sheet's tension over its areal density
 MESHES = {"membrane": [0.007, 0.005, 0.0035, 0.0025], "springs": [0.02, 0.014, 0.01]}
-QUICK_BASE = {"length": 0.4, "width": 0.2, "strain": 0.1, "edge_length": 0.04,
-              "bending_modulus": 4 * B0}
+QUICK_BASE = {
+    "length": 0.4,
+    "width": 0.2,
+    "strain": 0.1,
+    "edge_length": 0.04,
+    "bending_modulus": 4 * B0,
+}
 STROKE_RESOLUTIONS = [21, 31, 41]
 QUICK_STROKE_RESOLUTIONS = [9, 13]
 #: Issue 52's stroke against the mesh, in physical units: a band 6 cm wide along v = 0.8 from
@@ -104,20 +121,23 @@ BAND_SETTLE_SECONDS = 120.0  # pseudo-time cap; the 41² cloth settles in ~55 s
 #: before the lattice (issue 52) have none and are redone.
 INTERIORS = {"pattern": "lattice", "delaunay": "delaunay"}
 #: The summary's name of each (model, mesh, membrane strain) kind.
-KINDS = {("membrane", "pattern", "faces"): "membrane",
-         ("membrane", "grid", "faces"): "membrane on an aligned grid",
-         ("membrane", "delaunay", "faces"): "membrane on a Delaunay mesh",
-         ("membrane", "pattern", "smoothed"): "membrane, smoothed strain",
-         ("membrane", "grid", "smoothed"): "membrane, smoothed strain, on an aligned grid",
-         ("membrane", "delaunay", "smoothed"): "membrane, smoothed strain, on a Delaunay mesh",
-         ("springs", "pattern", None): "springs"}
+KINDS = {
+    ("membrane", "pattern", "faces"): "membrane",
+    ("membrane", "grid", "faces"): "membrane on an aligned grid",
+    ("membrane", "delaunay", "faces"): "membrane on a Delaunay mesh",
+    ("membrane", "pattern", "smoothed"): "membrane, smoothed strain",
+    ("membrane", "grid", "smoothed"): "membrane, smoothed strain, on an aligned grid",
+    ("membrane", "delaunay", "smoothed"): "membrane, smoothed strain, on a Delaunay mesh",
+    ("springs", "pattern", None): "springs",
+}
 
 
 def current(row, model, mesh, strain="faces"):
     """Whether a journaled row measured today's models: the membrane's strain (the faces', the
     default, unless the row asks for the smoothed one) and the mesh kind's pattern interior."""
-    return (row.get("membrane_strain") == (strain if model == "membrane" else None)
-            and row.get("pattern_interior") == INTERIORS.get(mesh))
+    return row.get("membrane_strain") == (strain if model == "membrane" else None) and row.get(
+        "pattern_interior"
+    ) == INTERIORS.get(mesh)
 
 
 def sheet_runs(quick):
@@ -138,8 +158,12 @@ def sheet_runs(quick):
     # aligned with the sheet (no interpolation slope along the wrinkles: the reference); a
     # second seeded start of each base; on CGAL's Delaunay meshes throughout (what pattern
     # meshes were before issue 52) the base and the meshes only
-    for model, mesh in (("membrane", "pattern"), ("membrane", "grid"), ("springs", "pattern"),
-                        ("membrane", "delaunay")):
+    for model, mesh in (
+        ("membrane", "pattern"),
+        ("membrane", "grid"),
+        ("springs", "pattern"),
+        ("membrane", "delaunay"),
+    ):
         add("base", model, mesh=mesh)
         if mesh == "delaunay":
             for edge in MESHES[model] if not quick else []:
@@ -150,8 +174,13 @@ def sheet_runs(quick):
             for smoothed_mesh in ("pattern", "grid", "delaunay"):
                 add("base", model, mesh=smoothed_mesh, membrane_strain="smoothed")
                 for edge in MESHES[model] if not quick else []:
-                    add("mesh", model, edge_length=edge, mesh=smoothed_mesh,
-                        membrane_strain="smoothed")
+                    add(
+                        "mesh",
+                        model,
+                        edge_length=edge,
+                        mesh=smoothed_mesh,
+                        membrane_strain="smoothed",
+                    )
             continue
         if model == "membrane":
             add("seed", model, mesh=mesh, seed=1)
@@ -178,8 +207,9 @@ def sheet_runs(quick):
 def lattice_moduli(V, F, stiffness):
     """The spring lattice's in-plane moduli under affine strains (J/m² per strain²): energies of
     three small strains give C11, C22, C12; returns (Y along u under uniaxial stress, ν)."""
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0
+    )
     d = V[edges[:, 1], :2] - V[edges[:, 0], :2]
     length = np.linalg.norm(d, axis=1)
     n = d / length[:, None]
@@ -188,12 +218,12 @@ def lattice_moduli(V, F, stiffness):
 
     def energy(exx, eyy):  # small strain: ΔL = L n·εn, energy Σ ½ k ΔL² per area
         stretch = length * (n[:, 0] ** 2 * exx + n[:, 1] ** 2 * eyy)
-        return 0.5 * stiffness * np.sum(stretch ** 2) / area
+        return 0.5 * stiffness * np.sum(stretch**2) / area
 
     e = 1e-4
-    c11, c22 = 2 * energy(e, 0) / e ** 2, 2 * energy(0, e) / e ** 2
-    c12 = (energy(e, e) - energy(e, 0) - energy(0, e)) / e ** 2
-    return c11 - c12 ** 2 / c22, c12 / c22
+    c11, c22 = 2 * energy(e, 0) / e**2, 2 * energy(0, e) / e**2
+    c12 = (energy(e, e) - energy(e, 0) - energy(0, e)) / e**2
+    return c11 - c12**2 / c22, c12 / c22
 
 
 def predicted_wavelength(length, bending, young, strain):
@@ -230,7 +260,7 @@ def face_stress(uv, F, P):
     """The membrane's second Piola–Kirchhoff stress per face (f×2×2, N/m; St. Venant–Kirchhoff,
     plane stress, YOUNG and POISSON) at positions P, with rest triangles from the pattern uv."""
     mu = YOUNG / (2 * (1 + POISSON))
-    lam = YOUNG * POISSON / (1 - POISSON ** 2)
+    lam = YOUNG * POISSON / (1 - POISSON**2)
     rest = np.stack([uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]], axis=2)
     now = np.stack([P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]], axis=2)
     G = now @ np.linalg.inv(rest)
@@ -245,10 +275,11 @@ def realized_bending(uv, F, bending_modulus, radius=0.5):
     V = np.column_stack([uv, np.zeros(len(uv))])
     cloth = yore.Cloth(V, F, bending="quadratic", bending_modulus=bending_modulus)
     angle = uv[:, 1] / radius
-    cloth.positions = np.column_stack([uv[:, 0], radius * np.sin(angle),
-                                       radius * (1 - np.cos(angle))])
+    cloth.positions = np.column_stack(
+        [uv[:, 0], radius * np.sin(angle), radius * (1 - np.cos(angle))]
+    )
     area = metrics.area(V, F)
-    return cloth.energy((0.0, 0.0, 0.0))["bending"] / (0.5 * area / radius ** 2)
+    return cloth.energy((0.0, 0.0, 0.0))["bending"] / (0.5 * area / radius**2)
 
 
 def fitted_gradient_weights(uv, F, vertices):
@@ -271,8 +302,9 @@ def fitted_gradient_weights(uv, F, vertices):
             if len(index) >= 6 and np.linalg.det(spread) > 1e-12 * np.trace(spread) ** 2:
                 to_white = np.linalg.inv(np.linalg.cholesky(spread))
                 s = d @ to_white.T
-                design = np.column_stack([np.ones(len(index)), s, s[:, 0] ** 2,
-                                          s[:, 0] * s[:, 1], s[:, 1] ** 2])
+                design = np.column_stack(
+                    [np.ones(len(index)), s, s[:, 0] ** 2, s[:, 0] * s[:, 1], s[:, 1] ** 2]
+                )
                 sigma = np.linalg.svd(design, compute_uv=False)
                 if sigma[-1] >= 1e-2 * sigma[0]:
                     out[p] = (index, to_white.T @ np.linalg.pinv(design)[1:3])
@@ -298,8 +330,7 @@ def artificial_bending(uv, F, stress, wavelength, middle, gradients="linear"):
     `membrane_artificial_bending`."""
     if gradients not in ("linear", "fitted"):
         raise ValueError(f'gradients must be "linear" or "fitted", got {gradients!r}')
-    fits = (fitted_gradient_weights(uv, F, np.unique(F[middle])) if gradients == "fitted"
-            else None)
+    fits = fitted_gradient_weights(uv, F, np.unique(F[middle])) if gradients == "fitted" else None
     k = 2 * math.pi / wavelength
     a, b = uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]
     twice_area = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
@@ -314,9 +345,9 @@ def artificial_bending(uv, F, stress, wavelength, middle, gradients="linear"):
             at = {p: C @ z[index] for p, (index, C) in fits.items()}
             for f in np.flatnonzero(middle):
                 gu[f], gv[f] = np.mean([at[p] for p in F[f]], axis=0)
-        density = stress[:, 0, 0] * gu ** 2 + 2 * stress[:, 0, 1] * gu * gv
+        density = stress[:, 0, 0] * gu**2 + 2 * stress[:, 0, 1] * gu * gv
         spurious += np.sum((area * density)[middle])
-        reference += np.sum((area * (z[F] ** 2).mean(axis=1))[middle]) * k ** 4
+        reference += np.sum((area * (z[F] ** 2).mean(axis=1))[middle]) * k**4
     return float(spurious / reference)
 
 
@@ -372,15 +403,18 @@ def membrane_artificial_bending(cloth, uv, F, stress, wavelength, length):
                 angle = k * points[..., 1] + phase
                 gu = dw_point * np.sin(angle)
                 gv = w_point * k * np.cos(angle)
-                density = (stress[:, None, 0, 0] * gu * gu + 2 * stress[:, None, 0, 1] * gu * gv
-                           + stress[:, None, 1, 1] * gv * gv)
+                density = (
+                    stress[:, None, 0, 0] * gu * gu
+                    + 2 * stress[:, None, 0, 1] * gu * gv
+                    + stress[:, None, 1, 1] * gv * gv
+                )
                 continuum += 0.5 * np.sum(area * density.mean(axis=1))
                 squared += np.sum(area * ((w_point * np.sin(angle)) ** 2).mean(axis=1))
-        increments.append(increase / amplitude ** 2)
+        increments.append(increase / amplitude**2)
     cloth.positions = flat
     quadratic = (4 * increments[0] - increments[1]) / 3  # per a², the quartic term cancelled
     # continuum and squared were summed at amplitude 1 (per a²)
-    return float((quadratic - continuum) / (0.5 * k ** 4 * squared))
+    return float((quadratic - continuum) / (0.5 * k**4 * squared))
 
 
 def tension_artificial_bending(model, parameters, tension, wavelength):
@@ -403,12 +437,11 @@ def tension_artificial_bending(model, parameters, tension, wavelength):
     cloth, uv = sim.cloth, sim.scene["uv"]
     F = cloth.faces
     mu = YOUNG / (2 * (1 + POISSON))
-    lam = YOUNG * POISSON / (1 - POISSON ** 2)
+    lam = YOUNG * POISSON / (1 - POISSON**2)
     stretch = 1 + parameters["strain"]
-    e_uu = 0.5 * (stretch ** 2 - 1)
+    e_uu = 0.5 * (stretch**2 - 1)
     e_vv = -lam * e_uu / (2 * mu + lam)  # St. Venant–Kirchhoff: S_vv = 0
-    P = np.column_stack([uv[:, 0] * stretch, uv[:, 1] * math.sqrt(1 + 2 * e_vv),
-                         np.zeros(len(uv))])
+    P = np.column_stack([uv[:, 0] * stretch, uv[:, 1] * math.sqrt(1 + 2 * e_vv), np.zeros(len(uv))])
     cloth.positions = P
     S = face_stress(uv, F, P)
     probe = membrane_artificial_bending(cloth, uv, F, S, wavelength, parameters["length"])
@@ -423,18 +456,26 @@ def judge(row):
     if "flat_state_probe_bending" not in row:
         row["flat_state_probe_bending"] = row.pop("artificial_bending", None)
     if row.get("artificial_bending") is None and row["model"] == "membrane":
-        parameters = {k: row[k] for k in ("length", "width", "strain", "edge_length",
-                                          "bending_modulus", "mesh", "seed")}
+        parameters = {
+            k: row[k]
+            for k in ("length", "width", "strain", "edge_length", "bending_modulus", "mesh", "seed")
+        }
         if row.get("membrane_strain") == "smoothed":
             parameters["membrane_strain"] = "smoothed"
         row["artificial_bending"] = tension_artificial_bending(
-            row["model"], parameters, row["tension"],
-            row["wavelength"] or row["predicted_wavelength"])
+            row["model"],
+            parameters,
+            row["tension"],
+            row["wavelength"] or row["predicted_wavelength"],
+        )
     row.setdefault("artificial_bending", None)
     b_art, wavelength = row["artificial_bending"], row["wavelength"]
-    row["judged"] = bool(wavelength is not None and not row["zigzag"]
-                         and wavelength / row["mean_edge"] >= 8
-                         and (b_art is None or abs(b_art) <= 0.1 * row["bending_modulus"]))
+    row["judged"] = bool(
+        wavelength is not None
+        and not row["zigzag"]
+        and wavelength / row["mean_edge"] >= 8
+        and (b_art is None or abs(b_art) <= 0.1 * row["bending_modulus"])
+    )
     return row
 
 
@@ -448,8 +489,13 @@ def flat_state_check(model, parameters, wavelength):
     sim.settle(max_seconds=SETTLE_SECONDS, tolerance=SETTLE_TOLERANCE, check_stability=False)
     cloth = sim.cloth
     stable = not yore.settling.is_saddle(cloth, (0.0, 0.0, 0.0))
-    out = {"flat_state_stable": stable, "flat_state_compression": None, "tension": None,
-           "flat_state_probe_bending": None, "artificial_bending_faces": None}
+    out = {
+        "flat_state_stable": stable,
+        "flat_state_compression": None,
+        "tension": None,
+        "flat_state_probe_bending": None,
+        "artificial_bending_faces": None,
+    }
     if model == "membrane":
         uv, F = sim.scene["uv"], cloth.faces
         S = face_stress(uv, F, cloth.positions)
@@ -462,24 +508,35 @@ def flat_state_check(model, parameters, wavelength):
         # with the faces' constant strain (a state without "membrane_strain" loads so): what
         # the membrane carried before
         out["flat_state_probe_bending"] = membrane_artificial_bending(
-            cloth, uv, F, S, wavelength, parameters["length"])
+            cloth, uv, F, S, wavelength, parameters["length"]
+        )
         faces_state = cloth.state()
         faces_state.pop("membrane_strain", None)
         out["artificial_bending_faces"] = membrane_artificial_bending(
-            yore.Cloth.from_state(faces_state), uv, F, S, wavelength, parameters["length"])
+            yore.Cloth.from_state(faces_state), uv, F, S, wavelength, parameters["length"]
+        )
     return out
 
 
 def make(model, parameters, noise=NOISE):
-    options = dict(length=parameters["length"], width=parameters["width"],
-                   strain=parameters["strain"], edge_length=parameters["edge_length"],
-                   bending_modulus=parameters["bending_modulus"], noise=noise,
-                   mesh=parameters.get("mesh", "pattern"), seed=parameters.get("seed", 0))
+    options = dict(
+        length=parameters["length"],
+        width=parameters["width"],
+        strain=parameters["strain"],
+        edge_length=parameters["edge_length"],
+        bending_modulus=parameters["bending_modulus"],
+        noise=noise,
+        mesh=parameters.get("mesh", "pattern"),
+        seed=parameters.get("seed", 0),
+    )
     if model == "membrane":
-        return yore.scenes.stretched_sheet(stretch="membrane", young_modulus=YOUNG,
-                                           poisson_ratio=POISSON,
-                                           membrane_strain=parameters.get("membrane_strain"),
-                                           **options)
+        return yore.scenes.stretched_sheet(
+            stretch="membrane",
+            young_modulus=YOUNG,
+            poisson_ratio=POISSON,
+            membrane_strain=parameters.get("membrane_strain"),
+            **options,
+        )
     return yore.scenes.stretched_sheet(stretch="springs", stretch_stiffness=YOUNG, **options)
 
 
@@ -490,8 +547,9 @@ def sheet_run(label, model, parameters):
     cloth = sim.cloth
     F, uv = cloth.faces, sim.scene["uv"]
     h = mean_edge(uv, F)
-    y, z = section(cloth.positions, parameters["length"], parameters["strain"],
-                   parameters["width"], h)
+    y, z = section(
+        cloth.positions, parameters["length"], parameters["strain"], parameters["width"], h
+    )
     amplitude = float(np.abs(z).max())
     flat = amplitude < FLAT
     wavelength, count = wavelength_of(y, z)
@@ -499,8 +557,9 @@ def sheet_run(label, model, parameters):
         young, nu = YOUNG, POISSON
     else:
         young, nu = lattice_moduli(np.column_stack([uv, np.zeros(len(uv))]), F, YOUNG)
-    predicted = predicted_wavelength(parameters["length"], parameters["bending_modulus"], young,
-                                     parameters["strain"])
+    predicted = predicted_wavelength(
+        parameters["length"], parameters["bending_modulus"], young, parameters["strain"]
+    )
     flat_state = flat_state_check(model, parameters, predicted if flat else wavelength)
     # the wrinkled zone: the span along the length (pattern u) of the vertices whose height is
     # over a tenth of the largest
@@ -509,22 +568,32 @@ def sheet_run(label, model, parameters):
     zone = float(lifted.max() - lifted.min()) if len(lifted) else 0.0
     realized = realized_bending(uv, F, parameters["bending_modulus"])
     zigzag = bool(not flat and wavelength < 4 * h)
-    row = {"label": label, "model": model, **parameters, "vertices": int(cloth.vertex_count),
-           "membrane_strain": cloth.membrane_strain,
-           "pattern_interior": INTERIORS.get(parameters.get("mesh", "pattern")),
-           "mean_edge": h, "young": float(young), "poisson": float(nu),
-           "predicted_wavelength": predicted,
-           "realized_bending": realized,
-           "points_per_wavelength": None if flat else float(wavelength / h),
-           "wrinkled_zone": zone,
-           "flat": bool(flat), "amplitude": amplitude,
-           "wavelength": None if flat else float(wavelength),
-           "wrinkles": None if flat else count,
-           "zigzag": zigzag,
-           "settle": {k: settled[k] for k in ("seconds", "converged", "residual_acceleration",
-                                               "saddles_escaped", "stable")},
-           **flat_state,
-           "section": {"y": y[::64].tolist(), "z": z[::64].tolist()}}
+    row = {
+        "label": label,
+        "model": model,
+        **parameters,
+        "vertices": int(cloth.vertex_count),
+        "membrane_strain": cloth.membrane_strain,
+        "pattern_interior": INTERIORS.get(parameters.get("mesh", "pattern")),
+        "mean_edge": h,
+        "young": float(young),
+        "poisson": float(nu),
+        "predicted_wavelength": predicted,
+        "realized_bending": realized,
+        "points_per_wavelength": None if flat else float(wavelength / h),
+        "wrinkled_zone": zone,
+        "flat": bool(flat),
+        "amplitude": amplitude,
+        "wavelength": None if flat else float(wavelength),
+        "wrinkles": None if flat else count,
+        "zigzag": zigzag,
+        "settle": {
+            k: settled[k]
+            for k in ("seconds", "converged", "residual_acceleration", "saddles_escaped", "stable")
+        },
+        **flat_state,
+        "section": {"y": y[::64].tolist(), "z": z[::64].tolist()},
+    }
     judge(row)
     row["cpu_seconds"] = time.process_time() - start
     return row
@@ -546,17 +615,22 @@ def stroke_run(model, resolution, quick):
     V, F = sim.cloth.positions, sim.cloth.faces
     region = np.asarray(report.region_faces)
     height = metrics.wrinkle_height(V, F)[np.unique(F[region])]
-    return {"model": model, "resolution": resolution, "faces_split": len(report.new_vertices),
-            "wrinkle_measure": metrics.wrinkle_measure(V, F, region),
-            "fold_depth": float(height.max() - height.min()),
-            "area_growth": float(report.rest_area_after / report.rest_area_before),
-            "cpu_seconds": time.process_time() - start}
+    return {
+        "model": model,
+        "resolution": resolution,
+        "faces_split": len(report.new_vertices),
+        "wrinkle_measure": metrics.wrinkle_measure(V, F, region),
+        "fold_depth": float(height.max() - height.min()),
+        "area_growth": float(report.rest_area_after / report.rest_area_before),
+        "cpu_seconds": time.process_time() - start,
+    }
 
 
 def mean_edge(points, F):
     """The mesh's mean edge length (each edge once), in the units of `points`."""
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0
+    )
     return float(np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1).mean())
 
 
@@ -573,55 +647,86 @@ def band_run(mesh, resolution, quick, bending=BAND_BENDING):
     start = time.process_time()
     V, F = yore.grid_mesh(41, 41)
     young, nu = lattice_moduli(V, F, yore.scenes.STIFFNESS)
-    sim = yore.scenes.hanging_cloth(resolution=resolution, mesh=mesh, stretch="membrane",
-                                    young_modulus=young, poisson_ratio=nu, bending="quadratic",
-                                    bending_modulus=bending, integrator="implicit")
+    sim = yore.scenes.hanging_cloth(
+        resolution=resolution,
+        mesh=mesh,
+        stretch="membrane",
+        young_modulus=young,
+        poisson_ratio=nu,
+        bending="quadratic",
+        bending_modulus=bending,
+        integrator="implicit",
+    )
     seconds = 2.0 if quick else BAND_SETTLE_SECONDS
     before = sim.settle(max_seconds=seconds)
-    settled, normals = np.array(sim.cloth.positions), metrics.vertex_normals(
-        sim.cloth.positions, sim.cloth.faces)
+    settled, normals = (
+        np.array(sim.cloth.positions),
+        metrics.vertex_normals(sim.cloth.positions, sim.cloth.faces),
+    )
     u0, u1 = BAND["u"]
-    report = sim.stroke(yore.StrokePath.material([[u0, BAND["v"]], [u1, BAND["v"]]]),
-                        width=BAND["width"], growth=BAND["growth"],
-                        expansion=BAND["expansion"])
+    report = sim.stroke(
+        yore.StrokePath.material([[u0, BAND["v"]], [u1, BAND["v"]]]),
+        width=BAND["width"],
+        growth=BAND["growth"],
+        expansion=BAND["expansion"],
+    )
     after = sim.settle(max_seconds=seconds)
     X, F = sim.cloth.positions, sim.cloth.faces
     uv = sim.cloth.material_coordinates
     centre = uv[F].mean(axis=1)
-    band = np.flatnonzero((np.abs(centre[:, 1] - BAND["v"]) < 0.5 * BAND["width"])
-                          & (centre[:, 0] > u0) & (centre[:, 0] < u1))
+    band = np.flatnonzero(
+        (np.abs(centre[:, 1] - BAND["v"]) < 0.5 * BAND["width"])
+        & (centre[:, 0] > u0)
+        & (centre[:, 0] < u1)
+    )
     corners = np.unique(F[band])
     iterations = metrics.smoothing_iterations(X, F, BAND_REACH)
     height = metrics.wrinkle_height(X, F, iterations)
     moved = np.einsum("ij,ij->i", X - settled, normals)[corners]
     h = mean_edge(uv, F)
-    line = np.flatnonzero((np.abs(uv[:, 1] - BAND["v"]) < 0.51 * h) & (uv[:, 0] > u0)
-                          & (uv[:, 0] < u1))
+    line = np.flatnonzero(
+        (np.abs(uv[:, 1] - BAND["v"]) < 0.51 * h) & (uv[:, 0] > u0) & (uv[:, 0] < u1)
+    )
     line = line[np.argsort(uv[line, 0])]
     crossings = int(np.count_nonzero(np.diff(np.sign(height[line] - height[line].mean()))))
-    return {"mesh": mesh, "resolution": resolution, "bending_modulus": bending,
-            "vertices": int(sim.cloth.vertex_count),
-            "membrane_strain": sim.cloth.membrane_strain,
-            "pattern_interior": INTERIORS.get(mesh), "band_weights": BAND_WEIGHTS,
-            "faces_split": len(report.new_vertices), "band_faces": int(len(band)),
-            "smoothing_iterations": iterations, "mean_edge": h,
-            "fold_depth": float(np.ptp(moved)), "fold_rms": float(np.std(moved)),
-            "wrinkle_measure": float(np.sqrt(np.mean(height[corners] ** 2))),
-            "wrinkle_height_range": float(np.ptp(height[corners])),
-            "wrinkle_wavelength_edges": (float(2 * (uv[line[-1], 0] - uv[line[0], 0])
-                                               / (max(crossings, 1) * h))
-                                         if len(line) > 1 else None),
-            "rest_area_added": float(report.rest_area_after - report.rest_area_before),
-            "area_gain": float(report.rest_area_after / report.rest_area_before),
-            "settled_before": bool(before["converged"]), "settled_after": bool(after["converged"]),
-            "cpu_seconds": time.process_time() - start}
+    return {
+        "mesh": mesh,
+        "resolution": resolution,
+        "bending_modulus": bending,
+        "vertices": int(sim.cloth.vertex_count),
+        "membrane_strain": sim.cloth.membrane_strain,
+        "pattern_interior": INTERIORS.get(mesh),
+        "band_weights": BAND_WEIGHTS,
+        "faces_split": len(report.new_vertices),
+        "band_faces": int(len(band)),
+        "smoothing_iterations": iterations,
+        "mean_edge": h,
+        "fold_depth": float(np.ptp(moved)),
+        "fold_rms": float(np.std(moved)),
+        "wrinkle_measure": float(np.sqrt(np.mean(height[corners] ** 2))),
+        "wrinkle_height_range": float(np.ptp(height[corners])),
+        "wrinkle_wavelength_edges": (
+            float(2 * (uv[line[-1], 0] - uv[line[0], 0]) / (max(crossings, 1) * h))
+            if len(line) > 1
+            else None
+        ),
+        "rest_area_added": float(report.rest_area_after - report.rest_area_before),
+        "area_gain": float(report.rest_area_after / report.rest_area_before),
+        "settled_before": bool(before["converged"]),
+        "settled_after": bool(after["converged"]),
+        "cpu_seconds": time.process_time() - start,
+    }
 
 
 def band_runs(quick):
     """(bending, mesh, resolution) of the band strokes."""
     resolutions = QUICK_BAND_RESOLUTIONS if quick else BAND_RESOLUTIONS
-    return [(bending, mesh, n) for bending in BAND_BENDINGS for mesh in ("grid", "pattern")
-            for n in resolutions]
+    return [
+        (bending, mesh, n)
+        for bending in BAND_BENDINGS
+        for mesh in ("grid", "pattern")
+        for n in resolutions
+    ]
 
 
 def band_name(mesh, resolution, bending):
@@ -635,9 +740,14 @@ def band_summary(bands):
     out = {}
     for bending in BAND_BENDINGS:
         for mesh in ("grid", "pattern"):
-            mine = sorted((b for b in bands if b["mesh"] == mesh
-                           and b.get("bending_modulus", BAND_BENDING) == bending),
-                          key=lambda b: b["resolution"])
+            mine = sorted(
+                (
+                    b
+                    for b in bands
+                    if b["mesh"] == mesh and b.get("bending_modulus", BAND_BENDING) == bending
+                ),
+                key=lambda b: b["resolution"],
+            )
             if len(mine) < 2:
                 continue
             a, b = mine[-2], mine[-1]
@@ -654,8 +764,7 @@ def finest_judged(rows, key):
     mesh than a large B's)."""
     best = {}
     for r in rows:
-        if r.get("judged") and (r[key] not in best
-                                or r["mean_edge"] < best[r[key]]["mean_edge"]):
+        if r.get("judged") and (r[key] not in best or r["mean_edge"] < best[r[key]]["mean_edge"]):
             best[r[key]] = r
     return list(best.values())
 
@@ -674,53 +783,98 @@ def summarize(rows, strokes, quick=False):
     out = {}
     for (model, mesh, strain), kind in KINDS.items():
         base_run = BASES[model] if not quick else QUICK_BASE
-        mine = [r for r in rows if r["model"] == model and r.get("mesh", "pattern") == mesh
-                and r.get("seed", 0) == 0 and r.get("membrane_strain") == strain]
+        mine = [
+            r
+            for r in rows
+            if r["model"] == model
+            and r.get("mesh", "pattern") == mesh
+            and r.get("seed", 0) == 0
+            and r.get("membrane_strain") == strain
+        ]
         if not mine:
             continue
         base = [r for r in mine if r["label"] in ("base", "B", "L", "strain", "mesh")]
-        at = {key: finest_judged([r for r in base if all(r[k] == base_run[k] for k in
-                                                         ("bending_modulus", "length", "strain")
-                                                         if k != key)], key)
-              for key in ("bending_modulus", "length", "strain")}
-        meshes = sorted((r for r in base if r["length"] == base_run["length"]
-                         and r["strain"] == base_run["strain"]
-                         and r["bending_modulus"] == base_run["bending_modulus"]),
-                        key=lambda r: -r["edge_length"])
+        at = {
+            key: finest_judged(
+                [
+                    r
+                    for r in base
+                    if all(
+                        r[k] == base_run[k]
+                        for k in ("bending_modulus", "length", "strain")
+                        if k != key
+                    )
+                ],
+                key,
+            )
+            for key in ("bending_modulus", "length", "strain")
+        }
+        meshes = sorted(
+            (
+                r
+                for r in base
+                if r["length"] == base_run["length"]
+                and r["strain"] == base_run["strain"]
+                and r["bending_modulus"] == base_run["bending_modulus"]
+            ),
+            key=lambda r: -r["edge_length"],
+        )
         finest = [r["wavelength"] for r in meshes[-2:]]
-        seeds = [(r, o) for r in mine for o in rows if o.get("seed", 0) != 0
-                 and o["model"] == model and o.get("mesh", "pattern") == mesh
-                 and o.get("membrane_strain") == strain
-                 and all(o[k] == r[k] for k in ("bending_modulus", "length", "strain",
-                                                 "edge_length"))]
+        seeds = [
+            (r, o)
+            for r in mine
+            for o in rows
+            if o.get("seed", 0) != 0
+            and o["model"] == model
+            and o.get("mesh", "pattern") == mesh
+            and o.get("membrane_strain") == strain
+            and all(o[k] == r[k] for k in ("bending_modulus", "length", "strain", "edge_length"))
+        ]
         out[kind] = {
             "judged": sum(bool(r.get("judged")) for r in mine),
-            "realized_bending_ratio": [r["realized_bending"] / r["bending_modulus"]
-                                       for r in mine if r.get("realized_bending")],
-            "artificial_over_bending": [r["artificial_bending"] / r["bending_modulus"]
-                                        for r in mine if r.get("artificial_bending") is not None],
+            "realized_bending_ratio": [
+                r["realized_bending"] / r["bending_modulus"]
+                for r in mine
+                if r.get("realized_bending")
+            ],
+            "artificial_over_bending": [
+                r["artificial_bending"] / r["bending_modulus"]
+                for r in mine
+                if r.get("artificial_bending") is not None
+            ],
             "second_seed_wavelength_change": [
-                abs(o["wavelength"] - r["wavelength"]) / r["wavelength"] for r, o in seeds
-                if r["wavelength"] is not None and o["wavelength"] is not None],
+                abs(o["wavelength"] - r["wavelength"]) / r["wavelength"]
+                for r, o in seeds
+                if r["wavelength"] is not None and o["wavelength"] is not None
+            ],
             "exponents": {key: fit_exponent(group, key) for key, group in at.items()},
             "expected": {"bending_modulus": 0.25, "length": 0.5, "strain": -0.25},
             "wrinkled": sum(r["wavelength"] is not None for r in mine),
             "zigzags": sum(r["zigzag"] for r in mine),
             "runs": len(mine),
-            "ratio_to_prediction": [r["wavelength"] / r["predicted_wavelength"] for r in mine
-                                    if r["wavelength"] is not None],
-            "finest_meshes_change": (abs(finest[1] - finest[0]) / finest[1]
-                                     if len(finest) == 2 and None not in finest else None),
-            "min_wavelength_over_edge": min((r["wavelength"] / r["mean_edge"] for r in mine
-                                             if r["wavelength"] is not None), default=None),
+            "ratio_to_prediction": [
+                r["wavelength"] / r["predicted_wavelength"]
+                for r in mine
+                if r["wavelength"] is not None
+            ],
+            "finest_meshes_change": (
+                abs(finest[1] - finest[0]) / finest[1]
+                if len(finest) == 2 and None not in finest
+                else None
+            ),
+            "min_wavelength_over_edge": min(
+                (r["wavelength"] / r["mean_edge"] for r in mine if r["wavelength"] is not None),
+                default=None,
+            ),
         }
     threshold = {}
     for r in rows:
         if r["model"] != "springs":
             continue
-        entry = threshold.setdefault(f"{r['edge_length']:g}", {"mean_edge": r["mean_edge"],
-                                                               "wrinkled_up_to": None,
-                                                               "flat_from": None})
+        entry = threshold.setdefault(
+            f"{r['edge_length']:g}",
+            {"mean_edge": r["mean_edge"], "wrinkled_up_to": None, "flat_from": None},
+        )
         if r["wavelength"] is not None:
             entry["wrinkled_up_to"] = max(entry["wrinkled_up_to"] or 0.0, r["bending_modulus"])
         else:
@@ -732,8 +886,10 @@ def summarize(rows, strokes, quick=False):
         if len(mine) >= 2:
             a, b = mine[-2]["wrinkle_measure"], mine[-1]["wrinkle_measure"]
             c, d = mine[-2]["fold_depth"], mine[-1]["fold_depth"]
-            stroke_summary[model] = {"wrinkle_measure_change": abs(b - a) / max(b, 1e-300),
-                                     "fold_depth_change": abs(d - c) / max(d, 1e-300)}
+            stroke_summary[model] = {
+                "wrinkle_measure_change": abs(b - a) / max(b, 1e-300),
+                "fold_depth_change": abs(d - c) / max(d, 1e-300),
+            }
     out["stroke"] = stroke_summary
     return out
 
@@ -769,6 +925,7 @@ def write_journal(out, name, value):
 def run_name(model, parameters):
     def shown(value):
         return value if isinstance(value, str) else f"{value:g}"
+
     return model + "-" + "-".join(f"{k}={shown(parameters[k])}" for k in sorted(parameters))
 
 
@@ -783,9 +940,13 @@ def draw(rows, strokes, path):
     ax = axes[0]
     for r in rows:
         if r["label"] == "base" or (r["label"] == "B" and r["bending_modulus"] == B0):
-            ax.plot(r["section"]["y"], 1e3 * np.array(r["section"]["z"]),
-                    color=colours[r["model"]], alpha=0.8,
-                    label=f"{r['model']}, B = {r['bending_modulus']:g} N·m")
+            ax.plot(
+                r["section"]["y"],
+                1e3 * np.array(r["section"]["z"]),
+                color=colours[r["model"]],
+                alpha=0.8,
+                label=f"{r['model']}, B = {r['bending_modulus']:g} N·m",
+            )
     ax.set_xlabel("y across the width (m)")
     ax.set_ylabel("z at mid-length (mm)")
     ax.set_title("cross-sections of the relaxed sheet")
@@ -806,10 +967,20 @@ def draw(rows, strokes, path):
     for model in ("springs", "membrane"):
         mine = sorted((s for s in strokes if s["model"] == model), key=lambda s: s["resolution"])
         if mine:
-            ax.plot([s["resolution"] for s in mine], [1e3 * s["fold_depth"] for s in mine], "o-",
-                    color=colours[model], label=f"{model}: fold depth")
-            ax.plot([s["resolution"] for s in mine], [1e3 * s["wrinkle_measure"] for s in mine],
-                    "s--", color=colours[model], label=f"{model}: wrinkle measure")
+            ax.plot(
+                [s["resolution"] for s in mine],
+                [1e3 * s["fold_depth"] for s in mine],
+                "o-",
+                color=colours[model],
+                label=f"{model}: fold depth",
+            )
+            ax.plot(
+                [s["resolution"] for s in mine],
+                [1e3 * s["wrinkle_measure"] for s in mine],
+                "s--",
+                color=colours[model],
+                label=f"{model}: wrinkle measure",
+            )
     ax.set_xlabel("vertices per side")
     ax.set_ylabel("mm")
     ax.set_title("the hanging-cloth stroke against the mesh")
@@ -821,11 +992,16 @@ def draw(rows, strokes, path):
 
 def main(argv=None):
     def extra(parser):
-        parser.add_argument("--resume", action="store_true",
-                            help="skip the runs already journaled in --out")
-        parser.add_argument("--collect", action="store_true",
-                            help="run nothing: write the results of the runs journaled so far "
-                                 "(today's models only)")
+        parser.add_argument(
+            "--resume", action="store_true", help="skip the runs already journaled in --out"
+        )
+        parser.add_argument(
+            "--collect",
+            action="store_true",
+            help="run nothing: write the results of the runs journaled so far "
+            "(today's models only)",
+        )
+
     args = common.arguments(__doc__, argv, extra=extra)
     yore.set_num_threads(1)
     rows = []
@@ -834,63 +1010,100 @@ def main(argv=None):
         # by today's measure (its wavelength was not kept)
         # (and a run journaled before the smoothed strain or the lattice pattern meshes is
         # redone: its membrane or mesh is not today's)
-        row = journaled(args.out, run_name(model, parameters), args.resume,
-                        lambda: sheet_run(label, model, parameters),
-                        lambda r: not (r["flat"] and r["amplitude"] >= FLAT)
-                        and current(r, model, parameters["mesh"],
-                                    parameters.get("membrane_strain", "faces")),
-                        args.collect)
+        row = journaled(
+            args.out,
+            run_name(model, parameters),
+            args.resume,
+            lambda: sheet_run(label, model, parameters),
+            lambda r: (
+                not (r["flat"] and r["amplitude"] >= FLAT)
+                and current(
+                    r, model, parameters["mesh"], parameters.get("membrane_strain", "faces")
+                )
+            ),
+            args.collect,
+        )
         if row is None:
             continue
         if "flat_state_probe_bending" not in row:  # journaled before the tension B_art
             write_journal(args.out, run_name(model, parameters), judge(row))
         row["label"] = label
         rows.append(row)
-        print(f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "
-              f"B={parameters['bending_modulus']:g} "
-              f"L={parameters['length']:g} γ={parameters['strain']:g} "
-              f"h={row['mean_edge']:.4f}: λ={row['wavelength']} "
-              f"(predicted {row['predicted_wavelength']:.4f}), amplitude "
-              f"{row['amplitude']:.2e}, flat state stable {row['flat_state_stable']}, "
-              f"B realised {row['realized_bending']:.3g}, B_art {row['artificial_bending']}, "
-              f"judged {row['judged']}, "
-              f"{row['cpu_seconds']:.0f} s", flush=True)
+        print(
+            f"  {label:9s} {model:8s} {parameters['mesh']:7s} seed {parameters['seed']} "
+            f"B={parameters['bending_modulus']:g} "
+            f"L={parameters['length']:g} γ={parameters['strain']:g} "
+            f"h={row['mean_edge']:.4f}: λ={row['wavelength']} "
+            f"(predicted {row['predicted_wavelength']:.4f}), amplitude "
+            f"{row['amplitude']:.2e}, flat state stable {row['flat_state_stable']}, "
+            f"B realised {row['realized_bending']:.3g}, B_art {row['artificial_bending']}, "
+            f"judged {row['judged']}, "
+            f"{row['cpu_seconds']:.0f} s",
+            flush=True,
+        )
     strokes = []
     for model in ("springs", "membrane"):
-        for resolution in (QUICK_STROKE_RESOLUTIONS if args.quick else STROKE_RESOLUTIONS):
-            s = journaled(args.out, f"stroke-{model}-{resolution}", args.resume,
-                          lambda: stroke_run(model, resolution, args.quick), collect=args.collect)
+        for resolution in QUICK_STROKE_RESOLUTIONS if args.quick else STROKE_RESOLUTIONS:
+            s = journaled(
+                args.out,
+                f"stroke-{model}-{resolution}",
+                args.resume,
+                lambda: stroke_run(model, resolution, args.quick),
+                collect=args.collect,
+            )
             if s is None:
                 continue
             strokes.append(s)
-            print(f"  stroke {model} {resolution}: measure {s['wrinkle_measure']:.3e}, fold "
-                  f"depth {s['fold_depth']:.3e}", flush=True)
+            print(
+                f"  stroke {model} {resolution}: measure {s['wrinkle_measure']:.3e}, fold "
+                f"depth {s['fold_depth']:.3e}",
+                flush=True,
+            )
     bands = []
     for bending, mesh, resolution in band_runs(args.quick):
         # a band journaled before the smoothed strain, the lattice or the Simpson weights
         # is redone (its membrane, mesh or growth is not today's)
-        b = journaled(args.out, band_name(mesh, resolution, bending), args.resume,
-                      lambda: band_run(mesh, resolution, args.quick, bending),
-                      lambda b: current(b, "membrane", mesh)
-                      and b.get("band_weights") == BAND_WEIGHTS, args.collect)
+        b = journaled(
+            args.out,
+            band_name(mesh, resolution, bending),
+            args.resume,
+            lambda: band_run(mesh, resolution, args.quick, bending),
+            lambda b: current(b, "membrane", mesh) and b.get("band_weights") == BAND_WEIGHTS,
+            args.collect,
+        )
         if b is None:
             continue
         bands.append(b)
-        print(f"  band stroke {mesh} {resolution} B={bending:g}: fold depth "
-              f"{b['fold_depth']:.3e}, measure {b['wrinkle_measure']:.3e}, wrinkles of "
-              f"{b['wrinkle_wavelength_edges']} edges, rest area + {b['rest_area_added']:.3e} "
-              f"m², {b['cpu_seconds']:.0f} s", flush=True)
-    payload = {"benchmark": "wrinkles", "machine": common.machine_info(), "quick": args.quick,
-               "settings": {"noise": NOISE, "young": YOUNG, "poisson": POISSON,
-                            "bases": ({m: QUICK_BASE for m in BASES} if args.quick
-                                      else BASES),
-                            "settle_seconds": SETTLE_SECONDS,
-                            "settle_tolerance": SETTLE_TOLERANCE},
-               "rows": rows, "strokes": strokes, "band_strokes": bands,
-               "band_settings": {**BAND, "bending_moduli": list(BAND_BENDINGS),
-                                 "reach": BAND_REACH, "weights": BAND_WEIGHTS},
-               "summary": {**summarize(rows, strokes, args.quick),
-                           "band_strokes": band_summary(bands)}}
+        print(
+            f"  band stroke {mesh} {resolution} B={bending:g}: fold depth "
+            f"{b['fold_depth']:.3e}, measure {b['wrinkle_measure']:.3e}, wrinkles of "
+            f"{b['wrinkle_wavelength_edges']} edges, rest area + {b['rest_area_added']:.3e} "
+            f"m², {b['cpu_seconds']:.0f} s",
+            flush=True,
+        )
+    payload = {
+        "benchmark": "wrinkles",
+        "machine": common.machine_info(),
+        "quick": args.quick,
+        "settings": {
+            "noise": NOISE,
+            "young": YOUNG,
+            "poisson": POISSON,
+            "bases": ({m: QUICK_BASE for m in BASES} if args.quick else BASES),
+            "settle_seconds": SETTLE_SECONDS,
+            "settle_tolerance": SETTLE_TOLERANCE,
+        },
+        "rows": rows,
+        "strokes": strokes,
+        "band_strokes": bands,
+        "band_settings": {
+            **BAND,
+            "bending_moduli": list(BAND_BENDINGS),
+            "reach": BAND_REACH,
+            "weights": BAND_WEIGHTS,
+        },
+        "summary": {**summarize(rows, strokes, args.quick), "band_strokes": band_summary(bands)},
+    }
     common.save(args.out, "wrinkles", payload, lambda path: draw(rows, strokes, path))
     print(json.dumps(payload["summary"], indent=1))
 

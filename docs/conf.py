@@ -82,8 +82,9 @@ def _signature_as_literal(app, what, name, obj, options, lines):
     if not starts:
         return
     start = end = starts[0]
-    while end < len(lines) and lines[end].strip() and (end == start
-                                                        or lines[end].startswith("    ")):
+    while (
+        end < len(lines) and lines[end].strip() and (end == start or lines[end].startswith("    "))
+    ):
         end += 1
     lines[start:end] = ["::", "", *(f"    {line}" for line in lines[start:end]), ""]
 

@@ -36,17 +36,21 @@ def main(argv=None):
 
     for _ in tqdm(range(frame_count), desc="hanging cloth", unit="frame"):
         sim.advance(1.0 / args.fps, progress=False)
-        frames.write(sim.time, cloth.positions, cloth.faces,
-                     point_data={"velocity": cloth.velocities})
+        frames.write(
+            sim.time, cloth.positions, cloth.faces, point_data={"velocity": cloth.velocities}
+        )
     wall = time.perf_counter() - started
     frames.close()
     picture = save_panels(
         args.out / "hanging_cloth.png",
-        [("t = 0 s", before, cloth.faces), (f"t = {sim.time:.2f} s", cloth.positions, cloth.faces)])
+        [("t = 0 s", before, cloth.faces), (f"t = {sim.time:.2f} s", cloth.positions, cloth.faces)],
+    )
 
     stats = sim.stats
-    print(f"simulated {sim.time:.2f} s in {stats['steps']} explicit steps of {sim.dt:.3g} s "
-          f"({wall:.2f} s wall, {stats['steps_per_second']:.0f} steps/s)")
+    print(
+        f"simulated {sim.time:.2f} s in {stats['steps']} explicit steps of {sim.dt:.3g} s "
+        f"({wall:.2f} s wall, {stats['steps_per_second']:.0f} steps/s)"
+    )
     print(f"frames:  {len(frames)} VTU files in {frames.pvd_path.parent.resolve()}")
     print(f"ParaView collection: {frames.pvd_path.resolve()}")
     print(f"picture: {picture.resolve()}")

@@ -44,9 +44,10 @@ def main(argv=None):
         for _ in range(round(args.seconds * args.fps)):
             sim.advance(1.0 / args.fps)
             frames.write(sim.time, cloth.positions, cloth.faces)
-    picture = save_panels(args.out / "rotating_cylinder.png",
-                                [("t = 0 s", before, cloth.faces),
-                                 (f"t = {sim.time:.2f} s", cloth.positions, cloth.faces)])
+    picture = save_panels(
+        args.out / "rotating_cylinder.png",
+        [("t = 0 s", before, cloth.faces), (f"t = {sim.time:.2f} s", cloth.positions, cloth.faces)],
+    )
     print(f"t = {sim.time:.2f} s, rim turns at {sim.scene['omega']:.3f} rad/s")
     for ring in (rings - 1, rings // 2, 0):
         speed = ring_angular_speed(cloth, cylinder_ring(rings, segments, ring))

@@ -35,17 +35,25 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     # 1. the scene file, with overrides, run to its end
-    scene = yore.load_scene(HERE / "hanging.toml", overrides={
-        "mesh.nx": args.resolution, "mesh.ny": args.resolution,
-        "simulation.duration": args.seconds, "strokes.0.time": 0.5 * args.seconds,
-        # a stroke a fifth of the way down, so it crosses faces at any resolution
-        "strokes.0.material": [[0.15, 0.2], [0.85, 0.2]],
-        "output.animation": "none"})
+    scene = yore.load_scene(
+        HERE / "hanging.toml",
+        overrides={
+            "mesh.nx": args.resolution,
+            "mesh.ny": args.resolution,
+            "simulation.duration": args.seconds,
+            "strokes.0.time": 0.5 * args.seconds,
+            # a stroke a fifth of the way down, so it crosses faces at any resolution
+            "strokes.0.material": [[0.15, 0.2], [0.85, 0.2]],
+            "output.animation": "none",
+        },
+    )
     summary = yore.run_scene(scene, args.out)
     first = summary["strokes"][0]
-    print(f"part 1: {summary['steps']} steps to t = {summary['time']:.2f} s; stroke split "
-          f"{first['faces_split']} faces, rest area of the region "
-          f"{first['rest_area_before']:.4f} -> {first['rest_area_after']:.4f} m²")
+    print(
+        f"part 1: {summary['steps']} steps to t = {summary['time']:.2f} s; stroke split "
+        f"{first['faces_split']} faces, rest area of the region "
+        f"{first['rest_area_before']:.4f} -> {first['rest_area_after']:.4f} m²"
+    )
 
     # 2. continue by hand from the saved state
     sim, _ = yore.load_state(args.out / "state.npz")
@@ -58,13 +66,21 @@ def main(argv=None):
     area_before = metrics.area(sim.cloth.positions, sim.cloth.faces, report.region_faces)
     sim.advance(1.0, progress=False)
     gain = metrics.area(sim.cloth.positions, sim.cloth.faces, report.region_faces) / area_before
-    picture = save_png(args.out / "scripted.png",
-                       render_image(sim.cloth.positions, sim.cloth.faces, camera,
-                                    strokes=[sim.cloth.positions[report.line_vertices]],
-                                    title=f"t = {sim.time:.2f} s"))
-    print(f"part 2: screen stroke split {report.faces_split} faces; smoothing roughness "
-          f"{smoothing['roughness_before']:.4f} -> {smoothing['roughness_after']:.4f}; "
-          f"region area x{gain:.3f} after 1 s")
+    picture = save_png(
+        args.out / "scripted.png",
+        render_image(
+            sim.cloth.positions,
+            sim.cloth.faces,
+            camera,
+            strokes=[sim.cloth.positions[report.line_vertices]],
+            title=f"t = {sim.time:.2f} s",
+        ),
+    )
+    print(
+        f"part 2: screen stroke split {report.faces_split} faces; smoothing roughness "
+        f"{smoothing['roughness_before']:.4f} -> {smoothing['roughness_after']:.4f}; "
+        f"region area x{gain:.3f} after 1 s"
+    )
     print(f"picture: {picture.resolve()}")
 
 

@@ -33,7 +33,7 @@ def hanging(integrator):
     def stroke_points():
         # along the fold just below the top edge: midway between the first two rows inside
         X = sim.cloth.positions
-        return 0.5 * (X[n + 3:2 * n - 3] + X[2 * n + 3:3 * n - 3])
+        return 0.5 * (X[n + 3 : 2 * n - 3] + X[2 * n + 3 : 3 * n - 3])
 
     return sim, stroke_points
 
@@ -57,9 +57,11 @@ def run(name, make, integrator, out, before_seconds, after_seconds, smooth=0, fp
     sim, stroke_points = make(integrator)
     cloth = sim.cloth
     with FrameSeries(out / name, stem=name, fmt="vtu") as frames:
+
         def write():
-            frames.write(sim.time, cloth.positions, cloth.faces,
-                         point_data={"velocity": cloth.velocities})
+            frames.write(
+                sim.time, cloth.positions, cloth.faces, point_data={"velocity": cloth.velocities}
+            )
 
         write()
         for _ in range(round(before_seconds * fps)):
@@ -69,26 +71,36 @@ def run(name, make, integrator, out, before_seconds, after_seconds, smooth=0, fp
         report = sim.stroke(stroke_points())
         if smooth:
             smoothing = sim.smooth_rest_lengths(iterations=smooth, strength=0.5)
-            print(f"  rest-length smoothing ({smooth} iterations): ratio roughness "
-                  f"{smoothing['roughness_before']:.4f} -> {smoothing['roughness_after']:.4f}")
+            print(
+                f"  rest-length smoothing ({smooth} iterations): ratio roughness "
+                f"{smoothing['roughness_before']:.4f} -> {smoothing['roughness_after']:.4f}"
+            )
         write()
         for _ in range(round(after_seconds * fps)):
             sim.advance(1.0 / fps)
             write()
     region = report.region_faces
     gain = metrics.area_gain(cloth.positions, cloth.faces, region, report.area_before)
-    picture = save_panels(out / f"{name}.png", [
-        (f"before the stroke (t = {before_seconds:.1f} s)", *before),
-        (f"{after_seconds:.1f} s after it", cloth.positions, cloth.faces)])
-    print(f"{name} ({integrator}): stroke split {report.faces_split} faces "
-          f"({len(report.faces_skipped)} skipped, {report.missed_fraction:.0%} of samples missed), "
-          f"+{report.vertices_added} vertices, +{report.springs_added}/-{report.springs_removed} "
-          f"springs; located in {1e3 * report.locate_seconds:.1f} ms, subdivided in "
-          f"{1e3 * report.subdivide_seconds:.1f} ms, re-analysis "
-          f"{1e3 * (report.reanalyze_seconds or 0.0):.1f} ms")
-    print(f"  region rest area {report.rest_area_before:.4f} -> {report.rest_area_after:.4f} m², "
-          f"current area gain x{gain:.3f}, wrinkle amplitude "
-          f"{1e3 * metrics.wrinkle_amplitude(cloth.positions, cloth.faces, region):.1f} mm")
+    picture = save_panels(
+        out / f"{name}.png",
+        [
+            (f"before the stroke (t = {before_seconds:.1f} s)", *before),
+            (f"{after_seconds:.1f} s after it", cloth.positions, cloth.faces),
+        ],
+    )
+    print(
+        f"{name} ({integrator}): stroke split {report.faces_split} faces "
+        f"({len(report.faces_skipped)} skipped, {report.missed_fraction:.0%} of samples missed), "
+        f"+{report.vertices_added} vertices, +{report.springs_added}/-{report.springs_removed} "
+        f"springs; located in {1e3 * report.locate_seconds:.1f} ms, subdivided in "
+        f"{1e3 * report.subdivide_seconds:.1f} ms, re-analysis "
+        f"{1e3 * (report.reanalyze_seconds or 0.0):.1f} ms"
+    )
+    print(
+        f"  region rest area {report.rest_area_before:.4f} -> {report.rest_area_after:.4f} m², "
+        f"current area gain x{gain:.3f}, wrinkle amplitude "
+        f"{1e3 * metrics.wrinkle_amplitude(cloth.positions, cloth.faces, region):.1f} mm"
+    )
     print(f"  frames: {frames.pvd_path.resolve()}  picture: {picture.resolve()}")
     return sim, report
 
@@ -96,15 +108,21 @@ def run(name, make, integrator, out, before_seconds, after_seconds, smooth=0, fp
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", choices=("hanging", "cylinder", "both"), default="both")
-    parser.add_argument("--integrator", default="explicit", choices=("explicit", "implicit", "bdf2"))
+    parser.add_argument(
+        "--integrator", default="explicit", choices=("explicit", "implicit", "bdf2")
+    )
     parser.add_argument("--out", type=Path, default=Path("yore-out"))
     parser.add_argument("--before", type=float, default=1.5, help="seconds before the stroke")
     parser.add_argument("--after", type=float, default=2.0, help="seconds after the stroke")
-    parser.add_argument("--smooth", type=int, default=0,
-                        help="iterations of rest-length smoothing after the stroke (paper §2.3)")
+    parser.add_argument(
+        "--smooth",
+        type=int,
+        default=0,
+        help="iterations of rest-length smoothing after the stroke (paper §2.3)",
+    )
     args = parser.parse_args(argv)
     scenes = {"hanging": hanging, "cylinder": cylinder}
-    for name in (("hanging", "cylinder") if args.scene == "both" else (args.scene,)):
+    for name in ("hanging", "cylinder") if args.scene == "both" else (args.scene,):
         run(name, scenes[name], args.integrator, args.out, args.before, args.after, args.smooth)
 
 

@@ -14,8 +14,10 @@ def _module_name(path):
 
 
 def _sources():
-    return {_module_name(path): (path, ast.parse(path.read_text(encoding="utf-8")))
-            for path in sorted(PACKAGE.rglob("*.py"))}
+    return {
+        _module_name(path): (path, ast.parse(path.read_text(encoding="utf-8")))
+        for path in sorted(PACKAGE.rglob("*.py"))
+    }
 
 
 SOURCES = _sources()
@@ -29,25 +31,34 @@ def _imports(name, tree, path):
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
             if node.level:
-                base = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                base = package.split(".")[: len(package.split(".")) - (node.level - 1)]
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
             if target == "yore" or target.startswith("yore."):
                 for alias in node.names:
                     submodule = f"{target}.{alias.name}"
-                    found.append((submodule, None) if submodule in MODULES
-                                 else (target, alias.name))
+                    found.append(
+                        (submodule, None) if submodule in MODULES else (target, alias.name)
+                    )
         elif isinstance(node, ast.Import):
-            found += [(alias.name, None) for alias in node.names
-                      if alias.name == "yore" or alias.name.startswith("yore.")]
+            found += [
+                (alias.name, None)
+                for alias in node.names
+                if alias.name == "yore" or alias.name.startswith("yore.")
+            ]
     return found
 
 
 def _graph():
-    return {name: {target for target, _ in _imports(name, tree, path)
-                   if target in MODULES and target != name}
-            for name, (path, tree) in SOURCES.items()}
+    return {
+        name: {
+            target
+            for target, _ in _imports(name, tree, path)
+            if target in MODULES and target != name
+        }
+        for name, (path, tree) in SOURCES.items()
+    }
 
 
 def _cycles(graph):
@@ -96,8 +107,9 @@ def test_the_libraries_import_no_command_code():
     # viz (pictures, the viewer) is a library: the commands (cli), runs and sweeps build on it
     for name, targets in _graph().items():
         if name.startswith("yore.viz"):
-            assert not {t for t in targets
-                        if t.startswith(("yore.runs", "yore.sweep", "yore.cli"))}, name
+            assert not {
+                t for t in targets if t.startswith(("yore.runs", "yore.sweep", "yore.cli"))
+            }, name
         if name not in ("yore.cli", "yore.__main__"):
             assert "yore.cli" not in targets, name
 
@@ -121,8 +133,11 @@ def test_private_names_stay_in_their_module():
             if imported in private:
                 crossing.append(f"{name} imports {target}.{imported}")
         for node in ast.walk(tree):
-            if isinstance(node, ast.Attribute) and node.attr in private and \
-                    name not in defined[node.attr]:
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr in private
+                and name not in defined[node.attr]
+            ):
                 crossing.append(f"{name} reads {ast.unparse(node)}")
     assert crossing == []
 
@@ -150,8 +165,12 @@ def _integrator_names_outside_the_registry():
             continue
         docstrings = _docstrings(tree)
         for node in ast.walk(tree):
-            if isinstance(node, ast.Constant) and isinstance(node.value, str) and \
-                    node.value in names and id(node) not in docstrings:
+            if (
+                isinstance(node, ast.Constant)
+                and isinstance(node.value, str)
+                and node.value in names
+                and id(node) not in docstrings
+            ):
                 found.append((name, node.lineno, node.value))
     return found
 
@@ -182,7 +201,7 @@ def _long_python_functions():
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 first = min([d.lineno for d in node.decorator_list] + [node.lineno])
                 length = node.end_lineno - node.lineno + 1
-                above = " ".join(lines[max(0, first - 4):first - 1])
+                above = " ".join(lines[max(0, first - 4) : first - 1])
                 if length > MAX_FUNCTION_LINES and "over 80 lines" not in above:
                     found.append(f"{name}.{node.name} ({length} lines)")
     return found
@@ -203,13 +222,16 @@ def _long_cpp_functions(text):
             # (a one-line definition ends with its closing brace: nothing to count)
             while j < len(lines) and not lines[j].rstrip().endswith(("{", ";", "}")):
                 j += 1
-            if j < len(lines) and lines[j].rstrip().endswith("{") and \
-                    not lines[j].rstrip().endswith("{}"):
+            if (
+                j < len(lines)
+                and lines[j].rstrip().endswith("{")
+                and not lines[j].rstrip().endswith("{}")
+            ):
                 k = j + 1
                 while k < len(lines) and lines[k] != "}":
                     k += 1
                 length = k - i + 1
-                above = " ".join(lines[max(0, i - 3):i])
+                above = " ".join(lines[max(0, i - 3) : i])
                 if length > MAX_FUNCTION_LINES and "over 80 lines" not in above:
                     found.append((line.split("(")[0].split()[-1], length))
                 i = k
@@ -224,14 +246,18 @@ def test_no_python_function_is_over_80_lines_without_a_reason():
 def test_no_cpp_function_is_over_80_lines_without_a_reason():
     found = []
     for path in sorted((PACKAGE.parents[1] / "cpp" / "src").glob("*.cpp")):
-        found += [f"{path.name}: {name} ({length} lines)"
-                  for name, length in _long_cpp_functions(path.read_text(encoding="utf-8"))]
+        found += [
+            f"{path.name}: {name} ({length} lines)"
+            for name, length in _long_cpp_functions(path.read_text(encoding="utf-8"))
+        ]
     assert found == []
 
 
 def test_the_long_function_finders_find_one():
     body = "\n".join(f"  x += {k};" for k in range(85))
-    text = (f"double f(int a) {{\n{body}\n}}\n\nint g() {{\n  return 1;\n}}\n"
-            "int h() { return 2; }\n\nint k() {\n  return 3;\n}\n")
+    text = (
+        f"double f(int a) {{\n{body}\n}}\n\nint g() {{\n  return 1;\n}}\n"
+        "int h() { return 2; }\n\nint k() {\n  return 3;\n}\n"
+    )
     assert _long_cpp_functions(text) == [("f", 87)]
     assert _long_cpp_functions("// over 80 lines: one pass\n" + text) == []

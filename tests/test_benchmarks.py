@@ -25,8 +25,13 @@ pytestmark = pytest.mark.slow
 
 def run_benchmark(name, out, *args):
     pytest.importorskip("matplotlib")
-    result = subprocess.run([sys.executable, "-m", f"benchmarks.{name}", "--out", str(out), *args],
-                            cwd=ROOT, capture_output=True, text=True, timeout=600)
+    result = subprocess.run(
+        [sys.executable, "-m", f"benchmarks.{name}", "--out", str(out), *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
     assert (out / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     data = json.loads((out / f"{name}.json").read_text())
@@ -42,36 +47,57 @@ def is_timing(value):
 def test_explicit_step_benchmark_smoke(tmp_path):
     data = run_benchmark("explicit_step", tmp_path, "--quick")
     assert data["benchmark"] == "explicit_step"
-    assert {"cpu", "logical_cores", "yore", "blas_loaded", "thread_environment"} <= set(data["machine"])
+    assert {"cpu", "logical_cores", "yore", "blas_loaded", "thread_environment"} <= set(
+        data["machine"]
+    )
     for row in data["rows"]:
-        assert all(is_timing(row[k]) for k in ("step_seconds_min", "step_seconds_median",
-                                                "step_seconds_max"))
+        assert all(
+            is_timing(row[k])
+            for k in ("step_seconds_min", "step_seconds_median", "step_seconds_max")
+        )
         assert row["vertices"] == row["grid"] ** 2 and row["springs"] > row["vertices"]
 
 
 def test_factorization_benchmark_smoke(tmp_path):
     data = run_benchmark("factorization", tmp_path, "--quick", "--sizes", "8", "12")
     rows = data["rows"]
-    assert {(r["ordering_requested"], r["supernode_relaxation"]) for r in rows if r["grid"] == 8} \
-        == {("amd", 0.0), ("amd", 1.0), ("amd", 3.0), ("metis", 1.0), ("nesdis", 0.0),
-            ("nesdis", 1.0), ("nesdis", 3.0), ("auto", 1.0)}
+    assert {
+        (r["ordering_requested"], r["supernode_relaxation"]) for r in rows if r["grid"] == 8
+    } == {
+        ("amd", 0.0),
+        ("amd", 1.0),
+        ("amd", 3.0),
+        ("metis", 1.0),
+        ("nesdis", 0.0),
+        ("nesdis", 1.0),
+        ("nesdis", 3.0),
+        ("auto", 1.0),
+    }
     assert {r["blas_threads"] for r in rows} == {1, 2}
     for row in rows:
         assert row["dofs"] == 3 * (row["grid"] ** 2 - 2)  # the two pinned corners
-        assert row["ordering_used"] == ("amd" if row["ordering_requested"] == "auto"
-                                        else row["ordering_requested"])  # 144 vertices: AMD's
+        assert row["ordering_used"] == (
+            "amd" if row["ordering_requested"] == "auto" else row["ordering_requested"]
+        )  # 144 vertices: AMD's
         assert row["factor_flops"] > row["factor_nonzeros"] >= row["dofs"]
         assert is_timing(row["factorize_seconds"]) and is_timing(row["analyze_seconds"])
     # the true nonzeros of L do not depend on how supernodes are amalgamated
     for grid in (8, 12):
-        fills = {r["factor_nonzeros"] for r in rows if r["grid"] == grid
-                 and r["ordering_requested"] == "amd"}
+        fills = {
+            r["factor_nonzeros"]
+            for r in rows
+            if r["grid"] == grid and r["ordering_requested"] == "amd"
+        }
         assert len(fills) == 1
     assert data["machine"]["blas_kernels"]["kernel"] == data["machine"]["yore"]["blas_kernel"]
     # part 2: one fresh process per kernel the CPU runs, each really on that kernel
     for run in data["kernels"]:
-        assert run["chosen_by"] == "user" and run["kernel"] in ("SkylakeX", "Haswell",
-                                                                  "Sandybridge", "Prescott")
+        assert run["chosen_by"] == "user" and run["kernel"] in (
+            "SkylakeX",
+            "Haswell",
+            "Sandybridge",
+            "Prescott",
+        )
         assert {(r["grid"], r["ordering"]) for r in run["rows"]} == {(8, "amd"), (8, "auto")}
 
 
@@ -81,8 +107,13 @@ def test_implicit_step_benchmark_smoke(tmp_path):
     assert {r["ordering_requested"] for r in data["rows"]} == {"amd", "metis"}
     for row in data["rows"]:
         assert row["dofs"] == 3 * (row["vertices"] - 2 - row["analyses"] + 1)  # pins + extra fixes
-        for key in ("assemble_seconds", "factorize_seconds", "solve_seconds", "analyze_seconds",
-                    "explicit_step_seconds"):
+        for key in (
+            "assemble_seconds",
+            "factorize_seconds",
+            "solve_seconds",
+            "analyze_seconds",
+            "explicit_step_seconds",
+        ):
             assert is_timing(row[key]), key
         assert row["factor_flops"] > row["factor_nonzeros"] >= row["dofs"]
     assert [r["grid"] for r in data["iterations"]] == [6, 8]
@@ -97,10 +128,19 @@ def test_crossover_with_every_cell_skipped_still_writes_its_results_and_resumes(
     # nothing to show; a resumed run reruns only a cell whose record is gone, with the settings
     # the folder was started with (here the budget of 0, whatever the flags say)
     pytest.importorskip("matplotlib")
-    command = [sys.executable, "-m", "benchmarks.crossover", "--out", str(tmp_path), "--quick",
-               "--workers", "1"]
-    result = subprocess.run(command + ["--max-cell-seconds", "0"], cwd=ROOT,
-                            capture_output=True, text=True, timeout=600)
+    command = [
+        sys.executable,
+        "-m",
+        "benchmarks.crossover",
+        "--out",
+        str(tmp_path),
+        "--quick",
+        "--workers",
+        "1",
+    ]
+    result = subprocess.run(
+        command + ["--max-cell-seconds", "0"], cwd=ROOT, capture_output=True, text=True, timeout=600
+    )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "crossover.png").read_bytes()[:4] == b"\x89PNG"
     data = json.loads((tmp_path / "crossover.json").read_text())
@@ -114,13 +154,19 @@ def test_crossover_with_every_cell_skipped_still_writes_its_results_and_resumes(
     before = kept.stat().st_mtime_ns
     gone.unlink()
     # --collect runs nothing: the missing cell is "not run"
-    result = subprocess.run(command + ["--collect"], cwd=ROOT, capture_output=True, text=True,
-                            timeout=600)
+    result = subprocess.run(
+        command + ["--collect"], cwd=ROOT, capture_output=True, text=True, timeout=600
+    )
     assert result.returncode == 0, result.stderr
     data = json.loads((tmp_path / "crossover.json").read_text())
     assert data["statuses"] == {"skipped": 1, "not run": 1} and not gone.exists()
-    result = subprocess.run(command + ["--resume", "--max-cell-seconds", "1e9"], cwd=ROOT,
-                            capture_output=True, text=True, timeout=600)
+    result = subprocess.run(
+        command + ["--resume", "--max-cell-seconds", "1e9"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
     assert "1 of 2 cells to run" in result.stdout
     assert kept.stat().st_mtime_ns == before and gone.is_file()
@@ -134,13 +180,15 @@ def test_crossover_smoke(tmp_path):
     stale.mkdir(parents=True)
     (stale / "run-00000.json").write_text("{}")
     # caps far above any run: which runs exist must not depend on wall time
-    data = run_benchmark("crossover", tmp_path, "--quick", "--max-ratio", "1e9",
-                         "--max-run-seconds", "1e9")
+    data = run_benchmark(
+        "crossover", tmp_path, "--quick", "--max-ratio", "1e9", "--max-run-seconds", "1e9"
+    )
     from benchmarks.crossover import QUICK_FAMILIES, THRESHOLDS, usable
 
     # the family table, filtered by what the build accepts
-    assert set(data["families"]) | {n.split(":")[0] for n in data["families_unavailable"]} \
-        == set(QUICK_FAMILIES)
+    assert set(data["families"]) | {n.split(":")[0] for n in data["families_unavailable"]} == set(
+        QUICK_FAMILIES
+    )
     assert {"explicit", "BE linearized"} <= set(data["families"])
     rows = [r for r in data["rows"] if r["method"] != "reference"]
     assert {r["method"] for r in rows} == set(data["families"])
@@ -167,8 +215,12 @@ def test_crossover_smoke(tmp_path):
         assert cell["reference_converged"] == (cell["reference_error"] <= tolerance)
         assert math.isclose(cell["reference_dt"], chain[-1]["dt"])
         assert is_timing(cell["cell_thread_cpu_seconds"])
-        mine = [r for r in rows if (r["size"], r["stretch_stiffness"], r["bending"])
-                == (cell["size"], cell["stretch_stiffness"], cell["bending"])]
+        mine = [
+            r
+            for r in rows
+            if (r["size"], r["stretch_stiffness"], r["bending"])
+            == (cell["size"], cell["stretch_stiffness"], cell["bending"])
+        ]
         # the cheapest run picked is the cheapest run below each threshold, per family
         for threshold in THRESHOLDS:
             at = cell[f"at_{threshold:g}"]
@@ -178,8 +230,11 @@ def test_crossover_smoke(tmp_path):
                 assert not at["families"] and "winner" not in at
                 continue
             for family, picked in at["families"].items():
-                below = [r for r in mine if r["method"] == family and usable(r)
-                         and r["error"] <= threshold]
+                below = [
+                    r
+                    for r in mine
+                    if r["method"] == family and usable(r) and r["error"] <= threshold
+                ]
                 if not below:
                     assert "none" in picked
                     continue
@@ -190,8 +245,10 @@ def test_crossover_smoke(tmp_path):
             if implicit and at["best_explicit"]:
                 best = min(e["cost_seconds_per_simulated_second"] for e in implicit)
                 assert at["best_implicit"]["cost_seconds_per_simulated_second"] == best
-                assert math.isclose(at["implicit_over_explicit_cost"], best / at[
-                    "best_explicit"]["cost_seconds_per_simulated_second"])
+                assert math.isclose(
+                    at["implicit_over_explicit_cost"],
+                    best / at["best_explicit"]["cost_seconds_per_simulated_second"],
+                )
                 assert (at["winner"] == "explicit") == (at["implicit_over_explicit_cost"] >= 1)
     measured = [r for r in rows if "error" in r]
     assert measured
@@ -210,11 +267,16 @@ def test_crossover_smoke(tmp_path):
         assert is_timing(r["cost_seconds_per_simulated_second"])
     assert any(r["error_half"] != r["error_end"] for r in measured)
     assert any(r["repeats"] == 3 for r in measured)
-    assert all(r["factorizations_per_step"] >= 1 for r in measured
-               if r["method"] == "BE linearized")
+    assert all(
+        r["factorizations_per_step"] >= 1 for r in measured if r["method"] == "BE linearized"
+    )
     targets = data["summary"]["targets"]
-    assert [t["target"][:8] for t in targets[:4]] == ["64², k =", "64², k =", "128², k ",
-                                                      "moonshot"]
+    assert [t["target"][:8] for t in targets[:4]] == [
+        "64², k =",
+        "64², k =",
+        "128², k ",
+        "moonshot",
+    ]
     assert all(not t["measured"] for t in targets[:4])  # not in the quick grid
     assert len(targets) == 4 + 2  # the stiffest cell of each row of the map (two at --quick)
     assert (tmp_path / "crossover.png").read_bytes()[:4] == b"\x89PNG"
@@ -272,13 +334,24 @@ def test_stable_dt_smoke(tmp_path):
 
 def test_newton_projection_smoke(tmp_path):
     data = run_benchmark("newton_projection", tmp_path, "--quick")
-    assert {r["projection"] for r in data["rows"]} == {"default", "clamp", "abs", "exact",
-                                                        "trust-region", "shifted", "steihaug"}
+    assert {r["projection"] for r in data["rows"]} == {
+        "default",
+        "clamp",
+        "abs",
+        "exact",
+        "trust-region",
+        "shifted",
+        "steihaug",
+    }
     # only the projections that try the exact Hessian can have it rejected
-    assert all(r["rejected_per_step"] == 0 for r in data["rows"]
-               if r["projection"] not in ("exact", "shifted"))
-    assert all(r["median_iterations"] <= r["max_iterations"] <= data["max_newton"]
-               for r in data["rows"])
+    assert all(
+        r["rejected_per_step"] == 0
+        for r in data["rows"]
+        if r["projection"] not in ("exact", "shifted")
+    )
+    assert all(
+        r["median_iterations"] <= r["max_iterations"] <= data["max_newton"] for r in data["rows"]
+    )
     assert all(0.0 <= r["deviation"] < 1.0 for r in data["rows"])
     # the step's own error, probed from the run's states, is finite and below the size
     assert all(0.0 <= r["step_deviation"] < 1.0 for r in data["rows"])
@@ -286,10 +359,14 @@ def test_newton_projection_smoke(tmp_path):
     # solve (measured 0.05–0.66 of it on the stiff sheet, see tests/test_truncation.py); after
     # a stroke, in the folds' flat valley, the rate estimate is optimistic (2.07 here, up to
     # ~5 measured: docs/limitations.md), never by orders of magnitude
-    default = {r["scene"]: r["step_deviation_over_truncation"] for r in data["rows"]
-               if r["projection"] == "default"}
-    assert all(ratio <= (10.0 if "strokes" in scene else 1.0)
-               for scene, ratio in default.items()), default
+    default = {
+        r["scene"]: r["step_deviation_over_truncation"]
+        for r in data["rows"]
+        if r["projection"] == "default"
+    }
+    assert all(
+        ratio <= (10.0 if "strokes" in scene else 1.0) for scene, ratio in default.items()
+    ), default
     assert set(data["target_met"]) == {r["projection"] for r in data["rows"]}
 
 
@@ -299,8 +376,9 @@ def test_factor_reuse_smoke(tmp_path):
     for row in data["rows"]:
         assert is_timing(row["cpu_seconds_per_simulated_second"])
         # every Newton system is solved once: fresh, reused, or after thrown-away tries
-        assert row["newton_per_step"] == pytest.approx(row["fresh_factorizations_per_step"]
-                                                       + row["factor_reuses_per_step"])
+        assert row["newton_per_step"] == pytest.approx(
+            row["fresh_factorizations_per_step"] + row["factor_reuses_per_step"]
+        )
         assert not row["stopped_by_cpu_cap"] and row["steps"] == row["planned_steps"]
         if row["variant"] == data["variants"][0]:  # the default, the others' reference
             assert row["deviation_from_default"] == 0.0
@@ -311,13 +389,16 @@ def test_factor_reuse_smoke(tmp_path):
             assert row["thrown_away_per_step"] == 0
     rows = {(r["resolution"], r["variant"]): r for r in data["rows"]}
     for resolution in {r["resolution"] for r in data["rows"]}:
-        for mixed, actual in (("steihaug, mixed", "steihaug, residual test"),
-                              ("clamp, step test", "clamp, step test, actual forces")):
+        for mixed, actual in (
+            ("steihaug, mixed", "steihaug, residual test"),
+            ("clamp, step test", "clamp, step test, actual forces"),
+        ):
             assert rows[resolution, mixed]["options"]["mixed"] is True
             assert rows[resolution, actual]["options"].get("mixed", False) is False
             assert rows[resolution, mixed]["newton_over_actual_forces"] == pytest.approx(
                 rows[resolution, mixed]["newton_per_step"]
-                / rows[resolution, actual]["newton_per_step"])
+                / rows[resolution, actual]["newton_per_step"]
+            )
 
 
 def test_newton_predictor_smoke(tmp_path):
@@ -328,8 +409,7 @@ def test_newton_predictor_smoke(tmp_path):
         assert r["run"] in ("inertial", "extrapolated", "tight")
         two_stages = r["scheme"].startswith("TR-BDF2")
         # a TR-BDF2 step is two stages, a restart (backward Euler) one; the others one each
-        assert r["stages"] == (2 * r["steps"] - r["history_restarts"] if two_stages
-                               else r["steps"])
+        assert r["stages"] == (2 * r["steps"] - r["history_restarts"] if two_stages else r["steps"])
         assert (r["trapezoid_newton_iterations"] > 0) == two_stages
         assert r["factorizations_per_step"] == pytest.approx(r["factorizations"] / r["steps"])
         assert r["iterations_per_stage"] == pytest.approx(r["newton_iterations"] / r["stages"])
@@ -337,15 +417,22 @@ def test_newton_predictor_smoke(tmp_path):
         assert len(r["kinetic_energy"]) == round(data["duration"] / data["sample_dt"])
         # every stage with a history to extrapolate from does, in the extrapolated runs only
         # (backward Euler keeps none)
-        expected = (r["stages"] - r["history_restarts"]
-                    if r["run"] == "extrapolated" and r["scheme"] != "BE" else 0)
+        expected = (
+            r["stages"] - r["history_restarts"]
+            if r["run"] == "extrapolated" and r["scheme"] != "BE"
+            else 0
+        )
         assert r["extrapolated_stages"] == expected
     (be,) = [c for c in data["comparisons"] if c["scheme"] == "BE"]
-    assert be["extrapolated_vs_inertial"] == {"kinetic_energy": 0.0, "positions_max": 0.0,
-                                              "positions_rms": 0.0}  # the same start: same bits
+    assert be["extrapolated_vs_inertial"] == {
+        "kinetic_energy": 0.0,
+        "positions_max": 0.0,
+        "positions_rms": 0.0,
+    }  # the same start: same bits
     assert data["goal_met"] == any(
         r["scheme"] == "TR-BDF2" and r["run"] == "inertial" and r["iterations_per_stage"] <= 3
-        for r in data["rows"])
+        for r in data["rows"]
+    )
 
 
 def test_newton_stop_smoke(tmp_path):
@@ -366,8 +453,9 @@ def test_newton_stop_smoke(tmp_path):
             # the norm is a maximum over vertices and sample times: the triangle inequality
             # through the tight run bounds each run's error
             assert r["error"] <= tight["error"] + r["from_tight"] + 1e-12
-            assert r["from_tight_over_tight_error"] == pytest.approx(r["from_tight"]
-                                                                     / tight["error"])
+            assert r["from_tight_over_tight_error"] == pytest.approx(
+                r["from_tight"] / tight["error"]
+            )
             assert r["rms_error"] <= r["error"] + 1e-15
         # the first step starts from the same state in every row, and the truncation test
         # only adds a way to stop: never more iterations there than the residual test alone
@@ -377,7 +465,8 @@ def test_newton_stop_smoke(tmp_path):
             default["mean_iterations"] <= data["goal"]["mean_iterations"]
             and default["median_iterations"] <= data["goal"]["median_iterations"]
             and default["thrown_away_per_step"] <= data["goal"]["thrown_away_per_step"]
-            and default["unconverged_steps"] <= data["goal"]["unconverged_steps"])
+            and default["unconverged_steps"] <= data["goal"]["unconverged_steps"]
+        )
     # the reference is finer than anything it judges
     assert data["reference_check"] < min(r["error"] for r in data["rows"])
 
@@ -394,8 +483,9 @@ def test_sensitivity_smoke(tmp_path):
         # coordinate, so its distance is known to about a percent)
         assert r["growth"] == pytest.approx(large / small, rel=0.05)
         assert r["floor"] == r[f"distance_{small:g}"] > 0.0
-        assert r[f"distance_{small:g}"] == max(r[f"distance_half_{small:g}"],
-                                               r[f"distance_end_{small:g}"])
+        assert r[f"distance_{small:g}"] == max(
+            r[f"distance_half_{small:g}"], r[f"distance_end_{small:g}"]
+        )
         assert r["judgeable"] == {f"{t:g}": True for t in data["thresholds"]}
         assert r["dt"] == pytest.approx(r["horizon"] / r["steps"])
 
@@ -404,24 +494,42 @@ def test_sensitivity_takes_the_crossover_cells_it_can(tmp_path):
     from benchmarks import sensitivity
 
     def cell(size, chain):
-        return {"size": size, "stretch_stiffness": 2e5, "bending": "soft", "horizon": 0.125,
-                "reference_chain": chain, "reference_converged": False,
-                "reference_error": 3e-4}
+        return {
+            "size": size,
+            "stretch_stiffness": 2e5,
+            "bending": "soft",
+            "horizon": 0.125,
+            "reference_chain": chain,
+            "reference_converged": False,
+            "reference_error": 3e-4,
+        }
 
-    chain = [{"steps": 1000, "cpu_seconds": 5.0, "difference_to_previous": None},
-             {"steps": 2000, "cpu_seconds": 10.0, "difference_to_previous": 3e-4}]
+    chain = [
+        {"steps": 1000, "cpu_seconds": 5.0, "difference_to_previous": None},
+        {"steps": 2000, "cpu_seconds": 10.0, "difference_to_previous": 3e-4},
+    ]
     costly = [dict(chain[0], cpu_seconds=500.0)]
-    summary = {"summary": {"cells": [cell(32, chain), cell(64, costly),
-                                     {"size": 128, "stretch_stiffness": 2e5,
-                                      "bending": "soft", "horizon": 0.125,
-                                      "status": "not run"}]}}
+    summary = {
+        "summary": {
+            "cells": [
+                cell(32, chain),
+                cell(64, costly),
+                {
+                    "size": 128,
+                    "stretch_stiffness": 2e5,
+                    "bending": "soft",
+                    "horizon": 0.125,
+                    "status": "not run",
+                },
+            ]
+        }
+    }
     path = tmp_path / "crossover.json"
     path.write_text(json.dumps(summary))
     chosen, left_out = sensitivity.cells_from(path, max_run_seconds=200.0)
     assert [(c["size"], steps) for c, steps, _ in chosen] == [(32, 1000)]
     assert chosen[0][2]["reference_differences"] == [3e-4]
-    assert [(c["size"], c["reason"].split()[0]) for c in left_out] == [(64, "its"),
-                                                                       (128, "not")]
+    assert [(c["size"], c["reason"].split()[0]) for c in left_out] == [(64, "its"), (128, "not")]
 
 
 def test_sensitivity_merges_and_names_its_cells():
@@ -451,18 +559,34 @@ def test_floor_aware_verdicts_charge_each_error_the_reference_uncertainty():
     where = {"size": 32, "stretch_stiffness": 2e7, "bending": "soft"}
 
     def run(method, error, cost):
-        return dict(where, method=method, error=error, cost_seconds_per_simulated_second=cost,
-                    dt=1e-3, steps=100, cpu_per_step=cost / 100, repeats=3, unstable=False,
-                    at_limit=method == "explicit")
+        return dict(
+            where,
+            method=method,
+            error=error,
+            cost_seconds_per_simulated_second=cost,
+            dt=1e-3,
+            steps=100,
+            cpu_per_step=cost / 100,
+            repeats=3,
+            unstable=False,
+            at_limit=method == "explicit",
+        )
 
     crossover = {
         "families": ["explicit", "BDF2", "BE"],
-        "summary": {"cells": [dict(where, horizon=0.125, reference_error=2e-4,
-                                   families_dropped={"BE": "not run"})]},
-        "rows": [run("explicit", 5e-4, 10.0), run("BDF2", 7e-4, 5.0),
-                 run("BDF2", 8.5e-4, 1.0),  # within 0.1 % alone, not with u
-                 run("BE", 1e-4, 0.1),  # a family dropped from the cell: never picked
-                 run("reference", 0.0, 0.01)]}  # the reference itself: never picked
+        "summary": {
+            "cells": [
+                dict(where, horizon=0.125, reference_error=2e-4, families_dropped={"BE": "not run"})
+            ]
+        },
+        "rows": [
+            run("explicit", 5e-4, 10.0),
+            run("BDF2", 7e-4, 5.0),
+            run("BDF2", 8.5e-4, 1.0),  # within 0.1 % alone, not with u
+            run("BE", 1e-4, 0.1),  # a family dropped from the cell: never picked
+            run("reference", 0.0, 0.01),
+        ],
+    }  # the reference itself: never picked
     rows = [dict(where, floor=1e-4)]
     verdicts = {v["threshold"]: v for v in sensitivity.floor_aware(crossover, rows)}
     assert set(verdicts) == {0.001}  # 1 %: the reference serves and the floor is small
@@ -474,8 +598,9 @@ def test_floor_aware_verdicts_charge_each_error_the_reference_uncertainty():
     assert v["least_implicit_error"] == pytest.approx(7e-4)
     # a floor of 2e-3: above a tenth of 1 %, so the crossover's 1 % verdict is redone with
     # u = 2e-3 (the cheapest BDF2 run now qualifies), and above 0.1 % itself: nothing to judge
-    verdicts = {v["threshold"]: v for v in
-                sensitivity.floor_aware(crossover, [dict(where, floor=2e-3)])}
+    verdicts = {
+        v["threshold"]: v for v in sensitivity.floor_aware(crossover, [dict(where, floor=2e-3)])
+    }
     assert verdicts[0.01]["allowance"] == 2e-3 and verdicts[0.01]["ratio"] == pytest.approx(0.1)
     assert verdicts[0.001]["ratio"] is None and verdicts[0.001]["implicit"] is None
     assert verdicts[0.001]["explicit"] is None
@@ -485,7 +610,8 @@ def test_threads_benchmark_smoke(tmp_path):
     data = run_benchmark("threads", tmp_path, "--quick")
     scenes = {"demo", "grid128", "grid64-implicit"}
     assert {(c["scene"], c["load"]) for c in data["cells"]} == {
-        (s, load) for s in scenes for load in ("idle", "busy")}
+        (s, load) for s in scenes for load in ("idle", "busy")
+    }
     assert len(data["rows"]) == 2 * len(data["cells"])  # one thread and the default, per cell
     assert data["target_ratio"] == 1.2
     assert data["target_met"] == all(c["met"] for c in data["cells"])
@@ -507,8 +633,9 @@ def test_threads_benchmark_smoke(tmp_path):
 def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
     results = tmp_path / "results"
     for name in schema.SCHEMAS:
-        run_benchmark(name, results, "--quick", *(["--sizes", "6", "8"]
-                                                  if name == "implicit_step" else []))
+        run_benchmark(
+            name, results, "--quick", *(["--sizes", "6", "8"] if name == "implicit_step" else [])
+        )
     page = tmp_path / "docs" / "results.md"
     page.parent.mkdir()
     page.write_text(f"intro\n{report.START}\nstale block\n{report.END}\nrest\n")
@@ -526,15 +653,18 @@ def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
     folder = page.parent / "results"
     listed = re.findall(r"^- \[(.+)\]\(results/([a-z-]+)\.md\)$", text, re.M)
     assert {stem for _, stem in listed} == {p.stem for p in folder.glob("*.md")}
-    assert {"crossover", "long-horizon", "rebuild-cost", "scaling", "pictures"} <= \
-        {stem for _, stem in listed}
+    assert {"crossover", "long-horizon", "rebuild-cost", "scaling", "pictures"} <= {
+        stem for _, stem in listed
+    }
     for title, stem in listed:
         lines = (folder / f"{stem}.md").read_text().splitlines()
         assert lines[0] == f"# {title}" and lines[2].startswith("Regenerated by `make bench`")
         assert not any(line.startswith("# ") for line in lines[1:])  # one title a page
     # every number comes from the JSON: spot-check two
     rebuild = json.loads((results / "rebuild_cost.json").read_text())
-    assert f"{rebuild['dense_matmul_gflops']:.1f} GFlop/s" in (folder / "rebuild-cost.md").read_text()
+    assert (
+        f"{rebuild['dense_matmul_gflops']:.1f} GFlop/s" in (folder / "rebuild-cost.md").read_text()
+    )
     scaling = json.loads((results / "scaling.json").read_text())
     scaling_page = (folder / "scaling.md").read_text()
     assert f"explicit {scaling['slopes']['explicit']:.2f}" in scaling_page
@@ -566,25 +696,43 @@ def test_pictures_smoke(tmp_path):
     assert is_timing(data["start_seconds_median"]) and is_timing(data["pick_seconds_median"])
 
 
-def crossover_row(method, error, cost, size=64, stiffness=2e6, bending="equal",
-                  iterations=3.0):
+def crossover_row(method, error, cost, size=64, stiffness=2e6, bending="equal", iterations=3.0):
     """A synthetic crossover run: 100 steps, explicit at its limit, cost in CPU s per
     simulated second."""
-    return {"size": size, "stretch_stiffness": stiffness, "bending": bending, "method": method,
-            "error": error, "cost_seconds_per_simulated_second": cost, "steps": 100,
-            "cpu_per_step": cost / 100, "at_limit": method == "explicit", "unstable": False,
-            "dt": 0.01, "iterations_per_step": iterations,
-            "factorizations_per_step": iterations}
+    return {
+        "size": size,
+        "stretch_stiffness": stiffness,
+        "bending": bending,
+        "method": method,
+        "error": error,
+        "cost_seconds_per_simulated_second": cost,
+        "steps": 100,
+        "cpu_per_step": cost / 100,
+        "at_limit": method == "explicit",
+        "unstable": False,
+        "dt": 0.01,
+        "iterations_per_step": iterations,
+        "factorizations_per_step": iterations,
+    }
 
 
 def crossover_settings(families, sizes=(32,), stiffness=(2e5,), bending=("equal",)):
     """A crossover run's settings, with the committed run's budgets."""
     from benchmarks import crossover
 
-    return {"quick": False, "repeats": 3, "max_run_seconds": 60.0, "max_ratio": 8.0,
-            "max_reference_seconds": 1800.0, "max_cell_seconds": 3600.0,
-            "rates": list(crossover.RATES), "sizes": list(sizes), "stiffness": list(stiffness),
-            "bending": list(bending), "families": families}
+    return {
+        "quick": False,
+        "repeats": 3,
+        "max_run_seconds": 60.0,
+        "max_ratio": 8.0,
+        "max_reference_seconds": 1800.0,
+        "max_cell_seconds": 3600.0,
+        "rates": list(crossover.RATES),
+        "sizes": list(sizes),
+        "stiffness": list(stiffness),
+        "bending": list(bending),
+        "families": families,
+    }
 
 
 def earlier_crossover(settings, cells, rows, **fields):
@@ -592,10 +740,16 @@ def earlier_crossover(settings, cells, rows, **fields):
     added or replaced)."""
     from benchmarks import crossover
 
-    return {"settings": {k: v for k, v in settings.items() if k != "families"},
-            "family_options": settings["families"], "thresholds": list(crossover.THRESHOLDS),
-            "reference_tolerance": crossover.REFERENCE_TOLERANCE, "machine": {"cpu": "x"},
-            "summary": {"cells": cells}, "rows": rows, **fields}
+    return {
+        "settings": {k: v for k, v in settings.items() if k != "families"},
+        "family_options": settings["families"],
+        "thresholds": list(crossover.THRESHOLDS),
+        "reference_tolerance": crossover.REFERENCE_TOLERANCE,
+        "machine": {"cpu": "x"},
+        "summary": {"cells": cells},
+        "rows": rows,
+        **fields,
+    }
 
 
 def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_options():
@@ -604,28 +758,48 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     # for mixed=True; its linearized and explicit rows still do
     from benchmarks import crossover
 
-    stiff = {"integrator": "bdf2", "projection": "clamp", "step_tol": 3e-3,
-             "truncation_fraction": 0.0}
-    families = {"explicit": {"integrator": "explicit"},
-                # as crossover.FAMILIES pins it: the behaviour from before the option existed
-                "BE linearized": {"integrator": "implicit", "linearized": True,
-                                  "truncation_fraction": 0.0},
-                "BDF2": dict(stiff, mixed=True)}
+    stiff = {
+        "integrator": "bdf2",
+        "projection": "clamp",
+        "step_tol": 3e-3,
+        "truncation_fraction": 0.0,
+    }
+    families = {
+        "explicit": {"integrator": "explicit"},
+        # as crossover.FAMILIES pins it: the behaviour from before the option existed
+        "BE linearized": {"integrator": "implicit", "linearized": True, "truncation_fraction": 0.0},
+        "BDF2": dict(stiff, mixed=True),
+    }
     settings = crossover_settings(families)
     resolved = crossover.resolved_families(families)
     assert resolved["BDF2"]["mixed"] is True and resolved["BE linearized"]["mixed"] is False
 
-    old_rows = [crossover_row("explicit", 1e-3, 10.0), crossover_row("BE linearized", 5e-3, 4.0),
-                crossover_row("BDF2", 5e-3, 2.0)]
-    info = {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "status": "done",
-            "reference_converged": True, "horizon": 0.25, "reference_error": 5e-5,
-            "reference_dt": 1e-6}
+    old_rows = [
+        crossover_row("explicit", 1e-3, 10.0),
+        crossover_row("BE linearized", 5e-3, 4.0),
+        crossover_row("BDF2", 5e-3, 2.0),
+    ]
+    info = {
+        "size": 64,
+        "stretch_stiffness": 2e6,
+        "bending": "equal",
+        "status": "done",
+        "reference_converged": True,
+        "horizon": 0.25,
+        "reference_error": 5e-5,
+        "reference_dt": 1e-6,
+    }
     old_cell = crossover.summarize_cell(info, old_rows, list(families))
     assert old_cell["at_0.01"]["winner"] == "BDF2"
-    earlier = earlier_crossover(settings, [dict(old_cell, status="done")], old_rows,
-                                family_options=dict(families, BDF2=stiff))
-    grid, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
-                                                     resolved)
+    earlier = earlier_crossover(
+        settings,
+        [dict(old_cell, status="done")],
+        old_rows,
+        family_options=dict(families, BDF2=stiff),
+    )
+    grid, cells, rows, origin = crossover.merge_runs(
+        settings, [], [], earlier, "old.json", resolved
+    )
     assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
     (cell,) = cells
     assert cell["at_0.01"]["winner"] == "BE linearized"
@@ -634,11 +808,20 @@ def test_crossover_merge_drops_the_families_an_earlier_run_ran_with_other_option
     assert set(cell["families_dropped"]) == {"BDF2"} and "mixed" in cell["families_dropped"]["BDF2"]
     assert origin["families_dropped"] == {"BDF2": ["mixed"]}
     # the results page says which families a merged cell left out, and why
-    payload = {"settings": grid, "cells": 1, "statuses": {"done": 1}, "families": list(families),
-               "families_unavailable": [], "reference_tolerance": crossover.REFERENCE_TOLERANCE,
-               "thresholds": list(crossover.THRESHOLDS),
-               "summary": {"cells": cells, "crossovers": crossover.crossovers(cells),
-                           "targets": crossover.targets(cells, grid["stiffness"])}}
+    payload = {
+        "settings": grid,
+        "cells": 1,
+        "statuses": {"done": 1},
+        "families": list(families),
+        "families_unavailable": [],
+        "reference_tolerance": crossover.REFERENCE_TOLERANCE,
+        "thresholds": list(crossover.THRESHOLDS),
+        "summary": {
+            "cells": cells,
+            "crossovers": crossover.crossovers(cells),
+            "targets": crossover.targets(cells, grid["stiffness"]),
+        },
+    }
     page = "\n".join(report.crossover_section(payload, "results"))
     assert "BDF2 (mixed False (now True)) in 64² k = 2e+06 equal" in page
     # a family given other options (not only the newer ones) counts as unknown: dropped too
@@ -658,23 +841,34 @@ def test_crossover_merge_keeps_an_earlier_run_that_lacked_a_family_this_run_has(
     # rows and name "BDF2" as not run; a run with a family this one lacks does not merge
     from benchmarks import crossover
 
-    families = {"explicit": {"integrator": "explicit"},
-                "BE linearized": {"integrator": "implicit", "linearized": True,
-                                  "truncation_fraction": 0.0},
-                "BDF2": {"integrator": "bdf2"}}
+    families = {
+        "explicit": {"integrator": "explicit"},
+        "BE linearized": {"integrator": "implicit", "linearized": True, "truncation_fraction": 0.0},
+        "BDF2": {"integrator": "bdf2"},
+    }
     settings = crossover_settings(families)
     resolved = crossover.resolved_families(families)
     earlier_families = {k: v for k, v in families.items() if k != "BDF2"}
     old_rows = [crossover_row("explicit", 1e-3, 10.0), crossover_row("BE linearized", 5e-3, 4.0)]
-    info = {"size": 64, "stretch_stiffness": 2e6, "bending": "equal", "status": "done",
-            "reference_converged": True, "horizon": 0.25, "reference_error": 5e-5,
-            "reference_dt": 1e-6}
+    info = {
+        "size": 64,
+        "stretch_stiffness": 2e6,
+        "bending": "equal",
+        "status": "done",
+        "reference_converged": True,
+        "horizon": 0.25,
+        "reference_error": 5e-5,
+        "reference_dt": 1e-6,
+    }
     old_cell = crossover.summarize_cell(info, old_rows, list(earlier_families))
     earlier = earlier_crossover(
-        settings, [dict(old_cell, status="done")], old_rows, family_options=earlier_families,
-        family_resolved_options={k: resolved[k] for k in earlier_families})
-    _, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json",
-                                                  resolved)
+        settings,
+        [dict(old_cell, status="done")],
+        old_rows,
+        family_options=earlier_families,
+        family_resolved_options={k: resolved[k] for k in earlier_families},
+    )
+    _, cells, rows, origin = crossover.merge_runs(settings, [], [], earlier, "old.json", resolved)
     assert [r["method"] for r in rows] == ["explicit", "BE linearized"]
     (cell,) = cells
     assert cell["at_0.01"]["winner"] == "BE linearized"
@@ -683,8 +877,14 @@ def test_crossover_merge_keeps_an_earlier_run_that_lacked_a_family_this_run_has(
     assert cell["families_dropped"]["BDF2"].startswith("not run")
     assert origin["families_new"] == ["BDF2"] and origin["families_dropped"] == {}
     with pytest.raises(SystemExit, match="families this run has not: BDF2"):
-        crossover.merge_runs(dict(settings, families=earlier_families), [], [],
-                             dict(earlier, family_options=families), "old.json", resolved)
+        crossover.merge_runs(
+            dict(settings, families=earlier_families),
+            [],
+            [],
+            dict(earlier, family_options=families),
+            "old.json",
+            resolved,
+        )
 
 
 def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine():
@@ -696,14 +896,24 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
     def row(method, error, cost):
         return crossover_row(method, error, cost, size=128, bending="soft")
 
-    rows = [row("explicit", 5e-4, 10.0), row("BE linearized", 8e-3, 3.0),
-            row("BE linearized", 5e-4, 20.0)]
+    rows = [
+        row("explicit", 5e-4, 10.0),
+        row("BE linearized", 8e-3, 3.0),
+        row("BE linearized", 5e-4, 20.0),
+    ]
     families = ["explicit", "BE linearized"]
     cells = {}
     for error in (5e-4, 5e-5, 2e-3, None):
-        info = {"size": 128, "stretch_stiffness": 2e6, "bending": "soft", "status": "done",
-                "reference_converged": error is not None and error <= 1e-4, "horizon": 0.125,
-                "reference_error": error, "reference_dt": 1e-7}
+        info = {
+            "size": 128,
+            "stretch_stiffness": 2e6,
+            "bending": "soft",
+            "status": "done",
+            "reference_converged": error is not None and error <= 1e-4,
+            "horizon": 0.125,
+            "reference_error": error,
+            "reference_dt": 1e-7,
+        }
         cells[error] = dict(crossover.summarize_cell(info, rows, families), status="done")
     coarse = cells[5e-4]
     assert coarse["at_0.01"]["winner"] == "BE linearized"
@@ -722,12 +932,12 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
     # the 0.1 % target of a row is judged at the grid's stiffest cell; where that was not
     # judged (here its reference is too coarse), the row's stiffest judged cell is shown beside
     fine = dict(cells[5e-5], stretch_stiffness=2e5)
-    (goal,) = [g for g in crossover.targets([coarse, fine], [2e5, 2e6])
-               if g["threshold"] == 0.001]
+    (goal,) = [g for g in crossover.targets([coarse, fine], [2e5, 2e6]) if g["threshold"] == 0.001]
     assert not goal["measured"] and not goal["met"]
     assert goal["stiffest_judged"]["stretch_stiffness"] == 2e5
     assert crossover.target_text(goal).endswith(
-        "the row's stiffest judged cell, k = 200000: 2.00, explicit")
+        "the row's stiffest judged cell, k = 200000: 2.00, explicit"
+    )
     payload = {"summary": {"cells": [coarse]}}
     (line,) = crossover.summary_table(payload)[2:]
     assert "0.30 (BE linearized)" in line and "reference too coarse (5.0e-04 > 0.0001)" in line
@@ -744,41 +954,63 @@ def test_crossover_judges_each_threshold_only_with_a_reference_a_tenth_as_fine()
 def test_crossover_merges_an_earlier_runs_cells_only_when_the_settings_agree():
     from benchmarks import crossover
 
-    settings = crossover_settings({"explicit": {"integrator": "explicit"},
-                                   "BE linearized": {"linearized": True}},
-                                  sizes=(128,), stiffness=(2e6,), bending=("soft",))
+    settings = crossover_settings(
+        {"explicit": {"integrator": "explicit"}, "BE linearized": {"linearized": True}},
+        sizes=(128,),
+        stiffness=(2e6,),
+        bending=("soft",),
+    )
 
     def rows_of(size, k, bending, ratio):
-        return [crossover_row(method, 5e-3, cost, size, k, bending, iterations=1.0)
-                for method, cost in (("explicit", 10.0), ("BE linearized", 10.0 * ratio))]
+        return [
+            crossover_row(method, 5e-3, cost, size, k, bending, iterations=1.0)
+            for method, cost in (("explicit", 10.0), ("BE linearized", 10.0 * ratio))
+        ]
 
     def cell(size, k, bending, ratio):
-        info = {"size": size, "stretch_stiffness": k, "bending": bending, "status": "done",
-                "reference_converged": True, "reference_error": 5e-5, "horizon": 0.25}
-        return dict(crossover.summarize_cell(info, rows_of(size, k, bending, ratio),
-                                             list(settings["families"])), status="done")
+        info = {
+            "size": size,
+            "stretch_stiffness": k,
+            "bending": bending,
+            "status": "done",
+            "reference_converged": True,
+            "reference_error": 5e-5,
+            "horizon": 0.25,
+        }
+        return dict(
+            crossover.summarize_cell(
+                info, rows_of(size, k, bending, ratio), list(settings["families"])
+            ),
+            status="done",
+        )
 
     earlier = earlier_crossover(
-        settings, [cell(64, 2e5, "equal", 1.0), cell(128, 2e6, "soft", 9.0)],
-        rows_of(64, 2e5, "equal", 1.0) + rows_of(128, 2e6, "soft", 9.0))
+        settings,
+        [cell(64, 2e5, "equal", 1.0), cell(128, 2e6, "soft", 9.0)],
+        rows_of(64, 2e5, "equal", 1.0) + rows_of(128, 2e6, "soft", 9.0),
+    )
     earlier["settings"].update(sizes=[64, 128], stiffness=[2e5, 2e6], bending=["equal", "soft"])
     mine = [cell(128, 2e6, "soft", 0.5)]
-    grid, cells, rows, origin = crossover.merge_runs(settings, mine,
-                                                     rows_of(128, 2e6, "soft", 0.5),
-                                                     earlier, "old.json")
+    grid, cells, rows, origin = crossover.merge_runs(
+        settings, mine, rows_of(128, 2e6, "soft", 0.5), earlier, "old.json"
+    )
     # this run's cell wins; the earlier run's other cell and its rows join
-    assert sorted((c["size"], c["at_0.01"]["implicit_over_explicit_cost"]) for c in cells) == \
-        [(64, 1.0), (128, 0.5)]
+    assert sorted((c["size"], c["at_0.01"]["implicit_over_explicit_cost"]) for c in cells) == [
+        (64, 1.0),
+        (128, 0.5),
+    ]
     assert len(rows) == 4 and grid["sizes"] == [64, 128] and grid["stiffness"] == [2e5, 2e6]
     assert grid["bending"] == ["equal", "soft"] and origin["cells"] == [[64, 2e5, "equal"]]
-    assert [(c["bending"], c["size"], c["ratios"]) for c in
-            crossover.crossovers(crossover.measured(cells))] == \
-        [("equal", 64, [(2e5, 1.0)]), ("soft", 128, [(2e6, 0.5)])]
+    assert [
+        (c["bending"], c["size"], c["ratios"])
+        for c in crossover.crossovers(crossover.measured(cells))
+    ] == [("equal", 64, [(2e5, 1.0)]), ("soft", 128, [(2e6, 0.5)])]
     # a cell this run did not finish (its run was stopped) keeps the earlier run's result
     stopped = {"size": 128, "stretch_stiffness": 2e6, "bending": "soft", "status": "not run"}
     _, cells, rows, origin = crossover.merge_runs(settings, [stopped], [], earlier, "old.json")
-    assert sorted((c["size"], c["status"], c["at_0.01"]["implicit_over_explicit_cost"])
-                  for c in cells) == [(64, "done", 1.0), (128, "done", 9.0)]
+    assert sorted(
+        (c["size"], c["status"], c["at_0.01"]["implicit_over_explicit_cost"]) for c in cells
+    ) == [(64, "done", 1.0), (128, "done", 9.0)]
     assert len(rows) == 4 and [128, 2e6, "soft"] in origin["cells"]
     for key, value in (("max_run_seconds", 120.0), ("repeats", 1)):
         other = json.loads(json.dumps(earlier))
@@ -796,16 +1028,31 @@ def _journal_cell(monkeypatch):
     from benchmarks import crossover
 
     ticks = iter(range(10**9))
-    monkeypatch.setattr(crossover, "time", types.SimpleNamespace(
-        thread_time=lambda: 1e-3 * next(ticks), perf_counter=crossover.time.perf_counter,
-        process_time=crossover.time.process_time))
+    monkeypatch.setattr(
+        crossover,
+        "time",
+        types.SimpleNamespace(
+            thread_time=lambda: 1e-3 * next(ticks),
+            perf_counter=crossover.time.perf_counter,
+            process_time=crossover.time.process_time,
+        ),
+    )
 
     families, _ = crossover.available_families(("explicit", "BE linearized"))
-    settings = dict(crossover_settings(families, sizes=(8,), stiffness=(2e3,), bending=("soft",)),
-                    repeats=2, rates=list(crossover.QUICK_RATES), max_run_seconds=1e9,
-                    max_ratio=1e9)
-    cell = {"size": 8, "stretch_stiffness": 2e3, "bending": "soft", "horizon": 0.125,
-            **crossover.bending_arguments("soft", 2e3)}
+    settings = dict(
+        crossover_settings(families, sizes=(8,), stiffness=(2e3,), bending=("soft",)),
+        repeats=2,
+        rates=list(crossover.QUICK_RATES),
+        max_run_seconds=1e9,
+        max_ratio=1e9,
+    )
+    cell = {
+        "size": 8,
+        "stretch_stiffness": 2e3,
+        "bending": "soft",
+        "horizon": 0.125,
+        **crossover.bending_arguments("soft", 2e3),
+    }
     return crossover, cell, crossover.sheet(8, 2e3, "soft"), families, settings
 
 
@@ -838,14 +1085,14 @@ def test_a_crossover_cell_stopped_part_way_replays_its_finished_runs(tmp_path, m
 
     monkeypatch.setattr(crossover, "_simulate", stopping)
     with pytest.raises(KeyboardInterrupt):
-        crossover.measure_cell(cell, make, families, settings, lambda s: None,
-                               crossover.Journal(folder, print))
+        crossover.measure_cell(
+            cell, make, families, settings, lambda s: None, crossover.Journal(folder, print)
+        )
     assert len(list(folder.glob("run-*.npz"))) == 4  # the four runs that ended, arrays kept
     monkeypatch.setattr(crossover, "_simulate", counted)
     before = len(calls)
     journal = crossover.Journal(folder, print)
-    resumed, info = crossover.measure_cell(cell, make, families, settings, lambda s: None,
-                                           journal)
+    resumed, info = crossover.measure_cell(cell, make, families, settings, lambda s: None, journal)
     # only the runs not finished before ran again; the stability trials and four runs replayed
     assert len(calls) - before == total - 4
     trials = len(info["stability_trials"])
@@ -855,20 +1102,24 @@ def test_a_crossover_cell_stopped_part_way_replays_its_finished_runs(tmp_path, m
 
     # a third pass replays everything: nothing runs, the rows and their CPU seconds are the same
     before = len(calls)
-    again, _ = crossover.measure_cell(cell, make, families, settings, lambda s: None,
-                                      crossover.Journal(folder, print))
+    again, _ = crossover.measure_cell(
+        cell, make, families, settings, lambda s: None, crossover.Journal(folder, print)
+    )
     assert len(calls) == before
     _same_runs(again, resumed)
-    assert [r.get("cpu_seconds_samples") for r in again] == \
-        [r.get("cpu_seconds_samples") for r in resumed]
+    assert [r.get("cpu_seconds_samples") for r in again] == [
+        r.get("cpu_seconds_samples") for r in resumed
+    ]
 
 
 def test_a_crossover_journal_of_another_build_or_another_question_is_not_replayed(
-        tmp_path, monkeypatch):
+    tmp_path, monkeypatch
+):
     crossover, cell, make, families, settings = _journal_cell(monkeypatch)
     folder = tmp_path / "journal"
-    crossover.measure_cell(cell, make, families, settings, lambda s: None,
-                           crossover.Journal(folder, print))
+    crossover.measure_cell(
+        cell, make, families, settings, lambda s: None, crossover.Journal(folder, print)
+    )
     records = sorted(folder.glob("run-*.json"))
     # a record whose question differs (here: another step count) is dropped with all after it
     record = json.loads(records[-3].read_text())
@@ -898,16 +1149,20 @@ def test_error_control_smoke(tmp_path):
     assert rows[0]["integrator"] == "explicit" and rows[0]["error"] == floor
     bdf2 = [r for r in rows if r["integrator"] == "bdf2" and r["error"] is not None]
     for r in rows:
-        if r["integrator"] in ("cvode", "arkode", "tr-bdf2 auto", "bdf2 auto") and \
-                r["error"] is not None:
+        if (
+            r["integrator"] in ("cvode", "arkode", "tr-bdf2 auto", "bdf2 auto")
+            and r["error"] is not None
+        ):
             # the derived ratios are the rows' own figures
-            assert r["cpu_over_explicit"] == pytest.approx(r["cpu_seconds"]
-                                                           / rows[0]["cpu_seconds"])
+            assert r["cpu_over_explicit"] == pytest.approx(
+                r["cpu_seconds"] / rows[0]["cpu_seconds"]
+            )
             as_good = [b for b in bdf2 if b["error"] <= r["error"]]
             if as_good:
                 cheapest = min(as_good, key=lambda b: b["cpu_seconds"])
-                assert r["cpu_over_bdf2"] == pytest.approx(r["cpu_seconds"]
-                                                           / cheapest["cpu_seconds"])
+                assert r["cpu_over_bdf2"] == pytest.approx(
+                    r["cpu_seconds"] / cheapest["cpu_seconds"]
+                )
             else:
                 assert "cpu_over_bdf2" not in r
             assert r["internal_steps"] >= 1 and r["factorizations_per_step"] > 0
@@ -919,8 +1174,12 @@ def test_error_control_smoke(tmp_path):
 def test_vibration_floor_smoke(tmp_path):
     data = run_benchmark("vibration_floor", tmp_path, "--quick")
     rows = data["rows"]
-    assert {r["family"] for r in rows} == {"explicit", "cvode", "tr-bdf2 auto",
-                                           "tr-bdf2 fixed, tight Newton"}
+    assert {r["family"] for r in rows} == {
+        "explicit",
+        "cvode",
+        "tr-bdf2 auto",
+        "tr-bdf2 fixed, tight Newton",
+    }
     explicit = [r for r in rows if r["family"] == "explicit"]
     # the reference is explicit at a sixteenth of the stable step: explicit converges towards it
     assert explicit[0]["error"] > explicit[-1]["error"]
@@ -928,21 +1187,28 @@ def test_vibration_floor_smoke(tmp_path):
     for r in rows:
         if "error" in r:
             assert r["mean_step"] == pytest.approx(data["horizon"] / r["internal_steps"])
-            assert r["mean_step_over_stable_dt"] == pytest.approx(r["mean_step"]
-                                                                  / cell["stable_dt"])
+            assert r["mean_step_over_stable_dt"] == pytest.approx(
+                r["mean_step"] / cell["stable_dt"]
+            )
     fixed = [r for r in rows if r["family"] == "tr-bdf2 fixed, tight Newton"]
     # a fixed step is its setting; the slopes are the rows' own log-log differences
     assert [r["mean_step"] for r in fixed] == pytest.approx([r["setting"] for r in fixed])
     b, a = fixed[1], fixed[0]
     assert b["slope_vs_step"] == pytest.approx(
-        math.log(a["error"] / b["error"]) / math.log(a["mean_step"] / b["mean_step"]))
+        math.log(a["error"] / b["error"]) / math.log(a["mean_step"] / b["mean_step"])
+    )
 
 
 def test_bending_consistency_smoke(tmp_path):
     data = run_benchmark("bending_consistency", tmp_path, "--quick")
     rows = data["rows"]
-    assert {r["kind"] for r in rows} == {"grid 0°", "grid 30°", "grid 45°", "pattern",
-                                         "equilateral"}
+    assert {r["kind"] for r in rows} == {
+        "grid 0°",
+        "grid 30°",
+        "grid 45°",
+        "pattern",
+        "equilateral",
+    }
     # the fitted energy meets the 2 % target on every mesh; the hinge energy does not at 45°
     assert data["summary"]["quadratic"]["within_target"]
     assert all(abs(r["quadratic"]["ratio"] - 1) < 0.01 for r in rows)
@@ -964,18 +1230,24 @@ def test_interpolation_bending_smoke(tmp_path):
     rows = data["rows"]
 
     def at(kind, strain, degrees):
-        return next(r for r in rows if (r["kind"], r["strain"], r["degrees"]) ==
-                    (kind, strain, degrees))
+        return next(
+            r for r in rows if (r["kind"], r["strain"], r["degrees"]) == (kind, strain, degrees)
+        )
+
     for degrees in (0.0, 30.0):
         assert at("lattice", "smoothed", degrees)["membrane_strain"] == "smoothed"
         assert at("lattice", "faces", degrees)["membrane_strain"] == "faces"
-        assert at("lattice", "smoothed", degrees)["c_leak"] < 0.1 * at(
-            "delaunay", "faces", degrees)["c_leak"]
+        assert (
+            at("lattice", "smoothed", degrees)["c_leak"]
+            < 0.1 * at("delaunay", "faces", degrees)["c_leak"]
+        )
     assert at("lattice", "faces", 0.0)["c_leak"] < 0.2 * at("lattice", "faces", 30.0)["c_leak"]
     assert abs(at("grid", "faces", 0.0)["c_leak"]) < 1e-6
     assert all(0.0 < r["c_compression"] < 0.4 for r in rows)
-    assert all(at(kind, "smoothed", 0.0)["c_compression"] > at(kind, "faces", 0.0)["c_compression"]
-               for kind in ("lattice", "delaunay", "grid"))
+    assert all(
+        at(kind, "smoothed", 0.0)["c_compression"] > at(kind, "faces", 0.0)["c_compression"]
+        for kind in ("lattice", "delaunay", "grid")
+    )
     assert (tmp_path / "interpolation_bending.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -987,7 +1259,8 @@ def test_wrinkles_smoke(tmp_path):
         # the prediction is Cerda & Mahadevan's from the row's own numbers
         assert r["predicted_wavelength"] == pytest.approx(
             math.sqrt(2 * math.pi * r["length"])
-            * (4 * r["bending_modulus"] / (r["young"] * r["strain"])) ** 0.25)
+            * (4 * r["bending_modulus"] / (r["young"] * r["strain"])) ** 0.25
+        )
         assert r["flat"] == (r["wavelength"] is None)
         if r["model"] == "membrane":
             assert r["young"] == data["settings"]["young"]
@@ -1006,10 +1279,17 @@ def test_wrinkles_smoke(tmp_path):
     assert all(abs(r["realized_bending"] / r["bending_modulus"] - 1) < 0.02 for r in rows)
     membrane = [r for r in rows if r["model"] == "membrane"]
     assert {(r["mesh"], r["seed"]) for r in membrane} >= {
-        ("pattern", 0), ("grid", 0), ("pattern", 1), ("grid", 1), ("delaunay", 0)}
+        ("pattern", 0),
+        ("grid", 0),
+        ("pattern", 1),
+        ("grid", 1),
+        ("delaunay", 0),
+    }
     assert {(r["mesh"], r["membrane_strain"]) for r in membrane} == {
-        (mesh, strain) for mesh in ("pattern", "grid", "delaunay")
-        for strain in ("faces", "smoothed")}
+        (mesh, strain)
+        for mesh in ("pattern", "grid", "delaunay")
+        for strain in ("faces", "smoothed")
+    }
     for r in membrane:
         # the membrane as built reads its strain; B_art is measured from its own
         # energy, and from the same state with the faces' constant strain: on CGAL's Delaunay
@@ -1017,8 +1297,10 @@ def test_wrinkles_smoke(tmp_path):
         # row records its pattern mesh's interior
         assert r["membrane_strain"] in ("smoothed", "faces")
         assert r["tension"] > 0.0 and not r["judged"]
-        assert r["pattern_interior"] == {"pattern": "lattice", "delaunay": "delaunay",
-                                         "grid": None}[r["mesh"]]
+        assert (
+            r["pattern_interior"]
+            == {"pattern": "lattice", "delaunay": "delaunay", "grid": None}[r["mesh"]]
+        )
         if r["mesh"] == "delaunay" and r["membrane_strain"] == "smoothed":
             assert r["artificial_bending_faces"] > 0.0
             assert abs(r["flat_state_probe_bending"]) < 0.5 * r["artificial_bending_faces"]
@@ -1032,18 +1314,27 @@ def test_wrinkles_smoke(tmp_path):
     assert leak["delaunay"] > 0.0 and abs(leak["grid"]) < 0.01 * leak["delaunay"]
     assert faces["grid"]["flat_state_probe_bending"] > 5 * abs(leak["grid"])
     assert {(s["model"], s["resolution"]) for s in data["strokes"]} == {
-        (m, n) for m in ("springs", "membrane") for n in (9, 13)}
+        (m, n) for m in ("springs", "membrane") for n in (9, 13)
+    }
     assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])
     # the stroke in physical units (issue 52): both bending moduli and mesh kinds at both
     # resolutions, a band of the same material width on each, grown (its rest area rises),
     # measured over the band: the fold (the stroke's displacement) and the wrinkles
     bands = data["band_strokes"]
     assert {(b["bending_modulus"], b["mesh"], b["resolution"]) for b in bands} == {
-        (B, m, n) for B in (1e-4, 1e-2) for m in ("grid", "pattern") for n in (9, 13)}
-    assert all(b["band_faces"] > 0 and b["area_gain"] > 1.0 and b["fold_depth"] > 0
-               and b["rest_area_added"] > 0 and b["band_weights"] == "simpson" for b in bands)
+        (B, m, n) for B in (1e-4, 1e-2) for m in ("grid", "pattern") for n in (9, 13)
+    }
+    assert all(
+        b["band_faces"] > 0
+        and b["area_gain"] > 1.0
+        and b["fold_depth"] > 0
+        and b["rest_area_added"] > 0
+        and b["band_weights"] == "simpson"
+        for b in bands
+    )
     assert set(data["summary"]["band_strokes"]) == {
-        f"{m}, B = {B:g}" for B in (1e-4, 1e-2) for m in ("grid", "pattern")}
+        f"{m}, B = {B:g}" for B in (1e-4, 1e-2) for m in ("grid", "pattern")
+    }
     # a second run with --resume reads every run from the journal
     again = run_benchmark("wrinkles", tmp_path, "--quick", "--resume")
     assert again["rows"] == rows
@@ -1074,8 +1365,9 @@ def test_the_judged_artificial_bending_is_the_interpolations_slope_under_the_ten
     for mesh in ("delaunay", "grid"):
         for edge in (0.02, 0.01):
             p = dict(wrinkles.QUICK_BASE, edge_length=edge, mesh=mesh, seed=0)
-            measured[mesh, edge] = wrinkles.tension_artificial_bending("membrane", p, tension,
-                                                                       wavelength)
+            measured[mesh, edge] = wrinkles.tension_artificial_bending(
+                "membrane", p, tension, wavelength
+            )
             if mesh == "delaunay":
                 sim = wrinkles.make("membrane", p, noise=0.0)
                 uv, F = sim.scene["uv"], sim.cloth.faces
@@ -1103,14 +1395,14 @@ def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared()
     tension, wavelength = 1100.0, 0.04
     values = []
     for edge in (0.008, 0.004):
-        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge,
-                                 interior="delaunay")
+        V, F = yore.pattern_mesh(
+            [[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge, interior="delaunay"
+        )
         stress = np.zeros((len(F), 2, 2))
         stress[:, 0, 0] = tension
         edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
         h = np.linalg.norm(V[edges[:, 1]] - V[edges[:, 0]], axis=1).mean()
-        b_art = wrinkles.artificial_bending(V[:, :2], F, stress, wavelength,
-                                            np.ones(len(F), bool))
+        b_art = wrinkles.artificial_bending(V[:, :2], F, stress, wavelength, np.ones(len(F), bool))
         values.append(b_art)
         assert 0.005 < b_art / (h * h * tension) < 0.05, b_art / (h * h * tension)
     assert 3.0 < values[0] / values[1] < 5.5, values
@@ -1118,15 +1410,21 @@ def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared()
     # quadratics): measured 0.3 % of the linear interpolant's B_art at 8 mm and 0.07 % at 4 mm
     # (its error is O(h²) in the slope, so B_art ∝ h⁴ h-wise), so it converges much faster
     for edge, linear in zip((0.008, 0.004), values):
-        V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge,
-                                 interior="delaunay")
+        V, F = yore.pattern_mesh(
+            [[0, 0], [0.3, 0], [0.3, 0.2], [0, 0.2]], edge_length=edge, interior="delaunay"
+        )
         stress = np.zeros((len(F), 2, 2))
         stress[:, 0, 0] = tension
         centre = V[F].mean(axis=1)
-        middle = ((centre[:, 0] > 0.05) & (centre[:, 0] < 0.25) & (centre[:, 1] > 0.04)
-                  & (centre[:, 1] < 0.16))
-        fitted = wrinkles.artificial_bending(V[:, :2], F, stress, wavelength, middle,
-                                             gradients="fitted")
+        middle = (
+            (centre[:, 0] > 0.05)
+            & (centre[:, 0] < 0.25)
+            & (centre[:, 1] > 0.04)
+            & (centre[:, 1] < 0.16)
+        )
+        fitted = wrinkles.artificial_bending(
+            V[:, :2], F, stress, wavelength, middle, gradients="fitted"
+        )
         inner = wrinkles.artificial_bending(V[:, :2], F, stress, wavelength, middle)
         assert 0 < fitted < 0.01 * inner, (edge, fitted, inner)
         values.append(fitted)
@@ -1134,5 +1432,6 @@ def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared()
     V, F = yore.grid_mesh(31, 21, width=0.3, height=0.2)
     stress = np.zeros((len(F), 2, 2))
     stress[:, 0, 0] = tension
-    assert wrinkles.artificial_bending(V[:, :2], F, stress, wavelength,
-                                       np.ones(len(F), bool)) == 0.0
+    assert (
+        wrinkles.artificial_bending(V[:, :2], F, stress, wavelength, np.ones(len(F), bool)) == 0.0
+    )

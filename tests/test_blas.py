@@ -13,8 +13,20 @@ import pytest
 import yore
 from yore import _cpu, blas
 
-AVX512 = ["sse3", "ssse3", "sse4_1", "sse4_2", "avx", "fma", "avx2", "avx512f", "avx512cd",
-          "avx512bw", "avx512dq", "avx512vl"]
+AVX512 = [
+    "sse3",
+    "ssse3",
+    "sse4_1",
+    "sse4_2",
+    "avx",
+    "fma",
+    "avx2",
+    "avx512f",
+    "avx512cd",
+    "avx512bw",
+    "avx512dq",
+    "avx512vl",
+]
 AVX2 = AVX512[:7]
 SSE = AVX512[:4]
 HERE = set(_cpu.cpu_features().extensions)
@@ -22,43 +34,59 @@ OPENBLAS = yore.build_info()["blas"].startswith("OpenBLAS")
 
 
 # -- the decision, on made-up CPUs -----------------------------------------------------------
-@pytest.mark.parametrize("extensions, native, expected", [
-    (AVX512, "Prescott", ("SkylakeX", "yore")),    # Debian 0.3.21 on an Emerald Rapids Xeon
-    (AVX512, "Haswell", ("SkylakeX", "yore")),
-    (AVX512, "Cooperlake", (None, "openblas")),    # same tier: OpenBLAS's own choice stays
-    (AVX512, "SkylakeX", (None, "openblas")),
-    (AVX2, "Prescott", ("Haswell", "yore")),
-    (AVX2, "Zen", (None, "openblas")),
-    (AVX2 + ["fma4"], "Excavator", (None, "openblas")),
-    (AVX2[:5], "Nehalem", ("Sandybridge", "yore")),  # AVX without AVX2
-    (SSE, "Prescott", (None, "openblas")),         # nothing wider to choose
-    (AVX512, "", (None, "openblas")),              # not OpenBLAS: its kernels are its own
-    (AVX512, None, ("SkylakeX", "yore")),          # the probe failed: the CPU runs SkylakeX
-    (AVX512[:-1], "Prescott", ("Haswell", "yore")),  # AVX-512 without VL: not SkylakeX's
-])
+@pytest.mark.parametrize(
+    "extensions, native, expected",
+    [
+        (AVX512, "Prescott", ("SkylakeX", "yore")),  # Debian 0.3.21 on an Emerald Rapids Xeon
+        (AVX512, "Haswell", ("SkylakeX", "yore")),
+        (AVX512, "Cooperlake", (None, "openblas")),  # same tier: OpenBLAS's own choice stays
+        (AVX512, "SkylakeX", (None, "openblas")),
+        (AVX2, "Prescott", ("Haswell", "yore")),
+        (AVX2, "Zen", (None, "openblas")),
+        (AVX2 + ["fma4"], "Excavator", (None, "openblas")),
+        (AVX2[:5], "Nehalem", ("Sandybridge", "yore")),  # AVX without AVX2
+        (SSE, "Prescott", (None, "openblas")),  # nothing wider to choose
+        (AVX512, "", (None, "openblas")),  # not OpenBLAS: its kernels are its own
+        (AVX512, None, ("SkylakeX", "yore")),  # the probe failed: the CPU runs SkylakeX
+        (AVX512[:-1], "Prescott", ("Haswell", "yore")),  # AVX-512 without VL: not SkylakeX's
+    ],
+)
 def test_an_unset_coretype_gets_the_widest_kernels_the_cpu_runs(extensions, native, expected):
     choice = blas.decide(extensions, None, native)
     assert (choice.coretype, choice.chosen_by) == expected and choice.warning is None
 
 
-@pytest.mark.parametrize("requested, extensions", [
-    ("Haswell", AVX512), ("haswell", AVX512), ("SANDYBRIDGE", AVX2), ("Prescott", AVX512),
-    ("SkylakeX", AVX512), ("NoSuchCore", SSE), ("", AVX512)])
+@pytest.mark.parametrize(
+    "requested, extensions",
+    [
+        ("Haswell", AVX512),
+        ("haswell", AVX512),
+        ("SANDYBRIDGE", AVX2),
+        ("Prescott", AVX512),
+        ("SkylakeX", AVX512),
+        ("NoSuchCore", SSE),
+        ("", AVX512),
+    ],
+)
 def test_a_users_coretype_the_cpu_runs_wins(requested, extensions):
     # unknown names included: OpenBLAS refuses them itself and detects the CPU
     choice = blas.decide(extensions, requested, native="Prescott")
     assert choice == blas.KernelChoice(None, "user")
 
 
-@pytest.mark.parametrize("requested, extensions, instead, missing", [
-    ("SkylakeX", AVX2, "Haswell", "avx512bw, avx512cd, avx512dq, avx512f, avx512vl"),
-    ("skylakex", SSE, "Prescott", "avx512bw, avx512cd, avx512dq, avx512f, avx512vl"),
-    ("Cooperlake", AVX512, "SkylakeX", "avx512_bf16"),
-    ("Bulldozer", AVX512, "SkylakeX", "fma4"),     # AMD's FMA4 kernels on an Intel CPU
-    ("Haswell", AVX2[:5], "Sandybridge", "avx2"),
-])
+@pytest.mark.parametrize(
+    "requested, extensions, instead, missing",
+    [
+        ("SkylakeX", AVX2, "Haswell", "avx512bw, avx512cd, avx512dq, avx512f, avx512vl"),
+        ("skylakex", SSE, "Prescott", "avx512bw, avx512cd, avx512dq, avx512f, avx512vl"),
+        ("Cooperlake", AVX512, "SkylakeX", "avx512_bf16"),
+        ("Bulldozer", AVX512, "SkylakeX", "fma4"),  # AMD's FMA4 kernels on an Intel CPU
+        ("Haswell", AVX2[:5], "Sandybridge", "avx2"),
+    ],
+)
 def test_a_users_coretype_the_cpu_cannot_run_is_one_warning_and_the_best_it_runs(
-        requested, extensions, instead, missing):
+    requested, extensions, instead, missing
+):
     choice = blas.decide(extensions, requested, native="Prescott")
     assert (choice.coretype, choice.chosen_by) == (instead, "yore")
     assert f"OPENBLAS_CORETYPE={requested} needs {missing}," in choice.warning
@@ -72,9 +100,15 @@ def test_every_kernel_yore_sets_is_one_openblas_knows_and_ranks_in_its_tier():
     assert blas.best_kernel(SSE) is None
 
 
-@pytest.mark.parametrize("variable, value, replaced", [
-    ("OMP_NUM_THREADS", "100000", "256"), ("OPENBLAS_NUM_THREADS", "0", None),
-    ("GOTO_NUM_THREADS", "many", None), ("OMP_NUM_THREADS", "-2", None)])
+@pytest.mark.parametrize(
+    "variable, value, replaced",
+    [
+        ("OMP_NUM_THREADS", "100000", "256"),
+        ("OPENBLAS_NUM_THREADS", "0", None),
+        ("GOTO_NUM_THREADS", "many", None),
+        ("OMP_NUM_THREADS", "-2", None),
+    ],
+)
 def test_thread_settings_no_machine_runs_are_named(variable, value, replaced):
     problems = blas.thread_setting_problems({variable: value, "OMP_NUM_THREADS_X": "0"})
     assert list(problems) == [variable]
@@ -82,8 +116,12 @@ def test_thread_settings_no_machine_runs_are_named(variable, value, replaced):
 
 
 def test_thread_settings_machines_run_are_left_alone():
-    assert blas.thread_setting_problems({"OMP_NUM_THREADS": "4,2", "OPENBLAS_NUM_THREADS": "1",
-                                         "GOTO_NUM_THREADS": "256"}) == {}
+    assert (
+        blas.thread_setting_problems(
+            {"OMP_NUM_THREADS": "4,2", "OPENBLAS_NUM_THREADS": "1", "GOTO_NUM_THREADS": "256"}
+        )
+        == {}
+    )
 
 
 # -- the import, in fresh processes ------------------------------------------------------------
@@ -92,21 +130,30 @@ def _fresh(code, environment=None, fake_cpu=None, fake_native=None):
     has `fake_cpu` extensions, a yore.blas whose probe answers `fake_native`."""
     prelude = ["import importlib.util, json, os, sys, types"]
     if fake_cpu is not None:
-        prelude.append(textwrap.dedent(f"""
+        prelude.append(
+            textwrap.dedent(f"""
             fake = types.ModuleType("yore._cpu")
             fake.cpu_features = lambda: types.SimpleNamespace(extensions={fake_cpu!r})
-            sys.modules["yore._cpu"] = fake"""))
+            sys.modules["yore._cpu"] = fake""")
+        )
     if fake_native is not None:
-        prelude.append(textwrap.dedent(f"""
+        prelude.append(
+            textwrap.dedent(f"""
             spec = importlib.util.spec_from_file_location("yore.blas", {blas.__file__!r})
             module = importlib.util.module_from_spec(spec)
             sys.modules["yore.blas"] = module
             spec.loader.exec_module(module)
-            module.native_kernel = lambda: {fake_native!r}"""))
+            module.native_kernel = lambda: {fake_native!r}""")
+        )
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
     env.update(environment or {})
-    return subprocess.run([sys.executable, "-c", "\n".join(prelude + [textwrap.dedent(code)])],
-                          env=env, capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-c", "\n".join(prelude + [textwrap.dedent(code)])],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 REPORT = """
@@ -156,9 +203,12 @@ def test_a_coretype_the_cpu_cannot_run_is_one_warning_line_never_sigill():
     # a made-up CPU without AVX-512, and a user asking for AVX-512 kernels: on such a CPU
     # OpenBLAS would load them and die at the first multiply
     # (an implicit step: CHOLMOD's supernodal factorization multiplies with those kernels)
-    done = _fresh(REPORT + "sim = yore.scenes.hanging_cloth(resolution=24, integrator='implicit')"
-                  "\nsim.step(2, progress=False)\nprint(sim.stats['counters']['factorizations'])",
-                  {"OPENBLAS_CORETYPE": "SkylakeX"}, fake_cpu=AVX2)
+    done = _fresh(
+        REPORT + "sim = yore.scenes.hanging_cloth(resolution=24, integrator='implicit')"
+        "\nsim.step(2, progress=False)\nprint(sim.stats['counters']['factorizations'])",
+        {"OPENBLAS_CORETYPE": "SkylakeX"},
+        fake_cpu=AVX2,
+    )
     assert done.returncode == 0
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "OPENBLAS_CORETYPE=SkylakeX needs avx512" in lines[0]
@@ -169,8 +219,11 @@ def test_a_coretype_the_cpu_cannot_run_is_one_warning_line_never_sigill():
 @needs_openblas
 @pytest.mark.skipif(not {"avx2", "fma"} <= HERE, reason="this CPU has no AVX2")
 def test_the_command_says_it_in_one_yore_warning_line_and_yore_info_shows_the_kernels():
-    done = _fresh("sys.argv = ['yore', 'info']\nfrom yore.cli import main\nsys.exit(main())",
-                  {"OPENBLAS_CORETYPE": "SkylakeX"}, fake_cpu=AVX2)
+    done = _fresh(
+        "sys.argv = ['yore', 'info']\nfrom yore.cli import main\nsys.exit(main())",
+        {"OPENBLAS_CORETYPE": "SkylakeX"},
+        fake_cpu=AVX2,
+    )
     assert done.returncode == 0
     assert done.stderr.startswith("yore: warning: OPENBLAS_CORETYPE=SkylakeX needs")
     assert done.stderr.count("\n") == 1
@@ -179,8 +232,10 @@ def test_the_command_says_it_in_one_yore_warning_line_and_yore_info_shows_the_ke
 
 
 def test_a_thread_count_no_machine_runs_is_one_warning_and_the_limit(tmp_path):
-    done = _fresh("import yore\nprint(os.environ['OMP_NUM_THREADS'], yore.build_info()['threads'])",
-                  {"OMP_NUM_THREADS": "100000"})
+    done = _fresh(
+        "import yore\nprint(os.environ['OMP_NUM_THREADS'], yore.build_info()['threads'])",
+        {"OMP_NUM_THREADS": "100000"},
+    )
     assert done.returncode == 0
     assert done.stdout.split() == ["256", "256"]
     assert done.stderr.count("BlasWarning: OMP_NUM_THREADS=100000 is more threads") == 1
@@ -192,8 +247,9 @@ def test_yore_info_names_the_kernels_in_use(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out
     info = yore.build_info()
-    assert any(line.split()[:1] == ["BLAS"] and line.endswith(blas.describe())
-               for line in out.splitlines())
+    assert any(
+        line.split()[:1] == ["BLAS"] and line.endswith(blas.describe()) for line in out.splitlines()
+    )
     for key in ("blas_kernel", "blas_kernel_chosen_by", "cholmod", "threads"):
         assert any(line.split()[:1] == [key] for line in out.splitlines()), key
     assert info["blas_kernel_chosen_by"] in ("user", "yore", "openblas")

@@ -19,17 +19,54 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 # Reduced sizes: a few hundred vertices, 0.3 s, the stroke at 0.1 s — every output still made.
 SMALL = {
-    "hanging_paper": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "simulation.duration=0.3",
-                "--set", "strokes.0.time=0.1", "--set", "strokes.0.material="
-                "[[0.1, 0.2], [0.9, 0.2]]", "--set", "output.fps=20",
-                "--set", "camera.width=160", "--set", "camera.height=120"],
-    "cylinder_paper": ["--set", "mesh.rings=6", "--set", "mesh.segments=12",
-                 "--set", "simulation.duration=0.3", "--set", "strokes.0.time=0.1",
-                 "--set", "output.fps=20", "--set", "camera.width=160",
-                 "--set", "camera.height=120"],
-    "stiff": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "simulation.duration=0.3",
-              "--set", "strokes.0.time=0.1", "--set", "strokes.0.material="
-              "[[0.1, 0.2], [0.9, 0.2]]", "--set", "fixed.1.indices=[8]"],
+    "hanging_paper": [
+        "--set",
+        "mesh.nx=9",
+        "--set",
+        "mesh.ny=9",
+        "--set",
+        "simulation.duration=0.3",
+        "--set",
+        "strokes.0.time=0.1",
+        "--set",
+        "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
+        "--set",
+        "output.fps=20",
+        "--set",
+        "camera.width=160",
+        "--set",
+        "camera.height=120",
+    ],
+    "cylinder_paper": [
+        "--set",
+        "mesh.rings=6",
+        "--set",
+        "mesh.segments=12",
+        "--set",
+        "simulation.duration=0.3",
+        "--set",
+        "strokes.0.time=0.1",
+        "--set",
+        "output.fps=20",
+        "--set",
+        "camera.width=160",
+        "--set",
+        "camera.height=120",
+    ],
+    "stiff": [
+        "--set",
+        "mesh.nx=9",
+        "--set",
+        "mesh.ny=9",
+        "--set",
+        "simulation.duration=0.3",
+        "--set",
+        "strokes.0.time=0.1",
+        "--set",
+        "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
+        "--set",
+        "fixed.1.indices=[8]",
+    ],
 }
 # yore's reproductions of the two experiments take the same reductions as the paper's
 SMALL["hanging"] = SMALL["hanging_paper"]
@@ -37,8 +74,9 @@ SMALL["cylinder"] = SMALL["cylinder_paper"]
 
 
 def run(name, out, *extra):
-    code = main(["run", str(EXAMPLES / f"{name}.toml"), "-o", str(out), "--quiet",
-                 *SMALL[name], *extra])
+    code = main(
+        ["run", str(EXAMPLES / f"{name}.toml"), "-o", str(out), "--quiet", *SMALL[name], *extra]
+    )
     assert code == 0
     return json.loads((out / "summary.json").read_text())
 
@@ -49,8 +87,9 @@ def pvd_entries(path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["hanging", "hanging_paper", "cylinder", "cylinder_paper",
-                                  "stiff"])
+@pytest.mark.parametrize(
+    "name", ["hanging", "hanging_paper", "cylinder", "cylinder_paper", "stiff"]
+)
 def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tmp_path, name):
     summary = run(name, tmp_path)
     scene = yore.runs.load_scene(EXAMPLES / f"{name}.toml")
@@ -64,8 +103,9 @@ def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tm
     assert len(summary["frames"]) == steps // every + 1 + (steps % every != 0)
     for frame in summary["frames"]:
         assert (tmp_path / frame["file"]).is_file()
-    assert [f for _, f in pvd_entries(tmp_path / "frames" / "frame.pvd")] == \
-        [str(Path(f["file"]).relative_to("frames")) for f in summary["frames"]]
+    assert [f for _, f in pvd_entries(tmp_path / "frames" / "frame.pvd")] == [
+        str(Path(f["file"]).relative_to("frames")) for f in summary["frames"]
+    ]
     # records per frame; energies and areas are finite numbers
     assert len(summary["records"]) == len(summary["frames"])
     assert all(np.isfinite(r["total"]) and r["area"] > 0 for r in summary["records"])
@@ -78,8 +118,10 @@ def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tm
         assert stroke["faces_split"] == 0 and stroke["springs_grown"] > 0
         assert stroke["faces_refined"] > 0 and stroke["vertices_added"] > 0
     assert stroke["rest_area_after"] > stroke["rest_area_before"]
-    assert summary["records"][-1]["vertices"] == summary["records"][0]["vertices"] + \
-        stroke["vertices_added"]
+    assert (
+        summary["records"][-1]["vertices"]
+        == summary["records"][0]["vertices"] + stroke["vertices_added"]
+    )
     # timings per phase and the settings actually used
     assert summary["phases"] and all(isinstance(v, float) for v in summary["phases"].values())
     assert summary["settings"]["simulation"]["dt"] == summary["dt"]
@@ -96,8 +138,20 @@ def test_every_example_scene_runs_at_reduced_size_and_writes_what_it_promises(tm
 @pytest.mark.slow
 def test_the_python_scripting_example_runs(tmp_path):
     completed = subprocess.run(
-        [sys.executable, str(EXAMPLES / "scripted_scene.py"), "--out", str(tmp_path),
-         "--resolution", "7", "--seconds", "0.2"], capture_output=True, text=True, timeout=300)
+        [
+            sys.executable,
+            str(EXAMPLES / "scripted_scene.py"),
+            "--out",
+            str(tmp_path),
+            "--resolution",
+            "7",
+            "--seconds",
+            "0.2",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert completed.returncode == 0, completed.stderr
     assert (tmp_path / "summary.json").is_file() and (tmp_path / "frames" / "frame.pvd").is_file()
 
@@ -108,8 +162,9 @@ def test_bad_scenes_fail_before_simulating_with_exit_code_2_and_one_line(tmp_pat
     cases = {
         "material.stifness": text.replace("stretch_stiffness = 200.0", "stifness = 200.0"),
         "mesh.nx": text.replace("nx = 21", 'nx = "21"'),
-        "strokes[0].material": text.replace("[[0.15, 0.075], [0.85, 0.075]]",
-                                            "[[3.0, 3.0], [4.0, 3.0]]"),
+        "strokes[0].material": text.replace(
+            "[[0.15, 0.075], [0.85, 0.075]]", "[[3.0, 3.0], [4.0, 3.0]]"
+        ),
     }
     for key, body in cases.items():
         scene.write_text(body)
@@ -124,29 +179,48 @@ def test_bad_scenes_fail_before_simulating_with_exit_code_2_and_one_line(tmp_pat
 @pytest.mark.slow
 def test_the_console_script_exits_non_zero_on_errors_and_zero_on_check(tmp_path):
     yore_command = Path(sys.executable).with_name("yore")
-    completed = subprocess.run([str(yore_command), "run", str(tmp_path / "missing.toml")],
-                               capture_output=True, text=True)
+    completed = subprocess.run(
+        [str(yore_command), "run", str(tmp_path / "missing.toml")], capture_output=True, text=True
+    )
     assert completed.returncode == 2 and "cannot read the scene file" in completed.stderr
-    completed = subprocess.run([sys.executable, "-m", "yore", "check",
-                                str(EXAMPLES / "hanging_paper.toml")], capture_output=True, text=True)
+    completed = subprocess.run(
+        [sys.executable, "-m", "yore", "check", str(EXAMPLES / "hanging_paper.toml")],
+        capture_output=True,
+        text=True,
+    )
     assert completed.returncode == 0 and "OK" in completed.stdout
-    completed = subprocess.run([str(yore_command), "run", "--bogus"], capture_output=True,
-                               text=True)
+    completed = subprocess.run(
+        [str(yore_command), "run", "--bogus"], capture_output=True, text=True
+    )
     assert completed.returncode == 2 and completed.stderr.startswith("yore: error:")
 
 
 def test_a_diverging_run_exits_1_saying_when_and_suggesting_a_step(tmp_path, capsys):
-    code = main(["run", str(EXAMPLES / "stiff.toml"), "-o", str(tmp_path), "--quiet",
-                 *SMALL["stiff"], "--set", 'simulation.integrator="explicit"',
-                 "--set", "simulation.dt=0.01", "--set", "integrator={}"])
+    code = main(
+        [
+            "run",
+            str(EXAMPLES / "stiff.toml"),
+            "-o",
+            str(tmp_path),
+            "--quiet",
+            *SMALL["stiff"],
+            "--set",
+            'simulation.integrator="explicit"',
+            "--set",
+            "simulation.dt=0.01",
+            "--set",
+            "integrator={}",
+        ]
+    )
     assert code == 1
     message = capsys.readouterr().err
     assert "diverged at step" in message and "stable time step" in message
     assert (tmp_path / "state.npz").is_file()  # the last good state is kept
 
 
-def test_a_refused_matrix_mid_run_is_a_failed_run_with_state_and_summary(tmp_path, capsys,
-                                                                          monkeypatch):
+def test_a_refused_matrix_mid_run_is_a_failed_run_with_state_and_summary(
+    tmp_path, capsys, monkeypatch
+):
     # Whatever makes the linear solver refuse a matrix mid-run (extreme values that pass the
     # checks, round-off) ends the run as a failure: one line, exit 1, state and summary kept.
     calls = []
@@ -159,8 +233,9 @@ def test_a_refused_matrix_mid_run_is_a_failed_run_with_state_and_summary(tmp_pat
         return step(self, n, progress)
 
     monkeypatch.setattr(yore.Simulation, "step", refusing_step)
-    code = main(["run", str(EXAMPLES / "stiff.toml"), "-o", str(tmp_path), "--quiet",
-                 *SMALL["stiff"]])
+    code = main(
+        ["run", str(EXAMPLES / "stiff.toml"), "-o", str(tmp_path), "--quiet", *SMALL["stiff"]]
+    )
     error = capsys.readouterr().err
     assert code == 1 and error.count("\n") == 1 and error.startswith("yore: error:")
     assert "refused a step's matrix" in error and "smaller dt" in error
@@ -170,34 +245,52 @@ def test_a_refused_matrix_mid_run_is_a_failed_run_with_state_and_summary(tmp_pat
 
 
 def test_material_values_past_their_limit_fail_the_check_naming_the_key(tmp_path, capsys):
-    code = main(["check", str(EXAMPLES / "stiff.toml"), "--set",
-                 "material.stretch_stiffness=1e300"])
+    code = main(
+        ["check", str(EXAMPLES / "stiff.toml"), "--set", "material.stretch_stiffness=1e300"]
+    )
     error = capsys.readouterr().err
     assert code == 2 and "material.stretch_stiffness" in error and "1e+12" in error
 
 
-@pytest.mark.parametrize("scene, setting, key", [
-    # issue 53, N17: a 1e150 m grid failed as "degenerate" naming no key; a driver's centre at
-    # 1e300 m passed the check and made the run's first positions infinite
-    ("hanging_paper.toml", "mesh.width=1e150", "mesh.width"),
-    ("cylinder.toml", "mesh.radius=1e150", "mesh.radius"),
-    ("cylinder.toml", "driven.0.center=[1e300, 0.5, 0.0]", "driven[0].center"),
-])
+@pytest.mark.parametrize(
+    "scene, setting, key",
+    [
+        # issue 53, N17: a 1e150 m grid failed as "degenerate" naming no key; a driver's centre at
+        # 1e300 m passed the check and made the run's first positions infinite
+        ("hanging_paper.toml", "mesh.width=1e150", "mesh.width"),
+        ("cylinder.toml", "mesh.radius=1e150", "mesh.radius"),
+        ("cylinder.toml", "driven.0.center=[1e300, 0.5, 0.0]", "driven[0].center"),
+    ],
+)
 def test_sizes_and_points_past_a_thousand_kilometres_fail_the_check_naming_the_key(
-        capsys, scene, setting, key):
+    capsys, scene, setting, key
+):
     code = main(["check", str(EXAMPLES / scene), "--set", setting])
     error = capsys.readouterr().err
     assert code == 2 and error.count("\n") == 1 and error.startswith("yore: error:")
     assert f"{key}:" in error and "1e+06" in error
 
 
-@pytest.mark.parametrize("settings, key, needs", [
-    (["--set", "integrator.rtol=1e-3"], "integrator.rtol", 'dt="auto"'),
-    (["--set", 'integrator.solver="eigen-ldlt"', "--set", 'integrator.factorization='
-      '"simplicial"'], "integrator.factorization", 'solver="cholmod"'),
-    (["--set", "integrator.pcg_tol=1e-8"], "integrator.pcg_tol", 'solver="pcg"')])
-def test_check_and_run_refuse_an_option_the_scene_would_ignore_alike(tmp_path, capsys,
-                                                                    settings, key, needs):
+@pytest.mark.parametrize(
+    "settings, key, needs",
+    [
+        (["--set", "integrator.rtol=1e-3"], "integrator.rtol", 'dt="auto"'),
+        (
+            [
+                "--set",
+                'integrator.solver="eigen-ldlt"',
+                "--set",
+                'integrator.factorization="simplicial"',
+            ],
+            "integrator.factorization",
+            'solver="cholmod"',
+        ),
+        (["--set", "integrator.pcg_tol=1e-8"], "integrator.pcg_tol", 'solver="pcg"'),
+    ],
+)
+def test_check_and_run_refuse_an_option_the_scene_would_ignore_alike(
+    tmp_path, capsys, settings, key, needs
+):
     # issue 53 (and R04): the stiff scene's bdf2 has a fixed dt and Newton's tolerance given
     scene = str(EXAMPLES / "stiff.toml")
     errors = []
@@ -209,8 +302,9 @@ def test_check_and_run_refuse_an_option_the_scene_would_ignore_alike(tmp_path, c
         errors.append(error)
     assert errors[0] == errors[1]  # the check says what the run would
     assert not (tmp_path / "out").exists()
-    assert main(["check", scene, "--set", 'simulation.dt="auto"', *settings]) == \
-        (0 if key == "integrator.rtol" else 2)
+    assert main(["check", scene, "--set", 'simulation.dt="auto"', *settings]) == (
+        0 if key == "integrator.rtol" else 2
+    )
 
 
 @pytest.mark.slow
@@ -218,8 +312,23 @@ def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, c
     run("hanging", tmp_path)
     frame = tmp_path / "frames" / "frame_00003.vtu"
     picture = tmp_path / "picture.png"
-    assert main(["render", str(frame), "-o", str(picture), "--width", "320", "--height", "200",
-                 "--color-by", "expansion"]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(frame),
+                "-o",
+                str(picture),
+                "--width",
+                "320",
+                "--height",
+                "200",
+                "--color-by",
+                "expansion",
+            ]
+        )
+        == 0
+    )
     with Image.open(picture) as image:
         assert image.size == (320, 200)
         pixels = np.asarray(image.convert("RGB")).reshape(-1, 3)
@@ -240,15 +349,18 @@ def test_render_writes_a_png_of_the_requested_size_showing_the_cloth(tmp_path, c
         assert gif.n_frames >= 2
 
 
-@pytest.mark.parametrize("name, stroke_time", [("hanging", 0.1), ("hanging", 0.25),
-                                               ("cylinder", 0.1), ("stiff", 0.1)])
+@pytest.mark.parametrize(
+    "name, stroke_time", [("hanging", 0.1), ("hanging", 0.25), ("cylinder", 0.1), ("stiff", 0.1)]
+)
 def test_run_straight_equals_run_save_resume_bit_for_bit(tmp_path, name, stroke_time):
     # 0.3 s straight vs 0.15 s, save, resume to 0.3 s — the stroke before or after the split.
     extra = ["--set", f"strokes.0.time={stroke_time}", "--no-render"]
     run(name, tmp_path / "straight", *extra)
     run(name, tmp_path / "split", *extra, "--until", "0.15")
-    assert main(["run", "--resume", str(tmp_path / "split" / "state.npz"), "--quiet",
-                 "--no-render"]) == 0
+    assert (
+        main(["run", "--resume", str(tmp_path / "split" / "state.npz"), "--quiet", "--no-render"])
+        == 0
+    )
     straight, _ = yore.load_state(tmp_path / "straight" / "state.npz")
     resumed, record = yore.load_state(tmp_path / "split" / "state.npz")
     assert record["resumed_from"]
@@ -278,8 +390,9 @@ def test_pvd_lists_every_frame_across_a_stroke_and_a_resume(tmp_path):
     stroke = summary["strokes"][0]
     assert counts[0] < counts[-1] == counts[0] + stroke["vertices_added"]
     assert sorted(set(counts)) == [counts[0], counts[-1]]
-    assert os.path.samefile(tmp_path / "frames" / entries[-1][1],
-                            tmp_path / summary["frames"][-1]["file"])
+    assert os.path.samefile(
+        tmp_path / "frames" / entries[-1][1], tmp_path / summary["frames"][-1]["file"]
+    )
 
 
 @pytest.mark.slow
@@ -287,8 +400,13 @@ def test_yore_demo_writes_frames_pictures_and_an_animation_and_says_where(tmp_pa
     out = tmp_path / "yore-out"
     assert main(["demo", "-o", str(out), *SMALL["hanging"]]) == 0
     printed = capsys.readouterr().out
-    for name in ("frames/frame.pvd", "before_after.png", "animation.gif", "summary.json",
-                 "state.npz"):
+    for name in (
+        "frames/frame.pvd",
+        "before_after.png",
+        "animation.gif",
+        "summary.json",
+        "state.npz",
+    ):
         assert (out / name).is_file(), name
         assert str((out / name).resolve()) in printed  # the report says where it went
 
@@ -313,16 +431,17 @@ def test_a_scene_on_a_mesh_file_with_box_and_index_selections(tmp_path):
     (tmp_path / "patch.toml").write_text(
         '[mesh]\ngenerator = "file"\npath = "patch.obj"\nscale = 2.0\n'
         "[[fixed]]\nbox = { min = [-0.01, 0.99, -0.01], max = [1.01, 1.01, 0.01] }\n"
-        "[simulation]\nintegrator = \"implicit\"\nduration = 0.05\n"
+        '[simulation]\nintegrator = "implicit"\nduration = 0.05\n'
         "[[strokes]]\ntime = 0.0\npoints = [[0.1, 0.5, 0.0], [0.9, 0.5, 0.0]]\n"
-        '[output]\nformat = "none"\n')
-    assert main(["run", str(tmp_path / "patch.toml"), "-o", str(tmp_path / "out"),
-                 "--quiet"]) == 0
+        '[output]\nformat = "none"\n'
+    )
+    assert main(["run", str(tmp_path / "patch.toml"), "-o", str(tmp_path / "out"), "--quiet"]) == 0
     sim, _ = yore.load_state(tmp_path / "out" / "state.npz")
     assert list(sim.cloth.fixed_vertices) == list(range(30, 36))  # the scaled top row, y = 1
     assert sim.cloth.vertex_count > 36  # the stroke added vertices
     (tmp_path / "broken.toml").write_text(
-        '[mesh]\ngenerator = "file"\npath = "nowhere.obj"\n[simulation]\nduration = 1.0\n')
+        '[mesh]\ngenerator = "file"\npath = "nowhere.obj"\n[simulation]\nduration = 1.0\n'
+    )
     with pytest.raises(yore.SceneError, match="mesh.path"):
         yore.load_scene(tmp_path / "broken.toml").build()
 
@@ -340,12 +459,23 @@ def test_an_interrupted_run_saves_its_state_and_resumes_exactly(tmp_path, monkey
         original_step(self, n, progress)
 
     monkeypatch.setattr(yore.Simulation, "step", interrupted_step)
-    code = main(["run", str(EXAMPLES / "hanging_paper.toml"), "-o", str(tmp_path / "split"),
-                 "--quiet", "--no-render", *SMALL["hanging_paper"]])
+    code = main(
+        [
+            "run",
+            str(EXAMPLES / "hanging_paper.toml"),
+            "-o",
+            str(tmp_path / "split"),
+            "--quiet",
+            "--no-render",
+            *SMALL["hanging_paper"],
+        ]
+    )
     assert code == 130 and "--resume" in capsys.readouterr().err
     monkeypatch.setattr(yore.Simulation, "step", original_step)
-    assert main(["run", "--resume", str(tmp_path / "split" / "state.npz"), "--quiet",
-                 "--no-render"]) == 0
+    assert (
+        main(["run", "--resume", str(tmp_path / "split" / "state.npz"), "--quiet", "--no-render"])
+        == 0
+    )
     straight, _ = yore.load_state(tmp_path / "straight" / "state.npz")
     resumed, _ = yore.load_state(tmp_path / "split" / "state.npz")
     assert np.array_equal(straight.cloth.positions, resumed.cloth.positions)
@@ -384,21 +514,38 @@ def test_threads_are_set_by_the_command_line_or_the_scene(tmp_path, where):
 def test_bad_thread_counts_are_bad_input(tmp_path, capsys):
     assert main(["check", str(EXAMPLES / "hanging_paper.toml"), "--threads", "0"]) == 2
     assert "threads" in capsys.readouterr().err
-    assert main(["check", str(EXAMPLES / "hanging_paper.toml"), "--set", "simulation.threads=0"]) == 2
+    assert (
+        main(["check", str(EXAMPLES / "hanging_paper.toml"), "--set", "simulation.threads=0"]) == 2
+    )
     assert "simulation.threads" in capsys.readouterr().err
 
 
 def test_the_command_in_the_stiff_example_header_runs_and_diverges_as_it_says(tmp_path, capsys):
-    header = [line.lstrip("# ") for line in (EXAMPLES / "stiff.toml").read_text().splitlines()
-              if line.startswith("#   yore run")]
+    header = [
+        line.lstrip("# ")
+        for line in (EXAMPLES / "stiff.toml").read_text().splitlines()
+        if line.startswith("#   yore run")
+    ]
     assert len(header) == 1
     import shlex
 
     words = shlex.split(header[0])
     assert words[:3] == ["yore", "run", "examples/stiff.toml"]
-    code = main(["run", str(EXAMPLES / "stiff.toml"), *words[3:], "-o", str(tmp_path),
-                 "--quiet", "--no-render", "--set", "simulation.duration=0.5",
-                 "--set", "strokes=[]"])
+    code = main(
+        [
+            "run",
+            str(EXAMPLES / "stiff.toml"),
+            *words[3:],
+            "-o",
+            str(tmp_path),
+            "--quiet",
+            "--no-render",
+            "--set",
+            "simulation.duration=0.5",
+            "--set",
+            "strokes=[]",
+        ]
+    )
     error = capsys.readouterr().err
     assert code == 1 and "diverged" in error and "use dt <=" in error
 
@@ -429,8 +576,9 @@ def test_render_colours_by_the_scene_unless_told_otherwise(tmp_path, monkeypatch
     assert main(["render", str(tmp_path), "--animation", "none", "--quiet"]) == 0
     assert seen and all(seen)
     seen.clear()
-    assert main(["render", str(tmp_path), "--animation", "none", "--quiet",
-                 "--color-by", "none"]) == 0
+    assert (
+        main(["render", str(tmp_path), "--animation", "none", "--quiet", "--color-by", "none"]) == 0
+    )
     assert seen and not any(seen)
 
 
@@ -463,8 +611,10 @@ def test_a_run_past_the_step_limit_needs_allow_long_and_check_says_the_steps(tmp
     code = main(["run", scene, "-o", str(tmp_path / "until"), "--quiet", "--until", "1e6"])
     err = capsys.readouterr().err
     assert code == 2 and "after the scene's end" in err
-    for key, value, match in [("simulation.settle", "1e9", "simulation.settle"),
-                              ("simulation.threads", "1000000", "simulation.threads")]:
+    for key, value, match in [
+        ("simulation.settle", "1e9", "simulation.settle"),
+        ("simulation.threads", "1000000", "simulation.threads"),
+    ]:
         assert main(["check", scene, "--set", f"{key}={value}"]) == 2
         assert match in capsys.readouterr().err
 
@@ -478,11 +628,18 @@ def test_ctrl_c_while_the_command_starts_is_one_line(delay, how):
     import signal
     import time
 
-    command = [str(Path(sys.executable).with_name("yore"))] if how == "yore" else \
-        [sys.executable, "-m", "yore"]
-    process = subprocess.Popen([*command, "check", str(EXAMPLES / "stiff.toml")],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)
+    command = (
+        [str(Path(sys.executable).with_name("yore"))]
+        if how == "yore"
+        else [sys.executable, "-m", "yore"]
+    )
+    process = subprocess.Popen(
+        [*command, "check", str(EXAMPLES / "stiff.toml")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     time.sleep(delay)  # where the interrupt lands, not a measure
     try:
         os.killpg(process.pid, signal.SIGINT)
@@ -491,8 +648,11 @@ def test_ctrl_c_while_the_command_starts_is_one_line(delay, how):
     _, err = process.communicate(timeout=300)
     # -SIGINT: it landed while the interpreter itself starts or shuts down, which Python's
     # default disposition ends silently
-    assert (process.returncode, err) in ((130, "yore: interrupted\n"), (0, ""),
-                                         (-signal.SIGINT, "")), err
+    assert (process.returncode, err) in (
+        (130, "yore: interrupted\n"),
+        (0, ""),
+        (-signal.SIGINT, ""),
+    ), err
 
 
 def test_ctrl_c_while_the_parser_is_built_is_one_line(monkeypatch, capsys):
@@ -517,14 +677,20 @@ def test_ctrl_c_in_the_command_shutdown_prints_nothing(tmp_path):
     import textwrap
 
     script = tmp_path / "yore"  # the guard is the command's only: argv[0] is named yore
-    script.write_text(textwrap.dedent("""\
+    script.write_text(
+        textwrap.dedent("""\
         import atexit, os, signal, sys
         atexit.register(lambda: os.kill(os.getpid(), signal.SIGINT))
         from yore.cli import main
         sys.exit(main())
-        """))
-    process = subprocess.run([sys.executable, str(script), "check", str(EXAMPLES / "stiff.toml")],
-                             capture_output=True, text=True, timeout=300)
+        """)
+    )
+    process = subprocess.run(
+        [sys.executable, str(script), "check", str(EXAMPLES / "stiff.toml")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert (process.returncode, process.stderr) == (0, ""), process.stderr
     assert process.stdout  # the check itself ran and reported
     # and a program that imports yore keeps Python's own handling after main() returns
@@ -537,13 +703,18 @@ def test_ctrl_c_in_the_command_shutdown_prints_nothing(tmp_path):
 def test_a_warning_is_one_line_without_the_source_line(tmp_path):
     # issue 41, class 16: warnings were printed with the Python source line that warned
     scene = tmp_path / "scene.toml"
-    scene.write_text('[mesh]\ngenerator = "grid"\nnx = 5\nny = 5\n[[fixed]]\n'
-                     'set = "top corners"\n[simulation]\nintegrator = "local-global"\n'
-                     'dt = 0.01\nduration = 0.02\ngravity = [0.0, -1e15, 0.0]\n'
-                     '[output]\nformat = "none"\n')
-    result = subprocess.run([sys.executable, "-m", "yore", "run", str(scene), "-o",
-                             str(tmp_path / "out"), "--quiet"], capture_output=True, text=True,
-                            timeout=300)
+    scene.write_text(
+        '[mesh]\ngenerator = "grid"\nnx = 5\nny = 5\n[[fixed]]\n'
+        'set = "top corners"\n[simulation]\nintegrator = "local-global"\n'
+        "dt = 0.01\nduration = 0.02\ngravity = [0.0, -1e15, 0.0]\n"
+        '[output]\nformat = "none"\n'
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "yore", "run", str(scene), "-o", str(tmp_path / "out"), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     lines = result.stderr.splitlines()
     assert lines and all(line.startswith("yore: warning: ") for line in lines), lines
@@ -561,11 +732,15 @@ def test_a_usage_error_points_at_the_help_of_the_command_as_typed(capsys):
     assert "(see `yore run --help`)" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("orig_argv, guarded", [
-    (["python", "-m", "yore", "run", "scene.toml"], True),
-    (["python", "-X", "importtime", "-m", "yore", "check"], True),
-    (["python", "-m", "pytest", "-m", "yore"], False),  # a marker named yore: not the command
-    (["python", "-c", "import yore", "-m", "yore"], False)])
+@pytest.mark.parametrize(
+    "orig_argv, guarded",
+    [
+        (["python", "-m", "yore", "run", "scene.toml"], True),
+        (["python", "-X", "importtime", "-m", "yore", "check"], True),
+        (["python", "-m", "pytest", "-m", "yore"], False),  # a marker named yore: not the command
+        (["python", "-c", "import yore", "-m", "yore"], False),
+    ],
+)
 def test_only_the_yore_command_guards_its_start(monkeypatch, orig_argv, guarded):
     import signal
 
@@ -588,10 +763,25 @@ def test_only_the_yore_command_guards_its_start(monkeypatch, orig_argv, guarded)
 
 def test_a_runs_report_says_its_largest_energy_rise(tmp_path, capsys):
     # issue 53: the growth check's measure is in the summary's counters and the report
-    code = main(["run", str(EXAMPLES / "hanging_paper.toml"), "-o", str(tmp_path), "--no-render",
-                 "--set", "mesh.nx=7", "--set", "mesh.ny=7", "--set", "simulation.duration=0.2",
-                 "--set", "strokes.0.time=0.1",
-                 "--set", "simulation.settle=0"])
+    code = main(
+        [
+            "run",
+            str(EXAMPLES / "hanging_paper.toml"),
+            "-o",
+            str(tmp_path),
+            "--no-render",
+            "--set",
+            "mesh.nx=7",
+            "--set",
+            "mesh.ny=7",
+            "--set",
+            "simulation.duration=0.2",
+            "--set",
+            "strokes.0.time=0.1",
+            "--set",
+            "simulation.settle=0",
+        ]
+    )
     out = capsys.readouterr().out
     gain = json.loads((tmp_path / "summary.json").read_text())["counters"]["energy_gain"]
     assert code == 0 and gain > 0

@@ -49,8 +49,9 @@ def test_rest_lengths_come_from_the_input_geometry():
     V, F = yore.cylinder_mesh(0.3, 0.4, 4, 9)
     cloth = yore.Cloth(V, F, stretch_stiffness=10.0, bend_stiffness=5.0, damping=0.1)
     ends = cloth.springs.ends
-    assert np.allclose(cloth.springs.rest, np.linalg.norm(V[ends[:, 0]] - V[ends[:, 1]], axis=1),
-                       rtol=1e-15)
+    assert np.allclose(
+        cloth.springs.rest, np.linalg.norm(V[ends[:, 0]] - V[ends[:, 1]], axis=1), rtol=1e-15
+    )
     kinds = cloth.springs.kind
     assert np.all(cloth.springs.stiffness[kinds == STRUCTURAL] == 10.0)
     assert np.all(cloth.springs.stiffness[kinds == BENDING] == 5.0)
@@ -133,7 +134,12 @@ GOOD_V, GOOD_F = yore.grid_mesh(3, 3)
         (GOOD_V, np.vstack([GOOD_F, [[0, -1, 2]]]), {}, "out of range"),
         (np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int32), {}, "no vertices"),
         (GOOD_V, np.zeros((0, 3), dtype=np.int32), {}, "no faces"),
-        (np.vstack([GOOD_V, [[2.0, 0.0, 0.0]]]), np.vstack([GOOD_F, [[0, 1, 9]]]), {}, "degenerate"),
+        (
+            np.vstack([GOOD_V, [[2.0, 0.0, 0.0]]]),
+            np.vstack([GOOD_F, [[0, 1, 9]]]),
+            {},
+            "degenerate",
+        ),
         (GOOD_V, np.vstack([GOOD_F, [[0, 0, 1]]]), {}, "repeats a vertex"),
         (GOOD_V, np.vstack([GOOD_F, GOOD_F[:1]]), {}, "shared by 3 faces|same triangle"),
         (np.vstack([GOOD_V, [[5.0, 5.0, 5.0]]]), GOOD_F, {}, "belongs to no face"),
@@ -253,13 +259,16 @@ def test_the_former_mass_keyword_still_works_for_one_version_with_a_deprecation_
         yore.Cloth(V, F, masses=masses, mass=masses)
 
 
-@pytest.mark.parametrize("keyword, value, message", [
-    # issue 53: these were pybind11's TypeError ("incompatible constructor arguments")
-    ("stretch", None, 'stretch must be "springs" or "membrane", got None'),
-    ("bending", 3, 'bending must be "springs", "quadratic" or "hinge", got 3'),
-    ("damping", None, "damping: got None; expected a number"),
-    ("drag", "still", "drag: got 'still'; expected a number"),
-])
+@pytest.mark.parametrize(
+    "keyword, value, message",
+    [
+        # issue 53: these were pybind11's TypeError ("incompatible constructor arguments")
+        ("stretch", None, 'stretch must be "springs" or "membrane", got None'),
+        ("bending", 3, 'bending must be "springs", "quadratic" or "hinge", got 3'),
+        ("damping", None, "damping: got None; expected a number"),
+        ("drag", "still", "drag: got 'still'; expected a number"),
+    ],
+)
 def test_a_wrongly_typed_keyword_is_a_value_error_naming_it(keyword, value, message):
     V, F = yore.grid_mesh(3, 3)
     with pytest.raises(ValueError, match=message) as caught:

@@ -28,12 +28,16 @@ def endless_simulation(integrator="local-global"):
     # Past the Python API's cap on iterations per step (MAX_STEP_ITERATIONS), up to the core's
     # own int32 limit: a step that cannot finish on its own, which only Ctrl-C ends.
     sim._integrator = {
-        "local-global": lambda: yore._core.LocalGlobalIntegrator(iterations=2**31 - 1,
-                                                                 tolerance=0.0),
+        "local-global": lambda: yore._core.LocalGlobalIntegrator(
+            iterations=2**31 - 1, tolerance=0.0
+        ),
         # a Newton solve that never converges by its own tolerance
         "implicit": lambda: yore._core.ImplicitIntegrator(
-            max_newton=2**31 - 1, newton_tol=1e-300, truncation_fraction=0.0,
-            adaptive_projection=False),
+            max_newton=2**31 - 1,
+            newton_tol=1e-300,
+            truncation_fraction=0.0,
+            adaptive_projection=False,
+        ),
     }[integrator]()
     return sim
 
@@ -109,7 +113,8 @@ def test_a_busy_cloth_refuses_every_other_use_and_a_ctrl_c_undoes_the_interrupte
         # of the busy integrator
         other = small_cloth()
         record["messages"].append(
-            refused(lambda: sim._integrator.advance(other, sim.gravity, sim.dt, 1)))
+            refused(lambda: sim._integrator.advance(other, sim.gravity, sim.dt, 1))
+        )
         record["repr"] = repr(cloth)
 
     record = interrupt_while_busy(sim, attempts)

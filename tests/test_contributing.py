@@ -18,15 +18,29 @@ import pytest
 import yore
 import yore.cli
 from yore import _core
-from yore.options import (GROWTH_MODES, INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS,
-                          IntegratorSpec)
+from yore.options import (
+    GROWTH_MODES,
+    INTEGRATOR_OPTIONS,
+    INTEGRATOR_SPECS,
+    INTEGRATORS,
+    IntegratorSpec,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGE = DOCS / "contributing.md"
 TOP_LEVEL = ("CMakeLists.txt", "Makefile", "README.md", "pyproject.toml")
-FOLDERS = ("bench-results", "benchmarks", "cmake", "cpp", "docs", "examples", "python", "tests",
-           "tools")
+FOLDERS = (
+    "bench-results",
+    "benchmarks",
+    "cmake",
+    "cpp",
+    "docs",
+    "examples",
+    "python",
+    "tests",
+    "tools",
+)
 
 
 def _page():
@@ -57,15 +71,14 @@ def missing_paths(text, root=ROOT):
     """(paths checked, those that do not exist). A placeholder such as <unit> matches any name,
     but something must match it."""
     paths = sorted({p for p in map(_repository_path, _spans(text)) if p})
-    missing = [p for p in paths
-               if not any(root.glob(re.sub(r"<[^>]+>", "*", p).rstrip("/")))]
+    missing = [p for p in paths if not any(root.glob(re.sub(r"<[^>]+>", "*", p).rstrip("/")))]
     return paths, missing
 
 
 def _python_module(path):
     """The module a python/ file is ("python/yore/runs/schema.py" → "yore.runs.schema")."""
-    name = path[len("python/"):-len(".py")].replace("/", ".")
-    return name[:-len(".__init__")] if name.endswith(".__init__") else name
+    name = path[len("python/") : -len(".py")].replace("/", ".")
+    return name[: -len(".__init__")] if name.endswith(".__init__") else name
 
 
 def _undefined(path, name, root):
@@ -127,8 +140,7 @@ def _resolve(dotted):
 
 def unresolved_dotted_names(text):
     """(dotted Python names checked, those that do not resolve); `_core.x` is yore._core's."""
-    names = sorted({s for s in _spans(text)
-                    if re.fullmatch(r"(yore|_core)(\.[A-Za-z_]\w*)+", s)})
+    names = sorted({s for s in _spans(text) if re.fullmatch(r"(yore|_core)(\.[A-Za-z_]\w*)+", s)})
     wrong = [n for n in names if not _resolve(n if n.startswith("yore") else f"yore.{n}")]
     return names, wrong
 
@@ -175,30 +187,42 @@ def test_the_checkers_find_what_is_wrong(tmp_path):
     (tmp_path / "cpp" / "a.hpp").write_text("struct Present {};\n")
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "test_a.py").write_text("def test_here():\n    pass\n")
-    text = ("`cpp/a.hpp` and `cpp/gone.hpp`, `cpp/<unit>.hpp` and `cpp/<unit>.cpp`;\n"
-            "`cpp/a.hpp::Present`, `cpp/a.hpp::Absent`, `tests/test_a.py::test_here`,\n"
-            "`tests/test_a.py::test_gone`, `tests/test_a.py::pass`; `make test`,\n"
-            "`make no-such-target`.\n"
-            "```sh\nmake another-missing-target\n`cpp/in-a-code-block.hpp`\n```\n")
+    text = (
+        "`cpp/a.hpp` and `cpp/gone.hpp`, `cpp/<unit>.hpp` and `cpp/<unit>.cpp`;\n"
+        "`cpp/a.hpp::Present`, `cpp/a.hpp::Absent`, `tests/test_a.py::test_here`,\n"
+        "`tests/test_a.py::test_gone`, `tests/test_a.py::pass`; `make test`,\n"
+        "`make no-such-target`.\n"
+        "```sh\nmake another-missing-target\n`cpp/in-a-code-block.hpp`\n```\n"
+    )
     assert missing_paths(text, tmp_path)[1] == ["cpp/<unit>.cpp", "cpp/gone.hpp"]
     assert [span for span, _ in undefined_names(text, tmp_path)[1]] == [
-        "cpp/a.hpp::Absent", "tests/test_a.py::pass", "tests/test_a.py::test_gone"]
-    assert missing_make_targets(text, tmp_path)[1] == ["another-missing-target",
-                                                       "no-such-target"]
+        "cpp/a.hpp::Absent",
+        "tests/test_a.py::pass",
+        "tests/test_a.py::test_gone",
+    ]
+    assert missing_make_targets(text, tmp_path)[1] == ["another-missing-target", "no-such-target"]
     # python/ files are imported: their names are attributes of the module
-    text = ("`python/yore/options.py::INTEGRATOR_SPECS`, `python/yore/options.py::NO_SUCH`,\n"
-            "`python/yore/simulation.py::Simulation.step`,\n"
-            "`python/yore/simulation.py::Simulation.no_such_method`; `yore.options.GROWTH_MODES`,\n"
-            "`yore.options.NO_SUCH`, `yore.no_such_module`, `_core.growth_modes`, `_core.nothing`\n")
+    text = (
+        "`python/yore/options.py::INTEGRATOR_SPECS`, `python/yore/options.py::NO_SUCH`,\n"
+        "`python/yore/simulation.py::Simulation.step`,\n"
+        "`python/yore/simulation.py::Simulation.no_such_method`; `yore.options.GROWTH_MODES`,\n"
+        "`yore.options.NO_SUCH`, `yore.no_such_module`, `_core.growth_modes`, `_core.nothing`\n"
+    )
     assert [span for span, _ in undefined_names(text)[1]] == [
-        "python/yore/options.py::NO_SUCH", "python/yore/simulation.py::Simulation.no_such_method"]
-    assert unresolved_dotted_names(text)[1] == ["_core.nothing", "yore.no_such_module",
-                                                "yore.options.NO_SUCH"]
+        "python/yore/options.py::NO_SUCH",
+        "python/yore/simulation.py::Simulation.no_such_method",
+    ]
+    assert unresolved_dotted_names(text)[1] == [
+        "_core.nothing",
+        "yore.no_such_module",
+        "yore.options.NO_SUCH",
+    ]
 
 
 def test_the_page_is_in_the_documentation_toctree():
-    toctrees = re.findall(r"^```\{toctree\}\n(.*?)^```", (DOCS / "index.md").read_text("utf-8"),
-                          re.M | re.S)
+    toctrees = re.findall(
+        r"^```\{toctree\}\n(.*?)^```", (DOCS / "index.md").read_text("utf-8"), re.M | re.S
+    )
     assert any("contributing" in tree.split() for tree in toctrees)
 
 
@@ -214,8 +238,10 @@ def _options_headings():
 
 
 def test_each_integrator_is_one_row_that_builds_a_core_integrator_the_page_names():
-    named = [re.fullmatch(r"cpp/include/yore/\w+\.hpp::(\w+Integrator)", span)
-             for span in _spans(_page())]
+    named = [
+        re.fullmatch(r"cpp/include/yore/\w+\.hpp::(\w+Integrator)", span)
+        for span in _spans(_page())
+    ]
     page_classes = {match.group(1) for match in named if match}
     documented = _options_headings()
     built = set()
@@ -238,10 +264,15 @@ def test_the_growth_modes_are_one_table_in_core_binding_registry_and_docs():
     enumerators = re.findall(r"^\s*(\w+) = (\d+),", body, re.M)
     assert [int(value) for _, value in enumerators] == list(range(len(enumerators)))
     table = (ROOT / "cpp/src/growth.cpp").read_text(encoding="utf-8")
-    rows = re.findall(r'^\s*\{"(\w+)", (?:true|false), (?:true|false), (?:true|false)\},', table,
-                      re.M)
-    assert [name for name, _ in enumerators] == rows == list(_core.growth_modes()) \
+    rows = re.findall(
+        r'^\s*\{"(\w+)", (?:true|false), (?:true|false), (?:true|false)\},', table, re.M
+    )
+    assert (
+        [name for name, _ in enumerators]
+        == rows
+        == list(_core.growth_modes())
         == list(GROWTH_MODES)
+    )
     # one count, which the recipe tells a contributor to raise, sizes the table and the binding
     (count,) = re.findall(r"\bkGrowthModeCount = (\d+);", header)
     assert int(count) == len(GROWTH_MODES)
@@ -285,8 +316,9 @@ def test_scene_files_take_every_growth_mode_and_no_other(tmp_path):
 # -- the command recipe: _add_<name> in _parser, a handler in _main ------------------------------
 def _cli_function(name):
     tree = ast.parse((ROOT / "python/yore/cli.py").read_text(encoding="utf-8"))
-    return next(node for node in tree.body if isinstance(node, ast.FunctionDef)
-                and node.name == name)
+    return next(
+        node for node in tree.body if isinstance(node, ast.FunctionDef) and node.name == name
+    )
 
 
 def _commands():
@@ -297,18 +329,27 @@ def _commands():
 def test_every_command_is_registered_as_the_recipe_says_and_documented_and_tested():
     commands = set(_commands())
     assert {"run", "check", "view"} <= commands
-    added = {node.func.id for node in ast.walk(_cli_function("_parser"))
-             if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-             and node.func.id.startswith("_add_")}
-    (handlers,) = [node.value for node in ast.walk(_cli_function("_main"))
-                   if isinstance(node, ast.Assign) and isinstance(node.value, ast.Dict)
-                   and [t.id for t in node.targets if isinstance(t, ast.Name)] == ["handlers"]]
+    added = {
+        node.func.id
+        for node in ast.walk(_cli_function("_parser"))
+        if isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Name)
+        and node.func.id.startswith("_add_")
+    }
+    (handlers,) = [
+        node.value
+        for node in ast.walk(_cli_function("_main"))
+        if isinstance(node, ast.Assign)
+        and isinstance(node.value, ast.Dict)
+        and [t.id for t in node.targets if isinstance(t, ast.Name)] == ["handlers"]
+    ]
     assert {key.value for key in handlers.keys} == commands
-    tests = "".join(path.read_text(encoding="utf-8")
-                    for path in (ROOT / "tests").glob("test_*.py"))
+    tests = "".join(path.read_text(encoding="utf-8") for path in (ROOT / "tests").glob("test_*.py"))
     commands_page = (DOCS / "commands.md").read_text(encoding="utf-8")
-    linked = [commands_page] + [(DOCS / link).read_text(encoding="utf-8") for link in
-                                set(re.findall(r"\]\(([\w-]+\.md)", commands_page))]
+    linked = [commands_page] + [
+        (DOCS / link).read_text(encoding="utf-8")
+        for link in set(re.findall(r"\]\(([\w-]+\.md)", commands_page))
+    ]
     for command in sorted(commands):
         identifier = command.replace("-", "_")
         assert f"_add_{identifier}" in added, command
@@ -316,7 +357,7 @@ def test_every_command_is_registered_as_the_recipe_says_and_documented_and_teste
         assert value.id == f"_{identifier}" and callable(getattr(yore.cli, value.id)), command
         words = command.split("-")  # "sweep-plot" is typed "yore sweep plot"
         assert any(f"yore {' '.join(words)}" in page for page in linked), command
-        called = r'main\(\[\s*' + r',\s*'.join(f'"{word}"' for word in words)
+        called = r"main\(\[\s*" + r",\s*".join(f'"{word}"' for word in words)
         assert re.search(called, tests), f"no test calls yore {' '.join(words)}"
 
 
@@ -338,6 +379,9 @@ def test_bad_input_is_one_line_starting_yore_error_and_exit_code_2(tmp_path, cap
 def test_the_page_names_the_benchmarks_that_take_resume_and_merge(flag):
     (item,) = re.findall(rf"^- `{flag}[^`]*`(.*?)(?=\n- |\n\n)", _prose(_page()), re.M | re.S)
     named = set(re.findall(r"`(benchmarks/\w+\.py)`", item))
-    taking = {f"benchmarks/{path.name}" for path in (ROOT / "benchmarks").glob("*.py")
-              if re.search(rf'\(\s*"{flag}"', path.read_text(encoding="utf-8"))}
+    taking = {
+        f"benchmarks/{path.name}"
+        for path in (ROOT / "benchmarks").glob("*.py")
+        if re.search(rf'\(\s*"{flag}"', path.read_text(encoding="utf-8"))
+    }
     assert taking and named == taking

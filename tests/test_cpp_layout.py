@@ -28,8 +28,12 @@ def test_every_source_unit_has_its_tests_where_it_lives():
     for stem, comment in comments.items():
         # each file says which unit it mirrors, by path
         assert re.search(r"cpp/src/\w+\.cpp", comment), f"{stem}: name the unit it tests"
-    untested = [u for u in units if f"test_{u}" not in comments
-                and not any(f"cpp/src/{u}.cpp" in c for c in comments.values())]
+    untested = [
+        u
+        for u in units
+        if f"test_{u}" not in comments
+        and not any(f"cpp/src/{u}.cpp" in c for c in comments.values())
+    ]
     assert untested == []
 
 
@@ -54,12 +58,16 @@ def test_core_exports_only_what_python_code_uses():
     # Every public function of the module is called by the package, a benchmark, an example
     # or a tool; primitives only tests needed are tested in C++ (tests/cpp) instead.
     text = _python_text()
-    exported = [name for name in dir(_core) if not name.startswith("_")
-                and callable(getattr(_core, name)) and not isinstance(getattr(_core, name), type)]
+    exported = [
+        name
+        for name in dir(_core)
+        if not name.startswith("_")
+        and callable(getattr(_core, name))
+        and not isinstance(getattr(_core, name), type)
+    ]
     assert len(exported) > 5
     used = set(re.findall(r"_core\.(\w+)", text))
-    for grouped, line in re.findall(r"from (?:\.+|yore\.)_core import (?:\(([^)]*)\)|(.*))",
-                                    text):
+    for grouped, line in re.findall(r"from (?:\.+|yore\.)_core import (?:\(([^)]*)\)|(.*))", text):
         used |= {name.split(" as ")[0].strip() for name in (grouped or line).split(",")}
     unused = [name for name in exported if name not in used]
     assert unused == []

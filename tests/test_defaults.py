@@ -27,9 +27,12 @@ def _binding_defaults(function):
 def test_stroke_defaults_come_from_the_core_structs():
     split, stroke = _core.split_defaults, _core.stroke_defaults
     assert options.STROKE_DEFAULTS == {
-        "expansion": split["expansion"], "mass_scale": split["mass_scale"],
+        "expansion": split["expansion"],
+        "mass_scale": split["mass_scale"],
         "width": None if stroke["width"] == 0 else stroke["width"],
-        "growth": stroke["growth"], "refine": stroke["refine"]}
+        "growth": stroke["growth"],
+        "refine": stroke["refine"],
+    }
     assert options.GROWTH_MODES == tuple(_core.growth_modes())
     assert len(set(options.GROWTH_MODES)) == len(options.GROWTH_MODES) >= 4
     assert yore.stroke.MIN_BARYCENTRIC == split["min_barycentric"]
@@ -45,8 +48,9 @@ def test_stroke_defaults_come_from_the_core_structs():
     assert float(bound["spacing_pixels"]) == stroke["spacing_pixels"]
     # ... and so are StrokeOptions' and the scene file's
     fields = yore.StrokeOptions()
-    assert {name: getattr(fields, name) for name in options.STROKE_DEFAULTS} == \
-        options.STROKE_DEFAULTS
+    assert {
+        name: getattr(fields, name) for name in options.STROKE_DEFAULTS
+    } == options.STROKE_DEFAULTS
     strokes = schema.SCHEMA["strokes"][0]
     for name in ("expansion", "mass_scale", "growth", "refine"):
         assert strokes[name][1] == options.STROKE_DEFAULTS[name], name
@@ -54,17 +58,22 @@ def test_stroke_defaults_come_from_the_core_structs():
 
 def test_smoothing_defaults_are_read_by_every_consumer():
     signature = inspect.signature(yore.Simulation.smooth_rest_lengths).parameters
-    assert {name: signature[name].default for name in options.SMOOTHING_DEFAULTS} == \
-        options.SMOOTHING_DEFAULTS
-    assert {name: schema.SMOOTH[name][1] for name in options.SMOOTHING_DEFAULTS} == \
-        options.SMOOTHING_DEFAULTS
+    assert {
+        name: signature[name].default for name in options.SMOOTHING_DEFAULTS
+    } == options.SMOOTHING_DEFAULTS
+    assert {
+        name: schema.SMOOTH[name][1] for name in options.SMOOTHING_DEFAULTS
+    } == options.SMOOTHING_DEFAULTS
     for name, rule in options.SMOOTHING_RULES.items():
         assert schema.SMOOTH[name][0].kind == rule.kind, name
         assert (schema.SMOOTH[name][0].low, schema.SMOOTH[name][0].high) == (rule.low, rule.high)
     assert options.SMOOTHING_RULES["iterations"].high == options.MAX_SMOOTHING_ITERATIONS
     # a stroke's smoothing stage fills in the same defaults
-    assert yore.stroke.check_smoothing(3) == {**options.SMOOTHING_DEFAULTS, "iterations": 3,
-                                              "region": "stroke"}
+    assert yore.stroke.check_smoothing(3) == {
+        **options.SMOOTHING_DEFAULTS,
+        "iterations": 3,
+        "region": "stroke",
+    }
 
 
 def test_a_bare_cloth_and_the_scenes_take_their_materials_from_the_tables():
@@ -97,15 +106,24 @@ def test_a_bare_cloth_and_the_scenes_take_their_materials_from_the_tables():
 def _registered_defaults():
     registered = {**options.SMOOTHING_DEFAULTS, **options.STROKE_DEFAULTS}
     registered.update({name: value for name, value in options.SCENE_MATERIAL.items()})
-    registered.update({"min_barycentric": yore.stroke.MIN_BARYCENTRIC,
-                       "min_angle_degrees": yore.stroke.MIN_ANGLE_DEGREES})
-    return {name: value for name, value in registered.items()
-            if isinstance(value, (int, float, str)) and not isinstance(value, bool)}
+    registered.update(
+        {
+            "min_barycentric": yore.stroke.MIN_BARYCENTRIC,
+            "min_angle_degrees": yore.stroke.MIN_ANGLE_DEGREES,
+        }
+    )
+    return {
+        name: value
+        for name, value in registered.items()
+        if isinstance(value, (int, float, str)) and not isinstance(value, bool)
+    }
 
 
 #: Names a registered option shares with a different quantity in one module.
-OTHER_QUANTITIES = {("metrics.py", "iterations"): "Taubin smoothing passes of the wrinkle "
-                                                  "measure, not rest-length smoothing"}
+OTHER_QUANTITIES = {
+    ("metrics.py", "iterations"): "Taubin smoothing passes of the wrinkle "
+    "measure, not rest-length smoothing"
+}
 
 
 def _restatements(tree, registered):
@@ -114,24 +132,36 @@ def _restatements(tree, registered):
     found = []
 
     def literal(node):
-        return isinstance(node, ast.Constant) and \
-            isinstance(node.value, (int, float, str)) and not isinstance(node.value, bool)
+        return (
+            isinstance(node, ast.Constant)
+            and isinstance(node.value, (int, float, str))
+            and not isinstance(node.value, bool)
+        )
 
     for node in ast.walk(tree):
         pairs = []
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             arguments = node.args
             positional = arguments.posonlyargs + arguments.args
-            pairs += list(zip([a.arg for a in positional[len(positional)
-                                                          - len(arguments.defaults):]],
-                              arguments.defaults))
-            pairs += [(a.arg, d) for a, d in zip(arguments.kwonlyargs, arguments.kw_defaults)
-                      if d is not None]
+            pairs += list(
+                zip(
+                    [a.arg for a in positional[len(positional) - len(arguments.defaults) :]],
+                    arguments.defaults,
+                )
+            )
+            pairs += [
+                (a.arg, d)
+                for a, d in zip(arguments.kwonlyargs, arguments.kw_defaults)
+                if d is not None
+            ]
         elif isinstance(node, ast.Call):
             pairs += [(k.arg, k.value) for k in node.keywords if k.arg]
         elif isinstance(node, ast.Dict):
-            pairs += [(k.value, v) for k, v in zip(node.keys, node.values)
-                      if isinstance(k, ast.Constant) and isinstance(k.value, str)]
+            pairs += [
+                (k.value, v)
+                for k, v in zip(node.keys, node.values)
+                if isinstance(k, ast.Constant) and isinstance(k.value, str)
+            ]
         for name, value in pairs:
             if name in registered and literal(value) and value.value == registered[name]:
                 found.append((node.lineno, name, value.value))
@@ -147,17 +177,25 @@ def test_no_module_restates_a_registered_default():
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
         module = path.relative_to(SOURCE).as_posix()
-        found += [(module, *hit) for hit in _restatements(tree, registered)
-                  if (module, hit[1]) not in OTHER_QUANTITIES]
+        found += [
+            (module, *hit)
+            for hit in _restatements(tree, registered)
+            if (module, hit[1]) not in OTHER_QUANTITIES
+        ]
     assert found == []
 
 
 def test_the_restatement_finder_finds_one():
-    tree = ast.parse("def smooth(iterations=10):\n    pass\nx = {'drag': 0.3}\n"
-                     "f(strength=0.5)\ng(strength=0.25)\n")
+    tree = ast.parse(
+        "def smooth(iterations=10):\n    pass\nx = {'drag': 0.3}\n"
+        "f(strength=0.5)\ng(strength=0.25)\n"
+    )
     registered = {"iterations": 10, "drag": 0.3, "strength": 0.5}
-    assert _restatements(tree, registered) == [(1, "iterations", 10), (3, "drag", 0.3),
-                                               (4, "strength", 0.5)]
+    assert _restatements(tree, registered) == [
+        (1, "iterations", 10),
+        (3, "drag", 0.3),
+        (4, "strength", 0.5),
+    ]
 
 
 @pytest.mark.parametrize("name", ["StrokeMissed", "RefinementTooLarge"])
@@ -173,11 +211,13 @@ def test_yores_exceptions_live_in_the_core_and_are_re_exported(name):
 def test_bad_material_names_its_argument_as_data():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     F = np.array([[0, 1, 2]])
-    for arguments, name in (({"damping": -1.0}, "damping"), ({"drag": 1e13}, "drag"),
-                            ({"stretch_stiffness": "x"}, "stretch_stiffness"),
-                            ({"masses": np.array([1.0, 0.0, 1.0])}, "masses"),
-                            ({"stretch": "membrane", "young_modulus": 1.0,
-                              "poisson_ratio": 1.5}, "poisson_ratio")):
+    for arguments, name in (
+        ({"damping": -1.0}, "damping"),
+        ({"drag": 1e13}, "drag"),
+        ({"stretch_stiffness": "x"}, "stretch_stiffness"),
+        ({"masses": np.array([1.0, 0.0, 1.0])}, "masses"),
+        ({"stretch": "membrane", "young_modulus": 1.0, "poisson_ratio": 1.5}, "poisson_ratio"),
+    ):
         with pytest.raises(yore.ArgumentError) as error:
             yore.Cloth(V, F, **arguments)
         assert error.value.argument == name

@@ -15,8 +15,9 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 def _blocks(language):
-    return re.findall(rf"^```{language}\n(.*?)^```", README.read_text(encoding="utf-8"),
-                      re.M | re.S)
+    return re.findall(
+        rf"^```{language}\n(.*?)^```", README.read_text(encoding="utf-8"), re.M | re.S
+    )
 
 
 def test_the_readme_stays_short_and_links_pages_that_exist():
@@ -32,15 +33,17 @@ def test_the_readmes_limitations_are_a_short_table_with_a_link_per_row():
     """At most 25 lines (issue 54): one row per limitation, its number, and a link to the
     section of docs/limitations.md that holds the measurements."""
     text = README.read_text(encoding="utf-8")
-    section = text[text.index("## Limitations"):]
-    section = section[:section.index("\n## ", 1)] if "\n## " in section[1:] else section
+    section = text[text.index("## Limitations") :]
+    section = section[: section.index("\n## ", 1)] if "\n## " in section[1:] else section
     lines = section.strip().splitlines()
     assert len(lines) <= 25
     rows = [line for line in lines if line.startswith("| ") and not line.startswith("| What")]
     assert len(rows) >= 10
-    headings = {_slug(line[3:]) for line in
-                (README.parent / "docs" / "limitations.md").read_text("utf-8").splitlines()
-                if line.startswith("## ")}
+    headings = {
+        _slug(line[3:])
+        for line in (README.parent / "docs" / "limitations.md").read_text("utf-8").splitlines()
+        if line.startswith("## ")
+    }
     for row in rows:
         anchors = re.findall(r"\(docs/limitations\.md#([a-z0-9-]+)\)", row)
         assert len(anchors) == 1, row
@@ -66,8 +69,9 @@ def test_the_first_scene_file_loads_and_has_its_stroke(tmp_path):
 @pytest.mark.slow
 def test_the_first_python_script_runs_and_splits_faces(tmp_path):
     (script,) = _blocks("python")
-    completed = subprocess.run([sys.executable, "-c", script], cwd=tmp_path,
-                               capture_output=True, text=True, timeout=600)
+    completed = subprocess.run(
+        [sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=600
+    )
     assert completed.returncode == 0, completed.stderr
     first, iterations, kinetic, settled = completed.stdout.strip().splitlines()
     split = int(first.split()[0])
@@ -109,14 +113,21 @@ def test_the_documented_integrator_options_and_defaults_are_the_registrys():
     tables = _option_tables((README.parent / "docs" / "integrators.md").read_text("utf-8"))
     newton = tables["implicit, bdf2 and tr-bdf2"]
     auto = tables["bdf2 and tr-bdf2"]
-    documented = {"explicit": tables["explicit"], "implicit": newton,
-                  "bdf2": {**newton, **auto}, "tr-bdf2": {**newton, **auto, **tables["tr-bdf2"]},
-                  "generalized-alpha": {**newton, **tables["generalized-alpha"]},
-                  "local-global": tables["local-global"], "quasi-newton": tables["quasi-newton"],
-                  "cvode": {name: value for name, value in tables["cvode and arkode"].items()
-                            if name != "order"},
-                  "arkode": {name: value for name, value in tables["cvode and arkode"].items()
-                             if name != "max_order"}}
+    documented = {
+        "explicit": tables["explicit"],
+        "implicit": newton,
+        "bdf2": {**newton, **auto},
+        "tr-bdf2": {**newton, **auto, **tables["tr-bdf2"]},
+        "generalized-alpha": {**newton, **tables["generalized-alpha"]},
+        "local-global": tables["local-global"],
+        "quasi-newton": tables["quasi-newton"],
+        "cvode": {
+            name: value for name, value in tables["cvode and arkode"].items() if name != "order"
+        },
+        "arkode": {
+            name: value for name, value in tables["cvode and arkode"].items() if name != "max_order"
+        },
+    }
     for integrator, options in INTEGRATOR_OPTIONS.items():
         assert set(documented[integrator]) == set(options), integrator
         for name, value in options.items():

@@ -105,10 +105,18 @@ def converged_reference(make, duration):
 
 
 def damped_sheet(integrator, **options):
-    return yore.scenes.hanging_cloth(resolution=8, pin_spacing=1.0, mass=0.1,
-                                     stretch_stiffness=200.0, damping=0.05, drag=0.2,
-                                     bending="quadratic", bending_modulus=1e-3,
-                                     integrator=integrator, **options)
+    return yore.scenes.hanging_cloth(
+        resolution=8,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=200.0,
+        damping=0.05,
+        drag=0.2,
+        bending="quadratic",
+        bending_modulus=1e-3,
+        integrator=integrator,
+        **options,
+    )
 
 
 @pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
@@ -155,11 +163,13 @@ def test_a_stroke_restarts_the_integrator_at_the_new_size(integrator):
 @pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
 def test_a_resumed_state_restarts_the_integrator_within_the_tolerance(integrator, tmp_path):
     tol = 1e-6
-    straight = yore.Simulation(chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0),
-                               rtol=tol, atol=tol)
+    straight = yore.Simulation(
+        chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0), rtol=tol, atol=tol
+    )
     straight.step(30)
-    sim = yore.Simulation(chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0),
-                          rtol=tol, atol=tol)
+    sim = yore.Simulation(
+        chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0), rtol=tol, atol=tol
+    )
     sim.step(15)
     state = sim.state()
     # SUNDIALS' memory cannot be saved: the state says the resumed run restarts
@@ -175,20 +185,35 @@ def test_a_resumed_state_restarts_the_integrator_within_the_tolerance(integrator
 
 @pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
 def test_too_many_internal_steps_is_a_divergence_that_says_when_and_restores(integrator):
-    sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, rtol=1e-9, atol=1e-10,
-                                    max_steps=3)
-    with pytest.raises(yore.SimulationDiverged, match=r"at step 0 \(t = .*more than "
-                       r"max_steps = 3 internal steps.*restored to t = 0 s") as info:
+    sim = yore.scenes.hanging_cloth(
+        resolution=9, integrator=integrator, rtol=1e-9, atol=1e-10, max_steps=3
+    )
+    with pytest.raises(
+        yore.SimulationDiverged,
+        match=r"at step 0 \(t = .*more than "
+        r"max_steps = 3 internal steps.*restored to t = 0 s",
+    ) as info:
         sim.step(2)
     assert info.value.time >= 0
-    assert sim.time == 0.0 and np.array_equal(sim.cloth.positions,
-                                              yore.scenes.hanging_cloth(resolution=9)
-                                              .cloth.positions)
+    assert sim.time == 0.0 and np.array_equal(
+        sim.cloth.positions, yore.scenes.hanging_cloth(resolution=9).cloth.positions
+    )
 
 
-@pytest.mark.parametrize(("name", "value"), [
-    ("rtol", 0.0), ("rtol", -1e-3), ("rtol", float("nan")), ("rtol", 1.0), ("atol", 0.0),
-    ("atol", float("inf")), ("atol_velocity", -1.0), ("max_dt", -1.0), ("max_steps", 0)])
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [
+        ("rtol", 0.0),
+        ("rtol", -1e-3),
+        ("rtol", float("nan")),
+        ("rtol", 1.0),
+        ("atol", 0.0),
+        ("atol", float("inf")),
+        ("atol_velocity", -1.0),
+        ("max_dt", -1.0),
+        ("max_steps", 0),
+    ],
+)
 @pytest.mark.parametrize("integrator", ERROR_CONTROLLED)
 def test_a_bad_tolerance_is_one_value_error_naming_it(integrator, name, value):
     with pytest.raises(ValueError, match=name):
@@ -217,8 +242,9 @@ def test_every_esdirk_order_converges_on_the_linear_mode(order):
 def test_a_ctrl_c_inside_an_interval_leaves_the_simulation_as_it_was():
     # An interval SUNDIALS cannot finish soon (a driven cylinder for 1e5 s at a tight
     # tolerance); a helper waits until the cloth is busy and interrupts, as Ctrl-C would.
-    sim = yore.scenes.rotating_cylinder(rings=4, segments=8, integrator="cvode", dt=1e5,
-                                        rtol=1e-10, atol=1e-12, max_steps=10**7)
+    sim = yore.scenes.rotating_cylinder(
+        rings=4, segments=8, integrator="cvode", dt=1e5, rtol=1e-10, atol=1e-12, max_steps=10**7
+    )
     before = sim.cloth.state()
     interrupt_while_running(sim, lambda: sim.step(1))
     assert sim.time == 0.0
@@ -246,14 +272,34 @@ def test_the_viewer_panel_and_a_runs_summary_show_what_sundials_counted(tmp_path
     assert any(f"internal steps {counters['internal_steps']}" in line for line in lines)
 
     scene = Path(__file__).resolve().parents[1] / "examples" / "hanging_paper.toml"
-    assert main(["run", str(scene), "-o", str(tmp_path), "--set", "mesh.nx=6",
-                 "--set", "mesh.ny=6", "--set", "simulation.duration=0.05", "--set", "strokes.0.time=0.025",
-                 "--set", 'simulation.integrator="cvode"', "--set", "simulation.dt=0.025",
-                 "--no-render", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(scene),
+                "-o",
+                str(tmp_path),
+                "--set",
+                "mesh.nx=6",
+                "--set",
+                "mesh.ny=6",
+                "--set",
+                "simulation.duration=0.05",
+                "--set",
+                "strokes.0.time=0.025",
+                "--set",
+                'simulation.integrator="cvode"',
+                "--set",
+                "simulation.dt=0.025",
+                "--no-render",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["counters"]["internal_steps"] > 0
     assert summary["counters"]["factorizations"] == summary["counters"]["linear_setups"]
-
 
 
 @pytest.mark.parametrize("integrator", ["tr-bdf2", "bdf2"])
@@ -263,13 +309,22 @@ def test_auto_steps_are_chosen_by_the_local_error_estimate(integrator):
     errors, steps = [], []
     for tol in (1e-5, 1e-7, 1e-9):  # looser, the 1/60 s output interval caps the steps
         net, rest, shape, omega = chain()
-        sim = yore.Simulation(net, integrator=integrator, dt="auto", gravity=(0, 0, 0),
-                              rtol=tol, atol=tol, newton_tol=1e-12, truncation_fraction=0.0)
+        sim = yore.Simulation(
+            net,
+            integrator=integrator,
+            dt="auto",
+            gravity=(0, 0, 0),
+            rtol=tol,
+            atol=tol,
+            newton_tol=1e-12,
+            truncation_fraction=0.0,
+        )
         assert sim.dt == yore.options.FIXED_DT
         sim.advance(0.5)
         assert sim.time == pytest.approx(0.5, abs=1e-15)
-        errors.append(np.abs(sim.cloth.positions[:, 0] - rest - shape * math.cos(omega * 0.5))
-                      .max())
+        errors.append(
+            np.abs(sim.cloth.positions[:, 0] - rest - shape * math.cos(omega * 0.5)).max()
+        )
         steps.append(sim.stats["steps"])
         counters = sim.stats["counters"]
         assert counters["intervals"] == 30 and counters["rejected_steps"] < steps[-1] / 4
@@ -282,11 +337,13 @@ def test_auto_steps_are_chosen_by_the_local_error_estimate(integrator):
 
 
 @pytest.mark.parametrize("integrator", ["tr-bdf2", "bdf2"])
-def test_auto_steps_resume_bit_for_bit_the_step_carried_over_is_the_historys_dt(tmp_path,
-                                                                                integrator):
+def test_auto_steps_resume_bit_for_bit_the_step_carried_over_is_the_historys_dt(
+    tmp_path, integrator
+):
     def make():
-        return yore.scenes.hanging_cloth(resolution=8, integrator=integrator, dt="auto",
-                                         rtol=1e-4, atol=1e-5)
+        return yore.scenes.hanging_cloth(
+            resolution=8, integrator=integrator, dt="auto", rtol=1e-4, atol=1e-5
+        )
 
     straight = make()
     straight.step(12)
@@ -313,10 +370,14 @@ def test_dt_auto_needs_an_integrator_with_error_control():
 
 @pytest.mark.parametrize("integrator", ["tr-bdf2", "bdf2"])
 def test_auto_steps_too_many_is_a_divergence_that_says_so(integrator):
-    sim = yore.scenes.hanging_cloth(resolution=8, integrator=integrator, dt="auto", rtol=1e-9,
-                                    atol=1e-10, max_steps=2)
-    with pytest.raises(yore.SimulationDiverged, match=r"more than max_steps = 2 steps in one "
-                       r"output interval.*restored to t = 0 s"):
+    sim = yore.scenes.hanging_cloth(
+        resolution=8, integrator=integrator, dt="auto", rtol=1e-9, atol=1e-10, max_steps=2
+    )
+    with pytest.raises(
+        yore.SimulationDiverged,
+        match=r"more than max_steps = 2 steps in one "
+        r"output interval.*restored to t = 0 s",
+    ):
         sim.step(1)
     assert sim.time == 0.0
 
@@ -327,16 +388,29 @@ def test_a_scene_file_takes_dt_auto_and_refuses_other_words(tmp_path):
     from yore.cli import main
 
     scene = Path(__file__).resolve().parents[1] / "examples" / "hanging_paper.toml"
-    common = [str(scene), "--set", "mesh.nx=6", "--set", "mesh.ny=6",
-              "--set", "simulation.duration=0.05", "--set", "strokes.0.time=0.025",
-              "--set", 'simulation.integrator="tr-bdf2"', "--no-render", "--quiet"]
-    assert main(["run", *common, "-o", str(tmp_path / "auto"),
-                 "--set", 'simulation.dt="auto"']) == 0
+    common = [
+        str(scene),
+        "--set",
+        "mesh.nx=6",
+        "--set",
+        "mesh.ny=6",
+        "--set",
+        "simulation.duration=0.05",
+        "--set",
+        "strokes.0.time=0.025",
+        "--set",
+        'simulation.integrator="tr-bdf2"',
+        "--no-render",
+        "--quiet",
+    ]
+    assert (
+        main(["run", *common, "-o", str(tmp_path / "auto"), "--set", 'simulation.dt="auto"']) == 0
+    )
     import json
+
     summary = json.loads((tmp_path / "auto" / "summary.json").read_text())
     assert summary["counters"]["intervals"] >= 3 and summary["dt"] == yore.options.FIXED_DT
-    assert main(["run", *common, "-o", str(tmp_path / "bad"),
-                 "--set", 'simulation.dt="fast"']) == 2
+    assert main(["run", *common, "-o", str(tmp_path / "bad"), "--set", 'simulation.dt="fast"']) == 2
 
 
 def test_the_reduced_newton_system_is_exact_on_a_linear_problem():
@@ -350,16 +424,24 @@ def test_the_reduced_newton_system_is_exact_on_a_linear_problem():
         assert counters["nonlinear_iterations"] <= 1.3 * counters["internal_steps"], counters
 
 
-@pytest.mark.parametrize("integrator,options", [
-    ("bdf2", {}), ("tr-bdf2", {"dt": "auto"}), ("bdf2", {"dt": "auto"}),
-    ("generalized-alpha", {}), ("quasi-newton", {"method": "bdf2"})])
+@pytest.mark.parametrize(
+    "integrator,options",
+    [
+        ("bdf2", {}),
+        ("tr-bdf2", {"dt": "auto"}),
+        ("bdf2", {"dt": "auto"}),
+        ("generalized-alpha", {}),
+        ("quasi-newton", {"method": "bdf2"}),
+    ],
+)
 def test_a_ctrl_c_keeps_the_history_so_the_run_continues_bit_for_bit(integrator, options):
     # `step` runs its steps in batches (one core call each); a Ctrl-C inside a batch leaves
     # the simulation as it was before that batch, its history (and the step the controller
     # proposes) included, so finishing the steps gives the uninterrupted run's numbers exactly.
     def make():
-        return yore.scenes.hanging_cloth(resolution=12, pin_spacing=1.0, stretch_stiffness=2e3,
-                                         integrator=integrator, **options)
+        return yore.scenes.hanging_cloth(
+            resolution=12, pin_spacing=1.0, stretch_stiffness=2e3, integrator=integrator, **options
+        )
 
     total = 90
     straight = make()
@@ -378,12 +460,12 @@ def test_a_ctrl_c_keeps_the_history_so_the_run_continues_bit_for_bit(integrator,
     assert np.array_equal(sim.cloth.velocities, straight.cloth.velocities)
 
 
-
 def test_auto_bdf2_starts_again_after_a_stroke_and_keeps_going():
     # a stroke changes the topology: the history (and its proposed step) is dropped, the next
     # step is backward Euler's at a tenth of the output interval, and the control goes on
-    sim = yore.scenes.hanging_cloth(resolution=9, integrator="bdf2", dt="auto", rtol=1e-4,
-                                    atol=1e-5)
+    sim = yore.scenes.hanging_cloth(
+        resolution=9, integrator="bdf2", dt="auto", rtol=1e-4, atol=1e-5
+    )
     sim.step(3)
     assert sim.state()["history"]["next_dt"] > 0
     restarts = sim.stats["counters"]["history_restarts"]
@@ -396,15 +478,22 @@ def test_auto_bdf2_starts_again_after_a_stroke_and_keeps_going():
     assert np.all(np.isfinite(sim.cloth.positions)) and sim.state()["history"]["next_dt"] > 0
 
 
-@pytest.mark.parametrize("integrator, extra", [("cvode", {}), ("arkode", {}),
-                                               ("tr-bdf2", {"dt": "auto"}),
-                                               ("bdf2", {"dt": "auto"})])
+@pytest.mark.parametrize(
+    "integrator, extra",
+    [("cvode", {}), ("arkode", {}), ("tr-bdf2", {"dt": "auto"}), ("bdf2", {"dt": "auto"})],
+)
 def test_a_tolerance_below_round_off_is_refused_naming_rtol(integrator, extra):
     # Issue 53, R06: rtol 1e-14 (atol 1e-300, max_steps 1e7) kept CVODE in a 6×6 cloth's first
     # 1/60 s interval for minutes; below 1e-12 the error test measures round-off
     with pytest.raises(ValueError, match=r"option rtol: got float 1e-14; expected .*\[1e-12, 1\)"):
-        yore.scenes.hanging_cloth(resolution=6, integrator=integrator, rtol=1e-14, atol=1e-300,
-                                  max_steps=10_000_000, **extra)
+        yore.scenes.hanging_cloth(
+            resolution=6,
+            integrator=integrator,
+            rtol=1e-14,
+            atol=1e-300,
+            max_steps=10_000_000,
+            **extra,
+        )
     sim = yore.scenes.hanging_cloth(resolution=6, integrator=integrator, rtol=1e-12, **extra)
     assert sim.resolved_options["rtol"] == 1e-12
 
@@ -413,8 +502,9 @@ def test_a_tolerance_below_round_off_is_refused_naming_rtol(integrator, extra):
 def test_a_run_restarted_where_another_resumed_takes_the_same_steps(integrator, tmp_path):
     # restart_integrator() at the state's time: the run that goes on and the one resumed from
     # the state start SUNDIALS afresh at the same point, so they agree bit for bit
-    sim = yore.Simulation(chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0),
-                          rtol=1e-4, atol=1e-6)
+    sim = yore.Simulation(
+        chain()[0], integrator=integrator, dt=1 / 60, gravity=(0, 0, 0), rtol=1e-4, atol=1e-6
+    )
     sim.step(15)
     resumed, _ = yore.load_state(yore.save_state(tmp_path / "resume.npz", sim))
     assert resumed.restarts_on_resume and sim.restarts_on_resume

@@ -13,8 +13,9 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
 def run(script, *args):
-    result = subprocess.run([sys.executable, str(EXAMPLES / script), *args], capture_output=True,
-                            text=True, timeout=300)
+    result = subprocess.run(
+        [sys.executable, str(EXAMPLES / script), *args], capture_output=True, text=True, timeout=300
+    )
     assert result.returncode == 0, result.stderr
     return result.stdout
 
@@ -22,8 +23,17 @@ def run(script, *args):
 @pytest.mark.slow
 def test_demo_writes_frames_a_collection_and_a_picture_and_says_where(tmp_path):
     pytest.importorskip("matplotlib")
-    out = run("hanging_cloth.py", "--out", str(tmp_path), "--seconds", "0.2", "--fps", "20",
-              "--resolution", "7")
+    out = run(
+        "hanging_cloth.py",
+        "--out",
+        str(tmp_path),
+        "--seconds",
+        "0.2",
+        "--fps",
+        "20",
+        "--resolution",
+        "7",
+    )
     pvd = tmp_path / "frames" / "hanging_cloth.pvd"
     assert str(pvd.resolve()) in out
     datasets = ET.parse(pvd).getroot().findall(".//DataSet")
@@ -48,8 +58,17 @@ def test_cylinder_example_reports_the_rim_speed(tmp_path):
 @pytest.mark.slow
 def test_stroke_experiments_write_frames_across_the_topology_change(tmp_path):
     pytest.importorskip("matplotlib")
-    out = run("stroke_experiments.py", "--out", str(tmp_path), "--before", "0.2", "--after",
-              "0.2", "--smooth", "5")
+    out = run(
+        "stroke_experiments.py",
+        "--out",
+        str(tmp_path),
+        "--before",
+        "0.2",
+        "--after",
+        "0.2",
+        "--smooth",
+        "5",
+    )
     for name in ("hanging", "cylinder"):
         pvd = tmp_path / name / f"{name}.pvd"
         datasets = ET.parse(pvd).getroot().findall(".//DataSet")
@@ -68,6 +87,7 @@ def test_the_gallery_script_writes_its_pictures_and_measures(tmp_path):
     for name in ("hanging.png", "cylinder.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     import json
+
     data = json.loads((tmp_path / "gallery.json").read_text())
     assert data["small"] is True
     assert set(data) >= {"hanging", "hanging_paper", "cylinder", "cylinder_paper"}

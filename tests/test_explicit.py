@@ -14,8 +14,9 @@ NO_GRAVITY = (0.0, 0.0, 0.0)
 def oscillator(mass=0.2, stiffness=50.0, rest=1.0, amplitude=0.1, damping=0.0):
     """One mass on a spring whose other end is fixed; returns the cloth (mass is vertex 1)."""
     V = np.array([[0.0, 0.0, 0.0], [0.0, -(rest + amplitude), 0.0]])
-    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[rest], masses=mass,
-                                    stiffness=stiffness, damping=damping)
+    cloth = yore.Cloth.from_springs(
+        V, [[0, 1]], rest_lengths=[rest], masses=mass, stiffness=stiffness, damping=damping
+    )
     cloth.fix([0])
     return cloth
 
@@ -109,14 +110,22 @@ def _largest_stable_dt(make, low, high, steps=300, iterations=12):
 SMALL_SCENES = {
     "hanging": lambda dt, **kw: yore.scenes.hanging_cloth(resolution=9, dt=dt, **kw),
     "hanging stiff": lambda dt, **kw: yore.scenes.hanging_cloth(
-        resolution=9, stretch_stiffness=2e4, bend_stiffness=2e4, dt=dt, **kw),
+        resolution=9, stretch_stiffness=2e4, bend_stiffness=2e4, dt=dt, **kw
+    ),
     "hanging undamped": lambda dt, **kw: yore.scenes.hanging_cloth(
-        resolution=9, damping=0.0, drag=0.0, dt=dt, **kw),
-    "cylinder": lambda dt, **kw: yore.scenes.rotating_cylinder(rings=5, segments=12, dt=dt,
-                                                               **kw),
+        resolution=9, damping=0.0, drag=0.0, dt=dt, **kw
+    ),
+    "cylinder": lambda dt, **kw: yore.scenes.rotating_cylinder(rings=5, segments=12, dt=dt, **kw),
     "cylinder stiff undamped": lambda dt, **kw: yore.scenes.rotating_cylinder(
-        rings=5, segments=12, stretch_stiffness=2e3, bend_stiffness=2e3, damping=0.0, drag=0.0,
-        dt=dt, **kw),
+        rings=5,
+        segments=12,
+        stretch_stiffness=2e3,
+        bend_stiffness=2e3,
+        damping=0.0,
+        drag=0.0,
+        dt=dt,
+        **kw,
+    ),
 }
 
 
@@ -154,8 +163,9 @@ def test_the_demo_scene_runs_its_whole_duration_at_the_default_dt(tmp_path):
 
 def small_cloth(damping=0.0, seed=1):
     V, F = yore.grid_mesh(8, 8, width=0.5, height=0.5)
-    cloth = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=50.0,
-                       damping=damping)
+    cloth = yore.Cloth(
+        V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=50.0, damping=damping
+    )
     rng = np.random.default_rng(seed)
     # a smooth out-of-plane bump plus small in-plane noise: all modes excited, no rigid motion
     bump = 0.05 * np.sin(np.pi * V[:, 0] / 0.5) * np.sin(np.pi * V[:, 1] / 0.5)
@@ -215,8 +225,9 @@ def test_free_cloth_conserves_linear_momentum_to_round_off():
     V, F = yore.cylinder_mesh(0.2, 0.3, 5, 12)
     rng = np.random.default_rng(3)
     masses = rng.uniform(0.005, 0.02, len(V))
-    cloth = yore.Cloth(V, F, masses=masses, stretch_stiffness=80.0, bend_stiffness=20.0,
-                       damping=0.02)
+    cloth = yore.Cloth(
+        V, F, masses=masses, stretch_stiffness=80.0, bend_stiffness=20.0, damping=0.02
+    )
     cloth.velocities = rng.normal(0.0, 0.5, (len(V), 3))
     p0 = masses @ cloth.velocities
     scale = masses @ np.linalg.norm(cloth.velocities, axis=1)
@@ -234,8 +245,13 @@ def test_strain_limiting_conserves_momentum_and_caps_stretch():
     rng = np.random.default_rng(5)
     cloth.velocities = rng.normal(0.0, 2.0, (len(V), 3))
     p0 = cloth.masses @ cloth.velocities
-    sim = yore.Simulation(cloth, dt=0.2 * cloth.stable_time_step(), gravity=NO_GRAVITY,
-                          strain_limit=1.1, strain_limit_passes=50)
+    sim = yore.Simulation(
+        cloth,
+        dt=0.2 * cloth.stable_time_step(),
+        gravity=NO_GRAVITY,
+        strain_limit=1.1,
+        strain_limit_passes=50,
+    )
     sim.step(200)
     X, ends, rest = sim.cloth.positions, sim.cloth.springs.ends, sim.cloth.springs.rest
     ratio = np.linalg.norm(X[ends[:, 0]] - X[ends[:, 1]], axis=1) / rest

@@ -15,8 +15,13 @@ from hypothesis import strategies as st
 import yore
 from yore.runs import SceneError, load_scene, parse_override
 
-FUZZ = settings(max_examples=200, deadline=None, derandomize=True, database=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+FUZZ = settings(
+    max_examples=200,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 
 BASE_SCENE = {
     "mesh": {"generator": "grid", "nx": 4, "ny": 4, "width": 1.0, "height": 1.0},
@@ -24,8 +29,13 @@ BASE_SCENE = {
     "fixed": [{"set": "top corners"}, {"indices": [0, 3]}],
     "simulation": {"integrator": "implicit", "duration": 0.05, "dt": 0.01},
     "integrator": {"max_newton": 5, "linearized": False},
-    "strokes": [{"time": 0.0, "material": [[0.2, 0.5], [0.8, 0.5]],
-                 "smooth": {"iterations": 2, "strength": 0.5, "region": "all"}}],
+    "strokes": [
+        {
+            "time": 0.0,
+            "material": [[0.2, 0.5], [0.8, 0.5]],
+            "smooth": {"iterations": 2, "strength": 0.5, "region": "all"},
+        }
+    ],
     "camera": {"width": 64, "height": 48},
     "output": {"format": "none", "pictures": False},
 }
@@ -69,23 +79,59 @@ def toml_document(scene):
 
 
 scalars = st.one_of(
-    st.booleans(), st.integers(-2**70, 2**70), st.sampled_from([0, 1, 2, 5, 2**31, 2**63 - 1]),
-    st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([0.0, -1.0, 1e9, 1e-300]),
-    st.text(max_size=8), st.sampled_from(["all", "stroke", "grid", "cylinder", "explicit"]))
-values = st.recursive(scalars, lambda inner: st.one_of(
-    st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=5), inner, max_size=3)),
-    max_leaves=12)
-keys = st.one_of(st.sampled_from(["nx", "ny", "generator", "indices", "set", "time", "material",
-                                  "points", "screen", "width", "height", "iterations",
-                                  "strength", "region", "max_newton", "solver", "dt",
-                                  "duration", "fps", "every_steps", "box", "smooth", "mass"]),
-                 st.text(min_size=1, max_size=6))
+    st.booleans(),
+    st.integers(-(2**70), 2**70),
+    st.sampled_from([0, 1, 2, 5, 2**31, 2**63 - 1]),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0.0, -1.0, 1e9, 1e-300]),
+    st.text(max_size=8),
+    st.sampled_from(["all", "stroke", "grid", "cylinder", "explicit"]),
+)
+values = st.recursive(
+    scalars,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=5), inner, max_size=3)
+    ),
+    max_leaves=12,
+)
+keys = st.one_of(
+    st.sampled_from(
+        [
+            "nx",
+            "ny",
+            "generator",
+            "indices",
+            "set",
+            "time",
+            "material",
+            "points",
+            "screen",
+            "width",
+            "height",
+            "iterations",
+            "strength",
+            "region",
+            "max_newton",
+            "solver",
+            "dt",
+            "duration",
+            "fps",
+            "every_steps",
+            "box",
+            "smooth",
+            "mass",
+        ]
+    ),
+    st.text(min_size=1, max_size=6),
+)
 
 
 @st.composite
 def mutated_scenes(draw):
-    scene = {name: (dict(table) if isinstance(table, dict) else [dict(t) for t in table])
-             for name, table in BASE_SCENE.items()}
+    scene = {
+        name: (dict(table) if isinstance(table, dict) else [dict(t) for t in table])
+        for name, table in BASE_SCENE.items()
+    }
     for _ in range(draw(st.integers(1, 4))):
         name = draw(st.sampled_from(sorted(scene) + ["scene", "driven", "bogus"]))
         action = draw(st.sampled_from(["set", "delete", "replace table", "nest"]))
@@ -121,8 +167,11 @@ def loaded_or_scene_error(text, overrides=None):
 @given(mutated_scenes())
 def test_a_mutated_scene_file_loads_or_is_a_scene_error(scene):
     loaded = loaded_or_scene_error(toml_document(scene))
-    if loaded is not None and loaded.data["mesh"]["generator"] == "grid" and \
-            loaded.data["mesh"]["nx"] * loaded.data["mesh"]["ny"] <= 25:
+    if (
+        loaded is not None
+        and loaded.data["mesh"]["generator"] == "grid"
+        and loaded.data["mesh"]["nx"] * loaded.data["mesh"]["ny"] <= 25
+    ):
         try:
             sim, _ = loaded.build()
             loaded.check_strokes(sim)
@@ -137,10 +186,26 @@ def test_any_text_is_a_scene_or_a_scene_error(text):
 
 
 @FUZZ
-@given(st.sampled_from(["mesh.nx", "camera.width", "strokes.0.time", "integrator.max_newton",
-                        "fixed.1.indices", "simulation.dt", "mesh", "a.b.c", "strokes.9.time"]),
-       st.one_of(st.text(max_size=30), st.integers(0, 1200).map(lambda d: "[" * d + "]" * d),
-                 st.integers(0, 1200).map(lambda d: "{a=" * d + "1" + "}" * d)))
+@given(
+    st.sampled_from(
+        [
+            "mesh.nx",
+            "camera.width",
+            "strokes.0.time",
+            "integrator.max_newton",
+            "fixed.1.indices",
+            "simulation.dt",
+            "mesh",
+            "a.b.c",
+            "strokes.9.time",
+        ]
+    ),
+    st.one_of(
+        st.text(max_size=30),
+        st.integers(0, 1200).map(lambda d: "[" * d + "]" * d),
+        st.integers(0, 1200).map(lambda d: "{a=" * d + "1" + "}" * d),
+    ),
+)
 def test_a_set_override_is_parsed_and_checked_or_is_a_value_error(key, value):
     try:
         parsed_key, parsed = parse_override(f"{key}={value}")
@@ -181,7 +246,8 @@ def load_or_value_error(tmp_path, data, name="tampered.npz"):
 @FUZZ
 @given(st.data())
 def test_a_state_file_with_flipped_or_cut_bytes_loads_or_is_a_value_error(
-        tmp_path_factory, state_bytes, data):
+    tmp_path_factory, state_bytes, data
+):
     tmp_path = tmp_path_factory.mktemp("flip")
     raw = bytearray(state_bytes)
     how = data.draw(st.sampled_from(["flip", "truncate", "splice"]))
@@ -189,7 +255,7 @@ def test_a_state_file_with_flipped_or_cut_bytes_loads_or_is_a_value_error(
         for _ in range(data.draw(st.integers(1, 8))):
             raw[data.draw(st.integers(0, len(raw) - 1))] ^= data.draw(st.integers(1, 255))
     elif how == "truncate":
-        raw = raw[:data.draw(st.integers(0, len(raw) - 1))]
+        raw = raw[: data.draw(st.integers(0, len(raw) - 1))]
     else:
         at = data.draw(st.integers(0, len(raw)))
         raw[at:at] = data.draw(st.binary(max_size=16))
@@ -220,31 +286,64 @@ def rewrite(state_bytes, change):
     return out.getvalue()
 
 
-array_names = st.sampled_from([
-    "simulation/cloth/positions", "simulation/cloth/velocities", "simulation/cloth/masses",
-    "simulation/cloth/faces", "simulation/cloth/spring_ends", "simulation/cloth/spring_rest",
-    "simulation/cloth/spring_kind", "simulation/cloth/vertex_states", "simulation/gravity",
-    "simulation/history/positions"])
+array_names = st.sampled_from(
+    [
+        "simulation/cloth/positions",
+        "simulation/cloth/velocities",
+        "simulation/cloth/masses",
+        "simulation/cloth/faces",
+        "simulation/cloth/spring_ends",
+        "simulation/cloth/spring_rest",
+        "simulation/cloth/spring_kind",
+        "simulation/cloth/vertex_states",
+        "simulation/gravity",
+        "simulation/history/positions",
+    ]
+)
 replacement_arrays = st.one_of(
-    st.sampled_from([np.zeros(0), np.full((9, 3), np.nan), np.full(9, -1.0),
-                     np.full((24, 2), 9, dtype=np.int32), np.zeros((9, 3), dtype=np.float32),
-                     np.full(9, 1e-320), np.array([2**31 - 1, 0], dtype=np.int64),
-                     np.zeros((2, 2, 2)), np.array("text"), np.full(24, 7, dtype=np.int8)]),
-    st.integers(-3, 3).map(lambda k: np.full((9, 3), k, dtype=np.int32)))
-json_fields = st.sampled_from([
-    ("simulation", "dt"), ("simulation", "integrator"), ("simulation", "options"),
-    ("simulation", "options", "max_newton"), ("simulation", "options", "linearized"),
-    ("simulation", "target_time"), ("simulation", "cloth", "drag"),
-    ("simulation", "cloth", "clock_steps"), ("simulation", "cloth", "drivers"),
-    ("simulation", "history"), ("simulation", "history", "dt"), ("version",), ("format",),
-    ("metadata",), ("simulation", "cloth", "positions")])
+    st.sampled_from(
+        [
+            np.zeros(0),
+            np.full((9, 3), np.nan),
+            np.full(9, -1.0),
+            np.full((24, 2), 9, dtype=np.int32),
+            np.zeros((9, 3), dtype=np.float32),
+            np.full(9, 1e-320),
+            np.array([2**31 - 1, 0], dtype=np.int64),
+            np.zeros((2, 2, 2)),
+            np.array("text"),
+            np.full(24, 7, dtype=np.int8),
+        ]
+    ),
+    st.integers(-3, 3).map(lambda k: np.full((9, 3), k, dtype=np.int32)),
+)
+json_fields = st.sampled_from(
+    [
+        ("simulation", "dt"),
+        ("simulation", "integrator"),
+        ("simulation", "options"),
+        ("simulation", "options", "max_newton"),
+        ("simulation", "options", "linearized"),
+        ("simulation", "target_time"),
+        ("simulation", "cloth", "drag"),
+        ("simulation", "cloth", "clock_steps"),
+        ("simulation", "cloth", "drivers"),
+        ("simulation", "history"),
+        ("simulation", "history", "dt"),
+        ("version",),
+        ("format",),
+        ("metadata",),
+        ("simulation", "cloth", "positions"),
+    ]
+)
 
 
 @pytest.mark.slow
 @FUZZ
 @given(st.data())
 def test_a_state_file_with_tampered_fields_loads_or_is_a_value_error(
-        tmp_path_factory, state_bytes, data):
+    tmp_path_factory, state_bytes, data
+):
     tmp_path = tmp_path_factory.mktemp("tamper")
     if data.draw(st.booleans()):
         name, array = data.draw(array_names), data.draw(replacement_arrays)
@@ -259,6 +358,7 @@ def test_a_state_file_with_tampered_fields_loads_or_is_a_value_error(
             for part in path[:-1]:
                 node = node[part]
             node[path[-1]] = value
+
     try:
         load_or_value_error(tmp_path, rewrite(state_bytes, change))
     except yore.SimulationDiverged:
@@ -288,10 +388,16 @@ def rewrite_with_pickle(state_bytes, change):
 
 # -- API arguments ------------------------------------------------------------------------------
 
-any_argument = st.one_of(values, st.sampled_from([np.float64(0.5), np.int64(3), np.bool_(True),
-                                                  float("inf"), float("nan"), None, "no"]))
-OPTION_NAMES = {integrator: sorted(yore.simulation.INTEGRATOR_OPTIONS[integrator])
-                for integrator in ("explicit", "implicit", "local-global")}
+any_argument = st.one_of(
+    values,
+    st.sampled_from(
+        [np.float64(0.5), np.int64(3), np.bool_(True), float("inf"), float("nan"), None, "no"]
+    ),
+)
+OPTION_NAMES = {
+    integrator: sorted(yore.simulation.INTEGRATOR_OPTIONS[integrator])
+    for integrator in ("explicit", "implicit", "local-global")
+}
 
 
 @pytest.fixture(scope="module")
@@ -306,7 +412,8 @@ def small_cloth_state():
 @FUZZ
 @given(st.sampled_from(sorted(OPTION_NAMES)), st.data())
 def test_simulation_options_are_accepted_as_given_or_are_value_errors(
-        small_cloth_state, integrator, data):
+    small_cloth_state, integrator, data
+):
     name = data.draw(st.sampled_from(OPTION_NAMES[integrator]))
     value = data.draw(any_argument)
     cloth = yore.Cloth.from_state(small_cloth_state)
@@ -329,8 +436,7 @@ def test_simulation_options_are_accepted_as_given_or_are_value_errors(
 @pytest.mark.slow
 @FUZZ
 @given(any_argument, any_argument, st.one_of(any_argument, st.lists(st.integers(-2, 20))))
-def test_smooth_rest_lengths_arguments_are_checked(small_cloth_state, iterations, strength,
-                                                   region):
+def test_smooth_rest_lengths_arguments_are_checked(small_cloth_state, iterations, strength, region):
     sim = yore.Simulation(yore.Cloth.from_state(small_cloth_state), dt=1e-3)
     try:
         result = sim.smooth_rest_lengths(iterations=iterations, strength=strength, region=region)
@@ -368,8 +474,9 @@ def test_grid_mesh_and_cloth_arguments_are_checked(nx, ny, mass, stiffness):
 @given(any_argument, any_argument)
 def test_camera_sizes_are_checked_before_allocating(width, height):
     try:
-        camera = yore.Camera(eye=(0.5, 0.5, 3.0), target=(0.5, 0.5, 0.0), width=width,
-                             height=height)
+        camera = yore.Camera(
+            eye=(0.5, 0.5, 3.0), target=(0.5, 0.5, 0.0), width=width, height=height
+        )
     except ValueError as error:
         assert "\n" not in str(error)
         return
@@ -396,9 +503,28 @@ def mutated_sweeps(draw):
         elif action == "replace table" or not isinstance(sweep.get(name), dict):
             sweep[name] = draw(values)
         else:
-            sweep[name][draw(st.one_of(keys, st.sampled_from(
-                ["scene", "repeats", "set", "status", "message", "a/b", "", ".",
-                 "mesh.nx", "simulation.dt", "reference"])))] = draw(values)
+            sweep[name][
+                draw(
+                    st.one_of(
+                        keys,
+                        st.sampled_from(
+                            [
+                                "scene",
+                                "repeats",
+                                "set",
+                                "status",
+                                "message",
+                                "a/b",
+                                "",
+                                ".",
+                                "mesh.nx",
+                                "simulation.dt",
+                                "reference",
+                            ]
+                        ),
+                    )
+                )
+            ] = draw(values)
     return sweep
 
 
@@ -432,11 +558,22 @@ def sweep_and_cell(tmp_path_factory):
 
 @pytest.mark.slow
 @FUZZ
-@given(st.one_of(values, st.fixed_dictionaries(
-    {"status": st.one_of(st.sampled_from(["done", "failed"]), values), "message": values,
-     "overrides": values, "values": values})))
-def test_a_tampered_cell_record_is_read_or_is_a_value_error(tmp_path_factory, sweep_and_cell,
-                                                            record):
+@given(
+    st.one_of(
+        values,
+        st.fixed_dictionaries(
+            {
+                "status": st.one_of(st.sampled_from(["done", "failed"]), values),
+                "message": values,
+                "overrides": values,
+                "values": values,
+            }
+        ),
+    )
+)
+def test_a_tampered_cell_record_is_read_or_is_a_value_error(
+    tmp_path_factory, sweep_and_cell, record
+):
     import json
 
     from yore.sweep.results import read_record
@@ -459,15 +596,22 @@ def test_a_tampered_cell_record_is_read_or_is_a_value_error(tmp_path_factory, sw
 @pytest.mark.slow
 @FUZZ
 @given(any_argument, any_argument, any_argument, any_argument, any_argument)
-def test_stroke_options_are_accepted_or_are_value_errors(small_cloth_state, expansion,
-                                                        mass_scale, width, growth, refine):
+def test_stroke_options_are_accepted_or_are_value_errors(
+    small_cloth_state, expansion, mass_scale, width, growth, refine
+):
     cloth = yore.Cloth.from_state(small_cloth_state)
     V, _ = yore.grid_mesh(4, 4)
     cloth.material_coordinates = V[:, :2]
     sim = yore.Simulation(cloth, dt=1e-3)
     try:
-        sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.5]]), expansion=expansion,
-                            mass_scale=mass_scale, width=width, growth=growth, refine=refine)
+        sim.stroke(
+            yore.StrokePath.material([[0.1, 0.5], [0.9, 0.5]]),
+            expansion=expansion,
+            mass_scale=mass_scale,
+            width=width,
+            growth=growth,
+            refine=refine,
+        )
     except ValueError as error:
         assert "\n" not in str(error)
         return

@@ -23,8 +23,15 @@ STROKE = [[-0.2, STROKE_Y], [1.2, STROKE_Y]]  # beyond both sides: no end effect
 
 def flat_sim(n=N, bend=200.0):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=bend,
-                       damping=0.02, drag=0.3)
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=0.1 / (n * n),
+        stretch_stiffness=200.0,
+        bend_stiffness=bend,
+        damping=0.02,
+        drag=0.3,
+    )
     cloth.material_coordinates = V[:, :2]
     return yore.Simulation(cloth, integrator="explicit", dt=1e-4)
 
@@ -58,8 +65,14 @@ def test_default_options_are_the_paper_mode():
     # is tests/cpp/test_stroke_pipeline.cpp's)
     a, b = flat_sim(), flat_sim()
     report = a.stroke(yore.StrokePath.material(STROKE))
-    explicit = b.stroke(yore.StrokePath.material(STROKE), growth="paper", expansion=1.1,
-                        mass_scale=0.95, width=None, refine=0)
+    explicit = b.stroke(
+        yore.StrokePath.material(STROKE),
+        growth="paper",
+        expansion=1.1,
+        mass_scale=0.95,
+        width=None,
+        refine=0,
+    )
     cloth = a.cloth
     for name in ("positions", "velocities", "masses", "faces"):
         assert np.array_equal(getattr(b.cloth, name), getattr(cloth, name)), name
@@ -71,11 +84,11 @@ def test_default_options_are_the_paper_mode():
     assert report.springs_grown == 0
     # the report's added rest length is eq. (1)'s: (1.1 − 1) × the new springs' lengths
     new = slice(len(cloth.springs.rest) - report.springs_added, None)
-    assert report.rest_length_added == pytest.approx(0.1 * cloth.springs.reference[new].sum(),
-                                                     rel=1e-12)
+    assert report.rest_length_added == pytest.approx(
+        0.1 * cloth.springs.reference[new].sum(), rel=1e-12
+    )
     # paper masses: 0.95 × the corners' mean per new point, so the total grows
-    assert report.mass_added == pytest.approx(0.95 * 0.1 / N**2 * report.vertices_added,
-                                              rel=1e-12)
+    assert report.mass_added == pytest.approx(0.95 * 0.1 / N**2 * report.vertices_added, rel=1e-12)
 
 
 def test_isotropic_growth_scales_every_spring_of_the_band_by_its_weight():
@@ -83,7 +96,9 @@ def test_isotropic_growth_scales_every_spring_of_the_band_by_its_weight():
     cloth = sim.cloth
     rest = cloth.springs.rest.copy()
     width = 0.5
-    report = sim.stroke(yore.StrokePath.material(STROKE), expansion=1.2, width=width, growth="isotropic")
+    report = sim.stroke(
+        yore.StrokePath.material(STROKE), expansion=1.2, width=width, growth="isotropic"
+    )
     assert report.faces_split == 0 and report.vertices_added == 0  # no split outside paper mode
     w = report.extra["spring_weights"]
     vertex_w = report.extra["vertex_weights"]
@@ -100,7 +115,8 @@ def test_isotropic_growth_scales_every_spring_of_the_band_by_its_weight():
     # a spring's weight: the falloff's mean along it by Simpson's rule (ends and midpoint)
     middle = falloff_weight(np.abs(Y[ends].mean(axis=1) - STROKE_Y), width)
     np.testing.assert_allclose(
-        w, (vertex_w[ends[:, 0]] + 4 * middle + vertex_w[ends[:, 1]]) / 6, rtol=0, atol=1e-8)
+        w, (vertex_w[ends[:, 0]] + 4 * middle + vertex_w[ends[:, 1]]) / 6, rtol=0, atol=1e-8
+    )
     assert np.all((w >= 0) & (w <= 1))
     # exactly the promised rest lengths: L (1 + (e − 1) w), a few roundings (1.2 − 1 is itself
     # 0.2 + 2e-16) apart from the test's arithmetic
@@ -137,8 +153,9 @@ def test_anisotropic_growth_grows_only_the_projected_component(growth):
     band = w > 0.5
     grows, keeps = (horizontal, vertical) if growth == "along" else (vertical, horizontal)
     assert np.any(band & grows)
-    np.testing.assert_allclose(cloth.springs.rest[band & grows], (g * rest)[band & grows],
-                               rtol=1e-8)
+    np.testing.assert_allclose(
+        cloth.springs.rest[band & grows], (g * rest)[band & grows], rtol=1e-8
+    )
     np.testing.assert_allclose(cloth.springs.rest[keeps], rest[keeps], rtol=1e-8)
 
 
@@ -151,8 +168,13 @@ def test_along_lengthens_a_tube_ring_and_not_its_axial_springs():
     angle = np.linspace(0, 2 * np.pi, 200)
     radius = np.linalg.norm(X[:, [0, 2]] - X[:, [0, 2]].mean(axis=0), axis=1).mean()
     center = X[:, [0, 2]].mean(axis=0)
-    ring = np.column_stack([center[0] + radius * np.cos(angle), np.full_like(angle, y),
-                            center[1] + radius * np.sin(angle)])
+    ring = np.column_stack(
+        [
+            center[0] + radius * np.cos(angle),
+            np.full_like(angle, y),
+            center[1] + radius * np.sin(angle),
+        ]
+    )
     rest = cloth.springs.rest.copy()
     report = sim.stroke(ring, expansion=1.25, growth="along", width=0.1)
     w = report.extra["spring_weights"]
@@ -164,8 +186,9 @@ def test_along_lengthens_a_tube_ring_and_not_its_axial_springs():
     # the path lies on the faceted tube; the chord tangent at a hoop edge's midpoint is parallel
     # to the edge by symmetry, up to the sampling of the stroke (200 points around): angles of a
     # few mrad, which change L √(g²c² + s²) at second order (~5e-6 measured)
-    np.testing.assert_allclose(cloth.springs.rest[hoop], (1.0 + 0.25 * w[hoop]) * rest[hoop],
-                               rtol=2e-5)
+    np.testing.assert_allclose(
+        cloth.springs.rest[hoop], (1.0 + 0.25 * w[hoop]) * rest[hoop], rtol=2e-5
+    )
     # springs along the axis keep their rest lengths
     axial = (np.abs(d[:, [0, 2]]).sum(axis=1) < 1e-9) & (w > 0)
     assert axial.sum() > 0
@@ -188,8 +211,12 @@ def test_a_band_grows_the_same_area_on_every_mesh():
         sim = flat_sim(n)
         before = _total_rest_area(sim.cloth)
         y = 0.5 + 0.3 / (n - 1)  # between two rows of vertices
-        sim.stroke(yore.StrokePath.material([[-0.2, y], [1.2, y]]), expansion=expansion,
-                   width=width, growth="isotropic")
+        sim.stroke(
+            yore.StrokePath.material([[-0.2, y], [1.2, y]]),
+            expansion=expansion,
+            width=width,
+            growth="isotropic",
+        )
         errors.append(abs(_total_rest_area(sim.cloth) - before - exact) / exact)
     assert errors[-1] < 0.005, errors
     assert errors[0] / errors[-1] > 8.0, errors  # second order: 16 per two halvings, 8 allowed
@@ -202,7 +229,9 @@ def test_refined_strokes_keep_the_mesh_the_rest_area_and_the_mass():
     mass = cloth.masses.sum()
     faces = len(cloth.faces)
     # expansion 1: refinement alone, nothing grows
-    report = sim.stroke(yore.StrokePath.material(STROKE), expansion=1.0, width=0.3, growth="isotropic", refine=2)
+    report = sim.stroke(
+        yore.StrokePath.material(STROKE), expansion=1.0, width=0.3, growth="isotropic", refine=2
+    )
     check_invariants(cloth, 1)
     assert report.faces_refined > 0 and report.faces_bisected > 0 and report.springs_grown == 0
     assert len(cloth.faces) > faces + 3 * report.faces_refined
@@ -223,13 +252,16 @@ def test_the_refined_size_prediction_bounds_the_size_a_stroke_makes(width, passe
 
     sim = yore.scenes.hanging_cloth(resolution=20, integrator="explicit")
     before = sim.cloth.vertex_count
-    report = sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=passes, width=width)
+    report = sim.stroke(
+        yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=passes, width=width
+    )
     band = report.faces_refined  # at least the first pass's band
     first = yore.scenes.hanging_cloth(resolution=20, integrator="explicit")
     one = first.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=1, width=width)
     assert one.faces_refined <= band
-    assert sim.cloth.vertex_count <= predicted_refined_vertices(before, one.faces_refined
-                                                                 + one.faces_bisected, passes)
+    assert sim.cloth.vertex_count <= predicted_refined_vertices(
+        before, one.faces_refined + one.faces_bisected, passes
+    )
 
 
 def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tmp_path):
@@ -241,9 +273,11 @@ def test_a_refinement_past_the_mesh_limit_is_refused_before_the_cloth_changes(tm
         sim.stroke(yore.StrokePath.material([[0.1, 0.5], [0.9, 0.52]]), refine=4, width=0.3)
     assert sim.cloth.topology_version == version and sim.cloth.vertex_count == vertices
     # in a scene file: one error naming the stroke's refine key, before the run
-    text = ('[mesh]\ngenerator = "grid"\nnx = 120\nny = 120\n[simulation]\nduration = 0.01\n'
-            'dt = 0.001\n[[strokes]]\ntime = 0.0\nmaterial = [[0.1, 0.5], [0.9, 0.52]]\n'
-            'width = 0.3\nrefine = 4\n')
+    text = (
+        '[mesh]\ngenerator = "grid"\nnx = 120\nny = 120\n[simulation]\nduration = 0.01\n'
+        "dt = 0.001\n[[strokes]]\ntime = 0.0\nmaterial = [[0.1, 0.5], [0.9, 0.52]]\n"
+        "width = 0.3\nrefine = 4\n"
+    )
     with pytest.raises(SceneError) as caught:
         load_scene(tmp_path / "scene.toml", text=text).check_strokes()
     assert caught.value.key == "strokes[0].refine" and "250000" in caught.value.problem
@@ -257,8 +291,9 @@ def test_paper_mode_with_refinement_splits_the_crossed_refined_faces():
     assert b.faces_refined > 0
     # the crossed faces' children that the stroke crosses: about twice as many faces split
     assert 1.5 * a.faces_split <= b.faces_split <= 2.5 * a.faces_split
-    assert b.vertices_added == b.faces_split + (len(refined.cloth.positions) - N * N
-                                                - b.faces_split)
+    assert b.vertices_added == b.faces_split + (
+        len(refined.cloth.positions) - N * N - b.faces_split
+    )
 
 
 def test_conserving_mass_scale_keeps_the_total_mass():
@@ -278,7 +313,9 @@ def test_conserving_mass_scale_keeps_the_total_mass():
 @pytest.mark.parametrize("growth", ["paper", "isotropic"])
 def test_smoothing_redistributes_the_added_rest_length(growth):
     sim = flat_sim()
-    sim.stroke(yore.StrokePath.material(STROKE), growth=growth, width=None if growth == "paper" else 0.4)
+    sim.stroke(
+        yore.StrokePath.material(STROKE), growth=growth, width=None if growth == "paper" else 0.4
+    )
     springs = sim.cloth.springs
     added = np.sum(springs.rest - springs.reference)
     rest_before = springs.rest.copy()
@@ -291,7 +328,9 @@ def test_smoothing_redistributes_the_added_rest_length(growth):
     assert not np.array_equal(springs.rest, rest_before)
     # the plain ratio smoothing creates added rest length (the measured +29 % of issue 13)
     plain = flat_sim()
-    plain.stroke(yore.StrokePath.material(STROKE), growth=growth, width=None if growth == "paper" else 0.4)
+    plain.stroke(
+        yore.StrokePath.material(STROKE), growth=growth, width=None if growth == "paper" else 0.4
+    )
     grown = plain.smooth_rest_lengths(iterations=20, strength=0.5, conserve=False)
     assert grown["rest_added_after"] != pytest.approx(added, rel=1e-3)
 
@@ -301,19 +340,32 @@ def _total_rest_area(cloth):
 
 
 # -- bad values -------------------------------------------------------------------------------------
-@pytest.mark.parametrize("options, match", [
-    ({"width": -0.1}, "width"), ({"width": 0.0}, "width"), ({"width": float("nan")}, "width"),
-    ({"width": "wide"}, "width"), ({"growth": "radial"}, "growth.*'isotropic'"),
-    ({"growth": None}, "growth"), ({"refine": -1}, "refine"), ({"refine": 1.5}, "refine"),
-    ({"refine": True}, "refine"), ({"refine": MAX_REFINE + 1}, "refine"),
-    ({"refine": 10**9}, "refine"), ({"mass_scale": "keep"}, "mass_scale.*conserve"),
-    ({"mass_scale": -1.0}, "mass_scale"), ({"expansion": 0.0}, "expansion"),
-])
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"width": -0.1}, "width"),
+        ({"width": 0.0}, "width"),
+        ({"width": float("nan")}, "width"),
+        ({"width": "wide"}, "width"),
+        ({"growth": "radial"}, "growth.*'isotropic'"),
+        ({"growth": None}, "growth"),
+        ({"refine": -1}, "refine"),
+        ({"refine": 1.5}, "refine"),
+        ({"refine": True}, "refine"),
+        ({"refine": MAX_REFINE + 1}, "refine"),
+        ({"refine": 10**9}, "refine"),
+        ({"mass_scale": "keep"}, "mass_scale.*conserve"),
+        ({"mass_scale": -1.0}, "mass_scale"),
+        ({"expansion": 0.0}, "expansion"),
+    ],
+)
 def test_bad_stroke_options_are_value_errors_naming_the_problem(options, match):
     sim = flat_sim()
     version = sim.cloth.topology_version
-    for call in (lambda: sim.stroke(yore.StrokePath.material(STROKE), **options),
-                 lambda: sim.stroke([[0.1, STROKE_Y, 0.0], [0.9, STROKE_Y, 0.0]], **options)):
+    for call in (
+        lambda: sim.stroke(yore.StrokePath.material(STROKE), **options),
+        lambda: sim.stroke([[0.1, STROKE_Y, 0.0], [0.9, STROKE_Y, 0.0]], **options),
+    ):
         with pytest.raises(ValueError, match=match):
             call()
     assert sim.cloth.topology_version == version  # nothing changed
@@ -342,12 +394,18 @@ material = [[-0.2, 0.45], [1.2, 0.45]]
 
 
 def test_scene_file_stroke_options_parse_and_apply():
-    text = SCENE + ('width = 0.3\ngrowth = "along"\nrefine = 1\nmass_scale = "conserve"\n'
-                    "expansion = 1.2\nsmooth = {iterations = 3, conserve = false}\n")
+    text = SCENE + (
+        'width = 0.3\ngrowth = "along"\nrefine = 1\nmass_scale = "conserve"\n'
+        "expansion = 1.2\nsmooth = {iterations = 3, conserve = false}\n"
+    )
     scene = load_scene(Path("scene.toml"), text=text)
     stroke = scene.data["strokes"][0]
-    assert (stroke["width"], stroke["growth"], stroke["refine"], stroke["mass_scale"]) == \
-        (0.3, "along", 1, "conserve")
+    assert (stroke["width"], stroke["growth"], stroke["refine"], stroke["mass_scale"]) == (
+        0.3,
+        "along",
+        1,
+        "conserve",
+    )
     assert stroke["smooth"]["conserve"] is False
     defaults = load_scene(Path("scene.toml"), text=SCENE).data["strokes"][0]
     assert (defaults["growth"], defaults["refine"], defaults["mass_scale"]) == ("paper", 0, 0.95)
@@ -360,17 +418,20 @@ def test_scene_file_stroke_options_parse_and_apply():
     assert report.springs_grown > 0 and abs(report.mass_added) < 1e-15
 
 
-@pytest.mark.parametrize("line, key, expected", [
-    ("width = -0.1", "strokes[0].width", "> 0"),
-    ("width = 0", "strokes[0].width", "> 0"),
-    ('growth = "radial"', "strokes[0].growth", "'isotropic'"),
-    ("refine = -1", "strokes[0].refine", f"[0, {MAX_REFINE}]"),
-    ("refine = 99", "strokes[0].refine", f"[0, {MAX_REFINE}]"),
-    ("refine = 1.5", "strokes[0].refine", "integer"),
-    ('mass_scale = "keep"', "strokes[0].mass_scale", "'conserve'"),
-    ("mass_scale = 0", "strokes[0].mass_scale", "'conserve'"),
-    ('smooth = {conserve = "yes"}', "strokes[0].smooth.conserve", "true or false"),
-])
+@pytest.mark.parametrize(
+    "line, key, expected",
+    [
+        ("width = -0.1", "strokes[0].width", "> 0"),
+        ("width = 0", "strokes[0].width", "> 0"),
+        ('growth = "radial"', "strokes[0].growth", "'isotropic'"),
+        ("refine = -1", "strokes[0].refine", f"[0, {MAX_REFINE}]"),
+        ("refine = 99", "strokes[0].refine", f"[0, {MAX_REFINE}]"),
+        ("refine = 1.5", "strokes[0].refine", "integer"),
+        ('mass_scale = "keep"', "strokes[0].mass_scale", "'conserve'"),
+        ("mass_scale = 0", "strokes[0].mass_scale", "'conserve'"),
+        ('smooth = {conserve = "yes"}', "strokes[0].smooth.conserve", "true or false"),
+    ],
+)
 def test_scene_file_rejects_bad_stroke_options(line, key, expected):
     with pytest.raises(SceneError) as caught:
         load_scene(Path("scene.toml"), text=SCENE + line + "\n")
@@ -381,10 +442,19 @@ def test_scene_file_rejects_bad_stroke_options(line, key, expected):
 
 # -- robustness -------------------------------------------------------------------------------------
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(strokes=st.lists(st.tuples(
-    st.lists(st.tuples(st.floats(-0.1, 1.1), st.floats(-0.1, 1.1)), min_size=1, max_size=4),
-    st.sampled_from(GROWTH_MODES), st.sampled_from([None, 0.05, 0.3]), st.integers(0, 2),
-    st.sampled_from([0.95, "conserve"])), min_size=1, max_size=3))
+@given(
+    strokes=st.lists(
+        st.tuples(
+            st.lists(st.tuples(st.floats(-0.1, 1.1), st.floats(-0.1, 1.1)), min_size=1, max_size=4),
+            st.sampled_from(GROWTH_MODES),
+            st.sampled_from([None, 0.05, 0.3]),
+            st.integers(0, 2),
+            st.sampled_from([0.95, "conserve"]),
+        ),
+        min_size=1,
+        max_size=3,
+    )
+)
 def test_random_strokes_with_options_never_break_the_mesh(strokes):
     sim = flat_sim(6)
     cloth = sim.cloth
@@ -392,8 +462,14 @@ def test_random_strokes_with_options_never_break_the_mesh(strokes):
         mass = cloth.masses.sum()
         points = np.column_stack([np.asarray(points), np.zeros(len(points))])
         try:
-            report = sim.stroke(points, max_distance=0.05, growth=growth, width=width,
-                                refine=refine, mass_scale=mass_scale)
+            report = sim.stroke(
+                points,
+                max_distance=0.05,
+                growth=growth,
+                width=width,
+                refine=refine,
+                mass_scale=mass_scale,
+            )
         except yore.StrokeMissed:
             continue
         check_invariants(cloth, 1)
@@ -414,7 +490,9 @@ def test_screen_strokes_take_the_options_too():
     sim = flat_sim()
     camera = yore.Camera(eye=(0.5, 0.5, 3.0), target=(0.5, 0.5, 0.0))
     pixels = camera.project([[0.05, STROKE_Y, 0.0], [0.95, STROKE_Y, 0.0]])
-    report = sim.stroke(yore.StrokePath.screen(pixels, camera), growth="across", width=0.3, refine=1)
+    report = sim.stroke(
+        yore.StrokePath.screen(pixels, camera), growth="across", width=0.3, refine=1
+    )
     assert report.faces_refined > 0 and report.springs_grown > 0 and report.faces_split == 0
     with pytest.raises(ValueError, match="growth"):
         sim.stroke(yore.StrokePath.screen(pixels, camera), growth="sideways")
@@ -425,8 +503,9 @@ def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_no
     # to the default is re-derived (never raised), one the user gave is kept as given.
     sim = yore.scenes.hanging_cloth(resolution=9)
     before = sim.dt
-    report = sim.stroke(yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2,
-                                 refine=1)
+    report = sim.stroke(
+        yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1
+    )
     assert report.faces_refined > 0
     assert sim.dt == yore.simulation.default_explicit_dt(sim.cloth) < before
     assert report.extra["dt_before"] == before and report.extra["dt_after"] == sim.dt
@@ -436,10 +515,14 @@ def test_a_default_explicit_dt_follows_a_refining_stroke_and_a_given_one_does_no
     again = yore.Simulation.from_state(sim.state())
     assert again.dt_follows_cloth and again.dt == sim.dt
     given = yore.scenes.hanging_cloth(resolution=9, dt=before)
-    given.stroke(yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1)
+    given.stroke(
+        yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1
+    )
     assert given.dt == before
     implicit = yore.scenes.hanging_cloth(resolution=9, integrator="implicit")
-    implicit.stroke(yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1)
+    implicit.stroke(
+        yore.StrokePath.material([[0.1, 0.3], [0.9, 0.3]]), growth="isotropic", width=0.2, refine=1
+    )
     assert implicit.dt == yore.simulation.IMPLICIT_DT
 
 
@@ -460,11 +543,16 @@ def test_repeated_refining_strokes_stop_at_the_refined_vertex_limit(tmp_path, mo
             sim.stroke(yore.StrokePath.material([[0.05, 0.5], [0.95, 0.5]]), refine=1, width=2.0)
             counts.append(sim.cloth.vertex_count)
     assert len(counts) < 8 and counts[-1] <= 3000 and sim.cloth.vertex_count == counts[-1]
-    sim.stroke(yore.StrokePath.material([[0.05, 0.5], [0.95, 0.5]]))  # a stroke that does not refine still may
-    stroke = ('[[strokes]]\ntime = 0.0\nmaterial = [[0.05, 0.5], [0.95, 0.5]]\nwidth = 2.0\n'
-              'refine = 1\n')
-    text = ('[mesh]\ngenerator = "grid"\nnx = 7\nny = 7\n[simulation]\nduration = 0.01\n'
-            'dt = 0.001\n' + stroke * 8)
+    sim.stroke(
+        yore.StrokePath.material([[0.05, 0.5], [0.95, 0.5]])
+    )  # a stroke that does not refine still may
+    stroke = (
+        "[[strokes]]\ntime = 0.0\nmaterial = [[0.05, 0.5], [0.95, 0.5]]\nwidth = 2.0\nrefine = 1\n"
+    )
+    text = (
+        '[mesh]\ngenerator = "grid"\nnx = 7\nny = 7\n[simulation]\nduration = 0.01\n'
+        "dt = 0.001\n" + stroke * 8
+    )
     with pytest.raises(SceneError) as caught:
         load_scene(tmp_path / "scene.toml", text=text).check_strokes()
     assert caught.value.key == f"strokes[{len(counts)}].refine"

@@ -17,8 +17,9 @@ NO_GRAVITY = (0.0, 0.0, 0.0)
 
 def oscillator(mass=0.2, stiffness=50.0, amplitude=0.1):
     V = np.array([[0.0, 0.0, 0.0], [0.0, -(1.0 + amplitude), 0.0]])
-    cloth = yore.Cloth.from_springs(V, [[0, 1]], rest_lengths=[1.0], masses=mass,
-                                    stiffness=stiffness)
+    cloth = yore.Cloth.from_springs(
+        V, [[0, 1]], rest_lengths=[1.0], masses=mass, stiffness=stiffness
+    )
     cloth.fix([0])
     return cloth
 
@@ -31,8 +32,9 @@ def test_backward_euler_amplitude_decays_by_exactly_one_over_sqrt_one_plus_omega
     m, k = 0.2, 50.0
     omega = math.sqrt(k / m)
     for dt in (0.01, 0.05, 0.2):
-        sim = yore.Simulation(oscillator(m, k), integrator="implicit", dt=dt, gravity=NO_GRAVITY,
-                              newton_tol=1e-12)
+        sim = yore.Simulation(
+            oscillator(m, k), integrator="implicit", dt=dt, gravity=NO_GRAVITY, newton_tol=1e-12
+        )
         factor = 1.0 / math.sqrt(1.0 + (omega * dt) ** 2)
         u, v = displacement_and_velocity(sim.cloth)
         amplitude = math.hypot(omega * u, v)
@@ -49,8 +51,9 @@ def global_error(integrator, per_period, periods=1):
     m, k, a = 0.2, 50.0, 0.1
     omega = math.sqrt(k / m)
     dt = 2 * math.pi / omega / per_period
-    sim = yore.Simulation(oscillator(m, k, a), integrator=integrator, dt=dt, gravity=NO_GRAVITY,
-                          newton_tol=1e-12)
+    sim = yore.Simulation(
+        oscillator(m, k, a), integrator=integrator, dt=dt, gravity=NO_GRAVITY, newton_tol=1e-12
+    )
     error = 0.0
     for n in range(1, per_period * periods + 1):
         sim.step()
@@ -69,9 +72,16 @@ def test_error_falls_with_the_order_of_the_method(integrator, order):
 
 def stiff_sheet(resolution=9):
     # 1000 × the scenes' default stiffness, no damping: a hard case for explicit stepping
-    return yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0,
-                                     stretch_stiffness=200e3, bend_stiffness=200e3, damping=0.0,
-                                     drag=0.0, integrator="implicit", dt=1.0 / 30.0)
+    return yore.scenes.hanging_cloth(
+        resolution=resolution,
+        pin_spacing=1.0,
+        stretch_stiffness=200e3,
+        bend_stiffness=200e3,
+        damping=0.0,
+        drag=0.0,
+        integrator="implicit",
+        dt=1.0 / 30.0,
+    )
 
 
 @pytest.mark.slow
@@ -109,8 +119,9 @@ def test_compressed_springs_factor_and_step():
 
 def small_problem(stretched=True, seed=0):
     V, F = yore.grid_mesh(4, 4, width=0.3, height=0.3)
-    cloth = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=20.0,
-                       damping=0.1, drag=0.5)
+    cloth = yore.Cloth(
+        V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=20.0, damping=0.1, drag=0.5
+    )
     rng = np.random.default_rng(seed)
     scale = 1.3 if stretched else 0.8
     cloth.positions = scale * V + rng.normal(0.0, 0.002, V.shape)
@@ -140,12 +151,22 @@ def test_assembled_gradient_and_hessian_match_finite_differences():
     def gradient(Y):
         return np.array(integrator.newton_system(cloth, g, dt, Y)["gradient"])
 
-    numeric_gradient = np.array([(energy(perturbed(X, free, k, h)) - energy(perturbed(X, free, k, -h)))
-                                 / (2 * h) for k in range(system["size"])])
-    assert np.abs(numeric_gradient - system["gradient"]).max() < 1e-7 * np.abs(system["gradient"]).max()
-    numeric_hessian = np.column_stack([(gradient(perturbed(X, free, k, h))
-                                        - gradient(perturbed(X, free, k, -h))) / (2 * h)
-                                       for k in range(system["size"])])
+    numeric_gradient = np.array(
+        [
+            (energy(perturbed(X, free, k, h)) - energy(perturbed(X, free, k, -h))) / (2 * h)
+            for k in range(system["size"])
+        ]
+    )
+    assert (
+        np.abs(numeric_gradient - system["gradient"]).max()
+        < 1e-7 * np.abs(system["gradient"]).max()
+    )
+    numeric_hessian = np.column_stack(
+        [
+            (gradient(perturbed(X, free, k, h)) - gradient(perturbed(X, free, k, -h))) / (2 * h)
+            for k in range(system["size"])
+        ]
+    )
     H = dense_hessian(system)
     # every spring is stretched here, so the PSD projection changes nothing: H is exact
     assert np.abs(numeric_hessian - H).max() < 1e-7 * np.abs(H).max()
@@ -158,12 +179,14 @@ def test_hessian_is_spd_when_springs_are_compressed():
     assert eigenvalues.min() > 0
 
 
-SOLVERS = [dict(solver="cholmod", factorization="supernodal", ordering="amd"),
-           dict(solver="cholmod", factorization="simplicial", ordering="amd"),
-           dict(solver="cholmod", factorization="supernodal", ordering="metis"),
-           dict(solver="cholmod", factorization="supernodal", ordering="natural"),
-           dict(solver="eigen-ldlt"),
-           dict(solver="pcg")]
+SOLVERS = [
+    dict(solver="cholmod", factorization="supernodal", ordering="amd"),
+    dict(solver="cholmod", factorization="simplicial", ordering="amd"),
+    dict(solver="cholmod", factorization="supernodal", ordering="metis"),
+    dict(solver="cholmod", factorization="supernodal", ordering="natural"),
+    dict(solver="eigen-ldlt"),
+    dict(solver="pcg"),
+]
 
 
 def test_every_backend_solves_the_newton_system_to_1e_10_and_agrees_to_1e_8():
@@ -186,9 +209,15 @@ def test_backends_give_the_same_steps():
         # one projection for all (pcg cannot tell an indefinite matrix, so it takes the clamp)
         # Pins a full width apart: no gathered (buckling) start, whose mirror-image folds are
         # picked by round-off and so differ between solvers once Newton converges.
-        sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", dt=0.02,
-                                        pin_spacing=1.0, newton_tol=1e-10, projection="clamp",
-                                        **options)
+        sim = yore.scenes.hanging_cloth(
+            resolution=7,
+            integrator="implicit",
+            dt=0.02,
+            pin_spacing=1.0,
+            newton_tol=1e-10,
+            projection="clamp",
+            **options,
+        )
         sim.step(5)
         assert sim.stats["counters"]["unconverged_steps"] == 0, options
         states.append(sim.cloth.positions)
@@ -203,9 +232,11 @@ def test_symbolic_analysis_runs_once_per_topology():
     assert counters["analyses"] == 1
     # one factorization per Newton iteration but those solved again on the last factor (the
     # default steihaug's refused steps), plus the exact Hessians found indefinite (none here)
-    assert counters["factorizations"] == (counters["newton_iterations"]
-                                          - counters["factor_reuses"]
-                                          + counters["exact_hessian_rejected"])
+    assert counters["factorizations"] == (
+        counters["newton_iterations"]
+        - counters["factor_reuses"]
+        + counters["exact_hessian_rejected"]
+    )
     assert counters["exact_hessian_rejected"] == 0
     assert counters["newton_iterations"] >= 100
     version = sim.cloth.topology_version
@@ -221,8 +252,9 @@ def test_statistics_report_phases_and_the_factor():
     sim.step(3)
     stats = sim.stats
     # phases are wall time: check their names; what ran is in the counters
-    assert {"assemble_seconds", "analyze_seconds", "factorize_seconds",
-            "solve_seconds"} <= set(stats["phases"])
+    assert {"assemble_seconds", "analyze_seconds", "factorize_seconds", "solve_seconds"} <= set(
+        stats["phases"]
+    )
     counters = stats["counters"]
     assert counters["analyses"] == 1 and counters["factorizations"] >= 3
     assert counters["solves"] >= 3
@@ -245,8 +277,15 @@ def settle(integrator, dt):
     # Newton stops on its residual, so the velocity it leaves is the tolerance over h: a test
     # of rest to 1e-9 m/s asks for a tight solve.
     options = {} if integrator == "explicit" else {"newton_tol": 1e-10}
-    sim = yore.scenes.hanging_cloth(resolution=7, pin_spacing=1.0, damping=0.5, drag=4.0,
-                                    integrator=integrator, dt=dt, **options)
+    sim = yore.scenes.hanging_cloth(
+        resolution=7,
+        pin_spacing=1.0,
+        damping=0.5,
+        drag=4.0,
+        integrator=integrator,
+        dt=dt,
+        **options,
+    )
     sim.advance(15.0, progress=False)
     return sim
 
@@ -262,15 +301,21 @@ def test_heavily_damped_cloth_reaches_the_same_static_shape_explicitly_and_impli
     assert np.abs(explicit.cloth.positions - implicit.cloth.positions).max() < 1e-8
 
 
-@pytest.mark.parametrize("options, message", [
-    ({"solver": "lu"}, "valid: cholmod, eigen-ldlt, pcg"),
-    ({"ordering": "rcm"}, "valid: amd, metis, nesdis, auto, natural"),
-    ({"factorization": "dense"}, "valid: supernodal, simplicial"),
-    ({"newton_tol": -1.0}, "newton_tol"),
-    ({"max_newton": 0}, "max_newton"),
-    ({"solver": "eigen-ldlt", "ordering": "metis"}, "amd"),
-    ({"linearised": True}, "valid: adaptive_projection, divergence_energy_factor, energy_growth_tolerance, factorization"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"solver": "lu"}, "valid: cholmod, eigen-ldlt, pcg"),
+        ({"ordering": "rcm"}, "valid: amd, metis, nesdis, auto, natural"),
+        ({"factorization": "dense"}, "valid: supernodal, simplicial"),
+        ({"newton_tol": -1.0}, "newton_tol"),
+        ({"max_newton": 0}, "max_newton"),
+        ({"solver": "eigen-ldlt", "ordering": "metis"}, "amd"),
+        (
+            {"linearised": True},
+            "valid: adaptive_projection, divergence_energy_factor, energy_growth_tolerance, factorization",
+        ),
+    ],
+)
 def test_bad_implicit_options_are_value_errors_listing_the_valid_ones(options, message):
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
     with pytest.raises(ValueError, match=message):
@@ -297,8 +342,7 @@ def test_both_paper_scenes_run_implicitly_at_their_default_step(integrator):
     hanging.advance(0.5, progress=False)
     assert np.array_equal(hanging.cloth.positions[hanging.scene["fixed"]], pins)
     assert hanging.cloth.positions[:, 1].mean() < -0.1
-    cylinder = yore.scenes.rotating_cylinder(rings=5, segments=12, omega=3.0,
-                                             integrator=integrator)
+    cylinder = yore.scenes.rotating_cylinder(rings=5, segments=12, omega=3.0, integrator=integrator)
     rim = cylinder.scene["driven"]
     start = cylinder.cloth.positions[rim].copy()
     cylinder.advance(0.5, progress=False)
@@ -312,9 +356,14 @@ def test_both_paper_scenes_run_implicitly_at_their_default_step(integrator):
 def test_adaptive_projection_reaches_the_same_steps_in_fewer_iterations():
     results = []
     for adaptive in (False, True):  # always projected (clamp), then exact
-        sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", newton_tol=1e-10,
-                                        max_newton=1000, adaptive_projection=adaptive,
-                                        truncation_fraction=0.0)
+        sim = yore.scenes.hanging_cloth(
+            resolution=9,
+            integrator="implicit",
+            newton_tol=1e-10,
+            max_newton=1000,
+            adaptive_projection=adaptive,
+            truncation_fraction=0.0,
+        )
         sim.step(5)
         # a stroke's springs start compressed (rest = 1.1 × length): the projection matters
         sim.stroke(yore.StrokePath.material([[0.2, 0.35], [0.8, 0.4]]))
@@ -340,10 +389,16 @@ def test_adaptive_projection_needs_a_cholesky_backend():
 def test_lagged_factorization_reaches_the_same_steps_with_fewer_factorizations():
     results = []
     for lagged in (False, True):
-        sim = yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, integrator="implicit",
-                                        adaptive_projection=False, newton_tol=1e-10,
-                                        max_newton=500, truncation_fraction=0.0,
-                                        lagged_factorization=lagged)
+        sim = yore.scenes.hanging_cloth(
+            resolution=9,
+            pin_spacing=1.0,
+            integrator="implicit",
+            adaptive_projection=False,
+            newton_tol=1e-10,
+            max_newton=500,
+            truncation_fraction=0.0,
+            lagged_factorization=lagged,
+        )
         sim.step(20)
         results.append((sim.cloth.positions, sim.stats["counters"]))
     (plain, plain_counters), (lagged, lagged_counters) = results
@@ -354,8 +409,9 @@ def test_lagged_factorization_reaches_the_same_steps_with_fewer_factorizations()
     assert lagged_counters["factorizations"] < 0.5 * plain_counters["factorizations"]
     # each Newton system is solved once: by CG on the kept factor (a reuse) or, when that CG
     # fails or there is no factor yet, by a fresh factorization (none thrown away: the clamp)
-    assert lagged_counters["newton_iterations"] == (lagged_counters["factorizations"]
-                                                    + lagged_counters["factor_reuses"])
+    assert lagged_counters["newton_iterations"] == (
+        lagged_counters["factorizations"] + lagged_counters["factor_reuses"]
+    )
 
 
 def test_a_kept_factor_that_never_serves_is_tried_on_a_doubling_schedule_and_changes_nothing():
@@ -364,9 +420,16 @@ def test_a_kept_factor_that_never_serves_is_tried_on_a_doubling_schedule_and_cha
     # unlagged run's to the bit, and after the k-th failure the next min(2^(k-1), 32)
     # iterations refactor without trying.
     def run(**options):
-        sim = yore.scenes.hanging_cloth(resolution=10, pin_spacing=1.0, mass=0.1,
-                                        stretch_stiffness=2e5, bend_stiffness=2e5,
-                                        integrator="bdf2", dt=1 / 60, **options)
+        sim = yore.scenes.hanging_cloth(
+            resolution=10,
+            pin_spacing=1.0,
+            mass=0.1,
+            stretch_stiffness=2e5,
+            bend_stiffness=2e5,
+            integrator="bdf2",
+            dt=1 / 60,
+            **options,
+        )
         sim.step(12)
         return sim.cloth.positions, sim.stats["counters"]
 
@@ -377,7 +440,7 @@ def test_a_kept_factor_that_never_serves_is_tried_on_a_doubling_schedule_and_cha
     assert counters["factorizations"] == plain_counters["factorizations"]
     failures, iterations = counters["lagged_failures"], counters["newton_iterations"]
     assert failures >= 3
-    skips = [min(2 ** k, 32) for k in range(failures)]
+    skips = [min(2**k, 32) for k in range(failures)]
     # the first iteration has no factor; each failure is followed by its skips (the last one's
     # perhaps cut short by the end of the run)
     assert 1 + failures + sum(skips[:-1]) <= iterations <= 1 + failures + sum(skips)
@@ -386,8 +449,9 @@ def test_a_kept_factor_that_never_serves_is_tried_on_a_doubling_schedule_and_cha
 def test_lagged_factorization_needs_the_projected_hessian_and_a_cholesky_backend():
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
     with pytest.raises(ValueError, match="lagged"):
-        yore.Simulation(cloth, integrator="implicit", lagged_factorization=True,
-                        adaptive_projection=True)
+        yore.Simulation(
+            cloth, integrator="implicit", lagged_factorization=True, adaptive_projection=True
+        )
     with pytest.raises(ValueError, match="lagged"):
         yore.Simulation(cloth, integrator="implicit", lagged_factorization=True, solver="pcg")
 
@@ -404,9 +468,12 @@ def test_iteration_counts_beyond_32_bits_are_value_errors_naming_the_option():
 
 def test_a_step_cut_short_is_not_converged_and_max_newton_is_warned_about():
     # one Newton iteration from the inertial prediction cannot meet a 1e-10 residual
-    sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", newton_tol=1e-10,
-                                    max_newton=1)
-    with pytest.warns(RuntimeWarning, match=r"implicit: 3 of 3 steps reached the iteration cap \(max_newton = 1\)"):
+    sim = yore.scenes.hanging_cloth(
+        resolution=7, integrator="implicit", newton_tol=1e-10, max_newton=1
+    )
+    with pytest.warns(
+        RuntimeWarning, match=r"implicit: 3 of 3 steps reached the iteration cap \(max_newton = 1\)"
+    ):
         sim.step(3)
     counters = sim.stats["counters"]
     assert counters["unconverged_steps"] == 3
@@ -415,9 +482,14 @@ def test_a_step_cut_short_is_not_converged_and_max_newton_is_warned_about():
 
 def test_newton_stops_on_its_residual_scaled_to_a_displacement():
     for dt in (1 / 240, 1 / 60, 1 / 15):
-        sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", dt=dt,
-                                        newton_tol=1e-6, max_newton=1000,
-                                        truncation_fraction=0.0)
+        sim = yore.scenes.hanging_cloth(
+            resolution=7,
+            integrator="implicit",
+            dt=dt,
+            newton_tol=1e-6,
+            max_newton=1000,
+            truncation_fraction=0.0,
+        )
         sim.step(5)
         counters = sim.stats["counters"]
         assert counters["unconverged_steps"] == 0
@@ -432,15 +504,19 @@ def test_a_small_step_still_applies_the_forces(integrator):
     dt, steps = 1 / 3840, 96
 
     def run(**options):
-        sim = yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, integrator=integrator,
-                                        dt=dt, **options)
+        sim = yore.scenes.hanging_cloth(
+            resolution=9, pin_spacing=1.0, integrator=integrator, dt=dt, **options
+        )
         start = np.array(sim.cloth.positions)
         sim.step(steps, progress=False)
         return start, np.array(sim.cloth.positions), sim.stats["counters"]
 
     start, default, counters = run()
-    _, tight, _ = run(newton_tol=1e-12, max_newton=1000,
-                      **({} if integrator == "quasi-newton" else {"truncation_fraction": 0.0}))
+    _, tight, _ = run(
+        newton_tol=1e-12,
+        max_newton=1000,
+        **({} if integrator == "quasi-newton" else {"truncation_fraction": 0.0}),
+    )
     fall = 0.5 * 9.81 * (steps * dt) ** 2  # 3.1 mm: the free vertices' drop so far, nearly
     assert counters["newton_iterations"] >= steps
     assert np.abs(start - tight).max() > 0.5 * fall
@@ -454,9 +530,15 @@ def test_a_small_step_still_applies_the_forces(integrator):
 def test_a_truncated_line_search_step_does_not_count_as_converged():
     # A step so large that the first iterations backtrack: the old move-based rule called the
     # halved steps converged; the residual rule iterates on to the tolerance.
-    sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", dt=0.5,
-                                    projection="clamp", newton_tol=1e-8, max_newton=500,
-                                    truncation_fraction=0.0)
+    sim = yore.scenes.hanging_cloth(
+        resolution=7,
+        integrator="implicit",
+        dt=0.5,
+        projection="clamp",
+        newton_tol=1e-8,
+        max_newton=500,
+        truncation_fraction=0.0,
+    )
     sim.step(2)
     counters = sim.stats["counters"]
     assert counters["line_search_backtracks"] > 0
@@ -467,8 +549,9 @@ def test_a_truncated_line_search_step_does_not_count_as_converged():
 def test_gathered_cloth_takes_few_newton_iterations_and_rejects_few_exact_hessians():
     # counts are deterministic: the iteration target of the default Newton as a count
     # (the first step, from the flat gathered start, needs ~100 iterations: max_newton 500)
-    sim = yore.scenes.hanging_cloth(resolution=12, integrator="implicit", newton_tol=1e-3,
-                                    max_newton=500)
+    sim = yore.scenes.hanging_cloth(
+        resolution=12, integrator="implicit", newton_tol=1e-3, max_newton=500
+    )
     per_step = []
     for _ in range(60):
         before = sim.stats["counters"]["newton_iterations"]
@@ -483,15 +566,21 @@ def test_gathered_cloth_takes_few_newton_iterations_and_rejects_few_exact_hessia
 def damped_chain(damping):
     # horizontal at the start: it swings down, so the spring directions turn during a step
     V = np.array([[0.2 * i, 0.0, 0.0] for i in range(6)])
-    cloth = yore.Cloth.from_springs(V, [[i, i + 1] for i in range(5)], masses=0.05,
-                                    stiffness=200.0, damping=damping)
+    cloth = yore.Cloth.from_springs(
+        V, [[i, i + 1] for i in range(5)], masses=0.05, stiffness=200.0, damping=damping
+    )
     cloth.fix([0])
     return cloth
 
 
 def chain_positions(integrator, steps, damping, seconds=0.5):
-    sim = yore.Simulation(damped_chain(damping), integrator=integrator, dt=seconds / steps,
-                          newton_tol=1e-12, max_newton=200)
+    sim = yore.Simulation(
+        damped_chain(damping),
+        integrator=integrator,
+        dt=seconds / steps,
+        newton_tol=1e-12,
+        max_newton=200,
+    )
     sim.step(steps)
     return sim.cloth.positions
 
@@ -507,8 +596,14 @@ def test_bdf2_is_second_order_with_spring_damping():
 
 def spinning_cloth_angular_momentum(integrator, damping):
     V, F = yore.grid_mesh(9, 9, width=1.0, height=1.0)
-    cloth = yore.Cloth(V - V.mean(axis=0), F, masses=1 / 81, stretch_stiffness=200.0,
-                       bend_stiffness=20.0, damping=damping)
+    cloth = yore.Cloth(
+        V - V.mean(axis=0),
+        F,
+        masses=1 / 81,
+        stretch_stiffness=200.0,
+        bend_stiffness=20.0,
+        damping=damping,
+    )
     omega = np.array([0.0, 0.0, 2 * math.pi])  # one turn a second about the normal, all free
     cloth.velocities = np.cross(omega, cloth.positions)
 
@@ -518,8 +613,9 @@ def spinning_cloth_angular_momentum(integrator, damping):
         return (m * np.cross(x - centre, v)).sum(axis=0)[2]
 
     before = angular_momentum()
-    sim = yore.Simulation(cloth, integrator=integrator, dt=1 / 60, gravity=NO_GRAVITY,
-                          newton_tol=1e-10)
+    sim = yore.Simulation(
+        cloth, integrator=integrator, dt=1 / 60, gravity=NO_GRAVITY, newton_tol=1e-10
+    )
     sim.advance(1.0, progress=False)
     return angular_momentum() / before
 
@@ -535,12 +631,19 @@ def test_spring_damping_leaves_a_rigid_spin_alone(integrator):
 @pytest.mark.parametrize("projection", ["clamp", "abs", "exact", "trust-region", "shifted"])
 def test_every_projection_converges_and_exact_reaches_the_clamps_step(projection):
     def run(projection):
-        sim = yore.scenes.hanging_cloth(resolution=7, integrator="implicit", newton_tol=1e-10,
-                                        max_newton=1000, projection=projection,
-                                        truncation_fraction=0.0, mixed=False)
+        sim = yore.scenes.hanging_cloth(
+            resolution=7,
+            integrator="implicit",
+            newton_tol=1e-10,
+            max_newton=1000,
+            projection=projection,
+            truncation_fraction=0.0,
+            mixed=False,
+        )
         sim.step(5)
         assert sim.stats["counters"]["unconverged_steps"] == 0
         return sim.cloth.positions
+
     positions = run(projection)
     if projection == "exact":  # abs and trust-region may settle the buckled start elsewhere
         assert np.abs(positions - run("clamp")).max() < 1e-8
@@ -548,8 +651,14 @@ def test_every_projection_converges_and_exact_reaches_the_clamps_step(projection
 
 def gathered_iterations(projection, resolution=12, steps=30):
     # the projections compared under the residual test alone, with the springs' actual forces
-    sim = yore.scenes.hanging_cloth(resolution=resolution, integrator="implicit", dt=1 / 60,
-                                    projection=projection, truncation_fraction=0.0, mixed=False)
+    sim = yore.scenes.hanging_cloth(
+        resolution=resolution,
+        integrator="implicit",
+        dt=1 / 60,
+        projection=projection,
+        truncation_fraction=0.0,
+        mixed=False,
+    )
     sim.step(steps)
     return sim
 
@@ -569,8 +678,9 @@ def test_shifted_projection_keeps_the_exact_curvature_and_beats_the_clamp():
 
 def test_shifted_projection_on_a_convex_step_is_plain_newton():
     # a cloth stretched by gravity from its rest shape: the exact Hessian is SPD, μ stays 0
-    cloth = yore.Cloth(*yore.grid_mesh(6, 6), masses=0.01, stretch_stiffness=200.0,
-                       bend_stiffness=0.0)
+    cloth = yore.Cloth(
+        *yore.grid_mesh(6, 6), masses=0.01, stretch_stiffness=200.0, bend_stiffness=0.0
+    )
     cloth.fix([30, 35])
     sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection="shifted")
     sim.step(1)
@@ -588,6 +698,7 @@ def test_shifted_projection_resumes_with_its_shift():
         cloth.springs.rest = 1.2 * cloth.springs.rest
         cloth.fix([0, 7])
         return yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection="shifted")
+
     straight = gathered()
     straight.step(6)
     sim = gathered()
@@ -619,8 +730,7 @@ def test_steihaug_throws_no_factorization_away_on_a_buckling_cloth():
     # it met negative curvature and refused steps, each solved again on the kept factor
     assert steihaug["negative_curvature_steps"] > 0 and steihaug["trust_region_rejections"] > 0
     assert steihaug["factor_reuses"] == steihaug["trust_region_rejections"]
-    assert steihaug["newton_iterations"] == (steihaug["factorizations"]
-                                             + steihaug["factor_reuses"])
+    assert steihaug["newton_iterations"] == (steihaug["factorizations"] + steihaug["factor_reuses"])
     assert steihaug["trust_region_cg_iterations"] > 0
     assert steihaug["factorizations"] < shifted["factorizations"]
 
@@ -635,10 +745,12 @@ def test_steihaug_on_a_convex_step_is_plain_newton():
         edges = np.column_stack([np.arange(n - 1), np.arange(1, n)]).astype(np.int32)
         cloth = yore.Cloth.from_springs(V, edges, masses=1e-3, stiffness=1e3, damping=0.0)
         cloth.fix([0])
-        sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 60, projection=projection,
-                              mixed=False)
+        sim = yore.Simulation(
+            cloth, integrator="implicit", dt=1 / 60, projection=projection, mixed=False
+        )
         sim.step(3)
         return sim
+
     steihaug, clamp = chain("steihaug"), chain("clamp")
     counters = steihaug.stats["counters"]
     assert counters["trust_region_cg_iterations"] == 0
@@ -653,9 +765,15 @@ def test_steihaug_and_shifted_agree_when_solved_tight():
     # start) they reach it to solver round-off; CG's inexact solves only change the path.
     X = {}
     for projection in ("steihaug", "shifted"):
-        sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", dt=0.02,
-                                        pin_spacing=1.0, newton_tol=1e-10, projection=projection,
-                                        truncation_fraction=0.0)
+        sim = yore.scenes.hanging_cloth(
+            resolution=9,
+            integrator="implicit",
+            dt=0.02,
+            pin_spacing=1.0,
+            newton_tol=1e-10,
+            projection=projection,
+            truncation_fraction=0.0,
+        )
         sim.step(10)
         assert sim.stats["counters"]["unconverged_steps"] == 0
         X[projection] = sim.cloth.positions
@@ -664,8 +782,10 @@ def test_steihaug_and_shifted_agree_when_solved_tight():
 
 def test_steihaug_resumes_with_its_trust_radius():
     def gathered():
-        return yore.scenes.hanging_cloth(resolution=8, integrator="bdf2", dt=1 / 60,
-                                         projection="steihaug")
+        return yore.scenes.hanging_cloth(
+            resolution=8, integrator="bdf2", dt=1 / 60, projection="steihaug"
+        )
+
     straight = gathered()
     straight.step(6)
     sim = gathered()
@@ -676,7 +796,8 @@ def test_steihaug_resumes_with_its_trust_radius():
     resumed.step(4)
     assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)
     forgetful = yore.Simulation.from_state(
-        {**state, "projection_memory": {**state["projection_memory"], "radius": 0.0}})
+        {**state, "projection_memory": {**state["projection_memory"], "radius": 0.0}}
+    )
     forgetful.step(4)
     assert not np.array_equal(forgetful.cloth.positions, straight.cloth.positions)
     bad = {**state, "projection_memory": {**state["projection_memory"], "radius": -1.0}}
@@ -686,12 +807,12 @@ def test_steihaug_resumes_with_its_trust_radius():
 
 def test_projection_options_are_checked():
     cloth = yore.Cloth(*yore.grid_mesh(3, 3))
-    with pytest.raises(ValueError,
-                       match="valid: clamp, abs, exact, trust-region, shifted, steihaug"):
+    with pytest.raises(
+        ValueError, match="valid: clamp, abs, exact, trust-region, shifted, steihaug"
+    ):
         yore.Simulation(cloth, integrator="implicit", projection="none")
     with pytest.raises(ValueError, match="contradicts"):
-        yore.Simulation(cloth, integrator="implicit", projection="clamp",
-                        adaptive_projection=True)
+        yore.Simulation(cloth, integrator="implicit", projection="clamp", adaptive_projection=True)
     with pytest.raises(ValueError, match="Cholesky"):
         yore.Simulation(cloth, integrator="implicit", solver="pcg", projection="exact")
     with pytest.raises(ValueError, match="Cholesky"):
@@ -713,8 +834,7 @@ def _stiff_chain(**options):
     edges = np.column_stack([np.arange(n - 1), np.arange(1, n)]).astype(np.int32)
     chain = yore.Cloth.from_springs(V, edges, masses=1e-3, stiffness=1e5, damping=0.0)
     chain.fix([0])
-    return yore.Simulation(chain, integrator="implicit", dt=1 / 60, projection="clamp",
-                           **options)
+    return yore.Simulation(chain, integrator="implicit", dt=1 / 60, projection="clamp", **options)
 
 
 def test_the_step_test_stops_within_its_distance_of_the_solution():
@@ -758,8 +878,10 @@ def test_supernode_sizes_of_a_factor_that_is_one_dense_block():
         sim = yore.Simulation(cloth, integrator="implicit", factorization=factorization)
         sim.step(1)
         counters = sim.stats["counters"]
-        assert (counters["supernode_median_columns"],
-                counters["supernode_median_rows"]) == expected, factorization
+        assert (
+            counters["supernode_median_columns"],
+            counters["supernode_median_rows"],
+        ) == expected, factorization
 
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
@@ -769,7 +891,8 @@ EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.tom
 @pytest.mark.parametrize("method", ["implicit", "bdf2"])
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_the_default_newton_converges_on_every_example_scene_through_its_strokes(
-        path, method, tmp_path):
+    path, method, tmp_path
+):
     # Each example as its scene file has it (mesh, material, pins, strokes) but stepped by the
     # default Newton of `method` at 1/60 s with no [integrator] options, until 0.5 s after its
     # last stroke: every step converges at newton_tol or stops on the truncation test (a step
@@ -777,9 +900,15 @@ def test_the_default_newton_converges_on_every_example_scene_through_its_strokes
     scene = yore.runs.load_scene(path)
     last = max((s["time"] for s in scene.data.get("strokes", [])), default=0.0)
     assert last > 0.0, "every example has a stroke: the test covers a topology change"
-    overrides = {"simulation.integrator": method, "integrator": {}, "simulation.dt": 1 / 60,
-                 "simulation.duration": last + 0.5, "output.format": "none",
-                 "output.pictures": False, "output.animation": "none"}
+    overrides = {
+        "simulation.integrator": method,
+        "integrator": {},
+        "simulation.dt": 1 / 60,
+        "simulation.duration": last + 0.5,
+        "output.format": "none",
+        "output.pictures": False,
+        "output.animation": "none",
+    }
     scene = yore.runs.load_scene(path, overrides=overrides)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -787,8 +916,9 @@ def test_the_default_newton_converges_on_every_example_scene_through_its_strokes
     summary = json.loads((tmp_path / "run" / "summary.json").read_text(encoding="utf-8"))
     counters = summary["counters"]
     assert summary["finished"] and summary["steps"] == round((last + 0.5) * 60)
-    assert summary["strokes"] and all(s["faces_split"] + s["springs_grown"] > 0
-                                      for s in summary["strokes"])
+    assert summary["strokes"] and all(
+        s["faces_split"] + s["springs_grown"] > 0 for s in summary["strokes"]
+    )
     assert counters["unconverged_steps"] == 0
     assert counters["factorizations_thrown_away"] == 0
     # converged, and in few iterations: the default's mean on these scenes is 2–6 per step
@@ -799,8 +929,9 @@ def test_the_default_newton_converges_on_every_example_scene_through_its_strokes
 @pytest.mark.parametrize("scene", ["hanging_cloth", "rotating_cylinder"])
 def test_the_default_newton_converges_on_the_scenes_soft_and_stiff(scene, method):
     for stiffness in (200.0, 2e4):
-        sim = getattr(yore.scenes, scene)(integrator=method, dt=1 / 60,
-                                          stretch_stiffness=stiffness, bend_stiffness=stiffness)
+        sim = getattr(yore.scenes, scene)(
+            integrator=method, dt=1 / 60, stretch_stiffness=stiffness, bend_stiffness=stiffness
+        )
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             sim.advance(1.0)

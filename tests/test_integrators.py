@@ -24,8 +24,9 @@ def chain(count=9, stiffness=100.0, mass=0.01, spacing=0.1, amplitude=1e-3):
     points = np.zeros((count + 2, 3))
     points[:, 0] = np.arange(count + 2) * spacing
     edges = np.array([[i, i + 1] for i in range(count + 1)])
-    net = yore.Cloth.from_springs(points, edges, masses=np.full(count + 2, mass),
-                                  stiffness=stiffness, damping=0.0)
+    net = yore.Cloth.from_springs(
+        points, edges, masses=np.full(count + 2, mass), stiffness=stiffness, damping=0.0
+    )
     net.fix([0, count + 1])
     mode = np.sin(math.pi * np.arange(count + 2) / (count + 1))
     displaced = points.copy()
@@ -40,8 +41,9 @@ def chain_error(integrator, steps, periods=2.25, **options):
     (a quarter period past a whole one, where the phase error shows to first order)."""
     net, rest, shape, omega = chain()
     duration = periods * 2 * math.pi / omega
-    sim = yore.Simulation(net, integrator=integrator, dt=duration / steps, gravity=(0, 0, 0),
-                          **options)
+    sim = yore.Simulation(
+        net, integrator=integrator, dt=duration / steps, gravity=(0, 0, 0), **options
+    )
     sim.step(steps)
     exact = rest + shape * math.cos(omega * duration)
     return np.abs(sim.cloth.positions[:, 0] - exact).max()
@@ -58,16 +60,25 @@ def test_second_order_on_a_linear_mode_against_its_analytic_solution(integrator)
 
 def damped_sheet(integrator, dt, bending="springs"):
     extra = {"bending": "quadratic", "bending_modulus": 1e-3} if bending == "quadratic" else {}
-    return yore.scenes.hanging_cloth(resolution=8, pin_spacing=1.0, mass=0.1,
-                                     stretch_stiffness=200.0, damping=0.05, drag=0.2,
-                                     integrator=integrator, dt=dt, **extra,
-                                     **(TIGHT if integrator != "explicit" else {}))
+    return yore.scenes.hanging_cloth(
+        resolution=8,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=200.0,
+        damping=0.05,
+        drag=0.2,
+        integrator=integrator,
+        dt=dt,
+        **extra,
+        **(TIGHT if integrator != "explicit" else {}),
+    )
 
 
 @pytest.mark.parametrize("bending", ["springs", "quadratic"])
 @pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
 def test_second_order_with_damping_drag_and_bending_against_a_converged_reference(
-        integrator, bending):
+    integrator, bending
+):
     # Everything the Newton objective holds (spring damping along the predicted directions,
     # drag, gravity, quadratic bending): against explicit at 1e-6 s, whose own error (measured
     # against 2e-6 s) is 5e-7 m, 40 times below the finest error here.
@@ -129,13 +140,19 @@ def test_the_history_is_what_makes_the_resume_exact(integrator):
 
 
 # The schemes whose Newton start can extrapolate from a history, with the dt="auto" variants.
-EXTRAPOLATING = [("bdf2", {}), ("generalized-alpha", {}), ("tr-bdf2", {}),
-                 ("bdf2", {"adaptive": True}), ("tr-bdf2", {"adaptive": True})]
+EXTRAPOLATING = [
+    ("bdf2", {}),
+    ("generalized-alpha", {}),
+    ("tr-bdf2", {}),
+    ("bdf2", {"adaptive": True}),
+    ("tr-bdf2", {"adaptive": True}),
+]
 
 
 @pytest.mark.parametrize("integrator, extra", EXTRAPOLATING)
 def test_the_extrapolated_start_resumes_bit_for_bit_and_restarts_after_a_stroke(
-        tmp_path, integrator, extra):
+    tmp_path, integrator, extra
+):
     # ã comes from the history a state file keeps (TR-BDF2's a₀, generalized-α's ẍₙ, BDF2's
     # vₙ₋₁; a_γ is solved within the step), so a resumed run starts every stage where the
     # straight one did; the stroke leaves no history, and its next step starts from x̂.
@@ -171,7 +188,8 @@ def test_the_extrapolated_start_converges_to_the_same_step(integrator):
     state = sim.state()
     inertial = yore.Simulation.from_state(state)
     extrapolated = yore.Simulation.from_state(
-        {**state, "options": {**state["options"], "predictor": "extrapolated"}})
+        {**state, "options": {**state["options"], "predictor": "extrapolated"}}
+    )
     inertial.step(1)
     extrapolated.step(1)
     assert extrapolated.stats["counters"]["extrapolated_stages"] >= 1
@@ -180,9 +198,9 @@ def test_the_extrapolated_start_converges_to_the_same_step(integrator):
     distance = np.abs(extrapolated.cloth.positions - inertial.cloth.positions).max()
     assert distance <= bound
     # and the starts did differ: the extrapolated one is not the inertial one in disguise
-    assert (extrapolated.stats["counters"]["newton_iterations"]
-            != inertial.stats["counters"]["newton_iterations"]
-            or not np.array_equal(extrapolated.cloth.positions, inertial.cloth.positions))
+    assert extrapolated.stats["counters"]["newton_iterations"] != inertial.stats["counters"][
+        "newton_iterations"
+    ] or not np.array_equal(extrapolated.cloth.positions, inertial.cloth.positions)
 
 
 @pytest.mark.parametrize("integrator", SECOND_ORDER)
@@ -201,8 +219,9 @@ def test_the_extrapolated_start_is_exact_in_free_fall(integrator):
     assert inertial["newton_iterations"] == inertial["stages"]
     assert extrapolated["newton_iterations"] == extrapolated["history_restarts"] == 1
     # the same steps to round-off (positions of order 1 m)
-    assert np.allclose(runs["extrapolated"].cloth.positions, runs["inertial"].cloth.positions,
-                       rtol=0.0, atol=1e-12)
+    assert np.allclose(
+        runs["extrapolated"].cloth.positions, runs["inertial"].cloth.positions, rtol=0.0, atol=1e-12
+    )
 
 
 def test_a_state_file_with_a_history_field_missing_is_a_value_error(tmp_path):
@@ -217,8 +236,7 @@ def test_a_state_file_with_a_history_field_missing_is_a_value_error(tmp_path):
 @pytest.mark.parametrize("integrator", ["generalized-alpha", "tr-bdf2"])
 def test_driven_vertices_follow_their_drivers_exactly(integrator):
     sim = yore.scenes.rotating_cylinder(rings=5, segments=8, integrator=integrator)
-    reference = yore.scenes.rotating_cylinder(rings=5, segments=8, integrator="explicit",
-                                              dt=sim.dt)
+    reference = yore.scenes.rotating_cylinder(rings=5, segments=8, integrator="explicit", dt=sim.dt)
     sim.step(6)
     reference.cloth.time = sim.time  # moves the driven vertices there, without stepping
     driven = sim.cloth.driven_vertices
@@ -231,9 +249,15 @@ def test_driven_vertices_follow_their_drivers_exactly(integrator):
 def test_newton_rules_hold_on_the_stiff_sheet_at_a_large_step(integrator):
     # The crossover's sheet at 2e5 N/m and 1/32 s: every step converges by Newton's own tests
     # (none at the cap, none thrown away), no warning.
-    sim = yore.scenes.hanging_cloth(resolution=16, pin_spacing=1.0, mass=0.1,
-                                    stretch_stiffness=2e5, bend_stiffness=2e5,
-                                    integrator=integrator, dt=1 / 32)
+    sim = yore.scenes.hanging_cloth(
+        resolution=16,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=2e5,
+        bend_stiffness=2e5,
+        integrator=integrator,
+        dt=1 / 32,
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim.step(16)
@@ -272,8 +296,11 @@ def test_every_registered_integrator_runs_saves_and_states_its_dt_policy(tmp_pat
         # local-global's buckling start needs more than its default 300 iterations a step
         options = {"iterations": 2000} if spec.cap[0] == "iterations" else {}
         sim = yore.scenes.hanging_cloth(resolution=6, integrator=name, **options)
-        expected = (yore.simulation.default_explicit_dt(sim.cloth) if spec.conditionally_stable
-                    else yore.options.FIXED_DT)
+        expected = (
+            yore.simulation.default_explicit_dt(sim.cloth)
+            if spec.conditionally_stable
+            else yore.options.FIXED_DT
+        )
         assert sim.dt == expected, name
         # the registry's history fields are the core's (the C++ Integrator interface)
         assert tuple(sim._integrator.history_fields) == spec.history(sim.options), name
@@ -289,9 +316,15 @@ def test_tr_bdf2_on_a_stiff_damped_sheet_loses_energy_in_every_step():
     # trapezoidal stage keeps (this 24² sheet gained 3.6e-5 J in a step; the 64² one ran away).
     # Damping and drag only remove energy, and the default stop now keeps it so: every step of
     # the 2 s loses energy (the least loss measured is 3.9e-5 J, far above round-off).
-    sim = yore.scenes.hanging_cloth(resolution=24, pin_spacing=1.0, mass=0.1,
-                                    stretch_stiffness=2e6, bend_stiffness=2e6,
-                                    integrator="tr-bdf2", dt=1 / 64)
+    sim = yore.scenes.hanging_cloth(
+        resolution=24,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=2e6,
+        bend_stiffness=2e6,
+        integrator="tr-bdf2",
+        dt=1 / 64,
+    )
     energies = [sim.energy()["total"]]
     for _ in range(128):
         sim.step(1)
@@ -315,8 +348,9 @@ def test_explicit_swings_past_a_tight_growth_allowance_and_stops_saying_so():
     # The gathered cloth's first explicit steps raise its true energy by ~10 % of the energy
     # scale (the swing about symplectic Euler's modified energy that keeps the check off by
     # default): asked for 1e-3, the run stops, the cloth back where the call began.
-    sim = yore.scenes.hanging_cloth(resolution=12, integrator="explicit",
-                                    energy_growth_tolerance=1e-3)
+    sim = yore.scenes.hanging_cloth(
+        resolution=12, integrator="explicit", energy_growth_tolerance=1e-3
+    )
     start = sim.cloth.positions.copy()
     with pytest.raises(yore.SimulationDiverged, match="gained energy.*energy_growth_tolerance"):
         sim.step(10)
@@ -327,9 +361,16 @@ def test_explicit_swings_past_a_tight_growth_allowance_and_stops_saying_so():
 def test_generalized_alpha_near_the_trapezoidal_rule_stops_once_it_feeds_energy_in():
     # ρ∞ = 0.8 on the stiff sheet gains energy without bound (docs/integrators.md); it used to
     # run on to 80 times the reference's kinetic energy, far below the divergence bound.
-    sim = yore.scenes.hanging_cloth(resolution=32, pin_spacing=1.0, mass=0.1,
-                                    stretch_stiffness=2e5, bend_stiffness=2e5,
-                                    integrator="generalized-alpha", rho_infinity=0.8, dt=1 / 32)
+    sim = yore.scenes.hanging_cloth(
+        resolution=32,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=2e5,
+        bend_stiffness=2e5,
+        integrator="generalized-alpha",
+        rho_infinity=0.8,
+        dt=1 / 32,
+    )
     with pytest.raises(yore.SimulationDiverged, match="gained energy"):
         sim.advance(4.0)
     assert sim.stats["counters"]["energy_gain"] > 0.0
@@ -338,8 +379,9 @@ def test_generalized_alpha_near_the_trapezoidal_rule_stops_once_it_feeds_energy_
 @pytest.mark.parametrize("value", [-0.1, float("nan"), float("inf")])
 def test_a_bad_energy_growth_tolerance_is_one_value_error_naming_it(value):
     with pytest.raises(ValueError, match="energy_growth_tolerance"):
-        yore.scenes.hanging_cloth(resolution=4, integrator="implicit",
-                                  energy_growth_tolerance=value)
+        yore.scenes.hanging_cloth(
+            resolution=4, integrator="implicit", energy_growth_tolerance=value
+        )
 
 
 def test_a_turning_driver_feeds_energy_in_and_is_not_stopped_for_it():

@@ -197,8 +197,9 @@ def test_a_frame_adds_its_line_to_the_collection_without_rewriting_it(tmp_path, 
     took over 300 s). Counted in bytes, not seconds: the 2000th frame writes what the 2nd did,
     and the collection stays valid XML listing every frame. Mesh files are not the subject
     (written as empty files here)."""
-    monkeypatch.setattr(yore.io, "save_mesh", lambda path, V, F, point_data=None:
-                        path.write_bytes(b""))
+    monkeypatch.setattr(
+        yore.io, "save_mesh", lambda path, V, F, point_data=None: path.write_bytes(b"")
+    )
     V, F = bumpy_grid(3, 3)
     series = FrameSeries(tmp_path, fmt="vtu")
     written = []
@@ -207,8 +208,7 @@ def test_a_frame_adds_its_line_to_the_collection_without_rewriting_it(tmp_path, 
         written.append(series.pvd_bytes_written)
         if k in (0, 1, 2, 999, 1999):
             listed = ET.parse(tmp_path / "frame.pvd").getroot().findall("Collection/DataSet")
-            assert [d.get("file") for d in listed] == [f"frame_{i:05d}.vtu" for i in
-                                                       range(k + 1)]
+            assert [d.get("file") for d in listed] == [f"frame_{i:05d}.vtu" for i in range(k + 1)]
             assert float(listed[-1].get("timestep")) == k * 0.001
     assert max(written[1:]) <= 2 * written[1] < 300  # a line and the closing tags
     assert written[0] > written[1]  # the first write is the whole (short) file
@@ -270,8 +270,9 @@ def test_a_sparse_file_beyond_the_size_limit_is_refused_before_reading(tmp_path)
     big = tmp_path / "big.ply"
     with open(big, "wb") as handle:  # sparse: no disk space, no memory
         handle.truncate(yore.io.MAX_MESH_FILE_BYTES + 1)
-    with pytest.raises(ValueError, match=f"{yore.io.MAX_MESH_FILE_BYTES + 1} bytes is more "
-                                         "than the limit"):
+    with pytest.raises(
+        ValueError, match=f"{yore.io.MAX_MESH_FILE_BYTES + 1} bytes is more than the limit"
+    ):
         yore.load_mesh(big)
 
 
@@ -307,8 +308,11 @@ def _vtu_with_an_inflating_array(path, inflated_bytes, name="pad"):
     import zlib
 
     V, F = bumpy_grid(3, 3)
-    meshio.write(path, meshio.Mesh(V, [("triangle", F)], point_data={"pad": np.zeros(len(V))}),
-                 compression="zlib")
+    meshio.write(
+        path,
+        meshio.Mesh(V, [("triangle", F)], point_data={"pad": np.zeros(len(V))}),
+        compression="zlib",
+    )
     text = path.read_text()
     start = text.index(f'Name="{name}"')
     begin = text.index(">", start) + 1
@@ -349,14 +353,14 @@ def test_a_forged_point_count_does_not_raise_the_inflation_budget(tmp_path):
     V, F = yore.grid_mesh(120, 120)
     zeros = np.zeros((len(V), 3))
     frame = tmp_path / "frame.vtu"
-    yore.save_mesh(frame, V, F, point_data={"velocities": zeros, "forces": zeros,
-                                            "expansion": np.ones(len(V))})
+    yore.save_mesh(
+        frame, V, F, point_data={"velocities": zeros, "forces": zeros, "expansion": np.ones(len(V))}
+    )
     V2, _, fields = yore.io.load_frame(frame)
     assert np.array_equal(V2, V) and np.array_equal(fields["forces"], zeros)
 
 
-def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_inflating(
-        tmp_path):
+def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_inflating(tmp_path):
     """Issue 41, class 9: a 1.4 MB compressed .vtu inflated to 3.2 GB before it was refused.
     Its arrays may now inflate only to what the shapes its XML declares allow (here 9 points
     and 8 cells: some kB), counted while inflating, so the 512 MiB block below is stopped
@@ -370,8 +374,9 @@ def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_in
     tracemalloc.start()
     try:
         for read in (yore.load_mesh, yore.io.load_frame):
-            with pytest.raises(ValueError, match=rf"inflate to more than the {budget} bytes") \
-                    as caught:
+            with pytest.raises(
+                ValueError, match=rf"inflate to more than the {budget} bytes"
+            ) as caught:
                 read(path)
             assert str(path) in str(caught.value) and "\n" not in str(caught.value)
         assert tracemalloc.get_traced_memory()[1] < 16 << 20
@@ -392,9 +397,14 @@ def test_a_compressed_mesh_that_would_inflate_into_gigabytes_is_refused_while_in
     import base64
 
     block = zlib.compress(bytes(72), 9)[:-6]  # the stream's end and checksum cut off
-    cut = np.array([1, 72, 72, len(block)],
-                   dtype=np.uint64 if 'header_type="UInt64"' in text else np.uint32)
-    honest.write_text(text[:begin] + base64.b64encode(cut.tobytes()).decode()
-                      + base64.b64encode(block).decode() + text[end:])
+    cut = np.array(
+        [1, 72, 72, len(block)], dtype=np.uint64 if 'header_type="UInt64"' in text else np.uint32
+    )
+    honest.write_text(
+        text[:begin]
+        + base64.b64encode(cut.tobytes()).decode()
+        + base64.b64encode(block).decode()
+        + text[end:]
+    )
     with pytest.raises(ValueError, match="truncated"):
         yore.io.load_frame(honest)

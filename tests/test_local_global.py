@@ -9,18 +9,31 @@ from yore import _core
 
 def small_cloth(damping=0.0):
     V, F = yore.grid_mesh(6, 6, width=0.3, height=0.3)
-    cloth = yore.Cloth(V, F, masses=0.005, stretch_stiffness=50.0, bend_stiffness=20.0,
-                       damping=damping, drag=0.5)
+    cloth = yore.Cloth(
+        V, F, masses=0.005, stretch_stiffness=50.0, bend_stiffness=20.0, damping=damping, drag=0.5
+    )
     cloth.fix([0, 5])
     return cloth
 
 
 def test_converges_to_the_newton_backward_euler_step_and_decreases_the_objective_every_iteration():
-    newton = yore.Simulation(small_cloth(), integrator="implicit", dt=1 / 60, newton_tol=1e-12,
-                             max_newton=200, truncation_fraction=0.0)
-    local_global = yore.Simulation(small_cloth(), integrator="local-global", dt=1 / 60,
-                                   iterations=2000, tolerance=0.0, acceleration="none",
-                                   record_objective=True)
+    newton = yore.Simulation(
+        small_cloth(),
+        integrator="implicit",
+        dt=1 / 60,
+        newton_tol=1e-12,
+        max_newton=200,
+        truncation_fraction=0.0,
+    )
+    local_global = yore.Simulation(
+        small_cloth(),
+        integrator="local-global",
+        dt=1 / 60,
+        iterations=2000,
+        tolerance=0.0,
+        acceleration="none",
+        record_objective=True,
+    )
     for _ in range(3):
         newton.step()
         local_global.step()
@@ -35,26 +48,50 @@ def test_converges_to_the_newton_backward_euler_step_and_decreases_the_objective
 def test_with_spring_damping_it_converges_to_the_newton_step_too():
     # the matrix damps whole relative motions; the local step hands back the part across each
     # spring, so the fixed point damps along the springs only, as Newton does
-    newton = yore.Simulation(small_cloth(damping=0.05), integrator="implicit", dt=1 / 60,
-                             newton_tol=1e-12, max_newton=200, truncation_fraction=0.0)
-    local_global = yore.Simulation(small_cloth(damping=0.05), integrator="local-global",
-                                   dt=1 / 60, iterations=3000, tolerance=0.0,
-                                   acceleration="none")
+    newton = yore.Simulation(
+        small_cloth(damping=0.05),
+        integrator="implicit",
+        dt=1 / 60,
+        newton_tol=1e-12,
+        max_newton=200,
+        truncation_fraction=0.0,
+    )
+    local_global = yore.Simulation(
+        small_cloth(damping=0.05),
+        integrator="local-global",
+        dt=1 / 60,
+        iterations=3000,
+        tolerance=0.0,
+        acceleration="none",
+    )
     newton.step(3)
     local_global.step(3)
     assert np.abs(newton.cloth.positions - local_global.cloth.positions).max() < 1e-9
 
 
 def test_chebyshev_acceleration_gets_closer_in_the_same_iterations():
-    reference = yore.Simulation(small_cloth(), integrator="implicit", dt=1 / 60,
-                                newton_tol=1e-12, max_newton=200, truncation_fraction=0.0)
+    reference = yore.Simulation(
+        small_cloth(),
+        integrator="implicit",
+        dt=1 / 60,
+        newton_tol=1e-12,
+        max_newton=200,
+        truncation_fraction=0.0,
+    )
     reference.step(5)
     errors = {}
     for acceleration in ("none", "chebyshev"):
         # (chebyshev_rho only with Chebyshev: without it, it would be refused as ignored)
         rho = {"chebyshev_rho": 0.7} if acceleration == "chebyshev" else {}
-        sim = yore.Simulation(small_cloth(), integrator="local-global", dt=1 / 60,
-                              iterations=20, tolerance=0.0, acceleration=acceleration, **rho)
+        sim = yore.Simulation(
+            small_cloth(),
+            integrator="local-global",
+            dt=1 / 60,
+            iterations=20,
+            tolerance=0.0,
+            acceleration=acceleration,
+            **rho,
+        )
         sim.step(5)
         errors[acceleration] = np.abs(sim.cloth.positions - reference.cloth.positions).max()
     # with a fitting spectral-radius estimate Chebyshev gains well over one order of magnitude
@@ -87,8 +124,9 @@ def test_solves_on_the_supernodal_factors_simplicial_copy_match_a_simplicial_fac
     # e.g. the one from before the dt change, would differ by the step's change, ~1e-3 m).
     def run(factorization):
         cloth = small_cloth(damping=0.02)
-        integrator = _core.LocalGlobalIntegrator(factorization=factorization, iterations=20,
-                                                 tolerance=0.0)
+        integrator = _core.LocalGlobalIntegrator(
+            factorization=factorization, iterations=20, tolerance=0.0
+        )
         for dt in (1 / 60, 1 / 90, 1 / 60):
             integrator.advance(cloth, (0.0, -9.81, 0.0), dt, 10)
         assert integrator.statistics.counters["factorizations"] == 3
@@ -102,8 +140,9 @@ def test_solves_on_the_supernodal_factors_simplicial_copy_match_a_simplicial_fac
 def stroke_run(rebuild, **options):
     # (the gathered start's buckling needs more than the default 300 iterations per step)
     options = {"iterations": 2000, **options}
-    sim = yore.scenes.hanging_cloth(resolution=11, integrator="local-global", rebuild=rebuild,
-                                    **options)
+    sim = yore.scenes.hanging_cloth(
+        resolution=11, integrator="local-global", rebuild=rebuild, **options
+    )
     sim.step(10)
     sim.stroke(yore.StrokePath.material([[0.15, 0.62], [0.85, 0.55]]))
     sim.step(3)
@@ -132,10 +171,17 @@ def test_stale_pcg_rebuilds_once_cg_needs_too_many_iterations():
 def test_stiff_sheet_at_a_large_step_stays_finite_and_dissipative():
     # The capped steps do feed energy back (10 % of the energy scale above the lowest by 1.7 s,
     # which the growth check would stop): this test measures that it stays below the start.
-    sim = yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, stretch_stiffness=2e5,
-                                    bend_stiffness=2e5, damping=0.0, drag=0.0,
-                                    integrator="local-global", dt=1 / 30,
-                                    energy_growth_tolerance=0.0)
+    sim = yore.scenes.hanging_cloth(
+        resolution=9,
+        pin_spacing=1.0,
+        stretch_stiffness=2e5,
+        bend_stiffness=2e5,
+        damping=0.0,
+        drag=0.0,
+        integrator="local-global",
+        dt=1 / 30,
+        energy_growth_tolerance=0.0,
+    )
     energies = [sim.energy()["total"]]
     # At k h²/m ≈ 1e6 local-global's linear convergence cannot meet its tolerance within its
     # cap in every step: this test is about what such partly converged steps do, and checks
@@ -154,14 +200,17 @@ def test_stiff_sheet_at_a_large_step_stays_finite_and_dissipative():
     assert max(energies) <= energies[0] + 0.01 * drop
 
 
-@pytest.mark.parametrize("options, message", [
-    ({"acceleration": "anderson"}, "valid: none, chebyshev"),
-    ({"rebuild": "update"}, "valid: fresh, reuse-ordering, stale-pcg"),
-    ({"iterations": 0}, "iterations"),
-    ({"acceleration": "chebyshev", "chebyshev_rho": 1.0}, "chebyshev_rho"),
-    ({"newton_tol": 1e-3}, "valid: acceleration, chebyshev_rho"),
-    ({"tolerance": -1.0}, "tolerance"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"acceleration": "anderson"}, "valid: none, chebyshev"),
+        ({"rebuild": "update"}, "valid: fresh, reuse-ordering, stale-pcg"),
+        ({"iterations": 0}, "iterations"),
+        ({"acceleration": "chebyshev", "chebyshev_rho": 1.0}, "chebyshev_rho"),
+        ({"newton_tol": 1e-3}, "valid: acceleration, chebyshev_rho"),
+        ({"tolerance": -1.0}, "tolerance"),
+    ],
+)
 def test_bad_local_global_options(options, message):
     with pytest.raises(ValueError, match=message):
         yore.Simulation(small_cloth(), integrator="local-global", **options)
@@ -175,17 +224,32 @@ def test_iteration_counts_beyond_32_bits_are_value_errors_naming_the_option():
 
 def spinning_sheet_angular_momentum(damping):
     V, F = yore.grid_mesh(11, 11, width=0.5, height=0.5)
-    cloth = yore.Cloth(V - V.mean(axis=0), F, masses=0.01, stretch_stiffness=200.0,
-                       bend_stiffness=50.0, damping=damping, drag=0.0)
+    cloth = yore.Cloth(
+        V - V.mean(axis=0),
+        F,
+        masses=0.01,
+        stretch_stiffness=200.0,
+        bend_stiffness=50.0,
+        damping=damping,
+        drag=0.0,
+    )
     omega = np.array([0.0, 0.0, 2 * np.pi])  # one turn a second about the sheet's normal
     cloth.velocities = np.cross(omega, cloth.positions)
-    sim = yore.Simulation(cloth, integrator="local-global", dt=1 / 60, gravity=(0, 0, 0),
-                          iterations=5000, tolerance=1e-10, acceleration="none")
+    sim = yore.Simulation(
+        cloth,
+        integrator="local-global",
+        dt=1 / 60,
+        gravity=(0, 0, 0),
+        iterations=5000,
+        tolerance=1e-10,
+        acceleration="none",
+    )
     sim.advance(1.0)
     assert sim.stats["counters"]["unconverged_steps"] == 0
     X = cloth.positions
-    return np.linalg.norm((cloth.masses[:, None] * np.cross(X - X.mean(axis=0),
-                                                           cloth.velocities)).sum(axis=0))
+    return np.linalg.norm(
+        (cloth.masses[:, None] * np.cross(X - X.mean(axis=0), cloth.velocities)).sum(axis=0)
+    )
 
 
 def test_spring_damping_barely_slows_a_rigid_spin():
@@ -203,17 +267,23 @@ def test_the_convergence_test_stops_early_and_a_cap_hit_is_counted_and_warned_on
     assert counters["unconverged_steps"] == 0
     assert 0 < counters["last_iterations"] < 300
     assert counters["last_error_estimate"] <= 1e-3
-    capped = yore.Simulation(small_cloth(), integrator="local-global", dt=1 / 60, iterations=3,
-                             tolerance=1e-8,
-                             acceleration="none")
+    capped = yore.Simulation(
+        small_cloth(),
+        integrator="local-global",
+        dt=1 / 60,
+        iterations=3,
+        tolerance=1e-8,
+        acceleration="none",
+    )
     with pytest.warns(RuntimeWarning, match="5 of 5 steps reached the iteration cap") as record:
         capped.step(5)
     assert len(record) == 1
     assert capped.stats["counters"]["unconverged_steps"] == 5
     assert capped.stats["counters"]["last_iterations"] == 3
     # tolerance 0: a fixed number of iterations, nothing counted or warned
-    fixed = yore.Simulation(small_cloth(), integrator="local-global", dt=1 / 60, iterations=3,
-                            tolerance=0.0)
+    fixed = yore.Simulation(
+        small_cloth(), integrator="local-global", dt=1 / 60, iterations=3, tolerance=0.0
+    )
     fixed.step(5)
     assert fixed.stats["counters"]["unconverged_steps"] == 0
     assert fixed.stats["counters"]["iterations"] == 15
@@ -224,13 +294,21 @@ def test_stiff_sheet_falls_as_a_converged_step_would():
     # the case, smaller: a stiff sheet hung from two corners. 10 plain iterations (the
     # old default) barely let it fall; the defaults follow a tightly converged local-global run
     def fall(**options):
-        sim = yore.scenes.hanging_cloth(resolution=12, pin_spacing=1.0, stretch_stiffness=2e4,
-                                        bend_stiffness=2e4, integrator="local-global",
-                                        dt=1 / 60, **options)
+        sim = yore.scenes.hanging_cloth(
+            resolution=12,
+            pin_spacing=1.0,
+            stretch_stiffness=2e4,
+            bend_stiffness=2e4,
+            integrator="local-global",
+            dt=1 / 60,
+            **options,
+        )
         start = sim.cloth.positions[:, 1].mean()
         sim.advance(0.25, progress=False)
         return start - sim.cloth.positions[:, 1].mean()
+
     import warnings
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         converged = fall(iterations=10_000, tolerance=1e-6)

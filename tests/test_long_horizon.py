@@ -24,8 +24,9 @@ def test_relative_l2_is_the_norm_of_the_difference_over_the_norm_of_the_referenc
     # ‖(1, 2, 3) − (1, 1, 1)‖ = √5, ‖(1, 1, 1)‖ = √3
     assert math.isclose(lh.relative_l2([1.0, 2.0, 3.0], [1.0, 1.0, 1.0]), math.sqrt(5 / 3))
     # normalised by another history (the total energy's, by the kinetic energy): √5 / √12
-    assert math.isclose(lh.relative_l2([1.0, 2.0, 3.0], [1.0, 1.0, 1.0], norm_of=[2.0] * 3),
-                        math.sqrt(5 / 12))
+    assert math.isclose(
+        lh.relative_l2([1.0, 2.0, 3.0], [1.0, 1.0, 1.0], norm_of=[2.0] * 3), math.sqrt(5 / 12)
+    )
     assert lh.relative_l2([0.5, -2.0], [0.5, -2.0]) == 0.0
 
 
@@ -34,8 +35,9 @@ def fake_run(positions, masses, kinetic, total, stride=1):
     `stride` grid points from t = 0."""
     points = np.arange(len(kinetic)) * stride
     zeros = np.zeros(len(kinetic))
-    table = np.column_stack([points, kinetic, zeros, zeros, zeros, total,
-                             lh.centroid(masses, positions)])
+    table = np.column_stack(
+        [points, kinetic, zeros, zeros, zeros, total, lh.centroid(masses, positions)]
+    )
     return {"snapshots": [np.asarray(positions, float), table], "cpu_seconds": 1.0}
 
 
@@ -59,8 +61,9 @@ def test_a_rigidly_translated_copy_is_off_by_exactly_its_offset():
     assert found["kinetic_energy_retained_at_end"] == 1.0
     # the centroid measure is the largest distance over the run (here the offset grows)
     growing = positions + np.linspace(0.0, 1.0, samples)[:, None, None] * offset
-    found = lh.run_measures(fake_run(growing, masses, kinetic, total), reference, scales,
-                            until=0.25)
+    found = lh.run_measures(
+        fake_run(growing, masses, kinetic, total), reference, scales, until=0.25
+    )
     assert math.isclose(found["centroid_path"], 0.05, rel_tol=1e-12)
     # the trajectory only up to `until`: 16 grid intervals of 32
     assert math.isclose(found["trajectory"], 0.5 * 0.05 / math.sqrt(2.0), rel_tol=1e-12)
@@ -93,13 +96,14 @@ def test_the_predictability_time_is_the_last_sample_before_the_references_part()
     moved = base + (1e-4 * diagonal * 2.0 ** np.arange(samples))[:, None, None] * [1, 0, 0]
     energy = np.ones(samples)
     until, parted, distances = lh.predictability_time(
-        fake_run(moved, masses, energy, energy), fake_run(base, masses, energy, energy),
-        diagonal)
+        fake_run(moved, masses, energy, energy), fake_run(base, masses, energy, energy), diagonal
+    )
     assert parted and until == 3 / lh.GRID_RATE
     assert np.allclose(distances, 1e-4 * 2.0 ** np.arange(samples))
     # references that never part: the whole run
-    until, parted, _ = lh.predictability_time(fake_run(base, masses, energy, energy),
-                                              fake_run(base, masses, energy, energy), diagonal)
+    until, parted, _ = lh.predictability_time(
+        fake_run(base, masses, energy, energy), fake_run(base, masses, energy, energy), diagonal
+    )
     assert not parted and until == (samples - 1) / lh.GRID_RATE
 
 
@@ -107,8 +111,11 @@ def verdict_rows():
     """Explicit at its limit (cost 10) and two implicit runs: BE off by 4 % (cost 2), BDF2 by
     0.5 % (cost 4), in every measure."""
     rows = []
-    for method, error, cost in (("explicit", 1e-4, 10.0), ("implicit", 0.04, 2.0),
-                                ("bdf2", 0.005, 4.0)):
+    for method, error, cost in (
+        ("explicit", 1e-4, 10.0),
+        ("implicit", 0.04, 2.0),
+        ("bdf2", 0.005, 4.0),
+    ):
         row = crossover_row(method, error, cost)
         row.update({measure: error for measure in lh.MEASURES})
         rows.append(row)
@@ -171,7 +178,11 @@ def test_a_long_horizon_cell_stopped_part_way_replays_its_finished_runs(tmp_path
     total = runs.count
     # three references, explicit at its limit, the BE ladder and the repeats
     assert total >= 7 and [r["method"] for r in whole[:4]] == [
-        "reference", "reference, perturbed start", "reference, quarter step", "explicit"]
+        "reference",
+        "reference, perturbed start",
+        "reference, quarter step",
+        "explicit",
+    ]
     # the same cell, stopped by an interrupt in its sixth run, then resumed on its journal
     folder = tmp_path / "journal" / "cell"
     runs.count, runs.stop_at = 0, 5
@@ -190,16 +201,27 @@ def test_a_long_horizon_cell_stopped_part_way_replays_its_finished_runs(tmp_path
     runs.count = 0
     again, _ = measure(crossover.Journal(folder, print))
     assert runs.count == 0
-    assert [r.get("cpu_seconds_samples") for r in again] == \
-        [r.get("cpu_seconds_samples") for r in resumed]
+    assert [r.get("cpu_seconds_samples") for r in again] == [
+        r.get("cpu_seconds_samples") for r in resumed
+    ]
 
 
 BAD_INPUT = [
-    ["--horizon", "0"], ["--horizon", "-2"], ["--horizon", "nan"], ["--horizon", "inf"],
-    ["--horizon", "0.3"], ["--horizon-at", "32=0"], ["--horizon-at", "3=2"],
-    ["--thresholds", "0"], ["--thresholds", "1"], ["--thresholds", "0.05", "1.5"],
-    ["--families", "explicit", "leapfrog"], ["--sizes", "3"], ["--sizes", "32", "two"],
-    ["--repeats", "0"], ["--merge", "no-such-run/long_horizon.json"],
+    ["--horizon", "0"],
+    ["--horizon", "-2"],
+    ["--horizon", "nan"],
+    ["--horizon", "inf"],
+    ["--horizon", "0.3"],
+    ["--horizon-at", "32=0"],
+    ["--horizon-at", "3=2"],
+    ["--thresholds", "0"],
+    ["--thresholds", "1"],
+    ["--thresholds", "0.05", "1.5"],
+    ["--families", "explicit", "leapfrog"],
+    ["--sizes", "3"],
+    ["--sizes", "32", "two"],
+    ["--repeats", "0"],
+    ["--merge", "no-such-run/long_horizon.json"],
 ]
 
 
@@ -216,9 +238,13 @@ def test_bad_input_is_one_error_line_and_exit_code_2(argv, tmp_path, capsys):
 def test_bad_input_from_the_command_line(tmp_path):
     # a real process: its exit status and its stderr; --resume of a folder with no run too
     for argv in (["--thresholds", "1.5"], ["--resume"]):
-        result = subprocess.run([sys.executable, "-m", "benchmarks.long_horizon", "--out",
-                                 str(tmp_path), *argv], cwd=ROOT, capture_output=True,
-                                text=True, timeout=120)
+        result = subprocess.run(
+            [sys.executable, "-m", "benchmarks.long_horizon", "--out", str(tmp_path), *argv],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert result.returncode == 2, result.stderr
         (line,) = result.stderr.splitlines()
         assert line.startswith("yore: error: ")
@@ -228,9 +254,22 @@ def test_bad_input_from_the_command_line(tmp_path):
 @pytest.mark.slow  # a Dask cluster and a benchmark, if a small one
 def test_the_quick_run_writes_its_measures_picture_and_sweep(tmp_path):
     pytest.importorskip("matplotlib")
-    result = subprocess.run([sys.executable, "-m", "benchmarks.long_horizon", "--out",
-                             str(tmp_path), "--quick", "--workers", "1"], cwd=ROOT,
-                            capture_output=True, text=True, timeout=600)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "benchmarks.long_horizon",
+            "--out",
+            str(tmp_path),
+            "--quick",
+            "--workers",
+            "1",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "long_horizon.png").read_bytes()[:4] == b"\x89PNG"
     data = json.loads((tmp_path / "long_horizon.json").read_text())
@@ -245,10 +284,15 @@ def test_the_quick_run_writes_its_measures_picture_and_sweep(tmp_path):
     assert cell["size"] == 10 and cell["horizon"] == 0.5
     assert 0.0 < cell["predictability_time"] <= cell["horizon"]
     methods = [r["method"] for r in data["rows"]]
-    assert methods[:4] == ["reference", "reference, perturbed start", "reference, quarter step",
-                           "explicit"]
+    assert methods[:4] == [
+        "reference",
+        "reference, perturbed start",
+        "reference, quarter step",
+        "explicit",
+    ]
     assert {r["dt"] for r in data["rows"] if r["method"] == "implicit"} == {
-        1 / rate for rate in lh.QUICK_RATES}
+        1 / rate for rate in lh.QUICK_RATES
+    }
     for row in data["rows"]:
         # every run sampled at least every 1/32 s on the 1/64 s grid, from 0 to T
         assert row["sample_seconds"] in (1 / 64, 1 / 32)
@@ -271,7 +315,8 @@ def test_the_quick_run_writes_its_measures_picture_and_sweep(tmp_path):
                 assert best[measure] <= threshold and math.isclose(
                     verdict["implicit_over_explicit_cost"],
                     best["cost_seconds_per_simulated_second"]
-                    / explicit["cost_seconds_per_simulated_second"])
+                    / explicit["cost_seconds_per_simulated_second"],
+                )
 
 
 @pytest.mark.slow  # two small benchmark runs on Dask
@@ -279,9 +324,23 @@ def test_a_merge_joins_the_families_only_the_earlier_run_has(tmp_path):
     pytest.importorskip("matplotlib")
 
     def quick(out, *argv):
-        return subprocess.run([sys.executable, "-m", "benchmarks.long_horizon", "--out",
-                               str(out), "--quick", "--workers", "1", *argv], cwd=ROOT,
-                              capture_output=True, text=True, timeout=600)
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "benchmarks.long_horizon",
+                "--out",
+                str(out),
+                "--quick",
+                "--workers",
+                "1",
+                *argv,
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
 
     first = quick(tmp_path / "a", "--families", "implicit")
     assert first.returncode == 0, first.stderr

@@ -23,8 +23,15 @@ def lame(young=YOUNG, nu=NU):
 def sheet(nx=9, ny=5, width=0.4, height=0.2, young=YOUNG, nu=NU, **kwargs):
     V, F = yore.grid_mesh(nx, ny, width=width, height=height)
     kwargs.setdefault("masses", 1e-3)
-    return yore.Cloth(V, F, stretch="membrane", young_modulus=young, poisson_ratio=nu,
-                      bend_stiffness=0.0, **kwargs), V
+    return yore.Cloth(
+        V,
+        F,
+        stretch="membrane",
+        young_modulus=young,
+        poisson_ratio=nu,
+        bend_stiffness=0.0,
+        **kwargs,
+    ), V
 
 
 def stvk_density(F2, young=YOUNG, nu=NU):
@@ -48,8 +55,9 @@ def test_a_homogeneous_deformation_has_the_closed_form_energy_and_forces():
     # stretch along x by 1.1 and along y by 0.97, then rotate rigidly out of the plane
     A = np.diag([1.1, 0.97, 1.0])
     angle = 0.4
-    R = np.array([[np.cos(angle), 0.0, np.sin(angle)], [0.0, 1.0, 0.0],
-                  [-np.sin(angle), 0.0, np.cos(angle)]])
+    R = np.array(
+        [[np.cos(angle), 0.0, np.sin(angle)], [0.0, 1.0, 0.0], [-np.sin(angle), 0.0, np.cos(angle)]]
+    )
     cloth.positions = V @ A.T @ R.T
     area = 0.4 * 0.2
     W = stvk_density(np.diag([1.1, 0.97]))
@@ -68,8 +76,7 @@ def test_a_homogeneous_deformation_has_the_closed_form_energy_and_forces():
     S11 = 2 * mu * E[0, 0] + lam * np.trace(E)
     right = x > 0.4 - 1e-9
     expected = -R @ np.array([1.1 * S11 * 0.2, 0.0, 0.0])
-    np.testing.assert_allclose(forces[right].sum(axis=0), expected, rtol=1e-9,
-                               atol=1e-9 * scale)
+    np.testing.assert_allclose(forces[right].sum(axis=0), expected, rtol=1e-9, atol=1e-9 * scale)
     # momentum: internal forces sum to zero
     assert np.abs(forces.sum(axis=0)).max() <= 1e-9 * scale
 
@@ -89,8 +96,7 @@ def test_uniaxial_stress_contracts_by_poissons_ratio_in_green_strain():
     # with ν = 0 the same stretch pulls the free edges in instead
     cloth0, _ = sheet(nu=0.0)
     cloth0.positions = V * np.array([s1, s2, 1.0])
-    assert np.abs(forces_by_one_explicit_step(cloth0)[inside_x]).max() > 1e-3 * np.abs(
-        forces).max()
+    assert np.abs(forces_by_one_explicit_step(cloth0)[inside_x]).max() > 1e-3 * np.abs(forces).max()
 
 
 def test_the_newton_system_matches_finite_differences_in_tension():
@@ -133,7 +139,7 @@ def test_under_compression_the_projected_hessian_is_positive_semidefinite():
     cloth.positions = X
     integrator = _core.ImplicitIntegrator()
     system = integrator.newton_system(cloth, NO_GRAVITY, 1.0, X)
-    inertia = 1e-6 / 1.0 ** 2
+    inertia = 1e-6 / 1.0**2
     elastic = dense_hessian(system) - inertia * np.eye(system["size"])
     eigenvalues = np.linalg.eigvalsh(elastic)
     assert eigenvalues.min() >= -1e-10 * eigenvalues.max()
@@ -145,24 +151,42 @@ def test_under_compression_the_projected_hessian_is_positive_semidefinite():
         up, down = X.copy(), X.copy()
         up[k // 3, k % 3] += h
         down[k // 3, k % 3] -= h
-        columns.append((np.asarray(integrator.newton_system(cloth, NO_GRAVITY, 1.0, up)[
-            "gradient"]) - integrator.newton_system(cloth, NO_GRAVITY, 1.0, down)["gradient"])
-            / (2 * h))
+        columns.append(
+            (
+                np.asarray(integrator.newton_system(cloth, NO_GRAVITY, 1.0, up)["gradient"])
+                - integrator.newton_system(cloth, NO_GRAVITY, 1.0, down)["gradient"]
+            )
+            / (2 * h)
+        )
     exact = np.column_stack(columns) - inertia * np.eye(system["size"])
     assert np.linalg.eigvalsh(0.5 * (exact + exact.T)).min() < -1e-3 * eigenvalues.max()
 
 
-@pytest.mark.parametrize("integrator, options", [
-    ("implicit", {}), ("bdf2", {}), ("tr-bdf2", {}), ("generalized-alpha", {}),
-    ("quasi-newton", {"newton_tol": 1e-9, "max_newton": 2000}),
-])
+@pytest.mark.parametrize(
+    "integrator, options",
+    [
+        ("implicit", {}),
+        ("bdf2", {}),
+        ("tr-bdf2", {}),
+        ("generalized-alpha", {}),
+        ("quasi-newton", {"newton_tol": 1e-9, "max_newton": 2000}),
+    ],
+)
 def test_every_integrator_agrees_with_a_fine_explicit_run(integrator, options):
     # a 0.2 m hanging membrane, 0.1 s: each integrator at 1/400 s against explicit at a step
     # far below its limit; first-order methods are ~1e-3 m off at this step, the others less
     def scene(name, dt, **kwargs):
-        return yore.scenes.hanging_cloth(size=0.2, resolution=7, pin_spacing=1.0,
-                                         stretch="membrane", young_modulus=2e3,
-                                         integrator=name, dt=dt, **kwargs)
+        return yore.scenes.hanging_cloth(
+            size=0.2,
+            resolution=7,
+            pin_spacing=1.0,
+            stretch="membrane",
+            young_modulus=2e3,
+            integrator=name,
+            dt=dt,
+            **kwargs,
+        )
+
     reference = scene("explicit", 2.5e-5)
     reference.step(4000)
     sim = scene(integrator, 2.5e-3, **options)
@@ -175,18 +199,27 @@ def test_every_integrator_agrees_with_a_fine_explicit_run(integrator, options):
 
 
 def test_cvode_and_newton_converge_with_the_membrane():
-    sim = yore.scenes.hanging_cloth(size=0.2, resolution=7, stretch="membrane",
-                                    young_modulus=2e3, integrator="cvode", dt=0.01)
+    sim = yore.scenes.hanging_cloth(
+        size=0.2, resolution=7, stretch="membrane", young_modulus=2e3, integrator="cvode", dt=0.01
+    )
     sim.step(5)
     assert np.isfinite(sim.energy()["total"])
     # Newton to a tight residual on the exact Hessian (projected only where it is indefinite)
     # converges quadratically only if the Hessian is right: a few iterations a step once the
     # released sheet's first large moves are past (measured 5–7; the clamped projection, which
     # drops the compressed faces' negative stress, takes 12–76 here, as it does with springs)
-    sim = yore.scenes.hanging_cloth(size=0.2, resolution=7, stretch="membrane",
-                                    young_modulus=2e3, integrator="implicit", dt=0.01,
-                                    newton_tol=1e-10, truncation_fraction=0.0, max_newton=100,
-                                    projection="exact")
+    sim = yore.scenes.hanging_cloth(
+        size=0.2,
+        resolution=7,
+        stretch="membrane",
+        young_modulus=2e3,
+        integrator="implicit",
+        dt=0.01,
+        newton_tol=1e-10,
+        truncation_fraction=0.0,
+        max_newton=100,
+        projection="exact",
+    )
     iterations = []
     for _ in range(10):
         sim.step(1)
@@ -219,8 +252,9 @@ def test_the_stable_step_estimates_follow_the_modulus_and_hold():
     steps = []
     for young in (100.0, 400.0, 1600.0):
         cloth, _ = sheet(young=young)
-        steps.append([cloth.gershgorin_time_step(), cloth.stable_time_step_bound(),
-                      cloth.stable_time_step()])
+        steps.append(
+            [cloth.gershgorin_time_step(), cloth.stable_time_step_bound(), cloth.stable_time_step()]
+        )
     steps = np.array(steps)
     # ω ∝ √Y: each estimate halves as Y grows fourfold (no damping)
     np.testing.assert_allclose(steps[1:] / steps[:-1], 0.5, rtol=1e-6)
@@ -234,16 +268,23 @@ def test_the_stable_step_estimates_follow_the_modulus_and_hold():
     cloth, V = sheet(young=400.0)
     cloth.positions = V + rng.normal(0.0, 0.003, V.shape)
     with pytest.raises(yore.SimulationDiverged):
-        yore.Simulation(cloth, integrator="explicit", dt=1.5 * cloth.stable_time_step(),
-                        gravity=NO_GRAVITY).step(3000)
+        yore.Simulation(
+            cloth, integrator="explicit", dt=1.5 * cloth.stable_time_step(), gravity=NO_GRAVITY
+        ).step(3000)
 
 
 @pytest.mark.parametrize("integrator", ["implicit", "explicit"])
 def test_a_stroke_grows_the_membranes_rest_area(integrator):
     # hung at full width: its springs are stretched, so eq. (1)'s 1.1 × current length is a
     # longer rest length than the parent's (a gathered cloth's compressed edges may give less)
-    sim = yore.scenes.hanging_cloth(size=0.5, resolution=9, stretch="membrane", pin_spacing=1.0,
-                                    young_modulus=2e3, integrator=integrator)
+    sim = yore.scenes.hanging_cloth(
+        size=0.5,
+        resolution=9,
+        stretch="membrane",
+        pin_spacing=1.0,
+        young_modulus=2e3,
+        integrator=integrator,
+    )
     sim.step(2)
     before = sim.cloth.membrane_status()
     report = sim.stroke(yore.StrokePath.material([[0.1, 0.25], [0.4, 0.25]]))
@@ -262,8 +303,13 @@ def test_a_stroke_grows_the_membranes_rest_area(integrator):
 
 
 def test_the_state_round_trips_and_a_saved_membrane_run_resumes_bit_for_bit(tmp_path):
-    sim = yore.scenes.hanging_cloth(resolution=7, stretch="membrane", young_modulus=1e3,
-                                    poisson_ratio=0.2, integrator="implicit")
+    sim = yore.scenes.hanging_cloth(
+        resolution=7,
+        stretch="membrane",
+        young_modulus=1e3,
+        poisson_ratio=0.2,
+        integrator="implicit",
+    )
     sim.step(2)
     state = sim.cloth.state()
     assert state["young_modulus"] == 1e3 and state["poisson_ratio"] == 0.2
@@ -282,9 +328,15 @@ def test_the_state_round_trips_and_a_saved_membrane_run_resumes_bit_for_bit(tmp_
     assert yore.Cloth.from_state(springs).stretch == "springs"
     # the smoothed strain round-trips; a membrane state from before it (no membrane_strain)
     # goes on with the faces' constant strain it ran with, and bit for bit against such a run
-    fitted = yore.scenes.hanging_cloth(resolution=7, stretch="membrane", young_modulus=1e3,
-                                       bending="quadratic", bending_modulus=1e-4,
-                                       integrator="implicit", membrane_strain="smoothed")
+    fitted = yore.scenes.hanging_cloth(
+        resolution=7,
+        stretch="membrane",
+        young_modulus=1e3,
+        bending="quadratic",
+        bending_modulus=1e-4,
+        integrator="implicit",
+        membrane_strain="smoothed",
+    )
     fitted.step(2)
     fitted_state = fitted.cloth.state()
     assert fitted_state["membrane_strain"] == "smoothed"
@@ -328,20 +380,23 @@ def test_a_collapsed_face_gives_finite_forces_and_is_counted():
     assert np.all(np.isfinite(system["hessian_data"]))
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(stretch="membrane"), "needs young_modulus"),
-    (dict(stretch="membrane", young_modulus=0.0), "young_modulus must be > 0"),
-    (dict(stretch="membrane", young_modulus=-3.0), "young_modulus must be > 0"),
-    (dict(stretch="membrane", young_modulus=float("inf")), "young_modulus"),
-    (dict(stretch="membrane", young_modulus=float("nan")), "young_modulus"),
-    (dict(stretch="membrane", young_modulus=10.0, poisson_ratio=1.0), "poisson_ratio"),
-    (dict(stretch="membrane", young_modulus=10.0, poisson_ratio=-1.0), "poisson_ratio"),
-    (dict(stretch="membrane", young_modulus=10.0, poisson_ratio=float("nan")), "poisson_ratio"),
-    (dict(stretch="membrane", young_modulus=10.0, poisson_ratio="0.3"), "poisson_ratio"),
-    (dict(stretch="membrane", young_modulus=10.0, stretch_stiffness=50.0), "stretch_stiffness"),
-    (dict(young_modulus=10.0), "young_modulus and poisson_ratio are for"),
-    (dict(stretch="cloth"), 'stretch must be "springs" or "membrane"'),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(stretch="membrane"), "needs young_modulus"),
+        (dict(stretch="membrane", young_modulus=0.0), "young_modulus must be > 0"),
+        (dict(stretch="membrane", young_modulus=-3.0), "young_modulus must be > 0"),
+        (dict(stretch="membrane", young_modulus=float("inf")), "young_modulus"),
+        (dict(stretch="membrane", young_modulus=float("nan")), "young_modulus"),
+        (dict(stretch="membrane", young_modulus=10.0, poisson_ratio=1.0), "poisson_ratio"),
+        (dict(stretch="membrane", young_modulus=10.0, poisson_ratio=-1.0), "poisson_ratio"),
+        (dict(stretch="membrane", young_modulus=10.0, poisson_ratio=float("nan")), "poisson_ratio"),
+        (dict(stretch="membrane", young_modulus=10.0, poisson_ratio="0.3"), "poisson_ratio"),
+        (dict(stretch="membrane", young_modulus=10.0, stretch_stiffness=50.0), "stretch_stiffness"),
+        (dict(young_modulus=10.0), "young_modulus and poisson_ratio are for"),
+        (dict(stretch="cloth"), 'stretch must be "springs" or "membrane"'),
+    ],
+)
 def test_bad_membrane_arguments_are_value_errors(kwargs, message):
     V, F = yore.grid_mesh(3, 3)
     with pytest.raises(ValueError, match=message):
@@ -369,25 +424,34 @@ def test_scene_files_pass_the_membrane_on_and_name_bad_keys(tmp_path):
     assert sim.cloth.poisson_ratio == pytest.approx(yore.options.POISSON_RATIO)
     for material, key in [
         ('stretch = "membrane"', "material.young_modulus"),
-        ('stretch = "membrane"\nyoung_modulus = 800.0\nstretch_stiffness = 50.0',
-         "material.stretch_stiffness"),
-        ('young_modulus = 800.0', "material.young_modulus"),
-        ('stretch = "membrane"\nyoung_modulus = 800.0\npoisson_ratio = 1.0',
-         "material.poisson_ratio"),
+        (
+            'stretch = "membrane"\nyoung_modulus = 800.0\nstretch_stiffness = 50.0',
+            "material.stretch_stiffness",
+        ),
+        ("young_modulus = 800.0", "material.young_modulus"),
+        (
+            'stretch = "membrane"\nyoung_modulus = 800.0\npoisson_ratio = 1.0',
+            "material.poisson_ratio",
+        ),
         ('stretch = "membrane"\nyoung_modulus = -1.0', "material.young_modulus"),
         ('membrane_strain = "faces"', "material.membrane_strain"),  # springs
-        ('stretch = "membrane"\nyoung_modulus = 800.0\nmembrane_strain = "smoothed"',
-         "material.membrane_strain"),  # bending springs keep no rest state
-        ('stretch = "membrane"\nyoung_modulus = 800.0\nmembrane_strain = "fitted"',
-         "material.membrane_strain"),
+        (
+            'stretch = "membrane"\nyoung_modulus = 800.0\nmembrane_strain = "smoothed"',
+            "material.membrane_strain",
+        ),  # bending springs keep no rest state
+        (
+            'stretch = "membrane"\nyoung_modulus = 800.0\nmembrane_strain = "fitted"',
+            "material.membrane_strain",
+        ),
     ]:
         path.write_text(SCENE.format(material=material))
         with pytest.raises(SceneError) as caught:
             load_scene(path).build()
         assert caught.value.key == key, material
     # the strain is a material key: the faces' by default, smoothed when asked
-    chosen = 'stretch = "membrane"\nyoung_modulus = 800.0\nbending = "quadratic"\n' \
-             'bending_modulus = 1e-4'
+    chosen = (
+        'stretch = "membrane"\nyoung_modulus = 800.0\nbending = "quadratic"\nbending_modulus = 1e-4'
+    )
     for extra, strain in (("", "faces"), ('\nmembrane_strain = "smoothed"', "smoothed")):
         path.write_text(SCENE.format(material=chosen + extra))
         assert load_scene(path).build()[0].cloth.membrane_strain == strain
@@ -410,8 +474,9 @@ def test_the_stretched_sheet_settles_and_the_spring_lattice_wrinkles():
         assert info["converged"] and info["stable"] is True, info
     assert np.abs(springs.cloth.positions[:, 2]).max() > 1e-4  # 10× the start's noise
     # the clamped edges stayed where the stretch put them
-    np.testing.assert_array_equal(springs.cloth.positions[springs.scene["clamped"], 0],
-                                  1.1 * uv[springs.scene["clamped"], 0])
+    np.testing.assert_array_equal(
+        springs.cloth.positions[springs.scene["clamped"], 0], 1.1 * uv[springs.scene["clamped"], 0]
+    )
 
 
 def spurious_slope_squared(cloth, V, k, amplitude=1e-6):
@@ -428,9 +493,9 @@ def spurious_slope_squared(cloth, V, k, amplitude=1e-6):
         cloth.positions = wrinkled
         increase += cloth.energy(NO_GRAVITY)["membrane"] - before
     mu = YOUNG / 2.0
-    stress = 2 * mu * 0.5 * (1.1 ** 2 - 1)
+    stress = 2 * mu * 0.5 * (1.1**2 - 1)
     area = yore.metrics.area(V, cloth.faces)
-    return increase / (0.5 * stress * amplitude ** 2 * k ** 2 * area * 2.0)
+    return increase / (0.5 * stress * amplitude**2 * k**2 * area * 2.0)
 
 
 def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending():
@@ -440,18 +505,25 @@ def test_on_a_pattern_mesh_the_fitted_strain_removes_the_interpolations_bending(
     # penalty against hourglass modes adds nothing at second order in the amplitude; a 50 %
     # share of the faces' energy, tried instead, brought back half). Bending springs keep no
     # rest state: their membrane is the faces'.
-    V, F = yore.pattern_mesh([[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125,
-                             interior="delaunay")
+    V, F = yore.pattern_mesh(
+        [[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125, interior="delaunay"
+    )
     V = np.column_stack([V[:, :2], np.zeros(len(V))])
-    common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0,
-                  bend_stiffness=0.0, masses=1e-3)
+    common = dict(
+        stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0, bend_stiffness=0.0, masses=1e-3
+    )
     faces = yore.Cloth(V, F, bending="springs", **common)
-    fitted = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0,
-                        membrane_strain="smoothed", **common)
-    hinge = yore.Cloth(V, F, bending="hinge", bending_modulus=0.0, membrane_strain="smoothed",
-                       **common)
+    fitted = yore.Cloth(
+        V, F, bending="quadratic", bending_modulus=0.0, membrane_strain="smoothed", **common
+    )
+    hinge = yore.Cloth(
+        V, F, bending="hinge", bending_modulus=0.0, membrane_strain="smoothed", **common
+    )
     assert (faces.membrane_strain, fitted.membrane_strain, hinge.membrane_strain) == (
-        "faces", "smoothed", "smoothed")
+        "faces",
+        "smoothed",
+        "smoothed",
+    )
     k = 2 * np.pi / 0.15
     with_faces = spurious_slope_squared(faces, V, k)
     with_fit = spurious_slope_squared(fitted, V, k)
@@ -466,8 +538,14 @@ def test_the_membrane_strain_can_be_chosen_and_is_what_a_state_restores():
     # (which loads as faces), and its own state round-trips bit for bit; "faces" is the
     # default. Bad choices are one ValueError naming the key.
     V, F = yore.grid_mesh(7, 6, width=0.3, height=0.25)
-    common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.3, masses=1e-3,
-                  bending="quadratic", bending_modulus=1e-4)
+    common = dict(
+        stretch="membrane",
+        young_modulus=YOUNG,
+        poisson_ratio=0.3,
+        masses=1e-3,
+        bending="quadratic",
+        bending_modulus=1e-4,
+    )
     smoothed = yore.Cloth(V, F, membrane_strain="smoothed", **common)
     faces = yore.Cloth(V, F, membrane_strain="faces", **common)
     assert (smoothed.membrane_strain, faces.membrane_strain) == ("smoothed", "faces")
@@ -484,11 +562,14 @@ def test_the_membrane_strain_can_be_chosen_and_is_what_a_state_restores():
     assert again.membrane_strain == "faces"
     assert again.energy(NO_GRAVITY)["membrane"] == faces.energy(NO_GRAVITY)["membrane"]
     for kwargs, message in [
-            (dict(common, membrane_strain="grid"), "membrane_strain must be"),
-            (dict(common, bending="springs", bending_modulus=None, membrane_strain="smoothed"),
-             "needs the rest state"),
-            (dict(masses=1e-3, membrane_strain="faces"), "is for stretch"),
-            (dict(common, membrane_strain=1), "membrane_strain must be")]:
+        (dict(common, membrane_strain="grid"), "membrane_strain must be"),
+        (
+            dict(common, bending="springs", bending_modulus=None, membrane_strain="smoothed"),
+            "needs the rest state",
+        ),
+        (dict(masses=1e-3, membrane_strain="faces"), "is for stretch"),
+        (dict(common, membrane_strain=1), "membrane_strain must be"),
+    ]:
         with pytest.raises(yore.ArgumentError, match=message) as caught:
             yore.Cloth(V, F, **kwargs)
         assert caught.value.argument == "membrane_strain"
@@ -507,34 +588,44 @@ def test_on_the_lattice_pattern_mesh_no_wrinkle_direction_has_interpolation_bend
     turn = np.radians(degrees)
     rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
     V = np.column_stack([(V[:, :2] - 0.3) @ rotation.T, np.zeros(len(V))])
-    common = dict(stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0,
-                  bend_stiffness=0.0, masses=1e-3)
-    smoothed = yore.Cloth(V, F, bending="quadratic", bending_modulus=0.0,
-                          membrane_strain="smoothed", **common)
-    D, G = yore.pattern_mesh([[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125,
-                             interior="delaunay")
+    common = dict(
+        stretch="membrane", young_modulus=YOUNG, poisson_ratio=0.0, bend_stiffness=0.0, masses=1e-3
+    )
+    smoothed = yore.Cloth(
+        V, F, bending="quadratic", bending_modulus=0.0, membrane_strain="smoothed", **common
+    )
+    D, G = yore.pattern_mesh(
+        [[0, 0], [0.6, 0], [0.6, 0.6], [0, 0.6]], edge_length=0.0125, interior="delaunay"
+    )
     D = np.column_stack([D[:, :2], np.zeros(len(D))])
-    on_delaunay = yore.Cloth(D, G, bending="quadratic", bending_modulus=0.0,
-                             membrane_strain="smoothed", **common)
+    on_delaunay = yore.Cloth(
+        D, G, bending="quadratic", bending_modulus=0.0, membrane_strain="smoothed", **common
+    )
     k = 2 * np.pi / 0.15
     with_lattice = spurious_slope_squared(smoothed, V, k)
     assert abs(with_lattice) < 0.15 * spurious_slope_squared(on_delaunay, D, k)
 
 
-@pytest.mark.parametrize("integrator, resolution, stroke", [("implicit", 21, False),
-                                                       ("explicit", 13, True)])
-def test_the_smoothed_strain_leaves_no_mesh_scale_strain_unresisted(integrator, resolution,
-                                                                    stroke):
+@pytest.mark.parametrize(
+    "integrator, resolution, stroke", [("implicit", 21, False), ("explicit", 13, True)]
+)
+def test_the_smoothed_strain_leaves_no_mesh_scale_strain_unresisted(integrator, resolution, stroke):
     # The vertex means cannot see mesh-scale patterns whose face gradients cancel around each
     # vertex (hourglass modes); the subcells' strain-difference penalty resists them. Measured
     # as the faces' energy at the run's positions over the smoothed energy: without the
     # penalty (a 1 % share of the faces instead) 16 (implicit, 1 s) and 49 (explicit, after a
     # stroke); with it 0.88 and 1.17. A cloth whose mesh-scale strain went unresisted reads
     # far above 1.
-    sim = yore.scenes.hanging_cloth(resolution=resolution, stretch="membrane",
-                                    young_modulus=300.0, poisson_ratio=0.3,
-                                    integrator=integrator, bending="quadratic",
-                                    bending_modulus=1e-4, membrane_strain="smoothed")
+    sim = yore.scenes.hanging_cloth(
+        resolution=resolution,
+        stretch="membrane",
+        young_modulus=300.0,
+        poisson_ratio=0.3,
+        integrator=integrator,
+        bending="quadratic",
+        bending_modulus=1e-4,
+        membrane_strain="smoothed",
+    )
     assert sim.cloth.membrane_strain == "smoothed"
     if stroke:
         sim.advance(0.2)
@@ -552,12 +643,17 @@ def heron_rest_area(cloth):
     """Σ over faces of Heron's area from the structural springs' rest lengths."""
     springs = cloth.springs
     structural = springs.kind == 0
-    rest = {tuple(sorted(e)): r for e, r in zip(springs.ends[structural].tolist(),
-                                                springs.rest[structural])}
+    rest = {
+        tuple(sorted(e)): r
+        for e, r in zip(springs.ends[structural].tolist(), springs.rest[structural])
+    }
     total = 0.0
     for a, b, c in cloth.faces.tolist():
-        x, y, z = rest[tuple(sorted((a, b)))], rest[tuple(sorted((b, c)))], rest[
-            tuple(sorted((c, a)))]
+        x, y, z = (
+            rest[tuple(sorted((a, b)))],
+            rest[tuple(sorted((b, c)))],
+            rest[tuple(sorted((c, a)))],
+        )
         s = 0.5 * (x + y + z)
         total += np.sqrt(max(s * (s - x) * (s - y) * (s - z), 0.0))
     return total
@@ -567,12 +663,20 @@ def heron_rest_area(cloth):
 def test_growth_modes_grow_the_membranes_rest_metric(growth):
     # the growth modes set rest lengths of the stroke band's springs; the membrane's rest
     # triangles are laid out from them, so its rest area grows as the springs' does
-    sim = yore.scenes.hanging_cloth(size=0.5, resolution=9, stretch="membrane", pin_spacing=1.0,
-                                    young_modulus=2e3, integrator="implicit")
+    sim = yore.scenes.hanging_cloth(
+        size=0.5,
+        resolution=9,
+        stretch="membrane",
+        pin_spacing=1.0,
+        young_modulus=2e3,
+        integrator="implicit",
+    )
     sim.step(2)
     before = sim.cloth.membrane_status()["rest_area"]
     assert before == pytest.approx(heron_rest_area(sim.cloth), rel=1e-12)
-    report = sim.stroke(yore.StrokePath.material([[0.1, 0.25], [0.4, 0.25]]), growth=growth, width=0.1)
+    report = sim.stroke(
+        yore.StrokePath.material([[0.1, 0.25], [0.4, 0.25]]), growth=growth, width=0.1
+    )
     after = sim.cloth.membrane_status()["rest_area"]
     # every face's rest triangle follows its springs (the report measures the band's faces;
     # the faces beside the band share grown edges and grow too)

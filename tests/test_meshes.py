@@ -227,9 +227,14 @@ def test_numpy_integers_are_accepted():
     assert V.shape == (15, 3)
 
 
-@pytest.mark.parametrize("make", [lambda: yore.grid_mesh(2**63 - 1, 2),
-                                  lambda: yore.grid_mesh(100000, 21),
-                                  lambda: yore.cylinder_mesh(1.0, 1.0, 2000, 2000)])
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: yore.grid_mesh(2**63 - 1, 2),
+        lambda: yore.grid_mesh(100000, 21),
+        lambda: yore.cylinder_mesh(1.0, 1.0, 2000, 2000),
+    ],
+)
 def test_a_mesh_beyond_the_vertex_limit_is_refused_before_allocating(make):
     with pytest.raises(ValueError, match=f"more than the limit of {yore.meshes.MAX_MESH_VERTICES}"):
         make()

@@ -40,8 +40,9 @@ def test_wrinkle_amplitude_and_roughness_are_zero_on_a_plane_and_grow_with_a_wav
     wavy = V.copy()
     wavy[:, 2] = amplitude * np.sin(2 * np.pi * 4 * V[:, 0])
     # RMS of a sine over whole periods is amplitude / √2
-    assert metrics.wrinkle_amplitude(wavy, F, all_faces) == pytest.approx(amplitude / np.sqrt(2),
-                                                                            rel=0.05)
+    assert metrics.wrinkle_amplitude(wavy, F, all_faces) == pytest.approx(
+        amplitude / np.sqrt(2), rel=0.05
+    )
     assert metrics.roughness(wavy, F) > 0.01
     wavier = V.copy()
     wavier[:, 2] = 2 * amplitude * np.sin(2 * np.pi * 4 * V[:, 0])
@@ -68,14 +69,16 @@ def test_wrinkle_measure_is_zero_on_a_plane_and_small_on_a_cylinder():
 def test_wrinkle_measure_is_proportional_to_a_ripple_amplitude():
     V, F = yore.grid_mesh(41, 41)
     edge = 1.0 / 40
-    ratios = [metrics.wrinkle_measure(ripple(V, A, 4 * edge), F) / A
-              for A in (1e-4, 1e-3, 3e-3, 5e-3)]
+    ratios = [
+        metrics.wrinkle_measure(ripple(V, A, 4 * edge), F) / A for A in (1e-4, 1e-3, 3e-3, 5e-3)
+    ]
     # a wavelength of 4 edges: the filter removes most of it; RMS of a sine is A/√2 (0.707),
     # the measure 0.442 A (boundary columns x = 0 and x = 1 carry no ripple along themselves)
     assert np.allclose(ratios, 0.442, rtol=0.01)
     # a longer wrinkle passes the low-pass filter more: a smaller share is measured
     assert metrics.wrinkle_measure(ripple(V, 1e-3, 6 * edge), F) / 1e-3 == pytest.approx(
-        0.129, rel=0.02)
+        0.129, rel=0.02
+    )
 
 
 def test_wrinkle_measure_ignores_rigid_motions_and_measures_a_region_only():
@@ -84,8 +87,9 @@ def test_wrinkle_measure_ignores_rigid_motions_and_measures_a_region_only():
     c, s = np.cos(0.7), np.sin(0.7)
     R = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
     moved = W @ R.T + np.array([0.3, -1.0, 2.0])
-    assert metrics.wrinkle_measure(moved, F) == pytest.approx(metrics.wrinkle_measure(W, F),
-                                                              rel=1e-9)
+    assert metrics.wrinkle_measure(moved, F) == pytest.approx(
+        metrics.wrinkle_measure(W, F), rel=1e-9
+    )
     # a region over the flat half of a half-rippled sheet measures (nearly) nothing
     half = V.copy()
     half[:, 2] = np.where(V[:, 0] > 0.5, W[:, 2], 0.0)
@@ -119,7 +123,8 @@ def test_spike_index_is_zero_on_a_plane_and_measures_a_lifted_vertex():
     R = np.linalg.qr(np.random.default_rng(3).normal(size=(3, 3)))[0]
     moved = 2.5 * lifted @ R.T + np.array([0.3, -1.0, 2.0])
     assert yore.metrics.spike_index(moved, F, [v]) == pytest.approx(
-        yore.metrics.spike_index(lifted, F, [v]), rel=1e-9)
+        yore.metrics.spike_index(lifted, F, [v]), rel=1e-9
+    )
 
 
 def test_spike_index_of_a_smooth_tube_is_small_and_falls_with_refinement():
@@ -176,8 +181,9 @@ def test_a_wrinkle_measure_in_metres_sees_the_same_ripple_on_coarse_and_fine_mes
         V, F = yore.grid_mesh(n, n)
         X = V.copy()
         X[:, 2] = 1e-3 * np.sin(2 * np.pi * V[:, 0] / 0.1)
-        inner = np.flatnonzero(((V[:, 0] > 0.2) & (V[:, 0] < 0.8) & (V[:, 1] > 0.2)
-                                & (V[:, 1] < 0.8))[F].all(axis=1))
+        inner = np.flatnonzero(
+            ((V[:, 0] > 0.2) & (V[:, 0] < 0.8) & (V[:, 1] > 0.2) & (V[:, 1] < 0.8))[F].all(axis=1)
+        )
         iterations = metrics.smoothing_iterations(V, F, 0.15)
         physical.append(metrics.wrinkle_measure(X, F, inner, iterations=iterations))
         fixed.append(metrics.wrinkle_measure(X, F, inner))

@@ -13,9 +13,15 @@ import yore
 def stiff_sheet(resolution=12, **options):
     """The stiff sheet of docs/integrators.md: k = 2e5 N/m, bending springs as stiff, pinned
     1 m apart (no slack), 1/60 s."""
-    return yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0, mass=0.1,
-                                     stretch_stiffness=2e5, bend_stiffness=2e5, dt=1 / 60,
-                                     **options)
+    return yore.scenes.hanging_cloth(
+        resolution=resolution,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=2e5,
+        bend_stiffness=2e5,
+        dt=1 / 60,
+        **options,
+    )
 
 
 def test_mixed_is_on_with_the_clamp_by_default_and_a_newton_option():
@@ -27,10 +33,11 @@ def test_mixed_is_on_with_the_clamp_by_default_and_a_newton_option():
     for projection in ("steihaug", "shifted", "exact", "abs"):
         sim = yore.Simulation(cloth, integrator="implicit", projection=projection)
         assert sim.resolved_options["mixed"] is False
-    assert yore.Simulation(cloth, integrator="implicit", mixed=False).resolved_options[
-        "mixed"] is False
-    sim = yore.Simulation(cloth, integrator="bdf2", projection="clamp", step_tol=3e-3,
-                          mixed=True)
+    assert (
+        yore.Simulation(cloth, integrator="implicit", mixed=False).resolved_options["mixed"]
+        is False
+    )
+    sim = yore.Simulation(cloth, integrator="bdf2", projection="clamp", step_tol=3e-3, mixed=True)
     assert sim.resolved_options["mixed"] is True
     with pytest.raises(ValueError, match="mixed"):
         yore.Simulation(cloth, integrator="quasi-newton", mixed=True)
@@ -55,8 +62,14 @@ def test_the_linearized_step_from_the_start_is_the_same_with_either_matrix(integ
 def test_each_step_converges_to_the_same_solution_with_either_matrix(integrator):
     # a soft sheet (k = 2e3 N/m) whose steps have one minimum: from the same states, every
     # step solved tight with the mixed matrices lands where the actual forces' matrices land
-    sim = yore.scenes.hanging_cloth(resolution=10, pin_spacing=1.0, integrator=integrator,
-                                    dt=1 / 60, newton_tol=1e-10, truncation_fraction=0.0)
+    sim = yore.scenes.hanging_cloth(
+        resolution=10,
+        pin_spacing=1.0,
+        integrator=integrator,
+        dt=1 / 60,
+        newton_tol=1e-10,
+        truncation_fraction=0.0,
+    )
     for _ in range(8):
         ends = []
         for mixed in (False, True):
@@ -76,9 +89,10 @@ def test_on_a_stiff_sheet_the_mixed_matrices_take_fewer_newton_iterations():
     # step test took 30 iterations against 46, steihaug 94 against 113
     counts = {}
     for mixed in (False, True):
-        for name, options in (("steihaug", {"projection": "steihaug", "truncation_fraction": 0}),
-                              ("clamp", {"projection": "clamp", "step_tol": 3e-3,
-                                         "truncation_fraction": 0})):
+        for name, options in (
+            ("steihaug", {"projection": "steihaug", "truncation_fraction": 0}),
+            ("clamp", {"projection": "clamp", "step_tol": 3e-3, "truncation_fraction": 0}),
+        ):
             sim = stiff_sheet(12, integrator="bdf2", mixed=mixed, **options)
             with warnings.catch_warnings():
                 warnings.simplefilter("error")  # no step may reach max_newton
@@ -94,9 +108,16 @@ def test_springs_of_zero_stiffness_add_no_transverse_term():
     # buckling, one minimum per step)
     ends = []
     for mixed in (False, True):
-        sim = yore.scenes.hanging_cloth(resolution=8, pin_spacing=1.0, bend_stiffness=0.0,
-                                        integrator="bdf2", dt=1 / 60, newton_tol=1e-10,
-                                        mixed=mixed, truncation_fraction=0.0)
+        sim = yore.scenes.hanging_cloth(
+            resolution=8,
+            pin_spacing=1.0,
+            bend_stiffness=0.0,
+            integrator="bdf2",
+            dt=1 / 60,
+            newton_tol=1e-10,
+            mixed=mixed,
+            truncation_fraction=0.0,
+        )
         sim.step(5, progress=False)
         assert np.isfinite(sim.cloth.positions).all()
         ends.append(sim.cloth.positions)

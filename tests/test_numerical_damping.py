@@ -44,7 +44,8 @@ def test_generalized_alpha_radius_tends_to_rho_infinity_and_to_one(rho):
     assert radius("generalized-alpha", 1e8, rho) == pytest.approx(rho, abs=1e-4)
     assert radius("generalized-alpha", 1e-3, rho) == pytest.approx(1.0, abs=1e-9)
     assert abs(nd.principal_eigenvalue("generalized-alpha", 1e-3, rho)) == pytest.approx(
-        1.0, abs=1e-9)
+        1.0, abs=1e-9
+    )
     # and it never amplifies (unconditionally stable on linear problems)
     assert all(radius("generalized-alpha", z, rho) <= 1.0 + 1e-12 for z in STEPS)
 
@@ -56,7 +57,8 @@ def test_generalized_alpha_at_rho_one_is_the_trapezoidal_rule():
     for z in STEPS:
         expected = (1 + 0.5j * z) / (1 - 0.5j * z)
         assert nd.principal_eigenvalue("generalized-alpha", z, 1.0) == pytest.approx(
-            expected, abs=1e-12)
+            expected, abs=1e-12
+        )
 
 
 def test_tr_bdf2_is_l_stable_and_second_order():
@@ -74,8 +76,9 @@ def test_bdf2_principal_root_solves_its_characteristic_polynomial():
         roots = np.roots([1 - 2j * z / 3, -4 / 3, 1 / 3])
         principal = nd.principal_eigenvalue("bdf2", z)
         assert min(abs(roots - principal)) < 1e-12
-        assert all(min(abs(np.linalg.eigvals(nd.amplification("bdf2", z)) - r)) < 1e-12
-                   for r in roots)
+        assert all(
+            min(abs(np.linalg.eigvals(nd.amplification("bdf2", z)) - r)) < 1e-12 for r in roots
+        )
     spurious = np.roots([1 - 2j * 1e-4 / 3, -4 / 3, 1 / 3])
     assert min(abs(spurious - 1 / 3)) < 1e-3
 
@@ -95,8 +98,9 @@ def test_the_fit_recovers_a_damped_rotation_beside_a_weaker_spurious_root():
     # modulus (−0.95) but 1e-3 of the amplitude, as generalized-α's start excites one
     n = np.arange(60)
     principal = 0.9 * np.exp(0.4j)
-    signal = np.vstack([np.real(principal ** n) + 1e-3 * (-0.95) ** n,
-                        np.imag(principal ** n) - 2e-3 * (-0.95) ** n])
+    signal = np.vstack(
+        [np.real(principal**n) + 1e-3 * (-0.95) ** n, np.imag(principal**n) - 2e-3 * (-0.95) ** n]
+    )
     eigenvalues, amplitudes, residual = nd.fit_recurrence(signal)
     assert residual < 1e-12 and len(eigenvalues) == 3
     assert min(abs(eigenvalues + 0.95)) < 1e-10
@@ -112,10 +116,19 @@ def test_the_fit_recovers_a_damped_rotation_beside_a_weaker_spurious_root():
 # amplitude of 0.02 m: a relative error of ~5e-12 per step. 1e-8 on the decay per step is three
 # orders above that and far below any change of a scheme's coefficients (generalized-α at
 # ρ∞ = 0.9 and 1 differ by 5e-5 at ωh = 1; a TR-BDF2 with γ = ½ by more).
-CASES = [("explicit", None, 0.3), ("explicit", None, 1.9), ("implicit", None, 0.3),
-         ("implicit", None, 2.0), ("bdf2", None, 0.3), ("bdf2", None, 2.0),
-         ("tr-bdf2", None, 0.3), ("tr-bdf2", None, 2.0), ("generalized-alpha", 0.0, 0.3),
-         ("generalized-alpha", 0.8, 2.0), ("generalized-alpha", 1.0, 1.0)]
+CASES = [
+    ("explicit", None, 0.3),
+    ("explicit", None, 1.9),
+    ("implicit", None, 0.3),
+    ("implicit", None, 2.0),
+    ("bdf2", None, 0.3),
+    ("bdf2", None, 2.0),
+    ("tr-bdf2", None, 0.3),
+    ("tr-bdf2", None, 2.0),
+    ("generalized-alpha", 0.0, 0.3),
+    ("generalized-alpha", 0.8, 2.0),
+    ("generalized-alpha", 1.0, 1.0),
+]
 
 
 @pytest.mark.parametrize("integrator,rho,z", CASES)
@@ -125,11 +138,13 @@ def test_a_yore_run_decays_as_its_scheme_does(integrator, rho, z):
         pytest.skip(f"{integrator} is not in this build: {why}")
     row = nd.mode_row(integrator, z, rho)
     assert abs(row["relative_difference"]) < 1e-8
-    assert row["period_elongation"] == pytest.approx(row["analytic_period_elongation"],
-                                                     rel=1e-6, abs=1e-9)
+    assert row["period_elongation"] == pytest.approx(
+        row["analytic_period_elongation"], rel=1e-6, abs=1e-9
+    )
     assert row["unconverged_steps"] == 0 and row["fit_residual"] < 1e-8
-    assert row["energy_kept_per_period"] == pytest.approx(row["decay_per_step"] ** (
-        2 * 2 * math.pi / z), rel=1e-12)
+    assert row["energy_kept_per_period"] == pytest.approx(
+        row["decay_per_step"] ** (2 * 2 * math.pi / z), rel=1e-12
+    )
     if integrator != "explicit":  # linear: one Newton iteration per stage
         # TR-BDF2: two stages a step, but its first step is one backward-Euler solve
         stages = 2 * row["steps"] - 1 if integrator == "tr-bdf2" else row["steps"]
@@ -162,9 +177,11 @@ def test_energy_kept_is_a_ratio_of_window_means_at_the_runs_own_times():
     run = table(0.5 * (1.0 + 0.5 * np.sin(grid[::2])), stride=2)  # every 1/32 s, half as much
     assert nd.window_mean_ratio(run, reference, 1.0) == pytest.approx(0.5, rel=1e-12)
     assert nd.window_mean_ratio(run, reference, 2.0) == pytest.approx(0.5, rel=1e-12)
-    found = nd.sheet_measures({"snapshots": [np.zeros((0, 1, 3)), run]},
-                              {"snapshots": [np.zeros((0, 1, 3)), reference]},
-                              {"sheet_size": 1.0, "diagonal": math.sqrt(2)})
+    found = nd.sheet_measures(
+        {"snapshots": [np.zeros((0, 1, 3)), run]},
+        {"snapshots": [np.zeros((0, 1, 3)), reference]},
+        {"sheet_size": 1.0, "diagonal": math.sqrt(2)},
+    )
     assert found["kinetic_energy_kept_at_1s"] == pytest.approx(0.5, rel=1e-12)
     assert found["kinetic_energy_history"] == pytest.approx(0.5, rel=1e-12)
     # the window is ±0.125 s: 17 points of the 1/64 s grid, 9 of the 1/32 s one
@@ -176,9 +193,13 @@ def test_energy_kept_is_a_ratio_of_window_means_at_the_runs_own_times():
 @pytest.mark.slow  # a benchmark, if a small one (~10 s)
 def test_the_quick_run_writes_both_parts(tmp_path):
     pytest.importorskip("matplotlib")
-    result = subprocess.run([sys.executable, "-m", "benchmarks.numerical_damping", "--out",
-                             str(tmp_path), "--quick"], cwd=ROOT, capture_output=True, text=True,
-                            timeout=600)
+    result = subprocess.run(
+        [sys.executable, "-m", "benchmarks.numerical_damping", "--out", str(tmp_path), "--quick"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "numerical_damping.png").read_bytes()[:4] == b"\x89PNG"
     data = json.loads((tmp_path / "numerical_damping.json").read_text())

@@ -31,15 +31,22 @@ def dense_q(cloth):
 def on_cylinder(V, radius):
     """The flat sheet V (z = 0) rolled, isometrically, onto a cylinder of axis ∥ y."""
     u = V[:, 0]
-    return np.column_stack([radius * np.sin(u / radius), V[:, 1],
-                            radius * (1.0 - np.cos(u / radius))])
+    return np.column_stack(
+        [radius * np.sin(u / radius), V[:, 1], radius * (1.0 - np.cos(u / radius))]
+    )
 
 
 def strip(modulus=3e-3, nx=9, ny=5, radius=0.3, stretch_stiffness=50.0):
     """A 0.4 m × 0.2 m strip, rest flat, started bent onto a cylinder of `radius`."""
     V, F = yore.grid_mesh(nx, ny, width=0.4, height=0.2)
-    cloth = yore.Cloth(V, F, masses=1e-3, stretch_stiffness=stretch_stiffness,
-                       bending="quadratic", bending_modulus=modulus)
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=1e-3,
+        stretch_stiffness=stretch_stiffness,
+        bending="quadratic",
+        bending_modulus=modulus,
+    )
     cloth.positions = on_cylinder(V, radius)
     return cloth
 
@@ -56,8 +63,9 @@ def test_q_is_symmetric_psd_kills_translations_and_gives_the_cloths_energy():
     energy = cloth.energy(NO_GRAVITY)
     expected = 0.5 * cloth.bending_modulus * np.einsum("ic,ij,jc->", X, Q, X)
     assert energy["bending"] == pytest.approx(expected, rel=1e-12)
-    assert energy["total"] == pytest.approx(energy["kinetic"] + energy["spring"] +
-                                            energy["gravity"] + energy["bending"])
+    assert energy["total"] == pytest.approx(
+        energy["kinetic"] + energy["spring"] + energy["gravity"] + energy["bending"]
+    )
     # interior edges of a 9 × 5 grid: all edges minus the boundary ones
     assert cloth.quadratic_bending["hinges"] == (8 * 5 + 9 * 4 + 8 * 4) - 2 * (8 + 4)
     assert cloth.spring_count == 8 * 5 + 9 * 4 + 8 * 4  # structural springs only
@@ -73,8 +81,9 @@ def test_the_implicit_gradient_and_hessian_of_the_term_match_finite_differences(
     V, F = yore.grid_mesh(4, 4, width=0.3, height=0.3)
     rng = np.random.default_rng(1)
     X = on_cylinder(V, 0.2) + rng.normal(0.0, 0.003, V.shape)
-    with_term = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bending="quadratic",
-                           bending_modulus=0.02)
+    with_term = yore.Cloth(
+        V, F, masses=0.01, stretch_stiffness=50.0, bending="quadratic", bending_modulus=0.02
+    )
     without = yore.Cloth(V, F, masses=0.01, stretch_stiffness=50.0, bend_stiffness=0.0)
     for cloth in (with_term, without):
         cloth.positions = X
@@ -85,8 +94,11 @@ def test_the_implicit_gradient_and_hessian_of_the_term_match_finite_differences(
 
     def bending(Y):
         sa, sb = _newton_system(with_term, a, Y), _newton_system(without, b, Y)
-        return (sa["energy"] - sb["energy"], np.asarray(sa["gradient"]) - sb["gradient"],
-                dense_hessian(sa) - dense_hessian(sb))
+        return (
+            sa["energy"] - sb["energy"],
+            np.asarray(sa["gradient"]) - sb["gradient"],
+            dense_hessian(sa) - dense_hessian(sb),
+        )
 
     energy, gradient, hessian = bending(X)
     assert energy == pytest.approx(with_term.energy(NO_GRAVITY)["bending"], rel=1e-9)
@@ -153,8 +165,13 @@ def equilateral_mesh(n):
     """A unit-wide sheet of n columns of near-equilateral triangles, rows offset by half an edge."""
     h = 1.0 / (n - 1)
     rows = int(round(1.0 / (h * np.sqrt(3) / 2))) + 1
-    V = np.array([[i * h + (0.5 * h if j % 2 else 0.0), j * h * np.sqrt(3) / 2, 0.0]
-                  for j in range(rows) for i in range(n)])
+    V = np.array(
+        [
+            [i * h + (0.5 * h if j % 2 else 0.0), j * h * np.sqrt(3) / 2, 0.0]
+            for j in range(rows)
+            for i in range(n)
+        ]
+    )
     F = []
     for j in range(rows - 1):
         for i in range(n - 1):
@@ -163,8 +180,16 @@ def equilateral_mesh(n):
     return V, np.array(F, dtype=np.int32)
 
 
-@pytest.mark.parametrize("mesh, degrees", [("grid", 0.0), ("grid", 90.0), ("equilateral", 0.0),
-                                           ("equilateral", 90.0), ("equilateral", 30.0)])
+@pytest.mark.parametrize(
+    "mesh, degrees",
+    [
+        ("grid", 0.0),
+        ("grid", 90.0),
+        ("equilateral", 0.0),
+        ("equilateral", 90.0),
+        ("equilateral", 30.0),
+    ],
+)
 def test_the_cylinder_energy_approaches_the_continuum_value_with_refinement(mesh, degrees):
     # Continuum (isometric bending of a plate of rigidity κ): E = ½ κ ∫ (2H)² dA = ½ κ A / R²
     # on a cylinder of radius R (2H = 1/R). The sheet is turned by `degrees` in its plane and
@@ -174,8 +199,9 @@ def test_the_cylinder_energy_approaches_the_continuum_value_with_refinement(mesh
     # 33 vertices a side.
     radius, modulus = 0.5, 2e-3
     turn = np.radians(degrees)
-    rotation = np.array([[np.cos(turn), -np.sin(turn), 0], [np.sin(turn), np.cos(turn), 0],
-                         [0, 0, 1]])
+    rotation = np.array(
+        [[np.cos(turn), -np.sin(turn), 0], [np.sin(turn), np.cos(turn), 0], [0, 0, 1]]
+    )
     errors = []
     for n in (9, 17, 33):
         V, F = yore.grid_mesh(n, n) if mesh == "grid" else equilateral_mesh(n)
@@ -190,8 +216,10 @@ def test_the_cylinder_energy_approaches_the_continuum_value_with_refinement(mesh
 
 def turned(V, degrees):
     turn = np.radians(degrees)
-    return V @ np.array([[np.cos(turn), -np.sin(turn), 0], [np.sin(turn), np.cos(turn), 0],
-                         [0, 0, 1]]).T
+    return (
+        V
+        @ np.array([[np.cos(turn), -np.sin(turn), 0], [np.sin(turn), np.cos(turn), 0], [0, 0, 1]]).T
+    )
 
 
 def cylinder_ratio(V, F, bending, radius=0.5, modulus=2e-3):
@@ -199,7 +227,8 @@ def cylinder_ratio(V, F, bending, radius=0.5, modulus=2e-3):
     cloth = yore.Cloth(V, F, bending=bending, bending_modulus=modulus)
     cloth.positions = on_cylinder(V, radius)
     return cloth.energy(NO_GRAVITY)["bending"] / (
-        0.5 * modulus * yore.metrics.area(V, F) / radius**2)
+        0.5 * modulus * yore.metrics.area(V, F) / radius**2
+    )
 
 
 def test_the_hinge_energy_depends_on_the_mesh_directions():
@@ -208,13 +237,15 @@ def test_the_hinge_energy_depends_on_the_mesh_directions():
     # dA; CGAL's isotropic pattern meshes get 1.12–1.16× at every h (measured), not 1×.
     V, F = yore.grid_mesh(33, 33)
     assert 1.4 < cylinder_ratio(turned(V, 45.0), F, "hinge") < 1.6
-    V, F = yore.pattern_mesh([[0, 0], [1, 0], [1, 0.5], [0, 0.5]], edge_length=0.04,
-                             interior="delaunay")
+    V, F = yore.pattern_mesh(
+        [[0, 0], [1, 0], [1, 0.5], [0, 0.5]], edge_length=0.04, interior="delaunay"
+    )
     assert 1.08 < cylinder_ratio(V, F, "hinge") < 1.2
 
 
-@pytest.mark.parametrize("mesh", ["grid 0°", "grid 45°", "grid 30°", "pattern", "delaunay",
-                                  "equilateral"])
+@pytest.mark.parametrize(
+    "mesh", ["grid 0°", "grid 45°", "grid 30°", "pattern", "delaunay", "equilateral"]
+)
 def test_the_fitted_energy_is_the_continuum_energy_on_any_mesh(mesh):
     # The cylinder of issue 52's target (within 2 % on every mesh kind and size), already at 9
     # vertices across: measured 0.2 % at h = 0.04 m and 0.01 % at 0.01 m; the tolerance leaves
@@ -222,8 +253,11 @@ def test_the_fitted_energy_is_the_continuum_energy_on_any_mesh(mesh):
     ratios = []
     for h in (0.08, 0.04, 0.02):
         if mesh in ("pattern", "delaunay"):
-            V, F = yore.pattern_mesh([[0, 0], [1, 0], [1, 0.5], [0, 0.5]], edge_length=h,
-                                     interior="lattice" if mesh == "pattern" else "delaunay")
+            V, F = yore.pattern_mesh(
+                [[0, 0], [1, 0], [1, 0.5], [0, 0.5]],
+                edge_length=h,
+                interior="lattice" if mesh == "pattern" else "delaunay",
+            )
         elif mesh == "equilateral":
             V, F = equilateral_mesh(int(round(1 / h)) + 1)
         else:
@@ -241,8 +275,9 @@ def test_the_fitted_hessian_is_exact_for_quadratic_fields_on_an_irregular_mesh()
     # |H|²_F with H its constant Hessian) stores ½ κ A (a² + 2b² + c²) to round-off — on
     # every vertex, the boundary's grown patches included. Affine maps (in-plane stretch,
     # shear, tilt) store nothing.
-    V, F = yore.pattern_mesh([[0, 0], [0.6, 0], [0.5, 0.4], [0.1, 0.3]], edge_length=0.07,
-                             interior="delaunay")
+    V, F = yore.pattern_mesh(
+        [[0, 0], [0.6, 0], [0.5, 0.4], [0.1, 0.3]], edge_length=0.07, interior="delaunay"
+    )
     modulus, a, b, c = 3e-3, 1.7, -0.6, 0.4
     cloth = yore.Cloth(V, F, bending="quadratic", bending_modulus=modulus)
     u, v = V[:, 0], V[:, 1]
@@ -274,42 +309,58 @@ def test_explicit_and_implicit_agree_on_a_short_run_and_converge_at_first_order(
     for dt in (1e-4, 5e-5):
         steps = int(round(0.02 / dt))
         finals = {}
-        for integrator, options in (("explicit", {}),
-                                    ("implicit", dict(newton_tol=1e-12, max_newton=100, truncation_fraction=0.0)),
-                                    ("bdf2", dict(newton_tol=1e-12, max_newton=100,
-                                                    truncation_fraction=0.0))):
+        for integrator, options in (
+            ("explicit", {}),
+            ("implicit", dict(newton_tol=1e-12, max_newton=100, truncation_fraction=0.0)),
+            ("bdf2", dict(newton_tol=1e-12, max_newton=100, truncation_fraction=0.0)),
+        ):
             cloth = strip()
             start = cloth.positions
-            yore.Simulation(cloth, integrator=integrator, dt=dt, gravity=NO_GRAVITY,
-                            **options).step(steps)
+            yore.Simulation(
+                cloth, integrator=integrator, dt=dt, gravity=NO_GRAVITY, **options
+            ).step(steps)
             finals[integrator] = cloth.positions
         motion = np.abs(finals["explicit"] - start).max()
         assert motion > 1e-3  # the strip does move (the term acts)
-        gaps[dt] = {name: np.abs(finals[name] - finals["explicit"]).max() / motion
-                    for name in ("implicit", "bdf2")}
+        gaps[dt] = {
+            name: np.abs(finals[name] - finals["explicit"]).max() / motion
+            for name in ("implicit", "bdf2")
+        }
     for name in ("implicit", "bdf2"):
         assert gaps[5e-5][name] < 0.03, gaps
         assert gaps[5e-5][name] < 0.6 * gaps[1e-4][name], gaps
 
 
-@pytest.mark.parametrize("integrator, options, tolerance", [
-    # a residual of 1e-10 mean rest lengths as a displacement: far below 1e-7 m
-    ("quasi-newton", dict(newton_tol=1e-10, max_newton=5000), 1e-7),
-    # plain local-global, 3000 iterations: measured 1.8e-9 m from Newton's step
-    ("local-global", dict(iterations=3000, tolerance=0.0, acceleration="none"), 1e-7),
-])
+@pytest.mark.parametrize(
+    "integrator, options, tolerance",
+    [
+        # a residual of 1e-10 mean rest lengths as a displacement: far below 1e-7 m
+        ("quasi-newton", dict(newton_tol=1e-10, max_newton=5000), 1e-7),
+        # plain local-global, 3000 iterations: measured 1.8e-9 m from Newton's step
+        ("local-global", dict(iterations=3000, tolerance=0.0, acceleration="none"), 1e-7),
+    ],
+)
 def test_quasi_newton_and_local_global_converge_to_newtons_step_with_the_term(
-        integrator, options, tolerance):
+    integrator, options, tolerance
+):
     def scene(name, **kwargs):
-        return yore.scenes.hanging_cloth(resolution=9, pin_spacing=1.0, bending="quadratic",
-                                         bending_modulus=1e-3, integrator=name, **kwargs)
+        return yore.scenes.hanging_cloth(
+            resolution=9,
+            pin_spacing=1.0,
+            bending="quadratic",
+            bending_modulus=1e-3,
+            integrator=name,
+            **kwargs,
+        )
 
     reference = scene("implicit", newton_tol=1e-12, max_newton=200, truncation_fraction=0.0)
     reference.step(3)
     sim = scene(integrator, **options)
     sim.step(3)
-    assert sim.stats["active_terms"]["quadratic_bending"] == reference.cloth.quadratic_bending[
-        "hinges"]
+    assert (
+        sim.stats["active_terms"]["quadratic_bending"]
+        == reference.cloth.quadratic_bending["hinges"]
+    )
     moved = np.abs(reference.cloth.positions - scene("implicit").cloth.positions).max()
     assert moved > 1e-3
     assert np.abs(sim.cloth.positions - reference.cloth.positions).max() <= tolerance
@@ -319,10 +370,12 @@ def test_every_stable_step_estimate_falls_as_the_modulus_grows():
     V, F = yore.grid_mesh(9, 9)
     steps = []
     for modulus in (0.0, 1e-3, 1e-2, 1e-1):
-        cloth = yore.Cloth(V, F, masses=1e-3, stretch_stiffness=100.0, bending="quadratic",
-                           bending_modulus=modulus)
-        steps.append([cloth.gershgorin_time_step(), cloth.stable_time_step_bound(),
-                      cloth.stable_time_step()])
+        cloth = yore.Cloth(
+            V, F, masses=1e-3, stretch_stiffness=100.0, bending="quadratic", bending_modulus=modulus
+        )
+        steps.append(
+            [cloth.gershgorin_time_step(), cloth.stable_time_step_bound(), cloth.stable_time_step()]
+        )
     steps = np.array(steps)
     assert np.all(np.diff(steps, axis=0) < 0), steps
     assert np.all(steps[:, 0] <= steps[:, 1])  # Gershgorin stays the most conservative
@@ -334,13 +387,15 @@ def test_every_stable_step_estimate_falls_as_the_modulus_grows():
     assert np.isfinite(cloth.energy(NO_GRAVITY)["total"])
     cloth = strip(modulus=0.1)
     with pytest.raises(yore.SimulationDiverged):
-        yore.Simulation(cloth, integrator="explicit", dt=1.5 * cloth.stable_time_step(),
-                        gravity=NO_GRAVITY).step(2000)
+        yore.Simulation(
+            cloth, integrator="explicit", dt=1.5 * cloth.stable_time_step(), gravity=NO_GRAVITY
+        ).step(2000)
 
 
 def test_the_state_round_trips_and_a_saved_quadratic_run_resumes_bit_for_bit(tmp_path):
-    sim = yore.scenes.hanging_cloth(resolution=7, bending="quadratic", bending_modulus=1e-3,
-                                    integrator="implicit")
+    sim = yore.scenes.hanging_cloth(
+        resolution=7, bending="quadratic", bending_modulus=1e-3, integrator="implicit"
+    )
     sim.step(2)
     state = sim.cloth.state()
     assert state["bending"] == "quadratic" and state["bending_modulus"] == 1e-3
@@ -397,8 +452,9 @@ def _rewrite_document(path, out, edit):
 def test_a_quadratic_state_from_before_the_fitted_operator_resumes_as_the_hinge_energy(tmp_path):
     # Before issue 52 "quadratic" meant the hinge Q and files carried no bending_operator: such
     # a file must go on with the energy it ran with, bit for bit, not switch operators.
-    sim = yore.scenes.hanging_cloth(resolution=7, bending="hinge", bending_modulus=1e-3,
-                                    integrator="implicit")
+    sim = yore.scenes.hanging_cloth(
+        resolution=7, bending="hinge", bending_modulus=1e-3, integrator="implicit"
+    )
     sim.step(2)
     path = save_state(tmp_path / "hinge.npz", sim)
 
@@ -416,8 +472,10 @@ def test_a_quadratic_state_from_before_the_fitted_operator_resumes_as_the_hinge_
     loaded.step(3)
     assert np.array_equal(loaded.cloth.positions, sim.cloth.positions)
     # a fitted state names its operator; any other value is refused, naming the field
-    fitted = save_state(tmp_path / "fitted.npz", yore.scenes.hanging_cloth(
-        resolution=7, bending="quadratic", bending_modulus=1e-3))
+    fitted = save_state(
+        tmp_path / "fitted.npz",
+        yore.scenes.hanging_cloth(resolution=7, bending="quadratic", bending_modulus=1e-3),
+    )
     assert load_state(fitted)[0].cloth.bending == "quadratic"
 
     def forged(document):
@@ -436,8 +494,9 @@ def test_a_quadratic_state_from_before_the_fitted_operator_resumes_as_the_hinge_
 
 @pytest.mark.parametrize("integrator", ["implicit", "explicit", "local-global", "quasi-newton"])
 def test_a_stroke_rebuilds_q_and_the_term_keeps_working(integrator):
-    sim = yore.scenes.hanging_cloth(resolution=9, bending="quadratic", bending_modulus=1e-3,
-                                    integrator=integrator)
+    sim = yore.scenes.hanging_cloth(
+        resolution=9, bending="quadratic", bending_modulus=1e-3, integrator=integrator
+    )
     sim.step(2)
     before = sim.cloth.quadratic_bending
     report = sim.stroke(yore.StrokePath.material([[0.2, 0.5], [0.8, 0.5]]))
@@ -490,16 +549,19 @@ def test_a_zero_modulus_is_no_term_and_the_default_stays_bending_springs():
     assert zero_sim.stats["active_terms"]["quadratic_bending"] == 0
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(bending="curvature"), '"springs", "quadratic" or "hinge"'),
-    (dict(bending="quadratic"), "needs bending_modulus"),
-    (dict(bending="quadratic", bending_modulus=-1.0), "bending_modulus"),
-    (dict(bending="quadratic", bending_modulus=float("nan")), "bending_modulus"),
-    (dict(bending="quadratic", bending_modulus=float("inf")), "bending_modulus"),
-    (dict(bending_modulus=1.0), "bending_modulus is for"),
-    (dict(bending="springs", bending_modulus=0.0), "bending_modulus is for"),
-    (dict(bending="quadratic", bending_modulus=1.0, bend_stiffness=5.0), "no bending springs"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(bending="curvature"), '"springs", "quadratic" or "hinge"'),
+        (dict(bending="quadratic"), "needs bending_modulus"),
+        (dict(bending="quadratic", bending_modulus=-1.0), "bending_modulus"),
+        (dict(bending="quadratic", bending_modulus=float("nan")), "bending_modulus"),
+        (dict(bending="quadratic", bending_modulus=float("inf")), "bending_modulus"),
+        (dict(bending_modulus=1.0), "bending_modulus is for"),
+        (dict(bending="springs", bending_modulus=0.0), "bending_modulus is for"),
+        (dict(bending="quadratic", bending_modulus=1.0, bend_stiffness=5.0), "no bending springs"),
+    ],
+)
 def test_bad_bending_arguments_are_value_errors(kwargs, message):
     V, F = yore.grid_mesh(4, 4)
     with pytest.raises(ValueError, match=message):
@@ -507,12 +569,14 @@ def test_bad_bending_arguments_are_value_errors(kwargs, message):
 
 
 def test_scene_functions_and_scene_files_pass_the_bending_choice_on():
-    sim = yore.scenes.rotating_cylinder(rings=5, segments=8, bending="quadratic",
-                                        bending_modulus=2e-4)
+    sim = yore.scenes.rotating_cylinder(
+        rings=5, segments=8, bending="quadratic", bending_modulus=2e-4
+    )
     assert sim.cloth.bending == "quadratic" and sim.cloth.bending_modulus == 2e-4
     with pytest.raises(ValueError, match="no bending springs"):
-        yore.scenes.hanging_cloth(resolution=5, bending="quadratic", bending_modulus=1e-3,
-                                  bend_stiffness=10.0)
+        yore.scenes.hanging_cloth(
+            resolution=5, bending="quadratic", bending_modulus=1e-3, bend_stiffness=10.0
+        )
     base = '[mesh]\ngenerator = "grid"\nnx = 5\nny = 4\n\n[simulation]\nduration = 0.1\n\n'
     scene = load_scene(text=base + '[material]\nbending = "quadratic"\nbending_modulus = 1e-3\n')
     sim, _ = scene.build()
@@ -520,14 +584,17 @@ def test_scene_functions_and_scene_files_pass_the_bending_choice_on():
     assert not np.any(sim.cloth.springs.kind == 1)
     sim, _ = load_scene(text=base).build()
     assert sim.cloth.bending == "springs" and np.any(sim.cloth.springs.kind == 1)
-    for material, key in (('bending = "quadratic"\n', "material.bending_modulus"),
-                          ('bending_modulus = 1e-3\n', "material.bending_modulus"),
-                          ('bending = "quadratic"\nbending_modulus = 1e-3\nbend_stiffness = 5\n',
-                           "material.bend_stiffness"),
-                          ('bending = "hinge"\n', "material.bending_modulus"),
-                          ('bending = "cotangent"\n', "material.bending"),
-                          ('bending = "quadratic"\nbending_modulus = -1\n',
-                           "material.bending_modulus")):
+    for material, key in (
+        ('bending = "quadratic"\n', "material.bending_modulus"),
+        ("bending_modulus = 1e-3\n", "material.bending_modulus"),
+        (
+            'bending = "quadratic"\nbending_modulus = 1e-3\nbend_stiffness = 5\n',
+            "material.bend_stiffness",
+        ),
+        ('bending = "hinge"\n', "material.bending_modulus"),
+        ('bending = "cotangent"\n', "material.bending"),
+        ('bending = "quadratic"\nbending_modulus = -1\n', "material.bending_modulus"),
+    ):
         with pytest.raises(SceneError) as caught:
             load_scene(text=base + "[material]\n" + material).build()
         assert caught.value.key == key, material
@@ -542,8 +609,13 @@ def test_refining_a_quadratic_cloth_keeps_its_flat_rest_and_rebuilds_q():
     cloth.material_coordinates = V[:, :2]
     sim = yore.Simulation(cloth, integrator="implicit", gravity=NO_GRAVITY)
     hinges = cloth.quadratic_bending["hinges"]
-    report = sim.stroke(yore.StrokePath.material([[0.2, 0.5], [0.8, 0.5]]), growth="isotropic", refine=1,
-                                 width=0.2, expansion=1.0)
+    report = sim.stroke(
+        yore.StrokePath.material([[0.2, 0.5], [0.8, 0.5]]),
+        growth="isotropic",
+        refine=1,
+        width=0.2,
+        expansion=1.0,
+    )
     assert report.faces_refined > 0
     assert cloth.quadratic_bending["hinges"] > hinges
     rest = cloth.quadratic_bending["rest_positions"]

@@ -14,8 +14,9 @@ NO_GRAVITY = (0.0, 0.0, 0.0)
 def flat_cloth(integrator, resolution=12, **options):
     # hanging flat between its pins: a convex-enough step, so both minimisers find the same
     # minimum (a gathered cloth buckles, and different minimisers may settle in different folds)
-    return yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0,
-                                     integrator=integrator, **options)
+    return yore.scenes.hanging_cloth(
+        resolution=resolution, pin_spacing=1.0, integrator=integrator, **options
+    )
 
 
 @pytest.mark.parametrize("method, newton", [("backward-euler", "implicit"), ("bdf2", "bdf2")])
@@ -39,7 +40,9 @@ def test_quasi_newton_needs_fewer_iterations_than_local_global_for_the_same_resi
     lg = flat_cloth("local-global", iterations=iterations, tolerance=0.0)
     lg.step(1)
     assert lg.stats["counters"]["last_residual"] > 3 * counters["last_scaled_residual"], (
-        lg.stats["counters"]["last_residual"], counters["last_scaled_residual"])
+        lg.stats["counters"]["last_residual"],
+        counters["last_scaled_residual"],
+    )
 
 
 def test_the_scalar_matrix_is_analysed_per_topology_and_factored_per_step_size():
@@ -86,8 +89,14 @@ def test_a_step_at_the_iteration_cap_is_counted_and_warned_about():
 def test_spring_damping_leaves_a_rigid_spin_alone():
     def angular_momentum_kept(damping):
         V, F = yore.grid_mesh(9, 9, width=1.0, height=1.0)
-        cloth = yore.Cloth(V - V.mean(axis=0), F, masses=1 / 81, stretch_stiffness=200.0,
-                           bend_stiffness=20.0, damping=damping)
+        cloth = yore.Cloth(
+            V - V.mean(axis=0),
+            F,
+            masses=1 / 81,
+            stretch_stiffness=200.0,
+            bend_stiffness=20.0,
+            damping=damping,
+        )
         cloth.velocities = np.cross([0.0, 0.0, 2 * np.pi], cloth.positions)
 
         def angular_momentum():
@@ -96,8 +105,14 @@ def test_spring_damping_leaves_a_rigid_spin_alone():
             return (m * np.cross(x - centre, v)).sum(axis=0)[2]
 
         before = angular_momentum()
-        sim = yore.Simulation(cloth, integrator="quasi-newton", dt=1 / 60, gravity=NO_GRAVITY,
-                              newton_tol=1e-9, max_newton=5000)
+        sim = yore.Simulation(
+            cloth,
+            integrator="quasi-newton",
+            dt=1 / 60,
+            gravity=NO_GRAVITY,
+            newton_tol=1e-9,
+            max_newton=5000,
+        )
         sim.advance(1.0, progress=False)
         return angular_momentum() / before
 
@@ -117,12 +132,15 @@ def test_a_saved_bdf2_state_continues_bit_for_bit(tmp_path):
     np.testing.assert_array_equal(resumed.cloth.positions, sim.cloth.positions)
 
 
-@pytest.mark.parametrize("options, message", [
-    ({"lbfgs_history": 0}, "lbfgs_history"),
-    ({"method": "rk4"}, "method"),
-    ({"linearized": True}, r"unknown option\(s\) 'linearized'"),
-    ({"max_newton": 2.5}, "max_newton"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"lbfgs_history": 0}, "lbfgs_history"),
+        ({"method": "rk4"}, "method"),
+        ({"linearized": True}, r"unknown option\(s\) 'linearized'"),
+        ({"max_newton": 2.5}, "max_newton"),
+    ],
+)
 def test_bad_quasi_newton_options_are_value_errors(options, message):
     V, F = yore.grid_mesh(4, 4)
     with pytest.raises(ValueError, match=message):
@@ -134,8 +152,9 @@ def test_the_gathered_cloth_stays_finite_and_loses_energy_without_a_newton_hessi
     # descends, so the run neither diverges nor gains energy
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        sim = yore.scenes.hanging_cloth(resolution=9, integrator="quasi-newton",
-                                        gravity=NO_GRAVITY, newton_tol=1e-7)
+        sim = yore.scenes.hanging_cloth(
+            resolution=9, integrator="quasi-newton", gravity=NO_GRAVITY, newton_tol=1e-7
+        )
         before = sim.energy()["total"]
         sim.step(30)
     assert np.all(np.isfinite(sim.cloth.positions))
@@ -148,8 +167,9 @@ def test_a_predictor_of_none_is_decided_not_passed_to_the_core():
     sim = yore.scenes.hanging_cloth(resolution=5, integrator="quasi-newton", predictor=None)
     assert sim.resolved_options["predictor"] == "inertial"
     sim.step(1)
-    reference = yore.scenes.hanging_cloth(resolution=5, integrator="quasi-newton",
-                                          predictor="inertial")
+    reference = yore.scenes.hanging_cloth(
+        resolution=5, integrator="quasi-newton", predictor="inertial"
+    )
     reference.step(1)
     assert np.array_equal(sim.cloth.positions, reference.cloth.positions)
 

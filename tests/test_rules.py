@@ -98,17 +98,22 @@ def test_rules_from_the_core_tables_match_their_bounds():
 
 def test_the_layers_phrase_one_rule_in_their_own_words():
     # an option, a scene key, a state field and an argument refuse the same bad value
-    with pytest.raises(ValueError, match=r"option max_newton: got float 2\.5; expected an "
-                                         r"integer in \[1, "):
+    with pytest.raises(
+        ValueError,
+        match=r"option max_newton: got float 2\.5; expected an "
+        r"integer in \[1, ",
+    ):
         check_option("implicit", "max_newton", 2.5)
     with pytest.raises(rules.Invalid) as error:
         schema.SMOOTH["iterations"][0](2.5)
     assert error.value.problem == "got float 2.5"
     assert error.value.expected.startswith("an integer in [0, ")
-    with pytest.raises(ValueError, match=r"smooth_rest_lengths iterations: got float 2\.5; "
-                                         r"expected an integer in \[0, 100000\]"):
-        yore.scenes.hanging_cloth(resolution=5).smooth_rest_lengths(iterations=2.5,
-                                                                     region="all")
+    with pytest.raises(
+        ValueError,
+        match=r"smooth_rest_lengths iterations: got float 2\.5; "
+        r"expected an integer in \[0, 100000\]",
+    ):
+        yore.scenes.hanging_cloth(resolution=5).smooth_rest_lengths(iterations=2.5, region="all")
     with pytest.raises(ValueError, match=r"refine must be an integer in \[0, 7\], got 2\.5"):
         yore.checks.check_integer(2.5, "refine", 0, 7)
 
@@ -125,17 +130,28 @@ def _defined_classes():
 def test_no_module_but_rules_defines_a_rule_or_an_invalid_value():
     classes = _defined_classes()
     assert ("rules.py", "Rule") in classes and ("rules.py", "Invalid") in classes
-    others = [(path, name) for path, name in classes if path != "rules.py"
-              and (name.lstrip("_").endswith("Rule") or name.lstrip("_") == "Invalid"
-                   or name.endswith("Checker") and path != "state.py")]
+    others = [
+        (path, name)
+        for path, name in classes
+        if path != "rules.py"
+        and (
+            name.lstrip("_").endswith("Rule")
+            or name.lstrip("_") == "Invalid"
+            or name.endswith("Checker")
+            and path != "state.py"
+        )
+    ]
     assert others == []
 
 
 def test_scene_file_checkers_are_rules():
     # every scalar key of the scene schema is checked by a yore.rules.Rule (lists of points,
     # vectors and tables have checkers of their own shape, which raise rules.Invalid)
-    tables = [table for table, _ in schema.SCHEMA.values() if table] + \
-        list(schema.GENERATOR_KEYS.values()) + [schema.SMOOTH, schema.BOX]
+    tables = (
+        [table for table, _ in schema.SCHEMA.values() if table]
+        + list(schema.GENERATOR_KEYS.values())
+        + [schema.SMOOTH, schema.BOX]
+    )
     checkers = [checker for table in tables for checker, _, _ in table.values()]
     # "box" and "smooth" name nested tables, checked by their own schema (BOX, SMOOTH)
     assert {c for c in checkers if not isinstance(c, rules.Rule)} == {"box", "smooth"}
@@ -146,7 +162,11 @@ def test_scene_file_checkers_are_rules():
 
 def test_core_option_rules_come_from_the_bound_tables():
     # the C++ tables are where the rules live: the bindings publish them, Python builds from them
-    tables = (_core.ExplicitIntegrator, _core.ImplicitIntegrator, _core.LocalGlobalIntegrator,
-              _core.ErrorControlledIntegrator)
+    tables = (
+        _core.ExplicitIntegrator,
+        _core.ImplicitIntegrator,
+        _core.LocalGlobalIntegrator,
+        _core.ErrorControlledIntegrator,
+    )
     names = {name for table in tables for name in table.option_rules}
     assert names == set(CORE_RULES)

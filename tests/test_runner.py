@@ -19,16 +19,32 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 # The demo scene at a few hundred vertices: a stroke (at 0.1 s) with rest-length smoothing,
 # and frames every 0.05 s.
-HANGING = ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "simulation.duration=0.3",
-           "--set", "strokes.0.time=0.1", "--set", "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
-           "--set", "strokes.0.smooth={iterations = 5, strength = 0.5}",
-           "--set", "output.fps=20", "--no-render", "--quiet"]
+HANGING = [
+    "--set",
+    "mesh.nx=9",
+    "--set",
+    "mesh.ny=9",
+    "--set",
+    "simulation.duration=0.3",
+    "--set",
+    "strokes.0.time=0.1",
+    "--set",
+    "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
+    "--set",
+    "strokes.0.smooth={iterations = 5, strength = 0.5}",
+    "--set",
+    "output.fps=20",
+    "--no-render",
+    "--quiet",
+]
 
 
 def strict_json(path):
     """The JSON document at path; fails on NaN/Infinity, which strict JSON does not have."""
+
     def refuse(name):
         raise AssertionError(f"{path} holds {name}")
+
     return json.loads(Path(path).read_text(), parse_constant=refuse)
 
 
@@ -57,12 +73,14 @@ def assert_same_run(straight, split):
     assert [f["time"] for f in sa["frames"]] == [f["time"] for f in sb["frames"]]
     assert [f["file"] for f in sa["frames"]] == [f["file"] for f in sb["frames"]]
     keys = ("time", "kinetic", "spring", "gravity", "total", "vertices")
-    assert [[r[k] for k in keys] for r in sa["records"]] == \
-        [[r[k] for k in keys] for r in sb["records"]]
+    assert [[r[k] for k in keys] for r in sa["records"]] == [
+        [r[k] for k in keys] for r in sb["records"]
+    ]
     assert len(sb["strokes"]) == len(sa["strokes"]) == 1
     for fa, fb in zip(sa["frames"], sb["frames"]):
-        assert np.array_equal(meshio.read(straight / fa["file"]).points,
-                              meshio.read(split / fb["file"]).points)
+        assert np.array_equal(
+            meshio.read(straight / fa["file"]).points, meshio.read(split / fb["file"]).points
+        )
     frame_files = sorted(p.name for p in (split / "frames").iterdir())
     assert frame_files == sorted(p.name for p in (straight / "frames").iterdir())
     assert sb["status"] == "finished"
@@ -91,16 +109,20 @@ def interrupt_on_call(monkeypatch, owner, name, number, before=False, by_signal=
     return calls
 
 
-@pytest.mark.parametrize("point", ["file written, before its record", "before the rename",
-                                   "Ctrl-C while the frame is written"])
-def test_an_interrupt_while_a_frame_is_written_loses_no_frame(tmp_path, monkeypatch, straight,
-                                                               capsys, point):
+@pytest.mark.parametrize(
+    "point",
+    ["file written, before its record", "before the rename", "Ctrl-C while the frame is written"],
+)
+def test_an_interrupt_while_a_frame_is_written_loses_no_frame(
+    tmp_path, monkeypatch, straight, capsys, point
+):
     if point == "before the rename":
         # meshio has written the temporary file; the rename to the frame's name never happens
         interrupt_on_call(monkeypatch, yore.io.meshio, "write", 3)
     else:
-        interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 3,
-                          by_signal=point.startswith("Ctrl-C"))
+        interrupt_on_call(
+            monkeypatch, yore.io.FrameSeries, "write", 3, by_signal=point.startswith("Ctrl-C")
+        )
     assert run_hanging(tmp_path) == 130
     assert "--resume" in capsys.readouterr().err
     monkeypatch.undo()
@@ -113,10 +135,12 @@ def test_an_interrupt_while_a_frame_is_written_loses_no_frame(tmp_path, monkeypa
     assert_same_run(straight, tmp_path)
 
 
-@pytest.mark.parametrize("point", ["during the stroke's smoothing", "before it is counted",
-                                   "Ctrl-C during the stroke"])
-def test_an_interrupt_during_a_stroke_applies_it_exactly_once(tmp_path, monkeypatch, straight,
-                                                               point):
+@pytest.mark.parametrize(
+    "point", ["during the stroke's smoothing", "before it is counted", "Ctrl-C during the stroke"]
+)
+def test_an_interrupt_during_a_stroke_applies_it_exactly_once(
+    tmp_path, monkeypatch, straight, point
+):
     # call 1 of the stroke functions is the check before the run (on a copy of the cloth)
     if point == "during the stroke's smoothing":
         interrupt_on_call(monkeypatch, yore.Simulation, "smooth_rest_lengths", 2)
@@ -145,8 +169,9 @@ def test_a_stroke_whose_expansion_would_overflow_is_refused_before_the_run(tmp_p
     assert not (tmp_path / "state.npz").exists() and not (tmp_path / "summary.json").exists()
 
 
-def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(tmp_path,
-                                                                          monkeypatch, capsys):
+def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(
+    tmp_path, monkeypatch, capsys
+):
     # The integrators' own bound cannot see an energy that overflows (the bound overflows with
     # it); the run checks every frame. The frame at t = 0.2 s (after the stroke) is made to overflow.
     original = yore.runs.runner._measure
@@ -174,10 +199,12 @@ def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(tmp_
 
 def test_a_scene_that_starts_non_finite_is_bad_input(tmp_path, capsys):
     scene = tmp_path / "spin.toml"
-    scene.write_text('[mesh]\ngenerator = "cylinder"\nrings = 4\nsegments = 8\n'
-                     '[[driven]]\nset = "top rim"\nmotion = "rotation"\ncenter = [0, 0, 0]\n'
-                     'axis = [0, 1, 0]\nomega = 1e300\n'
-                     '[simulation]\nduration = 0.1\n[output]\nformat = "none"\n')
+    scene.write_text(
+        '[mesh]\ngenerator = "cylinder"\nrings = 4\nsegments = 8\n'
+        '[[driven]]\nset = "top rim"\nmotion = "rotation"\ncenter = [0, 0, 0]\n'
+        "axis = [0, 1, 0]\nomega = 1e300\n"
+        '[simulation]\nduration = 0.1\n[output]\nformat = "none"\n'
+    )
     assert main(["run", str(scene), "-o", str(tmp_path / "out"), "--quiet"]) == 2
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error:") and "\n" not in error
@@ -186,20 +213,37 @@ def test_a_scene_that_starts_non_finite_is_bad_input(tmp_path, capsys):
 
 def test_non_finite_numbers_reach_json_as_null_with_the_reason():
     document, found = yore.runs.runner._finite_json(
-        {"records": [{"area": 1.0, "rest_area": float("inf")}], "x": float("nan")})
+        {"records": [{"area": 1.0, "rest_area": float("inf")}], "x": float("nan")}
+    )
     assert document == {"records": [{"area": 1.0, "rest_area": None}], "x": None}
-    assert found == [{"field": "records.0.rest_area", "value": "inf"},
-                     {"field": "x", "value": "nan"}]
+    assert found == [
+        {"field": "records.0.rest_area", "value": "inf"},
+        {"field": "x", "value": "nan"},
+    ]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("scene", ["stiff", "hanging"])
 def test_resuming_a_finished_run_changes_nothing(tmp_path, scene):
-    small = {"stiff": ["--set", "mesh.nx=9", "--set", "mesh.ny=9", "--set", "fixed.1.indices=[8]",
-                       "--set", "simulation.duration=0.1", "--set", "strokes.0.time=0.05",
-                       "--set", "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
-                       "--no-render", "--quiet"],
-             "hanging": HANGING}[scene]
+    small = {
+        "stiff": [
+            "--set",
+            "mesh.nx=9",
+            "--set",
+            "mesh.ny=9",
+            "--set",
+            "fixed.1.indices=[8]",
+            "--set",
+            "simulation.duration=0.1",
+            "--set",
+            "strokes.0.time=0.05",
+            "--set",
+            "strokes.0.material=[[0.1, 0.2], [0.9, 0.2]]",
+            "--no-render",
+            "--quiet",
+        ],
+        "hanging": HANGING,
+    }[scene]
     assert main(["run", str(EXAMPLES / f"{scene}.toml"), "-o", str(tmp_path), *small]) == 0
     before, _ = yore.load_state(tmp_path / "state.npz")
     first = strict_json(tmp_path / "summary.json")
@@ -215,9 +259,22 @@ def test_a_folder_holding_another_run_is_refused_unless_overwrite(tmp_path, caps
     assert run_hanging(tmp_path) == 0
     stale = tmp_path / "frames" / "frame_00099.vtu"  # a frame the next run would not write
     stale.write_bytes((tmp_path / "frames" / "frame_00000.vtu").read_bytes())
-    other = ["run", str(EXAMPLES / "cylinder_paper.toml"), "-o", str(tmp_path), "--quiet",
-             "--no-render", "--set", "mesh.rings=4", "--set", "mesh.segments=8",
-             "--set", "simulation.duration=0.05", "--set", "strokes=[]"]
+    other = [
+        "run",
+        str(EXAMPLES / "cylinder_paper.toml"),
+        "-o",
+        str(tmp_path),
+        "--quiet",
+        "--no-render",
+        "--set",
+        "mesh.rings=4",
+        "--set",
+        "mesh.segments=8",
+        "--set",
+        "simulation.duration=0.05",
+        "--set",
+        "strokes=[]",
+    ]
     assert main(other) == 2
     error = capsys.readouterr().err
     assert "already holds another run" in error and "--overwrite" in error
@@ -251,13 +308,28 @@ def test_a_resume_checks_that_the_frames_it_lists_exist(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("field, value", [
-    ("step", -1), ("step", 3.5), ("step", 10**6), ("next_stroke", 7), ("frames", [[0.0]]),
-    ("records", "x"), ("before", {"time": "now"}), ("wall_seconds", -1.0), ("phases", []),
-    ("overrides", [1]), ("scene_text", None), ("settle", {"seconds": "long"}),
-    # issue 22, item 13: accepted, then a KeyError or a system file taken for a frame
-    ("records", [{}]), ("records", [{"time": 0.0, "total": "x"}]),
-    ("frames", [[0.0, "/etc/passwd"]]), ("before", {"time": 0.0, "file": "/etc/passwd"})])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("step", -1),
+        ("step", 3.5),
+        ("step", 10**6),
+        ("next_stroke", 7),
+        ("frames", [[0.0]]),
+        ("records", "x"),
+        ("before", {"time": "now"}),
+        ("wall_seconds", -1.0),
+        ("phases", []),
+        ("overrides", [1]),
+        ("scene_text", None),
+        ("settle", {"seconds": "long"}),
+        # issue 22, item 13: accepted, then a KeyError or a system file taken for a frame
+        ("records", [{}]),
+        ("records", [{"time": 0.0, "total": "x"}]),
+        ("frames", [[0.0, "/etc/passwd"]]),
+        ("before", {"time": 0.0, "file": "/etc/passwd"}),
+    ],
+)
 def test_a_tampered_run_record_is_refused_naming_the_field(tmp_path, capsys, field, value):
     assert run_hanging(tmp_path, "--until", "0.15") == 0
     sim, record = yore.load_state(tmp_path / "state.npz")
@@ -271,8 +343,9 @@ def test_a_tampered_run_record_is_refused_naming_the_field(tmp_path, capsys, fie
     assert f"metadata.{field}" in error
 
 
-def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(tmp_path, monkeypatch,
-                                                                    straight, capsys):
+def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(
+    tmp_path, monkeypatch, straight, capsys
+):
     # A state file after every frame; the process then "dies" (SystemExit, which the run does
     # not catch, like a kill) while writing the 5th frame, after the stroke.
     monkeypatch.setattr(yore.runs.runner, "CHECKPOINT_SECONDS", 0.0)
@@ -312,14 +385,28 @@ def test_a_settled_run_starts_at_rest_at_time_zero_and_says_so(tmp_path, capsys)
     resumed = strict_json(tmp_path / "summary.json")
     assert resumed["settle"] == settle and resumed["finished"]
     # a driven scene has no rest: one error line, exit code 2
-    assert main(["run", str(EXAMPLES / "cylinder_paper.toml"), "-o", str(tmp_path / "c"), "--quiet",
-                 "--no-render", "--set", "simulation.settle=1"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                str(EXAMPLES / "cylinder_paper.toml"),
+                "-o",
+                str(tmp_path / "c"),
+                "--quiet",
+                "--no-render",
+                "--set",
+                "simulation.settle=1",
+            ]
+        )
+        == 2
+    )
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error:") and "\n" not in error and "settle" in error
 
 
 def test_a_second_ctrl_c_while_the_state_is_saved_still_gives_the_resume_hint(
-        tmp_path, monkeypatch, straight, capsys):
+    tmp_path, monkeypatch, straight, capsys
+):
     # issue 22, item 18: the second interrupt replaced the first's hint with "interrupted"
     interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 3, by_signal=True)
     interrupt_on_call(monkeypatch, yore.runs.runner, "_summary", 1, by_signal=True)
@@ -332,8 +419,9 @@ def test_a_second_ctrl_c_while_the_state_is_saved_still_gives_the_resume_hint(
     assert_same_run(straight, tmp_path)
 
 
-def test_a_run_started_with_sigint_ignored_is_not_stopped_by_one(tmp_path, monkeypatch,
-                                                                 straight, capsys):
+def test_a_run_started_with_sigint_ignored_is_not_stopped_by_one(
+    tmp_path, monkeypatch, straight, capsys
+):
     # as under nohup: the deferral around a frame's bookkeeping installed its own handler, so
     # a SIGINT then stopped the run
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -350,8 +438,7 @@ def test_a_run_started_with_sigint_ignored_is_not_stopped_by_one(tmp_path, monke
 # -- issue 41: a Ctrl-C never changes the answer, a run folder can move -----------------------
 
 
-def test_a_run_split_between_frames_writes_the_frames_of_a_straight_run(tmp_path, straight,
-                                                                        capsys):
+def test_a_run_split_between_frames_writes_the_frames_of_a_straight_run(tmp_path, straight, capsys):
     # 0.12 s lies between the frames at 0.1 and 0.15 s: the part writes none there (class 5)
     assert run_hanging(tmp_path, "--until", "0.12") == 0
     part = strict_json(tmp_path / "summary.json")
@@ -359,8 +446,20 @@ def test_a_run_split_between_frames_writes_the_frames_of_a_straight_run(tmp_path
     assert [round(f["time"], 2) for f in part["frames"]] == [0.0, 0.05, 0.1]
     # a time the state has already passed is refused, and nothing changes
     stamp = (tmp_path / "state.npz").stat().st_mtime_ns
-    assert main(["run", "--resume", str(tmp_path / "state.npz"), "--until", "0.05",
-                 "--quiet", "--no-render"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--resume",
+                str(tmp_path / "state.npz"),
+                "--until",
+                "0.05",
+                "--quiet",
+                "--no-render",
+            ]
+        )
+        == 2
+    )
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error: --until 0.05 s is not after the state's time")
     assert (tmp_path / "state.npz").stat().st_mtime_ns == stamp
@@ -384,19 +483,33 @@ def test_a_run_folder_can_be_moved_or_copied_and_resumed(tmp_path, straight):
         assert resume(folder) == 0
         assert_same_run(straight, folder)
         # the collection lists the folder's own frames only
-        listed = [element.get("file") for element in
-                  ET.parse(folder / "frames" / "frame.pvd").getroot().iter("DataSet")]
-        assert listed == [Path(f["file"]).name for f in strict_json(folder /
-                                                                     "summary.json")["frames"]]
+        listed = [
+            element.get("file")
+            for element in ET.parse(folder / "frames" / "frame.pvd").getroot().iter("DataSet")
+        ]
+        assert listed == [
+            Path(f["file"]).name for f in strict_json(folder / "summary.json")["frames"]
+        ]
         assert all((folder / "frames" / name).is_file() for name in listed)
 
 
-def test_a_resume_into_another_folder_keeps_the_first_frames_where_they_are(tmp_path,
-                                                                           straight):
+def test_a_resume_into_another_folder_keeps_the_first_frames_where_they_are(tmp_path, straight):
     first, second = tmp_path / "first", tmp_path / "second"
     assert run_hanging(first, "--until", "0.15") == 0
-    assert main(["run", "--resume", str(first / "state.npz"), "-o", str(second), "--quiet",
-                 "--no-render"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--resume",
+                str(first / "state.npz"),
+                "-o",
+                str(second),
+                "--quiet",
+                "--no-render",
+            ]
+        )
+        == 0
+    )
     summary = strict_json(second / "summary.json")
     files = [second / f["file"] for f in summary["frames"]]
     assert all(path.is_file() for path in files)
@@ -405,8 +518,9 @@ def test_a_resume_into_another_folder_keeps_the_first_frames_where_they_are(tmp_
     assert len(files) == len(strict_json(straight / "summary.json")["frames"])
 
 
-def test_ctrl_c_just_after_the_first_frame_leaves_a_run_to_resume(tmp_path, monkeypatch,
-                                                                  straight, capsys):
+def test_ctrl_c_just_after_the_first_frame_leaves_a_run_to_resume(
+    tmp_path, monkeypatch, straight, capsys
+):
     interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 1, by_signal=True)
     assert run_hanging(tmp_path) == 130
     monkeypatch.undo()
@@ -419,8 +533,7 @@ def test_ctrl_c_just_after_the_first_frame_leaves_a_run_to_resume(tmp_path, monk
     assert_same_run(straight, tmp_path)
 
 
-def test_an_interrupt_before_the_first_frame_also_leaves_a_state(tmp_path, monkeypatch,
-                                                                 straight):
+def test_an_interrupt_before_the_first_frame_also_leaves_a_state(tmp_path, monkeypatch, straight):
     interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 1, before=True)
     assert run_hanging(tmp_path) == 130
     monkeypatch.undo()
@@ -430,11 +543,15 @@ def test_an_interrupt_before_the_first_frame_also_leaves_a_state(tmp_path, monke
     assert_same_run(straight, tmp_path)
 
 
-@pytest.mark.parametrize("edit, field", [
-    ("integrator", "metadata.scene_text"),  # the record's scene says explicit, the state bdf2
-    ("no frames", "metadata.records"),      # an emptied list would overwrite frame_00000
-    ("no frame files", "metadata.frames"),  # records kept, frames emptied
-    ("frames reordered", "metadata.frames")])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        ("integrator", "metadata.scene_text"),  # the record's scene says explicit, the state bdf2
+        ("no frames", "metadata.records"),  # an emptied list would overwrite frame_00000
+        ("no frame files", "metadata.frames"),  # records kept, frames emptied
+        ("frames reordered", "metadata.frames"),
+    ],
+)
 def test_a_record_that_does_not_match_its_run_is_refused(tmp_path, capsys, edit, field):
     assert run_hanging(tmp_path, "--until", "0.15") == 0
     sim, record = yore.load_state(tmp_path / "state.npz")
@@ -456,8 +573,7 @@ def test_a_record_that_does_not_match_its_run_is_refused(tmp_path, capsys, edit,
     assert (tmp_path / "frames" / "frame_00000.vtu").read_bytes() == frame
 
 
-def test_a_state_no_file_may_hold_ends_the_run_failed_not_finished(tmp_path, monkeypatch,
-                                                                   capsys):
+def test_a_state_no_file_may_hold_ends_the_run_failed_not_finished(tmp_path, monkeypatch, capsys):
     # class 2: a run whose state save_state refuses ends "failed" (exit 1), with a summary
     calls = {"count": 0}
     original = yore.runs.runner.save_state
@@ -476,16 +592,33 @@ def test_a_state_no_file_may_hold_ends_the_run_failed_not_finished(tmp_path, mon
     assert summary["status"] == "failed" and summary["outputs"]["state"] is None
 
 
-def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(tmp_path,
-                                                                          monkeypatch, capsys):
+def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(
+    tmp_path, monkeypatch, capsys
+):
     # class 15: with --allow-long, a frame interval over MAX_STEPS failed after starting
     # ("call step repeatedly"); the limit is lowered here to keep the run short
     monkeypatch.setattr(yore.runs.runner, "MAX_STEPS", 5)
     monkeypatch.setattr(yore.simulation, "MAX_STEPS", 5)
-    scene = ["run", str(EXAMPLES / "hanging_paper.toml"), "-o", str(tmp_path),
-             "--set", "mesh.nx=5", "--set", "mesh.ny=5", "--set", "strokes=[]",
-             "--set", "simulation.dt=0.001", "--set", "simulation.duration=0.03",
-             "--set", f"output.fps={1 / 0.012!r}", "--no-render", "--quiet"]  # 12 steps
+    scene = [
+        "run",
+        str(EXAMPLES / "hanging_paper.toml"),
+        "-o",
+        str(tmp_path),
+        "--set",
+        "mesh.nx=5",
+        "--set",
+        "mesh.ny=5",
+        "--set",
+        "strokes=[]",
+        "--set",
+        "simulation.dt=0.001",
+        "--set",
+        "simulation.duration=0.03",
+        "--set",
+        f"output.fps={1 / 0.012!r}",
+        "--no-render",
+        "--quiet",
+    ]  # 12 steps
     assert main(scene) == 2  # 30 steps > 5: refused up front without --allow-long
     assert "--allow-long" in capsys.readouterr().err
     assert main(scene + ["--allow-long"]) == 0
@@ -494,8 +627,9 @@ def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(tmp_pat
     assert [round(f["time"], 6) for f in summary["frames"]] == [0.0, 0.012, 0.024, 0.03]
 
 
-def test_out_of_memory_ends_the_run_failed_with_its_last_frame_kept(tmp_path, monkeypatch,
-                                                                    straight, capsys):
+def test_out_of_memory_ends_the_run_failed_with_its_last_frame_kept(
+    tmp_path, monkeypatch, straight, capsys
+):
     # issue 41, class 8: CHOLMOD's out of memory (MemoryError in Python) was a traceback that
     # kept only before.vtu; now the run goes back to its last frame, saves it, and says so
     original = yore.Simulation.step
@@ -587,12 +721,14 @@ fps = 20
 def _edit_option(name, value):
     def edit(state):
         state["options"] = {**state["options"], name: value}
+
     return edit
 
 
 def _edit_cloth(name, value):
     def edit(state):
         state["cloth"] = {**state["cloth"], name: value}
+
     return edit
 
 
@@ -601,6 +737,7 @@ def _edit_array(name, index, factor):
         values = state["cloth"][name].copy()
         values[index] *= factor
         state["cloth"] = {**state["cloth"], name: values}
+
     return edit
 
 
@@ -608,43 +745,111 @@ def _gravity(state):
     state["gravity"] = np.array([0.0, -1.62, 0.0])
 
 
-@pytest.mark.parametrize("scene, edit, until, key, expected, got", [
-    # the issue's three: error control switched off, ρ∞ raised, ν near its limit
-    ({"integrator": "tr-bdf2", "simulation": 'dt = "auto"'}, _edit_option("adaptive", False),
-     0.1, "simulation.dt", '"auto" (error-controlled steps)', "a fixed step"),
-    ({"integrator": "generalized-alpha", "options": "rho_infinity = 0.5"},
-     _edit_option("rho_infinity", 1.0), 0.1, "integrator.rho_infinity", "0.5", "1.0"),
-    ({"material": 'stretch = "membrane"\nyoung_modulus = 100.0'},
-     _edit_cloth("poisson_ratio", 0.99999), 0.1, "material.poisson_ratio", "0.3", "0.99999"),
-    # a default the scene leaves alone, the other constants, a spring, gravity, the masses
-    ({}, _edit_option("newton_tol", 1e-3), 0.1, "integrator.newton_tol (not given: the "
-     "default)", "1e-05", "0.001"),
-    ({"material": "bend_stiffness = 50.0"}, _edit_cloth("bend_stiffness", 5.0), 0.1,
-     "material.bend_stiffness", "50.0", "5.0"),
-    ({"material": 'bending = "quadratic"\nbending_modulus = 1e-4'},
-     _edit_cloth("bending_modulus", 1e-2), 0.1, "material.bending_modulus", "0.0001", "0.01"),
-    ({}, _edit_cloth("drag", 0.0), 0.1, "material.drag", "0.3", "0.0"),
-    ({"material": "damping = 0.05"}, _edit_cloth("damping", 0.5), 0.1, "material.damping",
-     "0.05", "0.5"),
-    ({}, _edit_array("spring_stiffness", 3, 0.5), 0.1, "material.stretch_stiffness", "200.0",
-     "100.0"),
-    ({}, _gravity, 0.1, "simulation.gravity", "[0.0, -9.81, 0.0]", "[0.0, -1.62, 0.0]"),
-    ({"material": "mass_per_vertex = 0.01"}, _edit_array("masses", 7, 2.0), 0.03,
-     "material.mass_per_vertex", "0.01", "0.02"),
-    # the membrane's strain (issue 52): a state switched to the smoothed strain
-    ({"material": 'stretch = "membrane"\nyoung_modulus = 100.0\nbending = "quadratic"\n'
-                  'bending_modulus = 1e-4'},
-     _edit_cloth("membrane_strain", "smoothed"), 0.1, "material.membrane_strain", "'faces'",
-     "'smoothed'"),
-])
+@pytest.mark.parametrize(
+    "scene, edit, until, key, expected, got",
+    [
+        # the issue's three: error control switched off, ρ∞ raised, ν near its limit
+        (
+            {"integrator": "tr-bdf2", "simulation": 'dt = "auto"'},
+            _edit_option("adaptive", False),
+            0.1,
+            "simulation.dt",
+            '"auto" (error-controlled steps)',
+            "a fixed step",
+        ),
+        (
+            {"integrator": "generalized-alpha", "options": "rho_infinity = 0.5"},
+            _edit_option("rho_infinity", 1.0),
+            0.1,
+            "integrator.rho_infinity",
+            "0.5",
+            "1.0",
+        ),
+        (
+            {"material": 'stretch = "membrane"\nyoung_modulus = 100.0'},
+            _edit_cloth("poisson_ratio", 0.99999),
+            0.1,
+            "material.poisson_ratio",
+            "0.3",
+            "0.99999",
+        ),
+        # a default the scene leaves alone, the other constants, a spring, gravity, the masses
+        (
+            {},
+            _edit_option("newton_tol", 1e-3),
+            0.1,
+            "integrator.newton_tol (not given: the default)",
+            "1e-05",
+            "0.001",
+        ),
+        (
+            {"material": "bend_stiffness = 50.0"},
+            _edit_cloth("bend_stiffness", 5.0),
+            0.1,
+            "material.bend_stiffness",
+            "50.0",
+            "5.0",
+        ),
+        (
+            {"material": 'bending = "quadratic"\nbending_modulus = 1e-4'},
+            _edit_cloth("bending_modulus", 1e-2),
+            0.1,
+            "material.bending_modulus",
+            "0.0001",
+            "0.01",
+        ),
+        ({}, _edit_cloth("drag", 0.0), 0.1, "material.drag", "0.3", "0.0"),
+        (
+            {"material": "damping = 0.05"},
+            _edit_cloth("damping", 0.5),
+            0.1,
+            "material.damping",
+            "0.05",
+            "0.5",
+        ),
+        (
+            {},
+            _edit_array("spring_stiffness", 3, 0.5),
+            0.1,
+            "material.stretch_stiffness",
+            "200.0",
+            "100.0",
+        ),
+        ({}, _gravity, 0.1, "simulation.gravity", "[0.0, -9.81, 0.0]", "[0.0, -1.62, 0.0]"),
+        (
+            {"material": "mass_per_vertex = 0.01"},
+            _edit_array("masses", 7, 2.0),
+            0.03,
+            "material.mass_per_vertex",
+            "0.01",
+            "0.02",
+        ),
+        # the membrane's strain (issue 52): a state switched to the smoothed strain
+        (
+            {
+                "material": 'stretch = "membrane"\nyoung_modulus = 100.0\nbending = "quadratic"\n'
+                "bending_modulus = 1e-4"
+            },
+            _edit_cloth("membrane_strain", "smoothed"),
+            0.1,
+            "material.membrane_strain",
+            "'faces'",
+            "'smoothed'",
+        ),
+    ],
+)
 def test_a_state_whose_settings_were_edited_is_refused_naming_both_values(
-        tmp_path, capsys, scene, edit, until, key, expected, got):
-    settings = {"material": "", "integrator": "implicit", "simulation": "", "options": "",
-                **scene}
+    tmp_path, capsys, scene, edit, until, key, expected, got
+):
+    settings = {"material": "", "integrator": "implicit", "simulation": "", "options": "", **scene}
     path = tmp_path / "scene.toml"
     path.write_text(SMALL_SCENE.format(**settings), encoding="utf-8")
-    assert main(["run", str(path), "-o", str(tmp_path), "--until", str(until), "--quiet",
-                 "--no-render"]) == 0
+    assert (
+        main(
+            ["run", str(path), "-o", str(tmp_path), "--until", str(until), "--quiet", "--no-render"]
+        )
+        == 0
+    )
     capsys.readouterr()
     sim, record = yore.load_state(tmp_path / "state.npz")
     state = sim.state()
@@ -659,22 +864,32 @@ def test_a_state_whose_settings_were_edited_is_refused_naming_both_values(
     assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == written
 
 
-@pytest.mark.parametrize("scene", [
-    {"integrator": "tr-bdf2", "simulation": 'dt = "auto"', "options": "rtol = 1e-4"},
-    {"integrator": "explicit", "options": "strain_limit = 1.1"},
-    {"integrator": "local-global", "options": 'rebuild = "stale-pcg"'},
-    {"integrator": "generalized-alpha", "material": 'stretch = "membrane"\nyoung_modulus = '
-     '100.0\ndensity = 0.2'},
-    {"integrator": "bdf2", "options": "linearized = true",
-     "material": 'bending = "quadratic"\nbending_modulus = 1e-4'}])
+@pytest.mark.parametrize(
+    "scene",
+    [
+        {"integrator": "tr-bdf2", "simulation": 'dt = "auto"', "options": "rtol = 1e-4"},
+        {"integrator": "explicit", "options": "strain_limit = 1.1"},
+        {"integrator": "local-global", "options": 'rebuild = "stale-pcg"'},
+        {
+            "integrator": "generalized-alpha",
+            "material": 'stretch = "membrane"\nyoung_modulus = 100.0\ndensity = 0.2',
+        },
+        {
+            "integrator": "bdf2",
+            "options": "linearized = true",
+            "material": 'bending = "quadratic"\nbending_modulus = 1e-4',
+        },
+    ],
+)
 def test_an_unedited_state_resumes_past_its_strokes_with_every_setting_checked(tmp_path, scene):
     # the check compares settings only: the stroke's new springs, vertices and masses pass
-    settings = {"material": "", "integrator": "implicit", "simulation": "", "options": "",
-                **scene}
+    settings = {"material": "", "integrator": "implicit", "simulation": "", "options": "", **scene}
     path = tmp_path / "scene.toml"
     path.write_text(SMALL_SCENE.format(**settings), encoding="utf-8")
-    assert main(["run", str(path), "-o", str(tmp_path), "--until", "0.1", "--quiet",
-                 "--no-render"]) == 0
+    assert (
+        main(["run", str(path), "-o", str(tmp_path), "--until", "0.1", "--quiet", "--no-render"])
+        == 0
+    )
     sim, record = yore.load_state(tmp_path / "state.npz")
     assert record["next_stroke"] == 1 and sim.cloth.vertex_count > 36
     assert resume(tmp_path) == 0
@@ -685,13 +900,18 @@ def test_a_run_whose_scene_gives_an_idle_option_still_resumes(tmp_path):
     # runs started before such options were refused hold them in their scene: a resume
     # continues what ran (rtol with a fixed dt did nothing then and does nothing now)
     path = tmp_path / "scene.toml"
-    path.write_text(SMALL_SCENE.format(material="", integrator="tr-bdf2", simulation="dt = 0.02",
-                                       options=""), encoding="utf-8")
-    assert main(["run", str(path), "-o", str(tmp_path), "--until", "0.1", "--quiet",
-                 "--no-render"]) == 0
+    path.write_text(
+        SMALL_SCENE.format(material="", integrator="tr-bdf2", simulation="dt = 0.02", options=""),
+        encoding="utf-8",
+    )
+    assert (
+        main(["run", str(path), "-o", str(tmp_path), "--until", "0.1", "--quiet", "--no-render"])
+        == 0
+    )
     sim, record = yore.load_state(tmp_path / "state.npz")
-    record["scene_text"] = record["scene_text"].replace("[integrator]\n",
-                                                        "[integrator]\nrtol = 0.001\n")
+    record["scene_text"] = record["scene_text"].replace(
+        "[integrator]\n", "[integrator]\nrtol = 0.001\n"
+    )
     with pytest.raises(yore.runs.SceneError, match="integrator.rtol: rtol acts only with"):
         yore.load_scene(text=record["scene_text"]).build()
     yore.save_state(tmp_path / "state.npz", sim, metadata=record)

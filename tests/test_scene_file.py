@@ -33,8 +33,18 @@ def test_the_toml_hanging_cloth_is_the_python_scene_exactly():
     sim, sets = load_scene(EXAMPLES / "hanging_paper.toml").build()
     reference = yore.scenes.hanging_cloth()
     a, b = sim.cloth.state(), reference.cloth.state()
-    for key in ("positions", "velocities", "masses", "faces", "spring_ends", "spring_rest",
-                "spring_stiffness", "spring_damping", "vertex_states", "material_coordinates"):
+    for key in (
+        "positions",
+        "velocities",
+        "masses",
+        "faces",
+        "spring_ends",
+        "spring_rest",
+        "spring_stiffness",
+        "spring_damping",
+        "vertex_states",
+        "material_coordinates",
+    ):
         assert np.array_equal(a[key], b[key]), key
     assert sim.dt == reference.dt and sim.integrator == reference.integrator
     assert list(sets["bottom corners"]) == [0, 20]
@@ -96,13 +106,15 @@ def test_a_stroke_that_rounds_to_the_last_step_is_refused_before_running(tmp_pat
     # duration 0.05 s at dt 1 ms: a stroke at 0.0496 s rounds to step 50, the last, after which
     # the run draws nothing; 0.049 s (step 49) is drawn before the last step
     late = MINIMAL.replace("duration = 0.1", "duration = 0.05\ndt = 0.001") + (
-        "[[strokes]]\ntime = 0.0496\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n")
+        "[[strokes]]\ntime = 0.0496\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n"
+    )
     error = error_of(late)
     assert error.key == "strokes[0].time" and error.line == 10
     assert "step 50" in error.problem and "0.049" in error.expected
     ok = late.replace("time = 0.0496", "time = 0.049")
-    summary = yore.run_scene(load_scene(Path("scene.toml"), text=ok), tmp_path / "run",
-                             quiet=True, render=False)
+    summary = yore.run_scene(
+        load_scene(Path("scene.toml"), text=ok), tmp_path / "run", quiet=True, render=False
+    )
     assert summary["finished"] and len(summary["strokes"]) == 1
 
 
@@ -113,9 +125,11 @@ def test_selections_out_of_range_or_empty_fail_before_running():
     assert error.key == "fixed[0].box" and "no vertex" in error.problem
     error = error_of(MINIMAL + '[[fixed]]\nset = "top rim"\n')
     assert error.key == "fixed[0].set" and "top edge" in error.expected
-    error = error_of(MINIMAL + '[[fixed]]\nset = "top edge"\n'
-                     '[[driven]]\nset = "top edge"\ncenter = [0, 0, 0]\naxis = [0, 1, 0]\n'
-                     "omega = 1.0\n")
+    error = error_of(
+        MINIMAL + '[[fixed]]\nset = "top edge"\n'
+        '[[driven]]\nset = "top edge"\ncenter = [0, 0, 0]\naxis = [0, 1, 0]\n'
+        "omega = 1.0\n"
+    )
     assert error.key == "driven[0]" and "fixed" in error.problem
 
 
@@ -139,8 +153,10 @@ def test_overrides_replace_values_and_are_checked_like_the_file():
     assert error.key == "mesh.nx" and error.line is None and "command line" in str(error)
     assert parse_override("simulation.dt=1e-3") == ("simulation.dt", 1e-3)
     assert parse_override("mesh.generator=grid") == ("mesh.generator", "grid")
-    assert parse_override("strokes.0.material=[[0.1, 0.2], [0.3, 0.4]]")[1] == \
-        [[0.1, 0.2], [0.3, 0.4]]
+    assert parse_override("strokes.0.material=[[0.1, 0.2], [0.3, 0.4]]")[1] == [
+        [0.1, 0.2],
+        [0.3, 0.4],
+    ]
 
 
 def test_invalid_toml_reports_the_line():
@@ -154,7 +170,8 @@ def test_a_screen_stroke_through_the_scene_camera_splits_the_faces_under_it(tmp_
     text = MINIMAL + (
         "[camera]\neye = [0.5, 0.5, 2.0]\ntarget = [0.5, 0.5, 0.0]\nwidth = 400\nheight = 300\n"
         f"[[strokes]]\ntime = 0.0\nscreen = {pixels.tolist()}\n"
-        '[output]\nformat = "none"\n')
+        '[output]\nformat = "none"\n'
+    )
     scene = load_scene(text=text)
     scene.check_strokes()
     summary = yore.run_scene(scene, tmp_path, quiet=True)
@@ -190,8 +207,10 @@ def test_a_generated_mesh_too_large_is_refused_before_it_is_built():
     error = error_of(MINIMAL.replace("nx = 5", "nx = 100000").replace("ny = 4", "ny = 21"))
     assert error.key == "mesh.nx" and "2100000 vertices" in error.problem
     assert error.expected == f"at most {yore.meshes.MAX_MESH_VERTICES} vertices"
-    error = error_of('[mesh]\ngenerator = "cylinder"\nrings = 2000\nsegments = 2000\n'
-                     '[simulation]\nduration = 0.1\n')
+    error = error_of(
+        '[mesh]\ngenerator = "cylinder"\nrings = 2000\nsegments = 2000\n'
+        "[simulation]\nduration = 0.1\n"
+    )
     assert error.key in ("mesh.rings", "mesh.segments")
 
 
@@ -207,10 +226,18 @@ def test_a_camera_too_large_is_refused():
     assert error.key == "camera.width" and "256000000 pixels" in error.problem
 
 
-@pytest.mark.parametrize("option, value", [("max_newton", "2.9"), ("max_newton", "1000000000"),
-                                           ("linearized", '"no"'), ("linearized", "1"),
-                                           ("lag_cg_tol", "inf"), ("newton_tol", "nan"),
-                                           ("solver", '"cholesky"')])
+@pytest.mark.parametrize(
+    "option, value",
+    [
+        ("max_newton", "2.9"),
+        ("max_newton", "1000000000"),
+        ("linearized", '"no"'),
+        ("linearized", "1"),
+        ("lag_cg_tol", "inf"),
+        ("newton_tol", "nan"),
+        ("solver", '"cholesky"'),
+    ],
+)
 def test_integrator_options_are_checked_by_the_simulation_rules(option, value):
     text = MINIMAL.replace("duration = 0.1", 'duration = 0.1\nintegrator = "implicit"')
     error = error_of(text + f"[integrator]\n{option} = {value}\n")
@@ -223,19 +250,24 @@ def test_an_option_the_scene_does_not_use_is_named_with_its_line():
     error = error_of(text + "[integrator]\nnewton_tol = 1e-6\nrtol = 1e-3\n")
     assert error.key == "integrator.rtol" and error.line == 12
     assert 'acts only with dt="auto"' in error.problem and "with a fixed dt" in error.problem
-    scene = load_scene(text=text.replace("dt = 0.01", 'dt = "auto"') +
-                       "[integrator]\nrtol = 1e-3\n")
+    scene = load_scene(
+        text=text.replace("dt = 0.01", 'dt = "auto"') + "[integrator]\nrtol = 1e-3\n"
+    )
     sim, _ = scene.build()
     assert sim.options["rtol"] == 1e-3 and sim.options["adaptive"] is True
-    error = error_of(text.replace("tr-bdf2", "local-global") +
-                     '[integrator]\nacceleration = "none"\nchebyshev_rho = 0.5\n')
+    error = error_of(
+        text.replace("tr-bdf2", "local-global")
+        + '[integrator]\nacceleration = "none"\nchebyshev_rho = 0.5\n'
+    )
     assert error.key == "integrator.chebyshev_rho" and 'acceleration="chebyshev"' in str(error)
 
 
 def test_non_finite_numbers_are_refused_where_they_make_no_sense():
-    for text in (MINIMAL.replace("duration = 0.1", "duration = inf"),
-                 MINIMAL + "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, nan], [0.5, 0.5]]\n",
-                 MINIMAL + "[material]\nmass = nan\n"):
+    for text in (
+        MINIMAL.replace("duration = 0.1", "duration = inf"),
+        MINIMAL + "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, nan], [0.5, 0.5]]\n",
+        MINIMAL + "[material]\nmass = nan\n",
+    ):
         assert "\n" not in str(error_of(text))
 
 
@@ -262,28 +294,38 @@ def test_a_subnormal_mass_is_named_in_material_and_no_nan_step_is_suggested():
 
 
 def test_a_duration_past_the_time_limit_is_named():
-    with pytest.raises(SceneError, match=r"simulation.duration: got 1e\+308; expected a number "
-                                         r"> 0 and <= 1e\+09"):
-        load_scene(Path("scene.toml"), text=MINIMAL.replace("duration = 0.1",
-                                                            "duration = 1e308"))
+    with pytest.raises(
+        SceneError,
+        match=r"simulation.duration: got 1e\+308; expected a number "
+        r"> 0 and <= 1e\+09",
+    ):
+        load_scene(Path("scene.toml"), text=MINIMAL.replace("duration = 0.1", "duration = 1e308"))
 
 
 @pytest.mark.parametrize("fps", [5e-324, 1e-310, 1e-300])
 def test_a_tiny_frame_rate_writes_the_first_and_last_frames(tmp_path, fps):
     # 1 / (fps × dt) overflowed (OverflowError) or divided by zero (ZeroDivisionError)
-    text = MINIMAL.replace("duration = 0.1", "duration = 0.05\ndt = 0.01") + \
-        f"[output]\nformat = \"vtu\"\nfps = {fps!r}\n"
-    summary = yore.run_scene(load_scene(Path("scene.toml"), text=text), tmp_path / "run",
-                             quiet=True, render=False)
+    text = (
+        MINIMAL.replace("duration = 0.1", "duration = 0.05\ndt = 0.01")
+        + f'[output]\nformat = "vtu"\nfps = {fps!r}\n'
+    )
+    summary = yore.run_scene(
+        load_scene(Path("scene.toml"), text=text), tmp_path / "run", quiet=True, render=False
+    )
     assert summary["finished"] and [f["time"] for f in summary["frames"]] == [0.0, 0.05]
 
 
 def test_a_run_shorter_than_half_a_step_is_named_not_a_negative_time(tmp_path):
     # a stroke then said "expected a time at most -1 s"
-    text = MINIMAL.replace("duration = 0.1", "duration = 0.004\ndt = 0.01") + \
-        "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n"
-    with pytest.raises(ValueError, match=r"the run has no step: 0.004 s is less than half of "
-                                         r"dt = 0.01 s") as caught:
+    text = (
+        MINIMAL.replace("duration = 0.1", "duration = 0.004\ndt = 0.01")
+        + "[[strokes]]\ntime = 0.0\nmaterial = [[0.1, 0.5], [0.9, 0.5]]\n"
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"the run has no step: 0.004 s is less than half of "
+        r"dt = 0.01 s",
+    ) as caught:
         yore.run_scene(load_scene(Path("scene.toml"), text=text), tmp_path / "run", quiet=True)
     assert "-1" not in str(caught.value) and not (tmp_path / "run").exists()
 

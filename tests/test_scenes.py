@@ -64,8 +64,9 @@ def test_rotating_cylinder_rim_follows_the_prescribed_rotation_exactly():
 
 
 def test_scenes_accept_material_and_integrator_options():
-    sim = yore.scenes.hanging_cloth(resolution=5, stretch_stiffness=50.0, bend_stiffness=0.0,
-                                    dt=1e-4, strain_limit=1.1)
+    sim = yore.scenes.hanging_cloth(
+        resolution=5, stretch_stiffness=50.0, bend_stiffness=0.0, dt=1e-4, strain_limit=1.1
+    )
     assert sim.dt == 1e-4
     assert sim.options["strain_limit"] == 1.1
     assert sim.stats["active_terms"]["bending_springs"] == 0
@@ -74,8 +75,9 @@ def test_scenes_accept_material_and_integrator_options():
     assert sim.stats["active_terms"]["strain_limiting"] and sim.stats["steps"] == 50
 
 
-@pytest.mark.parametrize("keyword, value", [("width", -0.5), ("length", 0.0),
-                                            ("width", float("nan")), ("length", None)])
+@pytest.mark.parametrize(
+    "keyword, value", [("width", -0.5), ("length", 0.0), ("width", float("nan")), ("length", None)]
+)
 def test_a_stretched_sheet_of_no_size_is_refused_naming_the_size(keyword, value):
     # issue 53: a negative width meshed the mirror-image rectangle without a word
     with pytest.raises(ValueError, match=f"{keyword} must be"):
@@ -88,9 +90,15 @@ def test_hanging_cloth_on_a_pattern_mesh_hangs_from_the_same_two_corners():
     # default, with its pins at vertices 0 and resolution − 1 as before.
     grid = yore.scenes.hanging_cloth(resolution=13)
     assert list(grid.scene["fixed"]) == [0, 12]
-    sim = yore.scenes.hanging_cloth(resolution=13, mesh="pattern", bending="quadratic",
-                                    bending_modulus=1e-4, stretch="membrane",
-                                    young_modulus=400.0, poisson_ratio=0.3)
+    sim = yore.scenes.hanging_cloth(
+        resolution=13,
+        mesh="pattern",
+        bending="quadratic",
+        bending_modulus=1e-4,
+        stretch="membrane",
+        young_modulus=400.0,
+        poisson_ratio=0.3,
+    )
     uv = sim.scene["uv"]
     pins = sim.scene["fixed"]
     assert np.allclose(uv[pins], [[0.0, 0.0], [1.0, 0.0]])

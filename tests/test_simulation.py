@@ -12,11 +12,17 @@ def cloth():
 
 
 def test_unknown_integrator_and_option_names_list_the_valid_ones(cloth):
-    with pytest.raises(ValueError, match="valid: explicit, implicit, bdf2, generalized-alpha, tr-bdf2, local-global"):
+    with pytest.raises(
+        ValueError,
+        match="valid: explicit, implicit, bdf2, generalized-alpha, tr-bdf2, local-global",
+    ):
         yore.Simulation(cloth, integrator="rk4")
-    with pytest.raises(ValueError, match="'strain_limt'.*valid: divergence_energy_factor, "
-                                         "energy_growth_tolerance, strain_limit, "
-                                         "strain_limit_passes"):
+    with pytest.raises(
+        ValueError,
+        match="'strain_limt'.*valid: divergence_energy_factor, "
+        "energy_growth_tolerance, strain_limit, "
+        "strain_limit_passes",
+    ):
         yore.Simulation(cloth, strain_limt=1.1)
 
 
@@ -32,8 +38,10 @@ def test_bad_gravity_is_a_value_error(cloth, gravity):
         yore.Simulation(cloth, gravity=gravity)
 
 
-@pytest.mark.parametrize("options, message", [({"strain_limit": 0.9}, "strain_limit"),
-                                              ({"strain_limit_passes": 0}, "passes")])
+@pytest.mark.parametrize(
+    "options, message",
+    [({"strain_limit": 0.9}, "strain_limit"), ({"strain_limit_passes": 0}, "passes")],
+)
 def test_bad_option_values_are_value_errors(cloth, options, message):
     with pytest.raises(ValueError, match=message):
         yore.Simulation(cloth, **options)
@@ -69,12 +77,21 @@ def test_stats_report_active_terms_and_phase_times(cloth):
     sim.step(100)
     stats = sim.stats
     assert stats["active_terms"] == {
-        "gravity": False, "spring_damping": False, "drag": False,
+        "gravity": False,
+        "spring_damping": False,
+        "drag": False,
         "bending_springs": int(np.count_nonzero(cloth.springs.kind == 1)),
-        "strain_limiting": False, "fixed_vertices": 1, "driven_vertices": 0}
+        "strain_limiting": False,
+        "fixed_vertices": 1,
+        "driven_vertices": 0,
+    }
     # phases are wall time: check their names, never their values (they vary with load)
-    assert set(stats["phases"]) == {"forces_seconds", "update_seconds", "constraints_seconds",
-                                    "checks_seconds"}
+    assert set(stats["phases"]) == {
+        "forces_seconds",
+        "update_seconds",
+        "constraints_seconds",
+        "checks_seconds",
+    }
     assert stats["steps"] == 100 and stats["counters"]["strain_corrections"] == 0
     assert stats["vertices"] == 16 and stats["springs"] == cloth.spring_count
 
@@ -116,52 +133,90 @@ def test_repeated_advance_tracks_frame_times_without_drift(cloth):
 # -- options are type-checked, not coerced ------------------------------------------------------
 
 
-@pytest.mark.parametrize("integrator, option, value", [
-    ("implicit", "linearized", "no"), ("implicit", "linearized", 0),
-    ("implicit", "max_newton", 2.9), ("implicit", "max_newton", True),
-    ("implicit", "max_newton", 10**9), ("implicit", "lag_cg_tol", float("inf")),
-    ("implicit", "newton_tol", float("nan")), ("implicit", "solver", "cholesky"),
-    ("implicit", "pcg_max_iterations", 10**7), ("implicit", "adaptive_projection", "yes"),
-    ("local-global", "iterations", 10**9), ("local-global", "iterations", 10.0),
-    ("local-global", "chebyshev_rho", 1.0), ("local-global", "record_objective", 1),
-    ("explicit", "strain_limit", 0.9), ("explicit", "strain_limit", "1.1"),
-    ("explicit", "divergence_energy_factor", float("inf")),
-])
-def test_an_option_of_the_wrong_type_or_range_is_refused_naming_it(cloth, integrator, option,
-                                                                   value):
+@pytest.mark.parametrize(
+    "integrator, option, value",
+    [
+        ("implicit", "linearized", "no"),
+        ("implicit", "linearized", 0),
+        ("implicit", "max_newton", 2.9),
+        ("implicit", "max_newton", True),
+        ("implicit", "max_newton", 10**9),
+        ("implicit", "lag_cg_tol", float("inf")),
+        ("implicit", "newton_tol", float("nan")),
+        ("implicit", "solver", "cholesky"),
+        ("implicit", "pcg_max_iterations", 10**7),
+        ("implicit", "adaptive_projection", "yes"),
+        ("local-global", "iterations", 10**9),
+        ("local-global", "iterations", 10.0),
+        ("local-global", "chebyshev_rho", 1.0),
+        ("local-global", "record_objective", 1),
+        ("explicit", "strain_limit", 0.9),
+        ("explicit", "strain_limit", "1.1"),
+        ("explicit", "divergence_energy_factor", float("inf")),
+    ],
+)
+def test_an_option_of_the_wrong_type_or_range_is_refused_naming_it(
+    cloth, integrator, option, value
+):
     with pytest.raises(ValueError, match=f"option {option}: got {type(value).__name__} ") as e:
         yore.Simulation(cloth, integrator=integrator, **{option: value})
     assert "expected" in str(e.value) and "\n" not in str(e.value)
 
 
 def test_options_given_correctly_are_kept_as_given(cloth):
-    sim = yore.Simulation(cloth, integrator="implicit", linearized=True, max_newton=np.int64(3),
-                          newton_tol=1, adaptive_projection=None)
+    sim = yore.Simulation(
+        cloth,
+        integrator="implicit",
+        linearized=True,
+        max_newton=np.int64(3),
+        newton_tol=1,
+        adaptive_projection=None,
+    )
     options = sim.state()["options"]
     assert options["linearized"] is True and options["max_newton"] == 3
     assert type(options["max_newton"]) is int and type(options["newton_tol"]) is float
 
 
 # -- issue 53: an option of a mode not in use is refused, not ignored -------------------------
-@pytest.mark.parametrize("integrator, options, option, needs", [
-    ("tr-bdf2", {"dt": 0.01, "rtol": 1e-3}, "rtol", 'dt="auto"'),
-    ("bdf2", {"atol": 1e-6}, "atol", 'dt="auto"'),
-    ("tr-bdf2", {"max_steps": 10}, "max_steps", 'dt="auto"'),
-    ("implicit", {"lag_cg_tol": 1e-6}, "lag_cg_tol", "lagged_factorization=True"),
-    ("generalized-alpha", {"lagged_factorization": False, "lag_max_cg_iterations": 5},
-     "lag_max_cg_iterations", "lagged_factorization=True"),
-    ("implicit", {"pcg_tol": 1e-6}, "pcg_tol", 'solver="pcg"'),
-    ("implicit", {"solver": "eigen-ldlt", "pcg_max_iterations": 10}, "pcg_max_iterations",
-     'solver="pcg"'),
-    ("implicit", {"solver": "pcg", "factorization": "simplicial"}, "factorization",
-     'solver="cholmod"'),
-    ("explicit", {"strain_limit_passes": 8}, "strain_limit_passes", "a strain_limit"),
-    ("local-global", {"stale_pcg_tol": 1e-6}, "stale_pcg_tol", 'rebuild="stale-pcg"'),
-    ("local-global", {"acceleration": "none", "chebyshev_rho": 0.9}, "chebyshev_rho",
-     'acceleration="chebyshev"'),
-])
-def test_an_option_of_a_mode_not_in_use_is_refused_naming_the_mode(cloth, integrator, options,
-                                                                   option, needs):
+@pytest.mark.parametrize(
+    "integrator, options, option, needs",
+    [
+        ("tr-bdf2", {"dt": 0.01, "rtol": 1e-3}, "rtol", 'dt="auto"'),
+        ("bdf2", {"atol": 1e-6}, "atol", 'dt="auto"'),
+        ("tr-bdf2", {"max_steps": 10}, "max_steps", 'dt="auto"'),
+        ("implicit", {"lag_cg_tol": 1e-6}, "lag_cg_tol", "lagged_factorization=True"),
+        (
+            "generalized-alpha",
+            {"lagged_factorization": False, "lag_max_cg_iterations": 5},
+            "lag_max_cg_iterations",
+            "lagged_factorization=True",
+        ),
+        ("implicit", {"pcg_tol": 1e-6}, "pcg_tol", 'solver="pcg"'),
+        (
+            "implicit",
+            {"solver": "eigen-ldlt", "pcg_max_iterations": 10},
+            "pcg_max_iterations",
+            'solver="pcg"',
+        ),
+        (
+            "implicit",
+            {"solver": "pcg", "factorization": "simplicial"},
+            "factorization",
+            'solver="cholmod"',
+        ),
+        ("explicit", {"strain_limit_passes": 8}, "strain_limit_passes", "a strain_limit"),
+        ("local-global", {"stale_pcg_tol": 1e-6}, "stale_pcg_tol", 'rebuild="stale-pcg"'),
+        (
+            "local-global",
+            {"acceleration": "none", "chebyshev_rho": 0.9},
+            "chebyshev_rho",
+            'acceleration="chebyshev"',
+        ),
+    ],
+)
+def test_an_option_of_a_mode_not_in_use_is_refused_naming_the_mode(
+    cloth, integrator, options, option, needs
+):
     with pytest.raises(yore.options.InactiveOptionError) as caught:
         yore.Simulation(cloth, integrator=integrator, **options)
     message = str(caught.value)
@@ -170,15 +225,18 @@ def test_an_option_of_a_mode_not_in_use_is_refused_naming_the_mode(cloth, integr
     assert isinstance(caught.value, ValueError)
 
 
-@pytest.mark.parametrize("integrator, options", [
-    ("tr-bdf2", {"dt": "auto", "rtol": 1e-4, "atol": 1e-6, "max_steps": 100}),
-    ("bdf2", {"dt": "auto", "rtol": 1e-4}),
-    ("implicit", {"lagged_factorization": True, "lag_cg_tol": 1e-8}),
-    ("implicit", {"solver": "pcg", "pcg_tol": 1e-8, "pcg_max_iterations": 100}),
-    ("implicit", {"solver": "cholmod", "factorization": "simplicial"}),
-    ("explicit", {"strain_limit": 1.1, "strain_limit_passes": 8}),
-    ("local-global", {"rebuild": "stale-pcg", "stale_pcg_tol": 1e-8, "chebyshev_rho": 0.9}),
-])
+@pytest.mark.parametrize(
+    "integrator, options",
+    [
+        ("tr-bdf2", {"dt": "auto", "rtol": 1e-4, "atol": 1e-6, "max_steps": 100}),
+        ("bdf2", {"dt": "auto", "rtol": 1e-4}),
+        ("implicit", {"lagged_factorization": True, "lag_cg_tol": 1e-8}),
+        ("implicit", {"solver": "pcg", "pcg_tol": 1e-8, "pcg_max_iterations": 100}),
+        ("implicit", {"solver": "cholmod", "factorization": "simplicial"}),
+        ("explicit", {"strain_limit": 1.1, "strain_limit_passes": 8}),
+        ("local-global", {"rebuild": "stale-pcg", "stale_pcg_tol": 1e-8, "chebyshev_rho": 0.9}),
+    ],
+)
 def test_the_same_options_in_their_mode_are_taken(cloth, integrator, options):
     sim = yore.Simulation(cloth, integrator=integrator, **options)
     given = {name: value for name, value in options.items() if name != "dt"}
@@ -189,9 +247,13 @@ def test_the_same_options_in_their_mode_are_taken(cloth, integrator, options):
 def test_defaults_of_modes_not_in_use_are_never_judged(cloth, integrator):
     # every integrator at its defaults, and with a mode switched off: its other modes'
     # defaults stay silent, and a state (which holds them all) continues
-    switches = {"implicit": {"solver": "pcg"}, "bdf2": {"solver": "eigen-ldlt"},
-                "tr-bdf2": {"solver": "pcg"}, "explicit": {"strain_limit": None},
-                "local-global": {"acceleration": "none"}}
+    switches = {
+        "implicit": {"solver": "pcg"},
+        "bdf2": {"solver": "eigen-ldlt"},
+        "tr-bdf2": {"solver": "pcg"},
+        "explicit": {"strain_limit": None},
+        "local-global": {"acceleration": "none"},
+    }
     for options in ({}, switches.get(integrator, {})):
         sim = yore.Simulation(cloth, integrator=integrator, **options)
         again = yore.Simulation.from_state(sim.state())
@@ -201,21 +263,27 @@ def test_defaults_of_modes_not_in_use_are_never_judged(cloth, integrator):
 def test_every_mode_only_option_and_its_setting_belong_to_one_integrator():
     tables = yore.options.INTEGRATOR_OPTIONS
     for option, mode in yore.options.MODE_ONLY.items():
-        together = [name for name, table in tables.items()
-                    if option in table and mode.setting in table]
+        together = [
+            name for name, table in tables.items() if option in table and mode.setting in table
+        ]
         assert together, option  # an entry no integrator can act on would be dead
 
 
-@pytest.mark.parametrize("arguments, match", [
-    ({"region": [0.5, 1.7]}, "region: got list"), ({"region": True}, "region: got bool"),
-    ({"region": "some"}, "region"), ({"region": [[0, 1]]}, "region: got an array of shape"),
-    ({"region": [10**6]}, "region: vertex 1000000 is out of range"),
-    ({"region": "all", "iterations": 2.9}, "iterations: got float 2.9"),
-    ({"region": "all", "iterations": 10**9}, "iterations: got int"),
-    ({"region": "all", "iterations": True}, "iterations: got bool"),
-    ({"region": "all", "strength": float("nan")}, "strength: got float nan"),
-    ({"region": "all", "strength": "0.5"}, "strength: got str"),
-])
+@pytest.mark.parametrize(
+    "arguments, match",
+    [
+        ({"region": [0.5, 1.7]}, "region: got list"),
+        ({"region": True}, "region: got bool"),
+        ({"region": "some"}, "region"),
+        ({"region": [[0, 1]]}, "region: got an array of shape"),
+        ({"region": [10**6]}, "region: vertex 1000000 is out of range"),
+        ({"region": "all", "iterations": 2.9}, "iterations: got float 2.9"),
+        ({"region": "all", "iterations": 10**9}, "iterations: got int"),
+        ({"region": "all", "iterations": True}, "iterations: got bool"),
+        ({"region": "all", "strength": float("nan")}, "strength: got float nan"),
+        ({"region": "all", "strength": "0.5"}, "strength: got str"),
+    ],
+)
 def test_smooth_rest_lengths_refuses_what_it_would_have_coerced(cloth, arguments, match):
     sim = yore.Simulation(cloth)
     with pytest.raises(ValueError, match=match):
@@ -224,21 +292,25 @@ def test_smooth_rest_lengths_refuses_what_it_would_have_coerced(cloth, arguments
 
 def test_smooth_rest_lengths_takes_integer_regions(cloth):
     sim = yore.Simulation(cloth)
-    assert sim.smooth_rest_lengths(iterations=1, region=np.array([0, 1], dtype=np.uint8))[
-        "springs"] > 0
+    assert (
+        sim.smooth_rest_lengths(iterations=1, region=np.array([0, 1], dtype=np.uint8))["springs"]
+        > 0
+    )
     assert sim.smooth_rest_lengths(iterations=0, region=[])["springs"] == 0
 
 
-@pytest.mark.parametrize("core", ["ExplicitIntegrator", "ImplicitIntegrator",
-                                  "LocalGlobalIntegrator"])
+@pytest.mark.parametrize(
+    "core", ["ExplicitIntegrator", "ImplicitIntegrator", "LocalGlobalIntegrator"]
+)
 def test_core_option_tables_round_trip_and_name_unknown_options(core):
     from yore import _core
 
     cls = getattr(_core, core)
     defaults = dict(cls.defaults)
     cls(**defaults)  # every name the table lists is accepted with its own default
-    with pytest.raises(ValueError, match="unknown option 'no_such_option'; valid: .*"
-                       + next(iter(defaults))):
+    with pytest.raises(
+        ValueError, match="unknown option 'no_such_option'; valid: .*" + next(iter(defaults))
+    ):
         cls(no_such_option=1)
 
 
@@ -251,17 +323,24 @@ def test_python_option_defaults_come_from_the_core_structs():
     for name in ("newton_tol", "max_newton", "pcg_tol", "lag_cg_tol", "ordering"):
         assert INTEGRATOR_OPTIONS["implicit"][name] == core[name]
     assert INTEGRATOR_OPTIONS["quasi-newton"]["lbfgs_history"] == core["lbfgs_history"]
-    assert INTEGRATOR_OPTIONS["local-global"]["chebyshev_rho"] == \
-        _core.LocalGlobalIntegrator.defaults["chebyshev_rho"]
+    assert (
+        INTEGRATOR_OPTIONS["local-global"]["chebyshev_rho"]
+        == _core.LocalGlobalIntegrator.defaults["chebyshev_rho"]
+    )
 
 
 def _hanging(integrator="explicit", **options):
     return yore.scenes.hanging_cloth(resolution=9, integrator=integrator, **options)
 
 
-@pytest.mark.parametrize("integrator, bending", [("explicit", {}), ("implicit", {}),
-                                                 ("explicit", {"bending": "quadratic",
-                                                               "bending_modulus": 3e-3})])
+@pytest.mark.parametrize(
+    "integrator, bending",
+    [
+        ("explicit", {}),
+        ("implicit", {}),
+        ("explicit", {"bending": "quadratic", "bending_modulus": 3e-3}),
+    ],
+)
 def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator, bending):
     sim = _hanging(integrator, **bending)
     before = sim.energy()
@@ -277,8 +356,9 @@ def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator,
     assert after["kinetic"] == 0.0
     # Independently of settle's own measure: one explicit step of 1 µs from rest gives
     # v = dt M⁻¹ f (symplectic Euler, no damping at v = 0), whose RMS over dt is the residual.
-    probe = yore.Simulation(yore.Cloth.from_state(sim.cloth.state()), integrator="explicit",
-                            dt=1e-6)
+    probe = yore.Simulation(
+        yore.Cloth.from_state(sim.cloth.state()), integrator="explicit", dt=1e-6
+    )
     probe.step(1)
     v, m = probe.cloth.velocities, probe.cloth.masses
     assert np.sqrt((m[:, None] * v**2).sum() / m.sum()) / 1e-6 <= 0.02 * (1 + 1e-6)
@@ -289,16 +369,26 @@ def test_settle_brings_the_hanging_cloth_to_rest_and_keeps_the_clock(integrator,
     unsettled = _hanging(integrator, **bending)
     start = unsettled.cloth.positions.copy()
     unsettled.advance(0.5)
-    assert np.abs(sim.cloth.positions - x0).max() < 0.05 * np.abs(
-        unsettled.cloth.positions - start).max()
+    assert (
+        np.abs(sim.cloth.positions - x0).max()
+        < 0.05 * np.abs(unsettled.cloth.positions - start).max()
+    )
 
 
 def _compressed_strip(shortening=0.01):
     """A 0.3 m × 0.05 m membrane strip, clamped at its ends, started exactly flat and shortened
     by `shortening` of its length: a flat saddle (it is in balance, and it buckles)."""
     V, F = yore.pattern_mesh([[0, 0], [0.3, 0], [0.3, 0.05], [0, 0.05]], edge_length=0.01)
-    cloth = yore.Cloth(V, F, density=0.1, stretch="membrane", young_modulus=1e4,
-                       poisson_ratio=0.3, bending="quadratic", bending_modulus=1e-4)
+    cloth = yore.Cloth(
+        V,
+        F,
+        density=0.1,
+        stretch="membrane",
+        young_modulus=1e4,
+        poisson_ratio=0.3,
+        bending="quadratic",
+        bending_modulus=1e-4,
+    )
     X = V.copy()
     X[:, 0] *= 1 - shortening
     cloth.positions = X
@@ -342,9 +432,14 @@ def test_settle_checks_its_arguments_and_refuses_a_driven_cloth():
     # zero seconds: nothing but the velocities (already zero) changes
     x = sim.cloth.positions.copy()
     info = sim.settle(max_seconds=0.0)
-    assert info == {"seconds": 0.0, "steps": 0, "converged": False,
-                    "residual_acceleration": float("inf"), "saddles_escaped": 0,
-                    "stable": None}
+    assert info == {
+        "seconds": 0.0,
+        "steps": 0,
+        "converged": False,
+        "residual_acceleration": float("inf"),
+        "saddles_escaped": 0,
+        "stable": None,
+    }
     assert np.array_equal(sim.cloth.positions, x)
 
 
@@ -397,13 +492,21 @@ def test_option_checks_come_from_the_core_tables_and_shared_names_agree():
     from yore import _core
     from yore.options import CORE_RULES, check_option
 
-    tables = [cls.option_rules for cls in (_core.ExplicitIntegrator, _core.ImplicitIntegrator,
-                                           _core.LocalGlobalIntegrator)]
+    tables = [
+        cls.option_rules
+        for cls in (_core.ExplicitIntegrator, _core.ImplicitIntegrator, _core.LocalGlobalIntegrator)
+    ]
     for name in {n for table in tables for n in table}:
         rules = [table[name] for table in tables if name in table]
         assert all(rule == rules[0] for rule in rules), name  # one rule per name
-    assert CORE_RULES["step_tol"] == {"kind": "real", "low": 0.0, "high": 1.0,
-                                      "low_open": False, "high_open": True, "choices": ()}
+    assert CORE_RULES["step_tol"] == {
+        "kind": "real",
+        "low": 0.0,
+        "high": 1.0,
+        "low_open": False,
+        "high_open": True,
+        "choices": (),
+    }
     assert CORE_RULES["solver"]["choices"] == ("cholmod", "eigen-ldlt", "pcg")
     top = int(CORE_RULES["max_newton"]["high"])
     assert check_option("implicit", "max_newton", top) == top
@@ -415,8 +518,10 @@ def test_option_checks_come_from_the_core_tables_and_shared_names_agree():
         check_option("bdf2", "projection", "newton")
 
 
-@pytest.mark.parametrize("name,value", [("max_seconds", None), ("max_seconds", "5"),
-                                        ("tolerance", None), ("tolerance", "0.02")])
+@pytest.mark.parametrize(
+    "name,value",
+    [("max_seconds", None), ("max_seconds", "5"), ("tolerance", None), ("tolerance", "0.02")],
+)
 def test_settle_takes_numbers_only_and_names_the_argument(name, value):
     # a string or None is refused, not coerced by float() or passed on as a TypeError
     sim = yore.scenes.hanging_cloth(resolution=5)
@@ -424,13 +529,21 @@ def test_settle_takes_numbers_only_and_names_the_argument(name, value):
         sim.settle(**{name: value})
 
 
-@pytest.mark.parametrize("name, value, bound", [
-    ("expansion", 10.5, 10.0), ("expansion", 1e300, 10.0),
-    # issue 41, class 2: these gave states no file could hold (rest lengths 0, masses 2e305)
-    ("expansion", 5e-324, 0.1), ("expansion", 0.09, 0.1),
-    ("mass_scale", 1e308, 10.0), ("mass_scale", 10.5, 10.0)])
-def test_a_strokes_factors_out_of_range_are_refused_before_the_cloth_changes(tmp_path, name,
-                                                                             value, bound):
+@pytest.mark.parametrize(
+    "name, value, bound",
+    [
+        ("expansion", 10.5, 10.0),
+        ("expansion", 1e300, 10.0),
+        # issue 41, class 2: these gave states no file could hold (rest lengths 0, masses 2e305)
+        ("expansion", 5e-324, 0.1),
+        ("expansion", 0.09, 0.1),
+        ("mass_scale", 1e308, 10.0),
+        ("mass_scale", 10.5, 10.0),
+    ],
+)
+def test_a_strokes_factors_out_of_range_are_refused_before_the_cloth_changes(
+    tmp_path, name, value, bound
+):
     # an expansion of 1e300 used to return with an infinite spring energy
     sim = yore.scenes.hanging_cloth(resolution=9)
     before = sim.cloth.vertex_count
@@ -438,17 +551,19 @@ def test_a_strokes_factors_out_of_range_are_refused_before_the_cloth_changes(tmp
     with pytest.raises(ValueError, match=f"{name} must be {limit}"):
         sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.4]]), **{name: value})
     assert sim.cloth.vertex_count == before
-    sim.stroke(yore.StrokePath.material([[0.2, 0.3], [0.8, 0.4]]), **{name: bound})  # the bound itself is taken
+    sim.stroke(
+        yore.StrokePath.material([[0.2, 0.3], [0.8, 0.4]]), **{name: bound}
+    )  # the bound itself is taken
     assert np.isfinite(sim.energy()["total"])
     path = yore.save_state(tmp_path / "state.npz", sim)
     assert yore.load_state(path)[0].cloth.vertex_count == sim.cloth.vertex_count
 
 
-@pytest.mark.parametrize("arguments,name", [({"density": "1"}, "density"),
-                                            ({"density": True}, "density"),
-                                            ({"masses": True}, "masses")])
-def test_a_cloths_mass_or_density_of_the_wrong_type_is_a_value_error_naming_it(arguments,
-                                                                                name):
+@pytest.mark.parametrize(
+    "arguments,name",
+    [({"density": "1"}, "density"), ({"density": True}, "density"), ({"masses": True}, "masses")],
+)
+def test_a_cloths_mass_or_density_of_the_wrong_type_is_a_value_error_naming_it(arguments, name):
     # not pybind11's "Unable to cast" RuntimeError, and a bool is not silently 1 kg
     V, F = yore.grid_mesh(4, 4)
     with pytest.raises(ValueError, match=f"{name} must be a number"):

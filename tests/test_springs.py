@@ -28,8 +28,10 @@ def test_gradient_matches_central_differences_of_energy(compressed):
     for c in range(3):
         step = np.zeros(3)
         step[c] = h
-        numeric[:, c] = (yore.springs.energy(xi + step, xj, rest, k)
-                         - yore.springs.energy(xi - step, xj, rest, k)) / (2 * h)
+        numeric[:, c] = (
+            yore.springs.energy(xi + step, xj, rest, k)
+            - yore.springs.energy(xi - step, xj, rest, k)
+        ) / (2 * h)
     # Central differences: truncation O(h²·E''') plus round-off O(eps·E/h) ≈ 1e-9 relative here.
     scale = np.abs(analytic).max()
     assert np.abs(numeric - analytic).max() < 1e-7 * scale
@@ -44,8 +46,10 @@ def test_hessian_matches_central_differences_of_gradient(compressed):
     for c in range(3):
         step = np.zeros(3)
         step[c] = h
-        numeric[:, :, c] = (yore.springs.gradient(xi + step, xj, rest, k)
-                            - yore.springs.gradient(xi - step, xj, rest, k)) / (2 * h)
+        numeric[:, :, c] = (
+            yore.springs.gradient(xi + step, xj, rest, k)
+            - yore.springs.gradient(xi - step, xj, rest, k)
+        ) / (2 * h)
     scale = np.abs(analytic).max()
     assert np.abs(numeric - analytic).max() < 1e-7 * scale
 
@@ -56,10 +60,13 @@ def test_gradient_with_respect_to_second_end_is_the_negative():
     for c in range(3):
         step = np.zeros(3)
         step[c] = h
-        d_second = (yore.springs.energy(xi, xj + step, rest, k)
-                    - yore.springs.energy(xi, xj - step, rest, k)) / (2 * h)
-        assert np.allclose(d_second, -yore.springs.gradient(xi, xj, rest, k)[:, c],
-                           rtol=1e-6, atol=1e-9)
+        d_second = (
+            yore.springs.energy(xi, xj + step, rest, k)
+            - yore.springs.energy(xi, xj - step, rest, k)
+        ) / (2 * h)
+        assert np.allclose(
+            d_second, -yore.springs.gradient(xi, xj, rest, k)[:, c], rtol=1e-6, atol=1e-9
+        )
 
 
 def test_projected_hessian_is_symmetric_psd_and_exact_when_stretched():
@@ -84,8 +91,11 @@ def test_zero_force_at_rest_and_translation_invariance():
     assert np.abs(yore.springs.energy(xi, xj, rest, k)).max() < 1e-20 * k.max()
     _, _, rest2, _ = random_springs(10)
     shift = np.array([3.0, -2.0, 0.5])
-    assert np.allclose(yore.springs.energy(xi + shift, xj + shift, rest2, k),
-                       yore.springs.energy(xi, xj, rest2, k), rtol=1e-12)
+    assert np.allclose(
+        yore.springs.energy(xi + shift, xj + shift, rest2, k),
+        yore.springs.energy(xi, xj, rest2, k),
+        rtol=1e-12,
+    )
 
 
 def test_energy_and_gradient_match_the_formula_for_one_spring():
@@ -98,10 +108,14 @@ def test_damping_force_acts_along_the_spring_on_relative_velocity_only():
     xi, xj = np.array([0.0, 0.0, 2.0]), np.zeros(3)
     c = 0.5
     # closing speed along the spring: force opposes it with magnitude c·speed
-    f = yore.springs.damping_force(xi, xj, np.array([0.3, -0.2, 1.5]), np.array([0.3, -0.2, 0.5]), c)
+    f = yore.springs.damping_force(
+        xi, xj, np.array([0.3, -0.2, 1.5]), np.array([0.3, -0.2, 0.5]), c
+    )
     assert np.allclose(f, [0.0, 0.0, -c * 1.0])
     # motion perpendicular to the spring, or common to both ends, is not damped
-    assert np.allclose(yore.springs.damping_force(xi, xj, np.array([1.0, 2.0, 0.0]), np.zeros(3), c), 0)
+    assert np.allclose(
+        yore.springs.damping_force(xi, xj, np.array([1.0, 2.0, 0.0]), np.zeros(3), c), 0
+    )
     assert np.allclose(yore.springs.damping_force(xi, xj, np.ones(3), np.ones(3), c), 0)
 
 

@@ -52,8 +52,9 @@ def test_clock_does_not_depend_on_how_a_run_is_split():
     assert np.array_equal(a.cloth.positions, b.cloth.positions)
 
 
-@pytest.mark.parametrize("integrator", ["explicit", "implicit", "bdf2", "generalized-alpha",
-                                        "tr-bdf2", "local-global"])
+@pytest.mark.parametrize(
+    "integrator", ["explicit", "implicit", "bdf2", "generalized-alpha", "tr-bdf2", "local-global"]
+)
 def test_a_restored_simulation_continues_bit_for_bit(tmp_path, integrator):
     # local-global's buckling start needs more than its default 300 iterations per step
     options = {"iterations": 2000} if integrator == "local-global" else {}
@@ -144,14 +145,14 @@ def one_line_error(path, match):
 @pytest.mark.parametrize("keep", [0.1, 0.5, 0.9, 0.999])
 def test_a_truncated_state_file_is_one_value_error(state_file, keep):
     data = state_file.read_bytes()
-    state_file.write_bytes(data[:int(len(data) * keep)])
+    state_file.write_bytes(data[: int(len(data) * keep)])
     one_line_error(state_file, "not a readable yore state file")
 
 
 def test_a_corrupted_state_file_is_one_value_error(state_file):
     data = bytearray(state_file.read_bytes())
     middle = len(data) // 2
-    data[middle:middle + 8] = b"\xff" * 8  # inside an array: the CRC no longer matches
+    data[middle : middle + 8] = b"\xff" * 8  # inside an array: the CRC no longer matches
     state_file.write_bytes(bytes(data))
     one_line_error(state_file, "not a readable yore state file")
 
@@ -164,34 +165,48 @@ def test_a_state_document_that_is_not_json_is_named(state_file):
     one_line_error(state_file, "field document")
 
 
-@pytest.mark.parametrize("field, value, match", [
-    ("spring_ends", np.array([[0, 99]] * 24, dtype=np.int32), "spring_ends: entry .* is 99"),
-    ("masses", np.full(9, -1.0), "masses: entry 0 is -1.0"),
-    ("masses", np.full(9, 1e-320), "masses: entry 0 is"),
-    ("positions", np.full((9, 3), np.nan), "positions: entry .* is nan"),
-    ("positions", np.zeros((9, 3), dtype=np.float32), "positions: got an array of dtype float32"),
-    ("faces", np.full((8, 3), 2**31 - 1, dtype=np.int32), "faces: entry .* is 2147483647"),
-    # refused from its header, before it is read (issue 53, N09)
-    ("velocities", np.zeros((4, 3)), "velocities: its header declares 4 rows where the "
-                                     "positions declare 9 vertices"),
-    ("spring_kind", np.full(24, 7, dtype=np.int8), "spring_kind: entry 0 is 7"),
-])
+@pytest.mark.parametrize(
+    "field, value, match",
+    [
+        ("spring_ends", np.array([[0, 99]] * 24, dtype=np.int32), "spring_ends: entry .* is 99"),
+        ("masses", np.full(9, -1.0), "masses: entry 0 is -1.0"),
+        ("masses", np.full(9, 1e-320), "masses: entry 0 is"),
+        ("positions", np.full((9, 3), np.nan), "positions: entry .* is nan"),
+        (
+            "positions",
+            np.zeros((9, 3), dtype=np.float32),
+            "positions: got an array of dtype float32",
+        ),
+        ("faces", np.full((8, 3), 2**31 - 1, dtype=np.int32), "faces: entry .* is 2147483647"),
+        # refused from its header, before it is read (issue 53, N09)
+        (
+            "velocities",
+            np.zeros((4, 3)),
+            "velocities: its header declares 4 rows where the positions declare 9 vertices",
+        ),
+        ("spring_kind", np.full(24, 7, dtype=np.int8), "spring_kind: entry 0 is 7"),
+    ],
+)
 def test_a_tampered_cloth_array_is_named(state_file, field, value, match):
-    tampered(state_file, lambda arrays, document: arrays.__setitem__(
-        f"simulation/cloth/{field}", value))
+    tampered(
+        state_file, lambda arrays, document: arrays.__setitem__(f"simulation/cloth/{field}", value)
+    )
     one_line_error(state_file, f"field simulation.cloth.{match}")
 
 
-@pytest.mark.parametrize("path, value, match", [
-    (("simulation", "options", "max_newton"), 2.9, "options.max_newton"),
-    (("simulation", "options", "linearized"), "no", "options.linearized"),
-    (("simulation", "dt"), -1.0, "simulation.dt"),
-    (("simulation", "integrator"), "rk4", "simulation.integrator"),
-    (("simulation", "cloth", "clock_steps"), 2**70, "clock_steps"),
-    (("simulation", "cloth", "drivers"), [{"vertices": 1}], r"drivers\[0\]"),
-    (("simulation", "cloth", "positions"), {"$array": "nowhere"}, "missing array"),
-    (("version",), 2, "field version"),
-])
+@pytest.mark.parametrize(
+    "path, value, match",
+    [
+        (("simulation", "options", "max_newton"), 2.9, "options.max_newton"),
+        (("simulation", "options", "linearized"), "no", "options.linearized"),
+        (("simulation", "dt"), -1.0, "simulation.dt"),
+        (("simulation", "integrator"), "rk4", "simulation.integrator"),
+        (("simulation", "cloth", "clock_steps"), 2**70, "clock_steps"),
+        (("simulation", "cloth", "drivers"), [{"vertices": 1}], r"drivers\[0\]"),
+        (("simulation", "cloth", "positions"), {"$array": "nowhere"}, "missing array"),
+        (("version",), 2, "field version"),
+    ],
+)
 def test_a_tampered_document_field_is_named(state_file, path, value, match):
     def change(arrays, document):
         node = document
@@ -225,7 +240,8 @@ def test_a_pickled_array_the_document_refers_to_is_never_loaded(state_file):
 
 
 def test_members_no_field_refers_to_are_refused_unread_and_the_total_is_bounded(
-        state_file, monkeypatch):
+    state_file, monkeypatch
+):
     import zipfile
 
     import yore.state
@@ -234,7 +250,8 @@ def test_members_no_field_refers_to_are_refused_unread_and_the_total_is_bounded(
     with zipfile.ZipFile(state_file, "a", compression=zipfile.ZIP_DEFLATED) as archive:
         with archive.open("bomb.npy", "w", force_zip64=True) as member:
             np.lib.format.write_array_header_1_0(
-                member, {"descr": "<f8", "fortran_order": False, "shape": (2**23,)})
+                member, {"descr": "<f8", "fortran_order": False, "shape": (2**23,)}
+            )
             for _ in range(64):
                 member.write(bytes(2**20))
     assert state_file.stat().st_size < 2**20
@@ -257,8 +274,14 @@ def test_states_that_are_well_formed_but_out_of_range_are_refused(state_file):
 
 def test_a_duplicated_structural_spring_is_refused(state_file):
     def duplicate(arrays, document):
-        for name in ("spring_ends", "spring_rest", "spring_reference", "spring_stiffness",
-                     "spring_damping", "spring_kind"):
+        for name in (
+            "spring_ends",
+            "spring_rest",
+            "spring_reference",
+            "spring_stiffness",
+            "spring_damping",
+            "spring_kind",
+        ):
             key = f"simulation/cloth/{name}"
             arrays[key] = np.concatenate([arrays[key], arrays[key][:1]])
 
@@ -269,7 +292,8 @@ def test_a_duplicated_structural_spring_is_refused(state_file):
 def test_a_stiffness_past_the_limit_in_a_state_is_refused(state_file):
     def stiff(arrays, document):
         arrays["simulation/cloth/spring_stiffness"] = np.full_like(
-            arrays["simulation/cloth/spring_stiffness"], 1e300)
+            arrays["simulation/cloth/spring_stiffness"], 1e300
+        )
 
     tampered(state_file, stiff)
     one_line_error(state_file, "spring_stiffness|stiffness \\(at most 1e\\+12")
@@ -306,8 +330,12 @@ def test_newtons_projection_memory_is_saved_so_a_resume_decides_the_same():
     sim = gathered()
     sim.step(1)
     state = sim.state()
-    assert state["projection_memory"] == {"exact_skip": 1, "exact_backoff": 2, "shift": 0.0,
-                                          "radius": 0.0}
+    assert state["projection_memory"] == {
+        "exact_skip": 1,
+        "exact_backoff": 2,
+        "shift": 0.0,
+        "radius": 0.0,
+    }
     resumed = yore.Simulation.from_state(state)
     resumed.step(7)
     assert np.array_equal(resumed.cloth.positions, straight.cloth.positions)
@@ -326,8 +354,12 @@ def test_newtons_projection_memory_is_saved_so_a_resume_decides_the_same():
 def test_a_state_with_faces_crushed_flat_saves_and_loads(tmp_path, integrator):
     # gravity 1e15 crushes faces flat in one step; the state was written, then refused as
     # "degenerate" on loading: a state's shape is wherever the simulation took it
-    sim = yore.Simulation(yore.scenes.hanging_cloth(resolution=7).cloth, integrator=integrator,
-                          dt=0.01, gravity=(0.0, -1e15, 0.0))
+    sim = yore.Simulation(
+        yore.scenes.hanging_cloth(resolution=7).cloth,
+        integrator=integrator,
+        dt=0.01,
+        gravity=(0.0, -1e15, 0.0),
+    )
     with pytest.warns(RuntimeWarning, match="iteration cap"):
         sim.step(2)
     V, F = sim.cloth.positions, sim.cloth.faces
@@ -349,13 +381,18 @@ def test_save_state_refuses_metadata_that_is_not_a_table(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("field, value, match", [
-    ("masses", 1e300, "mass of vertex 0"),
-    ("spring_rest", 0.0, "rest length"),
-    ("spring_kind", 1, "has no structural spring"),
-    ("clock_origin", 1e308, "clock_origin")])
-def test_save_state_checks_what_it_writes_as_load_state_would(tmp_path, monkeypatch, field,
-                                                              value, match):
+@pytest.mark.parametrize(
+    "field, value, match",
+    [
+        ("masses", 1e300, "mass of vertex 0"),
+        ("spring_rest", 0.0, "rest length"),
+        ("spring_kind", 1, "has no structural spring"),
+        ("clock_origin", 1e308, "clock_origin"),
+    ],
+)
+def test_save_state_checks_what_it_writes_as_load_state_would(
+    tmp_path, monkeypatch, field, value, match
+):
     sim = yore.Simulation(yore.Cloth(*yore.grid_mesh(3, 3), masses=0.01))
     state = sim.state()
     cloth = dict(state["cloth"])
@@ -389,8 +426,10 @@ def test_a_small_state_that_would_inflate_into_gigabytes_is_refused_unread(tmp_p
     path = yore.save_state(tmp_path / "state.npz", sim, metadata={"note": "x"})
     bomb = tmp_path / "bomb.npz"
     big = 256 << 20
-    with zipfile.ZipFile(path) as source, \
-            zipfile.ZipFile(bomb, "w", compression=zipfile.ZIP_DEFLATED) as target:
+    with (
+        zipfile.ZipFile(path) as source,
+        zipfile.ZipFile(bomb, "w", compression=zipfile.ZIP_DEFLATED) as target,
+    ):
         for entry in source.infolist():
             if entry.filename == "simulation/cloth/spring_rest.npy":
                 header = np.lib.format.header_data_from_array_1_0(np.zeros(0))
@@ -405,8 +444,11 @@ def test_a_small_state_that_would_inflate_into_gigabytes_is_refused_unread(tmp_p
     assert bomb.stat().st_size < 2 << 20
     tracemalloc.start()
     try:
-        one_line_error(bomb, r"field simulation.cloth.spring_rest: the simulation arrays "
-                             r"declare \d+ bytes in all .*refused before reading")
+        one_line_error(
+            bomb,
+            r"field simulation.cloth.spring_rest: the simulation arrays "
+            r"declare \d+ bytes in all .*refused before reading",
+        )
         assert tracemalloc.get_traced_memory()[1] < 32 << 20
     finally:
         tracemalloc.stop()
@@ -419,8 +461,10 @@ def _forge_positions(path, bomb, vertices):
     zeros whose header declares ``vertices`` rows (a few hundred kB per 100 MB inflated)."""
     import zipfile
 
-    with zipfile.ZipFile(path) as source, \
-            zipfile.ZipFile(bomb, "w", compression=zipfile.ZIP_DEFLATED) as target:
+    with (
+        zipfile.ZipFile(path) as source,
+        zipfile.ZipFile(bomb, "w", compression=zipfile.ZIP_DEFLATED) as target,
+    ):
         for entry in source.infolist():
             if entry.filename == "simulation/cloth/positions.npy":
                 header = np.lib.format.header_data_from_array_1_0(np.zeros((0, 3)))
@@ -429,20 +473,29 @@ def _forge_positions(path, bomb, vertices):
                     np.lib.format.write_array_header_1_0(stream, header)
                     block, left = bytes(1 << 20), vertices * 24
                     while left > 0:
-                        stream.write(block[:min(left, len(block))])
+                        stream.write(block[: min(left, len(block))])
                         left -= len(block)
             else:
                 target.writestr(entry, source.read(entry))
 
 
-@pytest.mark.parametrize("vertices, message", [
-    # past any cloth a state may hold: 11 million vertices from a 300 kB member
-    (11 << 20, r"field simulation.cloth.positions: its header declares \d+ vertices, more than "
-               r"the 4000000 a state may hold"),
-    # within the cap, but the other per-vertex members still say 9
-    (2_000_000, r"field simulation.cloth.velocities: its header declares 9 rows where the "
-                r"positions declare 2000000 vertices"),
-])
+@pytest.mark.parametrize(
+    "vertices, message",
+    [
+        # past any cloth a state may hold: 11 million vertices from a 300 kB member
+        (
+            11 << 20,
+            r"field simulation.cloth.positions: its header declares \d+ vertices, more than "
+            r"the 4000000 a state may hold",
+        ),
+        # within the cap, but the other per-vertex members still say 9
+        (
+            2_000_000,
+            r"field simulation.cloth.velocities: its header declares 9 rows where the "
+            r"positions declare 2000000 vertices",
+        ),
+    ],
+)
 def test_a_forged_vertex_count_does_not_set_the_budget(tmp_path, vertices, message):
     """Issue 53, N09: the budget trusted the vertex count the bomb's own positions header
     declared (a 1 MB state inflating to 1 GiB peaked at 2.15 GB before it was refused). The

@@ -13,8 +13,15 @@ from yore import metrics
 
 def flat_cloth(n=9, **kwargs):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
-                       damping=0.02, drag=0.3)
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=0.1 / (n * n),
+        stretch_stiffness=200.0,
+        bend_stiffness=200.0,
+        damping=0.02,
+        drag=0.3,
+    )
     cloth.material_coordinates = V[:, :2]
     return cloth
 
@@ -40,8 +47,11 @@ def check_invariants(cloth, euler_characteristic):
         for k in range(3):
             edge = tuple(sorted((face[k], face[(k + 1) % 3])))
             opposite.setdefault(edge, []).append(face[(k + 2) % 3])
-    assert bending == {tuple(sorted(pair)) for pair in opposite.values()
-                       if len(pair) == 2 and tuple(sorted(pair)) not in structural}
+    assert bending == {
+        tuple(sorted(pair))
+        for pair in opposite.values()
+        if len(pair) == 2 and tuple(sorted(pair)) not in structural
+    }
 
 
 def test_a_stroke_splits_each_crossed_face_once_with_the_counts_of_the_formula():
@@ -89,13 +99,20 @@ def test_stroke_errors():
     with pytest.raises(yore.StrokeMissed):
         sim.stroke(yore.StrokePath.material([[3.0, 3.0], [4.0, 3.0]]))
     assert issubclass(yore.StrokeMissed, ValueError)
-    for bad, message in [(np.zeros((0, 3)), "empty"), ([[np.nan, 0, 0]], "non-finite"),
-                         (np.zeros((3, 2)), r"shape \(k, 3\)"), ("abc", "numbers|shape")]:
+    for bad, message in [
+        (np.zeros((0, 3)), "empty"),
+        ([[np.nan, 0, 0]], "non-finite"),
+        (np.zeros((3, 2)), r"shape \(k, 3\)"),
+        ("abc", "numbers|shape"),
+    ]:
         with pytest.raises(ValueError, match=message):
             sim.stroke(bad)
-    for options, message in [({"expansion": 0.0}, "expansion"), ({"expansion": -1}, "expansion"),
-                              ({"mass_scale": 0.0}, "mass_scale"),
-                              ({"mass_scale": float("nan")}, "mass_scale")]:
+    for options, message in [
+        ({"expansion": 0.0}, "expansion"),
+        ({"expansion": -1}, "expansion"),
+        ({"mass_scale": 0.0}, "mass_scale"),
+        ({"mass_scale": float("nan")}, "mass_scale"),
+    ]:
         with pytest.raises(ValueError, match=message):
             sim.stroke([[0.1, 0.1, 0.0], [0.9, 0.9, 0.0]], **options)
     with pytest.raises(ValueError, match="camera"):
@@ -114,10 +131,16 @@ def test_a_partly_missing_stroke_is_reported():
 
 def test_screen_stroke_hits_the_same_faces_as_the_equivalent_3d_stroke():
     rng = np.random.default_rng(4)
-    points = np.column_stack([np.linspace(0.07, 0.93, 6) + rng.uniform(-0.01, 0.01, 6),
-                              0.3 + 0.4 * rng.uniform(size=6), np.zeros(6)])
-    camera = yore.Camera(eye=(0.4, 0.6, 2.0), target=(0.5, 0.5, 0.0), fov_degrees=40,
-                         width=1200, height=900)
+    points = np.column_stack(
+        [
+            np.linspace(0.07, 0.93, 6) + rng.uniform(-0.01, 0.01, 6),
+            0.3 + 0.4 * rng.uniform(size=6),
+            np.zeros(6),
+        ]
+    )
+    camera = yore.Camera(
+        eye=(0.4, 0.6, 2.0), target=(0.5, 0.5, 0.0), fov_degrees=40, width=1200, height=900
+    )
     reports = []
     for draw in ("3d", "screen"):
         sim = yore.Simulation(flat_cloth(), gravity=(0, 0, 0))
@@ -139,7 +162,9 @@ def test_camera_projection_and_rays_agree():
     for point, (px, py) in zip(points, pixels):
         direction = d0 + px * dx + py * dy
         to_point = point - np.asarray(camera.eye)
-        assert np.linalg.norm(np.cross(direction, to_point)) < 1e-12 * np.linalg.norm(direction) * np.linalg.norm(to_point)
+        assert np.linalg.norm(np.cross(direction, to_point)) < 1e-12 * np.linalg.norm(
+            direction
+        ) * np.linalg.norm(to_point)
 
 
 def test_material_stroke_hits_the_faces_containing_its_points():
@@ -171,14 +196,15 @@ def out_of_plane(cloth, report):
 
 def hanging_stroke_points(sim, n):
     X = sim.cloth.positions
-    return 0.5 * (X[n + 2:n + n - 2] + X[2 * n + 2:2 * n + n - 2])  # between rows 1 and 2
+    return 0.5 * (X[n + 2 : n + n - 2] + X[2 * n + 2 : 2 * n + n - 2])  # between rows 1 and 2
 
 
 def cylinder_stroke_points(height_fraction=0.25, radius=0.25, height=0.5):
     angles = np.linspace(0.0, 2 * math.pi, 73)
     y = height_fraction * height
-    return np.column_stack([radius * np.cos(angles), np.full_like(angles, y),
-                            radius * np.sin(angles)])
+    return np.column_stack(
+        [radius * np.cos(angles), np.full_like(angles, y), radius * np.sin(angles)]
+    )
 
 
 @pytest.mark.slow
@@ -188,8 +214,9 @@ def test_hanging_cloth_stroke_grows_the_region_and_lifts_it_out_of_plane(integra
     sim = yore.scenes.hanging_cloth(resolution=n, integrator=integrator)
     sim.advance(1.0, progress=False)
     report = settle_after_stroke(sim, hanging_stroke_points(sim, n), 1.5)
-    gain = metrics.area_gain(sim.cloth.positions, sim.cloth.faces, report.region_faces,
-                             report.area_before)
+    gain = metrics.area_gain(
+        sim.cloth.positions, sim.cloth.faces, report.region_faces, report.area_before
+    )
     # The new spokes rest 10 % longer than they were drawn, so at rest the region would grow by
     # well over 10 % (the rest area grows by about 40 %); the surrounding cloth holds part of it
     # back. A 5 % gain is half the length increase: clearly more than numerical drift.
@@ -207,8 +234,9 @@ def test_rotating_cylinder_stroke_grows_the_lower_band(integrator):
     sim.advance(0.5, progress=False)
     report = settle_after_stroke(sim, cylinder_stroke_points(), 1.0)
     assert report.faces_split >= 24  # the whole ring of faces around the tube
-    gain = metrics.area_gain(sim.cloth.positions, sim.cloth.faces, report.region_faces,
-                             report.area_before)
+    gain = metrics.area_gain(
+        sim.cloth.positions, sim.cloth.faces, report.region_faces, report.area_before
+    )
     assert gain > 1.05, gain  # same margin and reason as the hanging cloth
     assert out_of_plane(sim.cloth, report) > 1e-3
 
@@ -233,8 +261,9 @@ def min_angle_degrees(V, F):
 
     def angle(apex, p, q):
         u, v = p - apex, q - apex
-        return np.degrees(np.arctan2(np.linalg.norm(np.cross(u, v), axis=1),
-                                     np.einsum("ij,ij->i", u, v)))
+        return np.degrees(
+            np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
+        )
 
     return float(np.min([angle(a, b, c), angle(b, c, a), angle(c, a, b)]))
 
@@ -243,13 +272,20 @@ def min_angle_degrees(V, F):
 @pytest.mark.parametrize("adaptive", [None, False])
 def test_five_strokes_over_one_region_keep_angles_and_the_implicit_solver_healthy(adaptive):
     # Newton to its residual test alone, so the last residual says how close it got
-    sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", max_newton=400,
-                                    adaptive_projection=adaptive, truncation_fraction=0.0)
+    sim = yore.scenes.hanging_cloth(
+        resolution=9,
+        integrator="implicit",
+        max_newton=400,
+        adaptive_projection=adaptive,
+        truncation_fraction=0.0,
+    )
     sim.step(1)
     euler = 1
     for k in range(5):
         before = min_angle_degrees(sim.cloth.positions, sim.cloth.faces)
-        report = sim.stroke(yore.StrokePath.material([[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]]))
+        report = sim.stroke(
+            yore.StrokePath.material([[0.2, 0.32 + 0.01 * k], [0.8, 0.36 + 0.01 * k]])
+        )
         assert report.faces_split > 0
         check_invariants(sim.cloth, euler)
         # The split rule never creates an angle below 5° (a face whose children would have one
@@ -282,8 +318,12 @@ def test_rest_length_smoothing_lowers_the_ratio_roughness_in_the_region_only():
     assert result["roughness_after"] < 0.5 * result["roughness_before"]
     changed = sim.cloth.springs.rest != rest_before
     near = np.isin(sim.cloth.springs.ends, np.unique(sim.cloth.faces[report.region_faces]))
-    assert changed.any() and not np.any(changed & ~np.isin(
-        sim.cloth.springs.ends, np.unique(sim.cloth.springs.ends[near.any(axis=1)])).any(axis=1))
+    assert changed.any() and not np.any(
+        changed
+        & ~np.isin(sim.cloth.springs.ends, np.unique(sim.cloth.springs.ends[near.any(axis=1)])).any(
+            axis=1
+        )
+    )
     sim.step(1)
     assert sim.stats["counters"]["analyses"] == 2  # smoothing needs no re-analysis
     with pytest.raises(ValueError, match="strength"):
@@ -291,8 +331,13 @@ def test_rest_length_smoothing_lowers_the_ratio_roughness_in_the_region_only():
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(strokes=st.lists(st.lists(st.tuples(st.floats(-0.1, 1.1), st.floats(-0.1, 1.1)),
-                                 min_size=1, max_size=5), min_size=1, max_size=3))
+@given(
+    strokes=st.lists(
+        st.lists(st.tuples(st.floats(-0.1, 1.1), st.floats(-0.1, 1.1)), min_size=1, max_size=5),
+        min_size=1,
+        max_size=3,
+    )
+)
 def test_random_strokes_never_break_the_mesh(strokes):
     sim = yore.Simulation(flat_cloth(6), gravity=(0, 0, 0))
     cloth = sim.cloth
@@ -316,8 +361,7 @@ def test_far_stroke_points_are_clipped_to_the_cloths_reach_before_sampling():
         sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
         near = sim.stroke([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0]], max_distance=0.01)
         sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
-        report = sim.stroke([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0], [far, 0.5, 0.0]],
-                            max_distance=0.01)
+        report = sim.stroke([[0.2, 0.5, 0.0], [0.8, 0.5, 0.0], [far, 0.5, 0.0]], max_distance=0.01)
         # the part near the cloth is sampled as before; the clipped-away part counts as missed
         assert report.faces_split == near.faces_split
         evaluated = report.samples - (report.missed_samples - near.missed_samples)
@@ -355,7 +399,8 @@ def test_a_stroke_needing_too_many_samples_is_refused_naming_the_limit():
 def test_clip_keeps_strokes_inside_unchanged_and_splits_at_exits():
     sim = yore.Simulation(flat_cloth(5), gravity=(0, 0, 0))
     # in and out and in again: both passes over the cloth are found, in order
-    report = sim.stroke([[0.1, 0.3, 0.0], [5.0, 0.3, 0.0], [5.0, 0.7, 0.0], [0.1, 0.7, 0.0]],
-                        max_distance=0.01)
+    report = sim.stroke(
+        [[0.1, 0.3, 0.0], [5.0, 0.3, 0.0], [5.0, 0.7, 0.0], [0.1, 0.7, 0.0]], max_distance=0.01
+    )
     centres = sim.cloth.positions[report.new_vertices]
     assert np.any(centres[:, 1] < 0.4) and np.any(centres[:, 1] > 0.6)

@@ -30,22 +30,31 @@ def _same_cloth(a, b):
 
 def test_options_take_a_dict_or_changes_and_check_every_field():
     options = StrokeOptions.of({"expansion": 1.2}, growth="isotropic", width=0.2, refine=1)
-    assert (options.expansion, options.growth, options.width, options.refine) == \
-        (1.2, "isotropic", 0.2, 1)
+    assert (options.expansion, options.growth, options.width, options.refine) == (
+        1.2,
+        "isotropic",
+        0.2,
+        1,
+    )
     assert StrokeOptions.of() == StrokeOptions().checked()
     assert StrokeOptions.of(mass_scale="conserve").mass_scale == "conserve"
     assert StrokeOptions.of(smooth=4).smooth["iterations"] == 4
-    for changes, message in (({"expansion": 20.0}, "expansion must be in"),
-                             ({"growth": "sideways"}, "growth: got 'sideways'"),
-                             ({"refine": 1.5}, r"refine: got 1\.5"),
-                             ({"width": -1.0}, "width must be finite and > 0"),
-                             ({"max_distance": 0.0}, "max_distance must be finite and > 0"),
-                             ({"smooth": {"strength": 2.0}}, r"smooth strength: got float "
-                                                             r"2\.0; expected a number in "
-                                                             r"\(0, 1\]"),
-                             ({"smooth": {"passes": 2}}, "smooth: unknown key 'passes'"),
-                             ({"smooth": {"region": "near"}}, "smooth region: got 'near'"),
-                             ({"colour": 1}, "unknown stroke option 'colour'")):
+    for changes, message in (
+        ({"expansion": 20.0}, "expansion must be in"),
+        ({"growth": "sideways"}, "growth: got 'sideways'"),
+        ({"refine": 1.5}, r"refine: got 1\.5"),
+        ({"width": -1.0}, "width must be finite and > 0"),
+        ({"max_distance": 0.0}, "max_distance must be finite and > 0"),
+        (
+            {"smooth": {"strength": 2.0}},
+            r"smooth strength: got float "
+            r"2\.0; expected a number in "
+            r"\(0, 1\]",
+        ),
+        ({"smooth": {"passes": 2}}, "smooth: unknown key 'passes'"),
+        ({"smooth": {"region": "near"}}, "smooth region: got 'near'"),
+        ({"colour": 1}, "unknown stroke option 'colour'"),
+    ):
         with pytest.raises(ValueError, match=message):
             StrokeOptions.of(**changes)
     with pytest.raises(ValueError, match="options must be a yore.StrokeOptions"):
@@ -95,7 +104,7 @@ def test_max_distance_is_refused_for_paths_it_does_not_apply_to():
 def test_a_bare_array_is_a_world_path():
     a, b = _sim(), _sim()
     X = a.cloth.positions
-    points = 0.5 * (X[9 + 2:18 - 2] + X[18 + 2:27 - 2])
+    points = 0.5 * (X[9 + 2 : 18 - 2] + X[18 + 2 : 27 - 2])
     first = a.stroke(points, max_distance=0.05)
     second = b.stroke(StrokePath.world(points), {"max_distance": 0.05})
     assert first.faces_split == second.faces_split > 0
@@ -104,8 +113,7 @@ def test_a_bare_array_is_a_world_path():
 
 def test_smoothing_is_the_last_stage_and_equals_smoothing_after_the_stroke():
     staged, by_hand = _sim(), _sim()
-    report = staged.stroke(StrokePath.material(LINE_UV), smooth={"iterations": 6,
-                                                                 "strength": 0.4})
+    report = staged.stroke(StrokePath.material(LINE_UV), smooth={"iterations": 6, "strength": 0.4})
     by_hand.stroke(StrokePath.material(LINE_UV))
     expected = by_hand.smooth_rest_lengths(iterations=6, strength=0.4)
     _same_cloth(staged, by_hand)
@@ -137,16 +145,23 @@ def test_picking_rays_find_the_nearest_face_a_brute_force_search_finds():
     camera = fit_camera(sim.cloth.positions, 64, 48)
     rng = np.random.default_rng(3)
     pixels = np.column_stack([rng.uniform(0, 63, 40), rng.uniform(0, 47, 40)])
-    picked = _core.pick_rays(sim.cloth, np.column_stack([pixels, np.zeros(40)]),
-                             np.asarray(camera.eye, float), *camera.pixel_rays())
+    picked = _core.pick_rays(
+        sim.cloth,
+        np.column_stack([pixels, np.zeros(40)]),
+        np.asarray(camera.eye, float),
+        *camera.pixel_rays(),
+    )
     V, F = sim.cloth.positions, sim.cloth.faces
     d0, dx, dy = camera.pixel_rays()
     hits = 0
     for k, (px, py) in enumerate(pixels):
         direction = d0 + px * dx + py * dy
-        found = [(hit[0], f, hit[1]) for f, face in enumerate(F)
-                 if (hit := _ray_triangle(np.asarray(camera.eye, float), direction,
-                                          *V[face])) is not None]
+        found = [
+            (hit[0], f, hit[1])
+            for f, face in enumerate(F)
+            if (hit := _ray_triangle(np.asarray(camera.eye, float), direction, *V[face]))
+            is not None
+        ]
         if not found:
             assert picked["faces"][k] == -1
             continue

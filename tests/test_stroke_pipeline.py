@@ -14,18 +14,33 @@ STROKE = np.array([[0.08, 0.3, 0.0], [0.5, 0.62, 0.0], [0.93, 0.41, 0.0]])
 
 def flat_cloth(n=9):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, masses=0.1 / (n * n), stretch_stiffness=200.0, bend_stiffness=200.0,
-                       damping=0.02, drag=0.3)
+    cloth = yore.Cloth(
+        V,
+        F,
+        masses=0.1 / (n * n),
+        stretch_stiffness=200.0,
+        bend_stiffness=200.0,
+        damping=0.02,
+        drag=0.3,
+    )
     cloth.material_coordinates = V[:, :2]
     return cloth
 
 
 def snapshot(cloth):
     springs = cloth.springs
-    return {"positions": cloth.positions, "velocities": cloth.velocities,
-            "masses": cloth.masses, "faces": cloth.faces, "ends": springs.ends,
-            "rest": springs.rest, "reference": springs.reference, "kind": springs.kind,
-            "uv": cloth.material_coordinates, "topology_version": cloth.topology_version}
+    return {
+        "positions": cloth.positions,
+        "velocities": cloth.velocities,
+        "masses": cloth.masses,
+        "faces": cloth.faces,
+        "ends": springs.ends,
+        "rest": springs.rest,
+        "reference": springs.reference,
+        "kind": springs.kind,
+        "uv": cloth.material_coordinates,
+        "topology_version": cloth.topology_version,
+    }
 
 
 def assert_same(a, b):
@@ -51,15 +66,22 @@ def test_a_refused_refinement_leaves_the_cloth_unchanged(trace):
     before = snapshot(cloth)
     camera = yore.Camera(eye=(0.5, 0.5, 2.0), target=(0.5, 0.5, 0.0))
     d0, dx, dy = camera.pixel_rays()
-    inputs = {"closest": (STROKE, {"max_distance": 0.05}),
-              "material": (STROKE, {"max_distance": 1e-9}),
-              "rays": (np.column_stack([camera.project(STROKE), np.zeros(3)]),
-                       {"eye": camera.eye, "base_direction": d0, "direction_per_pixel_x": dx,
-                        "direction_per_pixel_y": dy})}
+    inputs = {
+        "closest": (STROKE, {"max_distance": 0.05}),
+        "material": (STROKE, {"max_distance": 1e-9}),
+        "rays": (
+            np.column_stack([camera.project(STROKE), np.zeros(3)]),
+            {
+                "eye": camera.eye,
+                "base_direction": d0,
+                "direction_per_pixel_x": dx,
+                "direction_per_pixel_y": dy,
+            },
+        ),
+    }
     points, options = inputs[trace]
     with pytest.raises(RefinementTooLarge, match="more than the limit of 100 .*unchanged"):
-        _core.apply_stroke(cloth, trace, points, refine=2, width=0.2, max_vertices=100,
-                           **options)
+        _core.apply_stroke(cloth, trace, points, refine=2, width=0.2, max_vertices=100, **options)
     assert_same(before, snapshot(cloth))
     # the same stroke under the limit refines
     report = _core.apply_stroke(cloth, trace, points, refine=2, width=0.2, **options)
@@ -71,11 +93,15 @@ def test_the_size_check_is_the_documented_estimate():
     assert predicted_refined_vertices(100, 10, 3) == 100 + 2.0 * 10 * (1 + 5 + 25)
     sim = yore.Simulation(flat_cloth(), gravity=(0, 0, 0))
     before = snapshot(sim.cloth)
-    with pytest.raises(RefinementTooLarge, match=r"4 passes over a band of \d+ faces could make "
-                       r"the mesh [\d.e+]+ vertices, more than the limit of 1000"):
+    with pytest.raises(
+        RefinementTooLarge,
+        match=r"4 passes over a band of \d+ faces could make "
+        r"the mesh [\d.e+]+ vertices, more than the limit of 1000",
+    ):
         # a band of b faces predicts 81 + 2 b (1 + 5 + 25 + 125) > 1000 vertices
-        _core.apply_stroke(sim.cloth, "closest", STROKE, max_distance=0.05, refine=4,
-                           width=1.0, max_vertices=1000)
+        _core.apply_stroke(
+            sim.cloth, "closest", STROKE, max_distance=0.05, refine=4, width=1.0, max_vertices=1000
+        )
     assert_same(before, snapshot(sim.cloth))
 
 
@@ -90,15 +116,21 @@ def test_a_missed_stroke_raises_stroke_missed_and_changes_nothing():
     assert_same(before, snapshot(cloth))
 
 
-@pytest.mark.parametrize("arguments, match", [
-    ({"trace": "nearest"}, "trace: got 'nearest'"),
-    ({"refine": 5}, r"refine: got 5; expected an integer in \[0, 4\]"),
-    ({"width": -1.0}, "width must be finite and >= 0"),
-    ({"growth": "sideways"}, "sideways"),
-    ({"trace": "rays"}, "eye"),
-    ({"expansion": 0.0, "refine": 1, "growth": "isotropic"}, "expansion must be finite and > 0"),
-    ({"mass_scale": float("nan"), "refine": 1}, "mass_scale must be finite and > 0"),
-])
+@pytest.mark.parametrize(
+    "arguments, match",
+    [
+        ({"trace": "nearest"}, "trace: got 'nearest'"),
+        ({"refine": 5}, r"refine: got 5; expected an integer in \[0, 4\]"),
+        ({"width": -1.0}, "width must be finite and >= 0"),
+        ({"growth": "sideways"}, "sideways"),
+        ({"trace": "rays"}, "eye"),
+        (
+            {"expansion": 0.0, "refine": 1, "growth": "isotropic"},
+            "expansion must be finite and > 0",
+        ),
+        ({"mass_scale": float("nan"), "refine": 1}, "mass_scale must be finite and > 0"),
+    ],
+)
 def test_bad_arguments_are_value_errors_before_anything_changes(arguments, match):
     cloth = flat_cloth()
     before = snapshot(cloth)

@@ -43,8 +43,9 @@ def check_surgery(V, F, out):
     assert len(parents) == len(F2) and parents.min() >= 0 and parents.max() < len(F)
     child_area = metrics.face_areas(V2, F2)
     parent_area = metrics.face_areas(V, F)
-    np.testing.assert_allclose(np.bincount(parents, child_area, minlength=len(F)), parent_area,
-                               rtol=TOLERANCE, atol=0)
+    np.testing.assert_allclose(
+        np.bincount(parents, child_area, minlength=len(F)), parent_area, rtol=TOLERANCE, atol=0
+    )
     # Orientation kept: each child's normal points the way its parent's does.
     n_child, n_parent = signed_normals(V2, F2), signed_normals(V, F)[parents]
     assert np.all(np.einsum("ij,ij->i", n_child, n_parent) > 0)
@@ -62,10 +63,11 @@ def check_surgery(V, F, out):
                 assert set(used) <= allowed
     # New vertices are where their stencil says.
     weights = out["new_vertex_weights"]
-    np.testing.assert_allclose(V2[len(V):], np.einsum("kc,kcd->kd", weights, V[corners]),
-                               rtol=0, atol=TOLERANCE)
+    np.testing.assert_allclose(
+        V2[len(V) :], np.einsum("kc,kcd->kd", weights, V[corners]), rtol=0, atol=TOLERANCE
+    )
     # Untouched faces keep their rows.
-    touched = np.unique(parents[len(F):])
+    touched = np.unique(parents[len(F) :])
     untouched = np.setdiff1d(np.arange(len(F)), touched)
     np.testing.assert_array_equal(F2[untouched], F[untouched])
 
@@ -85,7 +87,7 @@ def test_split_1to3_of_some_faces():
     np.testing.assert_array_equal(out["faces"][7], [a, b, p])
     np.testing.assert_array_equal(out["faces"][len(F) + 2], [b, c, p])
     np.testing.assert_array_equal(out["faces"][len(F) + 3], [c, a, p])
-    np.testing.assert_array_equal(out["parents"][len(F):], np.repeat(faces, 2))
+    np.testing.assert_array_equal(out["parents"][len(F) :], np.repeat(faces, 2))
 
 
 def test_split_1to3_skips_slivers_and_refuses_bad_requests():
@@ -150,8 +152,10 @@ def test_refine_1to4_of_one_face_bisects_its_three_neighbours():
 def test_refine_closure_refines_a_face_with_two_split_edges():
     V, F = yore.grid_mesh(5, 5)
     # Two neighbours of one face: it is left with two split edges, so it is refined too.
-    neighbours = {f: [g for g in range(len(F)) if g != f and len(set(F[f]) & set(F[g])) == 2]
-                  for f in range(len(F))}
+    neighbours = {
+        f: [g for g in range(len(F)) if g != f and len(set(F[f]) & set(F[g])) == 2]
+        for f in range(len(F))
+    }
     face = 10
     a, b = neighbours[face][:2]
     out = refine_faces_1to4(V, F, [a, b])
@@ -169,13 +173,15 @@ def test_random_refinements_keep_the_mesh_manifold_and_the_area(data):
     check_refinement(V, F, requested, out)
     # and once more on the result (a second pass)
     again = data.draw(st.lists(st.integers(0, len(out["faces"]) - 1), max_size=6, unique=True))
-    check_refinement(out["vertices"], out["faces"], again,
-                     refine_faces_1to4(out["vertices"], out["faces"], again))
+    check_refinement(
+        out["vertices"],
+        out["faces"],
+        again,
+        refine_faces_1to4(out["vertices"], out["faces"], again),
+    )
 
 
 def test_refine_refuses_faces_out_of_range():
     V, F = yore.grid_mesh(3, 3)
     with pytest.raises(ValueError, match="out of range"):
         refine_faces_1to4(V, F, [-1])
-
-

@@ -19,8 +19,9 @@ def restore_threads():
 
 def grid_simulation(n):
     V, F = yore.grid_mesh(n, n)
-    cloth = yore.Cloth(V, F, masses=0.1, stretch_stiffness=200.0, bend_stiffness=200.0,
-                       damping=0.02, drag=0.3)
+    cloth = yore.Cloth(
+        V, F, masses=0.1, stretch_stiffness=200.0, bend_stiffness=200.0, damping=0.02, drag=0.3
+    )
     cloth.fix([0, n - 1])
     return yore.Simulation(cloth)
 
@@ -43,16 +44,22 @@ def test_set_num_threads_sets_the_core_and_openblas(restore_threads):
 def test_openblas_defaults_to_one_thread_unless_asked():
     import os
 
-    if any(name in os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
-                                           "OMP_NUM_THREADS")):
+    if any(
+        name in os.environ
+        for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+    ):
         pytest.skip("the environment sets the BLAS threads")
     if not yore.build_info()["blas"].startswith("OpenBLAS"):
         pytest.skip("the loaded BLAS is not OpenBLAS")
     import subprocess
     import sys
 
-    out = subprocess.run([sys.executable, "-c", "import yore; print(yore._core.blas_threads())"],
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", "import yore; print(yore._core.blas_threads())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     assert int(out) == 1
 
 
@@ -119,10 +126,12 @@ def _under_address_space_limit(gib, *arguments):
     def limit():
         resource.setrlimit(resource.RLIMIT_AS, (int(gib * 2**30), int(gib * 2**30)))
 
-    command = [sys.executable, "-m", "yore", *arguments] if arguments[0] != "-c" else \
-        [sys.executable, *arguments]
-    return subprocess.run(command, preexec_fn=limit, capture_output=True, text=True,
-                          timeout=300)
+    command = (
+        [sys.executable, "-m", "yore", *arguments]
+        if arguments[0] != "-c"
+        else [sys.executable, *arguments]
+    )
+    return subprocess.run(command, preexec_fn=limit, capture_output=True, text=True, timeout=300)
 
 
 def test_threads_that_the_address_space_cannot_hold_are_refused_in_one_line(tmp_path):
@@ -133,17 +142,25 @@ def test_threads_that_the_address_space_cannot_hold_are_refused_in_one_line(tmp_
 
     assert threads_the_address_space_holds() is None  # no limit in the test process
     scene = tmp_path / "scene.toml"
-    scene.write_text('[mesh]\ngenerator = "grid"\nnx = 5\nny = 5\n[[fixed]]\n'
-                     'set = "top corners"\n[simulation]\nintegrator = "implicit"\ndt = 0.01\n'
-                     'duration = 0.02\n[output]\nformat = "none"\n')
-    refused = _under_address_space_limit(3, "run", str(scene), "-o", str(tmp_path / "a"),
-                                          "--quiet", "--threads", "32")
+    scene.write_text(
+        '[mesh]\ngenerator = "grid"\nnx = 5\nny = 5\n[[fixed]]\n'
+        'set = "top corners"\n[simulation]\nintegrator = "implicit"\ndt = 0.01\n'
+        'duration = 0.02\n[output]\nformat = "none"\n'
+    )
+    refused = _under_address_space_limit(
+        3, "run", str(scene), "-o", str(tmp_path / "a"), "--quiet", "--threads", "32"
+    )
     assert refused.returncode == 2
-    assert refused.stderr.startswith("yore: error: 32 threads do not fit in this process's "
-                                     "address-space limit") and refused.stderr.count("\n") == 1
+    assert (
+        refused.stderr.startswith(
+            "yore: error: 32 threads do not fit in this process's address-space limit"
+        )
+        and refused.stderr.count("\n") == 1
+    )
     assert "use at most 8 threads" in refused.stderr
-    ran = _under_address_space_limit(3, "run", str(scene), "-o", str(tmp_path / "b"),
-                                     "--quiet", "--threads", "8")
+    ran = _under_address_space_limit(
+        3, "run", str(scene), "-o", str(tmp_path / "b"), "--quiet", "--threads", "8"
+    )
     assert ran.returncode == 0, ran.stderr
     clamped = _under_address_space_limit(1.25, "-c", "import yore; print(yore._core.max_threads())")
     assert clamped.returncode == 0 and clamped.stdout.strip() == "1", clamped.stderr

@@ -8,20 +8,31 @@ import pytest
 from benchmarks import crossover, long_horizon, tolerance
 
 
-def run(method, error, cpu, steps, internal=None, factorizations=0, iterations=None, dt=0.25,
-        **extra):
-    row = {"method": method, "error": error, "cpu_seconds": cpu, "horizon": 0.5,
-           "cost_seconds_per_simulated_second": cpu / 0.5, "steps": steps, "dt": dt,
-           "internal_steps": internal, "factorizations": factorizations,
-           "iterations": iterations if iterations is not None else factorizations,
-           "repeats": 1}
+def run(
+    method, error, cpu, steps, internal=None, factorizations=0, iterations=None, dt=0.25, **extra
+):
+    row = {
+        "method": method,
+        "error": error,
+        "cpu_seconds": cpu,
+        "horizon": 0.5,
+        "cost_seconds_per_simulated_second": cpu / 0.5,
+        "steps": steps,
+        "dt": dt,
+        "internal_steps": internal,
+        "factorizations": factorizations,
+        "iterations": iterations if iterations is not None else factorizations,
+        "repeats": 1,
+    }
     row.update(extra)
     return row
 
 
 def test_every_row_at_tolerance_is_a_family_of_both_benchmarks_with_atol_a_tenth_of_rtol():
-    for names, table in ((tolerance.families(), long_horizon.FAMILIES),
-                         (tolerance.families(crossover.TOLERANCE_LABELS), crossover.FAMILIES)):
+    for names, table in (
+        (tolerance.families(), long_horizon.FAMILIES),
+        (tolerance.families(crossover.TOLERANCE_LABELS), crossover.FAMILIES),
+    ):
         assert len(names) == len(tolerance.METHODS) * len(tolerance.TOLERANCES)
         for name, options in names.items():
             assert table[name] == options
@@ -46,8 +57,7 @@ def test_slope_per_step_figures_and_the_cheapest_fixed_step_run_as_accurate():
         run("t 1e-3", 1e-3, 2.0, 2, internal=40, factorizations=10, iterations=80),
         run("t 1e-4", 1e-3 / 3, 6.0, 2, internal=200, factorizations=20, iterations=400),
     ]
-    entries = tolerance.at_tolerance(rows, 1e-5, explicit_cost=20.0, fixed=["bdf2"],
-                                     groups_=groups)
+    entries = tolerance.at_tolerance(rows, 1e-5, explicit_cost=20.0, fixed=["bdf2"], groups_=groups)
     loose, middle, tight = entries
     assert "slope" not in loose
     assert middle["slope"] == pytest.approx(1.0)
@@ -68,9 +78,11 @@ def test_slope_per_step_figures_and_the_cheapest_fixed_step_run_as_accurate():
 
 def test_slopes_are_judged_only_above_three_times_the_floor_and_failures_break_the_chain():
     groups = {"cvode": (("c 1e-2", 1e-2), ("c 1e-3", 1e-3), ("c 1e-4", 1e-4))}
-    rows = [run("c 1e-2", 1e-2, 1.0, 2, internal=10),
-            run("c 1e-3", 2.9e-4, 1.0, 2, internal=10),  # within 3 × the floor (1e-4)
-            run("c 1e-4", 1e-5, 1.0, 2, internal=10)]
+    rows = [
+        run("c 1e-2", 1e-2, 1.0, 2, internal=10),
+        run("c 1e-3", 2.9e-4, 1.0, 2, internal=10),  # within 3 × the floor (1e-4)
+        run("c 1e-4", 1e-5, 1.0, 2, internal=10),
+    ]
     entries = tolerance.at_tolerance(rows, 1e-4, 1.0, [], groups)
     assert [("slope" in e) for e in entries] == [False, False, False]
     rows[1] = {"method": "c 1e-3", "diverged": True, "aborted": None, "steps": 2}
@@ -82,8 +94,10 @@ def test_slopes_are_judged_only_above_three_times_the_floor_and_failures_break_t
 
 def test_the_table_has_one_line_of_ten_columns_per_row():
     groups = {"bdf2 auto": (("b 1e-2", 1e-2), ("b 1e-3", 1e-3))}
-    rows = [run("b 1e-2", 1e-2, 1.0, 2, internal=10),
-            {"method": "b 1e-3", "diverged": False, "aborted": "CPU cap", "steps": 2}]
+    rows = [
+        run("b 1e-2", 1e-2, 1.0, 2, internal=10),
+        {"method": "b 1e-3", "diverged": False, "aborted": "CPU cap", "steps": 2},
+    ]
     lines = tolerance.table(tolerance.at_tolerance(rows, 1e-6, 2.0, [], groups), "32²")
     head = tolerance.TABLE_HEAD[0].count("|")
     assert len(lines) == 2 and all(line.count("|") == head for line in lines)
@@ -92,32 +106,47 @@ def test_the_table_has_one_line_of_ten_columns_per_row():
 
 def test_the_summary_counts_the_stiff_cells_against_the_cheapest_fixed_step_run():
     def entry(method, k_over, cost_over_fixed=None, slope=None, fact=0.5):
-        e = {"method": method, "family": method, "rtol": 1e-3, "error": 1e-3,
-             "factorizations_per_step": fact}
+        e = {
+            "method": method,
+            "family": method,
+            "rtol": 1e-3,
+            "error": 1e-3,
+            "factorizations_per_step": fact,
+        }
         if cost_over_fixed is not None:
             e["cost_over_fixed"] = cost_over_fixed
         if slope is not None:
             e["slope"] = slope
         return e
 
-    cells = [("a", 2e5, [entry("m", 1, 0.4, fact=0.1), entry("m", 1, 1.1, slope=0.8)]),
-             ("b", 2e6, [entry("m", 1, 1.5, slope=1.2, fact=3.0)]),
-             ("soft", 2e3, [entry("m", 1, 0.1, fact=9.0)]),  # not stiff: not counted
-             ("c", 2e7, [{"method": "m", "family": "m", "rtol": 1e-2, "failed": "diverged"}])]
+    cells = [
+        ("a", 2e5, [entry("m", 1, 0.4, fact=0.1), entry("m", 1, 1.1, slope=0.8)]),
+        ("b", 2e6, [entry("m", 1, 1.5, slope=1.2, fact=3.0)]),
+        ("soft", 2e3, [entry("m", 1, 0.1, fact=9.0)]),  # not stiff: not counted
+        ("c", 2e7, [{"method": "m", "family": "m", "rtol": 1e-2, "failed": "diverged"}]),
+    ]
     (line,) = tolerance.summary_lines(cells, "X")
     assert "4 of 5 rows ran (1 diverged" in line
     assert "0.80–1.20 in the 2 judged" in line
     assert "0.10–3.00 factorizations per internal step" in line
-    assert "0.40–1.50 of the cheapest fixed-step run as accurate (2 of 3 at most 1.2, 1 at most " \
-           "0.5)" in line
+    assert (
+        "0.40–1.50 of the cheapest fixed-step run as accurate (2 of 3 at most 1.2, 1 at most "
+        "0.5)" in line
+    )
 
 
 def test_per_threshold_the_cheapest_controlled_run_over_the_cheapest_fixed_step_run():
-    rows = [run("fixed", 2e-2, 1.0, 8), run("fixed", 5e-3, 3.0, 32),
-            run("fixed", 8e-4, 9.0, 128), run("fixed", 1e-4, 0.5, 128, flagged=True),
-            run("auto 1e-2", 6e-3, 1.2, 2), run("auto 1e-3", 9e-4, 2.0, 2)]
-    loose, tight, tightest = tolerance.at_thresholds(rows, [1e-2, 1e-3, 1e-4], ["fixed"],
-                                                     ["auto 1e-2", "auto 1e-3"])
+    rows = [
+        run("fixed", 2e-2, 1.0, 8),
+        run("fixed", 5e-3, 3.0, 32),
+        run("fixed", 8e-4, 9.0, 128),
+        run("fixed", 1e-4, 0.5, 128, flagged=True),
+        run("auto 1e-2", 6e-3, 1.2, 2),
+        run("auto 1e-3", 9e-4, 2.0, 2),
+    ]
+    loose, tight, tightest = tolerance.at_thresholds(
+        rows, [1e-2, 1e-3, 1e-4], ["fixed"], ["auto 1e-2", "auto 1e-3"]
+    )
     # 1 %: auto 1e-2 (1.2 s) against fixed at 5e-3 (3 s); 0.1 %: auto 1e-3 (2 s) against 9 s
     assert loose["controlled"]["method"] == "auto 1e-2"
     assert loose["controlled_over_fixed"] == pytest.approx(1.2 / 3.0)

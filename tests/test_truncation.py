@@ -13,9 +13,16 @@ TIGHT = {"truncation_fraction": 0.0, "newton_tol": 1e-9}
 def stiff_sheet(integrator, resolution=12, **options):
     """The stiff sheet of docs/limitations.md: k = 2e5 N/m, bending springs as stiff, pinned
     1 m apart, 1/60 s; each step takes Newton 16–150 iterations to its residual test."""
-    return yore.scenes.hanging_cloth(resolution=resolution, pin_spacing=1.0, mass=0.1,
-                                     stretch_stiffness=2e5, bend_stiffness=2e5, dt=1 / 60,
-                                     integrator=integrator, **options)
+    return yore.scenes.hanging_cloth(
+        resolution=resolution,
+        pin_spacing=1.0,
+        mass=0.1,
+        stretch_stiffness=2e5,
+        bend_stiffness=2e5,
+        dt=1 / 60,
+        integrator=integrator,
+        **options,
+    )
 
 
 def tight_copy(sim):
@@ -73,8 +80,9 @@ def test_the_truncation_test_stops_newton_within_the_steps_own_error(integrator)
 def chain_positions(steps, seconds=0.5, **options):
     # a damped chain swinging down from horizontal: its springs turn within every step
     V = np.array([[0.2 * i, 0.0, 0.0] for i in range(6)])
-    cloth = yore.Cloth.from_springs(V, [[i, i + 1] for i in range(5)], masses=0.05,
-                                    stiffness=200.0, damping=0.5)
+    cloth = yore.Cloth.from_springs(
+        V, [[i, i + 1] for i in range(5)], masses=0.05, stiffness=200.0, damping=0.5
+    )
     cloth.fix([0])
     sim = yore.Simulation(cloth, integrator="bdf2", dt=seconds / steps, **options)
     sim.step(steps)
@@ -84,8 +92,9 @@ def chain_positions(steps, seconds=0.5, **options):
 def test_bdf2_stays_second_order_with_the_truncation_test():
     # The truncation test stops Newton at a tenth of the local error (O(h³) for BDF2), so the
     # global error keeps its O(h²): the stopped runs converge at the tight runs' order.
-    reference = chain_positions(6400, newton_tol=1e-12, max_newton=200,
-                                truncation_fraction=0.0).cloth.positions
+    reference = chain_positions(
+        6400, newton_tol=1e-12, max_newton=200, truncation_fraction=0.0
+    ).cloth.positions
     steps = np.array([100, 200, 400])
     runs = [chain_positions(n, newton_tol=1e-12, max_newton=200) for n in steps]
     assert all(run.stats["counters"]["truncation_stops"] > 0 for run in runs)

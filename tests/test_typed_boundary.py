@@ -90,37 +90,49 @@ def test_an_integrators_options_cross_as_a_read_only_struct(integrator):
     assert repr(options).startswith(type(options).__name__ + "(")
 
 
-@pytest.mark.parametrize("given, expected", [
-    # nothing given: the clamp with the mixed matrices, Newton from the inertial guess
-    ({}, ("clamp", "inertial", True)),
-    # the linearized step: its start, and no mixed matrices (one step is the same either way)
-    ({"linearized": True}, ("clamp", "start", False)),
-    ({"adaptive_projection": True}, ("exact", "inertial", False)),
-    ({"adaptive_projection": False}, ("clamp", "inertial", True)),
-    ({"projection": "steihaug"}, ("steihaug", "inertial", False)),
-    ({"projection": "exact", "adaptive_projection": True}, ("exact", "inertial", False)),
-    ({"projection": "clamp", "mixed": False, "predictor": "start"}, ("clamp", "start", False)),
-])
+@pytest.mark.parametrize(
+    "given, expected",
+    [
+        # nothing given: the clamp with the mixed matrices, Newton from the inertial guess
+        ({}, ("clamp", "inertial", True)),
+        # the linearized step: its start, and no mixed matrices (one step is the same either way)
+        ({"linearized": True}, ("clamp", "start", False)),
+        ({"adaptive_projection": True}, ("exact", "inertial", False)),
+        ({"adaptive_projection": False}, ("clamp", "inertial", True)),
+        ({"projection": "steihaug"}, ("steihaug", "inertial", False)),
+        ({"projection": "exact", "adaptive_projection": True}, ("exact", "inertial", False)),
+        ({"projection": "clamp", "mixed": False, "predictor": "start"}, ("clamp", "start", False)),
+    ],
+)
 def test_the_core_decides_the_open_choices(given, expected):
     # None (or absent) is "decide from the others", a std::optional in C++: one place decides
-    options = {"adaptive_projection": None, "projection": None, "predictor": None,
-               "mixed": None, **given}
+    options = {
+        "adaptive_projection": None,
+        "projection": None,
+        "predictor": None,
+        "mixed": None,
+        **given,
+    }
     decided = _core.ImplicitIntegrator.resolve_choices(options)
     assert (decided["projection"], decided["predictor"], decided["mixed"]) == expected
     # and yore.options.resolve_options is that decision
-    resolved = yore.options.resolve_options("implicit", {**yore.options.INTEGRATOR_OPTIONS[
-        "implicit"], **given})
+    resolved = yore.options.resolve_options(
+        "implicit", {**yore.options.INTEGRATOR_OPTIONS["implicit"], **given}
+    )
     assert (resolved["projection"], resolved["predictor"], resolved["mixed"]) == expected
 
 
 def test_contradicting_choices_are_refused_and_quasi_newton_decides_only_its_predictor():
-    with pytest.raises(ValueError, match="adaptive_projection=True contradicts "
-                                         "projection='clamp'; give one of them"):
-        _core.ImplicitIntegrator.resolve_choices({"adaptive_projection": True,
-                                                  "projection": "clamp"})
-    resolved = yore.options.resolve_options("quasi-newton",
-                                            dict(yore.options.INTEGRATOR_OPTIONS["quasi-newton"],
-                                                 predictor=None))
+    with pytest.raises(
+        ValueError,
+        match="adaptive_projection=True contradicts projection='clamp'; give one of them",
+    ):
+        _core.ImplicitIntegrator.resolve_choices(
+            {"adaptive_projection": True, "projection": "clamp"}
+        )
+    resolved = yore.options.resolve_options(
+        "quasi-newton", dict(yore.options.INTEGRATOR_OPTIONS["quasi-newton"], predictor=None)
+    )
     assert resolved["predictor"] == "inertial" and "projection" not in resolved
     explicit = yore.options.INTEGRATOR_OPTIONS["explicit"]
     assert yore.options.resolve_options("explicit", explicit) == explicit

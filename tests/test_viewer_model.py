@@ -50,9 +50,10 @@ def test_picking_misses_off_the_cloth_and_a_stroke_there_is_refused():
 
 
 def test_the_model_needs_no_polyscope():
-    code = ("import sys, yore; from yore.viz.viewer_model import ViewerModel; "
-            "m = ViewerModel(yore.scenes.hanging_cloth(resolution=5)); m.step_frame(); "
-            "print('polyscope' in sys.modules)")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True)
+    code = (
+        "import sys, yore; from yore.viz.viewer_model import ViewerModel; "
+        "m = ViewerModel(yore.scenes.hanging_cloth(resolution=5)); m.step_frame(); "
+        "print('polyscope' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"

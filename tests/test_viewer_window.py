@@ -22,7 +22,8 @@ import yore
 
 pytestmark = pytest.mark.skipif(
     shutil.which("Xvfb") is None or shutil.which("xdotool") is None,
-    reason="needs Xvfb and xdotool (make setup installs them)")
+    reason="needs Xvfb and xdotool (make setup installs them)",
+)
 
 DEADLINE = 120.0  # s, for each wait: the machine may be busy
 
@@ -40,9 +41,12 @@ def wait_for(condition, what):
 @pytest.fixture
 def display():
     read, write = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", "1024x768x24",
-                               "-nolisten", "tcp"], pass_fds=(write,),
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    server = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        pass_fds=(write,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     os.close(write)
     with os.fdopen(read) as stream:
         number = stream.readline().strip()
@@ -54,8 +58,13 @@ def display():
 
 
 def xdotool(display, *arguments):
-    return subprocess.run(["xdotool", *arguments], env={**os.environ, "DISPLAY": display},
-                          capture_output=True, text=True, timeout=60).stdout.strip()
+    return subprocess.run(
+        ["xdotool", *arguments],
+        env={**os.environ, "DISPLAY": display},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    ).stdout.strip()
 
 
 @pytest.mark.slow
@@ -63,14 +72,31 @@ def test_a_mouse_drag_in_the_window_draws_a_stroke_and_z_undoes_it(display, tmp_
     scene = Path(yore.__file__).with_name("data") / "hanging.toml"
     log = tmp_path / "view.log"
     with open(log, "w") as output:
-        view = subprocess.Popen([sys.executable, "-m", "yore", "view", str(scene),
-                                 "--set", "mesh.nx=13", "--set", "mesh.ny=13",
-                                 "--width", "800", "--height", "600"],
-                                cwd=tmp_path, stdout=output, stderr=subprocess.STDOUT,
-                                env={**os.environ, "DISPLAY": display})
+        view = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "yore",
+                "view",
+                str(scene),
+                "--set",
+                "mesh.nx=13",
+                "--set",
+                "mesh.ny=13",
+                "--width",
+                "800",
+                "--height",
+                "600",
+            ],
+            cwd=tmp_path,
+            stdout=output,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, "DISPLAY": display},
+        )
     try:
-        window = wait_for(lambda: xdotool(display, "search", "--name", "Polyscope"),
-                          "the viewer's window").split()[0]
+        window = wait_for(
+            lambda: xdotool(display, "search", "--name", "Polyscope"), "the viewer's window"
+        ).split()[0]
 
         def logged(text):
             return wait_for(lambda: text in log.read_text(), f"{text!r} in the log")

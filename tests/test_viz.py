@@ -16,8 +16,15 @@ import yore
 from yore.camera import Camera, camera_from_settings, fit_camera, follow_cameras
 from yore.cli import main
 from yore.viz import backend
-from yore.viz.render import (COLORMAPS, _lab, colormap_table, colorbar_width, render_image,
-                             stroke_color, title_height)
+from yore.viz.render import (
+    COLORMAPS,
+    _lab,
+    colormap_table,
+    colorbar_width,
+    render_image,
+    stroke_color,
+    title_height,
+)
 from yore.viz.viewer import Viewer, densify, parse_pixels
 
 WHITE = 255
@@ -126,8 +133,9 @@ def test_camera_rejects_bad_values():
 # -- polyscope's view is yore.Camera's --------------------------------------------------------------
 def test_polyscope_rays_are_the_cameras_rays():
     ps = backend.ensure()
-    camera = Camera(eye=(0.3, 1.5, 2.0), target=(0.5, 0.0, 0.4), fov_degrees=40, width=320,
-                    height=200)
+    camera = Camera(
+        eye=(0.3, 1.5, 2.0), target=(0.5, 0.0, 0.4), fov_degrees=40, width=320, height=200
+    )
     backend.set_camera(camera)
     pixels = np.array([[0, 0], [160, 100], [319, 199], [37.25, 150.5]])
     ours = camera.rays(pixels)
@@ -147,8 +155,9 @@ def test_polyscope_rays_are_the_cameras_rays():
 def test_picked_points_lie_on_the_surface_where_a_ray_cast_hits_it():
     sim = wavy_simulation()
     V, F = sim.cloth.positions, sim.cloth.faces
-    camera = Camera(eye=(0.2, 0.4, 2.2), target=(0.5, 0.5, 0.0), fov_degrees=35, width=320,
-                    height=240)
+    camera = Camera(
+        eye=(0.2, 0.4, 2.2), target=(0.5, 0.5, 0.0), fov_degrees=35, width=320, height=240
+    )
     viewer = Viewer(sim, camera, headless=True)
     grid = np.array([[x, y] for x in range(20, 320, 23) for y in range(15, 240, 19)], float)
     hits, faces, weights = viewer.pick_surface(grid)
@@ -170,8 +179,10 @@ def test_picked_points_lie_on_the_surface_where_a_ray_cast_hits_it():
     hits, faces, weights = viewer.pick_surface(hits[::3] + 0.37)
     assert len(hits) > 15
     _, expected_points = ray_cast(camera, hits, V, F)
-    assert np.linalg.norm(viewer.surface_points(faces, weights) - expected_points,
-                          axis=1).max() < 1e-9 * size
+    assert (
+        np.linalg.norm(viewer.surface_points(faces, weights) - expected_points, axis=1).max()
+        < 1e-9 * size
+    )
     # background pixels are not hits
     assert len(viewer.pick_surface([[2.0, 2.0]])[1]) == 0
 
@@ -179,8 +190,9 @@ def test_picked_points_lie_on_the_surface_where_a_ray_cast_hits_it():
 # -- headless strokes, undo --------------------------------------------------------------------------
 def test_a_headless_stroke_splits_the_faces_under_its_pixels():
     sim = wavy_simulation()
-    camera = Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300,
-                    height=300)
+    camera = Camera(
+        eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300, height=300
+    )
     viewer = Viewer(sim, camera, headless=True)
     n_before = sim.cloth.vertex_count
     pixels = np.array([[80.0, 150.0], [150.0, 120.0], [220.0, 160.0]])
@@ -196,8 +208,9 @@ def test_a_headless_stroke_splits_the_faces_under_its_pixels():
 
 
 def test_the_mouse_path_and_the_pixel_path_give_the_same_stroke():
-    camera = Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300,
-                    height=300)
+    camera = Camera(
+        eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300, height=300
+    )
     by_pixels = Viewer(wavy_simulation(), camera, headless=True)
     by_mouse = Viewer(wavy_simulation(), camera, headless=True)
     pixels = np.array([[80.0, 150.0], [150.0, 120.0], [220.0, 160.0]])
@@ -236,10 +249,12 @@ def test_undo_restores_the_state_before_the_stroke_bit_for_bit(integrator):
     V, F = wavy_cloth()
     cloth = yore.Cloth(V, F, masses=0.1, stretch_stiffness=200.0, damping=0.0)
     cloth.fix([0, 16])
-    sim = yore.Simulation(cloth, integrator=integrator,
-                          dt=None if integrator == "explicit" else 1 / 120)
-    camera = Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300,
-                    height=300)
+    sim = yore.Simulation(
+        cloth, integrator=integrator, dt=None if integrator == "explicit" else 1 / 120
+    )
+    camera = Camera(
+        eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300, height=300
+    )
     viewer = Viewer(sim, camera, headless=True, stroke_options={"smooth": 3})
     viewer.advance(0.05)
     before = viewer.sim.state()
@@ -263,8 +278,9 @@ def test_the_viewer_strokes_and_undoes_on_a_membrane_cloth():
     cloth = yore.Cloth(V, F, masses=0.1, stretch="membrane", young_modulus=400.0, damping=0.0)
     cloth.fix([0, 16])
     sim = yore.Simulation(cloth, integrator="implicit", dt=1 / 120)
-    camera = Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300,
-                    height=300)
+    camera = Camera(
+        eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300, height=300
+    )
     viewer = Viewer(sim, camera, headless=True)
     viewer.advance(0.05)
     before = viewer.sim.state()
@@ -280,9 +296,11 @@ def test_the_viewer_strokes_and_undoes_on_a_membrane_cloth():
 
 
 def test_a_stroke_that_misses_the_cloth_changes_nothing():
-    viewer = Viewer(wavy_simulation(), Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0),
-                                              fov_degrees=30, width=300, height=300),
-                    headless=True)
+    viewer = Viewer(
+        wavy_simulation(),
+        Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), fov_degrees=30, width=300, height=300),
+        headless=True,
+    )
     before = viewer.sim.state()
     with pytest.raises(yore.StrokeMissed):
         viewer.stroke_pixels([[2.0, 2.0], [5.0, 290.0]])
@@ -363,10 +381,12 @@ def test_parse_pixels():
     assert np.all(np.diff(dense[:, 0]) <= 2.0 + 1e-12) and dense[-1, 0] == 10.0
     assert len(dense) == 6 and np.array_equal(densify([[3.0, 4.0]]), [[3.0, 4.0]])
     from yore.viz.viewer_model import MAX_STROKE_SAMPLES
+
     at_limit = densify([[0.0, 0.0], [2.0 * (MAX_STROKE_SAMPLES - 1), 0.0]])
     assert len(at_limit) == MAX_STROKE_SAMPLES
-    with pytest.raises(ValueError,
-                       match=r"px long: sampled every .* px it would pass the \d+ samples"):
+    with pytest.raises(
+        ValueError, match=r"px long: sampled every .* px it would pass the \d+ samples"
+    ):
         densify([[0.0, 0.0], [2.0 * MAX_STROKE_SAMPLES, 0.0]])
 
 
@@ -401,9 +421,11 @@ def test_antialiasing_softens_edges():
     camera = fit_camera(V, 240, 180)
     sharp = render_image(V, F, camera, antialias=False, ground=False)
     smooth = render_image(V, F, camera, antialias=True, ground=False)
+
     # supersampled edges have intermediate grey levels between cloth and background
     def levels(image):
         return len(np.unique(image.reshape(-1, 3), axis=0))
+
     assert levels(smooth) > levels(sharp)
 
 
@@ -432,12 +454,13 @@ def test_the_colour_bar_shows_the_map_and_the_cloth_is_drawn_beside_it():
     V, F = wavy_cloth()
     width, height = 400, 300
     camera = fit_camera(V, width, height)
-    image = render_image(V, F, camera, vertex_values=V[:, 2], colormap="viridis",
-                         colorbar="height (m)")
+    image = render_image(
+        V, F, camera, vertex_values=V[:, 2], colormap="viridis", colorbar="height (m)"
+    )
     strip = colorbar_width(width, height)
     assert_colour_bar(image, "viridis", width - strip)
     # nothing of the cloth is drawn in the strip (white there except the bar and labels)
-    assert np.mean(np.all(image[:, width - strip:] == WHITE, axis=2)) > 0.6
+    assert np.mean(np.all(image[:, width - strip :] == WHITE, axis=2)) > 0.6
 
 
 def test_a_title_is_drawn_in_its_own_band():
@@ -464,8 +487,7 @@ def test_a_stroke_is_drawn_on_the_cloth_in_its_colour():
     camera = fit_camera(V, 320, 240)
     line = V[[17 * 8 + k for k in range(2, 15)]]  # a row of vertices across the middle
     for colormap, values in (("viridis", V[:, 2]), ("coolwarm", V[:, 2])):
-        image = render_image(V, F, camera, vertex_values=values, colormap=colormap,
-                             strokes=[line])
+        image = render_image(V, F, camera, vertex_values=values, colormap=colormap, strokes=[line])
         ink = 255 * np.asarray(stroke_color(colormap_table(colormap)))
         near = np.abs(image.reshape(-1, 3).astype(float) - ink).max(axis=1) < 30
         assert near.sum() > 100
@@ -495,9 +517,24 @@ def hanging_small(tmp_path):
 def test_yore_view_headless_draws_a_stroke_by_pixels(tmp_path, capsys):
     picture = tmp_path / "view.png"
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
-    code = main(["view", scene, *hanging_small(tmp_path), "--headless", "--width", "320",
-                 "--stroke-px", "60,120 160,110 260,120", "--at", "0.05", "--until", "0.08",
-                 "--screenshot", str(picture)])
+    code = main(
+        [
+            "view",
+            scene,
+            *hanging_small(tmp_path),
+            "--headless",
+            "--width",
+            "320",
+            "--stroke-px",
+            "60,120 160,110 260,120",
+            "--at",
+            "0.05",
+            "--until",
+            "0.08",
+            "--screenshot",
+            str(picture),
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     assert "stroke 1 at t = 0.050 s" in out
@@ -510,35 +547,77 @@ def test_yore_view_headless_draws_a_stroke_by_pixels(tmp_path, capsys):
 
 def test_yore_view_continues_a_saved_run(tmp_path, capsys):
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
-    assert main(["run", scene, "-o", str(tmp_path / "run"), "--quiet", "--no-render",
-                 *hanging_small(tmp_path), "--set", "simulation.duration=0.05",
-                 "--set", "strokes=[]", "--set", "simulation.settle=0"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                scene,
+                "-o",
+                str(tmp_path / "run"),
+                "--quiet",
+                "--no-render",
+                *hanging_small(tmp_path),
+                "--set",
+                "simulation.duration=0.05",
+                "--set",
+                "strokes=[]",
+                "--set",
+                "simulation.settle=0",
+            ]
+        )
+        == 0
+    )
     picture = tmp_path / "state.png"
-    assert main(["view", str(tmp_path / "run" / "state.npz"), "--headless", "--until", "0.07",
-                 "--screenshot", str(picture), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "view",
+                str(tmp_path / "run" / "state.npz"),
+                "--headless",
+                "--until",
+                "0.07",
+                "--screenshot",
+                str(picture),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     with Image.open(picture) as image:
         assert image.size == (640, 480)  # the run's scene camera
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--headless"], "--screenshot"),
-    (["--at", "0.1", "--screenshot", "x.png"], "add --headless"),
-    (["--headless", "--screenshot", "x.jpg"], "PNG"),
-    (["--headless", "--screenshot", "x.png", "--stroke-px", "1,2 a"], "sample 2"),
-    (["--headless", "--screenshot", "x.png", "--at", "-1"], "--at"),
-    (["--headless", "--screenshot", "x.png", "--at", "0.2", "--until", "0.1"], "--until"),
-    (["--headless", "--screenshot", "x.png", "--fov", "190"], "--fov"),
-    (["--headless", "--screenshot", "x.png", "--width", "0"], "--width"),
-    (["--headless", "--screenshot", "x.png", "--stroke-px", "1,1 3,3"], "miss the cloth"),
-    # issue 22, item 14: an OpenGL RuntimeError traceback
-    (["--headless", "--screenshot", "x.png", "--panel", "--width", "1", "--height", "1"],
-     "at least 16 px with --panel"),
-    # 100 pixels in range, 1.4e6 px apart: counted before any sample is made (was ~2.3 GB)
-    (["--headless", "--screenshot", "x.png", "--stroke-px",
-      " ".join(["0,0 999999,999999"] * 50)], "samples a stroke may have"),
-])
-def test_yore_view_bad_input_is_one_error_line(tmp_path, capsys, monkeypatch, arguments,
-                                                message):
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--headless"], "--screenshot"),
+        (["--at", "0.1", "--screenshot", "x.png"], "add --headless"),
+        (["--headless", "--screenshot", "x.jpg"], "PNG"),
+        (["--headless", "--screenshot", "x.png", "--stroke-px", "1,2 a"], "sample 2"),
+        (["--headless", "--screenshot", "x.png", "--at", "-1"], "--at"),
+        (["--headless", "--screenshot", "x.png", "--at", "0.2", "--until", "0.1"], "--until"),
+        (["--headless", "--screenshot", "x.png", "--fov", "190"], "--fov"),
+        (["--headless", "--screenshot", "x.png", "--width", "0"], "--width"),
+        (["--headless", "--screenshot", "x.png", "--stroke-px", "1,1 3,3"], "miss the cloth"),
+        # issue 22, item 14: an OpenGL RuntimeError traceback
+        (
+            ["--headless", "--screenshot", "x.png", "--panel", "--width", "1", "--height", "1"],
+            "at least 16 px with --panel",
+        ),
+        # 100 pixels in range, 1.4e6 px apart: counted before any sample is made (was ~2.3 GB)
+        (
+            [
+                "--headless",
+                "--screenshot",
+                "x.png",
+                "--stroke-px",
+                " ".join(["0,0 999999,999999"] * 50),
+            ],
+            "samples a stroke may have",
+        ),
+    ],
+)
+def test_yore_view_bad_input_is_one_error_line(tmp_path, capsys, monkeypatch, arguments, message):
     monkeypatch.chdir(tmp_path)
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
     code = main(["view", scene, *hanging_small(tmp_path), *arguments])
@@ -578,13 +657,32 @@ def test_missing_egl_names_the_debian_packages(monkeypatch):
 
 def test_render_without_egl_fails_with_one_line_before_any_work(tmp_path, capsys, monkeypatch):
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
-    assert main(["run", scene, "-o", str(tmp_path), "--quiet", "--no-render",
-                 *hanging_small(tmp_path), "--set", "simulation.duration=0.05",
-                 "--set", "strokes=[]", "--set", "simulation.settle=0"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                scene,
+                "-o",
+                str(tmp_path),
+                "--quiet",
+                "--no-render",
+                *hanging_small(tmp_path),
+                "--set",
+                "simulation.duration=0.05",
+                "--set",
+                "strokes=[]",
+                "--set",
+                "simulation.settle=0",
+            ]
+        )
+        == 0
+    )
 
     def unavailable(window=False):
-        raise backend.BackendUnavailable("headless pictures need OpenGL through EGL, but "
-                                         "libEGL.so.1 (libegl1) is missing; install ...")
+        raise backend.BackendUnavailable(
+            "headless pictures need OpenGL through EGL, but "
+            "libEGL.so.1 (libegl1) is missing; install ..."
+        )
 
     monkeypatch.setattr(backend, "ensure", unavailable)
     before = sorted(p.name for p in tmp_path.iterdir())
@@ -596,14 +694,50 @@ def test_render_without_egl_fails_with_one_line_before_any_work(tmp_path, capsys
 
 def test_render_colours_by_wrinkles_with_up_and_fov(tmp_path):
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
-    assert main(["run", scene, "-o", str(tmp_path), "--quiet", "--no-render",
-                 *hanging_small(tmp_path), "--set", "simulation.duration=0.1",
-                 "--set", "strokes.0.time=0.05", "--set", "simulation.settle=0"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                scene,
+                "-o",
+                str(tmp_path),
+                "--quiet",
+                "--no-render",
+                *hanging_small(tmp_path),
+                "--set",
+                "simulation.duration=0.1",
+                "--set",
+                "strokes.0.time=0.05",
+                "--set",
+                "simulation.settle=0",
+            ]
+        )
+        == 0
+    )
     summary = json.loads((tmp_path / "summary.json").read_text())
     frame = tmp_path / summary["frames"][-1]["file"]
     picture = tmp_path / "wrinkles.png"
-    assert main(["render", str(frame), "-o", str(picture), "--color-by", "wrinkles",
-                 "--width", "300", "--up", "0", "1", "0", "--fov", "30"]) == 0
+    assert (
+        main(
+            [
+                "render",
+                str(frame),
+                "-o",
+                str(picture),
+                "--color-by",
+                "wrinkles",
+                "--width",
+                "300",
+                "--up",
+                "0",
+                "1",
+                "0",
+                "--fov",
+                "30",
+            ]
+        )
+        == 0
+    )
     with Image.open(picture) as image:
         assert image.size == (300, 225)
         pixels = np.asarray(image.convert("RGB")).astype(float)
@@ -613,8 +747,9 @@ def test_render_colours_by_wrinkles_with_up_and_fov(tmp_path):
 
 def test_yore_run_without_egl_stops_before_running(tmp_path, capsys, monkeypatch):
     def unavailable(window=False):
-        raise backend.BackendUnavailable("headless pictures need OpenGL through EGL, but "
-                                         "libEGL.so.1 (libegl1) is missing")
+        raise backend.BackendUnavailable(
+            "headless pictures need OpenGL through EGL, but libEGL.so.1 (libegl1) is missing"
+        )
 
     monkeypatch.setattr(backend, "ensure", unavailable)
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
@@ -624,15 +759,35 @@ def test_yore_run_without_egl_stops_before_running(tmp_path, capsys, monkeypatch
     assert err.startswith("yore: error:") and "libegl1" in err
     assert not out.exists()  # refused before the folder was claimed
     # without pictures the run needs no EGL
-    assert main(["run", scene, "-o", str(out), "--quiet", "--no-render",
-                 *hanging_small(tmp_path), "--set", "simulation.duration=0.02",
-                 "--set", "strokes=[]", "--set", "simulation.settle=0"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                scene,
+                "-o",
+                str(out),
+                "--quiet",
+                "--no-render",
+                *hanging_small(tmp_path),
+                "--set",
+                "simulation.duration=0.02",
+                "--set",
+                "strokes=[]",
+                "--set",
+                "simulation.settle=0",
+            ]
+        )
+        == 0
+    )
 
 
 @pytest.mark.slow
 def test_headless_screenshot_with_the_panel(tmp_path):
-    viewer = Viewer(wavy_simulation(), Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0),
-                                              width=640, height=480), headless=True)
+    viewer = Viewer(
+        wavy_simulation(),
+        Camera(eye=(0.5, 0.5, 2.5), target=(0.5, 0.5, 0.0), width=640, height=480),
+        headless=True,
+    )
     plain = viewer.screenshot()
     with_panel = viewer.screenshot(panel=True)
     assert plain.shape == with_panel.shape == (480, 640, 3)
@@ -649,10 +804,24 @@ def test_view_and_render_survive_records_of_the_wrong_kind(tmp_path, capsys):
     sim = yore.scenes.hanging_cloth(resolution=6)
     scene = yore.__file__.replace("__init__.py", "data/hanging.toml")
     for overrides in ([1, 2], "mesh.nx=5"):
-        state = yore.save_state(tmp_path / "state.npz", sim, metadata={
-            "scene_text": Path(scene).read_text(), "overrides": overrides})
-        assert main(["view", str(state), "--headless", "--screenshot",
-                     str(tmp_path / "view.png"), "--quiet"]) == 0
+        state = yore.save_state(
+            tmp_path / "state.npz",
+            sim,
+            metadata={"scene_text": Path(scene).read_text(), "overrides": overrides},
+        )
+        assert (
+            main(
+                [
+                    "view",
+                    str(state),
+                    "--headless",
+                    "--screenshot",
+                    str(tmp_path / "view.png"),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     run = tmp_path / "run"
     (run / "frames").mkdir(parents=True)
     V, F = yore.grid_mesh(4, 4)

@@ -30,12 +30,19 @@ from pathlib import Path
 import numpy as np
 
 #: Scenes run with `yore run` (the first part of each; until past the first stroke).
-SCENES = {"hanging.toml": 0.7, "hanging_paper.toml": 0.7, "cylinder.toml": 1.2,
-          "cylinder_paper.toml": 1.2, "stiff.toml": 1.2}
+SCENES = {
+    "hanging.toml": 0.7,
+    "hanging_paper.toml": 0.7,
+    "cylinder.toml": 1.2,
+    "cylinder_paper.toml": 1.2,
+    "stiff.toml": 1.2,
+}
 #: Quick benchmarks whose results (less wall time) must not move.
 BENCHMARKS = ("wrinkles", "numerical_damping")
-TIMING = re.compile(r"seconds|_ms$|per_second|wall|^yore$|cpu|^threads$|speed|^date$|"
-                    r"^machine$|^python$|^numpy$|^versions?$|^host")
+TIMING = re.compile(
+    r"seconds|_ms$|per_second|wall|^yore$|cpu|^threads$|speed|^date$|"
+    r"^machine$|^python$|^numpy$|^versions?$|^host"
+)
 
 
 def _strip(value):
@@ -73,27 +80,45 @@ def _run(command, cwd):
     done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False)
     # the checkout's own path is no output of yore's
     stdout, stderr = (text.replace(str(cwd), "<root>") for text in (done.stdout, done.stderr))
-    lines = [line for line in stdout.splitlines()
-             if not re.search(r"\d+(\.\d+)? ?(s|ms)\b.*(wall|took|elapsed)|wall|seconds",
-                              line)]
-    return {"code": done.returncode, "stdout": lines,
-            "stderr": stderr.strip().splitlines()[-1:] if done.returncode else []}
+    lines = [
+        line
+        for line in stdout.splitlines()
+        if not re.search(r"\d+(\.\d+)? ?(s|ms)\b.*(wall|took|elapsed)|wall|seconds", line)
+    ]
+    return {
+        "code": done.returncode,
+        "stdout": lines,
+        "stderr": stderr.strip().splitlines()[-1:] if done.returncode else [],
+    }
 
 
 def _scenes(root, work):
     out = {}
     for name, until in SCENES.items():
         folder = work / name
-        command = [sys.executable, "-m", "yore", "run", str(root / "examples" / name), "-o",
-                   str(folder), "--until", str(until), "--quiet", "--no-render"]
+        command = [
+            sys.executable,
+            "-m",
+            "yore",
+            "run",
+            str(root / "examples" / name),
+            "-o",
+            str(folder),
+            "--until",
+            str(until),
+            "--quiet",
+            "--no-render",
+        ]
         out[f"run {name}"] = _run(command, root)
         if (folder / "state.npz").is_file():
             out[f"state {name}"] = _state_digest(folder / "state.npz")
             summary = json.loads((folder / "summary.json").read_text())
-            out[f"summary {name}"] = _strip({k: v for k, v in summary.items()
-                                             if k not in ("settings", "counters")})
-        out[f"check {name}"] = _run([sys.executable, "-m", "yore", "check",
-                                     str(root / "examples" / name)], root)
+            out[f"summary {name}"] = _strip(
+                {k: v for k, v in summary.items() if k not in ("settings", "counters")}
+            )
+        out[f"check {name}"] = _run(
+            [sys.executable, "-m", "yore", "check", str(root / "examples" / name)], root
+        )
     return out
 
 
@@ -109,22 +134,29 @@ def _scripted():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
             sim.stroke_material([[0.2, 0.7], [0.8, 0.65]])
-            sim.stroke_material([[0.2, 0.4], [0.8, 0.45]], growth="isotropic", width=0.2,
-                                refine=1, expansion=1.2)
-            camera = yore.Camera(eye=(0.5, -0.3, 2.5), target=(0.5, -0.4, 0.0), width=320,
-                                 height=240)
+            sim.stroke_material(
+                [[0.2, 0.4], [0.8, 0.45]], growth="isotropic", width=0.2, refine=1, expansion=1.2
+            )
+            camera = yore.Camera(
+                eye=(0.5, -0.3, 2.5), target=(0.5, -0.4, 0.0), width=320, height=240
+            )
             pixels = camera.project(sim.cloth.positions[[11 * 5 + 2, 11 * 6 + 8]])
             sim.stroke_screen(pixels, camera, growth="along", width=0.15)
         X = sim.cloth.positions
-        sim.stroke(0.5 * (X[11 + 2:22 - 2] + X[22 + 2:33 - 2]), mass_scale="conserve")
+        sim.stroke(0.5 * (X[11 + 2 : 22 - 2] + X[22 + 2 : 33 - 2]), mass_scale="conserve")
         smoothing = sim.smooth_rest_lengths(iterations=7, strength=0.4)
         sim.advance(0.2)
         cloth = sim.cloth
         out[f"scripted {integrator}"] = {
             name: hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest()
-            for name, value in (("positions", cloth.positions), ("velocities", cloth.velocities),
-                                ("masses", cloth.masses), ("faces", cloth.faces),
-                                ("rest", cloth.springs.rest))}
+            for name, value in (
+                ("positions", cloth.positions),
+                ("velocities", cloth.velocities),
+                ("masses", cloth.masses),
+                ("faces", cloth.faces),
+                ("rest", cloth.springs.rest),
+            )
+        }
         out[f"smoothing {integrator}"] = _strip(smoothing)
         settled = yore.scenes.hanging_cloth(resolution=9, integrator=integrator)
         out[f"settle {integrator}"] = _strip(settled.settle(2.0, progress=False))
@@ -135,8 +167,9 @@ def _benchmarks(root, work):
     out = {}
     for name in BENCHMARKS:
         folder = work / f"bench-{name}"
-        result = _run([sys.executable, "-m", f"benchmarks.{name}", "--quick", "--out",
-                       str(folder)], root)
+        result = _run(
+            [sys.executable, "-m", f"benchmarks.{name}", "--quick", "--out", str(folder)], root
+        )
         out[f"bench {name} run"] = {"code": result["code"]}
         path = folder / f"{name}.json"
         if path.is_file():

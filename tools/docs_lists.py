@@ -28,8 +28,9 @@ def integrator_list() -> str:
     """Every registered integrator, in the registry's order: its name and short summary."""
     from yore.options import INTEGRATOR_SPECS
 
-    items = [f'`"{name}"` ({short_summary(spec.summary)})'
-             for name, spec in INTEGRATOR_SPECS.items()]
+    items = [
+        f'`"{name}"` ({short_summary(spec.summary)})' for name, spec in INTEGRATOR_SPECS.items()
+    ]
     return f"{START}{', '.join(items)}{END}"
 
 

@@ -1,14 +1,14 @@
-#include "bindings.hpp"
-#include "cloth_state.hpp"
-#include "convert.hpp"
-#include "yore/cloth.hpp"
-#include "yore/errors.hpp"
-
 #include <pybind11/stl.h>
 
 #include <algorithm>
 #include <sstream>
 #include <stdexcept>
+
+#include "bindings.hpp"
+#include "cloth_state.hpp"
+#include "convert.hpp"
+#include "yore/cloth.hpp"
+#include "yore/errors.hpp"
 
 namespace yore::bindings {
 namespace {
@@ -16,13 +16,12 @@ namespace {
 // A bare Cloth's material when the arguments leave it out, written here once and bound as
 // `Cloth.defaults` (a physics object: no dissipation unless asked; the scenes' material is
 // yore.options.SCENE_MATERIAL).
-constexpr double kDefaultMass = 1e-3;  // kg per vertex
-constexpr double kDefaultBendStiffness = 100.0;  // N/m per bending spring
+constexpr double kDefaultMass = 1e-3;               // kg per vertex
+constexpr double kDefaultBendStiffness = 100.0;     // N/m per bending spring
 constexpr double kDefaultStretchStiffness = 100.0;  // N/m per structural spring
-constexpr double kDefaultDamping = 0.0;  // N·s/m along each spring
-constexpr double kDefaultDrag = 0.0;  // 1/s
-constexpr double kDefaultPoissonRatio = 0.3;  // a membrane's ν when not given
-
+constexpr double kDefaultDamping = 0.0;             // N·s/m along each spring
+constexpr double kDefaultDrag = 0.0;                // 1/s
+constexpr double kDefaultPoissonRatio = 0.3;        // a membrane's ν when not given
 
 /// A number given as one (an int or a float, numpy's too): bools, strings and anything
 /// pybind11 cannot make a double of are std::invalid_argument naming `name`.
@@ -48,7 +47,8 @@ Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
   const Eigen::Index n = positions.rows();
   if (!density.is_none()) {
     if (!mass.is_none()) {
-      throw std::invalid_argument("give either masses (kg per vertex) or density (kg/m²), not both");
+      throw std::invalid_argument(
+          "give either masses (kg per vertex) or density (kg/m²), not both");
     }
     if (faces == nullptr) throw std::invalid_argument("density needs faces; give masses instead");
     const double rho = plain_number(density, "density", "kg/m²");
@@ -133,8 +133,8 @@ std::string text_argument(const py::object& value, const char* name, const char*
 MembraneMaterial membrane_argument(const std::string& stretch, const py::object& young_modulus,
                                    const py::object& poisson_ratio) {
   if (stretch != "springs" && stretch != "membrane") {
-    throw std::invalid_argument("stretch must be \"springs\" or \"membrane\", got \"" +
-                                stretch + "\"");
+    throw std::invalid_argument("stretch must be \"springs\" or \"membrane\", got \"" + stretch +
+                                "\"");
   }
   MembraneMaterial membrane;
   if (stretch == "springs") {
@@ -155,9 +155,8 @@ MembraneMaterial membrane_argument(const std::string& stretch, const py::object&
                               py::str(py::repr(young_modulus)).cast<std::string>(),
                           "young_modulus");
   }
-  membrane.poisson_ratio = poisson_ratio.is_none()
-                               ? kDefaultPoissonRatio
-                               : real_argument(poisson_ratio, "poisson_ratio");
+  membrane.poisson_ratio = poisson_ratio.is_none() ? kDefaultPoissonRatio
+                                                   : real_argument(poisson_ratio, "poisson_ratio");
   return membrane;
 }
 
@@ -206,91 +205,90 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
     cloth_class.attr("defaults") = defaults;
   }
   cloth_class
-      .def(py::init([](const py::handle& vertices, const py::handle& faces,
-                       const py::object& masses, const py::object& stretch_stiffness,
-                       const py::object& bend_stiffness, const py::object& damping_given,
-                       const py::object& drag_given, const py::object& density,
-                       const py::object& bending_given, const py::object& bending_modulus,
-                       const py::object& mass, const py::object& stretch_given,
-                       const py::object& young_modulus, const py::object& poisson_ratio,
-                       const py::object& membrane_strain) {
-             const double damping = real_argument(damping_given, "damping");
-             const double drag = real_argument(drag_given, "drag");
-             const std::string bending = text_argument(
-                 bending_given, "bending", "\"springs\", \"quadratic\" or \"hinge\"");
-             const std::string stretch = text_argument(
-                 stretch_given, "stretch", "\"springs\" or \"membrane\"");
-             const py::object given = masses_argument(masses, mass);
-             const MembraneMaterial membrane =
-                 membrane_argument(stretch, young_modulus, poisson_ratio);
-             double stretch_value = kDefaultStretchStiffness;
-             if (!stretch_stiffness.is_none()) {
-               stretch_value = real_argument(stretch_stiffness, "stretch_stiffness");
-             }
-             if (membrane.young_modulus > 0.0) {
-               if (!stretch_stiffness.is_none() && stretch_value != 0.0) {
-                 throw std::invalid_argument(
-                     "stretch=\"membrane\" resists stretching instead of springs: leave "
-                     "stretch_stiffness out (or 0), got " + std::to_string(stretch_value));
-               }
-               stretch_value = 0.0;
-             }
-             const BendingModel model = bending_model(bending);
-             if (model == BendingModel::springs && !bending_modulus.is_none()) {
-               throw InvalidArgument(
-                   "bending_modulus is for bending=\"quadratic\"; bending springs take "
-                   "bend_stiffness (N/m)",
-                   "bending_modulus");
-             }
-             if (is_quadratic(model) && bending_modulus.is_none()) {
-               throw std::invalid_argument("bending=\"" + bending +
-                                           "\" needs bending_modulus (N·m, >= 0)");
-             }
-             double stiffness = kDefaultBendStiffness;
-             if (!bend_stiffness.is_none()) {
-               stiffness = real_argument(bend_stiffness, "bend_stiffness");
-             }
-             if (is_quadratic(model)) {
-               if (!bend_stiffness.is_none() && stiffness != 0.0) {
-                 throw std::invalid_argument("bending=\"" + bending +
-                                             "\" creates no bending springs: leave "
-                                             "bend_stiffness out (or 0), got " +
-                                             std::to_string(stiffness));
-               }
-               stiffness = 0.0;
-             }
-             const double modulus = bending_modulus.is_none()
-                                        ? 0.0
-                                        : real_argument(bending_modulus, "bending_modulus");
-             const Positions v = to_rows3(vertices, "vertices");
-             const Faces f = to_faces(faces);
-             const Eigen::VectorXd vertex_mass = vertex_masses(given, density, v, &f);
-             Cloth cloth(v, f, vertex_mass, stretch_value, stiffness, damping, drag, model,
-                         modulus, membrane);
-             if (!membrane_strain.is_none()) {
-               const std::string strain = text_argument(membrane_strain, "membrane_strain",
-                                                        "\"smoothed\" or \"faces\"");
-               if (strain != "smoothed" && strain != "faces") {
-                 throw InvalidArgument(
-                     "membrane_strain must be \"smoothed\" or \"faces\", got \"" + strain + "\"",
-                     "membrane_strain");
-               }
-               try {
-                 cloth.set_membrane_smoothed(strain == "smoothed");
-               } catch (const std::invalid_argument& error) {
-                 throw InvalidArgument(error.what(), "membrane_strain");
-               }
-             }
-             return cloth;
-           }),
-           py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("masses") = py::none(),
-           py::arg("stretch_stiffness") = py::none(), py::arg("bend_stiffness") = py::none(),
-           py::arg("damping") = kDefaultDamping, py::arg("drag") = kDefaultDrag,
-           py::arg("density") = py::none(),
-           py::arg("bending") = "springs", py::arg("bending_modulus") = py::none(),
-           py::arg("mass") = py::none(), py::arg("stretch") = "springs",
-           py::arg("young_modulus") = py::none(), py::arg("poisson_ratio") = py::none(),
-           py::arg("membrane_strain") = py::none())
+      .def(
+          py::init([](const py::handle& vertices, const py::handle& faces, const py::object& masses,
+                      const py::object& stretch_stiffness, const py::object& bend_stiffness,
+                      const py::object& damping_given, const py::object& drag_given,
+                      const py::object& density, const py::object& bending_given,
+                      const py::object& bending_modulus, const py::object& mass,
+                      const py::object& stretch_given, const py::object& young_modulus,
+                      const py::object& poisson_ratio, const py::object& membrane_strain) {
+            const double damping = real_argument(damping_given, "damping");
+            const double drag = real_argument(drag_given, "drag");
+            const std::string bending =
+                text_argument(bending_given, "bending", "\"springs\", \"quadratic\" or \"hinge\"");
+            const std::string stretch =
+                text_argument(stretch_given, "stretch", "\"springs\" or \"membrane\"");
+            const py::object given = masses_argument(masses, mass);
+            const MembraneMaterial membrane =
+                membrane_argument(stretch, young_modulus, poisson_ratio);
+            double stretch_value = kDefaultStretchStiffness;
+            if (!stretch_stiffness.is_none()) {
+              stretch_value = real_argument(stretch_stiffness, "stretch_stiffness");
+            }
+            if (membrane.young_modulus > 0.0) {
+              if (!stretch_stiffness.is_none() && stretch_value != 0.0) {
+                throw std::invalid_argument(
+                    "stretch=\"membrane\" resists stretching instead of springs: leave "
+                    "stretch_stiffness out (or 0), got " +
+                    std::to_string(stretch_value));
+              }
+              stretch_value = 0.0;
+            }
+            const BendingModel model = bending_model(bending);
+            if (model == BendingModel::springs && !bending_modulus.is_none()) {
+              throw InvalidArgument(
+                  "bending_modulus is for bending=\"quadratic\"; bending springs take "
+                  "bend_stiffness (N/m)",
+                  "bending_modulus");
+            }
+            if (is_quadratic(model) && bending_modulus.is_none()) {
+              throw std::invalid_argument("bending=\"" + bending +
+                                          "\" needs bending_modulus (N·m, >= 0)");
+            }
+            double stiffness = kDefaultBendStiffness;
+            if (!bend_stiffness.is_none()) {
+              stiffness = real_argument(bend_stiffness, "bend_stiffness");
+            }
+            if (is_quadratic(model)) {
+              if (!bend_stiffness.is_none() && stiffness != 0.0) {
+                throw std::invalid_argument("bending=\"" + bending +
+                                            "\" creates no bending springs: leave "
+                                            "bend_stiffness out (or 0), got " +
+                                            std::to_string(stiffness));
+              }
+              stiffness = 0.0;
+            }
+            const double modulus =
+                bending_modulus.is_none() ? 0.0 : real_argument(bending_modulus, "bending_modulus");
+            const Positions v = to_rows3(vertices, "vertices");
+            const Faces f = to_faces(faces);
+            const Eigen::VectorXd vertex_mass = vertex_masses(given, density, v, &f);
+            Cloth cloth(v, f, vertex_mass, stretch_value, stiffness, damping, drag, model, modulus,
+                        membrane);
+            if (!membrane_strain.is_none()) {
+              const std::string strain =
+                  text_argument(membrane_strain, "membrane_strain", "\"smoothed\" or \"faces\"");
+              if (strain != "smoothed" && strain != "faces") {
+                throw InvalidArgument(
+                    "membrane_strain must be \"smoothed\" or \"faces\", got \"" + strain + "\"",
+                    "membrane_strain");
+              }
+              try {
+                cloth.set_membrane_smoothed(strain == "smoothed");
+              } catch (const std::invalid_argument& error) {
+                throw InvalidArgument(error.what(), "membrane_strain");
+              }
+            }
+            return cloth;
+          }),
+          py::arg("vertices"), py::arg("faces"), py::kw_only(), py::arg("masses") = py::none(),
+          py::arg("stretch_stiffness") = py::none(), py::arg("bend_stiffness") = py::none(),
+          py::arg("damping") = kDefaultDamping, py::arg("drag") = kDefaultDrag,
+          py::arg("density") = py::none(), py::arg("bending") = "springs",
+          py::arg("bending_modulus") = py::none(), py::arg("mass") = py::none(),
+          py::arg("stretch") = "springs", py::arg("young_modulus") = py::none(),
+          py::arg("poisson_ratio") = py::none(), py::arg("membrane_strain") = py::none())
       .def_static(
           "from_springs",
           [](const py::handle& vertices, const py::handle& edges, const py::object& rest_lengths,
@@ -308,8 +306,7 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
           py::arg("vertices"), py::arg("edges"), py::kw_only(),
           py::arg("rest_lengths") = py::none(), py::arg("masses") = py::none(),
           py::arg("stiffness") = kDefaultStretchStiffness, py::arg("damping") = kDefaultDamping,
-          py::arg("drag") = kDefaultDrag,
-          py::arg("mass") = py::none(),
+          py::arg("drag") = kDefaultDrag, py::arg("mass") = py::none(),
           R"doc(A plain spring network with no faces (chains, single springs).
 vertices n×3 (m); edges s×2 vertex indices; rest_lengths (s,) metres, default the distances in
 vertices; masses kg per vertex (scalar or (n,); `mass`, its former name, still works for one
@@ -349,7 +346,8 @@ version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc
           [](Cloth& cloth, const py::handle& value) {
             idle(cloth);
             const auto array = as_float_array(value, "material_coordinates");
-            if (array.ndim() != 2 || array.shape(1) != 2 || array.shape(0) != cloth.vertex_count()) {
+            if (array.ndim() != 2 || array.shape(1) != 2 ||
+                array.shape(0) != cloth.vertex_count()) {
               throw std::invalid_argument("material_coordinates must have shape (" +
                                           std::to_string(cloth.vertex_count()) + ", 2), got " +
                                           shape_text(array));
@@ -376,12 +374,10 @@ version with a DeprecationWarning); stiffness N/m; damping N·s/m; drag 1/s.)doc
           [](const Cloth& cloth) { return idle(cloth).has_membrane() ? "membrane" : "springs"; },
           "What resists stretching: \"springs\" or \"membrane\".")
       .def_property_readonly(
-          "young_modulus",
-          [](const Cloth& cloth) { return idle(cloth).membrane().young_modulus; },
+          "young_modulus", [](const Cloth& cloth) { return idle(cloth).membrane().young_modulus; },
           "The membrane's 2-D Young's modulus, N/m (0 with springs).")
       .def_property_readonly(
-          "poisson_ratio",
-          [](const Cloth& cloth) { return idle(cloth).membrane().poisson_ratio; },
+          "poisson_ratio", [](const Cloth& cloth) { return idle(cloth).membrane().poisson_ratio; },
           "The membrane's Poisson's ratio (0 with springs).")
       .def_property_readonly(
           "membrane_strain",

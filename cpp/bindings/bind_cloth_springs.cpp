@@ -1,9 +1,9 @@
 // Cloth.springs: the view of a cloth's springs (structure of arrays).
+#include <pybind11/stl.h>
+
 #include "bindings.hpp"
 #include "cloth_state.hpp"
 #include "convert.hpp"
-
-#include <pybind11/stl.h>
 
 namespace yore::bindings {
 

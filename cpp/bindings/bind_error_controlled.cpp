@@ -1,9 +1,9 @@
+#include <pybind11/stl.h>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "options.hpp"
 #include "yore/error_controlled.hpp"
-
-#include <pybind11/stl.h>
 
 namespace yore::bindings {
 
@@ -28,8 +28,7 @@ void bind_error_controlled(py::module_& m) {
       in_range(plain_option("max_dt", &O::max_dt), 0.0, std::numeric_limits<double>::infinity(),
                false, false),
       in_range(plain_option("max_steps", &O::max_steps), 1.0, 10'000'000.0),
-      in_range(plain_option("max_nonlinear_iterations", &O::max_nonlinear_iterations), 1.0,
-               100.0),
+      in_range(plain_option("max_nonlinear_iterations", &O::max_nonlinear_iterations), 1.0, 100.0),
       choice_option<O, Ordering>(
           "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; },
           ordering_choices()),
@@ -51,8 +50,7 @@ void bind_error_controlled(py::module_& m) {
   integrator_class.attr("option_rules") = option_rules(table);
   integrator_class
       .def(py::init([](const py::kwargs& kwargs) {
-             return std::make_unique<ErrorControlledIntegrator>(
-                 options_from_kwargs(table, kwargs));
+             return std::make_unique<ErrorControlledIntegrator>(options_from_kwargs(table, kwargs));
            }),
            "Keyword options as in `defaults`.")
       .def(

@@ -1,9 +1,9 @@
+#include <limits>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "options.hpp"
 #include "yore/explicit.hpp"
-
-#include <limits>
 
 namespace yore::bindings {
 
@@ -18,8 +18,8 @@ void bind_explicit(py::module_& m) {
                std::numeric_limits<double>::infinity(), false),
       plain_option("strain_limit_passes", &ExplicitOptions::strain_limit_passes),
       plain_option("divergence_energy_factor", &ExplicitOptions::divergence_energy_factor),
-      in_range(plain_option("energy_growth_tolerance", &ExplicitOptions::energy_growth_tolerance), 0.0, 1e6,
-               false),
+      in_range(plain_option("energy_growth_tolerance", &ExplicitOptions::energy_growth_tolerance),
+               0.0, 1e6, false),
   };
   integrator_class.attr("defaults") = option_values(table, ExplicitOptions{});
   bind_options_class(m, "ExplicitOptions", table);
@@ -27,23 +27,25 @@ void bind_explicit(py::module_& m) {
       "options", [](const ExplicitIntegrator& integrator) { return integrator.options(); },
       "The options this integrator runs with (ExplicitOptions, read-only).");
   integrator_class.attr("option_rules") = option_rules(table);
-  integrator_class.def(py::init([](const py::kwargs& kwargs) {
+  integrator_class
+      .def(py::init([](const py::kwargs& kwargs) {
              return ExplicitIntegrator(options_from_kwargs(table, kwargs));
            }),
            "Keyword options as in `defaults` (strain_limit 0 = off).")
-      .def_property_readonly("statistics", [](const ExplicitIntegrator& integrator) {
-        check_idle(&integrator, "the integrator");
-        const ExplicitStatistics& s = integrator.statistics();
-        Statistics out;
-        out.steps = s.steps;
-        out.count("energy_gain", integrator.monitor().largest_gain());
-        out.phase("forces_seconds", s.forces_seconds);
-        out.phase("update_seconds", s.update_seconds);
-        out.phase("constraints_seconds", s.constraints_seconds);
-        out.phase("checks_seconds", s.checks_seconds);
-        out.count("strain_corrections", s.strain_corrections);
-        return out;
-      })
+      .def_property_readonly("statistics",
+                             [](const ExplicitIntegrator& integrator) {
+                               check_idle(&integrator, "the integrator");
+                               const ExplicitStatistics& s = integrator.statistics();
+                               Statistics out;
+                               out.steps = s.steps;
+                               out.count("energy_gain", integrator.monitor().largest_gain());
+                               out.phase("forces_seconds", s.forces_seconds);
+                               out.phase("update_seconds", s.update_seconds);
+                               out.phase("constraints_seconds", s.constraints_seconds);
+                               out.phase("checks_seconds", s.checks_seconds);
+                               out.count("strain_corrections", s.strain_corrections);
+                               return out;
+                             })
       .def_property_readonly(
           "thread_usage",
           [](const ExplicitIntegrator& integrator) {

@@ -1,11 +1,11 @@
+#include <pybind11/stl.h>
+
+#include <string>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "yore/cloth.hpp"
 #include "yore/growth.hpp"
-
-#include <pybind11/stl.h>
-
-#include <string>
 
 namespace yore::bindings {
 void bind_growth(py::module_& m) {

@@ -1,12 +1,12 @@
-#include "bindings.hpp"
-#include "convert.hpp"
-#include "options.hpp"
-#include "yore/implicit.hpp"
-
 #include <pybind11/stl.h>
 
 #include <stdexcept>
 #include <string>
+
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "options.hpp"
+#include "yore/implicit.hpp"
 
 namespace yore::bindings {
 namespace {
@@ -23,30 +23,30 @@ void bind_implicit(py::module_& m) {
   def_history(integrator_class);
   using O = ImplicitOptions;
   static const OptionTable<O> table = {
-      choice_option<O, ImplicitMethod>(
-          "method", [](O& o) -> ImplicitMethod& { return o.method; },
-          {{"backward-euler", ImplicitMethod::backward_euler},
-           {"bdf2", ImplicitMethod::bdf2},
-           {"generalized-alpha", ImplicitMethod::generalized_alpha},
-           {"tr-bdf2", ImplicitMethod::tr_bdf2}}),
+      choice_option<O, ImplicitMethod>("method", [](O& o) -> ImplicitMethod& { return o.method; },
+                                       {{"backward-euler", ImplicitMethod::backward_euler},
+                                        {"bdf2", ImplicitMethod::bdf2},
+                                        {"generalized-alpha", ImplicitMethod::generalized_alpha},
+                                        {"tr-bdf2", ImplicitMethod::tr_bdf2}}),
       choice_option<O, ImplicitMinimizer>(
           "minimizer", [](O& o) -> ImplicitMinimizer& { return o.minimizer; },
           {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}}),
       in_range(plain_option("lbfgs_history", &O::lbfgs_history), 1.0, kMaxLbfgsHistory),
       plain_option("linearized", &O::linearized),
       plain_option("adaptive_projection", &O::adaptive_projection),
-      choice_option<O, HessianProjection>(
-          "projection", [](O& o) -> HessianProjection& { return o.projection; },
-          {{"clamp", HessianProjection::clamp}, {"abs", HessianProjection::abs},
-           {"exact", HessianProjection::exact},
-           {"trust-region", HessianProjection::trust_region},
-           {"shifted", HessianProjection::shifted},
-           {"steihaug", HessianProjection::steihaug}}),
-      choice_option<O, NewtonPredictor>(
-          "predictor", [](O& o) -> NewtonPredictor& { return o.predictor; },
-          {{"start", NewtonPredictor::start},
-           {"inertial", NewtonPredictor::inertial},
-           {"extrapolated", NewtonPredictor::extrapolated}}),
+      choice_option<O, HessianProjection>("projection",
+                                          [](O& o) -> HessianProjection& { return o.projection; },
+                                          {{"clamp", HessianProjection::clamp},
+                                           {"abs", HessianProjection::abs},
+                                           {"exact", HessianProjection::exact},
+                                           {"trust-region", HessianProjection::trust_region},
+                                           {"shifted", HessianProjection::shifted},
+                                           {"steihaug", HessianProjection::steihaug}}),
+      choice_option<O, NewtonPredictor>("predictor",
+                                        [](O& o) -> NewtonPredictor& { return o.predictor; },
+                                        {{"start", NewtonPredictor::start},
+                                         {"inertial", NewtonPredictor::inertial},
+                                         {"extrapolated", NewtonPredictor::extrapolated}}),
       plain_option("lagged_factorization", &O::lagged_factorization),
       plain_option("lag_max_cg_iterations", &O::lag_max_cg_iterations),
       in_range(plain_option("lag_cg_tol", &O::lag_cg_tol), 0.0, 1.0, true, true),
@@ -64,15 +64,16 @@ void bind_implicit(py::module_& m) {
       one_of(plain_option("solver", &O::linear_solver, &LinearSolverOptions::solver),
              {"cholmod", "eigen-ldlt", "pcg"}),
       choice_option<O, Ordering>(
-          "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; }, ordering_choices()),
+          "ordering", [](O& o) -> Ordering& { return o.linear_solver.ordering; },
+          ordering_choices()),
       choice_option<O, FactorKind>(
           "factorization", [](O& o) -> FactorKind& { return o.linear_solver.factorization; },
           factor_kind_choices()),
       in_range(plain_option("supernode_relaxation", &O::linear_solver,
                             &LinearSolverOptions::supernode_relaxation),
                0.0, 16.0, false, false),
-      in_range(plain_option("pcg_tol", &O::linear_solver, &LinearSolverOptions::pcg_tol), 0.0,
-               1.0, true, true),
+      in_range(plain_option("pcg_tol", &O::linear_solver, &LinearSolverOptions::pcg_tol), 0.0, 1.0,
+               true, true),
       in_range(plain_option("pcg_max_iterations", &O::linear_solver,
                             &LinearSolverOptions::pcg_max_iterations),
                1.0, kMaxSolverIterations),
@@ -112,11 +113,11 @@ void bind_implicit(py::module_& m) {
       "The choices `options` leaves open (None or absent: adaptive_projection, projection, "
       "predictor, mixed) decided from the others, as yore runs them: {projection, predictor, "
       "mixed}. ValueError when adaptive_projection and projection disagree.");
-  integrator_class.def(py::init([](const py::kwargs& kwargs) {
-                         return std::make_unique<ImplicitIntegrator>(
-                             options_from_kwargs(table, kwargs));
-                       }),
-                       "Keyword options as in `defaults`.")
+  integrator_class
+      .def(py::init([](const py::kwargs& kwargs) {
+             return std::make_unique<ImplicitIntegrator>(options_from_kwargs(table, kwargs));
+           }),
+           "Keyword options as in `defaults`.")
       .def(
           "newton_system",
           [](ImplicitIntegrator& integrator, const Cloth& cloth, const py::handle& gravity,
@@ -125,8 +126,7 @@ void bind_implicit(py::module_& m) {
             idle(cloth);
             if (projection != "clamp" && projection != "abs" && projection != "exact") {
               throw std::invalid_argument(
-                  "projection must be \"clamp\", \"abs\" or \"exact\", got \"" +
-                  projection + "\"");
+                  "projection must be \"clamp\", \"abs\" or \"exact\", got \"" + projection + "\"");
             }
             const HessianProjection chosen = projection == "exact" ? HessianProjection::exact
                                              : projection == "abs" ? HessianProjection::abs

@@ -1,12 +1,12 @@
-#include "bindings.hpp"
-#include "convert.hpp"
-#include "options.hpp"
-#include "yore/local_global.hpp"
-
 #include <pybind11/stl.h>
 
 #include <stdexcept>
 #include <string>
+
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "options.hpp"
+#include "yore/local_global.hpp"
 
 namespace yore::bindings {
 
@@ -20,15 +20,16 @@ void bind_local_global(py::module_& m) {
       plain_option("iterations", &O::iterations),
       in_range(plain_option("tolerance", &O::tolerance), 0.0, 1.0, false, true),
       in_range(plain_option("chebyshev_rho", &O::chebyshev_rho), 0.0, 1.0, false, true),
-      choice_option<O, Ordering>("ordering", [](O& o) -> Ordering& { return o.ordering; },
-                                 ordering_choices()),
-      choice_option<O, FactorKind>("factorization", [](O& o) -> FactorKind& { return o.factorization; },
-                                   factor_kind_choices()),
-      choice_option<O, RebuildStrategy>(
-          "rebuild", [](O& o) -> RebuildStrategy& { return o.rebuild; },
-          {{"fresh", RebuildStrategy::fresh},
-           {"reuse-ordering", RebuildStrategy::reuse_ordering},
-           {"stale-pcg", RebuildStrategy::stale_pcg}}),
+      choice_option<O, Ordering>(
+          "ordering", [](O& o) -> Ordering& { return o.ordering; }, ordering_choices()),
+      choice_option<O, FactorKind>(
+          "factorization", [](O& o) -> FactorKind& { return o.factorization; },
+          factor_kind_choices()),
+      choice_option<O, RebuildStrategy>("rebuild",
+                                        [](O& o) -> RebuildStrategy& { return o.rebuild; },
+                                        {{"fresh", RebuildStrategy::fresh},
+                                         {"reuse-ordering", RebuildStrategy::reuse_ordering},
+                                         {"stale-pcg", RebuildStrategy::stale_pcg}}),
       plain_option("stale_pcg_max_iterations", &O::stale_pcg_max_iterations),
       in_range(plain_option("stale_pcg_tol", &O::stale_pcg_tol), 0.0, 1.0, true, true),
       plain_option("record_objective", &O::record_objective),

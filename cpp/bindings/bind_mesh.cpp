@@ -1,10 +1,10 @@
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "yore/mesh.hpp"
 #include "yore/pattern_mesh.hpp"
-
-#include <pybind11/eigen.h>
-#include <pybind11/stl.h>
 
 namespace yore::bindings {
 
@@ -25,7 +25,8 @@ void bind_mesh(py::module_& m) {
         options.edge_length = edge_length;
         options.min_angle_degrees = min_angle;
         options.max_vertices = max_vertices;
-        const PatternMesh mesh = run_without_gil([&] { return pattern_mesh(outline, holes, options); });
+        const PatternMesh mesh =
+            run_without_gil([&] { return pattern_mesh(outline, holes, options); });
         return py::make_tuple(read_only_copy(mesh.points), read_only_copy(mesh.faces),
                               mesh.outline_vertices);
       },

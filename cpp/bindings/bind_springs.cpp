@@ -1,9 +1,9 @@
+#include <sstream>
+#include <stdexcept>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "yore/springs.hpp"
-
-#include <sstream>
-#include <stdexcept>
 
 namespace yore::bindings {
 namespace {
@@ -45,8 +45,8 @@ void bind_springs(py::module_& m) {
         const SpringBatch b = to_batch(xi, xj, rest, stiffness);
         Positions out(b.first.rows(), 3);
         for (Eigen::Index s = 0; s < out.rows(); ++s) {
-          out.row(s) = spring_gradient(b.first.row(s), b.second.row(s), b.rest_length[s],
-                                       b.stiffness[s]);
+          out.row(s) =
+              spring_gradient(b.first.row(s), b.second.row(s), b.rest_length[s], b.stiffness[s]);
         }
         return read_only_copy(out);
       },

@@ -1,12 +1,12 @@
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "options.hpp"
 #include "yore/cloth.hpp"
 #include "yore/stroke.hpp"
-
-#include <pybind11/stl.h>
-
-#include <stdexcept>
 
 namespace yore::bindings {
 

@@ -1,11 +1,11 @@
-#include "bindings.hpp"
-#include "convert.hpp"
-#include "yore/stroke_pipeline.hpp"
-
 #include <pybind11/stl.h>
 
 #include <stdexcept>
 #include <string>
+
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "yore/stroke_pipeline.hpp"
 
 namespace yore::bindings {
 namespace {
@@ -43,8 +43,8 @@ StrokeInput stroke_input(const std::string& trace, const py::handle& points, dou
 void bind_stroke_pipeline(py::module_& m) {
   // A missed stroke and a refused refinement are ValueErrors of their own, defined here and
   // re-exported by yore.stroke (and yore).
-  py::register_exception<StrokeMissed>(m, "StrokeMissed", PyExc_ValueError)
-      .attr("__doc__") = "The stroke touches the cloth nowhere.";
+  py::register_exception<StrokeMissed>(m, "StrokeMissed", PyExc_ValueError).attr("__doc__") =
+      "The stroke touches the cloth nowhere.";
   py::register_exception<RefinementTooLarge>(m, "RefinementTooLarge", PyExc_ValueError)
       .attr("__doc__") =
       "A stroke's refinement could make the mesh larger than its vertex limit (the cloth is "
@@ -54,17 +54,17 @@ void bind_stroke_pipeline(py::module_& m) {
   // own (the options, the re-analysis time).
   py::class_<StrokeResult>(m, "StrokeResult", "What one stroke did (see stroke_pipeline.hpp).")
       .def_readonly("faces_split", &StrokeResult::faces_split)
-      .def_property_readonly(
-          "faces_skipped", [](const StrokeResult& r) { return read_only_copy(r.faces_skipped); })
+      .def_property_readonly("faces_skipped",
+                             [](const StrokeResult& r) { return read_only_copy(r.faces_skipped); })
       .def_property_readonly(
           "vertices_added",
           [](const StrokeResult& r) { return static_cast<std::int64_t>(r.new_vertices.size()); })
       .def_readonly("springs_added", &StrokeResult::springs_added)
       .def_readonly("springs_removed", &StrokeResult::springs_removed)
-      .def_property_readonly(
-          "region_faces", [](const StrokeResult& r) { return read_only_copy(r.region_faces); })
-      .def_property_readonly(
-          "new_vertices", [](const StrokeResult& r) { return read_only_copy(r.new_vertices); })
+      .def_property_readonly("region_faces",
+                             [](const StrokeResult& r) { return read_only_copy(r.region_faces); })
+      .def_property_readonly("new_vertices",
+                             [](const StrokeResult& r) { return read_only_copy(r.new_vertices); })
       .def_readonly("area_before", &StrokeResult::area_before)
       .def_readonly("rest_area_before", &StrokeResult::rest_area_before)
       .def_readonly("rest_area_after", &StrokeResult::rest_area_after)
@@ -78,10 +78,10 @@ void bind_stroke_pipeline(py::module_& m) {
       .def_readonly("springs_grown", &StrokeResult::springs_grown)
       .def_readonly("rest_length_added", &StrokeResult::rest_length_added)
       .def_readonly("mass_added", &StrokeResult::mass_added)
-      .def_property_readonly(
-          "line_vertices", [](const StrokeResult& r) { return read_only_copy(r.line_vertices); })
-      .def_property_readonly(
-          "spring_weights", [](const StrokeResult& r) { return read_only_copy(r.spring_weights); })
+      .def_property_readonly("line_vertices",
+                             [](const StrokeResult& r) { return read_only_copy(r.line_vertices); })
+      .def_property_readonly("spring_weights",
+                             [](const StrokeResult& r) { return read_only_copy(r.spring_weights); })
       .def_property_readonly(
           "vertex_weights", [](const StrokeResult& r) { return read_only_copy(r.vertex_weights); });
   const SplitOptions split_defaults;
@@ -132,9 +132,8 @@ void bind_stroke_pipeline(py::module_& m) {
       py::arg("max_distance") = 0.0, py::arg("eye") = py::none(),
       py::arg("base_direction") = py::none(), py::arg("direction_per_pixel_x") = py::none(),
       py::arg("direction_per_pixel_y") = py::none(),
-      py::arg("spacing_pixels") = StrokeInput{}.spacing_pixels,
-      py::arg("growth") = default_growth, py::arg("width") = stroke_defaults.width,
-      py::arg("refine") = stroke_defaults.refine,
+      py::arg("spacing_pixels") = StrokeInput{}.spacing_pixels, py::arg("growth") = default_growth,
+      py::arg("width") = stroke_defaults.width, py::arg("refine") = stroke_defaults.refine,
       py::arg("expansion") = split_defaults.expansion,
       py::arg("mass_scale") = split_defaults.mass_scale,
       py::arg("conserve_mass") = split_defaults.conserve_mass,

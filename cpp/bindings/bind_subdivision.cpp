@@ -1,9 +1,9 @@
+#include <pybind11/stl.h>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "yore/cloth.hpp"
 #include "yore/subdivision.hpp"
-
-#include <pybind11/stl.h>
 
 namespace yore::bindings {
 namespace {
@@ -42,8 +42,7 @@ void bind_subdivision(py::module_& m) {
           splits[k].face = ids[k];
           splits[k].barycentric = weights.row(static_cast<Eigen::Index>(k)).transpose();
         }
-        const Split1to3 result =
-            split_faces_1to3(v, f, splits, min_barycentric, min_angle_degrees);
+        const Split1to3 result = split_faces_1to3(v, f, splits, min_barycentric, min_angle_degrees);
         py::dict out;
         put_subdivision(out, result.mesh);
         out["split_faces"] = read_only_copy(result.split_faces);

@@ -2,26 +2,45 @@
 // binds them; pickling uses them too).
 #include "cloth_state.hpp"
 
-#include "convert.hpp"
-
 #include <pybind11/stl.h>
 
 #include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
+#include "convert.hpp"
+
 namespace yore::bindings {
 namespace {
 
 /// The keys of Cloth.state(), in order.
-const char* const kStateKeys[] = {
-    "positions",        "velocities",       "masses",           "faces",
-    "spring_ends",      "spring_rest",      "spring_reference", "spring_stiffness",
-    "spring_damping",   "spring_kind",      "drag",             "stretch_stiffness",
-    "bend_stiffness",   "damping",          "material_coordinates", "vertex_states",
-    "drivers",          "clock_origin",     "clock_steps",      "clock_dt",
-    "bending",          "bending_modulus",  "bending_rest",     "young_modulus",
-    "poisson_ratio",    "bending_operator", "membrane_strain"};
+const char* const kStateKeys[] = {"positions",
+                                  "velocities",
+                                  "masses",
+                                  "faces",
+                                  "spring_ends",
+                                  "spring_rest",
+                                  "spring_reference",
+                                  "spring_stiffness",
+                                  "spring_damping",
+                                  "spring_kind",
+                                  "drag",
+                                  "stretch_stiffness",
+                                  "bend_stiffness",
+                                  "damping",
+                                  "material_coordinates",
+                                  "vertex_states",
+                                  "drivers",
+                                  "clock_origin",
+                                  "clock_steps",
+                                  "clock_dt",
+                                  "bending",
+                                  "bending_modulus",
+                                  "bending_rest",
+                                  "young_modulus",
+                                  "poisson_ratio",
+                                  "bending_operator",
+                                  "membrane_strain"};
 /// Keys a state may lack: states saved before quadratic bending existed are bending springs,
 /// before the membrane existed springs resist stretching, and before the fitted operator
 /// (issue 52) "quadratic" meant the hinge energy: such a state loads as bending="hinge", so it
@@ -51,9 +70,12 @@ BendingModel bending_model(const std::string& name) {
 
 const char* bending_name(BendingModel model) {
   switch (model) {
-    case BendingModel::quadratic: return "quadratic";
-    case BendingModel::hinge: return "hinge";
-    default: return "springs";
+    case BendingModel::quadratic:
+      return "quadratic";
+    case BendingModel::hinge:
+      return "hinge";
+    default:
+      return "springs";
   }
 }
 
@@ -135,10 +157,10 @@ Cloth cloth_from_state(const py::dict& values) {
     }
   }
   if (!unknown.empty() || !missing.empty()) {
-    throw std::invalid_argument("not a cloth state: " +
-                                (unknown.empty() ? "" : "unknown key(s) " + unknown) +
-                                (unknown.empty() || missing.empty() ? "" : "; ") +
-                                (missing.empty() ? "" : "missing key(s) " + missing));
+    throw std::invalid_argument(
+        "not a cloth state: " + (unknown.empty() ? "" : "unknown key(s) " + unknown) +
+        (unknown.empty() || missing.empty() ? "" : "; ") +
+        (missing.empty() ? "" : "missing key(s) " + missing));
   }
   ClothState state;
   state.positions = to_rows3(values["positions"], "state positions");
@@ -201,7 +223,8 @@ Cloth cloth_from_state(const py::dict& values) {
   state.clock.origin = values["clock_origin"].cast<double>();
   state.clock.steps = values["clock_steps"].cast<std::int64_t>();
   state.clock.dt = values["clock_dt"].cast<double>();
-  if (values.contains("bending")) state.bending = bending_model(values["bending"].cast<std::string>());
+  if (values.contains("bending"))
+    state.bending = bending_model(values["bending"].cast<std::string>());
   if (values.contains("bending_operator") && !values["bending_operator"].is_none()) {
     const py::object given = values["bending_operator"];
     if (!py::isinstance<py::str>(given) || given.cast<std::string>() != "fitted" ||

@@ -2,11 +2,11 @@
 // The parts of the Cloth binding that live in their own files: the view of its springs
 // (bind_cloth_springs.cpp) and the conversions of its state to and from a dict (cloth_state.cpp).
 
-#include "yore/cloth.hpp"
-
 #include <pybind11/pybind11.h>
 
 #include <string>
+
+#include "yore/cloth.hpp"
 
 namespace yore::bindings {
 

@@ -3,9 +3,9 @@
 #include <atomic>
 #include <limits>
 #include <mutex>
-#include <unordered_map>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace yore::bindings {
 namespace {
@@ -84,7 +84,6 @@ void PendingPythonError::raise() {
   throw py::error_already_set();
 }
 
-
 std::string shape_text(const py::array& array) {
   std::ostringstream text;
   text << "(";
@@ -129,8 +128,8 @@ namespace {
 /// Copies an integer array into `out` (numeric.size() entries) as int32, in C order.
 void narrow_to_int32(const py::array& numeric, const char* name, std::int32_t* out) {
   if (numeric.dtype().kind() == 'u') {  // uint64 above 2^63 would wrap to negative int64
-    const auto wide = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(
-        numeric);
+    const auto wide =
+        py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(numeric);
     for (py::ssize_t k = 0; k < wide.size(); ++k) {
       const std::uint64_t value = wide.data()[k];
       if (value > static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max())) {
@@ -142,8 +141,8 @@ void narrow_to_int32(const py::array& numeric, const char* name, std::int32_t* o
     }
     return;
   }
-  const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
-      numeric);
+  const auto wide =
+      py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(numeric);
   for (py::ssize_t k = 0; k < wide.size(); ++k) {
     const std::int64_t value = wide.data()[k];
     if (value < std::numeric_limits<std::int32_t>::min() ||
@@ -171,7 +170,7 @@ Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> to_index_r
     throw std::invalid_argument(msg.str());
   }
   Eigen::Matrix<std::int32_t, Eigen::Dynamic, Columns, Eigen::RowMajor> out(numeric.shape(0),
-                                                                              Columns);
+                                                                            Columns);
   narrow_to_int32(numeric, name, out.data());
   return out;
 }
@@ -240,8 +239,7 @@ void bind_statistics(py::module_& m) {
 An integrator's statistics: steps (taken), phases ({name: cumulative wall seconds}) and counters
 ({name: cumulative count or the last step's figure}). Read-only; phases and counters are copies.)doc")
       .def_readonly("steps", &Statistics::steps)
-      .def_property_readonly("phases",
-                             [](const Statistics& s) { return s.phases.attr("copy")(); })
+      .def_property_readonly("phases", [](const Statistics& s) { return s.phases.attr("copy")(); })
       .def_property_readonly("counters",
                              [](const Statistics& s) { return s.counters.attr("copy")(); })
       .def("__repr__", [](const Statistics& s) {

@@ -2,18 +2,18 @@
 // Conversions between numpy arrays and the core's Eigen types, with checks that name the
 // offending argument, shape or value (std::invalid_argument → ValueError in Python).
 
-#include "yore/cloth.hpp"
-#include "yore/integrator.hpp"
-#include "yore/interrupt.hpp"
-#include "yore/linear_solver.hpp"
-#include "yore/mesh.hpp"
-
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "yore/cloth.hpp"
+#include "yore/integrator.hpp"
+#include "yore/interrupt.hpp"
+#include "yore/linear_solver.hpp"
+#include "yore/mesh.hpp"
 
 namespace yore::bindings {
 
@@ -55,8 +55,8 @@ py::array read_only_copy(const Matrix& matrix) {
   if constexpr (Matrix::ColsAtCompileTime == 1) {
     out = py::array_t<Scalar>(static_cast<py::ssize_t>(matrix.size()));
   } else {
-    out = py::array_t<Scalar>({static_cast<py::ssize_t>(matrix.rows()),
-                               static_cast<py::ssize_t>(matrix.cols())});
+    out = py::array_t<Scalar>(
+        {static_cast<py::ssize_t>(matrix.rows()), static_cast<py::ssize_t>(matrix.cols())});
   }
   // Row-major Eigen storage matches numpy's C order element for element.
   std::copy(matrix.data(), matrix.data() + matrix.size(), out.mutable_data());

@@ -1,10 +1,10 @@
 // The module yore._cpu: what the CPU and the OS run, read before anything loads a BLAS. A module
 // of its own because yore._core links CHOLMOD, whose BLAS chooses its kernels the moment it
 // loads (python/yore/blas.py decides them from this). Links nothing but pybind11.
-#include "yore/cpu_features.hpp"
-
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+
+#include "yore/cpu_features.hpp"
 
 namespace py = pybind11;
 

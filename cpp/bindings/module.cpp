@@ -1,3 +1,5 @@
+#include <pybind11/stl.h>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "yore/bandwidth.hpp"
@@ -5,8 +7,6 @@
 #include "yore/errors.hpp"
 #include "yore/explicit.hpp"
 #include "yore/geometry.hpp"
-
-#include <pybind11/stl.h>
 
 namespace py = pybind11;
 
@@ -18,8 +18,8 @@ PYBIND11_MODULE(_core, m) {
   py::exception<yore::SimulationDiverged>(m, "SimulationDiverged", PyExc_RuntimeError);
   py::register_exception<yore::NotPositiveDefinite>(m, "NotPositiveDefinite", PyExc_RuntimeError);
   // Bad input that names its argument: a ValueError whose `argument` is that name.
-  py::exception<yore::InvalidArgument>(m, "ArgumentError", PyExc_ValueError)
-      .attr("__doc__") = "Bad input (a ValueError); `argument` names the argument at fault.";
+  py::exception<yore::InvalidArgument>(m, "ArgumentError", PyExc_ValueError).attr("__doc__") =
+      "Bad input (a ValueError); `argument` names the argument at fault.";
   py::register_exception_translator([](std::exception_ptr pointer) {
     try {
       if (pointer) std::rethrow_exception(pointer);

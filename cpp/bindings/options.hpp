@@ -5,8 +5,6 @@
 // table applied to a default-constructed struct, so every default lives in the C++ struct and
 // the Python option tables are built from it.
 
-#include "convert.hpp"
-
 #include <cmath>
 #include <functional>
 #include <initializer_list>
@@ -16,11 +14,13 @@
 #include <utility>
 #include <vector>
 
+#include "convert.hpp"
+
 namespace yore::bindings {
 
 /// Largest iteration counts an option may ask for: one step runs its iterations inside the
 /// core, out of reach of Ctrl-C, so a typo such as 10**9 iterations is refused.
-inline constexpr double kMaxStepIterations = 10'000;     ///< per step (Newton, CG, passes)
+inline constexpr double kMaxStepIterations = 10'000;  ///< per step (Newton, CG, passes)
 /// Smallest rtol of the error-controlled steps: below it the local error test compares
 /// round-off (positions of order 1 m carry ~1e-16 m) and Newton's stop, not truncation: CVODE at
 /// 1e-14 on a 6×6 cloth was still in its first 1/60 s interval after two minutes.
@@ -117,8 +117,7 @@ void bind_options_class(py::module_& m, const char* name, const OptionTable<Opti
 template <typename Options, typename Holder, typename T>
 OptionField<Options> plain_option(const char* name, Holder Options::*holder, T Holder::*member) {
   const std::string key = name;
-  return {key,
-          [=](const Options& o) { return py::cast((o.*holder).*member); },
+  return {key, [=](const Options& o) { return py::cast((o.*holder).*member); },
           [=](Options& o, const py::handle& value) {
             if constexpr (std::is_same_v<T, int>) {
               (o.*holder).*member = to_int32(value.cast<std::int64_t>(), key.c_str());

@@ -1,13 +1,13 @@
 #include "yore/bandwidth.hpp"
 
-#include "yore/build_info.hpp"
-#include "yore/timer.hpp"
-
 #include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <stdexcept>
+
+#include "yore/build_info.hpp"
+#include "yore/timer.hpp"
 
 namespace yore {
 

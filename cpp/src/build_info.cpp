@@ -1,9 +1,9 @@
 #include "yore/build_info.hpp"
 
-#include <Eigen/Core>
 #include <cholmod.h>
 #include <dlfcn.h>
 
+#include <Eigen/Core>
 #include <atomic>
 #include <sstream>
 #include <stdexcept>

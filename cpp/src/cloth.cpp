@@ -2,12 +2,8 @@
 // stepping state is in cloth_state.cpp, subdivision in cloth_rewiring.cpp, the stable-step
 // estimates in stable_step.cpp.
 #include "yore/cloth.hpp"
-#include "yore/errors.hpp"
-
-#include "cloth_detail.hpp"
 
 #include <Eigen/QR>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -15,6 +11,9 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+
+#include "cloth_detail.hpp"
+#include "yore/errors.hpp"
 
 namespace yore {
 namespace detail {
@@ -48,8 +47,8 @@ void check_positive(double value, const char* name) {
   if (!std::isfinite(value) || !(value >= std::numeric_limits<double>::min()) ||
       value > kMaxMaterialValue) {
     std::ostringstream msg;
-    msg << name << " must be a normal number in [" << std::numeric_limits<double>::min()
-        << ", " << kMaxMaterialValue << "] (> 0), got " << value;
+    msg << name << " must be a normal number in [" << std::numeric_limits<double>::min() << ", "
+        << kMaxMaterialValue << "] (> 0), got " << value;
     fail_argument(msg.str(), name);
   }
 }
@@ -102,9 +101,8 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
     if (!std::isfinite(masses[i]) || !(masses[i] >= std::numeric_limits<double>::min()) ||
         masses[i] > kMaxMaterialValue) {
       std::ostringstream msg;
-      msg << "mass of vertex " << i << " must be finite, >= "
-          << std::numeric_limits<double>::min() << " kg (a normal number > 0) and <= "
-          << kMaxMaterialValue << " kg, got " << masses[i];
+      msg << "mass of vertex " << i << " must be finite, >= " << std::numeric_limits<double>::min()
+          << " kg (a normal number > 0) and <= " << kMaxMaterialValue << " kg, got " << masses[i];
       fail_argument(msg.str(), "masses");
     }
   }
@@ -140,9 +138,10 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
     fail("bending must be springs (0), quadratic (1) or hinge (2)");
   }
   if (bending == BendingModel::springs && bending_modulus != 0.0) {
-    fail_argument("bending_modulus is for quadratic bending; with bending springs use "
-                  "bend_stiffness",
-                  "bending_modulus");
+    fail_argument(
+        "bending_modulus is for quadratic bending; with bending springs use "
+        "bend_stiffness",
+        "bending_modulus");
   }
   if (is_quadratic(bending) && bend_stiffness != 0.0) {
     std::ostringstream msg;
@@ -224,8 +223,8 @@ Cloth Cloth::from_springs(const Positions& positions, const Edges& edges,
       msg << "spring " << k << " joins vertex " << i << " to itself";
       fail(msg.str());
     }
-    const double rest = rest_lengths.size() ? rest_lengths[k]
-                                            : (positions.row(i) - positions.row(j)).norm();
+    const double rest =
+        rest_lengths.size() ? rest_lengths[k] : (positions.row(i) - positions.row(j)).norm();
     if (!std::isfinite(rest) || rest <= 0.0) {
       std::ostringstream msg;
       msg << "spring " << k << " (" << i << ", " << j << ") has rest length " << rest
@@ -402,9 +401,9 @@ EnergyTerms Cloth::energy(const Vec3& gravity) const {
     terms.gravity -= m_masses[i] * m_positions.row(i).dot(gravity);
   }
   for (std::size_t k = 0; k < m_springs.size(); ++k) {
-    terms.spring += spring_energy(m_positions.row(m_springs.first[k]),
-                                  m_positions.row(m_springs.second[k]),
-                                  m_springs.rest_length[k], m_springs.stiffness[k]);
+    terms.spring +=
+        spring_energy(m_positions.row(m_springs.first[k]), m_positions.row(m_springs.second[k]),
+                      m_springs.rest_length[k], m_springs.stiffness[k]);
   }
   if (has_quadratic_bending()) {
     terms.bending = quadratic_bending_energy(quadratic_bending(), m_bending_modulus, m_positions);

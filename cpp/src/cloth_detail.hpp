@@ -3,11 +3,11 @@
 // cloth_state.cpp: the stepping state; cloth_rewiring.cpp: subdivision; stable_step.cpp: the
 // stable-step estimates). Private to cpp/src.
 
-#include "yore/membrane.hpp"
-#include "yore/mesh.hpp"
-
 #include <cstdint>
 #include <string>
+
+#include "yore/membrane.hpp"
+#include "yore/mesh.hpp"
 
 namespace yore::detail {
 

@@ -1,11 +1,6 @@
 // Subdivision of Cloth: the spring rewiring both subdivisions share, the mass-conserving rule,
 // split_faces (the paper's 1→3 split) and refine_faces (1→4 refinement).
-#include "yore/cloth.hpp"
-
-#include "cloth_detail.hpp"
-
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,6 +9,9 @@
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+
+#include "cloth_detail.hpp"
+#include "yore/cloth.hpp"
 
 namespace yore {
 using namespace detail;
@@ -42,9 +40,10 @@ double metric_distance(const Vec3& u, const Vec3& v, double ab, double bc, doubl
 
 /// Distance between the apexes p and q of two triangles (u, v, p) and (v, u, q) with these side
 /// lengths, hinged along (u, v) at the dihedral angle whose cosine is cos_dihedral (−1: flat).
-double hinge_distance(double uv, double up, double vp, double uq, double vq,
-                      double cos_dihedral) {
-  auto foot = [uv](double to_u, double to_v) { return (to_u * to_u - to_v * to_v + uv * uv) / (2.0 * uv); };
+double hinge_distance(double uv, double up, double vp, double uq, double vq, double cos_dihedral) {
+  auto foot = [uv](double to_u, double to_v) {
+    return (to_u * to_u - to_v * to_v + uv * uv) / (2.0 * uv);
+  };
   const double xp = foot(up, vp), xq = foot(uq, vq);
   const double hp = std::sqrt(std::max(up * up - xp * xp, 0.0));
   const double hq = std::sqrt(std::max(uq * uq - xq * xq, 0.0));
@@ -74,7 +73,7 @@ class SpringRewiring {
       const VertexPair pair{std::min(springs.first[k], springs.second[k]),
                             std::max(springs.first[k], springs.second[k])};
       const auto& wired = springs.kind[k] == SpringKind::structural ? connectivity.edges
-                                                                      : connectivity.bending_pairs;
+                                                                    : connectivity.bending_pairs;
       keep[k] = std::binary_search(wired.begin(), wired.end(), pair);
       if (keep[k]) m_existing.insert(pair_key(pair[0], pair[1]));
     }
@@ -147,8 +146,8 @@ void Cloth::adopt_subdivision(const Subdivision& mesh) {
                        c = mesh.new_vertex_corners(k, 2);
     const Vec3 w = mesh.new_vertex_weights.row(k).transpose();
     const Eigen::Index p = old_vertices + k;
-    m_velocities.row(p) = w[0] * m_velocities.row(a) + w[1] * m_velocities.row(b) +
-                          w[2] * m_velocities.row(c);
+    m_velocities.row(p) =
+        w[0] * m_velocities.row(a) + w[1] * m_velocities.row(b) + w[2] * m_velocities.row(c);
     if (with_material) {
       m_material.row(p) =
           w[0] * m_material.row(a) + w[1] * m_material.row(b) + w[2] * m_material.row(c);
@@ -195,12 +194,13 @@ Eigen::VectorXd Cloth::conserving_masses(const Subdivision& mesh) const {
     std::vector<double> areas;
     double total = 0.0;
     for (const std::int32_t g : kids) {
-      areas.push_back(triangle_area(mesh.positions, mesh.faces(g, 0), mesh.faces(g, 1),
-                                    mesh.faces(g, 2)));
+      areas.push_back(
+          triangle_area(mesh.positions, mesh.faces(g, 0), mesh.faces(g, 1), mesh.faces(g, 2)));
       total += areas.back();
     }
     for (std::size_t k = 0; k < kids.size(); ++k) {
-      const double fraction = total > 0.0 ? areas[k] / total : 1.0 / static_cast<double>(kids.size());
+      const double fraction =
+          total > 0.0 ? areas[k] / total : 1.0 / static_cast<double>(kids.size());
       for (int c = 0; c < 3; ++c) masses[mesh.faces(kids[k], c)] += face_mass * fraction / 3.0;
     }
   }
@@ -218,15 +218,16 @@ Eigen::VectorXd Cloth::conserving_masses(const Subdivision& mesh) const {
 void Cloth::check_split_masses(const std::vector<std::int32_t>& faces,
                                const SplitOptions& options) const {
   for (const std::int32_t face : faces) {
-    const double mass = options.mass_scale *
-                        (m_masses[m_faces(face, 0)] + m_masses[m_faces(face, 1)] +
-                         m_masses[m_faces(face, 2)]) / 3.0;
+    const double mass =
+        options.mass_scale *
+        (m_masses[m_faces(face, 0)] + m_masses[m_faces(face, 1)] + m_masses[m_faces(face, 2)]) /
+        3.0;
     if (!(mass >= std::numeric_limits<double>::min()) || !std::isfinite(mass) ||
         mass > kMaxMaterialValue) {
       std::ostringstream msg;
       msg << "mass_scale " << options.mass_scale << " gives face " << face
-          << "'s new vertex the mass " << mass << " kg, not a normal number > 0 and <= "
-          << kMaxMaterialValue << " kg";
+          << "'s new vertex the mass " << mass
+          << " kg, not a normal number > 0 and <= " << kMaxMaterialValue << " kg";
       fail(msg.str());
     }
   }
@@ -243,19 +244,17 @@ void Cloth::append_split_masses(const std::vector<std::int32_t>& faces, double m
   }
 }
 
-SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits,
-                               const SplitOptions& options) {
+SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits, const SplitOptions& options) {
   if (face_count() == 0) fail("a spring network has no faces to split");
   check_split_options(options);
-  const Split1to3 surgery = split_faces_1to3(m_positions, m_faces, splits,
-                                             options.min_barycentric, options.min_angle_degrees);
+  const Split1to3 surgery = split_faces_1to3(m_positions, m_faces, splits, options.min_barycentric,
+                                             options.min_angle_degrees);
 
   SplitReport report;
   report.faces_skipped = surgery.faces_skipped;
   report.moved_inward = surgery.moved_inward;
   // Rest lengths of the structural springs by vertex pair, for rest areas.
-  std::unordered_map<std::uint64_t, double> structural_rest =
-      structural_rest_lengths(m_springs);
+  std::unordered_map<std::uint64_t, double> structural_rest = structural_rest_lengths(m_springs);
   auto rest_of = [&](std::int32_t i, std::int32_t j) {
     const auto it = structural_rest.find(pair_key(i, j));
     return it == structural_rest.end() ? (m_positions.row(i) - m_positions.row(j)).norm()
@@ -354,7 +353,8 @@ std::unordered_map<std::uint64_t, EdgeFaces> faces_around_edges(const Faces& fac
     for (int c = 0; c < 3; ++c) {
       EdgeFaces& entry = around_edge[pair_key(faces(g, c), faces(g, (c + 1) % 3))];
       entry.face = static_cast<std::int32_t>(g);
-      if (entry.count < 2) entry.apexes[static_cast<std::size_t>(entry.count)] = faces(g, (c + 2) % 3);
+      if (entry.count < 2)
+        entry.apexes[static_cast<std::size_t>(entry.count)] = faces(g, (c + 2) % 3);
       ++entry.count;
     }
   }
@@ -435,7 +435,8 @@ RefineReport Cloth::refine_faces(const std::vector<std::int32_t>& faces) {
     }
   }
 
-  // Built aside and committed with the vertices at the end, so a failure leaves the cloth as it was.
+  // Built aside and committed with the vertices at the end, so a failure leaves the cloth as it
+  // was.
   SpringSet springs = refined_springs(surgery, metric, report);
   for (const std::int32_t g : report.region_faces) {
     const std::int32_t a = mesh.faces(g, 0), b = mesh.faces(g, 1), c = mesh.faces(g, 2);
@@ -471,16 +472,19 @@ SpringSet Cloth::refined_springs(const Refinement& surgery, RestMetric& rest_met
   auto weights_in = [&](std::int32_t v, std::int32_t parent) {
     return weights_in_parent(v, parent, old_faces, old_vertices, surgery.split_edges);
   };
-  rewiring.add_missing(SpringKind::structural, m_stretch_stiffness, m_spring_damping,
-                       [&](const VertexPair& edge) {
-    const std::uint64_t key = pair_key(edge[0], edge[1]);
-    const std::int32_t parent = mesh.parents[static_cast<std::size_t>(around_edge.at(key).face)];
-    const std::int32_t a = old_faces(parent, 0), b = old_faces(parent, 1), c = old_faces(parent, 2);
-    const Vec3 u = weights_in(edge[0], parent), v = weights_in(edge[1], parent);
-    return SpringRewiring::Lengths{
-        metric_distance(u, v, side(rest, a, b), side(rest, b, c), side(rest, c, a)),
-        metric_distance(u, v, side(reference, a, b), side(reference, b, c), side(reference, c, a))};
-  });
+  rewiring.add_missing(
+      SpringKind::structural, m_stretch_stiffness, m_spring_damping, [&](const VertexPair& edge) {
+        const std::uint64_t key = pair_key(edge[0], edge[1]);
+        const std::int32_t parent =
+            mesh.parents[static_cast<std::size_t>(around_edge.at(key).face)];
+        const std::int32_t a = old_faces(parent, 0), b = old_faces(parent, 1),
+                           c = old_faces(parent, 2);
+        const Vec3 u = weights_in(edge[0], parent), v = weights_in(edge[1], parent);
+        return SpringRewiring::Lengths{
+            metric_distance(u, v, side(rest, a, b), side(rest, b, c), side(rest, c, a)),
+            metric_distance(u, v, side(reference, a, b), side(reference, b, c),
+                            side(reference, c, a))};
+      });
   // The new structural springs are the sides of the triangles the bending springs hinge on.
   for (std::size_t k = kept; k < springs.size(); ++k) {
     const std::uint64_t key = pair_key(springs.first[k], springs.second[k]);
@@ -489,30 +493,31 @@ SpringSet Cloth::refined_springs(const Refinement& surgery, RestMetric& rest_met
   }
   if (m_bend_stiffness > 0.0) {
     const std::unordered_map<std::uint64_t, VertexPair> hinge_of = hinges_of(around_edge);
-    rewiring.add_missing(SpringKind::bending, m_bend_stiffness, m_spring_damping,
-                         [&](const VertexPair& pair) {
-      const VertexPair hinge = hinge_of.at(pair_key(pair[0], pair[1]));
-      const std::int32_t u = hinge[0], v = hinge[1], p = pair[0], q = pair[1];
-      const Vec3 xu = mesh.positions.row(u), xv = mesh.positions.row(v);
-      const Vec3 axis = (xv - xu).normalized();
-      Vec3 arm_p = Vec3(mesh.positions.row(p)) - xu, arm_q = Vec3(mesh.positions.row(q)) - xu;
-      arm_p -= arm_p.dot(axis) * axis;
-      arm_q -= arm_q.dot(axis) * axis;
-      const double norms = arm_p.norm() * arm_q.norm();
-      const double cos_dihedral = norms > 0.0 ? std::clamp(arm_p.dot(arm_q) / norms, -1.0, 1.0) : -1.0;
-      auto hinged = [&](const std::unordered_map<std::uint64_t, double>& metric) {
-        return hinge_distance(side(metric, u, v), side(metric, u, p), side(metric, v, p),
-                              side(metric, u, q), side(metric, v, q), cos_dihedral);
-      };
-      const double rest_length = hinged(rest);
-      if (!(rest_length > 0.0)) {
-        std::ostringstream msg;
-        msg << "refinement gives the bending pair (" << p << ", " << q
-            << ") a zero rest length: degenerate rest triangles";
-        fail(msg.str());
-      }
-      return SpringRewiring::Lengths{rest_length, hinged(reference)};
-    });
+    rewiring.add_missing(
+        SpringKind::bending, m_bend_stiffness, m_spring_damping, [&](const VertexPair& pair) {
+          const VertexPair hinge = hinge_of.at(pair_key(pair[0], pair[1]));
+          const std::int32_t u = hinge[0], v = hinge[1], p = pair[0], q = pair[1];
+          const Vec3 xu = mesh.positions.row(u), xv = mesh.positions.row(v);
+          const Vec3 axis = (xv - xu).normalized();
+          Vec3 arm_p = Vec3(mesh.positions.row(p)) - xu, arm_q = Vec3(mesh.positions.row(q)) - xu;
+          arm_p -= arm_p.dot(axis) * axis;
+          arm_q -= arm_q.dot(axis) * axis;
+          const double norms = arm_p.norm() * arm_q.norm();
+          const double cos_dihedral =
+              norms > 0.0 ? std::clamp(arm_p.dot(arm_q) / norms, -1.0, 1.0) : -1.0;
+          auto hinged = [&](const std::unordered_map<std::uint64_t, double>& metric) {
+            return hinge_distance(side(metric, u, v), side(metric, u, p), side(metric, v, p),
+                                  side(metric, u, q), side(metric, v, q), cos_dihedral);
+          };
+          const double rest_length = hinged(rest);
+          if (!(rest_length > 0.0)) {
+            std::ostringstream msg;
+            msg << "refinement gives the bending pair (" << p << ", " << q
+                << ") a zero rest length: degenerate rest triangles";
+            fail(msg.str());
+          }
+          return SpringRewiring::Lengths{rest_length, hinged(reference)};
+        });
   }
   report.springs_removed = rewiring.removed();
   report.springs_added = rewiring.added();

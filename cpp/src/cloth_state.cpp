@@ -1,17 +1,15 @@
 // The stepping state of Cloth: state()/from_state() and their checks, the setters, constraints
 // and drivers, incidence and inverse masses, the clock.
-#include "yore/cloth.hpp"
-
-#include "cloth_detail.hpp"
-
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <string>
+
+#include "cloth_detail.hpp"
+#include "yore/cloth.hpp"
 
 namespace yore {
 using namespace detail;
@@ -75,13 +73,13 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n, bool with_mem
         fail(msg.str());
       }
     } else if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
-          values[1] > 0.0 && std::isfinite(values[2]) &&
-          values[2] >= std::numeric_limits<double>::min() &&
-          values[2] <= kMaxMaterialValue)) {
+                 values[1] > 0.0 && std::isfinite(values[2]) &&
+                 values[2] >= std::numeric_limits<double>::min() &&
+                 values[2] <= kMaxMaterialValue)) {
       std::ostringstream msg;
       msg << "state: spring " << k << " needs finite, positive rest length, reference length "
-          << "and stiffness (at most " << kMaxMaterialValue << " N/m), got " << values[0]
-          << ", " << values[1] << ", " << values[2];
+          << "and stiffness (at most " << kMaxMaterialValue << " N/m), got " << values[0] << ", "
+          << values[1] << ", " << values[2];
       fail(msg.str());
     }
     if (!std::isfinite(springs.damping[k]) || springs.damping[k] < 0.0 ||
@@ -160,8 +158,7 @@ void check_state_constraints(const ClothState& state, Eigen::Index n) {
     for (const std::int32_t v : driver.vertices) {
       if (v < 0 || v >= n) {
         std::ostringstream msg;
-        msg << "state: driver " << d << " drives vertex " << v << ", out of range [0, " << n
-            << ")";
+        msg << "state: driver " << d << " drives vertex " << v << ", out of range [0, " << n << ")";
         fail(msg.str());
       }
       ++driven_by[static_cast<std::size_t>(v)];
@@ -196,8 +193,8 @@ void check_state_clock(const SimulationClock& clock) {
   if (!std::isfinite(clock.origin) || clock.steps < 0 || !std::isfinite(clock.dt) ||
       clock.dt < 0.0 || !std::isfinite(clock.time())) {
     std::ostringstream msg;
-    msg << "state: bad clock (origin " << clock.origin << " s, " << clock.steps
-        << " steps of " << clock.dt << " s)";
+    msg << "state: bad clock (origin " << clock.origin << " s, " << clock.steps << " steps of "
+        << clock.dt << " s)";
     fail(msg.str());
   }
 }
@@ -213,8 +210,7 @@ Cloth Cloth::from_state(const ClothState& state) {
   cloth.initialise_state(state.positions, state.masses, state.drag);
   if (state.velocities.rows() != n) {
     std::ostringstream msg;
-    msg << "state: velocities has " << state.velocities.rows() << " rows for " << n
-        << " vertices";
+    msg << "state: velocities has " << state.velocities.rows() << " rows for " << n << " vertices";
     fail(msg.str());
   }
   check_finite_rows(state.velocities, "velocity");
@@ -259,8 +255,8 @@ Cloth Cloth::from_state(const ClothState& state) {
     if (state.bend_stiffness != 0.0) fail("state: quadratic bending needs bend_stiffness 0");
     if (state.bending_rest.rows() != n) {
       std::ostringstream msg;
-      msg << "state: bending rest positions have " << state.bending_rest.rows() << " rows for "
-          << n << " vertices";
+      msg << "state: bending rest positions have " << state.bending_rest.rows() << " rows for " << n
+          << " vertices";
       fail(msg.str());
     }
     check_finite_rows(state.bending_rest, "state: bending rest position");
@@ -269,8 +265,9 @@ Cloth Cloth::from_state(const ClothState& state) {
   }
   cloth.m_membrane = state.membrane;
   if (state.membrane_smoothed && !(is_quadratic(state.bending) && cloth.has_membrane())) {
-    fail("state: the smoothed membrane strain needs a membrane and bending \"quadratic\" or "
-         "\"hinge\"");
+    fail(
+        "state: the smoothed membrane strain needs a membrane and bending \"quadratic\" or "
+        "\"hinge\"");
   }
   cloth.m_membrane_smoothed = state.membrane_smoothed;
   cloth.update_inverse_masses();
@@ -304,9 +301,8 @@ void Cloth::rebuild_incidence() {
 void Cloth::update_inverse_masses() {
   m_inverse_masses.resize(m_masses.size());
   for (Eigen::Index i = 0; i < m_masses.size(); ++i) {
-    m_inverse_masses[i] = m_vertex_states[static_cast<std::size_t>(i)] == VertexState::free
-                              ? 1.0 / m_masses[i]
-                              : 0.0;
+    m_inverse_masses[i] =
+        m_vertex_states[static_cast<std::size_t>(i)] == VertexState::free ? 1.0 / m_masses[i] : 0.0;
   }
 }
 
@@ -341,8 +337,7 @@ void Cloth::set_velocities(const Positions& velocities) {
 void Cloth::set_rest_lengths(const Eigen::VectorXd& rest_lengths) {
   if (rest_lengths.size() != static_cast<Eigen::Index>(m_springs.size())) {
     std::ostringstream msg;
-    msg << "rest lengths must have " << m_springs.size() << " entries, got "
-        << rest_lengths.size();
+    msg << "rest lengths must have " << m_springs.size() << " entries, got " << rest_lengths.size();
     fail(msg.str());
   }
   for (Eigen::Index k = 0; k < rest_lengths.size(); ++k) {
@@ -358,8 +353,7 @@ void Cloth::set_rest_lengths(const Eigen::VectorXd& rest_lengths) {
   ++m_edit_count;
 }
 
-void Cloth::check_constrainable(const std::vector<std::int32_t>& vertices,
-                                const char* what) const {
+void Cloth::check_constrainable(const std::vector<std::int32_t>& vertices, const char* what) const {
   for (const std::int32_t v : vertices) {
     if (v < 0 || v >= vertex_count()) {
       std::ostringstream msg;
@@ -446,8 +440,8 @@ void Cloth::set_material_coordinates(
     const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& uv) {
   if (uv.rows() != vertex_count()) {
     std::ostringstream msg;
-    msg << "material coordinates must have shape (" << vertex_count() << ", 2), got ("
-        << uv.rows() << ", 2)";
+    msg << "material coordinates must have shape (" << vertex_count() << ", 2), got (" << uv.rows()
+        << ", 2)";
     fail(msg.str());
   }
   if (!uv.allFinite()) fail("material coordinates must be finite");

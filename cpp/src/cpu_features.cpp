@@ -51,8 +51,8 @@ CpuFeatures cpu_features() {
   const Registers basic = cpuid(1);
   const int base_family = static_cast<int>((basic.eax >> 8) & 0xf);
   const int base_model = static_cast<int>((basic.eax >> 4) & 0xf);
-  features.family = base_family == 0xf ? base_family + static_cast<int>((basic.eax >> 20) & 0xff)
-                                       : base_family;
+  features.family =
+      base_family == 0xf ? base_family + static_cast<int>((basic.eax >> 20) & 0xff) : base_family;
   features.model = (base_family == 0x6 || base_family == 0xf)
                        ? base_model + (static_cast<int>((basic.eax >> 16) & 0xf) << 4)
                        : base_model;
@@ -79,9 +79,8 @@ CpuFeatures cpu_features() {
     const Registers structured = cpuid(7, 0);
     if (avx && bit(structured.ebx, 5)) out.push_back("avx2");
     if (avx && features.os_saves_zmm) {
-      const std::pair<int, const char*> avx512[] = {{16, "avx512f"}, {17, "avx512dq"},
-                                                    {28, "avx512cd"}, {30, "avx512bw"},
-                                                    {31, "avx512vl"}};
+      const std::pair<int, const char*> avx512[] = {
+          {16, "avx512f"}, {17, "avx512dq"}, {28, "avx512cd"}, {30, "avx512bw"}, {31, "avx512vl"}};
       for (const auto& [index, extension] : avx512) {
         if (bit(structured.ebx, index)) out.push_back(extension);
       }

@@ -1,12 +1,12 @@
 #include "yore/divergence.hpp"
 
-#include "yore/interrupt.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+
+#include "yore/interrupt.hpp"
 
 namespace yore {
 
@@ -83,11 +83,11 @@ void DivergenceMonitor::prepare(const Cloth& cloth, const Vec3& gravity, double 
   const double round_off = 1e-12 * (std::abs(baseline) + scale);
   // A turning driver does work the monitor cannot bound without its reaction forces (a
   // twisted tube stores elastic energy without limit): the growth check is off while one turns.
-  m_allowance = m_growth > 0.0 && omega_max == 0.0
-                    ? m_growth * (std::max(energy.kinetic, 0.0) + std::max(elastic, 0.0) +
-                                  lifting) +
-                          round_off
-                    : std::numeric_limits<double>::infinity();
+  m_allowance =
+      m_growth > 0.0 && omega_max == 0.0
+          ? m_growth * (std::max(energy.kinetic, 0.0) + std::max(elastic, 0.0) + lifting) +
+                round_off
+          : std::numeric_limits<double>::infinity();
   m_topology = cloth.topology_version();
   m_edits = cloth.edit_count();
   m_gravity = gravity;
@@ -155,8 +155,8 @@ SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, st
                                   double time, double dt, bool finite) {
   const double stable = cloth.stable_time_step();
   std::ostringstream msg;
-  msg << "simulation diverged at step " << step << " (t = " << time << " s, dt = " << dt
-      << " s, " << integrator << " integrator): "
+  msg << "simulation diverged at step " << step << " (t = " << time << " s, dt = " << dt << " s, "
+      << integrator << " integrator): "
       << (finite ? "the energy grew past its bound" : "positions or velocities became non-finite")
       << ". The estimated stable time step of the explicit integrator is " << stable << " s; ";
   if (!(stable > 0.0) || !std::isfinite(stable)) {
@@ -185,8 +185,7 @@ SimulationDiverged energy_gain_error(const Cloth& cloth, const DivergenceMonitor
       << " of its energy scale allows (" << monitor.allowance()
       << " J); damping, drag and gravity cannot feed energy in. ";
   if (name == "explicit") {
-    msg << "Use dt <= " << 0.98 * cloth.stable_time_step_bound()
-        << " s or an implicit integrator.";
+    msg << "Use dt <= " << 0.98 * cloth.stable_time_step_bound() << " s or an implicit integrator.";
   } else if (name == "cvode" || name == "arkode") {
     msg << "Tighten rtol and atol, or set max_dt.";
   } else if (name == "quasi-newton") {

@@ -1,10 +1,5 @@
 #include "yore/error_controlled.hpp"
 
-#include "yore/errors.hpp"
-#include "yore/interrupt.hpp"
-#include "yore/springs.hpp"
-#include "yore/timer.hpp"
-
 #include <arkode/arkode_arkstep.h>
 #include <cvode/cvode.h>
 #include <cvode/cvode_ls.h>
@@ -15,6 +10,11 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+
+#include "yore/errors.hpp"
+#include "yore/interrupt.hpp"
+#include "yore/springs.hpp"
+#include "yore/timer.hpp"
 
 namespace yore {
 
@@ -35,8 +35,9 @@ void check_options(const ErrorControlledOptions& o) {
     throw std::invalid_argument("max_order must be an integer from 1 to 5 (CVODE's BDF orders)");
   }
   if (o.order < 2 || o.order > 4) {
-    throw std::invalid_argument("order must be 2, 3 or 4 (ARKODE's stiffly accurate ESDIRK "
-                                "tables)");
+    throw std::invalid_argument(
+        "order must be 2, 3 or 4 (ARKODE's stiffly accurate ESDIRK "
+        "tables)");
   }
   if (!(o.max_dt >= 0.0) || !std::isfinite(o.max_dt)) {
     throw std::invalid_argument("max_dt must be finite and >= 0 (0: no limit)");
@@ -46,8 +47,9 @@ void check_options(const ErrorControlledOptions& o) {
     throw std::invalid_argument("max_nonlinear_iterations must be an integer from 1 to 100");
   }
   if (o.projection != HessianProjection::clamp && o.projection != HessianProjection::abs) {
-    throw std::invalid_argument("projection must be clamp or abs for the error-controlled "
-                                "integrators (their iteration matrix must be SPD)");
+    throw std::invalid_argument(
+        "projection must be clamp or abs for the error-controlled "
+        "integrators (their iteration matrix must be SPD)");
   }
   positive(o.divergence_energy_factor, "divergence_energy_factor");
 }
@@ -58,8 +60,9 @@ ImplicitOptions inner_options(const ErrorControlledOptions& o) {
   inner.projection = o.projection;
   inner.linear_solver = o.linear_solver;
   if (inner.linear_solver.solver == "pcg") {
-    throw std::invalid_argument("the error-controlled integrators need a Cholesky solver "
-                                "(cholmod or eigen-ldlt): their factor is kept across steps");
+    throw std::invalid_argument(
+        "the error-controlled integrators need a Cholesky solver "
+        "(cholmod or eigen-ldlt): their factor is kept across steps");
   }
   return inner;
 }
@@ -173,8 +176,8 @@ struct ErrorControlledIntegrator::Backend {
       *jcur = current ? SUNTRUE : SUNFALSE;
     });
   }
-  static int solve(realtype, N_Vector, N_Vector, N_Vector r, N_Vector z, realtype gamma,
-                   realtype, int, void* data) {
+  static int solve(realtype, N_Vector, N_Vector, N_Vector r, N_Vector z, realtype gamma, realtype,
+                   int, void* data) {
     return guarded(data, [&](ErrorControlledIntegrator* owner) {
       owner->solve(N_VGetArrayPointer(r), N_VGetArrayPointer(z), gamma);
     });
@@ -207,8 +210,7 @@ struct ErrorControlledIntegrator::Backend {
       check(CVodeSetMaxNumSteps(memory, o.max_steps), "max_steps");
       check(CVodeSetMaxStep(memory, o.max_dt), "max_dt");
       check(CVodeSetStabLimDet(memory, SUNTRUE), "stability-limit detection");
-      check(CVodeSetMaxNonlinIters(memory, o.max_nonlinear_iterations),
-            "max_nonlinear_iterations");
+      check(CVodeSetMaxNonlinIters(memory, o.max_nonlinear_iterations), "max_nonlinear_iterations");
       check(CVodeSetLinearSolver(memory, solver, nullptr), "the linear solver");
       check(CVodeSetPreconditioner(memory, setup, solve), "the preconditioner hooks");
     } else {
@@ -240,8 +242,8 @@ struct ErrorControlledIntegrator::Backend {
 
   /// SUNDIALS' counters of this memory (since its last (re)initialization).
   void counters(ErrorControlledStatistics& s) const {
-    long steps = 0, failures = 0, iterations = 0, nonlinear_failures = 0, setups = 0,
-         solves = 0, rhs_explicit = 0, rhs_implicit = 0;
+    long steps = 0, failures = 0, iterations = 0, nonlinear_failures = 0, setups = 0, solves = 0,
+         rhs_explicit = 0, rhs_implicit = 0;
     int order = 0;
     realtype current = 0.0, last = 0.0;
     if (memory == nullptr) return;
@@ -325,7 +327,7 @@ const ErrorControlledStatistics& ErrorControlledIntegrator::statistics() const {
   s.linear_setups = total.linear_setups;
   s.linear_solves = total.linear_solves;
   s.rhs_evaluations = total.rhs_evaluations;
-  s.current_order = !m_backend                                   ? 0
+  s.current_order = !m_backend                                         ? 0
                     : m_options.method == ErrorControlledMethod::cvode ? current.current_order
                                                                        : m_options.order;
   s.current_internal_dt = current.current_internal_dt;
@@ -343,8 +345,8 @@ void ErrorControlledIntegrator::fold_counters() const {
 
 void ErrorControlledIntegrator::ensure_backend(const Cloth& cloth, const Vec3& gravity) {
   const bool new_topology = cloth.topology_version() != m_topology;
-  const bool moved = cloth.edit_count() != m_edits || gravity != m_gravity ||
-                     cloth.time() != m_time;
+  const bool moved =
+      cloth.edit_count() != m_edits || gravity != m_gravity || cloth.time() != m_time;
   if (!new_topology && !moved && !m_restart && m_backend) return;
 
   if (new_topology) {
@@ -450,8 +452,7 @@ void ErrorControlledIntegrator::right_hand_side(double t, const double* y, doubl
     m_force.row(j) -= f.transpose();
   }
   if (cloth.has_quadratic_bending()) {
-    quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(), m_x,
-                               m_bending);
+    quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(), m_x, m_bending);
     m_force -= m_bending;
   }
   if (cloth.has_membrane()) {
@@ -556,8 +557,8 @@ void ErrorControlledIntegrator::interval(Cloth& cloth, const Vec3& gravity, doub
       msg << "SUNDIALS could not take a step (" << (m_message.empty() ? "flag " : m_message)
           << (m_message.empty() ? std::to_string(flag) : "") << ")";
     }
-    msg << "; the last internal step was " << s.last_internal_dt << " s, tolerance rtol = "
-        << m_options.rtol << ", atol = " << m_options.atol
+    msg << "; the last internal step was " << s.last_internal_dt
+        << " s, tolerance rtol = " << m_options.rtol << ", atol = " << m_options.atol
         << ". Loosen the tolerance, raise max_steps, or check the forces.";
     throw SimulationDiverged(msg.str(), m_statistics.steps, reached, dt, s.current_internal_dt);
   }
@@ -584,9 +585,9 @@ void ErrorControlledIntegrator::advance(Cloth& cloth, const Vec3& gravity, doubl
   check_advance_arguments(dt, gravity, steps);
   m_cloth = &cloth;
   advance_checked(
-      cloth, gravity, dt, steps, m_monitor, name(), m_checkpoint_positions,
-      m_checkpoint_velocities, [&] { interval(cloth, gravity, dt); },
-      [&] { return m_statistics.steps; }, [&] { m_restart = true; });
+      cloth, gravity, dt, steps, m_monitor, name(), m_checkpoint_positions, m_checkpoint_velocities,
+      [&] { interval(cloth, gravity, dt); }, [&] { return m_statistics.steps; },
+      [&] { m_restart = true; });
 }
 
 }  // namespace yore

@@ -1,13 +1,13 @@
 #include "yore/explicit.hpp"
 
-#include "yore/build_info.hpp"
-#include "yore/interrupt.hpp"
-#include "yore/timer.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+
+#include "yore/build_info.hpp"
+#include "yore/interrupt.hpp"
+#include "yore/timer.hpp"
 
 namespace yore {
 namespace {
@@ -83,8 +83,7 @@ ExplicitIntegrator::ExplicitIntegrator(const ExplicitOptions& options)
   if (!std::isfinite(options.strain_limit) || options.strain_limit < 0.0 ||
       (options.strain_limit > 0.0 && options.strain_limit < 1.0)) {
     std::ostringstream msg;
-    msg << "strain_limit must be 0 (off) or a ratio >= 1 (e.g. 1.1), got "
-        << options.strain_limit;
+    msg << "strain_limit must be 0 (off) or a ratio >= 1 (e.g. 1.1), got " << options.strain_limit;
     throw std::invalid_argument(msg.str());
   }
   if (options.strain_limit_passes < 1) {
@@ -130,8 +129,8 @@ void ExplicitIntegrator::update_velocities_and_positions(Cloth& cloth, const Vec
   // Gather per vertex instead of scattering per spring: no write conflicts between threads.
   // Vertex i's force needs only the spring forces and its own velocity, so the update fuses
   // with the gather: one parallel loop instead of two, and no n×3 force buffer.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) \
-    if (threads > 1 && n >= kParallelVertices)
+#pragma omp parallel for num_threads(threads) \
+    schedule(dynamic, chunk) if (threads > 1 && n >= kParallelVertices)
   for (Eigen::Index i = 0; i < n; ++i) {
     double* xi = x + 3 * i;
     double* vi = v + 3 * i;
@@ -204,8 +203,7 @@ void ExplicitIntegrator::limit_strain(Cloth& cloth) {
 // over 80 lines: the per-step kernel loop (forces, update, strain limit, the energy check with
 // its OpenMP reduction) reads as one step; its stages share the raw pointers, the checkpoint
 // and the stopwatch, and splitting it would scatter the rollback on divergence or interrupt.
-void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
-                                 std::int64_t steps) {
+void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) {
   check_advance_arguments(dt, gravity, steps);
   if (steps == 0) return;
 
@@ -224,8 +222,8 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
   const double* inverse_mass = cloth.inverse_masses().data();
   const auto spring_count = static_cast<std::int64_t>(cloth.springs().size());
   // Small cloths never fork: nothing to choose, nothing to re-time.
-  const bool parallel_pays = spring_count >= kParallelSprings || n >= kParallelVertices ||
-                             n >= kParallelCheckVertices;
+  const bool parallel_pays =
+      spring_count >= kParallelSprings || n >= kParallelVertices || n >= kParallelCheckVertices;
   const int configured = parallel_pays ? max_threads() : 1;
   const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
   for (std::int64_t step = 0; step < steps; ++step) {
@@ -241,18 +239,18 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
     const int threads = m_thread_chooser.threads_for_next_step(configured);
     start = step_start;
     double spring_energy_before = compute_spring_forces(cloth, threads);
-    if (m_with_potentials) {  // their energies are monitored too
+    if (m_with_potentials) {                // their energies are monitored too
       if (cloth.has_quadratic_bending()) {  // a sparse product with the constant Q
-        spring_energy_before += quadratic_bending_gradient(cloth.quadratic_bending(),
-                                                           cloth.bending_modulus(),
-                                                           cloth.positions(), m_potential_gradient);
+        spring_energy_before +=
+            quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(),
+                                       cloth.positions(), m_potential_gradient);
       } else {
         m_potential_gradient.setZero();
       }
       if (cloth.has_membrane()) {
         spring_energy_before +=
-            membrane_add_gradient(cloth.membrane_elements(), cloth.membrane(),
-                                  cloth.positions(), m_potential_gradient, m_membrane_work);
+            membrane_add_gradient(cloth.membrane_elements(), cloth.membrane(), cloth.positions(),
+                                  m_potential_gradient, m_membrane_work);
       }
     }
     m_statistics.forces_seconds += start.seconds();
@@ -366,10 +364,10 @@ bool StepThreadChooser::record(double seconds) {
       // soon rather than judged by that one-time cost.
       const bool first = m_wait_seconds == 0.0;
       const double lost = block_seconds - m_preferred_seconds_per_step * block_steps;
-      m_wait_seconds = first ? kBlockSeconds
-                             : std::min(std::max({2.0 * m_wait_seconds, kOverheadFactor * lost,
-                                                  kBlockSeconds}),
-                                        kMaxWaitSeconds);
+      m_wait_seconds =
+          first ? kBlockSeconds
+                : std::min(std::max({2.0 * m_wait_seconds, kOverheadFactor * lost, kBlockSeconds}),
+                           kMaxWaitSeconds);
     }
     m_running = m_preferred;
     m_seconds_until_probe = m_wait_seconds;

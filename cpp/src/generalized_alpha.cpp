@@ -17,10 +17,10 @@
 /// step, and the first after a stroke or an edit, is backward Euler's (as BDF2's), and its
 /// accelerations as solved for start both.
 
+#include <cmath>
+
 #include "implicit_detail.hpp"
 #include "yore/implicit.hpp"
-
-#include <cmath>
 
 namespace yore {
 
@@ -46,8 +46,7 @@ void ImplicitIntegrator::step_generalized_alpha(Cloth& cloth, const Vec3& gravit
   m_hv = dt * beta / gamma;
   const double blend = m_h * m_h / (1.0 - alpha_f);
   for (const std::int32_t i : m_free_vertices) {
-    m_predicted.row(i) =
-        x.row(i) + dt * v.row(i) + (0.5 - beta) * dt * dt * m_acceleration.row(i);
+    m_predicted.row(i) = x.row(i) + dt * v.row(i) + (0.5 - beta) * dt * dt * m_acceleration.row(i);
     m_target.row(i) = m_predicted.row(i) - blend * (alpha_m * m_acceleration.row(i) -
                                                     alpha_f * m_force_acceleration.row(i));
     m_anchor.row(i) =

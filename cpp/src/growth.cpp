@@ -50,20 +50,21 @@ class PathGeometry {
  public:
   struct Nearest {
     double distance = std::numeric_limits<double>::infinity();  ///< +inf: nothing within reach
-    std::size_t part = 0;  ///< index into m_parts
-    double arc = 0.0;      ///< arc length along that part, m
+    std::size_t part = 0;                                       ///< index into m_parts
+    double arc = 0.0;                                           ///< arc length along that part, m
   };
 
   PathGeometry(const Positions& path, const std::vector<std::int32_t>& labels, double reach)
       : m_cell(reach) {
     for (Eigen::Index k = 0; k < path.rows(); ++k) {
-      if (k == 0 || labels[static_cast<std::size_t>(k)] != labels[static_cast<std::size_t>(k) - 1]) {
+      if (k == 0 ||
+          labels[static_cast<std::size_t>(k)] != labels[static_cast<std::size_t>(k) - 1]) {
         m_parts.emplace_back();
       }
       Part& part = m_parts.back();
       const Eigen::RowVector3d point = path.row(k);
-      part.arc.push_back(part.points.empty() ? 0.0
-                                             : part.arc.back() + (point - part.points.back()).norm());
+      part.arc.push_back(
+          part.points.empty() ? 0.0 : part.arc.back() + (point - part.points.back()).norm());
       part.points.push_back(point);
     }
     for (std::size_t p = 0; p < m_parts.size(); ++p) {
@@ -89,7 +90,8 @@ class PathGeometry {
     auto consider = [&](const Segment& segment) {
       const Eigen::RowVector3d along = segment.b - segment.a;
       const double length2 = along.squaredNorm();
-      const double t = length2 > 0.0 ? std::clamp((x - segment.a).dot(along) / length2, 0.0, 1.0) : 0.0;
+      const double t =
+          length2 > 0.0 ? std::clamp((x - segment.a).dot(along) / length2, 0.0, 1.0) : 0.0;
       const double d = (x - segment.a - t * along).norm();
       if (d < best.distance) {
         best = {d, segment.part, segment.arc_a + t * (segment.arc_b - segment.arc_a)};
@@ -105,7 +107,8 @@ class PathGeometry {
         for (std::int64_t dz = -1; dz <= 1; ++dz) {
           const auto it = m_grid.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
           if (it == m_grid.end()) continue;
-          for (const std::int32_t id : it->second) consider(m_segments[static_cast<std::size_t>(id)]);
+          for (const std::int32_t id : it->second)
+            consider(m_segments[static_cast<std::size_t>(id)]);
         }
     if (best.distance > m_cell) best = Nearest{};  // beyond reach: not measured
     return best;
@@ -193,14 +196,16 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
     }
     crossed[static_cast<std::size_t>(f)] = 1;
     for (int c = 0; c < 3; ++c) {
-      const double edge = (positions.row(faces(f, c)) - positions.row(faces(f, (c + 1) % 3))).norm();
+      const double edge =
+          (positions.row(faces(f, c)) - positions.row(faces(f, (c + 1) % 3))).norm();
       reach = std::max(reach, edge);
       edge_sum += edge;
     }
   }
   band.reach = reach;
   band.half_width = 0.5 * width;
-  band.tangent_span = crossed_faces.empty() ? 0.0 : edge_sum / (3.0 * static_cast<double>(crossed_faces.size()));
+  band.tangent_span =
+      crossed_faces.empty() ? 0.0 : edge_sum / (3.0 * static_cast<double>(crossed_faces.size()));
   if (path.rows() > 0) {
     const PathGeometry geometry(path, path_part, reach);
     const Eigen::RowVector3d lower = path.colwise().minCoeff().array() - reach;
@@ -227,7 +232,8 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
     }
     if (width > 0.0) {
       for (int c = 0; c < 3; ++c) {
-        if (band.vertex_distance[faces(f, c)] < 0.5 * width) in_band[static_cast<std::size_t>(f)] = 1;
+        if (band.vertex_distance[faces(f, c)] < 0.5 * width)
+          in_band[static_cast<std::size_t>(f)] = 1;
       }
     }
   }

@@ -1,15 +1,15 @@
 #include "yore/implicit.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
 #include "implicit_detail.hpp"
 #include "yore/errors.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/springs.hpp"
 #include "yore/timer.hpp"
-
-#include <algorithm>
-#include <cmath>
-#include <sstream>
-#include <stdexcept>
 
 namespace yore {
 using namespace implicit_detail;
@@ -26,8 +26,7 @@ void check_option_values(const ImplicitOptions& options) {
   if (!std::isfinite(options.truncation_fraction) || options.truncation_fraction < 0.0 ||
       options.truncation_fraction > 1.0) {
     std::ostringstream msg;
-    msg << "truncation_fraction must be finite and in [0, 1], got "
-        << options.truncation_fraction;
+    msg << "truncation_fraction must be finite and in [0, 1], got " << options.truncation_fraction;
     throw std::invalid_argument(msg.str());
   }
   if (!std::isfinite(options.step_tol) || options.step_tol < 0.0) {
@@ -59,11 +58,12 @@ void check_option_combinations(const ImplicitOptions& options) {
   if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tol > 0.0)) {
     throw std::invalid_argument("lag_max_cg_iterations must be >= 1 and lag_cg_tol > 0");
   }
-  if (options.adaptive && ((options.method != ImplicitMethod::tr_bdf2 &&
-                            options.method != ImplicitMethod::bdf2) ||
-                           options.minimizer != ImplicitMinimizer::newton)) {
-    throw std::invalid_argument("error-controlled steps (adaptive, dt = \"auto\") need a "
-                                "local error estimate: method tr-bdf2 or bdf2, with Newton");
+  if (options.adaptive &&
+      ((options.method != ImplicitMethod::tr_bdf2 && options.method != ImplicitMethod::bdf2) ||
+       options.minimizer != ImplicitMinimizer::newton)) {
+    throw std::invalid_argument(
+        "error-controlled steps (adaptive, dt = \"auto\") need a "
+        "local error estimate: method tr-bdf2 or bdf2, with Newton");
   }
   if (!(options.rtol > 0.0) || !(options.rtol < 1.0) || !(options.atol > 0.0) ||
       !std::isfinite(options.atol) || options.max_steps < 1) {
@@ -94,8 +94,7 @@ void check_lbfgs_options(const ImplicitOptions& options) {
     throw std::invalid_argument(
         "quasi-Newton (lbfgs) takes neither linearized nor lagged_factorization");
   }
-  if (options.method != ImplicitMethod::backward_euler &&
-      options.method != ImplicitMethod::bdf2) {
+  if (options.method != ImplicitMethod::backward_euler && options.method != ImplicitMethod::bdf2) {
     throw std::invalid_argument("quasi-Newton (lbfgs) takes method backward-euler or bdf2");
   }
   if (options.lbfgs_history < 1 || options.lbfgs_history > 1000) {
@@ -112,12 +111,18 @@ namespace {
 /// A projection by its name in the option tables (yore.options, scene and state files).
 const char* projection_name(HessianProjection projection) {
   switch (projection) {
-    case HessianProjection::clamp: return "clamp";
-    case HessianProjection::abs: return "abs";
-    case HessianProjection::exact: return "exact";
-    case HessianProjection::trust_region: return "trust-region";
-    case HessianProjection::shifted: return "shifted";
-    case HessianProjection::steihaug: return "steihaug";
+    case HessianProjection::clamp:
+      return "clamp";
+    case HessianProjection::abs:
+      return "abs";
+    case HessianProjection::exact:
+      return "exact";
+    case HessianProjection::trust_region:
+      return "trust-region";
+    case HessianProjection::shifted:
+      return "shifted";
+    case HessianProjection::steihaug:
+      return "steihaug";
   }
   return "clamp";
 }
@@ -132,8 +137,7 @@ ImplicitOptions resolve_choices(ImplicitOptions options, const ImplicitChoices& 
   if (choices.projection) {
     projection = *choices.projection;
   } else if (choices.adaptive_projection) {
-    projection = *choices.adaptive_projection ? HessianProjection::exact
-                                              : HessianProjection::clamp;
+    projection = *choices.adaptive_projection ? HessianProjection::exact : HessianProjection::clamp;
   }
   if (choices.adaptive_projection && choices.projection &&
       *choices.adaptive_projection != (projection == HessianProjection::exact)) {
@@ -144,8 +148,8 @@ ImplicitOptions resolve_choices(ImplicitOptions options, const ImplicitChoices& 
   options.projection = projection;
   options.adaptive_projection = false;  // mapped into projection
   // the one linearized step is the same either way (to round-off)
-  options.mixed = choices.mixed.value_or(projection == HessianProjection::clamp &&
-                                         !options.linearized);
+  options.mixed =
+      choices.mixed.value_or(projection == HessianProjection::clamp && !options.linearized);
   return options;
 }
 
@@ -214,29 +218,29 @@ void bending_slots(const QuadraticBendingMatrix& bending,
                    const SymmetricPattern& pattern, std::vector<std::int64_t>& slots) {
   slots.assign(3 * bending.columns.size(), -1);
   // the lower triangle holds each pair once
-  for_each_free_entry(bending, dof_of_vertex, [&](std::int32_t k, std::int32_t i,
-                                                     std::int32_t j, std::int32_t a,
-                                                     std::int32_t b) {
-    const std::int32_t column_block = a / 3;
-    std::int64_t base = -1;
-    if (j > i) {
-      const std::int32_t row_block = b / 3;
-      const auto begin =
-          coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
-      const auto end =
-          coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
-      base = 3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) -
-                  begin);
-    }
-    for (int c = 0; c < 3; ++c) {
-      // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
-      // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
-      const std::int64_t column_start =
-          pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
-      slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
-          j == i ? column_start : column_start + (3 - c) + base + c;
-    }
-  });
+  for_each_free_entry(
+      bending, dof_of_vertex,
+      [&](std::int32_t k, std::int32_t i, std::int32_t j, std::int32_t a, std::int32_t b) {
+        const std::int32_t column_block = a / 3;
+        std::int64_t base = -1;
+        if (j > i) {
+          const std::int32_t row_block = b / 3;
+          const auto begin =
+              coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+          const auto end =
+              coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+          base =
+              3 * (std::lower_bound(begin, end, std::make_pair(column_block, row_block)) - begin);
+        }
+        for (int c = 0; c < 3; ++c) {
+          // Q ⊗ I₃: only the (c, c) entry of the block; a column's diagonal comes first, then
+          // the rest of its diagonal block (3 − c entries in all), then 3 rows per neighbour.
+          const std::int64_t column_start =
+              pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)];
+          slots[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
+              j == i ? column_start : column_start + (3 - c) + base + c;
+        }
+      });
 }
 
 // The lower triangle's off-diagonal blocks (column block, row block), sorted, once each: one per
@@ -258,11 +262,11 @@ std::vector<std::pair<std::int32_t, std::int32_t>> coupled_blocks(
   const QuadraticBendingMatrix* bending =
       cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
   if (bending != nullptr) {
-    for_each_free_entry(*bending, dof_of_vertex,
-                        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a,
-                            std::int32_t b) {
-                          if (j > i) coupled.emplace_back(a / 3, b / 3);
-                        });
+    for_each_free_entry(
+        *bending, dof_of_vertex,
+        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a, std::int32_t b) {
+          if (j > i) coupled.emplace_back(a / 3, b / 3);
+        });
   }
   // The membrane's elements couple every pair of their corners (a smoothed vertex its 1-ring).
   const MembraneElements* elements = cloth.has_membrane() ? &cloth.membrane_elements() : nullptr;
@@ -305,7 +309,8 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   std::vector<std::int32_t> first_neighbour(static_cast<std::size_t>(blocks) + 1, 0);
   for (const auto& pair : coupled) ++first_neighbour[static_cast<std::size_t>(pair.first) + 1];
   for (std::int32_t b = 0; b < blocks; ++b) {
-    first_neighbour[static_cast<std::size_t>(b) + 1] += first_neighbour[static_cast<std::size_t>(b)];
+    first_neighbour[static_cast<std::size_t>(b) + 1] +=
+        first_neighbour[static_cast<std::size_t>(b)];
   }
 
   SymmetricPattern& pattern = m_pattern;
@@ -455,8 +460,7 @@ void ImplicitIntegrator::target_directions(const Cloth& cloth) {
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const Vec3 d = m_target.row(springs.first[k]) - m_target.row(springs.second[k]);
     const double length = d.norm();
-    m_directions.row(static_cast<Eigen::Index>(k)) =
-        length > 0.0 ? Vec3(d / length) : Vec3::Zero();
+    m_directions.row(static_cast<Eigen::Index>(k)) = length > 0.0 ? Vec3(d / length) : Vec3::Zero();
   }
 }
 
@@ -492,11 +496,11 @@ void ImplicitIntegrator::update_tension(const Cloth& cloth, double alpha) {
 // stages share the running sums whose order fixes the round-off, so it stays one pass.
 double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
                                     bool with_hessian, HessianProjection projection) {
-  const TransverseFilter filter = projection == HessianProjection::exact ||
-                                          projection == HessianProjection::shifted
-                                      ? TransverseFilter::exact
-                                  : projection == HessianProjection::abs ? TransverseFilter::abs
-                                                                         : TransverseFilter::clamp;
+  const TransverseFilter filter =
+      projection == HessianProjection::exact || projection == HessianProjection::shifted
+          ? TransverseFilter::exact
+      : projection == HessianProjection::abs ? TransverseFilter::abs
+                                             : TransverseFilter::clamp;
   const Stopwatch start;
   const double h = m_h, hv = m_hv;  // inertia's h̃ and the velocity scale (equal but for GA)
   const double drag = cloth.drag();
@@ -513,8 +517,8 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     const Vec3 moved = x.row(i) - m_anchor.row(i);
     const double inertia_weight = m / (h * h), drag_weight = drag * m / hv;
     const double gravity_energy = m * x.row(i).dot(m_gravity);
-    const double positive = 0.5 * inertia_weight * inertial.squaredNorm() +
-                            0.5 * drag_weight * moved.squaredNorm();
+    const double positive =
+        0.5 * inertia_weight * inertial.squaredNorm() + 0.5 * drag_weight * moved.squaredNorm();
     energy += positive - gravity_energy;
     magnitude += positive + std::abs(gravity_energy);
     if (with_gradient) {
@@ -609,8 +613,8 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       }
     }
   }
-  if (cloth.has_membrane()) evaluate_membrane(cloth, x, with_gradient, with_hessian, filter,
-                                               energy, magnitude);
+  if (cloth.has_membrane())
+    evaluate_membrane(cloth, x, with_gradient, with_hessian, filter, energy, magnitude);
   m_energy_magnitude = magnitude;
   m_statistics.assemble_seconds += start.seconds();
   return energy;
@@ -627,8 +631,8 @@ void ImplicitIntegrator::evaluate_membrane(const Cloth& cloth, const Positions& 
   const auto& starts = m_pattern.column_starts;
   MembraneElementWork& work = m_membrane_work;
   for (std::size_t e = 0; e < elements.size(); ++e) {
-    const double element_energy = membrane_element(elements, e, x, mu, lambda, filter, work,
-                                                   with_gradient, with_hessian);
+    const double element_energy =
+        membrane_element(elements, e, x, mu, lambda, filter, work, with_gradient, with_hessian);
     energy += element_energy;
     magnitude += element_energy;
     const auto begin = static_cast<std::size_t>(elements.starts[e]);
@@ -722,8 +726,7 @@ void ImplicitIntegrator::finish_step(const Cloth& cloth, double dt, bool history
   m_statistics.last_line_search_backtracks = backtracks;
 }
 
-void ImplicitIntegrator::restart_with_backward_euler(Cloth& cloth, const Vec3& gravity,
-                                                     double dt) {
+void ImplicitIntegrator::restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt) {
   // A start far from equilibrium (a gathered stiff cloth: compressed springs pushing with
   // k × 20 % of their length) is a stiff transient the trapezoidal stage and generalized-α
   // carry on undamped and, on nonlinear springs, amplify; backward Euler removes it in one step.
@@ -768,8 +771,7 @@ bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& b
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
     if (m_options.minimizer == ImplicitMinimizer::lbfgs) {
-      quasi_newton_iterate(cloth, energy, residual, stage_iterations, stage_backtracks,
-                           converged);
+      quasi_newton_iterate(cloth, energy, residual, stage_iterations, stage_backtracks, converged);
     } else if (m_options.projection == HessianProjection::steihaug && !m_options.linearized) {
       steihaug_iterate(cloth, energy, residual, stage_iterations, stage_backtracks, converged);
     } else {
@@ -826,8 +828,7 @@ void ImplicitIntegrator::finish_stage_setup(const Cloth& cloth) {
 }
 
 double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double slope,
-                                       int& backtracks, double& trial_energy,
-                                       bool trial_gradient) {
+                                       int& backtracks, double& trial_energy, bool trial_gradient) {
   double alpha = 1.0;
   const double magnitude = m_energy_magnitude;  // of the objective at the iterate
   for (int halvings = 0;; ++halvings) {
@@ -859,7 +860,7 @@ double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double
 }
 
 ImplicitIntegrator::IterationVerdict ImplicitIntegrator::verdict(double energy, double residual,
-                                                                int iterations) const {
+                                                                 int iterations) const {
   // A non-finite objective or gradient is divergence (advance_checked restores the state and
   // reports it), never convergence; the residual test comes before the cap, so a step that
   // converges on its last allowed iteration counts as converged.
@@ -935,8 +936,7 @@ double ImplicitIntegrator::truncation_error(const Cloth& cloth) const {
         break;
       }
       case StageKind::generalized_alpha: {
-        const Vec3 acceleration =
-            (m_iterate.row(i) - m_predicted.row(i)).transpose() / m_beta_h2;
+        const Vec3 acceleration = (m_iterate.row(i) - m_predicted.row(i)).transpose() / m_beta_h2;
         error = m_error_constant * (acceleration - m_acceleration.row(i).transpose()).norm();
         break;
       }
@@ -1065,17 +1065,15 @@ void ImplicitIntegrator::set_history(const Cloth& cloth, const IntegratorHistory
   m_history_valid = true;
 }
 
-void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
-                                 std::int64_t steps) {
+void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) {
   const char* name = m_options.minimizer == ImplicitMinimizer::lbfgs         ? "quasi-newton"
-                     : m_options.method == ImplicitMethod::bdf2                ? "bdf2"
+                     : m_options.method == ImplicitMethod::bdf2              ? "bdf2"
                      : m_options.method == ImplicitMethod::generalized_alpha ? "generalized-alpha"
                      : m_options.method == ImplicitMethod::tr_bdf2           ? "tr-bdf2"
                                                                              : "implicit";
   if (steps > 0) keep_memory();
   advance_checked(
-      cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions,
-      m_checkpoint_velocities,
+      cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions, m_checkpoint_velocities,
       [&] {
         if (m_options.adaptive) {
           adaptive_interval(cloth, gravity, dt);
@@ -1136,8 +1134,8 @@ void ImplicitIntegrator::restore_memory() {
   m_factor_valid = false;  // lagged mode: the kept factor is of a later matrix
 }
 
-NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity,
-                                               double dt, const Positions& positions,
+NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
+                                               const Positions& positions,
                                                HessianProjection projection) {
   if (projection != HessianProjection::clamp && projection != HessianProjection::abs &&
       projection != HessianProjection::exact) {

@@ -1,16 +1,15 @@
 #include "yore/linear_solver.hpp"
 
-#include "yore/errors.hpp"
-#include "yore/interrupt.hpp"
-#include "yore/sparse_cholesky.hpp"
-
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
-
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
+
+#include "yore/errors.hpp"
+#include "yore/interrupt.hpp"
+#include "yore/sparse_cholesky.hpp"
 
 namespace yore {
 
@@ -31,8 +30,10 @@ Enum parse_named(const std::string& name, const char* what,
 
 const std::vector<std::pair<std::string, Ordering>>& ordering_choices() {
   static const std::vector<std::pair<std::string, Ordering>> choices = {
-      {"amd", Ordering::amd},         {"metis", Ordering::metis},
-      {"nesdis", Ordering::nesdis},   {"auto", Ordering::automatic},
+      {"amd", Ordering::amd},
+      {"metis", Ordering::metis},
+      {"nesdis", Ordering::nesdis},
+      {"auto", Ordering::automatic},
       {"natural", Ordering::natural}};
   return choices;
 }
@@ -229,10 +230,11 @@ void symmetric_multiply(const SymmetricPattern& pattern, const double* values,
   }
 }
 
-int preconditioned_cg(const SymmetricPattern& pattern, const double* values,
-                      const Eigen::VectorXd& b, Eigen::VectorXd& x,
-                      const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd&)>& precondition,
-                      double tolerance, int max_iterations, CgWorkspace& work, bool& converged) {
+int preconditioned_cg(
+    const SymmetricPattern& pattern, const double* values, const Eigen::VectorXd& b,
+    Eigen::VectorXd& x,
+    const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd&)>& precondition,
+    double tolerance, int max_iterations, CgWorkspace& work, bool& converged) {
   symmetric_multiply(pattern, values, x, work.product);
   work.residual = b - work.product;
   const double target = tolerance * b.norm();

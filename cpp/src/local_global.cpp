@@ -1,15 +1,15 @@
 #include "yore/local_global.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
 #include "yore/errors.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/spring_matrix.hpp"
 #include "yore/springs.hpp"
 #include "yore/timer.hpp"
-
-#include <algorithm>
-#include <cmath>
-#include <sstream>
-#include <stdexcept>
 
 namespace yore {
 
@@ -139,9 +139,8 @@ void LocalGlobalIntegrator::ensure_matrix(const Cloth& cloth, double dt) {
     build_pattern(cloth);
     fill_values(cloth, dt);
     // Strokes only append vertices: the old unknowns keep their indices (a prefix).
-    const bool prefix =
-        had_factor && old_free.size() <= m_free_vertices.size() &&
-        std::equal(old_free.begin(), old_free.end(), m_free_vertices.begin());
+    const bool prefix = had_factor && old_free.size() <= m_free_vertices.size() &&
+                        std::equal(old_free.begin(), old_free.end(), m_free_vertices.begin());
     if (!prefix || m_options.rebuild == RebuildStrategy::fresh) {
       factor_fresh(false);
     } else if (m_options.rebuild == RebuildStrategy::reuse_ordering || dt != m_dt) {
@@ -201,8 +200,8 @@ void LocalGlobalIntegrator::global_solve() {
     };
     bool converged = false;
     m_statistics.pcg_iterations += preconditioned_cg(
-        m_pattern, m_values.data(), m_work_rhs, m_work_x, precondition,
-        m_options.stale_pcg_tol, m_options.stale_pcg_max_iterations, m_cg, converged);
+        m_pattern, m_values.data(), m_work_rhs, m_work_x, precondition, m_options.stale_pcg_tol,
+        m_options.stale_pcg_max_iterations, m_cg, converged);
     ++m_statistics.stale_solves;
     if (!converged) {
       // The stale factor no longer helps enough: rebuild now (old ordering reused) and solve
@@ -313,7 +312,6 @@ double LocalGlobalIntegrator::begin_step(Cloth& cloth, const Vec3& gravity, doub
       springs.size() > 0 ? rest_sum / static_cast<double>(springs.size()) : 1.0;
   m_statistics.assemble_seconds += start.seconds();
   return mean_rest_length;
-
 }
 
 double LocalGlobalIntegrator::local_step(const Cloth& cloth, bool with_gradient) {
@@ -389,8 +387,8 @@ double LocalGlobalIntegrator::local_step(const Cloth& cloth, bool with_gradient)
   double residual = 0.0;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
     const double scale = dt * dt * cloth.inverse_masses()[m_free_vertices[b]];
-    residual = std::max(residual,
-                        scale * m_gradient.row(static_cast<Eigen::Index>(b)).lpNorm<Eigen::Infinity>());
+    residual = std::max(
+        residual, scale * m_gradient.row(static_cast<Eigen::Index>(b)).lpNorm<Eigen::Infinity>());
   }
   return residual;
 }
@@ -401,8 +399,9 @@ double LocalGlobalIntegrator::global_step(int iteration, double& omega) {
   const double rho = m_options.chebyshev_rho;
   global_solve();
   if (rho > 0.0) {
-    omega = iteration == 0 ? 1.0 : (iteration == 1 ? 2.0 / (2.0 - rho * rho)
-                                                   : 4.0 / (4.0 - rho * rho * omega));
+    omega = iteration == 0
+                ? 1.0
+                : (iteration == 1 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega));
   }
   double change = 0.0;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
@@ -479,8 +478,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   if (!converged && m_options.tolerance > 0.0) ++m_statistics.unconverged_steps;
   m_statistics.last_iterations = solves;
   m_statistics.last_residual = residual / mean_rest_length;
-  m_statistics.last_error_estimate =
-      m_pattern.size == 0 ? 0.0 : estimate.error / mean_rest_length;
+  m_statistics.last_error_estimate = m_pattern.size == 0 ? 0.0 : estimate.error / mean_rest_length;
 
   Positions& x = cloth.integrator_positions();
   Positions& v = cloth.integrator_velocities();

@@ -1,10 +1,8 @@
 #include "yore/membrane.hpp"
 
-
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -317,14 +315,16 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
     // G_p = Σ_f (A_f/3) G_f / A_p in the tangent axes; F_p = G_p L⁻ᵀ, so d = L⁻¹ c / A_p
     const Eigen::Matrix2d lower_inverse = Eigen::Matrix2d(cholesky.matrixL()).inverse() / area;
     for (std::size_t k = start; k < out.corners.size(); ++k) {
-      const Eigen::Vector2d d = lower_inverse * Eigen::Vector2d(out.gradient_u[k], out.gradient_v[k]);
+      const Eigen::Vector2d d =
+          lower_inverse * Eigen::Vector2d(out.gradient_u[k], out.gradient_v[k]);
       out.gradient_u[k] = d.x();
       out.gradient_v[k] = d.y();
     }
     // the subcells' face gradients in the same rest frame: L⁻¹ c (no mean's 1/A_p)
     for (std::size_t k = 3 * first_subcell; k < out.subcell_corner.size(); ++k) {
-      const Eigen::Vector2d d = area * lower_inverse *
-                                Eigen::Vector2d(out.subcell_gradient_u[k], out.subcell_gradient_v[k]);
+      const Eigen::Vector2d d =
+          area * lower_inverse *
+          Eigen::Vector2d(out.subcell_gradient_u[k], out.subcell_gradient_v[k]);
       out.subcell_gradient_u[k] = d.x();
       out.subcell_gradient_v[k] = d.y();
     }
@@ -339,9 +339,8 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
 
 }  // namespace
 
-void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
-                             const SpringSet& springs, const MembraneReference* reference,
-                             MembraneElements& out) {
+void build_membrane_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                             const MembraneReference* reference, MembraneElements& out) {
   out.starts.clear();
   out.corners.clear();
   out.gradient_u.clear();
@@ -540,8 +539,7 @@ double membrane_energy(const MembraneElements& elements, const MembraneMaterial&
 }
 
 double membrane_add_gradient(const MembraneElements& elements, const MembraneMaterial& material,
-                             const Positions& x, Positions& gradient,
-                             MembraneElementWork& work) {
+                             const Positions& x, Positions& gradient, MembraneElementWork& work) {
   double energy = 0.0;
   for (std::size_t e = 0; e < elements.size(); ++e) {
     energy += membrane_element(elements, e, x, material.mu(), material.lambda(),

@@ -1,7 +1,6 @@
 #include "yore/mesh.hpp"
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -68,16 +67,14 @@ void validate_mesh(const Positions& positions, const Faces& faces, bool check_sh
     const Eigen::Vector3d e1 = positions.row(b) - positions.row(a);
     const Eigen::Vector3d e2 = positions.row(c) - positions.row(a);
     const Eigen::Vector3d e3 = positions.row(c) - positions.row(b);
-    const double longest_squared =
-        std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
+    const double longest_squared = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
     const double twice_area = e1.cross(e2).norm();
     // Relative test: a face whose area is below 1e-12 of its longest edge squared has no usable
     // shape (springs across it would be collinear or of zero length).
     if (check_shape && !(twice_area > 2e-12 * longest_squared)) {
       std::ostringstream msg;
       msg << "face " << f << " (" << a << ", " << b << ", " << c << ") is degenerate: area "
-          << 0.5 * twice_area << " m² for a longest edge of " << std::sqrt(longest_squared)
-          << " m";
+          << 0.5 * twice_area << " m² for a longest edge of " << std::sqrt(longest_squared) << " m";
       fail(msg.str());
     }
   }
@@ -100,8 +97,7 @@ void validate_mesh(const Positions& positions, const Faces& faces, bool check_sh
     }
     if (end - k == 2 && sides[k].opposite == sides[k + 1].opposite) {
       std::ostringstream msg;
-      msg << "faces " << sides[k].face << " and " << sides[k + 1].face
-          << " are the same triangle";
+      msg << "faces " << sides[k].face << " and " << sides[k + 1].face << " are the same triangle";
       fail(msg.str());
     }
     k = end;
@@ -127,9 +123,8 @@ MeshConnectivity mesh_connectivity(const Faces& faces) {
   // edges are already sorted; a bending pair that is also an edge, or that two interior edges
   // share (small closed meshes), is wired once only.
   std::sort(result.bending_pairs.begin(), result.bending_pairs.end());
-  result.bending_pairs.erase(
-      std::unique(result.bending_pairs.begin(), result.bending_pairs.end()),
-      result.bending_pairs.end());
+  result.bending_pairs.erase(std::unique(result.bending_pairs.begin(), result.bending_pairs.end()),
+                             result.bending_pairs.end());
   result.bending_pairs.erase(
       std::remove_if(result.bending_pairs.begin(), result.bending_pairs.end(),
                      [&](const VertexPair& pair) {

@@ -3,15 +3,14 @@
 // and steps, and the loop that joins them with the line search and the stopping verdict that
 // quasi-Newton shares (implicit.cpp). Part of ImplicitIntegrator.
 
+#include <algorithm>
+#include <cmath>
+
+#include "implicit_detail.hpp"
 #include "yore/errors.hpp"
 #include "yore/implicit.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/timer.hpp"
-
-#include "implicit_detail.hpp"
-
-#include <algorithm>
-#include <cmath>
 
 namespace yore {
 using namespace implicit_detail;
@@ -85,7 +84,9 @@ double ImplicitIntegrator::newton_direction(const Cloth& cloth, ProjectionChoice
       m_direction.setZero();
       m_statistics.lagged_cg_iterations += preconditioned_cg(
           m_pattern, m_values.data(), m_rhs, m_direction,
-          [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
+          [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+            m_solver->solve(r.data(), z.data());
+          },
           m_options.lag_cg_tol, m_options.lag_max_cg_iterations, m_cg, solved);
       kept_factor_result(solved);
       if (solved) ++m_statistics.lagged_solves;  // a failed CG is followed by a factorization
@@ -197,8 +198,8 @@ void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, doub
     energy = evaluate(cloth, m_iterate, true, false);
     residual = scaled_residual(cloth);
     if (truncation_test(cloth, alpha,
-                        alpha == 1.0 && std::isfinite(energy) && std::isfinite(residual),
-                        last_move, rate)) {
+                        alpha == 1.0 && std::isfinite(energy) && std::isfinite(residual), last_move,
+                        rate)) {
       ++m_statistics.truncation_stops;
       converged = true;
       break;
@@ -257,9 +258,8 @@ bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
 // by the ratio test at ρ ≈ −10…−10⁶ (measured on the 32² stiff sheet). ‖d‖_P and dᵀPp are
 // carried by recurrences (no product with P). `exhausted`: CG stopped at max_iterations.
 double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool same,
-                                              int max_iterations, bool& boundary,
-                                              double& length, bool& exhausted,
-                                              bool& negative) {
+                                              int max_iterations, bool& boundary, double& length,
+                                              bool& exhausted, bool& negative) {
   CgWorkspace& w = m_cg;
   exhausted = negative = false;
   m_direction.setZero();
@@ -302,8 +302,7 @@ double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool s
     const double next_dpd = dpd + 2.0 * alpha * dpp + alpha * alpha * ppp;
     if (!(curvature > 0.0) || next_dpd >= radius2) {
       // τ ≥ 0 with ‖d + τp‖²_P = Δ²
-      const double tau =
-          (-dpp + std::sqrt(std::max(0.0, dpp * dpp + ppp * (radius2 - dpd)))) / ppp;
+      const double tau = (-dpp + std::sqrt(std::max(0.0, dpp * dpp + ppp * (radius2 - dpd)))) / ppp;
       m_direction += tau * w.direction;
       boundary = true;
       break;
@@ -360,7 +359,7 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
       break;
     }
     if (now == IterationVerdict::at_cap) break;
-    bool fresh = false;  // this subproblem made the factor (else: a reuse)
+    bool fresh = false;          // this subproblem made the factor (else: a reuse)
     bool first_on_kept = false;  // the first subproblem at this iterate on a kept factor
     if (!assembled) {
       energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
@@ -380,18 +379,18 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
     bool boundary = false, exhausted = false, negative = false;
     double length = 0.0;
     const bool first = iterations == 1;
-    double predicted = steihaug_direction(forcing, first, same && current,
-                                          current ? kMaxSteihaugIterations
-                                                  : m_options.lag_max_cg_iterations,
-                                          boundary, length, exhausted, negative);
+    double predicted =
+        steihaug_direction(forcing, first, same && current,
+                           current ? kMaxSteihaugIterations : m_options.lag_max_cg_iterations,
+                           boundary, length, exhausted, negative);
     if (first_on_kept) kept_factor_result(!exhausted);
     if (exhausted && !current) {
       // the kept factor no longer preconditions well: factor this iterate's clamped Hessian
       // and solve the subproblem again
       refactor_clamped(cloth, same);
       fresh = current = true;
-      predicted = steihaug_direction(forcing, first, same, kMaxSteihaugIterations, boundary,
-                                     length, exhausted, negative);
+      predicted = steihaug_direction(forcing, first, same, kMaxSteihaugIterations, boundary, length,
+                                     exhausted, negative);
     }
     if (!fresh) ++m_statistics.lagged_solves;  // solved on a factor made at an earlier iterate
     const double slope = m_gradient.dot(m_direction);
@@ -434,8 +433,7 @@ void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, do
         break;
       }
       if (m_options.step_tol > 0.0 && !boundary && !negative && !exhausted &&
-          std::isfinite(energy) &&
-          std::isfinite(residual) &&
+          std::isfinite(energy) && std::isfinite(residual) &&
           m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
         ++m_statistics.step_test_stops;
         converged = true;

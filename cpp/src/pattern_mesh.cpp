@@ -1,9 +1,6 @@
 // A CGAL translation unit of yore_geometry: flat patterns meshed by the 2-D constrained
 // Delaunay mesher.
 #include "yore/pattern_mesh.hpp"
-#include "yore/errors.hpp"
-
-#include "yore/interrupt.hpp"
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Delaunay_mesh_face_base_2.h>
@@ -14,12 +11,15 @@
 #include <CGAL/Polygon_2.h>
 
 #include <array>
-#include <cstddef>
 #include <cmath>
+#include <cstddef>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+
+#include "yore/errors.hpp"
+#include "yore/interrupt.hpp"
 
 namespace yore {
 namespace {
@@ -108,8 +108,8 @@ void check_thin_features(const std::vector<const Polygon*>& polygons,
           if (CGAL::to_double(CGAL::squared_distance(p, edge)) >= least_squared) continue;
           std::ostringstream msg;
           msg << names[a] << " point " << i << " is "
-              << std::sqrt(CGAL::to_double(CGAL::squared_distance(p, edge))) << " m from edge "
-              << j << " of " << names[b] << ": thinner than " << kPatternFeatureFraction
+              << std::sqrt(CGAL::to_double(CGAL::squared_distance(p, edge))) << " m from edge " << j
+              << " of " << names[b] << ": thinner than " << kPatternFeatureFraction
               << " of the outline's size (" << least << " m), which the mesher cannot resolve; "
               << "widen the feature or leave it out";
           fail(msg.str(), polygon_argument(names[a]));
@@ -224,9 +224,10 @@ void refine(Mesher& mesher, const Cdt& cdt, const PatternMeshOptions& options) {
     idle = count == last_count ? idle + 1 : 0;
     last_count = count;
     if (idle > 10'000) {
-      fail("the mesher stopped adding points on this outline (an angle or a feature too small "
-           "for it to resolve): smooth the outline or lower min_angle",
-           "outline");
+      fail(
+          "the mesher stopped adding points on this outline (an angle or a feature too small "
+          "for it to resolve): smooth the outline or lower min_angle",
+          "outline");
     }
     if (++steps % 64 == 0) poll_interrupt();
   }
@@ -266,8 +267,7 @@ PatternMesh pattern_mesh(const Polygon2& outline, const std::vector<Polygon2>& h
     std::array<std::int32_t, 3> corners{};
     for (int k = 0; k < 3; ++k) {
       const auto vertex = face->vertex(k);
-      const auto [slot, added] =
-          index.emplace(&*vertex, static_cast<std::int32_t>(points.size()));
+      const auto [slot, added] = index.emplace(&*vertex, static_cast<std::int32_t>(points.size()));
       if (added) points.push_back(vertex->point());
       corners[static_cast<std::size_t>(k)] = slot->second;
     }

@@ -2,7 +2,6 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -99,12 +98,11 @@ QuadraticBendingMatrix hinge_matrix(const Positions& rest_positions, const Faces
   for (std::size_t s = 0; s + 1 < sides.size(); ++s) {
     if (sides[s][0] != sides[s + 1][0] || sides[s][1] != sides[s + 1][1]) continue;
     // A hinge: edge (v0, v1), opposite vertices v2 (one face) and v3 (the other).
-    const std::array<std::int32_t, 4> v = {sides[s][0], sides[s][1], sides[s][2],
-                                           sides[s + 1][2]};
+    const std::array<std::int32_t, 4> v = {sides[s][0], sides[s][1], sides[s][2], sides[s + 1][2]};
     const Point x0 = rest_positions.row(v[0]), x1 = rest_positions.row(v[1]),
                 x2 = rest_positions.row(v[2]), x3 = rest_positions.row(v[3]);
-    const double area = face_area(v[0], v[1], v[2], sides[s][3]) +
-                        face_area(v[0], v[1], v[3], sides[s + 1][3]);
+    const double area =
+        face_area(v[0], v[1], v[2], sides[s][3]) + face_area(v[0], v[1], v[3], sides[s + 1][3]);
     const Point e = x1 - x0;
     // Angles at the edge's ends: α in the face of v2, β in the face of v3.
     const double cot_alpha0 = cotangent(e, x2 - x0), cot_alpha1 = cotangent(-e, x2 - x1);
@@ -119,7 +117,8 @@ QuadraticBendingMatrix hinge_matrix(const Positions& rest_positions, const Faces
     // plate's bending rigidity D. Bergou et al.'s 3/(A₀ + A₁) gives three times that.
     const double scale = 1.0 / area;
     for (int r = 0; r < 4 && values; ++r) {
-      for (int c = 0; c < 4; ++c) triplets.emplace_back(v[r], v[c], scale * weights[r] * weights[c]);
+      for (int c = 0; c < 4; ++c)
+        triplets.emplace_back(v[r], v[c], scale * weights[r] * weights[c]);
     }
     out.fold_energy += 2.0 * e.squaredNorm() / area;  // ½ (2|e|)² / (A₀ + A₁) at θ = π
     ++out.hinge_count;
@@ -226,7 +225,7 @@ Eigen::MatrixXd fit_energy(const Positions& rest, const std::vector<std::int32_t
   const double scale2 = spread.trace();  // ρ²
   if (!(scale2 > 0.0) || !(spread.determinant() > 1e-12 * scale2 * scale2)) return none;
   const Eigen::Matrix2d lower = spread.llt().matrixL();  // spread = L Lᵀ
-  const Eigen::Matrix2d to_white = lower.inverse();        // s = L⁻¹ d
+  const Eigen::Matrix2d to_white = lower.inverse();      // s = L⁻¹ d
   const Eigen::MatrixX2d s = d * to_white.transpose();
   Eigen::MatrixXd design(m, 6);
   design.col(0).setOnes();
@@ -316,8 +315,7 @@ VertexFit fit_vertex(const Positions& rest, const std::vector<std::vector<std::i
 
 }  // namespace
 
-QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
-                                             const Faces& faces) {
+QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions, const Faces& faces) {
   // The hinge walk checks indices and areas and gives the scale terms (fold_energy, the
   // hinge count); the values are the fits'.
   QuadraticBendingMatrix out = hinge_matrix(rest_positions, faces, false);

@@ -3,12 +3,12 @@
 // local-global method. Part of ImplicitIntegrator: it shares the objective (evaluate), the
 // predictor, the line search, the residual test and the BDF2 bookkeeping with Newton.
 
+#include <algorithm>
+#include <cmath>
+
 #include "yore/implicit.hpp"
 #include "yore/interrupt.hpp"
 #include "yore/timer.hpp"
-
-#include <algorithm>
-#include <cmath>
 
 namespace yore {
 namespace {
@@ -47,9 +47,8 @@ void ImplicitIntegrator::ensure_scalar_matrix(const Cloth& cloth) {
   m_scalar_factored = true;
 }
 
-void ImplicitIntegrator::quasi_newton_iterate(const Cloth& cloth, double& energy,
-                                              double& residual, int& iterations,
-                                              int& backtracks, bool& converged) {
+void ImplicitIntegrator::quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
+                                              int& iterations, int& backtracks, bool& converged) {
   ensure_scalar_matrix(cloth);
   // Q's unknowns are the free vertices in increasing order, as the blocks of the gradient.
   const auto unknowns = static_cast<Eigen::Index>(m_free_vertices.size());

@@ -1,8 +1,8 @@
 #include "yore/sparse_cholesky.hpp"
 
-#include "yore/errors.hpp"
-
 #include <cholmod.h>
+
+#include "yore/errors.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -13,35 +13,48 @@
 #include <cstdint>
 #include <cstring>
 #include <new>
-#include <vector>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace yore {
 namespace {
 
 int cholmod_ordering(Ordering ordering) {
   switch (ordering) {
-    case Ordering::amd: return CHOLMOD_AMD;
-    case Ordering::metis: return CHOLMOD_METIS;
-    case Ordering::nesdis: return CHOLMOD_NESDIS;
-    case Ordering::natural: return CHOLMOD_NATURAL;
-    case Ordering::automatic: break;  // resolved by size before it gets here
+    case Ordering::amd:
+      return CHOLMOD_AMD;
+    case Ordering::metis:
+      return CHOLMOD_METIS;
+    case Ordering::nesdis:
+      return CHOLMOD_NESDIS;
+    case Ordering::natural:
+      return CHOLMOD_NATURAL;
+    case Ordering::automatic:
+      break;  // resolved by size before it gets here
   }
   return CHOLMOD_AMD;
 }
 
 const char* ordering_name(int code) {
   switch (code) {
-    case CHOLMOD_NATURAL: return "natural";
-    case CHOLMOD_GIVEN: return "given";
-    case CHOLMOD_AMD: return "amd";
-    case CHOLMOD_METIS: return "metis";
-    case CHOLMOD_NESDIS: return "nesdis";
-    case CHOLMOD_COLAMD: return "colamd";
-    case CHOLMOD_POSTORDERED: return "natural-postordered";
-    default: return "unknown";
+    case CHOLMOD_NATURAL:
+      return "natural";
+    case CHOLMOD_GIVEN:
+      return "given";
+    case CHOLMOD_AMD:
+      return "amd";
+    case CHOLMOD_METIS:
+      return "metis";
+    case CHOLMOD_NESDIS:
+      return "nesdis";
+    case CHOLMOD_COLAMD:
+      return "colamd";
+    case CHOLMOD_POSTORDERED:
+      return "natural-postordered";
+    default:
+      return "unknown";
   }
 }
 
@@ -112,7 +125,8 @@ bool cholmod_has_metis() {
 #ifdef NPARTITION
   return false;
 #else
-  return true;  // Debian's libcholmod links libmetis (checked by the tests through ordering "metis")
+  return true;  // Debian's libcholmod links libmetis (checked by the tests through ordering
+                // "metis")
 #endif
 }
 
@@ -144,8 +158,8 @@ struct SparseCholesky::Impl {
     common.method[0].ordering = cholmod_ordering(resolve_ordering(requested, 0));
     if (requested == Ordering::natural) common.postorder = 0;
     for (int k = 0; k < 3; ++k) {
-      common.nrelax[k] = static_cast<std::size_t>(std::lround(relaxation *
-                                                              static_cast<double>(common.nrelax[k])));
+      common.nrelax[k] =
+          static_cast<std::size_t>(std::lround(relaxation * static_cast<double>(common.nrelax[k])));
     }
   }
 
@@ -181,13 +195,13 @@ struct SparseCholesky::Impl {
   }
 };
 
-SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering,
-                               double supernode_relaxation) {
+SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering, double supernode_relaxation) {
   const bool partitions = ordering == Ordering::metis || ordering == Ordering::nesdis ||
                           ordering == Ordering::automatic;
   if (partitions && !cholmod_has_metis()) {
-    throw std::invalid_argument("orderings 'metis', 'nesdis' and 'auto' are not available: "
-                                "CHOLMOD was built without METIS; valid: amd, natural");
+    throw std::invalid_argument(
+        "orderings 'metis', 'nesdis' and 'auto' are not available: "
+        "CHOLMOD was built without METIS; valid: amd, natural");
   }
   if (!(supernode_relaxation >= 0.0 && supernode_relaxation <= 16.0)) {
     std::ostringstream msg;
@@ -220,9 +234,9 @@ cholmod_sparse* block_graph(const SymmetricPattern& pattern, cholmod_common& com
     }
     starts[static_cast<std::size_t>(block) + 1] = static_cast<std::int32_t>(rows.size());
   }
-  cholmod_sparse* graph = cholmod_allocate_sparse(static_cast<std::size_t>(blocks),
-                                                  static_cast<std::size_t>(blocks), rows.size(),
-                                                  1, 1, -1, CHOLMOD_PATTERN, &common);
+  cholmod_sparse* graph =
+      cholmod_allocate_sparse(static_cast<std::size_t>(blocks), static_cast<std::size_t>(blocks),
+                              rows.size(), 1, 1, -1, CHOLMOD_PATTERN, &common);
   if (graph == nullptr) return nullptr;
   std::memcpy(graph->p, starts.data(), starts.size() * sizeof(std::int32_t));
   std::memcpy(graph->i, rows.data(), rows.size() * sizeof(std::int32_t));
@@ -251,8 +265,8 @@ void SparseCholesky::analyze(const SymmetricPattern& pattern) {
         cholmod_metis(graph, nullptr, 0, 1, order.data(), &d.common);
         break;
       case Ordering::nesdis:
-        cholmod_nested_dissection(graph, nullptr, 0, order.data(), parents.data(),
-                                  members.data(), &d.common);
+        cholmod_nested_dissection(graph, nullptr, 0, order.data(), parents.data(), members.data(),
+                                  &d.common);
         break;
       default:
         cholmod_amd(graph, nullptr, 0, order.data(), &d.common);
@@ -263,7 +277,8 @@ void SparseCholesky::analyze(const SymmetricPattern& pattern) {
   d.check("ordering");
   std::vector<std::int32_t> expanded(static_cast<std::size_t>(pattern.size));
   for (std::size_t k = 0; k < blocks; ++k) {
-    for (std::int32_t c = 0; c < b; ++c) expanded[b * k + static_cast<std::size_t>(c)] = b * order[k] + c;
+    for (std::int32_t c = 0; c < b; ++c)
+      expanded[b * k + static_cast<std::size_t>(c)] = b * order[k] + c;
   }
   analyze_with_permutation(pattern, expanded);
   d.statistics.ordering = ordering_name(cholmod_ordering(ordering));
@@ -297,8 +312,8 @@ void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
     const SerialOpenMP serial;
     const int saved = d.common.method[0].ordering;
     d.common.method[0].ordering = CHOLMOD_GIVEN;
-    d.factor = cholmod_analyze_p(d.matrix, const_cast<std::int32_t*>(permutation.data()),
-                                 nullptr, 0, &d.common);
+    d.factor = cholmod_analyze_p(d.matrix, const_cast<std::int32_t*>(permutation.data()), nullptr,
+                                 0, &d.common);
     d.common.method[0].ordering = saved;
   }
   d.check("analyze");
@@ -367,10 +382,11 @@ void SparseCholesky::solve_columns(const double* rhs, double* solution, int colu
   std::memcpy(d.block_rhs->x, rhs, n * static_cast<std::size_t>(columns) * sizeof(double));
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
   const SerialOpenMP serial;
-  cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr,
-                 &d.block_y, &d.block_e, &d.common);
+  cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr, &d.block_y,
+                 &d.block_e, &d.common);
   d.check("solve");
-  std::memcpy(solution, d.block_solution->x, n * static_cast<std::size_t>(columns) * sizeof(double));
+  std::memcpy(solution, d.block_solution->x,
+              n * static_cast<std::size_t>(columns) * sizeof(double));
   d.statistics.solves += columns;
 }
 

@@ -27,11 +27,11 @@ void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
   const QuadraticBendingMatrix* bending =
       cloth.has_quadratic_bending() ? &cloth.quadratic_bending() : nullptr;
   if (bending != nullptr) {  // a hinge couples all four of its vertices
-    for_each_free_entry(*bending, out.free_of_vertex,
-                        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a,
-                            std::int32_t b) {
-                          if (j > i) coupled.emplace_back(a, b);
-                        });
+    for_each_free_entry(
+        *bending, out.free_of_vertex,
+        [&](std::int32_t, std::int32_t i, std::int32_t j, std::int32_t a, std::int32_t b) {
+          if (j > i) coupled.emplace_back(a, b);
+        });
   }
   std::sort(coupled.begin(), coupled.end());
   coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
@@ -63,19 +63,19 @@ void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
   out.bending_slot.clear();
   if (bending != nullptr) {
     out.bending_slot.assign(bending->columns.size(), -1);
-    for_each_free_entry(*bending, out.free_of_vertex, [&](std::int32_t k, std::int32_t i,
-                                                          std::int32_t j, std::int32_t a,
-                                                          std::int32_t b) {
-      if (j == i) {
-        out.bending_slot[static_cast<std::size_t>(k)] = pattern.column_starts[a];
-        return;
-      }
-      // free unknowns are numbered in vertex order, so j > i gives b > a: row b of column a
-      const auto begin = pattern.row_indices.begin() + pattern.column_starts[a] + 1;
-      const auto end = pattern.row_indices.begin() + pattern.column_starts[a + 1];
-      out.bending_slot[static_cast<std::size_t>(k)] =
-          std::lower_bound(begin, end, b) - pattern.row_indices.begin();
-    });
+    for_each_free_entry(
+        *bending, out.free_of_vertex,
+        [&](std::int32_t k, std::int32_t i, std::int32_t j, std::int32_t a, std::int32_t b) {
+          if (j == i) {
+            out.bending_slot[static_cast<std::size_t>(k)] = pattern.column_starts[a];
+            return;
+          }
+          // free unknowns are numbered in vertex order, so j > i gives b > a: row b of column a
+          const auto begin = pattern.row_indices.begin() + pattern.column_starts[a] + 1;
+          const auto end = pattern.row_indices.begin() + pattern.column_starts[a + 1];
+          out.bending_slot[static_cast<std::size_t>(k)] =
+              std::lower_bound(begin, end, b) - pattern.row_indices.begin();
+        });
   }
 }
 

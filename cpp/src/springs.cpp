@@ -14,14 +14,13 @@ void SpringSet::reserve(std::size_t n) {
   reference_length.reserve(n);
 }
 
-void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m,
-                    double stiffness_n_per_m, double damping_ns_per_m, SpringKind spring_kind) {
+void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m, double stiffness_n_per_m,
+                    double damping_ns_per_m, SpringKind spring_kind) {
   add(i, j, rest_length_m, stiffness_n_per_m, damping_ns_per_m, spring_kind, rest_length_m);
 }
 
-void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m,
-                    double stiffness_n_per_m, double damping_ns_per_m, SpringKind spring_kind,
-                    double reference_length_m) {
+void SpringSet::add(std::int32_t i, std::int32_t j, double rest_length_m, double stiffness_n_per_m,
+                    double damping_ns_per_m, SpringKind spring_kind, double reference_length_m) {
   first.push_back(i);
   second.push_back(j);
   rest_length.push_back(rest_length_m);

@@ -1,15 +1,14 @@
 // The stable time steps of Cloth: Gershgorin bounds, Lanczos estimates (at the current state
 // or for every state) and the step limit of symplectic Euler on one damped mode.
-#include "yore/cloth.hpp"
-
 #include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
+
+#include "yore/cloth.hpp"
 
 namespace yore {
 namespace {
@@ -41,9 +40,8 @@ void for_each_subcell_difference(const MembraneElements& elements, std::size_t e
       delta[k] = -Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
     }
     for (std::size_t j = 0; j < 3; ++j) {
-      delta[static_cast<std::size_t>(elements.subcell_corner[3 * c + j])] +=
-          Eigen::Vector2d(elements.subcell_gradient_u[3 * c + j],
-                          elements.subcell_gradient_v[3 * c + j]);
+      delta[static_cast<std::size_t>(elements.subcell_corner[3 * c + j])] += Eigen::Vector2d(
+          elements.subcell_gradient_u[3 * c + j], elements.subcell_gradient_v[3 * c + j]);
     }
     visit(elements.subcell_area[c], delta);
   }
@@ -84,18 +82,18 @@ void add_membrane_product(const MembraneElements& elements, const MembraneMateri
       continue;
     }
     if (subcells) {
-      for_each_subcell_difference(elements, e, [&](double a,
-                                                    const std::vector<Eigen::Vector2d>& delta) {
-        Mat32 Xc = Mat32::Zero();
-        for (std::size_t k = begin; k < end; ++k) {
-          const std::int32_t i = elements.corners[k];
-          Xc += scale[i] * x.segment<3>(3 * i) * delta[k - begin].transpose();
-        }
-        for (std::size_t k = begin; k < end; ++k) {
-          const std::int32_t i = elements.corners[k];
-          y.segment<3>(3 * i) += scale[i] * (c * a * (Xc * delta[k - begin]));
-        }
-      });
+      for_each_subcell_difference(
+          elements, e, [&](double a, const std::vector<Eigen::Vector2d>& delta) {
+            Mat32 Xc = Mat32::Zero();
+            for (std::size_t k = begin; k < end; ++k) {
+              const std::int32_t i = elements.corners[k];
+              Xc += scale[i] * x.segment<3>(3 * i) * delta[k - begin].transpose();
+            }
+            for (std::size_t k = begin; k < end; ++k) {
+              const std::int32_t i = elements.corners[k];
+              y.segment<3>(3 * i) += scale[i] * (c * a * (Xc * delta[k - begin]));
+            }
+          });
     }
     Mat32 X = Mat32::Zero(), F = Mat32::Zero();
     for (std::size_t k = begin; k < end; ++k) {
@@ -173,19 +171,20 @@ double Cloth::gershgorin_time_step() const {
               elements.area[e] * (elements.gradient_u[k] * elements.gradient_u[l] +
                                   elements.gradient_v[k] * elements.gradient_v[l]);
           const std::int32_t i = elements.corners[k], j = elements.corners[l];
-          membrane_rows[i] += c * std::abs(laplacian) *
-                              std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
+          membrane_rows[i] +=
+              c * std::abs(laplacian) * std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
         }
       }
-      for_each_subcell_difference(elements, e, [&](double a, const std::vector<Eigen::Vector2d>& delta) {
-        for (std::size_t k = begin; k < end; ++k) {
-          for (std::size_t l = begin; l < end; ++l) {
-            const std::int32_t i = elements.corners[k], j = elements.corners[l];
-            membrane_rows[i] += c * a * std::abs(delta[k - begin].dot(delta[l - begin])) *
-                                std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
-          }
-        }
-      });
+      for_each_subcell_difference(
+          elements, e, [&](double a, const std::vector<Eigen::Vector2d>& delta) {
+            for (std::size_t k = begin; k < end; ++k) {
+              for (std::size_t l = begin; l < end; ++l) {
+                const std::int32_t i = elements.corners[k], j = elements.corners[l];
+                membrane_rows[i] += c * a * std::abs(delta[k - begin].dot(delta[l - begin])) *
+                                    std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
+              }
+            }
+          });
     }
   }
   for (Eigen::Index i = 0; i < vertex_count(); ++i) {
@@ -205,7 +204,8 @@ double Cloth::gershgorin_time_step() const {
       for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
            k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
         const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
-        stiffness_row += m_bending_modulus * std::abs(bending->values[static_cast<std::size_t>(k)]) *
+        stiffness_row += m_bending_modulus *
+                         std::abs(bending->values[static_cast<std::size_t>(k)]) *
                          std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
       }
     }
@@ -228,7 +228,8 @@ double Cloth::lanczos_time_step(bool every_state) const {
   // step): the Gershgorin answer is exact, and Lanczos would only see zeros or non-finite values.
   if (!(gershgorin > 0.0) || !std::isfinite(gershgorin) || m_springs.size() == 0) return gershgorin;
   bool any_free = false;
-  for (Eigen::Index i = 0; i < vertex_count(); ++i) any_free = any_free || m_inverse_masses[i] > 0.0;
+  for (Eigen::Index i = 0; i < vertex_count(); ++i)
+    any_free = any_free || m_inverse_masses[i] > 0.0;
   if (!any_free) return gershgorin;
 
   // Per-spring 3×3 stiffness and damping blocks (see spring_blocks).
@@ -277,7 +278,9 @@ double Cloth::lanczos_time_step(bool every_state) const {
   Eigen::VectorXd q(dim), w(dim);
   std::uint64_t seed = 0x9E3779B97F4A7C15ULL;
   for (Eigen::Index r = 0; r < dim; ++r) {
-    seed ^= seed >> 12; seed ^= seed << 25; seed ^= seed >> 27;  // xorshift64*
+    seed ^= seed >> 12;
+    seed ^= seed << 25;
+    seed ^= seed >> 27;  // xorshift64*
     const double u = static_cast<double>((seed * 0x2545F4914F6CDD1DULL) >> 11) * 0x1.0p-53;
     q[r] = scale[r / 3] > 0.0 ? 2.0 * u - 1.0 : 0.0;
   }

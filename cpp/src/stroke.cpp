@@ -1,21 +1,20 @@
 // The CGAL translation unit of yore_geometry: AABB trees for stroke location.
 #include "yore/stroke.hpp"
 
-#include "yore/interrupt.hpp"
-
-#include <Eigen/Geometry>
-
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Simple_cartesian.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
+
+#include "yore/interrupt.hpp"
 
 namespace yore {
 namespace {
@@ -91,8 +90,8 @@ SurfaceHit SurfaceLocator::closest(const Eigen::Vector3d& point) const {
   const Eigen::Vector3d p = to_eigen(closest);
   const Positions& x = m_impl->positions;
   const Faces& f = m_impl->faces;
-  hit.barycentric = barycentric_of(p, x.row(f(hit.face, 0)), x.row(f(hit.face, 1)),
-                                   x.row(f(hit.face, 2)));
+  hit.barycentric =
+      barycentric_of(p, x.row(f(hit.face, 0)), x.row(f(hit.face, 1)), x.row(f(hit.face, 2)));
   hit.distance = (p - point).norm();
   return hit;
 }
@@ -146,7 +145,8 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
         "trace_stroke: length finite and >= 0, spacing > 0 and resolution > 0");
   }
   const double needed = std::ceil(length / spacing) + 1.0 + static_cast<double>(breakpoints.size());
-  if (!(needed <= static_cast<double>(max_samples))) throw too_many_samples(max_samples, needed, spacing, length);
+  if (!(needed <= static_cast<double>(max_samples)))
+    throw too_many_samples(max_samples, needed, spacing, length);
   struct Sample {
     double s;
     std::optional<SurfaceHit> hit;
@@ -163,12 +163,11 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
   };
   // Depth-first bisection keeps the samples in stroke order.
   std::function<void(const Sample&, const Sample&)> refine = [&](const Sample& left,
-                                                                   const Sample& right) {
+                                                                 const Sample& right) {
     const bool settled =
-        (!left.hit && !right.hit) ||
-        (left.hit && right.hit &&
-         (left.hit->face == right.hit->face || edge_adjacent(faces, left.hit->face,
-                                                             right.hit->face)));
+        (!left.hit && !right.hit) || (left.hit && right.hit &&
+                                      (left.hit->face == right.hit->face ||
+                                       edge_adjacent(faces, left.hit->face, right.hit->face)));
     if (settled || right.s - left.s < resolution) return;
     const Sample middle = evaluate(0.5 * (left.s + right.s));
     refine(left, middle);
@@ -282,7 +281,8 @@ Eigen::Vector3d Polyline::at(double s) const {
   if (upper == m_lengths.begin()) return m_points.row(0);
   if (upper == m_lengths.end()) return m_points.row(m_points.rows() - 1);
   const auto k = static_cast<Eigen::Index>(upper - m_lengths.begin());
-  const double span = m_lengths[static_cast<std::size_t>(k)] - m_lengths[static_cast<std::size_t>(k) - 1];
+  const double span =
+      m_lengths[static_cast<std::size_t>(k)] - m_lengths[static_cast<std::size_t>(k) - 1];
   const double t = span > 0.0 ? (s - m_lengths[static_cast<std::size_t>(k) - 1]) / span : 0.0;
   return ((1.0 - t) * m_points.row(k - 1) + t * m_points.row(k)).transpose();
 }
@@ -291,10 +291,9 @@ namespace {
 
 /// Traces the parts of a clipped stroke one after another as one stroke: crossings in the order
 /// the stroke first enters their faces, a face's barycentric point the mean over all its samples.
-StrokeTrace trace_parts(const Polyline& stroke, const std::vector<Positions>& parts,
-                        double spacing, const Faces& faces,
-                        const std::function<std::optional<SurfaceHit>(const Eigen::Vector3d&)>&
-                            query) {
+StrokeTrace trace_parts(
+    const Polyline& stroke, const std::vector<Positions>& parts, double spacing, const Faces& faces,
+    const std::function<std::optional<SurfaceHit>(const Eigen::Vector3d&)>& query) {
   if (!(spacing > 0.0) || !std::isfinite(spacing)) {
     std::ostringstream msg;
     msg << "the stroke's sampling spacing must be finite and > 0, got " << spacing;
@@ -322,9 +321,9 @@ StrokeTrace trace_parts(const Polyline& stroke, const std::vector<Positions>& pa
   const auto clipped = static_cast<std::int64_t>(std::min(std::round(outside), 1e18));
   std::map<std::int32_t, std::size_t> slot_of_face;
   for (const Polyline& line : lines) {
-    const StrokeTrace trace = trace_stroke(
-        [&](double s) { return query(line.at(s)); }, line.length(), spacing, 1e-4 * spacing, faces,
-        line.corners(), kMaxStrokeSamples - merged.samples);
+    const StrokeTrace trace =
+        trace_stroke([&](double s) { return query(line.at(s)); }, line.length(), spacing,
+                     1e-4 * spacing, faces, line.corners(), kMaxStrokeSamples - merged.samples);
     merged.samples += trace.samples;
     merged.missed_samples += trace.missed_samples;
     const std::int32_t offset = merged.path.empty() ? 0 : merged.path.back().part + 1;
@@ -339,8 +338,9 @@ StrokeTrace trace_parts(const Polyline& stroke, const std::vector<Positions>& pa
         continue;
       }
       StrokeCrossing& into = merged.crossings[it->second];
-      into.barycentric = (into.barycentric * into.samples + crossing.barycentric * crossing.samples) /
-                         (into.samples + crossing.samples);
+      into.barycentric =
+          (into.barycentric * into.samples + crossing.barycentric * crossing.samples) /
+          (into.samples + crossing.samples);
       into.samples += crossing.samples;
     }
   }
@@ -351,8 +351,8 @@ StrokeTrace trace_parts(const Polyline& stroke, const std::vector<Positions>& pa
 
 }  // namespace
 
-StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
-                          const Positions& stroke, double max_distance, double spacing) {
+StrokeTrace trace_closest(const Positions& positions, const Faces& faces, const Positions& stroke,
+                          double max_distance, double spacing) {
   if (!(max_distance >= 0.0) || !std::isfinite(max_distance)) {
     std::ostringstream msg;
     msg << "max_distance must be finite and >= 0, got " << max_distance;
@@ -364,8 +364,8 @@ StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
   const Eigen::Vector3d lower = positions.colwise().minCoeff().transpose();
   const Eigen::Vector3d upper = positions.colwise().maxCoeff().transpose();
   const double margin = max_distance * (1.0 + 1e-9) + 1e-12 * (upper - lower).norm();
-  const std::vector<Positions> parts = clip_polyline(
-      stroke, lower.array() - margin, upper.array() + margin);
+  const std::vector<Positions> parts =
+      clip_polyline(stroke, lower.array() - margin, upper.array() + margin);
   return trace_parts(line, parts, spacing, faces,
                      [&](const Eigen::Vector3d& point) -> std::optional<SurfaceHit> {
                        const SurfaceHit hit = locator.closest(point);

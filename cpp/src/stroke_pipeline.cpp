@@ -2,15 +2,14 @@
 // stroke.cpp.
 #include "yore/stroke_pipeline.hpp"
 
-#include "yore/timer.hpp"
-
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <sstream>
 #include <unordered_map>
+
+#include "yore/timer.hpp"
 
 namespace yore {
 namespace {
@@ -249,8 +248,8 @@ void check_stroke_options(const StrokeOptions& options) {
 // Σ (rest − reference length) of the split's springs, the last `springs_added` ones (m).
 double split_rest_length_added(const SpringSet& springs, std::int64_t springs_added) {
   std::vector<double> added;
-  for (std::size_t k = springs.size() - static_cast<std::size_t>(springs_added);
-       k < springs.size(); ++k) {
+  for (std::size_t k = springs.size() - static_cast<std::size_t>(springs_added); k < springs.size();
+       ++k) {
     added.push_back(springs.rest_length[k] - springs.reference_length[k]);
   }
   return pairwise_sum(added);
@@ -272,8 +271,9 @@ StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOp
 
   std::vector<std::int32_t> refined_vertices;
   for (int pass = 0; pass < options.refine; ++pass) {
-    const StrokeBand band = stroke_band(cloth.positions(), cloth.faces(), surface_path(cloth, trace),
-                                        path_parts(trace), crossed_faces(trace), options.width);
+    const StrokeBand band =
+        stroke_band(cloth.positions(), cloth.faces(), surface_path(cloth, trace), path_parts(trace),
+                    crossed_faces(trace), options.width);
     if (pass == 0) check_refined_size(cloth, band.faces.size(), options);
     const RefineReport refined = cloth.refine_faces(band.faces);
     result.faces_refined += static_cast<std::int64_t>(refined.refined_faces.size());

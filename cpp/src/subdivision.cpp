@@ -1,7 +1,6 @@
 #include "yore/subdivision.hpp"
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -18,8 +17,7 @@ namespace {
 /// Smallest interior angle of a triangle, degrees.
 double min_angle_degrees(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                          const Eigen::Vector3d& c) {
-  auto angle = [](const Eigen::Vector3d& apex, const Eigen::Vector3d& p,
-                  const Eigen::Vector3d& q) {
+  auto angle = [](const Eigen::Vector3d& apex, const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
     const Eigen::Vector3d u = p - apex, v = q - apex;
     return std::atan2(u.cross(v).norm(), u.dot(v));
   };
@@ -35,9 +33,7 @@ void check_face_index(std::int32_t face, Eigen::Index face_count) {
   }
 }
 
-VertexPair sorted_pair(std::int32_t i, std::int32_t j) {
-  return {std::min(i, j), std::max(i, j)};
-}
+VertexPair sorted_pair(std::int32_t i, std::int32_t j) { return {std::min(i, j), std::max(i, j)}; }
 
 }  // namespace
 
@@ -218,8 +214,7 @@ std::map<VertexPair, std::int32_t> add_midpoints(const Positions& positions,
   mesh.new_vertex_weights.resize(added, 3);
   for (Eigen::Index k = 0; k < added; ++k) {
     const VertexPair& edge = out.split_edges[static_cast<std::size_t>(k)];
-    mesh.positions.row(old_vertices + k) =
-        0.5 * (positions.row(edge[0]) + positions.row(edge[1]));
+    mesh.positions.row(old_vertices + k) = 0.5 * (positions.row(edge[0]) + positions.row(edge[1]));
     mesh.new_vertex_corners.row(k) << edge[0], edge[1], edge[1];
     mesh.new_vertex_weights.row(k) << 0.5, 0.5, 0.0;
   }

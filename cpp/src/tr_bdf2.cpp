@@ -15,14 +15,14 @@
 /// The second stage's truncation error is the method's embedded estimate of the whole step
 /// (ImplicitIntegrator::truncation_error).
 
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
 #include "implicit_detail.hpp"
 #include "yore/errors.hpp"
 #include "yore/implicit.hpp"
 #include "yore/interrupt.hpp"
-
-#include <algorithm>
-#include <cmath>
-#include <sstream>
 
 namespace yore {
 using implicit_detail::kTrBdf2Gamma;
@@ -44,8 +44,8 @@ void ImplicitIntegrator::step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double 
   m_stage = StageKind::trapezoid;
   for (const std::int32_t i : m_free_vertices) {
     m_anchor.row(i) = m_start_positions.row(i) + m_h * m_start_velocities.row(i);
-    m_target.row(i) = m_anchor.row(i) +
-                      m_h * (m_start_velocities.row(i) + m_h * m_force_acceleration.row(i));
+    m_target.row(i) =
+        m_anchor.row(i) + m_h * (m_start_velocities.row(i) + m_h * m_force_acceleration.row(i));
   }
   const bool extrapolate = m_options.predictor == NewtonPredictor::extrapolated;
   if (extrapolate) {
@@ -125,12 +125,12 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
       std::ostringstream msg;
       msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
           << " s, " << name << " with dt = \"auto\"): "
-          << (taken > m_options.max_steps ? "more than max_steps = " +
-                                                std::to_string(m_options.max_steps) +
-                                                " steps in one output interval"
-                                          : std::string("the step fell below 1e-12 dt"))
-          << "; the last step tried was " << step_size << " s, tolerance rtol = "
-          << m_options.rtol << ", atol = " << m_options.atol
+          << (taken > m_options.max_steps
+                  ? "more than max_steps = " + std::to_string(m_options.max_steps) +
+                        " steps in one output interval"
+                  : std::string("the step fell below 1e-12 dt"))
+          << "; the last step tried was " << step_size << " s, tolerance rtol = " << m_options.rtol
+          << ", atol = " << m_options.atol
           << ". Loosen the tolerance, raise max_steps, or check the forces.";
       throw SimulationDiverged(msg.str(), m_statistics.steps, cloth.time(), dt, step_size);
     }
@@ -155,12 +155,11 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
 
     step(cloth, gravity, step_size);
     const double error = m_statistics.last_truncation_error;
-    const double ratio = std::isfinite(error) ? error / tolerance
-                                              : std::numeric_limits<double>::infinity();
+    const double ratio =
+        std::isfinite(error) ? error / tolerance : std::numeric_limits<double>::infinity();
     // The estimate is of the local error, O(h³): the step that meets the tolerance with a
     // margin of 0.9 is h (tol/err)^(1/3), changed by at most 5× up and 5× down per step.
-    const double factor =
-        ratio > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / ratio), 0.2, most) : most;
+    const double factor = ratio > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / ratio), 0.2, most) : most;
     if (ratio <= 1.0) {
       h = step_size * factor;
       continue;

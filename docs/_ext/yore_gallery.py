@@ -46,8 +46,7 @@ def small_argv(gallery_conf, script_vars) -> list:
     example_globals = script_vars.get("example_globals")
     if example_globals is not None:
         example_globals["__file__"] = str(src_file)
-        example_globals["__doc__"] = ast.get_docstring(ast.parse(src_file.read_text()),
-                                                       clean=False)
+        example_globals["__doc__"] = ast.get_docstring(ast.parse(src_file.read_text()), clean=False)
     out = output_folder(src_file)
     if out.exists():
         shutil.rmtree(out)
@@ -64,8 +63,10 @@ def png_scraper(block, block_vars, gallery_conf) -> str:
     if not out.is_dir():
         return ""
     shown = _shown.setdefault(src_file, set())
-    new = sorted((p for p in out.rglob("*.png") if p not in shown),
-                 key=lambda p: (p.stat().st_mtime_ns, str(p)))
+    new = sorted(
+        (p for p in out.rglob("*.png") if p not in shown),
+        key=lambda p: (p.stat().st_mtime_ns, str(p)),
+    )
     images = []
     for png, target in zip(new, block_vars["image_path_iterator"]):
         shutil.copyfile(png, target)

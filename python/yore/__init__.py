@@ -41,8 +41,9 @@ from . import _core as _threads_core
 # OpenBLAS's threads (CHOLMOD's factorization) wait for each other like OpenMP's, and no step
 # re-times them: one thread unless the user asked (docs/integrators.md, "Threads": on a busy
 # machine two made a linearized implicit step 3× slower). set_num_threads(n) sets n here too.
-if not any(name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
-                                            "OMP_NUM_THREADS")):
+if not any(
+    name in _os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+):
     _threads_core.set_blas_threads(1)
 from .runtime import clamp_threads_to_the_address_space as _clamp_threads  # noqa: E402
 
@@ -82,6 +83,7 @@ __all__ = [
     "runs",
     "load_state",
     "springs",
+    "stroke",
     "subdivision",
     "build_info",
     "set_num_threads",
@@ -95,5 +97,3 @@ def __getattr__(name):
 
         return importlib.import_module(".sweep", __name__)
     raise AttributeError(f"module 'yore' has no attribute {name!r}")
-
-

@@ -29,8 +29,17 @@ import sys
 import warnings
 from dataclasses import dataclass
 
-__all__ = ["BlasWarning", "KernelChoice", "KERNEL_NEEDS", "TIER_KERNELS", "decide",
-           "best_kernel", "kernel_tier", "thread_setting_problems", "report"]
+__all__ = [
+    "BlasWarning",
+    "KernelChoice",
+    "KERNEL_NEEDS",
+    "TIER_KERNELS",
+    "decide",
+    "best_kernel",
+    "kernel_tier",
+    "thread_setting_problems",
+    "report",
+]
 
 #: The environment variable OpenBLAS reads its kernel from, once, when it loads.
 CORETYPE = "OPENBLAS_CORETYPE"
@@ -44,27 +53,42 @@ _AVX512 = frozenset({"avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"})
 #: compares without case) and the extensions their code uses. The 32-bit names load Prescott's
 #: kernels on x86-64. SapphireRapids and Cooperlake add bf16 kernels to SkylakeX's.
 KERNEL_NEEDS = {
-    **{name: frozenset({"sse3"}) for name in ("katmai", "coppermine", "northwood", "banias",
-                                              "athlon", "prescott", "opteron_sse3",
-                                              "barcelona")},
+    **{
+        name: frozenset({"sse3"})
+        for name in (
+            "katmai",
+            "coppermine",
+            "northwood",
+            "banias",
+            "athlon",
+            "prescott",
+            "opteron_sse3",
+            "barcelona",
+        )
+    },
     "opteron": frozenset(),
     **{name: frozenset({"ssse3"}) for name in ("core2", "atom", "bobcat", "nano")},
-    "penryn": frozenset({"sse4_1"}), "dunnington": frozenset({"sse4_1"}),
+    "penryn": frozenset({"sse4_1"}),
+    "dunnington": frozenset({"sse4_1"}),
     "nehalem": frozenset({"sse4_2"}),
     "sandybridge": frozenset({"avx"}),
     "bulldozer": frozenset({"avx", "fma4"}),
     "piledriver": frozenset({"avx", "fma", "fma4"}),
     "steamroller": frozenset({"avx", "fma", "fma4"}),
     "excavator": frozenset({"avx2", "fma", "fma4"}),
-    "haswell": frozenset({"avx2", "fma"}), "zen": frozenset({"avx2", "fma"}),
+    "haswell": frozenset({"avx2", "fma"}),
+    "zen": frozenset({"avx2", "fma"}),
     "skylakex": _AVX512,
     "cooperlake": _AVX512 | {"avx512_bf16"},
     "sapphirerapids": _AVX512 | {"avx512_bf16"},
 }
 
 #: OpenBLAS's kernel for each tier of vector width, best first: what yore sets.
-TIER_KERNELS = (("SkylakeX", _AVX512), ("Haswell", frozenset({"avx2", "fma"})),
-                ("Sandybridge", frozenset({"avx"})))
+TIER_KERNELS = (
+    ("SkylakeX", _AVX512),
+    ("Haswell", frozenset({"avx2", "fma"})),
+    ("Sandybridge", frozenset({"avx"})),
+)
 
 
 def kernel_tier(name) -> int:
@@ -114,10 +138,15 @@ def decide(extensions, requested, native) -> KernelChoice:
         if needs is None or needs <= have:
             return KernelChoice(None, "user")  # OpenBLAS itself refuses names it does not know
         instead = best or "Prescott"
-        return KernelChoice(instead, "yore", (
-            f"{CORETYPE}={requested} needs {', '.join(sorted(needs - have))}, which this CPU "
-            f"does not run (it would stop with SIGILL); yore loads the {instead} kernels "
-            f"instead: unset {CORETYPE} or set it to {instead}"))
+        return KernelChoice(
+            instead,
+            "yore",
+            (
+                f"{CORETYPE}={requested} needs {', '.join(sorted(needs - have))}, which this CPU "
+                f"does not run (it would stop with SIGILL); yore loads the {instead} kernels "
+                f"instead: unset {CORETYPE} or set it to {instead}"
+            ),
+        )
     if best is None or native == "":
         return KernelChoice(None, "openblas")
     if native is not None and kernel_tier(native) >= kernel_tier(best):
@@ -143,12 +172,18 @@ def thread_setting_problems(environ) -> dict:
         except ValueError:
             count = None
         if count is None or count < 1:
-            problems[name] = (None, f"{name}={text!r} is not a number of threads (a whole "
-                                    f"number from 1 to {MAX_THREADS}); yore ignores it")
+            problems[name] = (
+                None,
+                f"{name}={text!r} is not a number of threads (a whole "
+                f"number from 1 to {MAX_THREADS}); yore ignores it",
+            )
         elif count > MAX_THREADS:
-            problems[name] = (str(MAX_THREADS), f"{name}={text} is more threads than yore "
-                                                f"runs (at most {MAX_THREADS}); yore uses "
-                                                f"{MAX_THREADS}")
+            problems[name] = (
+                str(MAX_THREADS),
+                f"{name}={text} is more threads than yore "
+                f"runs (at most {MAX_THREADS}); yore uses "
+                f"{MAX_THREADS}",
+            )
     return problems
 
 
@@ -180,8 +215,14 @@ def native_kernel() -> str | None:
     environment = {key: value for key, value in os.environ.items() if key != CORETYPE}
     environment.update(OPENBLAS_NUM_THREADS="1", OPENBLAS_VERBOSE="0")
     try:
-        answer = subprocess.run([sys.executable, "-S", "-E", "-c", _PROBE], env=environment,
-                                capture_output=True, text=True, timeout=30, check=False)
+        answer = subprocess.run(
+            [sys.executable, "-S", "-E", "-c", _PROBE],
+            env=environment,
+            capture_output=True,
+            text=True,
+            timeout=30,
+            check=False,
+        )
         return json.loads(answer.stdout.strip().splitlines()[-1]).get("corename")
     except (OSError, ValueError, IndexError, subprocess.SubprocessError):
         return None
@@ -197,8 +238,13 @@ def _loaded_blas() -> list:
     except OSError:
         return []
     prefixes = ("libblas.so", "libopenblas", "libblis", "libmkl_rt")
-    return sorted(path for path in paths if os.path.basename(path).startswith(prefixes)
-                  and "site-packages" not in path and ".libs/" not in path)
+    return sorted(
+        path
+        for path in paths
+        if os.path.basename(path).startswith(prefixes)
+        and "site-packages" not in path
+        and ".libs/" not in path
+    )
 
 
 def _system_blas_loaded() -> bool:
@@ -257,12 +303,18 @@ def finish(in_command=False) -> None:
         os.environ.pop(CORETYPE, None)
     if _STATE["note"] and _STATE["requested"] is None:
         info = report()
-        if info["kernel"] and info["cpu_kernel"] and \
-                kernel_tier(info["kernel"]) < kernel_tier(info["cpu_kernel"]):
-            _say(f"the BLAS that CHOLMOD calls was loaded before yore, on OpenBLAS's "
-                 f"{info['kernel']} kernels; this CPU runs {info['cpu_kernel']}: set "
-                 f"{CORETYPE}={info['cpu_kernel']} before starting Python for faster "
-                 f"implicit steps", in_command)
+        if (
+            info["kernel"]
+            and info["cpu_kernel"]
+            and kernel_tier(info["kernel"]) < kernel_tier(info["cpu_kernel"])
+        ):
+            _say(
+                f"the BLAS that CHOLMOD calls was loaded before yore, on OpenBLAS's "
+                f"{info['kernel']} kernels; this CPU runs {info['cpu_kernel']}: set "
+                f"{CORETYPE}={info['cpu_kernel']} before starting Python for faster "
+                f"implicit steps",
+                in_command,
+            )
 
 
 def report() -> dict:
@@ -277,10 +329,15 @@ def report() -> dict:
     chosen_by = _STATE["chosen_by"]
     if _STATE["note"]:
         chosen_by = "user" if _STATE["requested"] is not None else "openblas"
-    return {"library": _loaded_blas(), "kernel": kernel, "chosen_by": chosen_by,
-            "cpu_kernel": best_kernel(cpu_features().extensions),
-            "tier": ("SSE", "AVX", "AVX2", "AVX-512")[kernel_tier(kernel)],
-            "requested": _STATE["requested"], "note": _STATE["note"]}
+    return {
+        "library": _loaded_blas(),
+        "kernel": kernel,
+        "chosen_by": chosen_by,
+        "cpu_kernel": best_kernel(cpu_features().extensions),
+        "tier": ("SSE", "AVX", "AVX2", "AVX-512")[kernel_tier(kernel)],
+        "requested": _STATE["requested"],
+        "note": _STATE["note"],
+    }
 
 
 def describe(info=None) -> str:

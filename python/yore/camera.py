@@ -28,8 +28,15 @@ from .checks import check_factor, check_image_size, check_points, check_vector
 
 from .options import FOV_DEGREES, IMAGE_HEIGHT, IMAGE_WIDTH
 
-__all__ = ["Camera", "fit_camera", "follow_cameras", "camera_from_settings",
-           "DEFAULT_DIRECTION", "DEFAULT_FOV_DEGREES", "DEFAULT_MARGIN"]
+__all__ = [
+    "Camera",
+    "fit_camera",
+    "follow_cameras",
+    "camera_from_settings",
+    "DEFAULT_DIRECTION",
+    "DEFAULT_FOV_DEGREES",
+    "DEFAULT_MARGIN",
+]
 
 #: From the target towards the eye, for y up: a view from the front, a little from the right
 #: and above (rotated with ``up`` when another up direction is asked for).
@@ -63,14 +70,21 @@ class Camera:
                 value = np.asarray(getattr(self, name), dtype=float)
             except (TypeError, ValueError):
                 value = np.full(0, np.nan)
-            if value.shape != (3,) or not np.all(np.isfinite(value)) or \
-                    np.abs(value).max() > MAX_CAMERA_COORDINATE:
-                raise ValueError(f"camera {name} must be 3 finite numbers within "
-                                 f"±{MAX_CAMERA_COORDINATE:g}, got {getattr(self, name)!r}")
+            if (
+                value.shape != (3,)
+                or not np.all(np.isfinite(value))
+                or np.abs(value).max() > MAX_CAMERA_COORDINATE
+            ):
+                raise ValueError(
+                    f"camera {name} must be 3 finite numbers within "
+                    f"±{MAX_CAMERA_COORDINATE:g}, got {getattr(self, name)!r}"
+                )
             object.__setattr__(self, name, tuple(float(c) for c in value))
-        if (isinstance(self.fov_degrees, (bool, np.bool_))
-                or not isinstance(self.fov_degrees, numbers.Real)
-                or not 0.0 < float(self.fov_degrees) < 180.0):
+        if (
+            isinstance(self.fov_degrees, (bool, np.bool_))
+            or not isinstance(self.fov_degrees, numbers.Real)
+            or not 0.0 < float(self.fov_degrees) < 180.0
+        ):
             raise ValueError(f"camera fov_degrees must be in (0, 180), got {self.fov_degrees}")
         object.__setattr__(self, "fov_degrees", float(self.fov_degrees))
         width, height = check_image_size(self.width, self.height)
@@ -118,29 +132,40 @@ class Camera:
         half_width, half_height = self._scales()
         x = (points @ right) / depth / half_width
         y = (points @ up) / depth / half_height
-        return np.column_stack([(x + 1.0) * self.width / 2.0 - 0.5,
-                                (1.0 - y) * self.height / 2.0 - 0.5])
+        return np.column_stack(
+            [(x + 1.0) * self.width / 2.0 - 0.5, (1.0 - y) * self.height / 2.0 - 0.5]
+        )
 
     def resized(self, width=None, height=None) -> Camera:
         """The same view at another image size; a width or height alone keeps the aspect
         ratio (the other side rounded to whole pixels)."""
         if width is not None and height is None:
-            height = max(1, round(int(width) * self.height / self.width)) \
-                if isinstance(width, numbers.Integral) else width
+            height = (
+                max(1, round(int(width) * self.height / self.width))
+                if isinstance(width, numbers.Integral)
+                else width
+            )
         elif height is not None and width is None:
-            width = max(1, round(int(height) * self.width / self.height)) \
-                if isinstance(height, numbers.Integral) else height
-        return Camera(eye=self.eye, target=self.target, up=self.up,
-                      fov_degrees=self.fov_degrees, width=self.width if width is None else width,
-                      height=self.height if height is None else height)
+            width = (
+                max(1, round(int(height) * self.width / self.height))
+                if isinstance(height, numbers.Integral)
+                else height
+            )
+        return Camera(
+            eye=self.eye,
+            target=self.target,
+            up=self.up,
+            fov_degrees=self.fov_degrees,
+            width=self.width if width is None else width,
+            height=self.height if height is None else height,
+        )
 
 
 def _point_arrays(points):
     """A list of (k, 3) finite arrays from one array or a list of them."""
     if isinstance(points, np.ndarray) and points.ndim == 2:
         arrays = [points]
-    elif isinstance(points, (list, tuple)) and points and all(
-            np.ndim(p) == 2 for p in points):
+    elif isinstance(points, (list, tuple)) and points and all(np.ndim(p) == 2 for p in points):
         arrays = list(points)
     else:
         arrays = [points]
@@ -161,15 +186,17 @@ def default_direction(up) -> np.ndarray:
         return direction if cosine > 0 else direction * np.array([1.0, -1.0, -1.0])
     axis /= sine
     # Rodrigues' rotation of direction about axis by the angle from y to up
-    return (direction * cosine + np.cross(axis, direction) * sine
-            + axis * (axis @ direction) * (1.0 - cosine))
+    return (
+        direction * cosine
+        + np.cross(axis, direction) * sine
+        + axis * (axis @ direction) * (1.0 - cosine)
+    )
 
 
 def _fit_arguments(up, direction, margin, fov_degrees, width, height):
     """`fit_camera`'s arguments checked, in its order; ValueError naming the wrong one."""
     up = check_vector(up, "up")
-    direction = default_direction(up) if direction is None else check_vector(direction,
-                                                                              "direction")
+    direction = default_direction(up) if direction is None else check_vector(direction, "direction")
     sine = np.linalg.norm(np.cross(direction, up)) / np.linalg.norm(direction) / np.linalg.norm(up)
     if sine <= 1e-9:
         raise ValueError(f"direction {tuple(direction)} must not be parallel to up {tuple(up)}")
@@ -183,8 +210,15 @@ def _fit_arguments(up, direction, margin, fov_degrees, width, height):
     return up, direction, margin, fov_degrees, width, height
 
 
-def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, up=(0.0, 1.0, 0.0),
-               fov_degrees=DEFAULT_FOV_DEGREES, margin=DEFAULT_MARGIN) -> Camera:
+def fit_camera(
+    points,
+    width=IMAGE_WIDTH,
+    height=IMAGE_HEIGHT,
+    direction=None,
+    up=(0.0, 1.0, 0.0),
+    fov_degrees=DEFAULT_FOV_DEGREES,
+    margin=DEFAULT_MARGIN,
+) -> Camera:
     """A camera looking along ``-direction`` that frames ``points`` tightly.
 
     Parameters
@@ -219,7 +253,8 @@ def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, u
     """
     stacked = np.concatenate(_point_arrays(points))
     up, direction, margin, fov_degrees, width, height = _fit_arguments(
-        up, direction, margin, fov_degrees, width, height)
+        up, direction, margin, fov_degrees, width, height
+    )
 
     backward = direction / np.linalg.norm(direction)
     forward = -backward
@@ -239,8 +274,13 @@ def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, u
         x, y, z = relative @ right, relative @ upward, relative @ forward
         # a point at (x, y, z) about the centre seen from distance D lies inside when
         # |x| <= tan_x (D + z) and |y| <= tan_y (D + z); and in front when D + z > 0
-        distance = float(max(np.max(np.abs(x) / tan_x - z), np.max(np.abs(y) / tan_y - z),
-                             np.max(-z) + 1e-3 * size))
+        distance = float(
+            max(
+                np.max(np.abs(x) / tan_x - z),
+                np.max(np.abs(y) / tan_y - z),
+                np.max(-z) + 1e-3 * size,
+            )
+        )
         depth = distance + z
         u, v = x / depth / tan_x, y / depth / tan_y
         shift_u, shift_v = (u.max() + u.min()) / 2.0, (v.max() + v.min()) / 2.0
@@ -251,23 +291,38 @@ def fit_camera(points, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None, u
         centre = centre + (right * shift_u * tan_x + upward * shift_v * tan_y) * distance
     relative = stacked - centre
     x, y, z = relative @ right, relative @ upward, relative @ forward
-    distance = float(max(np.max(np.abs(x) / tan_x - z), np.max(np.abs(y) / tan_y - z),
-                         np.max(-z) + 1e-3 * size))
+    distance = float(
+        max(np.max(np.abs(x) / tan_x - z), np.max(np.abs(y) / tan_y - z), np.max(-z) + 1e-3 * size)
+    )
     eye = centre - distance * forward
-    return Camera(eye=tuple(eye), target=tuple(centre), up=tuple(float(c) for c in up),
-                  fov_degrees=fov_degrees, width=width, height=height)
+    return Camera(
+        eye=tuple(eye),
+        target=tuple(centre),
+        up=tuple(float(c) for c in up),
+        fov_degrees=fov_degrees,
+        width=width,
+        height=height,
+    )
 
 
-def follow_cameras(frames, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=None,
-                   up=(0.0, 1.0, 0.0),
-                   fov_degrees=DEFAULT_FOV_DEGREES, margin=DEFAULT_MARGIN, window=9) -> list:
+def follow_cameras(
+    frames,
+    width=IMAGE_WIDTH,
+    height=IMAGE_HEIGHT,
+    direction=None,
+    up=(0.0, 1.0, 0.0),
+    fov_degrees=DEFAULT_FOV_DEGREES,
+    margin=DEFAULT_MARGIN,
+    window=9,
+) -> list:
     """One camera per frame (a list of (k_i, 3) position arrays) that follows the cloth: each
     frame is framed on its own (`fit_camera`), then the targets are averaged and the
     distances taken as the largest over a centred window of ``window`` frames, so the view
     glides instead of jumping and no frame is cropped by the smoothing of its neighbours'
     targets more than the window's motion."""
-    fitted = [fit_camera(points, width, height, direction, up, fov_degrees, margin)
-              for points in frames]
+    fitted = [
+        fit_camera(points, width, height, direction, up, fov_degrees, margin) for points in frames
+    ]
     if not fitted:
         raise ValueError("frames is empty: follow_cameras needs at least one frame")
     eyes = np.array([c.eye for c in fitted])
@@ -284,14 +339,22 @@ def follow_cameras(frames, width=IMAGE_WIDTH, height=IMAGE_HEIGHT, direction=Non
         # window's largest, whichever is larger
         spread = np.linalg.norm(targets[lo:hi] - target, axis=1).max()
         distance = distances[lo:hi].max() + spread / math.tan(math.radians(fov_degrees) / 2)
-        cameras.append(Camera(eye=tuple(target + distance * unit), target=tuple(target),
-                              up=fitted[k].up, fov_degrees=fov_degrees, width=width,
-                              height=height))
+        cameras.append(
+            Camera(
+                eye=tuple(target + distance * unit),
+                target=tuple(target),
+                up=fitted[k].up,
+                fov_degrees=fov_degrees,
+                width=width,
+                height=height,
+            )
+        )
     return cameras
 
 
-def camera_from_settings(settings, points, width=None, height=None, eye=None, target=None,
-                         up=None, fov_degrees=None) -> Camera:
+def camera_from_settings(
+    settings, points, width=None, height=None, eye=None, target=None, up=None, fov_degrees=None
+) -> Camera:
     """A camera from [camera] settings (a scene's table, or a run summary's copy of it): eye
     and target as given, else fitted to ``points`` (one (k, 3) array or a list of them); the
     arguments, when given, override the settings. A width or a height given alone keeps the
@@ -306,22 +369,31 @@ def camera_from_settings(settings, points, width=None, height=None, eye=None, ta
     width = int(width or base_width)
     height = int(height or base_height)
     up = tuple(up if up is not None else settings.get("up", (0.0, 1.0, 0.0)))
-    fov = float(fov_degrees if fov_degrees is not None
-                else settings.get("fov_degrees", DEFAULT_FOV_DEGREES))
+    fov = float(
+        fov_degrees if fov_degrees is not None else settings.get("fov_degrees", DEFAULT_FOV_DEGREES)
+    )
     eye = eye if eye is not None else settings.get("eye")
     target = target if target is not None else settings.get("target")
     if eye is not None and target is not None:
-        return Camera(eye=tuple(eye), target=tuple(target), up=up, fov_degrees=fov,
-                      width=width, height=height)
+        return Camera(
+            eye=tuple(eye), target=tuple(target), up=up, fov_degrees=fov, width=width, height=height
+        )
     if eye is not None:
         # an eye alone looks at the cloth's centre
         stacked = np.concatenate(_point_arrays(points))
         centre = (stacked.min(axis=0) + stacked.max(axis=0)) / 2.0
-        return Camera(eye=tuple(eye), target=tuple(centre), up=up, fov_degrees=fov,
-                      width=width, height=height)
+        return Camera(
+            eye=tuple(eye), target=tuple(centre), up=up, fov_degrees=fov, width=width, height=height
+        )
     if target is not None:
         fitted = fit_camera(points, width, height, None, up, fov)
         offset = np.asarray(fitted.eye) - np.asarray(fitted.target)
-        return Camera(eye=tuple(np.asarray(target, float) + offset), target=tuple(target),
-                      up=up, fov_degrees=fov, width=width, height=height)
+        return Camera(
+            eye=tuple(np.asarray(target, float) + offset),
+            target=tuple(target),
+            up=up,
+            fov_degrees=fov,
+            width=width,
+            height=height,
+        )
     return fit_camera(points, width, height, None, up, fov)

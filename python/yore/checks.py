@@ -13,10 +13,20 @@ import numpy as np
 
 from . import rules
 
-__all__ = ["MAX_IMAGE_SIDE", "MAX_IMAGE_PIXELS", "check_image_size", "check_factor",
-           "check_integer",
-           "check_points", "check_faces", "check_vector", "check_unit_rgb", "check_image",
-           "check_count", "check_vertex_values"]
+__all__ = [
+    "MAX_IMAGE_SIDE",
+    "MAX_IMAGE_PIXELS",
+    "check_image_size",
+    "check_factor",
+    "check_integer",
+    "check_points",
+    "check_faces",
+    "check_vector",
+    "check_unit_rgb",
+    "check_image",
+    "check_count",
+    "check_vertex_values",
+]
 
 #: Most threads `yore.set_num_threads` accepts (each OpenMP thread is an operating-system thread).
 MAX_THREADS = 256
@@ -61,12 +71,16 @@ def check_image_size(width, height, what="camera"):
     most MAX_IMAGE_PIXELS; ValueError naming the side, its value and the limit otherwise."""
     for name, value in (("width", width), ("height", height)):
         if not _IMAGE_SIDE.test(value)[0]:
-            raise ValueError(f"{what} {name}: got {type(value).__name__} {_short(value)}; "
-                             f"expected an integer number of pixels in [1, {MAX_IMAGE_SIDE}]")
+            raise ValueError(
+                f"{what} {name}: got {type(value).__name__} {_short(value)}; "
+                f"expected an integer number of pixels in [1, {MAX_IMAGE_SIDE}]"
+            )
     if int(width) * int(height) > MAX_IMAGE_PIXELS:
-        raise ValueError(f"{what} image size: {int(width)}×{int(height)} = "
-                         f"{int(width) * int(height)} pixels is more than the limit of "
-                         f"{MAX_IMAGE_PIXELS} pixels")
+        raise ValueError(
+            f"{what} image size: {int(width)}×{int(height)} = "
+            f"{int(width) * int(height)} pixels is more than the limit of "
+            f"{MAX_IMAGE_PIXELS} pixels"
+        )
     return int(width), int(height)
 
 
@@ -77,8 +91,9 @@ def check_factor(value, name: str, unit: str = "") -> float:
     try:
         number = float(value)  # numbers of any type float() takes (numpy scalars, 0-d arrays)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number{unit and f' ({unit})'}, "
-                         f"got {_short(value)}") from None
+        raise ValueError(
+            f"{name} must be a number{unit and f' ({unit})'}, got {_short(value)}"
+        ) from None
     if not _FACTOR.test(number)[0]:
         raise ValueError(f"{name} must be finite and > 0{unit and f' ({unit})'}, got {number}")
     return number
@@ -98,16 +113,18 @@ def check_points(points, name, allow_empty=True) -> np.ndarray:
     try:
         array = np.asarray(points, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a (k, 3) array of numbers, "
-                         f"got {_short(points)}") from None
+        raise ValueError(
+            f"{name} must be a (k, 3) array of numbers, got {_short(points)}"
+        ) from None
     if array.ndim != 2 or array.shape[1] != 3:
         raise ValueError(f"{name} must have shape (k, 3), got {array.shape}")
     if not allow_empty and len(array) == 0:
         raise ValueError(f"{name} is empty: it needs at least one point")
     if not np.all(np.isfinite(array)):
         bad = np.argwhere(~np.isfinite(array))[0]
-        raise ValueError(f"{name} must be finite, got {array[tuple(bad)]} "
-                         f"at {name}[{bad[0]}, {bad[1]}]")
+        raise ValueError(
+            f"{name} must be finite, got {array[tuple(bad)]} at {name}[{bad[0]}, {bad[1]}]"
+        )
     return array
 
 
@@ -123,8 +140,10 @@ def check_faces(F, vertex_count, name="F") -> np.ndarray:
     low, high = int(faces.min()), int(faces.max())
     if low < 0 or high >= vertex_count:
         bad = low if low < 0 else high
-        raise ValueError(f"{name} holds vertex index {bad}, outside [0, {vertex_count}) for "
-                         f"{vertex_count} vertices")
+        raise ValueError(
+            f"{name} holds vertex index {bad}, outside [0, {vertex_count}) for "
+            f"{vertex_count} vertices"
+        )
     return faces.astype(np.int64)
 
 

@@ -24,8 +24,14 @@ import meshio
 import numpy as np
 from meshio._helpers import reader_map as _meshio_readers  # see _read_with_meshio
 
-__all__ = ["load_mesh", "load_frame", "save_mesh", "FrameSeries", "MAX_MESH_FILE_BYTES",
-           "write_atomically"]
+__all__ = [
+    "load_mesh",
+    "load_frame",
+    "save_mesh",
+    "FrameSeries",
+    "MAX_MESH_FILE_BYTES",
+    "write_atomically",
+]
 
 
 def write_atomically(path, write) -> Path:
@@ -43,6 +49,7 @@ def write_atomically(path, write) -> Path:
         if partial.exists():
             partial.unlink()
     return path
+
 
 #: Largest mesh (or frame) file read, bytes (512 MiB, some ten million triangles as binary
 #: PLY): meshio reads a file whole, and parsing takes a few times its size in memory, so a
@@ -113,8 +120,9 @@ def load_frame(path):
     if not np.isfinite(V).all():
         raise ValueError(f"{path}: vertex positions are not all finite")
     if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise ValueError(f"{path}: triangle indices span [{F.min()}, {F.max()}], outside "
-                         f"[0, {len(V)})")
+        raise ValueError(
+            f"{path}: triangle indices span [{F.min()}, {F.max()}], outside [0, {len(V)})"
+        )
     point_data = {}
     for name, values in mesh.point_data.items():
         try:
@@ -122,8 +130,9 @@ def load_frame(path):
         except (TypeError, ValueError):
             raise ValueError(f"{path}: point data {name!r} is not numeric") from None
         if array.ndim == 0 or array.shape[0] != len(V):
-            raise ValueError(f"{path}: point data {name!r} has shape {array.shape}, expected "
-                             f"{len(V)} rows")
+            raise ValueError(
+                f"{path}: point data {name!r} has shape {array.shape}, expected {len(V)} rows"
+            )
         point_data[name] = array
     return V, F, point_data
 
@@ -139,14 +148,23 @@ def _check_mesh_file(path: Path) -> Path:
     except OSError as error:
         raise ValueError(f"cannot read mesh file {path}: {error.strerror}") from None
     if not stat.S_ISREG(info.st_mode):
-        kind = ("a directory" if stat.S_ISDIR(info.st_mode) else
-                "a FIFO" if stat.S_ISFIFO(info.st_mode) else
-                "a device" if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode) else
-                "a socket" if stat.S_ISSOCK(info.st_mode) else "not a regular file")
+        kind = (
+            "a directory"
+            if stat.S_ISDIR(info.st_mode)
+            else "a FIFO"
+            if stat.S_ISFIFO(info.st_mode)
+            else "a device"
+            if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
+            else "a socket"
+            if stat.S_ISSOCK(info.st_mode)
+            else "not a regular file"
+        )
         raise ValueError(f"cannot read mesh file {path}: it is {kind}, not a regular file")
     if info.st_size > MAX_MESH_FILE_BYTES:
-        raise ValueError(f"cannot read mesh file {path}: {info.st_size} bytes is more than the "
-                         f"limit of {MAX_MESH_FILE_BYTES} bytes ({MAX_MESH_FILE_BYTES >> 20} MiB)")
+        raise ValueError(
+            f"cannot read mesh file {path}: {info.st_size} bytes is more than the "
+            f"limit of {MAX_MESH_FILE_BYTES} bytes ({MAX_MESH_FILE_BYTES >> 20} MiB)"
+        )
     return path
 
 
@@ -233,8 +251,10 @@ def _read_with_meshio(path: Path) -> meshio.Mesh:
             # Readers raise OSError for truncated content as well as for unreadable files.
             reasons.append(f"as {name}: {error.strerror or error}")
         except (MemoryError, RecursionError) as error:
-            reasons.append(f"as {name}: {type(error).__name__} (the file's content is too "
-                           "large or too deeply nested)")
+            reasons.append(
+                f"as {name}: {type(error).__name__} (the file's content is too "
+                "large or too deeply nested)"
+            )
         except SystemExit:
             # Some meshio readers exit on a malformed header instead of raising.
             reasons.append(f"as {name}: malformed file (meshio gave up)")
@@ -251,8 +271,18 @@ class _Inflated(Exception):
     """A compressed mesh file inflated past its budget (the message says how far)."""
 
 
-_VTU_ITEM_BYTES = {b"Int8": 1, b"UInt8": 1, b"Int16": 2, b"UInt16": 2, b"Int32": 4,
-                   b"UInt32": 4, b"Float32": 4, b"Int64": 8, b"UInt64": 8, b"Float64": 8}
+_VTU_ITEM_BYTES = {
+    b"Int8": 1,
+    b"UInt8": 1,
+    b"Int16": 2,
+    b"UInt16": 2,
+    b"Int32": 4,
+    b"UInt32": 4,
+    b"Float32": 4,
+    b"Int64": 8,
+    b"UInt64": 8,
+    b"Float64": 8,
+}
 _INFLATION_LOCK = threading.Lock()
 
 
@@ -270,16 +300,21 @@ def vtu_inflation_budget(data: bytes) -> int:
     connectivity is 3 entries per cell), at most `VTU_MAX_INFLATION_RATIO` × the file's size
     + 1 MiB (a forged count does not raise it past that) and at most `MAX_MESH_FILE_BYTES`
     (content past it is refused as a file past it would be)."""
-    entities = sum(int(n) for n in re.findall(rb'NumberOf(?:Points|Cells)\s*=\s*"(\d{1,18})"',
-                                              data))
+    entities = sum(
+        int(n) for n in re.findall(rb'NumberOf(?:Points|Cells)\s*=\s*"(\d{1,18})"', data)
+    )
     per_entity = 0
     for tag in re.findall(rb"<DataArray\b[^>]*>", data):
         kind = re.search(rb'\stype\s*=\s*"(\w+)"', tag)
         components = re.search(rb'NumberOfComponents\s*=\s*"(\d{1,9})"', tag)
-        per_entity += _VTU_ITEM_BYTES.get(kind.group(1) if kind else b"", 8) * \
-            (int(components.group(1)) if components else 1)
-    return min(8 * entities * per_entity + (64 << 10),
-               VTU_MAX_INFLATION_RATIO * len(data) + (1 << 20), MAX_MESH_FILE_BYTES)
+        per_entity += _VTU_ITEM_BYTES.get(kind.group(1) if kind else b"", 8) * (
+            int(components.group(1)) if components else 1
+        )
+    return min(
+        8 * entities * per_entity + (64 << 10),
+        VTU_MAX_INFLATION_RATIO * len(data) + (1 << 20),
+        MAX_MESH_FILE_BYTES,
+    )
 
 
 class _BudgetedDecompressor:
@@ -295,9 +330,11 @@ class _BudgetedDecompressor:
         decompressor = self.make()
         inflated = decompressor.decompress(data, left + 1)
         if len(inflated) > left:
-            raise _Inflated(f"its compressed arrays inflate to more than the "
-                            f"{self.budget['total']} bytes its declared shapes allow "
-                            "(refused while inflating)")
+            raise _Inflated(
+                f"its compressed arrays inflate to more than the "
+                f"{self.budget['total']} bytes its declared shapes allow "
+                "(refused while inflating)"
+            )
         if not decompressor.eof:  # (what zlib.decompress would refuse)
             raise ValueError("a compressed block is truncated")
         self.budget["left"] = left - len(inflated)
@@ -433,8 +470,9 @@ class FrameSeries:
         self.folder = Path(os.fspath(folder))
         self.stem = stem
         self.fmt = fmt
-        self.frames: list[tuple[float, Path]] = [(float(t), Path(os.fspath(p)))
-                                                 for t, p in (frames or [])]
+        self.frames: list[tuple[float, Path]] = [
+            (float(t), Path(os.fspath(p))) for t, p in (frames or [])
+        ]
         self.pvd_path = self.folder / f"{stem}.pvd" if fmt in ("vtu", "vtk") else None
         self._closed = False
         #: bytes of the collection the last `write` wrote: a few hundred, however many frames
@@ -513,8 +551,10 @@ class FrameSeries:
     def _pvd_entry(self, time, path) -> str:
         # repr gives the shortest text that reads back as the same float
         name = Path(os.path.relpath(path, self.folder)).as_posix()
-        return (f"    <DataSet timestep={quoteattr(repr(float(time)))} group=\"\" part=\"0\" "
-                f"file={quoteattr(name)} />\n")
+        return (
+            f'    <DataSet timestep={quoteattr(repr(float(time)))} group="" part="0" '
+            f"file={quoteattr(name)} />\n"
+        )
 
 
 _PVD_TAIL = "  </Collection>\n</VTKFile>\n"
@@ -522,9 +562,11 @@ _PVD_TAIL = "  </Collection>\n</VTKFile>\n"
 
 def _pvd_head() -> str:
     order = "LittleEndian" if sys.byteorder == "little" else "BigEndian"
-    return ("<?xml version='1.0' encoding='utf-8'?>\n"
-            f'<VTKFile type="Collection" version="0.1" byte_order="{order}">\n'
-            "  <Collection>\n")
+    return (
+        "<?xml version='1.0' encoding='utf-8'?>\n"
+        f'<VTKFile type="Collection" version="0.1" byte_order="{order}">\n'
+        "  <Collection>\n"
+    )
 
 
 def _as_positions(V) -> np.ndarray:

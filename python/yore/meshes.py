@@ -18,8 +18,14 @@ from . import _core
 from .checks import check_factor, check_integer
 from .pattern_lattice import lattice_pattern_mesh
 
-__all__ = ["grid_mesh", "cylinder_mesh", "cylinder_ring", "pattern_mesh", "MAX_MESH_VERTICES",
-           "PATTERN_MIN_ANGLE"]
+__all__ = [
+    "grid_mesh",
+    "cylinder_mesh",
+    "cylinder_ring",
+    "pattern_mesh",
+    "MAX_MESH_VERTICES",
+    "PATTERN_MIN_ANGLE",
+]
 
 #: The smallest angle pattern_mesh asks for unless told, degrees: well inside what CGAL's
 #: mesher reaches (it proves termination to 20.7° and in practice goes to 30°, the ceiling here).
@@ -213,11 +219,13 @@ def _polygon(points, name):
     try:
         array = np.array(points, dtype=np.float64)
     except (TypeError, ValueError):
-        raise _invalid(f"{name} must be a list of [u, v] points (m), got "
-                       f"{type(points).__name__}", argument) from None
+        raise _invalid(
+            f"{name} must be a list of [u, v] points (m), got {type(points).__name__}", argument
+        ) from None
     if array.ndim != 2 or array.shape[1] != 2:
-        raise _invalid(f"{name} must have shape (m, 2): [u, v] points (m), got shape "
-                       f"{array.shape}", argument)
+        raise _invalid(
+            f"{name} must have shape (m, 2): [u, v] points (m), got shape {array.shape}", argument
+        )
     return np.ascontiguousarray(array)
 
 
@@ -232,16 +240,21 @@ def _check_pattern_size(outline, edge_length):
         area = 0.5 * abs(float(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))))
         ratio = math.sqrt(area) / edge_length  # inf (no exception) for a subnormal edge_length
         if ratio > math.sqrt(MAX_MESH_VERTICES):
-            raise _invalid(f"edge_length {edge_length:g} m on an outline of {area:g} m² gives "
-                           f"more than the limit of {MAX_MESH_VERTICES} vertices; use a larger "
-                           "edge_length", "edge_length")
+            raise _invalid(
+                f"edge_length {edge_length:g} m on an outline of {area:g} m² gives "
+                f"more than the limit of {MAX_MESH_VERTICES} vertices; use a larger "
+                "edge_length",
+                "edge_length",
+            )
         least = ratio * ratio / (math.sqrt(3.0) / 4.0) / 2.0
-        _check_vertex_count(int(least), f"edge_length {edge_length:g} m on an outline of "
-                            f"{area:g} m²", "edge_length")
+        _check_vertex_count(
+            int(least), f"edge_length {edge_length:g} m on an outline of {area:g} m²", "edge_length"
+        )
 
 
-def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGLE,
-                 interior="lattice"):
+def pattern_mesh(
+    outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGLE, interior="lattice"
+):
     """Triangle mesh of a flat pattern: the region inside ``outline`` and outside every hole,
     every edge at most ``edge_length`` long and every angle at least ``min_angle`` degrees.
 
@@ -285,31 +298,32 @@ def pattern_mesh(outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGL
         a mesh of more than `MAX_MESH_VERTICES` vertices; an unknown interior.
     """
     if interior not in ("lattice", "delaunay"):
-        raise _invalid(f'interior must be "lattice" or "delaunay", got {interior!r}',
-                       "interior")
+        raise _invalid(f'interior must be "lattice" or "delaunay", got {interior!r}', "interior")
     outline = _polygon(outline, "outline")
     if isinstance(holes, np.ndarray) and holes.ndim == 2:
-        raise _invalid("holes must be a list of polygons, got one (k, 2) array: wrap it in "
-                       "a list", "holes")
+        raise _invalid(
+            "holes must be a list of polygons, got one (k, 2) array: wrap it in a list", "holes"
+        )
     holes = [_polygon(hole, f"hole {k}") for k, hole in enumerate(holes)]
     try:
         edge_length = check_factor(edge_length, "edge_length", "m")
     except ValueError as error:
         raise _invalid(str(error), "edge_length") from None
     if isinstance(min_angle, (bool, np.bool_)) or not isinstance(min_angle, numbers.Real):
-        raise _invalid(f"min_angle must be a number of degrees, got {min_angle!r}",
-                       "min_angle")
+        raise _invalid(f"min_angle must be a number of degrees, got {min_angle!r}", "min_angle")
     _check_pattern_size(outline, edge_length)
     lattice = None
     if interior == "lattice":
         # the core checks the polygons and the angle (and names them): here on the outline
         # alone, with no size bound
         _core.pattern_mesh(outline, holes, 1e308, float(min_angle), MAX_MESH_VERTICES)
-        lattice = lattice_pattern_mesh(outline, holes, edge_length, float(min_angle),
-                                       MAX_MESH_VERTICES)
+        lattice = lattice_pattern_mesh(
+            outline, holes, edge_length, float(min_angle), MAX_MESH_VERTICES
+        )
     if lattice is None:
-        points, faces, _ = _core.pattern_mesh(outline, holes, edge_length, float(min_angle),
-                                              MAX_MESH_VERTICES)
+        points, faces, _ = _core.pattern_mesh(
+            outline, holes, edge_length, float(min_angle), MAX_MESH_VERTICES
+        )
     else:
         points, faces = lattice
     V = np.column_stack([points, np.zeros(len(points))])

@@ -10,9 +10,21 @@ import math
 
 import numpy as np
 
-__all__ = ["face_areas", "area", "rest_area", "area_gain", "wrinkle_amplitude", "wrinkle_measure",
-           "taubin_smooth", "roughness", "rest_ratio_roughness", "spike_index", "radial_distance",
-           "radius_profile", "stroke_effect"]
+__all__ = [
+    "face_areas",
+    "area",
+    "rest_area",
+    "area_gain",
+    "wrinkle_amplitude",
+    "wrinkle_measure",
+    "taubin_smooth",
+    "roughness",
+    "rest_ratio_roughness",
+    "spike_index",
+    "radial_distance",
+    "radius_profile",
+    "stroke_effect",
+]
 
 
 def face_areas(V, F) -> np.ndarray:
@@ -145,8 +157,7 @@ def wrinkle_measure(V, F, region=None, iterations=10, lam=0.5, mu=-0.53) -> floa
     V n×3 (m), F f×3 vertex indices; region: face indices (a stroke report's
     ``region_faces``; their vertices are measured) or None for every vertex."""
     V, F = np.asarray(V, dtype=float), np.asarray(F)
-    vertices = (np.unique(F) if region is None
-                else np.unique(F[np.asarray(region, dtype=np.int64)]))
+    vertices = np.unique(F) if region is None else np.unique(F[np.asarray(region, dtype=np.int64)])
     if vertices.size == 0:
         return 0.0
     height = wrinkle_height(V, F, iterations, lam, mu)[vertices]
@@ -177,8 +188,9 @@ def spike_index(V, F, vertices=None) -> float:
     ValueError if none is left."""
     V, F = np.asarray(V, dtype=float), np.asarray(F)
     n = len(V)
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]),
-                              axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0
+    )
     pairs = np.concatenate([edges, edges[:, ::-1]])
     pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
     starts = np.searchsorted(pairs[:, 0], np.arange(n + 1))
@@ -187,7 +199,7 @@ def spike_index(V, F, vertices=None) -> float:
         raise ValueError(f"vertices must be in [0, {n}), got {chosen.min()}..{chosen.max()}")
     distances, lengths = [], []
     for v in chosen:
-        ring = pairs[starts[v]:starts[v + 1], 1]
+        ring = pairs[starts[v] : starts[v + 1], 1]
         if len(ring) < 3:
             continue
         points = V[ring]
@@ -255,8 +267,9 @@ def roughness(V, F, vertices=None) -> float:
     give large ones. Boundary vertices are left out."""
     V, F = np.asarray(V, dtype=float), np.asarray(F)
     n = len(V)
-    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1),
-                      axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0
+    )
     sums = np.zeros((n, 3))
     counts = np.zeros(n)
     for a, b in ((0, 1), (1, 0)):
@@ -273,8 +286,11 @@ def roughness(V, F, vertices=None) -> float:
     unique, uses = np.unique(all_edges, axis=0, return_counts=True)
     interior = np.ones(n, dtype=bool)
     interior[unique[uses == 1].ravel()] = False
-    selected = interior if vertices is None else np.intersect1d(np.flatnonzero(interior),
-                                                                np.asarray(vertices))
+    selected = (
+        interior
+        if vertices is None
+        else np.intersect1d(np.flatnonzero(interior), np.asarray(vertices))
+    )
     mean_edge = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).mean()
     normal_part = np.einsum("ij,ij->i", laplacian[selected], normals[selected])
     return float(np.sqrt(np.mean(normal_part**2)) / mean_edge) if normal_part.size else 0.0
@@ -343,7 +359,10 @@ def stroke_effect(V, F, V_plain, F_plain, region_faces, vertices) -> dict:
         raise ValueError("the stroke's region holds no whole face of the plain mesh")
     wrinkle = wrinkle_measure(V[:n], F_plain, faces)
     plain = wrinkle_measure(V_plain, F_plain, faces)
-    return {"wrinkle": wrinkle, "wrinkle_plain": plain,
-            "wrinkle_ratio": wrinkle / plain if plain > 0 else float("inf"),
-            "spike_index": spike_index(V, F, vertices),
-            "spike_index_plain": spike_index(V_plain, F_plain, original)}
+    return {
+        "wrinkle": wrinkle,
+        "wrinkle_plain": plain,
+        "wrinkle_ratio": wrinkle / plain if plain > 0 else float("inf"),
+        "spike_index": spike_index(V, F, vertices),
+        "spike_index_plain": spike_index(V_plain, F_plain, original),
+    }

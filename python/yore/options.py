@@ -27,14 +27,36 @@ from typing import Callable
 from . import _core, rules
 from .rules import Invalid, show
 
-__all__ = ["INTEGRATORS", "INTEGRATOR_OPTIONS", "INTEGRATOR_SPECS", "IntegratorSpec",
-           "DEFAULT_INTEGRATOR", "REFERENCE_INTEGRATOR", "FIXED_DT", "OptionError", "check_option", "option_expected",
-           "MODE_ONLY", "InactiveOptionError", "check_modes", "options_in_force",
-           "resolve_options", "defaults", "STROKE_DEFAULTS", "GROWTH_MODES", "GRAVITY",
-           "SCENE_MATERIAL",
-           "IMAGE_WIDTH", "IMAGE_HEIGHT", "FOV_DEGREES", "MAX_STEP_ITERATIONS",
-           "MAX_SOLVER_ITERATIONS", "MAX_SMOOTHING_ITERATIONS", "SMOOTHING_DEFAULTS",
-           "SMOOTHING_RULES"]
+__all__ = [
+    "INTEGRATORS",
+    "INTEGRATOR_OPTIONS",
+    "INTEGRATOR_SPECS",
+    "IntegratorSpec",
+    "DEFAULT_INTEGRATOR",
+    "REFERENCE_INTEGRATOR",
+    "FIXED_DT",
+    "OptionError",
+    "check_option",
+    "option_expected",
+    "MODE_ONLY",
+    "InactiveOptionError",
+    "check_modes",
+    "options_in_force",
+    "resolve_options",
+    "defaults",
+    "STROKE_DEFAULTS",
+    "GROWTH_MODES",
+    "GRAVITY",
+    "SCENE_MATERIAL",
+    "IMAGE_WIDTH",
+    "IMAGE_HEIGHT",
+    "FOV_DEGREES",
+    "MAX_STEP_ITERATIONS",
+    "MAX_SOLVER_ITERATIONS",
+    "MAX_SMOOTHING_ITERATIONS",
+    "SMOOTHING_DEFAULTS",
+    "SMOOTHING_RULES",
+]
 
 
 #: Options each integrator accepts, with their defaults. Names and defaults come from the C++
@@ -51,10 +73,20 @@ CORE_CHOSEN_BY_NAME = ("method", "minimizer", "lbfgs_history", "rho_infinity")
 #: Error control of bdf2 and tr-bdf2 (dt="auto"): adaptive is set by dt="auto", the rest are its own.
 ADAPTIVE_ONLY = ("adaptive", "rtol", "atol", "max_steps")
 #: Options of Newton's method that quasi-Newton does not take.
-NEWTON_ONLY = ("linearized", "step_tol", "truncation_fraction", "mixed", "adaptive_projection", "projection",
-                "lagged_factorization",
-                "lag_max_cg_iterations", "lag_cg_tol", "solver", "pcg_tol",
-                "pcg_max_iterations")
+NEWTON_ONLY = (
+    "linearized",
+    "step_tol",
+    "truncation_fraction",
+    "mixed",
+    "adaptive_projection",
+    "projection",
+    "lagged_factorization",
+    "lag_max_cg_iterations",
+    "lag_cg_tol",
+    "solver",
+    "pcg_tol",
+    "pcg_max_iterations",
+)
 #: Each integrator's options (name → default, None where `Simulation` resolves it from the
 #: others); `check_option` checks a value.
 INTEGRATOR_OPTIONS = {
@@ -78,8 +110,11 @@ INTEGRATOR_OPTIONS = {
         # stops once its estimated distance to the solution is at most this fraction of the
         # step's estimated truncation error (0 = off; ImplicitOptions says how both are
         # estimated).
-        **{name: value for name, value in CORE_IMPLICIT.items()
-           if name not in CORE_CHOSEN_BY_NAME + ADAPTIVE_ONLY},
+        **{
+            name: value
+            for name, value in CORE_IMPLICIT.items()
+            if name not in CORE_CHOSEN_BY_NAME + ADAPTIVE_ONLY
+        },
         # mixed: Newton's matrices take the springs' forces from the step's linearization (the
         # mixed formulation, Trusty et al. 2022). None: on with the clamp (it saves ~40 % of
         # its iterations on stiff sheets), off with the other projections (measured mixed with
@@ -126,7 +161,8 @@ INTEGRATOR_OPTIONS["generalized-alpha"] = {
     "truncation_fraction": 0.01,
 }
 INTEGRATOR_OPTIONS["tr-bdf2"] = {
-    **INTEGRATOR_OPTIONS["implicit"], **_ADAPTIVE_OPTIONS,
+    **INTEGRATOR_OPTIONS["implicit"],
+    **_ADAPTIVE_OPTIONS,
     # generalized-α's tighter truncation test, for the same reason: the trapezoidal stage keeps
     # the stiff modes' oscillation (|R(∞)| = 1), which inflates both stages' error estimates, so
     # Newton stopped at 0.1 of them leaves residual forces that feed the oscillation that loosens
@@ -153,8 +189,11 @@ INTEGRATOR_OPTIONS["quasi-newton"] = {
     # constant local-global matrix, factored once per topology, step size and material);
     # Newton's residual test (newton_tol) and cap (max_newton), predictor, ordering,
     # factorization, divergence bound.
-    **{name: value for name, value in CORE_IMPLICIT.items()
-       if name not in NEWTON_ONLY + ADAPTIVE_ONLY + ("minimizer", "method", "rho_infinity")},
+    **{
+        name: value
+        for name, value in CORE_IMPLICIT.items()
+        if name not in NEWTON_ONLY + ADAPTIVE_ONLY + ("minimizer", "method", "rho_infinity")
+    },
     # Quasi-Newton iterations are cheap (one scalar solve with three right-hand sides) but
     # many: its cap is twenty times Newton's.
     "max_newton": 1000,
@@ -171,20 +210,28 @@ INTEGRATOR_OPTIONS["quasi-newton"] = {
 # max_dt: largest internal step (0: no limit); max_steps: internal steps allowed in one output
 # interval before the run stops with SimulationDiverged. cvode: max_order, the highest BDF
 # order (1..5); arkode: order, the stiffly accurate ESDIRK table's (2: TR-BDF2, 3, 4).
-_ERROR_CONTROLLED_COMMON = {name: value for name, value in CORE_ERROR_CONTROLLED.items()
-                            if name not in ("method", "max_order", "order")}
+_ERROR_CONTROLLED_COMMON = {
+    name: value
+    for name, value in CORE_ERROR_CONTROLLED.items()
+    if name not in ("method", "max_order", "order")
+}
 _ERROR_CONTROLLED_COMMON["atol_velocity"] = None  # None: the same number as atol
-INTEGRATOR_OPTIONS["cvode"] = {**_ERROR_CONTROLLED_COMMON,
-                               "max_order": CORE_ERROR_CONTROLLED["max_order"]}
-INTEGRATOR_OPTIONS["arkode"] = {**_ERROR_CONTROLLED_COMMON,
-                                "order": CORE_ERROR_CONTROLLED["order"]}
+INTEGRATOR_OPTIONS["cvode"] = {
+    **_ERROR_CONTROLLED_COMMON,
+    "max_order": CORE_ERROR_CONTROLLED["max_order"],
+}
+INTEGRATOR_OPTIONS["arkode"] = {**_ERROR_CONTROLLED_COMMON, "order": CORE_ERROR_CONTROLLED["order"]}
 ACCELERATIONS = ("none", "chebyshev")
 #: What values each core option takes, by name, from the C++ option tables
 #: (``_core.*Integrator.option_rules``: kind "flag", "count", "real" or "choice", bounds and
 #: choices); an option several integrators take has one rule.
 CORE_RULES = {}
-for _integrator in (_core.ExplicitIntegrator, _core.ImplicitIntegrator,
-                    _core.LocalGlobalIntegrator, _core.ErrorControlledIntegrator):
+for _integrator in (
+    _core.ExplicitIntegrator,
+    _core.ImplicitIntegrator,
+    _core.LocalGlobalIntegrator,
+    _core.ErrorControlledIntegrator,
+):
     for _name, _spec in _integrator.option_rules.items():
         CORE_RULES.setdefault(_name, dict(_spec))
 #: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`): the one-step
@@ -201,9 +248,11 @@ MAX_SMOOTHING_ITERATIONS = 100_000
 #: Rest-length smoothing's options (`Simulation.smooth_rest_lengths`, a scene file's
 #: ``strokes[].smooth``, the viewer's ``smooth``): the defaults and the rules, written once.
 SMOOTHING_DEFAULTS = {"iterations": 10, "strength": 0.5, "conserve": True}
-SMOOTHING_RULES = {"iterations": rules.count(0, MAX_SMOOTHING_ITERATIONS),
-                   "strength": rules.real(0.0, 1.0, expected="a number in (0, 1]"),
-                   "conserve": rules.flag()}
+SMOOTHING_RULES = {
+    "iterations": rules.count(0, MAX_SMOOTHING_ITERATIONS),
+    "strength": rules.real(0.0, 1.0, expected="a number in (0, 1]"),
+    "conserve": rules.flag(),
+}
 
 
 class OptionError(ValueError):
@@ -226,14 +275,16 @@ def show_value(value):
 _RULES = {name: rules.from_core(spec) for name, spec in CORE_RULES.items()}
 # The Python side's own: None for "decide from the others", and strain_limit's None for off
 # (the core's 0), so a limit is at least 1.
-_RULES.update(strain_limit=rules.real(1.0, low_open=False).or_none(),
-              adaptive_projection=_RULES["adaptive_projection"].or_none(),
-              projection=_RULES["projection"].or_none(),
-              predictor=_RULES["predictor"].or_none(),
-              mixed=_RULES["mixed"].or_none(),
-              atol_velocity=rules.real(0.0).or_none(),
-              acceleration=rules.choice(*ACCELERATIONS),
-              method=rules.choice(*QUASI_NEWTON_METHODS))
+_RULES.update(
+    strain_limit=rules.real(1.0, low_open=False).or_none(),
+    adaptive_projection=_RULES["adaptive_projection"].or_none(),
+    projection=_RULES["projection"].or_none(),
+    predictor=_RULES["predictor"].or_none(),
+    mixed=_RULES["mixed"].or_none(),
+    atol_velocity=rules.real(0.0).or_none(),
+    acceleration=rules.choice(*ACCELERATIONS),
+    method=rules.choice(*QUASI_NEWTON_METHODS),
+)
 assert all(set(table) <= set(_RULES) for table in INTEGRATOR_OPTIONS.values())
 
 
@@ -244,8 +295,10 @@ def check_option(integrator, name, value):
     ``lag_cg_tol=inf`` are errors."""
     valid = INTEGRATOR_OPTIONS[integrator]
     if name not in valid:
-        raise ValueError(f"unknown option {name!r} for integrator {integrator!r}; valid: "
-                         f"{', '.join(sorted(valid)) or 'none'}")
+        raise ValueError(
+            f"unknown option {name!r} for integrator {integrator!r}; valid: "
+            f"{', '.join(sorted(valid)) or 'none'}"
+        )
     try:
         return _RULES[name](value)
     except Invalid as error:
@@ -272,25 +325,55 @@ class Mode:
     remedy: str
 
 
-_ADAPTIVE_MODE = Mode("adaptive", bool, 'dt="auto" (error-controlled steps)',
-                      lambda value: "with a fixed dt", 'pass dt="auto"')
-_LAGGED_MODE = Mode("lagged_factorization", bool,
-                    "lagged_factorization=True (CG on a kept factor)",
-                    lambda value: "without lagged_factorization", "pass lagged_factorization=True")
-_PCG_MODE = Mode("solver", lambda value: value == "pcg", 'solver="pcg"',
-                 lambda value: f'with solver="{value}"', 'pass solver="pcg"')
-_CHOLMOD_MODE = Mode("solver", lambda value: value == "cholmod",
-                     'solver="cholmod"',
-                     lambda value: f'with solver="{value}"', 'pass solver="cholmod"')
-_STRAIN_LIMIT_MODE = Mode("strain_limit", lambda value: value is not None,
-                          "a strain_limit (e.g. strain_limit=1.1)",
-                          lambda value: "without one", "give strain_limit")
-_STALE_PCG_MODE = Mode("rebuild", lambda value: value == "stale-pcg", 'rebuild="stale-pcg"',
-                       lambda value: f'with rebuild="{value}"', 'pass rebuild="stale-pcg"')
-_CHEBYSHEV_MODE = Mode("acceleration", lambda value: value == "chebyshev",
-                       'acceleration="chebyshev"',
-                       lambda value: f'with acceleration="{value}"',
-                       'pass acceleration="chebyshev"')
+_ADAPTIVE_MODE = Mode(
+    "adaptive",
+    bool,
+    'dt="auto" (error-controlled steps)',
+    lambda value: "with a fixed dt",
+    'pass dt="auto"',
+)
+_LAGGED_MODE = Mode(
+    "lagged_factorization",
+    bool,
+    "lagged_factorization=True (CG on a kept factor)",
+    lambda value: "without lagged_factorization",
+    "pass lagged_factorization=True",
+)
+_PCG_MODE = Mode(
+    "solver",
+    lambda value: value == "pcg",
+    'solver="pcg"',
+    lambda value: f'with solver="{value}"',
+    'pass solver="pcg"',
+)
+_CHOLMOD_MODE = Mode(
+    "solver",
+    lambda value: value == "cholmod",
+    'solver="cholmod"',
+    lambda value: f'with solver="{value}"',
+    'pass solver="cholmod"',
+)
+_STRAIN_LIMIT_MODE = Mode(
+    "strain_limit",
+    lambda value: value is not None,
+    "a strain_limit (e.g. strain_limit=1.1)",
+    lambda value: "without one",
+    "give strain_limit",
+)
+_STALE_PCG_MODE = Mode(
+    "rebuild",
+    lambda value: value == "stale-pcg",
+    'rebuild="stale-pcg"',
+    lambda value: f'with rebuild="{value}"',
+    'pass rebuild="stale-pcg"',
+)
+_CHEBYSHEV_MODE = Mode(
+    "acceleration",
+    lambda value: value == "chebyshev",
+    'acceleration="chebyshev"',
+    lambda value: f'with acceleration="{value}"',
+    'pass acceleration="chebyshev"',
+)
 
 #: The options that act only in one mode of their integrator (option → `Mode`), each read off
 #: the C++ core: rtol, atol and max_steps only in bdf2's and tr-bdf2's error-controlled steps
@@ -320,11 +403,17 @@ class InactiveOptionError(OptionError):
     its name, ``needs`` how to select the mode it acts in, ``off`` the mode in use."""
 
     def __init__(self, option, mode, value):
-        ValueError.__init__(self, f"{option} acts only with {mode.needs}; {mode.off(value)} it "
-                                  f"would be ignored: drop it or {mode.remedy}")
+        ValueError.__init__(
+            self,
+            f"{option} acts only with {mode.needs}; {mode.off(value)} it "
+            f"would be ignored: drop it or {mode.remedy}",
+        )
         self.needs, self.off = mode.needs, mode.off(value)
-        self.option, self.got, self.expected = option, f"given {self.off}", \
-            f"no {option}, or {mode.needs}"
+        self.option, self.got, self.expected = (
+            option,
+            f"given {self.off}",
+            f"no {option}, or {mode.needs}",
+        )
 
 
 def check_modes(integrator, given, options) -> None:
@@ -347,7 +436,6 @@ def options_in_force(integrator, given, dt=None) -> dict:
     if isinstance(dt, str) and dt == "auto" and "adaptive" in options:
         options["adaptive"] = True
     return options
-
 
 
 def resolve_options(integrator, options) -> dict:
@@ -431,6 +519,7 @@ def _newton_factory(integrator, method):
         core = {name: options[name] for name in CORE_IMPLICIT if name in options}
         core.update(method=method, adaptive_projection=False)  # mapped into projection
         return _core.ImplicitIntegrator(**core)
+
     return make
 
 
@@ -453,6 +542,7 @@ def _error_controlled_factory(method):
         if core.get("atol_velocity") is None:
             core["atol_velocity"] = 0.0  # the core's "same as atol"
         return _core.ErrorControlledIntegrator(method=method, **core)
+
     return make
 
 
@@ -460,41 +550,84 @@ _BDF2_HISTORY = ("positions", "velocities")
 
 
 def _newton_spec(name, method, summary, history=()):
-    return IntegratorSpec(name, summary, INTEGRATOR_OPTIONS[name], _newton_factory(name, method),
-                          newton=True, history=lambda options: history)
+    return IntegratorSpec(
+        name,
+        summary,
+        INTEGRATOR_OPTIONS[name],
+        _newton_factory(name, method),
+        newton=True,
+        history=lambda options: history,
+    )
 
 
 #: The integrators, in the order help texts list them.
-INTEGRATOR_SPECS = {spec.name: spec for spec in (
-    IntegratorSpec("explicit", "symplectic Euler, the reference (stable below the explicit "
-                   "limit)", INTEGRATOR_OPTIONS["explicit"], _make_explicit,
-                   conditionally_stable=True),
-    _newton_spec("implicit", "backward-euler", "backward Euler by Newton on a sparse Cholesky "
-                 "factorization (first order, damps the motion)"),
-    _newton_spec("bdf2", "bdf2", "BDF2 on the same machinery (second order, damps less)",
-                 _BDF2_HISTORY),
-    _newton_spec("generalized-alpha", "generalized-alpha", "generalized-α (Chung & Hulbert "
-                 "1993; second order, high frequencies damped as rho_infinity says)",
-                 ("accelerations", "force_accelerations")),
-    _newton_spec("tr-bdf2", "tr-bdf2", "TR-BDF2 (Bank et al. 1985; second order, L-stable, "
-                 "two Newton solves a step, an embedded error estimate)", ("accelerations",)),
-    IntegratorSpec("local-global", "prefactored local/global backward Euler (Liu et al. 2013)",
-                   INTEGRATOR_OPTIONS["local-global"], _make_local_global,
-                   cap=("iterations", "tolerance")),
-    IntegratorSpec("quasi-newton", "L-BFGS on the backward-Euler or BDF2 potential (Liu, "
-                   "Bouaziz & Kavan 2017)", INTEGRATOR_OPTIONS["quasi-newton"],
-                   _make_quasi_newton,
-                   history=lambda options: _BDF2_HISTORY if options.get("method") == "bdf2"
-                   else ()),
-    IntegratorSpec("cvode", "CVODE's variable-order BDF with error control (SUNDIALS; rtol/atol "
-                   "in, internal steps out; dt is the output interval)",
-                   INTEGRATOR_OPTIONS["cvode"], _error_controlled_factory("cvode"),
-                   cap=("max_steps", "rtol"), error_controlled=True),
-    IntegratorSpec("arkode", "ARKODE's stiffly accurate ESDIRK with error control (SUNDIALS; "
-                   "order 2-4; dt is the output interval)",
-                   INTEGRATOR_OPTIONS["arkode"], _error_controlled_factory("arkode"),
-                   cap=("max_steps", "rtol"), error_controlled=True),
-)}
+INTEGRATOR_SPECS = {
+    spec.name: spec
+    for spec in (
+        IntegratorSpec(
+            "explicit",
+            "symplectic Euler, the reference (stable below the explicit limit)",
+            INTEGRATOR_OPTIONS["explicit"],
+            _make_explicit,
+            conditionally_stable=True,
+        ),
+        _newton_spec(
+            "implicit",
+            "backward-euler",
+            "backward Euler by Newton on a sparse Cholesky "
+            "factorization (first order, damps the motion)",
+        ),
+        _newton_spec(
+            "bdf2", "bdf2", "BDF2 on the same machinery (second order, damps less)", _BDF2_HISTORY
+        ),
+        _newton_spec(
+            "generalized-alpha",
+            "generalized-alpha",
+            "generalized-α (Chung & Hulbert "
+            "1993; second order, high frequencies damped as rho_infinity says)",
+            ("accelerations", "force_accelerations"),
+        ),
+        _newton_spec(
+            "tr-bdf2",
+            "tr-bdf2",
+            "TR-BDF2 (Bank et al. 1985; second order, L-stable, "
+            "two Newton solves a step, an embedded error estimate)",
+            ("accelerations",),
+        ),
+        IntegratorSpec(
+            "local-global",
+            "prefactored local/global backward Euler (Liu et al. 2013)",
+            INTEGRATOR_OPTIONS["local-global"],
+            _make_local_global,
+            cap=("iterations", "tolerance"),
+        ),
+        IntegratorSpec(
+            "quasi-newton",
+            "L-BFGS on the backward-Euler or BDF2 potential (Liu, Bouaziz & Kavan 2017)",
+            INTEGRATOR_OPTIONS["quasi-newton"],
+            _make_quasi_newton,
+            history=lambda options: _BDF2_HISTORY if options.get("method") == "bdf2" else (),
+        ),
+        IntegratorSpec(
+            "cvode",
+            "CVODE's variable-order BDF with error control (SUNDIALS; rtol/atol "
+            "in, internal steps out; dt is the output interval)",
+            INTEGRATOR_OPTIONS["cvode"],
+            _error_controlled_factory("cvode"),
+            cap=("max_steps", "rtol"),
+            error_controlled=True,
+        ),
+        IntegratorSpec(
+            "arkode",
+            "ARKODE's stiffly accurate ESDIRK with error control (SUNDIALS; "
+            "order 2-4; dt is the output interval)",
+            INTEGRATOR_OPTIONS["arkode"],
+            _error_controlled_factory("arkode"),
+            cap=("max_steps", "rtol"),
+            error_controlled=True,
+        ),
+    )
+}
 #: Integrator names of the public API.
 INTEGRATORS = tuple(INTEGRATOR_SPECS)
 assert set(INTEGRATORS) == set(INTEGRATOR_OPTIONS)
@@ -507,11 +640,13 @@ GROWTH_MODES = tuple(_core.growth_modes())
 #: ``SplitOptions`` structs (``_core.stroke_defaults``, ``_core.split_defaults``): expansion
 #: and mass_scale (eq. (1) of the paper: 1.1; the new vertex's mass 0.95 × its corners' mean),
 #: width None (the core's 0: the faces the stroke crosses), growth "paper", refine 0 passes.
-STROKE_DEFAULTS = {"expansion": float(_core.split_defaults["expansion"]),
-                   "mass_scale": float(_core.split_defaults["mass_scale"]),
-                   "width": _core.stroke_defaults["width"] or None,
-                   "growth": _core.stroke_defaults["growth"],
-                   "refine": int(_core.stroke_defaults["refine"])}
+STROKE_DEFAULTS = {
+    "expansion": float(_core.split_defaults["expansion"]),
+    "mass_scale": float(_core.split_defaults["mass_scale"]),
+    "width": _core.stroke_defaults["width"] or None,
+    "growth": _core.stroke_defaults["growth"],
+    "refine": int(_core.stroke_defaults["refine"]),
+}
 
 # -- the scene and pictures -----------------------------------------------------------------------
 #: Gravitational acceleration of every scene unless given, m/s² (y is up).
@@ -528,8 +663,13 @@ POISSON_RATIO = float(_core.Cloth.defaults["poisson_ratio"])
 #: for structural and bending springs, light damping along the springs (N·s/m) and still-air
 #: drag (1/s). A bare `yore.Cloth` has its own defaults (``Cloth.defaults``: 100 N/m, no
 #: damping, no drag), those of a physics object that dissipates nothing unless asked.
-SCENE_MATERIAL = {"stretch_stiffness": STIFFNESS, "bend_stiffness": STIFFNESS,
-                  "damping": 0.02, "drag": 0.3, "poisson_ratio": POISSON_RATIO}
+SCENE_MATERIAL = {
+    "stretch_stiffness": STIFFNESS,
+    "bend_stiffness": STIFFNESS,
+    "damping": 0.02,
+    "drag": 0.3,
+    "poisson_ratio": POISSON_RATIO,
+}
 #: Frames per simulated second a run writes unless [output] gives fps or every_steps.
 FRAMES_PER_SECOND = 30.0
 #: Animation formats; a run makes none unless its [output] asks, `yore render` of a run folder

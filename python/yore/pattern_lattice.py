@@ -57,8 +57,10 @@ def _usable(segments, v, u0, count_u, side, margin):
         inside[row] = np.searchsorted(at, u[row], side="right") % 2 == 1
     pitch = side * math.sqrt(3.0) / 2.0
     for p, q in zip(a, b):
-        rows = np.arange(max(0, int(math.floor((min(p[1], q[1]) - margin - v[0]) / pitch))),
-                         min(len(v), int(math.ceil((max(p[1], q[1]) + margin - v[0]) / pitch)) + 1))
+        rows = np.arange(
+            max(0, int(math.floor((min(p[1], q[1]) - margin - v[0]) / pitch))),
+            min(len(v), int(math.ceil((max(p[1], q[1]) + margin - v[0]) / pitch)) + 1),
+        )
         if len(rows) == 0:
             continue
         cu = u[rows]
@@ -144,7 +146,10 @@ def _contains(polygon, point):
     a, b = polygon, np.roll(polygon, -1, axis=0)
     crosses = (a[:, 1] <= point[1]) != (b[:, 1] <= point[1])
     t = (point[1] - a[crosses, 1]) / (b[crosses, 1] - a[crosses, 1])
-    return int(np.count_nonzero(a[crosses, 0] + t * (b[crosses, 0] - a[crosses, 0]) > point[0])) % 2 == 1
+    return (
+        int(np.count_nonzero(a[crosses, 0] + t * (b[crosses, 0] - a[crosses, 0]) > point[0])) % 2
+        == 1
+    )
 
 
 def _strips(outline, holes, tri, points):
@@ -177,8 +182,9 @@ def lattice_pattern_mesh(outline, holes, edge_length, min_angle, max_vertices):
     if area / (side * side * math.sqrt(3.0) / 2.0) > max_vertices:
         return None  # more lattice points than the limit: CGAL's count check names it
     v, u0, count_u = _rows(outline, side)
-    inside, u = _usable(_segments([outline] + list(holes)), v, u0, count_u, side,
-                        LATTICE_MARGIN * side)
+    inside, u = _usable(
+        _segments([outline] + list(holes)), v, u0, count_u, side, LATTICE_MARGIN * side
+    )
     lattice = np.stack([u, np.broadcast_to(v[:, None], u.shape)], axis=-1).reshape(-1, 2)
     tri = _drop_pinches(_triangles(inside, u0, side))
     for _ in range(LATTICE_ROUNDS):
@@ -187,8 +193,9 @@ def lattice_pattern_mesh(outline, holes, edge_length, min_angle, max_vertices):
         pieces = []
         try:
             for region, inner in _strips(outline, holes, tri, lattice):
-                points, faces, _ = _core.pattern_mesh(region, inner, edge_length, min_angle,
-                                                      max_vertices)
+                points, faces, _ = _core.pattern_mesh(
+                    region, inner, edge_length, min_angle, max_vertices
+                )
                 pieces.append((points, faces))
         except _core.ArgumentError:
             return None  # a strip CGAL refuses (the pattern itself passed): CGAL throughout
@@ -222,8 +229,9 @@ def _merge(lattice, tri, pieces, max_vertices):
     coordinates = [lattice[used]]
     faces = [np.searchsorted(used, tri)]
     rim = np.unique(_boundary(tri))
-    index = {tuple(point): int(k) for point, k in
-             zip(lattice[rim].tolist(), np.searchsorted(used, rim))}
+    index = {
+        tuple(point): int(k) for point, k in zip(lattice[rim].tolist(), np.searchsorted(used, rim))
+    }
     count = len(used)
     for points, piece in pieces:
         remap = np.empty(len(points), dtype=np.int64)

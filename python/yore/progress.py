@@ -14,5 +14,12 @@ def open_bar(total, initial, description, progress):
     only, True always."""
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, initial=initial, unit="step", desc=description, leave=False,
-                dynamic_ncols=True, disable=None if progress is None else False)
+    return tqdm(
+        total=total,
+        initial=initial,
+        unit="step",
+        desc=description,
+        leave=False,
+        dynamic_ncols=True,
+        disable=None if progress is None else False,
+    )

@@ -22,8 +22,20 @@ import numbers
 
 import numpy as np
 
-__all__ = ["Invalid", "Rule", "flag", "count", "real", "choice", "text", "custom", "show",
-           "describe", "is_integer", "is_real"]
+__all__ = [
+    "Invalid",
+    "Rule",
+    "flag",
+    "count",
+    "real",
+    "choice",
+    "text",
+    "custom",
+    "show",
+    "describe",
+    "is_integer",
+    "is_real",
+]
 
 
 class Invalid(ValueError):
@@ -59,8 +71,11 @@ def is_integer(value) -> bool:
 
 def is_real(value) -> bool:
     """A finite real number and not a bool."""
-    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
-            and math.isfinite(value))
+    return (
+        isinstance(value, numbers.Real)
+        and not isinstance(value, (bool, np.bool_))
+        and math.isfinite(value)
+    )
 
 
 def _problem(value):
@@ -75,9 +90,21 @@ class Rule:
     phrase saying what was given (default "got TYPE REPR"). ``test``: for "custom", value →
     (ok, converted), or `Invalid` raised with a problem of its own (which element of a list)."""
 
-    def __init__(self, kind, *, expected, low=None, high=None, low_open=False,
-                 high_open=False, choices=(), optional=False, problem=_problem, test=None,
-                 python_types=False):
+    def __init__(
+        self,
+        kind,
+        *,
+        expected,
+        low=None,
+        high=None,
+        low_open=False,
+        high_open=False,
+        choices=(),
+        optional=False,
+        problem=_problem,
+        test=None,
+        python_types=False,
+    ):
         self.kind, self.low, self.high = kind, low, high
         self.low_open, self.high_open = low_open, high_open
         self.choices, self.optional, self.expected = tuple(choices), optional, expected
@@ -91,8 +118,9 @@ class Rule:
     def _within(self, number):
         if self.low is not None and (number < self.low or (self.low_open and number == self.low)):
             return False
-        return self.high is None or not (number > self.high or
-                                         (self.high_open and number == self.high))
+        return self.high is None or not (
+            number > self.high or (self.high_open and number == self.high)
+        )
 
     def test(self, value):
         """(ok, the value in canonical form)."""
@@ -104,12 +132,22 @@ class Rule:
                 types = bool if self._python_types else (bool, np.bool_)
                 return isinstance(value, types), bool(value) if isinstance(value, types) else None
             if kind == "count":
-                ok = (not isinstance(value, bool) and isinstance(value, int)) \
-                    if self._python_types else is_integer(value)
+                ok = (
+                    (not isinstance(value, bool) and isinstance(value, int))
+                    if self._python_types
+                    else is_integer(value)
+                )
                 return ok and self._within(value), int(value) if ok else None
             if kind == "real":
-                ok = (not isinstance(value, bool) and isinstance(value, (int, float))
-                      and math.isfinite(value)) if self._python_types else is_real(value)
+                ok = (
+                    (
+                        not isinstance(value, bool)
+                        and isinstance(value, (int, float))
+                        and math.isfinite(value)
+                    )
+                    if self._python_types
+                    else is_real(value)
+                )
                 return ok and self._within(float(value)), float(value) if ok else None
             if kind == "choice":
                 ok = isinstance(value, str) and value in self.choices
@@ -133,16 +171,28 @@ class Rule:
 
     def or_none(self, expected=None) -> "Rule":
         """This rule with None allowed (``expected`` default: "None or ...")."""
-        rule = Rule(self.kind, expected=expected or f"None or {self.expected}", low=self.low,
-                    high=self.high, low_open=self.low_open, high_open=self.high_open,
-                    choices=self.choices, optional=True, problem=self._problem,
-                    test=self._custom, python_types=self._python_types)
+        rule = Rule(
+            self.kind,
+            expected=expected or f"None or {self.expected}",
+            low=self.low,
+            high=self.high,
+            low_open=self.low_open,
+            high_open=self.high_open,
+            choices=self.choices,
+            optional=True,
+            problem=self._problem,
+            test=self._custom,
+            python_types=self._python_types,
+        )
         return rule
 
 
 def _bounds(low, high, low_open, high_open):
-    return ("(" if low_open else "[") + f"{low:g}, " + \
-        ("inf)" if high is None else f"{high:g}" + (")" if high_open else "]"))
+    return (
+        ("(" if low_open else "[")
+        + f"{low:g}, "
+        + ("inf)" if high is None else f"{high:g}" + (")" if high_open else "]"))
+    )
 
 
 def flag(expected="True or False", **kw) -> Rule:
@@ -152,8 +202,7 @@ def flag(expected="True or False", **kw) -> Rule:
 def count(low, high=None, expected=None, **kw) -> Rule:
     """An integer in [low, high] (high None: no upper bound)."""
     if expected is None:
-        expected = f"an integer in [{low}, {high}]" if high is not None else \
-            f"an integer >= {low}"
+        expected = f"an integer in [{low}, {high}]" if high is not None else f"an integer >= {low}"
     return Rule("count", expected=expected, low=low, high=high, **kw)
 
 
@@ -161,15 +210,23 @@ def real(low=None, high=None, low_open=True, high_open=False, expected=None, **k
     """A finite number between the bounds (by default (low, inf), the C++ tables' phrase
     "a finite number in (low, high]")."""
     if expected is None:
-        expected = "a finite number" if low is None and high is None else \
-            f"a finite number in {_bounds(low, high, low_open, high_open)}"
-    return Rule("real", expected=expected, low=low, high=high, low_open=low_open,
-                high_open=high_open, **kw)
+        expected = (
+            "a finite number"
+            if low is None and high is None
+            else f"a finite number in {_bounds(low, high, low_open, high_open)}"
+        )
+    return Rule(
+        "real", expected=expected, low=low, high=high, low_open=low_open, high_open=high_open, **kw
+    )
 
 
 def choice(*choices, expected=None, **kw) -> Rule:
-    return Rule("choice", expected=expected or f"a name (valid: {', '.join(choices)})",
-                choices=choices, **kw)
+    return Rule(
+        "choice",
+        expected=expected or f"a name (valid: {', '.join(choices)})",
+        choices=choices,
+        **kw,
+    )
 
 
 def text(expected="a string", **kw) -> Rule:
@@ -190,6 +247,7 @@ def from_core(spec) -> Rule:
     if kind == "count":
         return count(int(spec["low"]), int(spec["high"]))
     if kind == "real":
-        return real(spec["low"], spec["high"], low_open=spec["low_open"],
-                    high_open=spec["high_open"])
+        return real(
+            spec["low"], spec["high"], low_open=spec["low_open"], high_open=spec["high_open"]
+        )
     return choice(*spec["choices"])

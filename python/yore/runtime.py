@@ -12,8 +12,16 @@ import signal
 import sys
 import threading
 
-__all__ = ["VERSION", "build_info", "set_num_threads", "guard_command_start", "is_command",
-           "end_command_start", "end_command", "deferred_interrupt"]
+__all__ = [
+    "VERSION",
+    "build_info",
+    "set_num_threads",
+    "guard_command_start",
+    "is_command",
+    "end_command_start",
+    "end_command",
+    "deferred_interrupt",
+]
 
 #: yore's version (also `yore.__version__`).
 VERSION = "0.1.0"
@@ -52,17 +60,22 @@ def set_num_threads(threads: int) -> None:
     from . import _core
     from .checks import MAX_THREADS
 
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or \
-            not 1 <= threads <= MAX_THREADS:
-        raise ValueError(f"the number of threads must be an int in [1, {MAX_THREADS}], got "
-                         f"{threads!r}")
+    if (
+        isinstance(threads, bool)
+        or not isinstance(threads, numbers.Integral)
+        or not 1 <= threads <= MAX_THREADS
+    ):
+        raise ValueError(
+            f"the number of threads must be an int in [1, {MAX_THREADS}], got {threads!r}"
+        )
     most = threads_the_address_space_holds()
     if most is not None and threads > most:
         raise ValueError(
             f"{threads} threads do not fit in this process's address-space limit (ulimit -v): "
             f"each reserves about {THREAD_ADDRESS_SPACE >> 20} MiB (stacks, malloc arenas, "
             f"BLAS buffers) beside {PROCESS_ADDRESS_SPACE >> 20} MiB for the rest, so {most} "
-            f"fit; use at most {most} threads")
+            f"fit; use at most {most} threads"
+        )
     _core.set_max_threads(int(threads))
 
 
@@ -120,8 +133,10 @@ SWEEP_WORKER_ENV = "YORE_SWEEP_WORKER"
 
 def ignore_interrupts_in_sweep_workers() -> None:
     """In a sweep's worker process (`SWEEP_WORKER_ENV` set), SIGINT is ignored from here on."""
-    if os.environ.get(SWEEP_WORKER_ENV) == "1" and \
-            threading.current_thread() is threading.main_thread():
+    if (
+        os.environ.get(SWEEP_WORKER_ENV) == "1"
+        and threading.current_thread() is threading.main_thread()
+    ):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -137,10 +152,15 @@ def guard_command_start() -> None:
     original = list(getattr(sys, "orig_argv", []))[1:]
     first = next((k for k, a in enumerate(original) if a in ("-m", "-c")), None)
     command = os.path.basename(sys.argv[0] if sys.argv else "") == "yore" or (
-        first is not None and original[first] == "-m" and original[first + 1:first + 2] ==
-        ["yore"])
-    if (command and threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+        first is not None
+        and original[first] == "-m"
+        and original[first + 1 : first + 2] == ["yore"]
+    )
+    if (
+        command
+        and threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    ):
         signal.signal(signal.SIGINT, _interrupted_while_starting)
         _guarding[0] = True
         _command[0] = True
@@ -172,8 +192,9 @@ def deferred_interrupt():
     """Ctrl-C inside the block is held back until the block is done, so bookkeeping that must
     not be split (a frame and its record, a saved state) completes. Main thread only; elsewhere
     the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(
+        signal.SIGINT
+    ) in (signal.SIG_IGN, None):
         # elsewhere, or where SIGINT is ignored (nohup, a parent's choice): nothing to defer,
         # and a handler of ours would make Ctrl-C stop a run that was started not to stop
         yield

@@ -41,28 +41,51 @@ def _bending_arguments(bending, bend_stiffness, bending_modulus):
     return arguments
 
 
-def _stretch_arguments(stretch, stretch_stiffness, young_modulus, poisson_ratio,
-                       membrane_strain=None):
+def _stretch_arguments(
+    stretch, stretch_stiffness, young_modulus, poisson_ratio, membrane_strain=None
+):
     """Cloth keywords of the scenes' stretch choice: structural springs of stretch_stiffness
     (default STIFFNESS), or a membrane of young_modulus and poisson_ratio (and its strain);
     Cloth checks the combination."""
-    if (stretch == "springs" and young_modulus is None and poisson_ratio is None
-            and membrane_strain is None):
-        return {"stretch_stiffness": STIFFNESS if stretch_stiffness is None
-                else stretch_stiffness}
-    arguments = {"stretch": stretch, "young_modulus": young_modulus,
-                 "poisson_ratio": poisson_ratio, "membrane_strain": membrane_strain}
+    if (
+        stretch == "springs"
+        and young_modulus is None
+        and poisson_ratio is None
+        and membrane_strain is None
+    ):
+        return {"stretch_stiffness": STIFFNESS if stretch_stiffness is None else stretch_stiffness}
+    arguments = {
+        "stretch": stretch,
+        "young_modulus": young_modulus,
+        "poisson_ratio": poisson_ratio,
+        "membrane_strain": membrane_strain,
+    }
     if stretch_stiffness is not None:
         arguments["stretch_stiffness"] = stretch_stiffness
     return arguments
 
 
-def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
-                  stretch_stiffness=None, bend_stiffness=None, damping=DAMPING,
-                  drag=DRAG, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
-                  bending="springs", bending_modulus=None, stretch="springs",
-                  young_modulus=None, poisson_ratio=None, mesh="grid", membrane_strain=None,
-                  **options) -> Simulation:
+def hanging_cloth(
+    size=1.0,
+    resolution=21,
+    pin_spacing=0.8,
+    mass=MASS,
+    stretch_stiffness=None,
+    bend_stiffness=None,
+    damping=DAMPING,
+    drag=DRAG,
+    integrator=DEFAULT_INTEGRATOR,
+    dt=None,
+    gravity=GRAVITY,
+    bending="springs",
+    bending_modulus=None,
+    stretch="springs",
+    young_modulus=None,
+    poisson_ratio=None,
+    mesh="grid",
+    membrane_strain=None,
+    **options,
+) -> Simulation:
     """A square cloth hung from two points (paper §3.1, Fig. 3).
 
     The cloth's pattern is a size × size square; its rest lengths come from the flat pattern.
@@ -95,39 +118,68 @@ def hanging_cloth(size=1.0, resolution=21, pin_spacing=0.8, mass=MASS,
         if not isinstance(resolution, (int, np.integer)) or resolution < 2:
             raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
         size = check_factor(size, "size", "m")
-        V, F = pattern_mesh([[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
-                            edge_length=math.sqrt(2.0) * size / (resolution - 1),
-                            interior="lattice" if mesh == "pattern" else "delaunay")
+        V, F = pattern_mesh(
+            [[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
+            edge_length=math.sqrt(2.0) * size / (resolution - 1),
+            interior="lattice" if mesh == "pattern" else "delaunay",
+        )
     else:
         raise ValueError(f'mesh must be "grid", "pattern" or "delaunay", got {mesh!r}')
     uv = V[:, :2].copy()
     pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
     # clockwise about +y, i.e. the cloth's front faces up.
-    cloth = Cloth(pattern, F, masses=_per_vertex(mass, len(pattern)), damping=damping,
-                  drag=drag, **_bending_arguments(bending, bend_stiffness, bending_modulus),
-                  **_stretch_arguments(stretch, stretch_stiffness, young_modulus,
-                                       poisson_ratio, membrane_strain))
+    cloth = Cloth(
+        pattern,
+        F,
+        masses=_per_vertex(mass, len(pattern)),
+        damping=damping,
+        drag=drag,
+        **_bending_arguments(bending, bend_stiffness, bending_modulus),
+        **_stretch_arguments(
+            stretch, stretch_stiffness, young_modulus, poisson_ratio, membrane_strain
+        ),
+    )
     gathered = pattern.copy()
     gathered[:, 0] = 0.5 * size + pin_spacing * (pattern[:, 0] - 0.5 * size)
     cloth.positions = gathered
     cloth.material_coordinates = uv  # the flat pattern, for sim.stroke_material
     # the corners of the edge z = 0 (the outline's first two points: vertices of either mesh)
-    pinned = np.array([np.argmin(np.hypot(uv[:, 0], uv[:, 1])),
-                       np.argmin(np.hypot(uv[:, 0] - uv[:, 0].max(), uv[:, 1]))], dtype=np.int32)
+    pinned = np.array(
+        [
+            np.argmin(np.hypot(uv[:, 0], uv[:, 1])),
+            np.argmin(np.hypot(uv[:, 0] - uv[:, 0].max(), uv[:, 1])),
+        ],
+        dtype=np.int32,
+    )
     cloth.fix(pinned)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
     sim.scene = {"name": "hanging_cloth", "fixed": pinned, "uv": uv}
     return sim
 
 
-def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
-                      omega=2.0 * math.pi, stretch_stiffness=None,
-                      bend_stiffness=None, damping=DAMPING, drag=DRAG,
-                      integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
-                      bending="springs", bending_modulus=None, stretch="springs",
-                      young_modulus=None, poisson_ratio=None, membrane_strain=None,
-                      **options) -> Simulation:
+def rotating_cylinder(
+    radius=0.25,
+    height=0.5,
+    rings=13,
+    segments=32,
+    mass=MASS,
+    omega=2.0 * math.pi,
+    stretch_stiffness=None,
+    bend_stiffness=None,
+    damping=DAMPING,
+    drag=DRAG,
+    integrator=DEFAULT_INTEGRATOR,
+    dt=None,
+    gravity=GRAVITY,
+    bending="springs",
+    bending_modulus=None,
+    stretch="springs",
+    young_modulus=None,
+    poisson_ratio=None,
+    membrane_strain=None,
+    **options,
+) -> Simulation:
     """An open cylinder held at its top rim, which rotates about the axis (paper §3.2, Fig. 4).
 
     The tube's axis is y, from y = 0 to y = height; the top rim is driven: it turns about the
@@ -140,25 +192,50 @@ def rotating_cylinder(radius=0.25, height=0.5, rings=13, segments=32, mass=MASS,
     tube sewn from flat cloth, it has bending energy at rest (the model's rest state is flat).
     """
     V, F = cylinder_mesh(radius, height, rings, segments)
-    cloth = Cloth(V, F, masses=_per_vertex(mass, len(V)), damping=damping, drag=drag,
-                  **_bending_arguments(bending, bend_stiffness, bending_modulus),
-                  **_stretch_arguments(stretch, stretch_stiffness, young_modulus,
-                                       poisson_ratio, membrane_strain))
+    cloth = Cloth(
+        V,
+        F,
+        masses=_per_vertex(mass, len(V)),
+        damping=damping,
+        drag=drag,
+        **_bending_arguments(bending, bend_stiffness, bending_modulus),
+        **_stretch_arguments(
+            stretch, stretch_stiffness, young_modulus, poisson_ratio, membrane_strain
+        ),
+    )
     rim = cylinder_ring(rings, segments, -1)
     cloth.drive_rotation(rim, center=(0.0, height, 0.0), axis=(0.0, 1.0, 0.0), omega=omega)
     sim = Simulation(cloth, integrator=integrator, dt=dt, gravity=gravity, **options)
     # A tube has no flat pattern without a seam, so it gets no material coordinates
     # (sim.stroke_material needs them); use sim.stroke or sim.stroke_screen.
-    sim.scene = {"name": "rotating_cylinder", "driven": rim,
-                 "axis_center": np.array([0.0, height, 0.0]), "omega": omega}
+    sim.scene = {
+        "name": "rotating_cylinder",
+        "driven": rim,
+        "axis_center": np.array([0.0, height, 0.0]),
+        "omega": omega,
+    }
     return sim
 
 
-def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch="membrane",
-                    young_modulus=1e4, poisson_ratio=0.5, stretch_stiffness=None,
-                    bending_modulus=1e-4, density=0.1, noise=1e-5, seed=0,
-                    integrator=DEFAULT_INTEGRATOR, dt=None, mesh="pattern",
-                    membrane_strain=None, **options) -> Simulation:
+def stretched_sheet(
+    length=1.0,
+    width=0.5,
+    strain=0.1,
+    edge_length=0.02,
+    stretch="membrane",
+    young_modulus=1e4,
+    poisson_ratio=0.5,
+    stretch_stiffness=None,
+    bending_modulus=1e-4,
+    density=0.1,
+    noise=1e-5,
+    seed=0,
+    integrator=DEFAULT_INTEGRATOR,
+    dt=None,
+    mesh="pattern",
+    membrane_strain=None,
+    **options,
+) -> Simulation:
     """A sheet clamped along its two short edges and stretched (Cerda & Mahadevan 2003's
     setting, where Poisson contraction held back by the clamps compresses the middle across the
     width and wrinkles along the length may form).
@@ -190,21 +267,37 @@ def stretched_sheet(length=1.0, width=0.5, strain=0.1, edge_length=0.02, stretch
         raise ValueError(f"noise must be finite and >= 0 (m), got {noise}")
     if mesh == "grid":
         spacing = check_factor(edge_length, "edge_length", "m") / math.sqrt(2.0)
-        V, F = grid_mesh(max(2, math.ceil(length / spacing) + 1),
-                         max(2, math.ceil(width / spacing) + 1), width=length, height=width)
+        V, F = grid_mesh(
+            max(2, math.ceil(length / spacing) + 1),
+            max(2, math.ceil(width / spacing) + 1),
+            width=length,
+            height=width,
+        )
     elif mesh in ("pattern", "delaunay"):
-        V, F = pattern_mesh([[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
-                            edge_length=edge_length,
-                            interior="lattice" if mesh == "pattern" else "delaunay")
+        V, F = pattern_mesh(
+            [[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
+            edge_length=edge_length,
+            interior="lattice" if mesh == "pattern" else "delaunay",
+        )
     else:
         raise ValueError(f'mesh must be "pattern", "delaunay" or "grid", got {mesh!r}')
     uv = V[:, :2].copy()
-    cloth = Cloth(V, F, density=density, damping=0.0, drag=0.0, bending="quadratic",
-                  bending_modulus=bending_modulus,
-                  **_stretch_arguments(stretch, stretch_stiffness,
-                                       young_modulus if stretch == "membrane" else None,
-                                       poisson_ratio if stretch == "membrane" else None,
-                                       membrane_strain))
+    cloth = Cloth(
+        V,
+        F,
+        density=density,
+        damping=0.0,
+        drag=0.0,
+        bending="quadratic",
+        bending_modulus=bending_modulus,
+        **_stretch_arguments(
+            stretch,
+            stretch_stiffness,
+            young_modulus if stretch == "membrane" else None,
+            poisson_ratio if stretch == "membrane" else None,
+            membrane_strain,
+        ),
+    )
     start = V.copy()
     start[:, 0] *= 1.0 + strain
     start[:, 2] = np.random.default_rng(seed).normal(0.0, noise, len(V))

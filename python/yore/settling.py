@@ -15,8 +15,14 @@ from .checks import MAX_SETTLE_SECONDS
 from . import progress as progress_bars
 from .rules import flag, is_real, show as show_value
 
-__all__ = ["SETTLE_DT", "SETTLE_PERTURBATION", "SETTLE_MAX_ESCAPES", "settle", "is_saddle",
-           "residual_acceleration"]
+__all__ = [
+    "SETTLE_DT",
+    "SETTLE_PERTURBATION",
+    "SETTLE_MAX_ESCAPES",
+    "settle",
+    "is_saddle",
+    "residual_acceleration",
+]
 
 #: Pseudo-time step of `Simulation.settle`'s backward-Euler relaxation, s.
 SETTLE_DT = 0.5
@@ -36,8 +42,9 @@ def is_saddle(cloth, gravity) -> bool:
     (a flat stretched sheet before it wrinkles) it is not, whatever the residual says."""
     probe = _core.ImplicitIntegrator(method="backward-euler")
     try:
-        probe.newton_system(cloth, np.asarray(gravity, dtype=float), SETTLE_DT, cloth.positions,
-                            projection="exact")
+        probe.newton_system(
+            cloth, np.asarray(gravity, dtype=float), SETTLE_DT, cloth.positions, projection="exact"
+        )
     except _core.NotPositiveDefinite:
         return True
     return False
@@ -62,19 +69,23 @@ def _checked_arguments(cloth, gravity, max_seconds, tolerance, check_stability):
             raise ValueError(f"{name} must be a finite number, got {show_value(value)}")
     max_seconds, tolerance = float(max_seconds), float(tolerance)
     if not math.isfinite(max_seconds) or not 0.0 <= max_seconds <= MAX_SETTLE_SECONDS:
-        raise ValueError(f"max_seconds must be in [0, {MAX_SETTLE_SECONDS:g}] s, got "
-                         f"{max_seconds}")
+        raise ValueError(f"max_seconds must be in [0, {MAX_SETTLE_SECONDS:g}] s, got {max_seconds}")
     if not math.isfinite(tolerance) or tolerance <= 0.0:
         raise ValueError(f"tolerance must be finite and > 0, got {tolerance}")
     if cloth.driven_vertices.size:
-        raise ValueError("settle needs a cloth without driven vertices (a driven cloth "
-                         "keeps moving: it has no rest to settle to)")
+        raise ValueError(
+            "settle needs a cloth without driven vertices (a driven cloth "
+            "keeps moving: it has no rest to settle to)"
+        )
     if cloth.fixed_vertices.size == 0 and np.any(gravity != 0.0):
-        raise ValueError("settle needs a fixed vertex: a free cloth falls under gravity "
-                         "forever and has no rest to settle to")
+        raise ValueError(
+            "settle needs a fixed vertex: a free cloth falls under gravity "
+            "forever and has no rest to settle to"
+        )
     if not _FLAG.test(check_stability)[0]:
-        raise ValueError(f"check_stability must be {_FLAG.expected}, got "
-                         f"{show_value(check_stability)}")
+        raise ValueError(
+            f"check_stability must be {_FLAG.expected}, got {show_value(check_stability)}"
+        )
     return max_seconds, tolerance
 
 
@@ -84,8 +95,7 @@ def _push_off_saddle(cloth, free, escape):
     rest = cloth.springs.rest[cloth.springs.kind == 0]
     scale = SETTLE_PERTURBATION * float(rest.mean())
     moved = np.array(cloth.positions)
-    moved[free] += np.random.default_rng(escape).normal(0.0, scale / math.sqrt(3.0),
-                                                        (len(free), 3))
+    moved[free] += np.random.default_rng(escape).normal(0.0, scale / math.sqrt(3.0), (len(free), 3))
     cloth.positions = moved
 
 
@@ -94,9 +104,13 @@ class _Relaxation:
 
     def __init__(self, cloth, gravity):
         self.cloth, self.gravity = cloth, gravity
-        self.integrator = _core.ImplicitIntegrator(method="backward-euler", projection="shifted",
-                                                   predictor="start", newton_tol=1e-7,
-                                                   max_newton=200)
+        self.integrator = _core.ImplicitIntegrator(
+            method="backward-euler",
+            projection="shifted",
+            predictor="start",
+            newton_tol=1e-7,
+            max_newton=200,
+        )
         self.free = np.setdiff1d(np.arange(cloth.vertex_count), cloth.fixed_vertices)
         self.converged, self.acceleration, self.done = False, math.inf, 0
         self.escapes, self.stable = 0, None
@@ -125,8 +139,9 @@ class _Relaxation:
 def settle(cloth, gravity, max_seconds, tolerance, progress, check_stability) -> dict:
     """Settles ``cloth`` as `yore.Simulation.settle` documents and returns its figures; the
     cloth's clock is left where it was and its velocities zero."""
-    max_seconds, tolerance = _checked_arguments(cloth, gravity, max_seconds, tolerance,
-                                                check_stability)
+    max_seconds, tolerance = _checked_arguments(
+        cloth, gravity, max_seconds, tolerance, check_stability
+    )
     start_time = cloth.time
     steps = int(math.ceil(max_seconds / SETTLE_DT - 1e-9)) if max_seconds > 0 else 0
     relaxation = _Relaxation(cloth, gravity)
@@ -136,8 +151,11 @@ def settle(cloth, gravity, max_seconds, tolerance, progress, check_stability) ->
         for relaxation.done in range(1, steps + 1):
             if relaxation.step(tolerance, check_stability):
                 break
-            if bar is None and progress is not False and (
-                    progress or _time.perf_counter() - started > progress_bars.AFTER_SECONDS / 2):
+            if (
+                bar is None
+                and progress is not False
+                and (progress or _time.perf_counter() - started > progress_bars.AFTER_SECONDS / 2)
+            ):
                 bar = progress_bars.open_bar(steps, relaxation.done, "yore settle", progress)
             elif bar is not None:
                 bar.update(1)
@@ -146,7 +164,11 @@ def settle(cloth, gravity, max_seconds, tolerance, progress, check_stability) ->
             bar.close()
     cloth.velocities = np.zeros_like(cloth.velocities)
     cloth.time = start_time
-    return {"seconds": relaxation.done * SETTLE_DT, "steps": relaxation.done,
-            "converged": relaxation.converged,
-            "residual_acceleration": float(relaxation.acceleration),
-            "saddles_escaped": relaxation.escapes, "stable": relaxation.stable}
+    return {
+        "seconds": relaxation.done * SETTLE_DT,
+        "steps": relaxation.done,
+        "converged": relaxation.converged,
+        "residual_acceleration": float(relaxation.acceleration),
+        "saddles_escaped": relaxation.escapes,
+        "stable": relaxation.stable,
+    }

@@ -11,15 +11,24 @@ import numpy as np
 from . import _core
 from ._core import Cloth, SimulationDiverged
 from .checks import MAX_STEPS, MIN_DT
-from .options import (DEFAULT_INTEGRATOR, FIXED_DT, GRAVITY, INTEGRATOR_OPTIONS,
-                      INTEGRATOR_SPECS, INTEGRATORS, SMOOTHING_DEFAULTS,
-                      check_modes, check_option, options_in_force, resolve_options,
-                      show_value)
+from .options import (
+    DEFAULT_INTEGRATOR,
+    FIXED_DT,
+    GRAVITY,
+    INTEGRATOR_OPTIONS,
+    INTEGRATOR_SPECS,
+    INTEGRATORS,
+    SMOOTHING_DEFAULTS,
+    check_modes,
+    check_option,
+    options_in_force,
+    resolve_options,
+    show_value,
+)
 from . import progress as progress_bars, rules, settling, smoothing
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
-
 
 
 #: Default time step of the implicit integrators, s (`yore.options.FIXED_DT`).
@@ -47,8 +56,10 @@ def default_explicit_dt(cloth: Cloth, safety: float = EXPLICIT_DT_SAFETY) -> flo
     if not math.isfinite(stable):
         return 1.0 / 60.0
     if not safety * stable >= 1e-300:
-        raise ValueError(f"no explicit time step is stable for this cloth (the bound is "
-                         f"{stable:.3g} s): its stiffnesses or masses are out of range")
+        raise ValueError(
+            f"no explicit time step is stable for this cloth (the bound is "
+            f"{stable:.3g} s): its stiffnesses or masses are out of range"
+        )
     return 1.0 / math.ceil(1.0 / (safety * stable))
 
 
@@ -135,8 +146,7 @@ class Simulation:
         An integrator of the API that this version does not build yet.
     """
 
-    def __init__(self, cloth, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY,
-                 **options):
+    def __init__(self, cloth, integrator=DEFAULT_INTEGRATOR, dt=None, gravity=GRAVITY, **options):
         # the options passed here are the user's: each is judged against the mode in use
         self._build(cloth, integrator, dt, gravity, options, given=tuple(options))
 
@@ -146,18 +156,20 @@ class Simulation:
         if not isinstance(cloth, Cloth):
             raise TypeError(f"cloth must be a yore.Cloth, got {type(cloth).__name__}")
         if not isinstance(integrator, str) or integrator not in INTEGRATORS:
-            raise ValueError(
-                f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
+            raise ValueError(f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
         valid = INTEGRATOR_OPTIONS[integrator]
         unknown = sorted(set(options) - set(valid))
         if unknown:
             raise ValueError(
                 f"unknown option(s) {', '.join(map(repr, unknown))} for integrator "
-                f"{integrator!r}; valid: {', '.join(sorted(valid)) or 'none'}")
+                f"{integrator!r}; valid: {', '.join(sorted(valid)) or 'none'}"
+            )
         # the defaults filled in; dt="auto" selects error control (checked below)
         self._options = options_in_force(
-            integrator, {name: check_option(integrator, name, value)
-                         for name, value in options.items()}, dt)
+            integrator,
+            {name: check_option(integrator, name, value) for name, value in options.items()},
+            dt,
+        )
         gravity = np.asarray(gravity, dtype=np.float64)
         if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
             raise ValueError(f"gravity must be 3 finite numbers (m/s²), got {gravity!r}")
@@ -169,16 +181,20 @@ class Simulation:
             if dt != "auto":
                 raise ValueError(f"dt must be a number of seconds or 'auto', got {dt!r}")
             if not (self._spec.error_controlled or "adaptive" in self._options):
-                adaptive = [name for name, spec in INTEGRATOR_SPECS.items()
-                            if spec.error_controlled or "adaptive" in spec.options]
-                raise ValueError(f"dt='auto' chooses the steps by error control, which "
-                                 f"integrator {integrator!r} does not have; use one of "
-                                 f"{', '.join(adaptive)}")
+                adaptive = [
+                    name
+                    for name, spec in INTEGRATOR_SPECS.items()
+                    if spec.error_controlled or "adaptive" in spec.options
+                ]
+                raise ValueError(
+                    f"dt='auto' chooses the steps by error control, which "
+                    f"integrator {integrator!r} does not have; use one of "
+                    f"{', '.join(adaptive)}"
+                )
             dt = FIXED_DT  # the output interval
         check_modes(integrator, given, self._options)
         # Error-controlled: dt is an output interval, inside which the steps are chosen.
-        self._error_controlled = self._spec.error_controlled or bool(
-            self._options.get("adaptive"))
+        self._error_controlled = self._spec.error_controlled or bool(self._options.get("adaptive"))
         self._integrator = self._spec.make(self._options)
         # An explicit dt left to the default follows the cloth: a stroke that refines faces or
         # adds light vertices lowers the stable step, and the default is re-derived then.
@@ -255,13 +271,19 @@ class Simulation:
         if self._spec.newton:
             memory = self._integrator.projection_memory()
         # the options as resolved: a state continues with what ran, whatever later defaults
-        return {"cloth": self._cloth.state(), "integrator": self._integrator_name,
-                "options": dict(self.resolved_options), "dt": self._dt,
-                "gravity": self._gravity.copy(), "history": history,
-                "projection_memory": memory, "target_time": self._target_time,
-                "dt_follows_cloth": self._dt_follows_cloth,
-                # SUNDIALS' memory cannot be saved: the resumed run restarts its integrator
-                "integrator_restarts": self._spec.error_controlled}
+        return {
+            "cloth": self._cloth.state(),
+            "integrator": self._integrator_name,
+            "options": dict(self.resolved_options),
+            "dt": self._dt,
+            "gravity": self._gravity.copy(),
+            "history": history,
+            "projection_memory": memory,
+            "target_time": self._target_time,
+            "dt_follows_cloth": self._dt_follows_cloth,
+            # SUNDIALS' memory cannot be saved: the resumed run restarts its integrator
+            "integrator_restarts": self._spec.error_controlled,
+        }
 
     @classmethod
     def from_state(cls, state) -> Simulation:
@@ -274,39 +296,60 @@ class Simulation:
         # dt_follows_cloth: absent from states saved before it existed (then: False)
         # integrator_restarts: absent from states saved before it existed (then: False)
         if not isinstance(state, dict) or not expected <= set(state) <= expected | {
-                "projection_memory", "dt_follows_cloth", "integrator_restarts"}:
+            "projection_memory",
+            "dt_follows_cloth",
+            "integrator_restarts",
+        }:
             got = sorted(state) if isinstance(state, dict) else type(state).__name__
-            raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, "
-                             f"got {got}")
+            raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, got {got}")
         if not isinstance(state["options"], dict):
             raise ValueError(f"options must be a dict, got {type(state['options']).__name__}")
         cloth = Cloth.from_state(state["cloth"])
         # A state holds every option as it ran, defaults included (also those of modes not in
         # use): none of them is a user's choice to judge.
         sim = cls.__new__(cls)
-        sim._build(cloth, state["integrator"], state["dt"], state["gravity"],
-                   _as_saved(state["integrator"], state["options"]), given=())
+        sim._build(
+            cloth,
+            state["integrator"],
+            state["dt"],
+            state["gravity"],
+            _as_saved(state["integrator"], state["options"]),
+            given=(),
+        )
         history = state["history"]
         if history is not None:
             fields = (*sim._spec.history(sim._options), "dt")
-            if len(fields) == 1 or not isinstance(history, dict) or \
-                    not set(fields) <= set(history) <= {*fields, "next_dt"}:
+            if (
+                len(fields) == 1
+                or not isinstance(history, dict)
+                or not set(fields) <= set(history) <= {*fields, "next_dt"}
+            ):
                 got = sorted(history) if isinstance(history, dict) else type(history).__name__
-                expected = ("None (it keeps none)" if len(fields) == 1 else
-                            f"None or a dict with {', '.join(fields)}")
-                raise ValueError(f"history of integrator {sim._integrator_name!r}: expected "
-                                 f"{expected}, got {got}")
+                expected = (
+                    "None (it keeps none)"
+                    if len(fields) == 1
+                    else f"None or a dict with {', '.join(fields)}"
+                )
+                raise ValueError(
+                    f"history of integrator {sim._integrator_name!r}: expected "
+                    f"{expected}, got {got}"
+                )
             sim._integrator.set_history(cloth, history)
         memory = state.get("projection_memory")
         if memory is not None:
             keys = {"exact_skip", "exact_backoff"}
             optional = {"shift", "radius"}
             if not isinstance(memory, dict) or not keys <= set(memory) <= keys | optional:
-                raise ValueError("projection_memory must be a dict with exact_skip, "
-                                 f"exact_backoff and (optional) shift and radius, got {memory!r}")
-            sim._integrator.set_projection_memory(memory["exact_skip"], memory["exact_backoff"],
-                                                  memory.get("shift", 0.0),
-                                                  memory.get("radius", 0.0))
+                raise ValueError(
+                    "projection_memory must be a dict with exact_skip, "
+                    f"exact_backoff and (optional) shift and radius, got {memory!r}"
+                )
+            sim._integrator.set_projection_memory(
+                memory["exact_skip"],
+                memory["exact_backoff"],
+                memory.get("shift", 0.0),
+                memory.get("radius", 0.0),
+            )
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
         follows = state.get("dt_follows_cloth", False)
@@ -327,8 +370,10 @@ class Simulation:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
             raise ValueError(f"n must be a non-negative integer, got {n!r}")
         if n > MAX_STEPS:
-            raise ValueError(f"n: {n} steps in one call is more than the limit of {MAX_STEPS}; "
-                             "call step repeatedly for longer runs")
+            raise ValueError(
+                f"n: {n} steps in one call is more than the limit of {MAX_STEPS}; "
+                "call step repeatedly for longer runs"
+            )
         self._run(int(n), progress)
 
     def advance(self, seconds: float, progress=None) -> int:
@@ -348,16 +393,20 @@ class Simulation:
         target = start + seconds
         ratio = (target - self.time) / self._dt
         if not ratio <= MAX_STEPS + 1:  # (1e308 s overflowed the step count: OverflowError)
-            raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {ratio:.4g} "
-                             f"steps, more than the limit of {MAX_STEPS} per call")
+            raise ValueError(
+                f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {ratio:.4g} "
+                f"steps, more than the limit of {MAX_STEPS} per call"
+            )
         if self._error_controlled:
             # dt is an output interval: whole intervals, then one to the target itself
             steps = max(0, int(np.floor(ratio * (1 + 1e-12))))
         else:
             steps = max(0, int(round(ratio)))
         if steps > MAX_STEPS:
-            raise ValueError(f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
-                             f"more than the limit of {MAX_STEPS} per call")
+            raise ValueError(
+                f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
+                f"more than the limit of {MAX_STEPS} per call"
+            )
         self._run(steps, progress)
         if self._error_controlled:
             rest = target - self.time
@@ -367,8 +416,13 @@ class Simulation:
         self._target_time = target
         return steps
 
-    def settle(self, max_seconds: float = 10.0, tolerance: float = 0.02, progress=None,
-               check_stability: bool = True) -> dict:
+    def settle(
+        self,
+        max_seconds: float = 10.0,
+        tolerance: float = 0.02,
+        progress=None,
+        check_stability: bool = True,
+    ) -> dict:
         """Brings the cloth to rest at a static equilibrium before an experiment, by proximal
         point iteration (pseudo-time stepping): backward-Euler steps of `yore.settling.SETTLE_DT` from rest,
         the velocities zeroed after each, so every step minimises the potential plus
@@ -396,8 +450,9 @@ class Simulation:
         cloth has no rest to settle to), SimulationDiverged if a step does."""
         started = _time.perf_counter()
         try:
-            result = settling.settle(self._cloth, self._gravity, max_seconds, tolerance,
-                                     progress, check_stability)
+            result = settling.settle(
+                self._cloth, self._gravity, max_seconds, tolerance, progress, check_stability
+            )
         finally:
             self._wall_seconds += _time.perf_counter() - started
         self._target_time = None
@@ -430,8 +485,10 @@ class Simulation:
                 if bar is None and progress is not False and done < steps:
                     remaining = (steps - done) / rate
                     # The rate is trusted only after a few batches (the first step also prepares).
-                    if progress or (elapsed > 2.5 * _BATCH_SECONDS
-                                    and elapsed + remaining > progress_bars.AFTER_SECONDS):
+                    if progress or (
+                        elapsed > 2.5 * _BATCH_SECONDS
+                        and elapsed + remaining > progress_bars.AFTER_SECONDS
+                    ):
                         bar = progress_bars.open_bar(steps, done, "yore", progress)
                 elif bar is not None:
                     bar.update(count)
@@ -441,8 +498,10 @@ class Simulation:
             # the state before this call, which the caller knows to be good.
             cloth.positions, cloth.velocities = saved[0], saved[1]
             cloth.time = saved[2]
-            error.args = (f"{error.args[0]} The cloth was restored to t = {saved[2]:.6g} s, "
-                          "its state before this call.",)
+            error.args = (
+                f"{error.args[0]} The cloth was restored to t = {saved[2]:.6g} s, "
+                "its state before this call.",
+            )
             raise
         finally:
             self._wall_seconds += _time.perf_counter() - started
@@ -453,15 +512,21 @@ class Simulation:
         if unconverged:
             # once per call: the steps were taken at their last iterate, never silently
             cap, tolerance = self._spec.cap
-            detail = (f"reached the iteration cap ({cap} = {self._options[cap]}) before the "
-                      f"tolerance ({tolerance} = {self._options[tolerance]:g})")
+            detail = (
+                f"reached the iteration cap ({cap} = {self._options[cap]}) before the "
+                f"tolerance ({tolerance} = {self._options[tolerance]:g})"
+            )
             if "last_error_estimate" in after:
-                detail += (f" (last error estimate {after['last_error_estimate']:.3g} mean rest "
-                           "lengths)")
-            warnings.warn(f"{self._integrator_name}: {unconverged} of {steps} steps {detail}; "
-                          "they were accepted unconverged "
-                          "(stats['counters']['unconverged_steps'])", RuntimeWarning,
-                          stacklevel=3)
+                detail += (
+                    f" (last error estimate {after['last_error_estimate']:.3g} mean rest lengths)"
+                )
+            warnings.warn(
+                f"{self._integrator_name}: {unconverged} of {steps} steps {detail}; "
+                "they were accepted unconverged "
+                "(stats['counters']['unconverged_steps'])",
+                RuntimeWarning,
+                stacklevel=3,
+            )
 
     # -- strokes ----------------------------------------------------------------------------
     def stroke(self, path, options=None, **changes) -> StrokeReport:
@@ -486,8 +551,10 @@ class Simulation:
         path = StrokePath.of(path)
         options = StrokeOptions.of(options, **changes)
         if options.max_distance is not None and path.space != "world":
-            raise ValueError(f"max_distance is for 3-D (world) paths, not a {path.space} path "
-                             "(its samples are found by rays or in the rest pattern)")
+            raise ValueError(
+                f"max_distance is for 3-D (world) paths, not a {path.space} path "
+                "(its samples are found by rays or in the rest pattern)"
+            )
         if path.space == "world":
             max_distance = options.max_distance
             if max_distance is None:
@@ -496,37 +563,52 @@ class Simulation:
             report = self._apply_stroke("closest", path, options, max_distance=max_distance)
         elif path.space == "screen":
             d0, dx, dy = path.camera.pixel_rays()
-            report = self._apply_stroke("rays", path, options,
-                                        eye=np.asarray(path.camera.eye, float),
-                                        base_direction=d0, direction_per_pixel_x=dx,
-                                        direction_per_pixel_y=dy)
+            report = self._apply_stroke(
+                "rays",
+                path,
+                options,
+                eye=np.asarray(path.camera.eye, float),
+                base_direction=d0,
+                direction_per_pixel_x=dx,
+                direction_per_pixel_y=dy,
+            )
         else:
             uv = self._cloth.material_coordinates
             if uv is None:
-                raise ValueError("the cloth has no material coordinates; set "
-                                 "cloth.material_coordinates (n×2) first")
+                raise ValueError(
+                    "the cloth has no material coordinates; set "
+                    "cloth.material_coordinates (n×2) first"
+                )
             tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
             report = self._apply_stroke("material", path, options, max_distance=tolerance)
         if options.smooth is not None:
             smooth = options.smooth
             report.extra["smoothing"] = self.smooth_rest_lengths(
-                iterations=smooth["iterations"], strength=smooth["strength"],
+                iterations=smooth["iterations"],
+                strength=smooth["strength"],
                 region="all" if smooth["region"] == "all" else None,
-                conserve=smooth["conserve"])
+                conserve=smooth["conserve"],
+            )
         return report
 
     def stroke_screen(self, points_px, camera, **options) -> StrokeReport:
         """Deprecated: ``stroke(StrokePath.screen(points_px, camera), **options)``."""
-        warnings.warn("Simulation.stroke_screen is deprecated; use "
-                      "sim.stroke(yore.StrokePath.screen(points_px, camera), ...)",
-                      DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            "Simulation.stroke_screen is deprecated; use "
+            "sim.stroke(yore.StrokePath.screen(points_px, camera), ...)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
         return self.stroke(StrokePath.screen(points_px, camera), **options)
 
     def stroke_material(self, points_uv, **options) -> StrokeReport:
         """Deprecated: ``stroke(StrokePath.material(points_uv), **options)``."""
-        warnings.warn("Simulation.stroke_material is deprecated; use "
-                      "sim.stroke(yore.StrokePath.material(points_uv), ...)",
-                      DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            "Simulation.stroke_material is deprecated; use "
+            "sim.stroke(yore.StrokePath.material(points_uv), ...)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
         return self.stroke(StrokePath.material(points_uv), **options)
 
     def _apply_stroke(self, trace, path, options, **trace_options):
@@ -544,9 +626,13 @@ class Simulation:
                 self._dt = lowered
         return report
 
-    def smooth_rest_lengths(self, iterations=SMOOTHING_DEFAULTS["iterations"],
-                            strength=SMOOTHING_DEFAULTS["strength"], region=None,
-                            conserve=SMOOTHING_DEFAULTS["conserve"]) -> dict:
+    def smooth_rest_lengths(
+        self,
+        iterations=SMOOTHING_DEFAULTS["iterations"],
+        strength=SMOOTHING_DEFAULTS["strength"],
+        region=None,
+        conserve=SMOOTHING_DEFAULTS["conserve"],
+    ) -> dict:
         """Laplacian smoothing of rest lengths (the paper's remedy for uneven surfaces).
 
         The smoothed field is the ratio rest / reference length of each spring (1 for untouched
@@ -571,8 +657,7 @@ class Simulation:
             if self._last_stroke is None:
                 raise ValueError("no stroke yet: give region (vertex indices or 'all')")
             region = smoothing.around_faces(self._cloth, self._last_stroke.region_faces)
-        return smoothing.smooth_rest_lengths(self._cloth, iterations, strength, region,
-                                             conserve)
+        return smoothing.smooth_rest_lengths(self._cloth, iterations, strength, region, conserve)
 
     # -- measurements -----------------------------------------------------------------------
     def energy(self) -> dict:
@@ -627,8 +712,9 @@ class Simulation:
         if cloth.bending in ("quadratic", "hinge"):
             # the constant-matrix bending term, reported for cloths that chose it: the number
             # of interior edges (hinges) of its mesh, 0 when the modulus is 0 (no term at all)
-            active["quadratic_bending"] = (int(cloth.quadratic_bending["hinges"])
-                                           if cloth.bending_modulus > 0.0 else 0)
+            active["quadratic_bending"] = (
+                int(cloth.quadratic_bending["hinges"]) if cloth.bending_modulus > 0.0 else 0
+            )
         if cloth.stretch == "membrane":
             # the continuum membrane, reported for cloths that chose it: its faces, and those
             # whose rest triangle was clamped or that are collapsed now
@@ -649,13 +735,18 @@ class Simulation:
             "vertices": cloth.vertex_count,
             "springs": cloth.spring_count,
             "topology_version": cloth.topology_version,
-            "threads": {"configured": _core.max_threads(), "blas": _core.blas_threads(),
-                        **getattr(self._integrator, "thread_usage", {})},
+            "threads": {
+                "configured": _core.max_threads(),
+                "blas": _core.blas_threads(),
+                **getattr(self._integrator, "thread_usage", {}),
+            },
         }
 
     def __repr__(self) -> str:
-        return (f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
-                f"t={self.time:.4g} s, {self._cloth!r}>")
+        return (
+            f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
+            f"t={self.time:.4g} s, {self._cloth!r}>"
+        )
 
 
 def _as_saved(integrator, options):
@@ -663,18 +754,20 @@ def _as_saved(integrator, options):
     existed (no ``truncation_fraction``) ran Newton without it, without the mixed matrices
     unless asked, and with projection None meaning steihaug (the clamp for linearized or pcg):
     so they continue."""
-    if integrator not in INTEGRATOR_SPECS or not INTEGRATOR_SPECS[integrator].newton or \
-            not isinstance(options, dict) or \
-            "truncation_fraction" in options:
+    if (
+        integrator not in INTEGRATOR_SPECS
+        or not INTEGRATOR_SPECS[integrator].newton
+        or not isinstance(options, dict)
+        or "truncation_fraction" in options
+    ):
         return options
     options = dict(options, truncation_fraction=0.0, mixed=options.get("mixed", False))
     if options.get("projection") is None and options.get("adaptive_projection") is None:
-        options["projection"] = ("clamp" if options.get("linearized") or
-                                 options.get("solver") == "pcg" else "steihaug")
+        options["projection"] = (
+            "clamp" if options.get("linearized") or options.get("solver") == "pcg" else "steihaug"
+        )
     return options
 
 
 _DURATION = rules.real(0.0, low_open=False, expected="a finite number >= 0")
 _FLAG = rules.flag()
-
-

@@ -41,16 +41,25 @@ def smooth_rest_lengths(cloth, iterations, strength, region, conserve) -> dict:
             ratio = scaled
             added_after = _added(ratio, reference, selected)
     cloth.springs.rest = ratio * reference
-    return {"springs": int(selected.sum()), "roughness_before": before,
-            "roughness_after": rest_ratio_roughness(cloth, np.flatnonzero(selected)),
-            "rest_added_before": added_before, "rest_added_after": added_after}
+    return {
+        "springs": int(selected.sum()),
+        "roughness_before": before,
+        "roughness_after": rest_ratio_roughness(cloth, np.flatnonzero(selected)),
+        "rest_added_before": added_before,
+        "rest_added_after": added_after,
+    }
 
 
 def checked_arguments(iterations, strength, conserve):
     """(iterations, strength, conserve) by `yore.options.SMOOTHING_RULES`; ValueError."""
-    return tuple(_checked(SMOOTHING_RULES[name], value, f"smooth_rest_lengths {name}")
-                 for name, value in (("iterations", iterations), ("strength", strength),
-                                     ("conserve", conserve)))
+    return tuple(
+        _checked(SMOOTHING_RULES[name], value, f"smooth_rest_lengths {name}")
+        for name, value in (
+            ("iterations", iterations),
+            ("strength", strength),
+            ("conserve", conserve),
+        )
+    )
 
 
 def _added(ratio, reference, selected) -> float:
@@ -81,22 +90,28 @@ def _region_indices(region, vertex_count):
     [0, vertex_count); ValueError otherwise (floats, booleans, nested lists, out of range)."""
     expected = f"None, 'all' or vertex indices (integers in [0, {vertex_count}))"
     if isinstance(region, (bool, np.bool_, float, dict, set)):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; "
-                         f"expected {expected}")
+        raise ValueError(
+            f"smooth_rest_lengths region: got {show_value(region)}; expected {expected}"
+        )
     try:
         array = np.asarray(region)
     except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)}; expected "
-                         f"{expected}") from None
+        raise ValueError(
+            f"smooth_rest_lengths region: got {show_value(region)}; expected {expected}"
+        ) from None
     if array.dtype.kind not in "iu" and not (array.size == 0 and array.dtype.kind == "f"):
-        raise ValueError(f"smooth_rest_lengths region: got {show_value(region)} (dtype "
-                         f"{array.dtype}); expected {expected}")
+        raise ValueError(
+            f"smooth_rest_lengths region: got {show_value(region)} (dtype "
+            f"{array.dtype}); expected {expected}"
+        )
     if array.ndim > 1:
-        raise ValueError(f"smooth_rest_lengths region: got an array of shape {array.shape}; "
-                         f"expected {expected}")
+        raise ValueError(
+            f"smooth_rest_lengths region: got an array of shape {array.shape}; expected {expected}"
+        )
     array = array.reshape(-1)
     if array.size and (array.min() < 0 or array.max() >= vertex_count):
         bad = array.min() if array.min() < 0 else array.max()
-        raise ValueError(f"smooth_rest_lengths region: vertex {int(bad)} is out of range; "
-                         f"expected {expected}")
+        raise ValueError(
+            f"smooth_rest_lengths region: vertex {int(bad)} is out of range; expected {expected}"
+        )
     return array.astype(np.int64)

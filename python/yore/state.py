@@ -40,8 +40,15 @@ from .meshes import MAX_MESH_VERTICES
 from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
 from .simulation import Simulation
 
-__all__ = ["save_state", "load_state", "load_metadata", "STATE_FORMAT", "STATE_VERSION",
-           "MAX_STATE_FILE_BYTES", "MAX_STATE_VERTICES"]
+__all__ = [
+    "save_state",
+    "load_state",
+    "load_metadata",
+    "STATE_FORMAT",
+    "STATE_VERSION",
+    "MAX_STATE_FILE_BYTES",
+    "MAX_STATE_VERTICES",
+]
 
 STATE_FORMAT = "yore-state"
 STATE_VERSION = 1
@@ -62,25 +69,31 @@ def save_state(path, sim: Simulation, metadata=None) -> Path:
     if path.suffix != ".npz":
         raise ValueError(f"a state file ends in .npz, got {path.name!r}")
     if metadata is not None and not isinstance(metadata, dict):
-        raise ValueError(f"state metadata must be a dict or None, got "
-                         f"{type(metadata).__name__}")
+        raise ValueError(f"state metadata must be a dict or None, got {type(metadata).__name__}")
     arrays = {}
-    document = {"format": STATE_FORMAT, "version": STATE_VERSION,
-                "simulation": _split(sim.state(), "simulation", arrays),
-                "metadata": _split(metadata, "metadata", arrays)}
+    document = {
+        "format": STATE_FORMAT,
+        "version": STATE_VERSION,
+        "simulation": _split(sim.state(), "simulation", arrays),
+        "metadata": _split(metadata, "metadata", arrays),
+    }
     try:
         text = json.dumps(document, allow_nan=False)
     except (TypeError, ValueError) as error:
         raise ValueError(f"state metadata must be JSON-able: {error}") from None
     # what load_state would refuse is not written (a 70 MB metadata string used to be)
     if len(text) > _MAX_DOCUMENT_CHARS:
-        raise ValueError(f"{path} (not written): the state's document is {len(text)} characters "
-                         f"long, more than the {_MAX_DOCUMENT_CHARS} a state file may hold; "
-                         "keep large metadata in arrays or beside the state")
+        raise ValueError(
+            f"{path} (not written): the state's document is {len(text)} characters "
+            f"long, more than the {_MAX_DOCUMENT_CHARS} a state file may hold; "
+            "keep large metadata in arrays or beside the state"
+        )
     metadata_bytes = sum(a.nbytes for name, a in arrays.items() if name.startswith("metadata/"))
     if metadata_bytes > _METADATA_ARRAY_BYTES:
-        raise ValueError(f"{path} (not written): the metadata's arrays hold {metadata_bytes} "
-                         f"bytes, more than the {_METADATA_ARRAY_BYTES} a state file may hold")
+        raise ValueError(
+            f"{path} (not written): the metadata's arrays hold {metadata_bytes} "
+            f"bytes, more than the {_METADATA_ARRAY_BYTES} a state file may hold"
+        )
     _check_written(path, json.loads(text), arrays)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(path.name + ".part.npz")
@@ -103,15 +116,23 @@ def load_state(path):
     path = Path(os.fspath(path))
     arrays, document, unknown = _read_archive(path)
     field = _FieldChecker(path)
-    if not isinstance(document, dict) or set(document) != {"format", "version", "simulation",
-                                                           "metadata"}:
-        raise field.error("document", "is not a yore state document",
-                          "keys format, version, simulation, metadata")
+    if not isinstance(document, dict) or set(document) != {
+        "format",
+        "version",
+        "simulation",
+        "metadata",
+    }:
+        raise field.error(
+            "document", "is not a yore state document", "keys format, version, simulation, metadata"
+        )
     if document["format"] != STATE_FORMAT:
         raise field.error("format", f"got {_show(document['format'])}", repr(STATE_FORMAT))
     if document["version"] != STATE_VERSION or isinstance(document["version"], bool):
-        raise field.error("version", f"got {_show(document['version'])}; this yore reads "
-                          f"version {STATE_VERSION}", str(STATE_VERSION))
+        raise field.error(
+            "version",
+            f"got {_show(document['version'])}; this yore reads version {STATE_VERSION}",
+            str(STATE_VERSION),
+        )
     simulation = field.join(document["simulation"], arrays, "simulation")
     metadata = field.join(document["metadata"], arrays, "metadata")
     _refuse_unknown(path, unknown)
@@ -123,8 +144,9 @@ def load_state(path):
     except (ValueError, TypeError, RuntimeError) as error:
         # The schema above should leave nothing for the core to refuse; if it does, the
         # message still names the file.
-        raise ValueError(f"{path}: not a consistent yore state: "
-                         f"{' '.join(str(error).split())}") from None
+        raise ValueError(
+            f"{path}: not a consistent yore state: {' '.join(str(error).split())}"
+        ) from None
     return sim, metadata
 
 
@@ -137,13 +159,17 @@ def _check_written(path, document, arrays):
     _check_simulation(field, simulation)
     vertices = len(simulation["cloth"]["positions"])
     if vertices > MAX_STATE_VERTICES:
-        raise ValueError(f"{path} (not written): the cloth has {vertices} vertices, more than "
-                         f"the {MAX_STATE_VERTICES} a state file may hold")
+        raise ValueError(
+            f"{path} (not written): the cloth has {vertices} vertices, more than "
+            f"the {MAX_STATE_VERTICES} a state file may hold"
+        )
     try:
         Cloth.from_state(simulation["cloth"])
     except (ValueError, TypeError, RuntimeError) as error:
-        raise ValueError(f"{path} (not written): the simulation is in a state no file may hold: "
-                         f"{' '.join(str(error).split())}") from None
+        raise ValueError(
+            f"{path} (not written): the simulation is in a state no file may hold: "
+            f"{' '.join(str(error).split())}"
+        ) from None
 
 
 #: Largest state file read, bytes (a state of a million vertices is some hundreds of MB).
@@ -174,8 +200,10 @@ def _read_archive(path):
     if not stat.S_ISREG(info.st_mode):
         raise ValueError(f"cannot read state file {path}: not a regular file")
     if info.st_size > MAX_STATE_FILE_BYTES:
-        raise ValueError(f"cannot read state file {path}: {info.st_size} bytes is more than the "
-                         f"limit of {MAX_STATE_FILE_BYTES} bytes")
+        raise ValueError(
+            f"cannot read state file {path}: {info.st_size} bytes is more than the "
+            f"limit of {MAX_STATE_FILE_BYTES} bytes"
+        )
     arrays, unknown = {}, []
     member = None
     try:
@@ -186,8 +214,10 @@ def _read_archive(path):
             # declared size), and a member the document does not refer to is refused unread.
             declared = sum(entry.file_size for entry in entries)
             if declared > MAX_STATE_FILE_BYTES:
-                raise ValueError(f"its members declare {declared} bytes uncompressed in all, "
-                                 f"more than the limit of {MAX_STATE_FILE_BYTES}")
+                raise ValueError(
+                    f"its members declare {declared} bytes uncompressed in all, "
+                    f"more than the limit of {MAX_STATE_FILE_BYTES}"
+                )
             by_name = {}
             for entry in entries:
                 member = entry.filename
@@ -200,8 +230,7 @@ def _read_archive(path):
             if member not in by_name:
                 raise _DocumentError(f"{path} is not a yore state file (no {_DOCUMENT} entry)")
             with archive.open(by_name[member]) as stream:
-                text = _read_npy(stream, by_name[member].file_size,
-                                 limit=4 * _MAX_DOCUMENT_CHARS)
+                text = _read_npy(stream, by_name[member].file_size, limit=4 * _MAX_DOCUMENT_CHARS)
             document = _parse_document(path, text)
             referenced = _referenced_arrays(document)
             wanted = {}
@@ -223,17 +252,30 @@ def _read_archive(path):
                         arrays[name[:-4]] = _read_npy(stream, entry.file_size)
     except zipfile.BadZipFile as error:
         where = f" (member {member})" if member else ""
-        raise ValueError(f"{path} is not a readable yore state file (.npz){where}: "
-                         f"{error}") from None
+        raise ValueError(
+            f"{path} is not a readable yore state file (.npz){where}: {error}"
+        ) from None
     except _DocumentError as error:
         raise ValueError(str(error)) from None
-    except (ValueError, EOFError, OSError, zlib.error, KeyError, NotImplementedError,
-            RuntimeError, MemoryError, struct.error, SyntaxError) as error:
-        where = f"field {member[:-4] if member.endswith('.npy') else member}" if member \
-            else "archive"
-        raise ValueError(f"{path} is not a readable yore state file: {where}: "
-                         f"{type(error).__name__}: {' '.join(str(error).split())}"[:400]) \
-            from None
+    except (
+        ValueError,
+        EOFError,
+        OSError,
+        zlib.error,
+        KeyError,
+        NotImplementedError,
+        RuntimeError,
+        MemoryError,
+        struct.error,
+        SyntaxError,
+    ) as error:
+        where = (
+            f"field {member[:-4] if member.endswith('.npy') else member}" if member else "archive"
+        )
+        raise ValueError(
+            f"{path} is not a readable yore state file: {where}: "
+            f"{type(error).__name__}: {' '.join(str(error).split())}"[:400]
+        ) from None
     return arrays, document, sorted(unknown)
 
 
@@ -243,13 +285,15 @@ class _DocumentError(Exception):
 
 def _parse_document(path, text):
     if text.dtype.kind != "U" or text.shape != () or text.dtype.itemsize > 4 * _MAX_DOCUMENT_CHARS:
-        raise _DocumentError(f"{path}: field {_DOCUMENT}: got {_show(text)}; expected a JSON "
-                             "text")
+        raise _DocumentError(f"{path}: field {_DOCUMENT}: got {_show(text)}; expected a JSON text")
     try:
         return json.loads(str(text[()]))
     except (ValueError, RecursionError) as error:
-        problem = "nested too deeply" if isinstance(error, RecursionError) else \
-            f"not valid JSON ({' '.join(str(error).split())})"
+        problem = (
+            "nested too deeply"
+            if isinstance(error, RecursionError)
+            else f"not valid JSON ({' '.join(str(error).split())})"
+        )
         raise _DocumentError(f"{path}: field {_DOCUMENT}: {problem}") from None
 
 
@@ -283,13 +327,18 @@ _POSITIONS = "simulation/cloth/positions.npy"
 MAX_STATE_VERTICES = 4 * MAX_MESH_VERTICES
 #: Members with one row per vertex: their headers must agree with the positions' before any of
 #: them is inflated, so a forged vertex count must be forged (and inflated) in all of them.
-_PER_VERTEX = ("simulation/cloth/velocities.npy", "simulation/cloth/masses.npy",
-               "simulation/cloth/material_coordinates.npy", "simulation/cloth/vertex_states.npy")
+_PER_VERTEX = (
+    "simulation/cloth/velocities.npy",
+    "simulation/cloth/masses.npy",
+    "simulation/cloth/material_coordinates.npy",
+    "simulation/cloth/vertex_states.npy",
+)
 
 
 def _check_budget(path, headers):
     """_DocumentError (naming the file, the member and the budget) if the arrays' declared
     sizes pass the budget their cloth's vertex count gives (`_BYTES_PER_VERTEX`)."""
+
     def nbytes(name):
         shape, dtype, _ = headers[name]
         return math.prod(shape) * dtype.itemsize
@@ -297,21 +346,29 @@ def _check_budget(path, headers):
     shape = headers.get(_POSITIONS, ((0,), None))[0]
     vertices = shape[0] if len(shape) == 2 else 0
     if vertices > MAX_STATE_VERTICES:
-        raise _DocumentError(f"{path}: field simulation.cloth.positions: its header declares "
-                             f"{vertices} vertices, more than the {MAX_STATE_VERTICES} a state "
-                             "may hold; refused before reading")
+        raise _DocumentError(
+            f"{path}: field simulation.cloth.positions: its header declares "
+            f"{vertices} vertices, more than the {MAX_STATE_VERTICES} a state "
+            "may hold; refused before reading"
+        )
     per_vertex = _PER_VERTEX + tuple(n for n in headers if n.startswith("simulation/history/"))
     for name in per_vertex if _POSITIONS in headers else ():  # (no positions: named later)
         rows = headers[name][0][:1] if name in headers else None
         if rows is not None and rows != (vertices,):
-            raise _DocumentError(f"{path}: field {name[:-4].replace('/', '.')}: its header "
-                                 f"declares {rows[0] if rows else 0} rows where the positions "
-                                 f"declare {vertices} vertices; refused before reading")
+            raise _DocumentError(
+                f"{path}: field {name[:-4].replace('/', '.')}: its header "
+                f"declares {rows[0] if rows else 0} rows where the positions "
+                f"declare {vertices} vertices; refused before reading"
+            )
     for prefix, budget, what in (
-            ("simulation/", _FIXED_BYTES + _BYTES_PER_VERTEX * vertices,
-             f"{_FIXED_BYTES + _BYTES_PER_VERTEX * vertices} for a cloth of {vertices} "
-             f"vertices ({_BYTES_PER_VERTEX} per vertex)"),
-            ("metadata/", _METADATA_ARRAY_BYTES, str(_METADATA_ARRAY_BYTES))):
+        (
+            "simulation/",
+            _FIXED_BYTES + _BYTES_PER_VERTEX * vertices,
+            f"{_FIXED_BYTES + _BYTES_PER_VERTEX * vertices} for a cloth of {vertices} "
+            f"vertices ({_BYTES_PER_VERTEX} per vertex)",
+        ),
+        ("metadata/", _METADATA_ARRAY_BYTES, str(_METADATA_ARRAY_BYTES)),
+    ):
         names = [name for name in headers if name.startswith(prefix)]
         if sum(nbytes(name) for name in names) > budget:
             largest = max(names, key=nbytes)
@@ -319,7 +376,8 @@ def _check_budget(path, headers):
                 f"{path}: field {largest[:-4].replace('/', '.')}: the {prefix[:-1]} arrays "
                 f"declare {sum(nbytes(name) for name in names)} bytes in all (this one "
                 f"{nbytes(largest)}), more than the {what} bytes a state may hold; refused "
-                "before reading")
+                "before reading"
+            )
 
 
 def _npy_header(stream, size):
@@ -335,8 +393,9 @@ def _npy_header(stream, size):
     if dtype.hasobject:
         raise ValueError("holds Python objects (a pickle), which a state file never does")
     if math.prod(shape) * dtype.itemsize > size:
-        raise ValueError(f"the header announces shape {shape} of {dtype}, more than the "
-                         f"{size} bytes stored")
+        raise ValueError(
+            f"the header announces shape {shape} of {dtype}, more than the {size} bytes stored"
+        )
     return shape, dtype, fortran
 
 
@@ -346,8 +405,10 @@ def _read_npy(stream, size, limit=None):
     shape, dtype, fortran = _npy_header(stream, size)
     count = math.prod(shape)
     if limit is not None and count * dtype.itemsize > limit:
-        raise ValueError(f"the header announces {count * dtype.itemsize} bytes, more than the "
-                         f"limit of {limit}; refused before reading")
+        raise ValueError(
+            f"the header announces {count * dtype.itemsize} bytes, more than the "
+            f"limit of {limit}; refused before reading"
+        )
     # inflated straight into the array (one copy in memory, not two)
     array = np.empty(count, dtype=dtype)
     view, got = memoryview(array.view(np.uint8)), 0
@@ -379,11 +440,15 @@ class _FieldChecker:
             if set(value) == {"$array"}:
                 name = value["$array"]
                 if not isinstance(name, str) or name not in arrays:
-                    raise self.error(field, f"refers to a missing array {_show(name)}",
-                                     "an array stored in the file")
+                    raise self.error(
+                        field,
+                        f"refers to a missing array {_show(name)}",
+                        "an array stored in the file",
+                    )
                 return arrays[name]
-            return {str(key): self.join(item, arrays, f"{field}.{key}")
-                    for key, item in value.items()}
+            return {
+                str(key): self.join(item, arrays, f"{field}.{key}") for key, item in value.items()
+            }
         if isinstance(value, list):
             return [self.join(item, arrays, f"{field}[{k}]") for k, item in enumerate(value)]
         return value
@@ -396,8 +461,11 @@ class _FieldChecker:
         if missing:
             raise self.error(f"{field}.{missing[0]}", "missing")
         if unknown:
-            raise self.error(f"{field}.{unknown[0]}", "unknown field",
-                             "one of " + ", ".join(sorted(set(required) | set(optional))))
+            raise self.error(
+                f"{field}.{unknown[0]}",
+                "unknown field",
+                "one of " + ", ".join(sorted(set(required) | set(optional))),
+            )
         return value
 
     def check(self, rule, value, field):
@@ -410,46 +478,67 @@ class _FieldChecker:
     def real(self, value, field, low=None, low_open=False, high=None):
         bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
         bounds += "" if high is None else f"{' and' if bounds else ''} <= {high:g}"
-        return self.check(rules.real(low, high, low_open=low_open,
-                                     expected=f"a finite number{bounds}", problem=_got,
-                                     python_types=True), value, field)
+        return self.check(
+            rules.real(
+                low,
+                high,
+                low_open=low_open,
+                expected=f"a finite number{bounds}",
+                problem=_got,
+                python_types=True,
+            ),
+            value,
+            field,
+        )
 
     def integer(self, value, field, low, high):
         return self.check(rules.count(low, high, problem=_got, python_types=True), value, field)
 
-    def array(self, value, field, dtype, shape, low=None, high=None, low_open=False,
-              allowed=None):
+    def array(self, value, field, dtype, shape, low=None, high=None, low_open=False, allowed=None):
         """An ndarray of exactly ``dtype``; ``shape`` with None for any length; float arrays
         finite; values in [low, high] (or (low, high] with low_open) or in ``allowed``."""
-        expected = f"an array of dtype {np.dtype(dtype)} and shape " + \
-            "(" + ", ".join("k" if d is None else str(d) for d in shape) + \
-            ("," if len(shape) == 1 else "") + ")"
-        if (not isinstance(value, np.ndarray) or value.dtype != np.dtype(dtype)
-                or value.ndim != len(shape)
-                or any(d is not None and d != got for d, got in zip(shape, value.shape))):
+        expected = (
+            f"an array of dtype {np.dtype(dtype)} and shape "
+            + "("
+            + ", ".join("k" if d is None else str(d) for d in shape)
+            + ("," if len(shape) == 1 else "")
+            + ")"
+        )
+        if (
+            not isinstance(value, np.ndarray)
+            or value.dtype != np.dtype(dtype)
+            or value.ndim != len(shape)
+            or any(d is not None and d != got for d, got in zip(shape, value.shape))
+        ):
             raise self.error(field, f"got {_show(value)}", expected)
         if value.size == 0:
             return value
         if value.dtype.kind == "f":
             bad = ~np.isfinite(value)
             if bad.any():
-                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
-                                 "finite numbers")
+                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}", "finite numbers")
         if allowed is not None:
             bad = ~np.isin(value, allowed)
             if bad.any():
-                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
-                                 "values in {" + ", ".join(map(str, allowed)) + "}")
+                raise self.error(
+                    field,
+                    f"entry {_index(bad)} is {value[bad][0]}",
+                    "values in {" + ", ".join(map(str, allowed)) + "}",
+                )
         if low is not None:
             bad = (value <= low) if low_open else (value < low)
             if bad.any():
-                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
-                                 f"values {'>' if low_open else '>='} {low}")
+                raise self.error(
+                    field,
+                    f"entry {_index(bad)} is {value[bad][0]}",
+                    f"values {'>' if low_open else '>='} {low}",
+                )
         if high is not None:
             bad = value > high
             if bad.any():
-                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}",
-                                 f"values <= {high}")
+                raise self.error(
+                    field, f"entry {_index(bad)} is {value[bad][0]}", f"values <= {high}"
+                )
         return value
 
 
@@ -458,14 +547,31 @@ def _index(mask):
     return int(where[0]) if len(where) == 1 else tuple(int(i) for i in where)
 
 
-_CLOTH_FIELDS = ("positions", "velocities", "masses", "faces", "spring_ends", "spring_rest",
-                 "spring_reference", "spring_stiffness", "spring_damping", "spring_kind", "drag",
-                 "stretch_stiffness", "bend_stiffness", "damping", "material_coordinates",
-                 "vertex_states", "drivers", "clock_origin", "clock_steps", "clock_dt")
+_CLOTH_FIELDS = (
+    "positions",
+    "velocities",
+    "masses",
+    "faces",
+    "spring_ends",
+    "spring_rest",
+    "spring_reference",
+    "spring_stiffness",
+    "spring_damping",
+    "spring_kind",
+    "drag",
+    "stretch_stiffness",
+    "bend_stiffness",
+    "damping",
+    "material_coordinates",
+    "vertex_states",
+    "drivers",
+    "clock_origin",
+    "clock_steps",
+    "clock_dt",
+)
 _CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest", "bending_operator")
 _CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio", "membrane_strain")
-_SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history",
-                      "target_time")
+_SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history", "target_time")
 _DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
 #: A flag of a state file (JSON's true or false).
 _FLAG = rules.flag("true or false", problem=_got, python_types=True)
@@ -483,14 +589,20 @@ def _check_simulation(field, simulation):
 
 def _check_stepping(field, simulation):
     """The integrator, its options, dt, gravity and the clock's target; the integrator."""
-    field.keys(simulation, "simulation", _SIMULATION_FIELDS,
-               optional=("projection_memory", "dt_follows_cloth", "integrator_restarts"))
+    field.keys(
+        simulation,
+        "simulation",
+        _SIMULATION_FIELDS,
+        optional=("projection_memory", "dt_follows_cloth", "integrator_restarts"),
+    )
     integrator = simulation["integrator"]
     if not isinstance(integrator, str) or integrator not in INTEGRATORS:
-        raise field.error("simulation.integrator", f"got {_show(integrator)}",
-                          "one of " + ", ".join(INTEGRATORS))
-    options = field.keys(simulation["options"], "simulation.options", (),
-                         tuple(INTEGRATOR_OPTIONS[integrator]))
+        raise field.error(
+            "simulation.integrator", f"got {_show(integrator)}", "one of " + ", ".join(INTEGRATORS)
+        )
+    options = field.keys(
+        simulation["options"], "simulation.options", (), tuple(INTEGRATOR_OPTIONS[integrator])
+    )
     for name, value in options.items():
         try:
             check_option(integrator, name, value)
@@ -511,8 +623,12 @@ def _check_cloth(field, cloth):
     """The cloth's arrays, material, bending, membrane, drivers and clock; its vertex count."""
     # The bending fields came with quadratic bending: a file without them is bending springs;
     # the membrane's with the membrane: a file without them has springs that resist stretching.
-    cloth = field.keys(cloth, "simulation.cloth", _CLOTH_FIELDS,
-                       optional=_CLOTH_BENDING_FIELDS + _CLOTH_MEMBRANE_FIELDS)
+    cloth = field.keys(
+        cloth,
+        "simulation.cloth",
+        _CLOTH_FIELDS,
+        optional=_CLOTH_BENDING_FIELDS + _CLOTH_MEMBRANE_FIELDS,
+    )
     where = "simulation.cloth."
     positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))
     n = len(positions)
@@ -521,23 +637,27 @@ def _check_cloth(field, cloth):
     field.array(cloth["velocities"], where + "velocities", np.float64, (n, 3))
     field.array(cloth["masses"], where + "masses", np.float64, (n,), low=_TINY)
     field.array(cloth["faces"], where + "faces", np.int32, (None, 3), low=0, high=n - 1)
-    ends = field.array(cloth["spring_ends"], where + "spring_ends", np.int32, (None, 2), low=0,
-                       high=n - 1)
+    ends = field.array(
+        cloth["spring_ends"], where + "spring_ends", np.int32, (None, 2), low=0, high=n - 1
+    )
     s = len(ends)
     if s and (ends[:, 0] == ends[:, 1]).any():
         k = int(np.flatnonzero(ends[:, 0] == ends[:, 1])[0])
-        raise field.error(where + "spring_ends", f"spring {k} joins vertex {ends[k, 0]} to "
-                          "itself", "two different vertices per spring")
+        raise field.error(
+            where + "spring_ends",
+            f"spring {k} joins vertex {ends[k, 0]} to itself",
+            "two different vertices per spring",
+        )
     for name in ("spring_rest", "spring_reference", "spring_stiffness", "spring_damping"):
         field.array(cloth[name], where + name, np.float64, (s,), low=0.0)
     field.array(cloth["spring_kind"], where + "spring_kind", np.int8, (s,), allowed=(0, 1))
     for name in ("drag", "stretch_stiffness", "bend_stiffness", "damping"):
         field.real(cloth[name], where + name, 0.0)
     if cloth["material_coordinates"] is not None:
-        field.array(cloth["material_coordinates"], where + "material_coordinates", np.float64,
-                    (n, 2))
-    field.array(cloth["vertex_states"], where + "vertex_states", np.uint8, (n,),
-                allowed=(0, 1, 2))
+        field.array(
+            cloth["material_coordinates"], where + "material_coordinates", np.float64, (n, 2)
+        )
+    field.array(cloth["vertex_states"], where + "vertex_states", np.uint8, (n,), allowed=(0, 1, 2))
     _check_cloth_models(field, cloth, n)
     _check_drivers(field, cloth["drivers"], n)
     field.real(cloth["clock_origin"], where + "clock_origin", -MAX_TIME, high=MAX_TIME)
@@ -551,14 +671,18 @@ def _check_cloth_models(field, cloth, n):
     where = "simulation.cloth."
     bending = cloth.get("bending", "springs")
     if bending not in ("springs", "quadratic", "hinge"):
-        raise field.error(where + "bending", f"got {_show(bending)}",
-                          '"springs", "quadratic" or "hinge"')
+        raise field.error(
+            where + "bending", f"got {_show(bending)}", '"springs", "quadratic" or "hinge"'
+        )
     # "fitted" with bending "quadratic"; absent or null otherwise (a file written before the
     # fitted operator holds "quadratic" without it, and loads as the hinge energy it ran with)
     operator = cloth.get("bending_operator")
     if operator is not None and (bending != "quadratic" or operator != "fitted"):
-        raise field.error(where + "bending_operator", f"got {_show(operator)}",
-                          '"fitted" with bending "quadratic", else null')
+        raise field.error(
+            where + "bending_operator",
+            f"got {_show(operator)}",
+            '"fitted" with bending "quadratic", else null',
+        )
     if bending in ("quadratic", "hinge"):
         field.real(cloth.get("bending_modulus"), where + "bending_modulus", 0.0)
         field.array(cloth.get("bending_rest"), where + "bending_rest", np.float64, (n, 3))
@@ -567,25 +691,32 @@ def _check_cloth_models(field, cloth, n):
             value = cloth.get(name)
             zero = isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0
             if value is not None and not zero:
-                raise field.error(where + name, f"got {_show(value)}",
-                                  "none (0 or null) with bending springs")
+                raise field.error(
+                    where + name, f"got {_show(value)}", "none (0 or null) with bending springs"
+                )
     if "young_modulus" in cloth:
         young = field.real(cloth["young_modulus"], where + "young_modulus", 0.0)
         if "poisson_ratio" in cloth:
             ratio = field.real(cloth["poisson_ratio"], where + "poisson_ratio")
             if not -1.0 < ratio < 1.0 or (young == 0.0 and ratio != 0.0):
-                raise field.error(where + "poisson_ratio", f"got {_show(ratio)}",
-                                  "a number in (-1, 1) with a membrane, 0 without one")
+                raise field.error(
+                    where + "poisson_ratio",
+                    f"got {_show(ratio)}",
+                    "a number in (-1, 1) with a membrane, 0 without one",
+                )
     # "smoothed" for a membrane that reads the smoothed strain (it needs the rest state of bending
     # "quadratic" or "hinge"); absent or null for the faces' constant strain (files saved
     # before the smoothed strain load with the physics they ran with)
     strain = cloth.get("membrane_strain")
     membrane = isinstance(cloth.get("young_modulus"), (int, float)) and cloth["young_modulus"] > 0
-    if strain is not None and (strain != "smoothed" or not membrane
-                               or bending not in ("quadratic", "hinge")):
-        raise field.error(where + "membrane_strain", f"got {_show(strain)}",
-                          '"smoothed" with a membrane and bending "quadratic" or "hinge", else '
-                          'null')
+    if strain is not None and (
+        strain != "smoothed" or not membrane or bending not in ("quadratic", "hinge")
+    ):
+        raise field.error(
+            where + "membrane_strain",
+            f"got {_show(strain)}",
+            '"smoothed" with a membrane and bending "quadratic" or "hinge", else null',
+        )
 
 
 def _check_drivers(field, drivers, n):
@@ -595,8 +726,9 @@ def _check_drivers(field, drivers, n):
     for k, driver in enumerate(drivers):
         at = f"{where}drivers[{k}]."
         field.keys(driver, at[:-1], _DRIVER_FIELDS)
-        vertices = field.array(driver["vertices"], at + "vertices", np.int32, (None,), low=0,
-                               high=n - 1)
+        vertices = field.array(
+            driver["vertices"], at + "vertices", np.int32, (None,), low=0, high=n - 1
+        )
         field.array(driver["reference"], at + "reference", np.float64, (len(vertices), 3))
         field.array(driver["center"], at + "center", np.float64, (3,))
         axis = field.array(driver["axis"], at + "axis", np.float64, (3,))
@@ -609,15 +741,21 @@ def _check_drivers(field, drivers, n):
 def _check_projection_memory(field, memory, integrator):
     if memory is not None:
         if not INTEGRATOR_SPECS[integrator].newton:
-            raise field.error("simulation.projection_memory", f"given for integrator "
-                              f"{integrator!r}", "null (only Newton keeps one)")
+            raise field.error(
+                "simulation.projection_memory",
+                f"given for integrator {integrator!r}",
+                "null (only Newton keeps one)",
+            )
         # shift, radius: absent from states saved before the shifted and steihaug projections
         # existed (then: 0)
-        field.keys(memory, "simulation.projection_memory", ("exact_skip", "exact_backoff"),
-                   optional=("shift", "radius"))
+        field.keys(
+            memory,
+            "simulation.projection_memory",
+            ("exact_skip", "exact_backoff"),
+            optional=("shift", "radius"),
+        )
         field.integer(memory["exact_skip"], "simulation.projection_memory.exact_skip", 0, 32)
-        field.integer(memory["exact_backoff"], "simulation.projection_memory.exact_backoff",
-                      1, 32)
+        field.integer(memory["exact_backoff"], "simulation.projection_memory.exact_backoff", 1, 32)
         if "shift" in memory:
             field.real(memory["shift"], "simulation.projection_memory.shift", 0.0, high=1e12)
         if "radius" in memory:
@@ -629,12 +767,16 @@ def _check_history(field, simulation, integrator, n):
     if history is not None:
         fields = INTEGRATOR_SPECS[integrator].history(simulation["options"])
         if not fields:
-            keeping = ", ".join(name for name, spec in INTEGRATOR_SPECS.items()
-                                if spec.history(INTEGRATOR_OPTIONS[name]))
-            raise field.error("simulation.history", f"given for integrator {integrator!r} "
-                              "with these options",
-                              f"null (only {keeping} and quasi-newton with method bdf2 keep a "
-                              "history)")
+            keeping = ", ".join(
+                name
+                for name, spec in INTEGRATOR_SPECS.items()
+                if spec.history(INTEGRATOR_OPTIONS[name])
+            )
+            raise field.error(
+                "simulation.history",
+                f"given for integrator {integrator!r} with these options",
+                f"null (only {keeping} and quasi-newton with method bdf2 keep a history)",
+            )
         # next_dt: error-controlled BDF2's proposed step (absent elsewhere, and before it)
         field.keys(history, "simulation.history", (*fields, "dt"), optional=("next_dt",))
         for name in fields:
@@ -650,8 +792,9 @@ def load_metadata(path):
     path = Path(os.fspath(path))
     arrays, document, unknown = _read_archive(path)
     if not isinstance(document, dict) or "metadata" not in document:
-        raise _FieldChecker(path).error("document", "is not a yore state document",
-                                        "keys format, version, simulation, metadata")
+        raise _FieldChecker(path).error(
+            "document", "is not a yore state document", "keys format, version, simulation, metadata"
+        )
     metadata = _FieldChecker(path).join(document["metadata"], arrays, "metadata")
     _refuse_unknown(path, unknown)
     return metadata
@@ -660,8 +803,10 @@ def load_metadata(path):
 def _refuse_unknown(path, unknown):
     """ValueError for members of a state file its document does not refer to (never read)."""
     if unknown:
-        raise ValueError(f"{path}: member {unknown[0]}.npy is not a field the state refers to "
-                         f"({len(unknown)} such member(s), refused unread)")
+        raise ValueError(
+            f"{path}: member {unknown[0]}.npy is not a field the state refers to "
+            f"({len(unknown)} such member(s), refused unread)"
+        )
 
 
 def _split(value, name, arrays):

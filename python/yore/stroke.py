@@ -51,13 +51,27 @@ from ._core import RefinementTooLarge, StrokeMissed
 from .camera import Camera
 from .checks import MAX_EXPANSION, MAX_MASS_SCALE, MIN_EXPANSION, check_factor
 from .meshes import MAX_MESH_VERTICES
-from .options import (GROWTH_MODES,  # in the order of the core's table (see the docstring)
-                      SMOOTHING_DEFAULTS, SMOOTHING_RULES, STROKE_DEFAULTS)
+from .options import (
+    GROWTH_MODES,  # in the order of the core's table (see the docstring)
+    SMOOTHING_DEFAULTS,
+    SMOOTHING_RULES,
+    STROKE_DEFAULTS,
+)
 from .rules import Invalid
 
-__all__ = ["StrokeMissed", "StrokeReport", "StrokeOptions", "StrokePath", "MIN_BARYCENTRIC",
-           "MIN_ANGLE_DEGREES", "GROWTH_MODES", "MAX_REFINE", "MAX_REFINED_VERTICES",
-           "RefinementTooLarge", "falloff_weight"]
+__all__ = [
+    "StrokeMissed",
+    "StrokeReport",
+    "StrokeOptions",
+    "StrokePath",
+    "MIN_BARYCENTRIC",
+    "MIN_ANGLE_DEGREES",
+    "GROWTH_MODES",
+    "MAX_REFINE",
+    "MAX_REFINED_VERTICES",
+    "RefinementTooLarge",
+    "falloff_weight",
+]
 
 #: The degenerate-case rules (see the module docstring), the C++ ``SplitOptions``' defaults.
 MIN_BARYCENTRIC = float(_core.split_defaults["min_barycentric"])
@@ -104,8 +118,11 @@ class StrokeReport:
         self.growth, self.width, self.refine = options.growth, options.width, options.refine
         self.topology_version = topology_version
         self.reanalyze_seconds = None
-        self.extra = {} if options.growth == "paper" else {
-            "spring_weights": result.spring_weights, "vertex_weights": result.vertex_weights}
+        self.extra = (
+            {}
+            if options.growth == "paper"
+            else {"spring_weights": result.spring_weights, "vertex_weights": result.vertex_weights}
+        )
 
     def __setattr__(self, name, value):
         if name in CORE_FIELDS:
@@ -123,8 +140,10 @@ class StrokeReport:
         return self.missed_samples / self.samples if self.samples else 0.0
 
     def __repr__(self):
-        return (f"StrokeReport(growth={self.growth!r}, faces_split={self.faces_split}, "
-                f"vertices_added={self.vertices_added}, springs_grown={self.springs_grown})")
+        return (
+            f"StrokeReport(growth={self.growth!r}, faces_split={self.faces_split}, "
+            f"vertices_added={self.vertices_added}, springs_grown={self.springs_grown})"
+        )
 
 
 #: Largest stroke coordinate accepted (m or px): far beyond any cloth, small enough that the
@@ -147,13 +166,13 @@ def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} holds non-finite values")
     if np.abs(array).max() > MAX_STROKE_COORDINATE:
-        raise ValueError(f"{name} holds a coordinate of magnitude {np.abs(array).max():.3g}, "
-                         f"beyond ±{MAX_STROKE_COORDINATE:g} (metres or pixels)")
+        raise ValueError(
+            f"{name} holds a coordinate of magnitude {np.abs(array).max():.3g}, "
+            f"beyond ±{MAX_STROKE_COORDINATE:g} (metres or pixels)"
+        )
     if dimension == 2:
         array = np.column_stack([array, np.zeros(len(array))])
     return np.ascontiguousarray(array)
-
-
 
 
 def falloff_weight(distance, width):
@@ -168,22 +187,32 @@ def check_stroke_options(width, growth, refine, mass_scale):
     if width is not None:
         width = check_factor(width, "width", "m")
     if not isinstance(growth, str) or growth not in GROWTH_MODES:
-        raise ValueError(f"growth: got {growth!r}; expected one of "
-                         + ", ".join(repr(g) for g in GROWTH_MODES))
-    if (isinstance(refine, (bool, np.bool_)) or not isinstance(refine, numbers.Integral)
-            or not 0 <= refine <= MAX_REFINE):
-        raise ValueError(f"refine: got {refine!r}; expected an integer in [0, {MAX_REFINE}] "
-                         "(refinement passes; each quadruples the band's faces)")
+        raise ValueError(
+            f"growth: got {growth!r}; expected one of " + ", ".join(repr(g) for g in GROWTH_MODES)
+        )
+    if (
+        isinstance(refine, (bool, np.bool_))
+        or not isinstance(refine, numbers.Integral)
+        or not 0 <= refine <= MAX_REFINE
+    ):
+        raise ValueError(
+            f"refine: got {refine!r}; expected an integer in [0, {MAX_REFINE}] "
+            "(refinement passes; each quadruples the band's faces)"
+        )
     if isinstance(mass_scale, str):
         if mass_scale != "conserve":
-            raise ValueError(f"mass_scale: got {mass_scale!r}; expected a number > 0 (the "
-                             "paper's rule) or 'conserve'")
+            raise ValueError(
+                f"mass_scale: got {mass_scale!r}; expected a number > 0 (the "
+                "paper's rule) or 'conserve'"
+            )
     else:
         mass_scale = check_factor(mass_scale, "mass_scale")
         if mass_scale > MAX_MASS_SCALE:
-            raise ValueError(f"mass_scale must be at most {MAX_MASS_SCALE:g} (a new vertex's "
-                             "mass over its corners' mean; the paper's is 0.95), got "
-                             f"{mass_scale:g}")
+            raise ValueError(
+                f"mass_scale must be at most {MAX_MASS_SCALE:g} (a new vertex's "
+                "mass over its corners' mean; the paper's is 0.95), got "
+                f"{mass_scale:g}"
+            )
     return width, growth, int(refine), mass_scale
 
 
@@ -191,9 +220,11 @@ def check_expansion(expansion) -> float:
     """A stroke's expansion as a float in [`MIN_EXPANSION`, `MAX_EXPANSION`]; ValueError."""
     expansion = check_factor(expansion, "expansion")
     if not MIN_EXPANSION <= expansion <= MAX_EXPANSION:
-        raise ValueError(f"expansion must be in [{MIN_EXPANSION:g}, {MAX_EXPANSION:g}] (a "
-                         "new spring's rest length over its current length; the paper's "
-                         f"is 1.1), got {expansion:g}")
+        raise ValueError(
+            f"expansion must be in [{MIN_EXPANSION:g}, {MAX_EXPANSION:g}] (a "
+            "new spring's rest length over its current length; the paper's "
+            f"is 1.1), got {expansion:g}"
+        )
     return expansion
 
 
@@ -210,25 +241,32 @@ def check_smoothing(smooth):
     if isinstance(smooth, numbers.Integral) and not isinstance(smooth, (bool, np.bool_)):
         smooth = {"iterations": smooth}
     if not isinstance(smooth, dict):
-        raise ValueError(f"smooth: got {type(smooth).__name__} {smooth!r}; expected None, "
-                         "iterations or a dict of iterations, strength, conserve, region")
+        raise ValueError(
+            f"smooth: got {type(smooth).__name__} {smooth!r}; expected None, "
+            "iterations or a dict of iterations, strength, conserve, region"
+        )
     unknown = sorted(set(smooth) - set(SMOOTHING_DEFAULTS) - {"region"})
     if unknown:
-        raise ValueError(f"smooth: unknown key {unknown[0]!r}; valid: "
-                         f"{', '.join(list(SMOOTHING_DEFAULTS) + ['region'])}")
+        raise ValueError(
+            f"smooth: unknown key {unknown[0]!r}; valid: "
+            f"{', '.join(list(SMOOTHING_DEFAULTS) + ['region'])}"
+        )
     checked = {**SMOOTHING_DEFAULTS, "region": SMOOTHING_REGIONS[0]}
     for name, value in smooth.items():
         if name == "region":
             if value not in SMOOTHING_REGIONS:
-                raise ValueError(f"smooth region: got {value!r}; expected one of "
-                                 f"{', '.join(map(repr, SMOOTHING_REGIONS))}")
+                raise ValueError(
+                    f"smooth region: got {value!r}; expected one of "
+                    f"{', '.join(map(repr, SMOOTHING_REGIONS))}"
+                )
             checked[name] = value
             continue
         try:
             checked[name] = SMOOTHING_RULES[name](value)
         except Invalid as invalid:
-            raise ValueError(f"smooth {name}: {invalid.problem}; expected "
-                             f"{invalid.expected}") from None
+            raise ValueError(
+                f"smooth {name}: {invalid.problem}; expected {invalid.expected}"
+            ) from None
     return checked
 
 
@@ -260,19 +298,29 @@ class StrokeOptions:
         """These options with every value in canonical form; ValueError naming the first
         wrong one."""
         width, growth, refine, mass_scale = check_stroke_options(
-            self.width, self.growth, self.refine, self.mass_scale)
-        max_distance = None if self.max_distance is None else \
-            check_factor(self.max_distance, "max_distance")
-        return StrokeOptions(expansion=check_expansion(self.expansion), mass_scale=mass_scale,
-                             width=width, growth=growth, refine=refine,
-                             max_distance=max_distance, smooth=check_smoothing(self.smooth))
+            self.width, self.growth, self.refine, self.mass_scale
+        )
+        max_distance = (
+            None if self.max_distance is None else check_factor(self.max_distance, "max_distance")
+        )
+        return StrokeOptions(
+            expansion=check_expansion(self.expansion),
+            mass_scale=mass_scale,
+            width=width,
+            growth=growth,
+            refine=refine,
+            max_distance=max_distance,
+            smooth=check_smoothing(self.smooth),
+        )
 
     def replace(self, **changes) -> "StrokeOptions":
         """A copy with ``changes``; ValueError naming an unknown option."""
         unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(self)})
         if unknown:
-            raise ValueError(f"unknown stroke option {unknown[0]!r}; valid: "
-                             f"{', '.join(f.name for f in dataclasses.fields(self))}")
+            raise ValueError(
+                f"unknown stroke option {unknown[0]!r}; valid: "
+                f"{', '.join(f.name for f in dataclasses.fields(self))}"
+            )
         return dataclasses.replace(self, **changes)
 
     @classmethod
@@ -284,8 +332,10 @@ class StrokeOptions:
         elif isinstance(options, dict):
             options = cls().replace(**options)
         elif not isinstance(options, cls):
-            raise ValueError(f"options must be a yore.StrokeOptions, a dict or None, got "
-                             f"{type(options).__name__}")
+            raise ValueError(
+                f"options must be a yore.StrokeOptions, a dict or None, got "
+                f"{type(options).__name__}"
+            )
         return options.replace(**changes).checked()
 
 
@@ -306,12 +356,17 @@ class StrokePath:
 
     def __init__(self, space, points, camera=None):
         if space not in self.SPACES:
-            raise ValueError(f"stroke path space: got {space!r}; expected one of "
-                             f"{', '.join(map(repr, self.SPACES))}")
+            raise ValueError(
+                f"stroke path space: got {space!r}; expected one of "
+                f"{', '.join(map(repr, self.SPACES))}"
+            )
         if space == "screen" and not isinstance(camera, Camera):
             raise ValueError(f"camera must be a yore.Camera, got {type(camera).__name__}")
-        names = {"world": ("points_3d", 3), "screen": ("points_px", 2),
-                 "material": ("points_uv", 2)}
+        names = {
+            "world": ("points_3d", 3),
+            "screen": ("points_px", 2),
+            "material": ("points_uv", 2),
+        }
         name, dimension = names[space]
         self.space, self.camera = space, camera
         self.points = check_stroke_points(points, dimension, name)  # k×3 (2-D: z = 0)
@@ -362,8 +417,16 @@ def apply_stroke(cloth, trace, points, options, **trace_options) -> StrokeReport
     growth, refine = options.growth, options.refine
     conserve = isinstance(mass_scale, str) and mass_scale == "conserve"
     result = _core.apply_stroke(
-        cloth, trace, points, growth=growth, width=0.0 if width is None else float(width),
-        refine=refine, expansion=expansion, mass_scale=1.0 if conserve else mass_scale,
-        conserve_mass=conserve, max_vertices=MAX_REFINED_VERTICES if refine > 0
-        else MAX_MESH_VERTICES, **trace_options)
+        cloth,
+        trace,
+        points,
+        growth=growth,
+        width=0.0 if width is None else float(width),
+        refine=refine,
+        expansion=expansion,
+        mass_scale=1.0 if conserve else mass_scale,
+        conserve_mass=conserve,
+        max_vertices=MAX_REFINED_VERTICES if refine > 0 else MAX_MESH_VERTICES,
+        **trace_options,
+    )
     return StrokeReport(result, options, cloth.topology_version)

@@ -22,8 +22,14 @@ from .stroke import MIN_ANGLE_DEGREES, MIN_BARYCENTRIC
 __all__ = ["split_faces_1to3", "refine_faces_1to4"]
 
 
-def split_faces_1to3(V, F, faces, barycentric=None, min_barycentric=MIN_BARYCENTRIC,
-                     min_angle_degrees=MIN_ANGLE_DEGREES) -> dict:
+def split_faces_1to3(
+    V,
+    F,
+    faces,
+    barycentric=None,
+    min_barycentric=MIN_BARYCENTRIC,
+    min_angle_degrees=MIN_ANGLE_DEGREES,
+) -> dict:
     """The paper's 1→3 split of ``faces`` of the mesh (V n×3 m, F f×3) at barycentric points
     (k×3, default the centroids), with its degenerate-case rules (`yore.stroke`).
 
@@ -35,8 +41,14 @@ def split_faces_1to3(V, F, faces, barycentric=None, min_barycentric=MIN_BARYCENT
     faces = np.asarray(faces, dtype=np.int64).reshape(-1)
     if barycentric is None:
         barycentric = np.full((len(faces), 3), 1.0 / 3.0)
-    return _core.split_faces_1to3(V, F, faces, barycentric, min_barycentric=min_barycentric,
-                                  min_angle_degrees=min_angle_degrees)
+    return _core.split_faces_1to3(
+        V,
+        F,
+        faces,
+        barycentric,
+        min_barycentric=min_barycentric,
+        min_angle_degrees=min_angle_degrees,
+    )
 
 
 def refine_faces_1to4(V, F, faces) -> dict:

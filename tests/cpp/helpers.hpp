@@ -1,20 +1,20 @@
 #pragma once
 // Small meshes and numerical checks shared by the C++ tests (not a unit of its own).
-#include "yore/cloth.hpp"
-#include "yore/linear_solver.hpp"
-#include "yore/mesh.hpp"
+#include <doctest/doctest.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <doctest/doctest.h>
-
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstdint>
+#include <cstdlib>
 #include <functional>
 #include <set>
 #include <vector>
+
+#include "yore/cloth.hpp"
+#include "yore/linear_solver.hpp"
+#include "yore/mesh.hpp"
 
 namespace yore_test {
 
@@ -58,8 +58,8 @@ inline Mesh cylinder_mesh(double radius, double height, int rings, int segments)
   for (int r = 0; r < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       const double angle = 2.0 * M_PI * s / segments;
-      mesh.positions.row(r * segments + s) << radius * std::cos(angle),
-          height * r / (rings - 1), -radius * std::sin(angle);
+      mesh.positions.row(r * segments + s) << radius * std::cos(angle), height * r / (rings - 1),
+          -radius * std::sin(angle);
     }
   mesh.faces.resize(2 * (rings - 1) * segments, 3);
   int f = 0;
@@ -157,9 +157,9 @@ inline yore::Cloth oscillator(double mass, double stiffness, double amplitude) {
   positions << 0, 0, 0, 0, -(1.0 + amplitude), 0;
   yore::Edges edges(1, 2);
   edges << 0, 1;
-  yore::Cloth cloth = yore::Cloth::from_springs(positions, edges, Eigen::VectorXd::Ones(1),
-                                                Eigen::VectorXd::Constant(2, mass), stiffness,
-                                                0.0, 0.0);
+  yore::Cloth cloth =
+      yore::Cloth::from_springs(positions, edges, Eigen::VectorXd::Ones(1),
+                                Eigen::VectorXd::Constant(2, mass), stiffness, 0.0, 0.0);
   cloth.fix({0});
   return cloth;
 }

@@ -1,10 +1,10 @@
 // Tests of cpp/src/bandwidth.cpp (cpp/include/yore/bandwidth.hpp): the STREAM-triad probe.
-#include "yore/bandwidth.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "yore/bandwidth.hpp"
 
 TEST_CASE("the triad reports a finite, positive bandwidth and refuses empty work") {
   // 2e5 doubles × 3 arrays = 4.8 MB: a few milliseconds; the value itself is the machine's,

@@ -1,10 +1,10 @@
 // Tests of cpp/src/build_info.cpp (cpp/include/yore/build_info.hpp): the versions the core was
 // built with and its thread settings.
-#include "yore/build_info.hpp"
-
 #include <doctest/doctest.h>
 
 #include <stdexcept>
+
+#include "yore/build_info.hpp"
 
 TEST_CASE("build_info names every documented library with a non-empty value") {
   const auto info = yore::build_info();

@@ -1,10 +1,6 @@
 // Tests of cpp/src/cloth.cpp (cpp/include/yore/cloth.hpp): wiring, materials and their checks,
 // spring networks, and energy. The stepping state is tested in test_cloth_state.cpp, subdivision
 // in test_cloth_rewiring.cpp, the stable-step estimates in test_stable_step.cpp.
-#include "yore/cloth.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -12,6 +8,9 @@
 #include <limits>
 #include <set>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
 
 using yore::Cloth;
 using yore::Edges;
@@ -39,8 +38,8 @@ TEST_CASE("a cloth is wired as Fig. 1 with rest lengths and materials from its i
   CHECK(cloth.velocities().isZero(0.0));
   CHECK(cloth.has_spring_damping());
   // zero bend stiffness: no bending springs at all (model only what a scene needs)
-  const Cloth flat(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(12, 0.01), 300.0, 0.0,
-                   0.0, 0.0);
+  const Cloth flat(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(12, 0.01), 300.0, 0.0, 0.0,
+                   0.0);
   CHECK(pairs_of_kind(flat, SpringKind::bending).empty());
   CHECK_FALSE(flat.has_spring_damping());
 }
@@ -66,13 +65,12 @@ TEST_CASE("bad cloth input is std::invalid_argument naming the problem") {
                        doctest::Contains("damping"), std::invalid_argument);
   CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, -0.1),
                        doctest::Contains("drag"), std::invalid_argument);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, 0,
-                             yore::BendingModel::springs, 0.5),
-                       doctest::Contains("bending_modulus is for quadratic bending"),
-                       std::invalid_argument);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, 0,
-                             yore::BendingModel::quadratic, 0.5),
-                       doctest::Contains("bend_stiffness must be 0"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, 0, yore::BendingModel::springs, 0.5),
+      doctest::Contains("bending_modulus is for quadratic bending"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, 0, yore::BendingModel::quadratic, 0.5),
+      doctest::Contains("bend_stiffness must be 0"), std::invalid_argument);
   // the mesh is validated too (validate_mesh's message comes through)
   yore::Faces faces = mesh.faces;
   faces(0, 0) = 42;

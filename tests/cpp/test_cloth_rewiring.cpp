@@ -1,9 +1,5 @@
 // Tests of cpp/src/cloth_rewiring.cpp (cpp/include/yore/cloth.hpp): the paper's 1→3 split and
 // 1→4 refinement as the Cloth rewires them: counts, rest lengths, masses and wiring.
-#include "yore/cloth.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -11,6 +7,9 @@
 #include <limits>
 #include <set>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
 
 using yore::Cloth;
 using yore::Positions;
@@ -65,7 +64,8 @@ TEST_CASE("split 1→3: the paper's counts, eq. (1) rest lengths and 0.95 masses
   int new_springs = 0;
   for (std::size_t q = 0; q < s.size(); ++q) {
     if (s.first[q] < v0 && s.second[q] < v0) continue;
-    const double length = (cloth.positions().row(s.first[q]) - cloth.positions().row(s.second[q])).norm();
+    const double length =
+        (cloth.positions().row(s.first[q]) - cloth.positions().row(s.second[q])).norm();
     CHECK(s.rest_length[q] == doctest::Approx(1.1 * length).epsilon(1e-14));
     CHECK(s.reference_length[q] == doctest::Approx(length).epsilon(1e-14));
     ++new_springs;
@@ -89,9 +89,9 @@ TEST_CASE("split with conserve_mass keeps the total mass; bad splits are refused
   Cloth cloth = yore_test::grid_cloth(5);
   yore::SplitOptions options;
   options.conserve_mass = true;
-  const yore::SplitReport report = cloth.split_faces({{10, Eigen::Vector3d::Constant(1.0 / 3)},
-                                                      {11, Eigen::Vector3d::Constant(1.0 / 3)}},
-                                                     options);
+  const yore::SplitReport report = cloth.split_faces(
+      {{10, Eigen::Vector3d::Constant(1.0 / 3)}, {11, Eigen::Vector3d::Constant(1.0 / 3)}},
+      options);
   // redistribution sums of a few terms: round-off ~1e-17 kg
   CHECK(std::abs(cloth.masses().sum() - 0.1) < 1e-15);
   CHECK(std::abs(report.mass_added) < 1e-15);
@@ -139,7 +139,8 @@ TEST_CASE("refine 1→4 keeps the rest metric, the total mass and the wiring") {
     // sums of O(edge²) terms: ~1e-15 relative; 1e-12 is ample)
     const auto& s = cloth.springs();
     for (std::size_t k = 0; k < s.size(); ++k) {
-      const double length = (cloth.positions().row(s.first[k]) - cloth.positions().row(s.second[k])).norm();
+      const double length =
+          (cloth.positions().row(s.first[k]) - cloth.positions().row(s.second[k])).norm();
       CHECK(s.rest_length[k] == doctest::Approx(length).epsilon(1e-12));
     }
   }
@@ -147,7 +148,8 @@ TEST_CASE("refine 1→4 keeps the rest metric, the total mass and the wiring") {
 
 TEST_CASE("without bending springs a refinement adds none") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(5, 5);
-  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(25, 1e-3), 200.0, 0.0, 0.0, 0.0);
+  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(25, 1e-3), 200.0, 0.0, 0.0,
+              0.0);
   cloth.refine_faces({3, 10});
   CHECK(pairs_of_kind(cloth, SpringKind::bending).empty());
   CHECK(pairs_of_kind(cloth, SpringKind::structural).size() ==
@@ -168,8 +170,8 @@ TEST_CASE("refining a stretched region keeps its rest lengths, not its stretch")
   const auto& s = cloth.springs();
   double largest_strain = 0.0;
   for (std::size_t k = 0; k < s.size(); ++k) {
-    const double rest = (pattern.mesh.positions.row(s.first[k]) -
-                         pattern.mesh.positions.row(s.second[k])).norm();
+    const double rest =
+        (pattern.mesh.positions.row(s.first[k]) - pattern.mesh.positions.row(s.second[k])).norm();
     CHECK(s.rest_length[k] == doctest::Approx(rest).epsilon(1e-12));
     largest_strain = std::max(
         largest_strain,

@@ -1,15 +1,14 @@
 // Tests of cpp/src/cloth_state.cpp (cpp/include/yore/cloth.hpp): incidence, the state setters,
 // constraints and drivers, the state round trip, the clock, and from_state's checks.
-#include "yore/cloth.hpp"
-
-#include "yore/explicit.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
+#include "yore/explicit.hpp"
 
 using yore::Cloth;
 using yore::Positions;
@@ -81,7 +80,8 @@ TEST_CASE("fix and drive: new topology versions, zero inverse masses, checked in
   CHECK(cloth.drivers()[0].axis == Vec3(0, 0, 1));  // normalised
   CHECK_THROWS_WITH_AS(cloth.fix({9}), doctest::Contains("cannot fix vertex 9: index out of range"),
                        std::invalid_argument);
-  CHECK_THROWS_WITH_AS(cloth.fix({7}), doctest::Contains("cannot fix vertex 7: it is already driven"),
+  CHECK_THROWS_WITH_AS(cloth.fix({7}),
+                       doctest::Contains("cannot fix vertex 7: it is already driven"),
                        std::invalid_argument);
   CHECK_THROWS_WITH_AS(cloth.drive_rotation({0}, Vec3::Zero(), Vec3::UnitZ(), 1.0),
                        doctest::Contains("cannot drive vertex 0: it is fixed"),
@@ -106,7 +106,8 @@ TEST_CASE("a rotation driver moves its vertices rigidly about the axis at omega"
     const Vec3 arm = cloth.positions().row(v).transpose() - center;
     // rotated by ωt about z: the angle between the arms and their lengths (round-off only)
     CHECK(arm.norm() == doctest::Approx(arm0.norm()).epsilon(1e-14));
-    CHECK(std::atan2(arm0.cross(arm).z(), arm0.dot(arm)) == doctest::Approx(omega * t).epsilon(1e-12));
+    CHECK(std::atan2(arm0.cross(arm).z(), arm0.dot(arm)) ==
+          doctest::Approx(omega * t).epsilon(1e-12));
     // v = ω × arm
     const Vec3 velocity = cloth.velocities().row(v);
     CHECK((velocity - omega * axis.cross(arm)).norm() < 1e-14);

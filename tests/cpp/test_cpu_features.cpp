@@ -1,8 +1,6 @@
 // Tests of cpp/src/cpu_features.cpp (cpp/include/yore/cpu_features.hpp): what CPUID and XGETBV
 // say, checked against the rules that hold on every x86-64 processor and OS, and against
 // Linux's own reading (/proc/cpuinfo) where there is one.
-#include "yore/cpu_features.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -10,6 +8,8 @@
 #include <set>
 #include <sstream>
 #include <string>
+
+#include "yore/cpu_features.hpp"
 
 namespace {
 
@@ -44,8 +44,8 @@ TEST_CASE("cpu_features: every extension implies the ones it is built on") {
   // the OS enables AVX-512 state only on top of AVX state
   CHECK((!features.os_saves_zmm || features.os_saves_ymm));
   const std::pair<const char*, const char*> implies[] = {
-      {"ssse3", "sse3"},      {"sse4_1", "ssse3"},    {"sse4_2", "sse4_1"},
-      {"fma", "avx"},         {"avx2", "avx"},        {"avx512f", "avx2"},
+      {"ssse3", "sse3"},       {"sse4_1", "ssse3"},     {"sse4_2", "sse4_1"},
+      {"fma", "avx"},          {"avx2", "avx"},         {"avx512f", "avx2"},
       {"avx512bw", "avx512f"}, {"avx512vl", "avx512f"}, {"avx512_bf16", "avx512f"}};
   for (const auto& [extension, base] : implies) {
     CAPTURE(extension);
@@ -64,9 +64,9 @@ TEST_CASE("cpu_features agrees with the Linux kernel's reading of the same CPU")
   const auto features = yore::cpu_features();
   // Linux names SSE3 "pni"; the rest by the same names. The kernel clears the AVX family when
   // it does not save their state, as XCR0 tells us, so both readings agree on usable sets.
-  for (const std::string extension : {"ssse3", "sse4_1", "sse4_2", "avx", "fma", "avx2",
-                                      "avx512f", "avx512cd", "avx512bw", "avx512dq",
-                                      "avx512vl", "avx512_bf16"}) {
+  for (const std::string extension :
+       {"ssse3", "sse4_1", "sse4_2", "avx", "fma", "avx2", "avx512f", "avx512cd", "avx512bw",
+        "avx512dq", "avx512vl", "avx512_bf16"}) {
     CAPTURE(extension);
     CHECK(has(features, extension) == (flags.count(extension) == 1));
   }

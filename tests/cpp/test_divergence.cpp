@@ -1,20 +1,20 @@
 // Tests of cpp/src/divergence.cpp (cpp/include/yore/divergence.hpp): the monitored energy, its
 // bound, the argument checks shared by every integrator, and advance_checked's restore.
-#include "yore/divergence.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/divergence.hpp"
 
 using yore::Cloth;
 using yore::DivergenceMonitor;
 using yore::Positions;
 using yore::Vec3;
 
-TEST_CASE("the monitored energy leaves out the kinetic and potential energy of constrained vertices") {
+TEST_CASE(
+    "the monitored energy leaves out the kinetic and potential energy of constrained vertices") {
   Cloth cloth = yore_test::grid_cloth(3, 100.0, 0.0);
   Positions v = Positions::Zero(9, 3);
   v.row(0) << 1, 0, 0;
@@ -123,8 +123,8 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       ++steps_taken;
       cloth.advance_time(1e-3);
     };
-    yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 5, monitor, "test", checkpoint_x,
-                          checkpoint_v, step, index, on_restore);
+    yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 5, monitor, "test", checkpoint_x, checkpoint_v,
+                          step, index, on_restore);
     CHECK(steps_taken == 5);
     CHECK(restores == 0);
     CHECK(cloth.time() == 5e-3);
@@ -136,8 +136,7 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       if (steps_taken == 3) cloth.integrator_positions()(4, 2) = 1e6;  // springs far stretched
     };
     CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor, "test",
-                                               checkpoint_x, checkpoint_v, step, index,
-                                               on_restore),
+                                               checkpoint_x, checkpoint_v, step, index, on_restore),
                          doctest::Contains("diverged at step 2"), yore::SimulationDiverged);
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);
@@ -149,17 +148,18 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       cloth.advance_time(1e-3);
       cloth.integrator_velocities().row(4) += Vec3(0, 0, 0.5).transpose();  // a push from nowhere
     };
-    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3(0, 0, -9.81), 1e-3, 1000, monitor,
-                                               "tr-bdf2", checkpoint_x, checkpoint_v, step,
-                                               index, on_restore),
-                         doctest::Contains("gained energy"), yore::SimulationDiverged);
+    CHECK_THROWS_WITH_AS(
+        yore::advance_checked(cloth, Vec3(0, 0, -9.81), 1e-3, 1000, monitor, "tr-bdf2",
+                              checkpoint_x, checkpoint_v, step, index, on_restore),
+        doctest::Contains("gained energy"), yore::SimulationDiverged);
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);
     CHECK(cloth.time() == 0.0);
     CHECK(steps_taken < 1000);
     // the undone steps' energies are gone from the monitor's memory too
-    CHECK(monitor.lowest() == doctest::Approx(DivergenceMonitor::monitored_energy(
-                                  cloth, Vec3(0, 0, -9.81))).epsilon(1e-12));
+    CHECK(monitor.lowest() ==
+          doctest::Approx(DivergenceMonitor::monitored_energy(cloth, Vec3(0, 0, -9.81)))
+              .epsilon(1e-12));
   }
   SUBCASE("a non-finite state") {
     const auto step = [&] {
@@ -167,8 +167,7 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       cloth.integrator_positions()(1, 0) = std::nan("");
     };
     CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor, "test",
-                                               checkpoint_x, checkpoint_v, step, index,
-                                               on_restore),
+                                               checkpoint_x, checkpoint_v, step, index, on_restore),
                          doctest::Contains("non-finite"), yore::SimulationDiverged);
     CHECK(cloth.positions() == start);
   }
@@ -179,8 +178,7 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       if (steps_taken == 2) throw std::runtime_error("solver broke");
     };
     CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor, "test",
-                                               checkpoint_x, checkpoint_v, step, index,
-                                               on_restore),
+                                               checkpoint_x, checkpoint_v, step, index, on_restore),
                          "solver broke", std::runtime_error);
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);

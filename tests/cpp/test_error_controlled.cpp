@@ -1,14 +1,13 @@
 // Tests of cpp/src/error_controlled.cpp (cpp/include/yore/error_controlled.hpp): CVODE's BDF
 // and ARKODE's ESDIRK on the cloth — accuracy that follows the tolerance on an analytic
 // oscillator, exact output times, restarts, no history, and option checks.
-#include "yore/error_controlled.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/error_controlled.hpp"
 
 using yore::Cloth;
 using yore::ErrorControlledIntegrator;
@@ -42,7 +41,8 @@ double error_at(ErrorControlledMethod method, double rtol) {
 }  // namespace
 
 TEST_CASE("CVODE and ARKODE follow the analytic oscillator more closely at a tighter tolerance") {
-  for (const ErrorControlledMethod method : {ErrorControlledMethod::cvode, ErrorControlledMethod::arkode}) {
+  for (const ErrorControlledMethod method :
+       {ErrorControlledMethod::cvode, ErrorControlledMethod::arkode}) {
     CAPTURE(static_cast<int>(method));
     const double loose = error_at(method, 1e-3), strict = error_at(method, 1e-6);
     CAPTURE(loose);
@@ -72,7 +72,10 @@ TEST_CASE("no history to save; an edit restarts the integrator; counters add up"
   CHECK(integrator.solver_statistics().factorizations == integrator.statistics().linear_setups);
   CHECK(integrator.solver_statistics().analyses == 1);
   // fixed vertices stayed
-  const Cloth fresh = [] { Cloth c = yore_test::grid_cloth(4); return c; }();
+  const Cloth fresh = [] {
+    Cloth c = yore_test::grid_cloth(4);
+    return c;
+  }();
   CHECK(cloth.positions().row(12) == fresh.positions().row(12));
 }
 

@@ -1,17 +1,15 @@
 // Tests of cpp/src/explicit.cpp (cpp/include/yore/explicit.hpp): symplectic Euler against a
 // step computed by hand and an analytic oscillator, conservation laws, constraints, Provot
 // strain limiting, divergence handling, option checks and the step's thread chooser.
-#include "yore/explicit.hpp"
-
-#include "yore/divergence.hpp"
-
-#include "yore/errors.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/divergence.hpp"
+#include "yore/errors.hpp"
+#include "yore/explicit.hpp"
 
 using yore::Cloth;
 using yore::ExplicitIntegrator;
@@ -53,9 +51,9 @@ TEST_CASE("one step is v⁺ = v + h M⁻¹ f(x, v), x⁺ = x + h v⁺ with sprin
   const auto& s = cloth.springs();
   for (std::size_t k = 0; k < s.size(); ++k) {
     const Vec3 xi = x.row(s.first[k]), xj = x.row(s.second[k]);
-    const Vec3 f = -yore::spring_gradient(xi, xj, s.rest_length[k], s.stiffness[k]) +
-                   yore::spring_damping_force(xi, xj, v.row(s.first[k]), v.row(s.second[k]),
-                                              s.damping[k]);
+    const Vec3 f =
+        -yore::spring_gradient(xi, xj, s.rest_length[k], s.stiffness[k]) +
+        yore::spring_damping_force(xi, xj, v.row(s.first[k]), v.row(s.second[k]), s.damping[k]);
     force.row(s.first[k]) += f.transpose();
     force.row(s.second[k]) -= f.transpose();
   }
@@ -136,7 +134,8 @@ TEST_CASE("strain limiting keeps structural springs at most strain_limit × rest
   for (int i = 0; i < n; ++i) x.row(i) << 0, -0.1 * i, 0;
   for (int i = 0; i + 1 < n; ++i) edges.row(i) << i, i + 1;
   const auto make = [&] {
-    Cloth chain = Cloth::from_springs(x, edges, {}, Eigen::VectorXd::Constant(n, 0.01), 20.0, 0.05, 0.5);
+    Cloth chain =
+        Cloth::from_springs(x, edges, {}, Eigen::VectorXd::Constant(n, 0.01), 20.0, 0.05, 0.5);
     chain.fix({0});
     return chain;
   };
@@ -144,8 +143,9 @@ TEST_CASE("strain limiting keeps structural springs at most strain_limit × rest
     double largest = 0.0;
     const auto& s = cloth.springs();
     for (std::size_t k = 0; k < s.size(); ++k)
-      largest = std::max(largest, (cloth.positions().row(s.first[k]) -
-                                   cloth.positions().row(s.second[k])).norm() / s.rest_length[k]);
+      largest = std::max(
+          largest, (cloth.positions().row(s.first[k]) - cloth.positions().row(s.second[k])).norm() /
+                       s.rest_length[k]);
     return largest;
   };
   Cloth free = make(), limited = make();
@@ -261,8 +261,8 @@ TEST_CASE("bad options and arguments are std::invalid_argument naming them") {
                        std::invalid_argument);
   options = {};
   options.divergence_energy_factor = -1.0;
-  CHECK_THROWS_WITH_AS(ExplicitIntegrator{options},
-                       doctest::Contains("divergence_energy_factor"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(ExplicitIntegrator{options}, doctest::Contains("divergence_energy_factor"),
+                       std::invalid_argument);
   Cloth cloth = yore_test::grid_cloth(3);
   ExplicitIntegrator integrator;
   CHECK_THROWS_WITH_AS(integrator.advance(cloth, Vec3::Zero(), 0.0, 1),

@@ -1,11 +1,11 @@
 // Tests of cpp/src/geometry.cpp (cpp/include/yore/geometry.hpp): the CGAL version yore_geometry
 // was compiled with.
-#include "yore/geometry.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cctype>
 #include <string>
+
+#include "yore/geometry.hpp"
 
 TEST_CASE("cgal_version is a dotted version number") {
   const std::string version = yore::cgal_version();

@@ -1,15 +1,14 @@
 // Tests of cpp/src/growth.cpp (cpp/include/yore/growth.hpp): the falloff, the growth table,
 // a stroke's band and the rest lengths each growth rule gives.
-#include "yore/growth.hpp"
-
-#include "yore/cloth.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
+#include "yore/growth.hpp"
 
 using yore::GrowthMode;
 using yore::Positions;
@@ -79,8 +78,8 @@ TEST_CASE("the growth table: names round-trip, and an unknown name lists the val
 TEST_CASE("the band: distances, weights and tangents of a straight stroke") {
   const Setup s = straight_stroke();
   const double width = 0.5;
-  const yore::StrokeBand band = yore::stroke_band(s.cloth.positions(), s.cloth.faces(), s.path,
-                                                  s.part, s.crossed, width);
+  const yore::StrokeBand band =
+      yore::stroke_band(s.cloth.positions(), s.cloth.faces(), s.path, s.part, s.crossed, width);
   const auto& x = s.cloth.positions();
   std::vector<char> crossed_corner(static_cast<std::size_t>(x.rows()), 0);
   for (const auto f : s.crossed)
@@ -99,16 +98,17 @@ TEST_CASE("the band: distances, weights and tangents of a straight stroke") {
   }
   // the band: crossed faces and faces with a corner within width/2, sorted
   CHECK(std::is_sorted(band.faces.begin(), band.faces.end()));
-  for (const auto f : s.crossed)
-    CHECK(std::binary_search(band.faces.begin(), band.faces.end(), f));
+  for (const auto f : s.crossed) CHECK(std::binary_search(band.faces.begin(), band.faces.end(), f));
   for (std::int32_t f = 0; f < s.cloth.faces().rows(); ++f) {
     bool near = false;
-    for (int c = 0; c < 3; ++c) near |= std::abs(x(s.cloth.faces()(f, c), 1) - kLineY) < 0.5 * width;
+    for (int c = 0; c < 3; ++c)
+      near |= std::abs(x(s.cloth.faces()(f, c), 1) - kLineY) < 0.5 * width;
     const bool crossed = std::find(s.crossed.begin(), s.crossed.end(), f) != s.crossed.end();
     CHECK((near || crossed) == std::binary_search(band.faces.begin(), band.faces.end(), f));
   }
   // width 0 (the paper): weight 1 on crossed corners, 0 elsewhere, band = crossed faces
-  const yore::StrokeBand paper = yore::stroke_band(x, s.cloth.faces(), s.path, s.part, s.crossed, 0.0);
+  const yore::StrokeBand paper =
+      yore::stroke_band(x, s.cloth.faces(), s.path, s.part, s.crossed, 0.0);
   for (Eigen::Index i = 0; i < x.rows(); ++i)
     CHECK(paper.vertex_weight[i] == (crossed_corner[static_cast<std::size_t>(i)] ? 1.0 : 0.0));
   CHECK(paper.faces == s.crossed);
@@ -132,8 +132,10 @@ TEST_CASE("growth rules: L(1 + (e − 1)w) for isotropic, the projected componen
   const auto& x = s.cloth.positions();
   const auto& springs = s.cloth.springs();
   const double expansion = 1.2;
-  const yore::StrokeBand band = yore::stroke_band(x, s.cloth.faces(), s.path, s.part, s.crossed, 0.5);
-  const yore::Growth paper = yore::grow_rest_lengths(x, springs, band, GrowthMode::paper, expansion);
+  const yore::StrokeBand band =
+      yore::stroke_band(x, s.cloth.faces(), s.path, s.part, s.crossed, 0.5);
+  const yore::Growth paper =
+      yore::grow_rest_lengths(x, springs, band, GrowthMode::paper, expansion);
   CHECK(paper.springs_grown == 0);  // the paper's growth is the split's eq. (1)
   for (const GrowthMode mode : {GrowthMode::isotropic, GrowthMode::along, GrowthMode::across}) {
     CAPTURE(static_cast<int>(mode));
@@ -146,12 +148,15 @@ TEST_CASE("growth rules: L(1 + (e − 1)w) for isotropic, the projected componen
       const double middle_y = 0.5 * (x(springs.first[k], 1) + x(springs.second[k], 1));
       const double w = (band.vertex_weight[springs.first[k]] +
                         4.0 * yore::falloff_weight(std::abs(middle_y - kLineY), 0.25) +
-                        band.vertex_weight[springs.second[k]]) / 6.0;
+                        band.vertex_weight[springs.second[k]]) /
+                       6.0;
       CHECK(growth.weights[static_cast<Eigen::Index>(k)] == doctest::Approx(w).epsilon(1e-12));
       const double g = 1.0 + (expansion - 1.0) * w, rest = springs.rest_length[k];
       // the path's tangent is x everywhere: c = |d̂_x|, s = |d̂_y| on the flat cloth
-      const Eigen::RowVector3d d = (x.row(springs.second[k]) - x.row(springs.first[k])).normalized();
-      const double a = mode == GrowthMode::across ? 1.0 : g, b = mode == GrowthMode::along ? 1.0 : g;
+      const Eigen::RowVector3d d =
+          (x.row(springs.second[k]) - x.row(springs.first[k])).normalized();
+      const double a = mode == GrowthMode::across ? 1.0 : g,
+                   b = mode == GrowthMode::along ? 1.0 : g;
       const double expected = rest * std::sqrt(a * a * d.x() * d.x() + b * b * d.y() * d.y());
       // a few roundings of O(1) numbers: 1e-14 relative
       CHECK(growth.rest_lengths[static_cast<Eigen::Index>(k)] ==
@@ -168,8 +173,7 @@ TEST_CASE("growth rules: L(1 + (e − 1)w) for isotropic, the projected componen
                        doctest::Contains("expansion must be finite and > 0"),
                        std::invalid_argument);
   const yore::Cloth other = yore_test::grid_cloth(4);
-  CHECK_THROWS_WITH_AS(yore::grow_rest_lengths(other.positions(), other.springs(), band,
-                                               GrowthMode::isotropic, 1.1),
-                       doctest::Contains("the band was made for another mesh"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      yore::grow_rest_lengths(other.positions(), other.springs(), band, GrowthMode::isotropic, 1.1),
+      doctest::Contains("the band was made for another mesh"), std::invalid_argument);
 }

@@ -3,16 +3,14 @@
 // projections), cpp/src/generalized_alpha.cpp, cpp/src/tr_bdf2.cpp (and error-controlled
 // steps) — all behind cpp/include/yore/implicit.hpp — and cpp/src/integrator.cpp
 // (cpp/include/yore/integrator.hpp: the history a state file keeps and its checks).
-#include "yore/implicit.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
-
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/implicit.hpp"
 
 using yore::Cloth;
 using yore::HessianProjection;
@@ -57,9 +55,9 @@ TEST_CASE("convergence orders on the linear oscillator: BE 1, BDF2, trapezoidal 
     ImplicitMethod method;
     double order;
   };
-  for (const Case c : {Case{ImplicitMethod::backward_euler, 1}, Case{ImplicitMethod::bdf2, 2},
-                       Case{ImplicitMethod::generalized_alpha, 2},
-                       Case{ImplicitMethod::tr_bdf2, 2}}) {
+  for (const Case c :
+       {Case{ImplicitMethod::backward_euler, 1}, Case{ImplicitMethod::bdf2, 2},
+        Case{ImplicitMethod::generalized_alpha, 2}, Case{ImplicitMethod::tr_bdf2, 2}}) {
     CAPTURE(static_cast<int>(c.method));
     ImplicitOptions options = tight(c.method);
     options.rho_infinity = 1.0;
@@ -190,8 +188,8 @@ TEST_CASE("the extrapolated predictor is exact in free fall and falls back to x�
   // step, while the inertial start x̂ needs exactly one (the quadratic model is exact along a
   // uniform translation). The first step restarts with backward Euler from x̂: one iteration.
   const Vec3 gravity(0.0, 0.0, -9.81);
-  for (const ImplicitMethod method : {ImplicitMethod::bdf2, ImplicitMethod::tr_bdf2,
-                                      ImplicitMethod::generalized_alpha}) {
+  for (const ImplicitMethod method :
+       {ImplicitMethod::bdf2, ImplicitMethod::tr_bdf2, ImplicitMethod::generalized_alpha}) {
     CAPTURE(static_cast<int>(method));
     Cloth falling = yore_test::grid_cloth(4, 300.0, 30.0);
     Cloth reference = yore_test::grid_cloth(4, 300.0, 30.0);
@@ -278,8 +276,8 @@ TEST_CASE("BDF2's history round-trips: a restored run continues bit for bit") {
 TEST_CASE("the history's rows of fixed vertices are zeros, whatever the heap held (R11)") {
   // Heap blocks of the history's size, filled with NaN and freed, are what the integrator's
   // arrays are carved from next: rows no step writes must still be defined.
-  for (const ImplicitMethod method : {ImplicitMethod::tr_bdf2, ImplicitMethod::generalized_alpha,
-                                      ImplicitMethod::bdf2}) {
+  for (const ImplicitMethod method :
+       {ImplicitMethod::tr_bdf2, ImplicitMethod::generalized_alpha, ImplicitMethod::bdf2}) {
     CAPTURE(static_cast<int>(method));
     Cloth cloth = yore_test::grid_cloth(5, 300.0, 30.0, 0.02, 0.1);
     cloth.fix({20, 24});

@@ -1,14 +1,13 @@
 // Tests of cpp/src/linear_solver.cpp (cpp/include/yore/linear_solver.hpp): the three backends
 // behind one interface on SPD and indefinite matrices, the name tables, the symmetric product
 // and preconditioned CG.
-#include "yore/linear_solver.hpp"
-
-#include "yore/errors.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/errors.hpp"
+#include "yore/linear_solver.hpp"
 
 using yore::LinearSolverOptions;
 
@@ -17,7 +16,8 @@ namespace {
 constexpr int kSize = 12;
 
 Eigen::VectorXd solve_with(const std::string& backend, const Eigen::MatrixXd& matrix,
-                           const Eigen::VectorXd& rhs, yore::SolverStatistics* statistics = nullptr) {
+                           const Eigen::VectorXd& rhs,
+                           yore::SolverStatistics* statistics = nullptr) {
   LinearSolverOptions options;
   options.solver = backend;
   auto solver = yore::make_linear_solver(options);
@@ -48,8 +48,8 @@ TEST_CASE("every backend solves an SPD system and rejects an indefinite one") {
     // an indefinite matrix (for PCG: one with a negative diagonal, all it can tell)
     const Eigen::MatrixXd indefinite =
         spd - (backend == "pcg" ? 100.0 : 40.0) * Eigen::MatrixXd::Identity(kSize, kSize);
-    CHECK_THROWS_WITH_AS(solve_with(backend, indefinite, b), doctest::Contains("not positive definite"),
-                         yore::NotPositiveDefinite);
+    CHECK_THROWS_WITH_AS(solve_with(backend, indefinite, b),
+                         doctest::Contains("not positive definite"), yore::NotPositiveDefinite);
   }
   CHECK(yore::linear_solver_backends() == std::vector<std::string>{"cholmod", "eigen-ldlt", "pcg"});
 }
@@ -79,9 +79,10 @@ TEST_CASE("the name tables: orderings and factorizations parse, unknown names li
     CHECK(yore::parse_factor_kind(name) == kind);
   CHECK(yore::parse_ordering("amd") == yore::Ordering::amd);
   CHECK(yore::parse_factor_kind("simplicial") == yore::FactorKind::simplicial);
-  CHECK_THROWS_WITH_AS(yore::parse_ordering("colamd"),
-                       doctest::Contains("unknown ordering 'colamd'; valid: amd, metis, nesdis, auto, natural"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      yore::parse_ordering("colamd"),
+      doctest::Contains("unknown ordering 'colamd'; valid: amd, metis, nesdis, auto, natural"),
+      std::invalid_argument);
   CHECK_THROWS_WITH_AS(yore::parse_factor_kind("dense"), doctest::Contains("'dense'; valid:"),
                        std::invalid_argument);
 }
@@ -89,9 +90,10 @@ TEST_CASE("the name tables: orderings and factorizations parse, unknown names li
 TEST_CASE("make_linear_solver refuses unknown backends and orderings a backend cannot do") {
   LinearSolverOptions options;
   options.solver = "umfpack";
-  CHECK_THROWS_WITH_AS(yore::make_linear_solver(options),
-                       doctest::Contains("unknown solver 'umfpack'; valid: cholmod, eigen-ldlt, pcg"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      yore::make_linear_solver(options),
+      doctest::Contains("unknown solver 'umfpack'; valid: cholmod, eigen-ldlt, pcg"),
+      std::invalid_argument);
   options.solver = "eigen-ldlt";
   options.ordering = yore::Ordering::natural;
   CHECK_THROWS_WITH_AS(yore::make_linear_solver(options), doctest::Contains("AMD only"),
@@ -145,7 +147,8 @@ TEST_CASE("preconditioned CG: converges to the tolerance, stops at the iteration
   CHECK((matrix * x - b).norm() <= 1e-12 * b.norm() * (1 + 1e-6));
   // a cap of one iteration cannot reach 1e-12 from zero
   Eigen::VectorXd y = Eigen::VectorXd::Zero(kSize);
-  CHECK(yore::preconditioned_cg(pattern, values.data(), b, y, jacobi, 1e-12, 1, work, converged) == 1);
+  CHECK(yore::preconditioned_cg(pattern, values.data(), b, y, jacobi, 1e-12, 1, work, converged) ==
+        1);
   CHECK_FALSE(converged);
   // starting at the solution: no iteration at all
   Eigen::VectorXd exact = matrix.ldlt().solve(b);

@@ -1,14 +1,13 @@
 // Tests of cpp/src/local_global.cpp (cpp/include/yore/local_global.hpp): Liu et al.'s
 // prefactored backward Euler — it minimises the Newton integrator's objective, decreases it
 // every iteration, factors once per (topology, dt), and refuses what it cannot model.
-#include "yore/local_global.hpp"
-
-#include "yore/implicit.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/implicit.hpp"
+#include "yore/local_global.hpp"
 
 using yore::Cloth;
 using yore::LocalGlobalIntegrator;
@@ -92,15 +91,15 @@ TEST_CASE("bad options, and a membrane, are refused by name") {
                        std::invalid_argument);
   options = {};
   options.chebyshev_rho = 1.0;
-  CHECK_THROWS_WITH_AS(LocalGlobalIntegrator{options}, doctest::Contains("chebyshev_rho must be in [0, 1)"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(LocalGlobalIntegrator{options},
+                       doctest::Contains("chebyshev_rho must be in [0, 1)"), std::invalid_argument);
   options = {};
   options.tolerance = -1.0;
-  CHECK_THROWS_WITH_AS(LocalGlobalIntegrator{options}, doctest::Contains("tolerance must be finite"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(LocalGlobalIntegrator{options},
+                       doctest::Contains("tolerance must be finite"), std::invalid_argument);
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
-  Cloth membrane(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 0.0, 0.0, 0.0,
-                 0.0, yore::BendingModel::springs, 0.0, {100.0, 0.3});
+  Cloth membrane(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 0.0, 0.0, 0.0, 0.0,
+                 yore::BendingModel::springs, 0.0, {100.0, 0.3});
   const Positions start = membrane.positions();
   LocalGlobalIntegrator integrator;
   CHECK_THROWS_WITH_AS(integrator.advance(membrane, Vec3::Zero(), 0.01, 1),

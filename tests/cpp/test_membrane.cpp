@@ -1,18 +1,16 @@
 // Tests of cpp/src/membrane.cpp (cpp/include/yore/membrane.hpp): St. Venant–Kirchhoff
 // constant-strain triangles — rest layout, closed-form energies, derivatives against finite
 // differences, the filtered Hessian's definiteness, and the cloth's membrane wiring.
-#include "yore/membrane.hpp"
-
-#include "yore/cloth.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
+#include "yore/membrane.hpp"
 
 using yore::Mat9;
 using yore::TransverseFilter;
@@ -47,8 +45,8 @@ Vec9 stack(const Vec3& a, const Vec3& b, const Vec3& c) {
   return out;
 }
 
-double energy_at(const Face& face, const Vec9& x, Vec9* gradient = nullptr,
-                 Mat9* hessian = nullptr, TransverseFilter filter = TransverseFilter::exact) {
+double energy_at(const Face& face, const Vec9& x, Vec9* gradient = nullptr, Mat9* hessian = nullptr,
+                 TransverseFilter filter = TransverseFilter::exact) {
   const auto m = material();
   return yore::membrane_face(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), face.rest, m.mu(),
                              m.lambda(), gradient, hessian, filter);
@@ -79,8 +77,8 @@ TEST_CASE("the rest triangle from edge lengths: Heron's area, an inverse of its 
   // a sliver whose sides nearly break the triangle inequality gets the minimum height
   const yore::MembraneRest sliver = yore::membrane_rest(1.0, 1.0, 1.99999);
   CHECK(sliver.clamped);
-  CHECK(sliver.area == doctest::Approx(0.5 * 1.0 * yore::kMembraneMinRestHeight * 1.99999)
-                           .epsilon(1e-14));
+  CHECK(sliver.area ==
+        doctest::Approx(0.5 * 1.0 * yore::kMembraneMinRestHeight * 1.99999).epsilon(1e-14));
 }
 
 TEST_CASE("zero energy and force at rest and after any rigid motion") {
@@ -178,8 +176,8 @@ TEST_CASE("under compression the filtered Hessians are positive semidefinite, ex
 
 TEST_CASE("a membrane cloth: 0 N/m structural springs, summed energy and gradient, status") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3, 0.4, 0.4);
-  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 0.0, 0.0,
-                    0.0, 0.0, yore::BendingModel::springs, 0.0, material());
+  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 0.0, 0.0, 0.0,
+                    0.0, yore::BendingModel::springs, 0.0, material());
   REQUIRE(cloth.has_membrane());
   for (std::size_t k = 0; k < cloth.springs().size(); ++k)
     CHECK(cloth.springs().stiffness[k] == 0.0);
@@ -206,9 +204,9 @@ TEST_CASE("a membrane cloth: 0 N/m structural springs, summed energy and gradien
     yore::Positions plus = x, minus = x;
     plus(4, c) += 1e-7;
     minus(4, c) -= 1e-7;
-    const double numeric =
-        (yore::membrane_energy(elements, material(), plus) -
-         yore::membrane_energy(elements, material(), minus)) / 2e-7;
+    const double numeric = (yore::membrane_energy(elements, material(), plus) -
+                            yore::membrane_energy(elements, material(), minus)) /
+                           2e-7;
     CHECK(std::abs(numeric - gradient(4, c)) < tolerance);
   }
   // status: rest area = the grid's, current area larger; crushing a corner face collapses it
@@ -253,7 +251,9 @@ yore_test::Mesh irregular_mesh(int nx, int ny, double width, double height) {
   yore_test::Mesh mesh = yore_test::grid_mesh(nx, ny, width, height);
   std::uint64_t seed = 0x2545F4914F6CDD1DULL;
   auto next = [&]() {
-    seed ^= seed >> 12; seed ^= seed << 25; seed ^= seed >> 27;
+    seed ^= seed >> 12;
+    seed ^= seed << 25;
+    seed ^= seed >> 27;
     return static_cast<double>((seed * 0x2545F4914F6CDD1DULL) >> 11) * 0x1.0p-53 - 0.5;
   };
   for (int j = 1; j + 1 < ny; ++j) {
@@ -300,8 +300,7 @@ TEST_CASE("an element of three corners is the constant-strain face") {
                                  true) == doctest::Approx(energy).epsilon(1e-13));
     const double scale = hessian.cwiseAbs().maxCoeff();
     for (int p = 0; p < 3; ++p) {
-      CHECK((work.gradient[p] - gradient.segment<3>(3 * p)).norm() <=
-            1e-12 * gradient.norm());
+      CHECK((work.gradient[p] - gradient.segment<3>(3 * p)).norm() <= 1e-12 * gradient.norm());
       for (int q = 0; q <= p; ++q) {
         CHECK((work.blocks[p * (p + 1) / 2 + q] - hessian.block<3, 3>(3 * p, 3 * q))
                   .cwiseAbs()
@@ -406,8 +405,8 @@ TEST_CASE("the smoothed strain's gradient and blocks match finite differences") 
       yore::membrane_element(elements, e, plus, m.mu(), m.lambda(), TransverseFilter::exact, work,
                              true, false);
       const std::vector<Vec3> up(work.gradient.begin(), work.gradient.begin() + corners);
-      yore::membrane_element(elements, e, minus, m.mu(), m.lambda(), TransverseFilter::exact,
-                             work, true, false);
+      yore::membrane_element(elements, e, minus, m.mu(), m.lambda(), TransverseFilter::exact, work,
+                             true, false);
       for (std::size_t p = 0; p < corners; ++p) {
         const Vec3 numeric = (up[p] - work.gradient[p]) / (2 * h);
         const Vec3 exact = p >= q ? Vec3(blocks[p * (p + 1) / 2 + q].col(c))
@@ -421,9 +420,8 @@ TEST_CASE("the smoothed strain's gradient and blocks match finite differences") 
 TEST_CASE("rest lengths set the smoothed metric: a sheet grown by 1.1 rests at 1.1 its size") {
   const yore_test::Mesh mesh = irregular_mesh(7, 6, 0.3, 0.25);
   yore::Cloth cloth = smoothed_cloth(mesh, material());
-  const Eigen::VectorXd rest =
-      Eigen::Map<const Eigen::VectorXd>(cloth.springs().rest_length.data(),
-                                        static_cast<Eigen::Index>(cloth.springs().size()));
+  const Eigen::VectorXd rest = Eigen::Map<const Eigen::VectorXd>(
+      cloth.springs().rest_length.data(), static_cast<Eigen::Index>(cloth.springs().size()));
   cloth.set_rest_lengths(1.1 * rest);
   cloth.set_positions(1.1 * mesh.positions);
   // the stress-free state of the new metric (round-off only, against 0.4 J per 1 % strain)

@@ -1,9 +1,5 @@
 // Tests of cpp/src/mesh.cpp (cpp/include/yore/mesh.hpp): mesh validation, the connectivity the
 // springs are wired from (paper Fig. 1), lumped vertex areas and Heron's formula.
-#include "yore/mesh.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -11,6 +7,9 @@
 #include <limits>
 #include <set>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/mesh.hpp"
 
 using yore::Faces;
 using yore::Positions;

@@ -1,15 +1,14 @@
 // Tests of cpp/src/pattern_mesh.cpp (cpp/include/yore/pattern_mesh.hpp): CGAL's constrained
 // Delaunay meshing of sewing patterns — a valid, counter-clockwise mesh of the region's area,
 // within the asked edge length and angle, around holes, and errors naming the problem.
-#include "yore/pattern_mesh.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/pattern_mesh.hpp"
 
 using yore::PatternMeshOptions;
 using yore::Polygon2;
@@ -39,8 +38,8 @@ Measures measure(const yore::PatternMesh& mesh) {
     for (int c = 0; c < 3; ++c) {
       const Eigen::Vector2d a = p[(c + 1) % 3] - p[c], b = p[(c + 2) % 3] - p[c];
       m.longest = std::max(m.longest, a.norm());
-      m.smallest_angle = std::min(m.smallest_angle,
-                                  std::acos(a.dot(b) / (a.norm() * b.norm())) * 180.0 / M_PI);
+      m.smallest_angle =
+          std::min(m.smallest_angle, std::acos(a.dot(b) / (a.norm() * b.norm())) * 180.0 / M_PI);
     }
   }
   return m;
@@ -92,9 +91,10 @@ TEST_CASE("a hole is left out: an annulus of the right area") {
   for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
     const Eigen::RowVector2d centroid =
         (mesh.points.row(mesh.faces(f, 0)) + mesh.points.row(mesh.faces(f, 1)) +
-         mesh.points.row(mesh.faces(f, 2))) / 3.0;
-    const bool in_hole = centroid.x() > 0.3 && centroid.x() < 0.7 && centroid.y() > 0.3 &&
-                         centroid.y() < 0.6;
+         mesh.points.row(mesh.faces(f, 2))) /
+        3.0;
+    const bool in_hole =
+        centroid.x() > 0.3 && centroid.x() < 0.7 && centroid.y() > 0.3 && centroid.y() < 0.6;
     CHECK_FALSE(in_hole);
   }
 }
@@ -116,7 +116,8 @@ TEST_CASE("bad patterns and options are std::invalid_argument naming the problem
   nan(2, 0) = std::nan("");
   refuses(nan, {}, "is not finite");
   refuses(two, {}, "the outline has 2 distinct points");
-  refuses(rectangle(0, 0, 1, 1), {rectangle(0.5, 0.5, 1.5, 0.8)}, "hole 0 is not inside the outline");
+  refuses(rectangle(0, 0, 1, 1), {rectangle(0.5, 0.5, 1.5, 0.8)},
+          "hole 0 is not inside the outline");
   // a hole whose corners are inside a non-convex outline but whose edge leaves it
   Polygon2 notch(7, 2);
   notch << 0, 0, 1, 0, 1, 1, 0.6, 1, 0.5, 0.4, 0.4, 1, 0, 1;  // a V cut down to (0.5, 0.4)

@@ -1,18 +1,16 @@
 // Tests of cpp/src/quadratic_bending.cpp (cpp/include/yore/quadratic_bending.hpp): Bergou et
 // al.'s constant matrix Q — symmetry, definiteness, null space, the closed-form energy of a
 // folded hinge, the gradient κQx, the free-entry walk, and the Cloth's use of it.
-#include "yore/quadratic_bending.hpp"
-
-#include "yore/cloth.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
+#include "yore/quadratic_bending.hpp"
 
 using yore::Positions;
 
@@ -59,7 +57,8 @@ TEST_CASE("Q is symmetric PSD, kills translations and planar affine maps; CSR as
   const Eigen::MatrixXd Q = dense_q(q);
   const double scale = Q.norm();
   CHECK((Q - Q.transpose()).norm() == 0.0);
-  const Eigen::VectorXd eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues();
+  const Eigen::VectorXd eigenvalues =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues();
   CHECK(eigenvalues[0] > -1e-12 * scale);  // PSD up to round-off
   // Q x = 0 for every x affine in the rest plane (constants, x, y): the flat states
   CHECK((Q * Eigen::VectorXd::Ones(16)).norm() < 1e-12 * scale);
@@ -68,9 +67,10 @@ TEST_CASE("Q is symmetric PSD, kills translations and planar affine maps; CSR as
   // so a flat sheet in any rigid or in-plane affine pose has no bending energy
   Eigen::Matrix3d a;
   a << 1.3, 0.2, 0.0, -0.4, 0.9, 0.0, 0.0, 0.0, 1.0;
-  const Eigen::Matrix3d r = Eigen::AngleAxisd(1.1, Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix();
-  const Positions posed = (mesh.positions * (r * a).transpose()).rowwise() +
-                          Eigen::RowVector3d(0.3, 0.1, -2.0);
+  const Eigen::Matrix3d r =
+      Eigen::AngleAxisd(1.1, Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix();
+  const Positions posed =
+      (mesh.positions * (r * a).transpose()).rowwise() + Eigen::RowVector3d(0.3, 0.1, -2.0);
   CHECK(yore::quadratic_bending_energy(q, 2.0, posed) < 1e-12);
   // fold_energy is Σ 2|e|²/(A₀ + A₁)
   CHECK(q.fold_energy > 0.0);
@@ -78,7 +78,8 @@ TEST_CASE("Q is symmetric PSD, kills translations and planar affine maps; CSR as
 
 TEST_CASE("a folded hinge has E = ½ κ (2|e| sin(θ/2))² / (A₀ + A₁)") {
   const double h = 0.4, kappa = 0.3;
-  const yore::QuadraticBendingMatrix q = yore::quadratic_bending_matrix(hinge(h, 0.0), hinge_faces());
+  const yore::QuadraticBendingMatrix q =
+      yore::quadratic_bending_matrix(hinge(h, 0.0), hinge_faces());
   REQUIRE(q.hinge_count == 1);
   const double areas = 2 * (0.5 * h);
   for (const double theta : {0.3, 1.0, M_PI / 2}) {
@@ -113,7 +114,8 @@ TEST_CASE("the gradient κQx is the finite difference of the energy, returned wi
       plus(i, c) += step;
       minus(i, c) -= step;
       const double numeric = (yore::quadratic_bending_energy(q, kappa, plus) -
-                              yore::quadratic_bending_energy(q, kappa, minus)) / (2 * step);
+                              yore::quadratic_bending_energy(q, kappa, minus)) /
+                             (2 * step);
       CHECK(std::abs(numeric - gradient(i, c)) < tolerance);
     }
 }
@@ -133,21 +135,22 @@ TEST_CASE("for_each_free_entry visits the upper pairs of free vertices once") {
           (i == j || Q(i, j) != 0.0))
         ++expected;
   int visited = 0;
-  yore::for_each_free_entry(q, index, [&](std::int32_t k, std::int32_t i, std::int32_t j,
-                                          std::int32_t a, std::int32_t b) {
-    ++visited;
-    CHECK(j >= i);
-    CHECK(a == index[static_cast<std::size_t>(i)]);
-    CHECK(b == index[static_cast<std::size_t>(j)]);
-    CHECK(q.values[static_cast<std::size_t>(k)] == Q(i, j));
-  });
+  yore::for_each_free_entry(
+      q, index,
+      [&](std::int32_t k, std::int32_t i, std::int32_t j, std::int32_t a, std::int32_t b) {
+        ++visited;
+        CHECK(j >= i);
+        CHECK(a == index[static_cast<std::size_t>(i)]);
+        CHECK(b == index[static_cast<std::size_t>(j)]);
+        CHECK(q.values[static_cast<std::size_t>(k)] == Q(i, j));
+      });
   CHECK(visited == expected);
 }
 
 TEST_CASE("a quadratic-bending cloth: no bending springs, its energy term is Q's") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
-  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 100.0, 0.0,
-                    0.0, 0.0, yore::BendingModel::quadratic, 0.05);
+  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 100.0, 0.0, 0.0,
+                    0.0, yore::BendingModel::quadratic, 0.05);
   CHECK(cloth.has_quadratic_bending());
   for (std::size_t k = 0; k < cloth.springs().size(); ++k)
     CHECK(cloth.springs().kind[k] == yore::SpringKind::structural);
@@ -188,7 +191,8 @@ TEST_CASE("fitted Q: symmetric PSD, exact for quadratic fields, affine-free, ref
   const Eigen::MatrixXd Q = dense_q(q);
   const double scale = Q.norm();
   CHECK((Q - Q.transpose()).norm() == 0.0);
-  const Eigen::VectorXd eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues();
+  const Eigen::VectorXd eigenvalues =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues();
   CHECK(eigenvalues[0] > -1e-12 * scale);
   CHECK(eigenvalues[3] > 1e-9 * scale);  // only the three affine fields are free
   CHECK((Q * Eigen::VectorXd::Ones(42)).norm() < 1e-10 * scale);

@@ -1,11 +1,10 @@
 // Tests of cpp/src/quasi_newton.cpp (ImplicitMinimizer::lbfgs of cpp/include/yore/implicit.hpp):
 // L-BFGS with the constant spring matrix as its initial Hessian minimises the same objective
 // as Newton's method, for backward Euler and BDF2.
-#include "yore/implicit.hpp"
+#include <doctest/doctest.h>
 
 #include "helpers.hpp"
-
-#include <doctest/doctest.h>
+#include "yore/implicit.hpp"
 
 using yore::Cloth;
 using yore::ImplicitIntegrator;

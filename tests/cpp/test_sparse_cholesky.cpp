@@ -1,18 +1,16 @@
 // Tests of cpp/src/sparse_cholesky.cpp (cpp/include/yore/sparse_cholesky.hpp): CHOLMOD behind
 // analyze / factorize / solve — solutions against Eigen's dense Cholesky, the reuse of one
 // analysis, given permutations, many right-hand sides, and the errors.
-#include "yore/sparse_cholesky.hpp"
-
-#include "yore/errors.hpp"
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <Eigen/Cholesky>
-
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/errors.hpp"
+#include "yore/sparse_cholesky.hpp"
 
 using yore::FactorKind;
 using yore::Ordering;
@@ -125,7 +123,8 @@ TEST_CASE("a given permutation, many right-hand sides at once, simplicial solves
                        doctest::Contains("not a permutation"), std::invalid_argument);
 }
 
-TEST_CASE("an indefinite matrix is NotPositiveDefinite naming the column; misuse is a logic error") {
+TEST_CASE(
+    "an indefinite matrix is NotPositiveDefinite naming the column; misuse is a logic error") {
   Eigen::MatrixXd a = grid_laplacian(3, 3, 0.1);
   a(4, 4) = -1.0;  // column 4 of the natural order
   std::vector<double> values;
@@ -176,8 +175,9 @@ TEST_CASE("orderings of 3×3 blocks: computed on the vertex graph, they keep eac
       Eigen::VectorXd x(216);
       solver.solve(b.data(), x.data());
       CHECK((x - expected).norm() < 1e-12 * expected.norm());
-      CHECK(solver.statistics().ordering ==
-            (ordering == Ordering::amd ? "amd" : ordering == Ordering::metis ? "metis" : "nesdis"));
+      CHECK(solver.statistics().ordering == (ordering == Ordering::amd     ? "amd"
+                                             : ordering == Ordering::metis ? "metis"
+                                                                           : "nesdis"));
       const std::vector<std::int32_t> permutation = solver.permutation();
       if (block_size == 3) {
         // the three unknowns of a vertex stay together, in their order
@@ -202,8 +202,8 @@ TEST_CASE("the automatic ordering: AMD on small systems, nested dissection on la
         Ordering::amd);
   CHECK(yore::resolve_ordering(Ordering::automatic, yore::kNestedDissectionFromVertices) ==
         Ordering::nesdis);
-  for (const Ordering ordering : {Ordering::amd, Ordering::metis, Ordering::nesdis,
-                                  Ordering::natural}) {
+  for (const Ordering ordering :
+       {Ordering::amd, Ordering::metis, Ordering::nesdis, Ordering::natural}) {
     CHECK(yore::resolve_ordering(ordering, 1 << 20) == ordering);
   }
   CHECK(yore::parse_ordering("auto") == Ordering::automatic);

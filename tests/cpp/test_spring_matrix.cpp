@@ -1,13 +1,12 @@
 // Tests of cpp/src/spring_matrix.cpp (cpp/include/yore/spring_matrix.hpp): the constant scalar
 // matrix Q of the prefactored methods, its pattern over the free vertices, and the checksum
 // that decides when it must be refactored.
-#include "yore/spring_matrix.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
+
+#include "helpers.hpp"
+#include "yore/spring_matrix.hpp"
 
 using yore::Cloth;
 
@@ -60,8 +59,8 @@ TEST_CASE("Q over the free vertices is M/h² + drag M/h + Σ (k + c/h) AᵀA, SP
   // a spring to a fixed vertex has no off-diagonal slot
   const auto& s = cloth.springs();
   for (std::size_t k = 0; k < s.size(); ++k)
-    CHECK((structure.spring_slot[k] < 0) == (s.first[k] == 0 || s.second[k] == 0 ||
-                                             s.first[k] == 3 || s.second[k] == 3));
+    CHECK((structure.spring_slot[k] < 0) ==
+          (s.first[k] == 0 || s.second[k] == 0 || s.first[k] == 3 || s.second[k] == 3));
   const double h = 0.01;
   std::vector<double> values;
   yore::fill_scalar_spring_matrix(cloth, h, structure, values);
@@ -73,8 +72,8 @@ TEST_CASE("Q over the free vertices is M/h² + drag M/h + Σ (k + c/h) AᵀA, SP
 
 TEST_CASE("quadratic bending enters Q as κ Q_bending") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(4, 4);
-  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(16, 0.01), 300.0, 0.0, 0.0,
-              0.0, yore::BendingModel::quadratic, 0.02);
+  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(16, 0.01), 300.0, 0.0, 0.0, 0.0,
+              yore::BendingModel::quadratic, 0.02);
   cloth.fix({0});
   yore::ScalarSpringPattern structure;
   yore::build_scalar_spring_pattern(cloth, structure);
@@ -89,10 +88,14 @@ TEST_CASE("quadratic bending enters Q as κ Q_bending") {
 TEST_CASE("the material checksum follows stiffness, damping and drag, not positions") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
   const Eigen::VectorXd masses = Eigen::VectorXd::Constant(9, 0.01);
-  const double base = yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.2));
-  CHECK(yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses, 101, 10, 0.1, 0.2)) != base);
-  CHECK(yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.2, 0.2)) != base);
-  CHECK(yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.3)) != base);
+  const double base =
+      yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.2));
+  CHECK(yore::spring_material_checksum(
+            Cloth(mesh.positions, mesh.faces, masses, 101, 10, 0.1, 0.2)) != base);
+  CHECK(yore::spring_material_checksum(
+            Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.2, 0.2)) != base);
+  CHECK(yore::spring_material_checksum(
+            Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.3)) != base);
   Cloth moved(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.2);
   moved.set_positions(mesh.positions * 2.0);
   CHECK(yore::spring_material_checksum(moved) == base);

@@ -1,14 +1,13 @@
 // Tests of cpp/src/springs.cpp (cpp/include/yore/springs.hpp): the per-spring kernels (energy,
 // gradient, Hessian, damping force) and the SpringSet structure of arrays.
-#include "yore/springs.hpp"
-
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
+
+#include "yore/springs.hpp"
 
 using yore::Mat3;
 using yore::TransverseFilter;
@@ -80,7 +79,8 @@ TEST_CASE("zero force at rest, translation invariance, zero-length convention") 
   // the kernels see xi − xj only: shifting both ends changes the result by round-off of the
   // difference (|shift| ε ≈ 1e-15), far below 1e-12
   CHECK((yore::spring_gradient(kXi + shift, kXj + shift, 0.7, kStiffness) -
-         yore::spring_gradient(kXi, kXj, 0.7, kStiffness)).norm() < 1e-12);
+         yore::spring_gradient(kXi, kXj, 0.7, kStiffness))
+            .norm() < 1e-12);
   CHECK(std::abs(yore::spring_energy(kXi + shift, kXj + shift, 0.7, kStiffness) -
                  yore::spring_energy(kXi, kXj, 0.7, kStiffness)) < 1e-12);
   // at zero length: no gradient, and the Hessian k·I, as documented
@@ -111,18 +111,18 @@ TEST_CASE("Hessian eigenvalues: k along the spring, k(1 − L/ℓ) across, filte
   SUBCASE("compressed: exact is indefinite, clamp is PSD with 0 across, abs takes |λ|") {
     const double rest = 2.0, transverse = kStiffness * (1 - rest / length);  // < 0
     REQUIRE(transverse < 0.0);
-    const Vec3 exact = eigenvalues(
-        yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::exact));
+    const Vec3 exact =
+        eigenvalues(yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::exact));
     CHECK(exact[0] == doctest::Approx(transverse).epsilon(1e-12));
-    const Vec3 clamped = eigenvalues(
-        yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::clamp));
+    const Vec3 clamped =
+        eigenvalues(yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::clamp));
     CHECK(std::abs(clamped[0]) < tol);
     CHECK(std::abs(clamped[1]) < tol);
     CHECK(clamped[2] == doctest::Approx(kStiffness).epsilon(1e-12));
     CHECK(yore::spring_hessian(kXi, kXj, rest, kStiffness, true) ==
           yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::clamp));
-    const Vec3 absolute = eigenvalues(
-        yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::abs));
+    const Vec3 absolute =
+        eigenvalues(yore::spring_hessian(kXi, kXj, rest, kStiffness, TransverseFilter::abs));
     CHECK(absolute[0] == doctest::Approx(-transverse).epsilon(1e-12));
     CHECK(absolute[1] == doctest::Approx(-transverse).epsilon(1e-12));
   }
@@ -175,8 +175,8 @@ TEST_CASE("SpringSet adds, keeps and clears all of its arrays together") {
   CHECK(springs.reference_length[1] == 2.5);
   springs.keep({1, 0, 1});
   REQUIRE(springs.size() == 2);
-  for (const auto* array : {&springs.rest_length, &springs.stiffness, &springs.damping,
-                            &springs.reference_length})
+  for (const auto* array :
+       {&springs.rest_length, &springs.stiffness, &springs.damping, &springs.reference_length})
     CHECK(array->size() == 2);
   CHECK(springs.first == std::vector<std::int32_t>{0, 2});
   CHECK(springs.second == std::vector<std::int32_t>{1, 3});

@@ -1,13 +1,12 @@
 // Tests of cpp/src/stable_step.cpp (cpp/include/yore/cloth.hpp): symplectic Euler's step limit
 // and the stable-step estimates (Gershgorin, Lanczos at the state and for every state).
-#include "yore/cloth.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <limits>
+
+#include "helpers.hpp"
+#include "yore/cloth.hpp"
 
 using yore::Cloth;
 using yore::Edges;

@@ -1,16 +1,15 @@
 // Tests of cpp/src/stroke.cpp (cpp/include/yore/stroke.hpp): closest-point and ray queries,
 // tracing a stroke by closest points and by camera rays (the two must agree), clipping,
 // polylines and the sample limit.
-#include "yore/stroke.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <set>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/stroke.hpp"
 
 using yore::Positions;
 
@@ -59,14 +58,17 @@ TEST_CASE("closest points and ray hits on a flat grid") {
   CHECK(hit.barycentric.minCoeff() >= -1e-12);
   CHECK((at(mesh, hit.face, hit.barycentric) - Eigen::Vector3d(0.3, 0.6, 0.0)).norm() < 1e-12);
   // a point beside the sheet goes to its border
-  CHECK(locator.closest(Eigen::Vector3d(1.5, 0.5, 0.0)).distance == doctest::Approx(0.5).epsilon(1e-12));
+  CHECK(locator.closest(Eigen::Vector3d(1.5, 0.5, 0.0)).distance ==
+        doctest::Approx(0.5).epsilon(1e-12));
   // a ray down from above (direction not unit) hits where it pierces the plane
   const auto ray = locator.first_hit(Eigen::Vector3d(0.7, 0.2, 2.0), Eigen::Vector3d(0, 0, -4.0));
   REQUIRE(ray.has_value());
   CHECK(ray->distance == doctest::Approx(2.0).epsilon(1e-12));
   CHECK((at(mesh, ray->face, ray->barycentric) - Eigen::Vector3d(0.7, 0.2, 0.0)).norm() < 1e-12);
-  CHECK_FALSE(locator.first_hit(Eigen::Vector3d(0.7, 0.2, 2.0), Eigen::Vector3d(0, 0, 1)).has_value());
-  CHECK_FALSE(locator.first_hit(Eigen::Vector3d(3.0, 0.2, 2.0), Eigen::Vector3d(0, 0, -1)).has_value());
+  CHECK_FALSE(
+      locator.first_hit(Eigen::Vector3d(0.7, 0.2, 2.0), Eigen::Vector3d(0, 0, 1)).has_value());
+  CHECK_FALSE(
+      locator.first_hit(Eigen::Vector3d(3.0, 0.2, 2.0), Eigen::Vector3d(0, 0, -1)).has_value());
 }
 
 TEST_CASE("a straight stroke crosses exactly the faces under it, closest points and rays alike") {
@@ -74,7 +76,8 @@ TEST_CASE("a straight stroke crosses exactly the faces under it, closest points 
   Positions stroke(2, 3);
   stroke << 0.03, kLineY, 0.0, 0.97, kLineY, 0.0;
   const double spacing = 0.03;
-  const yore::StrokeTrace closest = yore::trace_closest(mesh.positions, mesh.faces, stroke, 0.05, spacing);
+  const yore::StrokeTrace closest =
+      yore::trace_closest(mesh.positions, mesh.faces, stroke, 0.05, spacing);
   CHECK(crossed(closest) == faces_crossed_by_line(mesh, 0.03, 0.97));
   CHECK(closest.missed_samples == 0);
   CHECK(closest.samples >= static_cast<std::int64_t>(0.94 / spacing));
@@ -82,7 +85,8 @@ TEST_CASE("a straight stroke crosses exactly the faces under it, closest points 
   for (const auto& crossing : closest.crossings) {
     CHECK(crossing.samples >= 1);
     CHECK(crossing.barycentric.minCoeff() >= -1e-12);
-    CHECK(at(mesh, crossing.face, crossing.barycentric).y() == doctest::Approx(kLineY).epsilon(1e-12));
+    CHECK(at(mesh, crossing.face, crossing.barycentric).y() ==
+          doctest::Approx(kLineY).epsilon(1e-12));
   }
   double previous_x = -1.0;
   for (const auto& point : closest.path) {
@@ -98,10 +102,10 @@ TEST_CASE("a straight stroke crosses exactly the faces under it, closest points 
   // a pinhole camera 2 m above, pixel (px, py) looking at (0.01 px, 0.01 py, 0)
   Positions pixels(2, 3);
   pixels << 3, 45, 0, 97, 45, 0;
-  const yore::StrokeTrace rays = yore::trace_rays(
-      mesh.positions, mesh.faces, pixels, Eigen::Vector3d(0.5, 0.5, 2.0),
-      Eigen::Vector3d(-0.25, -0.25, -1.0), Eigen::Vector3d(0.005, 0, 0), Eigen::Vector3d(0, 0.005, 0),
-      1.0);
+  const yore::StrokeTrace rays =
+      yore::trace_rays(mesh.positions, mesh.faces, pixels, Eigen::Vector3d(0.5, 0.5, 2.0),
+                       Eigen::Vector3d(-0.25, -0.25, -1.0), Eigen::Vector3d(0.005, 0, 0),
+                       Eigen::Vector3d(0, 0.005, 0), 1.0);
   CHECK(crossed(rays) == crossed(closest));
   CHECK(rays.missed_samples == 0);
 }
@@ -111,14 +115,17 @@ TEST_CASE("pick_rays: each pixel's first hit, as trace_rays casts its rays") {
   Positions pixels(3, 3);
   pixels << 70, 20, 0, 33, 81, 0, 150, 20, 0;  // the last one looks past the sheet
   // the camera of the test above: pixel (px, py) sees (0.01 px, 0.01 py, 0)
-  const auto hits = yore::pick_rays(mesh.positions, mesh.faces, pixels, Eigen::Vector3d(0.5, 0.5, 2.0),
-                                    Eigen::Vector3d(-0.25, -0.25, -1.0),
-                                    Eigen::Vector3d(0.005, 0, 0), Eigen::Vector3d(0, 0.005, 0));
+  const auto hits =
+      yore::pick_rays(mesh.positions, mesh.faces, pixels, Eigen::Vector3d(0.5, 0.5, 2.0),
+                      Eigen::Vector3d(-0.25, -0.25, -1.0), Eigen::Vector3d(0.005, 0, 0),
+                      Eigen::Vector3d(0, 0.005, 0));
   REQUIRE(hits.size() == 3);
   REQUIRE(hits[0].has_value());
   REQUIRE(hits[1].has_value());
-  CHECK((at(mesh, hits[0]->face, hits[0]->barycentric) - Eigen::Vector3d(0.7, 0.2, 0)).norm() < 1e-12);
-  CHECK((at(mesh, hits[1]->face, hits[1]->barycentric) - Eigen::Vector3d(0.33, 0.81, 0)).norm() < 1e-12);
+  CHECK((at(mesh, hits[0]->face, hits[0]->barycentric) - Eigen::Vector3d(0.7, 0.2, 0)).norm() <
+        1e-12);
+  CHECK((at(mesh, hits[1]->face, hits[1]->barycentric) - Eigen::Vector3d(0.33, 0.81, 0)).norm() <
+        1e-12);
   CHECK_FALSE(hits[2].has_value());
 }
 
@@ -126,7 +133,8 @@ TEST_CASE("samples beyond max_distance miss; a stroke off the cloth misses entir
   const yore_test::Mesh mesh = yore_test::grid_mesh(5, 5);
   Positions stroke(2, 3);
   stroke << 0.5, 0.5, 0.0, 0.5, 0.5, 1.0;  // rises straight off the sheet
-  const yore::StrokeTrace trace = yore::trace_closest(mesh.positions, mesh.faces, stroke, 0.1, 0.01);
+  const yore::StrokeTrace trace =
+      yore::trace_closest(mesh.positions, mesh.faces, stroke, 0.1, 0.01);
   CHECK(trace.missed_samples > 0);
   CHECK_FALSE(trace.crossings.empty());
   for (const auto& point : trace.path) CHECK(point.part == trace.path.front().part);
@@ -154,7 +162,8 @@ TEST_CASE("clip_polyline keeps the parts inside the box, cut at its faces") {
   // leaving and coming back: two parts; entirely outside: none
   Positions zigzag(3, 3);
   zigzag << 0.2, 0.5, 0, 0.5, 3.0, 0, 0.8, 0.5, 0;
-  CHECK(yore::clip_polyline(zigzag, Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 1, 1)).size() == 2);
+  CHECK(yore::clip_polyline(zigzag, Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 1, 1)).size() ==
+        2);
   CHECK(yore::clip_polyline(line, Eigen::Vector3d(5, 5, 5), Eigen::Vector3d(6, 6, 6)).empty());
 }
 
@@ -171,7 +180,8 @@ TEST_CASE("a polyline by arc length") {
   CHECK_THROWS_WITH_AS(yore::Polyline(Positions(0, 3)), doctest::Contains("no points"),
                        std::invalid_argument);
   points(1, 1) = std::nan("");
-  CHECK_THROWS_WITH_AS(yore::Polyline{points}, doctest::Contains("non-finite"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(yore::Polyline{points}, doctest::Contains("non-finite"),
+                       std::invalid_argument);
 }
 
 TEST_CASE("trace_stroke: no crossed face is skipped, and the sample limit is named") {
@@ -184,5 +194,6 @@ TEST_CASE("trace_stroke: no crossed face is skipped, and the sample limit is nam
   const yore::StrokeTrace trace = yore::trace_stroke(query, 1.0, 0.5, 1e-9, mesh.faces);
   CHECK(crossed(trace) == faces_crossed_by_line(mesh, 0.0, 1.0));
   CHECK_THROWS_WITH_AS(yore::trace_stroke(query, 1.0, 1e-3, 1e-9, mesh.faces, {}, 100),
-                       doctest::Contains("needs more than 100 samples (the limit"), std::invalid_argument);
+                       doctest::Contains("needs more than 100 samples (the limit"),
+                       std::invalid_argument);
 }

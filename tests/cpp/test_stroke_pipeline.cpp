@@ -1,14 +1,13 @@
 // Tests of cpp/src/stroke_pipeline.cpp (cpp/include/yore/stroke_pipeline.hpp): one stroke in
 // one call gives the cloth the step-by-step primitives give, refuses before changing anything,
 // and reports what it did.
-#include "yore/stroke_pipeline.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/stroke_pipeline.hpp"
 
 using yore::Cloth;
 using yore::Positions;
@@ -149,9 +148,9 @@ TEST_CASE("every mode and refinement: the same cloth as the primitives one at a 
     yore::GrowthMode growth;
     int refine;
     double width;
-  } cases[] = {{yore::GrowthMode::paper, 0, 0.0},     {yore::GrowthMode::paper, 1, 0.0},
-               {yore::GrowthMode::paper, 2, 0.2},     {yore::GrowthMode::isotropic, 0, 0.2},
-               {yore::GrowthMode::along, 1, 0.15},    {yore::GrowthMode::across, 2, 0.1}};
+  } cases[] = {{yore::GrowthMode::paper, 0, 0.0},  {yore::GrowthMode::paper, 1, 0.0},
+               {yore::GrowthMode::paper, 2, 0.2},  {yore::GrowthMode::isotropic, 0, 0.2},
+               {yore::GrowthMode::along, 1, 0.15}, {yore::GrowthMode::across, 2, 0.1}};
   for (const auto& c : cases) {
     CAPTURE(static_cast<int>(c.growth));
     CAPTURE(c.refine);
@@ -169,8 +168,7 @@ TEST_CASE("every mode and refinement: the same cloth as the primitives one at a 
     CHECK(result.springs_added == expected.springs_added);
     CHECK(result.region_faces == expected.region_faces);
     CHECK(result.faces_split + result.springs_grown > 0);  // the stroke did something
-    CHECK(result.new_vertices.size() ==
-          static_cast<std::size_t>(in_one.vertex_count() - 81));
+    CHECK(result.new_vertices.size() == static_cast<std::size_t>(in_one.vertex_count() - 81));
   }
 }
 
@@ -219,7 +217,8 @@ TEST_CASE("refusals leave the cloth as it was") {
   bad = {};
   bad.split.expansion = 0.0;
   CHECK_THROWS_WITH_AS(yore::apply_stroke(cloth, closest_stroke(), bad),
-                       doctest::Contains("expansion must be finite and > 0"), std::invalid_argument);
+                       doctest::Contains("expansion must be finite and > 0"),
+                       std::invalid_argument);
   CHECK(cloth.topology_version() == version);
   CHECK(cloth.positions() == start);
   // a material stroke on a cloth without material coordinates
@@ -234,7 +233,8 @@ TEST_CASE("the sampling spacing and the refinement size prediction") {
   const Cloth cloth = flat_cloth();
   // grid faces: two legs of 1/8 m and a diagonal of √2/8 m each: spacing a quarter of the mean
   const double mean = (4 * 0.125 + 2 * 0.125 * std::sqrt(2.0)) / 6;
-  CHECK(yore::stroke_spacing(cloth, closest_stroke()) == doctest::Approx(0.25 * mean).epsilon(1e-14));
+  CHECK(yore::stroke_spacing(cloth, closest_stroke()) ==
+        doctest::Approx(0.25 * mean).epsilon(1e-14));
   StrokeInput rays;
   rays.kind = StrokeInput::Kind::rays;
   rays.spacing_pixels = 0.75;
@@ -251,9 +251,9 @@ TEST_CASE("the sampling spacing and the refinement size prediction") {
   const yore::StrokeTrace trace = yore::trace_stroke_input(refined, closest_stroke());
   std::vector<std::int32_t> parts;
   for (const auto& p : trace.path) parts.push_back(p.part);
-  const yore::StrokeBand first = yore::stroke_band(refined.positions(), refined.faces(),
-                                                   surface_path(refined, trace), parts,
-                                                   crossed(trace), options.width);
+  const yore::StrokeBand first =
+      yore::stroke_band(refined.positions(), refined.faces(), surface_path(refined, trace), parts,
+                        crossed(trace), options.width);
   const auto before = refined.vertex_count();
   const yore::StrokeResult result = yore::apply_stroke(refined, closest_stroke(), options);
   CHECK(result.faces_refined > 0);

@@ -1,15 +1,14 @@
 // Tests of cpp/src/subdivision.cpp (cpp/include/yore/subdivision.hpp): the paper's 1→3 split
 // and the conforming 1→4 refinement as pure mesh surgery.
-#include "yore/subdivision.hpp"
-
-#include "helpers.hpp"
-
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <map>
 #include <set>
 #include <stdexcept>
+
+#include "helpers.hpp"
+#include "yore/subdivision.hpp"
 
 using yore::Faces;
 using yore::Positions;
@@ -98,7 +97,8 @@ TEST_CASE("split 1→3: the paper's rows, parents and barycentric points") {
   CHECK(out.mesh.faces.row(F + 2) == Eigen::RowVector3i(b, c, p));
   CHECK(out.mesh.faces.row(F + 3) == Eigen::RowVector3i(c, a, p));
   for (int k = 0; k < 8; ++k)
-    CHECK(out.mesh.parents[static_cast<std::size_t>(F + k)] == splits[static_cast<std::size_t>(k / 2)].face);
+    CHECK(out.mesh.parents[static_cast<std::size_t>(F + k)] ==
+          splits[static_cast<std::size_t>(k / 2)].face);
   CHECK(out.weights[0] == Eigen::Vector3d(0.2, 0.3, 0.5));
 }
 
@@ -106,22 +106,23 @@ TEST_CASE("split 1→3 moves points near a corner inward and skips slivers") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(4, 4);
   // a point almost on a corner: moved towards the centroid until its smallest weight is
   // min_barycentric (the angle rule off: no angle is below 0°)
-  const yore::Split1to3 moved = yore::split_faces_1to3(
-      mesh.positions, mesh.faces, {{4, {0.98, 0.01, 0.01}}}, 0.1, 0.0);
+  const yore::Split1to3 moved =
+      yore::split_faces_1to3(mesh.positions, mesh.faces, {{4, {0.98, 0.01, 0.01}}}, 0.1, 0.0);
   CHECK(moved.moved_inward == 1);
   CHECK(moved.weights[0].minCoeff() == doctest::Approx(0.1).epsilon(1e-12));
   CHECK(moved.weights[0].sum() == doctest::Approx(1.0).epsilon(1e-15));
   check_surgery(mesh, moved.mesh);
   // with the angle rule on, that point's children are slivers: the split is tried at the
   // centroid instead, which gives none
-  const yore::Split1to3 centred = yore::split_faces_1to3(
-      mesh.positions, mesh.faces, {{4, {0.98, 0.01, 0.01}}}, 0.1, 5.0);
+  const yore::Split1to3 centred =
+      yore::split_faces_1to3(mesh.positions, mesh.faces, {{4, {0.98, 0.01, 0.01}}}, 0.1, 5.0);
   CHECK(centred.split_faces == std::vector<std::int32_t>{4});
   CHECK((centred.weights[0] - Eigen::Vector3d::Constant(1.0 / 3)).norm() < 1e-15);
   // no child of a right triangle split anywhere has all angles above 59°: all skipped
   const yore::Split1to3 skipped = yore::split_faces_1to3(
-      mesh.positions, mesh.faces, {{0, Eigen::Vector3d::Constant(1.0 / 3)},
-                                   {1, Eigen::Vector3d::Constant(1.0 / 3)}}, 0.1, 59.0);
+      mesh.positions, mesh.faces,
+      {{0, Eigen::Vector3d::Constant(1.0 / 3)}, {1, Eigen::Vector3d::Constant(1.0 / 3)}}, 0.1,
+      59.0);
   CHECK(skipped.faces_skipped == std::vector<std::int32_t>{0, 1});
   CHECK(skipped.split_faces.empty());
   CHECK(skipped.mesh.faces == mesh.faces);
@@ -159,7 +160,8 @@ TEST_CASE("refine 1→4 of one interior face bisects its three neighbours") {
     const auto& e = out.split_edges[k];
     CHECK(e[0] < e[1]);
     CHECK((out.mesh.positions.row(25 + static_cast<Eigen::Index>(k)) -
-           0.5 * (mesh.positions.row(e[0]) + mesh.positions.row(e[1]))).norm() < 1e-15);
+           0.5 * (mesh.positions.row(e[0]) + mesh.positions.row(e[1])))
+              .norm() < 1e-15);
   }
   const double parent = 0.5 * normal(mesh.positions, mesh.faces, 10).norm();
   for (Eigen::Index g = 0; g < out.mesh.faces.rows(); ++g)
@@ -205,7 +207,8 @@ TEST_CASE("refinement of a tube and a second pass keep the invariants; bad faces
   const yore::Refinement once = yore::refine_faces_1to4(tube.positions, tube.faces, {0, 5, 17, 30});
   check_surgery(tube, once.mesh);
   const yore_test::Mesh refined{once.mesh.positions, once.mesh.faces};
-  const yore::Refinement twice = yore::refine_faces_1to4(refined.positions, refined.faces, {0, 1, 50});
+  const yore::Refinement twice =
+      yore::refine_faces_1to4(refined.positions, refined.faces, {0, 1, 50});
   check_surgery(refined, twice.mesh);
   CHECK_THROWS_WITH_AS(yore::refine_faces_1to4(tube.positions, tube.faces, {-1}),
                        doctest::Contains("out of range"), std::invalid_argument);

@@ -3,16 +3,15 @@
 /// The cloth: topology, springs, masses, state, constraints — the one source of truth that every
 /// integrator reads and that strokes change.
 
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
 #include "yore/membrane.hpp"
 #include "yore/mesh.hpp"
 #include "yore/quadratic_bending.hpp"
 #include "yore/springs.hpp"
 #include "yore/subdivision.hpp"
-
-#include <Eigen/Core>
-
-#include <cstdint>
-#include <vector>
 
 namespace yore {
 
@@ -35,9 +34,9 @@ struct RotationDriver {
 
 /// How a cloth resists bending.
 enum class BendingModel : std::uint8_t {
-  springs = 0,    ///< the paper's bending springs across interior edges (bend_stiffness, N/m)
+  springs = 0,  ///< the paper's bending springs across interior edges (bend_stiffness, N/m)
   quadratic = 1,  ///< ½ κ ∫ |∇∇x|² with fitted vertex Hessians (bending_modulus, N·m); no springs
-  hinge = 2,      ///< Bergou et al. 2006's hinge energy (bending_modulus, N·m); no springs
+  hinge = 2,  ///< Bergou et al. 2006's hinge energy (bending_modulus, N·m); no springs
 };
 
 /// Whether `model` is a constant-matrix energy ½ κ Σ_c x_cᵀ Q x_c (quadratic or hinge).
@@ -47,10 +46,10 @@ constexpr bool is_quadratic(BendingModel model) {
 
 /// Energy of the cloth, joules.
 struct EnergyTerms {
-  double kinetic = 0.0;  ///< ½ Σ m |v|²
-  double spring = 0.0;   ///< Σ ½ k (ℓ − L)²
-  double gravity = 0.0;  ///< −Σ m g·x (zero at the origin)
-  double bending = 0.0;  ///< ½ κ Σ_c x_cᵀ Q x_c (quadratic bending; 0 with bending springs)
+  double kinetic = 0.0;   ///< ½ Σ m |v|²
+  double spring = 0.0;    ///< Σ ½ k (ℓ − L)²
+  double gravity = 0.0;   ///< −Σ m g·x (zero at the origin)
+  double bending = 0.0;   ///< ½ κ Σ_c x_cᵀ Q x_c (quadratic bending; 0 with bending springs)
   double membrane = 0.0;  ///< Σ_faces A W of the membrane (0 without one)
   double total() const { return kinetic + spring + gravity + bending + membrane; }
 };
@@ -68,8 +67,8 @@ struct SimulationClock {
 /// Everything that defines a cloth, for saving and restoring it exactly (Cloth::state /
 /// Cloth::from_state). Arrays are as the Cloth's accessors describe them.
 struct ClothState {
-  Positions positions;   ///< n×3, m
-  Positions velocities;  ///< n×3, m/s
+  Positions positions;     ///< n×3, m
+  Positions velocities;    ///< n×3, m/s
   Eigen::VectorXd masses;  ///< n, kg
   Faces faces;             ///< f×3 (empty for a spring network)
   SpringSet springs;       ///< in the cloth's order (summation order, hence round-off, follows it)
@@ -78,7 +77,7 @@ struct ClothState {
   double bend_stiffness = 0.0;     ///< N/m, given to bending springs a stroke adds
   double spring_damping = 0.0;     ///< N·s/m, given to springs a stroke adds
   Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> material;  ///< n×2 or empty, m
-  std::vector<VertexState> vertex_states;  ///< n
+  std::vector<VertexState> vertex_states;                              ///< n
   std::vector<RotationDriver> drivers;
   SimulationClock clock;
   BendingModel bending = BendingModel::springs;
@@ -112,7 +111,7 @@ struct SplitReport {
   std::vector<std::int32_t> split_faces;    ///< original indices of the faces split
   std::vector<std::int32_t> faces_skipped;  ///< faces left whole (their children would be slivers)
   std::vector<std::int32_t> new_vertices;
-  std::vector<std::int32_t> region_faces;   ///< the 3 children of every split face
+  std::vector<std::int32_t> region_faces;  ///< the 3 children of every split face
   std::int64_t springs_added = 0;
   std::int64_t springs_removed = 0;  ///< bending springs across edges that changed neighbours
   double rest_area_before = 0.0;     ///< m², of the split faces, from their edges' rest lengths
@@ -163,8 +162,8 @@ class Cloth {
   /// distances in `positions`. Throws std::invalid_argument on bad indices, repeated pairs,
   /// zero rest lengths and bad material values.
   static Cloth from_springs(const Positions& positions, const Edges& edges,
-                           const Eigen::VectorXd& rest_lengths, const Eigen::VectorXd& masses,
-                           double stiffness, double damping, double drag);
+                            const Eigen::VectorXd& rest_lengths, const Eigen::VectorXd& masses,
+                            double stiffness, double damping, double drag);
 
   /// Number of vertices (mass points).
   std::int64_t vertex_count() const { return m_positions.rows(); }
@@ -280,7 +279,8 @@ class Cloth {
     return m_material;
   }
   /// Sets rest-pattern coordinates (n×2, finite); they are interpolated into split faces.
-  void set_material_coordinates(const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& uv);
+  void set_material_coordinates(
+      const Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>& uv);
 
   /// Kinetic, spring, gravitational and bending energy for gravity g (m/s²).
   EnergyTerms energy(const Vec3& gravity) const;
@@ -291,9 +291,7 @@ class Cloth {
   double bending_modulus() const { return m_bending_modulus; }
   /// Whether the quadratic bending term exists (quadratic model and κ > 0): integrators add
   /// κ Q ⊗ I₃ only then.
-  bool has_quadratic_bending() const {
-    return is_quadratic(m_bending) && m_bending_modulus > 0.0;
-  }
+  bool has_quadratic_bending() const { return is_quadratic(m_bending) && m_bending_modulus > 0.0; }
   /// Q of quadratic bending for the current faces (see quadratic_bending.hpp), rebuilt when the
   /// topology version changed since it was last built; empty (size 0) with bending springs.
   const QuadraticBendingMatrix& quadratic_bending() const;

@@ -2,12 +2,12 @@
 /// @file divergence.hpp
 /// The blow-up check shared by all integrators: a finite state whose energy stays below a bound.
 
-#include "yore/cloth.hpp"
-#include "yore/errors.hpp"
-
 #include <cstdint>
 #include <functional>
 #include <limits>
+
+#include "yore/cloth.hpp"
+#include "yore/errors.hpp"
 
 namespace yore {
 
@@ -25,8 +25,9 @@ namespace yore {
 /// growth × (kinetic + elastic energy at the baseline + M|g|D), plus 1e-12 of (|baseline| +
 /// E_scale) for round-off. Off while a driver turns: its work has no bound the monitor knows
 /// (a rotating tube's twist stores elastic energy; the rotating cylinder's stroke scene rose
-/// 3.5 J above its lowest, legitimately). Far below the divergence bound on stiff cloth (where ½Σ k L² dominates E_scale), it
-/// catches an integrator that feeds energy in before the energy runs away.
+/// 3.5 J above its lowest, legitimately). Far below the divergence bound on stiff cloth (where ½Σ k
+/// L² dominates E_scale), it catches an integrator that feeds energy in before the energy runs
+/// away.
 class DivergenceMonitor {
  public:
   /// factor > 0 (finite); growth >= 0 (finite; 0 turns the growth check off). Throws

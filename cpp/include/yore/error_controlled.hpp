@@ -5,17 +5,17 @@
 /// free vertices, with their Newton systems reduced to yore's own 3n-unknown SPD matrix on
 /// CHOLMOD (factored only when SUNDIALS asks for a linear-solver setup).
 
-#include "yore/cloth.hpp"
-#include "yore/divergence.hpp"
-#include "yore/implicit.hpp"
-#include "yore/integrator.hpp"
-
 #include <cstdint>
 #include <exception>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "yore/cloth.hpp"
+#include "yore/divergence.hpp"
+#include "yore/implicit.hpp"
+#include "yore/integrator.hpp"
 
 namespace yore {
 
@@ -67,23 +67,23 @@ struct ErrorControlledOptions {
 /// Counters, cumulative over the integrator's life (across re-initializations), plus the
 /// current figures. "steps" are output intervals (calls' dt); the rest are SUNDIALS'.
 struct ErrorControlledStatistics {
-  std::int64_t steps = 0;                 ///< output intervals completed
-  std::int64_t internal_steps = 0;        ///< SUNDIALS steps taken (accepted)
+  std::int64_t steps = 0;           ///< output intervals completed
+  std::int64_t internal_steps = 0;  ///< SUNDIALS steps taken (accepted)
   std::int64_t error_test_failures = 0;
   std::int64_t nonlinear_iterations = 0;
-  std::int64_t nonlinear_failures = 0;    ///< nonlinear convergence failures
-  std::int64_t linear_setups = 0;         ///< setups SUNDIALS asked for (= factorizations)
+  std::int64_t nonlinear_failures = 0;  ///< nonlinear convergence failures
+  std::int64_t linear_setups = 0;       ///< setups SUNDIALS asked for (= factorizations)
   std::int64_t linear_solves = 0;
   std::int64_t rhs_evaluations = 0;
   std::int64_t jacobian_evaluations = 0;  ///< setups that re-evaluated J (the rest reused it)
-  std::int64_t restarts = 0;  ///< (re)initializations: the first, after a stroke, an edit, a
-                              ///< restore or an interrupted call
-  int current_order = 0;      ///< the order the next internal step will use (0: none yet)
+  std::int64_t restarts = 0;         ///< (re)initializations: the first, after a stroke, an edit, a
+                                     ///< restore or an interrupted call
+  int current_order = 0;             ///< the order the next internal step will use (0: none yet)
   double current_internal_dt = 0.0;  ///< the step size the next internal step will try, s
   double last_internal_dt = 0.0;     ///< the last internal step taken, s
-  double rhs_seconds = 0.0;    ///< force evaluations
-  double setup_seconds = 0.0;  ///< assembling and factoring the iteration matrix
-  double solve_seconds = 0.0;  ///< applying the factor (linear solves)
+  double rhs_seconds = 0.0;          ///< force evaluations
+  double setup_seconds = 0.0;        ///< assembling and factoring the iteration matrix
+  double solve_seconds = 0.0;        ///< applying the factor (linear solves)
 };
 
 /// CVODE or ARKODE on the cloth's free vertices, y = (x, v), ẏ = (v, M⁻¹ f(x, v) + g):
@@ -150,7 +150,7 @@ class ErrorControlledIntegrator : public Integrator {
   std::unique_ptr<Backend> m_backend;
   DivergenceMonitor m_monitor;
   mutable ErrorControlledStatistics m_statistics;  // refreshed from SUNDIALS on read
-  mutable ErrorControlledStatistics m_base;         // counters of memories already folded
+  mutable ErrorControlledStatistics m_base;        // counters of memories already folded
 
   const Cloth* m_cloth = nullptr;  // the cloth being advanced (callbacks read it)
   Vec3 m_gravity = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());  // SUNDIALS' g
@@ -160,7 +160,7 @@ class ErrorControlledIntegrator : public Integrator {
   double m_time = std::numeric_limits<double>::quiet_NaN();  // SUNDIALS' time after the last
   bool m_restart = true;  // the next interval re-initializes SUNDIALS at the cloth's state
   Positions m_x, m_v, m_force, m_bending;  // n×3 work arrays (m_bending: non-spring gradients)
-  MembraneElementWork m_membrane_work;  // scratch of the membrane's elements
+  MembraneElementWork m_membrane_work;     // scratch of the membrane's elements
   Positions m_jacobian_positions;          // n×3: where J was last evaluated
   std::vector<double> m_stiffness;         // H at m_jacobian_positions, pattern order
   double m_setup_gamma = 0.0;              // γ of the current factor

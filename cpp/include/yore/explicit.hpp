@@ -2,12 +2,12 @@
 /// @file explicit.hpp
 /// Symplectic Euler for the mass-spring cloth: the reference integrator.
 
+#include <cstdint>
+#include <limits>
+
 #include "yore/cloth.hpp"
 #include "yore/divergence.hpp"
 #include "yore/integrator.hpp"
-
-#include <cstdint>
-#include <limits>
 
 namespace yore {
 
@@ -33,10 +33,10 @@ struct ExplicitOptions {
 /// Wall time per phase and counters, cumulative over the integrator's life.
 struct ExplicitStatistics {
   std::int64_t steps = 0;
-  double forces_seconds = 0.0;       ///< spring forces (elastic and damping) per spring
-  double update_seconds = 0.0;       ///< per-vertex gather, gravity, drag, update, drivers
-  double constraints_seconds = 0.0;  ///< strain limiting
-  double checks_seconds = 0.0;       ///< divergence checks and checkpoints
+  double forces_seconds = 0.0;          ///< spring forces (elastic and damping) per spring
+  double update_seconds = 0.0;          ///< per-vertex gather, gravity, drag, update, drivers
+  double constraints_seconds = 0.0;     ///< strain limiting
+  double checks_seconds = 0.0;          ///< divergence checks and checkpoints
   std::int64_t strain_corrections = 0;  ///< spring corrections made by strain limiting
   std::int64_t parallel_steps = 0;      ///< steps whose loops ran on more than one thread
   std::int64_t thread_probes = 0;       ///< blocks of steps run to re-time the other choice
@@ -74,12 +74,12 @@ class StepThreadChooser {
 
  private:
   int m_configured = 0;
-  int m_preferred = 0;           // threads of the winning choice
-  int m_running = 0;             // threads of the current block (the preferred or a probe)
+  int m_preferred = 0;  // threads of the winning choice
+  int m_running = 0;    // threads of the current block (the preferred or a probe)
   int m_block_steps = 0;
   double m_block_seconds = 0.0;
   double m_preferred_seconds_per_step = 0.0;  // of the preferred choice's last block
-  double m_wait_seconds = 0.0;   // the winner's running time between re-timings
+  double m_wait_seconds = 0.0;                // the winner's running time between re-timings
   double m_seconds_until_probe = 0.0;
 };
 

@@ -3,14 +3,13 @@
 /// How a stroke grows area: a falloff weight around the stroke and a small table of growth
 /// rules over it (pure functions; Cloth::split_faces does the paper's eq. (1) on new springs).
 
-#include "yore/mesh.hpp"
-#include "yore/springs.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "yore/mesh.hpp"
+#include "yore/springs.hpp"
 
 namespace yore {
 
@@ -55,7 +54,7 @@ struct StrokeBand {
   Positions vertex_tangent;         ///< n×3, unit tangent of the path at the nearest point (or 0)
   std::vector<std::int32_t> faces;  ///< the band: crossed faces and faces with a corner within
                                     ///< width/2, sorted
-  Positions path;                       ///< m×3, the path it was made from, metres
+  Positions path;                   ///< m×3, the path it was made from, metres
   std::vector<std::int32_t> path_part;  ///< m
   /// m, the span over which the path's tangent is taken: the mean edge length of the crossed
   /// faces (a chord of the path that long, centred on the nearest point, so sampling noise
@@ -88,8 +87,9 @@ struct Growth {
 
 /// The rest lengths of `springs` after the growth rule of `mode` with this expansion (> 0) over
 /// the band's weights; spring directions from `positions` (n×3, metres) against the path's
-/// tangent at the point nearest the spring's midpoint. The paper mode changes nothing here (its growth is the split's eq. (1)).
-/// Throws std::invalid_argument on a non-positive or non-finite expansion or mismatched sizes.
+/// tangent at the point nearest the spring's midpoint. The paper mode changes nothing here (its
+/// growth is the split's eq. (1)). Throws std::invalid_argument on a non-positive or non-finite
+/// expansion or mismatched sizes.
 Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
                          const StrokeBand& band, GrowthMode mode, double expansion);
 

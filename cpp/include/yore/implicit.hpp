@@ -3,15 +3,7 @@
 /// Implicit stepping (backward Euler, BDF2) as minimisation of the incremental potential, by
 /// Newton's method with a backtracking line search on a sparse SPD solver.
 
-#include "yore/cloth.hpp"
-#include "yore/divergence.hpp"
-#include "yore/integrator.hpp"
-#include "yore/linear_solver.hpp"
-#include "yore/sparse_cholesky.hpp"
-#include "yore/spring_matrix.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -19,12 +11,19 @@
 #include <string>
 #include <vector>
 
+#include "yore/cloth.hpp"
+#include "yore/divergence.hpp"
+#include "yore/integrator.hpp"
+#include "yore/linear_solver.hpp"
+#include "yore/sparse_cholesky.hpp"
+#include "yore/spring_matrix.hpp"
+
 namespace yore {
 
 /// The time discretisation.
 enum class ImplicitMethod {
-  backward_euler,  ///< first order, unconditionally stable, dissipative
-  bdf2,            ///< second order; the first step (and the first after a change) is BE
+  backward_euler,     ///< first order, unconditionally stable, dissipative
+  bdf2,               ///< second order; the first step (and the first after a change) is BE
   generalized_alpha,  ///< Chung & Hulbert 1993 in Arnold & Brüls' form (second order,
                       ///< unconditionally stable on linear problems; rho_infinity sets how much
                       ///< of the highest frequencies survives a step); generalized_alpha.cpp
@@ -42,14 +41,14 @@ enum class HessianProjection {
                  ///< decision kept for the rest of the step and (with back-off) later steps
   trust_region,  ///< Chen et al. 2024: abs after an iteration whose quadratic model fit poorly
                  ///< (trust-region ratio ρ < 0.01), the clamp otherwise (always SPD)
-  shifted,       ///< Levenberg–Marquardt: the exact Hessian plus μ M/h̃², μ ≥ 0 raised when the
-                 ///< factorization finds it indefinite or the quadratic model fits poorly and
-                 ///< lowered when it fits well; μ carries over to the next step
-  steihaug,      ///< trust-region Newton–CG (Steihaug–Toint): CG on the exact Hessian,
-                 ///< preconditioned by the factor of the clamped one (always SPD), inside a
-                 ///< trust region in that factor's norm; a refused step is solved again on the
-                 ///< same factor (none thrown away). Negative curvature past the clamped step
-                 ///< is not followed (see newton.cpp)
+  shifted,   ///< Levenberg–Marquardt: the exact Hessian plus μ M/h̃², μ ≥ 0 raised when the
+             ///< factorization finds it indefinite or the quadratic model fits poorly and
+             ///< lowered when it fits well; μ carries over to the next step
+  steihaug,  ///< trust-region Newton–CG (Steihaug–Toint): CG on the exact Hessian,
+             ///< preconditioned by the factor of the clamped one (always SPD), inside a
+             ///< trust region in that factor's norm; a refused step is solved again on the
+             ///< same factor (none thrown away). Negative curvature past the clamped step
+             ///< is not followed (see newton.cpp)
 };
 
 /// Where Newton starts each step.
@@ -202,12 +201,12 @@ struct ImplicitStatistics {
   std::int64_t truncation_stops = 0;   ///< steps the truncation test (truncation_fraction) ended
   std::int64_t exact_hessian_rejected = 0;  ///< projection exact: exact Hessians found indefinite
   std::int64_t exact_hessian_accepted = 0;  ///< projection exact: exact Hessians factorized
-  std::int64_t abs_projections = 0;     ///< trust_region: iterations that used |λ| filtering
+  std::int64_t abs_projections = 0;         ///< trust_region: iterations that used |λ| filtering
   std::int64_t shifted_factorizations = 0;  ///< shifted: factorizations with μ > 0 that succeeded
-  std::int64_t lagged_solves = 0;       ///< Newton systems solved by CG on a lagged factor (not
-                                        ///< counting CG runs that failed and were refactored)
+  std::int64_t lagged_solves = 0;           ///< Newton systems solved by CG on a lagged factor (not
+                                            ///< counting CG runs that failed and were refactored)
   std::int64_t lagged_cg_iterations = 0;
-  std::int64_t lagged_failures = 0;  ///< CG runs on a kept factor that missed their bound
+  std::int64_t lagged_failures = 0;        ///< CG runs on a kept factor that missed their bound
   std::int64_t lbfgs_skipped_updates = 0;  ///< lbfgs: pairs with sᵀy ≤ 0, not stored
   std::int64_t trust_region_cg_iterations = 0;  ///< steihaug: CG iterations (one solve each)
   std::int64_t trust_region_rejections = 0;     ///< steihaug: trial steps the ratio test refused
@@ -217,12 +216,12 @@ struct ImplicitStatistics {
                                                  ///< newton_iterations
   std::int64_t extrapolated_stages = 0;  ///< stages Newton started from x̂ + h̃² ã (predictor
                                          ///< extrapolated with a history to extrapolate from)
-  std::int64_t history_restarts = 0;  ///< bdf2, generalized_alpha: steps that began afresh
-                                      ///< (first step, after a stroke, an edit or a restore)
-  std::int64_t rejected_steps = 0;  ///< adaptive: steps retaken shorter (counted in steps too)
-  std::int64_t intervals = 0;       ///< adaptive: output intervals completed
-  double assemble_seconds = 0.0;       ///< energy, gradient and Hessian values (incl. line search)
-  double analyze_seconds = 0.0;        ///< pattern build + symbolic analysis
+  std::int64_t history_restarts = 0;     ///< bdf2, generalized_alpha: steps that began afresh
+                                         ///< (first step, after a stroke, an edit or a restore)
+  std::int64_t rejected_steps = 0;       ///< adaptive: steps retaken shorter (counted in steps too)
+  std::int64_t intervals = 0;            ///< adaptive: output intervals completed
+  double assemble_seconds = 0.0;  ///< energy, gradient and Hessian values (incl. line search)
+  double analyze_seconds = 0.0;   ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
   double solve_seconds = 0.0;
   int last_newton_iterations = 0;
@@ -238,11 +237,11 @@ struct ImplicitStatistics {
 
 /// The incremental potential's value, gradient and Hessian at a point, for tests and tools.
 struct NewtonSystem {
-  double energy = 0.0;          ///< J
-  Eigen::VectorXd gradient;     ///< N (3 per free vertex), newtons
-  SymmetricPattern pattern;     ///< lower-triangle CSC of the Hessian
-  std::vector<double> hessian;  ///< values in pattern order, N/m
-  Eigen::VectorXd direction;    ///< solution of H d = −g with the configured solver
+  double energy = 0.0;                      ///< J
+  Eigen::VectorXd gradient;                 ///< N (3 per free vertex), newtons
+  SymmetricPattern pattern;                 ///< lower-triangle CSC of the Hessian
+  std::vector<double> hessian;              ///< values in pattern order, N/m
+  Eigen::VectorXd direction;                ///< solution of H d = −g with the configured solver
   std::vector<std::int32_t> free_vertices;  ///< vertex of each block of 3 unknowns
 };
 
@@ -297,7 +296,7 @@ class ImplicitIntegrator : public Integrator {
   struct ProjectionMemory {
     int exact_skip = 0;
     int exact_backoff = 1;
-    double shift = 0.0;  ///< projection shifted: the μ the next iteration starts with (≥ 0)
+    double shift = 0.0;   ///< projection shifted: the μ the next iteration starts with (≥ 0)
     double radius = 0.0;  ///< projection steihaug: the trust radius (0: not set yet), √J
   };
   ProjectionMemory projection_memory() const {
@@ -354,8 +353,8 @@ class ImplicitIntegrator : public Integrator {
   /// lbfgs: refactors Q if the topology, h̃ or the material changed since the last factor.
   void ensure_scalar_matrix(const Cloth& cloth);
   /// lbfgs: minimises from m_iterate until the residual test or max_newton (quasi_newton.cpp).
-  void quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
-                            int& iterations, int& backtracks, bool& converged);
+  void quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual, int& iterations,
+                            int& backtracks, bool& converged);
   /// The stopping verdict Newton and quasi-Newton share: diverged on a non-finite objective
   /// or gradient, converged when the scaled residual is at most newton_tol × the mean rest
   /// length, at the cap after max_newton iterations.
@@ -425,8 +424,9 @@ class ImplicitIntegrator : public Integrator {
   /// stroke, an edit or a restore): one backward-Euler step, whose accelerations (as solved
   /// for) start the history. Counts the restart.
   void restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt);
-  void step_generalized_alpha(Cloth& cloth, const Vec3& gravity, double dt);  // generalized_alpha.cpp
-  void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);            // tr_bdf2.cpp
+  void step_generalized_alpha(Cloth& cloth, const Vec3& gravity,
+                              double dt);                           // generalized_alpha.cpp
+  void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);  // tr_bdf2.cpp
   /// adaptive: one output interval of dt in error-controlled TR-BDF2 or BDF2 steps
   /// (tr_bdf2.cpp).
   void adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt);
@@ -441,8 +441,8 @@ class ImplicitIntegrator : public Integrator {
   std::vector<std::int32_t> m_dof_of_vertex;  // n, first unknown of a free vertex or −1
   std::vector<std::int32_t> m_free_vertices;  // vertex of each block of unknowns
   SymmetricPattern m_pattern;
-  std::vector<std::int64_t> m_spring_slots;   // s×3: slot of the (0,c) entry of the
-                                              // off-diagonal block, or −1
+  std::vector<std::int64_t> m_spring_slots;  // s×3: slot of the (0,c) entry of the
+                                             // off-diagonal block, or −1
   // per element pair of the membrane (for_each_membrane_pair), its block's rank among its
   // column block's neighbours, -1 for a constrained corner; pairs start per element
   std::vector<std::int64_t> m_membrane_pair_starts;
@@ -453,9 +453,9 @@ class ImplicitIntegrator : public Integrator {
   double m_mean_rest_length = 1.0;
 
   // Per-step data and work buffers (sized per topology; no allocation per step).
-  double m_h = 0.0;        // h̃: the inertia term is ½‖x − x̂‖²_M / h̃²
-  double m_hv = 0.0;       // the velocity scale: v⁺ = (x⁺ − x̄)/h_v (h̃ except generalized-α)
-  double m_dt = 0.0;       // the step's h
+  double m_h = 0.0;   // h̃: the inertia term is ½‖x − x̂‖²_M / h̃²
+  double m_hv = 0.0;  // the velocity scale: v⁺ = (x⁺ − x̄)/h_v (h̃ except generalized-α)
+  double m_dt = 0.0;  // the step's h
   bool m_second_order = false;  // this step is BDF2's (else backward Euler's)
   /// Which formula truncation_error uses for the stage being solved.
   enum class StageKind { backward_euler, bdf2, trapezoid, tr_bdf2, generalized_alpha };
@@ -496,7 +496,7 @@ class ImplicitIntegrator : public Integrator {
   Eigen::VectorXd m_gradient, m_direction, m_rhs;
   std::vector<double> m_values;
   double m_energy_magnitude = 0.0;  // Σ |terms| of the last evaluate(): its round-off scale
-  bool m_factor_valid = false;  // the solver holds a factor of this topology (lagged mode)
+  bool m_factor_valid = false;      // the solver holds a factor of this topology (lagged mode)
   // lagged mode: Newton iterations still to refactor without trying the kept factor after a
   // failed CG on it, and the next such back-off
   int m_lag_skip = 0, m_lag_backoff = 1;
@@ -506,7 +506,7 @@ class ImplicitIntegrator : public Integrator {
   void kept_factor_result(bool solved);
   // projection exact: steps still to take projected after a rejection, and the next back-off
   int m_exact_skip = 0, m_exact_backoff = 1;
-  double m_shift = 0.0;  // projection shifted: μ, in units of the inertia M/h̃²
+  double m_shift = 0.0;   // projection shifted: μ, in units of the inertia M/h̃²
   double m_radius = 0.0;  // projection steihaug: trust radius in the clamped factor's norm
   std::vector<double> m_exact_values;  // projection steihaug: the exact Hessian's values
   // mixed: per spring, the force λ (N) the Newton matrices' transverse terms use

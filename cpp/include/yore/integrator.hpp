@@ -3,12 +3,12 @@
 /// The interface every time integrator of yore implements (explicit, Newton's implicit methods,
 /// local-global), and the history a state file keeps of one.
 
-#include "yore/cloth.hpp"
-
 #include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "yore/cloth.hpp"
 
 namespace yore {
 

@@ -35,8 +35,8 @@ inline thread_local InterruptState interrupt_state;
 /// check() runs at most once per `period` of wall time and returns true to interrupt.
 class InterruptScope {
  public:
-  explicit InterruptScope(std::function<bool()> check,
-                          std::chrono::steady_clock::duration period = std::chrono::milliseconds(50))
+  explicit InterruptScope(std::function<bool()> check, std::chrono::steady_clock::duration period =
+                                                           std::chrono::milliseconds(50))
       : m_check(std::move(check)), m_saved(detail::interrupt_state) {
     detail::interrupt_state.check = &m_check;
     detail::interrupt_state.period = period;

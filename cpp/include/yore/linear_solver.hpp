@@ -4,7 +4,6 @@
 /// with separate analyze (symbolic, once per sparsity pattern), factorize (numeric) and solve.
 
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -17,7 +16,7 @@ namespace yore {
 /// Lower triangle (row >= column) of a symmetric N×N matrix in compressed sparse columns; row
 /// indices increase within each column.
 struct SymmetricPattern {
-  std::int32_t size = 0;                    ///< N
+  std::int32_t size = 0;  ///< N
   /// 3 when the matrix is made of 3×3 blocks, one per vertex (unknowns 3b, 3b + 1, 3b + 2 share
   /// their pattern): orderings are then computed on the vertex graph, 9 times smaller, and
   /// expanded. 1 for a scalar pattern.
@@ -47,7 +46,8 @@ Ordering resolve_ordering(Ordering ordering, std::int32_t vertices);
 /// Supernodal (BLAS-3 dense blocks) or simplicial (column by column) factorization.
 enum class FactorKind { supernodal, simplicial };
 
-/// The names of the orderings ("amd", "metis", "nesdis", "auto", "natural") and of the factorizations
+/// The names of the orderings ("amd", "metis", "nesdis", "auto", "natural") and of the
+/// factorizations
 /// ("supernodal", "simplicial"): the one list the parsers and the bindings use.
 const std::vector<std::pair<std::string, Ordering>>& ordering_choices();
 const std::vector<std::pair<std::string, FactorKind>>& factor_kind_choices();
@@ -120,10 +120,11 @@ struct CgWorkspace {
 /// Preconditioned conjugate gradients on H x = b (H symmetric positive definite, lower
 /// triangle), from the x given. precondition(r, z) writes z = P⁻¹ r for an SPD P. Stops when
 /// ‖r‖ ≤ tolerance ‖b‖ or after max_iterations; returns the iterations and sets converged.
-int preconditioned_cg(const SymmetricPattern& pattern, const double* values,
-                      const Eigen::VectorXd& b, Eigen::VectorXd& x,
-                      const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd&)>& precondition,
-                      double tolerance, int max_iterations, CgWorkspace& work, bool& converged);
+int preconditioned_cg(
+    const SymmetricPattern& pattern, const double* values, const Eigen::VectorXd& b,
+    Eigen::VectorXd& x,
+    const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd&)>& precondition,
+    double tolerance, int max_iterations, CgWorkspace& work, bool& converged);
 
 /// The backend names make_linear_solver accepts.
 std::vector<std::string> linear_solver_backends();

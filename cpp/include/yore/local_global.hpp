@@ -4,19 +4,18 @@
 /// backward Euler by alternating a local step (each spring's ideal vector) and a global step (one
 /// solve with a constant, prefactored matrix).
 
-#include "yore/cloth.hpp"
-#include "yore/divergence.hpp"
-#include "yore/integrator.hpp"
-#include "yore/sparse_cholesky.hpp"
-#include "yore/spring_matrix.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "yore/cloth.hpp"
+#include "yore/divergence.hpp"
+#include "yore/integrator.hpp"
+#include "yore/sparse_cholesky.hpp"
+#include "yore/spring_matrix.hpp"
 
 namespace yore {
 
@@ -47,8 +46,8 @@ struct LocalGlobalOptions {
   FactorKind factorization = FactorKind::supernodal;
   RebuildStrategy rebuild = RebuildStrategy::fresh;
   int stale_pcg_max_iterations = 30;  ///< per solve, before the stale factor is replaced
-  double stale_pcg_tol = 1e-12;  ///< relative residual of the stale-factor PCG
-  bool record_objective = false;       ///< keep the objective after every iteration (tests)
+  double stale_pcg_tol = 1e-12;       ///< relative residual of the stale-factor PCG
+  bool record_objective = false;      ///< keep the objective after every iteration (tests)
   double divergence_energy_factor = 10.0;
   /// Largest rise of the energy above its lowest since the last change, in energy scales
   /// (DivergenceMonitor); 0 = no growth check.
@@ -58,24 +57,24 @@ struct LocalGlobalOptions {
 /// Counters and wall time per phase, cumulative.
 struct LocalGlobalStatistics {
   std::int64_t steps = 0;
-  std::int64_t iterations = 0;       ///< global solves, over all steps
+  std::int64_t iterations = 0;         ///< global solves, over all steps
   std::int64_t unconverged_steps = 0;  ///< steps that reached the iteration cap (tolerance > 0)
-  std::int64_t last_iterations = 0;  ///< global solves of the last step
+  std::int64_t last_iterations = 0;    ///< global solves of the last step
   /// ‖h² M⁻¹ ∇E‖∞ / mean rest length at the end of the last step (dimensionless; the
   /// objective's gradient in displacement units, the Newton integrator's measure).
   double last_residual = std::numeric_limits<double>::quiet_NaN();
   /// The convergence test's error estimate / mean rest length at the end of the last step.
   double last_error_estimate = std::numeric_limits<double>::quiet_NaN();
-  std::int64_t rebuilds = 0;         ///< changes of topology handled
-  std::int64_t analyses = 0;         ///< symbolic analyses, over the integrator's life
-  std::int64_t factorizations = 0;   ///< numeric factorizations, over the integrator's life
-  std::int64_t stale_solves = 0;     ///< global solves done by stale-factor PCG
-  std::int64_t pcg_iterations = 0;   ///< their CG iterations
-  double assemble_seconds = 0.0;     ///< local steps and right-hand sides
-  double analyze_seconds = 0.0;      ///< pattern and symbolic analysis
+  std::int64_t rebuilds = 0;        ///< changes of topology handled
+  std::int64_t analyses = 0;        ///< symbolic analyses, over the integrator's life
+  std::int64_t factorizations = 0;  ///< numeric factorizations, over the integrator's life
+  std::int64_t stale_solves = 0;    ///< global solves done by stale-factor PCG
+  std::int64_t pcg_iterations = 0;  ///< their CG iterations
+  double assemble_seconds = 0.0;    ///< local steps and right-hand sides
+  double analyze_seconds = 0.0;     ///< pattern and symbolic analysis
   double factorize_seconds = 0.0;
   double solve_seconds = 0.0;
-  double rebuild_seconds = 0.0;      ///< analysis + factorization done because of a topology change
+  double rebuild_seconds = 0.0;  ///< analysis + factorization done because of a topology change
   std::int64_t last_dofs = 0;
 };
 

@@ -14,14 +14,13 @@
 /// expansion is the membrane's too, with no second copy of the rest state to keep in step.
 /// Pure functions; Cloth keeps the face→spring map.
 
-#include "yore/mesh.hpp"
-#include "yore/springs.hpp"
-
 #include <Eigen/Core>
-
 #include <array>
 #include <cstdint>
 #include <vector>
+
+#include "yore/mesh.hpp"
+#include "yore/springs.hpp"
 
 namespace yore {
 
@@ -119,16 +118,16 @@ struct MembraneElements {
   std::vector<std::int32_t> corners;  ///< vertices, per element in increasing order
   std::vector<double> gradient_u;     ///< d_k's first component, 1/m
   std::vector<double> gradient_v;     ///< d_k's second component, 1/m
-  std::vector<double> area;           ///< per element: its share of the energy × its rest area, m²
-  std::int64_t face_elements = 0;     ///< the first this many are the faces
+  std::vector<double> area;        ///< per element: its share of the energy × its rest area, m²
+  std::int64_t face_elements = 0;  ///< the first this many are the faces
   /// A vertex element's penalty (kMembraneStabilisation): per subcell (a third of one of its
   /// faces) β W(E_c − E) with E_c the face's strain in the vertex's rest frame; empty starts
   /// (or equal entries) for elements without.
-  std::vector<std::int32_t> subcell_starts;     ///< elements + 1, or empty
-  std::vector<double> subcell_area;             ///< β × a third of the face's rest area, m²
-  std::vector<std::int32_t> subcell_corner;     ///< 3 per subcell: local corner indices
-  std::vector<double> subcell_gradient_u;       ///< 3 per subcell, 1/m
-  std::vector<double> subcell_gradient_v;       ///< 3 per subcell, 1/m
+  std::vector<std::int32_t> subcell_starts;  ///< elements + 1, or empty
+  std::vector<double> subcell_area;          ///< β × a third of the face's rest area, m²
+  std::vector<std::int32_t> subcell_corner;  ///< 3 per subcell: local corner indices
+  std::vector<double> subcell_gradient_u;    ///< 3 per subcell, 1/m
+  std::vector<double> subcell_gradient_v;    ///< 3 per subcell, 1/m
   std::size_t size() const { return area.size(); }
 };
 
@@ -162,9 +161,8 @@ MembraneRest membrane_face_rest(const MembraneFaces& map, const SpringSet& sprin
 /// Fills `out` with the elements at the springs' current rest lengths: the faces alone
 /// (share 1) without a reference, with one the faces (share kMembraneFaceShare) and the
 /// smoothed vertices. Reuses out's storage.
-void build_membrane_elements(const Faces& faces, const MembraneFaces& map,
-                             const SpringSet& springs, const MembraneReference* reference,
-                             MembraneElements& out);
+void build_membrane_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                             const MembraneReference* reference, MembraneElements& out);
 
 /// Calls visit(slot, i, j) for every pair of distinct corners (p > q, vertices i and j) of every
 /// element, slot counting the pairs in element order and, within one, at p(p − 1)/2 + q.
@@ -203,8 +201,7 @@ double membrane_energy(const MembraneElements& elements, const MembraneMaterial&
 /// Adds the membrane's gradient at x (N) to `gradient` (n×3, sized by the caller); returns the
 /// energy (J).
 double membrane_add_gradient(const MembraneElements& elements, const MembraneMaterial& material,
-                             const Positions& x, Positions& gradient,
-                             MembraneElementWork& work);
+                             const Positions& x, Positions& gradient, MembraneElementWork& work);
 
 /// What the membrane's faces look like at positions x.
 struct MembraneStatus {

@@ -3,7 +3,6 @@
 /// Triangle-mesh checks and the connectivity a mass-spring cloth is wired from (paper Fig. 1).
 
 #include <Eigen/Core>
-
 #include <array>
 #include <cstdint>
 #include <vector>

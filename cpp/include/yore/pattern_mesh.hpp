@@ -5,12 +5,11 @@
 /// angles) to a largest edge length and a smallest angle: isotropic triangles with no preferred
 /// directions, unlike the grid's.
 
-#include "yore/mesh.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <vector>
+
+#include "yore/mesh.hpp"
 
 namespace yore {
 
@@ -38,15 +37,15 @@ constexpr std::int64_t kPatternMaxPoints = 20'000;
 
 /// What to mesh and how finely.
 struct PatternMeshOptions {
-  double edge_length = 0.05;       ///< every edge at most this long, m
+  double edge_length = 0.05;        ///< every edge at most this long, m
   double min_angle_degrees = 25.0;  ///< every angle at least this, in (0, kPatternMaxAngleDegrees]
   std::int64_t max_vertices = 1'000'000;  ///< refinement beyond this many vertices is refused
 };
 
 /// A meshed pattern: vertices in the pattern's plane and counter-clockwise faces.
 struct PatternMesh {
-  Polygon2 points;  ///< n×2, m
-  Faces faces;      ///< f×3, counter-clockwise in (u, v)
+  Polygon2 points;                    ///< n×2, m
+  Faces faces;                        ///< f×3, counter-clockwise in (u, v)
   std::int64_t outline_vertices = 0;  ///< vertices on the outline or a hole's boundary
 };
 

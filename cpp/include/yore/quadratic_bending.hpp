@@ -27,12 +27,11 @@
 /// coordinates whitened by each patch's spread, so a stretched mesh is fitted like the
 /// regular one it is an affine image of.
 
-#include "yore/mesh.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <vector>
+
+#include "yore/mesh.hpp"
 
 namespace yore {
 
@@ -61,8 +60,7 @@ QuadraticBendingMatrix quadratic_bending_matrix(const Positions& rest_positions,
 /// more points pose a fit whose design matrix keeps its smallest singular value above 1e-2 of
 /// its largest. Throws std::invalid_argument when a mesh component cannot (under 6 vertices,
 /// or all near one conic).
-QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions,
-                                             const Faces& faces);
+QuadraticBendingMatrix fitted_bending_matrix(const Positions& rest_positions, const Faces& faces);
 
 /// ½ κ Σ_c x_cᵀ Q x_c, joules, for positions x (n×3, m) and modulus κ (N·m).
 double quadratic_bending_energy(const QuadraticBendingMatrix& matrix, double modulus,

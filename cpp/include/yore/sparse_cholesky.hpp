@@ -2,9 +2,9 @@
 /// @file sparse_cholesky.hpp
 /// CHOLMOD's sparse Cholesky factorization behind RAII (cholmod.h stays in the .cpp).
 
-#include "yore/linear_solver.hpp"
-
 #include <memory>
+
+#include "yore/linear_solver.hpp"
 
 namespace yore {
 

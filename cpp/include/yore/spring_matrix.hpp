@@ -7,11 +7,11 @@
 /// by x, y and z: a ninth of the nonzeros of the 3n×3n Newton Hessian. Its pattern depends on
 /// the topology only; its values on h, masses, stiffness, damping and drag.
 
-#include "yore/cloth.hpp"
-#include "yore/linear_solver.hpp"
-
 #include <cstdint>
 #include <vector>
+
+#include "yore/cloth.hpp"
+#include "yore/linear_solver.hpp"
 
 namespace yore {
 

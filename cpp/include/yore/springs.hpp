@@ -4,7 +4,6 @@
 /// (energy, gradient, Hessian, damping force) that every integrator uses.
 
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <vector>
 

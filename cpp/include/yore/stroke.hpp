@@ -3,15 +3,14 @@
 /// Locating a user's stroke on the current cloth surface (target yore_geometry, CGAL AABB trees):
 /// the faces it crosses and where, for the paper's partial area expansion.
 
-#include "yore/mesh.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
+
+#include "yore/mesh.hpp"
 
 namespace yore {
 
@@ -62,7 +61,7 @@ struct StrokeTrace {
   std::vector<StrokeCrossing> crossings;
   /// Every sample that hit, in stroke order: the stroke's path on the surface.
   std::vector<StrokePoint> path;
-  std::int64_t samples = 0;         ///< samples evaluated (after refinement) + counted
+  std::int64_t samples = 0;  ///< samples evaluated (after refinement) + counted
   /// samples that did not touch the surface, including those of the parts of a stroke clipped
   /// away before sampling (counted at the sampling spacing, not evaluated)
   std::int64_t missed_samples = 0;
@@ -112,8 +111,8 @@ class Polyline {
 /// polyline is first clipped to the surface's bounding box grown by max_distance (outside it
 /// everything misses); throws std::invalid_argument if what remains needs more than
 /// kMaxStrokeSamples samples, or on bad max_distance or spacing.
-StrokeTrace trace_closest(const Positions& positions, const Faces& faces,
-                          const Positions& stroke, double max_distance, double spacing);
+StrokeTrace trace_closest(const Positions& positions, const Faces& faces, const Positions& stroke,
+                          double max_distance, double spacing);
 
 /// Traces a polyline of pixels (k×3, z ignored) by casting rays from `eye` with direction
 /// base_direction + px · direction_per_pixel_x + py · direction_per_pixel_y (a pinhole camera

@@ -5,16 +5,15 @@
 /// (the paper) or grow the band's rest lengths. The cloth changes only through Cloth's own
 /// mesh mutations (refine_faces, split_faces, set_rest_lengths).
 
-#include "yore/cloth.hpp"
-#include "yore/growth.hpp"
-#include "yore/stroke.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "yore/cloth.hpp"
+#include "yore/growth.hpp"
+#include "yore/stroke.hpp"
 
 namespace yore {
 
@@ -75,15 +74,15 @@ struct StrokeOptions {
 
 /// What a stroke did. Areas in m², lengths in m, masses in kg, times in s.
 struct StrokeResult {
-  std::int64_t faces_split = 0;                 ///< paper: faces split 1→3
-  std::vector<std::int32_t> faces_skipped;      ///< paper: faces left whole (slivers)
-  std::int64_t springs_added = 0;               ///< refinement and split together
-  std::int64_t springs_removed = 0;             ///< likewise
-  std::vector<std::int32_t> region_faces;       ///< paper: the split's children; else the band
-  std::vector<std::int32_t> new_vertices;       ///< refinement's, then the split's
-  double area_before = 0.0;  ///< current area of the faces the first trace crossed
-  double rest_area_before = 0.0;  ///< rest area of the split faces (paper) or of the band
-  double rest_area_after = 0.0;   ///< of the split's children (paper) or of the grown band
+  std::int64_t faces_split = 0;             ///< paper: faces split 1→3
+  std::vector<std::int32_t> faces_skipped;  ///< paper: faces left whole (slivers)
+  std::int64_t springs_added = 0;           ///< refinement and split together
+  std::int64_t springs_removed = 0;         ///< likewise
+  std::vector<std::int32_t> region_faces;   ///< paper: the split's children; else the band
+  std::vector<std::int32_t> new_vertices;   ///< refinement's, then the split's
+  double area_before = 0.0;                 ///< current area of the faces the first trace crossed
+  double rest_area_before = 0.0;            ///< rest area of the split faces (paper) or of the band
+  double rest_area_after = 0.0;     ///< of the split's children (paper) or of the grown band
   std::int64_t samples = 0;         ///< of the last trace
   std::int64_t missed_samples = 0;  ///< of the last trace
   std::int64_t moved_inward = 0;    ///< paper: split points moved inward

@@ -5,12 +5,11 @@
 /// libigl's false_barycentric_subdivision. Cloth::split_faces and Cloth::refine_faces call these
 /// and only rewire springs and masses.
 
-#include "yore/mesh.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <vector>
+
+#include "yore/mesh.hpp"
 
 namespace yore {
 

@@ -22,8 +22,7 @@ from __future__ import annotations
 from .schema import SceneError
 from .building import apply_scene_stroke, scene_camera
 from .loading import Scene, load_scene, parse_override
-from .runner import (RunError, RunInterrupted, STATE_NAME, SUMMARY_NAME, resume_run,
-                     run_scene)
+from .runner import RunError, RunInterrupted, STATE_NAME, SUMMARY_NAME, resume_run, run_scene
 from .demo import demo_scene_text, paper_scene_text, run_demo
 
 __all__ = [

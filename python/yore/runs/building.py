@@ -34,8 +34,16 @@ def _boundary_vertices(F):
 
 
 #: The Cloth arguments that are scene keys of [material] by the same name.
-MATERIAL_ARGUMENTS = ("stretch_stiffness", "bend_stiffness", "bending_modulus", "damping", "drag",
-                      "young_modulus", "poisson_ratio", "membrane_strain")
+MATERIAL_ARGUMENTS = (
+    "stretch_stiffness",
+    "bend_stiffness",
+    "bending_modulus",
+    "damping",
+    "drag",
+    "young_modulus",
+    "poisson_ratio",
+    "membrane_strain",
+)
 
 
 def build_simulation(scene):
@@ -46,9 +54,13 @@ def build_simulation(scene):
     simulation = data["simulation"]
     gravity = simulation.get("gravity")
     try:
-        sim = Simulation(cloth, integrator=simulation["integrator"], dt=simulation.get("dt"),
-                         gravity=GRAVITY if gravity is None else gravity,
-                         **data["integrator"])
+        sim = Simulation(
+            cloth,
+            integrator=simulation["integrator"],
+            dt=simulation.get("dt"),
+            gravity=GRAVITY if gravity is None else gravity,
+            **data["integrator"],
+        )
     except InactiveOptionError as error:
         # an [integrator] option of a mode the scene does not select: named by its key, here
         # where `yore check` and the run both build (a resumed run does not: it continues)
@@ -73,32 +85,45 @@ def _build_mesh(scene):
         try:
             V, F = grid_mesh(mesh["nx"], mesh["ny"], width=mesh["width"], height=mesh["height"])
         except ArgumentError as error:  # a size out of range, by the argument's name
-            raise scene.error(f"mesh.{error.argument}", str(error), "a grid yore can mesh") \
-                from None
+            raise scene.error(
+                f"mesh.{error.argument}", str(error), "a grid yore can mesh"
+            ) from None
         uv = V[:, :2].copy()
-        pattern = V if mesh["plane"] == "xy" else np.column_stack(
-            [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+        pattern = (
+            V if mesh["plane"] == "xy" else np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+        )
         sets = _grid_sets(mesh["nx"], mesh["ny"])
     elif generator == "pattern":
         try:
-            V, F = pattern_mesh(mesh["outline"], mesh["holes"], mesh["edge_length"],
-                                mesh["min_angle"], mesh["interior"])
+            V, F = pattern_mesh(
+                mesh["outline"],
+                mesh["holes"],
+                mesh["edge_length"],
+                mesh["min_angle"],
+                mesh["interior"],
+            )
         except ArgumentError as error:  # the key at fault, by the argument's name
-            raise scene.error(f"mesh.{error.argument}", str(error),
-                              "a pattern CGAL can mesh") from None
+            raise scene.error(
+                f"mesh.{error.argument}", str(error), "a pattern CGAL can mesh"
+            ) from None
         uv = V[:, :2].copy()
-        pattern = V if mesh["plane"] == "xy" else np.column_stack(
-            [uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+        pattern = (
+            V if mesh["plane"] == "xy" else np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+        )
         sets = {"boundary": _boundary_vertices(F)}
     elif generator == "cylinder":
         try:
-            pattern, F = cylinder_mesh(mesh["radius"], mesh["height"], mesh["rings"],
-                                       mesh["segments"])
+            pattern, F = cylinder_mesh(
+                mesh["radius"], mesh["height"], mesh["rings"], mesh["segments"]
+            )
         except ArgumentError as error:
-            raise scene.error(f"mesh.{error.argument}", str(error), "a tube yore can mesh") \
-                from None
-        sets = {"bottom rim": cylinder_ring(mesh["rings"], mesh["segments"], 0),
-                "top rim": cylinder_ring(mesh["rings"], mesh["segments"], -1)}
+            raise scene.error(
+                f"mesh.{error.argument}", str(error), "a tube yore can mesh"
+            ) from None
+        sets = {
+            "bottom rim": cylinder_ring(mesh["rings"], mesh["segments"], 0),
+            "top rim": cylinder_ring(mesh["rings"], mesh["segments"], -1),
+        }
     else:
         path = Path(mesh["path"])
         if not path.is_absolute():
@@ -130,23 +155,38 @@ def _build_cloth(scene, pattern, F, uv):
         bending_arguments = (
             {"bending": material["bending"], "bending_modulus": material["bending_modulus"]}
             if material["bending"] in ("quadratic", "hinge")
-            else {"bend_stiffness": material["bend_stiffness"]})
+            else {"bend_stiffness": material["bend_stiffness"]}
+        )
         stretch_arguments = (
-            {"stretch": "membrane", "young_modulus": material["young_modulus"],
-             "poisson_ratio": material["poisson_ratio"],
-             "membrane_strain": material.get("membrane_strain")}
+            {
+                "stretch": "membrane",
+                "young_modulus": material["young_modulus"],
+                "poisson_ratio": material["poisson_ratio"],
+                "membrane_strain": material.get("membrane_strain"),
+            }
             if material["stretch"] == "membrane"
-            else {"stretch_stiffness": material["stretch_stiffness"]})
-        cloth = Cloth(pattern, F, damping=material["damping"], drag=material["drag"],
-                      **mass_arguments, **bending_arguments, **stretch_arguments)
+            else {"stretch_stiffness": material["stretch_stiffness"]}
+        )
+        cloth = Cloth(
+            pattern,
+            F,
+            damping=material["damping"],
+            drag=material["drag"],
+            **mass_arguments,
+            **bending_arguments,
+            **stretch_arguments,
+        )
     except ArgumentError as error:
         # The core checks the material's values and the per-vertex masses, and names the
         # argument at fault: the key (or table) the value came from.
         if error.argument in MATERIAL_ARGUMENTS:
             raise scene.error(f"material.{error.argument}", str(error)) from None
         if error.argument == "masses":
-            raise scene.error("material", str(error), "masses that are normal numbers > 0 per "
-                              "vertex, at most 1e12 kg") from None
+            raise scene.error(
+                "material",
+                str(error),
+                "masses that are normal numbers > 0 per vertex, at most 1e12 kg",
+            ) from None
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
     except ValueError as error:  # the mesh
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
@@ -174,21 +214,27 @@ def _constrain(scene, cloth, sets):
     for k, entry in enumerate(data["driven"]):
         vertices = _select(scene, f"driven[{k}]", entry, sets, positions)
         try:
-            cloth.drive_rotation(vertices, center=entry["center"], axis=entry["axis"],
-                                 omega=entry["omega"])
+            cloth.drive_rotation(
+                vertices, center=entry["center"], axis=entry["axis"], omega=entry["omega"]
+            )
         except ValueError as error:
             raise scene.error(f"driven[{k}]", str(error)) from None
 
 
 def _grid_sets(nx, ny):
     index = np.arange(nx * ny, dtype=np.int32).reshape(ny, nx)  # [j, i] = j*nx + i
-    sets = {"bottom edge": index[0, :], "top edge": index[-1, :], "left edge": index[:, 0],
-            "right edge": index[:, -1]}
+    sets = {
+        "bottom edge": index[0, :],
+        "top edge": index[-1, :],
+        "left edge": index[:, 0],
+        "right edge": index[:, -1],
+    }
     for name in ("bottom", "top", "left", "right"):
         edge = sets[f"{name} edge"]
         sets[f"{name} corners"] = np.array([edge[0], edge[-1]], dtype=np.int32)
-    sets["corners"] = np.array(sorted({index[0, 0], index[0, -1], index[-1, 0], index[-1, -1]}),
-                               dtype=np.int32)
+    sets["corners"] = np.array(
+        sorted({index[0, 0], index[0, -1], index[-1, 0], index[-1, -1]}), dtype=np.int32
+    )
     return sets
 
 
@@ -197,20 +243,29 @@ def _select(scene, where, entry, sets, positions):
         vertices = entry["indices"]
         bad = vertices[vertices >= len(positions)]
         if bad.size:
-            raise scene.error(f"{where}.indices", f"vertex {int(bad[0])} is out of range",
-                              f"indices in [0, {len(positions)})")
+            raise scene.error(
+                f"{where}.indices",
+                f"vertex {int(bad[0])} is out of range",
+                f"indices in [0, {len(positions)})",
+            )
         return vertices
     if "set" in entry:
         name = entry["set"]
         if name not in sets:
-            raise scene.error(f"{where}.set", f"unknown set {name!r}{did_you_mean(name, sets)}",
-                              "one of " + ", ".join(repr(s) for s in sets))
+            raise scene.error(
+                f"{where}.set",
+                f"unknown set {name!r}{did_you_mean(name, sets)}",
+                "one of " + ", ".join(repr(s) for s in sets),
+            )
         return sets[name]
     box = entry["box"]
     inside = np.all((positions >= box["min"]) & (positions <= box["max"]), axis=1)
     if not inside.any():
-        raise scene.error(f"{where}.box", "selects no vertex",
-                          "a box that contains vertices of the cloth at t = 0")
+        raise scene.error(
+            f"{where}.box",
+            "selects no vertex",
+            "a box that contains vertices of the cloth at t = 0",
+        )
     return np.flatnonzero(inside).astype(np.int32)
 
 
@@ -228,18 +283,26 @@ def apply_scene_stroke(scene, sim, index, camera=None):
     report. A stroke that misses raises SceneError naming it."""
     stroke = scene.data["strokes"][index]
     where = f"strokes[{index}]"
-    options = StrokeOptions(expansion=stroke["expansion"], mass_scale=stroke["mass_scale"],
-                            width=stroke.get("width"), growth=stroke["growth"],
-                            refine=stroke["refine"], max_distance=stroke.get("max_distance"),
-                            smooth=stroke.get("smooth"))
+    options = StrokeOptions(
+        expansion=stroke["expansion"],
+        mass_scale=stroke["mass_scale"],
+        width=stroke.get("width"),
+        growth=stroke["growth"],
+        refine=stroke["refine"],
+        max_distance=stroke.get("max_distance"),
+        smooth=stroke.get("smooth"),
+    )
     if "material" in stroke:
         path = StrokePath.material(stroke["material"])
     elif "points" in stroke:
         path = StrokePath.world(stroke["points"])
     else:
         if "eye" not in scene.data["camera"]:
-            raise scene.error(f"{where}.screen", "a screen stroke needs a camera",
-                              "a [camera] table with eye and target")
+            raise scene.error(
+                f"{where}.screen",
+                "a screen stroke needs a camera",
+                "a [camera] table with eye and target",
+            )
         camera = camera or scene_camera(scene, sim.cloth.positions)
         path = StrokePath.screen(stroke["screen"], camera)
     try:
@@ -248,6 +311,9 @@ def apply_scene_stroke(scene, sim, index, camera=None):
         raise scene.error(f"{where}.refine", str(error).removeprefix("refine: ")) from None
     except StrokeMissed as error:
         form = next(f for f in STROKE_FORMS if f in stroke)
-        raise scene.error(f"{where}.{form}", f"the stroke misses the cloth at t = "
-                          f"{sim.time:.4g} s ({error})", "a polyline over the cloth") from None
+        raise scene.error(
+            f"{where}.{form}",
+            f"the stroke misses the cloth at t = {sim.time:.4g} s ({error})",
+            "a polyline over the cloth",
+        ) from None
     return report

@@ -41,8 +41,9 @@ def _save_picture(path, camera_settings, shown):
     from ..viz.render import framing_camera, picture_layout
 
     positions = [sim.cloth.positions for sim, _, _ in shown]
-    heights = [1e3 * metrics.wrinkle_height(sim.cloth.positions, sim.cloth.faces)
-               for sim, _, _ in shown]
+    heights = [
+        1e3 * metrics.wrinkle_height(sim.cloth.positions, sim.cloth.faces) for sim, _, _ in shown
+    ]
     half = max(float(max(abs(h).max() for h in heights)), 1e-9)
     full = camera_from_settings(camera_settings, positions)
     if (camera_settings or {}).get("eye") is None:
@@ -56,8 +57,15 @@ def _save_picture(path, camera_settings, shown):
             record = json.loads((folder / SUMMARY_NAME).read_text(encoding="utf-8"))
             strokes = stroke_lines(record.get("strokes", []), sim.cloth.positions)
         panels.append((title, sim.cloth.positions, sim.cloth.faces, strokes))
-    save_panels(path, panels, camera=full, values=heights, value_range=(-half, half),
-                colormap="coolwarm", colorbar="wrinkles (mm)")
+    save_panels(
+        path,
+        panels,
+        camera=full,
+        values=heights,
+        value_range=(-half, half),
+        colormap="coolwarm",
+        colorbar="wrinkles (mm)",
+    )
 
 
 def demo_scene_text() -> str:
@@ -67,8 +75,7 @@ def demo_scene_text() -> str:
 
 def paper_scene_text() -> str:
     """The paper's operation on the same cloth (the same text as examples/hanging_paper.toml)."""
-    return resources.files("yore").joinpath("data/hanging_paper.toml").read_text(
-        encoding="utf-8")
+    return resources.files("yore").joinpath("data/hanging_paper.toml").read_text(encoding="utf-8")
 
 
 def _effect(stroked_dir, plain_dir):
@@ -78,10 +85,20 @@ def _effect(stroked_dir, plain_dir):
         return None
     stroke = record["strokes"][0]
     vertices = stroke["new_vertices"] or stroke["line_vertices"]
-    effect = metrics.stroke_effect(sim.cloth.positions, sim.cloth.faces, plain.cloth.positions,
-                                   plain.cloth.faces, stroke["region_faces"], vertices)
-    effect.update(time=sim.time, growth=stroke["growth"], refine=stroke["refine"],
-                  vertices_measured=len(vertices))
+    effect = metrics.stroke_effect(
+        sim.cloth.positions,
+        sim.cloth.faces,
+        plain.cloth.positions,
+        plain.cloth.faces,
+        stroke["region_faces"],
+        vertices,
+    )
+    effect.update(
+        time=sim.time,
+        growth=stroke["growth"],
+        refine=stroke["refine"],
+        vertices_measured=len(vertices),
+    )
     return effect, sim, plain
 
 
@@ -91,23 +108,42 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
     Raises what `yore.run_scene` raises."""
     out = Path(out)
     overrides = dict(overrides or {})
-    plain = {**overrides, "strokes": [], "output.format": "none", "output.animation": "none",
-             "output.pictures": False}
+    plain = {
+        **overrides,
+        "strokes": [],
+        "output.format": "none",
+        "output.animation": "none",
+        "output.pictures": False,
+    }
     yore_scene = load_scene(Path("hanging.toml"), text=demo_scene_text(), overrides=overrides)
-    paper_scene = load_scene(Path("hanging_paper.toml"), text=paper_scene_text(),
-                             overrides={**overrides, "output.animation": "none"})
-    runs = [(yore_scene, out, True, "yore's stroke"),
-            (paper_scene, out / PAPER_DIR, False, "the paper's stroke"),
-            (load_scene(Path("hanging.toml"), text=demo_scene_text(), overrides=plain),
-             out / PLAIN_DIR, False, "no stroke"),
-            (load_scene(Path("hanging_paper.toml"), text=paper_scene_text(), overrides=plain),
-             out / PAPER_PLAIN_DIR, False, "the paper's cloth, no stroke")]
+    paper_scene = load_scene(
+        Path("hanging_paper.toml"),
+        text=paper_scene_text(),
+        overrides={**overrides, "output.animation": "none"},
+    )
+    runs = [
+        (yore_scene, out, True, "yore's stroke"),
+        (paper_scene, out / PAPER_DIR, False, "the paper's stroke"),
+        (
+            load_scene(Path("hanging.toml"), text=demo_scene_text(), overrides=plain),
+            out / PLAIN_DIR,
+            False,
+            "no stroke",
+        ),
+        (
+            load_scene(Path("hanging_paper.toml"), text=paper_scene_text(), overrides=plain),
+            out / PAPER_PLAIN_DIR,
+            False,
+            "the paper's cloth, no stroke",
+        ),
+    ]
     summary = None
     for scene, folder, render, label in runs:
         if not quiet:
             print(f"yore demo: {label} -> {folder}", flush=True)
-        result = run_scene(scene, folder, quiet=quiet, render=render, overwrite=overwrite,
-                           threads=threads)
+        result = run_scene(
+            scene, folder, quiet=quiet, render=render, overwrite=overwrite, threads=threads
+        )
         if summary is None:
             summary = result
 
@@ -123,22 +159,37 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
         plain_sim, _ = load_state(out / PLAIN_DIR / STATE_NAME)
     shown = [(plain_sim, None, "no stroke")]
     if paper_effect is not None:
-        shown.append((paper_sim, out / PAPER_DIR,
-                      f"the paper's stroke: spike index {measured['paper']['spike_index']:.2f}"))
+        shown.append(
+            (
+                paper_sim,
+                out / PAPER_DIR,
+                f"the paper's stroke: spike index {measured['paper']['spike_index']:.2f}",
+            )
+        )
     if yore_effect is not None:
-        shown.append((yore_sim, out,
-                      f"yore's stroke: wrinkles x{measured['yore']['wrinkle_ratio']:.1f}, "
-                      f"spike index {measured['yore']['spike_index']:.2f}"))
+        shown.append(
+            (
+                yore_sim,
+                out,
+                f"yore's stroke: wrinkles x{measured['yore']['wrinkle_ratio']:.1f}, "
+                f"spike index {measured['yore']['spike_index']:.2f}",
+            )
+        )
     _save_picture(out / PICTURE_NAME, summary.get("camera"), shown)
 
-    summary["demo"] = {"picture": PICTURE_NAME, "time": plain_sim.time, **measured,
-                       "runs": {"paper": PAPER_DIR, "no_stroke": PLAIN_DIR,
-                                "paper_no_stroke": PAPER_PLAIN_DIR}}
+    summary["demo"] = {
+        "picture": PICTURE_NAME,
+        "time": plain_sim.time,
+        **measured,
+        "runs": {"paper": PAPER_DIR, "no_stroke": PLAIN_DIR, "paper_no_stroke": PAPER_PLAIN_DIR},
+    }
     summary["outputs"]["demo"] = PICTURE_NAME
     write_json(out / SUMMARY_NAME, summary)
     if not quiet:
         for name, effect in measured.items():
-            print(f"{name:5s}: wrinkle measure {effect['wrinkle']:.4f} m against "
-                  f"{effect['wrinkle_plain']:.4f} m without the stroke "
-                  f"(×{effect['wrinkle_ratio']:.2f}), spike index {effect['spike_index']:.3f}")
+            print(
+                f"{name:5s}: wrinkle measure {effect['wrinkle']:.4f} m against "
+                f"{effect['wrinkle_plain']:.4f} m without the stroke "
+                f"(×{effect['wrinkle_ratio']:.2f}), spike index {effect['spike_index']:.3f}"
+            )
     return json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8"))

@@ -23,14 +23,34 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from .._core import Cloth
 from ..meshes import MAX_MESH_VERTICES
-from ..options import (FRAMES_PER_SECOND, INTEGRATOR_OPTIONS, MASS, POISSON_RATIO,
-                       REFERENCE_INTEGRATOR, STIFFNESS, OptionError, check_option)
+from ..options import (
+    FRAMES_PER_SECOND,
+    INTEGRATOR_OPTIONS,
+    MASS,
+    POISSON_RATIO,
+    REFERENCE_INTEGRATOR,
+    STIFFNESS,
+    OptionError,
+    check_option,
+)
 from ..simulation import Simulation
 from ..checks import MAX_IMAGE_PIXELS
 from .building import build_simulation, apply_scene_stroke
-from .schema import (BOX, GENERATOR_KEYS, REQUIRED, SCHEMA_GENERATOR_EXPECTED, SELECTION,
-                     SMOOTH, STROKE_FORMS, MAX_SCENE_FILE_BYTES, SCHEMA, SceneError, describe_value,
-                     did_you_mean, Invalid)
+from .schema import (
+    BOX,
+    GENERATOR_KEYS,
+    REQUIRED,
+    SCHEMA_GENERATOR_EXPECTED,
+    SELECTION,
+    SMOOTH,
+    STROKE_FORMS,
+    MAX_SCENE_FILE_BYTES,
+    SCHEMA,
+    SceneError,
+    describe_value,
+    did_you_mean,
+    Invalid,
+)
 
 __all__ = ["Scene", "load_scene", "parse_override"]
 
@@ -41,8 +61,10 @@ def step_of(seconds, dt):
     ValueError for a time that no step count reaches (|seconds / dt| over 2^62)."""
     ratio = seconds / dt
     if not abs(ratio) <= 2.0**62:  # (also NaN)
-        raise ValueError(f"t = {seconds:g} s is {ratio:g} steps of dt = {dt:g} s, more than a "
-                         "run can count (2^62)")
+        raise ValueError(
+            f"t = {seconds:g} s is {ratio:g} steps of dt = {dt:g} s, more than a "
+            "run can count (2^62)"
+        )
     return int(round(ratio))
 
 
@@ -99,9 +121,14 @@ class Scene:
                     f"{stroke['time']:g} s rounds to step {at} of dt = {sim.dt:.6g} s, the run's "
                     f"last step ({last}, t = {self.data['simulation']['duration']:g} s), after "
                     "which nothing is drawn",
-                    f"a time at most {(last - 1) * sim.dt:.6g} s (the duration less one step)")
-        probe = Simulation(Cloth.from_state(sim.cloth.state()), integrator=REFERENCE_INTEGRATOR,
-                           dt=sim.dt, gravity=sim.gravity)
+                    f"a time at most {(last - 1) * sim.dt:.6g} s (the duration less one step)",
+                )
+        probe = Simulation(
+            Cloth.from_state(sim.cloth.state()),
+            integrator=REFERENCE_INTEGRATOR,
+            dt=sim.dt,
+            gravity=sim.gravity,
+        )
         for index, stroke in sorted(enumerate(self.data["strokes"]), key=lambda s: s[1]["time"]):
             if "material" in stroke or stroke["time"] == 0.0:
                 apply_scene_stroke(self, probe, index)
@@ -136,12 +163,19 @@ def load_scene(path=None, text=None, overrides=None) -> Scene:
         raw = tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as error:
         match = re.search(r"line (\d+)", str(error))
-        raise SceneError(source, None, f"not valid TOML: {' '.join(str(error).split())}",
-                         line=int(match.group(1)) if match else None) from None
+        raise SceneError(
+            source,
+            None,
+            f"not valid TOML: {' '.join(str(error).split())}",
+            line=int(match.group(1)) if match else None,
+        ) from None
     except RecursionError:
-        raise SceneError(source, None, "not readable TOML: arrays or tables are nested too "
-                         "deeply", "a scene file (no key takes values nested more than 2 "
-                         "levels deep)") from None
+        raise SceneError(
+            source,
+            None,
+            "not readable TOML: arrays or tables are nested too deeply",
+            "a scene file (no key takes values nested more than 2 levels deep)",
+        ) from None
     scene = Scene(data={}, text=text, path=path)
     for dotted, value in (overrides or {}).items():
         _apply_override(scene, raw, dotted, value)
@@ -157,15 +191,19 @@ def read_scene_text(path):
         if not stat.S_ISREG(info.st_mode):
             raise SceneError(path, None, "cannot read the scene file: not a regular file")
         if info.st_size > MAX_SCENE_FILE_BYTES:
-            raise SceneError(path, None, f"cannot read the scene file: {info.st_size} bytes "
-                             f"is more than the limit of {MAX_SCENE_FILE_BYTES} bytes")
+            raise SceneError(
+                path,
+                None,
+                f"cannot read the scene file: {info.st_size} bytes "
+                f"is more than the limit of {MAX_SCENE_FILE_BYTES} bytes",
+            )
         return path.read_text(encoding="utf-8")
     except OSError as error:
-        raise SceneError(path, None, f"cannot read the scene file ({error.strerror})") \
-            from None
+        raise SceneError(path, None, f"cannot read the scene file ({error.strerror})") from None
     except UnicodeDecodeError as error:
-        raise SceneError(path, None, f"cannot read the scene file: not UTF-8 text (byte "
-                         f"{error.start})") from None
+        raise SceneError(
+            path, None, f"cannot read the scene file: not UTF-8 text (byte {error.start})"
+        ) from None
 
 
 def parse_override(text: str):
@@ -180,8 +218,12 @@ def parse_override(text: str):
     except tomllib.TOMLDecodeError:
         parsed = value.strip()
     except RecursionError:
-        raise SceneError("--set", key, "the value is nested too deeply",
-                         "a number, boolean, string or a list of them") from None
+        raise SceneError(
+            "--set",
+            key,
+            "the value is nested too deeply",
+            "a number, boolean, string or a list of them",
+        ) from None
     return key, parsed
 
 
@@ -198,8 +240,9 @@ def _apply_override(scene, raw, dotted, value):
             node = node[part]
         else:
             if not isinstance(node, dict):
-                raise SceneError("--set", dotted, f"{'.'.join(map(str, parts[:depth]))} is "
-                                 "not a table")
+                raise SceneError(
+                    "--set", dotted, f"{'.'.join(map(str, parts[:depth]))} is not a table"
+                )
             node = node.setdefault(part, {})
     last = parts[-1]
     if isinstance(last, int) or not isinstance(node, dict):
@@ -221,8 +264,9 @@ def _check(scene, raw):
     _check_material(scene, data["material"], raw)
     _check_vertices_and_strokes(scene, data)
     _check_output(scene, data)
-    data["integrator"] = _check_integrator(scene, raw.get("integrator", {}),
-                                           data["simulation"]["integrator"])
+    data["integrator"] = _check_integrator(
+        scene, raw.get("integrator", {}), data["simulation"]["integrator"]
+    )
     return data
 
 
@@ -231,8 +275,11 @@ def _check_tables(scene, raw):
     unknown = [key for key in raw if key not in SCHEMA]
     if unknown:
         key = unknown[0]
-        raise scene.error(key, f"unknown table or key{did_you_mean(key, SCHEMA)}",
-                          "one of the tables " + ", ".join(f"[{k}]" for k in SCHEMA))
+        raise scene.error(
+            key,
+            f"unknown table or key{did_you_mean(key, SCHEMA)}",
+            "one of the tables " + ", ".join(f"[{k}]" for k in SCHEMA),
+        )
     data = {}
     for name, (keys, kind) in SCHEMA.items():
         value = raw.get(name)
@@ -242,10 +289,12 @@ def _check_tables(scene, raw):
             if value is None:
                 value = []
             if not isinstance(value, list) or any(not isinstance(v, dict) for v in value):
-                raise scene.error(name, f"got {describe_value(value)}",
-                                  f"[[{name}]] tables (an array of tables)")
-            data[name] = [_check_table(scene, f"{name}[{k}]", entry, keys)
-                          for k, entry in enumerate(value)]
+                raise scene.error(
+                    name, f"got {describe_value(value)}", f"[[{name}]] tables (an array of tables)"
+                )
+            data[name] = [
+                _check_table(scene, f"{name}[{k}]", entry, keys) for k, entry in enumerate(value)
+            ]
         else:
             if value is None:
                 if name in ("mesh", "simulation"):
@@ -256,8 +305,7 @@ def _check_tables(scene, raw):
             if name == "mesh":
                 generator = value.get("generator")
                 if generator is None:
-                    raise scene.error("mesh.generator", "missing",
-                                      SCHEMA_GENERATOR_EXPECTED)
+                    raise scene.error("mesh.generator", "missing", SCHEMA_GENERATOR_EXPECTED)
                 keys = dict(keys)
                 if isinstance(generator, str) and generator in GENERATOR_KEYS:
                     keys.update(GENERATOR_KEYS[generator])
@@ -273,23 +321,35 @@ def _check_material(scene, material, raw):
     """One way to give the mass; bending and stretching models with their own keys."""
     given = [k for k in ("mass", "mass_per_vertex", "density") if k in material]
     if len(given) > 1:
-        raise scene.error(f"material.{given[1]}", f"given together with material.{given[0]}",
-                          "one of mass (total), mass_per_vertex or density")
+        raise scene.error(
+            f"material.{given[1]}",
+            f"given together with material.{given[0]}",
+            "one of mass (total), mass_per_vertex or density",
+        )
     if not given:
         material["mass"] = MASS
     if material["bending"] in ("quadratic", "hinge"):
         model = material["bending"]
         if "bending_modulus" not in material:
-            raise scene.error("material.bending_modulus", f"missing with bending = \"{model}\"",
-                              "a number >= 0 (N·m)")
+            raise scene.error(
+                "material.bending_modulus",
+                f'missing with bending = "{model}"',
+                "a number >= 0 (N·m)",
+            )
         if material.get("bend_stiffness", 0.0) != 0.0:
-            raise scene.error("material.bend_stiffness", f"given with bending = \"{model}\", "
-                              "which creates no bending springs", "no bend_stiffness (or 0)")
+            raise scene.error(
+                "material.bend_stiffness",
+                f'given with bending = "{model}", which creates no bending springs',
+                "no bend_stiffness (or 0)",
+            )
         material.pop("bend_stiffness", None)
     else:
         if "bending_modulus" in material:
-            raise scene.error("material.bending_modulus", "given with bending = \"springs\"",
-                              "bending = \"quadratic\", or bend_stiffness for the springs")
+            raise scene.error(
+                "material.bending_modulus",
+                'given with bending = "springs"',
+                'bending = "quadratic", or bend_stiffness for the springs',
+            )
         material.setdefault("bend_stiffness", STIFFNESS)
     _check_stretch(scene, material, raw.get("material", {}))
 
@@ -303,33 +363,51 @@ def _check_vertices_and_strokes(scene, data):
     for k, stroke in enumerate(data["strokes"]):
         forms = [f for f in STROKE_FORMS if f in stroke]
         if len(forms) != 1:
-            raise scene.error(f"strokes[{k}]", f"gives {len(forms)} of points, material, screen",
-                              "exactly one of them")
+            raise scene.error(
+                f"strokes[{k}]",
+                f"gives {len(forms)} of points, material, screen",
+                "exactly one of them",
+            )
         if "max_distance" in stroke and forms[0] != "points":
-            raise scene.error(f"strokes[{k}].max_distance", f"given for a {forms[0]} stroke",
-                              "max_distance only with points")
+            raise scene.error(
+                f"strokes[{k}].max_distance",
+                f"given for a {forms[0]} stroke",
+                "max_distance only with points",
+            )
         if stroke["time"] >= data["simulation"]["duration"]:
-            raise scene.error(f"strokes[{k}].time", f"{stroke['time']:g} s is not before the "
-                              f"end of the run ({data['simulation']['duration']:g} s)",
-                              "a time before simulation.duration")
+            raise scene.error(
+                f"strokes[{k}].time",
+                f"{stroke['time']:g} s is not before the "
+                f"end of the run ({data['simulation']['duration']:g} s)",
+                "a time before simulation.duration",
+            )
 
 
 def _check_output(scene, data):
     """Frames, pictures and animations that fit together; settle without driven vertices."""
     output = data["output"]
     if output.get("fps") is not None and output.get("every_steps") is not None:
-        raise scene.error("output.every_steps", "given together with output.fps",
-                          "one of fps or every_steps")
+        raise scene.error(
+            "output.every_steps", "given together with output.fps", "one of fps or every_steps"
+        )
     if output.get("every_steps") is None and output.get("fps") is None:
         output["fps"] = FRAMES_PER_SECOND
     if output["animation"] != "none" and output["format"] == "none":
-        raise scene.error("output.animation", "an animation needs frames, but output.format "
-                          "is 'none'", "format = 'vtu', 'vtk', 'ply' or 'obj'")
+        raise scene.error(
+            "output.animation",
+            "an animation needs frames, but output.format is 'none'",
+            "format = 'vtu', 'vtk', 'ply' or 'obj'",
+        )
     if output["pictures"] and output["format"] != "none":
         _check_pictures_size(scene, data["camera"])
     if data["simulation"]["settle"] > 0.0 and data["driven"]:
-        raise scene.error("simulation.settle", "given for a scene with [[driven]] vertices, "
-                          "which keep moving and have no rest to settle to", "settle = 0")
+        raise scene.error(
+            "simulation.settle",
+            "given for a scene with [[driven]] vertices, "
+            "which keep moving and have no rest to settle to",
+            "settle = 0",
+        )
+
 
 def _check_mesh_size(scene, mesh):
     """The generated mesh's vertex count, estimated before anything is built."""
@@ -339,17 +417,22 @@ def _check_mesh_size(scene, mesh):
     count = mesh[sizes[0]] * mesh[sizes[1]]
     if count > MAX_MESH_VERTICES:
         key = sizes[0] if mesh[sizes[0]] >= mesh[sizes[1]] else sizes[1]
-        raise scene.error(f"mesh.{key}", f"{sizes[0]} × {sizes[1]} = {mesh[sizes[0]]} × "
-                          f"{mesh[sizes[1]]} = {count} vertices",
-                          f"at most {MAX_MESH_VERTICES} vertices")
+        raise scene.error(
+            f"mesh.{key}",
+            f"{sizes[0]} × {sizes[1]} = {mesh[sizes[0]]} × {mesh[sizes[1]]} = {count} vertices",
+            f"at most {MAX_MESH_VERTICES} vertices",
+        )
 
 
 def _check_camera_size(scene, camera):
     pixels = camera["width"] * camera["height"]
     if pixels > MAX_IMAGE_PIXELS:
         key = "width" if camera["width"] >= camera["height"] else "height"
-        raise scene.error(f"camera.{key}", f"{camera['width']} × {camera['height']} = "
-                          f"{pixels} pixels", f"at most {MAX_IMAGE_PIXELS} pixels in all")
+        raise scene.error(
+            f"camera.{key}",
+            f"{camera['width']} × {camera['height']} = {pixels} pixels",
+            f"at most {MAX_IMAGE_PIXELS} pixels in all",
+        )
 
 
 def _check_pictures_size(scene, camera):
@@ -360,26 +443,34 @@ def _check_pictures_size(scene, camera):
     height, width = side_by_side_shape([camera["width"]] * 2, camera["height"], titled=True)
     if width * height > 2 * MAX_IMAGE_PIXELS:
         key = "width" if camera["width"] >= camera["height"] else "height"
-        raise scene.error(f"camera.{key}", f"{camera['width']} × {camera['height']} makes the "
-                          f"before/after picture {width} × {height} = {width * height} pixels",
-                          f"at most {2 * MAX_IMAGE_PIXELS} pixels (two images of at most "
-                          f"{MAX_IMAGE_PIXELS} side by side), or output.pictures = false")
+        raise scene.error(
+            f"camera.{key}",
+            f"{camera['width']} × {camera['height']} makes the "
+            f"before/after picture {width} × {height} = {width * height} pixels",
+            f"at most {2 * MAX_IMAGE_PIXELS} pixels (two images of at most "
+            f"{MAX_IMAGE_PIXELS} side by side), or output.pictures = false",
+        )
 
 
 def _check_table(scene, where, table, keys):
     checked = {}
     for key, value in table.items():
         if key not in keys:
-            raise scene.error(f"{where}.{key}", f"unknown key{did_you_mean(key, keys)}",
-                              "one of " + ", ".join(keys))
+            raise scene.error(
+                f"{where}.{key}",
+                f"unknown key{did_you_mean(key, keys)}",
+                "one of " + ", ".join(keys),
+            )
         checker = keys[key][0]
         if checker == "box":
-            checked[key] = _check_table(scene, f"{where}.{key}", _as_table(scene, where, key,
-                                                                             value), BOX)
+            checked[key] = _check_table(
+                scene, f"{where}.{key}", _as_table(scene, where, key, value), BOX
+            )
             continue
         if checker == "smooth":
-            checked[key] = _check_table(scene, f"{where}.{key}", _as_table(scene, where, key,
-                                                                             value), SMOOTH)
+            checked[key] = _check_table(
+                scene, f"{where}.{key}", _as_table(scene, where, key, value), SMOOTH
+            )
             continue
         try:
             checked[key] = checker(value)
@@ -405,8 +496,9 @@ def _as_table(scene, where, key, value):
 def _check_selection(scene, where, entry):
     given = [k for k in SELECTION if k in entry]
     if len(given) != 1:
-        raise scene.error(where, f"selects vertices by {len(given)} of indices, box, set",
-                          "exactly one of them")
+        raise scene.error(
+            where, f"selects vertices by {len(given)} of indices, box, set", "exactly one of them"
+        )
 
 
 def _check_integrator(scene, options, integrator):
@@ -416,15 +508,15 @@ def _check_integrator(scene, options, integrator):
     checked = {}
     for key, value in options.items():
         if key not in table:
-            raise scene.error(f"integrator.{key}",
-                              f"unknown option of the {integrator!r} integrator"
-                              f"{did_you_mean(key, table)}",
-                              "one of " + (", ".join(sorted(table)) or "no options"))
+            raise scene.error(
+                f"integrator.{key}",
+                f"unknown option of the {integrator!r} integrator{did_you_mean(key, table)}",
+                "one of " + (", ".join(sorted(table)) or "no options"),
+            )
         try:
             checked[key] = check_option(integrator, key, value)
         except OptionError as invalid:
-            raise scene.error(f"integrator.{key}", f"got {invalid.got}",
-                              invalid.expected) from None
+            raise scene.error(f"integrator.{key}", f"got {invalid.got}", invalid.expected) from None
     return checked
 
 
@@ -468,17 +560,22 @@ def _check_stretch(scene, material, given):
     the file's own table, which tells a stretch_stiffness the file gave from the default."""
     if material["stretch"] == "membrane":
         if "young_modulus" not in material:
-            raise scene.error("material.young_modulus", "missing with stretch = \"membrane\"",
-                              "a number > 0 (N/m)")
+            raise scene.error(
+                "material.young_modulus", 'missing with stretch = "membrane"', "a number > 0 (N/m)"
+            )
         if "stretch_stiffness" in given:
-            raise scene.error("material.stretch_stiffness", "given with stretch = "
-                              "\"membrane\", whose structural springs carry no stiffness",
-                              "no stretch_stiffness")
+            raise scene.error(
+                "material.stretch_stiffness",
+                'given with stretch = "membrane", whose structural springs carry no stiffness',
+                "no stretch_stiffness",
+            )
         material.pop("stretch_stiffness", None)
         material.setdefault("poisson_ratio", POISSON_RATIO)
     else:
         for key in ("young_modulus", "poisson_ratio", "membrane_strain"):
             if material.get(key) is not None:
-                raise scene.error(f"material.{key}", "given with stretch = \"springs\"",
-                                  "stretch = \"membrane\", or stretch_stiffness for the "
-                                  "springs")
+                raise scene.error(
+                    f"material.{key}",
+                    'given with stretch = "springs"',
+                    'stretch = "membrane", or stretch_stiffness for the springs',
+                )

@@ -11,13 +11,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..options import (FIXED_DT, GRAVITY, INTEGRATOR_SPECS, options_in_force,
-                       resolve_options)
+from ..options import FIXED_DT, GRAVITY, INTEGRATOR_SPECS, options_in_force, resolve_options
 from .loading import step_of
 from .schedule import frame_due
 
-__all__ = ["RunRecord", "FRAMES_DIR", "BEFORE_NAME", "check_metadata", "check_against",
-           "check_settings"]
+__all__ = [
+    "RunRecord",
+    "FRAMES_DIR",
+    "BEFORE_NAME",
+    "check_metadata",
+    "check_against",
+    "check_settings",
+]
 
 #: The run folder's frames folder and its "before" mesh (relative to the run folder).
 FRAMES_DIR = "frames"
@@ -57,9 +62,12 @@ class RunRecord:
     @classmethod
     def new(cls, scene, settle) -> "RunRecord":
         """The record of a run of ``scene`` about to start (``settle``: its relaxation's)."""
-        return cls(scene_text=scene.text,
-                   scene_path=str(scene.path) if scene.path is not None else None,
-                   overrides=scene.overrides, settle=settle)
+        return cls(
+            scene_text=scene.text,
+            scene_path=str(scene.path) if scene.path is not None else None,
+            overrides=scene.overrides,
+            settle=settle,
+        )
 
     @classmethod
     def from_metadata(cls, state_path, metadata) -> "RunRecord":
@@ -86,6 +94,7 @@ class RunRecord:
 def check_metadata(state_path, record):
     """The run's record in a state file (its metadata), checked field by field: ValueError
     naming the field, so a tampered record can only be refused, never half-used."""
+
     def fail(field, expected):
         raise ValueError(f"{state_path}: field metadata.{field}: expected {expected}")
 
@@ -93,11 +102,24 @@ def check_metadata(state_path, record):
         return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
     def number(value):
-        return isinstance(value, (int, float)) and not isinstance(value, bool) \
-            and math.isfinite(value)
+        return (
+            isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        )
 
-    expected_keys = {"scene_text", "scene_path", "overrides", "step", "next_stroke", "frames",
-                     "records", "strokes", "before", "wall_seconds", "resumed_from", "phases"}
+    expected_keys = {
+        "scene_text",
+        "scene_path",
+        "overrides",
+        "step",
+        "next_stroke",
+        "frames",
+        "records",
+        "strokes",
+        "before",
+        "wall_seconds",
+        "resumed_from",
+        "phases",
+    }
     # settle: absent from records written before it existed
     if not expected_keys <= set(record) <= expected_keys | {"settle"}:
         fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
@@ -105,54 +127,77 @@ def check_metadata(state_path, record):
     # saddles_escaped and stable came with settle's saddle test: absent from older records
     basic = {"seconds", "steps", "converged", "residual_acceleration"}
     if settle is not None and not (
-            isinstance(settle, dict)
-            and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
-            and number(settle["seconds"]) and count(settle["steps"])
-            and isinstance(settle["converged"], bool)
-            and isinstance(settle["residual_acceleration"], (int, float))
-            and count(settle.get("saddles_escaped", 0))
-            and settle.get("stable") in (None, True, False)):
-        fail("settle", "null or a table with seconds, steps, converged, "
-             "residual_acceleration (and saddles_escaped, stable)")
+        isinstance(settle, dict)
+        and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
+        and number(settle["seconds"])
+        and count(settle["steps"])
+        and isinstance(settle["converged"], bool)
+        and isinstance(settle["residual_acceleration"], (int, float))
+        and count(settle.get("saddles_escaped", 0))
+        and settle.get("stable") in (None, True, False)
+    ):
+        fail(
+            "settle",
+            "null or a table with seconds, steps, converged, "
+            "residual_acceleration (and saddles_escaped, stable)",
+        )
     if not isinstance(record["scene_text"], str):
         fail("scene_text", "the scene file's text")
     if record["scene_path"] is not None and not isinstance(record["scene_path"], str):
         fail("scene_path", "a path or null")
-    if not isinstance(record["overrides"], dict) or \
-            not all(isinstance(key, str) for key in record["overrides"]):
+    if not isinstance(record["overrides"], dict) or not all(
+        isinstance(key, str) for key in record["overrides"]
+    ):
         fail("overrides", "a table of dotted keys")
     for field in ("step", "next_stroke"):
         if not count(record[field]):
             fail(field, "an integer >= 0")
     if not isinstance(record["frames"], list) or not all(
-            isinstance(f, list) and len(f) == 2 and number(f[0]) and isinstance(f[1], str)
-            and _is_frame_path(f[1]) for f in record["frames"]):
-        fail("frames", f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN "
-             "file of a run")
+        isinstance(f, list)
+        and len(f) == 2
+        and number(f[0])
+        and isinstance(f[1], str)
+        and _is_frame_path(f[1])
+        for f in record["frames"]
+    ):
+        fail(
+            "frames",
+            f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN file of a run",
+        )
     for field in ("records", "strokes"):
-        if not isinstance(record[field], list) or \
-                not all(isinstance(entry, dict) for entry in record[field]):
+        if not isinstance(record[field], list) or not all(
+            isinstance(entry, dict) for entry in record[field]
+        ):
             fail(field, "a list of tables")
-    if not all(number(entry.get("time")) and all(
+    if not all(
+        number(entry.get("time"))
+        and all(
             isinstance(key, str) and (number(value) or isinstance(value, float))
-            for key, value in entry.items()) for entry in record["records"]):
+            for key, value in entry.items()
+        )
+        for entry in record["records"]
+    ):
         fail("records", "a list of tables of numbers, each with its time")
     if len(record["strokes"]) != record["next_stroke"]:
         fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
     before = record["before"]
-    if before is not None and not (isinstance(before, dict) and number(before.get("time"))
-                                   and isinstance(before.get("file"), str)
-                                   and Path(before["file"]).name == BEFORE_NAME):
+    if before is not None and not (
+        isinstance(before, dict)
+        and number(before.get("time"))
+        and isinstance(before.get("file"), str)
+        and Path(before["file"]).name == BEFORE_NAME
+    ):
         fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
     if not number(record["wall_seconds"]) or record["wall_seconds"] < 0:
         fail("wall_seconds", "a number >= 0")
-    if not isinstance(record["resumed_from"], list) or \
-            not all(isinstance(path, str) for path in record["resumed_from"]):
+    if not isinstance(record["resumed_from"], list) or not all(
+        isinstance(path, str) for path in record["resumed_from"]
+    ):
         fail("resumed_from", "a list of paths")
     if not isinstance(record["phases"], dict) or not all(
-            isinstance(k, str) and number(v) for k, v in record["phases"].items()):
+        isinstance(k, str) and number(v) for k, v in record["phases"].items()
+    ):
         fail("phases", "a table of seconds per phase")
-
 
 
 def check_against(state_path, record, scene, sim):
@@ -160,14 +205,19 @@ def check_against(state_path, record, scene, sim):
     and the frames and records a run of that scene writes up to the record's step (numbered
     0, 1, ... in order). ValueError naming the field otherwise: a hand-edited record is
     refused, never half-used (an emptied frame list would overwrite the first frames)."""
+
     def fail(field, problem):
-        raise ValueError(f"{state_path}: field metadata.{field}: {problem}; the record does not "
-                         "match the run (was it edited?): start the run again with --overwrite")
+        raise ValueError(
+            f"{state_path}: field metadata.{field}: {problem}; the record does not "
+            "match the run (was it edited?): start the run again with --overwrite"
+        )
 
     integrator = scene.data["simulation"]["integrator"]
     if integrator != sim.integrator:
-        fail("scene_text", f"its scene's integrator is {integrator!r}, the state's is "
-                           f"{sim.integrator!r}")
+        fail(
+            "scene_text",
+            f"its scene's integrator is {integrator!r}, the state's is {sim.integrator!r}",
+        )
     check_settings(state_path, scene, sim, record["next_stroke"])
     every = scene.frame_interval(sim.dt)
     step = record["step"]
@@ -181,17 +231,19 @@ def check_against(state_path, record, scene, sim):
         # states written before runs stopped by --until wrote no frame there have one more
         allowed = (due, due + 1)
     if len(record["records"]) not in allowed:
-        fail("records", f"{len(record['records'])} entries, but the run writes {due} by step "
-                        f"{step}")
+        fail(
+            "records", f"{len(record['records'])} entries, but the run writes {due} by step {step}"
+        )
     if scene.data["output"]["format"] != "none":
         if len(record["frames"]) != len(record["records"]):
-            fail("frames", f"{len(record['frames'])} frames for {len(record['records'])} "
-                           "records (one per frame)")
+            fail(
+                "frames",
+                f"{len(record['frames'])} frames for {len(record['records'])} "
+                "records (one per frame)",
+            )
         for number, (_, path) in enumerate(record["frames"]):
             if not Path(path).name.startswith(f"frame_{number:05d}."):
-                fail("frames", f"entry {number} is {Path(path).name}, expected frame "
-                               f"{number:05d}")
-
+                fail("frames", f"entry {number} is {Path(path).name}, expected frame {number:05d}")
 
 
 def check_settings(state_path, scene, sim, strokes_done):
@@ -202,11 +254,14 @@ def check_settings(state_path, scene, sim, strokes_done):
     (``strokes_done`` 0; strokes move mass) the masses of a scene that gives ``mass`` or
     ``mass_per_vertex``. Only settings are compared, never what a run changes (positions, rest
     lengths, topology). ValueError naming the scene's key, its value and the state's."""
+
     def fail(key, field, expected, got):
-        raise ValueError(f"{state_path}: {key} is {_shown(expected)} in its scene but "
-                         f"{_shown(got)} in the state (field simulation.{field}); the state "
-                         "does not match its scene (was it edited?): start the run again "
-                         "with --overwrite")
+        raise ValueError(
+            f"{state_path}: {key} is {_shown(expected)} in its scene but "
+            f"{_shown(got)} in the state (field simulation.{field}); the state "
+            "does not match its scene (was it edited?): start the run again "
+            "with --overwrite"
+        )
 
     def steps(adaptive):
         return _Shown('"auto" (error-controlled steps)' if adaptive else "a fixed step")
@@ -214,8 +269,9 @@ def check_settings(state_path, scene, sim, strokes_done):
     data = scene.data
     simulation = data["simulation"]
     integrator = simulation["integrator"]
-    expected = resolve_options(integrator, options_in_force(integrator, data["integrator"],
-                                                            simulation.get("dt")))
+    expected = resolve_options(
+        integrator, options_in_force(integrator, data["integrator"], simulation.get("dt"))
+    )
     options = sim.resolved_options
     for name, value in expected.items():
         got = options.get(name)
@@ -223,8 +279,14 @@ def check_settings(state_path, scene, sim, strokes_done):
             continue
         if name == "adaptive" and name not in data["integrator"]:  # what dt = "auto" sets
             fail("simulation.dt", "options.adaptive", steps(value), steps(got))
-        fail(f"integrator.{name}" if name in data["integrator"] else
-             f"integrator.{name} (not given: the default)", f"options.{name}", value, got)
+        fail(
+            f"integrator.{name}"
+            if name in data["integrator"]
+            else f"integrator.{name} (not given: the default)",
+            f"options.{name}",
+            value,
+            got,
+        )
     dt = simulation.get("dt")
     if dt == "auto" or (dt is None and not INTEGRATOR_SPECS[integrator].conditionally_stable):
         dt = FIXED_DT  # (an explicit scene's default dt follows its cloth: not checked)
@@ -232,8 +294,7 @@ def check_settings(state_path, scene, sim, strokes_done):
         fail("simulation.dt", "dt", dt, sim.dt)
     gravity = GRAVITY if simulation.get("gravity") is None else simulation["gravity"]
     if not np.array_equal(np.asarray(gravity, dtype=np.float64), sim.gravity):
-        fail("simulation.gravity", "gravity", list(map(float, gravity)),
-             sim.gravity.tolist())
+        fail("simulation.gravity", "gravity", list(map(float, gravity)), sim.gravity.tolist())
     _check_material(data["material"], sim.cloth, strokes_done, fail)
 
 
@@ -247,12 +308,15 @@ def _check_material(material, cloth, strokes_done, fail):
         fail("material.bending", "cloth.bending", material["bending"], cloth.bending)
     constants = {"damping": state["damping"], "drag": state["drag"]}
     if membrane:
-        constants.update(young_modulus=state["young_modulus"],
-                         poisson_ratio=state["poisson_ratio"])
+        constants.update(young_modulus=state["young_modulus"], poisson_ratio=state["poisson_ratio"])
         strain = state.get("membrane_strain") or "faces"
         if (material.get("membrane_strain") or "faces") != strain:
-            fail("material.membrane_strain", "cloth.membrane_strain",
-                 material.get("membrane_strain") or "faces", strain)
+            fail(
+                "material.membrane_strain",
+                "cloth.membrane_strain",
+                material.get("membrane_strain") or "faces",
+                strain,
+            )
     else:
         constants["stretch_stiffness"] = state["stretch_stiffness"]
     if quadratic:
@@ -264,21 +328,31 @@ def _check_material(material, cloth, strokes_done, fail):
             fail(f"material.{key}", f"cloth.{key}", float(material[key]), value)
     # each spring as made: structural ones at stretch_stiffness (0 under a membrane), bending
     # ones at bend_stiffness, all at the damping
-    stiffness = {0: 0.0 if membrane else float(material["stretch_stiffness"]),
-                 1: 0.0 if quadratic else float(material["bend_stiffness"])}
+    stiffness = {
+        0: 0.0 if membrane else float(material["stretch_stiffness"]),
+        1: 0.0 if quadratic else float(material["bend_stiffness"]),
+    }
     names = {0: "stretch_stiffness", 1: "bend_stiffness"}
     for kind, value in stiffness.items():
         chosen = state["spring_kind"] == kind
         wrong = np.flatnonzero(state["spring_stiffness"][chosen] != value)
         if wrong.size:
             index = int(np.flatnonzero(chosen)[wrong[0]])
-            fail(f"material.{names[kind]}", f"cloth.spring_stiffness[{index}]", value,
-                 float(state["spring_stiffness"][index]))
+            fail(
+                f"material.{names[kind]}",
+                f"cloth.spring_stiffness[{index}]",
+                value,
+                float(state["spring_stiffness"][index]),
+            )
     wrong = np.flatnonzero(state["spring_damping"] != float(material["damping"]))
     if wrong.size:
         index = int(wrong[0])
-        fail("material.damping", f"cloth.spring_damping[{index}]", float(material["damping"]),
-             float(state["spring_damping"][index]))
+        fail(
+            "material.damping",
+            f"cloth.spring_damping[{index}]",
+            float(material["damping"]),
+            float(state["spring_damping"][index]),
+        )
     if strokes_done == 0 and ("mass" in material or "mass_per_vertex" in material):
         n = cloth.vertex_count
         key = "mass" if "mass" in material else "mass_per_vertex"
@@ -287,10 +361,13 @@ def _check_material(material, cloth, strokes_done, fail):
         if wrong.size:
             index = int(wrong[0])
             scene_value = material[key]
-            got = float(state["masses"].sum()) if key == "mass" else \
-                float(state["masses"][index])
-            fail(f"material.{key}", "cloth.masses" if key == "mass" else
-                 f"cloth.masses[{index}]", scene_value, got)
+            got = float(state["masses"].sum()) if key == "mass" else float(state["masses"][index])
+            fail(
+                f"material.{key}",
+                "cloth.masses" if key == "mass" else f"cloth.masses[{index}]",
+                scene_value,
+                got,
+            )
 
 
 class _Shown(str):
@@ -298,14 +375,19 @@ class _Shown(str):
 
 
 def _shown(value):
-    return str(value) if isinstance(value, _Shown) else \
-        repr(value) if isinstance(value, str) else str(value)
+    return (
+        str(value)
+        if isinstance(value, _Shown)
+        else repr(value)
+        if isinstance(value, str)
+        else str(value)
+    )
 
 
 def _is_frame_path(text):
     """A frame file as a run writes it: OUT/frames/frame_NNNNN.EXT."""
     path = Path(text)
-    return path.parent.name == FRAMES_DIR and re.fullmatch(
-        r"frame_\d{5,}\.(vtu|vtk|ply|obj)", path.name) is not None
-
-
+    return (
+        path.parent.name == FRAMES_DIR
+        and re.fullmatch(r"frame_\d{5,}\.(vtu|vtk|ply|obj)", path.name) is not None
+    )

@@ -39,8 +39,15 @@ from .record import BEFORE_NAME, FRAMES_DIR, RunRecord, check_against
 from .schedule import EventSchedule
 from .schema import SceneError
 
-__all__ = ["run_scene", "resume_run", "check_scene", "RunError", "RunInterrupted", "SUMMARY_NAME",
-           "STATE_NAME"]
+__all__ = [
+    "run_scene",
+    "resume_run",
+    "check_scene",
+    "RunError",
+    "RunInterrupted",
+    "SUMMARY_NAME",
+    "STATE_NAME",
+]
 
 SUMMARY_NAME = "summary.json"
 STATE_NAME = "state.npz"
@@ -64,8 +71,16 @@ class RunError(RuntimeError):
         self.state_path = state_path
 
 
-def run_scene(scene: Scene, out, until=None, quiet=False, render=True,
-              overwrite=False, threads=None, allow_long=False) -> dict:
+def run_scene(
+    scene: Scene,
+    out,
+    until=None,
+    quiet=False,
+    render=True,
+    overwrite=False,
+    threads=None,
+    allow_long=False,
+) -> dict:
     """Runs ``scene`` from t = 0 into folder ``out`` (created); returns the summary dict.
 
     until : stop at this simulated time (s) instead of the scene's duration (the state file
@@ -107,8 +122,11 @@ def _check_pictures(scene, render):
     """Raises, before any work, what the pictures at the end would raise: no ffmpeg for an MP4,
     no EGL (`yore.viz.BackendUnavailable`) for any picture."""
     output = scene.data["output"]
-    if not render or output["format"] == "none" or not (output["pictures"] or
-                                                        output["animation"] != "none"):
+    if (
+        not render
+        or output["format"] == "none"
+        or not (output["pictures"] or output["animation"] != "none")
+    ):
         return
     from ..viz import backend, check_ffmpeg
 
@@ -117,8 +135,16 @@ def _check_pictures(scene, render):
     backend.ensure()
 
 
-def resume_run(state_path, out=None, until=None, quiet=False, render=True,
-               overwrite=False, threads=None, allow_long=False) -> dict:
+def resume_run(
+    state_path,
+    out=None,
+    until=None,
+    quiet=False,
+    render=True,
+    overwrite=False,
+    threads=None,
+    allow_long=False,
+) -> dict:
     """Continues a run from its state file into ``out`` (default: the state's folder, whose
     frames and collection then simply grow); returns the summary of the whole run so far.
     The result is bit for bit that of a run that never stopped (see `yore.state` for the
@@ -128,31 +154,41 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
     state_path = Path(os.fspath(state_path))
     sim, metadata = load_state(state_path)
     if not isinstance(metadata, dict) or "scene_text" not in metadata:
-        raise ValueError(f"{state_path} is a simulation state but not a run's: it has no scene "
-                         "(write run states with `yore run`)")
+        raise ValueError(
+            f"{state_path} is a simulation state but not a run's: it has no scene "
+            "(write run states with `yore run`)"
+        )
     record = RunRecord.from_metadata(state_path, metadata)
     folder = state_path.parent  # the record's paths are relative to it (absolute in old files)
     missing = [path for _, path in record.frames if not (folder / path).is_file()]
     if record.before is not None and not (folder / record.before["file"]).is_file():
         missing.insert(0, record.before["file"])
     if missing:
-        raise ValueError(f"{state_path}: the run's record lists {len(missing)} file(s) that no "
-                         f"longer exist, e.g. {missing[0]}; put them back, or start the run "
-                         "again with --overwrite")
+        raise ValueError(
+            f"{state_path}: the run's record lists {len(missing)} file(s) that no "
+            f"longer exist, e.g. {missing[0]}; put them back, or start the run "
+            "again with --overwrite"
+        )
     scene = load_scene(record.scene_path, text=record.scene_text, overrides=record.overrides)
     if record.step != _steps(sim.time, sim.dt):
-        raise ValueError(f"{state_path}: field metadata.step: {record.step} does not match "
-                         f"the state's clock ({_steps(sim.time, sim.dt)} steps)")
+        raise ValueError(
+            f"{state_path}: field metadata.step: {record.step} does not match "
+            f"the state's clock ({_steps(sim.time, sim.dt)} steps)"
+        )
     if record.next_stroke > len(scene.data["strokes"]):
-        raise ValueError(f"{state_path}: field metadata.next_stroke: {record.next_stroke} "
-                         f"strokes done, but the scene has {len(scene.data['strokes'])}")
+        raise ValueError(
+            f"{state_path}: field metadata.next_stroke: {record.next_stroke} "
+            f"strokes done, but the scene has {len(scene.data['strokes'])}"
+        )
     check_against(state_path, metadata, scene, sim)
     _set_threads(scene, threads)
     check_length(scene, sim, until, allow_long)
     if until is not None and _steps(float(until), sim.dt) <= record.step:
-        raise ValueError(f"--until {float(until):g} s is not after the state's time "
-                         f"(t = {sim.time:.6g} s): the run is already there; give a later "
-                         "time, or none to run to the scene's end")
+        raise ValueError(
+            f"--until {float(until):g} s is not after the state's time "
+            f"(t = {sim.time:.6g} s): the run is already there; give a later "
+            "time, or none to run to the scene's end"
+        )
     record.resumed_from = record.resumed_from + [str(state_path)]
     if out is None or Path(os.fspath(out)).resolve() == folder.resolve():
         out = folder
@@ -162,8 +198,10 @@ def resume_run(state_path, out=None, until=None, quiet=False, render=True,
         # the frames and the before picture stay where they are: relative to the new folder
         record.frames = [[t, _relative(folder / path, out)] for t, path in record.frames]
         if record.before is not None:
-            record.before = {**record.before, "file": _relative(folder / record.before["file"],
-                                                                 out)}
+            record.before = {
+                **record.before,
+                "file": _relative(folder / record.before["file"], out),
+            }
     _check_pictures(scene, render)
     return _run(scene, sim, record, out, until, quiet, render)
 
@@ -178,17 +216,23 @@ def check_length(scene, sim, until=None, allow_long=False) -> int:
         if not math.isfinite(until) or until <= 0:
             raise ValueError(f"until must be a positive time in seconds, got {until}")
         if until > duration + 0.5 * sim.dt:
-            raise ValueError(f"--until {until:g} s is after the scene's end "
-                             f"(simulation.duration = {duration:g} s)")
+            raise ValueError(
+                f"--until {until:g} s is after the scene's end "
+                f"(simulation.duration = {duration:g} s)"
+            )
     steps = _steps(duration if until is None else until, sim.dt)
     if steps < 1:
-        raise ValueError(f"the run has no step: {duration if until is None else until:g} s is "
-                         f"less than half of dt = {sim.dt:.6g} s; give a longer "
-                         f"{'duration' if until is None else '--until'} or a smaller dt")
+        raise ValueError(
+            f"the run has no step: {duration if until is None else until:g} s is "
+            f"less than half of dt = {sim.dt:.6g} s; give a longer "
+            f"{'duration' if until is None else '--until'} or a smaller dt"
+        )
     if steps > MAX_STEPS and not allow_long:
-        raise ValueError(f"the run is {steps} steps ({duration if until is None else until:g} s "
-                         f"at dt = {sim.dt:.6g} s), more than the limit of {MAX_STEPS}: use a "
-                         "larger dt or a shorter duration, or give --allow-long")
+        raise ValueError(
+            f"the run is {steps} steps ({duration if until is None else until:g} s "
+            f"at dt = {sim.dt:.6g} s), more than the limit of {MAX_STEPS}: use a "
+            "larger dt or a shorter duration, or give --allow-long"
+        )
     return steps
 
 
@@ -207,8 +251,15 @@ CHECKPOINT_SECONDS = 10.0
 CHECKPOINT_SHARE = 0.1
 
 #: Files a run writes into its folder (besides frames/).
-RUN_FILES = (SUMMARY_NAME, STATE_NAME, BEFORE_NAME, "before_after.png", "last.png",
-             "animation.gif", "animation.mp4")
+RUN_FILES = (
+    SUMMARY_NAME,
+    STATE_NAME,
+    BEFORE_NAME,
+    "before_after.png",
+    "last.png",
+    "animation.gif",
+    "animation.mp4",
+)
 
 
 def run_files(out) -> list:
@@ -218,9 +269,14 @@ def run_files(out) -> list:
     found = [out / name for name in RUN_FILES if (out / name).is_file()]
     frames = out / FRAMES_DIR
     if frames.is_dir():
-        found += sorted(p for p in frames.iterdir()
-                        if p.is_file() and (p.name.startswith("frame_") or p.name == "frame.pvd"
-                                            or p.name.startswith(".frame_")))
+        found += sorted(
+            p
+            for p in frames.iterdir()
+            if p.is_file()
+            and (
+                p.name.startswith("frame_") or p.name == "frame.pvd" or p.name.startswith(".frame_")
+            )
+        )
     return found
 
 
@@ -239,19 +295,30 @@ def claim_folder(out, record, overwrite=False) -> None:
         return
     if not overwrite:
         previous = _previous_run(out)
-        same = (previous is not None and previous.get("status") == "finished"
-                and previous.get("scene_text") == record.scene_text
-                and previous.get("overrides") == record.overrides)
+        same = (
+            previous is not None
+            and previous.get("status") == "finished"
+            and previous.get("scene_text") == record.scene_text
+            and previous.get("overrides") == record.overrides
+        )
         if not same:
-            what = ("an unfinished run of the same scene" if previous is not None
-                    and previous.get("scene_text") == record.scene_text
-                    and previous.get("overrides") == record.overrides
-                    else "another run")
-            hint = (f"continue it with `yore run --resume {out / STATE_NAME}`, "
-                    if (out / STATE_NAME).is_file() else "")
-            raise ValueError(f"output folder {out} already holds {what} ({len(found)} files, "
-                             f"e.g. {found[0].name}); {hint}replace it with --overwrite, or "
-                             "choose another folder with -o")
+            what = (
+                "an unfinished run of the same scene"
+                if previous is not None
+                and previous.get("scene_text") == record.scene_text
+                and previous.get("overrides") == record.overrides
+                else "another run"
+            )
+            hint = (
+                f"continue it with `yore run --resume {out / STATE_NAME}`, "
+                if (out / STATE_NAME).is_file()
+                else ""
+            )
+            raise ValueError(
+                f"output folder {out} already holds {what} ({len(found)} files, "
+                f"e.g. {found[0].name}); {hint}replace it with --overwrite, or "
+                "choose another folder with -o"
+            )
     for path in found:
         path.unlink()
     frames = out / FRAMES_DIR
@@ -264,10 +331,16 @@ def _previous_run(out):
     try:
         metadata = load_metadata(out / STATE_NAME)
         # no summary: the run stopped without one (killed after a periodic state save)
-        summary = json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8")) \
-            if (out / SUMMARY_NAME).is_file() else {"status": "unfinished"}
-        return {"status": summary.get("status"), "scene_text": metadata.get("scene_text"),
-                "overrides": metadata.get("overrides")}
+        summary = (
+            json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8"))
+            if (out / SUMMARY_NAME).is_file()
+            else {"status": "unfinished"}
+        )
+        return {
+            "status": summary.get("status"),
+            "scene_text": metadata.get("scene_text"),
+            "overrides": metadata.get("overrides"),
+        }
     except (OSError, ValueError, AttributeError):
         return None
 
@@ -292,7 +365,7 @@ class _Checkpoint:
             del getattr(record, key)[length:]
         for key, value in self.scalars.items():
             setattr(record, key, value)
-        del live_reports[self.live_reports:]
+        del live_reports[self.live_reports :]
         return Simulation.from_state(self.state)
 
 
@@ -311,13 +384,18 @@ class _Run:
         self.data = scene.data
         self.dt = sim.dt
         # (the callers checked the length against the limit, before anything was written)
-        self.schedule = EventSchedule(scene, self.dt,
-                                      check_length(scene, sim, until, allow_long=True))
+        self.schedule = EventSchedule(
+            scene, self.dt, check_length(scene, sim, until, allow_long=True)
+        )
         self.fmt = self.data["output"]["format"]
         self.frames = None
         if self.fmt != "none":
-            self.frames = FrameSeries(out / FRAMES_DIR, stem="frame", fmt=self.fmt,
-                                      frames=[(t, out / p) for t, p in record.frames])
+            self.frames = FrameSeries(
+                out / FRAMES_DIR,
+                stem="frame",
+                fmt=self.fmt,
+                frames=[(t, out / p) for t, p in record.frames],
+            )
         self.camera = None
         self.previous_phases = dict(record.phases)  # wall time per phase of earlier parts
         self.live_reports = []  # (record entry, StrokeReport): re-analysis time comes later
@@ -335,8 +413,10 @@ class _Run:
         if last_time is None:
             bad = _non_finite(_measure(self.sim))
             if bad:
-                raise ValueError(f"the scene's initial state is not finite ({bad}): a value in "
-                                 "[material], [[driven]] or [simulation] is too large")
+                raise ValueError(
+                    f"the scene's initial state is not finite ({bad}): a value in "
+                    "[material], [[driven]] or [simulation] is too large"
+                )
         from tqdm.auto import tqdm
 
         self.started = self.saved_at = _time.perf_counter()
@@ -346,9 +426,16 @@ class _Run:
         with deferred_interrupt():
             _save(self.out, self.sim, record, self.previous_phases)
         last_step = self.schedule.last_step
-        self.bar = tqdm(total=last_step, initial=min(self.step, last_step), unit="step",
-                        desc="yore run", disable=self.quiet or None, delay=2.0,
-                        dynamic_ncols=True, leave=False)
+        self.bar = tqdm(
+            total=last_step,
+            initial=min(self.step, last_step),
+            unit="step",
+            desc="yore run",
+            disable=self.quiet or None,
+            delay=2.0,
+            dynamic_ncols=True,
+            leave=False,
+        )
         try:
             self._steps_and_events(last_time)
         except (SimulationDiverged, _NonFinite) as error:
@@ -360,15 +447,22 @@ class _Run:
         except NotPositiveDefinite as error:
             # the integrator put the cloth back where the failed call began
             sim = self.sim
-            self.status, self.message = "diverged", (
-                f"the {sim.integrator} integrator's linear solver refused a step's matrix after "
-                f"t = {sim.time:.6g} s ({' '.join(str(error).split())}): check for extreme "
-                "stiffnesses or masses, or try a smaller dt. The run went back to "
-                f"t = {sim.time:.6g} s")
+            self.status, self.message = (
+                "diverged",
+                (
+                    f"the {sim.integrator} integrator's linear solver refused a step's matrix after "
+                    f"t = {sim.time:.6g} s ({' '.join(str(error).split())}): check for extreme "
+                    "stiffnesses or masses, or try a smaller dt. The run went back to "
+                    f"t = {sim.time:.6g} s"
+                ),
+            )
         except KeyboardInterrupt:
             self.status, self.message = "interrupted", None
-            if self.sim.restarts_on_resume and self.good is not None and \
-                    self.sim.time != self.good.time:
+            if (
+                self.sim.restarts_on_resume
+                and self.good is not None
+                and self.sim.time != self.good.time
+            ):
                 # SUNDIALS' step history is not in the state: only at a frame, where the
                 # straight run restarts it too, does a resumed run go on as that one would
                 self.phases = self.sim.stats["phases"]
@@ -386,8 +480,9 @@ class _Run:
     def _steps_and_events(self, last_time):
         """Steps to the end of the part, drawing strokes and writing frames when they are due."""
         schedule = self.schedule
-        if schedule.frame_due(self.step) and \
-                (last_time is None or last_time < self.sim.time - 0.5 * self.dt):
+        if schedule.frame_due(self.step) and (
+            last_time is None or last_time < self.sim.time - 0.5 * self.dt
+        ):
             # the first frame, or a frame an interruption came before
             _write_frame(self.sim, self.frames, self.record, self.fmt, _measure(self.sim))
         self.good = _Checkpoint(self.sim, self.record, self.live_reports)  # the last frame's
@@ -398,8 +493,9 @@ class _Run:
             if target > self.step:
                 self.sim.step(target - self.step, progress=False)
                 self.bar.update(target - self.step)
-                self.bar.set_postfix_str(f"t={self.sim.time:.3f}/"
-                                         f"{schedule.last_step * self.dt:.3f} s", refresh=False)
+                self.bar.set_postfix_str(
+                    f"t={self.sim.time:.3f}/{schedule.last_step * self.dt:.3f} s", refresh=False
+                )
                 self.step = target
                 self.record.step = target
             due = schedule.frame_due(self.step)
@@ -424,9 +520,11 @@ class _Run:
                 report = apply_scene_stroke(scene, sim, index, self.camera)
                 bad = _non_finite(_measure(sim))
                 if bad:
-                    raise _NonFinite(f"stroke {index} at t = {sim.time:.6g} s made the "
-                                     f"cloth's energy or area non-finite ({bad}); check "
-                                     "its expansion. The stroke was undone")
+                    raise _NonFinite(
+                        f"stroke {index} at t = {sim.time:.6g} s made the "
+                        f"cloth's energy or area non-finite ({bad}); check "
+                        "its expansion. The stroke was undone"
+                    )
                 with deferred_interrupt():
                     record.strokes.append(_stroke_record(index, sim.time, report))
                     self.live_reports.append((record.strokes[-1], report))
@@ -449,7 +547,8 @@ class _Run:
                 f"simulation diverged between t = {good.time:.6g} s and "
                 f"t = {failed:.6g} s (dt = {self.dt:.6g} s, {sim.integrator} integrator): the "
                 f"cloth's energy or area became non-finite ({bad}). "
-                f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s")
+                f"{_stable_advice(sim)} The run went back to t = {good.time:.6g} s"
+            )
         return entry
 
     def _frame(self, entry):
@@ -463,14 +562,16 @@ class _Run:
             # a crash (or a kill) then costs at most this much of the run
             saving = _time.perf_counter()
             with deferred_interrupt():
-                _save(self.out, self.sim,
-                      self.record.with_wall_time(_time.perf_counter() - self.started),
-                      self.previous_phases)
+                _save(
+                    self.out,
+                    self.sim,
+                    self.record.with_wall_time(_time.perf_counter() - self.started),
+                    self.previous_phases,
+                )
             self.saved_at = _time.perf_counter()
             # the record grows with the frames: saves take at most CHECKPOINT_SHARE of the
             # wall time, so a frame costs the same at frame 100 000 as at 1
-            self.save_every = max(CHECKPOINT_SECONDS,
-                                  (self.saved_at - saving) / CHECKPOINT_SHARE)
+            self.save_every = max(CHECKPOINT_SECONDS, (self.saved_at - saving) / CHECKPOINT_SHARE)
 
     def _out_of_memory(self):
         """(CHOLMOD's out of memory is a MemoryError too) back to the last recorded frame, whose
@@ -481,19 +582,24 @@ class _Run:
             self.sim = self.good.restore(self.record, self.live_reports)
         sim = self.sim
         back = sim.time
-        self.status, self.message = "failed", (
-            f"out of memory between t = {back:.6g} s and t = {failed:.6g} s "
-            f"({sim.cloth.vertex_count} vertices, {sim.integrator} integrator): the "
-            "integrator's matrices do not fit; try integrator = \"explicit\", or fewer or "
-            f"narrower refining strokes. The run went back to t = {back:.6g} s")
+        self.status, self.message = (
+            "failed",
+            (
+                f"out of memory between t = {back:.6g} s and t = {failed:.6g} s "
+                f"({sim.cloth.vertex_count} vertices, {sim.integrator} integrator): the "
+                'integrator\'s matrices do not fit; try integrator = "explicit", or fewer or '
+                f"narrower refining strokes. The run went back to t = {back:.6g} s"
+            ),
+        )
 
     def _finish(self, render):
         """Saves the state and the summary; raises for a part that stopped early; renders."""
         sim, record, out = self.sim, self.record, self.out
         duration = self.data["simulation"]["duration"]
         if self.status is None:
-            self.status = ("finished" if sim.time >= duration - 0.5 * self.dt
-                           else "stopped at --until")
+            self.status = (
+                "finished" if sim.time >= duration - 0.5 * self.dt else "stopped at --until"
+            )
             for entry, report in self.live_reports:
                 entry["reanalyze_seconds"] = report.reanalyze_seconds
         try:
@@ -504,8 +610,9 @@ class _Run:
                     # kept from the last state file the run wrote (if any); said in the summary
                     state_path = None
                     self.status, self.message = "failed", str(error)
-                summary = _summary(self.scene, sim, record, out, state_path, self.status,
-                                   self.message)
+                summary = _summary(
+                    self.scene, sim, record, out, state_path, self.status, self.message
+                )
                 summary_path = out / SUMMARY_NAME
                 write_json(summary_path, summary)
         except KeyboardInterrupt:
@@ -518,10 +625,16 @@ class _Run:
 
             output = self.data["output"]
             if output["pictures"] or output["animation"] != "none":
-                summary["outputs"].update(render_run(
-                    out, pictures=output["pictures"],
-                    animation=None if output["animation"] == "none" else output["animation"],
-                    color_by=output["color_by"], framing=output["framing"], quiet=self.quiet))
+                summary["outputs"].update(
+                    render_run(
+                        out,
+                        pictures=output["pictures"],
+                        animation=None if output["animation"] == "none" else output["animation"],
+                        color_by=output["color_by"],
+                        framing=output["framing"],
+                        quiet=self.quiet,
+                    )
+                )
                 write_json(summary_path, summary)
         return summary
 
@@ -534,8 +647,9 @@ class _Run:
         if status == "diverged":
             raise RunError(f"{message} State kept: {state_path}", state_path)
         if status == "failed":
-            raise RunError(message if state_path is None else
-                           f"{message} State kept: {state_path}", state_path)
+            raise RunError(
+                message if state_path is None else f"{message} State kept: {state_path}", state_path
+            )
 
 
 class _Unsaveable(ValueError):
@@ -550,10 +664,15 @@ class _NonFinite(Exception):
 
 def _stable_advice(sim):
     stable = sim.stable_dt()
-    if INTEGRATOR_SPECS[sim.integrator].conditionally_stable and math.isfinite(stable) and \
-            stable > 0:
-        return (f"The estimated stable time step is {stable:.3g} s: use dt <= "
-                f"{0.9 * stable:.3g} s or an implicit integrator.")
+    if (
+        INTEGRATOR_SPECS[sim.integrator].conditionally_stable
+        and math.isfinite(stable)
+        and stable > 0
+    ):
+        return (
+            f"The estimated stable time step is {stable:.3g} s: use dt <= "
+            f"{0.9 * stable:.3g} s or an implicit integrator."
+        )
     return f"Try a smaller dt, e.g. {sim.dt / 4:.3g} s."
 
 
@@ -566,10 +685,17 @@ def _measure(sim):
     energy = sim.energy()
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported, not warned
         area, rest_area = metrics.area(cloth.positions, cloth.faces), metrics.rest_area(cloth)
-    record = {"time": sim.time, "kinetic": energy["kinetic"], "spring": energy["spring"],
-              "gravity": energy["gravity"], "total": energy["total"],
-              "area": area, "rest_area": rest_area, "vertices": cloth.vertex_count,
-              "faces": cloth.face_count}
+    record = {
+        "time": sim.time,
+        "kinetic": energy["kinetic"],
+        "spring": energy["spring"],
+        "gravity": energy["gravity"],
+        "total": energy["total"],
+        "area": area,
+        "rest_area": rest_area,
+        "vertices": cloth.vertex_count,
+        "faces": cloth.face_count,
+    }
     if cloth.bending == "quadratic":  # (part of total; recorded for the cloths that have it)
         record["bending"] = energy["bending"]
     if cloth.stretch == "membrane":  # likewise
@@ -580,8 +706,11 @@ def _measure(sim):
 
 def _non_finite(entry):
     """'name value, ...' of the non-finite quantities of a `_measure` record ('' if none)."""
-    return ", ".join(f"{name} {value}" for name, value in entry.items()
-                     if isinstance(value, float) and not math.isfinite(value))
+    return ", ".join(
+        f"{name} {value}"
+        for name, value in entry.items()
+        if isinstance(value, float) and not math.isfinite(value)
+    )
 
 
 def _write_frame(sim, frames, record, fmt, entry):
@@ -590,8 +719,11 @@ def _write_frame(sim, frames, record, fmt, entry):
     cloth = sim.cloth
     with deferred_interrupt():
         if frames is not None:
-            point_data = None if fmt == "obj" else {
-                "velocity": cloth.velocities, "expansion": metrics.vertex_expansion(cloth)}
+            point_data = (
+                None
+                if fmt == "obj"
+                else {"velocity": cloth.velocities, "expansion": metrics.vertex_expansion(cloth)}
+            )
             path = frames.write(sim.time, cloth.positions, cloth.faces, point_data=point_data)
             # relative to the run folder, so the folder can be moved
             record.frames.append((sim.time, _relative(path, frames.folder.parent)))
@@ -601,42 +733,61 @@ def _write_frame(sim, frames, record, fmt, entry):
 def _save_before(sim, out, record):
     cloth = sim.cloth
     path = out / BEFORE_NAME
-    save_mesh(path, cloth.positions, cloth.faces,
-              point_data={"expansion": metrics.vertex_expansion(cloth)})
+    save_mesh(
+        path,
+        cloth.positions,
+        cloth.faces,
+        point_data={"expansion": metrics.vertex_expansion(cloth)},
+    )
     record.before = {"time": sim.time, "file": BEFORE_NAME}  # relative to the run folder
 
 
 def _stroke_record(index, time, report):
-    return {"stroke": index, "time": time, "faces_split": report.faces_split,
-            "faces_skipped": int(len(report.faces_skipped)),
-            "vertices_added": report.vertices_added, "springs_added": report.springs_added,
-            "springs_removed": report.springs_removed, "area_before": report.area_before,
-            "rest_area_before": report.rest_area_before,
-            "rest_area_after": report.rest_area_after,
-            "missed_fraction": report.missed_fraction, "locate_seconds": report.locate_seconds,
-            "subdivide_seconds": report.subdivide_seconds,
-            "growth": report.growth, "width": report.width, "refine": report.refine,
-            "faces_refined": report.faces_refined, "faces_bisected": report.faces_bisected,
-            "springs_grown": report.springs_grown,
-            "rest_length_added": report.rest_length_added, "mass_added": report.mass_added,
-            "new_vertices": [int(v) for v in report.new_vertices],
-            "region_faces": [int(f) for f in report.region_faces],
-            # vertices along the stroke in stroke order: its polyline in pictures (the paper's
-            # new vertices in the order it crossed their faces)
-            "line_vertices": [int(v) for v in report.line_vertices]}
+    return {
+        "stroke": index,
+        "time": time,
+        "faces_split": report.faces_split,
+        "faces_skipped": int(len(report.faces_skipped)),
+        "vertices_added": report.vertices_added,
+        "springs_added": report.springs_added,
+        "springs_removed": report.springs_removed,
+        "area_before": report.area_before,
+        "rest_area_before": report.rest_area_before,
+        "rest_area_after": report.rest_area_after,
+        "missed_fraction": report.missed_fraction,
+        "locate_seconds": report.locate_seconds,
+        "subdivide_seconds": report.subdivide_seconds,
+        "growth": report.growth,
+        "width": report.width,
+        "refine": report.refine,
+        "faces_refined": report.faces_refined,
+        "faces_bisected": report.faces_bisected,
+        "springs_grown": report.springs_grown,
+        "rest_length_added": report.rest_length_added,
+        "mass_added": report.mass_added,
+        "new_vertices": [int(v) for v in report.new_vertices],
+        "region_faces": [int(f) for f in report.region_faces],
+        # vertices along the stroke in stroke order: its polyline in pictures (the paper's
+        # new vertices in the order it crossed their faces)
+        "line_vertices": [int(v) for v in report.line_vertices],
+    }
 
 
 def _save(out, sim, record, previous_phases, phases=None):
     """Saves the state with the record; ``phases``: this part's wall time per phase (default:
     ``sim``'s, unless a rollback replaced the simulation that ran)."""
     phases = sim.stats["phases"] if phases is None else phases
-    record.phases = {name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
-                     for name in set(previous_phases) | set(phases)}
+    record.phases = {
+        name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
+        for name in set(previous_phases) | set(phases)
+    }
     try:
         return save_state(out / STATE_NAME, sim, metadata=_finite_json(record.to_dict())[0])
     except ValueError as error:
-        raise _Unsaveable(f"the run stopped at t = {sim.time:.6g} s: {error}. Nothing can "
-                          "continue it; check the scene's extreme values") from None
+        raise _Unsaveable(
+            f"the run stopped at t = {sim.time:.6g} s: {error}. Nothing can "
+            "continue it; check the scene's extreme values"
+        ) from None
 
 
 def _summary(scene, sim, record, out, state_path, status, message):
@@ -644,11 +795,16 @@ def _summary(scene, sim, record, out, state_path, status, message):
 
     stats = sim.stats
     # the scene as run (copied into JSON types by _finite_json below)
-    settings = {**scene.data, "simulation": {**scene.data["simulation"], "dt": sim.dt},
-                "integrator": sim.options}
+    settings = {
+        **scene.data,
+        "simulation": {**scene.data["simulation"], "dt": sim.dt},
+        "integrator": sim.options,
+    }
     # Paths in the summary are relative to the run folder, so the folder can be moved.
-    outputs = {"state": None if state_path is None else _relative(state_path, out),
-               "summary": SUMMARY_NAME}
+    outputs = {
+        "state": None if state_path is None else _relative(state_path, out),
+        "summary": SUMMARY_NAME,
+    }
     if record.frames:
         outputs["frames"] = _relative((out / record.frames[-1][1]).parent, out)
         pvd = out / "frames" / "frame.pvd"
@@ -656,8 +812,10 @@ def _summary(scene, sim, record, out, state_path, status, message):
             outputs["pvd"] = _relative(pvd, out)
     before = None
     if record.before:
-        before = {"time": record.before["time"],
-                  "file": _relative(out / record.before["file"], out)}
+        before = {
+            "time": record.before["time"],
+            "file": _relative(out / record.before["file"], out),
+        }
         outputs["before"] = before["file"]
     summary = {
         "yore": build_info(),
@@ -707,8 +865,10 @@ def _finite_json(value, where=""):
 
     def visit(item, name):
         if isinstance(item, dict):
-            return {str(key): visit(child, f"{name}.{key}" if name else str(key))
-                    for key, child in item.items()}
+            return {
+                str(key): visit(child, f"{name}.{key}" if name else str(key))
+                for key, child in item.items()
+            }
         if isinstance(item, np.ndarray):
             item = item.tolist()
         elif isinstance(item, np.generic):

@@ -44,7 +44,8 @@ class EventSchedule:
     def next_event(self, step, next_stroke, most):
         """The step to advance to from ``step``: the next stroke's, the next frame's, the last
         step, or ``step + most``, whichever comes first."""
-        next_stroke_step = self.strokes[next_stroke][0] \
-            if next_stroke < len(self.strokes) else self.last_step
+        next_stroke_step = (
+            self.strokes[next_stroke][0] if next_stroke < len(self.strokes) else self.last_step
+        )
         next_frame = (step // self.every + 1) * self.every
         return min(next_stroke_step, next_frame, self.last_step, step + most)

@@ -26,12 +26,31 @@ import numpy as np
 
 from .. import rules
 from ..rules import Invalid
-from ..options import (ANIMATION_FORMATS, DEFAULT_INTEGRATOR, FOV_DEGREES, FRAMES_PER_SECOND,
-                       IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, MASS, RUN_ANIMATION,
-                       SMOOTHING_DEFAULTS, SMOOTHING_RULES,
-                       STIFFNESS, STROKE_DEFAULTS)
-from ..checks import (MAX_EXPANSION, MAX_IMAGE_SIDE, MAX_MASS_SCALE, MAX_SETTLE_SECONDS,
-                      MAX_THREADS, MAX_TIME, MIN_DT, MIN_EXPANSION)
+from ..options import (
+    ANIMATION_FORMATS,
+    DEFAULT_INTEGRATOR,
+    FOV_DEGREES,
+    FRAMES_PER_SECOND,
+    IMAGE_HEIGHT,
+    IMAGE_WIDTH,
+    INTEGRATORS,
+    MASS,
+    RUN_ANIMATION,
+    SMOOTHING_DEFAULTS,
+    SMOOTHING_RULES,
+    STIFFNESS,
+    STROKE_DEFAULTS,
+)
+from ..checks import (
+    MAX_EXPANSION,
+    MAX_IMAGE_SIDE,
+    MAX_MASS_SCALE,
+    MAX_SETTLE_SECONDS,
+    MAX_THREADS,
+    MAX_TIME,
+    MIN_DT,
+    MIN_EXPANSION,
+)
 from ..camera import MAX_CAMERA_COORDINATE
 from ..meshes import MAX_PATTERN_COORDINATE, PATTERN_MIN_ANGLE
 from .._core import PATTERN_MAX_ANGLE_DEGREES as PATTERN_MAX_ANGLE
@@ -96,10 +115,18 @@ def _number(minimum=None, maximum=None, strict_minimum=False, unit="", strict_ma
         bounds.append(f"{'>' if strict_minimum else '>='} {minimum:g}")
     if maximum is not None:
         bounds.append(f"{'<' if strict_maximum else '<='} {maximum:g}")
-    expected = "a number" + (f" {' and '.join(bounds)}" if bounds else "") + \
-        (f" ({unit})" if unit else "")
-    return rules.real(minimum, maximum, low_open=strict_minimum, high_open=strict_maximum,
-                      expected=expected, problem=_got_number, python_types=True)
+    expected = (
+        "a number" + (f" {' and '.join(bounds)}" if bounds else "") + (f" ({unit})" if unit else "")
+    )
+    return rules.real(
+        minimum,
+        maximum,
+        low_open=strict_minimum,
+        high_open=strict_maximum,
+        expected=expected,
+        problem=_got_number,
+        python_types=True,
+    )
 
 
 def _number_or_auto(minimum=None, unit=""):
@@ -107,17 +134,22 @@ def _number_or_auto(minimum=None, unit=""):
 
     def test(value):
         return (True, value) if value == "auto" else number.test(value)
+
     return rules.custom(test, f'{number.expected} or "auto"', problem=_got_number)
 
 
 def _integer(minimum, maximum=MAX_INTEGER):
-    expected = (f"an integer >= {minimum}" if maximum == MAX_INTEGER else
-                f"an integer in [{minimum}, {maximum}]")
+    expected = (
+        f"an integer >= {minimum}"
+        if maximum == MAX_INTEGER
+        else f"an integer in [{minimum}, {maximum}]"
+    )
 
     def problem(value):
         if not isinstance(value, bool) and isinstance(value, int) and value > maximum:
             return f"{_got(value)}, more than the limit {maximum}"
         return _got(value)
+
     return rules.count(minimum, maximum, expected=expected, problem=problem, python_types=True)
 
 
@@ -127,8 +159,11 @@ _string = rules.text(problem=_got)
 
 def _choice(*choices):
     # TOML values compare by equality here (a choice of names only ever gets strings through)
-    return rules.custom(lambda value: (value in choices, value),
-                        "one of " + ", ".join(repr(c) for c in choices), problem=_got)
+    return rules.custom(
+        lambda value: (value in choices, value),
+        "one of " + ", ".join(repr(c) for c in choices),
+        problem=_got,
+    )
 
 
 def _shaped(check):
@@ -144,11 +179,17 @@ def _points(dimension, what):
         if not isinstance(value, list) or not value:
             raise Invalid(f"got {describe_value(value)}", expected)
         for point in value:
-            if (not isinstance(point, list) or len(point) != dimension or
-                    any(isinstance(c, bool) or not isinstance(c, (int, float)) or
-                        not math.isfinite(c) for c in point)):
+            if (
+                not isinstance(point, list)
+                or len(point) != dimension
+                or any(
+                    isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
+                    for c in point
+                )
+            ):
                 raise Invalid(f"got the point {point!r}", expected)
         return np.asarray(value, dtype=np.float64)
+
     check.expected = expected
     return _shaped(check)
 
@@ -170,9 +211,14 @@ _polygons.expected = "a list of polygons, each a list of [u, v] points"
 
 
 def _vector3(value):
-    if (not isinstance(value, list) or len(value) != 3 or
-            any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
-                for c in value)):
+    if (
+        not isinstance(value, list)
+        or len(value) != 3
+        or any(
+            isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c)
+            for c in value
+        )
+    ):
         raise Invalid(f"got {describe_value(value)}", "3 numbers [x, y, z]")
     return np.asarray(value, dtype=np.float64)
 
@@ -183,8 +229,7 @@ _vector3.expected = "3 numbers [x, y, z]"
 def _camera_vector(value):
     vector = _vector3(value)
     if np.abs(vector).max() > MAX_CAMERA_COORDINATE:
-        raise Invalid("got [" + ", ".join(f"{c:g}" for c in vector) + "]",
-                      _camera_vector.expected)
+        raise Invalid("got [" + ", ".join(f"{c:g}" for c in vector) + "]", _camera_vector.expected)
     return vector
 
 
@@ -216,7 +261,8 @@ def _indices(value):
 
 _indices.expected = "a list of vertex indices (integers in [0, 2147483647])"
 _polygons, _vector3, _camera_vector, _point, _indices = map(
-    _shaped, (_polygons, _vector3, _camera_vector, _point, _indices))
+    _shaped, (_polygons, _vector3, _camera_vector, _point, _indices)
+)
 
 GENERATOR_KEYS = {
     "grid": {
@@ -224,11 +270,17 @@ GENERATOR_KEYS = {
         "ny": (_integer(2), 21, "vertices along the pattern's v (height) direction"),
         "width": (_number(0, strict_minimum=True, unit="m"), 1.0, "pattern size along u"),
         "height": (_number(0, strict_minimum=True, unit="m"), 1.0, "pattern size along v"),
-        "plane": (_choice("xy", "xz"), "xy",
-                  "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)"),
-        "gather": (_number(0, 1, strict_minimum=True), 1.0,
-                   "start gathered along u to this fraction of the width (rest lengths stay "
-                   "those of the flat pattern)"),
+        "plane": (
+            _choice("xy", "xz"),
+            "xy",
+            "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)",
+        ),
+        "gather": (
+            _number(0, 1, strict_minimum=True),
+            1.0,
+            "start gathered along u to this fraction of the width (rest lengths stay "
+            "those of the flat pattern)",
+        ),
     },
     "cylinder": {
         "radius": (_number(0, strict_minimum=True, unit="m"), 0.25, "tube radius"),
@@ -237,18 +289,33 @@ GENERATOR_KEYS = {
         "segments": (_integer(3), 32, "vertices per ring"),
     },
     "pattern": {
-        "outline": (_points(2, "[u, v]"), REQUIRED,
-                    "the pattern's boundary polygon, m (simple, at least 3 points)"),
+        "outline": (
+            _points(2, "[u, v]"),
+            REQUIRED,
+            "the pattern's boundary polygon, m (simple, at least 3 points)",
+        ),
         "holes": (_polygons, [], "holes: a list of polygons strictly inside the outline"),
-        "edge_length": (_number(0, strict_minimum=True, unit="m"), 0.05,
-                        "longest edge of the mesh"),
-        "min_angle": (_number(0, PATTERN_MAX_ANGLE, strict_minimum=True, unit="degrees"),
-                      PATTERN_MIN_ANGLE, "smallest angle of the mesh"),
-        "interior": (_choice("lattice", "delaunay"), "lattice",
-                     "lattice: an equilateral lattice inside, CGAL along the edges; "
-                     "delaunay: CGAL's isotropic triangles throughout"),
-        "plane": (_choice("xy", "xz"), "xy",
-                  "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)"),
+        "edge_length": (
+            _number(0, strict_minimum=True, unit="m"),
+            0.05,
+            "longest edge of the mesh",
+        ),
+        "min_angle": (
+            _number(0, PATTERN_MAX_ANGLE, strict_minimum=True, unit="degrees"),
+            PATTERN_MIN_ANGLE,
+            "smallest angle of the mesh",
+        ),
+        "interior": (
+            _choice("lattice", "delaunay"),
+            "lattice",
+            "lattice: an equilateral lattice inside, CGAL along the edges; "
+            "delaunay: CGAL's isotropic triangles throughout",
+        ),
+        "plane": (
+            _choice("xy", "xz"),
+            "xy",
+            "xy: upright, (u, v) -> (x, y, 0); xz: flat, (u, v) -> (u, 0, v)",
+        ),
     },
     "file": {
         "path": (_string, REQUIRED, "mesh file (any meshio format), relative to the scene"),
@@ -280,128 +347,240 @@ _mass_scale = _shaped(_mass_scale)
 SCHEMA_GENERATOR_EXPECTED = "one of " + ", ".join(repr(g) for g in GENERATOR_KEYS)
 
 SCHEMA = {
-    "scene": ({
-        "name": (_string, None, "a title"),
-        "description": (_string, None, "free text"),
-    }, "table"),
-    "mesh": ({
-        "generator": (_choice(*GENERATOR_KEYS), REQUIRED, "grid, cylinder, pattern or file"),
-    }, "table"),
-    "material": ({
-        "mass": (_number(0, strict_minimum=True, unit="kg"), None,
-                 f"total mass, spread uniformly over the vertices (the paper's choice; default "
-                 f"{MASS:g} unless mass_per_vertex or density is given)"),
-        "mass_per_vertex": (_number(0, strict_minimum=True, unit="kg"), None, "per vertex"),
-        "density": (_number(0, strict_minimum=True, unit="kg/m²"), None,
-                    "areal density, lumped to the vertices by area"),
-        "stretch": (_choice("springs", "membrane"), "springs",
-                    "what resists stretching: the paper's structural springs, or a continuum "
-                    "membrane (St. Venant–Kirchhoff triangles) of young_modulus and "
-                    "poisson_ratio"),
-        "stretch_stiffness": (_number(0, strict_minimum=True, unit="N/m"), 200.0,
-                              "structural springs (not with stretch = membrane)"),
-        "young_modulus": (_number(0, strict_minimum=True, unit="N/m"), None,
-                          "the membrane's 2-D Young's modulus, Pa × thickness (required with "
-                          "stretch = membrane)"),
-        "poisson_ratio": (_number(-1, 1, strict_minimum=True, strict_maximum=True), None,
-                          "the membrane's Poisson's ratio (default 0.3)"),
-        "membrane_strain": (_choice("faces", "smoothed"), None,
-                            "the membrane's strain: the faces' (default) or smoothed at the "
-                            "vertices (with quadratic or hinge bending; for tension across "
-                            "the mesh's rows)"),
-        "bend_stiffness": (_number(0, unit="N/m"), None,
-                           f"bending springs (default {STIFFNESS:g}; 0: none; not with quadratic "
-                           "bending)"),
-        "bending": (_choice("springs", "quadratic", "hinge"), "springs",
-                    "bending model: the paper's springs, the quadratic energy ½ B ∫ |∇∇x|² "
-                    "(fitted per vertex, the same on any mesh) or Bergou et al. 2006's hinge "
-                    "energy (depends on the mesh's directions)"),
-        "bending_modulus": (_number(0, unit="N·m"), None,
-                            "quadratic bending's modulus (required with bending = quadratic)"),
-        "damping": (_number(0, unit="N·s/m"), 0.02, "along each spring"),
-        "drag": (_number(0, unit="1/s"), 0.3, "still air"),
-    }, "table"),
+    "scene": (
+        {
+            "name": (_string, None, "a title"),
+            "description": (_string, None, "free text"),
+        },
+        "table",
+    ),
+    "mesh": (
+        {
+            "generator": (_choice(*GENERATOR_KEYS), REQUIRED, "grid, cylinder, pattern or file"),
+        },
+        "table",
+    ),
+    "material": (
+        {
+            "mass": (
+                _number(0, strict_minimum=True, unit="kg"),
+                None,
+                f"total mass, spread uniformly over the vertices (the paper's choice; default "
+                f"{MASS:g} unless mass_per_vertex or density is given)",
+            ),
+            "mass_per_vertex": (_number(0, strict_minimum=True, unit="kg"), None, "per vertex"),
+            "density": (
+                _number(0, strict_minimum=True, unit="kg/m²"),
+                None,
+                "areal density, lumped to the vertices by area",
+            ),
+            "stretch": (
+                _choice("springs", "membrane"),
+                "springs",
+                "what resists stretching: the paper's structural springs, or a continuum "
+                "membrane (St. Venant–Kirchhoff triangles) of young_modulus and "
+                "poisson_ratio",
+            ),
+            "stretch_stiffness": (
+                _number(0, strict_minimum=True, unit="N/m"),
+                200.0,
+                "structural springs (not with stretch = membrane)",
+            ),
+            "young_modulus": (
+                _number(0, strict_minimum=True, unit="N/m"),
+                None,
+                "the membrane's 2-D Young's modulus, Pa × thickness (required with "
+                "stretch = membrane)",
+            ),
+            "poisson_ratio": (
+                _number(-1, 1, strict_minimum=True, strict_maximum=True),
+                None,
+                "the membrane's Poisson's ratio (default 0.3)",
+            ),
+            "membrane_strain": (
+                _choice("faces", "smoothed"),
+                None,
+                "the membrane's strain: the faces' (default) or smoothed at the "
+                "vertices (with quadratic or hinge bending; for tension across "
+                "the mesh's rows)",
+            ),
+            "bend_stiffness": (
+                _number(0, unit="N/m"),
+                None,
+                f"bending springs (default {STIFFNESS:g}; 0: none; not with quadratic bending)",
+            ),
+            "bending": (
+                _choice("springs", "quadratic", "hinge"),
+                "springs",
+                "bending model: the paper's springs, the quadratic energy ½ B ∫ |∇∇x|² "
+                "(fitted per vertex, the same on any mesh) or Bergou et al. 2006's hinge "
+                "energy (depends on the mesh's directions)",
+            ),
+            "bending_modulus": (
+                _number(0, unit="N·m"),
+                None,
+                "quadratic bending's modulus (required with bending = quadratic)",
+            ),
+            "damping": (_number(0, unit="N·s/m"), 0.02, "along each spring"),
+            "drag": (_number(0, unit="1/s"), 0.3, "still air"),
+        },
+        "table",
+    ),
     "fixed": (dict(SELECTION), "array"),
-    "driven": ({
-        **SELECTION,
-        "motion": (_choice("rotation"), "rotation", "the kind of prescribed motion"),
-        "center": (_point, REQUIRED, "a point on the rotation axis, m"),
-        "axis": (_vector3, REQUIRED, "axis direction"),
-        "omega": (_number(unit="rad/s"), REQUIRED, "angular speed, right-handed about axis"),
-    }, "array"),
-    "simulation": ({
-        "integrator": (_choice(*INTEGRATORS), DEFAULT_INTEGRATOR, "the time integrator"),
-        "dt": (_number_or_auto(MIN_DT, unit="s"), None,
-               "time step; default: below the stable step (explicit) or 1/60 s; \"auto\": "
-               "steps chosen by error control (tr-bdf2, cvode, arkode), dt the output "
-               "interval"),
-        "duration": (_number(0, MAX_TIME, strict_minimum=True, unit="s"), REQUIRED,
-                     "simulated time"),
-        "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
-        "settle": (_number(0, MAX_SETTLE_SECONDS, unit="s"), 0.0, "at most this much pseudo-time of relaxation "
-                   "to a static equilibrium before t = 0 (Simulation.settle; no driven "
-                   "vertices); 0: start as built"),
-        "threads": (_integer(1, MAX_THREADS), None, "threads of the core's loops and of BLAS "
-                    "(yore.set_num_threads); default: the machine's cores"),
-    }, "table"),
+    "driven": (
+        {
+            **SELECTION,
+            "motion": (_choice("rotation"), "rotation", "the kind of prescribed motion"),
+            "center": (_point, REQUIRED, "a point on the rotation axis, m"),
+            "axis": (_vector3, REQUIRED, "axis direction"),
+            "omega": (_number(unit="rad/s"), REQUIRED, "angular speed, right-handed about axis"),
+        },
+        "array",
+    ),
+    "simulation": (
+        {
+            "integrator": (_choice(*INTEGRATORS), DEFAULT_INTEGRATOR, "the time integrator"),
+            "dt": (
+                _number_or_auto(MIN_DT, unit="s"),
+                None,
+                'time step; default: below the stable step (explicit) or 1/60 s; "auto": '
+                "steps chosen by error control (tr-bdf2, cvode, arkode), dt the output "
+                "interval",
+            ),
+            "duration": (
+                _number(0, MAX_TIME, strict_minimum=True, unit="s"),
+                REQUIRED,
+                "simulated time",
+            ),
+            "gravity": (_vector3, None, "m/s², default [0, -9.81, 0]"),
+            "settle": (
+                _number(0, MAX_SETTLE_SECONDS, unit="s"),
+                0.0,
+                "at most this much pseudo-time of relaxation "
+                "to a static equilibrium before t = 0 (Simulation.settle; no driven "
+                "vertices); 0: start as built",
+            ),
+            "threads": (
+                _integer(1, MAX_THREADS),
+                None,
+                "threads of the core's loops and of BLAS "
+                "(yore.set_num_threads); default: the machine's cores",
+            ),
+        },
+        "table",
+    ),
     "integrator": (None, "table"),  # options of the chosen integrator, checked separately
-    "strokes": ({
-        "time": (_number(0, MAX_TIME, unit="s"), REQUIRED, "when the stroke is drawn"),
-        "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
-        "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
-        "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
-        "expansion": (_number(MIN_EXPANSION, MAX_EXPANSION),
-                      STROKE_DEFAULTS["expansion"],
-                      "rest length / current length of "
-                      "new springs (eq. (1))"),
-        "mass_scale": (_mass_scale, STROKE_DEFAULTS["mass_scale"],
-                       "new vertex mass / corners' mean, or 'conserve' "
-                       "(taken from the corners; total mass unchanged)"),
-        "width": (_number(0, strict_minimum=True, unit="m"), None,
-                  "band around the stroke with a smooth falloff (default: the crossed faces)"),
-        "growth": (_choice(*GROWTH_MODES), STROKE_DEFAULTS["growth"],
-                   "paper (eq. (1) on new springs), isotropic, along or across the stroke"),
-        "refine": (_integer(0, MAX_REFINE), STROKE_DEFAULTS["refine"],
-                   "1→4 refinement passes of the band first"),
-        "max_distance": (_number(0, strict_minimum=True, unit="m"), None,
-                         "points only: farthest a point may be from the surface"),
-        "smooth": ("smooth", None, "{iterations, strength, region}: rest-length smoothing "
-                   "right after the stroke"),
-    }, "array"),
-    "camera": ({
-        "eye": (_camera_vector, None, "m; default: fitted to the cloth at t = 0"),
-        "target": (_camera_vector, None, "m; default: the cloth's centre at t = 0"),
-        "up": (_camera_vector, [0.0, 1.0, 0.0], "up direction"),
-        "fov_degrees": (_number(0, 180, strict_minimum=True), FOV_DEGREES,
-                        "vertical field of view"),
-        "width": (_integer(16, MAX_IMAGE_SIDE), IMAGE_WIDTH, "image width, pixels"),
-        "height": (_integer(16, MAX_IMAGE_SIDE), IMAGE_HEIGHT, "image height, pixels"),
-    }, "table"),
-    "output": ({
-        "format": (_choice("vtu", "vtk", "ply", "obj", "none"), "vtu", "frame file format"),
-        "fps": (_number(0, strict_minimum=True), None,
+    "strokes": (
+        {
+            "time": (_number(0, MAX_TIME, unit="s"), REQUIRED, "when the stroke is drawn"),
+            "points": (_points(3, "[x, y, z] (m)"), None, "3-D polyline near the surface"),
+            "material": (_points(2, "[u, v] (m)"), None, "polyline in rest-pattern coordinates"),
+            "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
+            "expansion": (
+                _number(MIN_EXPANSION, MAX_EXPANSION),
+                STROKE_DEFAULTS["expansion"],
+                "rest length / current length of new springs (eq. (1))",
+            ),
+            "mass_scale": (
+                _mass_scale,
+                STROKE_DEFAULTS["mass_scale"],
+                "new vertex mass / corners' mean, or 'conserve' "
+                "(taken from the corners; total mass unchanged)",
+            ),
+            "width": (
+                _number(0, strict_minimum=True, unit="m"),
+                None,
+                "band around the stroke with a smooth falloff (default: the crossed faces)",
+            ),
+            "growth": (
+                _choice(*GROWTH_MODES),
+                STROKE_DEFAULTS["growth"],
+                "paper (eq. (1) on new springs), isotropic, along or across the stroke",
+            ),
+            "refine": (
+                _integer(0, MAX_REFINE),
+                STROKE_DEFAULTS["refine"],
+                "1→4 refinement passes of the band first",
+            ),
+            "max_distance": (
+                _number(0, strict_minimum=True, unit="m"),
+                None,
+                "points only: farthest a point may be from the surface",
+            ),
+            "smooth": (
+                "smooth",
+                None,
+                "{iterations, strength, region}: rest-length smoothing right after the stroke",
+            ),
+        },
+        "array",
+    ),
+    "camera": (
+        {
+            "eye": (_camera_vector, None, "m; default: fitted to the cloth at t = 0"),
+            "target": (_camera_vector, None, "m; default: the cloth's centre at t = 0"),
+            "up": (_camera_vector, [0.0, 1.0, 0.0], "up direction"),
+            "fov_degrees": (
+                _number(0, 180, strict_minimum=True),
+                FOV_DEGREES,
+                "vertical field of view",
+            ),
+            "width": (_integer(16, MAX_IMAGE_SIDE), IMAGE_WIDTH, "image width, pixels"),
+            "height": (_integer(16, MAX_IMAGE_SIDE), IMAGE_HEIGHT, "image height, pixels"),
+        },
+        "table",
+    ),
+    "output": (
+        {
+            "format": (_choice("vtu", "vtk", "ply", "obj", "none"), "vtu", "frame file format"),
+            "fps": (
+                _number(0, strict_minimum=True),
+                None,
                 f"frames per simulated second (default {FRAMES_PER_SECOND:g} unless every_steps is "
-                "given)"),
-        "every_steps": (_integer(1), None, "a frame every this many steps"),
-        "pictures": (_boolean, True, "before/after PNG (before = just before the first stroke)"),
-        "animation": (_choice(*ANIMATION_FORMATS), RUN_ANIMATION, "an animation of the frames"),
-        "color_by": (_choice("none", "expansion", "wrinkles"), "none",
-                     "colour pictures by rest-length expansion or wrinkle height"),
-        "framing": (_choice("cloth", "run"), "cloth",
-                    "cloth: each picture framed on the cloth it shows, the animation "
-                    "follows it; run: one camera for the whole run"),
-    }, "table"),
+                "given)",
+            ),
+            "every_steps": (_integer(1), None, "a frame every this many steps"),
+            "pictures": (
+                _boolean,
+                True,
+                "before/after PNG (before = just before the first stroke)",
+            ),
+            "animation": (_choice(*ANIMATION_FORMATS), RUN_ANIMATION, "an animation of the frames"),
+            "color_by": (
+                _choice("none", "expansion", "wrinkles"),
+                "none",
+                "colour pictures by rest-length expansion or wrinkle height",
+            ),
+            "framing": (
+                _choice("cloth", "run"),
+                "cloth",
+                "cloth: each picture framed on the cloth it shows, the animation "
+                "follows it; run: one camera for the whole run",
+            ),
+        },
+        "table",
+    ),
 }
 
 SMOOTH = {
-    "iterations": (_integer(0, SMOOTHING_RULES["iterations"].high),
-                   SMOOTHING_DEFAULTS["iterations"], "smoothing iterations"),
-    "strength": (_number(SMOOTHING_RULES["strength"].low, SMOOTHING_RULES["strength"].high,
-                         strict_minimum=True), SMOOTHING_DEFAULTS["strength"],
-                 "fraction moved per iteration"),
+    "iterations": (
+        _integer(0, SMOOTHING_RULES["iterations"].high),
+        SMOOTHING_DEFAULTS["iterations"],
+        "smoothing iterations",
+    ),
+    "strength": (
+        _number(
+            SMOOTHING_RULES["strength"].low, SMOOTHING_RULES["strength"].high, strict_minimum=True
+        ),
+        SMOOTHING_DEFAULTS["strength"],
+        "fraction moved per iteration",
+    ),
     "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
-    "conserve": (_boolean, SMOOTHING_DEFAULTS["conserve"],
-                 "keep the region's added rest length (redistribute only)"),
+    "conserve": (
+        _boolean,
+        SMOOTHING_DEFAULTS["conserve"],
+        "keep the region's added rest length (redistribute only)",
+    ),
 }
 BOX = {
     "min": (_point, REQUIRED, "lower corner, m"),

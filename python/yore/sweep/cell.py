@@ -24,8 +24,7 @@ __all__ = ["run_cell", "null_cell", "STATUSES", "OUTPUT_OVERRIDES"]
 
 STATUSES = ("done", "diverged", "stroke missed", "failed")
 #: Every cell runs without frames or pictures (its final frame comes back as arrays).
-OUTPUT_OVERRIDES = {"output.format": "none", "output.pictures": False,
-                    "output.animation": "none"}
+OUTPUT_OVERRIDES = {"output.format": "none", "output.pictures": False, "output.animation": "none"}
 _ENERGIES = ("kinetic", "spring", "gravity", "total", "area", "rest_area")
 
 
@@ -41,8 +40,9 @@ def run_cell(scene_text, scene_path, overrides) -> dict:
     with tempfile.TemporaryDirectory(prefix="yore-cell-") as folder:
         out = Path(folder) / "run"
         try:
-            scene = load_scene(scene_path, text=scene_text,
-                               overrides={**overrides, **OUTPUT_OVERRIDES})
+            scene = load_scene(
+                scene_path, text=scene_text, overrides={**overrides, **OUTPUT_OVERRIDES}
+            )
             with warnings.catch_warnings():
                 # unconverged steps are recorded (unconverged_steps), not warned per cell
                 warnings.simplefilter("ignore", RuntimeWarning)
@@ -72,20 +72,29 @@ def run_cell(scene_text, scene_path, overrides) -> dict:
 
             sim, _ = load_state(out / "state.npz")
             positions, faces = sim.cloth.positions, sim.cloth.faces
-            values.update(_state_values(sim, summary if (out / "summary.json").is_file()
-                                        else {}))
+            values.update(_state_values(sim, summary if (out / "summary.json").is_file() else {}))
             if status == "diverged":
                 values["diverged_time"] = sim.time
                 values["suggested_dt"] = _suggested_dt(sim)
-    return {"status": status, "message": message, "values": values,
-            "positions": positions, "faces": faces}
+    return {
+        "status": status,
+        "message": message,
+        "values": values,
+        "positions": positions,
+        "faces": faces,
+    }
 
 
 def null_cell(scene_text, scene_path, overrides) -> dict:
     """A stand-in for `run_cell` that runs nothing: a "done" result with one value (the
     number of overrides). It measures the sweep machinery alone (Dask, records, results.nc)."""
-    return {"status": "done", "message": "", "values": {"overrides": float(len(overrides))},
-            "positions": None, "faces": None}
+    return {
+        "status": "done",
+        "message": "",
+        "values": {"overrides": float(len(overrides))},
+        "positions": None,
+        "faces": None,
+    }
 
 
 def _number(value):
@@ -127,14 +136,22 @@ def _summary_values(summary) -> dict:
                 values["max_energy_gain"] = max(totals) - first
                 values["gravity_released"] = max(gravity[0] - g for g in gravity)
     if values.get("time"):
-        values["wall_seconds_per_simulated_second"] = values.get("wall_seconds", math.nan) / \
-            values["time"]
+        values["wall_seconds_per_simulated_second"] = (
+            values.get("wall_seconds", math.nan) / values["time"]
+        )
     strokes = summary.get("strokes") or []
     values["strokes"] = float(len(strokes))
     if strokes:
         stroke = strokes[0]
-        for name in ("faces_split", "vertices_added", "springs_grown", "rest_length_added",
-                     "mass_added", "rest_area_before", "rest_area_after"):
+        for name in (
+            "faces_split",
+            "vertices_added",
+            "springs_grown",
+            "rest_length_added",
+            "mass_added",
+            "rest_area_before",
+            "rest_area_after",
+        ):
             number = _number(stroke.get(name))
             if number is not None:
                 values[f"stroke_{name}"] = number

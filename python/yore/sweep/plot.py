@@ -26,57 +26,87 @@ def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
     if path is not None:
         path = Path(path)
         if path.is_dir() or path.suffix.lower() != ".png":
-            raise ValueError(f"the picture must be a .png file, got {str(path)!r}"
-                             + (" (a folder)" if path.is_dir() else ""))
+            raise ValueError(
+                f"the picture must be a .png file, got {str(path)!r}"
+                + (" (a folder)" if path.is_dir() else "")
+            )
     dataset = open_results(out)
     if "status" not in dataset.data_vars or not dataset["status"].dims:
-        raise ValueError(f"{Path(out) / 'results.nc'} is not a yore sweep's results (it has no "
-                         "status per cell)")
+        raise ValueError(
+            f"{Path(out) / 'results.nc'} is not a yore sweep's results (it has no status per cell)"
+        )
     dims = list(dataset["status"].dims)
     for name, what in ((x, "--x"), (y, "--y")):
         if name not in dims:
-            raise ValueError(f"{what} {name!r} is not a dimension of the sweep; its "
-                             f"dimensions: {', '.join(dims)}")
+            raise ValueError(
+                f"{what} {name!r} is not a dimension of the sweep; its "
+                f"dimensions: {', '.join(dims)}"
+            )
     if x == y:
         raise ValueError("--x and --y must be two different dimensions")
     if value not in dataset.data_vars or value in ("status", "message"):
         names = sorted(v for v in dataset.data_vars if v not in ("status", "message"))
-        raise ValueError(f"--value {value!r} is not recorded by this sweep; recorded: "
-                         f"{', '.join(names)}")
+        raise ValueError(
+            f"--value {value!r} is not recorded by this sweep; recorded: {', '.join(names)}"
+        )
     selection = {}
     for name, wanted in (select or {}).items():
         if name not in dims or name in (x, y):
-            raise ValueError(f"--select {name}: not one of the other dimensions "
-                             f"({', '.join(d for d in dims if d not in (x, y)) or 'none'})")
+            raise ValueError(
+                f"--select {name}: not one of the other dimensions "
+                f"({', '.join(d for d in dims if d not in (x, y)) or 'none'})"
+            )
         coordinate = dataset[name].values
-        matches = [k for k, c in enumerate(coordinate) if str(c) == str(wanted) or
-                   (_is_number(wanted) and _is_number(c) and float(c) == float(wanted))]
+        matches = [
+            k
+            for k, c in enumerate(coordinate)
+            if str(c) == str(wanted)
+            or (_is_number(wanted) and _is_number(c) and float(c) == float(wanted))
+        ]
         if not matches:
-            raise ValueError(f"--select {name}={wanted}: not one of its values "
-                             f"({', '.join(map(str, coordinate))})")
+            raise ValueError(
+                f"--select {name}={wanted}: not one of its values "
+                f"({', '.join(map(str, coordinate))})"
+            )
         selection[name] = matches[0]
     rest = [d for d in dims if d not in (x, y) and d not in selection]
     for name in rest:
         if dataset.sizes[name] != 1:
-            raise ValueError(f"dimension {name!r} has {dataset.sizes[name]} values; fix one "
-                             f"with --select {name}=VALUE")
+            raise ValueError(
+                f"dimension {name!r} has {dataset.sizes[name]} values; fix one "
+                f"with --select {name}=VALUE"
+            )
         selection[name] = 0
     cut = dataset.isel(selection) if selection else dataset
     grid = cut[value].transpose(y, x).values.astype(float)
     status = cut["status"].transpose(y, x).values
     fig, ax = plt.subplots(figsize=(1.2 + 0.9 * grid.shape[1], 1.2 + 0.6 * grid.shape[0]))
     finite = grid[np.isfinite(grid)]
-    use_log = log if log is not None else bool(
-        finite.size and finite.min() > 0 and finite.max() / finite.min() >= 100)
+    use_log = (
+        log
+        if log is not None
+        else bool(finite.size and finite.min() > 0 and finite.max() / finite.min() >= 100)
+    )
     norm = LogNorm(finite.min(), finite.max()) if use_log and finite.size else None
-    image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", cmap="viridis", norm=norm,
-                      aspect="auto")
+    image = ax.imshow(
+        np.ma.masked_invalid(grid), origin="lower", cmap="viridis", norm=norm, aspect="auto"
+    )
     fig.colorbar(image, ax=ax, label=value)
     for (i, j), number in np.ndenumerate(grid):
-        text = status[i, j] if status[i, j] not in ("done", "") else (
-            f"{number:.3g}" if np.isfinite(number) else "–")
-        ax.text(j, i, text or "not run", ha="center", va="center", fontsize=7,
-                color="white" if status[i, j] == "done" else "black")
+        text = (
+            status[i, j]
+            if status[i, j] not in ("done", "")
+            else (f"{number:.3g}" if np.isfinite(number) else "–")
+        )
+        ax.text(
+            j,
+            i,
+            text or "not run",
+            ha="center",
+            va="center",
+            fontsize=7,
+            color="white" if status[i, j] == "done" else "black",
+        )
     ax.set_xticks(range(grid.shape[1]), [_label(c) for c in cut[x].values], rotation=30)
     ax.set_yticks(range(grid.shape[0]), [_label(c) for c in cut[y].values])
     ax.set_xlabel(x)

@@ -64,20 +64,28 @@ class Results:
     def add(self, cell, result) -> None:
         """Records a cell's result: arrays first, then its .json (the cell's 'done' mark)."""
         if result.get("positions") is not None:
-            write_atomically(self.cells / f"{cell.key}.npz",
-                          lambda p: np.savez(p, positions=result["positions"],
-                                             faces=result["faces"]))
+            write_atomically(
+                self.cells / f"{cell.key}.npz",
+                lambda p: np.savez(p, positions=result["positions"], faces=result["faces"]),
+            )
             if self.sweep.frames:
                 from ..io import save_mesh
 
                 save_mesh(self.cells / f"{cell.key}.vtu", result["positions"], result["faces"])
-        record = {"status": result["status"], "message": result["message"],
-                  "overrides": {k: v for k, v in cell.overrides.items()},
-                  "values": {k: v for k, v in result["values"].items()
-                             if isinstance(v, float) and math.isfinite(v)}}
+        record = {
+            "status": result["status"],
+            "message": result["message"],
+            "overrides": {k: v for k, v in cell.overrides.items()},
+            "values": {
+                k: v
+                for k, v in result["values"].items()
+                if isinstance(v, float) and math.isfinite(v)
+            },
+        }
         text = json.dumps(record, indent=1, default=str)
-        write_atomically(self.cells / f"{cell.key}.json",
-                      lambda p: p.write_text(text + "\n", encoding="utf-8"))
+        write_atomically(
+            self.cells / f"{cell.key}.json", lambda p: p.write_text(text + "\n", encoding="utf-8")
+        )
         self._store(cell, record)
 
     def _store(self, cell, record):
@@ -137,8 +145,10 @@ class Results:
                 coords[d.name] = (d.name, np.arange(d.size))
                 for k, key in enumerate(d.keys):
                     coords[key] = (d.name, _column([v[k] for v in d.values]))
-        data = {"status": (dims, self.status.astype(str)),
-                "message": (dims, self.message.astype(str))}
+        data = {
+            "status": (dims, self.status.astype(str)),
+            "message": (dims, self.message.astype(str)),
+        }
         taken = set(data) | set(coords) | set(dims)
         for name, array in sorted(self.values.items()):
             # a recorded quantity never takes the name of a dimension, coordinate or the status
@@ -147,12 +157,17 @@ class Results:
             taken.add(name)
             data[name] = (dims, array)
         dataset = xr.Dataset(data, coords=coords)
-        dataset.attrs.update({"sweep": self.sweep.text,
-                              "scene": str(self.sweep.scene_path or "built-in"),
-                              "cells": self.sweep.cell_count,
-                              "finished": int(np.count_nonzero(self.status != ""))})
-        dataset["status"].attrs["description"] = ("done, diverged, stroke missed, failed; "
-                                                  "empty: not run yet")
+        dataset.attrs.update(
+            {
+                "sweep": self.sweep.text,
+                "scene": str(self.sweep.scene_path or "built-in"),
+                "cells": self.sweep.cell_count,
+                "finished": int(np.count_nonzero(self.status != "")),
+            }
+        )
+        dataset["status"].attrs["description"] = (
+            "done, diverged, stroke missed, failed; empty: not run yet"
+        )
         return dataset
 
     def write(self) -> Path:
@@ -171,9 +186,12 @@ MAX_RECORD_BYTES = 1 << 20
 
 def read_record(path, cell) -> dict:
     """The record of ``cell`` in ``path``, checked; ValueError naming the file otherwise."""
+
     def refuse(problem):
-        raise ValueError(f"{path}: {problem}; not a record of this sweep's cell {cell.index} "
-                         "(remove the file to run the cell again)")
+        raise ValueError(
+            f"{path}: {problem}; not a record of this sweep's cell {cell.index} "
+            "(remove the file to run the cell again)"
+        )
 
     try:
         info = path.stat()
@@ -189,24 +207,27 @@ def read_record(path, cell) -> dict:
         refuse(f"not valid JSON ({' '.join(str(error).split())[:120]})")
     except RecursionError:
         refuse("nested too deeply")
-    if not isinstance(record, dict) or set(record) != {"status", "message", "overrides",
-                                                       "values"}:
+    if not isinstance(record, dict) or set(record) != {"status", "message", "overrides", "values"}:
         refuse("not a table with status, message, overrides and values")
     status = record["status"]
-    if not isinstance(status, str) or not 0 < len(status) <= 64 or \
-            any(ord(c) < 32 for c in status):
+    if not isinstance(status, str) or not 0 < len(status) <= 64 or any(ord(c) < 32 for c in status):
         refuse(f"status {status!r} is not a short text (e.g. {', '.join(STATUSES)})")
     if not isinstance(record["message"], str):
         refuse("message is not a string")
     expected = json.loads(json.dumps(cell.overrides, default=str))
     if record["overrides"] != expected:
-        refuse(f"it was written for other settings ({record['overrides']!r}; this cell's are "
-               f"{expected!r}): the sweep file was changed since")
+        refuse(
+            f"it was written for other settings ({record['overrides']!r}; this cell's are "
+            f"{expected!r}): the sweep file was changed since"
+        )
     values = record["values"]
     if not isinstance(values, dict) or not all(
-            isinstance(name, str) and isinstance(value, (int, float))
-            and not isinstance(value, bool) and math.isfinite(value)
-            for name, value in values.items()):
+        isinstance(name, str)
+        and isinstance(value, (int, float))
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        for name, value in values.items()
+    ):
         refuse("values is not a table of finite numbers")
     return record
 
@@ -216,8 +237,9 @@ def _column(values):
     if all(isinstance(v, bool) for v in values):
         return np.asarray(values, dtype=bool)
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-        return np.asarray(values, dtype=float if any(isinstance(v, float) for v in values)
-                          else np.int64)
+        return np.asarray(
+            values, dtype=float if any(isinstance(v, float) for v in values) else np.int64
+        )
     return np.asarray([str(v) for v in values], dtype=str)
 
 
@@ -227,12 +249,12 @@ def open_results(out):
 
     path = Path(out) / RESULTS_NAME
     if not path.is_file():
-        raise ValueError(f"{out} holds no sweep results ({RESULTS_NAME}); run `yore sweep` "
-                         "first")
+        raise ValueError(f"{out} holds no sweep results ({RESULTS_NAME}); run `yore sweep` first")
     try:
         with xr.open_dataset(path, engine="h5netcdf") as dataset:
             return dataset.load()
     except (OSError, ValueError, KeyError, RuntimeError, TypeError) as error:
-        raise ValueError(f"{path} cannot be read as a sweep's results "
-                         f"({type(error).__name__}: {' '.join(str(error).split())[:160]})") \
-            from None
+        raise ValueError(
+            f"{path} cannot be read as a sweep's results "
+            f"({type(error).__name__}: {' '.join(str(error).split())[:160]})"
+        ) from None

@@ -55,8 +55,10 @@ def _claim(sweep: Sweep, out: Path, resume: bool, overwrite: bool) -> None:
         raise SweepError(f"{out} is not a folder")
     if meta.is_file() and not resume:
         if not overwrite:
-            raise SweepError(f"{out} already holds a sweep; `yore sweep --resume {out}` "
-                             "continues it, --overwrite replaces it")
+            raise SweepError(
+                f"{out} already holds a sweep; `yore sweep --resume {out}` "
+                "continues it, --overwrite replaces it"
+            )
         for name in (SWEEP_NAME, SCENE_NAME, META_NAME, RESULTS_NAME):
             (out / name).unlink(missing_ok=True)
         shutil.rmtree(out / CELLS_DIR, ignore_errors=True)
@@ -66,9 +68,12 @@ def _claim(sweep: Sweep, out: Path, resume: bool, overwrite: bool) -> None:
     if not meta.is_file():
         (out / SWEEP_NAME).write_text(sweep.text, encoding="utf-8")
         (out / SCENE_NAME).write_text(sweep.scene_text, encoding="utf-8")
-        record = {"sweep_path": str(sweep.path.resolve()) if sweep.path else None,
-                  "scene_path": str(sweep.scene_path) if sweep.scene_path else None,
-                  "cells": sweep.cell_count, "identity": identity(sweep)}
+        record = {
+            "sweep_path": str(sweep.path.resolve()) if sweep.path else None,
+            "scene_path": str(sweep.scene_path) if sweep.scene_path else None,
+            "cells": sweep.cell_count,
+            "identity": identity(sweep),
+        }
         (out / META_NAME).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
 
 
@@ -78,11 +83,15 @@ def identity(sweep) -> str:
     with."""
     digest = hashlib.sha256()
     digest.update(sweep.scene_text.encode("utf-8"))
-    digest.update(json.dumps([[d.name, list(d.keys), list(d.labels)] for d in sweep.dimensions],
-                             default=str).encode("utf-8"))
+    digest.update(
+        json.dumps(
+            [[d.name, list(d.keys), list(d.labels)] for d in sweep.dimensions], default=str
+        ).encode("utf-8")
+    )
     for cell in sweep.cells():
-        digest.update(json.dumps([cell.index, cell.overrides], sort_keys=True,
-                                 default=str).encode("utf-8"))
+        digest.update(
+            json.dumps([cell.index, cell.overrides], sort_keys=True, default=str).encode("utf-8")
+        )
     return digest.hexdigest()
 
 
@@ -102,14 +111,21 @@ def _read_meta(out) -> dict:
     except RecursionError:
         meta = None
     except (OSError, ValueError, UnicodeDecodeError) as error:
-        raise SweepError(f"{path}: not a sweep record ({' '.join(str(error).split())[:120]})") \
-            from None
-    if not isinstance(meta, dict) or not {"sweep_path", "scene_path", "cells"} <= set(meta) \
-            or not all(meta[k] is None or isinstance(meta[k], str)
-                       for k in ("sweep_path", "scene_path")) \
-            or not isinstance(meta.get("identity", ""), str):
-        raise SweepError(f"{path}: not a sweep record (expected a table with sweep_path, "
-                         "scene_path, cells and identity)")
+        raise SweepError(
+            f"{path}: not a sweep record ({' '.join(str(error).split())[:120]})"
+        ) from None
+    if (
+        not isinstance(meta, dict)
+        or not {"sweep_path", "scene_path", "cells"} <= set(meta)
+        or not all(
+            meta[k] is None or isinstance(meta[k], str) for k in ("sweep_path", "scene_path")
+        )
+        or not isinstance(meta.get("identity", ""), str)
+    ):
+        raise SweepError(
+            f"{path}: not a sweep record (expected a table with sweep_path, "
+            "scene_path, cells and identity)"
+        )
     return meta
 
 
@@ -123,10 +139,14 @@ def _connect(scheduler, timeout):
     abandoned if it does not return in time: whatever answers on the port (an HTTP server, a
     silent one) cannot hang the sweep."""
     if not isinstance(scheduler, str) or not re.fullmatch(r"tcp://[^\s/:]+:\d{1,5}", scheduler):
-        raise SweepError(f"--scheduler must be a Dask scheduler's address tcp://HOST:PORT, got "
-                         f"{scheduler!r}")
-    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
-            not 0.1 <= timeout <= 3600:
+        raise SweepError(
+            f"--scheduler must be a Dask scheduler's address tcp://HOST:PORT, got {scheduler!r}"
+        )
+    if (
+        isinstance(timeout, bool)
+        or not isinstance(timeout, (int, float))
+        or not 0.1 <= timeout <= 3600
+    ):
         raise SweepError(f"the connect timeout must be in [0.1, 3600] s, got {timeout!r}")
     from dask.distributed import Client
 
@@ -141,11 +161,14 @@ def _connect(scheduler, timeout):
     helper = threading.Thread(target=connect, name="yore-connect", daemon=True)
     helper.start()
     helper.join(timeout + 5.0)
-    hint = (f"start one with `dask scheduler` and workers with `dask worker {scheduler} "
-            "--nthreads 1`")
+    hint = (
+        f"start one with `dask scheduler` and workers with `dask worker {scheduler} --nthreads 1`"
+    )
     if helper.is_alive():
-        raise SweepError(f"the Dask scheduler {scheduler} did not answer within {timeout:g} s "
-                         f"(is it a Dask scheduler?); {hint}")
+        raise SweepError(
+            f"the Dask scheduler {scheduler} did not answer within {timeout:g} s "
+            f"(is it a Dask scheduler?); {hint}"
+        )
     if "error" in outcome:
         error = outcome["error"]
         text = " ".join(str(error).split())[:200] or type(error).__name__
@@ -180,16 +203,26 @@ def _client(scheduler, workers, quiet):
     # silenced below CRITICAL: a cell's failure is its result, not a log line.
     main_thread = threading.current_thread() is threading.main_thread()
     caught = []
-    previous = signal.signal(signal.SIGINT, lambda number, frame: caught.append(number)) \
-        if main_thread else None
+    previous = (
+        signal.signal(signal.SIGINT, lambda number, frame: caught.append(number))
+        if main_thread
+        else None
+    )
     os.environ["PYTHONWARNINGS"] = ",".join(
-        filter(None, [os.environ.get("PYTHONWARNINGS"), QUIET_TRACKER]))
+        filter(None, [os.environ.get("PYTHONWARNINGS"), QUIET_TRACKER])
+    )
     os.environ[SWEEP_WORKER_ENV] = "1"
     cluster = client = None
     try:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.CRITICAL,
-                               env={**PINNED, SWEEP_WORKER_ENV: "1"}, preload=["yore"])
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+            env={**PINNED, SWEEP_WORKER_ENV: "1"},
+            preload=["yore"],
+        )
         client = Client(cluster)
     finally:
         if main_thread:
@@ -207,17 +240,28 @@ def _client(scheduler, workers, quiet):
 
 def _check_workers(workers):
     most = max_local_workers()
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or not 1 <= workers <= most):
-        raise SweepError(f"workers must be an integer in [1, {most}], got {workers!r}: at "
-                         f"most twice this machine's {most // 2} core(s) (a worker is a "
-                         "process of about 80 MB running one cell on one core; more only "
-                         "share the cores)")
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= most
+    ):
+        raise SweepError(
+            f"workers must be an integer in [1, {most}], got {workers!r}: at "
+            f"most twice this machine's {most // 2} core(s) (a worker is a "
+            "process of about 80 MB running one cell on one core; more only "
+            "share the cores)"
+        )
 
 
-def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
-        resume=False, cell_function=None,
-        connect_timeout=CONNECT_TIMEOUT_SECONDS) -> Results:
+def run(
+    sweep,
+    out,
+    scheduler=None,
+    workers=None,
+    quiet=False,
+    overwrite=False,
+    resume=False,
+    cell_function=None,
+    connect_timeout=CONNECT_TIMEOUT_SECONDS,
+) -> Results:
     """Runs ``sweep`` (a `Sweep` or a sweep file path) into folder ``out``; returns its
     `Results` (``.dataset()`` is the xarray Dataset also written to OUT/results.nc).
 
@@ -249,8 +293,7 @@ def run(sweep, out, scheduler=None, workers=None, quiet=False, overwrite=False,
         return results
     function = cell_function or run_cell
     try:
-        client, cluster = (remote, None) if remote is not None else \
-            _client(None, workers, quiet)
+        client, cluster = (remote, None) if remote is not None else _client(None, workers, quiet)
     except BaseException:  # (a Ctrl-C while the cluster started) the Dataset says none ran
         results.reference_errors()
         results.write()
@@ -274,9 +317,12 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
     from tqdm.auto import tqdm
 
     if not quiet:
-        print(f"yore sweep: {todo} of {sweep.cell_count} cells to run on "
-              f"{len(client.scheduler_info()['workers'])} Dask workers; dashboard "
-              f"{client.dashboard_link}", flush=True)
+        print(
+            f"yore sweep: {todo} of {sweep.cell_count} cells to run on "
+            f"{len(client.scheduler_info()['workers'])} Dask workers; dashboard "
+            f"{client.dashboard_link}",
+            flush=True,
+        )
     limit = IN_FLIGHT_PER_WORKER * max(1, len(client.scheduler_info()["workers"]))
     running = {}
     queue = as_completed()
@@ -288,10 +334,14 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
             cell = next(pending, None)
             if cell is None:
                 return False
-            future = client.submit(function, sweep.scene_text,
-                                   str(sweep.scene_path) if sweep.scene_path else None,
-                                   cell.overrides, key=f"yore-cell-{cell.key}-{os.getpid()}",
-                                   pure=False)
+            future = client.submit(
+                function,
+                sweep.scene_text,
+                str(sweep.scene_path) if sweep.scene_path else None,
+                cell.overrides,
+                key=f"yore-cell-{cell.key}-{os.getpid()}",
+                pure=False,
+            )
             running[future.key] = cell
             queue.add(future)
         return True
@@ -301,16 +351,19 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
             break
     last_write = time.monotonic()
     failed = 0
-    with tqdm(total=todo, desc="yore sweep", unit="cell", disable=quiet or None,
-              delay=2.0) as bar:
+    with tqdm(total=todo, desc="yore sweep", unit="cell", disable=quiet or None, delay=2.0) as bar:
         for future in queue:
             cell = running.pop(future.key)
             try:
                 result = future.result()
             except Exception as error:  # noqa: BLE001 - the task itself failed (worker)
-                result = {"status": "failed",
-                          "message": f"{type(error).__name__}: {error}",
-                          "values": {}, "positions": None, "faces": None}
+                result = {
+                    "status": "failed",
+                    "message": f"{type(error).__name__}: {error}",
+                    "values": {},
+                    "positions": None,
+                    "faces": None,
+                }
             future.release()
             results.add(cell, result)
             failed += result["status"] != "done"
@@ -322,8 +375,14 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
                 last_write = time.monotonic()
 
 
-def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None,
-           connect_timeout=CONNECT_TIMEOUT_SECONDS) -> Results:
+def resume(
+    out,
+    scheduler=None,
+    workers=None,
+    quiet=False,
+    cell_function=None,
+    connect_timeout=CONNECT_TIMEOUT_SECONDS,
+) -> Results:
     """Continues the sweep in folder ``out``: the cells it does not hold yet."""
     out = Path(os.fspath(out))
     meta = _read_meta(out)
@@ -331,8 +390,9 @@ def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None,
         text = (out / SWEEP_NAME).read_text(encoding="utf-8")
         scene_text = (out / SCENE_NAME).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
-        raise SweepError(f"{out}: the sweep's {SWEEP_NAME} or {SCENE_NAME} cannot be read "
-                         f"({error})") from None
+        raise SweepError(
+            f"{out}: the sweep's {SWEEP_NAME} or {SCENE_NAME} cannot be read ({error})"
+        ) from None
     sweep_path = Path(meta["sweep_path"]) if meta.get("sweep_path") else out / SWEEP_NAME
     sweep = load_sweep(sweep_path, text=text, check_cells=False)
     # the base scene as it was when the sweep started (the file may have changed since)
@@ -340,8 +400,18 @@ def resume(out, scheduler=None, workers=None, quiet=False, cell_function=None,
     # the cells are what they were when the sweep started, or nothing runs (folders from
     # before the identity was recorded are checked record by record only)
     if meta.get("identity") and meta["identity"] != identity(sweep):
-        raise SweepError(f"{out}: {SWEEP_NAME} or {SCENE_NAME} was changed since the sweep "
-                         "started (its cells are not the ones recorded); restore them, or "
-                         "start a new sweep in another folder")
-    return run(sweep, out, scheduler=scheduler, workers=workers, quiet=quiet, resume=True,
-               cell_function=cell_function, connect_timeout=connect_timeout)
+        raise SweepError(
+            f"{out}: {SWEEP_NAME} or {SCENE_NAME} was changed since the sweep "
+            "started (its cells are not the ones recorded); restore them, or "
+            "start a new sweep in another folder"
+        )
+    return run(
+        sweep,
+        out,
+        scheduler=scheduler,
+        workers=workers,
+        quiet=quiet,
+        resume=True,
+        cell_function=cell_function,
+        connect_timeout=connect_timeout,
+    )

@@ -35,6 +35,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+
 try:
     import tomllib
 except ImportError:  # Python < 3.11
@@ -46,8 +47,7 @@ from pathlib import Path
 from ..runs import SceneError, load_scene
 from ..runs.loading import read_scene_text
 
-__all__ = ["Sweep", "Cell", "Dimension", "load_sweep", "SweepError", "MAX_CELLS",
-           "BUILTIN_SCENES"]
+__all__ = ["Sweep", "Cell", "Dimension", "load_sweep", "SweepError", "MAX_CELLS", "BUILTIN_SCENES"]
 
 #: Most cells a sweep may have (checked before anything runs).
 MAX_CELLS = 100_000
@@ -150,8 +150,11 @@ class Sweep:
                 continue
             wanted = [self.reference.get(key) for key in dimension.keys]
             if any(w is not None for w in wanted):
-                out[d] = next(k for k, values in enumerate(dimension.values)
-                              if all(w is None or _same(w, v) for w, v in zip(wanted, values)))
+                out[d] = next(
+                    k
+                    for k, values in enumerate(dimension.values)
+                    if all(w is None or _same(w, v) for w, v in zip(wanted, values))
+                )
         return tuple(out)
 
     def scene(self, cell):
@@ -160,8 +163,12 @@ class Sweep:
 
 
 def _same(a, b) -> bool:
-    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and \
-            not isinstance(a, bool) and not isinstance(b, bool):
+    if (
+        isinstance(a, (int, float))
+        and isinstance(b, (int, float))
+        and not isinstance(a, bool)
+        and not isinstance(b, bool)
+    ):
         return float(a) == float(b)
     return a == b
 
@@ -179,9 +186,17 @@ def load_sweep(path=None, text=None, check_cells=True) -> Sweep:
     scene_text, scene_path, repeats, sets = _sweep_table(source, path, raw)
     dimensions = _dimensions(source, raw, sets, repeats)
     frames, reference = _record_table(source, raw, dimensions)
-    sweep = Sweep(text=text, path=path, scene_text=scene_text, scene_path=scene_path,
-                  sets=dict(sets), dimensions=dimensions, repeats=repeats, frames=frames,
-                  reference=dict(reference))
+    sweep = Sweep(
+        text=text,
+        path=path,
+        scene_text=scene_text,
+        scene_path=scene_path,
+        sets=dict(sets),
+        dimensions=dimensions,
+        repeats=repeats,
+        frames=frames,
+        reference=dict(reference),
+    )
     if sweep.cell_count > MAX_CELLS:
         raise _error(source, "axes", f"{sweep.cell_count} cells", f"at most {MAX_CELLS}")
     _try_set_and_values(sweep, source, dimensions)
@@ -224,14 +239,15 @@ def _sweep_table(source, path, raw):
     sweep_table = _table(source, raw, "sweep", required=True)
     unknown = sorted(set(sweep_table) - _SWEEP_KEYS)
     if unknown:
-        raise _error(source, f"sweep.{unknown[0]}", "unknown key",
-                     "one of " + ", ".join(sorted(_SWEEP_KEYS)))
+        raise _error(
+            source, f"sweep.{unknown[0]}", "unknown key", "one of " + ", ".join(sorted(_SWEEP_KEYS))
+        )
     scene_text, scene_path = _scene(source, path, sweep_table.get("scene"))
     repeats = sweep_table.get("repeats", 1)
-    if isinstance(repeats, bool) or not isinstance(repeats, int) or \
-            not 1 <= repeats <= MAX_REPEATS:
-        raise _error(source, "sweep.repeats", f"got {repeats!r}",
-                     f"an integer in [1, {MAX_REPEATS}]")
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or not 1 <= repeats <= MAX_REPEATS:
+        raise _error(
+            source, "sweep.repeats", f"got {repeats!r}", f"an integer in [1, {MAX_REPEATS}]"
+        )
     sets = _table(source, sweep_table, "set", where="sweep.set")
     return scene_text, scene_path, repeats, sets
 
@@ -248,22 +264,33 @@ def _dimensions(source, raw, sets, repeats):
             dimensions.append(_variants(source, name, members))
             continue
         if not isinstance(members, dict) or not members:
-            raise _error(source, f"zip.{name}", "is not a table of keys",
-                         'a table like [zip.method] with "simulation.dt" = [...] lines')
+            raise _error(
+                source,
+                f"zip.{name}",
+                "is not a table of keys",
+                'a table like [zip.method] with "simulation.dt" = [...] lines',
+            )
         lengths = set()
         for key, values in members.items():
             _check_values(source, f"zip.{name}.{key}", values)
             lengths.add(len(values))
         if len(lengths) != 1:
-            raise _error(source, f"zip.{name}", f"its lists have lengths {sorted(lengths)}",
-                         "lists of one length (the keys vary together)")
-        dimensions.append(Dimension(name, tuple(members),
-                                    tuple(zip(*members.values()))))
+            raise _error(
+                source,
+                f"zip.{name}",
+                f"its lists have lengths {sorted(lengths)}",
+                "lists of one length (the keys vary together)",
+            )
+        dimensions.append(Dimension(name, tuple(members), tuple(zip(*members.values()))))
     keys = [key for d in dimensions for key in d.keys]
     names = [d.name for d in dimensions]
     for duplicate in {k for k in keys if keys.count(k) > 1}:
-        raise _error(source, duplicate, "is swept twice (in [axes] and a [zip], or two zips)",
-                     "each key in one place")
+        raise _error(
+            source,
+            duplicate,
+            "is swept twice (in [axes] and a [zip], or two zips)",
+            "each key in one place",
+        )
     for duplicate in {k for k in names if names.count(k) > 1} | ({"repeat"} & set(names)):
         raise _error(source, duplicate, "names two dimensions", "distinct names")
     for key in set(sets) & set(keys):
@@ -271,8 +298,11 @@ def _dimensions(source, raw, sets, repeats):
     # Dimension names and the keys along zips become names in results.nc: refuse now what the
     # file cannot hold, before any cell runs
     for dimension in dimensions:
-        where = f"zip.{dimension.name}" if dimension.name not in dimension.keys or \
-            len(dimension.keys) > 1 or dimension.labels else f"axes.{dimension.name}"
+        where = (
+            f"zip.{dimension.name}"
+            if dimension.name not in dimension.keys or len(dimension.keys) > 1 or dimension.labels
+            else f"axes.{dimension.name}"
+        )
         _check_result_name(source, where, dimension.name)
         if len(dimension.keys) > 1 and not dimension.labels:
             for key in dimension.keys:
@@ -289,32 +319,54 @@ def _record_table(source, raw, dimensions):
     record = _table(source, raw, "record")
     unknown = sorted(set(record) - _RECORD_KEYS)
     if unknown:
-        raise _error(source, f"record.{unknown[0]}", "unknown key",
-                     "one of " + ", ".join(sorted(_RECORD_KEYS)))
+        raise _error(
+            source,
+            f"record.{unknown[0]}",
+            "unknown key",
+            "one of " + ", ".join(sorted(_RECORD_KEYS)),
+        )
     frames = record.get("frames", False)
     if not isinstance(frames, bool):
         raise _error(source, "record.frames", f"got {frames!r}", "true or false")
     reference = record.get("reference", {})
     if not isinstance(reference, dict):
-        raise _error(source, "record.reference", f"got {reference!r}",
-                     'a table of swept keys and values, e.g. { "simulation.dt" = 1e-4 }')
+        raise _error(
+            source,
+            "record.reference",
+            f"got {reference!r}",
+            'a table of swept keys and values, e.g. { "simulation.dt" = 1e-4 }',
+        )
     for key, value in reference.items():
         variants = next((d for d in dimensions if d.labels and d.name == key), None)
         if variants is not None:
             if value not in variants.labels:
-                raise _error(source, f"record.reference.{key}", f"{value!r} is not one of its "
-                             "labels", ", ".join(repr(label) for label in variants.labels))
+                raise _error(
+                    source,
+                    f"record.reference.{key}",
+                    f"{value!r} is not one of its labels",
+                    ", ".join(repr(label) for label in variants.labels),
+                )
             continue
         dimension = next((d for d in dimensions if key in d.keys and not d.labels), None)
         if dimension is None:
-            raise _error(source, f"record.reference.{key}", "is not a swept key",
-                         "one of " + ", ".join([k for d in dimensions if not d.labels
-                                                for k in d.keys]
-                                               + [d.name for d in dimensions if d.labels]))
+            raise _error(
+                source,
+                f"record.reference.{key}",
+                "is not a swept key",
+                "one of "
+                + ", ".join(
+                    [k for d in dimensions if not d.labels for k in d.keys]
+                    + [d.name for d in dimensions if d.labels]
+                ),
+            )
         column = dimension.keys.index(key)
         if not any(_same(value, values[column]) for values in dimension.values):
-            raise _error(source, f"record.reference.{key}", f"{value!r} is not one of its "
-                         "values", ", ".join(repr(v[column]) for v in dimension.values))
+            raise _error(
+                source,
+                f"record.reference.{key}",
+                f"{value!r} is not one of its values",
+                ", ".join(repr(v[column]) for v in dimension.values),
+            )
     return frames, reference
 
 
@@ -326,15 +378,13 @@ def _try_set_and_values(sweep, source, dimensions):
         load_scene(sweep.scene_path, text=sweep.scene_text, overrides=dict(sweep.sets))
     except SceneError as error:
         key = f"sweep.set.{error.key}" if error.key in sweep.sets else "sweep.set"
-        raise _error(source, key, "with the base scene: " + " ".join(str(error).split())) \
-            from None
+        raise _error(source, key, "with the base scene: " + " ".join(str(error).split())) from None
     for dimension in dimensions:
         if dimension.name == "repeat":
             continue
         for k in range(dimension.size):
             if dimension.labels:  # a variant's keys belong together: tried together
-                _try_overrides(sweep, source, f"zip.{dimension.name}[{k}]",
-                               dimension.overrides(k))
+                _try_overrides(sweep, source, f"zip.{dimension.name}[{k}]", dimension.overrides(k))
                 continue
             for key, value in dimension.overrides(k).items():
                 _try_overrides(sweep, source, key, {key: value})
@@ -349,11 +399,19 @@ def _check_cells(sweep, source):
         try:
             # what a cell's run checks before it runs (the same as `yore check`): a cell
             # that would only end "failed" is refused up front
-            check_scene(load_scene(sweep.scene_path, text=sweep.scene_text,
-                                   overrides={**cell.overrides, **OUTPUT_OVERRIDES}))
+            check_scene(
+                load_scene(
+                    sweep.scene_path,
+                    text=sweep.scene_text,
+                    overrides={**cell.overrides, **OUTPUT_OVERRIDES},
+                )
+            )
         except (SceneError, ValueError) as error:
-            raise _error(source, f"cell {cell.index} ({describe_value(sweep, cell)})",
-                         " ".join(str(error).split())) from None
+            raise _error(
+                source,
+                f"cell {cell.index} ({describe_value(sweep, cell)})",
+                " ".join(str(error).split()),
+            ) from None
 
 
 #: Variable names results.nc always holds (a dimension or zip key may not take them).
@@ -364,11 +422,19 @@ def _check_result_name(source, where, name):
     """A dimension's (or a zip key's) name must be one results.nc can hold and not one of its
     variables."""
     if not name or name in (".", "..") or "/" in name or any(ord(c) < 32 for c in name):
-        raise _error(source, where, f"{name!r} cannot name a variable of results.nc",
-                     "a non-empty name without '/' or control characters, not '.' or '..'")
+        raise _error(
+            source,
+            where,
+            f"{name!r} cannot name a variable of results.nc",
+            "a non-empty name without '/' or control characters, not '.' or '..'",
+        )
     if name in RESERVED_RESULT_NAMES:
-        raise _error(source, where, f"{name!r} is a variable results.nc always holds",
-                     "a name other than " + ", ".join(RESERVED_RESULT_NAMES))
+        raise _error(
+            source,
+            where,
+            f"{name!r} is a variable results.nc always holds",
+            "a name other than " + ", ".join(RESERVED_RESULT_NAMES),
+        )
 
 
 def _variants(source, name, entries) -> Dimension:
@@ -378,16 +444,24 @@ def _variants(source, name, entries) -> Dimension:
     labels, keys, values = [], [], []
     for k, entry in enumerate(entries):
         if not isinstance(entry, dict) or not entry:
-            raise _error(source, f"zip.{name}[{k}]", f"got {entry!r}",
-                         'a table of scene keys, e.g. { "simulation.integrator" = "bdf2" }')
+            raise _error(
+                source,
+                f"zip.{name}[{k}]",
+                f"got {entry!r}",
+                'a table of scene keys, e.g. { "simulation.integrator" = "bdf2" }',
+            )
         entry = dict(entry)
         label = entry.pop("label", None)
         if label is not None and not isinstance(label, str):
             raise _error(source, f"zip.{name}[{k}].label", f"got {label!r}", "a string")
         for key, value in entry.items():
             if isinstance(value, (dict, list)):
-                raise _error(source, f"zip.{name}[{k}].{key}", f"holds {value!r}",
-                             "a number, string or boolean")
+                raise _error(
+                    source,
+                    f"zip.{name}[{k}].{key}",
+                    f"holds {value!r}",
+                    "a number, string or boolean",
+                )
         labels.append(label or ", ".join(f"{key}={value}" for key, value in entry.items()))
         keys.append(tuple(entry))
         values.append(tuple(entry.values()))
@@ -398,8 +472,9 @@ def _variants(source, name, entries) -> Dimension:
 
 
 def describe_value(sweep, cell) -> str:
-    return ", ".join(f"{key} = {value!r}" for key, value in cell.overrides.items()
-                     if key not in sweep.sets)
+    return ", ".join(
+        f"{key} = {value!r}" for key, value in cell.overrides.items() if key not in sweep.sets
+    )
 
 
 def _try_overrides(sweep, source, where, overrides):
@@ -409,8 +484,9 @@ def _try_overrides(sweep, source, where, overrides):
         load_scene(sweep.scene_path, text=sweep.scene_text, overrides={**sweep.sets, **overrides})
     except SceneError as error:
         shown = ", ".join(f"{key} = {value!r}" for key, value in overrides.items())
-        raise _error(source, where, f"{shown} is not valid in the scene: "
-                     + " ".join(str(error).split())) from None
+        raise _error(
+            source, where, f"{shown} is not valid in the scene: " + " ".join(str(error).split())
+        ) from None
 
 
 def _table(source, parent, name, required=False, where=None):
@@ -437,9 +513,12 @@ def _check_values(source, key, values):
 def _scene(source, path, scene):
     """(text, path) of the sweep's base scene."""
     if not isinstance(scene, str) or not scene:
-        raise _error(source, "sweep.scene", f"got {scene!r}",
-                     "a scene file (relative to the sweep file) or one of "
-                     + ", ".join(BUILTIN_SCENES))
+        raise _error(
+            source,
+            "sweep.scene",
+            f"got {scene!r}",
+            "a scene file (relative to the sweep file) or one of " + ", ".join(BUILTIN_SCENES),
+        )
     if scene in BUILTIN_SCENES:
         text = resources.files("yore").joinpath(BUILTIN_SCENES[scene]).read_text("utf-8")
         return text, None
@@ -447,9 +526,12 @@ def _scene(source, path, scene):
     # absolute, not resolved: a symlink loop is then a file that cannot be read, not a crash
     scene_path = Path(os.path.abspath(base / scene))
     if not os.path.lexists(scene_path):
-        raise _error(source, "sweep.scene", f"{scene_path} does not exist",
-                     "a scene file (relative to the sweep file) or one of "
-                     + ", ".join(BUILTIN_SCENES))
+        raise _error(
+            source,
+            "sweep.scene",
+            f"{scene_path} does not exist",
+            "a scene file (relative to the sweep file) or one of " + ", ".join(BUILTIN_SCENES),
+        )
     try:
         # the limits of a scene file (`yore run`, `yore check`): a regular file of at most
         # MAX_SCENE_FILE_BYTES, UTF-8

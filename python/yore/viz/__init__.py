@@ -17,9 +17,20 @@ from .backend import EGL_PACKAGES, BackendUnavailable
 from .images import check_ffmpeg, save_animation, save_png, side_by_side
 from .render import COLORMAPS, render_image
 
-__all__ = ["render_image", "render_run", "render_frame", "save_panels", "side_by_side", "save_png",
-           "save_animation", "check_ffmpeg", "COLORMAPS", "BackendUnavailable", "EGL_PACKAGES",
-           "Viewer"]
+__all__ = [
+    "render_image",
+    "render_run",
+    "render_frame",
+    "save_panels",
+    "side_by_side",
+    "save_png",
+    "save_animation",
+    "check_ffmpeg",
+    "COLORMAPS",
+    "BackendUnavailable",
+    "EGL_PACKAGES",
+    "Viewer",
+]
 
 
 def __getattr__(name):

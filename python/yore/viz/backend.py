@@ -23,9 +23,18 @@ import numpy as np
 from ..camera import Camera
 from ..checks import MAX_IMAGE_PIXELS
 
-__all__ = ["BackendUnavailable", "EGL_PACKAGES", "ensure", "set_camera",
-           "camera_from_view", "screenshot", "pick", "supersampling", "downsample",
-           "SSAA_FACTOR"]
+__all__ = [
+    "BackendUnavailable",
+    "EGL_PACKAGES",
+    "ensure",
+    "set_camera",
+    "camera_from_view",
+    "screenshot",
+    "pick",
+    "supersampling",
+    "downsample",
+    "SSAA_FACTOR",
+]
 
 #: Debian packages the headless backend needs (``make setup`` installs them).
 EGL_PACKAGES = ("libegl1", "libegl-mesa0", "libgl1-mesa-dri", "libx11-6")
@@ -57,7 +66,8 @@ def _import_polyscope():
     except ImportError as error:
         raise BackendUnavailable(
             f"pictures and the viewer need the polyscope package ({error}); install it with "
-            "`pip install 'polyscope>=2.6,<2.7'` (make setup does)") from None
+            "`pip install 'polyscope>=2.6,<2.7'` (make setup does)"
+        ) from None
     return polyscope
 
 
@@ -77,9 +87,13 @@ def check_egl() -> None:
         missing.append("libX11.so.6 (libx11-6)")
     if missing:
         raise BackendUnavailable(
-            "headless pictures need OpenGL through EGL, but " + ", ".join(missing) +
-            (" is" if len(missing) == 1 else " are") + " missing; install the Debian packages "
-            + " ".join(EGL_PACKAGES) + " (make setup does, as root or with sudo)")
+            "headless pictures need OpenGL through EGL, but "
+            + ", ".join(missing)
+            + (" is" if len(missing) == 1 else " are")
+            + " missing; install the Debian packages "
+            + " ".join(EGL_PACKAGES)
+            + " (make setup does, as root or with sudo)"
+        )
 
 
 def ensure(window: bool = False):
@@ -91,7 +105,8 @@ def ensure(window: bool = False):
         if window and not _state["window"]:
             raise BackendUnavailable(
                 "polyscope already runs headless in this process (a picture was rendered "
-                "before the viewer opened); open the viewer first, or in a new process")
+                "before the viewer opened); open the viewer first, or in a new process"
+            )
         return ps
     ps.set_use_prefs_file(False)
     ps.set_verbosity(0)
@@ -102,7 +117,8 @@ def ensure(window: bool = False):
         if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
             raise BackendUnavailable(
                 "the viewer needs a display (DISPLAY is not set); over SSH use `yore view ... "
-                "--headless --screenshot PICTURE.png` or `ssh -X`")
+                "--headless --screenshot PICTURE.png` or `ssh -X`"
+            )
         backend = "openGL3_glfw"
     else:
         check_egl()
@@ -114,7 +130,8 @@ def ensure(window: bool = False):
         raise BackendUnavailable(
             f"polyscope could not start its {backend} backend: "
             f"{' '.join(str(error).split())}; it needs OpenGL 3.3 (a window) or EGL (headless: "
-            f"Debian packages {' '.join(EGL_PACKAGES)})") from None
+            f"Debian packages {' '.join(EGL_PACKAGES)})"
+        ) from None
     _state.update(initialized=True, window=window)
     ps.set_program_name("yore")
     ps.set_ground_plane_mode("shadow_only")
@@ -132,8 +149,10 @@ class hidden_viewer:
     def __enter__(self):
         ps = ensure(_state["window"])
         self.restore = []
-        for names, has, get in ((VIEWER_SURFACES, ps.has_surface_mesh, ps.get_surface_mesh),
-                                (VIEWER_CURVES, ps.has_curve_network, ps.get_curve_network)):
+        for names, has, get in (
+            (VIEWER_SURFACES, ps.has_surface_mesh, ps.get_surface_mesh),
+            (VIEWER_CURVES, ps.has_curve_network, ps.get_curve_network),
+        ):
             for name in names:
                 if has(name) and get(name).is_enabled():
                     get(name).set_enabled(False)
@@ -146,10 +165,22 @@ class hidden_viewer:
         return False
 
 
-_UP_NAMES = {(0, 1): "x_up", (0, -1): "neg_x_up", (1, 1): "y_up", (1, -1): "neg_y_up",
-             (2, 1): "z_up", (2, -1): "neg_z_up"}
-_FRONT_NAMES = {(0, 1): "x_front", (0, -1): "neg_x_front", (1, 1): "y_front",
-                (1, -1): "neg_y_front", (2, 1): "z_front", (2, -1): "neg_z_front"}
+_UP_NAMES = {
+    (0, 1): "x_up",
+    (0, -1): "neg_x_up",
+    (1, 1): "y_up",
+    (1, -1): "neg_y_up",
+    (2, 1): "z_up",
+    (2, -1): "neg_z_up",
+}
+_FRONT_NAMES = {
+    (0, 1): "x_front",
+    (0, -1): "neg_x_front",
+    (1, 1): "y_front",
+    (1, -1): "neg_y_front",
+    (2, 1): "z_front",
+    (2, -1): "neg_z_front",
+}
 
 
 def _axis(vector, exclude=None):
@@ -164,8 +195,9 @@ def supersampling(width, height, factor=None) -> int:
     """The supersampling factor for a width × height picture: ``factor`` (default
     SSAA_FACTOR), lowered until the supersampled picture fits the limits."""
     factor = SSAA_FACTOR if factor is None else max(1, int(factor))
-    while factor > 1 and (width * height * factor**2 > SSAA_MAX_PIXELS
-                          or max(width, height) * factor > SSAA_MAX_SIDE):
+    while factor > 1 and (
+        width * height * factor**2 > SSAA_MAX_PIXELS or max(width, height) * factor > SSAA_MAX_SIDE
+    ):
         factor -= 1
     return factor
 
@@ -192,10 +224,12 @@ def set_camera(camera: Camera) -> None:
     right, up, forward = camera.basis()
     front = _axis(-forward, exclude=up_axis[0])
     ps.set_front_dir(_FRONT_NAMES[front])
-    intrinsics = ps.CameraIntrinsics(fov_vertical_deg=camera.fov_degrees,
-                                     aspect=camera.width / camera.height)
-    extrinsics = ps.CameraExtrinsics(root=np.asarray(camera.eye, float), look_dir=forward,
-                                     up_dir=up)
+    intrinsics = ps.CameraIntrinsics(
+        fov_vertical_deg=camera.fov_degrees, aspect=camera.width / camera.height
+    )
+    extrinsics = ps.CameraExtrinsics(
+        root=np.asarray(camera.eye, float), look_dir=forward, up_dir=up
+    )
     ps.set_view_camera_parameters(ps.CameraParameters(intrinsics, extrinsics))
 
 
@@ -207,9 +241,14 @@ def camera_from_view() -> Camera:
     eye = np.asarray(parameters.get_position(), float)
     look = np.asarray(parameters.get_look_dir(), float)
     up = np.asarray(parameters.get_up_dir(), float)
-    return Camera(eye=tuple(eye), target=tuple(eye + look), up=tuple(up),
-                  fov_degrees=float(parameters.get_fov_vertical_deg()), width=int(width),
-                  height=int(height))
+    return Camera(
+        eye=tuple(eye),
+        target=tuple(eye + look),
+        up=tuple(up),
+        fov_degrees=float(parameters.get_fov_vertical_deg()),
+        width=int(width),
+        height=int(height),
+    )
 
 
 def screenshot() -> np.ndarray:

@@ -13,8 +13,15 @@ import numpy as np
 from ..checks import MAX_IMAGE_PIXELS, check_count, check_factor, check_image
 from ..io import write_atomically
 
-__all__ = ["side_by_side", "save_png", "save_animation", "check_ffmpeg", "draw_title",
-           "draw_colorbar", "font"]
+__all__ = [
+    "side_by_side",
+    "save_png",
+    "save_animation",
+    "check_ffmpeg",
+    "draw_title",
+    "draw_colorbar",
+    "font",
+]
 
 _ANIMATION_SUFFIXES = (".gif", ".mp4")
 
@@ -24,8 +31,11 @@ def _check_byte_rgb(rgb, name):
         value = np.asarray(rgb)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be 3 integers in [0, 255], got {rgb!r}") from None
-    if (value.shape != (3,) or value.dtype.kind not in "iu"
-            or not np.all((value >= 0) & (value <= 255))):
+    if (
+        value.shape != (3,)
+        or value.dtype.kind not in "iu"
+        or not np.all((value >= 0) & (value <= 255))
+    ):
         raise ValueError(f"{name} must be 3 integers in [0, 255] (RGB), got {rgb!r}")
     return value.astype(np.uint8)
 
@@ -45,16 +55,15 @@ SIDE_BY_SIDE_GAP = 8
 TITLE_HEIGHT = 28
 
 
-def side_by_side_shape(widths, height, titled, gap=SIDE_BY_SIDE_GAP,
-                       title_height=TITLE_HEIGHT):
+def side_by_side_shape(widths, height, titled, gap=SIDE_BY_SIDE_GAP, title_height=TITLE_HEIGHT):
     """(height, width) in pixels of `side_by_side`'s canvas for images of these widths and
     one height: known before anything is rendered (a run checks its pictures up front)."""
-    return ((title_height if titled else 0) + height,
-            sum(widths) + gap * (len(widths) - 1))
+    return ((title_height if titled else 0) + height, sum(widths) + gap * (len(widths) - 1))
 
 
-def side_by_side(images, titles=None, gap=SIDE_BY_SIDE_GAP, title_height=TITLE_HEIGHT,
-                 background=(255, 255, 255)) -> np.ndarray:
+def side_by_side(
+    images, titles=None, gap=SIDE_BY_SIDE_GAP, title_height=TITLE_HEIGHT, background=(255, 255, 255)
+) -> np.ndarray:
     """Places equal-height images left to right, with optional titles above them.
 
     Parameters
@@ -93,24 +102,29 @@ def side_by_side(images, titles=None, gap=SIDE_BY_SIDE_GAP, title_height=TITLE_H
     if titles is not None:
         titles = [str(title) for title in titles]
         if len(titles) != len(images):
-            raise ValueError(f"titles must have one entry per image ({len(images)}), "
-                             f"got {len(titles)}")
+            raise ValueError(
+                f"titles must have one entry per image ({len(images)}), got {len(titles)}"
+            )
     band = title_height if titles is not None else 0
     height = images[0].shape[0]
-    total_width = side_by_side_shape([image.shape[1] for image in images], height,
-                                     titles is not None, gap, title_height)[1]
+    total_width = side_by_side_shape(
+        [image.shape[1] for image in images], height, titles is not None, gap, title_height
+    )[1]
     if (band + height) * total_width > len(images) * MAX_IMAGE_PIXELS:
-        raise ValueError(f"side_by_side: a {total_width}×{band + height} canvas is more than "
-                         f"{MAX_IMAGE_PIXELS} pixels per image (gap {gap}, title_height "
-                         f"{title_height})")
+        raise ValueError(
+            f"side_by_side: a {total_width}×{band + height} canvas is more than "
+            f"{MAX_IMAGE_PIXELS} pixels per image (gap {gap}, title_height "
+            f"{title_height})"
+        )
     canvas = np.empty((band + height, total_width, 3), dtype=np.uint8)
     canvas[:] = background
     lefts = np.cumsum([0] + [image.shape[1] + gap for image in images[:-1]])
     for left, image in zip(lefts, images):
-        canvas[band:, left:left + image.shape[1]] = image
+        canvas[band:, left : left + image.shape[1]] = image
     if titles is not None and band > 0:
-        canvas[:band] = _draw_titles(canvas[:band], titles, lefts,
-                                     [image.shape[1] for image in images], background)
+        canvas[:band] = _draw_titles(
+            canvas[:band], titles, lefts, [image.shape[1] for image in images], background
+        )
     return canvas
 
 
@@ -173,15 +187,19 @@ def save_animation(path, images, fps=15.0) -> Path:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _ANIMATION_SUFFIXES:
-        raise ValueError(f"unsupported animation format {path.suffix!r} in {str(path)!r}; "
-                         f"supported: {', '.join(_ANIMATION_SUFFIXES)}")
+        raise ValueError(
+            f"unsupported animation format {path.suffix!r} in {str(path)!r}; "
+            f"supported: {', '.join(_ANIMATION_SUFFIXES)}"
+        )
     frames = [check_image(image, f"images[{i}]") for i, image in enumerate(images)]
     if not frames:
         raise ValueError("images is empty: an animation needs at least one frame")
     for i, frame in enumerate(frames):
         if frame.shape != frames[0].shape:
-            raise ValueError(f"images[{i}] has shape {frame.shape}, but images[0] has "
-                             f"{frames[0].shape}; all frames must have the same size")
+            raise ValueError(
+                f"images[{i}] has shape {frame.shape}, but images[0] has "
+                f"{frames[0].shape}; all frames must have the same size"
+            )
     fps = check_factor(fps, "fps")
     if suffix == ".gif":
         _save_gif(path, frames, fps)
@@ -194,17 +212,27 @@ def _save_gif(path, frames, fps):
     from PIL import Image
 
     pictures = [Image.fromarray(frame) for frame in frames]
-    write_atomically(path, lambda target: pictures[0].save(
-        target, format="GIF", save_all=True, append_images=pictures[1:],
-        duration=max(int(round(1000.0 / fps)), 1), loop=0))
+    write_atomically(
+        path,
+        lambda target: pictures[0].save(
+            target,
+            format="GIF",
+            save_all=True,
+            append_images=pictures[1:],
+            duration=max(int(round(1000.0 / fps)), 1),
+            loop=0,
+        ),
+    )
 
 
 def check_ffmpeg() -> str:
     """The path of ``ffmpeg`` (what MP4 animations need); ValueError when it is not on PATH."""
     ffmpeg = shutil.which("ffmpeg")
     if ffmpeg is None:
-        raise ValueError("an MP4 animation needs ffmpeg, which is not on PATH; install ffmpeg "
-                         "or save the animation as .gif instead")
+        raise ValueError(
+            "an MP4 animation needs ffmpeg, which is not on PATH; install ffmpeg "
+            "or save the animation as .gif instead"
+        )
     return ffmpeg
 
 
@@ -216,17 +244,36 @@ def _encode_mp4(target, path, frames, fps):
     ffmpeg = check_ffmpeg()
     height, width = frames[0].shape[:2]
     pad = ((0, height % 2), (0, width % 2), (0, 0))
-    command = [ffmpeg, "-y", "-loglevel", "error",
-               "-f", "rawvideo", "-pixel_format", "rgb24",
-               "-video_size", f"{width + width % 2}x{height + height % 2}",
-               "-framerate", repr(float(fps)), "-i", "-",
-               "-an", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-movflags", "+faststart",
-               str(target)]
+    command = [
+        ffmpeg,
+        "-y",
+        "-loglevel",
+        "error",
+        "-f",
+        "rawvideo",
+        "-pixel_format",
+        "rgb24",
+        "-video_size",
+        f"{width + width % 2}x{height + height % 2}",
+        "-framerate",
+        repr(float(fps)),
+        "-i",
+        "-",
+        "-an",
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        "-movflags",
+        "+faststart",
+        str(target),
+    ]
     # ffmpeg's messages go to a file rather than a pipe: an unread pipe that fills up would
     # block ffmpeg while we block writing frames to it.
     with tempfile.TemporaryFile() as errors:
-        process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                                   stderr=errors)
+        process = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=errors
+        )
         try:
             for frame in frames:
                 process.stdin.write(np.pad(frame, pad, mode="edge").tobytes())
@@ -241,8 +288,9 @@ def _encode_mp4(target, path, frames, fps):
         if status != 0:
             errors.seek(0)
             message = errors.read().decode(errors="replace").strip()
-            raise RuntimeError(f"ffmpeg failed with exit status {status} writing "
-                               f"{str(path)!r}: {message}")
+            raise RuntimeError(
+                f"ffmpeg failed with exit status {status} writing {str(path)!r}: {message}"
+            )
 
 
 def draw_title(image, title, band=None) -> np.ndarray:
@@ -257,8 +305,12 @@ def draw_title(image, title, band=None) -> np.ndarray:
     picture = Image.fromarray(image)
     draw = ImageDraw.Draw(picture)
     x0, y0, x1, y1 = draw.textbbox((0, 0), str(title), font=face)
-    draw.text((max((width - (x1 - x0)) // 2, 2) - x0, (band - (y1 - y0)) // 2 - y0), str(title),
-              fill=(20, 20, 20), font=face)
+    draw.text(
+        (max((width - (x1 - x0)) // 2, 2) - x0, (band - (y1 - y0)) // 2 - y0),
+        str(title),
+        fill=(20, 20, 20),
+        font=face,
+    )
     return np.asarray(picture)
 
 
@@ -290,23 +342,34 @@ def draw_colorbar(image, table, value_range, label, left=None, ticks=5) -> np.nd
         label_size -= 1
         label_face = font(label_size)
         label_box = draw.textbbox((0, 0), label, font=label_face)
-    draw.text((left + pad - label_box[0], top - pad - label_box[3]), label, fill=(20, 20, 20),
-              font=label_face)
+    draw.text(
+        (left + pad - label_box[0], top - pad - label_box[3]),
+        label,
+        fill=(20, 20, 20),
+        font=label_face,
+    )
     bar_left = left + pad
     rows = np.linspace(1.0, 0.0, bar_height)
-    colours = np.column_stack([np.interp(rows, np.linspace(0, 1, len(table)), table[:, c])
-                               for c in range(3)])
-    strip_pixels = np.repeat((np.clip(colours, 0, 1) * 255 + 0.5).astype(np.uint8)[:, None, :],
-                             bar_width, axis=1)
+    colours = np.column_stack(
+        [np.interp(rows, np.linspace(0, 1, len(table)), table[:, c]) for c in range(3)]
+    )
+    strip_pixels = np.repeat(
+        (np.clip(colours, 0, 1) * 255 + 0.5).astype(np.uint8)[:, None, :], bar_width, axis=1
+    )
     picture.paste(Image.fromarray(strip_pixels), (bar_left, top))
-    draw.rectangle((bar_left, top, bar_left + bar_width - 1, top + bar_height - 1),
-                   outline=(60, 60, 60))
+    draw.rectangle(
+        (bar_left, top, bar_left + bar_width - 1, top + bar_height - 1), outline=(60, 60, 60)
+    )
     for k, text in enumerate(labels):
         y = top + bar_height - 1 - round(k * (bar_height - 1) / (ticks - 1))
         draw.line((bar_left + bar_width, y, bar_left + bar_width + pad, y), fill=(60, 60, 60))
         box = draw.textbbox((0, 0), text, font=face)
-        draw.text((bar_left + bar_width + 2 * pad - box[0], y - (box[3] + box[1]) // 2), text,
-                  fill=(20, 20, 20), font=face)
+        draw.text(
+            (bar_left + bar_width + 2 * pad - box[0], y - (box[3] + box[1]) // 2),
+            text,
+            fill=(20, 20, 20),
+            font=face,
+        )
     return np.asarray(picture)
 
 

@@ -38,8 +38,7 @@ __all__ = ["render_run", "render_frame", "save_panels", "stroke_lines", "COLOR_B
 MAX_ANIMATION_FRAMES = 300
 COLOR_BY = ("none", "expansion", "wrinkles")
 FRAMINGS = ("cloth", "run")
-_COLORING = {"expansion": ("viridis", "expansion"),
-             "wrinkles": ("coolwarm", "wrinkles (mm)")}
+_COLORING = {"expansion": ("viridis", "expansion"), "wrinkles": ("coolwarm", "wrinkles (mm)")}
 
 
 def _read_frame(path):
@@ -55,8 +54,10 @@ def _read_frame(path):
     with np.errstate(invalid="ignore"):
         largest = float(np.max(np.abs(V))) if V.size else 0.0
     if not np.isfinite(largest) or largest > MAX_FRAME_COORDINATE:
-        raise ValueError(f"frame file {path}: a coordinate of {largest:.3g} m is beyond "
-                         f"±{MAX_FRAME_COORDINATE:g} m; it cannot be framed in a picture")
+        raise ValueError(
+            f"frame file {path}: a coordinate of {largest:.3g} m is beyond "
+            f"±{MAX_FRAME_COORDINATE:g} m; it cannot be framed in a picture"
+        )
     return V, F, point_data
 
 
@@ -79,8 +80,10 @@ def _vertex_values(V, F, point_data, color_by, path):
 
         return 1e3 * wrinkle_height(V, F)
     if "expansion" not in point_data:
-        raise ValueError(f"frame {path} has no 'expansion' point data to colour by (OBJ files "
-                         "cannot hold it; write VTU, VTK or PLY frames)")
+        raise ValueError(
+            f"frame {path} has no 'expansion' point data to colour by (OBJ files "
+            "cannot hold it; write VTU, VTK or PLY frames)"
+        )
     return np.asarray(point_data["expansion"], dtype=np.float64).reshape(-1)
 
 
@@ -89,8 +92,7 @@ def stroke_lines(strokes, V):
     lines = []
     for stroke in strokes:
         # runs recorded before line_vertices existed drew their (paper) new vertices
-        vertices = np.asarray(stroke.get("line_vertices", stroke["new_vertices"]),
-                              dtype=np.int64)
+        vertices = np.asarray(stroke.get("line_vertices", stroke["new_vertices"]), dtype=np.int64)
         if vertices.size >= 1 and vertices.max() < len(V):
             lines.append(V[vertices])
     return lines
@@ -109,8 +111,7 @@ def _load_summary(folder):
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as error:
         raise ValueError(f"{path} is not a run summary ({error})") from None
     if not isinstance(summary, dict):
-        raise ValueError(f"{path} is not a run summary (a {type(summary).__name__}, not a "
-                         "table)")
+        raise ValueError(f"{path} is not a run summary (a {type(summary).__name__}, not a table)")
     return summary
 
 
@@ -142,10 +143,18 @@ class _Painter:
         V, F, _ = mesh
         values = self.values(mesh, path)
         colormap, label = _COLORING.get(self.color_by, ("viridis", None))
-        return render_image(V, F, camera, vertex_values=values, value_range=self.value_range,
-                            colormap=colormap, colorbar=label if values is not None else None,
-                            strokes=stroke_lines(self.strokes, V), title=title,
-                            antialias=antialias)
+        return render_image(
+            V,
+            F,
+            camera,
+            vertex_values=values,
+            value_range=self.value_range,
+            colormap=colormap,
+            colorbar=label if values is not None else None,
+            strokes=stroke_lines(self.strokes, V),
+            title=title,
+            antialias=antialias,
+        )
 
 
 def _camera(settings, points, width, height, eye, target, up, fov, colored, titled):
@@ -161,30 +170,66 @@ def _camera(settings, points, width, height, eye, target, up, fov, colored, titl
 
 
 def _fixed(settings, eye, target):
-    return eye is not None or target is not None or (settings or {}).get("eye") is not None \
+    return (
+        eye is not None
+        or target is not None
+        or (settings or {}).get("eye") is not None
         or (settings or {}).get("target") is not None
+    )
 
 
-def render_frame(frame, out=None, width=None, height=None, color_by=None, eye=None,
-                 target=None, up=None, fov_degrees=None) -> Path:
+def render_frame(
+    frame,
+    out=None,
+    width=None,
+    height=None,
+    color_by=None,
+    eye=None,
+    target=None,
+    up=None,
+    fov_degrees=None,
+) -> Path:
     """One PNG of a frame file (default: next to it, same name, .png). Strokes of the run are
     drawn when the frame lies in a run folder (its summary.json beside it or one level up);
     ``color_by`` None takes the run's [output] color_by ("none" outside a run)."""
     frame = Path(os.fspath(frame))
     mesh = _read_frame(frame)
     summary = _load_summary(frame.parent) or _load_summary(frame.parent.parent)
-    color_by = _check_color_by(_scene_output(summary).get("color_by", "none")
-                               if color_by is None else color_by)
-    camera = _camera((summary or {}).get("camera"), mesh[0], width, height, eye, target, up,
-                     fov_degrees, color_by != "none", False)
+    color_by = _check_color_by(
+        _scene_output(summary).get("color_by", "none") if color_by is None else color_by
+    )
+    camera = _camera(
+        (summary or {}).get("camera"),
+        mesh[0],
+        width,
+        height,
+        eye,
+        target,
+        up,
+        fov_degrees,
+        color_by != "none",
+        False,
+    )
     painter = _Painter(color_by, (summary or {}).get("strokes", []))
     image = painter(mesh, frame, camera)
     return save_png(frame.with_suffix(".png") if out is None else Path(os.fspath(out)), image)
 
 
-def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=None,
-               height=None, out=None, eye=None, target=None, up=None, fov_degrees=None,
-               framing=None, quiet=False) -> dict:
+def render_run(
+    run_dir,
+    pictures=True,
+    animation="gif",
+    color_by=None,
+    width=None,
+    height=None,
+    out=None,
+    eye=None,
+    target=None,
+    up=None,
+    fov_degrees=None,
+    framing=None,
+    quiet=False,
+) -> dict:
     """Pictures of a run folder: before_after.png and last.png (``pictures``) and
     animation.<gif|mp4> (``animation``, None for none) into ``out`` (default the run folder);
     ``color_by`` and ``framing`` None take the run's [output] settings. Returns {name: path
@@ -200,8 +245,10 @@ def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=Non
         check_ffmpeg()
     summary = _load_summary(run_dir)
     if summary is None:
-        raise ValueError(f"{run_dir} is not a run folder (no summary.json); give a frame file "
-                         "or the -o folder of `yore run`")
+        raise ValueError(
+            f"{run_dir} is not a run folder (no summary.json); give a frame file "
+            "or the -o folder of `yore run`"
+        )
     output = _scene_output(summary)
     color_by = _check_color_by(output.get("color_by", "none") if color_by is None else color_by)
     framing = output.get("framing", "cloth") if framing is None else framing
@@ -230,21 +277,38 @@ def render_run(run_dir, pictures=True, animation="gif", color_by=None, width=Non
     colored = color_by != "none"
 
     def camera_for(points, titled):
-        return _camera(settings, points, width, height, eye, target, up, fov_degrees, colored,
-                       titled)
+        return _camera(
+            settings, points, width, height, eye, target, up, fov_degrees, colored, titled
+        )
 
     written = {}
-    frames_of_run = SimpleNamespace(paths=paths, times=times, loaded=loaded, chosen=chosen,
-                                    before=before, before_mesh=before_mesh,
-                                    before_path=before_path, settings=settings)
+    frames_of_run = SimpleNamespace(
+        paths=paths,
+        times=times,
+        loaded=loaded,
+        chosen=chosen,
+        before=before,
+        before_mesh=before_mesh,
+        before_path=before_path,
+        settings=settings,
+    )
     if pictures:
         written.update(_render_pictures(out, frames_of_run, painter, camera_for, framing))
     if animation:
         written["animation"] = _render_animation(
-            out, animation, frames_of_run, painter, camera_for, framing,
-            (eye, target, width, height, up, fov_degrees, colored), quiet)
-    return {name: (Path(os.path.relpath(path, run_dir)).as_posix() if out == run_dir
-                   else str(path)) for name, path in written.items()}
+            out,
+            animation,
+            frames_of_run,
+            painter,
+            camera_for,
+            framing,
+            (eye, target, width, height, up, fov_degrees, colored),
+            quiet,
+        )
+    return {
+        name: (Path(os.path.relpath(path, run_dir)).as_posix() if out == run_dir else str(path))
+        for name, path in written.items()
+    }
 
 
 def _render_pictures(out, run, painter, camera_for, framing) -> dict:
@@ -260,17 +324,18 @@ def _render_pictures(out, run, painter, camera_for, framing) -> dict:
         everything += [mesh[0] for mesh in loaded.values()]
     # both states in one camera, so they compare at one scale
     camera = camera_for(everything, False)
-    first_title = (f"before the stroke, t = {before['time']:.2f} s" if before
-                   else f"t = {times[0]:.2f} s")
-    pair = [painter(before_mesh, before_path, camera),
-            painter(loaded[last], paths[last], camera)]
+    first_title = (
+        f"before the stroke, t = {before['time']:.2f} s" if before else f"t = {times[0]:.2f} s"
+    )
+    pair = [painter(before_mesh, before_path, camera), painter(loaded[last], paths[last], camera)]
     written["before_after"] = save_png(
-        out / "before_after.png",
-        side_by_side(pair, titles=[first_title, f"t = {times[-1]:.2f} s"]))
+        out / "before_after.png", side_by_side(pair, titles=[first_title, f"t = {times[-1]:.2f} s"])
+    )
     last_camera = camera_for(everything if framing == "run" else loaded[last][0], True)
-    written["last"] = save_png(out / "last.png",
-                               painter(loaded[last], paths[last], last_camera,
-                                       title=f"t = {times[-1]:.2f} s"))
+    written["last"] = save_png(
+        out / "last.png",
+        painter(loaded[last], paths[last], last_camera, title=f"t = {times[-1]:.2f} s"),
+    )
     return written
 
 
@@ -279,33 +344,48 @@ def _render_animation(out, animation, run, painter, camera_for, framing, view, q
     from tqdm.auto import tqdm
 
     eye, target, width, height, up, fov_degrees, colored = view
-    paths, times, loaded, chosen, settings = run.paths, run.times, run.loaded, run.chosen, \
-        run.settings
+    paths, times, loaded, chosen, settings = (
+        run.paths,
+        run.times,
+        run.loaded,
+        run.chosen,
+        run.settings,
+    )
     painter.share_range([(loaded[k], paths[k]) for k in chosen])
     frames_shown = [loaded[k][0] for k in chosen]
     if framing == "run" or _fixed(settings, eye, target):
         cameras = [camera_for(frames_shown, True)] * len(chosen)
     else:
-        full = camera_from_settings(settings, frames_shown[0], width, height, None, None,
-                                    up, fov_degrees)
+        full = camera_from_settings(
+            settings, frames_shown[0], width, height, None, None, up, fov_degrees
+        )
         inner_width, inner_height = picture_layout(full.width, full.height, colored, True)
-        cameras = [framing_camera(inner, full.width, full.height) for inner in
-                   follow_cameras(frames_shown, inner_width, inner_height, None, full.up,
-                                  full.fov_degrees)]
+        cameras = [
+            framing_camera(inner, full.width, full.height)
+            for inner in follow_cameras(
+                frames_shown, inner_width, inner_height, None, full.up, full.fov_degrees
+            )
+        ]
     # animation frames supersampled 2× (half the cost of 3×; they are seen moving)
-    images = [painter(loaded[k], paths[k], camera, title=f"t = {times[k]:.2f} s",
-                      antialias=2)
-              for k, camera in tqdm(list(zip(chosen, cameras)), desc="yore render",
-                                    unit="frame", leave=False, disable=quiet or None,
-                                    delay=2.0)]
+    images = [
+        painter(loaded[k], paths[k], camera, title=f"t = {times[k]:.2f} s", antialias=2)
+        for k, camera in tqdm(
+            list(zip(chosen, cameras)),
+            desc="yore render",
+            unit="frame",
+            leave=False,
+            disable=quiet or None,
+            delay=2.0,
+        )
+    ]
     spacing = np.diff([times[k] for k in chosen])
     fps = 1.0 / float(np.median(spacing)) if spacing.size and np.median(spacing) > 0 else 15.0
-    return save_animation(out / f"animation.{animation}", images,
-                          fps=min(max(fps, 1.0), 50.0))
+    return save_animation(out / f"animation.{animation}", images, fps=min(max(fps, 1.0), 50.0))
 
 
-def save_panels(path, panels, width=480, height=400, camera=None, values=None,
-                **render_options) -> Path:
+def save_panels(
+    path, panels, width=480, height=400, camera=None, values=None, **render_options
+) -> Path:
     """One PNG of several states side by side, titled, under one camera (fitted to all of
     them unless ``camera`` is given), so shapes compare at one scale.
 
@@ -319,9 +399,15 @@ def save_panels(path, panels, width=480, height=400, camera=None, values=None,
         raise ValueError(f"values has {len(values)} arrays for {len(panels)} panels")
     if camera is None:
         camera = fit_camera([np.asarray(panel[1], float) for panel in panels], width, height)
-    images = [render_image(panel[1], panel[2], camera,
-                           strokes=panel[3] if len(panel) > 3 else (),
-                           **({} if values is None else {"vertex_values": values[k]}),
-                           **render_options)
-              for k, panel in enumerate(panels)]
+    images = [
+        render_image(
+            panel[1],
+            panel[2],
+            camera,
+            strokes=panel[3] if len(panel) > 3 else (),
+            **({} if values is None else {"vertex_values": values[k]}),
+            **render_options,
+        )
+        for k, panel in enumerate(panels)
+    ]
     return save_png(path, side_by_side(images, [str(panel[0]) for panel in panels]))

@@ -25,17 +25,31 @@ from ..metrics import vertex_normals
 from . import backend
 from .images import draw_colorbar, draw_title
 
-__all__ = ["render_image", "picture_layout", "framing_camera", "colorbar_width",
-           "title_height", "COLORMAPS", "CLOTH_COLOR", "STROKE_CANDIDATES", "stroke_color",
-           "colormap_table"]
+__all__ = [
+    "render_image",
+    "picture_layout",
+    "framing_camera",
+    "colorbar_width",
+    "title_height",
+    "COLORMAPS",
+    "CLOTH_COLOR",
+    "STROKE_CANDIDATES",
+    "stroke_color",
+    "colormap_table",
+]
 
 #: Colour maps `render_image` accepts (matplotlib's, sampled at 256 points).
 COLORMAPS = ("viridis", "cividis", "magma", "coolwarm", "RdBu_r")
 #: The cloth's colour without values (a light blue).
 CLOTH_COLOR = (0.42, 0.62, 0.84)
 #: Colours a stroke may take (RGB in [0, 1]): red, magenta, orange, green, cyan.
-STROKE_CANDIDATES = ((0.90, 0.06, 0.10), (0.92, 0.10, 0.80), (1.00, 0.55, 0.00),
-                     (0.15, 0.85, 0.10), (0.00, 0.80, 0.95))
+STROKE_CANDIDATES = (
+    (0.90, 0.06, 0.10),
+    (0.92, 0.10, 0.80),
+    (1.00, 0.55, 0.00),
+    (0.15, 0.85, 0.10),
+    (0.00, 0.80, 0.95),
+)
 #: Stroke tube radius as a fraction of the cloth's bounding-box diagonal.
 STROKE_RADIUS_FRACTION = 0.005
 #: The structures pictures register (and remove again).
@@ -75,12 +89,14 @@ def _lab(rgb):
     """CIELAB (D65) of sRGB colours in [0, 1] (n×3)."""
     rgb = np.asarray(rgb, float)
     linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
-    xyz = linear @ np.array([[0.4124, 0.2126, 0.0193], [0.3576, 0.7152, 0.1192],
-                             [0.1805, 0.0722, 0.9505]])
+    xyz = linear @ np.array(
+        [[0.4124, 0.2126, 0.0193], [0.3576, 0.7152, 0.1192], [0.1805, 0.0722, 0.9505]]
+    )
     xyz /= np.array([0.9505, 1.0, 1.089])
     f = np.where(xyz > 0.008856, np.cbrt(xyz), 7.787 * xyz + 16.0 / 116.0)
-    return np.column_stack([116.0 * f[:, 1] - 16.0, 500.0 * (f[:, 0] - f[:, 1]),
-                            200.0 * (f[:, 1] - f[:, 2])])
+    return np.column_stack(
+        [116.0 * f[:, 1] - 16.0, 500.0 * (f[:, 0] - f[:, 1]), 200.0 * (f[:, 1] - f[:, 2])]
+    )
 
 
 def stroke_color(surface_colors) -> tuple:
@@ -99,8 +115,9 @@ def _value_range(values, value_range, colormap):
         try:
             low, high = (float(v) for v in value_range)
         except (TypeError, ValueError):
-            raise ValueError(f"value_range must be two numbers (low, high), "
-                             f"got {value_range!r}") from None
+            raise ValueError(
+                f"value_range must be two numbers (low, high), got {value_range!r}"
+            ) from None
         if not (np.isfinite(low) and np.isfinite(high)) or low >= high:
             raise ValueError(f"value_range must be finite with low < high, got ({low}, {high})")
         return low, high
@@ -115,8 +132,9 @@ def _value_range(values, value_range, colormap):
     return low, high
 
 
-def _checked_picture(V, F, camera, vertex_values, face_values, color, background, strokes,
-                     colormap):
+def _checked_picture(
+    V, F, camera, vertex_values, face_values, color, background, strokes, colormap
+):
     """`render_image`'s arguments checked, in its order: (V, F, colour, background, stroke
     polylines, values or None, "vertices" | "faces" | None)."""
     V = check_points(V, "V")
@@ -130,8 +148,7 @@ def _checked_picture(V, F, camera, vertex_values, face_values, color, background
     polylines = _check_strokes(strokes)
     values, defined_on = None, None
     if vertex_values is not None:
-        values, defined_on = check_vertex_values(vertex_values, len(V), "vertex_values"), \
-            "vertices"
+        values, defined_on = check_vertex_values(vertex_values, len(V), "vertex_values"), "vertices"
     elif face_values is not None:
         values, defined_on = check_vertex_values(face_values, len(F), "face_values"), "faces"
     if colormap not in COLORMAPS:
@@ -139,10 +156,24 @@ def _checked_picture(V, F, camera, vertex_values, face_values, color, background
     return V, F, base_color, background, polylines, values, defined_on
 
 
-def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_range=None,
-                 colormap="viridis", colorbar=None, strokes=(), color=CLOTH_COLOR,
-                 background=(1.0, 1.0, 1.0), edges=False, ground=True, title=None,
-                 antialias=True) -> np.ndarray:
+def render_image(
+    V,
+    F,
+    camera,
+    *,
+    vertex_values=None,
+    face_values=None,
+    value_range=None,
+    colormap="viridis",
+    colorbar=None,
+    strokes=(),
+    color=CLOTH_COLOR,
+    background=(1.0, 1.0, 1.0),
+    edges=False,
+    ground=True,
+    title=None,
+    antialias=True,
+) -> np.ndarray:
     """Renders a triangle mesh with polyscope and returns the picture.
 
     Parameters
@@ -194,25 +225,41 @@ def render_image(V, F, camera, *, vertex_values=None, face_values=None, value_ra
         polyscope or EGL is missing.
     """
     V, F, base_color, background, polylines, values, defined_on = _checked_picture(
-        V, F, camera, vertex_values, face_values, color, background, strokes, colormap)
+        V, F, camera, vertex_values, face_values, color, background, strokes, colormap
+    )
 
     width, height = camera.width, camera.height
     if values is not None:
         value_range = _value_range(values, value_range, colormap)
-    inner_width, inner_height = picture_layout(width, height, values is not None and colorbar,
-                                               bool(title))
+    inner_width, inner_height = picture_layout(
+        width, height, values is not None and colorbar, bool(title)
+    )
     strip, band = width - inner_width, height - inner_height
     view = _inner_camera(camera, inner_width, inner_height)
-    image = _render_view(V, F, view, values, defined_on, value_range, colormap, polylines,
-                         base_color, background, edges, ground, antialias)
+    image = _render_view(
+        V,
+        F,
+        view,
+        values,
+        defined_on,
+        value_range,
+        colormap,
+        polylines,
+        base_color,
+        background,
+        edges,
+        ground,
+        antialias,
+    )
     if not (strip or band):
         return image
     canvas = np.empty((height, width, 3), dtype=np.uint8)
     canvas[:] = np.rint(background * 255.0).astype(np.uint8)
-    canvas[band:, :width - strip] = image
+    canvas[band:, : width - strip] = image
     if strip:
-        canvas = draw_colorbar(canvas, colormap_table(colormap), value_range, str(colorbar),
-                               left=width - strip)
+        canvas = draw_colorbar(
+            canvas, colormap_table(colormap), value_range, str(colorbar), left=width - strip
+        )
     if band:
         canvas = draw_title(canvas, str(title), band)
     return canvas
@@ -231,8 +278,10 @@ def title_height(height) -> int:
 def picture_layout(width, height, colorbar=False, title=False):
     """(width, height) of the part of a width × height picture that shows the cloth, with a
     colour bar strip and/or a title band."""
-    return (width - (colorbar_width(width, height) if colorbar else 0),
-            height - (title_height(height) if title else 0))
+    return (
+        width - (colorbar_width(width, height) if colorbar else 0),
+        height - (title_height(height) if title else 0),
+    )
 
 
 def framing_camera(inner, width, height) -> Camera:
@@ -240,9 +289,14 @@ def framing_camera(inner, width, height) -> Camera:
     ``inner`` (a camera of the cloth's part, see `picture_layout`) frames it."""
     tan_inner = np.tan(np.radians(inner.fov_degrees) / 2.0)
     factor = min(1.0, height * inner.width / (width * inner.height))
-    return Camera(eye=inner.eye, target=inner.target, up=inner.up,
-                  fov_degrees=float(np.degrees(2.0 * np.arctan(tan_inner * factor))),
-                  width=width, height=height)
+    return Camera(
+        eye=inner.eye,
+        target=inner.target,
+        up=inner.up,
+        fov_degrees=float(np.degrees(2.0 * np.arctan(tan_inner * factor))),
+        width=width,
+        height=height,
+    )
 
 
 def _inner_camera(camera, width, height) -> Camera:
@@ -254,19 +308,42 @@ def _inner_camera(camera, width, height) -> Camera:
     tan_y = np.tan(np.radians(camera.fov_degrees) / 2.0)
     tan_x = tan_y * camera.width / camera.height
     tan_inner = max(tan_y, tan_x * height / width)
-    return Camera(eye=camera.eye, target=camera.target, up=camera.up,
-                  fov_degrees=float(np.degrees(2.0 * np.arctan(tan_inner))), width=width,
-                  height=height)
+    return Camera(
+        eye=camera.eye,
+        target=camera.target,
+        up=camera.up,
+        fov_degrees=float(np.degrees(2.0 * np.arctan(tan_inner))),
+        width=width,
+        height=height,
+    )
 
 
-def _render_view(V, F, camera, values, defined_on, value_range, colormap, polylines,
-                 base_color, background, edges, ground, antialias):
+def _render_view(
+    V,
+    F,
+    camera,
+    values,
+    defined_on,
+    value_range,
+    colormap,
+    polylines,
+    base_color,
+    background,
+    edges,
+    ground,
+    antialias,
+):
     ps = backend.ensure()
-    factor = (1 if antialias is False else
-              backend.supersampling(camera.width, camera.height,
-                                    None if antialias is True else antialias))
-    backend.set_camera(camera.resized(camera.width * factor, camera.height * factor)
-                       if factor > 1 else camera)
+    factor = (
+        1
+        if antialias is False
+        else backend.supersampling(
+            camera.width, camera.height, None if antialias is True else antialias
+        )
+    )
+    backend.set_camera(
+        camera.resized(camera.width * factor, camera.height * factor) if factor > 1 else camera
+    )
     ps.set_background_color(tuple(background))
     ps.set_ground_plane_mode("shadow_only" if ground else "none")
     ps.set_transparency_mode("none")
@@ -274,11 +351,17 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
     hidden = backend.hidden_viewer().__enter__()
     try:
         if len(F):
-            mesh = ps.register_surface_mesh(CLOTH_NAME, V, F, color=tuple(base_color),
-                                            smooth_shade=True, material="clay",
-                                            back_face_policy="different",
-                                            edge_width=float(factor) if edges else 0.0,
-                                            edge_color=(0.15, 0.15, 0.15))
+            mesh = ps.register_surface_mesh(
+                CLOTH_NAME,
+                V,
+                F,
+                color=tuple(base_color),
+                smooth_shade=True,
+                material="clay",
+                back_face_policy="different",
+                edge_width=float(factor) if edges else 0.0,
+                edge_color=(0.15, 0.15, 0.15),
+            )
         else:
             mesh = ps.register_point_cloud(CLOTH_NAME, V, color=tuple(base_color))
         registered.append(CLOTH_NAME)
@@ -286,9 +369,14 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
         if values is not None:
             low, high = _value_range(values, value_range, colormap)
             if len(F):
-                mesh.add_scalar_quantity("values", values, defined_on=defined_on,
-                                         cmap=polyscope_colormap(ps, colormap), vminmax=(low, high),
-                                         enabled=True)
+                mesh.add_scalar_quantity(
+                    "values",
+                    values,
+                    defined_on=defined_on,
+                    cmap=polyscope_colormap(ps, colormap),
+                    vminmax=(low, high),
+                    enabled=True,
+                )
             surface_colors = colormap_table(colormap)
         ink = stroke_color(surface_colors)
         size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
@@ -302,8 +390,7 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
                 cloud = ps.register_point_cloud(name, lifted, color=ink, material="flat")
                 cloud.set_radius(1.6 * radius, relative=False)
             else:
-                curve = ps.register_curve_network(name, lifted, "line", color=ink,
-                                                  material="flat")
+                curve = ps.register_curve_network(name, lifted, "line", color=ink, material="flat")
                 curve.set_radius(radius, relative=False)
             registered.append(name)
         # polyscope fits the ground plane and the clip planes to the scene's extent
@@ -319,9 +406,11 @@ def _render_view(V, F, camera, values, defined_on, value_range, colormap, polyli
 
 
 def _remove(ps, name):
-    for has, remove in ((ps.has_surface_mesh, ps.remove_surface_mesh),
-                        (ps.has_curve_network, ps.remove_curve_network),
-                        (ps.has_point_cloud, ps.remove_point_cloud)):
+    for has, remove in (
+        (ps.has_surface_mesh, ps.remove_surface_mesh),
+        (ps.has_curve_network, ps.remove_curve_network),
+        (ps.has_point_cloud, ps.remove_point_cloud),
+    ):
         if has(name):
             remove(name)
 
@@ -331,8 +420,11 @@ def _lift(points, V, normals, eye, offset):
     vertex, so a tube on the surface is not half buried in it."""
     if len(V) == 0 or not np.any(normals):
         return points
-    nearest = np.argmin(((points[:, None, :] - V[None, :, :]) ** 2).sum(axis=2), axis=1) \
-        if len(points) * len(V) <= 4_000_000 else _nearest_chunked(points, V)
+    nearest = (
+        np.argmin(((points[:, None, :] - V[None, :, :]) ** 2).sum(axis=2), axis=1)
+        if len(points) * len(V) <= 4_000_000
+        else _nearest_chunked(points, V)
+    )
     n = normals[nearest]
     towards = np.sign(np.einsum("ij,ij->i", n, eye - points))
     towards[towards == 0] = 1.0
@@ -343,9 +435,10 @@ def _nearest_chunked(points, V):
     out = np.empty(len(points), dtype=np.int64)
     step = max(1, 4_000_000 // max(len(V), 1))
     for start in range(0, len(points), step):
-        chunk = points[start:start + step]
-        out[start:start + step] = np.argmin(
-            ((chunk[:, None, :] - V[None, :, :]) ** 2).sum(axis=2), axis=1)
+        chunk = points[start : start + step]
+        out[start : start + step] = np.argmin(
+            ((chunk[:, None, :] - V[None, :, :]) ** 2).sum(axis=2), axis=1
+        )
     return out
 
 
@@ -359,7 +452,9 @@ def _check_strokes(strokes):
         except (TypeError, ValueError):
             raise ValueError(f"strokes[{i}] must be a (k, 3) array of numbers") from None
         if array.ndim != 2:
-            raise ValueError(f"strokes[{i}] must have shape (k, 3), got {array.shape} "
-                             "(strokes is a list of polylines, not one polyline)")
+            raise ValueError(
+                f"strokes[{i}] must have shape (k, 3), got {array.shape} "
+                "(strokes is a list of polylines, not one polyline)"
+            )
         polylines.append(check_points(array, f"strokes[{i}]", allow_empty=False))
     return polylines

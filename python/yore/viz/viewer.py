@@ -45,9 +45,15 @@ __all__ = ["Viewer", "ViewerModel", "parse_pixels", "densify", "SAMPLE_SPACING_P
 #: Width of the viewer's panel, pixels.
 PANEL_WIDTH = 330
 #: The keys, as listed in docs/viewer.md and the window's help line.
-KEYS = {"Space": "play / pause", "N": "one frame", "D": "draw mode on / off",
-        "Z": "undo the last stroke", "R": "reset to the start", "S": "save a picture",
-        "Q": "close the viewer"}
+KEYS = {
+    "Space": "play / pause",
+    "N": "one frame",
+    "D": "draw mode on / off",
+    "Z": "undo the last stroke",
+    "R": "reset to the start",
+    "S": "save a picture",
+    "Q": "close the viewer",
+}
 CLOTH = backend.VIEWER_SURFACES[0]
 DRAFT = backend.VIEWER_CURVES[0]
 COLORINGS = ("expansion", "wrinkles", "none")
@@ -73,8 +79,9 @@ class Viewer(ViewerModel):
         "expansion" (rest expansion, default), "wrinkles" (signed wrinkle height) or "none".
     """
 
-    def __init__(self, sim, camera=None, *, headless=False, stroke_options=None,
-                 coloring="expansion"):
+    def __init__(
+        self, sim, camera=None, *, headless=False, stroke_options=None, coloring="expansion"
+    ):
         super().__init__(sim, camera, stroke_options=stroke_options)
         if coloring not in COLORINGS:
             raise ValueError(f"coloring must be one of {', '.join(COLORINGS)}, got {coloring!r}")
@@ -124,9 +131,15 @@ class Viewer(ViewerModel):
         else:
             if ps.has_surface_mesh(CLOTH):
                 ps.remove_surface_mesh(CLOTH)
-            self._mesh = ps.register_surface_mesh(CLOTH, cloth.positions, cloth.faces,
-                                                  color=(0.42, 0.62, 0.84), smooth_shade=True,
-                                                  material="clay", back_face_policy="different")
+            self._mesh = ps.register_surface_mesh(
+                CLOTH,
+                cloth.positions,
+                cloth.faces,
+                color=(0.42, 0.62, 0.84),
+                smooth_shade=True,
+                material="clay",
+                back_face_policy="different",
+            )
             self._mesh.set_selection_mode("faces_only")
             self._topology = version
             self._colored_version = None
@@ -153,9 +166,15 @@ class Viewer(ViewerModel):
             values = 1e3 * wrinkle_height(cloth.positions, cloth.faces)
             half = max(float(np.abs(values).max()), 1e-6)
             cmap, label, low, high = "coolwarm", "wrinkles (mm)", -half, half
-        self._mesh.add_scalar_quantity(label, values, defined_on="vertices",
-                                       cmap=polyscope_colormap(self._ps, cmap), vminmax=(low, high),
-                                       enabled=True, onscreen_colorbar_enabled=not self.headless)
+        self._mesh.add_scalar_quantity(
+            label,
+            values,
+            defined_on="vertices",
+            cmap=polyscope_colormap(self._ps, cmap),
+            vminmax=(low, high),
+            enabled=True,
+            onscreen_colorbar_enabled=not self.headless,
+        )
         self._colored_version = key
 
     # -- pictures -------------------------------------------------------------------------------
@@ -206,8 +225,9 @@ class Viewer(ViewerModel):
     def show(self) -> None:
         """Opens the window and runs until it is closed (not in headless mode)."""
         if self.headless:
-            raise ValueError("a headless viewer has no window; use stroke_pixels, advance and "
-                             "screenshot")
+            raise ValueError(
+                "a headless viewer has no window; use stroke_pixels, advance and screenshot"
+            )
         ps = self._ps
         ps.set_window_size(self.camera.width, self.camera.height)
         backend.set_camera(self.camera)
@@ -225,8 +245,11 @@ class Viewer(ViewerModel):
         camera)."""
         self.draw_mode = bool(on)
         self._ps.set_do_default_mouse_interaction(not self.draw_mode)
-        self.message = ("draw mode on: drag with the left button to draw a stroke"
-                        if self.draw_mode else "draw mode off")
+        self.message = (
+            "draw mode on: drag with the left button to draw a stroke"
+            if self.draw_mode
+            else "draw mode off"
+        )
 
     def mouse(self, down, released, position, captured=False) -> list | None:
         """One frame of mouse input in draw mode: ``position`` in window pixels (corner
@@ -273,8 +296,9 @@ class Viewer(ViewerModel):
         points = self.surface_points(faces, weights)
         if ps.has_curve_network(DRAFT):
             ps.remove_curve_network(DRAFT)
-        curve = ps.register_curve_network(DRAFT, points, "line", color=(0.9, 0.06, 0.1),
-                                          material="flat")
+        curve = ps.register_curve_network(
+            DRAFT, points, "line", color=(0.9, 0.06, 0.1), material="flat"
+        )
         curve.set_radius(0.004, relative=True)
 
     def _frame(self):
@@ -303,8 +327,12 @@ class Viewer(ViewerModel):
                 return
         self._ps.set_do_default_mouse_interaction(not self.draw_mode)
         self._panel(psim)
-        self.mouse(psim.IsMouseDown(0), psim.IsMouseReleased(0), psim.GetMousePos(),
-                   captured=io.WantCaptureMouse)
+        self.mouse(
+            psim.IsMouseDown(0),
+            psim.IsMouseReleased(0),
+            psim.GetMousePos(),
+            captured=io.WantCaptureMouse,
+        )
         now = time.perf_counter()
         elapsed = 1.0 / 30.0 if self._last_frame is None else now - self._last_frame
         self._last_frame = now
@@ -340,8 +368,12 @@ class Viewer(ViewerModel):
         if changed:
             self._safely(self.set_integrator, names[index])
         # applied on Enter, not at every keystroke of a number being typed
-        changed, dt = psim.InputFloat("dt (s)", float(self.sim.dt), format="%.3g",
-                                      flags=psim.ImGuiInputTextFlags_EnterReturnsTrue)
+        changed, dt = psim.InputFloat(
+            "dt (s)",
+            float(self.sim.dt),
+            format="%.3g",
+            flags=psim.ImGuiInputTextFlags_EnterReturnsTrue,
+        )
         if changed and dt > 0 and math.isfinite(dt):
             self._safely(self.set_integrator, self.sim.integrator, float(dt))
         coloring = COLORINGS.index(self.coloring)
@@ -351,8 +383,9 @@ class Viewer(ViewerModel):
             self._update_colors(force=True)
         if psim.CollapsingHeader("stroke"):
             options = self.stroke_options
-            _, options["expansion"] = psim.SliderFloat("expansion", float(options["expansion"]),
-                                                       1.0, 1.5)
+            _, options["expansion"] = psim.SliderFloat(
+                "expansion", float(options["expansion"]), 1.0, 1.5
+            )
             width = options["width"] or 0.0
             _, width = psim.SliderFloat("width (m, 0 = paper)", float(width), 0.0, 0.5)
             options["width"] = width if width > 0 else None
@@ -360,19 +393,18 @@ class Viewer(ViewerModel):
             _, growth = psim.Combo("growth", growth, list(GROWTH_MODES))
             options["growth"] = GROWTH_MODES[growth]
             _, options["refine"] = psim.SliderInt("refine", int(options["refine"]), 0, 2)
-            _, options["smooth"] = psim.SliderInt("smoothing iterations",
-                                                  int(options["smooth"]), 0, 50)
+            _, options["smooth"] = psim.SliderInt(
+                "smoothing iterations", int(options["smooth"]), 0, 50
+            )
         if psim.Button("save state"):
             self._safely(self.save_state, Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.npz"))
         psim.SameLine()
         if psim.Button("save picture"):
-            self._safely(self.save_picture,
-                         Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.png"))
+            self._safely(self.save_picture, Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.png"))
         psim.Separator()
         for line in _statistics_lines(self.statistics()):
             psim.TextWrapped(line)
-        changed, self.polyscope_panels = psim.Checkbox("polyscope's panels",
-                                                       self.polyscope_panels)
+        changed, self.polyscope_panels = psim.Checkbox("polyscope's panels", self.polyscope_panels)
         if changed:
             self._ps.set_build_default_gui_panels(self.polyscope_panels)
         if self.message:
@@ -398,18 +430,24 @@ def _statistics_lines(s) -> list:
 
     sundials = []
     if s.get("internal_steps") is not None:
-        sundials = [f"internal steps {s['internal_steps']}, order {s['current_order']}, "
-                    f"next step {s['current_internal_dt']:.3g} s",
-                    f"error-test failures {s['error_test_failures']}, Newton iterations "
-                    f"{s['nonlinear_iterations']} (failed {s['nonlinear_failures']})",
-                    f"setups (factorizations) {s['linear_setups']}, solves "
-                    f"{s['linear_solves']}"]
-    return sundials + [f"t = {s['time']:.3f} s, {s['steps']} steps of {s['dt']:.3g} s ({s['integrator']})",
+        sundials = [
+            f"internal steps {s['internal_steps']}, order {s['current_order']}, "
+            f"next step {s['current_internal_dt']:.3g} s",
+            f"error-test failures {s['error_test_failures']}, Newton iterations "
+            f"{s['nonlinear_iterations']} (failed {s['nonlinear_failures']})",
+            f"setups (factorizations) {s['linear_setups']}, solves {s['linear_solves']}",
+        ]
+    return (
+        sundials
+        + [
+            f"t = {s['time']:.3f} s, {s['steps']} steps of {s['dt']:.3g} s ({s['integrator']})",
             f"step {number(s['step_ms'], '{:.2f}')} ms, "
             f"{number(s['steps_per_second'], '{:.0f}')} steps/s",
             f"iterations per step {number(s['iterations_per_step'], '{:.1f}')}, "
             f"unconverged {number(s['unconverged_steps'], '{}')}",
             f"analyses {number(s['analyses'], '{}')}, "
             f"factorization {number(s['factorize_seconds'], '{:.3f}')} s",
-            f"{s['vertices']} vertices, {s['faces']} faces; strokes: {s['strokes']}"] + (
-            [f"BLAS: {s['blas']}"] if s.get("blas") else [])
+            f"{s['vertices']} vertices, {s['faces']} faces; strokes: {s['strokes']}",
+        ]
+        + ([f"BLAS: {s['blas']}"] if s.get("blas") else [])
+    )

@@ -15,13 +15,18 @@ import numpy as np
 from .. import _core, blas
 from ..camera import Camera, fit_camera
 from ..checks import check_integer
-from ..options import (IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, SMOOTHING_RULES,
-                       STROKE_DEFAULTS)
+from ..options import IMAGE_HEIGHT, IMAGE_WIDTH, INTEGRATORS, SMOOTHING_RULES, STROKE_DEFAULTS
 from ..simulation import Simulation
 from ..stroke import StrokeMissed, StrokeOptions, StrokePath
 
-__all__ = ["ViewerModel", "parse_pixels", "densify", "SAMPLE_SPACING_PX", "MAX_UNDO",
-           "SUNDIALS_FIGURES"]
+__all__ = [
+    "ViewerModel",
+    "parse_pixels",
+    "densify",
+    "SAMPLE_SPACING_PX",
+    "MAX_UNDO",
+    "SUNDIALS_FIGURES",
+]
 
 #: Mouse or given pixels are densified so that consecutive samples are at most this far apart.
 SAMPLE_SPACING_PX = 2.0
@@ -32,11 +37,16 @@ MAX_UNDO = 32
 #: Wall time the live loop may spend stepping per frame, s (keeps the window responsive).
 FRAME_BUDGET_SECONDS = 0.05
 #: What the panel shows of an error-controlled (SUNDIALS) run, from its counters.
-SUNDIALS_FIGURES = ("internal_steps", "current_order", "current_internal_dt",
-                     "error_test_failures", "nonlinear_iterations", "nonlinear_failures",
-                     "linear_setups", "linear_solves")
-
-
+SUNDIALS_FIGURES = (
+    "internal_steps",
+    "current_order",
+    "current_internal_dt",
+    "error_test_failures",
+    "nonlinear_iterations",
+    "nonlinear_failures",
+    "linear_setups",
+    "linear_solves",
+)
 
 
 def parse_pixels(text) -> np.ndarray:
@@ -52,11 +62,13 @@ def parse_pixels(text) -> np.ndarray:
                 raise ValueError
             x, y = float(parts[0]), float(parts[1])
         except ValueError:
-            raise ValueError(f'--stroke-px sample {k + 1} is {item!r}; expected "x,y" (two '
-                             'numbers, pixels)') from None
+            raise ValueError(
+                f'--stroke-px sample {k + 1} is {item!r}; expected "x,y" (two numbers, pixels)'
+            ) from None
         if not (math.isfinite(x) and math.isfinite(y)) or max(abs(x), abs(y)) > 1e6:
-            raise ValueError(f"--stroke-px sample {k + 1} is {item!r}; pixels must be finite "
-                             "and within ±1e6")
+            raise ValueError(
+                f"--stroke-px sample {k + 1} is {item!r}; pixels must be finite and within ±1e6"
+            )
         pixels.append((x, y))
     return np.asarray(pixels, dtype=np.float64)
 
@@ -73,9 +85,11 @@ def densify(pixels, spacing=SAMPLE_SPACING_PX) -> np.ndarray:
     pieces = np.maximum(1, np.ceil(lengths / spacing))
     total = 1 + float(pieces.sum())
     if total > MAX_STROKE_SAMPLES:
-        raise ValueError(f"the stroke is {lengths.sum():.6g} px long: sampled every {spacing} "
-                         f"px it would pass the {MAX_STROKE_SAMPLES} samples a stroke may have; "
-                         f"draw one at most {(MAX_STROKE_SAMPLES - 1) * spacing:.6g} px long")
+        raise ValueError(
+            f"the stroke is {lengths.sum():.6g} px long: sampled every {spacing} "
+            f"px it would pass the {MAX_STROKE_SAMPLES} samples a stroke may have; "
+            f"draw one at most {(MAX_STROKE_SAMPLES - 1) * spacing:.6g} px long"
+        )
     out = [pixels[:1]]
     for a, b, count in zip(pixels[:-1], pixels[1:], pieces.astype(np.int64)):
         t = np.arange(1, count + 1)[:, None] / count
@@ -101,8 +115,9 @@ class ViewerModel:
         self.stroke_options = {**STROKE_DEFAULTS, "smooth": 0}
         for name, value in (stroke_options or {}).items():
             if name not in self.stroke_options:
-                raise ValueError(f"unknown stroke option {name!r}; valid: "
-                                 f"{', '.join(self.stroke_options)}")
+                raise ValueError(
+                    f"unknown stroke option {name!r}; valid: {', '.join(self.stroke_options)}"
+                )
             if value is not None or name == "width":
                 self.stroke_options[name] = value
         self._check_stroke_options()
@@ -149,8 +164,14 @@ class ViewerModel:
             return np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
         camera = self.view_camera()
         d0, dx, dy = camera.pixel_rays()
-        picked = _core.pick_rays(self.sim.cloth, np.column_stack([pixels, np.zeros(len(pixels))]),
-                                 np.asarray(camera.eye, float), d0, dx, dy)
+        picked = _core.pick_rays(
+            self.sim.cloth,
+            np.column_stack([pixels, np.zeros(len(pixels))]),
+            np.asarray(camera.eye, float),
+            d0,
+            dx,
+            dy,
+        )
         faces = np.asarray(picked["faces"], dtype=np.int64)
         weights = np.clip(picked["barycentric"], 0.0, None)
         total = weights.sum(axis=1)
@@ -169,8 +190,12 @@ class ViewerModel:
         a jump of more than 1.5 spacings between kept samples) starts a new run."""
         if len(faces) == 0:
             return []
-        gaps = np.flatnonzero(np.linalg.norm(np.diff(pixels, axis=0), axis=1)
-                              > 1.5 * SAMPLE_SPACING_PX) + 1
+        gaps = (
+            np.flatnonzero(
+                np.linalg.norm(np.diff(pixels, axis=0), axis=1) > 1.5 * SAMPLE_SPACING_PX
+            )
+            + 1
+        )
         bounds = [0, *gaps.tolist(), len(faces)]
         return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
@@ -192,8 +217,9 @@ class ViewerModel:
         saved = self.sim.state()
         reports = []
         # every run's points on the cloth as it is now, before the first stroke renumbers faces
-        pieces = [self.surface_points(faces[a:b], barycentric[a:b])
-                  for a, b in self._runs(pixels, faces)]
+        pieces = [
+            self.surface_points(faces[a:b], barycentric[a:b]) for a, b in self._runs(pixels, faces)
+        ]
         try:
             for points in pieces:
                 reports.append(self.sim.stroke(StrokePath.world(points), options))
@@ -209,8 +235,9 @@ class ViewerModel:
         self._changed()
         split = sum(r.faces_split for r in reports)
         added = sum(r.vertices_added for r in reports)
-        self.message = (f"stroke at t = {self.sim.time:.3f} s: {split} faces split, "
-                        f"{added} vertices added")
+        self.message = (
+            f"stroke at t = {self.sim.time:.3f} s: {split} faces split, {added} vertices added"
+        )
         return reports
 
     def undo(self) -> bool:
@@ -242,9 +269,12 @@ class ViewerModel:
 
     def _check_stroke_options(self):
         options = self.stroke_options
-        options["smooth"] = check_integer(options["smooth"], "smooth (iterations)",
-                                          SMOOTHING_RULES["iterations"].low,
-                                          SMOOTHING_RULES["iterations"].high)
+        options["smooth"] = check_integer(
+            options["smooth"],
+            "smooth (iterations)",
+            SMOOTHING_RULES["iterations"].low,
+            SMOOTHING_RULES["iterations"].high,
+        )
         checked = self.stroke_value()
         options.update({name: getattr(checked, name) for name in STROKE_DEFAULTS})
 
@@ -282,8 +312,7 @@ class ViewerModel:
         """Rebuilds the integrator (its default options) from the current state; dt None takes
         the integrator's default for this cloth."""
         if integrator not in INTEGRATORS:
-            raise ValueError(f"unknown integrator {integrator!r}; valid: "
-                             f"{', '.join(INTEGRATORS)}")
+            raise ValueError(f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
         sim = Simulation(self.sim.cloth, integrator=integrator, dt=dt, gravity=self.sim.gravity)
         self.sim = sim
         self._frame_steps = 0
@@ -305,19 +334,29 @@ class ViewerModel:
         steps = max(stats["steps"], 1)
         iterations = counters.get("newton_iterations", counters.get("iterations"))
         # the live loop's last frame, else the mean over the simulation's steps so far
-        per_step = (self._frame_seconds / self._frame_steps if self._frame_steps else
-                    stats["wall_seconds"] / stats["steps"] if stats["steps"] else None)
-        return {"time": self.sim.time, "steps": stats["steps"], "integrator": stats["integrator"],
-                "dt": stats["dt"], "step_ms": None if per_step is None else 1e3 * per_step,
-                "steps_per_second": None if not per_step else 1.0 / per_step,
-                "iterations_per_step": None if iterations is None else iterations / steps,
-                "unconverged_steps": counters.get("unconverged_steps"),
-                "analyses": counters.get("analyses"),
-                "factorize_seconds": phases.get("factorize_seconds"),
-                "vertices": stats["vertices"], "faces": int(len(self.sim.cloth.faces)),
-                "strokes": len(self.reports),
-                # the BLAS kernels CHOLMOD's factorization runs on (yore.blas)
-                "blas": self._blas,
-                # the error-controlled integrators' own (SUNDIALS): None for the others
-                **{name: counters.get(name) for name in SUNDIALS_FIGURES}}
-
+        per_step = (
+            self._frame_seconds / self._frame_steps
+            if self._frame_steps
+            else stats["wall_seconds"] / stats["steps"]
+            if stats["steps"]
+            else None
+        )
+        return {
+            "time": self.sim.time,
+            "steps": stats["steps"],
+            "integrator": stats["integrator"],
+            "dt": stats["dt"],
+            "step_ms": None if per_step is None else 1e3 * per_step,
+            "steps_per_second": None if not per_step else 1.0 / per_step,
+            "iterations_per_step": None if iterations is None else iterations / steps,
+            "unconverged_steps": counters.get("unconverged_steps"),
+            "analyses": counters.get("analyses"),
+            "factorize_seconds": phases.get("factorize_seconds"),
+            "vertices": stats["vertices"],
+            "faces": int(len(self.sim.cloth.faces)),
+            "strokes": len(self.reports),
+            # the BLAS kernels CHOLMOD's factorization runs on (yore.blas)
+            "blas": self._blas,
+            # the error-controlled integrators' own (SUNDIALS): None for the others
+            **{name: counters.get(name) for name in SUNDIALS_FIGURES},
+        }
