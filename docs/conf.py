@@ -75,7 +75,7 @@ def _signature_as_literal(app, what, name, obj, options, lines):
     """The class docstring of ``yore.Cloth`` (written in C++, ``cpp/bindings``) shows its call
     as ``Cloth(vertices, ...)`` over several lines; reST would read those lines as a
     definition, so they are shown as a literal block."""
-    if what != "class" or getattr(obj, "__module__", None) != "yore._core":
+    if what != "class" or getattr(obj, "__module__", None) != "yore._native":
         return
     call = f"{obj.__name__}("
     starts = [i for i, line in enumerate(lines) if line.startswith(call)]

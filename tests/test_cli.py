@@ -676,13 +676,13 @@ def test_ctrl_c_in_the_command_shutdown_prints_nothing(tmp_path):
     import signal
     import textwrap
 
-    script = tmp_path / "yore"  # the guard is the command's only: argv[0] is named yore
+    script = tmp_path / "yore"  # as the command's script: yore._entry.command is its entry point
     script.write_text(
         textwrap.dedent("""\
         import atexit, os, signal, sys
         atexit.register(lambda: os.kill(os.getpid(), signal.SIGINT))
-        from yore.cli import main
-        sys.exit(main())
+        from yore._entry import command
+        sys.exit(command())
         """)
     )
     process = subprocess.run(
@@ -732,33 +732,70 @@ def test_a_usage_error_points_at_the_help_of_the_command_as_typed(capsys):
     assert "(see `yore run --help`)" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(
-    "orig_argv, guarded",
-    [
-        (["python", "-m", "yore", "run", "scene.toml"], True),
-        (["python", "-X", "importtime", "-m", "yore", "check"], True),
-        (["python", "-m", "pytest", "-m", "yore"], False),  # a marker named yore: not the command
-        (["python", "-c", "import yore", "-m", "yore"], False),
-    ],
-)
-def test_only_the_yore_command_guards_its_start(monkeypatch, orig_argv, guarded):
+def test_the_yore_command_guards_its_start(monkeypatch):
+    """`start_command` (the command's script and ``python -m yore`` call it before anything
+    heavy loads) makes a Ctrl-C one line until `end_command_start` hands it to main()."""
     import signal
 
     from yore import runtime
 
-    monkeypatch.setattr(sys, "orig_argv", orig_argv)
-    monkeypatch.setattr(sys, "argv", ["-m"])
     monkeypatch.setattr(runtime, "_command", [False])
+    monkeypatch.setattr(runtime, "_guarding", [False])
     before = signal.getsignal(signal.SIGINT)
     if before is not signal.default_int_handler:
         pytest.skip("SIGINT is not Python's default handler in this process")
     try:
-        runtime.guard_command_start()
-        assert (signal.getsignal(signal.SIGINT) is not before) == guarded
+        runtime.start_command()
+        assert signal.getsignal(signal.SIGINT) is runtime._interrupted_while_starting
+        assert runtime.is_command()
         runtime.end_command_start()
         assert signal.getsignal(signal.SIGINT) is before
     finally:
         signal.signal(signal.SIGINT, before)
+
+
+_PROBE = """
+import json, os, signal, sys
+environ = dict(os.environ)
+import yore
+loaded = yore.Cloth, yore.Simulation, yore._core  # the core's load included
+print(json.dumps({
+    "sigint_default": signal.getsignal(signal.SIGINT) is signal.default_int_handler,
+    "environ_kept": dict(os.environ) == environ,
+    "blas_threads": yore._core.blas_threads(),
+    "library": yore.blas.report()["library"],
+    "command": yore.runtime.is_command(),
+}))
+"""
+
+
+def test_importing_yore_changes_nothing_in_the_process():
+    """Issue 54: ``import yore`` (and loading its core) installs no signal handler, leaves the
+    environment and the BLAS's thread count as they were, even when the interpreter was
+    started as ``python -m yore``-like; the BLAS's count is the one the library picks by itself
+    (read by loading it alone, with ctypes, in another process)."""
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    env.pop("YORE_SWEEP_WORKER", None)
+    done = subprocess.run(
+        [sys.executable, "-c", _PROBE], capture_output=True, text=True, env=env, check=True
+    )
+    probe = json.loads(done.stdout)
+    assert probe["sigint_default"] and probe["environ_kept"] and not probe["command"]
+    openblas = [p for p in probe["library"] if "openblas" in p.lower()]
+    if not openblas:
+        pytest.skip("the BLAS CHOLMOD calls is not OpenBLAS")
+    alone = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            f"import ctypes; print(ctypes.CDLL({openblas[-1]!r}).openblas_get_num_threads())",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
+    assert probe["blas_threads"] == int(alone.stdout)
 
 
 def test_a_runs_report_says_its_largest_energy_rise(tmp_path, capsys):

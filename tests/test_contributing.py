@@ -250,7 +250,7 @@ def test_each_integrator_is_one_row_that_builds_a_core_integrator_the_page_names
         assert isinstance(spec, IntegratorSpec) and spec.name == name
         assert spec.options is INTEGRATOR_OPTIONS[name]
         core = spec.make(dict(spec.options))
-        assert type(core).__module__ == "yore._core" and callable(core.advance), name
+        assert type(core).__module__ == "yore._native" and callable(core.advance), name
         built.add(type(core).__name__)
         assert name in documented, f"{name}: no options table in docs/integrators.md"
     # the page lists the core's integrator classes: those the registry builds, and no other

@@ -41,26 +41,53 @@ def test_set_num_threads_sets_the_core_and_openblas(restore_threads):
     assert yore.build_info()["threads"] == 1 and _core.blas_threads() in (0, 1)
 
 
-def test_openblas_defaults_to_one_thread_unless_asked():
+def test_the_command_and_use_thread_defaults_run_one_blas_thread_unless_asked():
+    """yore's thread defaults (issue 54: set by the `yore` command and by an explicit call,
+    not by ``import yore``): one BLAS thread unless the environment chose."""
     import os
-
-    if any(
-        name in os.environ
-        for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
-    ):
-        pytest.skip("the environment sets the BLAS threads")
-    if not yore.build_info()["blas"].startswith("OpenBLAS"):
-        pytest.skip("the loaded BLAS is not OpenBLAS")
     import subprocess
     import sys
 
-    out = subprocess.run(
+    if not yore.build_info()["blas"].startswith("OpenBLAS"):
+        pytest.skip("the loaded BLAS is not OpenBLAS")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    called = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import yore; yore.use_thread_defaults(); print(yore._core.blas_threads())",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=env,
+    ).stdout
+    assert int(called) == 1
+    info = subprocess.run(
+        [sys.executable, "-m", "yore", "info"], capture_output=True, text=True, check=True, env=env
+    ).stdout
+    assert "blas_threads" in info and _info_value(info, "blas_threads") == "1"
+    # the environment's choice stands: the command's count is the one OpenBLAS took from it
+    chosen_env = {**env, "OPENBLAS_NUM_THREADS": "2"}
+    chosen = subprocess.run(
+        [sys.executable, "-m", "yore", "info"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=chosen_env,
+    ).stdout
+    alone = subprocess.run(
         [sys.executable, "-c", "import yore; print(yore._core.blas_threads())"],
         capture_output=True,
         text=True,
         check=True,
+        env=chosen_env,
     ).stdout
-    assert int(out) == 1
+    assert _info_value(chosen, "blas_threads") == alone.strip()
+
+
+def _info_value(text, key):
+    return next(line.split()[1] for line in text.splitlines() if line.split()[:1] == [key])
 
 
 def test_one_thread_runs_every_step_serially_and_reports_it(restore_threads):
@@ -162,5 +189,7 @@ def test_threads_that_the_address_space_cannot_hold_are_refused_in_one_line(tmp_
         3, "run", str(scene), "-o", str(tmp_path / "b"), "--quiet", "--threads", "8"
     )
     assert ran.returncode == 0, ran.stderr
-    clamped = _under_address_space_limit(1.25, "-c", "import yore; print(yore._core.max_threads())")
+    clamped = _under_address_space_limit(
+        1.25, "-c", "import yore; yore.use_thread_defaults(); print(yore._core.max_threads())"
+    )
     assert clamped.returncode == 0 and clamped.stdout.strip() == "1", clamped.stderr

@@ -8,10 +8,10 @@ python=${PYTHON:-python3}
 # MPI, hypre and PETSc, so it pulls ~350 MB of packages in.
 # libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6: polyscope's headless (EGL, Mesa llvmpipe)
 # pictures and the viewer; xvfb xdotool: the test that drives the viewer's real window
-# doctest-dev: the C++ tests (tests/cpp, `make test-cpp`)
+# doctest-dev: the C++ tests (tests/cpp, `make test-cpp`); clang-format: the C++ style check
 packages=(g++ make cmake ninja-build ccache pkg-config
           libeigen3-dev libsuitesparse-dev libcgal-dev libsundials-dev libopenblas0-pthread
-          libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6 xvfb xdotool doctest-dev)
+          libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6 xvfb xdotool doctest-dev clang-format)
 missing=()
 for package in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then

@@ -10,8 +10,10 @@
 
 namespace py = pybind11;
 
-PYBIND11_MODULE(_core, m) {
-  m.doc() = "yore's C++ core (use the `yore` package, not this module)";
+PYBIND11_MODULE(_native, m) {
+  m.doc() =
+      "yore's C++ core, loaded through yore._core once the BLAS kernels are chosen (use the "
+      "`yore` package, not this module)";
 
   // SimulationDiverged is a RuntimeError that carries where the run failed and a stable dt.
   // The type lives in the module (no static Python object to outlive the interpreter).
@@ -24,7 +26,7 @@ PYBIND11_MODULE(_core, m) {
     try {
       if (pointer) std::rethrow_exception(pointer);
     } catch (const yore::SimulationDiverged& error) {
-      py::object type = py::module_::import("yore._core").attr("SimulationDiverged");
+      py::object type = py::module_::import("yore._native").attr("SimulationDiverged");
       py::object instance = type(error.what());
       instance.attr("step") = error.step();
       instance.attr("time") = error.time();
@@ -32,7 +34,7 @@ PYBIND11_MODULE(_core, m) {
       instance.attr("stable_dt") = error.stable_dt();
       PyErr_SetObject(type.ptr(), instance.ptr());
     } catch (const yore::InvalidArgument& error) {
-      py::object type = py::module_::import("yore._core").attr("ArgumentError");
+      py::object type = py::module_::import("yore._native").attr("ArgumentError");
       py::object instance = type(error.what());
       instance.attr("argument") = error.argument();
       PyErr_SetObject(type.ptr(), instance.ptr());

@@ -251,7 +251,59 @@ def _system_blas_loaded() -> bool:
     return any(os.path.basename(path).startswith("libblas.so") for path in _loaded_blas())
 
 
-_STATE = {"chosen_by": "openblas", "requested": None, "set_by_yore": None, "note": ""}
+_STATE = {
+    "chosen_by": "openblas",
+    "requested": None,
+    "set_by_yore": None,
+    "note": "",
+    "in_command": False,
+}
+
+
+def mark_command() -> None:
+    """This process is the `yore` command: warnings are ``yore: warning:`` lines (called by
+    `yore.runtime.start_command`)."""
+    _STATE["in_command"] = True
+
+
+def in_command() -> bool:
+    return _STATE["in_command"]
+
+
+def _loaded_kernel() -> str:
+    """OpenBLAS's kernel in this process (``openblas_get_corename`` of the loaded library), ""
+    when the loaded BLAS is not OpenBLAS or none is loaded yet."""
+    import ctypes
+
+    for path in _loaded_blas():
+        try:
+            corename = ctypes.CDLL(path).openblas_get_corename
+        except (OSError, AttributeError):
+            continue
+        corename.restype = ctypes.c_char_p
+        return (corename() or b"").decode(errors="replace")
+    return ""
+
+
+def _stacklevel_outside_yore() -> int:
+    """The `warnings.warn` stacklevel, for its caller (`_say`), of the first frame outside yore
+    and importlib: the program's line that loaded the core, whichever module it went through.
+    Counted as `warnings` counts, which skips importlib's bootstrap frames."""
+    package = os.path.dirname(os.path.abspath(__file__))
+
+    def bootstrap(frame):
+        name = frame.f_code.co_filename
+        return "importlib" in name and "_bootstrap" in name
+
+    frame, level = sys._getframe(1), 1
+    while frame is not None and (
+        frame.f_code.co_filename.startswith(package) or "importlib" in frame.f_code.co_filename
+    ):
+        frame = frame.f_back
+        while frame is not None and bootstrap(frame):
+            frame = frame.f_back
+        level += 1
+    return level
 
 
 def _say(message, in_command) -> None:
@@ -259,7 +311,7 @@ def _say(message, in_command) -> None:
     if in_command:
         print(f"yore: warning: {message}", file=sys.stderr, flush=True)
     else:
-        warnings.warn(message, BlasWarning, stacklevel=4)
+        warnings.warn(message, BlasWarning, stacklevel=_stacklevel_outside_yore())
 
 
 def prepare(in_command=False) -> None:
@@ -321,14 +373,17 @@ def report() -> dict:
     """The BLAS in use: `library` (paths mapped), `kernel` (OpenBLAS's core name, "" for another
     BLAS), `chosen_by` ("user", "yore" or "openblas"), `cpu_kernel` (the widest kernel this CPU
     runs, None below AVX), `tier` ("AVX-512", "AVX2", "AVX" or "SSE" of the kernel in use),
-    `requested` (the user's OPENBLAS_CORETYPE) and `note`."""
-    from . import _core
+    `requested` (the user's OPENBLAS_CORETYPE) and `note`. Before yore's core has loaded (and
+    with it the BLAS) the kernel is "" and the note says so."""
     from ._cpu import cpu_features
 
-    kernel = _core.build_info().get("blas_kernel", "")
+    kernel = _loaded_kernel()
     chosen_by = _STATE["chosen_by"]
     if _STATE["note"]:
         chosen_by = "user" if _STATE["requested"] is not None else "openblas"
+    note = _STATE["note"]
+    if not note and "yore._native" not in sys.modules:
+        note = "yore's core has not loaded the BLAS yet"
     return {
         "library": _loaded_blas(),
         "kernel": kernel,
@@ -336,7 +391,7 @@ def report() -> dict:
         "cpu_kernel": best_kernel(cpu_features().extensions),
         "tier": ("SSE", "AVX", "AVX2", "AVX-512")[kernel_tier(kernel)],
         "requested": _STATE["requested"],
-        "note": _STATE["note"],
+        "note": note,
     }
 
 

@@ -210,6 +210,19 @@ def _fit_arguments(up, direction, margin, fov_degrees, width, height):
     return up, direction, margin, fov_degrees, width, height
 
 
+def _fitting_distance(points, centre, frame):
+    """The least distance from `centre` at which a camera with `frame` (right, up, forward,
+    tan_x, tan_y, clearance) sees every point inside its picture and in front of it, and the
+    points' (x, y, z) about the centre in that frame."""
+    right, upward, forward, tan_x, tan_y, clearance = frame
+    relative = points - centre
+    x, y, z = relative @ right, relative @ upward, relative @ forward
+    # a point at (x, y, z) about the centre seen from distance D lies inside when
+    # |x| <= tan_x (D + z) and |y| <= tan_y (D + z); and in front when D + z > 0
+    inside = max(np.max(np.abs(x) / tan_x - z), np.max(np.abs(y) / tan_y - z))
+    return float(max(inside, np.max(-z) + clearance)), (x, y, z)
+
+
 def fit_camera(
     points,
     width=IMAGE_WIDTH,
@@ -269,18 +282,9 @@ def fit_camera(
         stacked = np.concatenate([stacked, stacked[:1] + 0.5, stacked[:1] - 0.5])
         size = float(np.linalg.norm(stacked.max(axis=0) - stacked.min(axis=0)))
     centre = (stacked.min(axis=0) + stacked.max(axis=0)) / 2.0
+    frame = (right, upward, forward, tan_x, tan_y, 1e-3 * size)
     for _ in range(6):
-        relative = stacked - centre
-        x, y, z = relative @ right, relative @ upward, relative @ forward
-        # a point at (x, y, z) about the centre seen from distance D lies inside when
-        # |x| <= tan_x (D + z) and |y| <= tan_y (D + z); and in front when D + z > 0
-        distance = float(
-            max(
-                np.max(np.abs(x) / tan_x - z),
-                np.max(np.abs(y) / tan_y - z),
-                np.max(-z) + 1e-3 * size,
-            )
-        )
+        distance, (x, y, z) = _fitting_distance(stacked, centre, frame)
         depth = distance + z
         u, v = x / depth / tan_x, y / depth / tan_y
         shift_u, shift_v = (u.max() + u.min()) / 2.0, (v.max() + v.min()) / 2.0
@@ -289,11 +293,7 @@ def fit_camera(
         # moving the centre across the line of sight by s at distance D shifts the image by
         # about s / (D tan); exact at the points' mean depth, so a few rounds converge
         centre = centre + (right * shift_u * tan_x + upward * shift_v * tan_y) * distance
-    relative = stacked - centre
-    x, y, z = relative @ right, relative @ upward, relative @ forward
-    distance = float(
-        max(np.max(np.abs(x) / tan_x - z), np.max(np.abs(y) / tan_y - z), np.max(-z) + 1e-3 * size)
-    )
+    distance, _ = _fitting_distance(stacked, centre, frame)
     eye = centre - distance * forward
     return Camera(
         eye=tuple(eye),

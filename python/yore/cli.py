@@ -209,8 +209,6 @@ def _add_render(commands):
 
 def _add_view(commands):
     """`yore view`: the live viewer, or headless."""
-    from .options import GROWTH_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, STROKE_DEFAULTS
-
     view = commands.add_parser(
         "view",
         help="watch a simulation live and draw strokes with "
@@ -224,6 +222,15 @@ def _add_view(commands):
     )
     view.add_argument("source", type=Path, help="a scene file (.toml) or a state (.npz)")
     _add_set(view)
+    _add_view_headless(view)
+    _add_view_camera(view)
+    _add_view_options(view)
+    _add_view_stroke(view)
+    _add_common(view)
+
+
+def _add_view_headless(view):
+    """`yore view`'s options of a run without a window."""
     view.add_argument(
         "--headless",
         action="store_true",
@@ -262,6 +269,12 @@ def _add_view(commands):
         action="store_true",
         help="headless: draw the window's panels (controls, statistics) into the screenshot",
     )
+
+
+def _add_view_camera(view):
+    """`yore view`'s picture size and camera."""
+    from .options import IMAGE_HEIGHT, IMAGE_WIDTH
+
     view.add_argument(
         "--width",
         type=int,
@@ -287,7 +300,12 @@ def _add_view(commands):
         metavar=("X", "Y", "Z"),
         help="point the camera looks at, m",
     )
-    _add_view_options(view)
+
+
+def _add_view_stroke(view):
+    """`yore view`'s options of the strokes drawn."""
+    from .options import GROWTH_MODES, STROKE_DEFAULTS
+
     view.add_argument(
         "--expansion",
         type=float,
@@ -318,7 +336,6 @@ def _add_view(commands):
         metavar="ITERATIONS",
         help="rest-length smoothing iterations after each stroke (default 0)",
     )
-    _add_common(view)
 
 
 def _add_sweep(commands):
@@ -844,7 +861,9 @@ def _run_view(arguments, overrides) -> None:
 
 
 def main(argv=None) -> int:
-    """Runs the command line; returns the exit code (see the module docstring)."""
+    """Runs the command line in this process, as it is (no signal handler or thread setting of
+    its own: `yore._entry.command` is the command); returns the exit code (see the module
+    docstring)."""
     import warnings
 
     from .runtime import end_command

@@ -1,7 +1,7 @@
 """The process-wide facts and settings of yore: its version, what its core was built with, its
 thread count (re-exported by `yore`: `yore.build_info`, `yore.set_num_threads`) and the `yore`
-command's handling of Ctrl-C while it starts. Imports only the standard library at first:
-``yore/__init__.py`` imports it before anything heavy."""
+command's handling of Ctrl-C while it starts. Imports only the standard library at first: the
+command's script calls `start_command` before anything heavy loads."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ __all__ = [
     "VERSION",
     "build_info",
     "set_num_threads",
-    "guard_command_start",
+    "use_thread_defaults",
+    "start_command",
     "is_command",
     "end_command_start",
     "end_command",
@@ -31,7 +32,8 @@ def build_info() -> dict:
     """Versions of the libraries yore was built and linked with, the BLAS kernels in use
     (``blas_kernel``, ``blas_kernel_chosen_by``: "user", "yore" or "openblas",
     ``blas_kernel_tier``, ``blas_library``, ``cpu_kernel``: the widest this CPU runs; see
-    `yore.blas`), and its thread count."""
+    `yore.blas`), and its thread counts (``threads``: its loops'; ``blas_threads``: the BLAS's,
+    0 where the BLAS cannot say)."""
     from . import _core
 
     from . import blas
@@ -43,6 +45,7 @@ def build_info() -> dict:
     info["blas_library"] = ", ".join(kernels["library"])
     info["cpu_kernel"] = kernels["cpu_kernel"] or ""
     info["threads"] = _core.max_threads()
+    info["blas_threads"] = _core.blas_threads()
     info["yore"] = VERSION
     return info
 
@@ -106,33 +109,46 @@ def threads_the_address_space_holds():
     return max(1, (limit - PROCESS_ADDRESS_SPACE) // THREAD_ADDRESS_SPACE)
 
 
-def clamp_threads_to_the_address_space() -> None:
-    """At import: under an address-space limit, fewer threads than OpenMP's default (one per
-    core) when that many would not fit (their creation then hangs)."""
+def use_thread_defaults() -> None:
+    """yore's recommended thread settings for a process (what the `yore` command uses; a
+    program calls it, or `set_num_threads`, when it wants them; ``import yore`` changes none):
+    one BLAS thread, unless ``OPENBLAS_NUM_THREADS``, ``GOTO_NUM_THREADS`` or
+    ``OMP_NUM_THREADS`` chose (OpenBLAS's threads, CHOLMOD's factorization, wait for each other
+    like OpenMP's, and no step re-times them: on a busy machine two made a linearized implicit
+    step 3× slower); and under an address-space limit (``ulimit -v``) no more OpenMP threads
+    than fit, since the creation of more hangs."""
     from . import _core
 
+    if not any(
+        name in os.environ
+        for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+    ):
+        _core.set_blas_threads(1)
     most = threads_the_address_space_holds()
     if most is not None and _core.max_threads() > most:
         _core.set_max_threads(most)
 
 
-# The `yore` command imports all of yore before its main() can catch Ctrl-C: while it starts, a
-# Ctrl-C is one line and exit 130 (a traceback of the imports otherwise). Only for the command:
-# a program importing yore keeps its own handling. When main() has returned, the interpreter's
-# shutdown is all that is left: a Ctrl-C there has nothing to interrupt, and Python would print
-# "Exception ignored in ..." with a traceback and still exit 0 (end_command).
+# The `yore` command: while it starts (its imports, the core's load), a Ctrl-C is one line and
+# exit 130 (a traceback of the imports otherwise). Only for the command (`start_command`, called
+# by its script and by ``python -m yore``): a program importing yore keeps its own handling. When
+# main() has returned, the interpreter's shutdown is all that is left: a Ctrl-C there has
+# nothing to interrupt, and Python would print "Exception ignored in ..." with a traceback and
+# still exit 0 (end_command).
 _guarding = [False]
 _command = [False]  # this process is the `yore` command
 
 
 #: Set in the environment of the worker processes a sweep's local cluster starts
-#: (`yore.sweep.run`): they ignore Ctrl-C from their first import of yore on (the terminal's
-#: Ctrl-C reaches the whole process group; only the client acts on it, closing the cluster).
+#: (`yore.sweep.run`): they ignore Ctrl-C (the terminal's Ctrl-C reaches the whole process group;
+#: only the client acts on it, closing the cluster).
 SWEEP_WORKER_ENV = "YORE_SWEEP_WORKER"
 
 
 def ignore_interrupts_in_sweep_workers() -> None:
-    """In a sweep's worker process (`SWEEP_WORKER_ENV` set), SIGINT is ignored from here on."""
+    """In a sweep's worker process (`SWEEP_WORKER_ENV` set), SIGINT is ignored from here on.
+    Called by what such a worker imports first: the `yore` command's entry module (its main module
+    when the sweep runs from the command) and the sweep's Dask preload (`yore.sweep.worker`)."""
     if (
         os.environ.get(SWEEP_WORKER_ENV) == "1"
         and threading.current_thread() is threading.main_thread()
@@ -145,29 +161,24 @@ def _interrupted_while_starting(number, frame):  # pragma: no cover - exits the 
     os._exit(130)
 
 
-def guard_command_start() -> None:
-    """In the `yore` command's main thread, while Python's own Ctrl-C handling is in place: a
-    Ctrl-C ends the process with one line and exit 130 until `end_command_start`."""
-    # the `yore` script, or python -m yore (the interpreter's first -m or -c names what runs)
-    original = list(getattr(sys, "orig_argv", []))[1:]
-    first = next((k for k, a in enumerate(original) if a in ("-m", "-c")), None)
-    command = os.path.basename(sys.argv[0] if sys.argv else "") == "yore" or (
-        first is not None
-        and original[first] == "-m"
-        and original[first + 1 : first + 2] == ["yore"]
-    )
+def start_command() -> None:
+    """This process is the `yore` command: in its main thread, while Python's own Ctrl-C
+    handling is in place, a Ctrl-C ends the process with one line and exit 130 until
+    `end_command_start`."""
     if (
-        command
-        and threading.current_thread() is threading.main_thread()
+        threading.current_thread() is threading.main_thread()
         and signal.getsignal(signal.SIGINT) is signal.default_int_handler
     ):
         signal.signal(signal.SIGINT, _interrupted_while_starting)
         _guarding[0] = True
-        _command[0] = True
+    _command[0] = True
+    from . import blas  # (after the guard: its imports take a few milliseconds)
+
+    blas.mark_command()
 
 
 def is_command() -> bool:
-    """This process is the `yore` command (known from `guard_command_start` on)."""
+    """This process is the `yore` command (known from `start_command` on)."""
     return _command[0]
 
 

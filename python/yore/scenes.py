@@ -65,6 +65,25 @@ def _stretch_arguments(
     return arguments
 
 
+def _square_mesh(mesh, size, resolution):
+    """(vertices, faces, size) of a size × size square in the x–y plane: "grid",
+    "pattern" or "delaunay" (`hanging_cloth`'s ``mesh``)."""
+    if mesh == "grid":
+        V, F = grid_mesh(resolution, resolution, width=size, height=size)
+    elif mesh in ("pattern", "delaunay"):
+        if not isinstance(resolution, (int, np.integer)) or resolution < 2:
+            raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
+        size = check_factor(size, "size", "m")
+        V, F = pattern_mesh(
+            [[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
+            edge_length=math.sqrt(2.0) * size / (resolution - 1),
+            interior="lattice" if mesh == "pattern" else "delaunay",
+        )
+    else:
+        raise ValueError(f'mesh must be "grid", "pattern" or "delaunay", got {mesh!r}')
+    return V, F, size
+
+
 def hanging_cloth(
     size=1.0,
     resolution=21,
@@ -112,19 +131,7 @@ def hanging_cloth(
     pin_spacing = float(pin_spacing)
     if not 0.0 < pin_spacing <= 1.0:
         raise ValueError(f"pin_spacing must be in (0, 1], got {pin_spacing}")
-    if mesh == "grid":
-        V, F = grid_mesh(resolution, resolution, width=size, height=size)
-    elif mesh in ("pattern", "delaunay"):
-        if not isinstance(resolution, (int, np.integer)) or resolution < 2:
-            raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
-        size = check_factor(size, "size", "m")
-        V, F = pattern_mesh(
-            [[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
-            edge_length=math.sqrt(2.0) * size / (resolution - 1),
-            interior="lattice" if mesh == "pattern" else "delaunay",
-        )
-    else:
-        raise ValueError(f'mesh must be "grid", "pattern" or "delaunay", got {mesh!r}')
+    V, F, size = _square_mesh(mesh, size, resolution)
     uv = V[:, :2].copy()
     pattern = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
     # grid_mesh's faces are counter-clockwise about +z; mapping (u, v) → (u, 0, v) flips them to
@@ -217,6 +224,28 @@ def rotating_cylinder(
     return sim
 
 
+def _rectangle_mesh(mesh, length, width, edge_length):
+    """(vertices, faces) of a length × width rectangle with longest edges ``edge_length``:
+    "grid", "pattern" or "delaunay" (`stretched_sheet`'s ``mesh``)."""
+    if mesh == "grid":
+        spacing = check_factor(edge_length, "edge_length", "m") / math.sqrt(2.0)
+        V, F = grid_mesh(
+            max(2, math.ceil(length / spacing) + 1),
+            max(2, math.ceil(width / spacing) + 1),
+            width=length,
+            height=width,
+        )
+    elif mesh in ("pattern", "delaunay"):
+        V, F = pattern_mesh(
+            [[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
+            edge_length=edge_length,
+            interior="lattice" if mesh == "pattern" else "delaunay",
+        )
+    else:
+        raise ValueError(f'mesh must be "pattern", "delaunay" or "grid", got {mesh!r}')
+    return V, F
+
+
 def stretched_sheet(
     length=1.0,
     width=0.5,
@@ -265,22 +294,7 @@ def stretched_sheet(
     noise = float(noise)
     if not (math.isfinite(noise) and noise >= 0.0):
         raise ValueError(f"noise must be finite and >= 0 (m), got {noise}")
-    if mesh == "grid":
-        spacing = check_factor(edge_length, "edge_length", "m") / math.sqrt(2.0)
-        V, F = grid_mesh(
-            max(2, math.ceil(length / spacing) + 1),
-            max(2, math.ceil(width / spacing) + 1),
-            width=length,
-            height=width,
-        )
-    elif mesh in ("pattern", "delaunay"):
-        V, F = pattern_mesh(
-            [[0.0, 0.0], [length, 0.0], [length, width], [0.0, width]],
-            edge_length=edge_length,
-            interior="lattice" if mesh == "pattern" else "delaunay",
-        )
-    else:
-        raise ValueError(f'mesh must be "pattern", "delaunay" or "grid", got {mesh!r}')
+    V, F = _rectangle_mesh(mesh, length, width, edge_length)
     uv = V[:, :2].copy()
     cloth = Cloth(
         V,

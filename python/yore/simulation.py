@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 
 from . import _core
-from ._core import Cloth, SimulationDiverged
+from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
 from .checks import MAX_STEPS, MIN_DT
 from .options import (
     DEFAULT_INTEGRATOR,
@@ -501,6 +501,17 @@ class Simulation:
             error.args = (
                 f"{error.args[0]} The cloth was restored to t = {saved[2]:.6g} s, "
                 "its state before this call.",
+            )
+            raise
+        except NotPositiveDefinite as error:
+            # A step's matrix (M/dt² + the projected stiffness) failed to factor: with a dt far
+            # beyond the cloth's time scales the mass term sinks below the stiffness's round-off
+            cloth.positions, cloth.velocities = saved[0], saved[1]
+            cloth.time = saved[2]
+            error.args = (
+                f"{error.args[0]} (a step of dt = {dt:g} s from t = {saved[2]:.6g} s; a smaller "
+                "dt keeps the mass term M/dt² above the stiffness's round-off). The cloth was "
+                f"restored to t = {saved[2]:.6g} s.",
             )
             raise
         finally:

@@ -186,11 +186,23 @@ def _got(value):
     return f"got {rules.describe(value)}"
 
 
-def _read_archive(path):
-    """(arrays, document, unknown) of a state file, read with zipfile and the .npy header
-    parser (so a tampered header cannot make numpy allocate what the file does not hold, and no
-    pickle is ever loaded); ``unknown``: the members the document does not refer to, not read.
-    ValueError naming the file and the member otherwise."""
+#: What reading a tampered or truncated state file can raise, turned into one ValueError.
+_READ_ERRORS = (
+    ValueError,
+    EOFError,
+    OSError,
+    zlib.error,
+    KeyError,
+    NotImplementedError,
+    RuntimeError,
+    MemoryError,
+    struct.error,
+    SyntaxError,
+)
+
+
+def _check_state_file(path):
+    """ValueError unless `path` is a regular file within `MAX_STATE_FILE_BYTES`."""
     try:
         info = os.stat(path)
     except FileNotFoundError:
@@ -204,6 +216,14 @@ def _read_archive(path):
             f"cannot read state file {path}: {info.st_size} bytes is more than the "
             f"limit of {MAX_STATE_FILE_BYTES} bytes"
         )
+
+
+def _read_archive(path):
+    """(arrays, document, unknown) of a state file, read with zipfile and the .npy header
+    parser (so a tampered header cannot make numpy allocate what the file does not hold, and no
+    pickle is ever loaded); ``unknown``: the members the document does not refer to, not read.
+    ValueError naming the file and the member otherwise."""
+    _check_state_file(path)
     arrays, unknown = {}, []
     member = None
     try:
@@ -257,18 +277,7 @@ def _read_archive(path):
         ) from None
     except _DocumentError as error:
         raise ValueError(str(error)) from None
-    except (
-        ValueError,
-        EOFError,
-        OSError,
-        zlib.error,
-        KeyError,
-        NotImplementedError,
-        RuntimeError,
-        MemoryError,
-        struct.error,
-        SyntaxError,
-    ) as error:
+    except _READ_ERRORS as error:
         where = (
             f"field {member[:-4] if member.endswith('.npy') else member}" if member else "archive"
         )

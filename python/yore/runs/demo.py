@@ -102,26 +102,9 @@ def _effect(stroked_dir, plain_dir):
     return effect, sim, plain
 
 
-def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) -> dict:
-    """Runs the demo into folder ``out``; returns the main run's summary with its ``demo``
-    table. ``overrides``: dotted keys applied to all four runs (e.g. ``{"mesh.nx": 9}``).
-    Raises what `yore.run_scene` raises."""
-    out = Path(out)
-    overrides = dict(overrides or {})
-    plain = {
-        **overrides,
-        "strokes": [],
-        "output.format": "none",
-        "output.animation": "none",
-        "output.pictures": False,
-    }
-    yore_scene = load_scene(Path("hanging.toml"), text=demo_scene_text(), overrides=overrides)
-    paper_scene = load_scene(
-        Path("hanging_paper.toml"),
-        text=paper_scene_text(),
-        overrides={**overrides, "output.animation": "none"},
-    )
-    runs = [
+def _demo_runs(out, yore_scene, paper_scene, plain):
+    """The demo's four runs: (scene, folder, whether to render, label)."""
+    return [
         (yore_scene, out, True, "yore's stroke"),
         (paper_scene, out / PAPER_DIR, False, "the paper's stroke"),
         (
@@ -137,16 +120,11 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
             "the paper's cloth, no stroke",
         ),
     ]
-    summary = None
-    for scene, folder, render, label in runs:
-        if not quiet:
-            print(f"yore demo: {label} -> {folder}", flush=True)
-        result = run_scene(
-            scene, folder, quiet=quiet, render=render, overwrite=overwrite, threads=threads
-        )
-        if summary is None:
-            summary = result
 
+
+def _measured_and_shown(out):
+    """The strokes' effects measured from the four runs' states, the plain run's simulation,
+    and the (simulation, folder, caption) of each panel of the demo's picture."""
     measured = {}
     yore_effect = _effect(out, out / PLAIN_DIR)
     paper_effect = _effect(out / PAPER_DIR, out / PAPER_PLAIN_DIR)
@@ -175,6 +153,40 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
                 f"spike index {measured['yore']['spike_index']:.2f}",
             )
         )
+    return measured, plain_sim, shown
+
+
+def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) -> dict:
+    """Runs the demo into folder ``out``; returns the main run's summary with its ``demo``
+    table. ``overrides``: dotted keys applied to all four runs (e.g. ``{"mesh.nx": 9}``).
+    Raises what `yore.run_scene` raises."""
+    out = Path(out)
+    overrides = dict(overrides or {})
+    plain = {
+        **overrides,
+        "strokes": [],
+        "output.format": "none",
+        "output.animation": "none",
+        "output.pictures": False,
+    }
+    yore_scene = load_scene(Path("hanging.toml"), text=demo_scene_text(), overrides=overrides)
+    paper_scene = load_scene(
+        Path("hanging_paper.toml"),
+        text=paper_scene_text(),
+        overrides={**overrides, "output.animation": "none"},
+    )
+    runs = _demo_runs(out, yore_scene, paper_scene, plain)
+    summary = None
+    for scene, folder, render, label in runs:
+        if not quiet:
+            print(f"yore demo: {label} -> {folder}", flush=True)
+        result = run_scene(
+            scene, folder, quiet=quiet, render=render, overwrite=overwrite, threads=threads
+        )
+        if summary is None:
+            summary = result
+
+    measured, plain_sim, shown = _measured_and_shown(out)
     _save_picture(out / PICTURE_NAME, summary.get("camera"), shown)
 
     summary["demo"] = {

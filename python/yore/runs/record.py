@@ -91,20 +91,20 @@ class RunRecord:
         return replace(self, wall_seconds=self.wall_seconds + seconds)
 
 
+def _count(value):
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def check_metadata(state_path, record):
     """The run's record in a state file (its metadata), checked field by field: ValueError
     naming the field, so a tampered record can only be refused, never half-used."""
 
     def fail(field, expected):
         raise ValueError(f"{state_path}: field metadata.{field}: expected {expected}")
-
-    def count(value):
-        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-    def number(value):
-        return (
-            isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-        )
 
     expected_keys = {
         "scene_text",
@@ -129,11 +129,11 @@ def check_metadata(state_path, record):
     if settle is not None and not (
         isinstance(settle, dict)
         and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
-        and number(settle["seconds"])
-        and count(settle["steps"])
+        and _number(settle["seconds"])
+        and _count(settle["steps"])
         and isinstance(settle["converged"], bool)
         and isinstance(settle["residual_acceleration"], (int, float))
-        and count(settle.get("saddles_escaped", 0))
+        and _count(settle.get("saddles_escaped", 0))
         and settle.get("stable") in (None, True, False)
     ):
         fail(
@@ -150,12 +150,35 @@ def check_metadata(state_path, record):
     ):
         fail("overrides", "a table of dotted keys")
     for field in ("step", "next_stroke"):
-        if not count(record[field]):
+        if not _count(record[field]):
             fail(field, "an integer >= 0")
+    _check_lists(record, fail)
+    before = record["before"]
+    if before is not None and not (
+        isinstance(before, dict)
+        and _number(before.get("time"))
+        and isinstance(before.get("file"), str)
+        and Path(before["file"]).name == BEFORE_NAME
+    ):
+        fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
+    if not _number(record["wall_seconds"]) or record["wall_seconds"] < 0:
+        fail("wall_seconds", "a number >= 0")
+    if not isinstance(record["resumed_from"], list) or not all(
+        isinstance(path, str) for path in record["resumed_from"]
+    ):
+        fail("resumed_from", "a list of paths")
+    if not isinstance(record["phases"], dict) or not all(
+        isinstance(k, str) and _number(v) for k, v in record["phases"].items()
+    ):
+        fail("phases", "a table of seconds per phase")
+
+
+def _check_lists(record, fail):
+    """check_metadata's list fields: frames, records and strokes."""
     if not isinstance(record["frames"], list) or not all(
         isinstance(f, list)
         and len(f) == 2
-        and number(f[0])
+        and _number(f[0])
         and isinstance(f[1], str)
         and _is_frame_path(f[1])
         for f in record["frames"]
@@ -170,9 +193,9 @@ def check_metadata(state_path, record):
         ):
             fail(field, "a list of tables")
     if not all(
-        number(entry.get("time"))
+        _number(entry.get("time"))
         and all(
-            isinstance(key, str) and (number(value) or isinstance(value, float))
+            isinstance(key, str) and (_number(value) or isinstance(value, float))
             for key, value in entry.items()
         )
         for entry in record["records"]
@@ -180,24 +203,6 @@ def check_metadata(state_path, record):
         fail("records", "a list of tables of numbers, each with its time")
     if len(record["strokes"]) != record["next_stroke"]:
         fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
-    before = record["before"]
-    if before is not None and not (
-        isinstance(before, dict)
-        and number(before.get("time"))
-        and isinstance(before.get("file"), str)
-        and Path(before["file"]).name == BEFORE_NAME
-    ):
-        fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
-    if not number(record["wall_seconds"]) or record["wall_seconds"] < 0:
-        fail("wall_seconds", "a number >= 0")
-    if not isinstance(record["resumed_from"], list) or not all(
-        isinstance(path, str) for path in record["resumed_from"]
-    ):
-        fail("resumed_from", "a list of paths")
-    if not isinstance(record["phases"], dict) or not all(
-        isinstance(k, str) and number(v) for k, v in record["phases"].items()
-    ):
-        fail("phases", "a table of seconds per phase")
 
 
 def check_against(state_path, record, scene, sim):

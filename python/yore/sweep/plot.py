@@ -11,6 +11,59 @@ from .results import open_results
 __all__ = ["heat_map"]
 
 
+def _selection(dataset, dims, x, y, select):
+    """{dimension: index} fixing every dimension but ``x`` and ``y``: those ``select`` names
+    by value, and the others' only value; ValueError naming a bad one."""
+    selection = {}
+    for name, wanted in (select or {}).items():
+        if name not in dims or name in (x, y):
+            raise ValueError(
+                f"--select {name}: not one of the other dimensions "
+                f"({', '.join(d for d in dims if d not in (x, y)) or 'none'})"
+            )
+        coordinate = dataset[name].values
+        matches = [
+            k
+            for k, c in enumerate(coordinate)
+            if str(c) == str(wanted)
+            or (_is_number(wanted) and _is_number(c) and float(c) == float(wanted))
+        ]
+        if not matches:
+            raise ValueError(
+                f"--select {name}={wanted}: not one of its values "
+                f"({', '.join(map(str, coordinate))})"
+            )
+        selection[name] = matches[0]
+    rest = [d for d in dims if d not in (x, y) and d not in selection]
+    for name in rest:
+        if dataset.sizes[name] != 1:
+            raise ValueError(
+                f"dimension {name!r} has {dataset.sizes[name]} values; fix one "
+                f"with --select {name}=VALUE"
+            )
+        selection[name] = 0
+    return selection
+
+
+def _label_cells(ax, grid, status):
+    """Each cell's value, or its status where it is not done."""
+    for (i, j), number in np.ndenumerate(grid):
+        text = (
+            status[i, j]
+            if status[i, j] not in ("done", "")
+            else (f"{number:.3g}" if np.isfinite(number) else "–")
+        )
+        ax.text(
+            j,
+            i,
+            text or "not run",
+            ha="center",
+            va="center",
+            fontsize=7,
+            color="white" if status[i, j] == "done" else "black",
+        )
+
+
 def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
     """Writes a PNG heat map of ``value`` over dimensions ``x`` and ``y`` of the sweep in
     ``out`` (default OUT/<value>_<y>_<x>.png); the other dimensions must have one value or be
@@ -49,34 +102,7 @@ def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
         raise ValueError(
             f"--value {value!r} is not recorded by this sweep; recorded: {', '.join(names)}"
         )
-    selection = {}
-    for name, wanted in (select or {}).items():
-        if name not in dims or name in (x, y):
-            raise ValueError(
-                f"--select {name}: not one of the other dimensions "
-                f"({', '.join(d for d in dims if d not in (x, y)) or 'none'})"
-            )
-        coordinate = dataset[name].values
-        matches = [
-            k
-            for k, c in enumerate(coordinate)
-            if str(c) == str(wanted)
-            or (_is_number(wanted) and _is_number(c) and float(c) == float(wanted))
-        ]
-        if not matches:
-            raise ValueError(
-                f"--select {name}={wanted}: not one of its values "
-                f"({', '.join(map(str, coordinate))})"
-            )
-        selection[name] = matches[0]
-    rest = [d for d in dims if d not in (x, y) and d not in selection]
-    for name in rest:
-        if dataset.sizes[name] != 1:
-            raise ValueError(
-                f"dimension {name!r} has {dataset.sizes[name]} values; fix one "
-                f"with --select {name}=VALUE"
-            )
-        selection[name] = 0
+    selection = _selection(dataset, dims, x, y, select)
     cut = dataset.isel(selection) if selection else dataset
     grid = cut[value].transpose(y, x).values.astype(float)
     status = cut["status"].transpose(y, x).values
@@ -92,21 +118,7 @@ def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
         np.ma.masked_invalid(grid), origin="lower", cmap="viridis", norm=norm, aspect="auto"
     )
     fig.colorbar(image, ax=ax, label=value)
-    for (i, j), number in np.ndenumerate(grid):
-        text = (
-            status[i, j]
-            if status[i, j] not in ("done", "")
-            else (f"{number:.3g}" if np.isfinite(number) else "–")
-        )
-        ax.text(
-            j,
-            i,
-            text or "not run",
-            ha="center",
-            va="center",
-            fontsize=7,
-            color="white" if status[i, j] == "done" else "black",
-        )
+    _label_cells(ax, grid, status)
     ax.set_xticks(range(grid.shape[1]), [_label(c) for c in cut[x].values], rotation=30)
     ax.set_yticks(range(grid.shape[0]), [_label(c) for c in cut[y].values])
     ax.set_xlabel(x)

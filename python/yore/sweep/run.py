@@ -196,8 +196,8 @@ def _client(scheduler, workers, quiet):
     # The worker processes ignore SIGINT (a Ctrl-C at the terminal reaches the whole process
     # group, and only this process should act on it, closing the cluster; workers interrupted
     # mid-task printed tracebacks and one never exited): they start with SWEEP_WORKER_ENV set,
-    # and yore, which they import first (the `yore` command's script, and the preload), then
-    # ignores it. This process keeps its Ctrl-C: one while the cluster starts is recorded
+    # and what they import first (the `yore` command's module, or the preload
+    # yore.sweep.worker) then ignores it. This process keeps its Ctrl-C: one while the cluster starts is recorded
     # (ignoring it here, as yore once did, lost 13 of 14) and acted on once the cluster is up:
     # it is closed, and the sweep stops as interrupted before any cell runs. Their own logs are
     # silenced below CRITICAL: a cell's failure is its result, not a log line.
@@ -221,7 +221,7 @@ def _client(scheduler, workers, quiet):
             dashboard_address=":0",
             silence_logs=logging.CRITICAL,
             env={**PINNED, SWEEP_WORKER_ENV: "1"},
-            preload=["yore"],
+            preload=["yore.sweep.worker"],
         )
         client = Client(cluster)
     finally:

@@ -215,6 +215,31 @@ def render_frame(
     return save_png(frame.with_suffix(".png") if out is None else Path(os.fspath(out)), image)
 
 
+def _checked_run(run_dir, animation, color_by, framing):
+    """`render_run`'s arguments checked against the run folder: (run_dir, summary, color_by,
+    framing, frames); ValueError naming what is wrong, before any work."""
+    run_dir = Path(os.fspath(run_dir))
+    if animation not in (None, "gif", "mp4"):
+        raise ValueError(f"animation must be 'gif', 'mp4' or None, got {animation!r}")
+    if animation == "mp4":
+        check_ffmpeg()
+    summary = _load_summary(run_dir)
+    if summary is None:
+        raise ValueError(
+            f"{run_dir} is not a run folder (no summary.json); give a frame file "
+            "or the -o folder of `yore run`"
+        )
+    output = _scene_output(summary)
+    color_by = _check_color_by(output.get("color_by", "none") if color_by is None else color_by)
+    framing = output.get("framing", "cloth") if framing is None else framing
+    if framing not in FRAMINGS:
+        raise ValueError(f"framing must be one of {', '.join(FRAMINGS)}, got {framing!r}")
+    frames = summary.get("frames") or []
+    if not frames:
+        raise ValueError(f"the run in {run_dir} wrote no frames (output.format = 'none')")
+    return run_dir, summary, color_by, framing, frames
+
+
 def render_run(
     run_dir,
     pictures=True,
@@ -238,25 +263,9 @@ def render_run(
     `yore.viz.BackendUnavailable` when polyscope cannot render headless."""
     from . import backend
 
-    run_dir = Path(os.fspath(run_dir))
-    if animation not in (None, "gif", "mp4"):
-        raise ValueError(f"animation must be 'gif', 'mp4' or None, got {animation!r}")
-    if animation == "mp4":
-        check_ffmpeg()
-    summary = _load_summary(run_dir)
-    if summary is None:
-        raise ValueError(
-            f"{run_dir} is not a run folder (no summary.json); give a frame file "
-            "or the -o folder of `yore run`"
-        )
-    output = _scene_output(summary)
-    color_by = _check_color_by(output.get("color_by", "none") if color_by is None else color_by)
-    framing = output.get("framing", "cloth") if framing is None else framing
-    if framing not in FRAMINGS:
-        raise ValueError(f"framing must be one of {', '.join(FRAMINGS)}, got {framing!r}")
-    frames = summary.get("frames") or []
-    if not frames:
-        raise ValueError(f"the run in {run_dir} wrote no frames (output.format = 'none')")
+    run_dir, summary, color_by, framing, frames = _checked_run(
+        run_dir, animation, color_by, framing
+    )
     backend.ensure()  # fails here, before any work, when EGL is missing
     out = run_dir if out is None else Path(os.fspath(out))
     paths = [run_dir / frame["file"] for frame in frames]

@@ -156,6 +156,25 @@ def _checked_picture(
     return V, F, base_color, background, polylines, values, defined_on
 
 
+def _framed(image, width, height, background, margins, bar, title):
+    """The cloth's `image` placed in a width × height canvas with its colour bar at the right
+    (``margins``: the strip's width and the title band's height; ``bar``: colour map, range,
+    label) and its title on top."""
+    strip, band = margins
+    colormap, value_range, colorbar = bar
+    canvas = np.empty((height, width, 3), dtype=np.uint8)
+    canvas[:] = np.rint(background * 255.0).astype(np.uint8)
+    canvas[band:, : width - strip] = image
+    if strip:
+        canvas = draw_colorbar(
+            canvas, colormap_table(colormap), value_range, str(colorbar), left=width - strip
+        )
+    if band:
+        canvas = draw_title(canvas, str(title), band)
+    return canvas
+
+
+# over 80 lines: a docstring for its 16 parameters (the code is 33 lines)
 def render_image(
     V,
     F,
@@ -211,7 +230,6 @@ def render_image(
     antialias : bool or int
         True: supersample by `backend.SSAA_FACTOR` (3); an int k: by k (animations use 2, at
         half the cost); False: none. Lowered for very large pictures.
-        Supersample (`backend.SSAA_FACTOR (3)`), where the image is small enough.
 
     Returns
     -------
@@ -253,16 +271,9 @@ def render_image(
     )
     if not (strip or band):
         return image
-    canvas = np.empty((height, width, 3), dtype=np.uint8)
-    canvas[:] = np.rint(background * 255.0).astype(np.uint8)
-    canvas[band:, : width - strip] = image
-    if strip:
-        canvas = draw_colorbar(
-            canvas, colormap_table(colormap), value_range, str(colorbar), left=width - strip
-        )
-    if band:
-        canvas = draw_title(canvas, str(title), band)
-    return canvas
+    return _framed(
+        image, width, height, background, (strip, band), (colormap, value_range, colorbar), title
+    )
 
 
 def colorbar_width(width, height) -> int:
@@ -318,6 +329,43 @@ def _inner_camera(camera, width, height) -> Camera:
     )
 
 
+def _register_cloth(ps, V, F, base_color, factor, edges):
+    """The cloth in polyscope: a surface, or a point cloud when it has no faces."""
+    if len(F):
+        return ps.register_surface_mesh(
+            CLOTH_NAME,
+            V,
+            F,
+            color=tuple(base_color),
+            smooth_shade=True,
+            material="clay",
+            back_face_policy="different",
+            edge_width=float(factor) if edges else 0.0,
+            edge_color=(0.15, 0.15, 0.15),
+        )
+    else:
+        return ps.register_point_cloud(CLOTH_NAME, V, color=tuple(base_color))
+
+
+def _register_strokes(ps, polylines, V, F, camera, ink, registered):
+    """The strokes in polyscope, as tubes lifted half a radius towards the eye, each name
+    added to `registered` as soon as it is (the caller removes them, whatever happens)."""
+    size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
+    radius = STROKE_RADIUS_FRACTION * (size if size > 0 else 1.0)
+    normals = vertex_normals(V, F) if len(F) else np.zeros_like(V)
+    eye = np.asarray(camera.eye, float)
+    for k, points in enumerate(polylines):
+        lifted = _lift(points, V, normals, eye, 0.5 * radius)
+        name = f"{STROKE_PREFIX}{k}"
+        if len(lifted) == 1:
+            cloud = ps.register_point_cloud(name, lifted, color=ink, material="flat")
+            cloud.set_radius(1.6 * radius, relative=False)
+        else:
+            curve = ps.register_curve_network(name, lifted, "line", color=ink, material="flat")
+            curve.set_radius(radius, relative=False)
+        registered.append(name)
+
+
 def _render_view(
     V,
     F,
@@ -350,20 +398,7 @@ def _render_view(
     registered = []
     hidden = backend.hidden_viewer().__enter__()
     try:
-        if len(F):
-            mesh = ps.register_surface_mesh(
-                CLOTH_NAME,
-                V,
-                F,
-                color=tuple(base_color),
-                smooth_shade=True,
-                material="clay",
-                back_face_policy="different",
-                edge_width=float(factor) if edges else 0.0,
-                edge_color=(0.15, 0.15, 0.15),
-            )
-        else:
-            mesh = ps.register_point_cloud(CLOTH_NAME, V, color=tuple(base_color))
+        mesh = _register_cloth(ps, V, F, base_color, factor, edges)
         registered.append(CLOTH_NAME)
         surface_colors = base_color[None, :]
         if values is not None:
@@ -379,20 +414,7 @@ def _render_view(
                 )
             surface_colors = colormap_table(colormap)
         ink = stroke_color(surface_colors)
-        size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
-        radius = STROKE_RADIUS_FRACTION * (size if size > 0 else 1.0)
-        normals = vertex_normals(V, F) if len(F) else np.zeros_like(V)
-        eye = np.asarray(camera.eye, float)
-        for k, points in enumerate(polylines):
-            lifted = _lift(points, V, normals, eye, 0.5 * radius)
-            name = f"{STROKE_PREFIX}{k}"
-            if len(lifted) == 1:
-                cloud = ps.register_point_cloud(name, lifted, color=ink, material="flat")
-                cloud.set_radius(1.6 * radius, relative=False)
-            else:
-                curve = ps.register_curve_network(name, lifted, "line", color=ink, material="flat")
-                curve.set_radius(radius, relative=False)
-            registered.append(name)
+        _register_strokes(ps, polylines, V, F, camera, ink, registered)
         # polyscope fits the ground plane and the clip planes to the scene's extent
         ps.update_scene_extents()
         image = backend.screenshot()
