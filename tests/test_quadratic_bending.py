@@ -68,6 +68,7 @@ def test_q_is_symmetric_psd_kills_translations_and_gives_the_cloths_energy():
     )
     # interior edges of a 9 × 5 grid: all edges minus the boundary ones
     assert cloth.quadratic_bending["hinges"] == (8 * 5 + 9 * 4 + 8 * 4) - 2 * (8 + 4)
+    assert cloth.bending_hinges == cloth.quadratic_bending["hinges"]  # without the matrix's copy
     assert cloth.spring_count == 8 * 5 + 9 * 4 + 8 * 4  # structural springs only
 
 
@@ -528,6 +529,7 @@ def test_a_zero_modulus_is_no_term_and_the_default_stays_bending_springs():
     V, F = yore.grid_mesh(6, 5)
     default, springs = yore.Cloth(V, F), yore.Cloth(V, F, bending="springs")
     assert default.bending == "springs" and default.quadratic_bending is None
+    assert default.bending_hinges == 0
     a, b = default.state(), springs.state()
     for key in a:
         if isinstance(a[key], np.ndarray):

@@ -412,6 +412,15 @@ All zero with springs.)doc")
           "bending_modulus", [](const Cloth& cloth) { return idle(cloth).bending_modulus(); },
           "Modulus of quadratic bending, N·m (0 with bending springs).")
       .def_property_readonly(
+          "bending_hinges",
+          [](const Cloth& cloth) -> std::int64_t {
+            idle(cloth);
+            if (!is_quadratic(cloth.bending_model())) return 0;
+            return cloth.quadratic_bending().hinge_count;
+          },
+          "Interior edges (hinges) of quadratic or hinge bending's matrix; 0 with bending "
+          "springs.")
+      .def_property_readonly(
           "quadratic_bending",
           [](const Cloth& cloth) -> py::object {
             idle(cloth);

@@ -109,7 +109,7 @@ void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps)
 }
 
 void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps,
-                     DivergenceMonitor& monitor, const char* integrator,
+                     DivergenceMonitor& monitor, IntegratorIdentity integrator,
                      Positions& checkpoint_positions, Positions& checkpoint_velocities,
                      const std::function<void()>& step,
                      const std::function<std::int64_t()>& step_index,
@@ -151,18 +151,18 @@ void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t 
   }
 }
 
-SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
-                                  double time, double dt, bool finite) {
+SimulationDiverged diverged_error(const Cloth& cloth, IntegratorIdentity integrator,
+                                  std::int64_t step, double time, double dt, bool finite) {
   const double stable = cloth.stable_time_step();
   std::ostringstream msg;
   msg << "simulation diverged at step " << step << " (t = " << time << " s, dt = " << dt << " s, "
-      << integrator << " integrator): "
+      << integrator.name << " integrator): "
       << (finite ? "the energy grew past its bound" : "positions or velocities became non-finite")
       << ". The estimated stable time step of the explicit integrator is " << stable << " s; ";
   if (!(stable > 0.0) || !std::isfinite(stable)) {
     msg << (stable > 0.0 ? "nothing elastic limits the step: check the forces and drivers."
                          : "no step is stable: check for tiny masses or huge stiffnesses.");
-  } else if (std::string(integrator) == "explicit") {
+  } else if (integrator.remedy == Remedy::stable_step) {
     // The state-independent bound, as the default explicit dt: the tight estimate above holds at
     // the state the run restored to, and stretching can lower the limit below it.
     msg << "use dt <= " << 0.98 * cloth.stable_time_step_bound() << " s or an implicit integrator.";
@@ -174,28 +174,34 @@ SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, st
 }
 
 SimulationDiverged energy_gain_error(const Cloth& cloth, const DivergenceMonitor& monitor,
-                                     double energy, const char* integrator, std::int64_t step,
-                                     double time, double dt) {
-  const std::string name = integrator;
+                                     double energy, IntegratorIdentity integrator,
+                                     std::int64_t step, double time, double dt) {
   std::ostringstream msg;
   msg << "simulation gained energy at step " << step << " (t = " << time << " s, dt = " << dt
-      << " s, " << name << " integrator): its energy rose " << energy - monitor.lowest()
+      << " s, " << integrator.name << " integrator): its energy rose " << energy - monitor.lowest()
       << " J above the lowest it had reached (" << monitor.lowest()
       << " J), more than energy_growth_tolerance = " << monitor.growth()
       << " of its energy scale allows (" << monitor.allowance()
       << " J); damping, drag and gravity cannot feed energy in. ";
-  if (name == "explicit") {
-    msg << "Use dt <= " << 0.98 * cloth.stable_time_step_bound() << " s or an implicit integrator.";
-  } else if (name == "cvode" || name == "arkode") {
-    msg << "Tighten rtol and atol, or set max_dt.";
-  } else if (name == "quasi-newton") {
-    msg << "Lower newton_tol, or try dt <= " << dt / 4 << " s.";
-  } else if (name == "local-global") {
-    msg << "Lower its tolerance or dt (try dt <= " << dt / 4 << " s).";
-  } else {
-    msg << "Newton stopped short of the step's solution or the step is too long: lower "
-           "truncation_fraction (e.g. 0.01) or newton_tol, or try dt <= "
-        << dt / 4 << " s.";
+  switch (integrator.remedy) {
+    case Remedy::stable_step:
+      msg << "Use dt <= " << 0.98 * cloth.stable_time_step_bound()
+          << " s or an implicit integrator.";
+      break;
+    case Remedy::tolerance:
+      msg << "Tighten rtol and atol, or set max_dt.";
+      break;
+    case Remedy::quasi_newton:
+      msg << "Lower newton_tol, or try dt <= " << dt / 4 << " s.";
+      break;
+    case Remedy::local_global:
+      msg << "Lower its tolerance or dt (try dt <= " << dt / 4 << " s).";
+      break;
+    case Remedy::newton:
+      msg << "Newton stopped short of the step's solution or the step is too long: lower "
+             "truncation_fraction (e.g. 0.01) or newton_tol, or try dt <= "
+          << dt / 4 << " s.";
+      break;
   }
   return SimulationDiverged(msg.str(), step, time, dt, cloth.stable_time_step());
 }

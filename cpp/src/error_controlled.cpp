@@ -585,9 +585,9 @@ void ErrorControlledIntegrator::advance(Cloth& cloth, const Vec3& gravity, doubl
   check_advance_arguments(dt, gravity, steps);
   m_cloth = &cloth;
   advance_checked(
-      cloth, gravity, dt, steps, m_monitor, name(), m_checkpoint_positions, m_checkpoint_velocities,
-      [&] { interval(cloth, gravity, dt); }, [&] { return m_statistics.steps; },
-      [&] { m_restart = true; });
+      cloth, gravity, dt, steps, m_monitor, {name(), Remedy::tolerance}, m_checkpoint_positions,
+      m_checkpoint_velocities, [&] { interval(cloth, gravity, dt); },
+      [&] { return m_statistics.steps; }, [&] { m_restart = true; });
 }
 
 }  // namespace yore

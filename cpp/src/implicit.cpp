@@ -1071,9 +1071,12 @@ void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, s
                      : m_options.method == ImplicitMethod::generalized_alpha ? "generalized-alpha"
                      : m_options.method == ImplicitMethod::tr_bdf2           ? "tr-bdf2"
                                                                              : "implicit";
+  const Remedy remedy =
+      m_options.minimizer == ImplicitMinimizer::lbfgs ? Remedy::quasi_newton : Remedy::newton;
   if (steps > 0) keep_memory();
   advance_checked(
-      cloth, gravity, dt, steps, m_monitor, name, m_checkpoint_positions, m_checkpoint_velocities,
+      cloth, gravity, dt, steps, m_monitor, {name, remedy}, m_checkpoint_positions,
+      m_checkpoint_velocities,
       [&] {
         if (m_options.adaptive) {
           adaptive_interval(cloth, gravity, dt);

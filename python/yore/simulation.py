@@ -724,7 +724,7 @@ class Simulation:
             # the constant-matrix bending term, reported for cloths that chose it: the number
             # of interior edges (hinges) of its mesh, 0 when the modulus is 0 (no term at all)
             active["quadratic_bending"] = (
-                int(cloth.quadratic_bending["hinges"]) if cloth.bending_modulus > 0.0 else 0
+                int(cloth.bending_hinges) if cloth.bending_modulus > 0.0 else 0
             )
         if cloth.stretch == "membrane":
             # the continuum membrane, reported for cloths that chose it: its faces, and those

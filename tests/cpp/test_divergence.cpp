@@ -123,8 +123,8 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       ++steps_taken;
       cloth.advance_time(1e-3);
     };
-    yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 5, monitor, "test", checkpoint_x, checkpoint_v,
-                          step, index, on_restore);
+    yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 5, monitor, {"test", yore::Remedy::newton},
+                          checkpoint_x, checkpoint_v, step, index, on_restore);
     CHECK(steps_taken == 5);
     CHECK(restores == 0);
     CHECK(cloth.time() == 5e-3);
@@ -135,8 +135,9 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       cloth.advance_time(1e-3);
       if (steps_taken == 3) cloth.integrator_positions()(4, 2) = 1e6;  // springs far stretched
     };
-    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor, "test",
-                                               checkpoint_x, checkpoint_v, step, index, on_restore),
+    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor,
+                                               {"test", yore::Remedy::newton}, checkpoint_x,
+                                               checkpoint_v, step, index, on_restore),
                          doctest::Contains("diverged at step 2"), yore::SimulationDiverged);
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);
@@ -148,10 +149,10 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       cloth.advance_time(1e-3);
       cloth.integrator_velocities().row(4) += Vec3(0, 0, 0.5).transpose();  // a push from nowhere
     };
-    CHECK_THROWS_WITH_AS(
-        yore::advance_checked(cloth, Vec3(0, 0, -9.81), 1e-3, 1000, monitor, "tr-bdf2",
-                              checkpoint_x, checkpoint_v, step, index, on_restore),
-        doctest::Contains("gained energy"), yore::SimulationDiverged);
+    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3(0, 0, -9.81), 1e-3, 1000, monitor,
+                                               {"tr-bdf2", yore::Remedy::newton}, checkpoint_x,
+                                               checkpoint_v, step, index, on_restore),
+                         doctest::Contains("gained energy"), yore::SimulationDiverged);
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);
     CHECK(cloth.time() == 0.0);
@@ -166,8 +167,9 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       ++steps_taken;
       cloth.integrator_positions()(1, 0) = std::nan("");
     };
-    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor, "test",
-                                               checkpoint_x, checkpoint_v, step, index, on_restore),
+    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor,
+                                               {"test", yore::Remedy::newton}, checkpoint_x,
+                                               checkpoint_v, step, index, on_restore),
                          doctest::Contains("non-finite"), yore::SimulationDiverged);
     CHECK(cloth.positions() == start);
   }
@@ -177,8 +179,9 @@ TEST_CASE("advance_checked restores the cloth on a blow-up and on a failing step
       cloth.integrator_positions()(1, 0) = 0.5;
       if (steps_taken == 2) throw std::runtime_error("solver broke");
     };
-    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor, "test",
-                                               checkpoint_x, checkpoint_v, step, index, on_restore),
+    CHECK_THROWS_WITH_AS(yore::advance_checked(cloth, Vec3::Zero(), 1e-3, 10, monitor,
+                                               {"test", yore::Remedy::newton}, checkpoint_x,
+                                               checkpoint_v, step, index, on_restore),
                          "solver broke", std::runtime_error);
     CHECK(restores == 1);
     CHECK(cloth.positions() == start);
@@ -189,7 +192,7 @@ TEST_CASE("diverged_error advises by integrator and carries the stability estima
   Cloth cloth = yore_test::grid_cloth(3);
   cloth.fix({0});
   const yore::SimulationDiverged explicit_error =
-      yore::diverged_error(cloth, "explicit", 7, 0.5, 0.01, true);
+      yore::diverged_error(cloth, {"explicit", yore::Remedy::stable_step}, 7, 0.5, 0.01, true);
   CHECK(explicit_error.step() == 7);
   CHECK(explicit_error.time() == 0.5);
   CHECK(explicit_error.dt() == 0.01);
@@ -197,7 +200,7 @@ TEST_CASE("diverged_error advises by integrator and carries the stability estima
   CHECK(std::string(explicit_error.what()).find("energy grew past its bound") != std::string::npos);
   CHECK(std::string(explicit_error.what()).find("use dt <=") != std::string::npos);
   const yore::SimulationDiverged implicit_error =
-      yore::diverged_error(cloth, "implicit", 7, 0.5, 0.01, false);
+      yore::diverged_error(cloth, {"implicit", yore::Remedy::newton}, 7, 0.5, 0.01, false);
   CHECK(std::string(implicit_error.what()).find("became non-finite") != std::string::npos);
   CHECK(std::string(implicit_error.what()).find("failed Newton solve") != std::string::npos);
 }

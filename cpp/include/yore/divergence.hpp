@@ -73,6 +73,23 @@ class DivergenceMonitor {
   double m_dt = 0.0;
 };
 
+/// What a failed run should change, by the kind of integrator that failed: each integrator
+/// names its own kind, so the messages below never branch on an integrator's name.
+enum class Remedy {
+  stable_step,   ///< explicit: a dt under the stable-step bound, or an implicit integrator
+  newton,        ///< yore's Newton integrators: a tighter Newton stop or a shorter dt
+  quasi_newton,  ///< L-BFGS: a lower newton_tol or a shorter dt
+  local_global,  ///< its tolerance or dt
+  tolerance,     ///< SUNDIALS: rtol and atol, or max_dt
+};
+
+/// The integrator a failure message names: its public name (as yore.Simulation takes it) and
+/// what to change when it fails.
+struct IntegratorIdentity {
+  const char* name;
+  Remedy remedy;
+};
+
 /// Checks the arguments every integrator's advance() takes: dt finite and > 0 (s), gravity
 /// finite, steps >= 0. Throws std::invalid_argument naming the bad one.
 void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps);
@@ -84,20 +101,20 @@ void check_advance_arguments(double dt, const Vec3& gravity, std::int64_t steps)
 /// the exception is thrown. Used by the implicit integrators; the explicit one fuses the check
 /// into its own loop.
 void advance_checked(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps,
-                     DivergenceMonitor& monitor, const char* integrator,
+                     DivergenceMonitor& monitor, IntegratorIdentity integrator,
                      Positions& checkpoint_positions, Positions& checkpoint_velocities,
                      const std::function<void()>& step,
                      const std::function<std::int64_t()>& step_index,
                      const std::function<void()>& on_restore);
 
 /// The exception for a failed step: where it failed, why, and what the stability estimate says.
-SimulationDiverged diverged_error(const Cloth& cloth, const char* integrator, std::int64_t step,
-                                  double time, double dt, bool finite);
+SimulationDiverged diverged_error(const Cloth& cloth, IntegratorIdentity integrator,
+                                  std::int64_t step, double time, double dt, bool finite);
 
 /// The exception for a step that gained energy (DivergenceMonitor::Verdict::gained): how much,
 /// against what allowance, and what to change.
 SimulationDiverged energy_gain_error(const Cloth& cloth, const DivergenceMonitor& monitor,
-                                     double energy, const char* integrator, std::int64_t step,
-                                     double time, double dt);
+                                     double energy, IntegratorIdentity integrator,
+                                     std::int64_t step, double time, double dt);
 
 }  // namespace yore
