@@ -119,6 +119,30 @@ def test_follow_cameras_frame_every_frame_without_jumps():
     assert steps.max() < 0.2  # the true motion is 0.1 per frame
 
 
+@pytest.mark.parametrize("fov", [0.0, 1e-3, 35.0, 179.999, 180.0, 200.0, float("nan"), True])
+def test_one_field_of_view_rule_for_the_camera_the_scene_and_the_command(tmp_path, fov):
+    """The camera, fit_camera, a scene's [camera] fov_degrees and --fov accept the same
+    values: a scene with 180 passed `yore check` and then failed at the camera (issue 54)."""
+
+    def accepted(call):
+        try:
+            call()
+        except ValueError:
+            return False
+        return True
+
+    camera = accepted(lambda: Camera(eye=(0, 0, 1), target=(0, 0, 0), fov_degrees=fov))
+    fitted = accepted(lambda: fit_camera(np.eye(3), fov_degrees=fov))
+    scene = tmp_path / "scene.toml"
+    value = "true" if fov is True else "nan" if fov != fov else repr(float(fov))
+    scene.write_text(
+        '[mesh]\ngenerator = "grid"\nnx = 3\nny = 3\n[simulation]\nduration = 0.01\n'
+        f"[camera]\nfov_degrees = {value}\n"
+    )
+    checked = accepted(lambda: yore.load_scene(scene))
+    assert camera == fitted == checked == (fov is not True and 0.0 < fov < 180.0)
+
+
 def test_camera_rejects_bad_values():
     with pytest.raises(ValueError, match="fov_degrees"):
         Camera(eye=(0, 0, 1), target=(0, 0, 0), fov_degrees=180)

@@ -26,7 +26,7 @@ import numpy as np
 
 from .checks import check_factor, check_image_size, check_points, check_vector
 
-from .options import FOV_DEGREES, IMAGE_HEIGHT, IMAGE_WIDTH
+from .options import FOV_DEGREES, FOV_RULE, IMAGE_HEIGHT, IMAGE_WIDTH
 
 __all__ = [
     "Camera",
@@ -80,13 +80,7 @@ class Camera:
                     f"±{MAX_CAMERA_COORDINATE:g}, got {getattr(self, name)!r}"
                 )
             object.__setattr__(self, name, tuple(float(c) for c in value))
-        if (
-            isinstance(self.fov_degrees, (bool, np.bool_))
-            or not isinstance(self.fov_degrees, numbers.Real)
-            or not 0.0 < float(self.fov_degrees) < 180.0
-        ):
-            raise ValueError(f"camera fov_degrees must be in (0, 180), got {self.fov_degrees}")
-        object.__setattr__(self, "fov_degrees", float(self.fov_degrees))
+        object.__setattr__(self, "fov_degrees", check_fov(self.fov_degrees, "camera fov_degrees"))
         width, height = check_image_size(self.width, self.height)
         object.__setattr__(self, "width", width)
         object.__setattr__(self, "height", height)
@@ -193,6 +187,15 @@ def default_direction(up) -> np.ndarray:
     )
 
 
+def check_fov(value, name) -> float:
+    """A field of view in degrees checked by `yore.options.FOV_RULE`; ValueError naming
+    `name` otherwise."""
+    ok, checked = FOV_RULE.test(value)
+    if not ok:
+        raise ValueError(f"{name} must be in (0, 180) degrees, got {value!r}")
+    return float(checked)
+
+
 def _fit_arguments(up, direction, margin, fov_degrees, width, height):
     """`fit_camera`'s arguments checked, in its order; ValueError naming the wrong one."""
     up = check_vector(up, "up")
@@ -203,9 +206,7 @@ def _fit_arguments(up, direction, margin, fov_degrees, width, height):
     margin = check_factor(margin, "margin")
     if margin < 1.0:
         raise ValueError(f"margin must be >= 1, got {margin}")
-    fov_degrees = check_factor(fov_degrees, "fov_degrees")
-    if fov_degrees >= 180.0:
-        raise ValueError(f"fov_degrees must be in (0, 180), got {fov_degrees}")
+    fov_degrees = check_fov(fov_degrees, "fov_degrees")
     width, height = check_image_size(width, height, "fit_camera")
     return up, direction, margin, fov_degrees, width, height
 

@@ -714,8 +714,10 @@ def _check_view_numbers(arguments):
             check_image_size(
                 value if name == "width" else 1, value if name == "height" else 1, f"--{name}"
             )
-    if arguments.fov is not None and not 0.0 < arguments.fov < 180.0:
-        raise ValueError(f"--fov must be in (0, 180) degrees, got {arguments.fov}")
+    if arguments.fov is not None:
+        from .camera import check_fov
+
+        check_fov(arguments.fov, "--fov")
     for name in ("eye", "target", "up"):
         value = getattr(arguments, name, None)
         if value is not None:

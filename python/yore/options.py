@@ -51,6 +51,7 @@ __all__ = [
     "IMAGE_WIDTH",
     "IMAGE_HEIGHT",
     "FOV_DEGREES",
+    "FOV_RULE",
     "MAX_STEP_ITERATIONS",
     "MAX_SOLVER_ITERATIONS",
     "MAX_SMOOTHING_ITERATIONS",
@@ -680,3 +681,8 @@ RUN_ANIMATION, RENDER_ANIMATION = "none", "gif"
 IMAGE_WIDTH, IMAGE_HEIGHT = 800, 600
 #: Vertical field of view of cameras unless given, degrees.
 FOV_DEGREES = 35.0
+
+#: The one check of a field of view, degrees, in (0, 180): the camera, `yore.camera.fit_camera`,
+#: scene files' [camera] fov_degrees and the command's --fov all use it (a scene that passes
+#: `yore check` cannot fail at the camera).
+FOV_RULE = rules.real(0.0, 180.0, low_open=True, high_open=True)

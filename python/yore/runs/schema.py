@@ -30,6 +30,7 @@ from ..options import (
     ANIMATION_FORMATS,
     DEFAULT_INTEGRATOR,
     FOV_DEGREES,
+    FOV_RULE,
     FRAMES_PER_SECOND,
     IMAGE_HEIGHT,
     IMAGE_WIDTH,
@@ -521,7 +522,7 @@ SCHEMA = {
             "target": (_camera_vector, None, "m; default: the cloth's centre at t = 0"),
             "up": (_camera_vector, [0.0, 1.0, 0.0], "up direction"),
             "fov_degrees": (
-                _number(0, 180, strict_minimum=True),
+                FOV_RULE,
                 FOV_DEGREES,
                 "vertical field of view",
             ),
