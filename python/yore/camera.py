@@ -192,7 +192,7 @@ def check_fov(value, name) -> float:
     `name` otherwise."""
     ok, checked = FOV_RULE.test(value)
     if not ok:
-        raise ValueError(f"{name} must be in (0, 180) degrees, got {value!r}")
+        raise ValueError(f"{name} must be {FOV_RULE.expected} (degrees), got {value!r}")
     return float(checked)
 
 

@@ -181,19 +181,8 @@ def _add_render(commands):
         help=f"animation of a run's frames (default {RENDER_ANIMATION}; mp4 needs ffmpeg)",
     )
     render.add_argument("--no-pictures", action="store_true", help="a run: only the animation")
-    render.add_argument(
-        "--eye",
-        type=float,
-        nargs=3,
-        metavar=("X", "Y", "Z"),
-        help="camera position, m (default: the scene's, else fitted)",
-    )
-    render.add_argument(
-        "--target",
-        type=float,
-        nargs=3,
-        metavar=("X", "Y", "Z"),
-        help="point the camera looks at, m (default: the scene's, else the cloth's centre)",
+    _add_eye_and_target(
+        render, "point the camera looks at, m (default: the scene's, else the cloth's centre)"
     )
     _add_view_options(render)
     render.add_argument(
@@ -286,20 +275,7 @@ def _add_view_camera(view):
         type=int,
         help=f"view height, pixels (default: the scene's [camera] height, {IMAGE_HEIGHT})",
     )
-    view.add_argument(
-        "--eye",
-        type=float,
-        nargs=3,
-        metavar=("X", "Y", "Z"),
-        help="camera position, m (default: the scene's, else fitted)",
-    )
-    view.add_argument(
-        "--target",
-        type=float,
-        nargs=3,
-        metavar=("X", "Y", "Z"),
-        help="point the camera looks at, m",
-    )
+    _add_eye_and_target(view, "point the camera looks at, m")
 
 
 def _add_view_stroke(view):
@@ -419,6 +395,15 @@ def _add_info(commands):
         "them (the user's OPENBLAS_CORETYPE, yore, or OpenBLAS itself).",
     )
     _add_common(info, quiet=False)
+
+
+def _add_eye_and_target(parser, target_help):
+    """`--eye` and `--target` of render and view (``target_help``: how each defaults)."""
+    for name, help in (
+        ("--eye", "camera position, m (default: the scene's, else fitted)"),
+        ("--target", target_help),
+    ):
+        parser.add_argument(name, type=float, nargs=3, metavar=("X", "Y", "Z"), help=help)
 
 
 def _add_view_options(parser):

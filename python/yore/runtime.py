@@ -118,11 +118,9 @@ def use_thread_defaults() -> None:
     step 3× slower); and under an address-space limit (``ulimit -v``) no more OpenMP threads
     than fit, since the creation of more hangs."""
     from . import _core
+    from .blas import THREAD_VARIABLES
 
-    if not any(
-        name in os.environ
-        for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
-    ):
+    if not any(name in os.environ for name in THREAD_VARIABLES):
         _core.set_blas_threads(1)
     most = threads_the_address_space_holds()
     if most is not None and _core.max_threads() > most:

@@ -74,11 +74,7 @@ def _square_mesh(mesh, size, resolution):
         if not isinstance(resolution, (int, np.integer)) or resolution < 2:
             raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
         size = check_factor(size, "size", "m")
-        V, F = pattern_mesh(
-            [[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]],
-            edge_length=math.sqrt(2.0) * size / (resolution - 1),
-            interior="lattice" if mesh == "pattern" else "delaunay",
-        )
+        V, F = _rectangle_mesh(mesh, size, size, math.sqrt(2.0) * size / (resolution - 1))
     else:
         raise ValueError(f'mesh must be "grid", "pattern" or "delaunay", got {mesh!r}')
     return V, F, size
