@@ -119,6 +119,7 @@ def test_the_documented_integrator_options_and_defaults_are_the_registrys():
         "bdf2": {**newton, **auto},
         "tr-bdf2": {**newton, **auto, **tables["tr-bdf2"]},
         "generalized-alpha": {**newton, **tables["generalized-alpha"]},
+        "implicit-midpoint": {**newton, **tables["implicit-midpoint"]},
         "local-global": tables["local-global"],
         "quasi-newton": tables["quasi-newton"],
         "cvode": {

@@ -163,6 +163,60 @@ def _scripted():
     return out
 
 
+#: Every Newton time scheme, fixed and error-controlled, with the predictors that read a
+#: scheme's history (issue 54: the time schemes moved out of the Newton solver).
+SCHEMES = (
+    ("implicit", {}),
+    ("bdf2", {}),
+    ("bdf2", {"predictor": "extrapolated"}),
+    ("bdf2", {"dt": "auto", "rtol": 1e-3}),
+    ("generalized-alpha", {}),
+    ("generalized-alpha", {"predictor": "extrapolated"}),
+    ("tr-bdf2", {}),
+    ("tr-bdf2", {"predictor": "extrapolated"}),
+    ("tr-bdf2", {"dt": "auto", "rtol": 1e-3}),
+    ("quasi-newton", {"method": "bdf2"}),
+)
+
+
+def _scheme_run(sim, work):
+    import yore
+
+    sim.advance(0.1)
+    sim.stroke(yore.StrokePath.material([[0.2, 0.7], [0.8, 0.65]]))
+    sim.advance(0.05)
+    path = work / "scheme-state.npz"
+    yore.save_state(path, sim)
+    resumed = yore.load_state(path)[0]
+    for s in (sim, resumed):
+        s.advance(0.1)
+    digests = {}
+    for name, s in (("run", sim), ("resumed", resumed)):
+        for field in ("positions", "velocities"):
+            value = np.ascontiguousarray(getattr(s.cloth, field))
+            digests[f"{name} {field}"] = hashlib.sha256(value.tobytes()).hexdigest()
+    digests["stats"] = _strip(sim.stats)
+    return digests
+
+
+def _schemes(work):
+    """Each scheme through a stroke and a save/resume of its history: positions, velocities,
+    the history's arrays and the counters (wall time left out)."""
+    import yore
+
+    out = {}
+    for integrator, options in SCHEMES:
+        key = f"scheme {integrator} " + json.dumps(options, sort_keys=True)
+        options = dict(options)
+        dt = options.pop("dt", 1 / 60)
+        sim = yore.scenes.hanging_cloth(resolution=9, integrator=integrator, dt=dt, **options)
+        try:
+            out[key] = _scheme_run(sim, work)
+        except (RuntimeError, ValueError) as error:  # a run that stops is an output too
+            out[key] = {"error": str(error)}
+    return out
+
+
 def _benchmarks(root, work):
     out = {}
     for name in BENCHMARKS:
@@ -181,7 +235,12 @@ def digest(out):
     root = Path.cwd()
     with tempfile.TemporaryDirectory() as temporary:
         work = Path(temporary)
-        found = {**_scenes(root, work), **_scripted(), **_benchmarks(root, work)}
+        found = {
+            **_scenes(root, work),
+            **_scripted(),
+            **_schemes(work),
+            **_benchmarks(root, work),
+        }
         found = _without_root(_without_root(found, root), work)
     Path(out).write_text(json.dumps(found, indent=1, sort_keys=True) + "\n")
 

@@ -13,21 +13,26 @@ namespace {
 
 py::array csc_array(const std::vector<std::int32_t>& values) { return read_only_copy(values); }
 
+// The `method` option's choices: the time schemes' registry (time_scheme.hpp).
+std::vector<std::pair<std::string, ImplicitMethod>> scheme_choices() {
+  std::vector<std::pair<std::string, ImplicitMethod>> choices;
+  for (const TimeSchemeRow& row : time_schemes()) choices.emplace_back(row.name, row.method);
+  return choices;
+}
+
 }  // namespace
 
 void bind_implicit(py::module_& m) {
   py::class_<ImplicitIntegrator> integrator_class(
       m, "ImplicitIntegrator",
-      "Backward Euler, BDF2, generalized-α and TR-BDF2 by Newton's method on a sparse solver.");
+      "The implicit time schemes (backward Euler, BDF2, generalized-α, TR-BDF2, implicit "
+      "midpoint) by Newton's method on a sparse solver.");
   def_advance(integrator_class);
   def_history(integrator_class);
   using O = ImplicitOptions;
   static const OptionTable<O> table = {
-      choice_option<O, ImplicitMethod>("method", [](O& o) -> ImplicitMethod& { return o.method; },
-                                       {{"backward-euler", ImplicitMethod::backward_euler},
-                                        {"bdf2", ImplicitMethod::bdf2},
-                                        {"generalized-alpha", ImplicitMethod::generalized_alpha},
-                                        {"tr-bdf2", ImplicitMethod::tr_bdf2}}),
+      choice_option<O, ImplicitMethod>(
+          "method", [](O& o) -> ImplicitMethod& { return o.method; }, scheme_choices()),
       choice_option<O, ImplicitMinimizer>(
           "minimizer", [](O& o) -> ImplicitMinimizer& { return o.minimizer; },
           {{"newton", ImplicitMinimizer::newton}, {"lbfgs", ImplicitMinimizer::lbfgs}}),

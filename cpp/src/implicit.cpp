@@ -47,8 +47,9 @@ void check_option_values(const ImplicitOptions& options) {
   }
 }
 
-// Options that exclude one another (solvers, projections, adaptivity).
-void check_option_combinations(const ImplicitOptions& options) {
+// Options that exclude one another (solvers, projections, adaptivity); `estimate`: the scheme
+// estimates its error (error control needs it).
+void check_option_combinations(const ImplicitOptions& options, bool estimate) {
   if (options.lagged_factorization &&
       (options.linear_solver.solver == "pcg" || options.adaptive_projection)) {
     throw std::invalid_argument(
@@ -58,9 +59,7 @@ void check_option_combinations(const ImplicitOptions& options) {
   if (options.lag_max_cg_iterations < 1 || !(options.lag_cg_tol > 0.0)) {
     throw std::invalid_argument("lag_max_cg_iterations must be >= 1 and lag_cg_tol > 0");
   }
-  if (options.adaptive &&
-      ((options.method != ImplicitMethod::tr_bdf2 && options.method != ImplicitMethod::bdf2) ||
-       options.minimizer != ImplicitMinimizer::newton)) {
+  if (options.adaptive && (!estimate || options.minimizer != ImplicitMinimizer::newton)) {
     throw std::invalid_argument(
         "error-controlled steps (adaptive, dt = \"auto\") need a "
         "local error estimate: method tr-bdf2 or bdf2, with Newton");
@@ -159,7 +158,9 @@ ImplicitIntegrator::ImplicitIntegrator(const ImplicitOptions& given)
   m_options.adaptive_projection = m_options.projection == HessianProjection::exact;
   const ImplicitOptions& options = m_options;
   check_option_values(options);
-  check_option_combinations(options);
+  m_scheme = time_scheme(options.method).make(options);
+  m_history_arrays = m_scheme->history();
+  check_option_combinations(options, m_scheme->error_estimate());
   if (options.minimizer == ImplicitMinimizer::lbfgs) {
     check_lbfgs_options(options);
     // the projection never applies (no Hessian is factored); clamp keeps the exact
@@ -382,83 +383,38 @@ void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
   m_values.assign(newton ? static_cast<std::size_t>(m_pattern.nonzeros()) : 0, 0.0);
   m_exact_values.assign(m_options.projection == HessianProjection::steihaug ? m_values.size() : 0,
                         0.0);
-  m_anchor.setZero(n, 3);
-  m_target.setZero(n, 3);
+  m_stage.anchor.setZero(n, 3);
+  m_stage.target.setZero(n, 3);
   m_trial.setZero(n, 3);
   m_iterate.setZero(n, 3);
   m_directions.resize(static_cast<Eigen::Index>(s), 3);
-  m_stage_acceleration.setZero(n, 3);
-  m_stage_extrapolated = false;
-  if (m_options.method == ImplicitMethod::generalized_alpha) m_predicted.setZero(n, 3);
-  if (m_options.method == ImplicitMethod::tr_bdf2) {
-    m_start_positions.setZero(n, 3);
-    m_start_velocities.setZero(n, 3);
-    m_mid_velocities.setZero(n, 3);
-  }
+  m_stage.acceleration.setZero(n, 3);
+  m_stage.extrapolated = false;
   // A history restored by set_history for this very topology survives the first step's setup.
-  if (m_history_topology != cloth.topology_version()) {
-    if (m_options.method == ImplicitMethod::generalized_alpha) m_acceleration.setZero(n, 3);
-    if (m_options.method == ImplicitMethod::generalized_alpha ||
-        m_options.method == ImplicitMethod::tr_bdf2) {
-      m_force_acceleration.setZero(n, 3);
-    }
-    m_previous_positions.setZero(n, 3);
-    m_previous_velocities.setZero(n, 3);
-    m_history_valid = false;
-  }
+  const bool clear = m_history.topology != cloth.topology_version();
+  m_scheme->resize(n, clear);
+  if (clear) m_history.valid = false;
   m_factor_valid = false;
   m_cg.resize(dofs);
 }
 
-void ImplicitIntegrator::begin_step(const Cloth& cloth, const Vec3& gravity, double dt,
-                                    bool second_order) {
-  m_gravity = gravity;
-  m_dt = dt;
-  m_second_order = second_order;
-  m_stage = second_order ? StageKind::bdf2 : StageKind::backward_euler;
+void ImplicitIntegrator::pose_backward_euler(const Cloth& cloth, double dt) {
   const Positions& x = cloth.positions();
   const Positions& v = cloth.velocities();
-  m_bdf_ratio = second_order ? dt / m_history_dt : 1.0;
-  if (second_order && m_bdf_ratio == 1.0) {
-    // BDF2: x⁺ = x̄ + h̃ v⁺, v⁺ = v̄ + h̃ a⁺ with x̄, v̄ the (4·now − previous)/3 blends, h̃ = 2h/3.
-    m_bdf_a = 4.0 / 3.0;
-    m_bdf_b = 1.0 / 3.0;
-    m_h = 2.0 * dt / 3.0;
-    m_anchor = (4.0 * x - m_previous_positions) / 3.0;
-    m_target = m_anchor + m_h * (4.0 * v - m_previous_velocities) / 3.0;
-  } else if (second_order) {
-    // Variable-step BDF2 (dt = "auto"): the same with w = h/hₙ₋₁, the quadratic through
-    // xₙ₋₁, xₙ, x⁺ differentiated at tₙ₊₁: a = (1 + w)²/(1 + 2w), b = w²/(1 + 2w) (a − b = 1),
-    // h̃ = h (1 + w)/(1 + 2w).
-    const double w = m_bdf_ratio;
-    m_bdf_a = (1.0 + w) * (1.0 + w) / (1.0 + 2.0 * w);
-    m_bdf_b = w * w / (1.0 + 2.0 * w);
-    m_h = dt * (1.0 + w) / (1.0 + 2.0 * w);
-    m_anchor = m_bdf_a * x - m_bdf_b * m_previous_positions;
-    m_target = m_anchor + m_h * (m_bdf_a * v - m_bdf_b * m_previous_velocities);
-  } else {
-    m_h = dt;
-    m_anchor = x;
-    m_target = x + dt * v;
-  }
-  m_hv = m_h;
-  if (second_order && m_options.predictor == NewtonPredictor::extrapolated) {
-    // The last step's mean acceleration, from the history alone (a state file holds it).
-    for (const std::int32_t i : m_free_vertices) {
-      m_stage_acceleration.row(i) = (v.row(i) - m_previous_velocities.row(i)) / m_history_dt;
-    }
-    m_stage_extrapolated = true;
-  }
+  m_stage.h = dt;
+  m_stage.anchor = x;
+  m_stage.target = x + dt * v;
+  m_stage.hv = m_stage.h;
   // Damping directions of the inertial prediction x̂ (constrained vertices included: x̂ − x̄ is
   // their velocity times h̃ too), an O(h̃²) extrapolation of the end-of-step directions: frozen at
   // xₙ they would be O(h) off, which costs BDF2 its order and damps a rigid rotation.
-  target_directions(cloth);
+  update_directions(cloth);
 }
 
-void ImplicitIntegrator::target_directions(const Cloth& cloth) {
+void ImplicitIntegrator::update_directions(const Cloth& cloth) {
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
-    const Vec3 d = m_target.row(springs.first[k]) - m_target.row(springs.second[k]);
+    const Vec3 d = m_stage.target.row(springs.first[k]) - m_stage.target.row(springs.second[k]);
     const double length = d.norm();
     m_directions.row(static_cast<Eigen::Index>(k)) = length > 0.0 ? Vec3(d / length) : Vec3::Zero();
   }
@@ -502,7 +458,8 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
       : projection == HessianProjection::abs ? TransverseFilter::abs
                                              : TransverseFilter::clamp;
   const Stopwatch start;
-  const double h = m_h, hv = m_hv;  // inertia's h̃ and the velocity scale (equal but for GA)
+  const double h = m_stage.h,
+               hv = m_stage.hv;  // inertia's h̃ and the velocity scale (equal but for GA)
   const double drag = cloth.drag();
   const Eigen::VectorXd& masses = cloth.masses();
   double energy = 0.0, magnitude = 0.0;  // the sum and the sum of the terms' magnitudes
@@ -513,8 +470,8 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
     const std::int32_t i = m_free_vertices[b];
     const double m = masses[i];
-    const Vec3 inertial = x.row(i) - m_target.row(i);
-    const Vec3 moved = x.row(i) - m_anchor.row(i);
+    const Vec3 inertial = x.row(i) - m_stage.target.row(i);
+    const Vec3 moved = x.row(i) - m_stage.anchor.row(i);
     const double inertia_weight = m / (h * h), drag_weight = drag * m / hv;
     const double gravity_energy = m * x.row(i).dot(m_gravity);
     const double positive =
@@ -547,7 +504,8 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
     const Vec3 n0 = m_directions.row(static_cast<Eigen::Index>(k));
     double relative = 0.0;
     if (c > 0.0) {
-      relative = (xi - m_anchor.row(i).transpose() - xj + m_anchor.row(j).transpose()).dot(n0);
+      relative =
+          (xi - m_stage.anchor.row(i).transpose() - xj + m_stage.anchor.row(j).transpose()).dot(n0);
       energy += 0.5 * c / hv * relative * relative;
       magnitude += 0.5 * c / hv * relative * relative;
     }
@@ -687,83 +645,37 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   double rest_sum = 0.0;
   for (const double rest : springs.rest_length) rest_sum += rest;
   m_mean_rest_length = springs.size() ? rest_sum / static_cast<double>(springs.size()) : 1.0;
-  if (m_options.method == ImplicitMethod::generalized_alpha) {
-    step_generalized_alpha(cloth, gravity, dt);
-    return;
-  }
-  if (m_options.method == ImplicitMethod::tr_bdf2) {
-    step_tr_bdf2(cloth, gravity, dt);
-    return;
-  }
-  // (fixed steps: BDF2 restarts when dt changes; error-controlled ones change it every step)
-  const bool second_order = m_options.method == ImplicitMethod::bdf2 && history_matches(cloth) &&
-                            (m_options.adaptive ? m_history_dt > 0.0 : m_history_dt == dt);
-  if (m_options.method == ImplicitMethod::bdf2 && !second_order) {
-    ++m_statistics.history_restarts;
-  }
-  begin_step(cloth, gravity, dt, second_order);
-  if (m_options.method == ImplicitMethod::bdf2) {
-    m_previous_positions = cloth.positions();  // same size: no allocation
-    m_previous_velocities = cloth.velocities();
-  }
-  const double new_time = cloth.advance_time(dt);
-  cloth.apply_drivers(new_time);
-
-  int iterations = 0, backtracks = 0;
-  solve_stage(cloth, iterations, backtracks);
-  write_stage(cloth);
-  finish_step(cloth, dt, m_options.method == ImplicitMethod::bdf2, iterations, backtracks);
+  m_gravity = gravity;
+  m_step_iterations = m_step_backtracks = 0;
+  const bool history_valid = m_scheme->step(*this, cloth, dt, m_history);
+  finish_step(cloth, dt, history_valid);
 }
 
-void ImplicitIntegrator::finish_step(const Cloth& cloth, double dt, bool history_valid,
-                                     int iterations, int backtracks) {
-  m_history_valid = history_valid;
-  m_history_topology = cloth.topology_version();
-  m_history_edits = cloth.edit_count();
-  m_history_dt = dt;
+void ImplicitIntegrator::finish_step(const Cloth& cloth, double dt, bool history_valid) {
+  m_history.valid = history_valid;
+  m_history.topology = cloth.topology_version();
+  m_history.edits = cloth.edit_count();
+  m_history.dt = dt;
   ++m_statistics.steps;
-  m_statistics.last_newton_iterations = iterations;
-  m_statistics.last_line_search_backtracks = backtracks;
+  m_statistics.last_newton_iterations = m_step_iterations;
+  m_statistics.last_line_search_backtracks = m_step_backtracks;
 }
 
-void ImplicitIntegrator::restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt) {
-  // A start far from equilibrium (a gathered stiff cloth: compressed springs pushing with
-  // k × 20 % of their length) is a stiff transient the trapezoidal stage and generalized-α
-  // carry on undamped and, on nonlinear springs, amplify; backward Euler removes it in one step.
-  ++m_statistics.history_restarts;
-  begin_step(cloth, gravity, dt, false);
-  const double new_time = cloth.advance_time(dt);
-  cloth.apply_drivers(new_time);
-  int iterations = 0, backtracks = 0;
-  solve_stage(cloth, iterations, backtracks);
-  write_stage(cloth);
-  keep_stage_accelerations();
-  if (m_options.method == ImplicitMethod::generalized_alpha) {
-    m_acceleration = m_force_acceleration;  // same shape: no allocation
-  }
-  finish_step(cloth, dt, true, iterations, backtracks);
-}
-
-bool ImplicitIntegrator::history_matches(const Cloth& cloth) const {
-  return m_history_valid && m_history_topology == cloth.topology_version() &&
-         m_history_edits == cloth.edit_count();
-}
-
-bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& backtracks) {
+void ImplicitIntegrator::solve(const Cloth& cloth) {
   if (m_options.mixed) reset_tension(cloth, cloth.positions());
   m_iterate = cloth.positions();
   if (m_options.predictor != NewtonPredictor::start) {
     // The stage solves M (x − x̂)/h̃² = f: its solution is x̂ + h̃² a⁺, so the start x̂ + h̃² ã
     // is off by h̃² (a⁺ − ã), the error of ã's extrapolation, where x̂ alone is off by h̃² a⁺.
-    const bool extrapolate = m_stage_extrapolated;
-    const double scale = m_h * m_h;
+    const bool extrapolate = m_stage.extrapolated;
+    const double scale = m_stage.h * m_stage.h;
     for (const std::int32_t i : m_free_vertices) {
-      m_iterate.row(i) = m_target.row(i);
-      if (extrapolate) m_iterate.row(i) += scale * m_stage_acceleration.row(i);
+      m_iterate.row(i) = m_stage.target.row(i);
+      if (extrapolate) m_iterate.row(i) += scale * m_stage.acceleration.row(i);
     }
     if (extrapolate) ++m_statistics.extrapolated_stages;
   }
-  m_stage_extrapolated = false;  // each stage's setup provides its own
+  m_stage.extrapolated = false;  // each stage's setup provides its own
   int stage_iterations = 0, stage_backtracks = 0;
   bool converged = m_pattern.size == 0;
   double energy = 0.0, residual = 0.0;
@@ -783,7 +695,7 @@ bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& b
     evaluate(cloth, m_iterate, true, false);
     m_statistics.last_residual = m_gradient.lpNorm<Eigen::Infinity>();
     m_statistics.last_scaled_residual = scaled_residual(cloth) / m_mean_rest_length;
-    m_statistics.last_truncation_error = truncation_error(cloth);
+    m_statistics.last_truncation_error = m_scheme->truncation_error(*this, cloth);
   } else {
     m_statistics.last_residual = 0.0;
     m_statistics.last_scaled_residual = 0.0;
@@ -791,40 +703,34 @@ bool ImplicitIntegrator::solve_stage(const Cloth& cloth, int& iterations, int& b
   }
   ++m_statistics.stages;
   m_statistics.newton_iterations += stage_iterations;
-  if (m_stage == StageKind::trapezoid) m_statistics.trapezoid_newton_iterations += stage_iterations;
+  if (m_stage.trapezoid) m_statistics.trapezoid_newton_iterations += stage_iterations;
+  m_stage.trapezoid = false;  // each stage's setup says
   m_statistics.line_search_backtracks += stage_backtracks;
   m_statistics.last_dofs = m_pattern.size;
-  iterations += stage_iterations;
-  backtracks += stage_backtracks;
-  return converged;
+  m_step_iterations += stage_iterations;
+  m_step_backtracks += stage_backtracks;
 }
 
-void ImplicitIntegrator::write_stage(Cloth& cloth) {
+void ImplicitIntegrator::write(Cloth& cloth) {
   Positions& x = cloth.integrator_positions();
   Positions& v = cloth.integrator_velocities();
   for (const std::int32_t i : m_free_vertices) {
     x.row(i) = m_iterate.row(i);
-    v.row(i) = (m_iterate.row(i) - m_anchor.row(i)) / m_hv;
+    v.row(i) = (m_iterate.row(i) - m_stage.anchor.row(i)) / m_stage.hv;
   }
 }
 
-void ImplicitIntegrator::keep_stage_accelerations() {
-  for (const std::int32_t i : m_free_vertices) {
-    m_force_acceleration.row(i) = (m_iterate.row(i) - m_target.row(i)) / (m_h * m_h);
-  }
-}
-
-void ImplicitIntegrator::finish_stage_setup(const Cloth& cloth) {
+void ImplicitIntegrator::finish_setup(const Cloth& cloth) {
   // Constrained vertices are where the drivers put them at the stage's end, moving at their
   // prescribed velocity: their rows make the damping of springs to them see that velocity.
   const Positions& x = cloth.positions();
   const Positions& v = cloth.velocities();
   for (Eigen::Index i = 0; i < x.rows(); ++i) {
     if (m_dof_of_vertex[static_cast<std::size_t>(i)] >= 0) continue;
-    m_anchor.row(i) = x.row(i) - m_hv * v.row(i);
-    m_target.row(i) = x.row(i);
+    m_stage.anchor.row(i) = x.row(i) - m_stage.hv * v.row(i);
+    m_stage.target.row(i) = x.row(i);
   }
-  target_directions(cloth);
+  update_directions(cloth);
 }
 
 double ImplicitIntegrator::line_search(const Cloth& cloth, double energy, double slope,
@@ -872,78 +778,12 @@ ImplicitIntegrator::IterationVerdict ImplicitIntegrator::verdict(double energy, 
   // step the length test alone decides.
   double tolerance = m_options.newton_tol * m_mean_rest_length;
   if (iterations == 0) {
-    tolerance = std::min(tolerance, m_options.newton_tol * m_h * m_h * m_gravity.norm());
+    tolerance =
+        std::min(tolerance, m_options.newton_tol * m_stage.h * m_stage.h * m_gravity.norm());
   }
   if (residual <= tolerance) return IterationVerdict::converged;
   if (iterations >= m_options.max_newton) return IterationVerdict::at_cap;
   return IterationVerdict::go_on;
-}
-
-double ImplicitIntegrator::truncation_error(const Cloth& cloth) const {
-  // Backward Euler: x⁺ − x̂ = h² a⁺ and the local error is ½ h² ẍ. BDF2 (error constant 2/9):
-  // (2/9) h³ x''' with h² x''' ≈ v⁺ − 2vₙ + vₙ₋₁, where v⁺ = (x⁺ − x̄)/h̃ and vₙ₋₁ comes back
-  // from x̂ − x̄ = h̃ (4vₙ − vₙ₋₁)/3 (begin_step); vₙ is the cloth's velocity until the step ends.
-  // The trapezoidal stage of TR-BDF2 (length γh = 2h̃): (γh)³ x'''/12 with γh x''' ≈ a⁺ − a₀,
-  // a⁺ = (v⁺ − v̄)/h̃. TR-BDF2's second stage: the embedded estimate of the whole step (Bank et
-  // al. 1985; Hosea & Shampine 1996), 2|k| h |v₀/γ − v_γ/(γ(1 − γ)) + v⁺/(1 − γ)|, k =
-  // (−3γ² + 4γ − 2)/(12(2 − γ)), which is |k| h³ x''' to leading order. Generalized-α:
-  // Newmark's estimate |β − 1/6| h² |aₙ₊₁ − aₙ| (Zienkiewicz & Xie 1991) on the algorithmic
-  // accelerations, aₙ₊₁ = (x⁺ − x_pred)/(β h²).
-  const Positions& v = cloth.velocities();
-  double largest = 0.0;
-  for (const std::int32_t i : m_free_vertices) {
-    double error = 0.0;
-    const Vec3 next = (m_iterate.row(i) - m_anchor.row(i)).transpose() / m_hv;
-    switch (m_stage) {
-      case StageKind::bdf2: {
-        const Vec3 now = v.row(i).transpose();
-        if (m_bdf_ratio == 1.0) {
-          const Vec3 before =
-              4.0 * now - 3.0 * (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;
-          error = 2.0 / 9.0 * m_dt * (next - 2.0 * now + before).norm();
-          break;
-        }
-        // Variable steps: the Taylor expansion of the blend gives the local error
-        // (1 + w)²/(6w(1 + 2w)) h³ x⁽³⁾ (2/9 at w = 1), x⁽³⁾ = v'' from the divided difference
-        // of vₙ₋₁, vₙ, v⁺ (vₙ₋₁ comes back from x̂ − x̄ = h̃ (a vₙ − b vₙ₋₁)).
-        const double w = m_bdf_ratio, previous_h = m_dt / w;
-        const Vec3 before =
-            (m_bdf_a * now - (m_target.row(i) - m_anchor.row(i)).transpose() / m_h) / m_bdf_b;
-        const Vec3 curvature =
-            2.0 * ((next - now) / m_dt - (now - before) / previous_h) / (m_dt + previous_h);
-        error = (1.0 + w) * (1.0 + w) / (6.0 * w * (1.0 + 2.0 * w)) * m_dt * m_dt * m_dt *
-                curvature.norm();
-        break;
-      }
-      case StageKind::backward_euler:
-        error = 0.5 * (m_iterate.row(i) - m_target.row(i)).norm();
-        break;
-      case StageKind::trapezoid: {
-        const Vec3 blended = (m_target.row(i) - m_anchor.row(i)).transpose() / m_h;  // v̄
-        const Vec3 acceleration = (next - blended) / m_h;
-        const double length = 2.0 * m_h;  // γh
-        error = length * length / 12.0 *
-                (acceleration - m_force_acceleration.row(i).transpose()).norm();
-        break;
-      }
-      case StageKind::tr_bdf2: {
-        const double gamma = kTrBdf2Gamma;
-        const double k = (-3.0 * gamma * gamma + 4.0 * gamma - 2.0) / (12.0 * (2.0 - gamma));
-        const Vec3 combination = m_start_velocities.row(i).transpose() / gamma -
-                                 m_mid_velocities.row(i).transpose() / (gamma * (1.0 - gamma)) +
-                                 next / (1.0 - gamma);
-        error = 2.0 * std::abs(k) * m_dt * combination.norm();
-        break;
-      }
-      case StageKind::generalized_alpha: {
-        const Vec3 acceleration = (m_iterate.row(i) - m_predicted.row(i)).transpose() / m_beta_h2;
-        error = m_error_constant * (acceleration - m_acceleration.row(i).transpose()).norm();
-        break;
-      }
-    }
-    largest = std::max(largest, error);
-  }
-  return largest;
 }
 
 bool ImplicitIntegrator::truncation_test(const Cloth& cloth, double alpha, bool trusted,
@@ -956,8 +796,8 @@ bool ImplicitIntegrator::truncation_test(const Cloth& cloth, double alpha, bool 
   move *= alpha;
   if (last_move > 0.0) rate = std::max(0.3 * rate, move / last_move);
   last_move = move;
-  return trusted &&
-         move * std::min(1.0, rate) <= m_options.truncation_fraction * truncation_error(cloth);
+  return trusted && move * std::min(1.0, rate) <=
+                        m_options.truncation_fraction * m_scheme->truncation_error(*this, cloth);
 }
 
 double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
@@ -966,7 +806,7 @@ double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
   const Eigen::VectorXd& masses = cloth.masses();
   double largest = 0.0;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-    const double scale = m_h * m_h / masses[m_free_vertices[b]];
+    const double scale = m_stage.h * m_stage.h / masses[m_free_vertices[b]];
     const double value =
         scale * m_gradient.segment<3>(static_cast<Eigen::Index>(3 * b)).lpNorm<Eigen::Infinity>();
     if (std::isnan(value)) return value;  // a non-finite gradient is divergence, not convergence
@@ -976,39 +816,18 @@ double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
 }
 
 std::vector<std::string> ImplicitIntegrator::history_fields() const {
-  switch (m_options.method) {
-    case ImplicitMethod::bdf2:
-      return {"positions", "velocities"};
-    case ImplicitMethod::generalized_alpha:
-      return {"accelerations", "force_accelerations"};
-    case ImplicitMethod::tr_bdf2:
-      return {"accelerations"};
-    case ImplicitMethod::backward_euler:
-      break;
-  }
-  return {};
+  std::vector<std::string> names;
+  for (const auto& entry : m_history_arrays) names.push_back(entry.first);
+  return names;
 }
 
 IntegratorHistory ImplicitIntegrator::history(const Cloth& cloth) const {
   IntegratorHistory out;
-  out.valid = m_options.method != ImplicitMethod::backward_euler && history_matches(cloth);
+  out.valid = !m_history_arrays.empty() && m_history.matches(cloth);
   if (!out.valid) return out;
-  out.dt = m_history_dt;
-  switch (m_options.method) {
-    case ImplicitMethod::bdf2:
-      out.arrays = {{"positions", m_previous_positions}, {"velocities", m_previous_velocities}};
-      if (m_options.adaptive) out.next_dt = m_history_proposal;
-      break;
-    case ImplicitMethod::generalized_alpha:
-      out.arrays = {{"accelerations", m_acceleration},
-                    {"force_accelerations", m_force_acceleration}};
-      break;
-    case ImplicitMethod::tr_bdf2:
-      out.arrays = {{"accelerations", m_force_acceleration}};
-      break;
-    case ImplicitMethod::backward_euler:
-      break;
-  }
+  out.dt = m_history.dt;
+  for (const auto& [name, array] : m_history_arrays) out.arrays.emplace_back(name, *array);
+  if (m_options.adaptive && m_scheme->multistep()) out.next_dt = m_history.proposal;
   return out;
 }
 
@@ -1040,37 +859,21 @@ void ImplicitIntegrator::set_projection_memory(const ProjectionMemory& memory) {
 void ImplicitIntegrator::set_history(const Cloth& cloth, const IntegratorHistory& history) {
   check_history(cloth, history);
   if (!history.valid) {
-    m_history_valid = false;
+    m_history.valid = false;
     return;
   }
-  switch (m_options.method) {
-    case ImplicitMethod::bdf2:
-      m_previous_positions = history.array("positions");
-      m_previous_velocities = history.array("velocities");
-      m_history_proposal = history.next_dt;
-      break;
-    case ImplicitMethod::generalized_alpha:
-      m_acceleration = history.array("accelerations");
-      m_force_acceleration = history.array("force_accelerations");
-      break;
-    case ImplicitMethod::tr_bdf2:
-      m_force_acceleration = history.array("accelerations");
-      break;
-    case ImplicitMethod::backward_euler:
-      break;
-  }
-  m_history_dt = history.dt;
-  m_history_topology = cloth.topology_version();
-  m_history_edits = cloth.edit_count();
-  m_history_valid = true;
+  for (const auto& [name, array] : m_history_arrays) *array = history.array(name);
+  if (m_scheme->multistep()) m_history.proposal = history.next_dt;
+  m_history.dt = history.dt;
+  m_history.topology = cloth.topology_version();
+  m_history.edits = cloth.edit_count();
+  m_history.valid = true;
 }
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) {
-  const char* name = m_options.minimizer == ImplicitMinimizer::lbfgs         ? "quasi-newton"
-                     : m_options.method == ImplicitMethod::bdf2              ? "bdf2"
-                     : m_options.method == ImplicitMethod::generalized_alpha ? "generalized-alpha"
-                     : m_options.method == ImplicitMethod::tr_bdf2           ? "tr-bdf2"
-                                                                             : "implicit";
+  const char* name = m_options.minimizer == ImplicitMinimizer::lbfgs
+                         ? "quasi-newton"
+                         : time_scheme(m_options.method).integrator;
   const Remedy remedy =
       m_options.minimizer == ImplicitMinimizer::lbfgs ? Remedy::quasi_newton : Remedy::newton;
   if (steps > 0) keep_memory();
@@ -1089,21 +892,11 @@ void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, s
 
 void ImplicitIntegrator::keep_memory() {
   Memory& k = m_memory;
-  // only the arrays the method's history holds (assignment reuses their storage)
-  if (m_options.method == ImplicitMethod::bdf2) {
-    k.previous_positions = m_previous_positions;
-    k.previous_velocities = m_previous_velocities;
-  }
-  if (m_options.method == ImplicitMethod::generalized_alpha) k.acceleration = m_acceleration;
-  if (m_options.method == ImplicitMethod::generalized_alpha ||
-      m_options.method == ImplicitMethod::tr_bdf2) {
-    k.force_acceleration = m_force_acceleration;
-  }
-  k.history_valid = m_history_valid;
-  k.history_topology = m_history_topology;
-  k.history_edits = m_history_edits;
-  k.history_dt = m_history_dt;
-  k.history_proposal = m_history_proposal;
+  // the scheme's history arrays (assignment reuses their storage)
+  k.history.resize(m_history_arrays.size());
+  for (std::size_t a = 0; a < m_history_arrays.size(); ++a)
+    k.history[a] = *m_history_arrays[a].second;
+  k.key = m_history;
   k.exact_skip = m_exact_skip;
   k.exact_backoff = m_exact_backoff;
   k.lag_skip = m_lag_skip;
@@ -1114,20 +907,9 @@ void ImplicitIntegrator::keep_memory() {
 
 void ImplicitIntegrator::restore_memory() {
   const Memory& k = m_memory;
-  if (m_options.method == ImplicitMethod::bdf2) {
-    m_previous_positions = k.previous_positions;
-    m_previous_velocities = k.previous_velocities;
-  }
-  if (m_options.method == ImplicitMethod::generalized_alpha) m_acceleration = k.acceleration;
-  if (m_options.method == ImplicitMethod::generalized_alpha ||
-      m_options.method == ImplicitMethod::tr_bdf2) {
-    m_force_acceleration = k.force_acceleration;
-  }
-  m_history_valid = k.history_valid;
-  m_history_topology = k.history_topology;
-  m_history_edits = k.history_edits;
-  m_history_dt = k.history_dt;
-  m_history_proposal = k.history_proposal;
+  for (std::size_t a = 0; a < m_history_arrays.size(); ++a)
+    *m_history_arrays[a].second = k.history[a];
+  m_history = k.key;
   m_exact_skip = k.exact_skip;
   m_exact_backoff = k.exact_backoff;
   m_lag_skip = k.lag_skip;
@@ -1154,7 +936,8 @@ NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& g
     throw std::invalid_argument("newton_system needs a Newton integrator (minimizer newton)");
   }
   ensure_structure(cloth);
-  begin_step(cloth, gravity, dt, false);
+  m_gravity = gravity;
+  pose_backward_euler(cloth, dt);
   m_iterate = cloth.positions();
   for (const std::int32_t i : m_free_vertices) m_iterate.row(i) = positions.row(i);
   if (m_options.mixed) reset_tension(cloth, m_iterate);  // the true Hessian at the point
@@ -1186,17 +969,17 @@ void ImplicitIntegrator::factor_iteration_matrix(const Cloth& cloth, const Posit
   ensure_structure(cloth);
   // The damping directions are x's own (the Jacobian of the explicit forces at x); the
   // anchor and target only enter the objective's value, which is not used here.
-  m_target = x;
-  m_anchor = x;
-  target_directions(cloth);
+  m_stage.target = x;
+  m_stage.anchor = x;
+  update_directions(cloth);
   const HessianProjection projection = m_options.projection == HessianProjection::abs
                                            ? HessianProjection::abs
                                            : HessianProjection::clamp;
   // h̃ = ∞: the inertia, drag and damping weights vanish and the values are H alone.
-  m_h = m_hv = std::numeric_limits<double>::infinity();
+  m_stage.h = m_stage.hv = std::numeric_limits<double>::infinity();
   evaluate(cloth, x, false, true, projection);
   stiffness = m_values;  // same size after the first call: no allocation
-  m_h = m_hv = gamma;
+  m_stage.h = m_stage.hv = gamma;
   evaluate(cloth, x, false, true, projection);
   if (m_pattern.size == 0) return;
   const Stopwatch start;

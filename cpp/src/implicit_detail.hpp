@@ -45,12 +45,3 @@ constexpr double kSteihaugGrowAbove = 0.75;
 constexpr double kSteihaugGrowth = 2.0;
 
 }  // namespace yore::implicit_detail
-
-namespace yore::implicit_detail {
-
-// TR-BDF2's stage fraction γ = 2 − √2: the one value for which both stages have the same h̃
-// (γh/2 = h(1 − γ)/(2 − γ)), so the trapezoidal and the BDF2 stage share one iteration matrix
-// M/h̃² + D/h̃ + K (Bank et al. 1985; Hosea & Shampine 1996).
-inline const double kTrBdf2Gamma = 2.0 - 1.4142135623730950488;
-
-}  // namespace yore::implicit_detail

@@ -147,7 +147,7 @@ void ImplicitIntegrator::adapt_projection(const Cloth& cloth, ProjectionChoice& 
     double inertia_norm = 0.0;  // dᵀ(M/h̃²)d
     const Eigen::VectorXd& masses = cloth.masses();
     for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      inertia_norm += masses[m_free_vertices[b]] / (m_h * m_h) *
+      inertia_norm += masses[m_free_vertices[b]] / (m_stage.h * m_stage.h) *
                       m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).squaredNorm();
     }
     const double predicted = -0.5 * slope + 0.5 * m_shift * inertia_norm;
@@ -225,7 +225,7 @@ bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
     const double extra = m_shift - applied;
     if (extra != 0.0) {
       for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-        const double weight = extra * masses[m_free_vertices[b]] / (m_h * m_h);
+        const double weight = extra * masses[m_free_vertices[b]] / (m_stage.h * m_stage.h);
         for (int c = 0; c < 3; ++c) {
           m_values[static_cast<std::size_t>(m_pattern.column_starts[3 * b + c])] += weight;
         }

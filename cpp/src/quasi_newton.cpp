@@ -38,11 +38,11 @@ void ImplicitIntegrator::ensure_scalar_matrix(const Cloth& cloth) {
     m_scalar_topology = cloth.topology_version();
     m_scalar_factored = false;
   }
-  if (m_scalar_factored && m_scalar_h == m_h && m_scalar_checksum == checksum) return;
+  if (m_scalar_factored && m_scalar_h == m_stage.h && m_scalar_checksum == checksum) return;
   ScopedTimer timer(m_statistics.factorize_seconds);
-  fill_scalar_spring_matrix(cloth, m_h, m_scalar, m_scalar_values);
+  fill_scalar_spring_matrix(cloth, m_stage.h, m_scalar, m_scalar_values);
   if (m_scalar.pattern.size > 0) m_scalar_solver->factorize(m_scalar_values.data());
-  m_scalar_h = m_h;
+  m_scalar_h = m_stage.h;
   m_scalar_checksum = checksum;
   m_scalar_factored = true;
 }

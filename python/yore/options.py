@@ -171,6 +171,13 @@ INTEGRATOR_OPTIONS["tr-bdf2"] = {
     # energy without bound at 0.1 (+1.9e5 J by 2 s), none at 0.03 or 0.01 (docs/integrators.md).
     "truncation_fraction": 0.01,
 }
+INTEGRATOR_OPTIONS["implicit-midpoint"] = {
+    **INTEGRATOR_OPTIONS["implicit"],
+    # generalized-α's tighter truncation test: the midpoint rule damps nothing (|R| = 1 on the
+    # imaginary axis), so the stiff modes' oscillation stays in its error estimate, as in
+    # TR-BDF2's trapezoidal stage, and Newton stopped at 0.1 of it would feed that oscillation.
+    "truncation_fraction": 0.01,
+}
 INTEGRATOR_OPTIONS["local-global"] = {
     # Iterations of a step stop once the estimated distance to the step's solution is at most
     # tolerance × the mean rest length (0: no test, always `iterations`), or at the cap
@@ -593,6 +600,13 @@ INTEGRATOR_SPECS = {
             "tr-bdf2",
             "TR-BDF2 (Bank et al. 1985; second order, L-stable, "
             "two Newton solves a step, an embedded error estimate)",
+            ("accelerations",),
+        ),
+        _newton_spec(
+            "implicit-midpoint",
+            "implicit-midpoint",
+            "the implicit midpoint rule (second order, symplectic, no numerical "
+            "damping: energy-conserving on linear springs)",
             ("accelerations",),
         ),
         IntegratorSpec(

@@ -1,7 +1,9 @@
-// Tests of the Newton-based implicit integrators: cpp/src/implicit.cpp (backward Euler, BDF2,
-// the incremental potential and its Newton system), cpp/src/newton.cpp (Newton's iterations and
-// projections), cpp/src/generalized_alpha.cpp, cpp/src/tr_bdf2.cpp (and error-controlled
-// steps) — all behind cpp/include/yore/implicit.hpp — and cpp/src/integrator.cpp
+// Tests of the Newton-based implicit integrators: cpp/src/implicit.cpp (the incremental
+// potential and its Newton system), cpp/src/newton.cpp (Newton's iterations and projections),
+// the schemes cpp/src/schemes/backward_euler.cpp, cpp/src/schemes/bdf2.cpp,
+// cpp/src/schemes/generalized_alpha.cpp and cpp/src/schemes/tr_bdf2.cpp, and error-controlled
+// steps (cpp/src/adaptive_steps.cpp) — all behind cpp/include/yore/implicit.hpp — and
+// cpp/src/integrator.cpp
 // (cpp/include/yore/integrator.hpp: the history a state file keeps and its checks).
 #include <doctest/doctest.h>
 

@@ -1,7 +1,8 @@
 #pragma once
 /// @file implicit.hpp
-/// Implicit stepping (backward Euler, BDF2) as minimisation of the incremental potential, by
-/// Newton's method with a backtracking line search on a sparse SPD solver.
+/// Implicit stepping as minimisation of the incremental potential, by Newton's method with a
+/// backtracking line search on a sparse SPD solver; the time schemes that pose its stages are
+/// apart (time_scheme.hpp, cpp/src/schemes/).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -17,20 +18,9 @@
 #include "yore/linear_solver.hpp"
 #include "yore/sparse_cholesky.hpp"
 #include "yore/spring_matrix.hpp"
+#include "yore/time_scheme.hpp"
 
 namespace yore {
-
-/// The time discretisation.
-enum class ImplicitMethod {
-  backward_euler,     ///< first order, unconditionally stable, dissipative
-  bdf2,               ///< second order; the first step (and the first after a change) is BE
-  generalized_alpha,  ///< Chung & Hulbert 1993 in Arnold & Brüls' form (second order,
-                      ///< unconditionally stable on linear problems; rho_infinity sets how much
-                      ///< of the highest frequencies survives a step); generalized_alpha.cpp
-  tr_bdf2,  ///< Bank et al. 1985: a trapezoidal stage to t + γh, γ = 2 − √2, then BDF2 through
-            ///< the three points; L-stable, second order, one-step (no history), with Hosea &
-            ///< Shampine's embedded error estimate; tr_bdf2.cpp
-};
 
 /// How the Hessian of a compressed spring (ℓ < L, transverse factor 1 − L/ℓ < 0) is made
 /// positive semidefinite; stretched springs are exact in every mode.
@@ -245,10 +235,13 @@ struct NewtonSystem {
   std::vector<std::int32_t> free_vertices;  ///< vertex of each block of 3 unknowns
 };
 
-/// Backward Euler / BDF2 for the mass-spring cloth. The unknowns are the positions of the free
-/// vertices (fixed and driven ones are eliminated, not penalised). x⁺ minimises
+/// Newton's method on the stages of an implicit time scheme (time_scheme.hpp: backward Euler,
+/// BDF2, generalized-α, TR-BDF2, implicit midpoint) for the mass-spring cloth. The unknowns are the
+/// positions of the free vertices (fixed and driven ones are eliminated, not penalised). x⁺
+/// minimises
 ///   E(x) = ½‖x − x̂‖²_M / h̃² + U(x) + D(x) − Σ m g·x,
-/// with h̃ = h, x̄ = xₙ for BE and h̃ = 2h/3, x̄ = (4xₙ − xₙ₋₁)/3 for BDF2, x̂ = x̄ + h̃ v̄, and
+/// with h̃, x̄ and x̂ as the scheme poses the stage (backward Euler: h̃ = h, x̄ = xₙ,
+/// x̂ = xₙ + h vₙ; BDF2: h̃ = 2h/3, x̄ = (4xₙ − xₙ₋₁)/3, x̂ = x̄ + h̃ v̄), and
 /// the damping potential D(x) = Σ c/(2h̃) ((Δxᵢ − Δxⱼ)·d̂)² + Σ drag·m/(2h̃)|Δx|², Δx = x − x̄, with
 /// d̂ the spring directions of the inertial prediction x̂ (an O(h²) extrapolation of the
 /// end-of-step directions: −∇D is the damping force at v = Δx/h̃ along them, D stays quadratic,
@@ -257,7 +250,7 @@ struct NewtonSystem {
 /// v⁺ = (x⁺ − x̄)/h̃.
 /// The sparsity pattern and the symbolic analysis are rebuilt only when topology_version
 /// changes; every Newton iteration refills the values in place.
-class ImplicitIntegrator : public Integrator {
+class ImplicitIntegrator : public Integrator, private StageSolver {
  public:
   /// Throws std::invalid_argument on bad options (unknown solver, negative tolerances, ...).
   explicit ImplicitIntegrator(const ImplicitOptions& options = {});
@@ -278,7 +271,7 @@ class ImplicitIntegrator : public Integrator {
                              const Positions& positions,
                              HessianProjection projection = HessianProjection::clamp);
 
-  /// The history's arrays: BDF2's state one step back ("positions", m; "velocities", m/s),
+  /// The scheme's history arrays: BDF2's state one step back ("positions", m; "velocities", m/s),
   /// generalized-α's algorithmic accelerations and its true ones as solved for
   /// ("accelerations", "force_accelerations", m/s²), TR-BDF2's accelerations at the step's
   /// end as solved for ("accelerations"); none for backward Euler. Each n×3.
@@ -332,7 +325,6 @@ class ImplicitIntegrator : public Integrator {
   void ensure_structure(const Cloth& cloth);
   // ensure_structure's last stage: every work array sized for the topology (dofs unknowns).
   void size_workspace(const Cloth& cloth, Eigen::Index dofs);
-  void begin_step(const Cloth& cloth, const Vec3& gravity, double dt, bool second_order);
   double evaluate(const Cloth& cloth, const Positions& x, bool with_gradient, bool with_hessian,
                   HessianProjection projection = HessianProjection::clamp);
   // The membrane's pair ranks in the pattern (ensure_structure's coupled blocks).
@@ -397,39 +389,33 @@ class ImplicitIntegrator : public Integrator {
   /// projection steihaug: assembles the clamped Hessian at m_iterate into m_values and factors
   /// it; `same` tells whether it equals the exact one in m_exact_values.
   void refactor_clamped(const Cloth& cloth, bool& same);
+  /// One step of dt by the time scheme (its stages solved here), then finish_step.
   void step(Cloth& cloth, const Vec3& gravity, double dt);
-  /// The nonlinear solve of one stage: minimises the objective set up by the stage's anchor,
-  /// target, h̃ and velocity scale from the cloth's (driven) positions or the inertial guess,
-  /// updates the counters, and leaves the solution in m_iterate; returns whether it converged.
-  bool solve_stage(const Cloth& cloth, int& iterations, int& backtracks);
-  /// After a stage's anchor and target are set for the free vertices and the drivers are at
-  /// the stage's end time: constrained vertices' rows (anchor = x − h_v v, target = x) and the
-  /// damping directions of the target.
-  void finish_stage_setup(const Cloth& cloth);
-  /// The damping directions d̂: each spring's direction at the target x̂ (zero at zero length).
-  void target_directions(const Cloth& cloth);
-  /// Writes m_iterate and (m_iterate − x̄)/h_v into the cloth's free vertices.
-  void write_stage(Cloth& cloth);
-  /// The accelerations the stage just solved for, (x⁺ − x̂)/h̃² = M⁻¹(f + the Newton residual),
-  /// into m_force_acceleration's free rows: the next step starts from what this one did, not
-  /// from f re-evaluated at an inexact x⁺ (that would turn the solver's error δ into a force
-  /// error kδ, which the trapezoidal rule and generalized-α carry on undamped).
-  void keep_stage_accelerations();
-  bool history_matches(const Cloth& cloth) const;
-  /// The end of every step: whether the method's history is now valid (keyed to the cloth as
+  /// The end of every step: whether the scheme's history is now valid (keyed to the cloth as
   /// it is, and to dt), and the step's counters.
-  void finish_step(const Cloth& cloth, double dt, bool history_valid, int iterations,
-                   int backtracks);
-  /// generalized_alpha and tr_bdf2 without history (the first step, or the first after a
-  /// stroke, an edit or a restore): one backward-Euler step, whose accelerations (as solved
-  /// for) start the history. Counts the restart.
-  void restart_with_backward_euler(Cloth& cloth, const Vec3& gravity, double dt);
-  void step_generalized_alpha(Cloth& cloth, const Vec3& gravity,
-                              double dt);                           // generalized_alpha.cpp
-  void step_tr_bdf2(Cloth& cloth, const Vec3& gravity, double dt);  // tr_bdf2.cpp
-  /// adaptive: one output interval of dt in error-controlled TR-BDF2 or BDF2 steps
-  /// (tr_bdf2.cpp).
+  void finish_step(const Cloth& cloth, double dt, bool history_valid);
+  /// adaptive: one output interval of dt in error-controlled steps of a scheme with an error
+  /// estimate (adaptive_steps.cpp).
   void adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt);
+
+  // -- StageSolver: what the time scheme asks of Newton (time_scheme.hpp) --
+  const std::vector<std::int32_t>& free_vertices() const override { return m_free_vertices; }
+  Stage& stage() override { return m_stage; }
+  const Stage& stage() const override { return m_stage; }
+  const Positions& solution() const override { return m_iterate; }
+  bool extrapolating() const override {
+    return m_options.predictor == NewtonPredictor::extrapolated;
+  }
+  void pose_backward_euler(const Cloth& cloth, double dt) override;
+  void finish_setup(const Cloth& cloth) override;
+  void update_directions(const Cloth& cloth) override;
+  /// The nonlinear solve of the stage posed: minimises its objective from the cloth's (driven)
+  /// positions or the inertial guess, updates the counters, and leaves the solution in
+  /// m_iterate; counts an unconverged solve.
+  void solve(const Cloth& cloth) override;
+  /// Writes m_iterate and (m_iterate − x̄)/h_v into the cloth's free vertices.
+  void write(Cloth& cloth) override;
+  void count_restart() override { ++m_statistics.history_restarts; }
 
   ImplicitOptions m_options;
   ImplicitStatistics m_statistics;
@@ -453,34 +439,16 @@ class ImplicitIntegrator : public Integrator {
   double m_mean_rest_length = 1.0;
 
   // Per-step data and work buffers (sized per topology; no allocation per step).
-  double m_h = 0.0;   // h̃: the inertia term is ½‖x − x̂‖²_M / h̃²
-  double m_hv = 0.0;  // the velocity scale: v⁺ = (x⁺ − x̄)/h_v (h̃ except generalized-α)
-  double m_dt = 0.0;  // the step's h
-  bool m_second_order = false;  // this step is BDF2's (else backward Euler's)
-  /// Which formula truncation_error uses for the stage being solved.
-  enum class StageKind { backward_euler, bdf2, trapezoid, tr_bdf2, generalized_alpha };
-  StageKind m_stage = StageKind::backward_euler;
-  // generalized_alpha: aₙ (algorithmic accelerations) and ẍₙ (true ones, in
-  // m_force_acceleration), both its history; the Newmark predictor x_pred, β h² and the error
-  // constant |β − 1/6| h². tr_bdf2: the step's start (x₀, v₀), a₀ (m_force_acceleration, its
-  // history) and the first stage's velocities.
-  Positions m_acceleration, m_force_acceleration, m_predicted;
-  Positions m_start_positions, m_start_velocities, m_mid_velocities;
-  // predictor extrapolated: ã, the acceleration expected at the end of the stage being set up,
-  // and whether the stage's setup provided one (it holds for that one stage)
-  Positions m_stage_acceleration;
-  bool m_stage_extrapolated = false;
-  // adaptive: the state, velocities and accelerations at a step's start, for a rejection
-  // (BDF2: and its history, the state one step back)
-  Positions m_step_positions, m_step_velocities, m_step_accelerations;
-  Positions m_step_previous_positions, m_step_previous_velocities;
-  // BDF2 with variable steps: w = h / h_previous of the step being solved, and its blend
-  // x̄ = a xₙ − b xₙ₋₁, a = (1 + w)²/(1 + 2w), b = w²/(1 + 2w), h̃ = h (1 + w)/(1 + 2w)
-  // (w = 1: 4/3, 1/3 and 2h/3, computed as the fixed-step formulas always were).
-  double m_bdf_ratio = 1.0, m_bdf_a = 4.0 / 3.0, m_bdf_b = 1.0 / 3.0;
-  double m_beta_h2 = 0.0, m_error_constant = 0.0;
-  /// The step's local truncation error at m_iterate, m, largest over the free vertices.
-  double truncation_error(const Cloth& cloth) const;
+  std::unique_ptr<TimeScheme> m_scheme;
+  // the scheme's history arrays, named (pointers into m_scheme), and their key
+  std::vector<std::pair<std::string, Positions*>> m_history_arrays;
+  HistoryKey m_history;
+  Stage m_stage;                                     // the stage being solved
+  int m_step_iterations = 0, m_step_backtracks = 0;  // this step's, over its stages
+  // adaptive: the state, velocities and the scheme's history at a step's start, for a
+  // rejection
+  Positions m_step_positions, m_step_velocities;
+  std::vector<Positions> m_step_history;
   /// The truncation test after an accepted step (`m_direction` × alpha) from the last
   /// iterate; `last_move` and `rate` carry the previous move and contraction rate within the
   /// step (0 and 1 at its start) and follow every accepted step; only a `trusted` one (a full
@@ -488,8 +456,6 @@ class ImplicitIntegrator : public Integrator {
   bool truncation_test(const Cloth& cloth, double alpha, bool trusted, double& last_move,
                        double& rate) const;
   Vec3 m_gravity = Vec3::Zero();
-  Positions m_anchor;      // x̄, n×3
-  Positions m_target;      // x̂, n×3
   Positions m_directions;  // s×3, d̂ of the inertial prediction x̂
   Positions m_trial;       // n×3
   Positions m_iterate;     // n×3
@@ -534,23 +500,14 @@ class ImplicitIntegrator : public Integrator {
   // decisions kept across steps as they were at its start (the cloth goes back with them), so
   // the simulation is exactly as it was before the call.
   struct Memory {
-    Positions previous_positions, previous_velocities, acceleration, force_acceleration;
-    bool history_valid = false;
-    std::uint64_t history_topology = 0, history_edits = 0;
-    double history_dt = 0.0, history_proposal = 0.0;
+    std::vector<Positions> history;  // the scheme's arrays, in m_history_arrays' order
+    HistoryKey key;
     int exact_skip = 0, exact_backoff = 1, lag_skip = 0, lag_backoff = 1;
     double shift = 0.0, radius = 0.0;
   };
   Memory m_memory;
   void keep_memory();
   void restore_memory();
-
-  // BDF2 history: the state one step back, valid while nothing changed.
-  Positions m_previous_positions, m_previous_velocities;
-  bool m_history_valid = false;
-  std::uint64_t m_history_topology = 0, m_history_edits = 0;
-  double m_history_dt = 0.0;
-  double m_history_proposal = 0.0;  // adaptive BDF2: the next interval's first step (next_dt)
 };
 
 }  // namespace yore
