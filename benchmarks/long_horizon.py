@@ -68,7 +68,8 @@ with the floor. (The trajectory measure's floor is about PREDICTABILITY by const
 Families: one table, FAMILIES (display name → `yore.Simulation` options), filtered by what this
 build accepts (a refused row is left out and named with the reason): explicit at its limit, BE
 (`integrator="implicit"`) and BDF2 at yore's defaults, generalized-α at its default ρ∞ and at
-ρ∞ = 0.5 (less damping, less robust), TR-BDF2; BDF2 with Newton solved tight (residual test at
+ρ∞ = 0.5 (less damping, less robust), TR-BDF2, the implicit midpoint rule (no numerical damping:
+the non-dissipative row); BDF2 with Newton solved tight (residual test at
 1e-9 of a rest length, no truncation test), and the error-controlled TR-BDF2 (dt="auto") and
 CVODE at rtol 1e-4, atol 1e-5 m, each one run with an output interval of 1/64 s (their steps
 are their tolerance's, so they have no step ladder), the former also with Newton stopped ten
@@ -190,6 +191,9 @@ FAMILIES = {
     "generalized-alpha": {"integrator": "generalized-alpha"},
     "generalized-alpha rho 0.5": {"integrator": "generalized-alpha", "rho_infinity": 0.5},
     "tr-bdf2": {"integrator": "tr-bdf2"},
+    # the non-dissipative row (issue 54): the implicit midpoint rule damps no frequency, so its
+    # runs show what the others' numerical damping costs and where no damping fails
+    "implicit-midpoint": {"integrator": "implicit-midpoint"},
     # Newton solved tight (residual test at 1e-9, no truncation test): is the 2 % plateau of
     # the implicit runs at 2e6 N/m Newton's stopping error?
     "bdf2 tight Newton": {"integrator": "bdf2", "newton_tol": 1e-9, "truncation_fraction": 0.0},

@@ -14,7 +14,8 @@ def cloth():
 def test_unknown_integrator_and_option_names_list_the_valid_ones(cloth):
     with pytest.raises(
         ValueError,
-        match="valid: explicit, implicit, bdf2, generalized-alpha, tr-bdf2, local-global",
+        match="valid: explicit, implicit, bdf2, generalized-alpha, tr-bdf2, implicit-midpoint, "
+        "local-global",
     ):
         yore.Simulation(cloth, integrator="rk4")
     with pytest.raises(
