@@ -239,7 +239,7 @@ def _options_headings():
 
 def test_each_integrator_is_one_row_that_builds_a_core_integrator_the_page_names():
     named = [
-        re.fullmatch(r"cpp/include/yore/\w+\.hpp::(\w+Integrator)", span)
+        re.fullmatch(r"cpp/include/yore/(?:\w+/)*\w+\.hpp::(\w+Integrator)", span)
         for span in _spans(_page())
     ]
     page_classes = {match.group(1) for match in named if match}
@@ -259,11 +259,11 @@ def test_each_integrator_is_one_row_that_builds_a_core_integrator_the_page_names
 
 # -- the stroke-mode recipe: one row of the growth table ------------------------------------------
 def test_the_growth_modes_are_one_table_in_core_binding_registry_and_docs():
-    header = (ROOT / "cpp/include/yore/growth.hpp").read_text(encoding="utf-8")
+    header = (ROOT / "cpp/include/yore/stroke/growth.hpp").read_text(encoding="utf-8")
     body = re.search(r"enum class GrowthMode[^{]*\{(.*?)\};", header, re.S).group(1)
     enumerators = re.findall(r"^\s*(\w+) = (\d+),", body, re.M)
     assert [int(value) for _, value in enumerators] == list(range(len(enumerators)))
-    table = (ROOT / "cpp/src/growth.cpp").read_text(encoding="utf-8")
+    table = (ROOT / "cpp/src/stroke/growth.cpp").read_text(encoding="utf-8")
     rows = re.findall(
         r'^\s*\{"(\w+)", (?:true|false), (?:true|false), (?:true|false)\},', table, re.M
     )
@@ -277,7 +277,7 @@ def test_the_growth_modes_are_one_table_in_core_binding_registry_and_docs():
     (count,) = re.findall(r"\bkGrowthModeCount = (\d+);", header)
     assert int(count) == len(GROWTH_MODES)
     assert "std::array<GrowthRule, kGrowthModeCount> kGrowthRules" in table
-    binding = (ROOT / "cpp/bindings/bind_growth.cpp").read_text(encoding="utf-8")
+    binding = (ROOT / "cpp/bindings/stroke/bind_growth.cpp").read_text(encoding="utf-8")
     assert re.search(r"k < kGrowthModeCount;", binding) and not re.search(r"k < \d", binding)
     for page in ("strokes.md", "scene-files.md"):
         text = (DOCS / page).read_text(encoding="utf-8")

@@ -62,7 +62,7 @@ def test_falloff_weights_are_in_0_1_monotone_and_smooth():
 # -- growth modes -----------------------------------------------------------------------------------
 def test_default_options_are_the_paper_mode():
     # (that the one core call equals the trace and the split done one at a time, to the bit,
-    # is tests/cpp/test_stroke_pipeline.cpp's)
+    # is tests/cpp/stroke/test_stroke_pipeline.cpp's)
     a, b = flat_sim(), flat_sim()
     report = a.stroke(yore.StrokePath.material(STROKE))
     explicit = b.stroke(

@@ -1,6 +1,6 @@
 """The stroke pipeline in one call of the core (stroke_pipeline.hpp ↔ _core.apply_stroke), as
 Python sees it: the report, refusals that leave the cloth as it was, and its errors. (That one
-call equals the step-by-step primitives, to the bit, is tests/cpp/test_stroke_pipeline.cpp's.)"""
+call equals the step-by-step primitives, to the bit, is tests/cpp/stroke/test_stroke_pipeline.cpp's.)"""
 
 import numpy as np
 import pytest

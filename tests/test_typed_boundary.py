@@ -23,7 +23,7 @@ def _struct_fields(header, struct):
 
 
 def test_a_reports_core_fields_are_the_structs_by_the_same_names():
-    fields = _struct_fields("stroke_pipeline.hpp", "StrokeResult")
+    fields = _struct_fields("stroke/stroke_pipeline.hpp", "StrokeResult")
     assert {"faces_split", "faces_skipped", "rest_length_added", "line_vertices"} <= fields
     # every field of the struct is bound under its own name; vertices_added is derived
     # (the count of new_vertices) and the only name C++ does not hold

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "yore/cloth.hpp"
-#include "yore/integrator.hpp"
-#include "yore/interrupt.hpp"
-#include "yore/linear_solver.hpp"
-#include "yore/mesh.hpp"
+#include "yore/cloth/cloth.hpp"
+#include "yore/cloth/mesh.hpp"
+#include "yore/integrators/integrator.hpp"
+#include "yore/platform/interrupt.hpp"
+#include "yore/solvers/linear_solver.hpp"
 
 namespace yore::bindings {
 

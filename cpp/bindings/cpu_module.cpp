@@ -4,7 +4,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "yore/cpu_features.hpp"
+#include "yore/platform/cpu_features.hpp"
 
 namespace py = pybind11;
 

@@ -2,11 +2,11 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
-#include "yore/bandwidth.hpp"
-#include "yore/build_info.hpp"
-#include "yore/errors.hpp"
-#include "yore/explicit.hpp"
-#include "yore/geometry.hpp"
+#include "yore/geometry/geometry.hpp"
+#include "yore/integrators/explicit.hpp"
+#include "yore/platform/build_info.hpp"
+#include "yore/platform/errors.hpp"
+#include "yore/solvers/bandwidth.hpp"
 
 namespace py = pybind11;
 

@@ -1,6 +1,6 @@
 """yore.rules: the one rule type every layer checks values with.
 
-A `Rule` is shaped like the C++ ``OptionRule`` (cpp/include/yore/integrator.hpp): a kind
+A `Rule` is shaped like the C++ ``OptionRule`` (cpp/include/yore/integrators/integrator.hpp): a kind
 ("flag", "count", "real", "choice", "text" or "custom"), bounds with open or closed ends,
 choices, and whether None is allowed. ``rule(value)`` returns the value in its canonical form
 (bool, int, float, str or None) or raises `Invalid` with the problem ("got float 3.5") and what

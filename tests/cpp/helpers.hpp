@@ -12,9 +12,9 @@
 #include <set>
 #include <vector>
 
-#include "yore/cloth.hpp"
-#include "yore/linear_solver.hpp"
-#include "yore/mesh.hpp"
+#include "yore/cloth/cloth.hpp"
+#include "yore/cloth/mesh.hpp"
+#include "yore/solvers/linear_solver.hpp"
 
 namespace yore_test {
 

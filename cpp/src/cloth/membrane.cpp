@@ -1,0 +1,572 @@
+#include "yore/cloth/membrane.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace yore {
+
+namespace {
+
+using Mat32 = Eigen::Matrix<double, 3, 2>;
+
+// A face's current area below this fraction of its rest area counts as collapsed.
+constexpr double kCollapsedArea = 1e-3;
+
+// S filtered: its eigenvalues kept (exact), clamped at 0 or replaced by their magnitudes.
+Eigen::Matrix2d filtered_stress(const Eigen::Matrix2d& stress, TransverseFilter filter) {
+  if (filter == TransverseFilter::exact) return stress;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(stress);
+  Eigen::Vector2d values = eigen.eigenvalues();
+  if (values.minCoeff() >= 0.0) return stress;
+  for (int i = 0; i < 2; ++i) {
+    values[i] = filter == TransverseFilter::clamp ? std::max(values[i], 0.0) : std::abs(values[i]);
+  }
+  return eigen.eigenvectors() * values.asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+}  // namespace
+
+std::array<Eigen::Vector2d, 3> membrane_shape_gradients(const MembraneRest& rest) {
+  const Eigen::Vector2d d1 = rest.inverse.row(0).transpose();
+  const Eigen::Vector2d d2 = rest.inverse.row(1).transpose();
+  return {-(d1 + d2), d1, d2};
+}
+
+MembraneRest membrane_rest(double l01, double l12, double l20) {
+  MembraneRest rest;
+  // p0 = 0, p1 = (l01, 0), p2 = (cx, cy) with |p2| = l20 and |p2 − p1| = l12.
+  const double cx = (l01 * l01 + l20 * l20 - l12 * l12) / (2.0 * l01);
+  const double longest = std::max({l01, l12, l20});
+  const double min_height = kMembraneMinRestHeight * longest;
+  const double height_squared = l20 * l20 - cx * cx;
+  double cy = height_squared > 0.0 ? std::sqrt(height_squared) : 0.0;
+  if (!(cy >= min_height)) {
+    cy = min_height;
+    rest.clamped = true;
+  }
+  rest.area = 0.5 * l01 * cy;
+  rest.inverse << 1.0 / l01, -cx / (l01 * cy), 0.0, 1.0 / cy;
+  return rest;
+}
+
+double membrane_face(const Vec3& x0, const Vec3& x1, const Vec3& x2, const MembraneRest& rest,
+                     double mu, double lambda, Vec9* gradient, Mat9* hessian,
+                     TransverseFilter filter) {
+  Mat32 edges;
+  edges.col(0) = x1 - x0;
+  edges.col(1) = x2 - x0;
+  const Mat32 F = edges * rest.inverse;
+  const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
+  const double trace = E.trace();
+  const double energy = rest.area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
+  if (gradient == nullptr && hessian == nullptr) return energy;
+  const Eigen::Matrix2d S = 2.0 * mu * E + lambda * trace * Eigen::Matrix2d::Identity();
+  const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+  if (gradient != nullptr) {
+    const Mat32 P = rest.area * F * S;
+    for (int k = 0; k < 3; ++k) gradient->segment<3>(3 * k) = P * d[static_cast<std::size_t>(k)];
+  }
+  if (hessian != nullptr) {
+    const Eigen::Matrix2d stress = filtered_stress(S, filter);
+    for (int l = 0; l < 3; ++l) {
+      const Eigen::Vector2d& dl = d[static_cast<std::size_t>(l)];
+      for (int c = 0; c < 3; ++c) {
+        // dF = e_c dlᵀ; dE = ½ (dl F_c + F_cᵀ dlᵀ), F_c the row c of F.
+        const Eigen::RowVector2d row = F.row(c);
+        const Eigen::Matrix2d dE = 0.5 * (dl * row + row.transpose() * dl.transpose());
+        Mat32 dP = F * (2.0 * mu * dE + lambda * dE.trace() * Eigen::Matrix2d::Identity());
+        dP.row(c) += dl.transpose() * stress;
+        for (int k = 0; k < 3; ++k) {
+          hessian->block<3, 1>(3 * k, 3 * l + c) =
+              rest.area * (dP * d[static_cast<std::size_t>(k)]);
+        }
+      }
+    }
+  }
+  return energy;
+}
+
+MembraneFaces membrane_faces(const Faces& faces, const SpringSet& springs) {
+  // (low vertex, high vertex, spring) of every structural spring, sorted for lookup.
+  std::vector<std::array<std::int32_t, 3>> edges;
+  edges.reserve(springs.size());
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    if (springs.kind[k] != SpringKind::structural) continue;
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    edges.push_back({std::min(i, j), std::max(i, j), static_cast<std::int32_t>(k)});
+  }
+  std::sort(edges.begin(), edges.end());
+  MembraneFaces map;
+  map.edge_springs.resize(static_cast<std::size_t>(faces.rows()));
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    for (int e = 0; e < 3; ++e) {
+      const std::int32_t a = faces(f, e), b = faces(f, (e + 1) % 3);
+      const std::array<std::int32_t, 3> key{std::min(a, b), std::max(a, b), -1};
+      const auto found = std::lower_bound(edges.begin(), edges.end(), key);
+      if (found == edges.end() || (*found)[0] != key[0] || (*found)[1] != key[1]) {
+        std::ostringstream msg;
+        msg << "membrane: edge (" << a << ", " << b << ") of face " << f
+            << " has no structural spring to carry its rest length";
+        throw std::invalid_argument(msg.str());
+      }
+      map.edge_springs[static_cast<std::size_t>(f)][static_cast<std::size_t>(e)] = (*found)[2];
+    }
+  }
+  return map;
+}
+
+MembraneRest membrane_face_rest(const MembraneFaces& map, const SpringSet& springs,
+                                std::size_t face) {
+  const std::array<std::int32_t, 3>& s = map.edge_springs[face];
+  return membrane_rest(springs.rest_length[static_cast<std::size_t>(s[0])],
+                       springs.rest_length[static_cast<std::size_t>(s[1])],
+                       springs.rest_length[static_cast<std::size_t>(s[2])]);
+}
+
+namespace {
+
+// Unit axes of vertex p's tangent plane: normal to the area-weighted normal of its faces (any
+// plane when they cancel).
+std::pair<Vec3, Vec3> tangent_axes(const Vec3& normal) {
+  const Vec3 n = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3::UnitZ();
+  const Vec3 seed = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 u = (seed - seed.dot(n) * n).normalized();
+  return {u, n.cross(u)};
+}
+
+}  // namespace
+
+MembraneReference membrane_reference(const Positions& rest_positions, const Faces& faces) {
+  MembraneReference reference;
+  const Eigen::Index n = rest_positions.rows();
+  reference.face_starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  std::vector<Vec3> normal(static_cast<std::size_t>(n), Vec3::Zero());
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Vec3 x0 = rest_positions.row(faces(f, 0));
+    const Vec3 twice_area = (Vec3(rest_positions.row(faces(f, 1))) - x0)
+                                .cross(Vec3(rest_positions.row(faces(f, 2))) - x0);
+    for (int k = 0; k < 3; ++k) {
+      ++reference.face_starts[static_cast<std::size_t>(faces(f, k)) + 1];
+      normal[static_cast<std::size_t>(faces(f, k))] += twice_area;
+    }
+  }
+  for (Eigen::Index p = 0; p < n; ++p) {
+    reference.face_starts[static_cast<std::size_t>(p) + 1] +=
+        reference.face_starts[static_cast<std::size_t>(p)];
+  }
+  const auto total = static_cast<std::size_t>(reference.face_starts.back());
+  reference.incident_faces.assign(total, -1);
+  reference.reference_inverse.assign(4 * total, 0.0);
+  std::vector<std::int32_t> fill(reference.face_starts.begin(), reference.face_starts.end() - 1);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Vec3 x0 = rest_positions.row(faces(f, 0));
+    const Vec3 e1 = Vec3(rest_positions.row(faces(f, 1))) - x0;
+    const Vec3 e2 = Vec3(rest_positions.row(faces(f, 2))) - x0;
+    const double twice_area = e1.cross(e2).norm();
+    for (int k = 0; k < 3; ++k) {
+      const auto p = static_cast<std::size_t>(faces(f, k));
+      const auto slot = static_cast<std::size_t>(fill[p]++);
+      reference.incident_faces[slot] = static_cast<std::int32_t>(f);
+      const auto [u, v] = tangent_axes(normal[p]);
+      Eigen::Matrix2d edge_vectors;
+      edge_vectors << e1.dot(u), e2.dot(u), e1.dot(v), e2.dot(v);
+      // A face nearly edge-on to the vertex's plane (under 1 % of its area seen) cannot be
+      // averaged there: it keeps D⁻¹ = 0, and the vertex gives its share back to its faces.
+      if (!(std::abs(edge_vectors.determinant()) > 1e-2 * twice_area)) continue;
+      Eigen::Map<Eigen::Matrix2d>(&reference.reference_inverse[4 * slot]) = edge_vectors.inverse();
+    }
+  }
+  // each vertex's corners: itself and its 1-ring, in increasing order
+  reference.corner_starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  std::vector<std::int32_t> corners;
+  for (Eigen::Index p = 0; p < n; ++p) {
+    corners.clear();
+    for (auto slot = static_cast<std::size_t>(reference.face_starts[static_cast<std::size_t>(p)]);
+         slot < static_cast<std::size_t>(reference.face_starts[static_cast<std::size_t>(p) + 1]);
+         ++slot) {
+      for (int k = 0; k < 3; ++k) corners.push_back(faces(reference.incident_faces[slot], k));
+    }
+    std::sort(corners.begin(), corners.end());
+    corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+    reference.corners.insert(reference.corners.end(), corners.begin(), corners.end());
+    reference.corner_starts[static_cast<std::size_t>(p) + 1] =
+        static_cast<std::int32_t>(reference.corners.size());
+  }
+  return reference;
+}
+
+namespace {
+
+// Appends the faces' constant-strain elements with their share of the energy.
+void add_face_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                       double share, MembraneElements& out) {
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
+    const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+    for (int k = 0; k < 3; ++k) {
+      out.corners.push_back(faces(f, k));
+      out.gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+      out.gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+    }
+    out.area.push_back(share * rest.area);
+    out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+    if (!out.subcell_starts.empty()) out.subcell_starts.push_back(out.subcell_starts.back());
+  }
+}
+
+// Drops what an unfinished element appended: corners from `corners`, subcells from `subcells`.
+void truncate(MembraneElements& out, std::size_t corners, std::size_t subcells) {
+  out.corners.resize(corners);
+  out.gradient_u.resize(corners);
+  out.gradient_v.resize(corners);
+  out.subcell_area.resize(subcells);
+  out.subcell_corner.resize(3 * subcells);
+  out.subcell_gradient_u.resize(3 * subcells);
+  out.subcell_gradient_v.resize(3 * subcells);
+}
+
+// The fallback of add_vertex_elements: each listed vertex's faces as elements of three corners
+// with (1 − kMembraneFaceShare)/3 of the face's area (no subcells).
+void add_fallback_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                           const MembraneReference& reference,
+                           const std::vector<std::size_t>& fallback, bool stabilised,
+                           MembraneElements& out) {
+  for (const std::size_t p : fallback) {
+    for (auto slot = static_cast<std::size_t>(reference.face_starts[p]);
+         slot < static_cast<std::size_t>(reference.face_starts[p + 1]); ++slot) {
+      const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
+      const MembraneRest rest = membrane_face_rest(map, springs, f);
+      const std::array<Eigen::Vector2d, 3> d = membrane_shape_gradients(rest);
+      for (int k = 0; k < 3; ++k) {
+        out.corners.push_back(faces(static_cast<Eigen::Index>(f), k));
+        out.gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+        out.gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+      }
+      out.area.push_back((1.0 - kMembraneFaceShare) * rest.area / 3.0);
+      out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+      if (stabilised) out.subcell_starts.push_back(out.subcell_starts.back());
+    }
+  }
+}
+
+// Appends one smoothed element per vertex (see membrane.hpp). A vertex with no usable metric
+// (every face edge-on to its plane, or a metric that is not positive definite) gives its share
+// to its faces instead: elements of three corners with (1 − kMembraneFaceShare)/3 of each
+// face's area, after the smoothed ones.
+void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                         const MembraneReference& reference, MembraneElements& out) {
+  const std::size_t n = reference.face_starts.size() - 1;
+  const bool stabilised = !out.subcell_starts.empty();
+  std::vector<std::size_t> fallback;
+  for (std::size_t p = 0; p < n; ++p) {
+    const auto first_face = static_cast<std::size_t>(reference.face_starts[p]);
+    const auto last_face = static_cast<std::size_t>(reference.face_starts[p + 1]);
+    if (first_face == last_face) continue;  // on no face
+    const auto first_corner = static_cast<std::size_t>(reference.corner_starts[p]);
+    const auto last_corner = static_cast<std::size_t>(reference.corner_starts[p + 1]);
+    const std::size_t start = out.corners.size();
+    out.corners.insert(out.corners.end(), reference.corners.begin() + first_corner,
+                       reference.corners.begin() + last_corner);
+    out.gradient_u.resize(out.corners.size(), 0.0);
+    out.gradient_v.resize(out.corners.size(), 0.0);
+    Eigen::Matrix2d metric = Eigen::Matrix2d::Zero();
+    double area = 0.0;
+    bool usable = true;
+    const std::size_t first_subcell = out.subcell_area.size();
+    for (std::size_t slot = first_face; slot < last_face; ++slot) {
+      const auto f = static_cast<std::size_t>(reference.incident_faces[slot]);
+      const MembraneRest rest = membrane_face_rest(map, springs, f);
+      const Eigen::Map<const Eigen::Matrix2d> inverse(&reference.reference_inverse[4 * slot]);
+      usable = usable && !inverse.isZero(0.0);
+      const Eigen::Matrix2d rest_edges = rest.inverse.inverse();
+      metric += rest.area * inverse.transpose() * rest_edges.transpose() * rest_edges * inverse;
+      area += rest.area / 3.0;
+      // the face's linear gradients in p's tangent axes, weighted by its third of the area
+      const Eigen::Vector2d d1 = inverse.row(0).transpose(), d2 = inverse.row(1).transpose();
+      const std::array<Eigen::Vector2d, 3> d{-(d1 + d2), d1, d2};
+      for (int k = 0; k < 3; ++k) {
+        const std::int32_t vertex = faces(static_cast<Eigen::Index>(f), k);
+        const auto at = static_cast<std::size_t>(
+            std::lower_bound(reference.corners.begin() + first_corner,
+                             reference.corners.begin() + last_corner, vertex) -
+            (reference.corners.begin() + first_corner));
+        out.gradient_u[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].x();
+        out.gradient_v[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].y();
+        if (stabilised) {
+          out.subcell_corner.push_back(static_cast<std::int32_t>(at));
+          out.subcell_gradient_u.push_back(d[static_cast<std::size_t>(k)].x());
+          out.subcell_gradient_v.push_back(d[static_cast<std::size_t>(k)].y());
+        }
+      }
+      if (stabilised) out.subcell_area.push_back(kMembraneStabilisation * rest.area / 3.0);
+    }
+    const Eigen::LLT<Eigen::Matrix2d> cholesky(metric / (3.0 * area));
+    if (!usable || !(area > 0.0) || cholesky.info() != Eigen::Success) {
+      truncate(out, start, first_subcell);  // the element is dropped
+      fallback.push_back(p);
+      continue;
+    }
+    // G_p = Σ_f (A_f/3) G_f / A_p in the tangent axes; F_p = G_p L⁻ᵀ, so d = L⁻¹ c / A_p
+    const Eigen::Matrix2d lower_inverse = Eigen::Matrix2d(cholesky.matrixL()).inverse() / area;
+    for (std::size_t k = start; k < out.corners.size(); ++k) {
+      const Eigen::Vector2d d =
+          lower_inverse * Eigen::Vector2d(out.gradient_u[k], out.gradient_v[k]);
+      out.gradient_u[k] = d.x();
+      out.gradient_v[k] = d.y();
+    }
+    // the subcells' face gradients in the same rest frame: L⁻¹ c (no mean's 1/A_p)
+    for (std::size_t k = 3 * first_subcell; k < out.subcell_corner.size(); ++k) {
+      const Eigen::Vector2d d =
+          area * lower_inverse *
+          Eigen::Vector2d(out.subcell_gradient_u[k], out.subcell_gradient_v[k]);
+      out.subcell_gradient_u[k] = d.x();
+      out.subcell_gradient_v[k] = d.y();
+    }
+    out.area.push_back((1.0 - kMembraneFaceShare) * area);
+    out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
+    if (stabilised) {
+      out.subcell_starts.push_back(static_cast<std::int32_t>(out.subcell_area.size()));
+    }
+  }
+  add_fallback_elements(faces, map, springs, reference, fallback, stabilised, out);
+}
+
+}  // namespace
+
+void build_membrane_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
+                             const MembraneReference* reference, MembraneElements& out) {
+  out.starts.clear();
+  out.corners.clear();
+  out.gradient_u.clear();
+  out.gradient_v.clear();
+  out.area.clear();
+  out.subcell_starts.clear();
+  out.subcell_area.clear();
+  out.subcell_corner.clear();
+  out.subcell_gradient_u.clear();
+  out.subcell_gradient_v.clear();
+  out.starts.push_back(0);
+  if (reference != nullptr && kMembraneStabilisation > 0.0) out.subcell_starts.push_back(0);
+  // (with a reference and no faces' share, the faces carry nothing: no elements)
+  const double share = reference != nullptr ? kMembraneFaceShare : 1.0;
+  if (share > 0.0) add_face_elements(faces, map, springs, share, out);
+  out.face_elements = share > 0.0 ? faces.rows() : 0;
+  if (reference != nullptr) add_vertex_elements(faces, map, springs, *reference, out);
+}
+
+namespace {
+
+// The bilinear form of 𝒞 (2μ A:B + λ tr A tr B) between the strain changes of two gradients,
+// F_a = Σ x d_aᵀ moved at corner k and F_b moved at corner l: the 3×3 block
+// μ (d·e) F_a F_bᵀ + μ (F_a e)(F_b d)ᵀ + λ (F_a d)(F_b e)ᵀ, d = d_ak, e = d_bl.
+Mat3 material_block(const Mat32& Fa, const Eigen::Vector2d& d, const Mat32& Fb,
+                    const Eigen::Vector2d& e, double mu, double lambda) {
+  return mu * d.dot(e) * Fa * Fb.transpose() + mu * (Fa * e) * (Fb * d).transpose() +
+         lambda * (Fa * d) * (Fb * e).transpose();
+}
+
+double stvk_density(const Eigen::Matrix2d& E, double mu, double lambda) {
+  const double trace = E.trace();
+  return mu * E.squaredNorm() + 0.5 * lambda * trace * trace;
+}
+
+// The subcells' share of membrane_element (see MembraneElements): adds their energy, and
+// to the gradient and the blocks; F, E of the element's mean. The mean–mean part of each
+// subcell's 𝒞 form is the same for every subcell up to its area, so the caller adds it once
+// (mean_material, the subcells' total area); here only the pairs that touch a subcell's face.
+double add_subcells(const MembraneElements& elements, std::size_t e, const Positions& x,
+                    const Mat32& F, const Eigen::Matrix2d& E, double mu, double lambda,
+                    TransverseFilter filter, MembraneElementWork& work, bool with_gradient,
+                    bool with_hessian, double& mean_material, Eigen::Matrix2d& mean_stress) {
+  const auto begin = static_cast<std::size_t>(elements.starts[e]);
+  const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+  auto d = [&](std::size_t k) {
+    return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
+  };
+  const bool exact = filter == TransverseFilter::exact;
+  // the block (p, q), p ≥ q, of the lower triangle, given the full block (k, l)
+  auto add = [&](std::size_t k, std::size_t l, const Mat3& block) {
+    if (k >= l) {
+      work.blocks[k * (k + 1) / 2 + l] += block;
+    } else {
+      work.blocks[l * (l + 1) / 2 + k] += block.transpose();
+    }
+  };
+  double energy = 0.0;
+  mean_material = 0.0;
+  mean_stress.setZero();
+  for (auto c = static_cast<std::size_t>(elements.subcell_starts[e]);
+       c < static_cast<std::size_t>(elements.subcell_starts[e + 1]); ++c) {
+    const double a = elements.subcell_area[c];
+    std::array<std::size_t, 3> at{};
+    std::array<Eigen::Vector2d, 3> dc;
+    Mat32 Fc = Mat32::Zero();
+    for (std::size_t j = 0; j < 3; ++j) {
+      at[j] = static_cast<std::size_t>(elements.subcell_corner[3 * c + j]);
+      dc[j] = Eigen::Vector2d(elements.subcell_gradient_u[3 * c + j],
+                              elements.subcell_gradient_v[3 * c + j]);
+      Fc += x.row(elements.corners[begin + at[j]]).transpose() * dc[j].transpose();
+    }
+    const Eigen::Matrix2d difference =
+        0.5 * (Fc.transpose() * Fc - Eigen::Matrix2d::Identity()) - E;
+    energy += a * stvk_density(difference, mu, lambda);
+    if (!with_gradient && !with_hessian) continue;
+    const Eigen::Matrix2d S =
+        2.0 * mu * difference + lambda * difference.trace() * Eigen::Matrix2d::Identity();
+    if (with_gradient) {
+      const Mat32 mean = a * F * S, face = a * Fc * S;
+      for (std::size_t k = 0; k < m; ++k) work.gradient[k] -= mean * d(k);
+      for (std::size_t j = 0; j < 3; ++j) work.gradient[at[j]] += face * dc[j];
+    }
+    if (!with_hessian) continue;
+    // 𝒞 between (face − mean) strain changes: face–face, minus the two cross terms (here),
+    // plus mean–mean (the caller); the stress terms (S on the face's gradients, −S on the
+    // mean's) only for the exact Hessian (the filtered ones keep this penalty's Gauss–Newton
+    // part, which is positive semidefinite)
+    mean_material += a;
+    if (exact) mean_stress -= a * S;
+    for (std::size_t u = 0; u < 3; ++u) {
+      for (std::size_t l = 0; l < m; ++l) {
+        // −a M(c, mean) at the full block (at[u], l); M(mean, c) is its mirror, which the
+        // symmetric storage implies — except on the diagonal block, which holds both
+        const Mat3 cross = a * material_block(Fc, dc[u], F, d(l), mu, lambda);
+        if (l == at[u]) {
+          work.blocks[l * (l + 1) / 2 + l] -= cross + cross.transpose();
+        } else {
+          add(at[u], l, -cross);
+        }
+      }
+      for (std::size_t v = 0; v < 3; ++v) {
+        if (at[v] > at[u]) continue;  // each lower pair once (the diagonal too)
+        Mat3 block = material_block(Fc, dc[u], Fc, dc[v], mu, lambda);
+        if (exact) block.diagonal().array() += dc[u].dot(S * dc[v]);
+        work.blocks[at[u] * (at[u] + 1) / 2 + at[v]] += a * block;
+      }
+    }
+  }
+  return energy;
+}
+
+}  // namespace
+
+double membrane_element(const MembraneElements& elements, std::size_t e, const Positions& x,
+                        double mu, double lambda, TransverseFilter filter,
+                        MembraneElementWork& work, bool with_gradient, bool with_hessian) {
+  const auto begin = static_cast<std::size_t>(elements.starts[e]);
+  const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+  const double area = elements.area[e];
+  Mat32 F = Mat32::Zero();
+  for (std::size_t k = 0; k < m; ++k) {
+    const Vec3 xk = x.row(elements.corners[begin + k]);
+    F.col(0) += elements.gradient_u[begin + k] * xk;
+    F.col(1) += elements.gradient_v[begin + k] * xk;
+  }
+  const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
+  const double trace = E.trace();
+  double energy = area * (mu * E.squaredNorm() + 0.5 * lambda * trace * trace);
+  const bool subcells = !elements.subcell_starts.empty() &&
+                        elements.subcell_starts[e + 1] > elements.subcell_starts[e];
+  double mean_material = 0.0;  // the subcells' share of the mean–mean 𝒞 form (their area)
+  Eigen::Matrix2d mean_stress = Eigen::Matrix2d::Zero();  // and of its stress term
+  if (!with_gradient && !with_hessian) {
+    if (subcells) {
+      energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, false, false,
+                             mean_material, mean_stress);
+    }
+    return energy;
+  }
+  const Eigen::Matrix2d S = 2.0 * mu * E + lambda * trace * Eigen::Matrix2d::Identity();
+  auto d = [&](std::size_t k) {
+    return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
+  };
+  if (with_gradient) {
+    if (work.gradient.size() < m) work.gradient.resize(m);
+    const Mat32 P = area * F * S;
+    for (std::size_t k = 0; k < m; ++k) work.gradient[k] = P * d(k);
+  }
+  if (with_hessian) {
+    // ∂grad_p/∂x_q = A [(d_pᵀ S̃ d_q) I + μ f_q f_pᵀ + μ (d_p·d_q) F Fᵀ + λ f_p f_qᵀ], f_k = F d_k,
+    // S̃ the filtered stress (the derivative of A F S d_p with S = 2μE + λ tr(E) I).
+    if (work.directions.size() < m) work.directions.resize(m);
+    if (work.blocks.size() < m * (m + 1) / 2) work.blocks.resize(m * (m + 1) / 2);
+    const Eigen::Matrix2d stress = filtered_stress(S, filter);
+    const Mat3 outer = F * F.transpose();
+    for (std::size_t k = 0; k < m; ++k) work.directions[k] = F * d(k);
+    for (std::size_t p = 0; p < m; ++p) {
+      const Eigen::Vector2d dp = d(p);
+      const Vec3& fp = work.directions[p];
+      for (std::size_t q = 0; q <= p; ++q) {
+        const Eigen::Vector2d dq = d(q);
+        const Vec3& fq = work.directions[q];
+        Mat3& block = work.blocks[p * (p + 1) / 2 + q];
+        block = (mu * dp.dot(dq)) * outer + mu * fq * fp.transpose() + lambda * fp * fq.transpose();
+        block.diagonal().array() += dp.dot(stress * dq);
+        block *= area;
+      }
+    }
+  }
+  if (subcells) {
+    energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, with_gradient,
+                           with_hessian, mean_material, mean_stress);
+    if (with_hessian) {  // the subcells' mean–mean part, once for all of them
+      for (std::size_t p = 0; p < m; ++p) {
+        for (std::size_t q = 0; q <= p; ++q) {
+          Mat3 block = mean_material * material_block(F, d(p), F, d(q), mu, lambda);
+          block.diagonal().array() += d(p).dot(mean_stress * d(q));
+          work.blocks[p * (p + 1) / 2 + q] += block;
+        }
+      }
+    }
+  }
+  return energy;
+}
+
+double membrane_energy(const MembraneElements& elements, const MembraneMaterial& material,
+                       const Positions& x) {
+  MembraneElementWork work;
+  double energy = 0.0;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    energy += membrane_element(elements, e, x, material.mu(), material.lambda(),
+                               TransverseFilter::exact, work, false, false);
+  }
+  return energy;
+}
+
+double membrane_add_gradient(const MembraneElements& elements, const MembraneMaterial& material,
+                             const Positions& x, Positions& gradient, MembraneElementWork& work) {
+  double energy = 0.0;
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    energy += membrane_element(elements, e, x, material.mu(), material.lambda(),
+                               TransverseFilter::exact, work, true, false);
+    const auto begin = static_cast<std::size_t>(elements.starts[e]);
+    const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+    for (std::size_t k = 0; k < m; ++k) {
+      gradient.row(elements.corners[begin + k]) += work.gradient[k].transpose();
+    }
+  }
+  return energy;
+}
+
+MembraneStatus membrane_status(const Faces& faces, const MembraneFaces& map,
+                               const SpringSet& springs, const Positions& x) {
+  MembraneStatus status;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const MembraneRest rest = membrane_face_rest(map, springs, static_cast<std::size_t>(f));
+    const Vec3 x0 = x.row(faces(f, 0));
+    const double area =
+        0.5 * (Vec3(x.row(faces(f, 1))) - x0).cross(Vec3(x.row(faces(f, 2))) - x0).norm();
+    status.clamped_rest_faces += rest.clamped ? 1 : 0;
+    status.collapsed_faces += area < kCollapsedArea * rest.area ? 1 : 0;
+    status.rest_area += rest.area;
+    status.current_area += area;
+  }
+  return status;
+}
+
+}  // namespace yore

@@ -1,0 +1,106 @@
+/// @file adaptive_steps.cpp
+/// Error control (dt = "auto") around any time scheme with an error estimate: ImplicitIntegrator's
+/// output intervals in steps chosen by the scheme's local truncation error (TR-BDF2's embedded
+/// pair, variable-step BDF2's divided difference).
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "yore/integrators/implicit.hpp"
+#include "yore/platform/errors.hpp"
+#include "yore/platform/interrupt.hpp"
+
+namespace yore {
+
+// over 80 lines: the error-controlled loop of one output interval (propose, take, estimate,
+// accept or restore state, clock and history) shares the proposal and the saved state across
+// its stages; the controller reads best as the one loop it is.
+void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt) {
+  // The interval's end on the clock the fixed-step integrators keep (origin + k dt): the
+  // substeps move the clock by their own sizes, and it is set to this at the end, so frames
+  // land exactly where they would with fixed steps.
+  SimulationClock end = cloth.clock();
+  if (end.dt != dt) end = SimulationClock{end.time(), 0, dt};
+  ++end.steps;
+  const double end_time = end.time();
+  ensure_structure(cloth);
+  // The proposal carried from the last interval (a multistep scheme's next_dt, else the
+  // history's dt); afresh: a tenth of dt.
+  const bool multistep = m_scheme->multistep();
+  const double carried = multistep ? m_history.proposal : m_history.dt;
+  double h = m_history.matches(cloth) && carried > 0.0 ? carried : 0.1 * dt;
+  const Eigen::Index n = cloth.vertex_count();
+  if (m_step_positions.rows() != n) {
+    m_step_positions.resize(n, 3);
+    m_step_velocities.resize(n, 3);
+  }
+  m_step_history.resize(m_history_arrays.size());
+  const char* name = time_scheme(m_options.method).integrator;
+  const double most = m_scheme->max_step_growth();
+  int taken = 0;
+  while (true) {
+    const double remaining = end_time - cloth.time();
+    if (remaining <= 1e-12 * dt) break;
+    // Steps spread evenly over what is left, none longer than the proposal.
+    const double pieces = std::ceil(remaining / h * (1.0 - 1e-12));
+    const double step_size = remaining / std::max(pieces, 1.0);
+    if (++taken > m_options.max_steps || !(step_size > 1e-12 * dt)) {
+      std::ostringstream msg;
+      msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
+          << " s, " << name << " with dt = \"auto\"): "
+          << (taken > m_options.max_steps
+                  ? "more than max_steps = " + std::to_string(m_options.max_steps) +
+                        " steps in one output interval"
+                  : std::string("the step fell below 1e-12 dt"))
+          << "; the last step tried was " << step_size << " s, tolerance rtol = " << m_options.rtol
+          << ", atol = " << m_options.atol
+          << ". Loosen the tolerance, raise max_steps, or check the forces.";
+      throw SimulationDiverged(msg.str(), m_statistics.steps, cloth.time(), dt, step_size);
+    }
+    poll_interrupt();
+    // What a rejected step must give back: the state, the clock and the history.
+    m_step_positions = cloth.positions();
+    m_step_velocities = cloth.velocities();
+    for (std::size_t a = 0; a < m_history_arrays.size(); ++a) {
+      m_step_history[a] = *m_history_arrays[a].second;  // same shape: no allocation
+    }
+    const SimulationClock clock = cloth.clock();
+    const HistoryKey key = m_history;
+    double largest = 0.0;
+    for (const std::int32_t i : m_free_vertices) {
+      largest = std::max(largest, cloth.positions().row(i).cwiseAbs().maxCoeff());
+    }
+    const double tolerance = m_options.atol + m_options.rtol * largest;
+
+    step(cloth, gravity, step_size);
+    const double error = m_statistics.last_truncation_error;
+    const double ratio =
+        std::isfinite(error) ? error / tolerance : std::numeric_limits<double>::infinity();
+    // The estimate is of the local error, O(h³): the step that meets the tolerance with a
+    // margin of 0.9 is h (tol/err)^(1/3), changed by at most `most` up and 5× down per step.
+    const double factor = ratio > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / ratio), 0.2, most) : most;
+    if (ratio <= 1.0) {
+      h = step_size * factor;
+      continue;
+    }
+    ++m_statistics.rejected_steps;
+    cloth.integrator_positions() = m_step_positions;
+    cloth.integrator_velocities() = m_step_velocities;
+    cloth.set_clock(clock);
+    for (std::size_t a = 0; a < m_history_arrays.size(); ++a) {
+      *m_history_arrays[a].second = m_step_history[a];
+    }
+    m_history = key;
+    h = step_size * std::min(factor, 0.9);
+  }
+  cloth.set_clock(end);
+  cloth.apply_drivers(end_time);
+  // The proposal, saved and restored with the history: a multistep scheme's next_dt (its dt
+  // stays the last step, which its next blend needs), else the history's dt.
+  (multistep ? m_history.proposal : m_history.dt) = h;
+  ++m_statistics.intervals;
+}
+
+}  // namespace yore

@@ -1,0 +1,402 @@
+#include "yore/solvers/sparse_cholesky.hpp"
+
+#include <cholmod.h>
+
+#include "yore/platform/errors.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <new>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace yore {
+namespace {
+
+int cholmod_ordering(Ordering ordering) {
+  switch (ordering) {
+    case Ordering::amd:
+      return CHOLMOD_AMD;
+    case Ordering::metis:
+      return CHOLMOD_METIS;
+    case Ordering::nesdis:
+      return CHOLMOD_NESDIS;
+    case Ordering::natural:
+      return CHOLMOD_NATURAL;
+    case Ordering::automatic:
+      break;  // resolved by size before it gets here
+  }
+  return CHOLMOD_AMD;
+}
+
+const char* ordering_name(int code) {
+  switch (code) {
+    case CHOLMOD_NATURAL:
+      return "natural";
+    case CHOLMOD_GIVEN:
+      return "given";
+    case CHOLMOD_AMD:
+      return "amd";
+    case CHOLMOD_METIS:
+      return "metis";
+    case CHOLMOD_NESDIS:
+      return "nesdis";
+    case CHOLMOD_COLAMD:
+      return "colamd";
+    case CHOLMOD_POSTORDERED:
+      return "natural-postordered";
+    default:
+      return "unknown";
+  }
+}
+
+// Debian's CHOLMOD 3.0 runs some loops of its supernodal factorization in OpenMP teams of a
+// fixed 4 threads (CHOLMOD_OMP_NUM_THREADS, compiled in), whatever the thread setting: on this
+// project's 2-core machines, 3 extra threads that spin and hand off through futexes. A 64²
+// linearized step took 3.1 CPU s per 20 steps with them and 0.96 without (one thread, same
+// run; OMP_MAX_ACTIVE_LEVELS=0). The dense kernels' parallelism is BLAS's (its own threads), so
+// CHOLMOD's calls run with no active OpenMP level. The level is process-wide in libgomp: for the
+// length of a CHOLMOD call, OpenMP loops on other threads run serial too (only slower).
+class SerialOpenMP {
+ public:
+  SerialOpenMP() {
+#ifdef _OPENMP
+    m_saved = omp_get_max_active_levels();
+    omp_set_max_active_levels(0);
+#endif
+  }
+  ~SerialOpenMP() {
+#ifdef _OPENMP
+    omp_set_max_active_levels(m_saved);
+#endif
+  }
+  SerialOpenMP(const SerialOpenMP&) = delete;
+  SerialOpenMP& operator=(const SerialOpenMP&) = delete;
+
+ private:
+  int m_saved = 1;
+};
+
+// Flop-weighted medians of the supernodes' widths (columns) and of the rows below them: a
+// supernode of k columns with m rows below costs about k³/3 + k²m + km² flops (its dense
+// Cholesky, the triangular solve below it and the update it sends to its ancestors).
+void supernode_sizes(const cholmod_factor* factor, SolverStatistics& statistics) {
+  statistics.supernode_median_columns = 0.0;
+  statistics.supernode_median_rows = 0.0;
+  if (!factor || !factor->is_super || factor->nsuper == 0) return;
+  const auto* super = static_cast<const std::int32_t*>(factor->super);
+  const auto* row_starts = static_cast<const std::int32_t*>(factor->pi);
+  struct Node {
+    double columns, rows, flops;
+  };
+  std::vector<Node> nodes(factor->nsuper);
+  double total = 0.0;
+  for (std::size_t s = 0; s < factor->nsuper; ++s) {
+    const double k = super[s + 1] - super[s];
+    const double m = (row_starts[s + 1] - row_starts[s]) - k;
+    nodes[s] = {k, m, k * k * k / 3.0 + k * k * m + k * m * m};
+    total += nodes[s].flops;
+  }
+  const auto median = [&](double Node::*size) {
+    std::sort(nodes.begin(), nodes.end(),
+              [&](const Node& a, const Node& b) { return a.*size < b.*size; });
+    double sum = 0.0;
+    for (const Node& node : nodes) {
+      sum += node.flops;
+      if (sum >= 0.5 * total) return node.*size;
+    }
+    return nodes.back().*size;
+  };
+  statistics.supernode_median_columns = median(&Node::columns);
+  statistics.supernode_median_rows = median(&Node::rows);
+}
+
+}  // namespace
+
+bool cholmod_has_metis() {
+#ifdef NPARTITION
+  return false;
+#else
+  return true;  // Debian's libcholmod links libmetis (checked by the tests through ordering
+                // "metis")
+#endif
+}
+
+struct SparseCholesky::Impl {
+  cholmod_common common{};
+  cholmod_sparse* matrix = nullptr;
+  cholmod_factor* factor = nullptr;
+  cholmod_factor* solve_factor = nullptr;  // simplicial copy for the solves, or null
+  bool simplicial_solves = false;
+  cholmod_dense* rhs = nullptr;
+  cholmod_dense* solution = nullptr;
+  cholmod_dense* work_y = nullptr;
+  cholmod_dense* work_e = nullptr;
+  // the same for several right-hand sides at once
+  cholmod_dense* block_rhs = nullptr;
+  cholmod_dense* block_solution = nullptr;
+  cholmod_dense* block_y = nullptr;
+  cholmod_dense* block_e = nullptr;
+  SolverStatistics statistics;
+  bool factored = false;
+  Ordering ordering = Ordering::automatic;
+
+  Impl(FactorKind kind, Ordering requested, double relaxation) : ordering(requested) {
+    cholmod_start(&common);
+    common.print = 0;  // errors are reported through common.status and exceptions
+    common.supernodal = kind == FactorKind::supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+    common.final_ll = 1;  // LLᵀ also for the simplicial factor
+    common.nmethods = 1;
+    common.method[0].ordering = cholmod_ordering(resolve_ordering(requested, 0));
+    if (requested == Ordering::natural) common.postorder = 0;
+    for (int k = 0; k < 3; ++k) {
+      common.nrelax[k] =
+          static_cast<std::size_t>(std::lround(relaxation * static_cast<double>(common.nrelax[k])));
+    }
+  }
+
+  ~Impl() {
+    release();
+    cholmod_finish(&common);
+  }
+
+  void release() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    if (solve_factor) cholmod_free_factor(&solve_factor, &common);
+    if (matrix) cholmod_free_sparse(&matrix, &common);
+    if (rhs) cholmod_free_dense(&rhs, &common);
+    if (solution) cholmod_free_dense(&solution, &common);
+    if (work_y) cholmod_free_dense(&work_y, &common);
+    if (work_e) cholmod_free_dense(&work_e, &common);
+    for (cholmod_dense** dense : {&block_rhs, &block_solution, &block_y, &block_e}) {
+      if (*dense) cholmod_free_dense(dense, &common);
+    }
+    factored = false;
+  }
+
+  void check(const char* what) const {
+    // Out of memory is std::bad_alloc (Python's MemoryError): a run can tell it from a solver
+    // failure and stop cleanly with its state kept.
+    if (common.status == CHOLMOD_OUT_OF_MEMORY) throw std::bad_alloc();
+    if (common.status < CHOLMOD_OK) {
+      std::ostringstream msg;
+      msg << "CHOLMOD " << what << " failed with status " << common.status
+          << (common.status == CHOLMOD_OUT_OF_MEMORY ? " (out of memory)" : "");
+      throw std::runtime_error(msg.str());
+    }
+  }
+};
+
+SparseCholesky::SparseCholesky(FactorKind factor, Ordering ordering, double supernode_relaxation) {
+  const bool partitions = ordering == Ordering::metis || ordering == Ordering::nesdis ||
+                          ordering == Ordering::automatic;
+  if (partitions && !cholmod_has_metis()) {
+    throw std::invalid_argument(
+        "orderings 'metis', 'nesdis' and 'auto' are not available: "
+        "CHOLMOD was built without METIS; valid: amd, natural");
+  }
+  if (!(supernode_relaxation >= 0.0 && supernode_relaxation <= 16.0)) {
+    std::ostringstream msg;
+    msg << "supernode_relaxation must be in [0, 16], got " << supernode_relaxation;
+    throw std::invalid_argument(msg.str());
+  }
+  m_impl = std::make_unique<Impl>(factor, ordering, supernode_relaxation);
+}
+
+SparseCholesky::~SparseCholesky() = default;
+
+namespace {
+
+// The vertex graph of a pattern of b×b blocks: the lower triangle, one entry per coupled pair
+// of blocks (read off each block's first column).
+cholmod_sparse* block_graph(const SymmetricPattern& pattern, cholmod_common& common) {
+  const std::int32_t b = pattern.block_size;
+  const std::int32_t blocks = pattern.size / b;
+  std::vector<std::int32_t> starts(static_cast<std::size_t>(blocks) + 1, 0), rows;
+  rows.reserve(static_cast<std::size_t>(pattern.nonzeros() / (b * b) + blocks));
+  for (std::int32_t block = 0; block < blocks; ++block) {
+    const auto column = static_cast<std::size_t>(b * block);
+    for (std::int32_t k = pattern.column_starts[column]; k < pattern.column_starts[column + 1];
+         ++k) {
+      const std::int32_t row = pattern.row_indices[static_cast<std::size_t>(k)] / b;
+      if (rows.empty() || static_cast<std::int32_t>(rows.size()) == starts[block] ||
+          rows.back() != row) {
+        rows.push_back(row);
+      }
+    }
+    starts[static_cast<std::size_t>(block) + 1] = static_cast<std::int32_t>(rows.size());
+  }
+  cholmod_sparse* graph =
+      cholmod_allocate_sparse(static_cast<std::size_t>(blocks), static_cast<std::size_t>(blocks),
+                              rows.size(), 1, 1, -1, CHOLMOD_PATTERN, &common);
+  if (graph == nullptr) return nullptr;
+  std::memcpy(graph->p, starts.data(), starts.size() * sizeof(std::int32_t));
+  std::memcpy(graph->i, rows.data(), rows.size() * sizeof(std::int32_t));
+  return graph;
+}
+
+}  // namespace
+
+void SparseCholesky::analyze(const SymmetricPattern& pattern) {
+  Impl& d = *m_impl;
+  const std::int32_t b = std::max(pattern.block_size, 1);
+  const Ordering ordering = resolve_ordering(d.ordering, pattern.size / b);
+  if (b == 1 || pattern.size % b != 0 || ordering == Ordering::natural) {
+    d.common.method[0].ordering = cholmod_ordering(ordering);
+    analyze_with_permutation(pattern, {});
+    return;
+  }
+  cholmod_sparse* graph = block_graph(pattern, d.common);
+  d.check("allocate_sparse");
+  const auto blocks = static_cast<std::size_t>(pattern.size / b);
+  std::vector<std::int32_t> order(blocks), parents(blocks), members(blocks);
+  {
+    const SerialOpenMP serial;
+    switch (ordering) {
+      case Ordering::metis:
+        cholmod_metis(graph, nullptr, 0, 1, order.data(), &d.common);
+        break;
+      case Ordering::nesdis:
+        cholmod_nested_dissection(graph, nullptr, 0, order.data(), parents.data(), members.data(),
+                                  &d.common);
+        break;
+      default:
+        cholmod_amd(graph, nullptr, 0, order.data(), &d.common);
+        break;
+    }
+  }
+  cholmod_free_sparse(&graph, &d.common);
+  d.check("ordering");
+  std::vector<std::int32_t> expanded(static_cast<std::size_t>(pattern.size));
+  for (std::size_t k = 0; k < blocks; ++k) {
+    for (std::int32_t c = 0; c < b; ++c)
+      expanded[b * k + static_cast<std::size_t>(c)] = b * order[k] + c;
+  }
+  analyze_with_permutation(pattern, expanded);
+  d.statistics.ordering = ordering_name(cholmod_ordering(ordering));
+}
+
+void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
+                                              const std::vector<std::int32_t>& permutation) {
+  Impl& d = *m_impl;
+  if (!permutation.empty()) {
+    std::vector<char> seen(static_cast<std::size_t>(pattern.size), 0);
+    bool valid = permutation.size() == static_cast<std::size_t>(pattern.size);
+    for (const std::int32_t k : permutation) {
+      valid = valid && k >= 0 && k < pattern.size && !seen[static_cast<std::size_t>(k)]++;
+    }
+    if (!valid) throw std::invalid_argument("analyze_with_permutation: not a permutation");
+  }
+  d.release();
+  const auto n = static_cast<std::size_t>(pattern.size);
+  const auto nnz = static_cast<std::size_t>(pattern.nonzeros());
+  // stype −1: symmetric, lower triangle stored; sorted, packed.
+  d.matrix = cholmod_allocate_sparse(n, n, nnz, 1, 1, -1, CHOLMOD_REAL, &d.common);
+  d.check("allocate_sparse");
+  std::memcpy(d.matrix->p, pattern.column_starts.data(), (n + 1) * sizeof(std::int32_t));
+  std::memcpy(d.matrix->i, pattern.row_indices.data(), nnz * sizeof(std::int32_t));
+  std::memset(d.matrix->x, 0, nnz * sizeof(double));
+  if (permutation.empty()) {
+    const SerialOpenMP serial;
+    d.factor = cholmod_analyze(d.matrix, &d.common);
+  } else {
+    // One method, the given permutation (postordered by CHOLMOD as usual); restore afterwards.
+    const SerialOpenMP serial;
+    const int saved = d.common.method[0].ordering;
+    d.common.method[0].ordering = CHOLMOD_GIVEN;
+    d.factor = cholmod_analyze_p(d.matrix, const_cast<std::int32_t*>(permutation.data()), nullptr,
+                                 0, &d.common);
+    d.common.method[0].ordering = saved;
+  }
+  d.check("analyze");
+  d.rhs = cholmod_zeros(n, 1, CHOLMOD_REAL, &d.common);
+  d.check("zeros");
+  ++d.statistics.analyses;
+  d.statistics.factor_nonzeros = d.common.lnz;
+  d.statistics.factor_flops = d.common.fl;
+  supernode_sizes(d.factor, d.statistics);
+  d.statistics.ordering = ordering_name(d.factor->ordering);
+}
+
+void SparseCholesky::factorize(const double* values) {
+  Impl& d = *m_impl;
+  if (!d.factor) throw std::logic_error("SparseCholesky::factorize before analyze");
+  std::memcpy(d.matrix->x, values, d.matrix->nzmax * sizeof(double));
+  const SerialOpenMP serial;
+  cholmod_factorize(d.matrix, d.factor, &d.common);
+  d.check("factorize");
+  ++d.statistics.factorizations;
+  if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n) {
+    d.factored = false;
+    std::ostringstream msg;
+    msg << "the system matrix is not positive definite: CHOLMOD met a non-positive pivot at "
+           "column "
+        << d.factor->minor << " of " << d.factor->n;
+    throw NotPositiveDefinite(msg.str());
+  }
+  if (d.solve_factor) cholmod_free_factor(&d.solve_factor, &d.common);
+  if (d.simplicial_solves && d.factor->is_super) {
+    // to simplicial LLᵀ (packed, monotonic): the supernodal factor stays for the next
+    // factorization with this analysis
+    d.solve_factor = cholmod_copy_factor(d.factor, &d.common);
+    d.check("copy_factor");
+    cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, d.solve_factor, &d.common);
+    d.check("change_factor");
+  }
+  d.factored = true;
+}
+
+void SparseCholesky::set_simplicial_solves(bool on) { m_impl->simplicial_solves = on; }
+
+void SparseCholesky::solve(const double* rhs, double* solution) {
+  Impl& d = *m_impl;
+  if (!d.factored) throw std::logic_error("SparseCholesky::solve without a valid factor");
+  std::memcpy(d.rhs->x, rhs, d.rhs->nrow * sizeof(double));
+  // cholmod_solve2 reuses solution and workspace: no allocation after the first call.
+  cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
+  const SerialOpenMP serial;
+  cholmod_solve2(CHOLMOD_A, factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
+                 &d.common);
+  d.check("solve");
+  std::memcpy(solution, d.solution->x, d.rhs->nrow * sizeof(double));
+  ++d.statistics.solves;
+}
+
+void SparseCholesky::solve_columns(const double* rhs, double* solution, int columns) {
+  Impl& d = *m_impl;
+  if (!d.factored) throw std::logic_error("SparseCholesky::solve_columns without a valid factor");
+  const std::size_t n = d.factor->n;
+  if (!d.block_rhs || d.block_rhs->ncol != static_cast<std::size_t>(columns)) {
+    if (d.block_rhs) cholmod_free_dense(&d.block_rhs, &d.common);
+    d.block_rhs = cholmod_zeros(n, static_cast<std::size_t>(columns), CHOLMOD_REAL, &d.common);
+    d.check("zeros");
+  }
+  std::memcpy(d.block_rhs->x, rhs, n * static_cast<std::size_t>(columns) * sizeof(double));
+  cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
+  const SerialOpenMP serial;
+  cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr, &d.block_y,
+                 &d.block_e, &d.common);
+  d.check("solve");
+  std::memcpy(solution, d.block_solution->x,
+              n * static_cast<std::size_t>(columns) * sizeof(double));
+  d.statistics.solves += columns;
+}
+
+const SolverStatistics& SparseCholesky::statistics() const { return m_impl->statistics; }
+
+std::vector<std::int32_t> SparseCholesky::permutation() const {
+  const cholmod_factor* factor = m_impl->factor;
+  if (!factor || !factor->Perm) return {};
+  const auto* perm = static_cast<const std::int32_t*>(factor->Perm);
+  return std::vector<std::int32_t>(perm, perm + factor->n);
+}
+
+}  // namespace yore
