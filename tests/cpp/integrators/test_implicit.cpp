@@ -1,11 +1,11 @@
-// Tests of the Newton-based implicit integrators: cpp/src/integrators/implicit.cpp (the incremental
-// potential and its Newton system), cpp/src/integrators/newton.cpp (Newton's iterations and
-// projections), the schemes cpp/src/integrators/schemes/backward_euler.cpp,
-// cpp/src/integrators/schemes/bdf2.cpp, cpp/src/integrators/schemes/generalized_alpha.cpp and
-// cpp/src/integrators/schemes/tr_bdf2.cpp, and error-controlled steps
-// (cpp/src/integrators/adaptive_steps.cpp) — all behind cpp/include/yore/integrators/implicit.hpp —
-// and cpp/src/integrators/integrator.cpp (cpp/include/yore/integrators/integrator.hpp: the history
-// a state file keeps and its checks).
+// Tests of the Newton-based implicit integrators: cpp/src/integrators/implicit.cpp and
+// cpp/src/integrators/assembly.cpp (the incremental potential and its Newton system),
+// cpp/src/integrators/newton.cpp (Newton's iterations and projections), the schemes
+// cpp/src/integrators/schemes/backward_euler.cpp, cpp/src/integrators/schemes/bdf2.cpp,
+// cpp/src/integrators/schemes/generalized_alpha.cpp and cpp/src/integrators/schemes/tr_bdf2.cpp,
+// and error-controlled steps (cpp/src/integrators/adaptive_steps.cpp) — all behind
+// cpp/include/yore/integrators/implicit.hpp — and cpp/src/integrators/integrator.cpp
+// (cpp/include/yore/integrators/integrator.hpp: the history a state file keeps and its checks).
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
