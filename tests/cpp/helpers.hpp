@@ -26,6 +26,24 @@ struct Mesh {
   Faces faces;
 };
 
+/// A ClothMaterial from its values in the order of its fields (stretch and bend stiffness,
+/// damping, drag, bending model, bending modulus, membrane): tests name materials compactly.
+inline yore::ClothMaterial material(double stretch, double bend, double damping = 0.0,
+                                    double drag = 0.0,
+                                    yore::BendingModel bending = yore::BendingModel::springs,
+                                    double modulus = 0.0,
+                                    const yore::MembraneMaterial& membrane = {}) {
+  yore::ClothMaterial out;
+  out.stretch_stiffness = stretch;
+  out.bend_stiffness = bend;
+  out.damping = damping;
+  out.drag = drag;
+  out.bending = bending;
+  out.bending_modulus = modulus;
+  out.membrane = membrane;
+  return out;
+}
+
 /// A flat nx × ny grid of vertices over [0, width] × [0, height] at z = 0, each cell cut along
 /// a diagonal that alternates like a checkerboard; counter-clockwise faces seen from +z.
 inline Mesh grid_mesh(int nx, int ny, double width = 1.0, double height = 1.0) {
@@ -79,7 +97,7 @@ inline yore::Cloth grid_cloth(int n, double stretch = 200.0, double bend = 20.0,
   const Mesh mesh = grid_mesh(n, n);
   return yore::Cloth(mesh.positions, mesh.faces,
                      Eigen::VectorXd::Constant(mesh.positions.rows(), total_mass / (n * n)),
-                     stretch, bend, damping, drag);
+                     yore_test::material(stretch, bend, damping, drag));
 }
 
 /// The dense symmetric matrix of a lower-triangle CSC pattern and its values.

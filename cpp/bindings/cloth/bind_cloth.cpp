@@ -13,15 +13,9 @@
 namespace yore::bindings {
 namespace {
 
-// A bare Cloth's material when the arguments leave it out, written here once and bound as
-// `Cloth.defaults` (a physics object: no dissipation unless asked; the scenes' material is
-// yore.options.SCENE_MATERIAL).
-constexpr double kDefaultMass = 1e-3;               // kg per vertex
-constexpr double kDefaultBendStiffness = 100.0;     // N/m per bending spring
-constexpr double kDefaultStretchStiffness = 100.0;  // N/m per structural spring
-constexpr double kDefaultDamping = 0.0;             // N·s/m along each spring
-constexpr double kDefaultDrag = 0.0;                // 1/s
-constexpr double kDefaultPoissonRatio = 0.3;        // a membrane's ν when not given
+// A bare Cloth's material when the arguments leave it out: the core's ClothMaterial{} (and
+// kDefaultVertexMass, kDefaultPoissonRatio), bound as `Cloth.defaults`.
+const ClothMaterial kDefaults{};
 
 /// A number given as one (an int or a float, numpy's too): bools, strings and anything
 /// pybind11 cannot make a double of are std::invalid_argument naming `name`.
@@ -51,16 +45,9 @@ Eigen::VectorXd vertex_masses(const py::object& mass, const py::object& density,
           "give either masses (kg per vertex) or density (kg/m²), not both");
     }
     if (faces == nullptr) throw std::invalid_argument("density needs faces; give masses instead");
-    const double rho = plain_number(density, "density", "kg/m²");
-    if (!std::isfinite(rho) || rho <= 0.0) {
-      std::ostringstream msg;
-      msg << "density must be finite and > 0 kg/m², got " << rho;
-      throw std::invalid_argument(msg.str());
-    }
-    validate_mesh(positions, *faces);  // lumping reads the faces
-    return rho * lumped_vertex_areas(positions, *faces);
+    return lumped_masses(positions, *faces, plain_number(density, "density", "kg/m²"));
   }
-  if (mass.is_none()) return Eigen::VectorXd::Constant(n, kDefaultMass);
+  if (mass.is_none()) return Eigen::VectorXd::Constant(n, kDefaultVertexMass);
   if (PyBool_Check(mass.ptr())) plain_number(mass, "masses", "kg per vertex");  // refuses it
   const auto array = as_float_array(mass, "masses");
   if (array.ndim() == 0) return Eigen::VectorXd::Constant(n, *array.data());
@@ -160,6 +147,26 @@ MembraneMaterial membrane_argument(const std::string& stretch, const py::object&
   return membrane;
 }
 
+// The bend stiffness argument, N/m: the default with bending springs, 0 (and only 0) with
+// quadratic or hinge bending, which create none.
+double bend_stiffness_argument(const py::object& bend_stiffness, BendingModel model,
+                               const std::string& bending) {
+  double stiffness = kDefaults.bend_stiffness;
+  if (!bend_stiffness.is_none()) {
+    stiffness = real_argument(bend_stiffness, "bend_stiffness");
+  }
+  if (is_quadratic(model)) {
+    if (!bend_stiffness.is_none() && stiffness != 0.0) {
+      throw std::invalid_argument("bending=\"" + bending +
+                                  "\" creates no bending springs: leave "
+                                  "bend_stiffness out (or 0), got " +
+                                  std::to_string(stiffness));
+    }
+    stiffness = 0.0;
+  }
+  return stiffness;
+}
+
 // Cloth(...)'s arguments, checked one by one, into the core's constructor.
 Cloth make_cloth(const py::handle& vertices, const py::handle& faces, const py::object& masses,
                  const py::object& stretch_stiffness, const py::object& bend_stiffness,
@@ -176,7 +183,7 @@ Cloth make_cloth(const py::handle& vertices, const py::handle& faces, const py::
       text_argument(stretch_given, "stretch", "\"springs\" or \"membrane\"");
   const py::object given = masses_argument(masses, mass);
   const MembraneMaterial membrane = membrane_argument(stretch, young_modulus, poisson_ratio);
-  double stretch_value = kDefaultStretchStiffness;
+  double stretch_value = kDefaults.stretch_stiffness;
   if (!stretch_stiffness.is_none()) {
     stretch_value = real_argument(stretch_stiffness, "stretch_stiffness");
   }
@@ -199,25 +206,21 @@ Cloth make_cloth(const py::handle& vertices, const py::handle& faces, const py::
   if (is_quadratic(model) && bending_modulus.is_none()) {
     throw std::invalid_argument("bending=\"" + bending + "\" needs bending_modulus (N·m, >= 0)");
   }
-  double stiffness = kDefaultBendStiffness;
-  if (!bend_stiffness.is_none()) {
-    stiffness = real_argument(bend_stiffness, "bend_stiffness");
-  }
-  if (is_quadratic(model)) {
-    if (!bend_stiffness.is_none() && stiffness != 0.0) {
-      throw std::invalid_argument("bending=\"" + bending +
-                                  "\" creates no bending springs: leave "
-                                  "bend_stiffness out (or 0), got " +
-                                  std::to_string(stiffness));
-    }
-    stiffness = 0.0;
-  }
+  const double stiffness = bend_stiffness_argument(bend_stiffness, model, bending);
   const double modulus =
       bending_modulus.is_none() ? 0.0 : real_argument(bending_modulus, "bending_modulus");
   const Positions v = to_rows3(vertices, "vertices");
   const Faces f = to_faces(faces);
   const Eigen::VectorXd vertex_mass = vertex_masses(given, density, v, &f);
-  Cloth cloth(v, f, vertex_mass, stretch_value, stiffness, damping, drag, model, modulus, membrane);
+  ClothMaterial material;
+  material.stretch_stiffness = stretch_value;
+  material.bend_stiffness = stiffness;
+  material.damping = damping;
+  material.drag = drag;
+  material.bending = model;
+  material.bending_modulus = modulus;
+  material.membrane = membrane;
+  Cloth cloth(v, f, vertex_mass, material);
   if (!membrane_strain.is_none()) {
     const std::string strain =
         text_argument(membrane_strain, "membrane_strain", "\"smoothed\" or \"faces\"");
@@ -240,8 +243,8 @@ void def_construction(py::class_<Cloth>& cloth_class) {
   cloth_class
       .def(py::init(&make_cloth), py::arg("vertices"), py::arg("faces"), py::kw_only(),
            py::arg("masses") = py::none(), py::arg("stretch_stiffness") = py::none(),
-           py::arg("bend_stiffness") = py::none(), py::arg("damping") = kDefaultDamping,
-           py::arg("drag") = kDefaultDrag, py::arg("density") = py::none(),
+           py::arg("bend_stiffness") = py::none(), py::arg("damping") = kDefaults.damping,
+           py::arg("drag") = kDefaults.drag, py::arg("density") = py::none(),
            py::arg("bending") = "springs", py::arg("bending_modulus") = py::none(),
            py::arg("mass") = py::none(), py::arg("stretch") = "springs",
            py::arg("young_modulus") = py::none(), py::arg("poisson_ratio") = py::none(),
@@ -262,8 +265,9 @@ void def_construction(py::class_<Cloth>& cloth_class) {
           },
           py::arg("vertices"), py::arg("edges"), py::kw_only(),
           py::arg("rest_lengths") = py::none(), py::arg("masses") = py::none(),
-          py::arg("stiffness") = kDefaultStretchStiffness, py::arg("damping") = kDefaultDamping,
-          py::arg("drag") = kDefaultDrag, py::arg("mass") = py::none(),
+          py::arg("stiffness") = kDefaults.stretch_stiffness,
+          py::arg("damping") = kDefaults.damping, py::arg("drag") = kDefaults.drag,
+          py::arg("mass") = py::none(),
           R"doc(A plain spring network with no faces (chains, single springs).
 vertices n×3 (m); edges s×2 vertex indices; rest_lengths (s,) metres, default the distances in
 vertices; masses kg per vertex (scalar or (n,); `mass`, its former name, still works for one
@@ -554,11 +558,11 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
   Raises ValueError on a bad mesh or value.)doc");
   {
     py::dict defaults;
-    defaults["masses"] = kDefaultMass;
-    defaults["stretch_stiffness"] = kDefaultStretchStiffness;
-    defaults["bend_stiffness"] = kDefaultBendStiffness;
-    defaults["damping"] = kDefaultDamping;
-    defaults["drag"] = kDefaultDrag;
+    defaults["masses"] = kDefaultVertexMass;
+    defaults["stretch_stiffness"] = kDefaults.stretch_stiffness;
+    defaults["bend_stiffness"] = kDefaults.bend_stiffness;
+    defaults["damping"] = kDefaults.damping;
+    defaults["drag"] = kDefaults.drag;
     defaults["poisson_ratio"] = kDefaultPoissonRatio;
     cloth_class.attr("defaults") = defaults;
   }

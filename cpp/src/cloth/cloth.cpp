@@ -117,8 +117,13 @@ void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& 
 }
 
 Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
-             double stretch_stiffness, double bend_stiffness, double damping, double drag,
-             BendingModel bending, double bending_modulus, const MembraneMaterial& membrane) {
+             const ClothMaterial& material) {
+  const double stretch_stiffness = material.stretch_stiffness;
+  const double bend_stiffness = material.bend_stiffness;
+  const double damping = material.damping, drag = material.drag;
+  const BendingModel bending = material.bending;
+  const double bending_modulus = material.bending_modulus;
+  const MembraneMaterial& membrane = material.membrane;
   validate_mesh(positions, faces);
   check_membrane(membrane, "");
   if (membrane.young_modulus > 0.0) {

@@ -145,6 +145,16 @@ Eigen::VectorXd lumped_vertex_areas(const Positions& positions, const Faces& fac
   return area;
 }
 
+Eigen::VectorXd lumped_masses(const Positions& positions, const Faces& faces, double density) {
+  if (!std::isfinite(density) || density <= 0.0) {
+    std::ostringstream msg;
+    msg << "density must be finite and > 0 kg/m², got " << density;
+    throw std::invalid_argument(msg.str());
+  }
+  validate_mesh(positions, faces);  // lumping reads the faces
+  return density * lumped_vertex_areas(positions, faces);
+}
+
 double area_from_sides(double a, double b, double c) {
   const double s = 0.5 * (a + b + c);
   const double product = s * (s - a) * (s - b) * (s - c);

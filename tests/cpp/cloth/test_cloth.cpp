@@ -23,8 +23,8 @@ using yore_test::pairs_of_kind;
 
 TEST_CASE("a cloth is wired as Fig. 1 with rest lengths and materials from its input") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(4, 3, 0.9, 0.5);
-  const Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(12, 0.01), 300.0, 7.0,
-                    0.05, 0.2);
+  const Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(12, 0.01),
+                    yore_test::material(300.0, 7.0, 0.05, 0.2));
   check_wiring(cloth);
   const auto& s = cloth.springs();
   for (std::size_t k = 0; k < s.size(); ++k) {
@@ -38,8 +38,8 @@ TEST_CASE("a cloth is wired as Fig. 1 with rest lengths and materials from its i
   CHECK(cloth.velocities().isZero(0.0));
   CHECK(cloth.has_spring_damping());
   // zero bend stiffness: no bending springs at all (model only what a scene needs)
-  const Cloth flat(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(12, 0.01), 300.0, 0.0, 0.0,
-                   0.0);
+  const Cloth flat(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(12, 0.01),
+                   yore_test::material(300.0, 0.0, 0.0, 0.0));
   CHECK(pairs_of_kind(flat, SpringKind::bending).empty());
   CHECK_FALSE(flat.has_spring_damping());
 }
@@ -47,34 +47,37 @@ TEST_CASE("a cloth is wired as Fig. 1 with rest lengths and materials from its i
 TEST_CASE("bad cloth input is std::invalid_argument naming the problem") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
   const Eigen::VectorXd masses = Eigen::VectorXd::Constant(9, 0.01);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Ones(8), 1, 1, 0, 0),
-                       doctest::Contains("masses has 8 entries for 9 vertices"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      Cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Ones(8), yore_test::material(1, 1, 0, 0)),
+      doctest::Contains("masses has 8 entries for 9 vertices"), std::invalid_argument);
   Eigen::VectorXd bad = masses;
   bad[4] = -1.0;
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, bad, 1, 1, 0, 0),
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, bad, yore_test::material(1, 1, 0, 0)),
                        doctest::Contains("mass of vertex 4"), std::invalid_argument);
   bad[4] = 5e-324;  // subnormal
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, bad, 1, 1, 0, 0),
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, bad, yore_test::material(1, 1, 0, 0)),
                        doctest::Contains("mass of vertex 4"), std::invalid_argument);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 0.0, 1, 0, 0),
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, yore_test::material(0.0, 1, 0, 0)),
                        doctest::Contains("stretch_stiffness"), std::invalid_argument);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 1, -1, 0, 0),
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, yore_test::material(1, -1, 0, 0)),
                        doctest::Contains("bend_stiffness"), std::invalid_argument);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 1, 1, std::nan(""), 0),
-                       doctest::Contains("damping"), std::invalid_argument);
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, -0.1),
-                       doctest::Contains("drag"), std::invalid_argument);
   CHECK_THROWS_WITH_AS(
-      Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, 0, yore::BendingModel::springs, 0.5),
-      doctest::Contains("bending_modulus is for quadratic bending"), std::invalid_argument);
+      Cloth(mesh.positions, mesh.faces, masses, yore_test::material(1, 1, std::nan(""), 0)),
+      doctest::Contains("damping"), std::invalid_argument);
   CHECK_THROWS_WITH_AS(
-      Cloth(mesh.positions, mesh.faces, masses, 1, 1, 0, 0, yore::BendingModel::quadratic, 0.5),
-      doctest::Contains("bend_stiffness must be 0"), std::invalid_argument);
+      Cloth(mesh.positions, mesh.faces, masses, yore_test::material(1, 1, 0, -0.1)),
+      doctest::Contains("drag"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses,
+                             yore_test::material(1, 1, 0, 0, yore::BendingModel::springs, 0.5)),
+                       doctest::Contains("bending_modulus is for quadratic bending"),
+                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, mesh.faces, masses,
+                             yore_test::material(1, 1, 0, 0, yore::BendingModel::quadratic, 0.5)),
+                       doctest::Contains("bend_stiffness must be 0"), std::invalid_argument);
   // the mesh is validated too (validate_mesh's message comes through)
   yore::Faces faces = mesh.faces;
   faces(0, 0) = 42;
-  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, faces, masses, 1, 1, 0, 0),
+  CHECK_THROWS_WITH_AS(Cloth(mesh.positions, faces, masses, yore_test::material(1, 1, 0, 0)),
                        doctest::Contains("out of range"), std::invalid_argument);
 }
 

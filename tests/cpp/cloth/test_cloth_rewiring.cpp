@@ -122,7 +122,7 @@ TEST_CASE("refine 1→4 keeps the rest metric, the total mass and the wiring") {
     const Eigen::Index n = mesh.positions.rows();
     Eigen::VectorXd masses(n);
     for (Eigen::Index i = 0; i < n; ++i) masses[i] = 1e-3 * (1.0 + 0.5 * std::sin(i));  // uneven
-    Cloth cloth(mesh.positions, mesh.faces, masses, 200.0, 20.0, 0.0, 0.0);
+    Cloth cloth(mesh.positions, mesh.faces, masses, yore_test::material(200.0, 20.0, 0.0, 0.0));
     const yore::RefineReport report = cloth.refine_faces({3, 4, 12});
     check_wiring(cloth);
     CHECK_NOTHROW(yore::validate_mesh(cloth.positions(), cloth.faces()));
@@ -148,8 +148,8 @@ TEST_CASE("refine 1→4 keeps the rest metric, the total mass and the wiring") {
 
 TEST_CASE("without bending springs a refinement adds none") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(5, 5);
-  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(25, 1e-3), 200.0, 0.0, 0.0,
-              0.0);
+  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(25, 1e-3),
+              yore_test::material(200.0, 0.0, 0.0, 0.0));
   cloth.refine_faces({3, 10});
   CHECK(pairs_of_kind(cloth, SpringKind::bending).empty());
   CHECK(pairs_of_kind(cloth, SpringKind::structural).size() ==
@@ -158,8 +158,8 @@ TEST_CASE("without bending springs a refinement adds none") {
 
 TEST_CASE("refining a stretched region keeps its rest lengths, not its stretch") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(5, 5);
-  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(25, 1e-3), 200.0, 20.0, 0.0,
-              0.0);
+  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(25, 1e-3),
+              yore_test::material(200.0, 20.0, 0.0, 0.0));
   Positions stretched = mesh.positions;
   stretched.col(0) *= 1.3;  // 30 % along x, still flat
   cloth.set_positions(stretched);

@@ -176,8 +176,9 @@ TEST_CASE("under compression the filtered Hessians are positive semidefinite, ex
 
 TEST_CASE("a membrane cloth: 0 N/m structural springs, summed energy and gradient, status") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3, 0.4, 0.4);
-  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 0.0, 0.0, 0.0,
-                    0.0, yore::BendingModel::springs, 0.0, material());
+  yore::Cloth cloth(
+      mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01),
+      yore_test::material(0.0, 0.0, 0.0, 0.0, yore::BendingModel::springs, 0.0, material()));
   REQUIRE(cloth.has_membrane());
   for (std::size_t k = 0; k < cloth.springs().size(); ++k)
     CHECK(cloth.springs().stiffness[k] == 0.0);
@@ -224,13 +225,15 @@ TEST_CASE("a membrane cloth: 0 N/m structural springs, summed energy and gradien
 TEST_CASE("membrane inputs are checked") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
   const Eigen::VectorXd masses = Eigen::VectorXd::Constant(9, 0.01);
-  CHECK_THROWS_WITH_AS(yore::Cloth(mesh.positions, mesh.faces, masses, 10.0, 0, 0, 0,
-                                   yore::BendingModel::springs, 0.0, material()),
-                       doctest::Contains("stretch_stiffness must be 0"), std::invalid_argument);
-  CHECK_THROWS_WITH_AS(yore::Cloth(mesh.positions, mesh.faces, masses, 0.0, 0, 0, 0,
-                                   yore::BendingModel::springs, 0.0, {kYoung, 1.0}),
-                       doctest::Contains("poisson_ratio must be in (-1, 1)"),
-                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      yore::Cloth(mesh.positions, mesh.faces, masses,
+                  yore_test::material(10.0, 0, 0, 0, yore::BendingModel::springs, 0.0, material())),
+      doctest::Contains("stretch_stiffness must be 0"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(
+      yore::Cloth(
+          mesh.positions, mesh.faces, masses,
+          yore_test::material(0.0, 0, 0, 0, yore::BendingModel::springs, 0.0, {kYoung, 1.0})),
+      doctest::Contains("poisson_ratio must be in (-1, 1)"), std::invalid_argument);
   // a face whose edge has no structural spring
   yore::SpringSet springs;
   springs.add(0, 1, 1.0, 0.0, 0.0, yore::SpringKind::structural);
@@ -267,8 +270,8 @@ yore_test::Mesh irregular_mesh(int nx, int ny, double width, double height) {
 
 yore::Cloth smoothed_cloth(const yore_test::Mesh& mesh, const yore::MembraneMaterial& m) {
   yore::Cloth cloth(mesh.positions, mesh.faces,
-                    Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01), 0.0, 0.0, 0.0, 0.0,
-                    yore::BendingModel::quadratic, 0.0, m);
+                    Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01),
+                    yore_test::material(0.0, 0.0, 0.0, 0.0, yore::BendingModel::quadratic, 0.0, m));
   cloth.set_membrane_smoothed(true);
   return cloth;
 }
@@ -443,9 +446,9 @@ TEST_CASE("the smoothed strain charges a wrinkle along the tension less than the
   const yore_test::Mesh mesh = irregular_mesh(25, 25, 0.3, 0.3);
   const yore::MembraneMaterial no_poisson{kYoung, 0.0};
   yore::Cloth smoothed = smoothed_cloth(mesh, no_poisson);
-  yore::Cloth faces(mesh.positions, mesh.faces,
-                    Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01), 0.0, 0.0, 0.0, 0.0,
-                    yore::BendingModel::springs, 0.0, no_poisson);
+  yore::Cloth faces(
+      mesh.positions, mesh.faces, Eigen::VectorXd::Constant(mesh.positions.rows(), 0.01),
+      yore_test::material(0.0, 0.0, 0.0, 0.0, yore::BendingModel::springs, 0.0, no_poisson));
   REQUIRE_FALSE(faces.has_smoothed_membrane());
   const double a = 1e-6, k = 2.0 * M_PI / 0.15;  // 0.15 m: 12 spacings of 12.5 mm
   const double Sxx = 2.0 * no_poisson.mu() * 0.5 * (1.21 - 1.0);

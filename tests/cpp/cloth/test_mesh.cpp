@@ -164,6 +164,22 @@ TEST_CASE("lumped vertex areas: a third of each face per corner, summing to the 
   CHECK(yore::lumped_vertex_areas(p, f).isApprox(Eigen::Vector3d::Constant(2.0), 1e-15));
 }
 
+TEST_CASE("lumped masses: density times the lumped areas; the total is density × area") {
+  const yore_test::Mesh mesh = yore_test::grid_mesh(4, 3, 1.5, 0.8);
+  const Eigen::VectorXd masses = yore::lumped_masses(mesh.positions, mesh.faces, 0.2);
+  CHECK(masses.sum() == doctest::Approx(0.2 * 1.5 * 0.8).epsilon(1e-14));
+  CHECK(masses.isApprox(0.2 * yore::lumped_vertex_areas(mesh.positions, mesh.faces), 1e-15));
+  for (const double bad : {0.0, -1.0, std::numeric_limits<double>::infinity(),
+                           std::numeric_limits<double>::quiet_NaN()}) {
+    CHECK_THROWS_WITH_AS(yore::lumped_masses(mesh.positions, mesh.faces, bad),
+                         doctest::Contains("density must be finite and > 0"),
+                         std::invalid_argument);
+  }
+  Faces out_of_range = mesh.faces;
+  out_of_range(0, 0) = 99;
+  CHECK_THROWS_AS(yore::lumped_masses(mesh.positions, out_of_range, 0.2), std::invalid_argument);
+}
+
 TEST_CASE("Heron's formula, and 0 outside the triangle inequality") {
   CHECK(yore::area_from_sides(3.0, 4.0, 5.0) == doctest::Approx(6.0).epsilon(1e-15));
   CHECK(yore::area_from_sides(1.0, 1.0, 1.0) == doctest::Approx(std::sqrt(3.0) / 4).epsilon(1e-15));

@@ -149,8 +149,8 @@ TEST_CASE("for_each_free_entry visits the upper pairs of free vertices once") {
 
 TEST_CASE("a quadratic-bending cloth: no bending springs, its energy term is Q's") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
-  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 100.0, 0.0, 0.0,
-                    0.0, yore::BendingModel::quadratic, 0.05);
+  yore::Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01),
+                    yore_test::material(100.0, 0.0, 0.0, 0.0, yore::BendingModel::quadratic, 0.05));
   CHECK(cloth.has_quadratic_bending());
   for (std::size_t k = 0; k < cloth.springs().size(); ++k)
     CHECK(cloth.springs().kind[k] == yore::SpringKind::structural);

@@ -98,8 +98,9 @@ TEST_CASE("bad options, and a membrane, are refused by name") {
   CHECK_THROWS_WITH_AS(LocalGlobalIntegrator{options},
                        doctest::Contains("tolerance must be finite"), std::invalid_argument);
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
-  Cloth membrane(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01), 0.0, 0.0, 0.0, 0.0,
-                 yore::BendingModel::springs, 0.0, {100.0, 0.3});
+  Cloth membrane(
+      mesh.positions, mesh.faces, Eigen::VectorXd::Constant(9, 0.01),
+      yore_test::material(0.0, 0.0, 0.0, 0.0, yore::BendingModel::springs, 0.0, {100.0, 0.3}));
   const Positions start = membrane.positions();
   LocalGlobalIntegrator integrator;
   CHECK_THROWS_WITH_AS(integrator.advance(membrane, Vec3::Zero(), 0.01, 1),

@@ -72,8 +72,8 @@ TEST_CASE("Q over the free vertices is M/h² + drag M/h + Σ (k + c/h) AᵀA, SP
 
 TEST_CASE("quadratic bending enters Q as κ Q_bending") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(4, 4);
-  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(16, 0.01), 300.0, 0.0, 0.0, 0.0,
-              yore::BendingModel::quadratic, 0.02);
+  Cloth cloth(mesh.positions, mesh.faces, Eigen::VectorXd::Constant(16, 0.01),
+              yore_test::material(300.0, 0.0, 0.0, 0.0, yore::BendingModel::quadratic, 0.02));
   cloth.fix({0});
   yore::ScalarSpringPattern structure;
   yore::build_scalar_spring_pattern(cloth, structure);
@@ -88,15 +88,15 @@ TEST_CASE("quadratic bending enters Q as κ Q_bending") {
 TEST_CASE("the material checksum follows stiffness, damping and drag, not positions") {
   const yore_test::Mesh mesh = yore_test::grid_mesh(3, 3);
   const Eigen::VectorXd masses = Eigen::VectorXd::Constant(9, 0.01);
-  const double base =
-      yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.2));
-  CHECK(yore::spring_material_checksum(
-            Cloth(mesh.positions, mesh.faces, masses, 101, 10, 0.1, 0.2)) != base);
-  CHECK(yore::spring_material_checksum(
-            Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.2, 0.2)) != base);
-  CHECK(yore::spring_material_checksum(
-            Cloth(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.3)) != base);
-  Cloth moved(mesh.positions, mesh.faces, masses, 100, 10, 0.1, 0.2);
+  const double base = yore::spring_material_checksum(
+      Cloth(mesh.positions, mesh.faces, masses, yore_test::material(100, 10, 0.1, 0.2)));
+  CHECK(yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses,
+                                             yore_test::material(101, 10, 0.1, 0.2))) != base);
+  CHECK(yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses,
+                                             yore_test::material(100, 10, 0.2, 0.2))) != base);
+  CHECK(yore::spring_material_checksum(Cloth(mesh.positions, mesh.faces, masses,
+                                             yore_test::material(100, 10, 0.1, 0.3))) != base);
+  Cloth moved(mesh.positions, mesh.faces, masses, yore_test::material(100, 10, 0.1, 0.2));
   moved.set_positions(mesh.positions * 2.0);
   CHECK(yore::spring_material_checksum(moved) == base);
 }

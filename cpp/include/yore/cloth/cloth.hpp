@@ -39,6 +39,24 @@ enum class BendingModel : std::uint8_t {
   hinge = 2,  ///< Bergou et al. 2006's hinge energy (bending_modulus, N·m); no springs
 };
 
+/// What a cloth on a mesh is made of. The defaults are a bare Cloth's (a physics object: no
+/// dissipation unless asked; Python's `Cloth.defaults`); the scenes' material is
+/// yore.options.SCENE_MATERIAL.
+struct ClothMaterial {
+  double stretch_stiffness = 100.0;  ///< N/m per structural spring (0 with a membrane)
+  double bend_stiffness = 100.0;     ///< N/m per bending spring (0: none, and with quadratic)
+  double damping = 0.0;              ///< N·s/m along each spring
+  double drag = 0.0;                 ///< 1/s: a force −drag·m·v on each vertex (still air)
+  BendingModel bending = BendingModel::springs;
+  double bending_modulus = 0.0;  ///< N·m, with quadratic or hinge bending
+  MembraneMaterial membrane;     ///< young_modulus > 0: a membrane resists stretching
+};
+
+/// A bare cloth's mass per vertex when none is given, kg.
+constexpr double kDefaultVertexMass = 1e-3;
+/// A membrane's Poisson's ratio when none is given.
+constexpr double kDefaultPoissonRatio = 0.3;
+
 /// Whether `model` is a constant-matrix energy ½ κ Σ_c x_cᵀ Q x_c (quadratic or hinge).
 constexpr bool is_quadratic(BendingModel model) {
   return model == BendingModel::quadratic || model == BendingModel::hinge;
@@ -139,8 +157,8 @@ class Cloth {
   /// Builds a cloth on a triangle mesh: structural springs on every unique edge, bending springs
   /// across every interior edge between the two opposite vertices (none when bend_stiffness is 0),
   /// rest lengths from `positions`.
-  /// positions n×3 (m), faces f×3, masses n (kg), stiffnesses N/m, damping N·s/m along each spring,
-  /// drag 1/s (force −drag·m·v on each vertex, still air).
+  /// positions n×3 (m), faces f×3, masses n (kg; lumped_masses gives them from a density), the
+  /// material as ClothMaterial says.
   /// bending: BendingModel::springs (bend_stiffness), or BendingModel::quadratic or ::hinge
   /// (bending_modulus, N·m, rest geometry = `positions`; no bending springs, so bend_stiffness
   /// must be 0; quadratic_bending.hpp says how the two differ).
@@ -154,9 +172,7 @@ class Cloth {
   /// a membrane with a stretch stiffness, a Young's modulus that is not a normal number or a
   /// Poisson's ratio outside (−1, 1).
   Cloth(const Positions& positions, const Faces& faces, const Eigen::VectorXd& masses,
-        double stretch_stiffness, double bend_stiffness, double damping, double drag,
-        BendingModel bending = BendingModel::springs, double bending_modulus = 0.0,
-        const MembraneMaterial& membrane = MembraneMaterial{});
+        const ClothMaterial& material = ClothMaterial{});
 
   /// Builds a plain spring network with no faces. edges s×2; rest_lengths s (m) or empty for the
   /// distances in `positions`. Throws std::invalid_argument on bad indices, repeated pairs,

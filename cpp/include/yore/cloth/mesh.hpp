@@ -39,6 +39,11 @@ MeshConnectivity mesh_connectivity(const Faces& faces);
 /// Per-vertex lumped area: each vertex gets a third of the area of every face around it (m²).
 Eigen::VectorXd lumped_vertex_areas(const Positions& positions, const Faces& faces);
 
+/// Per-vertex masses of a sheet of areal density `density` (kg/m²), lumped by area: a third of
+/// each face's mass to each of its corners (kg). Throws std::invalid_argument on a bad mesh or
+/// a density that is not finite and > 0.
+Eigen::VectorXd lumped_masses(const Positions& positions, const Faces& faces, double density);
+
 /// Area (m²) of a triangle with these side lengths (m), Heron's formula; 0 if they violate the
 /// triangle inequality. Rest areas of faces come from their structural springs' rest lengths.
 double area_from_sides(double a, double b, double c);
