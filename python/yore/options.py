@@ -385,7 +385,7 @@ _CHEBYSHEV_MODE = Mode(
 
 #: The options that act only in one mode of their integrator (option → `Mode`), each read off
 #: the C++ core: rtol, atol and max_steps only in bdf2's and tr-bdf2's error-controlled steps
-#: (tr_bdf2.cpp, implicit.cpp); the lagged factor's CG bounds only with
+#: (adaptive_steps.cpp, implicit.cpp); the lagged factor's CG bounds only with
 #: lagged_factorization (newton.cpp); the CG backend's only with solver "pcg", CHOLMOD's
 #: factorization and amalgamation only with solver "cholmod" (linear_solver.cpp: eigen-ldlt and
 #: pcg take neither); strain_limit_passes only with a strain limit (explicit.cpp); local-global's
