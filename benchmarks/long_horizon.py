@@ -234,6 +234,8 @@ QUICK_FAMILIES = ("explicit", "implicit")
 TARGETS = (
     ("64², k = 2e5, equal bending", 64, 2e5, "equal", LADDER_MEASURE, 0.05, 0.3),
     ("64², k = 2e6, equal bending", 64, 2e6, "equal", LADDER_MEASURE, 0.05, 0.1),
+    ("128², k = 2e5, equal bending", 128, 2e5, "equal", LADDER_MEASURE, 0.05, 0.2),
+    ("128², k = 2e6, equal bending", 128, 2e6, "equal", LADDER_MEASURE, 0.05, 0.05),
     ("128², k = 2e7, real cloth", 128, 2e7, "real cloth", LADDER_MEASURE, 0.05, 0.1),
 )
 

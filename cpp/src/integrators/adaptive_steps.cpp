@@ -25,7 +25,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
   if (end.dt != dt) end = SimulationClock{end.time(), 0, dt};
   ++end.steps;
   const double end_time = end.time();
-  ensure_structure(cloth);
+  prepare(cloth);
   // The proposal carried from the last interval (a multistep scheme's next_dt, else the
   // history's dt); afresh: a tenth of dt.
   const bool multistep = m_scheme->multistep();
@@ -37,7 +37,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     m_step_velocities.resize(n, 3);
   }
   m_step_history.resize(m_history_arrays.size());
-  const char* name = time_scheme(m_options.method).integrator;
+  const char* name = time_scheme(options().method).integrator;
   const double most = m_scheme->max_step_growth();
   int taken = 0;
   while (true) {
@@ -46,18 +46,18 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     // Steps spread evenly over what is left, none longer than the proposal.
     const double pieces = std::ceil(remaining / h * (1.0 - 1e-12));
     const double step_size = remaining / std::max(pieces, 1.0);
-    if (++taken > m_options.max_steps || !(step_size > 1e-12 * dt)) {
+    if (++taken > options().max_steps || !(step_size > 1e-12 * dt)) {
       std::ostringstream msg;
       msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
           << " s, " << name << " with dt = \"auto\"): "
-          << (taken > m_options.max_steps
-                  ? "more than max_steps = " + std::to_string(m_options.max_steps) +
+          << (taken > options().max_steps
+                  ? "more than max_steps = " + std::to_string(options().max_steps) +
                         " steps in one output interval"
                   : std::string("the step fell below 1e-12 dt"))
-          << "; the last step tried was " << step_size << " s, tolerance rtol = " << m_options.rtol
-          << ", atol = " << m_options.atol
+          << "; the last step tried was " << step_size << " s, tolerance rtol = " << options().rtol
+          << ", atol = " << options().atol
           << ". Loosen the tolerance, raise max_steps, or check the forces.";
-      throw SimulationDiverged(msg.str(), m_statistics.steps, cloth.time(), dt, step_size);
+      throw SimulationDiverged(msg.str(), m_newton.statistics().steps, cloth.time(), dt, step_size);
     }
     poll_interrupt();
     // What a rejected step must give back: the state, the clock and the history.
@@ -69,13 +69,13 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     const SimulationClock clock = cloth.clock();
     const HistoryKey key = m_history;
     double largest = 0.0;
-    for (const std::int32_t i : m_free_vertices) {
+    for (const std::int32_t i : m_newton.free_vertices()) {
       largest = std::max(largest, cloth.positions().row(i).cwiseAbs().maxCoeff());
     }
-    const double tolerance = m_options.atol + m_options.rtol * largest;
+    const double tolerance = options().atol + options().rtol * largest;
 
     step(cloth, gravity, step_size);
-    const double error = m_statistics.last_truncation_error;
+    const double error = m_newton.statistics().last_truncation_error;
     const double ratio =
         std::isfinite(error) ? error / tolerance : std::numeric_limits<double>::infinity();
     // The estimate is of the local error, O(h³): the step that meets the tolerance with a
@@ -85,7 +85,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
       h = step_size * factor;
       continue;
     }
-    ++m_statistics.rejected_steps;
+    ++m_newton.statistics().rejected_steps;
     cloth.integrator_positions() = m_step_positions;
     cloth.integrator_velocities() = m_step_velocities;
     cloth.set_clock(clock);
@@ -100,7 +100,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
   // The proposal, saved and restored with the history: a multistep scheme's next_dt (its dt
   // stays the last step, which its next blend needs), else the history's dt.
   (multistep ? m_history.proposal : m_history.dt) = h;
-  ++m_statistics.intervals;
+  ++m_newton.statistics().intervals;
 }
 
 }  // namespace yore

@@ -1,5 +1,5 @@
 /// @file assembly.cpp
-/// The incremental potential of ImplicitIntegrator: the sparsity pattern of its Hessian (built
+/// The incremental potential of NewtonSolver: the sparsity pattern of its Hessian (built
 /// and analysed once per topology), the work arrays, and the assembly of the energy, gradient
 /// and Hessian values that every Newton iteration, line-search trial, quasi-Newton iteration
 /// and SUNDIALS iteration matrix uses. The time schemes pose what it is assembled for
@@ -11,7 +11,7 @@
 #include <stdexcept>
 
 #include "implicit_detail.hpp"
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/newton_solver.hpp"
 #include "yore/platform/errors.hpp"
 #include "yore/platform/timer.hpp"
 
@@ -122,8 +122,8 @@ std::vector<std::pair<std::int32_t, std::int32_t>> coupled_blocks(
 
 }  // namespace
 
-void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
-  if (cloth.topology_version() == m_topology) return;
+bool NewtonSolver::ensure_structure(const Cloth& cloth) {
+  if (cloth.topology_version() == m_topology) return false;
   const Stopwatch start;
   const Eigen::Index n = cloth.vertex_count();
   const SpringSet& springs = cloth.springs();
@@ -182,12 +182,12 @@ void ImplicitIntegrator::ensure_structure(const Cloth& cloth) {
   if (pattern.size > 0 && newton) m_solver->analyze(pattern);
   m_topology = cloth.topology_version();
   m_statistics.analyze_seconds += start.seconds();
+  return true;
 }
 
-void ImplicitIntegrator::membrane_ranks(
-    const MembraneElements* elements,
-    const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
-    const std::vector<std::int32_t>& first_neighbour) {
+void NewtonSolver::membrane_ranks(const MembraneElements* elements,
+                                  const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+                                  const std::vector<std::int32_t>& first_neighbour) {
   m_membrane_pair_starts.clear();
   m_membrane_pair_ranks.clear();
   if (elements == nullptr) return;
@@ -209,7 +209,7 @@ void ImplicitIntegrator::membrane_ranks(
   });
 }
 
-void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
+void NewtonSolver::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
   const Eigen::Index n = cloth.vertex_count();
   const std::size_t s = cloth.springs().size();
   m_gradient.resize(dofs);
@@ -227,15 +227,11 @@ void ImplicitIntegrator::size_workspace(const Cloth& cloth, Eigen::Index dofs) {
   m_directions.resize(static_cast<Eigen::Index>(s), 3);
   m_stage.acceleration.setZero(n, 3);
   m_stage.extrapolated = false;
-  // A history restored by set_history for this very topology survives the first step's setup.
-  const bool clear = m_history.topology != cloth.topology_version();
-  m_scheme->resize(n, clear);
-  if (clear) m_history.valid = false;
   m_factor_valid = false;
   m_cg.resize(dofs);
 }
 
-void ImplicitIntegrator::update_directions(const Cloth& cloth) {
+void NewtonSolver::update_directions(const Cloth& cloth) {
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const Vec3 d = m_stage.target.row(springs.first[k]) - m_stage.target.row(springs.second[k]);
@@ -244,7 +240,7 @@ void ImplicitIntegrator::update_directions(const Cloth& cloth) {
   }
 }
 
-void ImplicitIntegrator::reset_tension(const Cloth& cloth, const Positions& x) {
+void NewtonSolver::reset_tension(const Cloth& cloth, const Positions& x) {
   const SpringSet& springs = cloth.springs();
   m_tension.resize(springs.size());
   for (std::size_t k = 0; k < springs.size(); ++k) {
@@ -253,7 +249,7 @@ void ImplicitIntegrator::reset_tension(const Cloth& cloth, const Positions& x) {
   }
 }
 
-void ImplicitIntegrator::update_tension(const Cloth& cloth, double alpha) {
+void NewtonSolver::update_tension(const Cloth& cloth, double alpha) {
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const std::int32_t i = springs.first[k], j = springs.second[k];
@@ -274,8 +270,8 @@ void ImplicitIntegrator::update_tension(const Cloth& cloth, double alpha) {
 // over 80 lines: the assembly pass (inertia, springs, quadratic bending into one energy sum,
 // gradient and Hessian values) runs in every Newton iteration and line-search trial; its
 // stages share the running sums whose order fixes the round-off, so it stays one pass.
-double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
-                                    bool with_hessian, HessianProjection projection) {
+double NewtonSolver::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
+                              bool with_hessian, HessianProjection projection) {
   const TransverseFilter filter =
       projection == HessianProjection::exact || projection == HessianProjection::shifted
           ? TransverseFilter::exact
@@ -402,10 +398,9 @@ double ImplicitIntegrator::evaluate(const Cloth& cloth, const Positions& x, bool
   return energy;
 }
 
-void ImplicitIntegrator::evaluate_membrane(const Cloth& cloth, const Positions& x,
-                                           bool with_gradient, bool with_hessian,
-                                           TransverseFilter filter, double& energy,
-                                           double& magnitude) {
+void NewtonSolver::evaluate_membrane(const Cloth& cloth, const Positions& x, bool with_gradient,
+                                     bool with_hessian, TransverseFilter filter, double& energy,
+                                     double& magnitude) {
   // Each element's corner blocks: the diagonal ones in their unknowns' diagonal blocks, each
   // pair's in the block ensure_structure ranked for it (m_membrane_pair_ranks).
   const MembraneElements& elements = cloth.membrane_elements();
@@ -460,7 +455,7 @@ void ImplicitIntegrator::evaluate_membrane(const Cloth& cloth, const Positions& 
   }
 }
 
-double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
+double NewtonSolver::scaled_residual(const Cloth& cloth) const {
   // The gradient as a displacement: h̃²/m ∇E is how far the inertia term alone would move a
   // vertex to balance it, so the test scales with h̃ and the mass like the positions do.
   const Eigen::VectorXd& masses = cloth.masses();
@@ -475,9 +470,8 @@ double ImplicitIntegrator::scaled_residual(const Cloth& cloth) const {
   return largest;
 }
 
-NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
-                                               const Positions& positions,
-                                               HessianProjection projection) {
+NewtonSystem NewtonSolver::newton_system(const Cloth& cloth, const Vec3& gravity, double dt,
+                                         const Positions& positions, HessianProjection projection) {
   if (projection != HessianProjection::clamp && projection != HessianProjection::abs &&
       projection != HessianProjection::exact) {
     throw std::invalid_argument("newton_system: projection must be clamp, abs or exact");
@@ -512,13 +506,13 @@ NewtonSystem ImplicitIntegrator::newton_system(const Cloth& cloth, const Vec3& g
   return system;
 }
 
-const std::vector<std::int32_t>& ImplicitIntegrator::prepare_structure(const Cloth& cloth) {
+const std::vector<std::int32_t>& NewtonSolver::prepare_structure(const Cloth& cloth) {
   ensure_structure(cloth);
   return m_free_vertices;
 }
 
-void ImplicitIntegrator::factor_iteration_matrix(const Cloth& cloth, const Positions& x,
-                                                 double gamma, std::vector<double>& stiffness) {
+void NewtonSolver::factor_iteration_matrix(const Cloth& cloth, const Positions& x, double gamma,
+                                           std::vector<double>& stiffness) {
   if (!(gamma > 0.0) || !std::isfinite(gamma)) {
     throw std::invalid_argument("factor_iteration_matrix: gamma must be finite and > 0");
   }
@@ -543,7 +537,7 @@ void ImplicitIntegrator::factor_iteration_matrix(const Cloth& cloth, const Posit
   m_statistics.factorize_seconds += start.seconds();
 }
 
-void ImplicitIntegrator::solve_iteration_matrix(const double* rhs, double* solution) {
+void NewtonSolver::solve_iteration_matrix(const double* rhs, double* solution) {
   if (m_pattern.size == 0) return;
   const Stopwatch start;
   m_solver->solve(rhs, solution);

@@ -1,13 +1,13 @@
 // Newton's method on the incremental potential, in its parts: the direction (exact, shifted,
 // projected, or by CG on a lagged factor), the projection decisions kept between iterations
 // and steps, and the loop that joins them with the line search and the stopping verdict that
-// quasi-Newton shares (implicit.cpp). Part of ImplicitIntegrator.
+// quasi-Newton shares (implicit.cpp). Part of NewtonSolver.
 
 #include <algorithm>
 #include <cmath>
 
 #include "implicit_detail.hpp"
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/newton_solver.hpp"
 #include "yore/platform/errors.hpp"
 #include "yore/platform/interrupt.hpp"
 #include "yore/platform/timer.hpp"
@@ -15,7 +15,7 @@
 namespace yore {
 using namespace implicit_detail;
 
-ImplicitIntegrator::ProjectionChoice ImplicitIntegrator::begin_projection() {
+NewtonSolver::ProjectionChoice NewtonSolver::begin_projection() {
   // Projection exact: after a rejection the step stays projected, and the next steps skip the
   // exact attempt with a doubling back-off (1, 2, 4, … up to 32 steps), so an indefinite phase
   // costs at most one thrown-away factorization per back-off period.
@@ -28,7 +28,7 @@ ImplicitIntegrator::ProjectionChoice ImplicitIntegrator::begin_projection() {
   return choice;
 }
 
-void ImplicitIntegrator::end_projection(const ProjectionChoice& choice, int iterations) {
+void NewtonSolver::end_projection(const ProjectionChoice& choice, int iterations) {
   if (m_options.projection != HessianProjection::exact) return;
   if (choice.rejected) {
     m_exact_skip = m_exact_backoff;
@@ -38,8 +38,8 @@ void ImplicitIntegrator::end_projection(const ProjectionChoice& choice, int iter
   }
 }
 
-double ImplicitIntegrator::newton_direction(const Cloth& cloth, ProjectionChoice& choice,
-                                            double residual) {
+double NewtonSolver::newton_direction(const Cloth& cloth, ProjectionChoice& choice,
+                                      double residual) {
   // Within a step, the exact Hessian is tried again once the projected iterations have cut the
   // residual tenfold since it was rejected: near a stable minimum it is positive definite
   // again, and the clamp alone converges only linearly.
@@ -105,7 +105,7 @@ double ImplicitIntegrator::newton_direction(const Cloth& cloth, ProjectionChoice
   return energy;
 }
 
-bool ImplicitIntegrator::try_kept_factor() {
+bool NewtonSolver::try_kept_factor() {
   // A failed CG on the kept factor costs lag_max_cg_iterations solves, about two factorizations
   // at the default bound (one factorization costs 8–12 solves at 32²–128²), and where the stiff
   // springs turn within a step every try fails: after the k-th failure in a row the next
@@ -120,7 +120,7 @@ bool ImplicitIntegrator::try_kept_factor() {
   return true;
 }
 
-void ImplicitIntegrator::kept_factor_result(bool solved) {
+void NewtonSolver::kept_factor_result(bool solved) {
   if (solved) {
     m_lag_backoff = 1;
   } else {
@@ -130,9 +130,9 @@ void ImplicitIntegrator::kept_factor_result(bool solved) {
   }
 }
 
-void ImplicitIntegrator::adapt_projection(const Cloth& cloth, ProjectionChoice& choice,
-                                          double energy, double trial_energy, double slope,
-                                          double alpha, double magnitude) {
+void NewtonSolver::adapt_projection(const Cloth& cloth, ProjectionChoice& choice, double energy,
+                                    double trial_energy, double slope, double alpha,
+                                    double magnitude) {
   if (m_options.projection == HessianProjection::trust_region) {
     // Chen et al. 2024: the fit ρ of the quadratic model −(g·d + ½ dᵀHd) = −½ g·d (H d = −g)
     // to the actual decrease at the full step picks the next filter: a poor fit (ρ < 0.01,
@@ -162,8 +162,8 @@ void ImplicitIntegrator::adapt_projection(const Cloth& cloth, ProjectionChoice& 
   }
 }
 
-void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, double& residual,
-                                        int& iterations, int& backtracks, bool& converged) {
+void NewtonSolver::newton_iterate(const Cloth& cloth, double& energy, double& residual,
+                                  int& iterations, int& backtracks, bool& converged) {
   ProjectionChoice choice = begin_projection();
   double last_move = 0.0, rate = 1.0;  // the truncation test's memory within the step
   while (true) {
@@ -216,7 +216,7 @@ void ImplicitIntegrator::newton_iterate(const Cloth& cloth, double& energy, doub
   end_projection(choice, iterations);
 }
 
-bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
+bool NewtonSolver::factorize_shifted(const Cloth& cloth) {
   // m_values holds the exact Hessian; add μ M/h̃² to its diagonal, raising μ until the
   // factorization succeeds. Each failure is one thrown-away factorization.
   const Eigen::VectorXd& masses = cloth.masses();
@@ -257,9 +257,9 @@ bool ImplicitIntegrator::factorize_shifted(const Cloth& cloth) {
 // line, a stiff spring's quartic term takes over beyond it, and steps along it were refused
 // by the ratio test at ρ ≈ −10…−10⁶ (measured on the 32² stiff sheet). ‖d‖_P and dᵀPp are
 // carried by recurrences (no product with P). `exhausted`: CG stopped at max_iterations.
-double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool same,
-                                              int max_iterations, bool& boundary, double& length,
-                                              bool& exhausted, bool& negative) {
+double NewtonSolver::steihaug_direction(double forcing, bool first, bool same, int max_iterations,
+                                        bool& boundary, double& length, bool& exhausted,
+                                        bool& negative) {
   CgWorkspace& w = m_cg;
   exhausted = negative = false;
   m_direction.setZero();
@@ -328,7 +328,7 @@ double ImplicitIntegrator::steihaug_direction(double forcing, bool first, bool s
   return -(m_gradient.dot(m_direction) + 0.5 * m_direction.dot(w.product));
 }
 
-void ImplicitIntegrator::refactor_clamped(const Cloth& cloth, bool& same) {
+void NewtonSolver::refactor_clamped(const Cloth& cloth, bool& same) {
   // m_values ← the clamped Hessian at m_iterate (m_exact_values holds the exact one there)
   evaluate(cloth, m_iterate, false, true, HessianProjection::clamp);
   same = m_values == m_exact_values;
@@ -340,8 +340,8 @@ void ImplicitIntegrator::refactor_clamped(const Cloth& cloth, bool& same) {
 // over 80 lines: one trust-region Newton–CG loop; the flags that say what the factor and the
 // assembled values are of (assembled, current, same, fresh) and the radius change together
 // within an iteration, and splitting the loop would pass them all by reference.
-void ImplicitIntegrator::steihaug_iterate(const Cloth& cloth, double& energy, double& residual,
-                                          int& iterations, int& backtracks, bool& converged) {
+void NewtonSolver::steihaug_iterate(const Cloth& cloth, double& energy, double& residual,
+                                    int& iterations, int& backtracks, bool& converged) {
   // Trust-region Newton–CG: each accepted iterate assembles the exact and the clamped Hessian
   // and factors the clamped one (SPD: never refused); a step the ratio test refuses is solved
   // again, on the same factor, in a smaller region.

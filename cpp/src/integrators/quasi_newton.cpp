@@ -1,12 +1,12 @@
 // Quasi-Newton minimisation of the incremental potential (Liu, Bouaziz & Kavan 2017): L-BFGS
 // whose initial inverse Hessian is a solve with the constant scalar matrix Q of the
-// local-global method. Part of ImplicitIntegrator: it shares the objective (evaluate), the
+// local-global method. Part of NewtonSolver: it shares the objective (evaluate), the
 // predictor, the line search, the residual test and the BDF2 bookkeeping with Newton.
 
 #include <algorithm>
 #include <cmath>
 
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/newton_solver.hpp"
 #include "yore/platform/interrupt.hpp"
 #include "yore/platform/timer.hpp"
 
@@ -19,7 +19,7 @@ constexpr double kCurvatureFloor = 1e-12;
 
 }  // namespace
 
-void ImplicitIntegrator::ensure_scalar_matrix(const Cloth& cloth) {
+void NewtonSolver::ensure_scalar_matrix(const Cloth& cloth) {
   const double checksum = spring_material_checksum(cloth);
   if (m_scalar_topology != cloth.topology_version()) {
     ScopedTimer timer(m_statistics.analyze_seconds);
@@ -47,8 +47,8 @@ void ImplicitIntegrator::ensure_scalar_matrix(const Cloth& cloth) {
   m_scalar_factored = true;
 }
 
-void ImplicitIntegrator::quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
-                                              int& iterations, int& backtracks, bool& converged) {
+void NewtonSolver::quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
+                                        int& iterations, int& backtracks, bool& converged) {
   ensure_scalar_matrix(cloth);
   // Q's unknowns are the free vertices in increasing order, as the blocks of the gradient.
   const auto unknowns = static_cast<Eigen::Index>(m_free_vertices.size());

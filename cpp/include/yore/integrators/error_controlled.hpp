@@ -14,8 +14,8 @@
 
 #include "yore/cloth/cloth.hpp"
 #include "yore/integrators/divergence.hpp"
-#include "yore/integrators/implicit.hpp"
 #include "yore/integrators/integrator.hpp"
+#include "yore/integrators/newton_solver.hpp"
 
 namespace yore {
 
@@ -94,7 +94,7 @@ struct ErrorControlledStatistics {
 /// as many internal steps as its error test asks for. Each Newton system (I − γJ) z = r is
 /// reduced to the velocity block (M + γ(C + drag M) + γ²H) z_v = M r_v − γ H r_x,
 /// z_x = r_x + γ z_v (H the projected stiffness Hessian, C the spring damping, both at the
-/// state of the last Jacobian evaluation), which the inner ImplicitIntegrator's CHOLMOD
+/// state of the last Jacobian evaluation), which the inner NewtonSolver's CHOLMOD
 /// factor solves; a factorization happens only when SUNDIALS calls the setup (its γ-ratio
 /// and step-count rules, a convergence failure).
 /// SUNDIALS' memory (Nordsieck array or stage history) cannot be saved: history() is always
@@ -146,7 +146,7 @@ class ErrorControlledIntegrator : public Integrator {
   void load(double t, const double* y);  // y → m_x, m_v (constrained rows from the drivers)
 
   ErrorControlledOptions m_options;
-  ImplicitIntegrator m_newton;  // structure, assembly and CHOLMOD factor of the 3n system
+  NewtonSolver m_newton;  // structure, assembly and CHOLMOD factor of the 3n system
   std::unique_ptr<Backend> m_backend;
   DivergenceMonitor m_monitor;
   mutable ErrorControlledStatistics m_statistics;  // refreshed from SUNDIALS on read

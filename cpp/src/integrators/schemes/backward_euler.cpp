@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <memory>
 
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/implicit_options.hpp"
 #include "yore/integrators/time_scheme.hpp"
 
 namespace yore {

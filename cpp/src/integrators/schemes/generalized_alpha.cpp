@@ -21,7 +21,7 @@
 #include <cmath>
 #include <memory>
 
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/implicit_options.hpp"
 #include "yore/integrators/time_scheme.hpp"
 
 namespace yore {

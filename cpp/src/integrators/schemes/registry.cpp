@@ -4,7 +4,7 @@
 
 #include <stdexcept>
 
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/implicit_options.hpp"
 #include "yore/integrators/time_scheme.hpp"
 
 namespace yore {

@@ -13,13 +13,13 @@
 /// state file keeps; the first step, and the first after a stroke or an edit, is backward
 /// Euler's (as BDF2's), whose accelerations as solved for start it.
 /// The second stage's truncation error is the method's embedded estimate of the whole step
-/// (ImplicitIntegrator::truncation_error).
+/// (TimeScheme::truncation_error).
 
 #include <algorithm>
 #include <cmath>
 #include <memory>
 
-#include "yore/integrators/implicit.hpp"
+#include "yore/integrators/implicit_options.hpp"
 #include "yore/integrators/time_scheme.hpp"
 
 namespace yore {
