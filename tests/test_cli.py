@@ -488,9 +488,9 @@ def test_version_and_help_for_every_argument(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["--version"])
     assert exit_.value.code == 0 and capsys.readouterr().out.strip() == f"yore {yore.__version__}"
-    from yore.cli import _parser
+    from yore.cli import build_parser
 
-    parser = _parser()
+    parser = build_parser()
     commands = next(a for a in parser._actions if a.dest == "command").choices
     for name, command in commands.items():
         for action in command._actions:
@@ -663,7 +663,7 @@ def test_ctrl_c_while_the_parser_is_built_is_one_line(monkeypatch, capsys):
     def interrupted():
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "_parser", interrupted)
+    monkeypatch.setattr(cli, "build_parser", interrupted)
     assert cli.main(["check", str(EXAMPLES / "stiff.toml")]) == cli.EXIT_INTERRUPTED
     assert capsys.readouterr().err == "yore: interrupted\n"
 

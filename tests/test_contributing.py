@@ -313,16 +313,16 @@ def test_scene_files_take_every_growth_mode_and_no_other(tmp_path):
     assert all(repr(mode) in str(error.value) for mode in GROWTH_MODES)
 
 
-# -- the command recipe: _add_<name> in _parser, a handler in _main ------------------------------
-def _cli_function(name):
-    tree = ast.parse((ROOT / "python/yore/cli.py").read_text(encoding="utf-8"))
+# -- the command recipe: _add_<name> in build_parser, a handler in _main -------------------------
+def _cli_function(name, module="cli"):
+    tree = ast.parse((ROOT / f"python/yore/{module}.py").read_text(encoding="utf-8"))
     return next(
         node for node in tree.body if isinstance(node, ast.FunctionDef) and node.name == name
     )
 
 
 def _commands():
-    parser = yore.cli._parser()
+    parser = yore.cli.build_parser()
     return next(a for a in parser._actions if a.dest == "command").choices
 
 
@@ -331,7 +331,7 @@ def test_every_command_is_registered_as_the_recipe_says_and_documented_and_teste
     assert {"run", "check", "view"} <= commands
     added = {
         node.func.id
-        for node in ast.walk(_cli_function("_parser"))
+        for node in ast.walk(_cli_function("build_parser", "cli_parser"))
         if isinstance(node, ast.Call)
         and isinstance(node.func, ast.Name)
         and node.func.id.startswith("_add_")

@@ -12,7 +12,9 @@ import pytest
 
 import yore
 import yore.io
+import yore.runs.output
 import yore.runs.runner
+import yore.runs.stepping
 from yore.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -145,7 +147,7 @@ def test_an_interrupt_during_a_stroke_applies_it_exactly_once(
     if point == "during the stroke's smoothing":
         interrupt_on_call(monkeypatch, yore.Simulation, "smooth_rest_lengths", 2)
     elif point == "before it is counted":
-        interrupt_on_call(monkeypatch, yore.runs.runner, "_stroke_record", 1, before=True)
+        interrupt_on_call(monkeypatch, yore.runs.stepping, "stroke_record", 1, before=True)
     else:
         interrupt_on_call(monkeypatch, yore.Simulation, "stroke", 2, by_signal=True)
     assert run_hanging(tmp_path) == 130
@@ -174,7 +176,7 @@ def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(
 ):
     # The integrators' own bound cannot see an energy that overflows (the bound overflows with
     # it); the run checks every frame. The frame at t = 0.2 s (after the stroke) is made to overflow.
-    original = yore.runs.runner._measure
+    original = yore.runs.stepping.measure_frame
     calls = {"count": 0}
 
     def overflowing(sim):
@@ -185,7 +187,7 @@ def test_a_run_whose_energy_becomes_non_finite_stops_at_its_last_good_frame(
             entry["spring"] = entry["total"] = float("inf")
         return entry
 
-    monkeypatch.setattr(yore.runs.runner, "_measure", overflowing)
+    monkeypatch.setattr(yore.runs.stepping, "measure_frame", overflowing)
     assert run_hanging(tmp_path) == 1
     error = capsys.readouterr().err
     assert "non-finite" in error and "spring inf" in error and "dt" in error
@@ -212,7 +214,7 @@ def test_a_scene_that_starts_non_finite_is_bad_input(tmp_path, capsys):
 
 
 def test_non_finite_numbers_reach_json_as_null_with_the_reason():
-    document, found = yore.runs.runner._finite_json(
+    document, found = yore.runs.output._finite_json(
         {"records": [{"area": 1.0, "rest_area": float("inf")}], "x": float("nan")}
     )
     assert document == {"records": [{"area": 1.0, "rest_area": None}], "x": None}
@@ -348,8 +350,8 @@ def test_a_crash_loses_at_most_the_steps_since_the_last_state_save(
 ):
     # A state file after every frame; the process then "dies" (SystemExit, which the run does
     # not catch, like a kill) while writing the 5th frame, after the stroke.
-    monkeypatch.setattr(yore.runs.runner, "CHECKPOINT_SECONDS", 0.0)
-    monkeypatch.setattr(yore.runs.runner, "CHECKPOINT_SHARE", float("inf"))
+    monkeypatch.setattr(yore.runs.stepping, "CHECKPOINT_SECONDS", 0.0)
+    monkeypatch.setattr(yore.runs.stepping, "CHECKPOINT_SHARE", float("inf"))
     original = yore.io.FrameSeries.write
     calls = {"count": 0}
 
@@ -409,7 +411,7 @@ def test_a_second_ctrl_c_while_the_state_is_saved_still_gives_the_resume_hint(
 ):
     # issue 22, item 18: the second interrupt replaced the first's hint with "interrupted"
     interrupt_on_call(monkeypatch, yore.io.FrameSeries, "write", 3, by_signal=True)
-    interrupt_on_call(monkeypatch, yore.runs.runner, "_summary", 1, by_signal=True)
+    interrupt_on_call(monkeypatch, yore.runs.stepping, "run_summary", 1, by_signal=True)
     assert run_hanging(tmp_path) == 130
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "yore run --resume" in err and "state.npz" in err
@@ -576,7 +578,7 @@ def test_a_record_that_does_not_match_its_run_is_refused(tmp_path, capsys, edit,
 def test_a_state_no_file_may_hold_ends_the_run_failed_not_finished(tmp_path, monkeypatch, capsys):
     # class 2: a run whose state save_state refuses ends "failed" (exit 1), with a summary
     calls = {"count": 0}
-    original = yore.runs.runner.save_state
+    original = yore.runs.output.save_state
 
     def refusing(path, sim, metadata=None):
         calls["count"] += 1
@@ -584,7 +586,7 @@ def test_a_state_no_file_may_hold_ends_the_run_failed_not_finished(tmp_path, mon
             raise ValueError(f"{path} (not written): field simulation.cloth.masses: too heavy")
         return original(path, sim, metadata=metadata)
 
-    monkeypatch.setattr(yore.runs.runner, "save_state", refusing)
+    monkeypatch.setattr(yore.runs.output, "save_state", refusing)
     assert run_hanging(tmp_path) == 1
     error = capsys.readouterr().err.strip()
     assert error.startswith("yore: error: the run stopped at t = ") and "masses" in error
@@ -597,7 +599,7 @@ def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(
 ):
     # class 15: with --allow-long, a frame interval over MAX_STEPS failed after starting
     # ("call step repeatedly"); the limit is lowered here to keep the run short
-    monkeypatch.setattr(yore.runs.runner, "MAX_STEPS", 5)
+    monkeypatch.setattr(yore.runs.stepping, "MAX_STEPS", 5)
     monkeypatch.setattr(yore.simulation, "MAX_STEPS", 5)
     scene = [
         "run",

@@ -7,13 +7,16 @@ file, checks it, builds it and runs it (what ``yore run``, ``yore check`` and ``
   (`parse_override`) and every check, with the key's line in the file;
 - `yore.runs.building` — the Simulation a `Scene` describes (`Scene.build`), its camera
   (`scene_camera`) and its strokes (`apply_scene_stroke`);
-- `yore.runs.runner` — running a scene into a folder: stepping, strokes at their times, frames,
-  the summary and the state that `resume_run` continues exactly;
+- `yore.runs.runner` — running a scene into a folder (`run_scene`, `resume_run`, which continues
+  a state exactly, `check_scene`), with its parts: `yore.runs.folder` (the run's files, claiming
+  a folder), `yore.runs.stepping` (one part of a run: strokes at their times, frames, state
+  files on the way, the summary) and `yore.runs.output` (what a frame, a state, a stroke and
+  the summary record);
 - `yore.runs.demo` — ``yore demo``: the paper's first experiment three ways.
 
 The schema imports no other module of the layer; building uses the schema (a Scene is only
 read, not imported), loading uses both (`Scene.build` and `Scene.check_strokes` call building),
-the runner all three and the demo the runner. The mesh, the core, the simulation and the
+the runner (with its parts) all three and the demo the runner. The mesh, the core, the simulation and the
 pictures (`yore.render`, `yore.render_run`) live in the package above.
 """
 
