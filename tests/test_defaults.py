@@ -173,7 +173,7 @@ def test_no_module_restates_a_registered_default():
     assert {"iterations", "strength", "expansion", "damping", "drag"} <= set(registered)
     found = []
     for path in sorted(SOURCE.rglob("*.py")):
-        if path.name == "options.py":
+        if path.name in ("options.py", "defaults.py"):  # the registry and the defaults it reads
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
         module = path.relative_to(SOURCE).as_posix()

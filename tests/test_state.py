@@ -566,3 +566,22 @@ def test_a_state_too_large_to_load_is_not_written(tmp_path):
     assert not target.exists() and not list(tmp_path.iterdir())
     near = yore.save_state(target, sim, metadata={"note": "x" * (1 << 20)})
     assert yore.state.load_metadata(near)["note"] == "x" * (1 << 20)
+
+
+def test_the_cloth_state_fields_are_the_cores_one_list():
+    # issue 54, item 3: the binding's list (Cloth.state_fields) is what its writer writes, what
+    # its reader requires and what the state file's schema checks; the optional keys are those
+    # a state saved before quadratic bending, the membrane, the fitted operator or the smoothed
+    # strain lacks, and such a state still loads.
+    fields = yore.Cloth.state_fields
+    required, optional = set(fields["required"]), set(fields["optional"])
+    assert required and optional and not required & optional
+    assert {"bending", "young_modulus", "membrane_strain"} <= optional
+    cloth = yore.Cloth(*yore.grid_mesh(4, 4), masses=0.01)
+    state = cloth.state()
+    assert set(state) == required | optional  # the writer writes every key it knows
+    older = yore.Cloth.from_state({k: v for k, v in state.items() if k in required})
+    assert older.bending == "springs" and older.stretch == "springs"
+    np.testing.assert_array_equal(older.positions, cloth.positions)
+    with pytest.raises(ValueError, match="masses"):  # a required key is required
+        yore.Cloth.from_state({k: v for k, v in state.items() if k != "masses"})

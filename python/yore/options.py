@@ -17,6 +17,9 @@ line, which all read their names, defaults and checks from here.
 - Strokes: `STROKE_DEFAULTS` (the paper's expansion and mass scale come from the C++
   ``SplitOptions`` struct, bound as ``_core.split_defaults``).
 - Pictures and the scene: `GRAVITY`, `IMAGE_WIDTH`, `IMAGE_HEIGHT`, `FOV_DEGREES`.
+
+Written apart and read here: the C++ option tables (`yore.core_tables`), the modes some options
+serve (`yore.option_modes`), and the stroke, scene and picture defaults (`yore.defaults`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,40 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import _core, rules
+from .core_tables import (  # noqa: F401  (re-exported: the registry reads from them)
+    ACCELERATIONS,
+    ADAPTIVE_ONLY,
+    CORE_CHOSEN_BY_NAME,
+    CORE_ERROR_CONTROLLED,
+    CORE_EXPLICIT,
+    CORE_IMPLICIT,
+    CORE_LOCAL_GLOBAL,
+    CORE_RULES,
+    MAX_SOLVER_ITERATIONS,
+    MAX_STEP_ITERATIONS,
+    NEWTON_ONLY,
+)
+from .defaults import (  # noqa: F401  (re-exported: one place to read every default from)
+    ANIMATION_FORMATS,
+    FOV_DEGREES,
+    FOV_RULE,
+    FRAMES_PER_SECOND,
+    GRAVITY,
+    GROWTH_MODES,
+    IMAGE_HEIGHT,
+    IMAGE_WIDTH,
+    MASS,
+    MAX_SMOOTHING_ITERATIONS,
+    POISSON_RATIO,
+    RENDER_ANIMATION,
+    RUN_ANIMATION,
+    SCENE_MATERIAL,
+    SMOOTHING_DEFAULTS,
+    SMOOTHING_RULES,
+    STIFFNESS,
+    STROKE_DEFAULTS,
+)
+from .option_modes import MODE_ONLY, Mode  # noqa: F401  (re-exported with check_modes)
 from .rules import Invalid, show
 
 __all__ = [
@@ -60,36 +97,10 @@ __all__ = [
 ]
 
 
-#: Options each integrator accepts, with their defaults. Names and defaults come from the C++
-#: option structs (``_core.*Integrator.defaults``); written here are only the options that
-#: exist on the Python side alone (None = decide from the others, ``acceleration``) and the
-#: defaults that differ by integrator.
-CORE_EXPLICIT = dict(_core.ExplicitIntegrator.defaults)
-CORE_IMPLICIT = dict(_core.ImplicitIntegrator.defaults)
-CORE_LOCAL_GLOBAL = dict(_core.LocalGlobalIntegrator.defaults)
-CORE_ERROR_CONTROLLED = dict(_core.ErrorControlledIntegrator.defaults)
-#: Core options no integrator takes as such: the method and minimizer are the integrator's
-#: name, rho_infinity is generalized-α's alone.
-CORE_CHOSEN_BY_NAME = ("method", "minimizer", "lbfgs_history", "rho_infinity")
-#: Error control of bdf2 and tr-bdf2 (dt="auto"): adaptive is set by dt="auto", the rest are its own.
-ADAPTIVE_ONLY = ("adaptive", "rtol", "atol", "max_steps")
-#: Options of Newton's method that quasi-Newton does not take.
-NEWTON_ONLY = (
-    "linearized",
-    "step_tol",
-    "truncation_fraction",
-    "mixed",
-    "adaptive_projection",
-    "projection",
-    "lagged_factorization",
-    "lag_max_cg_iterations",
-    "lag_cg_tol",
-    "solver",
-    "pcg_tol",
-    "pcg_max_iterations",
-)
 #: Each integrator's options (name → default, None where `Simulation` resolves it from the
-#: others); `check_option` checks a value.
+#: others); `check_option` checks a value. Names and defaults come from the C++ option structs
+#: (`yore.core_tables`); written here are only the options that exist on the Python side alone
+#: (None = decide from the others, ``acceleration``) and the defaults that differ by integrator.
 INTEGRATOR_OPTIONS = {
     # strain_limit: Provot strain limiting, largest length / rest length of a structural spring
     # (e.g. 1.1); None turns it off (the core's 0). divergence_energy_factor: the divergence
@@ -229,38 +240,9 @@ INTEGRATOR_OPTIONS["cvode"] = {
     "max_order": CORE_ERROR_CONTROLLED["max_order"],
 }
 INTEGRATOR_OPTIONS["arkode"] = {**_ERROR_CONTROLLED_COMMON, "order": CORE_ERROR_CONTROLLED["order"]}
-ACCELERATIONS = ("none", "chebyshev")
-#: What values each core option takes, by name, from the C++ option tables
-#: (``_core.*Integrator.option_rules``: kind "flag", "count", "real" or "choice", bounds and
-#: choices); an option several integrators take has one rule.
-CORE_RULES = {}
-for _integrator in (
-    _core.ExplicitIntegrator,
-    _core.ImplicitIntegrator,
-    _core.LocalGlobalIntegrator,
-    _core.ErrorControlledIntegrator,
-):
-    for _name, _spec in _integrator.option_rules.items():
-        CORE_RULES.setdefault(_name, dict(_spec))
 #: The quasi-Newton potentials (`INTEGRATOR_OPTIONS["quasi-newton"]["method"]`): the one-step
 #: ones whose iteration matrix is the scalar local-global matrix.
 QUASI_NEWTON_METHODS = ("backward-euler", "bdf2")
-
-#: Largest iteration counts an option may ask for (the core's). One step runs its iterations
-#: inside the C++ core, out of reach of Ctrl-C, so a typo such as ``iterations = 10**9`` must be
-#: refused rather than run for days.
-MAX_STEP_ITERATIONS = int(CORE_RULES["max_newton"]["high"])  # newton, CG, passes per step
-MAX_SOLVER_ITERATIONS = int(CORE_RULES["pcg_max_iterations"]["high"])  # per linear solve
-#: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
-MAX_SMOOTHING_ITERATIONS = 100_000
-#: Rest-length smoothing's options (`Simulation.smooth_rest_lengths`, a scene file's
-#: ``strokes[].smooth``, the viewer's ``smooth``): the defaults and the rules, written once.
-SMOOTHING_DEFAULTS = {"iterations": 10, "strength": 0.5, "conserve": True}
-SMOOTHING_RULES = {
-    "iterations": rules.count(0, MAX_SMOOTHING_ITERATIONS),
-    "strength": rules.real(0.0, 1.0, expected="a number in (0, 1]"),
-    "conserve": rules.flag(),
-}
 
 
 class OptionError(ValueError):
@@ -316,94 +298,6 @@ def check_option(integrator, name, value):
 def option_expected(name) -> str:
     """What option ``name`` accepts, in words (for error messages elsewhere)."""
     return _RULES[name].expected
-
-
-# -- options of one mode ------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Mode:
-    """A mode of an integrator that some of its options serve: ``setting`` is the option whose
-    value selects it (the mode counts only for integrators that take that option), ``on`` tells
-    from that value whether the mode is in use, ``needs`` says how a user selects it, ``off``
-    how the other modes read in a sentence, ``remedy`` what to pass instead of dropping."""
-
-    setting: str
-    on: Callable[[object], bool]
-    needs: str
-    off: Callable[[object], str]
-    remedy: str
-
-
-_ADAPTIVE_MODE = Mode(
-    "adaptive",
-    bool,
-    'dt="auto" (error-controlled steps)',
-    lambda value: "with a fixed dt",
-    'pass dt="auto"',
-)
-_LAGGED_MODE = Mode(
-    "lagged_factorization",
-    bool,
-    "lagged_factorization=True (CG on a kept factor)",
-    lambda value: "without lagged_factorization",
-    "pass lagged_factorization=True",
-)
-_PCG_MODE = Mode(
-    "solver",
-    lambda value: value == "pcg",
-    'solver="pcg"',
-    lambda value: f'with solver="{value}"',
-    'pass solver="pcg"',
-)
-_CHOLMOD_MODE = Mode(
-    "solver",
-    lambda value: value == "cholmod",
-    'solver="cholmod"',
-    lambda value: f'with solver="{value}"',
-    'pass solver="cholmod"',
-)
-_STRAIN_LIMIT_MODE = Mode(
-    "strain_limit",
-    lambda value: value is not None,
-    "a strain_limit (e.g. strain_limit=1.1)",
-    lambda value: "without one",
-    "give strain_limit",
-)
-_STALE_PCG_MODE = Mode(
-    "rebuild",
-    lambda value: value == "stale-pcg",
-    'rebuild="stale-pcg"',
-    lambda value: f'with rebuild="{value}"',
-    'pass rebuild="stale-pcg"',
-)
-_CHEBYSHEV_MODE = Mode(
-    "acceleration",
-    lambda value: value == "chebyshev",
-    'acceleration="chebyshev"',
-    lambda value: f'with acceleration="{value}"',
-    'pass acceleration="chebyshev"',
-)
-
-#: The options that act only in one mode of their integrator (option → `Mode`), each read off
-#: the C++ core: rtol, atol and max_steps only in bdf2's and tr-bdf2's error-controlled steps
-#: (adaptive_steps.cpp, implicit.cpp); the lagged factor's CG bounds only with
-#: lagged_factorization (newton.cpp); the CG backend's only with solver "pcg", CHOLMOD's
-#: factorization and amalgamation only with solver "cholmod" (linear_solver.cpp: eigen-ldlt and
-#: pcg take neither); strain_limit_passes only with a strain limit (explicit.cpp); local-global's
-#: stale CG only with rebuild "stale-pcg" (local_global.cpp) and chebyshev_rho only with
-#: Chebyshev acceleration (`_make_local_global` passes 0 without it). `check_modes` refuses an
-#: option given outside its mode: it would do nothing, silently. Not here, though equally idle:
-#: newton_tol, max_newton, step_tol and truncation_fraction with linearized=True (one Newton
-#: step, newton.cpp) — benchmarks.crossover names truncation_fraction on its linearized rows so
-#: that their resolved options match its recorded runs (docs/limitations.md).
-MODE_ONLY = {
-    **dict.fromkeys(("rtol", "atol", "max_steps"), _ADAPTIVE_MODE),
-    **dict.fromkeys(("lag_max_cg_iterations", "lag_cg_tol"), _LAGGED_MODE),
-    **dict.fromkeys(("pcg_tol", "pcg_max_iterations"), _PCG_MODE),
-    **dict.fromkeys(("factorization", "supernode_relaxation"), _CHOLMOD_MODE),
-    "strain_limit_passes": _STRAIN_LIMIT_MODE,
-    **dict.fromkeys(("stale_pcg_max_iterations", "stale_pcg_tol"), _STALE_PCG_MODE),
-    "chebyshev_rho": _CHEBYSHEV_MODE,
-}
 
 
 class InactiveOptionError(OptionError):
@@ -646,57 +540,3 @@ INTEGRATOR_SPECS = {
 #: Integrator names of the public API.
 INTEGRATORS = tuple(INTEGRATOR_SPECS)
 assert set(INTEGRATORS) == set(INTEGRATOR_OPTIONS)
-
-
-# -- strokes ------------------------------------------------------------------------------------
-#: How a stroke grows its band (see `yore.stroke`), in the order of the core's table.
-GROWTH_MODES = tuple(_core.growth_modes())
-#: A stroke's options and their defaults, read from the C++ ``StrokeOptions`` and
-#: ``SplitOptions`` structs (``_core.stroke_defaults``, ``_core.split_defaults``): expansion
-#: and mass_scale (eq. (1) of the paper: 1.1; the new vertex's mass 0.95 × its corners' mean),
-#: width None (the core's 0: the faces the stroke crosses), growth "paper", refine 0 passes.
-STROKE_DEFAULTS = {
-    "expansion": float(_core.split_defaults["expansion"]),
-    "mass_scale": float(_core.split_defaults["mass_scale"]),
-    "width": _core.stroke_defaults["width"] or None,
-    "growth": _core.stroke_defaults["growth"],
-    "refine": int(_core.stroke_defaults["refine"]),
-}
-
-# -- the scene and pictures -----------------------------------------------------------------------
-#: Gravitational acceleration of every scene unless given, m/s² (y is up).
-GRAVITY = (0.0, -9.81, 0.0)
-#: The cloth's total mass unless a scene gives mass, mass_per_vertex or density, kg (also
-#: `yore.scenes`' default).
-MASS = 0.1
-#: Stiffness of the bending springs unless given (a scene file's material, with spring bending),
-#: N/m; `yore.scenes` uses it for the structural springs too (the paper's single constant).
-STIFFNESS = 200.0
-#: A membrane's Poisson's ratio unless given (stretch = "membrane"); the core's own default.
-POISSON_RATIO = float(_core.Cloth.defaults["poisson_ratio"])
-#: The material of `yore.scenes` and of scene files unless given: the paper's single stiffness
-#: for structural and bending springs, light damping along the springs (N·s/m) and still-air
-#: drag (1/s). A bare `yore.Cloth` has its own defaults (``Cloth.defaults``: 100 N/m, no
-#: damping, no drag), those of a physics object that dissipates nothing unless asked.
-SCENE_MATERIAL = {
-    "stretch_stiffness": STIFFNESS,
-    "bend_stiffness": STIFFNESS,
-    "damping": 0.02,
-    "drag": 0.3,
-    "poisson_ratio": POISSON_RATIO,
-}
-#: Frames per simulated second a run writes unless [output] gives fps or every_steps.
-FRAMES_PER_SECOND = 30.0
-#: Animation formats; a run makes none unless its [output] asks, `yore render` of a run folder
-#: makes a GIF unless told otherwise (rendering is what it was asked for).
-ANIMATION_FORMATS = ("none", "gif", "mp4")
-RUN_ANIMATION, RENDER_ANIMATION = "none", "gif"
-#: Size of pictures and of the viewer's window unless given, pixels.
-IMAGE_WIDTH, IMAGE_HEIGHT = 800, 600
-#: Vertical field of view of cameras unless given, degrees.
-FOV_DEGREES = 35.0
-
-#: The one check of a field of view, degrees, in (0, 180): the camera, `yore.camera.fit_camera`,
-#: scene files' [camera] fov_degrees and the command's --fov all use it (a scene that passes
-#: `yore check` cannot fail at the camera).
-FOV_RULE = rules.real(0.0, 180.0, low_open=True, high_open=True)

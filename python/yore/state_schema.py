@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import rules
+from ._core import Cloth
 from .checks import MAX_TIME, MIN_DT
 from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
 
@@ -144,30 +145,11 @@ def _index(mask):
     return int(where[0]) if len(where) == 1 else tuple(int(i) for i in where)
 
 
-_CLOTH_FIELDS = (
-    "positions",
-    "velocities",
-    "masses",
-    "faces",
-    "spring_ends",
-    "spring_rest",
-    "spring_reference",
-    "spring_stiffness",
-    "spring_damping",
-    "spring_kind",
-    "drag",
-    "stretch_stiffness",
-    "bend_stiffness",
-    "damping",
-    "material_coordinates",
-    "vertex_states",
-    "drivers",
-    "clock_origin",
-    "clock_steps",
-    "clock_dt",
-)
-_CLOTH_BENDING_FIELDS = ("bending", "bending_modulus", "bending_rest", "bending_operator")
-_CLOTH_MEMBRANE_FIELDS = ("young_modulus", "poisson_ratio", "membrane_strain")
+#: The keys of a cloth's state (`yore.Cloth.state`): those every state has, and those a state
+#: saved before quadratic bending, the membrane, the fitted operator or the smoothed strain
+#: lacks — the binding's one list (``Cloth.state_fields``), which its writer and reader use.
+_CLOTH_FIELDS = Cloth.state_fields["required"]
+_CLOTH_OPTIONAL_FIELDS = Cloth.state_fields["optional"]
 _SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history", "target_time")
 _DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
 #: A flag of a state file (JSON's true or false).
@@ -226,7 +208,7 @@ def _check_cloth(field, cloth):
         cloth,
         "simulation.cloth",
         _CLOTH_FIELDS,
-        optional=_CLOTH_BENDING_FIELDS + _CLOTH_MEMBRANE_FIELDS,
+        optional=_CLOTH_OPTIONAL_FIELDS,
     )
     where = "simulation.cloth."
     positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))

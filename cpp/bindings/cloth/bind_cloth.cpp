@@ -566,6 +566,7 @@ Cloth(vertices, faces, masses=None, stretch_stiffness=100.0, bend_stiffness=100.
     defaults["poisson_ratio"] = kDefaultPoissonRatio;
     cloth_class.attr("defaults") = defaults;
   }
+  cloth_class.attr("state_fields") = state_fields();
   def_construction(cloth_class);
   def_state_arrays(cloth_class);
   def_material(cloth_class);

@@ -141,6 +141,15 @@ py::dict state_dict(const Cloth& cloth) {
   return out;
 }
 
+py::dict state_fields() {
+  py::list required, optional;
+  for (const char* key : kStateKeys) (optional_state_key(key) ? optional : required).append(key);
+  py::dict out;
+  out["required"] = py::tuple(required);
+  out["optional"] = py::tuple(optional);
+  return out;
+}
+
 namespace {
 
 // A state dict's keys: none unknown, none missing but the optional ones.

@@ -23,6 +23,9 @@ BendingModel bending_model(const std::string& name);
 const char* bending_name(BendingModel model);
 /// Cloth.state(): every array and number that defines the cloth, keyed as kStateKeys.
 py::dict state_dict(const Cloth& cloth);
+/// Cloth.state_fields: {"required": the keys every state has, "optional": the keys older states
+/// may lack}, both in kStateKeys' order — the one list the state files' schema reads.
+py::dict state_fields();
 /// Cloth.from_state(): the cloth a state dict describes; std::invalid_argument (ValueError)
 /// naming unknown or missing keys and bad shapes or values.
 Cloth cloth_from_state(const py::dict& values);
