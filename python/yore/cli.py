@@ -302,7 +302,6 @@ def _main(argv) -> int:
     from .runtime import end_command_start
 
     try:
-        end_command_start()  # Ctrl-C is main's to handle from here (see yore.runtime)
         argv = list(sys.argv[1:] if argv is None else argv)
         if argv[:2] == ["sweep", "plot"]:
             argv = ["sweep-plot", *argv[2:]]
@@ -313,7 +312,11 @@ def _main(argv) -> int:
             command = commands.get(getattr(arguments, "command", None), parser)
             command.error(f"unrecognized arguments: {' '.join(unknown)}")
         from .runs import RunError
-    except KeyboardInterrupt:  # it landed before the command ran: nothing ran yet
+
+        # Ctrl-C is main's to handle from here (see yore.runtime); until now the command's
+        # guard ended the process with one line, as nothing had run
+        end_command_start()
+    except KeyboardInterrupt:  # (main() called in-process, without the guard): nothing ran yet
         print("yore: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
 
