@@ -540,3 +540,5 @@ INTEGRATOR_SPECS = {
 #: Integrator names of the public API.
 INTEGRATORS = tuple(INTEGRATOR_SPECS)
 assert set(INTEGRATORS) == set(INTEGRATOR_OPTIONS)
+# the core names the integrators it implements (its messages use the same table)
+assert set(INTEGRATORS) == set(_core.integrator_names()), "the registry and the core disagree"

@@ -15,7 +15,8 @@ const OptionTable<ErrorControlledOptions>& error_controlled_table() {
   static const OptionTable<O> table = {
       choice_option<O, ErrorControlledMethod>(
           "method", [](O& o) -> ErrorControlledMethod& { return o.method; },
-          {{"cvode", ErrorControlledMethod::cvode}, {"arkode", ErrorControlledMethod::arkode}}),
+          {{integrator_name::kCvode, ErrorControlledMethod::cvode},
+           {integrator_name::kArkode, ErrorControlledMethod::arkode}}),
       in_range(plain_option("rtol", &O::rtol), kMinRelativeTolerance, 1.0, false, true),
       plain_option("atol", &O::atol),
       in_range(plain_option("atol_velocity", &O::atol_velocity), 0.0,

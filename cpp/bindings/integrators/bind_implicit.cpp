@@ -185,6 +185,9 @@ Statistics implicit_statistics(const ImplicitIntegrator& integrator) {
 }  // namespace
 
 void bind_implicit(py::module_& m) {
+  m.def("integrator_names", &integrator_names,
+        "The public names of the integrators this core implements (yore.options checks its "
+        "registry against them).");
   py::class_<ImplicitIntegrator> integrator_class(
       m, "ImplicitIntegrator",
       "The implicit time schemes (backward Euler, BDF2, generalized-α, TR-BDF2, implicit "

@@ -291,7 +291,8 @@ ErrorControlledIntegrator::ErrorControlledIntegrator(const ErrorControlledOption
 ErrorControlledIntegrator::~ErrorControlledIntegrator() = default;
 
 const char* ErrorControlledIntegrator::name() const {
-  return m_options.method == ErrorControlledMethod::cvode ? "cvode" : "arkode";
+  return m_options.method == ErrorControlledMethod::cvode ? integrator_name::kCvode
+                                                          : integrator_name::kArkode;
 }
 
 const SolverStatistics& ErrorControlledIntegrator::solver_statistics() const {

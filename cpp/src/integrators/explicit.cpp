@@ -317,10 +317,11 @@ void ExplicitIntegrator::judge_or_restore(Cloth& cloth, bool finite, double ener
   cloth.integrator_velocities() = m_checkpoint_velocities;
   cloth.set_clock(checkpoint_clock);
   if (verdict == DivergenceMonitor::Verdict::gained) {
-    throw energy_gain_error(cloth, m_monitor, energy, {"explicit", Remedy::stable_step}, step, time,
-                            dt);
+    throw energy_gain_error(cloth, m_monitor, energy,
+                            {integrator_name::kExplicit, Remedy::stable_step}, step, time, dt);
   }
-  throw diverged_error(cloth, {"explicit", Remedy::stable_step}, step, time, dt, finite);
+  throw diverged_error(cloth, {integrator_name::kExplicit, Remedy::stable_step}, step, time, dt,
+                       finite);
 }
 
 int StepThreadChooser::threads_for_next_step(int configured) {

@@ -162,7 +162,7 @@ void ImplicitIntegrator::set_history(const Cloth& cloth, const IntegratorHistory
 
 void ImplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) {
   const char* name = options().minimizer == ImplicitMinimizer::lbfgs
-                         ? "quasi-newton"
+                         ? integrator_name::kQuasiNewton
                          : time_scheme(options().method).integrator;
   const Remedy remedy =
       options().minimizer == ImplicitMinimizer::lbfgs ? Remedy::quasi_newton : Remedy::newton;

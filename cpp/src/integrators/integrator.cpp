@@ -4,7 +4,19 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "yore/integrators/time_scheme.hpp"
+
 namespace yore {
+
+std::vector<std::string> integrator_names() {
+  std::vector<std::string> names{integrator_name::kExplicit};
+  for (const TimeSchemeRow& row : time_schemes()) names.emplace_back(row.integrator);
+  for (const char* name : {integrator_name::kQuasiNewton, integrator_name::kLocalGlobal,
+                           integrator_name::kCvode, integrator_name::kArkode}) {
+    names.emplace_back(name);
+  }
+  return names;
+}
 
 const Positions& IntegratorHistory::array(const std::string& name) const {
   for (const auto& [key, values] : arrays) {

@@ -493,7 +493,7 @@ void LocalGlobalIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
 void LocalGlobalIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt,
                                     std::int64_t steps) {
   advance_checked(
-      cloth, gravity, dt, steps, m_monitor, {"local-global", Remedy::local_global},
+      cloth, gravity, dt, steps, m_monitor, {integrator_name::kLocalGlobal, Remedy::local_global},
       m_checkpoint_positions, m_checkpoint_velocities, [&] { step(cloth, gravity, dt); },
       [&] { return m_statistics.steps - 1; }, {});
 }

@@ -9,8 +9,11 @@
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
+#include <string>
 
 #include "helpers.hpp"
 #include "yore/integrators/implicit.hpp"
@@ -457,4 +460,17 @@ TEST_CASE("resolve_choices decides only what is left open, and refuses a contrad
   CHECK_THROWS_WITH_AS(yore::resolve_choices(ImplicitOptions{}, contradicting),
                        "adaptive_projection=True contradicts projection='clamp'; give one of them",
                        std::invalid_argument);
+}
+
+TEST_CASE("integrator_names: every public name once, the schemes' from their rows") {
+  const std::vector<std::string> names = yore::integrator_names();
+  CHECK(std::set<std::string>(names.begin(), names.end()).size() == names.size());
+  CHECK(names.front() == "explicit");
+  for (const yore::TimeSchemeRow& row : yore::time_schemes()) {
+    CHECK(std::count(names.begin(), names.end(), std::string(row.integrator)) == 1);
+  }
+  for (const char* other : {"quasi-newton", "local-global", "cvode", "arkode"}) {
+    CHECK(std::count(names.begin(), names.end(), std::string(other)) == 1);
+  }
+  CHECK(names.size() == yore::time_schemes().size() + 5);
 }

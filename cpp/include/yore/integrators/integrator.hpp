@@ -12,6 +12,22 @@
 
 namespace yore {
 
+/// The public names of the integrators that are not Newton time schemes (yore.INTEGRATORS in
+/// Python, and the failure messages here), written once; the time schemes' names are their rows
+/// of time_schemes() (schemes/registry.cpp).
+namespace integrator_name {
+inline constexpr const char* kExplicit = "explicit";
+inline constexpr const char* kQuasiNewton = "quasi-newton";
+inline constexpr const char* kLocalGlobal = "local-global";
+inline constexpr const char* kCvode = "cvode";
+inline constexpr const char* kArkode = "arkode";
+}  // namespace integrator_name
+
+/// Every public integrator name the core implements: the explicit integrator, each time
+/// scheme's row, then quasi-Newton, local-global and the SUNDIALS methods (Python's registry
+/// checks it lists exactly these).
+std::vector<std::string> integrator_names();
+
 /// What an integrator carries from one step to the next besides the cloth's state: named
 /// arrays (n×3 each, in the units their names say) and the step size of the last step, s.
 struct IntegratorHistory {
