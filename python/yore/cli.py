@@ -142,7 +142,7 @@ def _check(arguments):
     long = f" (more than {MAX_STEPS}: yore run needs --allow-long)" if steps > MAX_STEPS else ""
     print(
         f"{arguments.scene}: OK ({sim.cloth.vertex_count} vertices, {sim.integrator}, "
-        f"dt = {sim.dt:.4g} s, {steps} steps{long}, {len(scene.data['strokes'])} stroke(s))"
+        f"dt = {sim.dt:.4g} s, {steps} steps{long}, {len(scene.data.strokes)} stroke(s))"
     )
 
 

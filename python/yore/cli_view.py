@@ -69,9 +69,8 @@ def _view_source(source, overrides):
             from .runs import load_scene
 
             try:
-                settings = load_scene(text=metadata["scene_text"], overrides=overrides or {}).data[
-                    "camera"
-                ]
+                scene = load_scene(text=metadata["scene_text"], overrides=overrides or {})
+                settings = scene.data.camera
             except ValueError:
                 settings = None
         return sim, settings, {}
@@ -79,16 +78,16 @@ def _view_source(source, overrides):
 
     scene = load_scene(source, overrides=overrides)
     sim, _ = scene.build()
-    if scene.data["simulation"]["settle"] > 0.0:
+    if scene.data.simulation.settle > 0.0:
         # the scene's starting state is its settled cloth, as in `yore run`
-        sim.settle(scene.data["simulation"]["settle"])
-    strokes = scene.data.get("strokes") or []
+        sim.settle(scene.data.simulation.settle)
+    strokes = scene.data.strokes or []
     first = {}
     if strokes:
         for name in ("expansion", "mass_scale", "width", "growth", "refine"):
-            if strokes[0].get(name) is not None:
-                first[name] = strokes[0][name]
-    return sim, scene.data.get("camera"), first
+            if getattr(strokes[0], name) is not None:
+                first[name] = getattr(strokes[0], name)
+    return sim, scene.data.camera, first
 
 
 def _run_view(arguments, overrides) -> None:

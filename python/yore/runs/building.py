@@ -51,15 +51,15 @@ def build_simulation(scene):
     pattern, F, uv, sets = _build_mesh(scene)
     cloth = _build_cloth(scene, pattern, F, uv)
     _constrain(scene, cloth, sets)
-    simulation = data["simulation"]
-    gravity = simulation.get("gravity")
+    simulation = data.simulation
+    gravity = simulation.gravity
     try:
         sim = Simulation(
             cloth,
-            integrator=simulation["integrator"],
-            dt=simulation.get("dt"),
+            integrator=simulation.integrator,
+            dt=simulation.dt,
             gravity=GRAVITY if gravity is None else gravity,
-            **data["integrator"],
+            **data.integrator,
         )
     except InactiveOptionError as error:
         # an [integrator] option of a mode the scene does not select: named by its key, here
@@ -70,37 +70,37 @@ def build_simulation(scene):
     # A run schedules strokes and frames in steps of one dt: it keeps its dt after strokes (an
     # explicit scene that refines gives its [simulation] dt, else the run stops with advice).
     sim.keep_dt()
-    sim.scene = {"name": data["scene"].get("name", scene.source), "sets": sets, "uv": uv}
+    name = data.scene.name
+    sim.scene = {"name": scene.source if name is None else name, "sets": sets, "uv": uv}
     return sim, sets
 
 
 def _build_mesh(scene):
     """(rest pattern n×3, faces, material coordinates or None, named vertex sets) of the
     scene's [mesh]."""
-    data = scene.data
-    mesh = data["mesh"]
-    generator = mesh["generator"]
+    mesh = scene.data.mesh
+    generator = mesh.generator
     uv = None
     if generator == "grid":
         try:
-            V, F = grid_mesh(mesh["nx"], mesh["ny"], width=mesh["width"], height=mesh["height"])
+            V, F = grid_mesh(mesh.nx, mesh.ny, width=mesh.width, height=mesh.height)
         except ArgumentError as error:  # a size out of range, by the argument's name
             raise scene.error(
                 f"mesh.{error.argument}", str(error), "a grid yore can mesh"
             ) from None
         uv = V[:, :2].copy()
         pattern = (
-            V if mesh["plane"] == "xy" else np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+            V if mesh.plane == "xy" else np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
         )
-        sets = _grid_sets(mesh["nx"], mesh["ny"])
+        sets = _grid_sets(mesh.nx, mesh.ny)
     elif generator == "pattern":
         try:
             V, F = pattern_mesh(
-                mesh["outline"],
-                mesh["holes"],
-                mesh["edge_length"],
-                mesh["min_angle"],
-                mesh["interior"],
+                mesh.outline,
+                mesh.holes,
+                mesh.edge_length,
+                mesh.min_angle,
+                mesh.interior,
             )
         except ArgumentError as error:  # the key at fault, by the argument's name
             raise scene.error(
@@ -108,31 +108,29 @@ def _build_mesh(scene):
             ) from None
         uv = V[:, :2].copy()
         pattern = (
-            V if mesh["plane"] == "xy" else np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+            V if mesh.plane == "xy" else np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
         )
         sets = {"boundary": _boundary_vertices(F)}
     elif generator == "cylinder":
         try:
-            pattern, F = cylinder_mesh(
-                mesh["radius"], mesh["height"], mesh["rings"], mesh["segments"]
-            )
+            pattern, F = cylinder_mesh(mesh.radius, mesh.height, mesh.rings, mesh.segments)
         except ArgumentError as error:
             raise scene.error(
                 f"mesh.{error.argument}", str(error), "a tube yore can mesh"
             ) from None
         sets = {
-            "bottom rim": cylinder_ring(mesh["rings"], mesh["segments"], 0),
-            "top rim": cylinder_ring(mesh["rings"], mesh["segments"], -1),
+            "bottom rim": cylinder_ring(mesh.rings, mesh.segments, 0),
+            "top rim": cylinder_ring(mesh.rings, mesh.segments, -1),
         }
     else:
-        path = Path(mesh["path"])
+        path = Path(mesh.path)
         if not path.is_absolute():
             path = scene.base_dir / path
         try:
             pattern, F = load_mesh(path)
         except (ValueError, OSError) as error:
             raise scene.error("mesh.path", str(error), "a readable triangle mesh file") from None
-        pattern = pattern * mesh["scale"]
+        pattern = pattern * mesh.scale
         sets = {}
     sets["all"] = np.arange(len(pattern), dtype=np.int32)
 
@@ -141,37 +139,35 @@ def _build_mesh(scene):
 
 def _build_cloth(scene, pattern, F, uv):
     """The cloth of the scene's [material] on the mesh (gathered as [mesh] says)."""
-    data = scene.data
-    mesh = data["mesh"]
-    material = data["material"]
+    mesh, material = scene.data.mesh, scene.data.material
     n = len(pattern)
-    if "density" in material:
-        mass_arguments = {"density": material["density"]}
-    elif "mass_per_vertex" in material:
-        mass_arguments = {"masses": material["mass_per_vertex"]}
+    if material.density is not None:
+        mass_arguments = {"density": material.density}
+    elif material.mass_per_vertex is not None:
+        mass_arguments = {"masses": material.mass_per_vertex}
     else:
-        mass_arguments = {"masses": material["mass"] / n}
+        mass_arguments = {"masses": material.mass / n}
     try:
         bending_arguments = (
-            {"bending": material["bending"], "bending_modulus": material["bending_modulus"]}
-            if material["bending"] in ("quadratic", "hinge")
-            else {"bend_stiffness": material["bend_stiffness"]}
+            {"bending": material.bending, "bending_modulus": material.bending_modulus}
+            if material.bending in ("quadratic", "hinge")
+            else {"bend_stiffness": material.bend_stiffness}
         )
         stretch_arguments = (
             {
                 "stretch": "membrane",
-                "young_modulus": material["young_modulus"],
-                "poisson_ratio": material["poisson_ratio"],
-                "membrane_strain": material.get("membrane_strain"),
+                "young_modulus": material.young_modulus,
+                "poisson_ratio": material.poisson_ratio,
+                "membrane_strain": material.membrane_strain,
             }
-            if material["stretch"] == "membrane"
-            else {"stretch_stiffness": material["stretch_stiffness"]}
+            if material.stretch == "membrane"
+            else {"stretch_stiffness": material.stretch_stiffness}
         )
         cloth = Cloth(
             pattern,
             F,
-            damping=material["damping"],
-            drag=material["drag"],
+            damping=material.damping,
+            drag=material.drag,
             **mass_arguments,
             **bending_arguments,
             **stretch_arguments,
@@ -190,10 +186,10 @@ def _build_cloth(scene, pattern, F, uv):
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
     except ValueError as error:  # the mesh
         raise scene.error("mesh", str(error), "a valid triangle mesh") from None
-    if mesh["generator"] == "grid" and mesh["gather"] != 1.0:
+    if mesh.generator == "grid" and mesh.gather != 1.0:
         gathered = pattern.copy()
-        middle = 0.5 * mesh["width"]
-        gathered[:, 0] = middle + mesh["gather"] * (pattern[:, 0] - middle)
+        middle = 0.5 * mesh.width
+        gathered[:, 0] = middle + mesh.gather * (pattern[:, 0] - middle)
         cloth.positions = gathered
     if uv is not None:
         cloth.material_coordinates = uv
@@ -203,20 +199,17 @@ def _build_cloth(scene, pattern, F, uv):
 
 def _constrain(scene, cloth, sets):
     """The scene's [[fixed]] and [[driven]] vertices."""
-    data = scene.data
     positions = cloth.positions
-    for k, entry in enumerate(data["fixed"]):
+    for k, entry in enumerate(scene.data.fixed):
         vertices = _select(scene, f"fixed[{k}]", entry, sets, positions)
         try:
             cloth.fix(vertices)
         except ValueError as error:
             raise scene.error(f"fixed[{k}]", str(error)) from None
-    for k, entry in enumerate(data["driven"]):
+    for k, entry in enumerate(scene.data.driven):
         vertices = _select(scene, f"driven[{k}]", entry, sets, positions)
         try:
-            cloth.drive_rotation(
-                vertices, center=entry["center"], axis=entry["axis"], omega=entry["omega"]
-            )
+            cloth.drive_rotation(vertices, center=entry.center, axis=entry.axis, omega=entry.omega)
         except ValueError as error:
             raise scene.error(f"driven[{k}]", str(error)) from None
 
@@ -239,8 +232,8 @@ def _grid_sets(nx, ny):
 
 
 def _select(scene, where, entry, sets, positions):
-    if "indices" in entry:
-        vertices = entry["indices"]
+    if entry.indices is not None:
+        vertices = entry.indices
         bad = vertices[vertices >= len(positions)]
         if bad.size:
             raise scene.error(
@@ -249,8 +242,8 @@ def _select(scene, where, entry, sets, positions):
                 f"indices in [0, {len(positions)})",
             )
         return vertices
-    if "set" in entry:
-        name = entry["set"]
+    if entry.set is not None:
+        name = entry.set
         if name not in sets:
             raise scene.error(
                 f"{where}.set",
@@ -258,8 +251,8 @@ def _select(scene, where, entry, sets, positions):
                 "one of " + ", ".join(repr(s) for s in sets),
             )
         return sets[name]
-    box = entry["box"]
-    inside = np.all((positions >= box["min"]) & (positions <= box["max"]), axis=1)
+    box = entry.box
+    inside = np.all((positions >= box.min) & (positions <= box.max), axis=1)
     if not inside.any():
         raise scene.error(
             f"{where}.box",
@@ -273,7 +266,7 @@ def _select(scene, where, entry, sets, positions):
 def scene_camera(scene, positions) -> Camera:
     """The scene's [camera]: as given, with eye/target fitted to ``positions`` when absent."""
     try:
-        return camera_from_settings(scene.data["camera"], positions)
+        return camera_from_settings(scene.data.camera, positions)
     except ValueError as error:
         raise scene.error("camera", str(error)) from None
 
@@ -281,36 +274,36 @@ def scene_camera(scene, positions) -> Camera:
 def apply_scene_stroke(scene, sim, index, camera=None):
     """Draws stroke ``index`` of the scene on ``sim`` now (and smooths if asked); returns the
     report. A stroke that misses raises SceneError naming it."""
-    stroke = scene.data["strokes"][index]
+    stroke = scene.data.strokes[index]
     where = f"strokes[{index}]"
     options = StrokeOptions(
-        expansion=stroke["expansion"],
-        mass_scale=stroke["mass_scale"],
-        width=stroke.get("width"),
-        growth=stroke["growth"],
-        refine=stroke["refine"],
-        max_distance=stroke.get("max_distance"),
-        smooth=stroke.get("smooth"),
+        expansion=stroke.expansion,
+        mass_scale=stroke.mass_scale,
+        width=stroke.width,
+        growth=stroke.growth,
+        refine=stroke.refine,
+        max_distance=stroke.max_distance,
+        smooth=None if stroke.smooth is None else stroke.smooth.as_dict(),
     )
-    if "material" in stroke:
-        path = StrokePath.material(stroke["material"])
-    elif "points" in stroke:
-        path = StrokePath.world(stroke["points"])
+    if stroke.material is not None:
+        path = StrokePath.material(stroke.material)
+    elif stroke.points is not None:
+        path = StrokePath.world(stroke.points)
     else:
-        if "eye" not in scene.data["camera"]:
+        if scene.data.camera.eye is None:
             raise scene.error(
                 f"{where}.screen",
                 "a screen stroke needs a camera",
                 "a [camera] table with eye and target",
             )
         camera = camera or scene_camera(scene, sim.cloth.positions)
-        path = StrokePath.screen(stroke["screen"], camera)
+        path = StrokePath.screen(stroke.screen, camera)
     try:
         report = sim.stroke(path, options)
     except RefinementTooLarge as error:
         raise scene.error(f"{where}.refine", str(error).removeprefix("refine: ")) from None
     except StrokeMissed as error:
-        form = next(f for f in STROKE_FORMS if f in stroke)
+        form = stroke.given(*STROKE_FORMS)[0]
         raise scene.error(
             f"{where}.{form}",
             f"the stroke misses the cloth at t = {sim.time:.4g} s ({error})",

@@ -36,6 +36,7 @@ from ..options import (
 from ..simulation import Simulation
 from ..checks import MAX_IMAGE_PIXELS
 from .building import build_simulation, apply_scene_stroke
+from .scene_tables import TABLES, BoxTable, SceneData, SmoothTable
 from .schema import (
     BOX,
     GENERATOR_KEYS,
@@ -70,11 +71,11 @@ def step_of(seconds, dt):
 
 @dataclass
 class Scene:
-    """A checked scene: ``data`` holds every table with defaults filled in (numpy arrays for
-    points and vectors), ``text`` the file's text, ``path`` where it came from (None for a
+    """A checked scene: ``data`` holds every table with defaults filled in (a `SceneData`
+    tree, read by attribute; numpy arrays for points and vectors), ``text`` the file's text, ``path`` where it came from (None for a
     string), ``overrides`` the dotted keys set from outside the file."""
 
-    data: dict
+    data: SceneData
     text: str
     path: Path | None = None
     overrides: dict = field(default_factory=dict)
@@ -112,15 +113,15 @@ class Scene:
             sim, _ = self.build()
         # A stroke is drawn before the step it rounds to; one that rounds to the run's last step
         # (or past it) would never be drawn.
-        last = step_of(self.data["simulation"]["duration"], sim.dt)
-        for index, stroke in enumerate(self.data["strokes"]):
-            at = step_of(stroke["time"], sim.dt)
+        duration = self.data.simulation.duration
+        last = step_of(duration, sim.dt)
+        for index, stroke in enumerate(self.data.strokes):
+            at = step_of(stroke.time, sim.dt)
             if at >= last:
                 raise self.error(
                     f"strokes[{index}].time",
-                    f"{stroke['time']:g} s rounds to step {at} of dt = {sim.dt:.6g} s, the run's "
-                    f"last step ({last}, t = {self.data['simulation']['duration']:g} s), after "
-                    "which nothing is drawn",
+                    f"{stroke.time:g} s rounds to step {at} of dt = {sim.dt:.6g} s, the run's "
+                    f"last step ({last}, t = {duration:g} s), after which nothing is drawn",
                     f"a time at most {(last - 1) * sim.dt:.6g} s (the duration less one step)",
                 )
         probe = Simulation(
@@ -129,16 +130,16 @@ class Scene:
             dt=sim.dt,
             gravity=sim.gravity,
         )
-        for index, stroke in sorted(enumerate(self.data["strokes"]), key=lambda s: s[1]["time"]):
-            if "material" in stroke or stroke["time"] == 0.0:
+        for index, stroke in sorted(enumerate(self.data.strokes), key=lambda s: s[1].time):
+            if stroke.material is not None or stroke.time == 0.0:
                 apply_scene_stroke(self, probe, index)
 
     def frame_interval(self, dt: float) -> int:
         """Steps between frames."""
-        output = self.data["output"]
-        if output.get("every_steps") is not None:
-            return int(output["every_steps"])
-        per_frame = output["fps"] * dt  # (0 when fps is tiny: no frame but the first and last)
+        output = self.data.output
+        if output.every_steps is not None:
+            return int(output.every_steps)
+        per_frame = output.fps * dt  # (0 when fps is tiny: no frame but the first and last)
         if not per_frame * 2.0**62 > 1.0:
             return 2**62
         return max(1, round(1.0 / per_frame))
@@ -176,7 +177,7 @@ def load_scene(path=None, text=None, overrides=None) -> Scene:
             "not readable TOML: arrays or tables are nested too deeply",
             "a scene file (no key takes values nested more than 2 levels deep)",
         ) from None
-    scene = Scene(data={}, text=text, path=path)
+    scene = Scene(data=SceneData(), text=text, path=path)
     for dotted, value in (overrides or {}).items():
         _apply_override(scene, raw, dotted, value)
     scene.data = _check(scene, raw)
@@ -261,11 +262,11 @@ def _dotted(parts):
 
 def _check(scene, raw):
     data = _check_tables(scene, raw)
-    _check_material(scene, data["material"], raw)
+    _check_material(scene, data.material, raw)
     _check_vertices_and_strokes(scene, data)
     _check_output(scene, data)
-    data["integrator"] = _check_integrator(
-        scene, raw.get("integrator", {}), data["simulation"]["integrator"]
+    data.integrator = _check_integrator(
+        scene, raw.get("integrator", {}), data.simulation.integrator
     )
     return data
 
@@ -280,7 +281,7 @@ def _check_tables(scene, raw):
             f"unknown table or key{did_you_mean(key, SCHEMA)}",
             "one of the tables " + ", ".join(f"[{k}]" for k in SCHEMA),
         )
-    data = {}
+    data = SceneData()
     for name, (keys, kind) in SCHEMA.items():
         value = raw.get(name)
         if name == "integrator":
@@ -292,9 +293,14 @@ def _check_tables(scene, raw):
                 raise scene.error(
                     name, f"got {describe_value(value)}", f"[[{name}]] tables (an array of tables)"
                 )
-            data[name] = [
-                _check_table(scene, f"{name}[{k}]", entry, keys) for k, entry in enumerate(value)
-            ]
+            setattr(
+                data,
+                name,
+                [
+                    _check_table(scene, f"{name}[{k}]", entry, keys, TABLES[name])
+                    for k, entry in enumerate(value)
+                ],
+            )
         else:
             if value is None:
                 if name in ("mesh", "simulation"):
@@ -309,17 +315,17 @@ def _check_tables(scene, raw):
                 keys = dict(keys)
                 if isinstance(generator, str) and generator in GENERATOR_KEYS:
                     keys.update(GENERATOR_KEYS[generator])
-            data[name] = _check_table(scene, name, value, keys)
+            setattr(data, name, _check_table(scene, name, value, keys, TABLES[name]))
             if name == "mesh":
-                _check_mesh_size(scene, data[name])
+                _check_mesh_size(scene, data.mesh)
             if name == "camera":
-                _check_camera_size(scene, data[name])
+                _check_camera_size(scene, data.camera)
     return data
 
 
 def _check_material(scene, material, raw):
     """One way to give the mass; bending and stretching models with their own keys."""
-    given = [k for k in ("mass", "mass_per_vertex", "density") if k in material]
+    given = material.given("mass", "mass_per_vertex", "density")
     if len(given) > 1:
         raise scene.error(
             f"material.{given[1]}",
@@ -327,80 +333,81 @@ def _check_material(scene, material, raw):
             "one of mass (total), mass_per_vertex or density",
         )
     if not given:
-        material["mass"] = MASS
-    if material["bending"] in ("quadratic", "hinge"):
-        model = material["bending"]
-        if "bending_modulus" not in material:
+        material.mass = MASS
+    model = material.bending
+    if model in ("quadratic", "hinge"):
+        if material.bending_modulus is None:
             raise scene.error(
                 "material.bending_modulus",
                 f'missing with bending = "{model}"',
                 "a number >= 0 (N·m)",
             )
-        if material.get("bend_stiffness", 0.0) != 0.0:
+        if material.bend_stiffness not in (None, 0.0):
             raise scene.error(
                 "material.bend_stiffness",
                 f'given with bending = "{model}", which creates no bending springs',
                 "no bend_stiffness (or 0)",
             )
-        material.pop("bend_stiffness", None)
+        material.bend_stiffness = None
     else:
-        if "bending_modulus" in material:
+        if material.bending_modulus is not None:
             raise scene.error(
                 "material.bending_modulus",
                 'given with bending = "springs"',
                 'bending = "quadratic", or bend_stiffness for the springs',
             )
-        material.setdefault("bend_stiffness", STIFFNESS)
+        if material.bend_stiffness is None:
+            material.bend_stiffness = STIFFNESS
     _check_stretch(scene, material, raw.get("material", {}))
 
 
 def _check_vertices_and_strokes(scene, data):
     """Fixed and driven selections; each stroke one form, before the run's end."""
-    for k, entry in enumerate(data["fixed"]):
+    for k, entry in enumerate(data.fixed):
         _check_selection(scene, f"fixed[{k}]", entry)
-    for k, entry in enumerate(data["driven"]):
+    for k, entry in enumerate(data.driven):
         _check_selection(scene, f"driven[{k}]", entry)
-    for k, stroke in enumerate(data["strokes"]):
-        forms = [f for f in STROKE_FORMS if f in stroke]
+    duration = data.simulation.duration
+    for k, stroke in enumerate(data.strokes):
+        forms = stroke.given(*STROKE_FORMS)
         if len(forms) != 1:
             raise scene.error(
                 f"strokes[{k}]",
                 f"gives {len(forms)} of points, material, screen",
                 "exactly one of them",
             )
-        if "max_distance" in stroke and forms[0] != "points":
+        if stroke.max_distance is not None and forms[0] != "points":
             raise scene.error(
                 f"strokes[{k}].max_distance",
                 f"given for a {forms[0]} stroke",
                 "max_distance only with points",
             )
-        if stroke["time"] >= data["simulation"]["duration"]:
+        if stroke.time >= duration:
             raise scene.error(
                 f"strokes[{k}].time",
-                f"{stroke['time']:g} s is not before the "
-                f"end of the run ({data['simulation']['duration']:g} s)",
+                f"{stroke.time:g} s is not before the end of the run ({duration:g} s)",
                 "a time before simulation.duration",
             )
 
 
 def _check_output(scene, data):
     """Frames, pictures and animations that fit together; settle without driven vertices."""
-    output = data["output"]
-    if output.get("fps") is not None and output.get("every_steps") is not None:
+    output = data.output
+    if output.fps is not None and output.every_steps is not None:
         raise scene.error(
             "output.every_steps", "given together with output.fps", "one of fps or every_steps"
         )
-    if output.get("every_steps") is None and output.get("fps") is None:
-        output["fps"] = FRAMES_PER_SECOND
-    if output["animation"] != "none" and output["format"] == "none":
+    if output.every_steps is None and output.fps is None:
+        output.fps = FRAMES_PER_SECOND
+    if output.animation != "none" and output.format == "none":
         raise scene.error(
             "output.animation",
             "an animation needs frames, but output.format is 'none'",
             "format = 'vtu', 'vtk', 'ply' or 'obj'",
         )
-    if output["pictures"] and output["format"] != "none":
-        _check_pictures_size(scene, data["camera"])
-    if data["simulation"]["settle"] > 0.0 and data["driven"]:
+    if output.pictures and output.format != "none":
+        _check_pictures_size(scene, data.camera)
+    if data.simulation.settle > 0.0 and data.driven:
         raise scene.error(
             "simulation.settle",
             "given for a scene with [[driven]] vertices, "
@@ -411,26 +418,27 @@ def _check_output(scene, data):
 
 def _check_mesh_size(scene, mesh):
     """The generated mesh's vertex count, estimated before anything is built."""
-    sizes = {"grid": ("nx", "ny"), "cylinder": ("rings", "segments")}.get(mesh["generator"])
+    sizes = {"grid": ("nx", "ny"), "cylinder": ("rings", "segments")}.get(mesh.generator)
     if sizes is None:
         return
-    count = mesh[sizes[0]] * mesh[sizes[1]]
+    first, second = (getattr(mesh, key) for key in sizes)
+    count = first * second
     if count > MAX_MESH_VERTICES:
-        key = sizes[0] if mesh[sizes[0]] >= mesh[sizes[1]] else sizes[1]
+        key = sizes[0] if first >= second else sizes[1]
         raise scene.error(
             f"mesh.{key}",
-            f"{sizes[0]} × {sizes[1]} = {mesh[sizes[0]]} × {mesh[sizes[1]]} = {count} vertices",
+            f"{sizes[0]} × {sizes[1]} = {first} × {second} = {count} vertices",
             f"at most {MAX_MESH_VERTICES} vertices",
         )
 
 
 def _check_camera_size(scene, camera):
-    pixels = camera["width"] * camera["height"]
+    pixels = camera.width * camera.height
     if pixels > MAX_IMAGE_PIXELS:
-        key = "width" if camera["width"] >= camera["height"] else "height"
+        key = "width" if camera.width >= camera.height else "height"
         raise scene.error(
             f"camera.{key}",
-            f"{camera['width']} × {camera['height']} = {pixels} pixels",
+            f"{camera.width} × {camera.height} = {pixels} pixels",
             f"at most {MAX_IMAGE_PIXELS} pixels in all",
         )
 
@@ -440,20 +448,21 @@ def _check_pictures_size(scene, camera):
     limit, before the run (a 4096×2048 camera failed only after it)."""
     from ..viz.images import side_by_side_shape
 
-    height, width = side_by_side_shape([camera["width"]] * 2, camera["height"], titled=True)
+    height, width = side_by_side_shape([camera.width] * 2, camera.height, titled=True)
     if width * height > 2 * MAX_IMAGE_PIXELS:
-        key = "width" if camera["width"] >= camera["height"] else "height"
+        key = "width" if camera.width >= camera.height else "height"
         raise scene.error(
             f"camera.{key}",
-            f"{camera['width']} × {camera['height']} makes the "
+            f"{camera.width} × {camera.height} makes the "
             f"before/after picture {width} × {height} = {width * height} pixels",
             f"at most {2 * MAX_IMAGE_PIXELS} pixels (two images of at most "
             f"{MAX_IMAGE_PIXELS} side by side), or output.pictures = false",
         )
 
 
-def _check_table(scene, where, table, keys):
-    checked = {}
+def _check_table(scene, where, table, keys, kind):
+    """``table`` (the file's dict) checked against ``keys`` (the schema's), as a ``kind``."""
+    checked = kind()
     for key, value in table.items():
         if key not in keys:
             raise scene.error(
@@ -462,28 +471,25 @@ def _check_table(scene, where, table, keys):
                 "one of " + ", ".join(keys),
             )
         checker = keys[key][0]
-        if checker == "box":
-            checked[key] = _check_table(
-                scene, f"{where}.{key}", _as_table(scene, where, key, value), BOX
+        if checker in ("box", "smooth"):
+            subtable = {"box": (BOX, BoxTable), "smooth": (SMOOTH, SmoothTable)}[checker]
+            value = _check_table(
+                scene, f"{where}.{key}", _as_table(scene, where, key, value), *subtable
             )
-            continue
-        if checker == "smooth":
-            checked[key] = _check_table(
-                scene, f"{where}.{key}", _as_table(scene, where, key, value), SMOOTH
-            )
+            setattr(checked, key, value)
             continue
         try:
-            checked[key] = checker(value)
+            setattr(checked, key, checker(value))
         except Invalid as invalid:
             raise scene.error(f"{where}.{key}", invalid.problem, invalid.expected) from None
     for key, (checker, default, _) in keys.items():
-        if key in checked:
+        if getattr(checked, key) is not None:
             continue
         if default is REQUIRED:
             expected = getattr(checker, "expected", "a value")
             raise scene.error(f"{where}.{key}", "missing", expected)
         if default is not None and checker not in ("box", "smooth"):
-            checked[key] = checker(default) if isinstance(default, list) else default
+            setattr(checked, key, checker(default) if isinstance(default, list) else default)
     return checked
 
 
@@ -494,7 +500,7 @@ def _as_table(scene, where, key, value):
 
 
 def _check_selection(scene, where, entry):
-    given = [k for k in SELECTION if k in entry]
+    given = entry.given(*SELECTION)
     if len(given) != 1:
         raise scene.error(
             where, f"selects vertices by {len(given)} of indices, box, set", "exactly one of them"
@@ -558,8 +564,8 @@ def _check_stretch(scene, material, given):
     """stretch = "membrane" needs young_modulus and takes no stretch_stiffness; springs take
     neither young_modulus nor poisson_ratio. `material` has the defaults applied; `given` is
     the file's own table, which tells a stretch_stiffness the file gave from the default."""
-    if material["stretch"] == "membrane":
-        if "young_modulus" not in material:
+    if material.stretch == "membrane":
+        if material.young_modulus is None:
             raise scene.error(
                 "material.young_modulus", 'missing with stretch = "membrane"', "a number > 0 (N/m)"
             )
@@ -569,13 +575,14 @@ def _check_stretch(scene, material, given):
                 'given with stretch = "membrane", whose structural springs carry no stiffness',
                 "no stretch_stiffness",
             )
-        material.pop("stretch_stiffness", None)
-        material.setdefault("poisson_ratio", POISSON_RATIO)
+        material.stretch_stiffness = None
+        if material.poisson_ratio is None:
+            material.poisson_ratio = POISSON_RATIO
     else:
-        for key in ("young_modulus", "poisson_ratio", "membrane_strain"):
-            if material.get(key) is not None:
-                raise scene.error(
-                    f"material.{key}",
-                    'given with stretch = "springs"',
-                    'stretch = "membrane", or stretch_stiffness for the springs',
-                )
+        extra = material.given("young_modulus", "poisson_ratio", "membrane_strain")
+        if extra:
+            raise scene.error(
+                f"material.{extra[0]}",
+                'given with stretch = "springs"',
+                'stretch = "membrane", or stretch_stiffness for the springs',
+            )

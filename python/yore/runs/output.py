@@ -161,8 +161,8 @@ def run_summary(scene, sim, record, out, state_path, status, message):
     stats = sim.stats
     # the scene as run (copied into JSON types by _finite_json below)
     settings = {
-        **scene.data,
-        "simulation": {**scene.data["simulation"], "dt": sim.dt},
+        **scene.data.as_dict(),
+        "simulation": {**scene.data.simulation.as_dict(), "dt": sim.dt},
         "integrator": sim.options,
     }
     # Paths in the summary are relative to the run folder, so the folder can be moved.
@@ -190,7 +190,7 @@ def run_summary(scene, sim, record, out, state_path, status, message):
         "scene": record.scene_path,
         "overrides": record.overrides,
         "resumed_from": record.resumed_from,
-        "finished": sim.time >= scene.data["simulation"]["duration"] - 0.5 * sim.dt,
+        "finished": sim.time >= scene.data.simulation.duration - 0.5 * sim.dt,
         "time": sim.time,
         "steps": record.step,
         "dt": sim.dt,
@@ -209,7 +209,7 @@ def run_summary(scene, sim, record, out, state_path, status, message):
         "settle": record.settled(),
         "before": before,
         "frames": [{"time": t, "file": relative_path(out / p, out)} for t, p in record.frames],
-        "camera": scene.data["camera"],
+        "camera": scene.data.camera.as_dict(),
         "outputs": outputs,
     }
     summary, non_finite = _finite_json(summary)

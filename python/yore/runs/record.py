@@ -217,7 +217,7 @@ def check_against(state_path, record, scene, sim):
             "match the run (was it edited?): start the run again with --overwrite"
         )
 
-    integrator = scene.data["simulation"]["integrator"]
+    integrator = scene.data.simulation.integrator
     if integrator != sim.integrator:
         fail(
             "scene_text",
@@ -227,7 +227,7 @@ def check_against(state_path, record, scene, sim):
     every = scene.frame_interval(sim.dt)
     step = record["step"]
     due = step // every + 1  # frames at 0, every, 2 every, ... up to step
-    if frame_due(step, every, step_of(scene.data["simulation"]["duration"], sim.dt)):
+    if frame_due(step, every, step_of(scene.data.simulation.duration, sim.dt)):
         if step % every:
             due += 1  # the scene's end
         # an interruption may come between the steps to a frame and the frame
@@ -239,7 +239,7 @@ def check_against(state_path, record, scene, sim):
         fail(
             "records", f"{len(record['records'])} entries, but the run writes {due} by step {step}"
         )
-    if scene.data["output"]["format"] != "none":
+    if scene.data.output.format != "none":
         if len(record["frames"]) != len(record["records"]):
             fail(
                 "frames",
@@ -272,54 +272,54 @@ def check_settings(state_path, scene, sim, strokes_done):
         return _Shown('"auto" (error-controlled steps)' if adaptive else "a fixed step")
 
     data = scene.data
-    simulation = data["simulation"]
-    integrator = simulation["integrator"]
+    simulation = data.simulation
+    integrator = simulation.integrator
     expected = resolve_options(
-        integrator, options_in_force(integrator, data["integrator"], simulation.get("dt"))
+        integrator, options_in_force(integrator, data.integrator, simulation.dt)
     )
     options = sim.resolved_options
     for name, value in expected.items():
         got = options.get(name)
         if got == value and type(got) is type(value):
             continue
-        if name == "adaptive" and name not in data["integrator"]:  # what dt = "auto" sets
+        if name == "adaptive" and name not in data.integrator:  # what dt = "auto" sets
             fail("simulation.dt", "options.adaptive", steps(value), steps(got))
         fail(
             f"integrator.{name}"
-            if name in data["integrator"]
+            if name in data.integrator
             else f"integrator.{name} (not given: the default)",
             f"options.{name}",
             value,
             got,
         )
-    dt = simulation.get("dt")
+    dt = simulation.dt
     if dt == "auto" or (dt is None and not INTEGRATOR_SPECS[integrator].conditionally_stable):
         dt = FIXED_DT  # (an explicit scene's default dt follows its cloth: not checked)
     if dt is not None and sim.dt != dt:
         fail("simulation.dt", "dt", dt, sim.dt)
-    gravity = GRAVITY if simulation.get("gravity") is None else simulation["gravity"]
+    gravity = GRAVITY if simulation.gravity is None else simulation.gravity
     if not np.array_equal(np.asarray(gravity, dtype=np.float64), sim.gravity):
         fail("simulation.gravity", "gravity", list(map(float, gravity)), sim.gravity.tolist())
-    _check_material(data["material"], sim.cloth, strokes_done, fail)
+    _check_material(data.material, sim.cloth, strokes_done, fail)
 
 
 def _check_material(material, cloth, strokes_done, fail):
     state = cloth.state()
-    membrane = material["stretch"] == "membrane"
-    quadratic = material["bending"] in ("quadratic", "hinge")
-    if cloth.stretch != material["stretch"]:
-        fail("material.stretch", "cloth.young_modulus", material["stretch"], cloth.stretch)
-    if cloth.bending != material["bending"]:
-        fail("material.bending", "cloth.bending", material["bending"], cloth.bending)
+    membrane = material.stretch == "membrane"
+    quadratic = material.bending in ("quadratic", "hinge")
+    if cloth.stretch != material.stretch:
+        fail("material.stretch", "cloth.young_modulus", material.stretch, cloth.stretch)
+    if cloth.bending != material.bending:
+        fail("material.bending", "cloth.bending", material.bending, cloth.bending)
     constants = {"damping": state["damping"], "drag": state["drag"]}
     if membrane:
         constants.update(young_modulus=state["young_modulus"], poisson_ratio=state["poisson_ratio"])
         strain = state.get("membrane_strain") or "faces"
-        if (material.get("membrane_strain") or "faces") != strain:
+        if (material.membrane_strain or "faces") != strain:
             fail(
                 "material.membrane_strain",
                 "cloth.membrane_strain",
-                material.get("membrane_strain") or "faces",
+                material.membrane_strain or "faces",
                 strain,
             )
     else:
@@ -329,13 +329,13 @@ def _check_material(material, cloth, strokes_done, fail):
     else:
         constants["bend_stiffness"] = state["bend_stiffness"]
     for key, value in constants.items():
-        if float(material[key]) != value:
-            fail(f"material.{key}", f"cloth.{key}", float(material[key]), value)
+        if float(getattr(material, key)) != value:
+            fail(f"material.{key}", f"cloth.{key}", float(getattr(material, key)), value)
     # each spring as made: structural ones at stretch_stiffness (0 under a membrane), bending
     # ones at bend_stiffness, all at the damping
     stiffness = {
-        0: 0.0 if membrane else float(material["stretch_stiffness"]),
-        1: 0.0 if quadratic else float(material["bend_stiffness"]),
+        0: 0.0 if membrane else float(material.stretch_stiffness),
+        1: 0.0 if quadratic else float(material.bend_stiffness),
     }
     names = {0: "stretch_stiffness", 1: "bend_stiffness"}
     for kind, value in stiffness.items():
@@ -349,23 +349,23 @@ def _check_material(material, cloth, strokes_done, fail):
                 value,
                 float(state["spring_stiffness"][index]),
             )
-    wrong = np.flatnonzero(state["spring_damping"] != float(material["damping"]))
+    wrong = np.flatnonzero(state["spring_damping"] != float(material.damping))
     if wrong.size:
         index = int(wrong[0])
         fail(
             "material.damping",
             f"cloth.spring_damping[{index}]",
-            float(material["damping"]),
+            float(material.damping),
             float(state["spring_damping"][index]),
         )
-    if strokes_done == 0 and ("mass" in material or "mass_per_vertex" in material):
+    if strokes_done == 0 and (material.mass is not None or material.mass_per_vertex is not None):
         n = cloth.vertex_count
-        key = "mass" if "mass" in material else "mass_per_vertex"
-        per_vertex = material["mass"] / n if key == "mass" else material["mass_per_vertex"]
+        key = "mass" if material.mass is not None else "mass_per_vertex"
+        per_vertex = material.mass / n if key == "mass" else material.mass_per_vertex
         wrong = np.flatnonzero(state["masses"] != per_vertex)
         if wrong.size:
             index = int(wrong[0])
-            scene_value = material[key]
+            scene_value = getattr(material, key)
             got = float(state["masses"].sum()) if key == "mass" else float(state["masses"][index])
             fail(
                 f"material.{key}",

@@ -66,9 +66,9 @@ def run_scene(
     sim, _ = check_scene(scene, until, allow_long)
     _check_pictures(scene, render)
     settle = None
-    if scene.data["simulation"]["settle"] > 0.0:
+    if scene.data.simulation.settle > 0.0:
         # before t = 0 and before the folder is claimed: an interrupted settle leaves nothing
-        settle = sim.settle(scene.data["simulation"]["settle"], progress=False if quiet else None)
+        settle = sim.settle(scene.data.simulation.settle, progress=False if quiet else None)
     record = RunRecord.new(scene, settle)
     out = Path(os.fspath(out))
     claim_folder(out, record, overwrite)
@@ -90,16 +90,12 @@ def check_scene(scene, until=None, allow_long=False):
 def _check_pictures(scene, render):
     """Raises, before any work, what the pictures at the end would raise: no ffmpeg for an MP4,
     no EGL (`yore.viz.BackendUnavailable`) for any picture."""
-    output = scene.data["output"]
-    if (
-        not render
-        or output["format"] == "none"
-        or not (output["pictures"] or output["animation"] != "none")
-    ):
+    output = scene.data.output
+    if not render or output.format == "none" or not (output.pictures or output.animation != "none"):
         return
     from ..viz import backend, check_ffmpeg
 
-    if output["animation"] == "mp4":
+    if output.animation == "mp4":
         check_ffmpeg()
     backend.ensure()
 
@@ -144,10 +140,10 @@ def resume_run(
             f"{state_path}: field metadata.step: {record.step} does not match "
             f"the state's clock ({_steps(sim.time, sim.dt)} steps)"
         )
-    if record.next_stroke > len(scene.data["strokes"]):
+    if record.next_stroke > len(scene.data.strokes):
         raise ValueError(
             f"{state_path}: field metadata.next_stroke: {record.next_stroke} "
-            f"strokes done, but the scene has {len(scene.data['strokes'])}"
+            f"strokes done, but the scene has {len(scene.data.strokes)}"
         )
     check_against(state_path, metadata, scene, sim)
     _set_threads(scene, threads)
@@ -176,7 +172,7 @@ def resume_run(
 
 
 def _set_threads(scene, threads):
-    threads = scene.data["simulation"].get("threads") if threads is None else threads
+    threads = scene.data.simulation.threads if threads is None else threads
     if threads is not None:
         from ..runtime import set_num_threads
 

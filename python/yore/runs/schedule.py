@@ -28,9 +28,9 @@ class EventSchedule:
     def __init__(self, scene, dt, last_step):
         data = scene.data
         self.every = scene.frame_interval(dt)
-        self.duration_step = step_of(data["simulation"]["duration"], dt)
+        self.duration_step = step_of(data.simulation.duration, dt)
         self.last_step = last_step
-        self.strokes = sorted((step_of(s["time"], dt), k) for k, s in enumerate(data["strokes"]))
+        self.strokes = sorted((step_of(s.time, dt), k) for k, s in enumerate(data.strokes))
 
     def frame_due(self, step) -> bool:
         return frame_due(step, self.every, self.duration_step)

@@ -64,7 +64,7 @@ def check_length(scene, sim, until=None, allow_long=False) -> int:
     """The steps the run will take (to ``until`` or the scene's end); ValueError for an
     ``until`` that is not a time in the run, or more than `MAX_STEPS` steps without
     ``allow_long``."""
-    duration = scene.data["simulation"]["duration"]
+    duration = scene.data.simulation.duration
     if until is not None:
         until = float(until)
         if not math.isfinite(until) or until <= 0:
@@ -132,7 +132,7 @@ class _Run:
         self.schedule = EventSchedule(
             scene, self.dt, check_length(scene, sim, until, allow_long=True)
         )
-        self.fmt = self.data["output"]["format"]
+        self.fmt = self.data.output.format
         self.frames = None
         if self.fmt != "none":
             self.frames = FrameSeries(
@@ -260,7 +260,7 @@ class _Run:
             try:
                 if record.before is None:
                     save_before(sim, self.out, record)
-                if self.camera is None and "screen" in self.data["strokes"][index]:
+                if self.camera is None and self.data.strokes[index].screen is not None:
                     self.camera = scene_camera(scene, sim.cloth.positions)
                 report = apply_scene_stroke(scene, sim, index, self.camera)
                 bad = non_finite_names(measure_frame(sim))
@@ -340,7 +340,7 @@ class _Run:
     def _finish(self, render):
         """Saves the state and the summary; raises for a part that stopped early; renders."""
         sim, record, out = self.sim, self.record, self.out
-        duration = self.data["simulation"]["duration"]
+        duration = self.data.simulation.duration
         if self.status is None:
             self.status = (
                 "finished" if sim.time >= duration - 0.5 * self.dt else "stopped at --until"
@@ -368,15 +368,15 @@ class _Run:
         if render and self.frames is not None:
             from ..viz.pictures import render_run
 
-            output = self.data["output"]
-            if output["pictures"] or output["animation"] != "none":
+            output = self.data.output
+            if output.pictures or output.animation != "none":
                 summary["outputs"].update(
                     render_run(
                         out,
-                        pictures=output["pictures"],
-                        animation=None if output["animation"] == "none" else output["animation"],
-                        color_by=output["color_by"],
-                        framing=output["framing"],
+                        pictures=output.pictures,
+                        animation=None if output.animation == "none" else output.animation,
+                        color_by=output.color_by,
+                        framing=output.framing,
                         quiet=self.quiet,
                     )
                 )
