@@ -17,7 +17,7 @@ from ..io import save_mesh
 from ..runtime import deferred_interrupt
 from ..state import save_state
 from .folder import STATE_NAME, SUMMARY_NAME
-from .record import BEFORE_NAME
+from .record import BEFORE_NAME, Before
 
 
 class UnsaveableState(ValueError):
@@ -104,7 +104,7 @@ def save_before(sim, out, record):
         cloth.faces,
         point_data={"expansion": metrics.vertex_expansion(cloth)},
     )
-    record.before = {"time": sim.time, "file": BEFORE_NAME}  # relative to the run folder
+    record.before = Before(sim.time, BEFORE_NAME)  # relative to the run folder
 
 
 def stroke_record(index, time, report):
@@ -176,12 +176,10 @@ def run_summary(scene, sim, record, out, state_path, status, message):
         if pvd.exists():
             outputs["pvd"] = relative_path(pvd, out)
     before = None
-    if record.before:
-        before = {
-            "time": record.before["time"],
-            "file": relative_path(out / record.before["file"], out),
-        }
-        outputs["before"] = before["file"]
+    if record.before is not None:
+        file = relative_path(out / record.before.file, out)
+        before = {"time": record.before.time, "file": file}
+        outputs["before"] = file
     summary = {
         "yore": build_info(),
         # finished | stopped at --until | interrupted | diverged | stroke missed | failed

@@ -4,19 +4,20 @@ read back from a file must pass (a tampered record is refused, never half-used).
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field as _field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
+from .. import rules
 from ..options import FIXED_DT, GRAVITY, INTEGRATOR_SPECS, options_in_force, resolve_options
 from .loading import step_of
 from .schedule import frame_due
 
 __all__ = [
     "RunRecord",
+    "Before",
     "FRAMES_DIR",
     "BEFORE_NAME",
     "check_metadata",
@@ -30,6 +31,18 @@ BEFORE_NAME = "before.vtu"
 
 #: The record written before [simulation] settle existed has no "settle" key.
 _NO_SETTLE = object()
+
+
+@dataclass(frozen=True)
+class Before:
+    """The mesh saved just before the first stroke: its time, s, and its file (relative to the
+    run folder)."""
+
+    time: float
+    file: str
+
+    def as_dict(self) -> dict:
+        return {"time": self.time, "file": self.file}
 
 
 @dataclass
@@ -53,7 +66,7 @@ class RunRecord:
     frames: list = _field(default_factory=list)
     records: list = _field(default_factory=list)
     strokes: list = _field(default_factory=list)
-    before: object = None
+    before: Before | None = None
     wall_seconds: float = 0.0
     resumed_from: list = _field(default_factory=list)
     phases: dict = _field(default_factory=dict)
@@ -73,13 +86,18 @@ class RunRecord:
     def from_metadata(cls, state_path, metadata) -> "RunRecord":
         """The record a state file holds, checked field by field (`check_metadata`)."""
         check_metadata(state_path, metadata)
-        return cls(**metadata)
+        before = metadata["before"]
+        if before is not None:  # (a table with time and file, checked above)
+            before = Before(before["time"], before["file"])
+        return cls(**{**metadata, "before": before})
 
     def to_dict(self) -> dict:
         """The record as a state file's metadata holds it (the same keys in the same order)."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
-        if out["settle"] is _NO_SETTLE:
+        if self.settle is _NO_SETTLE:
             del out["settle"]
+        if self.before is not None:
+            out.update(before=self.before.as_dict())
         return out
 
     def settled(self):
@@ -91,12 +109,113 @@ class RunRecord:
         return replace(self, wall_seconds=self.wall_seconds + seconds)
 
 
-def _count(value):
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+# -- the record's fields as a state file holds them -------------------------------------------------
+# A record read back from a file is checked field by field, in this order; each field's rule
+# (`yore.rules`) names what it expects, and the first that fails is the error. Numbers are
+# JSON's own: Python ints and finite floats, never bools.
+_COUNT = rules.count(0, python_types=True)
+_NUMBER = rules.real(python_types=True)
+_SECONDS = rules.real(0, low_open=False, python_types=True)
 
 
-def _number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+def _is(rule):
+    return lambda value: rule.test(value)[0]
+
+
+def _settle_ok(settle):
+    # saddles_escaped and stable came with settle's saddle test: absent from older records
+    basic = {"seconds", "steps", "converged", "residual_acceleration"}
+    return settle is None or (
+        isinstance(settle, dict)
+        and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
+        and _NUMBER.test(settle.get("seconds"))[0]
+        and _COUNT.test(settle.get("steps"))[0]
+        and isinstance(settle.get("converged"), bool)
+        and isinstance(settle.get("residual_acceleration"), (int, float))
+        and _COUNT.test(settle.get("saddles_escaped", 0))[0]
+        and settle.get("stable") in (None, True, False)
+    )
+
+
+def _frames_ok(frames):
+    return isinstance(frames, list) and all(
+        isinstance(f, list)
+        and len(f) == 2
+        and _NUMBER.test(f[0])[0]
+        and isinstance(f[1], str)
+        and _is_frame_path(f[1])
+        for f in frames
+    )
+
+
+def _tables_ok(entries):
+    return isinstance(entries, list) and all(isinstance(entry, dict) for entry in entries)
+
+
+def _measures_ok(entries):
+    return all(
+        _NUMBER.test(entry.get("time"))[0]
+        and all(
+            isinstance(key, str) and (_NUMBER.test(value)[0] or isinstance(value, float))
+            for key, value in entry.items()
+        )
+        for entry in entries
+    )
+
+
+def _before_ok(before):
+    return before is None or (
+        isinstance(before, dict)
+        and _NUMBER.test(before.get("time"))[0]
+        and isinstance(before.get("file"), str)
+        and Path(before.get("file")).name == BEFORE_NAME
+    )
+
+
+#: (field, test, expected) in the order a record is checked; a test takes the field's value.
+RECORD_CHECKS = (
+    (
+        "settle",
+        _settle_ok,
+        "null or a table with seconds, steps, converged, "
+        "residual_acceleration (and saddles_escaped, stable)",
+    ),
+    ("scene_text", _is(rules.text()), "the scene file's text"),
+    ("scene_path", _is(rules.text().or_none()), "a path or null"),
+    (
+        "overrides",
+        lambda value: isinstance(value, dict) and all(isinstance(key, str) for key in value),
+        "a table of dotted keys",
+    ),
+    ("step", _is(_COUNT), "an integer >= 0"),
+    ("next_stroke", _is(_COUNT), "an integer >= 0"),
+    (
+        "frames",
+        _frames_ok,
+        f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN file of a run",
+    ),
+    ("records", _tables_ok, "a list of tables"),
+    ("strokes", _tables_ok, "a list of tables"),
+    ("records", _measures_ok, "a list of tables of numbers, each with its time"),
+)
+#: The checks after the strokes' count (which the record's next_stroke sets).
+RECORD_CHECKS_AFTER = (
+    ("before", _before_ok, f"null or a table with time and file (a run's {BEFORE_NAME})"),
+    ("wall_seconds", _is(_SECONDS), "a number >= 0"),
+    (
+        "resumed_from",
+        lambda value: isinstance(value, list) and all(isinstance(p, str) for p in value),
+        "a list of paths",
+    ),
+    (
+        "phases",
+        lambda value: (
+            isinstance(value, dict)
+            and all(isinstance(k, str) and _NUMBER.test(v)[0] for k, v in value.items())
+        ),
+        "a table of seconds per phase",
+    ),
+)
 
 
 def check_metadata(state_path, record):
@@ -106,103 +225,19 @@ def check_metadata(state_path, record):
     def fail(field, expected):
         raise ValueError(f"{state_path}: field metadata.{field}: expected {expected}")
 
-    expected_keys = {
-        "scene_text",
-        "scene_path",
-        "overrides",
-        "step",
-        "next_stroke",
-        "frames",
-        "records",
-        "strokes",
-        "before",
-        "wall_seconds",
-        "resumed_from",
-        "phases",
-    }
+    keys = {f.name for f in fields(RunRecord)} - {"settle"}
     # settle: absent from records written before it existed
-    if not expected_keys <= set(record) <= expected_keys | {"settle"}:
-        fail("(keys)", f"the keys {sorted(expected_keys)} (and settle) of a run's record")
-    settle = record.get("settle")
-    # saddles_escaped and stable came with settle's saddle test: absent from older records
-    basic = {"seconds", "steps", "converged", "residual_acceleration"}
-    if settle is not None and not (
-        isinstance(settle, dict)
-        and basic <= set(settle) <= basic | {"saddles_escaped", "stable"}
-        and _number(settle["seconds"])
-        and _count(settle["steps"])
-        and isinstance(settle["converged"], bool)
-        and isinstance(settle["residual_acceleration"], (int, float))
-        and _count(settle.get("saddles_escaped", 0))
-        and settle.get("stable") in (None, True, False)
-    ):
-        fail(
-            "settle",
-            "null or a table with seconds, steps, converged, "
-            "residual_acceleration (and saddles_escaped, stable)",
-        )
-    if not isinstance(record["scene_text"], str):
-        fail("scene_text", "the scene file's text")
-    if record["scene_path"] is not None and not isinstance(record["scene_path"], str):
-        fail("scene_path", "a path or null")
-    if not isinstance(record["overrides"], dict) or not all(
-        isinstance(key, str) for key in record["overrides"]
-    ):
-        fail("overrides", "a table of dotted keys")
-    for field in ("step", "next_stroke"):
-        if not _count(record[field]):
-            fail(field, "an integer >= 0")
-    _check_lists(record, fail)
-    before = record["before"]
-    if before is not None and not (
-        isinstance(before, dict)
-        and _number(before.get("time"))
-        and isinstance(before.get("file"), str)
-        and Path(before["file"]).name == BEFORE_NAME
-    ):
-        fail("before", f"null or a table with time and file (a run's {BEFORE_NAME})")
-    if not _number(record["wall_seconds"]) or record["wall_seconds"] < 0:
-        fail("wall_seconds", "a number >= 0")
-    if not isinstance(record["resumed_from"], list) or not all(
-        isinstance(path, str) for path in record["resumed_from"]
-    ):
-        fail("resumed_from", "a list of paths")
-    if not isinstance(record["phases"], dict) or not all(
-        isinstance(k, str) and _number(v) for k, v in record["phases"].items()
-    ):
-        fail("phases", "a table of seconds per phase")
-
-
-def _check_lists(record, fail):
-    """check_metadata's list fields: frames, records and strokes."""
-    if not isinstance(record["frames"], list) or not all(
-        isinstance(f, list)
-        and len(f) == 2
-        and _number(f[0])
-        and isinstance(f[1], str)
-        and _is_frame_path(f[1])
-        for f in record["frames"]
-    ):
-        fail(
-            "frames",
-            f"a list of [time, path] pairs, each path a {FRAMES_DIR}/frame_NNNNN file of a run",
-        )
-    for field in ("records", "strokes"):
-        if not isinstance(record[field], list) or not all(
-            isinstance(entry, dict) for entry in record[field]
-        ):
-            fail(field, "a list of tables")
-    if not all(
-        _number(entry.get("time"))
-        and all(
-            isinstance(key, str) and (_number(value) or isinstance(value, float))
-            for key, value in entry.items()
-        )
-        for entry in record["records"]
-    ):
-        fail("records", "a list of tables of numbers, each with its time")
-    if len(record["strokes"]) != record["next_stroke"]:
-        fail("strokes", f"one entry per stroke done ({record['next_stroke']})")
+    if not keys <= set(record) <= keys | {"settle"}:
+        fail("(keys)", f"the keys {sorted(keys)} (and settle) of a run's record")
+    for field, test, expected in RECORD_CHECKS:
+        if not test(record.get(field)):
+            fail(field, expected)
+    strokes, done = record.get("strokes"), record.get("next_stroke")
+    if len(strokes) != done:
+        fail("strokes", f"one entry per stroke done ({done})")
+    for field, test, expected in RECORD_CHECKS_AFTER:
+        if not test(record.get(field)):
+            fail(field, expected)
 
 
 def check_against(state_path, record, scene, sim):
@@ -223,9 +258,9 @@ def check_against(state_path, record, scene, sim):
             "scene_text",
             f"its scene's integrator is {integrator!r}, the state's is {sim.integrator!r}",
         )
-    check_settings(state_path, scene, sim, record["next_stroke"])
+    check_settings(state_path, scene, sim, record.next_stroke)
     every = scene.frame_interval(sim.dt)
-    step = record["step"]
+    step = record.step
     due = step // every + 1  # frames at 0, every, 2 every, ... up to step
     if frame_due(step, every, step_of(scene.data.simulation.duration, sim.dt)):
         if step % every:
@@ -235,18 +270,15 @@ def check_against(state_path, record, scene, sim):
     else:
         # states written before runs stopped by --until wrote no frame there have one more
         allowed = (due, due + 1)
-    if len(record["records"]) not in allowed:
-        fail(
-            "records", f"{len(record['records'])} entries, but the run writes {due} by step {step}"
-        )
+    if len(record.records) not in allowed:
+        fail("records", f"{len(record.records)} entries, but the run writes {due} by step {step}")
     if scene.data.output.format != "none":
-        if len(record["frames"]) != len(record["records"]):
+        if len(record.frames) != len(record.records):
             fail(
                 "frames",
-                f"{len(record['frames'])} frames for {len(record['records'])} "
-                "records (one per frame)",
+                f"{len(record.frames)} frames for {len(record.records)} records (one per frame)",
             )
-        for number, (_, path) in enumerate(record["frames"]):
+        for number, (_, path) in enumerate(record.frames):
             if not Path(path).name.startswith(f"frame_{number:05d}."):
                 fail("frames", f"entry {number} is {Path(path).name}, expected frame {number:05d}")
 

@@ -24,7 +24,7 @@ from ..state import load_state
 from .folder import STATE_NAME, SUMMARY_NAME, claim_folder, run_files  # noqa: F401
 from .loading import Scene, load_scene, step_of
 from .output import relative_path, write_json  # noqa: F401  (the demo writes with write_json)
-from .record import RunRecord, check_against
+from .record import Before, RunRecord, check_against
 from .stepping import RunError, RunInterrupted, run_part, check_length
 
 __all__ = [
@@ -126,8 +126,8 @@ def resume_run(
     record = RunRecord.from_metadata(state_path, metadata)
     folder = state_path.parent  # the record's paths are relative to it (absolute in old files)
     missing = [path for _, path in record.frames if not (folder / path).is_file()]
-    if record.before is not None and not (folder / record.before["file"]).is_file():
-        missing.insert(0, record.before["file"])
+    if record.before is not None and not (folder / record.before.file).is_file():
+        missing.insert(0, record.before.file)
     if missing:
         raise ValueError(
             f"{state_path}: the run's record lists {len(missing)} file(s) that no "
@@ -145,7 +145,7 @@ def resume_run(
             f"{state_path}: field metadata.next_stroke: {record.next_stroke} "
             f"strokes done, but the scene has {len(scene.data.strokes)}"
         )
-    check_against(state_path, metadata, scene, sim)
+    check_against(state_path, record, scene, sim)
     _set_threads(scene, threads)
     check_length(scene, sim, until, allow_long)
     if until is not None and _steps(float(until), sim.dt) <= record.step:
@@ -163,10 +163,8 @@ def resume_run(
         # the frames and the before picture stay where they are: relative to the new folder
         record.frames = [[t, relative_path(folder / path, out)] for t, path in record.frames]
         if record.before is not None:
-            record.before = {
-                **record.before,
-                "file": relative_path(folder / record.before["file"], out),
-            }
+            file = relative_path(folder / record.before.file, out)
+            record.before = Before(record.before.time, file)
     _check_pictures(scene, render)
     return run_part(scene, sim, record, out, until, quiet, render)
 
