@@ -4,17 +4,24 @@ once (`yore.options` re-exports them beside the integrators' options)."""
 from __future__ import annotations
 
 from . import _core, rules
+from .documents import result_type
 
 #: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
 MAX_SMOOTHING_ITERATIONS = 100_000
 #: Rest-length smoothing's options (`Simulation.smooth_rest_lengths`, a scene file's
 #: ``strokes[].smooth``, the viewer's ``smooth``): the defaults and the rules, written once.
-SMOOTHING_DEFAULTS = {"iterations": 10, "strength": 0.5, "conserve": True}
-SMOOTHING_RULES = {
-    "iterations": rules.count(0, MAX_SMOOTHING_ITERATIONS),
-    "strength": rules.real(0.0, 1.0, expected="a number in (0, 1]"),
-    "conserve": rules.flag(),
-}
+SmoothingSettings = result_type(
+    "SmoothingSettings",
+    ("iterations", "strength", "conserve"),
+    "Rest-length smoothing's settings: iterations, strength (fraction moved per iteration), "
+    "conserve (keep the region's added rest length).",
+)
+SMOOTHING_DEFAULTS = SmoothingSettings(iterations=10, strength=0.5, conserve=True)
+SMOOTHING_RULES = SmoothingSettings(
+    iterations=rules.count(0, MAX_SMOOTHING_ITERATIONS),
+    strength=rules.real(0.0, 1.0, expected="a number in (0, 1]"),
+    conserve=rules.flag(),
+)
 
 
 # -- strokes ------------------------------------------------------------------------------------
@@ -24,13 +31,18 @@ GROWTH_MODES = tuple(_core.growth_modes())
 #: ``SplitOptions`` structs (``_core.stroke_defaults``, ``_core.split_defaults``): expansion
 #: and mass_scale (eq. (1) of the paper: 1.1; the new vertex's mass 0.95 × its corners' mean),
 #: width None (the core's 0: the faces the stroke crosses), growth "paper", refine 0 passes.
-STROKE_DEFAULTS = {
-    "expansion": float(_core.split_defaults["expansion"]),
-    "mass_scale": float(_core.split_defaults["mass_scale"]),
-    "width": _core.stroke_defaults["width"] or None,
-    "growth": _core.stroke_defaults["growth"],
-    "refine": int(_core.stroke_defaults["refine"]),
-}
+StrokeDefaults = result_type(
+    "StrokeDefaults",
+    ("expansion", "mass_scale", "width", "growth", "refine"),
+    "A stroke's options' defaults.",
+)
+STROKE_DEFAULTS = StrokeDefaults(
+    expansion=float(_core.split_defaults["expansion"]),
+    mass_scale=float(_core.split_defaults["mass_scale"]),
+    width=_core.stroke_defaults["width"] or None,
+    growth=_core.stroke_defaults["growth"],
+    refine=int(_core.stroke_defaults["refine"]),
+)
 
 # -- the scene and pictures -----------------------------------------------------------------------
 #: Gravitational acceleration of every scene unless given, m/s² (y is up).

@@ -359,10 +359,12 @@ def stroke_effect(V, F, V_plain, F_plain, region_faces, vertices) -> dict:
         raise ValueError("the stroke's region holds no whole face of the plain mesh")
     wrinkle = wrinkle_measure(V[:n], F_plain, faces)
     plain = wrinkle_measure(V_plain, F_plain, faces)
-    return {
-        "wrinkle": wrinkle,
-        "wrinkle_plain": plain,
-        "wrinkle_ratio": wrinkle / plain if plain > 0 else float("inf"),
-        "spike_index": spike_index(V, F, vertices),
-        "spike_index_plain": spike_index(V_plain, F_plain, original),
-    }
+    from .results import StrokeEffect
+
+    return StrokeEffect(
+        wrinkle=wrinkle,
+        wrinkle_plain=plain,
+        wrinkle_ratio=wrinkle / plain if plain > 0 else float("inf"),
+        spike_index=spike_index(V, F, vertices),
+        spike_index_plain=spike_index(V_plain, F_plain, original),
+    )

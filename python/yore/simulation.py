@@ -26,6 +26,7 @@ from .options import (
     show_value,
 )
 from . import progress as progress_bars, rules, settling, smoothing
+from .results import Energy, Statistics
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
@@ -671,9 +672,9 @@ class Simulation:
         return smoothing.smooth_rest_lengths(self._cloth, iterations, strength, region, conserve)
 
     # -- measurements -----------------------------------------------------------------------
-    def energy(self) -> dict:
+    def energy(self) -> Energy:
         """Kinetic, spring, gravitational and (quadratic) bending energy and their total, J."""
-        return self._cloth.energy(self._gravity)
+        return Energy(self._cloth.energy(self._gravity))
 
     @property
     def restarts_on_resume(self) -> bool:
@@ -695,7 +696,7 @@ class Simulation:
         return self._cloth.stable_time_step()
 
     @property
-    def stats(self) -> dict:
+    def stats(self) -> Statistics:
         """Counters, wall time per phase (s) and the model terms that are active.
 
         ``phases``: cumulative wall time per phase (explicit: forces, update, constraints,
@@ -733,25 +734,27 @@ class Simulation:
             active["membrane_faces"] = int(cloth.face_count)
             active["membrane_clamped_rest_faces"] = int(status["clamped_rest_faces"])
             active["membrane_collapsed_faces"] = int(status["collapsed_faces"])
-        return {
-            "integrator": self._integrator_name,
-            "dt": self._dt,
-            "time": self.time,
-            "steps": steps,
-            "wall_seconds": self._wall_seconds,
-            "steps_per_second": steps / self._wall_seconds if self._wall_seconds > 0 else 0.0,
-            "phases": phases,
-            "counters": counters,
-            "active_terms": active,
-            "vertices": cloth.vertex_count,
-            "springs": cloth.spring_count,
-            "topology_version": cloth.topology_version,
-            "threads": {
-                "configured": _core.max_threads(),
-                "blas": _core.blas_threads(),
-                **getattr(self._integrator, "thread_usage", {}),
-            },
-        }
+        return Statistics(
+            {
+                "integrator": self._integrator_name,
+                "dt": self._dt,
+                "time": self.time,
+                "steps": steps,
+                "wall_seconds": self._wall_seconds,
+                "steps_per_second": steps / self._wall_seconds if self._wall_seconds > 0 else 0.0,
+                "phases": phases,
+                "counters": counters,
+                "active_terms": active,
+                "vertices": cloth.vertex_count,
+                "springs": cloth.spring_count,
+                "topology_version": cloth.topology_version,
+                "threads": {
+                    "configured": _core.max_threads(),
+                    "blas": _core.blas_threads(),
+                    **getattr(self._integrator, "thread_usage", {}),
+                },
+            }
+        )
 
     def __repr__(self) -> str:
         return (

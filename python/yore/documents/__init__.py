@@ -9,6 +9,6 @@ a table (`yore.camera.camera_from_settings`, a summary's copy) take it as they t
 
 from __future__ import annotations
 
-from .tree import Table, table_type
+from .tree import Result, Table, result_type, table_type
 
-__all__ = ["Table", "table_type"]
+__all__ = ["Table", "table_type", "Result", "result_type"]

@@ -1,7 +1,8 @@
 """A checked document's tables: `table_type` makes one class per table of a schema (a
 dataclass whose fields are the table's keys, each None until set), and `Table` is what they
 share: attribute access for code, a read-only mapping of the keys that are set for functions
-that take a table, and `as_dict` for a plain copy.
+that take a table, and `as_dict` for a plain copy. `result_type` makes the typed results
+functions return (`Result`: a dict whose declared fields are also attributes).
 
 None means "not given": a TOML file has no null, so a key set to None is a key left out, and
 the mapping view leaves it out too (``"width" in stroke`` is False, ``stroke.get("width")`` is
@@ -10,10 +11,11 @@ None), as the dicts the tables replace did.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from dataclasses import field, make_dataclass
 
-__all__ = ["Table", "table_type"]
+__all__ = ["Table", "table_type", "Result", "result_type"]
 
 
 class Table(Mapping):
@@ -62,5 +64,40 @@ def table_type(name, keys, base=Table):
         eq=False,  # (a table's arrays have no truth value: tables compare as mappings)
     )
     made.keys_ = keys
+    made.__module__ = _caller_module()  # (where pickle finds it)
     made.__doc__ = f"The {name} table: " + ", ".join(keys) + "."
     return made
+
+
+class Result(dict):
+    """A result a function returns (statistics, energies): a dict, so it prints, compares and
+    goes to JSON as one, whose fields are also attributes (``sim.stats.phases``); subclasses
+    are made by `result_type`, which declares the fields."""
+
+    __slots__ = ()
+    #: The fields, in order (set by `result_type`).
+    fields_: tuple = ()
+
+
+def _field_property(key):
+    def read(self):
+        try:
+            return self[key]
+        except KeyError:
+            return None  # (an optional field the result leaves out)
+
+    return property(read, doc=f"``{key}``")
+
+
+def result_type(name, keys, doc):
+    """A `Result` class named ``name`` with the attributes ``keys`` (None when absent)."""
+    keys = tuple(keys)
+    namespace = {key: _field_property(key) for key in keys}
+    namespace.update(__slots__=(), fields_=keys, __doc__=doc, __module__=_caller_module())
+    return type(name, (Result,), namespace)
+
+
+def _caller_module():
+    """The module that called the type factory (two frames up), as collections.namedtuple
+    finds it."""
+    return sys._getframe(2).f_globals.get("__name__", __name__)

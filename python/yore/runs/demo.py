@@ -24,6 +24,7 @@ from .. import metrics
 from ..camera import camera_from_settings
 from ..state import load_state
 from .loading import load_scene
+from .record import RunRecord
 from .runner import SUMMARY_NAME, STATE_NAME, write_json, run_scene
 
 __all__ = ["run_demo", "demo_scene_text", "paper_scene_text"]
@@ -79,24 +80,26 @@ def paper_scene_text() -> str:
 
 
 def _effect(stroked_dir, plain_dir):
-    sim, record = load_state(stroked_dir / STATE_NAME)
+    state_path = stroked_dir / STATE_NAME
+    sim, metadata = load_state(state_path)
+    record = RunRecord.from_metadata(state_path, metadata)
     plain, _ = load_state(plain_dir / STATE_NAME)
-    if not record["strokes"]:
+    if not record.strokes:
         return None
-    stroke = record["strokes"][0]
-    vertices = stroke["new_vertices"] or stroke["line_vertices"]
+    stroke = record.strokes[0]
+    vertices = stroke.new_vertices or stroke.line_vertices
     effect = metrics.stroke_effect(
         sim.cloth.positions,
         sim.cloth.faces,
         plain.cloth.positions,
         plain.cloth.faces,
-        stroke["region_faces"],
+        stroke.region_faces,
         vertices,
     )
     effect.update(
         time=sim.time,
-        growth=stroke["growth"],
-        refine=stroke["refine"],
+        growth=stroke.growth,
+        refine=stroke.refine,
         vertices_measured=len(vertices),
     )
     return effect, sim, plain
@@ -125,14 +128,16 @@ def _demo_runs(out, yore_scene, paper_scene, plain):
 def _measured_and_shown(out):
     """The strokes' effects measured from the four runs' states, the plain run's simulation,
     and the (simulation, folder, caption) of each panel of the demo's picture."""
-    measured = {}
     yore_effect = _effect(out, out / PLAIN_DIR)
     paper_effect = _effect(out / PAPER_DIR, out / PAPER_PLAIN_DIR)
     plain_sim = None
+    measured = {}
     if yore_effect is not None:
-        measured["yore"], yore_sim, plain_sim = yore_effect
+        yore, yore_sim, plain_sim = yore_effect
+        measured.update(yore=yore)
     if paper_effect is not None:
-        measured["paper"], paper_sim, _ = paper_effect
+        paper, paper_sim, _ = paper_effect
+        measured.update(paper=paper)
     if plain_sim is None:
         plain_sim, _ = load_state(out / PLAIN_DIR / STATE_NAME)
     shown = [(plain_sim, None, "no stroke")]
@@ -141,7 +146,7 @@ def _measured_and_shown(out):
             (
                 paper_sim,
                 out / PAPER_DIR,
-                f"the paper's stroke: spike index {measured['paper']['spike_index']:.2f}",
+                f"the paper's stroke: spike index {paper.spike_index:.2f}",
             )
         )
     if yore_effect is not None:
@@ -149,8 +154,8 @@ def _measured_and_shown(out):
             (
                 yore_sim,
                 out,
-                f"yore's stroke: wrinkles x{measured['yore']['wrinkle_ratio']:.1f}, "
-                f"spike index {measured['yore']['spike_index']:.2f}",
+                f"yore's stroke: wrinkles x{yore.wrinkle_ratio:.1f}, "
+                f"spike index {yore.spike_index:.2f}",
             )
         )
     return measured, plain_sim, shown
@@ -200,8 +205,8 @@ def run_demo(out, overrides=None, quiet=False, overwrite=False, threads=None) ->
     if not quiet:
         for name, effect in measured.items():
             print(
-                f"{name:5s}: wrinkle measure {effect['wrinkle']:.4f} m against "
-                f"{effect['wrinkle_plain']:.4f} m without the stroke "
-                f"(×{effect['wrinkle_ratio']:.2f}), spike index {effect['spike_index']:.3f}"
+                f"{name:5s}: wrinkle measure {effect.wrinkle:.4f} m against "
+                f"{effect.wrinkle_plain:.4f} m without the stroke "
+                f"(×{effect.wrinkle_ratio:.2f}), spike index {effect.spike_index:.3f}"
             )
     return json.loads((out / SUMMARY_NAME).read_text(encoding="utf-8"))

@@ -14,6 +14,7 @@ import numpy as np
 from .. import metrics
 from ..options import INTEGRATOR_SPECS
 from ..io import save_mesh
+from ..results import FrameMeasure, StrokeEntry
 from ..runtime import deferred_interrupt
 from ..state import save_state
 from .folder import STATE_NAME, SUMMARY_NAME
@@ -50,22 +51,24 @@ def measure_frame(sim):
     energy = sim.energy()
     with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported, not warned
         area, rest_area = metrics.area(cloth.positions, cloth.faces), metrics.rest_area(cloth)
-    record = {
-        "time": sim.time,
-        "kinetic": energy["kinetic"],
-        "spring": energy["spring"],
-        "gravity": energy["gravity"],
-        "total": energy["total"],
-        "area": area,
-        "rest_area": rest_area,
-        "vertices": cloth.vertex_count,
-        "faces": cloth.face_count,
-    }
+    record = FrameMeasure(
+        time=sim.time,
+        kinetic=energy.kinetic,
+        spring=energy.spring,
+        gravity=energy.gravity,
+        total=energy.total,
+        area=area,
+        rest_area=rest_area,
+        vertices=cloth.vertex_count,
+        faces=cloth.face_count,
+    )
     if cloth.bending == "quadratic":  # (part of total; recorded for the cloths that have it)
-        record["bending"] = energy["bending"]
+        record.update(bending=energy.bending)
     if cloth.stretch == "membrane":  # likewise
-        record["membrane"] = energy["membrane"]
-        record["membrane_collapsed_faces"] = int(cloth.membrane_status()["collapsed_faces"])
+        status = cloth.membrane_status()
+        record.update(
+            membrane=energy.membrane, membrane_collapsed_faces=int(status["collapsed_faces"])
+        )
     return record
 
 
@@ -108,40 +111,40 @@ def save_before(sim, out, record):
 
 
 def stroke_record(index, time, report):
-    return {
-        "stroke": index,
-        "time": time,
-        "faces_split": report.faces_split,
-        "faces_skipped": int(len(report.faces_skipped)),
-        "vertices_added": report.vertices_added,
-        "springs_added": report.springs_added,
-        "springs_removed": report.springs_removed,
-        "area_before": report.area_before,
-        "rest_area_before": report.rest_area_before,
-        "rest_area_after": report.rest_area_after,
-        "missed_fraction": report.missed_fraction,
-        "locate_seconds": report.locate_seconds,
-        "subdivide_seconds": report.subdivide_seconds,
-        "growth": report.growth,
-        "width": report.width,
-        "refine": report.refine,
-        "faces_refined": report.faces_refined,
-        "faces_bisected": report.faces_bisected,
-        "springs_grown": report.springs_grown,
-        "rest_length_added": report.rest_length_added,
-        "mass_added": report.mass_added,
-        "new_vertices": [int(v) for v in report.new_vertices],
-        "region_faces": [int(f) for f in report.region_faces],
+    return StrokeEntry(
+        stroke=index,
+        time=time,
+        faces_split=report.faces_split,
+        faces_skipped=int(len(report.faces_skipped)),
+        vertices_added=report.vertices_added,
+        springs_added=report.springs_added,
+        springs_removed=report.springs_removed,
+        area_before=report.area_before,
+        rest_area_before=report.rest_area_before,
+        rest_area_after=report.rest_area_after,
+        missed_fraction=report.missed_fraction,
+        locate_seconds=report.locate_seconds,
+        subdivide_seconds=report.subdivide_seconds,
+        growth=report.growth,
+        width=report.width,
+        refine=report.refine,
+        faces_refined=report.faces_refined,
+        faces_bisected=report.faces_bisected,
+        springs_grown=report.springs_grown,
+        rest_length_added=report.rest_length_added,
+        mass_added=report.mass_added,
+        new_vertices=[int(v) for v in report.new_vertices],
+        region_faces=[int(f) for f in report.region_faces],
         # vertices along the stroke in stroke order: its polyline in pictures (the paper's
         # new vertices in the order it crossed their faces)
-        "line_vertices": [int(v) for v in report.line_vertices],
-    }
+        line_vertices=[int(v) for v in report.line_vertices],
+    )
 
 
 def save_run_state(out, sim, record, previous_phases, phases=None):
     """Saves the state with the record; ``phases``: this part's wall time per phase (default:
     ``sim``'s, unless a rollback replaced the simulation that ran)."""
-    phases = sim.stats["phases"] if phases is None else phases
+    phases = sim.stats.phases if phases is None else phases
     record.phases = {
         name: previous_phases.get(name, 0.0) + phases.get(name, 0.0)
         for name in set(previous_phases) | set(phases)
@@ -196,10 +199,10 @@ def run_summary(scene, sim, record, out, state_path, status, message):
         "wall_seconds": record.wall_seconds,
         # wall time per phase over the whole run (all resumed parts); counters of the last part
         "phases": record.phases,
-        "counters": stats["counters"],
-        "active_terms": stats["active_terms"],
-        "vertices": stats["vertices"],
-        "springs": stats["springs"],
+        "counters": stats.counters,
+        "active_terms": stats.active_terms,
+        "vertices": stats.vertices,
+        "springs": stats.springs,
         "settings": settings,
         "records": record.records,
         "strokes": record.strokes,

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import rules
+from ..results import ClothState, FrameMeasure, StrokeEntry
 from ..options import FIXED_DT, GRAVITY, INTEGRATOR_SPECS, options_in_force, resolve_options
 from .loading import step_of
 from .schedule import frame_due
@@ -89,7 +90,14 @@ class RunRecord:
         before = metadata["before"]
         if before is not None:  # (a table with time and file, checked above)
             before = Before(before["time"], before["file"])
-        return cls(**{**metadata, "before": before})
+        return cls(
+            **{
+                **metadata,
+                "before": before,
+                "records": [FrameMeasure(entry) for entry in metadata["records"]],
+                "strokes": [StrokeEntry(entry) for entry in metadata["strokes"]],
+            }
+        )
 
     def to_dict(self) -> dict:
         """The record as a state file's metadata holds it (the same keys in the same order)."""
@@ -336,17 +344,17 @@ def check_settings(state_path, scene, sim, strokes_done):
 
 
 def _check_material(material, cloth, strokes_done, fail):
-    state = cloth.state()
+    state = ClothState(cloth.state())
     membrane = material.stretch == "membrane"
     quadratic = material.bending in ("quadratic", "hinge")
     if cloth.stretch != material.stretch:
         fail("material.stretch", "cloth.young_modulus", material.stretch, cloth.stretch)
     if cloth.bending != material.bending:
         fail("material.bending", "cloth.bending", material.bending, cloth.bending)
-    constants = {"damping": state["damping"], "drag": state["drag"]}
+    constants = {"damping": state.damping, "drag": state.drag}
     if membrane:
-        constants.update(young_modulus=state["young_modulus"], poisson_ratio=state["poisson_ratio"])
-        strain = state.get("membrane_strain") or "faces"
+        constants.update(young_modulus=state.young_modulus, poisson_ratio=state.poisson_ratio)
+        strain = state.membrane_strain or "faces"
         if (material.membrane_strain or "faces") != strain:
             fail(
                 "material.membrane_strain",
@@ -355,11 +363,11 @@ def _check_material(material, cloth, strokes_done, fail):
                 strain,
             )
     else:
-        constants["stretch_stiffness"] = state["stretch_stiffness"]
+        constants["stretch_stiffness"] = state.stretch_stiffness
     if quadratic:
-        constants["bending_modulus"] = state["bending_modulus"]
+        constants["bending_modulus"] = state.bending_modulus
     else:
-        constants["bend_stiffness"] = state["bend_stiffness"]
+        constants["bend_stiffness"] = state.bend_stiffness
     for key, value in constants.items():
         if float(getattr(material, key)) != value:
             fail(f"material.{key}", f"cloth.{key}", float(getattr(material, key)), value)
@@ -371,34 +379,34 @@ def _check_material(material, cloth, strokes_done, fail):
     }
     names = {0: "stretch_stiffness", 1: "bend_stiffness"}
     for kind, value in stiffness.items():
-        chosen = state["spring_kind"] == kind
-        wrong = np.flatnonzero(state["spring_stiffness"][chosen] != value)
+        chosen = state.spring_kind == kind
+        wrong = np.flatnonzero(state.spring_stiffness[chosen] != value)
         if wrong.size:
             index = int(np.flatnonzero(chosen)[wrong[0]])
             fail(
                 f"material.{names[kind]}",
                 f"cloth.spring_stiffness[{index}]",
                 value,
-                float(state["spring_stiffness"][index]),
+                float(state.spring_stiffness[index]),
             )
-    wrong = np.flatnonzero(state["spring_damping"] != float(material.damping))
+    wrong = np.flatnonzero(state.spring_damping != float(material.damping))
     if wrong.size:
         index = int(wrong[0])
         fail(
             "material.damping",
             f"cloth.spring_damping[{index}]",
             float(material.damping),
-            float(state["spring_damping"][index]),
+            float(state.spring_damping[index]),
         )
     if strokes_done == 0 and (material.mass is not None or material.mass_per_vertex is not None):
         n = cloth.vertex_count
         key = "mass" if material.mass is not None else "mass_per_vertex"
         per_vertex = material.mass / n if key == "mass" else material.mass_per_vertex
-        wrong = np.flatnonzero(state["masses"] != per_vertex)
+        wrong = np.flatnonzero(state.masses != per_vertex)
         if wrong.size:
             index = int(wrong[0])
             scene_value = getattr(material, key)
-            got = float(state["masses"].sum()) if key == "mass" else float(state["masses"][index])
+            got = float(state.masses.sum()) if key == "mass" else float(state.masses[index])
             fail(
                 f"material.{key}",
                 "cloth.masses" if key == "mass" else f"cloth.masses[{index}]",

@@ -479,12 +479,12 @@ SCHEMA = {
             "screen": (_points(2, "[x, y] pixel"), None, "polyline in pixels of [camera]"),
             "expansion": (
                 _number(MIN_EXPANSION, MAX_EXPANSION),
-                STROKE_DEFAULTS["expansion"],
+                STROKE_DEFAULTS.expansion,
                 "rest length / current length of new springs (eq. (1))",
             ),
             "mass_scale": (
                 _mass_scale,
-                STROKE_DEFAULTS["mass_scale"],
+                STROKE_DEFAULTS.mass_scale,
                 "new vertex mass / corners' mean, or 'conserve' "
                 "(taken from the corners; total mass unchanged)",
             ),
@@ -495,12 +495,12 @@ SCHEMA = {
             ),
             "growth": (
                 _choice(*GROWTH_MODES),
-                STROKE_DEFAULTS["growth"],
+                STROKE_DEFAULTS.growth,
                 "paper (eq. (1) on new springs), isotropic, along or across the stroke",
             ),
             "refine": (
                 _integer(0, MAX_REFINE),
-                STROKE_DEFAULTS["refine"],
+                STROKE_DEFAULTS.refine,
                 "1→4 refinement passes of the band first",
             ),
             "max_distance": (
@@ -565,21 +565,19 @@ SCHEMA = {
 
 SMOOTH = {
     "iterations": (
-        _integer(0, SMOOTHING_RULES["iterations"].high),
-        SMOOTHING_DEFAULTS["iterations"],
+        _integer(0, SMOOTHING_RULES.iterations.high),
+        SMOOTHING_DEFAULTS.iterations,
         "smoothing iterations",
     ),
     "strength": (
-        _number(
-            SMOOTHING_RULES["strength"].low, SMOOTHING_RULES["strength"].high, strict_minimum=True
-        ),
-        SMOOTHING_DEFAULTS["strength"],
+        _number(SMOOTHING_RULES.strength.low, SMOOTHING_RULES.strength.high, strict_minimum=True),
+        SMOOTHING_DEFAULTS.strength,
         "fraction moved per iteration",
     ),
     "region": (_choice("stroke", "all"), "stroke", "the stroke's region and one ring, or all"),
     "conserve": (
         _boolean,
-        SMOOTHING_DEFAULTS["conserve"],
+        SMOOTHING_DEFAULTS.conserve,
         "keep the region's added rest length (redistribute only)",
     ),
 }

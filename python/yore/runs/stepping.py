@@ -210,7 +210,7 @@ class _Run:
             ):
                 # SUNDIALS' step history is not in the state: only at a frame, where the
                 # straight run restarts it too, does a resumed run go on as that one would
-                self.phases = self.sim.stats["phases"]
+                self.phases = self.sim.stats.phases
                 self.sim = self.good.restore(record, self.live_reports)
             # Steps completed so far, from the step-counting clock (the interruption may come
             # between batches of a call).
@@ -275,7 +275,7 @@ class _Run:
                     self.live_reports.append((record.strokes[-1], report))
                     record.next_stroke += 1
             except BaseException:
-                self.phases = sim.stats["phases"]
+                self.phases = sim.stats.phases
                 self.sim = before_stroke.restore(record, self.live_reports)
                 raise
 
@@ -285,7 +285,7 @@ class _Run:
         bad = non_finite_names(entry)
         if bad:
             failed = self.sim.time
-            self.phases = self.sim.stats["phases"]
+            self.phases = self.sim.stats.phases
             good = self.good
             self.sim = sim = good.restore(self.record, self.live_reports)
             raise NonFiniteEnergy(
@@ -322,7 +322,7 @@ class _Run:
         """(CHOLMOD's out of memory is a MemoryError too) back to the last recorded frame, whose
         state is then saved: the run fails cleanly, and can continue with more memory."""
         failed = self.sim.time
-        self.phases = self.sim.stats["phases"]
+        self.phases = self.sim.stats.phases
         if self.good is not None:
             self.sim = self.good.restore(self.record, self.live_reports)
         sim = self.sim
@@ -346,7 +346,7 @@ class _Run:
                 "finished" if sim.time >= duration - 0.5 * self.dt else "stopped at --until"
             )
             for entry, report in self.live_reports:
-                entry["reanalyze_seconds"] = report.reanalyze_seconds
+                entry.update(reanalyze_seconds=report.reanalyze_seconds)
         try:
             with deferred_interrupt():
                 try:

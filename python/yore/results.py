@@ -1,0 +1,113 @@
+"""What a `yore.Simulation` reports, as typed results (`yore.documents.Result`: dicts whose
+fields are also attributes): `Statistics` (``Simulation.stats``), `Energy`
+(``Simulation.energy()``), `ClothState` (``Cloth.state()``'s fields), what a run records at
+each frame (`FrameMeasure`) and of each stroke (`StrokeEntry`), and a stroke's measured effect
+(`StrokeEffect`)."""
+
+from __future__ import annotations
+
+from ._core import Cloth
+from .documents import result_type
+
+__all__ = ["Statistics", "Energy", "ClothState", "FrameMeasure", "StrokeEntry", "StrokeEffect"]
+
+Statistics = result_type(
+    "Statistics",
+    (
+        "integrator",
+        "dt",
+        "time",
+        "steps",
+        "wall_seconds",
+        "steps_per_second",
+        "phases",
+        "counters",
+        "active_terms",
+        "vertices",
+        "springs",
+        "topology_version",
+        "threads",
+    ),
+    """A simulation's statistics: its integrator and dt; time, s; steps and wall seconds so far
+    and their ratio; ``phases``, cumulative wall time per phase; ``counters``, cumulative counts
+    and the last step's figures; ``active_terms``, the model terms in use; vertex and spring
+    counts, the topology's version and the threads in use.""",
+)
+
+Energy = result_type(
+    "Energy",
+    ("kinetic", "spring", "gravity", "bending", "membrane", "total"),
+    """A cloth's energies, J: kinetic, in its springs, gravitational, in its bending and
+    membrane terms (0 where the cloth has none), and their total.""",
+)
+
+ClothState = result_type(
+    "ClothState",
+    Cloth.state_fields["required"] + Cloth.state_fields["optional"],
+    """A cloth's state as ``Cloth.state()`` gives it (the fields of ``Cloth.state_fields``):
+    positions, velocities, masses, faces, the springs' arrays, the material's constants, the
+    vertices' states and drivers, the clock.""",
+)
+
+FrameMeasure = result_type(
+    "FrameMeasure",
+    (
+        "time",
+        "kinetic",
+        "spring",
+        "gravity",
+        "total",
+        "area",
+        "rest_area",
+        "vertices",
+        "faces",
+        "bending",
+        "membrane",
+        "membrane_collapsed_faces",
+    ),
+    """What a run records at each frame: time, s; energies, J (bending and membrane for the
+    cloths that have them); area and rest area, m²; vertex and face counts; the membrane's
+    collapsed faces.""",
+)
+
+StrokeEntry = result_type(
+    "StrokeEntry",
+    (
+        "stroke",
+        "time",
+        "faces_split",
+        "faces_skipped",
+        "vertices_added",
+        "springs_added",
+        "springs_removed",
+        "area_before",
+        "rest_area_before",
+        "rest_area_after",
+        "missed_fraction",
+        "locate_seconds",
+        "subdivide_seconds",
+        "growth",
+        "width",
+        "refine",
+        "faces_refined",
+        "faces_bisected",
+        "springs_grown",
+        "rest_length_added",
+        "mass_added",
+        "new_vertices",
+        "region_faces",
+        "line_vertices",
+        "reanalyze_seconds",
+    ),
+    """What a run records of a stroke it drew (``yore.StrokeReport``'s figures as JSON values):
+    its index and time, what it split, added and removed, the areas before and after, its
+    timings, growth, width and refinement, and the vertices and faces it made; the
+    factorization's re-analysis time where the integrator has one.""",
+)
+
+StrokeEffect = result_type(
+    "StrokeEffect",
+    ("wrinkle", "wrinkle_plain", "wrinkle_ratio", "spike_index", "spike_index_plain"),
+    """A stroke's effect (`yore.metrics.stroke_effect`): the region's wrinkle measure with and
+    without the stroke, m, their ratio, and the spike index with and without it.""",
+)
