@@ -134,6 +134,7 @@ def _fresh(code, environment=None, fake_cpu=None, fake_native=None):
             textwrap.dedent(f"""
             fake = types.ModuleType("yore._cpu")
             fake.cpu_features = lambda: types.SimpleNamespace(extensions={fake_cpu!r})
+            fake.limits = {dict(_cpu.limits)!r}  # (the module holds the limits' table too)
             sys.modules["yore._cpu"] = fake""")
         )
     if fake_native is not None:

@@ -1,10 +1,15 @@
 // The module yore._cpu: what the CPU and the OS run, read before anything loads a BLAS. A module
 // of its own because yore._core links CHOLMOD, whose BLAS chooses its kernels the moment it
-// loads (python/yore/blas.py decides them from this). Links nothing but pybind11.
+// loads (python/yore/blas.py decides them from this). Links nothing but pybind11. It also holds
+// the input limits' table (yore/platform/limits.hpp), which yore.limits reads: the checks that
+// run before the core loads (the thread count yore.blas sets) need it too.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstdint>
+
 #include "yore/platform/cpu_features.hpp"
+#include "yore/platform/limits.hpp"
 
 namespace py = pybind11;
 
@@ -21,4 +26,11 @@ PYBIND11_MODULE(_cpu, m) {
       .def_readonly("os_saves_zmm", &yore::CpuFeatures::os_saves_zmm);
   m.def("cpu_features", &yore::cpu_features,
         "This CPU's vendor, family, model and usable extensions (empty off x86-64).");
+  py::dict limits;
+  for (const yore::Limit& limit : yore::kLimits) {
+    limits[limit.name] = limit.integral
+                             ? py::object(py::int_(static_cast<std::int64_t>(limit.value)))
+                             : py::object(py::float_(limit.value));
+  }
+  m.attr("limits") = limits;
 }

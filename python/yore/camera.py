@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import LIMITS
 from .checks import check_factor, check_image_size, check_points, check_vector
 
 from .options import FOV_DEGREES, FOV_RULE, IMAGE_HEIGHT, IMAGE_WIDTH
@@ -49,7 +50,7 @@ DEFAULT_MARGIN = 1.06
 #: Largest coordinate of a camera's eye, target and up (m; the limit of what a picture can
 #: frame, `yore.viz.pictures.MAX_FRAME_COORDINATE`): an eye at 1e300 overflowed the
 #: projection into numpy warnings and an empty picture.
-MAX_CAMERA_COORDINATE = 1e12
+MAX_CAMERA_COORDINATE = LIMITS.max_camera_coordinate
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .limits import LIMITS
 from . import rules
 
 __all__ = [
@@ -29,31 +30,31 @@ __all__ = [
 ]
 
 #: Most threads `yore.set_num_threads` accepts (each OpenMP thread is an operating-system thread).
-MAX_THREADS = 256
+MAX_THREADS = LIMITS.max_threads
 #: Most steps one `Simulation.step`/`advance` call, or one run of a scene, may take (a run past
 #: it needs ``yore run --allow-long``): 1e8 explicit steps of a small cloth are hours.
-MAX_STEPS = 100_000_000
+MAX_STEPS = LIMITS.max_steps
 #: Smallest time step, s (a smaller one only overflows step counts: 1 s is then 1e12 steps).
-MIN_DT = 1e-12
+MIN_DT = LIMITS.min_dt
 #: Largest simulated time, s (about 32 years): a scene's duration, a stroke's time, a state's
 #: clock. Past it step counts lose their meaning (1e308 s overflowed them).
-MAX_TIME = 1e9
+MAX_TIME = LIMITS.max_time
 #: Most pseudo-time `Simulation.settle` may spend, s (20 000 backward-Euler steps of 0.5 s).
-MAX_SETTLE_SECONDS = 10_000.0
+MAX_SETTLE_SECONDS = LIMITS.max_settle_seconds
 #: Largest rest-length factor of a stroke (the paper's is 1.1): a new spring at most ten times
 #: its current length. Past it the springs' energy overflows (1e300 gave an infinite energy).
-MAX_EXPANSION = 10.0
+MAX_EXPANSION = LIMITS.max_expansion
 #: Smallest rest-length factor of a stroke: a new spring at least a tenth of its current length
 #: (the bound mirrors MAX_EXPANSION; 5e-324 gave rest lengths of 0, a state no file can hold).
 MIN_EXPANSION = 1.0 / MAX_EXPANSION
 #: Largest mass_scale of a stroke (the paper's is 0.95): a new vertex at most ten times its
 #: corners' mean mass (1e308 gave masses beyond what a cloth may hold, a state no file can hold).
-MAX_MASS_SCALE = 10.0
+MAX_MASS_SCALE = LIMITS.max_mass_scale
 
 #: Largest image a camera may have: each side at most MAX_IMAGE_SIDE pixels and at most
 #: MAX_IMAGE_PIXELS pixels in all (2^23, e.g. 3840×2160), checked before anything is allocated.
-MAX_IMAGE_SIDE = 16384
-MAX_IMAGE_PIXELS = 1 << 23
+MAX_IMAGE_SIDE = LIMITS.max_image_side
+MAX_IMAGE_PIXELS = LIMITS.max_image_pixels
 
 # The rules of `yore.rules` these checks apply (their messages are the arguments' own).
 _IMAGE_SIDE = rules.count(1, MAX_IMAGE_SIDE)

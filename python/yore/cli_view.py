@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from .limits import LIMITS
 from .cli_parser import scene_overrides
 
 
@@ -32,7 +33,7 @@ def check_view_numbers(arguments):
 
 
 #: Smallest picture side with --panel (the panels are drawn into it; 1 px failed in OpenGL).
-MIN_PANEL_SIDE = 16
+MIN_PANEL_SIDE = LIMITS.min_picture_side
 
 
 def view_command(arguments):

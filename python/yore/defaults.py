@@ -3,11 +3,12 @@ once (`yore.options` re-exports them beside the integrators' options)."""
 
 from __future__ import annotations
 
+from .limits import LIMITS
 from . import _core, rules
 from .documents import result_type
 
 #: Largest ``iterations`` of `Simulation.smooth_rest_lengths`.
-MAX_SMOOTHING_ITERATIONS = 100_000
+MAX_SMOOTHING_ITERATIONS = LIMITS.max_smoothing_iterations
 #: Rest-length smoothing's options (`Simulation.smooth_rest_lengths`, a scene file's
 #: ``strokes[].smooth``, the viewer's ``smooth``): the defaults and the rules, written once.
 SmoothingSettings = result_type(

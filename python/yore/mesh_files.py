@@ -4,6 +4,8 @@ what a .vtu file's compressed arrays may inflate to."""
 
 from __future__ import annotations
 
+from .limits import LIMITS
+
 import contextlib
 import errno
 import os
@@ -18,7 +20,7 @@ from meshio._helpers import reader_map as _meshio_readers  # see read_with_meshi
 #: Largest mesh (or frame) file read, bytes (512 MiB, some ten million triangles as binary
 #: PLY): meshio reads a file whole, and parsing takes a few times its size in memory, so a
 #: larger file is refused before it is opened.
-MAX_MESH_FILE_BYTES = 512 * 2**20
+MAX_MESH_FILE_BYTES = LIMITS.max_mesh_file_bytes
 
 
 def check_mesh_file(path: Path) -> Path:

@@ -14,6 +14,7 @@ import numbers
 
 import numpy as np
 
+from .limits import LIMITS
 from . import _core
 from .checks import check_factor, check_integer
 from .pattern_lattice import lattice_pattern_mesh
@@ -33,9 +34,9 @@ PATTERN_MIN_ANGLE = 25.0
 
 #: Most vertices a generated mesh may have (e.g. 1000×1000), checked before anything is
 #: allocated: a cloth of a million vertices already needs some GB for its springs and factor.
-MAX_MESH_VERTICES = 1_000_000
+MAX_MESH_VERTICES = LIMITS.max_mesh_vertices
 #: Largest |u| or |v| of a pattern point, m (the core's kPatternMaxCoordinate).
-MAX_PATTERN_COORDINATE = 1e6
+MAX_PATTERN_COORDINATE = LIMITS.max_pattern_coordinate
 
 
 def _check_vertex_count(count: int, what: str, argument=None) -> None:

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .limits import LIMITS
 from ._core import Cloth
-from .meshes import MAX_MESH_VERTICES
 from .simulation import Simulation
 from .state_schema import check_simulation, FieldChecker, show_value
 
@@ -171,7 +171,7 @@ def _check_written(path, document, arrays):
 
 
 #: Largest state file read, bytes (a state of a million vertices is some hundreds of MB).
-MAX_STATE_FILE_BYTES = 2 * 2**30
+MAX_STATE_FILE_BYTES = LIMITS.max_state_file_bytes
 #: Largest JSON document in a state file, characters.
 _MAX_DOCUMENT_CHARS = 64 * 2**20
 
@@ -325,7 +325,7 @@ _POSITIONS = "simulation/cloth/positions.npy"
 #: Most vertices a state's cloth may have: four times the largest mesh yore generates or reads
 #: (`yore.meshes.MAX_MESH_VERTICES`; strokes stay within it). The positions' header alone must
 #: not set the budget: a 1 MB file whose positions inflate to 1 GiB declared 45 million.
-MAX_STATE_VERTICES = 4 * MAX_MESH_VERTICES
+MAX_STATE_VERTICES = LIMITS.max_state_vertices
 #: Members with one row per vertex: their headers must agree with the positions' before any of
 #: them is inflated, so a forged vertex count must be forged (and inflated) in all of them.
 _PER_VERTEX = (

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import LIMITS
 from . import _core
 from ._core import RefinementTooLarge, StrokeMissed
 from .camera import Camera
@@ -82,12 +83,12 @@ MIN_ANGLE_DEGREES = float(_core.split_defaults["min_angle_degrees"])
 REFINE_VERTICES_PER_FACE = _core.refine_vertices_per_face
 REFINE_BAND_GROWTH = _core.refine_band_growth
 #: Most refinement passes one stroke may ask for: each pass quadruples the band's faces.
-MAX_REFINE = _core.max_refine
+MAX_REFINE = LIMITS.max_refine
 #: Most vertices a refining stroke (refine > 0) may leave the cloth with, predicted from above
 #: before it refines. Refinement grows geometrically: eight strokes of one pass over a 7×7
 #: cloth reached ~500 000 vertices, whose implicit factor then ran out of memory (2.9 GB). A
 #: mesh read or generated may still have up to `MAX_MESH_VERTICES`.
-MAX_REFINED_VERTICES = 250_000
+MAX_REFINED_VERTICES = LIMITS.max_refined_vertices
 
 
 #: The fields of a report the core fills in: `_core.StrokeResult`'s, by their C++ names.
@@ -149,7 +150,7 @@ class StrokeReport:
 #: Largest stroke coordinate accepted (m or px): far beyond any cloth, small enough that the
 #: polyline's length and its clipping to the cloth's reach stay exact to well under a sample.
 #: Beyond the clipping, a stroke takes at most `_core` kMaxStrokeSamples (10^6) samples.
-MAX_STROKE_COORDINATE = 1e12
+MAX_STROKE_COORDINATE = LIMITS.max_stroke_coordinate
 
 
 def check_stroke_points(points, dimension: int, name: str) -> np.ndarray:

@@ -102,7 +102,6 @@ void bind_stroke_pipeline(py::module_& m) {
     defaults["spacing_pixels"] = StrokeInput{}.spacing_pixels;
     m.attr("stroke_defaults") = defaults;
   }
-  m.attr("max_refine") = kMaxRefine;
   m.attr("refine_vertices_per_face") = kRefineVerticesPerFace;
   m.attr("refine_band_growth") = kRefineBandGrowth;
   m.def("predicted_refined_vertices", &predicted_refined_vertices, py::arg("vertices"),

@@ -8,6 +8,7 @@
 
 #include "yore/cloth/membrane.hpp"
 #include "yore/cloth/mesh.hpp"
+#include "yore/platform/limits.hpp"
 
 namespace yore::detail {
 
@@ -20,11 +21,6 @@ namespace yore::detail {
 /// Topology versions are unique across all cloths of the process, so a cache keyed by a version
 /// can never mistake one cloth (or an earlier topology) for another. One counter, in cloth.cpp.
 std::uint64_t next_topology_version();
-
-// Material constants (stiffnesses N/m, damping N·s/m, drag 1/s, bending modulus N·m) and
-// masses (kg) are at most this: far beyond any cloth (a steel wire 1 mm² × 1 cm is 2e7 N/m),
-// and far enough below overflow that energies, forces and k/m stay finite.
-constexpr double kMaxMaterialValue = 1e12;
 
 /// 0 or a normal number up to kMaxMaterialValue; throws (naming `name`) otherwise.
 void check_non_negative(double value, const char* name);

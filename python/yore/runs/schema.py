@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from ..limits import LIMITS
 from .. import rules
 from ..rules import Invalid
 from ..options import (
@@ -60,9 +61,9 @@ from ..stroke import GROWTH_MODES, MAX_REFINE
 __all__ = ["SceneError", "SCHEMA", "MAX_SCENE_FILE_BYTES", "MAX_INTEGER"]
 
 #: Largest scene file read, bytes.
-MAX_SCENE_FILE_BYTES = 16 * 2**20
+MAX_SCENE_FILE_BYTES = LIMITS.max_scene_file_bytes
 #: Largest integer any key takes (vertex indices, sizes, counts): the core's int32 range.
-MAX_INTEGER = 2**31 - 1
+MAX_INTEGER = LIMITS.max_integer
 
 
 class SceneError(ValueError):
@@ -526,8 +527,16 @@ SCHEMA = {
                 FOV_DEGREES,
                 "vertical field of view",
             ),
-            "width": (_integer(16, MAX_IMAGE_SIDE), IMAGE_WIDTH, "image width, pixels"),
-            "height": (_integer(16, MAX_IMAGE_SIDE), IMAGE_HEIGHT, "image height, pixels"),
+            "width": (
+                _integer(LIMITS.min_picture_side, MAX_IMAGE_SIDE),
+                IMAGE_WIDTH,
+                "image width, pixels",
+            ),
+            "height": (
+                _integer(LIMITS.min_picture_side, MAX_IMAGE_SIDE),
+                IMAGE_HEIGHT,
+                "image height, pixels",
+            ),
         },
         "table",
     ),

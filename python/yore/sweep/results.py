@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..limits import LIMITS
 from ..io import write_atomically
 
 __all__ = ["Results", "open_results", "read_record", "RESULTS_NAME", "CELLS_DIR", "STATUSES"]
@@ -181,7 +182,7 @@ class Results:
 #: The statuses `run_cell` records (a cell function may add its own, short texts), and the
 #: largest record file read, bytes.
 STATUSES = ("done", "diverged", "stroke missed", "failed")
-MAX_RECORD_BYTES = 1 << 20
+MAX_RECORD_BYTES = LIMITS.max_record_bytes
 
 
 def read_record(path, cell) -> dict:

@@ -27,6 +27,7 @@ import threading
 import time
 from pathlib import Path
 
+from ..limits import LIMITS
 from ..runtime import SWEEP_WORKER_ENV, deferred_interrupt
 from .cell import run_cell
 from .results import CELLS_DIR, RESULTS_NAME, Results
@@ -96,7 +97,7 @@ def identity(sweep) -> str:
 
 
 #: Largest sweep.json read, bytes (it holds two paths, a count and a hash).
-MAX_META_BYTES = 1 << 16
+MAX_META_BYTES = LIMITS.max_meta_bytes
 
 
 def _read_meta(out) -> dict:

@@ -44,15 +44,16 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from ..limits import LIMITS
 from ..runs import SceneError, load_scene
 from ..runs.loading import read_scene_text
 
 __all__ = ["Sweep", "Cell", "Dimension", "load_sweep", "SweepError", "MAX_CELLS", "BUILTIN_SCENES"]
 
 #: Most cells a sweep may have (checked before anything runs).
-MAX_CELLS = 100_000
-MAX_REPEATS = 1000
-MAX_SWEEP_FILE_BYTES = 1 << 20
+MAX_CELLS = LIMITS.max_cells
+MAX_REPEATS = LIMITS.max_repeats
+MAX_SWEEP_FILE_BYTES = LIMITS.max_sweep_file_bytes
 #: Scene names a sweep may use instead of a file: the scenes yore ships.
 BUILTIN_SCENES = {"hanging": "data/hanging.toml"}
 _TOP = {"sweep", "axes", "zip", "record"}

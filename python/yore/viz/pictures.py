@@ -27,6 +27,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..limits import LIMITS
 from ..camera import camera_from_settings, fit_camera, follow_cameras
 from ..io import load_frame
 from .images import check_ffmpeg, save_animation, save_png, side_by_side
@@ -35,7 +36,7 @@ from .render import framing_camera, picture_layout, render_image
 __all__ = ["render_run", "render_frame", "save_panels", "stroke_lines", "COLOR_BY", "FRAMINGS"]
 
 #: Longest animation, in frames; longer runs use every k-th frame.
-MAX_ANIMATION_FRAMES = 300
+MAX_ANIMATION_FRAMES = LIMITS.max_animation_frames
 COLOR_BY = ("none", "expansion", "wrinkles")
 FRAMINGS = ("cloth", "run")
 _COLORING = {"expansion": ("viridis", "expansion"), "wrinkles": ("coolwarm", "wrinkles (mm)")}
@@ -62,7 +63,7 @@ def _read_frame(path):
 
 
 #: Largest vertex coordinate of a frame a picture is made of, m (as for strokes).
-MAX_FRAME_COORDINATE = 1e12
+MAX_FRAME_COORDINATE = LIMITS.max_frame_coordinate
 
 
 def _check_color_by(color_by):

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..limits import LIMITS
 from .. import _core, blas
 from ..camera import Camera, fit_camera
 from ..checks import check_integer
@@ -24,16 +25,16 @@ __all__ = [
     "parse_pixels",
     "densify",
     "SAMPLE_SPACING_PX",
-    "MAX_UNDO",
+    "UNDO_DEPTH",
     "SUNDIALS_FIGURES",
 ]
 
 #: Mouse or given pixels are densified so that consecutive samples are at most this far apart.
 SAMPLE_SPACING_PX = 2.0
 #: Most samples one stroke may have after densifying (a drag across a 16384-pixel screen).
-MAX_STROKE_SAMPLES = 100_000
+MAX_STROKE_SAMPLES = LIMITS.max_view_stroke_samples
 #: Undo keeps this many strokes.
-MAX_UNDO = 32
+UNDO_DEPTH = 32
 #: Wall time the live loop may spend stepping per frame, s (keeps the window responsive).
 FRAME_BUDGET_SECONDS = 0.05
 #: What the panel shows of an error-controlled (SUNDIALS) run, from its counters.
@@ -229,9 +230,9 @@ class ViewerModel:
             self._changed()
             raise
         self.undo_states.append(saved)
-        del self.undo_states[:-MAX_UNDO]
+        del self.undo_states[:-UNDO_DEPTH]
         self.reports.append(reports)
-        del self.reports[:-MAX_UNDO]
+        del self.reports[:-UNDO_DEPTH]
         self._changed()
         split = sum(r.faces_split for r in reports)
         added = sum(r.vertices_added for r in reports)

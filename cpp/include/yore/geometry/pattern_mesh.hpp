@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "yore/cloth/mesh.hpp"
+#include "yore/platform/limits.hpp"
 
 namespace yore {
 
@@ -39,7 +40,7 @@ constexpr std::int64_t kPatternMaxPoints = 20'000;
 struct PatternMeshOptions {
   double edge_length = 0.05;        ///< every edge at most this long, m
   double min_angle_degrees = 25.0;  ///< every angle at least this, in (0, kPatternMaxAngleDegrees]
-  std::int64_t max_vertices = 1'000'000;  ///< refinement beyond this many vertices is refused
+  std::int64_t max_vertices = kMaxMeshVertices;  ///< refinement beyond this is refused
 };
 
 /// A meshed pattern: vertices in the pattern's plane and counter-clockwise faces.

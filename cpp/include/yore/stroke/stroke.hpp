@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "yore/cloth/mesh.hpp"
+#include "yore/platform/limits.hpp"
 
 namespace yore {
 
@@ -66,9 +67,6 @@ struct StrokeTrace {
   /// away before sampling (counted at the sampling spacing, not evaluated)
   std::int64_t missed_samples = 0;
 };
-
-/// Most samples one stroke may take (its parts near the cloth, after clipping; ~1 s and ~100 MB).
-inline constexpr std::int64_t kMaxStrokeSamples = 1'000'000;
 
 /// Traces a stroke given as a curve s ∈ [0, length] → hit (or none). Samples at `spacing` and at
 /// every breakpoint (the polyline's corners, where the curve may turn back into a face), then

@@ -48,8 +48,6 @@ double stroke_spacing(const Cloth& cloth, const StrokeInput& input);
 /// trace_rays). Throws std::invalid_argument on bad input (see those functions).
 StrokeTrace trace_stroke_input(const Cloth& cloth, const StrokeInput& input);
 
-/// Most refinement passes one stroke may ask for: each pass quadruples the band's faces.
-inline constexpr int kMaxRefine = 4;
 /// Vertices a refinement pass adds per band face, and the band's growth per pass, at most (an
 /// estimate from above for predicted_refined_vertices; measured 1.2–1.9 and 2–4.6).
 inline constexpr double kRefineVerticesPerFace = 2.0;
@@ -69,7 +67,7 @@ struct StrokeOptions {
   /// expansion (all modes), the new vertices' mass rule and the degenerate-case rules (paper)
   SplitOptions split;
   /// A refinement whose predicted vertex count exceeds this is refused before the cloth changes.
-  std::int64_t max_vertices = 1'000'000;
+  std::int64_t max_vertices = kMaxMeshVertices;
 };
 
 /// What a stroke did. Areas in m², lengths in m, masses in kg, times in s.
