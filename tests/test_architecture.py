@@ -3,6 +3,7 @@ libraries below the command line import no command code, and private names stay 
 Imports inside functions count too: a deferred import is still a dependency."""
 
 import ast
+import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "python" / "yore"
@@ -188,10 +189,12 @@ def test_the_integrator_name_finder_finds_a_name(monkeypatch):
     assert _integrator_names_outside_the_registry() == [("yore.fake", 4, "implicit")]
 
 
-#: Longest function (lines from its `def` to its last line) in python/yore, cpp/src and
-#: cpp/bindings, unless
-#: a comment right above it says why it is longer ("over 80 lines: ...").
-MAX_FUNCTION_LINES = 80
+#: Longest function (lines from its `def` to its last line) in python/yore, and in cpp/src and
+#: cpp/bindings, unless a comment right above it says why it is longer ("over 60 lines: ...";
+#: issue 54's target is 60 everywhere: the C++ tree is not there yet, 31 functions of 61-80).
+MAX_FUNCTION_LINES = 60
+MAX_CPP_FUNCTION_LINES = 80
+_REASON = re.compile(r"over \d+ lines:")
 
 
 def _long_python_functions():
@@ -203,7 +206,7 @@ def _long_python_functions():
                 first = min([d.lineno for d in node.decorator_list] + [node.lineno])
                 length = node.end_lineno - node.lineno + 1
                 above = " ".join(lines[max(0, first - 4) : first - 1])
-                if length > MAX_FUNCTION_LINES and "over 80 lines" not in above:
+                if length > MAX_FUNCTION_LINES and not _REASON.search(above):
                     found.append(f"{name}.{node.name} ({length} lines)")
     return found
 
@@ -233,14 +236,14 @@ def _long_cpp_functions(text):
                     k += 1
                 length = k - i + 1
                 above = " ".join(lines[max(0, i - 3) : i])
-                if length > MAX_FUNCTION_LINES and "over 80 lines" not in above:
+                if length > MAX_CPP_FUNCTION_LINES and not _REASON.search(above):
                     found.append((line.split("(")[0].split()[-1], length))
                 i = k
         i += 1
     return found
 
 
-def test_no_python_function_is_over_80_lines_without_a_reason():
+def test_no_python_function_is_over_60_lines_without_a_reason():
     assert _long_python_functions() == []
 
 

@@ -225,6 +225,7 @@ def _fitting_distance(points, centre, frame):
     return float(max(inside, np.max(-z) + clearance)), (x, y, z)
 
 
+# over 60 lines: a docstring for its 7 parameters (the code is 39 lines)
 def fit_camera(
     points,
     width=IMAGE_WIDTH,

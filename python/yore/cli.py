@@ -302,15 +302,7 @@ def _main(argv) -> int:
     from .runtime import end_command_start
 
     try:
-        argv = list(sys.argv[1:] if argv is None else argv)
-        if argv[:2] == ["sweep", "plot"]:
-            argv = ["sweep-plot", *argv[2:]]
-        parser = build_parser()
-        arguments, unknown = parser.parse_known_args(argv)
-        if unknown:  # named by the command's parser, whose --help lists its options
-            commands = next(a for a in parser._actions if a.dest == "command").choices
-            command = commands.get(getattr(arguments, "command", None), parser)
-            command.error(f"unrecognized arguments: {' '.join(unknown)}")
+        arguments = _parse(argv)
         from .runs import RunError
 
         # Ctrl-C is main's to handle from here (see yore.runtime); until now the command's
@@ -337,15 +329,7 @@ def _main(argv) -> int:
             set_num_threads(arguments.threads)
         handlers[arguments.command](arguments)
     except KeyboardInterrupt as interruption:
-        state = getattr(interruption, "state_path", None)
-        print(
-            f"yore: {interruption}; `yore run --resume {state}` continues"
-            if state
-            else f"yore: {interruption}"
-            if str(interruption)
-            else "yore: interrupted",
-            file=sys.stderr,
-        )
+        _report_interruption(interruption)
         return EXIT_INTERRUPTED
     except RunError as error:
         _fail(error)
@@ -364,6 +348,33 @@ def _main(argv) -> int:
         print("yore: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_OK
+
+
+def _parse(argv):
+    """The command line's arguments (argparse's exit, code 2, on a wrong one)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:2] == ["sweep", "plot"]:
+        argv = ["sweep-plot", *argv[2:]]
+    parser = build_parser()
+    arguments, unknown = parser.parse_known_args(argv)
+    if unknown:  # named by the command's parser, whose --help lists its options
+        commands = next(a for a in parser._actions if a.dest == "command").choices
+        command = commands.get(getattr(arguments, "command", None), parser)
+        command.error(f"unrecognized arguments: {' '.join(unknown)}")
+    return arguments
+
+
+def _report_interruption(interruption) -> None:
+    """The one line a Ctrl-C ends a command with (and how to resume a run it stopped)."""
+    state = getattr(interruption, "state_path", None)
+    print(
+        f"yore: {interruption}; `yore run --resume {state}` continues"
+        if state
+        else f"yore: {interruption}"
+        if str(interruption)
+        else "yore: interrupted",
+        file=sys.stderr,
+    )
 
 
 def _interrupted(error) -> bool:

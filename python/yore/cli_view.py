@@ -94,23 +94,9 @@ def _view_source(source, overrides):
 def _run_view(arguments, overrides) -> None:
     """``yore view``: a scene or state in the viewer's window, or scripted headless."""
     from .camera import camera_from_settings
-    from .viz.viewer import Viewer, densify, parse_pixels
+    from .viz.viewer import Viewer
 
-    if not arguments.headless and (
-        arguments.stroke_px or arguments.at is not None or arguments.until is not None
-    ):
-        raise ValueError("--stroke-px, --at and --until script a headless view: add --headless")
-    if arguments.headless and arguments.screenshot is None:
-        raise ValueError("a headless view shows nothing: give --screenshot PICTURE.png")
-    if arguments.screenshot is not None and arguments.screenshot.suffix.lower() != ".png":
-        raise ValueError(f"--screenshot writes PNG files; got {str(arguments.screenshot)!r}")
-    strokes = [parse_pixels(text) for text in arguments.stroke_px]
-    for pixels in strokes:
-        densify(pixels)  # its sample limit, before the scene is loaded and run
-    for name in ("at", "until"):
-        value = getattr(arguments, name)
-        if value is not None and not (math.isfinite(value) and 0.0 <= value <= 1e6):
-            raise ValueError(f"--{name} must be a time in [0, 1e6] s, got {value}")
+    strokes = _check_view_arguments(arguments)
     sim, settings, first = _view_source(arguments.source, overrides)
     at = sim.time if arguments.at is None else arguments.at
     until = at if arguments.until is None else arguments.until
@@ -144,6 +130,34 @@ def _run_view(arguments, overrides) -> None:
             viewer.log = lambda text: print(f"yore view: {text}", flush=True)
         viewer.show()
         return
+    _script_view(viewer, arguments, strokes, at, until)
+
+
+def _check_view_arguments(arguments):
+    """The flags that go together, and the strokes' pixels (their sample limit checked)
+    before anything is loaded."""
+    from .viz.viewer import densify, parse_pixels
+
+    if not arguments.headless and (
+        arguments.stroke_px or arguments.at is not None or arguments.until is not None
+    ):
+        raise ValueError("--stroke-px, --at and --until script a headless view: add --headless")
+    if arguments.headless and arguments.screenshot is None:
+        raise ValueError("a headless view shows nothing: give --screenshot PICTURE.png")
+    if arguments.screenshot is not None and arguments.screenshot.suffix.lower() != ".png":
+        raise ValueError(f"--screenshot writes PNG files; got {str(arguments.screenshot)!r}")
+    strokes = [parse_pixels(text) for text in arguments.stroke_px]
+    for pixels in strokes:
+        densify(pixels)  # its sample limit, before the scene is loaded and run
+    for name in ("at", "until"):
+        value = getattr(arguments, name)
+        if value is not None and not (math.isfinite(value) and 0.0 <= value <= 1e6):
+            raise ValueError(f"--{name} must be a time in [0, 1e6] s, got {value}")
+    return strokes
+
+
+def _script_view(viewer, arguments, strokes, at, until):
+    """A headless view: run to ``at``, draw the strokes, run to ``until``, save the picture."""
     quiet = getattr(arguments, "quiet", False)
 
     def run_to(target):

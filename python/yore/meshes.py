@@ -253,6 +253,7 @@ def _check_pattern_size(outline, edge_length):
         )
 
 
+# over 60 lines: a docstring for the pattern mesher and its 5 parameters (the code is 31 lines)
 def pattern_mesh(
     outline, holes=(), edge_length=0.05, min_angle=PATTERN_MIN_ANGLE, interior="lattice"
 ):

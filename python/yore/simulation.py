@@ -27,6 +27,12 @@ from .options import (
 )
 from . import progress as progress_bars, rules, settling, smoothing
 from .results import Energy, Statistics
+from .simulation_state import (
+    as_saved,
+    check_history,
+    check_projection_memory,
+    check_state_keys,
+)
 from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
 
 __all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
@@ -292,19 +298,7 @@ class Simulation:
         for bit, as the next step of the simulation it was taken from (see `yore.state` for the
         two options that keep a factor across steps and so continue only to solver
         tolerance). Raises ValueError on a malformed state."""
-        expected = {"cloth", "integrator", "options", "dt", "gravity", "history", "target_time"}
-        # projection_memory: absent from states saved before it existed (then: none yet)
-        # dt_follows_cloth: absent from states saved before it existed (then: False)
-        # integrator_restarts: absent from states saved before it existed (then: False)
-        if not isinstance(state, dict) or not expected <= set(state) <= expected | {
-            "projection_memory",
-            "dt_follows_cloth",
-            "integrator_restarts",
-        }:
-            got = sorted(state) if isinstance(state, dict) else type(state).__name__
-            raise ValueError(f"not a simulation state: expected keys {sorted(expected)}, got {got}")
-        if not isinstance(state["options"], dict):
-            raise ValueError(f"options must be a dict, got {type(state['options']).__name__}")
+        check_state_keys(state)
         cloth = Cloth.from_state(state["cloth"])
         # A state holds every option as it ran, defaults included (also those of modes not in
         # use): none of them is a user's choice to judge.
@@ -314,43 +308,17 @@ class Simulation:
             state["integrator"],
             state["dt"],
             state["gravity"],
-            _as_saved(state["integrator"], state["options"]),
+            as_saved(state["integrator"], state["options"]),
             given=(),
         )
         history = state["history"]
         if history is not None:
             fields = (*sim._spec.history(sim._options), "dt")
-            if (
-                len(fields) == 1
-                or not isinstance(history, dict)
-                or not set(fields) <= set(history) <= {*fields, "next_dt"}
-            ):
-                got = sorted(history) if isinstance(history, dict) else type(history).__name__
-                expected = (
-                    "None (it keeps none)"
-                    if len(fields) == 1
-                    else f"None or a dict with {', '.join(fields)}"
-                )
-                raise ValueError(
-                    f"history of integrator {sim._integrator_name!r}: expected "
-                    f"{expected}, got {got}"
-                )
+            check_history(history, fields, sim._integrator_name)
             sim._integrator.set_history(cloth, history)
         memory = state.get("projection_memory")
         if memory is not None:
-            keys = {"exact_skip", "exact_backoff"}
-            optional = {"shift", "radius"}
-            if not isinstance(memory, dict) or not keys <= set(memory) <= keys | optional:
-                raise ValueError(
-                    "projection_memory must be a dict with exact_skip, "
-                    f"exact_backoff and (optional) shift and radius, got {memory!r}"
-                )
-            sim._integrator.set_projection_memory(
-                memory["exact_skip"],
-                memory["exact_backoff"],
-                memory.get("shift", 0.0),
-                memory.get("radius", 0.0),
-            )
+            sim._integrator.set_projection_memory(*check_projection_memory(memory))
         target = state["target_time"]
         sim._target_time = None if target is None else float(target)
         follows = state.get("dt_follows_cloth", False)
@@ -497,8 +465,7 @@ class Simulation:
         except SimulationDiverged as error:
             # Batches before the failing one may already hold a growing instability: go back to
             # the state before this call, which the caller knows to be good.
-            cloth.positions, cloth.velocities = saved[0], saved[1]
-            cloth.time = saved[2]
+            self._restore(saved)
             error.args = (
                 f"{error.args[0]} The cloth was restored to t = {saved[2]:.6g} s, "
                 "its state before this call.",
@@ -507,8 +474,7 @@ class Simulation:
         except NotPositiveDefinite as error:
             # A step's matrix (M/dt² + the projected stiffness) failed to factor: with a dt far
             # beyond the cloth's time scales the mass term sinks below the stiffness's round-off
-            cloth.positions, cloth.velocities = saved[0], saved[1]
-            cloth.time = saved[2]
+            self._restore(saved)
             error.args = (
                 f"{error.args[0]} (a step of dt = {dt:g} s from t = {saved[2]:.6g} s; a smaller "
                 "dt keeps the mass term M/dt² above the stiffness's round-off). The cloth was "
@@ -519,6 +485,16 @@ class Simulation:
             self._wall_seconds += _time.perf_counter() - started
             if bar is not None:
                 bar.close()
+        self._warn_unconverged(steps, unconverged_before)
+
+    def _restore(self, saved) -> None:
+        """Puts the cloth back to ``saved`` (positions, velocities, time)."""
+        cloth = self._cloth
+        cloth.positions, cloth.velocities = saved[0], saved[1]
+        cloth.time = saved[2]
+
+    def _warn_unconverged(self, steps, unconverged_before) -> None:
+        """One RuntimeWarning per call for the steps it accepted unconverged, if any."""
         after = self._integrator.statistics.counters
         unconverged = after.get("unconverged_steps", 0) - unconverged_before
         if unconverged:
@@ -537,7 +513,7 @@ class Simulation:
                 "they were accepted unconverged "
                 "(stats['counters']['unconverged_steps'])",
                 RuntimeWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
 
     # -- strokes ----------------------------------------------------------------------------
@@ -567,32 +543,7 @@ class Simulation:
                 f"max_distance is for 3-D (world) paths, not a {path.space} path "
                 "(its samples are found by rays or in the rest pattern)"
             )
-        if path.space == "world":
-            max_distance = options.max_distance
-            if max_distance is None:
-                X = self._cloth.positions
-                max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
-            report = self._apply_stroke("closest", path, options, max_distance=max_distance)
-        elif path.space == "screen":
-            d0, dx, dy = path.camera.pixel_rays()
-            report = self._apply_stroke(
-                "rays",
-                path,
-                options,
-                eye=np.asarray(path.camera.eye, float),
-                base_direction=d0,
-                direction_per_pixel_x=dx,
-                direction_per_pixel_y=dy,
-            )
-        else:
-            uv = self._cloth.material_coordinates
-            if uv is None:
-                raise ValueError(
-                    "the cloth has no material coordinates; set "
-                    "cloth.material_coordinates (n×2) first"
-                )
-            tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
-            report = self._apply_stroke("material", path, options, max_distance=tolerance)
+        report = self._trace_and_apply(path, options)
         if options.smooth is not None:
             smooth = options.smooth
             report.extra["smoothing"] = self.smooth_rest_lengths(
@@ -602,6 +553,34 @@ class Simulation:
                 conserve=smooth["conserve"],
             )
         return report
+
+    def _trace_and_apply(self, path, options) -> StrokeReport:
+        """The stroke traced in its path's space (closest points, rays or the rest pattern)
+        and applied."""
+        if path.space == "world":
+            max_distance = options.max_distance
+            if max_distance is None:
+                X = self._cloth.positions
+                max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
+            return self._apply_stroke("closest", path, options, max_distance=max_distance)
+        if path.space == "screen":
+            d0, dx, dy = path.camera.pixel_rays()
+            return self._apply_stroke(
+                "rays",
+                path,
+                options,
+                eye=np.asarray(path.camera.eye, float),
+                base_direction=d0,
+                direction_per_pixel_x=dx,
+                direction_per_pixel_y=dy,
+            )
+        uv = self._cloth.material_coordinates
+        if uv is None:
+            raise ValueError(
+                "the cloth has no material coordinates; set cloth.material_coordinates (n×2) first"
+            )
+        tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
+        return self._apply_stroke("material", path, options, max_distance=tolerance)
 
     def stroke_screen(self, points_px, camera, **options) -> StrokeReport:
         """Deprecated: ``stroke(StrokePath.screen(points_px, camera), **options)``."""
@@ -761,26 +740,6 @@ class Simulation:
             f"<yore.Simulation {self._integrator_name} dt={self._dt:.3g} s "
             f"t={self.time:.4g} s, {self._cloth!r}>"
         )
-
-
-def _as_saved(integrator, options):
-    """A state's options as its simulation ran them. States saved before the truncation test
-    existed (no ``truncation_fraction``) ran Newton without it, without the mixed matrices
-    unless asked, and with projection None meaning steihaug (the clamp for linearized or pcg):
-    so they continue."""
-    if (
-        integrator not in INTEGRATOR_SPECS
-        or not INTEGRATOR_SPECS[integrator].newton
-        or not isinstance(options, dict)
-        or "truncation_fraction" in options
-    ):
-        return options
-    options = dict(options, truncation_fraction=0.0, mixed=options.get("mixed", False))
-    if options.get("projection") is None and options.get("adaptive_projection") is None:
-        options["projection"] = (
-            "clamp" if options.get("linearized") or options.get("solver") == "pcg" else "steihaug"
-        )
-    return options
 
 
 _DURATION = rules.real(0.0, low_open=False, expected="a finite number >= 0")

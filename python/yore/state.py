@@ -222,19 +222,11 @@ def _read_archive(path):
             # Sizes and names are checked from the directory before anything is inflated: the
             # total the members declare is bounded (each member is read only up to its
             # declared size), and a member the document does not refer to is refused unread.
-            declared = sum(entry.file_size for entry in entries)
-            if declared > MAX_STATE_FILE_BYTES:
-                raise ValueError(
-                    f"its members declare {declared} bytes uncompressed in all, "
-                    f"more than the limit of {MAX_STATE_FILE_BYTES}"
-                )
+            _check_declared(entries)
             by_name = {}
             for entry in entries:
                 member = entry.filename
-                if not member.endswith(".npy") or entry.is_dir():
-                    raise ValueError("not a .npy array")
-                if member in by_name:
-                    raise ValueError("stored twice")
+                _check_member(entry, by_name)
                 by_name[member] = entry
             member = _DOCUMENT + ".npy"
             if member not in by_name:
@@ -276,6 +268,24 @@ def _read_archive(path):
             f"{type(error).__name__}: {' '.join(str(error).split())}"[:400]
         ) from None
     return arrays, document, sorted(unknown)
+
+
+def _check_declared(entries):
+    """The uncompressed sizes a state file's members declare, in all, within the limit."""
+    declared = sum(entry.file_size for entry in entries)
+    if declared > MAX_STATE_FILE_BYTES:
+        raise ValueError(
+            f"its members declare {declared} bytes uncompressed in all, "
+            f"more than the limit of {MAX_STATE_FILE_BYTES}"
+        )
+
+
+def _check_member(entry, seen):
+    """A state file's member: a .npy array, stored once (ValueError otherwise)."""
+    if not entry.filename.endswith(".npy") or entry.is_dir():
+        raise ValueError("not a .npy array")
+    if entry.filename in seen:
+        raise ValueError("stored twice")
 
 
 class _DocumentError(Exception):

@@ -344,7 +344,16 @@ def check_settings(state_path, scene, sim, strokes_done):
 
 
 def _check_material(material, cloth, strokes_done, fail):
+    """The scene's [material] against the cloth: models, constants, springs, masses."""
     state = ClothState(cloth.state())
+    _check_constants(material, cloth, state, fail)
+    _check_springs(material, state, fail)
+    if strokes_done == 0:  # (strokes move mass)
+        _check_masses(material, cloth.vertex_count, state, fail)
+
+
+def _check_constants(material, cloth, state, fail):
+    """The stretching and bending models and the material's constants."""
     membrane = material.stretch == "membrane"
     quadratic = material.bending in ("quadratic", "hinge")
     if cloth.stretch != material.stretch:
@@ -371,6 +380,12 @@ def _check_material(material, cloth, strokes_done, fail):
     for key, value in constants.items():
         if float(getattr(material, key)) != value:
             fail(f"material.{key}", f"cloth.{key}", float(getattr(material, key)), value)
+
+
+def _check_springs(material, state, fail):
+    """Each spring's stiffness and damping as made."""
+    membrane = material.stretch == "membrane"
+    quadratic = material.bending in ("quadratic", "hinge")
     # each spring as made: structural ones at stretch_stiffness (0 under a membrane), bending
     # ones at bend_stiffness, all at the damping
     stiffness = {
@@ -398,8 +413,11 @@ def _check_material(material, cloth, strokes_done, fail):
             float(material.damping),
             float(state.spring_damping[index]),
         )
-    if strokes_done == 0 and (material.mass is not None or material.mass_per_vertex is not None):
-        n = cloth.vertex_count
+
+
+def _check_masses(material, n, state, fail):
+    """The masses of a scene that gives mass or mass_per_vertex (density: lumped by area)."""
+    if material.mass is not None or material.mass_per_vertex is not None:
         key = "mass" if material.mass is not None else "mass_per_vertex"
         per_vertex = material.mass / n if key == "mass" else material.mass_per_vertex
         wrong = np.flatnonzero(state.masses != per_vertex)

@@ -100,6 +100,7 @@ def _check_pictures(scene, render):
     backend.ensure()
 
 
+# over 60 lines: 8 keyword parameters and their documentation (the code is 51 lines)
 def resume_run(
     state_path,
     out=None,

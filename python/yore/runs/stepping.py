@@ -154,33 +154,8 @@ class _Run:
         """Runs the part; returns the summary (RunInterrupted, RunError or the miss's
         SceneError when it stopped early, its state saved)."""
         record = self.record
-        last_time = record.records[-1]["time"] if record.records else None
-        if last_time is None:
-            bad = non_finite_names(measure_frame(self.sim))
-            if bad:
-                raise ValueError(
-                    f"the scene's initial state is not finite ({bad}): a value in "
-                    "[material], [[driven]] or [simulation] is too large"
-                )
-        from tqdm.auto import tqdm
-
-        self.started = self.saved_at = _time.perf_counter()
-        self.save_every = CHECKPOINT_SECONDS
-        # A state file before the first frame: from here on the folder always holds one, so an
-        # interruption (or a kill) at any point leaves a run that `--resume` continues.
-        with deferred_interrupt():
-            save_run_state(self.out, self.sim, record, self.previous_phases)
-        last_step = self.schedule.last_step
-        self.bar = tqdm(
-            total=last_step,
-            initial=min(self.step, last_step),
-            unit="step",
-            desc="yore run",
-            disable=self.quiet or None,
-            delay=2.0,
-            dynamic_ncols=True,
-            leave=False,
-        )
+        last_time = record.records[-1].time if record.records else None
+        self._start(last_time)
         try:
             self._steps_and_events(last_time)
         except (SimulationDiverged, NonFiniteEnergy) as error:
@@ -202,25 +177,59 @@ class _Run:
                 ),
             )
         except KeyboardInterrupt:
-            self.status, self.message = "interrupted", None
-            if (
-                self.sim.restarts_on_resume
-                and self.good is not None
-                and self.sim.time != self.good.time
-            ):
-                # SUNDIALS' step history is not in the state: only at a frame, where the
-                # straight run restarts it too, does a resumed run go on as that one would
-                self.phases = self.sim.stats.phases
-                self.sim = self.good.restore(record, self.live_reports)
-            # Steps completed so far, from the step-counting clock (the interruption may come
-            # between batches of a call).
-            record.step = _steps(self.sim.time, self.dt)
+            self._interrupted()
         except SceneError as error:  # a stroke missed at its time: keep what was computed
             self.status, self.message, self.missed = "stroke missed", str(error), error
         finally:
             self.bar.close()
             record.wall_seconds += _time.perf_counter() - self.started
         return self._finish(render)
+
+    def _start(self, last_time):
+        """Before the first step: the initial state checked (a new run), a state file saved,
+        the progress bar."""
+        if last_time is None:
+            bad = non_finite_names(measure_frame(self.sim))
+            if bad:
+                raise ValueError(
+                    f"the scene's initial state is not finite ({bad}): a value in "
+                    "[material], [[driven]] or [simulation] is too large"
+                )
+        from tqdm.auto import tqdm
+
+        self.started = self.saved_at = _time.perf_counter()
+        self.save_every = CHECKPOINT_SECONDS
+        # A state file before the first frame: from here on the folder always holds one, so an
+        # interruption (or a kill) at any point leaves a run that `--resume` continues.
+        with deferred_interrupt():
+            save_run_state(self.out, self.sim, self.record, self.previous_phases)
+        last_step = self.schedule.last_step
+        self.bar = tqdm(
+            total=last_step,
+            initial=min(self.step, last_step),
+            unit="step",
+            desc="yore run",
+            disable=self.quiet or None,
+            delay=2.0,
+            dynamic_ncols=True,
+            leave=False,
+        )
+
+    def _interrupted(self):
+        """A Ctrl-C: the record's step from the clock, and for SUNDIALS the last frame."""
+        self.status, self.message = "interrupted", None
+        if (
+            self.sim.restarts_on_resume
+            and self.good is not None
+            and self.sim.time != self.good.time
+        ):
+            # SUNDIALS' step history is not in the state: only at a frame, where the
+            # straight run restarts it too, does a resumed run go on as that one would
+            self.phases = self.sim.stats.phases
+            self.sim = self.good.restore(self.record, self.live_reports)
+        # Steps completed so far, from the step-counting clock (the interruption may come
+        # between batches of a call).
+        self.record.step = _steps(self.sim.time, self.dt)
 
     def _steps_and_events(self, last_time):
         """Steps to the end of the part, drawing strokes and writing frames when they are due."""

@@ -84,24 +84,7 @@ def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
                 + (" (a folder)" if path.is_dir() else "")
             )
     dataset = open_results(out)
-    if "status" not in dataset.data_vars or not dataset["status"].dims:
-        raise ValueError(
-            f"{Path(out) / 'results.nc'} is not a yore sweep's results (it has no status per cell)"
-        )
-    dims = list(dataset["status"].dims)
-    for name, what in ((x, "--x"), (y, "--y")):
-        if name not in dims:
-            raise ValueError(
-                f"{what} {name!r} is not a dimension of the sweep; its "
-                f"dimensions: {', '.join(dims)}"
-            )
-    if x == y:
-        raise ValueError("--x and --y must be two different dimensions")
-    if value not in dataset.data_vars or value in ("status", "message"):
-        names = sorted(v for v in dataset.data_vars if v not in ("status", "message"))
-        raise ValueError(
-            f"--value {value!r} is not recorded by this sweep; recorded: {', '.join(names)}"
-        )
+    dims = _check_plot(out, dataset, x, y, value)
     selection = _selection(dataset, dims, x, y, select)
     cut = dataset.isel(selection) if selection else dataset
     grid = cut[value].transpose(y, x).values.astype(float)
@@ -130,6 +113,30 @@ def heat_map(out, x, y, value, select=None, path=None, log=None) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _check_plot(out, dataset, x, y, value):
+    """The sweep's dimensions, after checking that ``x`` and ``y`` are two of them and
+    ``value`` a recorded value."""
+    if "status" not in dataset.data_vars or not dataset["status"].dims:
+        raise ValueError(
+            f"{Path(out) / 'results.nc'} is not a yore sweep's results (it has no status per cell)"
+        )
+    dims = list(dataset["status"].dims)
+    for name, what in ((x, "--x"), (y, "--y")):
+        if name not in dims:
+            raise ValueError(
+                f"{what} {name!r} is not a dimension of the sweep; its "
+                f"dimensions: {', '.join(dims)}"
+            )
+    if x == y:
+        raise ValueError("--x and --y must be two different dimensions")
+    if value not in dataset.data_vars or value in ("status", "message"):
+        names = sorted(v for v in dataset.data_vars if v not in ("status", "message"))
+        raise ValueError(
+            f"--value {value!r} is not recorded by this sweep; recorded: {', '.join(names)}"
+        )
+    return dims
 
 
 def _is_number(value) -> bool:

@@ -355,16 +355,7 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
     with tqdm(total=todo, desc="yore sweep", unit="cell", disable=quiet or None, delay=2.0) as bar:
         for future in queue:
             cell = running.pop(future.key)
-            try:
-                result = future.result()
-            except Exception as error:  # noqa: BLE001 - the task itself failed (worker)
-                result = {
-                    "status": "failed",
-                    "message": f"{type(error).__name__}: {error}",
-                    "values": {},
-                    "positions": None,
-                    "faces": None,
-                }
+            result = _result_of(future)
             future.release()
             results.add(cell, result)
             failed += result["status"] != "done"
@@ -374,6 +365,20 @@ def _run_cells(client, sweep, pending, todo, function, results, quiet):
             if time.monotonic() - last_write >= WRITE_INTERVAL_SECONDS:
                 results.write()
                 last_write = time.monotonic()
+
+
+def _result_of(future):
+    """A finished cell's result, or a failed cell's record when the task itself failed."""
+    try:
+        return future.result()
+    except Exception as error:  # noqa: BLE001 - the task itself failed (worker)
+        return {
+            "status": "failed",
+            "message": f"{type(error).__name__}: {error}",
+            "values": {},
+            "positions": None,
+            "faces": None,
+        }
 
 
 def resume(

@@ -174,7 +174,7 @@ def _framed(image, width, height, background, margins, bar, title):
     return canvas
 
 
-# over 80 lines: a docstring for its 16 parameters (the code is 33 lines)
+# over 60 lines: a docstring for its 16 parameters (the code is 33 lines)
 def render_image(
     V,
     F,

@@ -382,20 +382,7 @@ class Viewer(ViewerModel):
             self.coloring = COLORINGS[coloring]
             self._update_colors(force=True)
         if psim.CollapsingHeader("stroke"):
-            options = self.stroke_options
-            _, options["expansion"] = psim.SliderFloat(
-                "expansion", float(options["expansion"]), 1.0, 1.5
-            )
-            width = options["width"] or 0.0
-            _, width = psim.SliderFloat("width (m, 0 = paper)", float(width), 0.0, 0.5)
-            options["width"] = width if width > 0 else None
-            growth = GROWTH_MODES.index(options["growth"])
-            _, growth = psim.Combo("growth", growth, list(GROWTH_MODES))
-            options["growth"] = GROWTH_MODES[growth]
-            _, options["refine"] = psim.SliderInt("refine", int(options["refine"]), 0, 2)
-            _, options["smooth"] = psim.SliderInt(
-                "smoothing iterations", int(options["smooth"]), 0, 50
-            )
+            self._stroke_panel(psim)
         if psim.Button("save state"):
             self._safely(self.save_state, Path(f"yore-view-{time.strftime('%Y%m%d-%H%M%S')}.npz"))
         psim.SameLine()
@@ -415,6 +402,21 @@ class Viewer(ViewerModel):
             psim.TextUnformatted(f"{key:>6}  {action}")
         psim.TextUnformatted("  drag  draw (in draw mode), else turn the view")
         psim.PopItemWidth()
+
+    def _stroke_panel(self, psim):
+        """The panel's stroke options: expansion, width, growth, refinement, smoothing."""
+        options = self.stroke_options
+        _, options["expansion"] = psim.SliderFloat(
+            "expansion", float(options["expansion"]), 1.0, 1.5
+        )
+        width = options["width"] or 0.0
+        _, width = psim.SliderFloat("width (m, 0 = paper)", float(width), 0.0, 0.5)
+        options["width"] = width if width > 0 else None
+        growth = GROWTH_MODES.index(options["growth"])
+        _, growth = psim.Combo("growth", growth, list(GROWTH_MODES))
+        options["growth"] = GROWTH_MODES[growth]
+        _, options["refine"] = psim.SliderInt("refine", int(options["refine"]), 0, 2)
+        _, options["smooth"] = psim.SliderInt("smoothing iterations", int(options["smooth"]), 0, 50)
 
     def _safely(self, function, *arguments):
         try:
