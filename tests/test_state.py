@@ -313,6 +313,21 @@ def test_a_header_announcing_more_data_than_stored_allocates_nothing(state_file)
     one_line_error(state_file, "positions: ValueError: the header announces shape \\(999, 3\\)")
 
 
+def test_a_header_with_an_unclosed_bracket_is_one_value_error(state_file):
+    # numpy parses the header with ast, then retries it with tokenize, which raises its own
+    # TokenError (not a ValueError) for a bracket never closed: found by test_fuzz's flips
+    import zipfile
+
+    with zipfile.ZipFile(state_file) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    member = "simulation/cloth/positions.npy"
+    members[member] = members[member].replace(b"'shape': (9, 3)", b"'shape': (9, 3 ", 1)
+    with zipfile.ZipFile(state_file, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    one_line_error(state_file, "positions: TokenError")
+
+
 def test_a_fifo_as_state_path_does_not_block(tmp_path):
     fifo = tmp_path / "state.npz"
     os.mkfifo(fifo)

@@ -10,11 +10,10 @@
 
 namespace py = pybind11;
 
-PYBIND11_MODULE(_native, m) {
-  m.doc() =
-      "yore's C++ core, loaded through yore._core once the BLAS kernels are chosen (use the "
-      "`yore` package, not this module)";
+namespace {
 
+/// yore's exceptions: SimulationDiverged and ArgumentError carry what they name.
+void bind_exceptions(py::module_& m) {
   // SimulationDiverged is a RuntimeError that carries where the run failed and a stable dt.
   // The type lives in the module (no static Python object to outlive the interpreter).
   py::exception<yore::SimulationDiverged>(m, "SimulationDiverged", PyExc_RuntimeError);
@@ -40,7 +39,15 @@ PYBIND11_MODULE(_native, m) {
       PyErr_SetObject(type.ptr(), instance.ptr());
     }
   });
+}
 
+}  // namespace
+
+PYBIND11_MODULE(_native, m) {
+  m.doc() =
+      "yore's C++ core, loaded through yore._core once the BLAS kernels are chosen (use the "
+      "`yore` package, not this module)";
+  bind_exceptions(m);
   m.def(
       "build_info",
       [] {

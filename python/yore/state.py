@@ -27,6 +27,7 @@ import math
 import os
 import stat
 import struct
+import tokenize
 import zipfile
 import zlib
 from pathlib import Path
@@ -188,6 +189,7 @@ _READ_ERRORS = (
     MemoryError,
     struct.error,
     SyntaxError,
+    tokenize.TokenError,  # numpy's header parser retries an unparsable header with tokenize
 )
 
 

@@ -167,6 +167,56 @@ double bend_stiffness_argument(const py::object& bend_stiffness, BendingModel mo
   return stiffness;
 }
 
+// The structural springs' stiffness: the default, the argument, or 0 under a membrane (which
+// takes no stiffness but 0).
+double stretch_stiffness_argument(const py::object& stretch_stiffness,
+                                  const MembraneMaterial& membrane) {
+  double stretch_value = kDefaults.stretch_stiffness;
+  if (!stretch_stiffness.is_none()) {
+    stretch_value = real_argument(stretch_stiffness, "stretch_stiffness");
+  }
+  if (membrane.young_modulus > 0.0) {
+    if (!stretch_stiffness.is_none() && stretch_value != 0.0) {
+      throw std::invalid_argument(
+          "stretch=\"membrane\" resists stretching instead of springs: leave "
+          "stretch_stiffness out (or 0), got " +
+          std::to_string(stretch_value));
+    }
+    stretch_value = 0.0;
+  }
+  return stretch_value;
+}
+
+// bending_modulus given exactly with the models that take it.
+void check_bending_modulus_given(const py::object& bending_modulus, BendingModel model,
+                                 const std::string& bending) {
+  if (model == BendingModel::springs && !bending_modulus.is_none()) {
+    throw InvalidArgument(
+        "bending_modulus is for bending=\"quadratic\"; bending springs take "
+        "bend_stiffness (N/m)",
+        "bending_modulus");
+  }
+  if (is_quadratic(model) && bending_modulus.is_none()) {
+    throw std::invalid_argument("bending=\"" + bending + "\" needs bending_modulus (N·m, >= 0)");
+  }
+}
+
+// The membrane's strain, "smoothed" or "faces", set on the new cloth.
+void set_membrane_strain(Cloth& cloth, const py::object& membrane_strain) {
+  const std::string strain =
+      text_argument(membrane_strain, "membrane_strain", "\"smoothed\" or \"faces\"");
+  if (strain != "smoothed" && strain != "faces") {
+    throw InvalidArgument(
+        "membrane_strain must be \"smoothed\" or \"faces\", got \"" + strain + "\"",
+        "membrane_strain");
+  }
+  try {
+    cloth.set_membrane_smoothed(strain == "smoothed");
+  } catch (const std::invalid_argument& error) {
+    throw InvalidArgument(error.what(), "membrane_strain");
+  }
+}
+
 // Cloth(...)'s arguments, checked one by one, into the core's constructor.
 Cloth make_cloth(const py::handle& vertices, const py::handle& faces, const py::object& masses,
                  const py::object& stretch_stiffness, const py::object& bend_stiffness,
@@ -183,29 +233,9 @@ Cloth make_cloth(const py::handle& vertices, const py::handle& faces, const py::
       text_argument(stretch_given, "stretch", "\"springs\" or \"membrane\"");
   const py::object given = masses_argument(masses, mass);
   const MembraneMaterial membrane = membrane_argument(stretch, young_modulus, poisson_ratio);
-  double stretch_value = kDefaults.stretch_stiffness;
-  if (!stretch_stiffness.is_none()) {
-    stretch_value = real_argument(stretch_stiffness, "stretch_stiffness");
-  }
-  if (membrane.young_modulus > 0.0) {
-    if (!stretch_stiffness.is_none() && stretch_value != 0.0) {
-      throw std::invalid_argument(
-          "stretch=\"membrane\" resists stretching instead of springs: leave "
-          "stretch_stiffness out (or 0), got " +
-          std::to_string(stretch_value));
-    }
-    stretch_value = 0.0;
-  }
+  const double stretch_value = stretch_stiffness_argument(stretch_stiffness, membrane);
   const BendingModel model = bending_model(bending);
-  if (model == BendingModel::springs && !bending_modulus.is_none()) {
-    throw InvalidArgument(
-        "bending_modulus is for bending=\"quadratic\"; bending springs take "
-        "bend_stiffness (N/m)",
-        "bending_modulus");
-  }
-  if (is_quadratic(model) && bending_modulus.is_none()) {
-    throw std::invalid_argument("bending=\"" + bending + "\" needs bending_modulus (N·m, >= 0)");
-  }
+  check_bending_modulus_given(bending_modulus, model, bending);
   const double stiffness = bend_stiffness_argument(bend_stiffness, model, bending);
   const double modulus =
       bending_modulus.is_none() ? 0.0 : real_argument(bending_modulus, "bending_modulus");
@@ -221,20 +251,7 @@ Cloth make_cloth(const py::handle& vertices, const py::handle& faces, const py::
   material.bending_modulus = modulus;
   material.membrane = membrane;
   Cloth cloth(v, f, vertex_mass, material);
-  if (!membrane_strain.is_none()) {
-    const std::string strain =
-        text_argument(membrane_strain, "membrane_strain", "\"smoothed\" or \"faces\"");
-    if (strain != "smoothed" && strain != "faces") {
-      throw InvalidArgument(
-          "membrane_strain must be \"smoothed\" or \"faces\", got \"" + strain + "\"",
-          "membrane_strain");
-    }
-    try {
-      cloth.set_membrane_smoothed(strain == "smoothed");
-    } catch (const std::invalid_argument& error) {
-      throw InvalidArgument(error.what(), "membrane_strain");
-    }
-  }
+  if (!membrane_strain.is_none()) set_membrane_strain(cloth, membrane_strain);
   return cloth;
 }
 

@@ -57,6 +57,23 @@ std::vector<double> double_list(const py::handle& object, const char* name, Eige
   return std::vector<double>(values.data(), values.data() + values.size());
 }
 
+// The rotation drivers as a list of dicts (vertices, reference, center, axis, omega,
+// start_time).
+py::list drivers_list(const std::vector<RotationDriver>& drivers) {
+  py::list out;
+  for (const RotationDriver& driver : drivers) {
+    py::dict entry;
+    entry["vertices"] = read_only_copy(driver.vertices);
+    entry["reference"] = read_only_copy(driver.reference);
+    entry["center"] = read_only_copy(driver.center);
+    entry["axis"] = read_only_copy(driver.axis);
+    entry["omega"] = driver.omega;
+    entry["start_time"] = driver.start_time;
+    out.append(entry);
+  }
+  return out;
+}
+
 }  // namespace
 
 /// The bending model named in Python, or std::invalid_argument listing the valid names.
@@ -94,17 +111,6 @@ py::dict state_dict(const Cloth& cloth) {
   for (std::size_t i = 0; i < vertex_states.size(); ++i) {
     vertex_states[i] = static_cast<std::uint8_t>(state.vertex_states[i]);
   }
-  py::list drivers;
-  for (const RotationDriver& driver : state.drivers) {
-    py::dict entry;
-    entry["vertices"] = read_only_copy(driver.vertices);
-    entry["reference"] = read_only_copy(driver.reference);
-    entry["center"] = read_only_copy(driver.center);
-    entry["axis"] = read_only_copy(driver.axis);
-    entry["omega"] = driver.omega;
-    entry["start_time"] = driver.start_time;
-    drivers.append(entry);
-  }
   py::dict out;
   out["positions"] = read_only_copy(state.positions);
   out["velocities"] = read_only_copy(state.velocities);
@@ -123,7 +129,7 @@ py::dict state_dict(const Cloth& cloth) {
   out["material_coordinates"] =
       state.material.rows() ? py::object(read_only_copy(state.material)) : py::none();
   out["vertex_states"] = read_only_copy(vertex_states);
-  out["drivers"] = drivers;
+  out["drivers"] = drivers_list(state.drivers);
   out["clock_origin"] = state.clock.origin;
   out["clock_steps"] = state.clock.steps;
   out["clock_dt"] = state.clock.dt;

@@ -182,6 +182,40 @@ Statistics implicit_statistics(const ImplicitIntegrator& integrator) {
   return out;
 }
 
+/// projection_memory() and set_projection_memory(): what a state file keeps of Newton's
+/// projections.
+void def_projection_memory(py::class_<ImplicitIntegrator>& integrator_class) {
+  integrator_class
+      .def(
+          "projection_memory",
+          [](const ImplicitIntegrator& integrator) {
+            check_idle(&integrator, "the integrator");
+            const ImplicitIntegrator::ProjectionMemory memory = integrator.projection_memory();
+            py::dict out;
+            out["exact_skip"] = memory.exact_skip;
+            out["exact_backoff"] = memory.exact_backoff;
+            out["shift"] = memory.shift;
+            out["radius"] = memory.radius;
+            return out;
+          },
+          "The projections' memory across steps: a dict with exact_skip (steps still to "
+          "take projected), exact_backoff (the next wait after a rejection), shift (the "
+          "shifted projection's μ, in units of M/h̃²) and radius (the steihaug projection's "
+          "trust radius, √J; 0: none yet).")
+      .def(
+          "set_projection_memory",
+          [](ImplicitIntegrator& integrator, std::int64_t exact_skip, std::int64_t exact_backoff,
+             double shift, double radius) {
+            check_idle(&integrator, "the integrator");
+            integrator.set_projection_memory({to_int32(exact_skip, "exact_skip"),
+                                              to_int32(exact_backoff, "exact_backoff"), shift,
+                                              radius});
+          },
+          py::arg("exact_skip"), py::arg("exact_backoff"), py::arg("shift") = 0.0,
+          py::arg("radius") = 0.0,
+          "Restores a memory taken by projection_memory(); ValueError out of range.");
+}
+
 }  // namespace
 
 void bind_implicit(py::module_& m) {
@@ -220,35 +254,8 @@ lower triangle in CSC (hessian_data, hessian_indices, hessian_indptr, size) and 
 Newton direction. projection: "clamp" (default) or "abs" filter the compressed springs' and
 faces' negative terms; "exact" keeps them and raises NotPositiveDefinite when the solver
 rejects the matrix.)doc")
-      .def(
-          "projection_memory",
-          [](const ImplicitIntegrator& integrator) {
-            check_idle(&integrator, "the integrator");
-            const ImplicitIntegrator::ProjectionMemory memory = integrator.projection_memory();
-            py::dict out;
-            out["exact_skip"] = memory.exact_skip;
-            out["exact_backoff"] = memory.exact_backoff;
-            out["shift"] = memory.shift;
-            out["radius"] = memory.radius;
-            return out;
-          },
-          "The projections' memory across steps: a dict with exact_skip (steps still to "
-          "take projected), exact_backoff (the next wait after a rejection), shift (the "
-          "shifted projection's μ, in units of M/h̃²) and radius (the steihaug projection's "
-          "trust radius, √J; 0: none yet).")
-      .def(
-          "set_projection_memory",
-          [](ImplicitIntegrator& integrator, std::int64_t exact_skip, std::int64_t exact_backoff,
-             double shift, double radius) {
-            check_idle(&integrator, "the integrator");
-            integrator.set_projection_memory({to_int32(exact_skip, "exact_skip"),
-                                              to_int32(exact_backoff, "exact_backoff"), shift,
-                                              radius});
-          },
-          py::arg("exact_skip"), py::arg("exact_backoff"), py::arg("shift") = 0.0,
-          py::arg("radius") = 0.0,
-          "Restores a memory taken by projection_memory(); ValueError out of range.")
       .def_property_readonly("statistics", &implicit_statistics);
+  def_projection_memory(integrator_class);
 }
 
 }  // namespace yore::bindings

@@ -9,6 +9,34 @@
 #include "yore/integrators/local_global.hpp"
 
 namespace yore::bindings {
+namespace {
+
+/// The integrator's counters and phases as a Statistics.
+Statistics local_global_statistics(const LocalGlobalIntegrator& integrator) {
+  check_idle(&integrator, "the integrator");
+  const LocalGlobalStatistics& s = integrator.statistics();
+  const SolverStatistics& solver = integrator.solver_statistics();
+  Statistics out;
+  out.steps = s.steps;
+  out.count("energy_gain", integrator.monitor().largest_gain());
+  add_solver_phases(out, s);
+  out.phase("rebuild_seconds", s.rebuild_seconds);
+  out.count("iterations", s.iterations);
+  out.count("unconverged_steps", s.unconverged_steps);
+  out.count("last_iterations", s.last_iterations);
+  out.count("last_residual", s.last_residual);
+  out.count("last_error_estimate", s.last_error_estimate);
+  out.count("rebuilds", s.rebuilds);
+  out.count("stale_solves", s.stale_solves);
+  out.count("pcg_iterations", s.pcg_iterations);
+  out.count("dofs", s.last_dofs);
+  out.count("analyses", s.analyses);
+  out.count("factorizations", s.factorizations);
+  add_factor_statistics(out.counters, solver);
+  return out;
+}
+
+}  // namespace
 
 void bind_local_global(py::module_& m) {
   py::class_<LocalGlobalIntegrator> integrator_class(
@@ -55,29 +83,7 @@ void bind_local_global(py::module_& m) {
             return read_only_copy(integrator.objective_history());
           },
           "The objective (J) after each iteration of the last step (record_objective only).")
-      .def_property_readonly("statistics", [](const LocalGlobalIntegrator& integrator) {
-        check_idle(&integrator, "the integrator");
-        const LocalGlobalStatistics& s = integrator.statistics();
-        const SolverStatistics& solver = integrator.solver_statistics();
-        Statistics out;
-        out.steps = s.steps;
-        out.count("energy_gain", integrator.monitor().largest_gain());
-        add_solver_phases(out, s);
-        out.phase("rebuild_seconds", s.rebuild_seconds);
-        out.count("iterations", s.iterations);
-        out.count("unconverged_steps", s.unconverged_steps);
-        out.count("last_iterations", s.last_iterations);
-        out.count("last_residual", s.last_residual);
-        out.count("last_error_estimate", s.last_error_estimate);
-        out.count("rebuilds", s.rebuilds);
-        out.count("stale_solves", s.stale_solves);
-        out.count("pcg_iterations", s.pcg_iterations);
-        out.count("dofs", s.last_dofs);
-        out.count("analyses", s.analyses);
-        out.count("factorizations", s.factorizations);
-        add_factor_statistics(out.counters, solver);
-        return out;
-      });
+      .def_property_readonly("statistics", &local_global_statistics);
 }
 
 }  // namespace yore::bindings

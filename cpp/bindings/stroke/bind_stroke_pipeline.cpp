@@ -76,9 +76,9 @@ void bind_stroke_result(py::module_& m) {
           "vertex_weights", [](const StrokeResult& r) { return read_only_copy(r.vertex_weights); });
 }
 
-}  // namespace
-
-void bind_stroke_pipeline(py::module_& m) {
+/// The stroke's exceptions, its result type and its options' defaults (by their Python names,
+/// read from a default StrokeOptions: the one source of yore.options.STROKE_DEFAULTS).
+void bind_stroke_basics(py::module_& m) {
   // A missed stroke and a refused refinement are ValueErrors of their own, defined here and
   // re-exported by yore.stroke (and yore).
   py::register_exception<StrokeMissed>(m, "StrokeMissed", PyExc_ValueError).attr("__doc__") =
@@ -88,20 +88,23 @@ void bind_stroke_pipeline(py::module_& m) {
       "A stroke's refinement could make the mesh larger than its vertex limit (the cloth is "
       "unchanged).";
   bind_stroke_result(m);
+  const StrokeOptions stroke_defaults;
+  py::dict defaults;
+  defaults["growth"] = growth_rule(stroke_defaults.growth).name;
+  defaults["width"] = stroke_defaults.width;
+  defaults["refine"] = stroke_defaults.refine;
+  defaults["max_vertices"] = stroke_defaults.max_vertices;
+  defaults["spacing_pixels"] = StrokeInput{}.spacing_pixels;
+  m.attr("stroke_defaults") = defaults;
+}
+
+}  // namespace
+
+void bind_stroke_pipeline(py::module_& m) {
+  bind_stroke_basics(m);
   const SplitOptions split_defaults;
-  // A stroke's options by their Python names, read from a default StrokeOptions (the split's
-  // are `split_defaults`): the one source of yore.options.STROKE_DEFAULTS.
   const StrokeOptions stroke_defaults;
   const std::string default_growth = growth_rule(stroke_defaults.growth).name;
-  {
-    py::dict defaults;
-    defaults["growth"] = default_growth;
-    defaults["width"] = stroke_defaults.width;
-    defaults["refine"] = stroke_defaults.refine;
-    defaults["max_vertices"] = stroke_defaults.max_vertices;
-    defaults["spacing_pixels"] = StrokeInput{}.spacing_pixels;
-    m.attr("stroke_defaults") = defaults;
-  }
   m.attr("refine_vertices_per_face") = kRefineVerticesPerFace;
   m.attr("refine_band_growth") = kRefineBandGrowth;
   m.def("predicted_refined_vertices", &predicted_refined_vertices, py::arg("vertices"),

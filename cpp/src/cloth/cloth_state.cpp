@@ -45,61 +45,57 @@ ClothState Cloth::state() const {
 
 namespace {
 
-// with_membrane: structural springs carry the membrane's rest lengths and must have 0 N/m.
-void check_state_springs(const SpringSet& springs, Eigen::Index n, bool with_membrane) {
-  const std::size_t s = springs.size();
-  if (springs.second.size() != s || springs.rest_length.size() != s ||
-      springs.stiffness.size() != s || springs.damping.size() != s || springs.kind.size() != s ||
-      springs.reference_length.size() != s) {
-    fail("state: the spring arrays differ in length");
+// Spring k's ends, lengths, stiffness, damping and kind (a membrane's structural springs
+// carry its rest lengths and 0 N/m).
+void check_state_spring(const SpringSet& springs, std::size_t k, Eigen::Index n,
+                        bool with_membrane) {
+  const std::int32_t i = springs.first[k], j = springs.second[k];
+  if (i < 0 || i >= n || j < 0 || j >= n || i == j) {
+    std::ostringstream msg;
+    msg << "state: spring " << k << " has ends (" << i << ", " << j
+        << "); they must be two different vertices in [0, " << n << ")";
+    fail(msg.str());
   }
-  for (std::size_t k = 0; k < s; ++k) {
-    const std::int32_t i = springs.first[k], j = springs.second[k];
-    if (i < 0 || i >= n || j < 0 || j >= n || i == j) {
+  const double values[] = {springs.rest_length[k], springs.reference_length[k],
+                           springs.stiffness[k]};
+  if (with_membrane && springs.kind[k] == SpringKind::structural) {
+    if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
+          values[1] > 0.0 && values[2] == 0.0)) {
       std::ostringstream msg;
-      msg << "state: spring " << k << " has ends (" << i << ", " << j
-          << "); they must be two different vertices in [0, " << n << ")";
+      msg << "state: structural spring " << k << " of a membrane needs finite, positive rest "
+          << "and reference lengths and stiffness 0, got " << values[0] << ", " << values[1] << ", "
+          << values[2];
       fail(msg.str());
     }
-    const double values[] = {springs.rest_length[k], springs.reference_length[k],
-                             springs.stiffness[k]};
-    if (with_membrane && springs.kind[k] == SpringKind::structural) {
-      if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
-            values[1] > 0.0 && values[2] == 0.0)) {
-        std::ostringstream msg;
-        msg << "state: structural spring " << k << " of a membrane needs finite, positive rest "
-            << "and reference lengths and stiffness 0, got " << values[0] << ", " << values[1]
-            << ", " << values[2];
-        fail(msg.str());
-      }
-    } else if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
-                 values[1] > 0.0 && std::isfinite(values[2]) &&
-                 values[2] >= std::numeric_limits<double>::min() &&
-                 values[2] <= kMaxMaterialValue)) {
-      std::ostringstream msg;
-      msg << "state: spring " << k << " needs finite, positive rest length, reference length "
-          << "and stiffness (at most " << kMaxMaterialValue << " N/m), got " << values[0] << ", "
-          << values[1] << ", " << values[2];
-      fail(msg.str());
-    }
-    if (!std::isfinite(springs.damping[k]) || springs.damping[k] < 0.0 ||
-        springs.damping[k] > kMaxMaterialValue) {
-      std::ostringstream msg;
-      msg << "state: spring " << k << " has damping " << springs.damping[k]
-          << "; it must be finite, >= 0 and <= " << kMaxMaterialValue;
-      fail(msg.str());
-    }
-    const auto kind = static_cast<int>(springs.kind[k]);
-    if (kind != 0 && kind != 1) {
-      std::ostringstream msg;
-      msg << "state: spring " << k << " has kind " << kind << " (0 structural, 1 bending)";
-      fail(msg.str());
-    }
+  } else if (!(std::isfinite(values[0]) && values[0] > 0.0 && std::isfinite(values[1]) &&
+               values[1] > 0.0 && std::isfinite(values[2]) &&
+               values[2] >= std::numeric_limits<double>::min() && values[2] <= kMaxMaterialValue)) {
+    std::ostringstream msg;
+    msg << "state: spring " << k << " needs finite, positive rest length, reference length "
+        << "and stiffness (at most " << kMaxMaterialValue << " N/m), got " << values[0] << ", "
+        << values[1] << ", " << values[2];
+    fail(msg.str());
   }
-  // One structural spring per edge: a duplicate would double the edge's stiffness and break
-  // the mesh operations that look springs up by their edge.
+  if (!std::isfinite(springs.damping[k]) || springs.damping[k] < 0.0 ||
+      springs.damping[k] > kMaxMaterialValue) {
+    std::ostringstream msg;
+    msg << "state: spring " << k << " has damping " << springs.damping[k]
+        << "; it must be finite, >= 0 and <= " << kMaxMaterialValue;
+    fail(msg.str());
+  }
+  const auto kind = static_cast<int>(springs.kind[k]);
+  if (kind != 0 && kind != 1) {
+    std::ostringstream msg;
+    msg << "state: spring " << k << " has kind " << kind << " (0 structural, 1 bending)";
+    fail(msg.str());
+  }
+}
+
+// One structural spring per edge: a duplicate would double the edge's stiffness and break the
+// mesh operations that look springs up by their edge.
+void check_unique_structural(const SpringSet& springs) {
   std::vector<std::array<std::int64_t, 3>> edges;
-  for (std::size_t k = 0; k < s; ++k) {
+  for (std::size_t k = 0; k < springs.size(); ++k) {
     if (springs.kind[k] != SpringKind::structural) continue;
     const std::int32_t i = springs.first[k], j = springs.second[k];
     edges.push_back({std::min(i, j), std::max(i, j), static_cast<std::int64_t>(k)});
@@ -113,6 +109,18 @@ void check_state_springs(const SpringSet& springs, Eigen::Index n, bool with_mem
       fail(msg.str());
     }
   }
+}
+
+// with_membrane: structural springs carry the membrane's rest lengths and must have 0 N/m.
+void check_state_springs(const SpringSet& springs, Eigen::Index n, bool with_membrane) {
+  const std::size_t s = springs.size();
+  if (springs.second.size() != s || springs.rest_length.size() != s ||
+      springs.stiffness.size() != s || springs.damping.size() != s || springs.kind.size() != s ||
+      springs.reference_length.size() != s) {
+    fail("state: the spring arrays differ in length");
+  }
+  for (std::size_t k = 0; k < s; ++k) check_state_spring(springs, k, n, with_membrane);
+  check_unique_structural(springs);
 }
 
 // Every edge of the faces has its structural spring (the rest areas, the strokes and the
@@ -199,6 +207,30 @@ void check_state_clock(const SimulationClock& clock) {
   }
 }
 
+// The bending model and what it takes: springs no modulus or rest positions; the quadratic
+// and hinge models faces, no bending springs and finite rest positions for every vertex.
+void check_state_bending(const ClothState& state, Eigen::Index n) {
+  if (state.bending != BendingModel::springs && !is_quadratic(state.bending)) {
+    fail("state: bending must be 0 (springs), 1 (quadratic) or 2 (hinge)");
+  }
+  check_non_negative(state.bending_modulus, "state: bending_modulus");
+  if (state.bending == BendingModel::springs) {
+    if (state.bending_modulus != 0.0 || state.bending_rest.rows() != 0) {
+      fail("state: bending springs take no bending_modulus or bending rest positions");
+    }
+    return;
+  }
+  if (state.faces.rows() == 0) fail("state: quadratic bending needs faces");
+  if (state.bend_stiffness != 0.0) fail("state: quadratic bending needs bend_stiffness 0");
+  if (state.bending_rest.rows() != n) {
+    std::ostringstream msg;
+    msg << "state: bending rest positions have " << state.bending_rest.rows() << " rows for " << n
+        << " vertices";
+    fail(msg.str());
+  }
+  check_finite_rows(state.bending_rest, "state: bending rest position");
+}
+
 }  // namespace
 
 Cloth Cloth::from_state(const ClothState& state) {
@@ -240,26 +272,10 @@ Cloth Cloth::from_state(const ClothState& state) {
   cloth.m_vertex_states = state.vertex_states;
   cloth.m_drivers = state.drivers;
   cloth.m_clock = clock;
-  if (state.bending != BendingModel::springs && !is_quadratic(state.bending)) {
-    fail("state: bending must be 0 (springs), 1 (quadratic) or 2 (hinge)");
-  }
-  check_non_negative(state.bending_modulus, "state: bending_modulus");
+  check_state_bending(state, n);
   cloth.m_bending = state.bending;
   cloth.m_bending_modulus = state.bending_modulus;
-  if (state.bending == BendingModel::springs) {
-    if (state.bending_modulus != 0.0 || state.bending_rest.rows() != 0) {
-      fail("state: bending springs take no bending_modulus or bending rest positions");
-    }
-  } else {
-    if (state.faces.rows() == 0) fail("state: quadratic bending needs faces");
-    if (state.bend_stiffness != 0.0) fail("state: quadratic bending needs bend_stiffness 0");
-    if (state.bending_rest.rows() != n) {
-      std::ostringstream msg;
-      msg << "state: bending rest positions have " << state.bending_rest.rows() << " rows for " << n
-          << " vertices";
-      fail(msg.str());
-    }
-    check_finite_rows(state.bending_rest, "state: bending rest position");
+  if (state.bending != BendingModel::springs) {
     cloth.m_bending_rest = state.bending_rest;
     cloth.update_quadratic_bending();
   }

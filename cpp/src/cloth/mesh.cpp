@@ -33,6 +33,44 @@ std::vector<HalfEdgeRecord> sorted_face_sides(const Faces& faces) {
 
 [[noreturn]] void fail(const std::string& message) { throw std::invalid_argument(message); }
 
+// A face whose area is below 1e-12 of its longest edge squared has no usable shape (springs
+// across it would be collinear or of zero length): throws naming it.
+void check_face_shape(const Positions& positions, Eigen::Index f, std::int32_t a, std::int32_t b,
+                      std::int32_t c) {
+  const Eigen::Vector3d e1 = positions.row(b) - positions.row(a);
+  const Eigen::Vector3d e2 = positions.row(c) - positions.row(a);
+  const Eigen::Vector3d e3 = positions.row(c) - positions.row(b);
+  const double longest_squared = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
+  const double twice_area = e1.cross(e2).norm();
+  if (!(twice_area > 2e-12 * longest_squared)) {
+    std::ostringstream msg;
+    msg << "face " << f << " (" << a << ", " << b << ", " << c << ") is degenerate: area "
+        << 0.5 * twice_area << " m² for a longest edge of " << std::sqrt(longest_squared) << " m";
+    fail(msg.str());
+  }
+}
+
+// Every edge in at most two faces, and no two faces the same triangle: throws naming them.
+void check_manifold(const Faces& faces) {
+  const std::vector<HalfEdgeRecord> sides = sorted_face_sides(faces);
+  for (std::size_t k = 0; k < sides.size();) {
+    std::size_t end = k + 1;
+    while (end < sides.size() && sides[end].a == sides[k].a && sides[end].b == sides[k].b) ++end;
+    if (end - k > 2) {
+      std::ostringstream msg;
+      msg << "edge (" << sides[k].a << ", " << sides[k].b << ") is shared by " << end - k
+          << " faces: the mesh is not manifold";
+      fail(msg.str());
+    }
+    if (end - k == 2 && sides[k].opposite == sides[k + 1].opposite) {
+      std::ostringstream msg;
+      msg << "faces " << sides[k].face << " and " << sides[k + 1].face << " are the same triangle";
+      fail(msg.str());
+    }
+    k = end;
+  }
+}
+
 }  // namespace
 
 void validate_mesh(const Positions& positions, const Faces& faces, bool check_shape) {
@@ -64,19 +102,7 @@ void validate_mesh(const Positions& positions, const Faces& faces, bool check_sh
       msg << "face " << f << " repeats a vertex (" << a << ", " << b << ", " << c << ")";
       fail(msg.str());
     }
-    const Eigen::Vector3d e1 = positions.row(b) - positions.row(a);
-    const Eigen::Vector3d e2 = positions.row(c) - positions.row(a);
-    const Eigen::Vector3d e3 = positions.row(c) - positions.row(b);
-    const double longest_squared = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm()});
-    const double twice_area = e1.cross(e2).norm();
-    // Relative test: a face whose area is below 1e-12 of its longest edge squared has no usable
-    // shape (springs across it would be collinear or of zero length).
-    if (check_shape && !(twice_area > 2e-12 * longest_squared)) {
-      std::ostringstream msg;
-      msg << "face " << f << " (" << a << ", " << b << ", " << c << ") is degenerate: area "
-          << 0.5 * twice_area << " m² for a longest edge of " << std::sqrt(longest_squared) << " m";
-      fail(msg.str());
-    }
+    if (check_shape) check_face_shape(positions, f, a, b, c);
   }
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!used[static_cast<std::size_t>(i)]) {
@@ -85,23 +111,7 @@ void validate_mesh(const Positions& positions, const Faces& faces, bool check_sh
       fail(msg.str());
     }
   }
-  const std::vector<HalfEdgeRecord> sides = sorted_face_sides(faces);
-  for (std::size_t k = 0; k < sides.size();) {
-    std::size_t end = k + 1;
-    while (end < sides.size() && sides[end].a == sides[k].a && sides[end].b == sides[k].b) ++end;
-    if (end - k > 2) {
-      std::ostringstream msg;
-      msg << "edge (" << sides[k].a << ", " << sides[k].b << ") is shared by " << end - k
-          << " faces: the mesh is not manifold";
-      fail(msg.str());
-    }
-    if (end - k == 2 && sides[k].opposite == sides[k + 1].opposite) {
-      std::ostringstream msg;
-      msg << "faces " << sides[k].face << " and " << sides[k + 1].face << " are the same triangle";
-      fail(msg.str());
-    }
-    k = end;
-  }
+  check_manifold(faces);
 }
 
 MeshConnectivity mesh_connectivity(const Faces& faces) {

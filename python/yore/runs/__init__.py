@@ -1,10 +1,12 @@
 """Scene files and runs: the layer above the simulation that describes a whole run in a TOML
 file, checks it, builds it and runs it (what ``yore run``, ``yore check`` and ``yore demo`` do).
 
-- `yore.runs.schema` — the scene file's tables and keys (`SCHEMA`), their validators,
-  `SceneError` and the limits (`MAX_SCENE_FILE_BYTES`, `MAX_INTEGER`);
+- `yore.runs.schema` — the scene file's tables and keys (`SCHEMA`), `SceneError` and the
+  limits (`MAX_SCENE_FILE_BYTES`, `MAX_INTEGER`), with `yore.runs.scene_rules` (the keys'
+  validators) and `yore.runs.scene_tables` (the checked tables' classes);
 - `yore.runs.loading` — `Scene` and `load_scene`: reading the text, ``--set`` overrides
-  (`parse_override`) and every check, with the key's line in the file;
+  (`parse_override`) and every check (`yore.runs.scene_checks`), with the key's line in the
+  file;
 - `yore.runs.building` — the Simulation a `Scene` describes (`Scene.build`), its camera
   (`scene_camera`) and its strokes (`apply_scene_stroke`);
 - `yore.runs.runner` — running a scene into a folder (`run_scene`, `resume_run`, which continues
@@ -14,7 +16,7 @@ file, checks it, builds it and runs it (what ``yore run``, ``yore check`` and ``
   the summary record);
 - `yore.runs.demo` — ``yore demo``: the paper's first experiment three ways.
 
-The schema imports no other module of the layer; building uses the schema (a Scene is only
+The schema imports only its rules; building uses the schema (a Scene is only
 read, not imported), loading uses both (`Scene.build` and `Scene.check_strokes` call building),
 the runner (with its parts) all three and the demo the runner. The mesh, the core, the simulation and the
 pictures (`yore.render`, `yore.render_run`) live in the package above.
