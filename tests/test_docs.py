@@ -137,18 +137,26 @@ def test_the_documented_integrator_options_and_defaults_are_the_registrys():
 
 
 def test_the_docs_integrator_lists_are_the_registrys():
-    """python.md and scene-files.md list the integrators between markers that
-    tools/docs_lists.py fills from yore.options.INTEGRATOR_SPECS: every registered name, none
-    by hand (issue 54)."""
+    """python.md and scene-files.md list the integrators, and integrators.md tabulates them,
+    between markers that tools/docs_lists.py fills from yore.options.INTEGRATOR_SPECS: every
+    registered name, none by hand (issue 54)."""
     sys.path.insert(0, str(README.parent / "tools"))
     try:
         import docs_lists
     finally:
         sys.path.pop(0)
     pages = {path.name for path in docs_lists.pages_with_lists()}
-    assert {"python.md", "scene-files.md"} <= pages
+    assert {"python.md", "scene-files.md", "integrators.md"} <= pages
     for name in pages:
         text = (README.parent / "docs" / name).read_text("utf-8")
         assert docs_lists.refreshed(text) == text, f"{name} is stale: run tools/docs_lists.py"
-        listed = re.search(r"<!-- integrators -->(.*?)<!-- /integrators -->", text).group(1)
-        assert re.findall(r'`"([a-z0-9-]+)"`', listed) == list(yore.INTEGRATORS)
+        marked = re.findall(r"<!-- integrators -->(.*?)<!-- /integrators -->", text)
+        marked += re.findall(
+            r"<!-- integrator-table -->(.*?)<!-- /integrator-table -->", text, re.S
+        )
+        assert marked, name
+        for listed in marked:
+            assert re.findall(r'`"([a-z0-9-]+)"`', listed) == list(yore.INTEGRATORS)
+    # the integrators page's table is the generated one, no hand-written copy beside it
+    page = (README.parent / "docs" / "integrators.md").read_text("utf-8")
+    assert page.count("| integrator | method | per step |") == 1
