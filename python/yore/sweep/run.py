@@ -31,7 +31,8 @@ from ..limits import LIMITS
 from ..runtime import SWEEP_WORKER_ENV, deferred_interrupt
 from .cell import run_cell
 from .results import CELLS_DIR, RESULTS_NAME, Results
-from .spec import Sweep, SweepError, load_sweep
+from .spec import Sweep, SweepError
+from .sweep_file import load_sweep
 
 __all__ = ["run", "resume", "SWEEP_NAME", "SCENE_NAME", "IN_FLIGHT_PER_WORKER"]
 
