@@ -86,6 +86,49 @@ void check_finite_rows(const Positions& values, const char* name) {
 
 using namespace detail;
 
+namespace {
+
+// The material's constants and models, each named when wrong: a membrane takes no structural
+// stiffness, the springs model no modulus and the quadratic and hinge models no bending springs.
+void check_material(const ClothMaterial& material) {
+  const double stretch_stiffness = material.stretch_stiffness;
+  const double bend_stiffness = material.bend_stiffness;
+  const BendingModel bending = material.bending;
+  const double bending_modulus = material.bending_modulus;
+  const MembraneMaterial& membrane = material.membrane;
+  check_membrane(membrane, "");
+  if (membrane.young_modulus > 0.0) {
+    if (stretch_stiffness != 0.0) {
+      std::ostringstream msg;
+      msg << "a membrane resists stretching instead of springs: stretch_stiffness must be 0, got "
+          << stretch_stiffness;
+      fail(msg.str());
+    }
+  } else {
+    check_positive(stretch_stiffness, "stretch_stiffness");
+  }
+  check_non_negative(bend_stiffness, "bend_stiffness");
+  check_non_negative(material.damping, "damping");
+  check_non_negative(bending_modulus, "bending_modulus");
+  if (bending != BendingModel::springs && !is_quadratic(bending)) {
+    fail("bending must be springs (0), quadratic (1) or hinge (2)");
+  }
+  if (bending == BendingModel::springs && bending_modulus != 0.0) {
+    fail_argument(
+        "bending_modulus is for quadratic bending; with bending springs use "
+        "bend_stiffness",
+        "bending_modulus");
+  }
+  if (is_quadratic(bending) && bend_stiffness != 0.0) {
+    std::ostringstream msg;
+    msg << "quadratic bending creates no bending springs: bend_stiffness must be 0, got "
+        << bend_stiffness;
+    fail(msg.str());
+  }
+}
+
+}  // namespace
+
 void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& masses,
                              double drag) {
   const Eigen::Index n = positions.rows();
@@ -125,35 +168,7 @@ Cloth::Cloth(const Positions& positions, const Faces& faces, const Eigen::Vector
   const double bending_modulus = material.bending_modulus;
   const MembraneMaterial& membrane = material.membrane;
   validate_mesh(positions, faces);
-  check_membrane(membrane, "");
-  if (membrane.young_modulus > 0.0) {
-    if (stretch_stiffness != 0.0) {
-      std::ostringstream msg;
-      msg << "a membrane resists stretching instead of springs: stretch_stiffness must be 0, got "
-          << stretch_stiffness;
-      fail(msg.str());
-    }
-  } else {
-    check_positive(stretch_stiffness, "stretch_stiffness");
-  }
-  check_non_negative(bend_stiffness, "bend_stiffness");
-  check_non_negative(damping, "damping");
-  check_non_negative(bending_modulus, "bending_modulus");
-  if (bending != BendingModel::springs && !is_quadratic(bending)) {
-    fail("bending must be springs (0), quadratic (1) or hinge (2)");
-  }
-  if (bending == BendingModel::springs && bending_modulus != 0.0) {
-    fail_argument(
-        "bending_modulus is for quadratic bending; with bending springs use "
-        "bend_stiffness",
-        "bending_modulus");
-  }
-  if (is_quadratic(bending) && bend_stiffness != 0.0) {
-    std::ostringstream msg;
-    msg << "quadratic bending creates no bending springs: bend_stiffness must be 0, got "
-        << bend_stiffness;
-    fail(msg.str());
-  }
+  check_material(material);
   initialise_state(positions, masses, drag);
   m_bending = bending;
   m_bending_modulus = bending_modulus;

@@ -121,6 +121,26 @@ SUNLinearSolver make_solver(SUNContext context) {
   return solver;
 }
 
+// y = (x, v) of the free vertices and the absolute tolerance of each component (atol for the
+// positions, atol_v for the velocities); nothing free: one dummy unknown at rest, which keeps
+// SUNDIALS well-defined.
+void load_state(double* y, double* atol, const std::vector<std::int32_t>& free, const Positions& x,
+                const Positions& v, double atol_x, double atol_v) {
+  const std::size_t free_count = free.size();
+  for (std::size_t b = 0; b < free_count; ++b) {
+    for (int c = 0; c < 3; ++c) {
+      y[3 * b + static_cast<std::size_t>(c)] = x(free[b], c);
+      y[3 * (free_count + b) + static_cast<std::size_t>(c)] = v(free[b], c);
+      atol[3 * b + static_cast<std::size_t>(c)] = atol_x;
+      atol[3 * (free_count + b) + static_cast<std::size_t>(c)] = atol_v;
+    }
+  }
+  if (free_count == 0) {
+    y[0] = 0.0;
+    atol[0] = atol_x;
+  }
+}
+
 }  // namespace
 
 /// SUNDIALS' objects of one problem size.
@@ -383,23 +403,9 @@ void ErrorControlledIntegrator::ensure_backend(const Cloth& cloth, const Vec3& g
   } else {
     fold_counters();
   }
-  // y = (x, v) of the free vertices; the absolute tolerances per component.
-  double* y = N_VGetArrayPointer(m_backend->y);
-  double* atol = N_VGetArrayPointer(m_backend->weights);
-  const std::size_t free_count = m_free.size();
   const double atol_v = m_options.atol_velocity > 0.0 ? m_options.atol_velocity : m_options.atol;
-  for (std::size_t b = 0; b < free_count; ++b) {
-    for (int c = 0; c < 3; ++c) {
-      y[3 * b + static_cast<std::size_t>(c)] = m_x(m_free[b], c);
-      y[3 * (free_count + b) + static_cast<std::size_t>(c)] = m_v(m_free[b], c);
-      atol[3 * b + static_cast<std::size_t>(c)] = m_options.atol;
-      atol[3 * (free_count + b) + static_cast<std::size_t>(c)] = atol_v;
-    }
-  }
-  if (size == 0) {  // nothing free: a dummy unknown at rest keeps SUNDIALS well-defined
-    y[0] = 0.0;
-    atol[0] = m_options.atol;
-  }
+  load_state(N_VGetArrayPointer(m_backend->y), N_VGetArrayPointer(m_backend->weights), m_free, m_x,
+             m_v, m_options.atol, atol_v);
   if (resize) {
     m_backend->create(m_options, cloth.time());
   } else {

@@ -255,20 +255,37 @@ double split_rest_length_added(const SpringSet& springs, std::int64_t springs_ad
   return pairwise_sum(added);
 }
 
-}  // namespace
+// The paper's 1→3 split of every crossed face at its crossing, into `result`.
+void split_crossed_faces(Cloth& cloth, const StrokeTrace& trace, const StrokeOptions& options,
+                         double mass_before, StrokeResult& result) {
+  std::vector<FaceSplit> splits(trace.crossings.size());
+  for (std::size_t k = 0; k < splits.size(); ++k) {
+    splits[k].face = trace.crossings[k].face;
+    splits[k].barycentric = trace.crossings[k].barycentric;
+  }
+  SplitOptions split_options = options.split;
+  if (split_options.conserve_mass) split_options.mass_scale = 1.0;  // unused: a valid value
+  const SplitReport split = cloth.split_faces(splits, split_options);
+  result.faces_split = static_cast<std::int64_t>(split.split_faces.size());
+  result.faces_skipped = split.faces_skipped;
+  result.springs_added += split.springs_added;
+  result.springs_removed += split.springs_removed;
+  result.region_faces = split.region_faces;
+  result.new_vertices.insert(result.new_vertices.end(), split.new_vertices.begin(),
+                             split.new_vertices.end());
+  result.rest_area_before = split.rest_area_before;
+  result.rest_area_after = split.rest_area_after;
+  result.moved_inward = split.moved_inward;
+  result.rest_length_added = split_rest_length_added(cloth.springs(), split.springs_added);
+  result.mass_added = pairwise_sum(cloth.masses()) - mass_before;
+  result.line_vertices = split.new_vertices;
+}
 
-StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOptions& options) {
-  if (cloth.face_count() == 0) fail("a spring network has no faces to stroke");
-  check_stroke_options(options);
-  StrokeResult result;
-  Stopwatch watch;
-  StrokeTrace trace = trace_stroke_input(cloth, input);
-  result.locate_seconds = watch.seconds();
-  check_hit(trace);
-  result.area_before = current_area(cloth.positions(), cloth.faces(), crossed_faces(trace));
-  watch.restart();
-  const double mass_before = pairwise_sum(cloth.masses());
-
+// `options.refine` 1→4 passes over the stroke's band, the stroke traced again after each (into
+// `trace`); the figures go to `result`. Returns the vertices the passes added.
+std::vector<std::int32_t> refine_band(Cloth& cloth, const StrokeInput& input,
+                                      const StrokeOptions& options, StrokeTrace& trace,
+                                      StrokeResult& result) {
   std::vector<std::int32_t> refined_vertices;
   for (int pass = 0; pass < options.refine; ++pass) {
     const StrokeBand band =
@@ -287,33 +304,30 @@ StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOp
     result.locate_seconds += located.seconds();
     check_hit(trace);
   }
+  return refined_vertices;
+}
+
+}  // namespace
+
+StrokeResult apply_stroke(Cloth& cloth, const StrokeInput& input, const StrokeOptions& options) {
+  if (cloth.face_count() == 0) fail("a spring network has no faces to stroke");
+  check_stroke_options(options);
+  StrokeResult result;
+  Stopwatch watch;
+  StrokeTrace trace = trace_stroke_input(cloth, input);
+  result.locate_seconds = watch.seconds();
+  check_hit(trace);
+  result.area_before = current_area(cloth.positions(), cloth.faces(), crossed_faces(trace));
+  watch.restart();
+  const double mass_before = pairwise_sum(cloth.masses());
+
+  result.new_vertices = refine_band(cloth, input, options, trace, result);
   result.samples = trace.samples;
   result.missed_samples = trace.missed_samples;
-  result.new_vertices = refined_vertices;
 
   if (growth_rule(options.growth).splits_crossed_faces) {
-    std::vector<FaceSplit> splits(trace.crossings.size());
-    for (std::size_t k = 0; k < splits.size(); ++k) {
-      splits[k].face = trace.crossings[k].face;
-      splits[k].barycentric = trace.crossings[k].barycentric;
-    }
-    SplitOptions split_options = options.split;
-    if (split_options.conserve_mass) split_options.mass_scale = 1.0;  // unused: a valid value
-    const SplitReport split = cloth.split_faces(splits, split_options);
+    split_crossed_faces(cloth, trace, options, mass_before, result);
     result.subdivide_seconds = watch.seconds();
-    result.faces_split = static_cast<std::int64_t>(split.split_faces.size());
-    result.faces_skipped = split.faces_skipped;
-    result.springs_added += split.springs_added;
-    result.springs_removed += split.springs_removed;
-    result.region_faces = split.region_faces;
-    result.new_vertices.insert(result.new_vertices.end(), split.new_vertices.begin(),
-                               split.new_vertices.end());
-    result.rest_area_before = split.rest_area_before;
-    result.rest_area_after = split.rest_area_after;
-    result.moved_inward = split.moved_inward;
-    result.rest_length_added = split_rest_length_added(cloth.springs(), split.springs_added);
-    result.mass_added = pairwise_sum(cloth.masses()) - mass_before;
-    result.line_vertices = split.new_vertices;
     return result;
   }
 
