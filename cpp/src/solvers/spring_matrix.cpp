@@ -5,6 +5,33 @@
 
 namespace yore {
 
+namespace {
+
+// The lower triangle's pattern of `unknowns` columns: the diagonal first in each column, then
+// the rows of `coupled` ((column, row) pairs, row > column; sorted and made unique here).
+void fill_pattern(std::int32_t unknowns,
+                  std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+                  SymmetricPattern& pattern) {
+  std::sort(coupled.begin(), coupled.end());
+  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
+  pattern.size = unknowns;
+  pattern.column_starts.assign(static_cast<std::size_t>(unknowns) + 1, 0);
+  pattern.row_indices.clear();
+  pattern.row_indices.reserve(static_cast<std::size_t>(unknowns) + coupled.size());
+  std::size_t next = 0;
+  for (std::int32_t column = 0; column < unknowns; ++column) {
+    pattern.column_starts[static_cast<std::size_t>(column)] =
+        static_cast<std::int32_t>(pattern.row_indices.size());
+    pattern.row_indices.push_back(column);  // the diagonal comes first
+    while (next < coupled.size() && coupled[next].first == column) {
+      pattern.row_indices.push_back(coupled[next++].second);
+    }
+  }
+  pattern.column_starts.back() = static_cast<std::int32_t>(pattern.row_indices.size());
+}
+
+}  // namespace
+
 void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
   const Eigen::Index n = cloth.vertex_count();
   const SpringSet& springs = cloth.springs();
@@ -33,23 +60,8 @@ void build_scalar_spring_pattern(const Cloth& cloth, ScalarSpringPattern& out) {
           if (j > i) coupled.emplace_back(a, b);
         });
   }
-  std::sort(coupled.begin(), coupled.end());
-  coupled.erase(std::unique(coupled.begin(), coupled.end()), coupled.end());
-  SymmetricPattern& pattern = out.pattern;
-  pattern.size = unknowns;
-  pattern.column_starts.assign(static_cast<std::size_t>(unknowns) + 1, 0);
-  pattern.row_indices.clear();
-  pattern.row_indices.reserve(static_cast<std::size_t>(unknowns) + coupled.size());
-  std::size_t next = 0;
-  for (std::int32_t column = 0; column < unknowns; ++column) {
-    pattern.column_starts[static_cast<std::size_t>(column)] =
-        static_cast<std::int32_t>(pattern.row_indices.size());
-    pattern.row_indices.push_back(column);  // the diagonal comes first
-    while (next < coupled.size() && coupled[next].first == column) {
-      pattern.row_indices.push_back(coupled[next++].second);
-    }
-  }
-  pattern.column_starts.back() = static_cast<std::int32_t>(pattern.row_indices.size());
+  fill_pattern(unknowns, coupled, out.pattern);
+  const SymmetricPattern& pattern = out.pattern;
   out.spring_slot.assign(springs.size(), -1);
   for (std::size_t s = 0; s < springs.size(); ++s) {
     const std::int32_t a = out.free_of_vertex[static_cast<std::size_t>(springs.first[s])];

@@ -166,6 +166,76 @@ bool outside(const Eigen::RowVector3d& x, const Eigen::RowVector3d& lower,
   return (x.array() < lower.array()).any() || (x.array() > upper.array()).any();
 }
 
+// Each vertex within the band's reach of the path: its distance, the path's tangent there and
+// its falloff weight (0 without a width).
+void measure_vertices(const Positions& positions, const Positions& path,
+                      const std::vector<std::int32_t>& path_part, double width, StrokeBand& band) {
+  const double reach = band.reach;
+  const PathGeometry geometry(path, path_part, reach);
+  const Eigen::RowVector3d lower = path.colwise().minCoeff().array() - reach;
+  const Eigen::RowVector3d upper = path.colwise().maxCoeff().array() + reach;
+  for (Eigen::Index i = 0; i < positions.rows(); ++i) {
+    const Eigen::RowVector3d x = positions.row(i);
+    if (outside(x, lower, upper)) continue;
+    const PathGeometry::Nearest nearest = geometry.nearest(x);
+    band.vertex_distance[i] = nearest.distance;
+    band.vertex_tangent.row(i) = geometry.tangent(nearest, band.tangent_span);
+    band.vertex_weight[i] = width > 0.0 ? falloff_weight(nearest.distance, 0.5 * width) : 0.0;
+  }
+}
+
+// The band's faces: the crossed ones (whose corners weigh 1 without a width), and with a width
+// every face with a corner closer than half of it.
+void select_faces(const Faces& faces, const std::vector<char>& crossed, double width,
+                  StrokeBand& band) {
+  std::vector<char> in_band(static_cast<std::size_t>(faces.rows()), 0);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    if (crossed[static_cast<std::size_t>(f)]) {
+      // with a width the weights are the falloff's alone (forcing the crossed faces' corners
+      // to 1 would grow a strip one face wide in full: O(h) more area on coarser meshes)
+      in_band[static_cast<std::size_t>(f)] = 1;
+      if (!(width > 0.0)) {
+        for (int c = 0; c < 3; ++c) band.vertex_weight[faces(f, c)] = 1.0;
+      }
+      continue;
+    }
+    if (width > 0.0) {
+      for (int c = 0; c < 3; ++c) {
+        if (band.vertex_distance[faces(f, c)] < 0.5 * width)
+          in_band[static_cast<std::size_t>(f)] = 1;
+      }
+    }
+  }
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    if (in_band[static_cast<std::size_t>(f)]) band.faces.push_back(static_cast<std::int32_t>(f));
+  }
+}
+
+// Half the length of the longest spring with an end in the band (weight > 0).
+double half_longest_band_spring(const Positions& positions, const SpringSet& springs,
+                                const StrokeBand& band) {
+  double half_spring = 0.0;
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t i = springs.first[k], j = springs.second[k];
+    if (band.vertex_weight[i] > 0.0 || band.vertex_weight[j] > 0.0) {
+      half_spring = std::max(half_spring, 0.5 * (positions.row(j) - positions.row(i)).norm());
+    }
+  }
+  return half_spring;
+}
+
+// The path's bounding box grown by the band's reach (midpoints outside it weigh 0); an empty
+// box for an empty path.
+void path_box(const StrokeBand& band, Eigen::RowVector3d& lower, Eigen::RowVector3d& upper) {
+  if (band.path.rows() > 0) {
+    lower = band.path.colwise().minCoeff().array() - band.reach;
+    upper = band.path.colwise().maxCoeff().array() + band.reach;
+  } else {
+    lower.setConstant(std::numeric_limits<double>::infinity());
+    upper.setConstant(-std::numeric_limits<double>::infinity());
+  }
+}
+
 }  // namespace
 
 StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Positions& path,
@@ -206,40 +276,8 @@ StrokeBand stroke_band(const Positions& positions, const Faces& faces, const Pos
   band.half_width = 0.5 * width;
   band.tangent_span =
       crossed_faces.empty() ? 0.0 : edge_sum / (3.0 * static_cast<double>(crossed_faces.size()));
-  if (path.rows() > 0) {
-    const PathGeometry geometry(path, path_part, reach);
-    const Eigen::RowVector3d lower = path.colwise().minCoeff().array() - reach;
-    const Eigen::RowVector3d upper = path.colwise().maxCoeff().array() + reach;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Eigen::RowVector3d x = positions.row(i);
-      if (outside(x, lower, upper)) continue;
-      const PathGeometry::Nearest nearest = geometry.nearest(x);
-      band.vertex_distance[i] = nearest.distance;
-      band.vertex_tangent.row(i) = geometry.tangent(nearest, band.tangent_span);
-      band.vertex_weight[i] = width > 0.0 ? falloff_weight(nearest.distance, 0.5 * width) : 0.0;
-    }
-  }
-  std::vector<char> in_band(static_cast<std::size_t>(faces.rows()), 0);
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    if (crossed[static_cast<std::size_t>(f)]) {
-      // with a width the weights are the falloff's alone (forcing the crossed faces' corners
-      // to 1 would grow a strip one face wide in full: O(h) more area on coarser meshes)
-      in_band[static_cast<std::size_t>(f)] = 1;
-      if (!(width > 0.0)) {
-        for (int c = 0; c < 3; ++c) band.vertex_weight[faces(f, c)] = 1.0;
-      }
-      continue;
-    }
-    if (width > 0.0) {
-      for (int c = 0; c < 3; ++c) {
-        if (band.vertex_distance[faces(f, c)] < 0.5 * width)
-          in_band[static_cast<std::size_t>(f)] = 1;
-      }
-    }
-  }
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    if (in_band[static_cast<std::size_t>(f)]) band.faces.push_back(static_cast<std::int32_t>(f));
-  }
+  if (path.rows() > 0) measure_vertices(positions, path, path_part, width, band);
+  select_faces(faces, crossed, width, band);
   return band;
 }
 
@@ -258,22 +296,10 @@ Growth grow_rest_lengths(const Positions& positions, const SpringSet& springs,
   const GrowthRule& rule = growth_rule(mode);
   // the springs' midpoints are looked up too: reach half the longest spring with an end in
   // the band further, so every spring that grows finds its tangent
-  double half_spring = 0.0;
-  for (std::size_t k = 0; k < springs.size(); ++k) {
-    const std::int32_t i = springs.first[k], j = springs.second[k];
-    if (band.vertex_weight[i] > 0.0 || band.vertex_weight[j] > 0.0) {
-      half_spring = std::max(half_spring, 0.5 * (positions.row(j) - positions.row(i)).norm());
-    }
-  }
-  const PathGeometry geometry(band.path, band.path_part, band.reach + half_spring);
+  const PathGeometry geometry(band.path, band.path_part,
+                              band.reach + half_longest_band_spring(positions, springs, band));
   Eigen::RowVector3d lower = Eigen::RowVector3d::Zero(), upper = Eigen::RowVector3d::Zero();
-  if (band.path.rows() > 0) {  // midpoints outside the path's box grown by reach: weight 0
-    lower = band.path.colwise().minCoeff().array() - band.reach;
-    upper = band.path.colwise().maxCoeff().array() + band.reach;
-  } else {
-    lower.setConstant(std::numeric_limits<double>::infinity());
-    upper.setConstant(-std::numeric_limits<double>::infinity());
-  }
+  path_box(band, lower, upper);
   const auto count = static_cast<Eigen::Index>(springs.size());
   Growth growth;
   growth.rest_lengths = Eigen::Map<const Eigen::VectorXd>(springs.rest_length.data(), count);

@@ -135,6 +135,52 @@ std::invalid_argument too_many_samples(std::int64_t max_samples, double needed, 
   return std::invalid_argument(msg.str());
 }
 
+// One evaluation of a stroke's curve: its arc length and what it hit.
+struct TraceSample {
+  double s;
+  std::optional<SurfaceHit> hit;
+};
+
+// The arc lengths sampled first: `length` in steps of at most `spacing`, and the breakpoints
+// inside it, sorted and unique.
+std::vector<double> sample_starts(double length, double spacing,
+                                  const std::vector<double>& breakpoints) {
+  const auto intervals =
+      std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(length / spacing)));
+  std::vector<double> starts;
+  starts.reserve(static_cast<std::size_t>(intervals) + 1 + breakpoints.size());
+  for (std::int64_t k = 0; k <= intervals; ++k) {
+    starts.push_back(length * static_cast<double>(k) / static_cast<double>(intervals));
+  }
+  for (const double s : breakpoints) {
+    if (s > 0.0 && s < length) starts.push_back(s);
+  }
+  std::sort(starts.begin(), starts.end());
+  starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
+  return starts;
+}
+
+// The samples that hit, in stroke order, as the trace's path (a new part after each miss) and
+// its crossed faces (each with the mean barycentric coordinates of its samples).
+void collect_hits(const std::vector<TraceSample>& samples, StrokeTrace& trace) {
+  std::map<std::int32_t, std::size_t> slot_of_face;
+  std::int32_t part = 0;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const TraceSample& sample = samples[k];
+    if (!sample.hit) {
+      if (k > 0 && samples[k - 1].hit) ++part;
+      continue;
+    }
+    trace.path.push_back({sample.hit->face, sample.hit->barycentric, part});
+    const auto [it, inserted] = slot_of_face.emplace(sample.hit->face, trace.crossings.size());
+    if (inserted) trace.crossings.push_back({sample.hit->face, Eigen::Vector3d::Zero(), 0});
+    StrokeCrossing& crossing = trace.crossings[it->second];
+    crossing.barycentric += sample.hit->barycentric;
+    ++crossing.samples;
+  }
+  for (StrokeCrossing& crossing : trace.crossings) crossing.barycentric /= crossing.samples;
+}
+
 }  // namespace
 
 StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>& query,
@@ -147,10 +193,7 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
   const double needed = std::ceil(length / spacing) + 1.0 + static_cast<double>(breakpoints.size());
   if (!(needed <= static_cast<double>(max_samples)))
     throw too_many_samples(max_samples, needed, spacing, length);
-  struct Sample {
-    double s;
-    std::optional<SurfaceHit> hit;
-  };
+  using Sample = TraceSample;
   StrokeTrace trace;
   std::vector<Sample> samples;
   auto evaluate = [&](double s) {
@@ -174,18 +217,7 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
     samples.push_back(middle);
     refine(middle, right);
   };
-  const auto intervals =
-      std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(length / spacing)));
-  std::vector<double> starts;
-  starts.reserve(static_cast<std::size_t>(intervals) + 1 + breakpoints.size());
-  for (std::int64_t k = 0; k <= intervals; ++k) {
-    starts.push_back(length * static_cast<double>(k) / static_cast<double>(intervals));
-  }
-  for (const double s : breakpoints) {
-    if (s > 0.0 && s < length) starts.push_back(s);
-  }
-  std::sort(starts.begin(), starts.end());
-  starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
+  const std::vector<double> starts = sample_starts(length, spacing, breakpoints);
   Sample previous = evaluate(starts.front());
   samples.push_back(previous);
   for (std::size_t k = 1; k < starts.size(); ++k) {
@@ -194,22 +226,7 @@ StrokeTrace trace_stroke(const std::function<std::optional<SurfaceHit>(double)>&
     samples.push_back(next);
     previous = next;
   }
-  std::map<std::int32_t, std::size_t> slot_of_face;
-  std::int32_t part = 0;
-  for (std::size_t k = 0; k < samples.size(); ++k) {
-    const Sample& sample = samples[k];
-    if (!sample.hit) {
-      if (k > 0 && samples[k - 1].hit) ++part;
-      continue;
-    }
-    trace.path.push_back({sample.hit->face, sample.hit->barycentric, part});
-    const auto [it, inserted] = slot_of_face.emplace(sample.hit->face, trace.crossings.size());
-    if (inserted) trace.crossings.push_back({sample.hit->face, Eigen::Vector3d::Zero(), 0});
-    StrokeCrossing& crossing = trace.crossings[it->second];
-    crossing.barycentric += sample.hit->barycentric;
-    ++crossing.samples;
-  }
-  for (StrokeCrossing& crossing : trace.crossings) crossing.barycentric /= crossing.samples;
+  collect_hits(samples, trace);
   return trace;
 }
 

@@ -58,19 +58,13 @@ void check_splits(const std::vector<FaceSplit>& splits, Eigen::Index face_count)
   }
 }
 
-}  // namespace
-
-Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
-                           const std::vector<FaceSplit>& splits, double min_barycentric,
-                           double min_angle_degrees_limit) {
-  if (!(min_barycentric >= 0.0 && min_barycentric < 1.0 / 3.0)) {
-    fail("min_barycentric must be in [0, 1/3)");
-  }
-  const Eigen::Index face_count = faces.rows();
-  check_splits(splits, face_count);
-
-  Split1to3 out;
-  // Choose the split points.
+// Each split's point: its barycentric weights clamped to >= 0, blended towards the centroid
+// until the smallest is min_barycentric, or the centroid itself when a child would have an angle
+// below the limit; a face whose centroid fails too is skipped. Into `out`'s split_faces,
+// weights, moved_inward and faces_skipped.
+void choose_split_points(const Positions& positions, const Faces& faces,
+                         const std::vector<FaceSplit>& splits, double min_barycentric,
+                         double min_angle_degrees_limit, Split1to3& out) {
   for (const FaceSplit& split : splits) {
     const std::int32_t a = faces(split.face, 0), b = faces(split.face, 1), c = faces(split.face, 2);
     const Eigen::Vector3d xa = positions.row(a), xb = positions.row(b), xc = positions.row(c);
@@ -96,6 +90,21 @@ Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
     out.split_faces.push_back(split.face);
     out.weights.push_back(weights);
   }
+}
+
+}  // namespace
+
+Split1to3 split_faces_1to3(const Positions& positions, const Faces& faces,
+                           const std::vector<FaceSplit>& splits, double min_barycentric,
+                           double min_angle_degrees_limit) {
+  if (!(min_barycentric >= 0.0 && min_barycentric < 1.0 / 3.0)) {
+    fail("min_barycentric must be in [0, 1/3)");
+  }
+  const Eigen::Index face_count = faces.rows();
+  check_splits(splits, face_count);
+
+  Split1to3 out;
+  choose_split_points(positions, faces, splits, min_barycentric, min_angle_degrees_limit, out);
 
   const Eigen::Index old_vertices = positions.rows();
   const auto added = static_cast<Eigen::Index>(out.split_faces.size());
