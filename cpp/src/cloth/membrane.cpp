@@ -455,6 +455,41 @@ double add_subcells(const MembraneElements& elements, std::size_t e, const Posit
 
 }  // namespace
 
+namespace {
+
+// The element's Hessian blocks (lower triangle, row-major) into work.blocks:
+// ∂grad_p/∂x_q = A [(d_pᵀ S̃ d_q) I + μ f_q f_pᵀ + μ (d_p·d_q) F Fᵀ + λ f_p f_qᵀ], f_k = F d_k,
+// S̃ the filtered stress (the derivative of A F S d_p with S = 2μE + λ tr(E) I).
+void element_hessian(const MembraneElements& elements, std::size_t e, const Mat32& F,
+                     const Eigen::Matrix2d& S, double mu, double lambda, TransverseFilter filter,
+                     MembraneElementWork& work) {
+  const auto begin = static_cast<std::size_t>(elements.starts[e]);
+  const std::size_t m = static_cast<std::size_t>(elements.starts[e + 1]) - begin;
+  const double area = elements.area[e];
+  auto d = [&](std::size_t k) {
+    return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
+  };
+  if (work.directions.size() < m) work.directions.resize(m);
+  if (work.blocks.size() < m * (m + 1) / 2) work.blocks.resize(m * (m + 1) / 2);
+  const Eigen::Matrix2d stress = filtered_stress(S, filter);
+  const Mat3 outer = F * F.transpose();
+  for (std::size_t k = 0; k < m; ++k) work.directions[k] = F * d(k);
+  for (std::size_t p = 0; p < m; ++p) {
+    const Eigen::Vector2d dp = d(p);
+    const Vec3& fp = work.directions[p];
+    for (std::size_t q = 0; q <= p; ++q) {
+      const Eigen::Vector2d dq = d(q);
+      const Vec3& fq = work.directions[q];
+      Mat3& block = work.blocks[p * (p + 1) / 2 + q];
+      block = (mu * dp.dot(dq)) * outer + mu * fq * fp.transpose() + lambda * fp * fq.transpose();
+      block.diagonal().array() += dp.dot(stress * dq);
+      block *= area;
+    }
+  }
+}
+
+}  // namespace
+
 double membrane_element(const MembraneElements& elements, std::size_t e, const Positions& x,
                         double mu, double lambda, TransverseFilter filter,
                         MembraneElementWork& work, bool with_gradient, bool with_hessian) {
@@ -490,27 +525,7 @@ double membrane_element(const MembraneElements& elements, std::size_t e, const P
     const Mat32 P = area * F * S;
     for (std::size_t k = 0; k < m; ++k) work.gradient[k] = P * d(k);
   }
-  if (with_hessian) {
-    // ∂grad_p/∂x_q = A [(d_pᵀ S̃ d_q) I + μ f_q f_pᵀ + μ (d_p·d_q) F Fᵀ + λ f_p f_qᵀ], f_k = F d_k,
-    // S̃ the filtered stress (the derivative of A F S d_p with S = 2μE + λ tr(E) I).
-    if (work.directions.size() < m) work.directions.resize(m);
-    if (work.blocks.size() < m * (m + 1) / 2) work.blocks.resize(m * (m + 1) / 2);
-    const Eigen::Matrix2d stress = filtered_stress(S, filter);
-    const Mat3 outer = F * F.transpose();
-    for (std::size_t k = 0; k < m; ++k) work.directions[k] = F * d(k);
-    for (std::size_t p = 0; p < m; ++p) {
-      const Eigen::Vector2d dp = d(p);
-      const Vec3& fp = work.directions[p];
-      for (std::size_t q = 0; q <= p; ++q) {
-        const Eigen::Vector2d dq = d(q);
-        const Vec3& fq = work.directions[q];
-        Mat3& block = work.blocks[p * (p + 1) / 2 + q];
-        block = (mu * dp.dot(dq)) * outer + mu * fq * fp.transpose() + lambda * fp * fq.transpose();
-        block.diagonal().array() += dp.dot(stress * dq);
-        block *= area;
-      }
-    }
-  }
+  if (with_hessian) element_hessian(elements, e, F, S, mu, lambda, filter, work);
   if (subcells) {
     energy += add_subcells(elements, e, x, F, E, mu, lambda, filter, work, with_gradient,
                            with_hessian, mean_material, mean_stress);

@@ -52,6 +52,23 @@ void for_each_subcell_difference(const MembraneElements& elements, std::size_t e
 // `positions`, the stress term clamped (PSD), applied per element in O(corners): with
 // X = Σ_q x_q d_qᵀ, Σ_q H_pq x_q = A [X S̃ d_p + μ F Xᵀ F d_p + μ F Fᵀ X d_p + λ tr(F Xᵀ) F d_p]
 // (membrane_element's blocks summed).
+// y += diag(scale) H diag(scale) x for one element's Hessian blocks (lower triangle in
+// work.blocks, corners begin..end of the element).
+void apply_blocks(const MembraneElements& elements, std::size_t begin, std::size_t end,
+                  const MembraneElementWork& work, const Eigen::VectorXd& scale,
+                  const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+  for (std::size_t p = begin; p < end; ++p) {
+    for (std::size_t q = begin; q <= p; ++q) {
+      const Mat3& block = work.blocks[(p - begin) * (p - begin + 1) / 2 + (q - begin)];
+      const std::int32_t i = elements.corners[p], j = elements.corners[q];
+      y.segment<3>(3 * i) += scale[i] * (block * (scale[j] * x.segment<3>(3 * j)));
+      if (p != q) {
+        y.segment<3>(3 * j) += scale[j] * (block.transpose() * (scale[i] * x.segment<3>(3 * i)));
+      }
+    }
+  }
+}
+
 void add_membrane_product(const MembraneElements& elements, const MembraneMaterial& material,
                           const Positions& positions, bool every_state,
                           const Eigen::VectorXd& scale, const Eigen::VectorXd& x,
@@ -68,17 +85,7 @@ void add_membrane_product(const MembraneElements& elements, const MembraneMateri
     if (subcells && !every_state) {  // its clamped blocks, applied
       membrane_element(elements, e, positions, mu, lambda, TransverseFilter::clamp, work, false,
                        true);
-      for (std::size_t p = begin; p < end; ++p) {
-        for (std::size_t q = begin; q <= p; ++q) {
-          const Mat3& block = work.blocks[(p - begin) * (p - begin + 1) / 2 + (q - begin)];
-          const std::int32_t i = elements.corners[p], j = elements.corners[q];
-          y.segment<3>(3 * i) += scale[i] * (block * (scale[j] * x.segment<3>(3 * j)));
-          if (p != q) {
-            y.segment<3>(3 * j) +=
-                scale[j] * (block.transpose() * (scale[i] * x.segment<3>(3 * i)));
-          }
-        }
-      }
+      apply_blocks(elements, begin, end, work, scale, x, y);
       continue;
     }
     if (subcells) {
