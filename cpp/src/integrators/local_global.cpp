@@ -12,6 +12,57 @@
 #include "yore/solvers/spring_matrix.hpp"
 
 namespace yore {
+namespace {
+
+// −κ Q_fc x_c: quadratic bending's coupling of each free vertex to the constrained ones, taken
+// from its row of `rhs`.
+void subtract_constrained_bending(const QuadraticBendingMatrix& bending, double modulus,
+                                  const std::vector<std::int32_t>& free_vertices,
+                                  const std::vector<std::int32_t>& free_of_vertex,
+                                  const Positions& x, Positions& rhs) {
+  for (std::size_t b = 0; b < free_vertices.size(); ++b) {
+    const std::int32_t i = free_vertices[b];
+    for (std::int32_t k = bending.row_starts[static_cast<std::size_t>(i)];
+         k < bending.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+      const std::int32_t j = bending.columns[static_cast<std::size_t>(k)];
+      if (free_of_vertex[static_cast<std::size_t>(j)] >= 0) continue;
+      rhs.row(static_cast<Eigen::Index>(b)) -=
+          modulus * bending.values[static_cast<std::size_t>(k)] * x.row(j);
+    }
+  }
+}
+
+// The objective's inertia, drag and gravity terms' gradient at x, one row per free vertex:
+// m/h² (x − x̂) + drag m/h (x − x₀) − m g.
+void inertia_gradient(const Eigen::VectorXd& masses, double dt, double drag, const Vec3& gravity,
+                      const std::vector<std::int32_t>& free_vertices, const Positions& x,
+                      const Positions& target, const Positions& start, Positions& gradient) {
+  for (std::size_t b = 0; b < free_vertices.size(); ++b) {
+    const std::int32_t i = free_vertices[b];
+    const double m = masses[i];
+    gradient.row(static_cast<Eigen::Index>(b)) = m / (dt * dt) * (x.row(i) - target.row(i)) +
+                                                 drag * m / dt * (x.row(i) - start.row(i)) -
+                                                 m * gravity.transpose();
+  }
+}
+
+// ∇ of ½ κ xᵀ Q x, κ (Q x)ᵢ, added to each free vertex's row of `gradient`.
+void add_bending_gradient(const QuadraticBendingMatrix& bending, double modulus,
+                          const std::vector<std::int32_t>& free_vertices, const Positions& x,
+                          Positions& gradient) {
+  for (std::size_t b = 0; b < free_vertices.size(); ++b) {
+    const std::int32_t i = free_vertices[b];
+    Eigen::RowVector3d product = Eigen::RowVector3d::Zero();
+    for (std::int32_t k = bending.row_starts[static_cast<std::size_t>(i)];
+         k < bending.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+      product += bending.values[static_cast<std::size_t>(k)] *
+                 x.row(bending.columns[static_cast<std::size_t>(k)]);
+    }
+    gradient.row(static_cast<Eigen::Index>(b)) += modulus * product;
+  }
+}
+
+}  // namespace
 
 LocalGlobalIntegrator::LocalGlobalIntegrator(const LocalGlobalOptions& options)
     : m_options(options),
@@ -239,10 +290,10 @@ double LocalGlobalIntegrator::objective(const Cloth& cloth, const Positions& x) 
   return energy;
 }
 
+// The step's constants: the predictor, the right-hand side's constant part (inertia, drag,
+// gravity, damping, constrained neighbours, quadratic bending's coupling to them) and the
+// damping directions. Returns the mean rest length, the unit of the tolerances.
 double LocalGlobalIntegrator::begin_step(Cloth& cloth, const Vec3& gravity, double dt) {
-  // The step's constants: the predictor, the right-hand side's constant part (inertia, drag,
-  // gravity, damping, constrained neighbours, quadratic bending's coupling to them) and the
-  // damping directions. Returns the mean rest length, the unit of the tolerances.
   m_h = dt;
   m_gravity = gravity;
   m_start = cloth.positions();
@@ -292,20 +343,9 @@ double LocalGlobalIntegrator::begin_step(Cloth& cloth, const Vec3& gravity, doub
   }
   // Quadratic bending is quadratic in x: all of it is in the global matrix (κ Q over the free
   // unknowns); the right-hand side takes its coupling to constrained vertices, −κ Q_fc x_c.
-  const bool with_bending = cloth.has_quadratic_bending();
-  const QuadraticBendingMatrix* bending = with_bending ? &cloth.quadratic_bending() : nullptr;
-  const double modulus = cloth.bending_modulus();
-  if (with_bending) {
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      const std::int32_t i = m_free_vertices[b];
-      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
-           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
-        if (m_free_of_vertex[static_cast<std::size_t>(j)] >= 0) continue;
-        m_base_rhs.row(static_cast<Eigen::Index>(b)) -=
-            modulus * bending->values[static_cast<std::size_t>(k)] * m_iterate.row(j);
-      }
-    }
+  if (cloth.has_quadratic_bending()) {
+    subtract_constrained_bending(cloth.quadratic_bending(), cloth.bending_modulus(),
+                                 m_free_vertices, m_free_of_vertex, m_iterate, m_base_rhs);
   }
   // Tolerances and residuals are relative to the mean rest length, as the Newton integrator's.
   const double mean_rest_length =
@@ -314,28 +354,20 @@ double LocalGlobalIntegrator::begin_step(Cloth& cloth, const Vec3& gravity, doub
   return mean_rest_length;
 }
 
+// The local step: every spring's ideal vector into the right-hand side. With `with_gradient`
+// (the step's last pass: the residual is reported, never tested) also the objective's gradient
+// at the iterate (m_gradient) in the same pass; returns the Newton-style residual max |∇ᵢE| h²/mᵢ
+// then, NaN when the right-hand side is not finite, 0 otherwise.
 double LocalGlobalIntegrator::local_step(const Cloth& cloth, bool with_gradient) {
-  // The local step: every spring's ideal vector into the right-hand side. With `with_gradient`
-  // (the step's last pass: the residual is reported, never tested) also the objective's
-  // gradient at the iterate (m_gradient) in the same pass; returns the Newton-style residual
-  // max |∇ᵢE| h²/mᵢ then, NaN when the right-hand side is not finite, 0 otherwise.
   const double dt = m_h;
   const Vec3& gravity = m_gravity;
   const SpringSet& springs = cloth.springs();
   const double drag = cloth.drag();
-  const bool with_bending = cloth.has_quadratic_bending();
-  const QuadraticBendingMatrix* bending = with_bending ? &cloth.quadratic_bending() : nullptr;
-  const double modulus = cloth.bending_modulus();
   ScopedTimer timer(m_statistics.assemble_seconds);
   m_rhs_rows = m_base_rhs;
   if (with_gradient) {
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      const std::int32_t i = m_free_vertices[b];
-      const double m = cloth.masses()[i];
-      m_gradient.row(static_cast<Eigen::Index>(b)) =
-          m / (dt * dt) * (m_iterate.row(i) - m_target.row(i)) +
-          drag * m / dt * (m_iterate.row(i) - m_start.row(i)) - m * gravity.transpose();
-    }
+    inertia_gradient(cloth.masses(), dt, drag, gravity, m_free_vertices, m_iterate, m_target,
+                     m_start, m_gradient);
   }
   for (std::size_t s = 0; s < springs.size(); ++s) {
     const std::int32_t i = springs.first[s], j = springs.second[s];
@@ -372,17 +404,9 @@ double LocalGlobalIntegrator::local_step(const Cloth& cloth, bool with_gradient)
   }
   m_rhs = m_rhs_rows;  // column-major for the solver
   if (!with_gradient) return m_rhs.allFinite() ? 0.0 : std::numeric_limits<double>::quiet_NaN();
-  if (with_bending) {  // ∇ of ½ κ xᵀ Q x: κ (Q x)ᵢ
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      const std::int32_t i = m_free_vertices[b];
-      Eigen::RowVector3d product = Eigen::RowVector3d::Zero();
-      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
-           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-        product += bending->values[static_cast<std::size_t>(k)] *
-                   m_iterate.row(bending->columns[static_cast<std::size_t>(k)]);
-      }
-      m_gradient.row(static_cast<Eigen::Index>(b)) += modulus * product;
-    }
+  if (cloth.has_quadratic_bending()) {
+    add_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(), m_free_vertices,
+                         m_iterate, m_gradient);
   }
   double residual = 0.0;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
