@@ -299,32 +299,31 @@ def test_a_stiffness_past_the_limit_in_a_state_is_refused(state_file):
     one_line_error(state_file, "spring_stiffness|stiffness \\(at most 1e\\+12")
 
 
-def test_a_header_announcing_more_data_than_stored_allocates_nothing(state_file):
+def _rewrite_positions_header(state_file, old, new):
+    """The state file with `old` replaced by `new` in its positions member's .npy header (the
+    zip's CRC rewritten with it)."""
     import zipfile
 
     with zipfile.ZipFile(state_file) as archive:
         members = {name: archive.read(name) for name in archive.namelist()}
     member = "simulation/cloth/positions.npy"
-    # Same length, so the header stays well formed; the CRC is rewritten with it.
-    members[member] = members[member].replace(b"'shape': (9, 3)", b"'shape':(999,3)", 1)
+    assert old in members[member]
+    members[member] = members[member].replace(old, new, 1)
     with zipfile.ZipFile(state_file, "w") as archive:
         for name, data in members.items():
             archive.writestr(name, data)
+
+
+def test_a_header_announcing_more_data_than_stored_allocates_nothing(state_file):
+    # Same length, so the header stays well formed.
+    _rewrite_positions_header(state_file, b"'shape': (9, 3)", b"'shape':(999,3)")
     one_line_error(state_file, "positions: ValueError: the header announces shape \\(999, 3\\)")
 
 
 def test_a_header_with_an_unclosed_bracket_is_one_value_error(state_file):
     # numpy parses the header with ast, then retries it with tokenize, which raises its own
     # TokenError (not a ValueError) for a bracket never closed: found by test_fuzz's flips
-    import zipfile
-
-    with zipfile.ZipFile(state_file) as archive:
-        members = {name: archive.read(name) for name in archive.namelist()}
-    member = "simulation/cloth/positions.npy"
-    members[member] = members[member].replace(b"'shape': (9, 3)", b"'shape': (9, 3 ", 1)
-    with zipfile.ZipFile(state_file, "w") as archive:
-        for name, data in members.items():
-            archive.writestr(name, data)
+    _rewrite_positions_header(state_file, b"'shape': (9, 3)", b"'shape': (9, 3 ")
     one_line_error(state_file, "positions: TokenError")
 
 
