@@ -176,6 +176,20 @@ SCHEMES = (
     ("tr-bdf2", {"predictor": "extrapolated"}),
     ("tr-bdf2", {"dt": "auto", "rtol": 1e-3}),
     ("quasi-newton", {"method": "bdf2"}),
+    # the Hessian projections (each takes its own path through Newton's assembly and solve)
+    ("implicit", {"projection": "steihaug"}),
+    ("bdf2", {"projection": "exact"}),
+    ("bdf2", {"projection": "abs"}),
+    ("bdf2", {"projection": "shifted"}),
+    ("bdf2", {"projection": "trust-region"}),
+    ("bdf2", {"lagged_factorization": True}),
+    # the continuum terms: quadratic bending and the membrane in Newton's assembly
+    ("bdf2", {"bending": "quadratic", "bending_modulus": 1e-4}),
+    (
+        "implicit",
+        {"stretch": "membrane", "young_modulus": 1e3, "poisson_ratio": 0.3, "projection": "abs"},
+    ),
+    ("explicit", {"stretch": "membrane", "young_modulus": 1e3, "poisson_ratio": 0.3, "dt": 2e-4}),
 )
 
 

@@ -267,26 +267,44 @@ void NewtonSolver::update_tension(const Cloth& cloth, double alpha) {
   }
 }
 
-// over 80 lines: the assembly pass (inertia, springs, quadratic bending into one energy sum,
-// gradient and Hessian values) runs in every Newton iteration and line-search trial; its
-// stages share the running sums whose order fixes the round-off, so it stays one pass.
+namespace {
+// What the assembly does to a compressed spring's transverse Hessian, by projection.
+TransverseFilter filter_of(HessianProjection projection) {
+  if (projection == HessianProjection::exact || projection == HessianProjection::shifted) {
+    return TransverseFilter::exact;
+  }
+  return projection == HessianProjection::abs ? TransverseFilter::abs : TransverseFilter::clamp;
+}
+}  // namespace
+
+// The incremental potential at x: its energy, and (as asked) its gradient into m_gradient and
+// its Hessian's values into m_values. The terms add to one running sum in a fixed order
+// (inertia, springs, quadratic bending, membrane), which fixes the round-off.
 double NewtonSolver::evaluate(const Cloth& cloth, const Positions& x, bool with_gradient,
                               bool with_hessian, HessianProjection projection) {
-  const TransverseFilter filter =
-      projection == HessianProjection::exact || projection == HessianProjection::shifted
-          ? TransverseFilter::exact
-      : projection == HessianProjection::abs ? TransverseFilter::abs
-                                             : TransverseFilter::clamp;
+  const TransverseFilter filter = filter_of(projection);
   const Stopwatch start;
+  double energy = 0.0, magnitude = 0.0;  // the sum and the sum of the terms' magnitudes
+  if (with_gradient) m_gradient.setZero();
+  if (with_hessian) std::fill(m_values.begin(), m_values.end(), 0.0);
+  evaluate_inertia(cloth, x, with_gradient, with_hessian, energy, magnitude);
+  evaluate_springs(cloth, x, with_gradient, with_hessian, filter, energy, magnitude);
+  if (cloth.has_quadratic_bending())
+    evaluate_bending(cloth, x, with_gradient, with_hessian, energy, magnitude);
+  if (cloth.has_membrane())
+    evaluate_membrane(cloth, x, with_gradient, with_hessian, filter, energy, magnitude);
+  m_energy_magnitude = magnitude;
+  m_statistics.assemble_seconds += start.seconds();
+  return energy;
+}
+
+void NewtonSolver::evaluate_inertia(const Cloth& cloth, const Positions& x, bool with_gradient,
+                                    bool with_hessian, double& energy, double& magnitude) {
+  // Inertia, air drag and gravity of the free vertices.
   const double h = m_stage.h,
                hv = m_stage.hv;  // inertia's h̃ and the velocity scale (equal but for GA)
   const double drag = cloth.drag();
   const Eigen::VectorXd& masses = cloth.masses();
-  double energy = 0.0, magnitude = 0.0;  // the sum and the sum of the terms' magnitudes
-  if (with_gradient) m_gradient.setZero();
-  if (with_hessian) std::fill(m_values.begin(), m_values.end(), 0.0);
-
-  // Inertia, air drag and gravity of the free vertices.
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
     const std::int32_t i = m_free_vertices[b];
     const double m = masses[i];
@@ -310,8 +328,13 @@ double NewtonSolver::evaluate(const Cloth& cloth, const Positions& x, bool with_
       }
     }
   }
+}
 
+void NewtonSolver::evaluate_springs(const Cloth& cloth, const Positions& x, bool with_gradient,
+                                    bool with_hessian, TransverseFilter filter, double& energy,
+                                    double& magnitude) {
   // Springs: elasticity (Hessian filtered as asked) and damping along the predicted directions.
+  const double hv = m_stage.hv;
   const SpringSet& springs = cloth.springs();
   for (std::size_t k = 0; k < springs.size(); ++k) {
     const std::int32_t i = springs.first[k], j = springs.second[k];
@@ -342,60 +365,62 @@ double NewtonSolver::evaluate(const Cloth& cloth, const Positions& x, bool with_
                        ? spring_hessian_with_force(xi, xj, stiffness, m_tension[k], filter)
                        : spring_hessian(xi, xj, rest, stiffness, filter);
       if (c > 0.0) block += (c / hv) * n0 * n0.transpose();
-      const auto& starts = m_pattern.column_starts;
-      for (const std::int32_t dof : {a, b}) {
-        if (dof < 0) continue;
-        for (int col = 0; col < 3; ++col) {
-          for (int row = col; row < 3; ++row) {
-            m_values[static_cast<std::size_t>(starts[static_cast<std::size_t>(dof + col)] +
-                                              (row - col))] += block(row, col);
-          }
-        }
-      }
-      if (a >= 0 && b >= 0) {
-        for (int col = 0; col < 3; ++col) {
-          const std::int64_t slot = m_spring_slots[3 * k + static_cast<std::size_t>(col)];
-          for (int row = 0; row < 3; ++row) {
-            m_values[static_cast<std::size_t>(slot + row)] -= block(row, col);
-          }
-        }
+      add_spring_block(k, a, b, block);
+    }
+  }
+}
+
+void NewtonSolver::add_spring_block(std::size_t k, std::int32_t a, std::int32_t b,
+                                    const Mat3& block) {
+  // +block in both unknowns' diagonal blocks (their lower triangles), −block in the pair's
+  // off-diagonal block (ensure_structure's m_spring_slots) when both ends are free.
+  const auto& starts = m_pattern.column_starts;
+  for (const std::int32_t dof : {a, b}) {
+    if (dof < 0) continue;
+    for (int col = 0; col < 3; ++col) {
+      for (int row = col; row < 3; ++row) {
+        m_values[static_cast<std::size_t>(starts[static_cast<std::size_t>(dof + col)] +
+                                          (row - col))] += block(row, col);
       }
     }
   }
-  if (cloth.has_quadratic_bending()) {
-    // Quadratic bending: ½ κ xᵀ Q x per coordinate, gradient κ Q x, constant Hessian κ Q ⊗ I₃.
-    const QuadraticBendingMatrix& bending = cloth.quadratic_bending();
-    const double modulus = cloth.bending_modulus();
-    double twice_bending = 0.0;
-    for (Eigen::Index i = 0; i < x.rows(); ++i) {
-      Vec3 product = Vec3::Zero();
-      for (std::int32_t k = bending.row_starts[static_cast<std::size_t>(i)];
-           k < bending.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-        product += bending.values[static_cast<std::size_t>(k)] *
-                   x.row(bending.columns[static_cast<std::size_t>(k)]).transpose();
-      }
-      product *= modulus;
-      twice_bending += x.row(i).dot(product);
-      const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
-      if (with_gradient && a >= 0) m_gradient.segment<3>(a) += product;
-    }
-    energy += 0.5 * twice_bending;
-    magnitude += std::abs(0.5 * twice_bending);
-    if (with_hessian) {
-      for (std::size_t k = 0; k < bending.columns.size(); ++k) {
-        const double value = modulus * bending.values[k];
-        for (std::size_t c = 0; c < 3; ++c) {
-          const std::int64_t slot = m_bending_slots[3 * k + c];
-          if (slot >= 0) m_values[static_cast<std::size_t>(slot)] += value;
-        }
-      }
+  if (a < 0 || b < 0) return;
+  for (int col = 0; col < 3; ++col) {
+    const std::int64_t slot = m_spring_slots[3 * k + static_cast<std::size_t>(col)];
+    for (int row = 0; row < 3; ++row) {
+      m_values[static_cast<std::size_t>(slot + row)] -= block(row, col);
     }
   }
-  if (cloth.has_membrane())
-    evaluate_membrane(cloth, x, with_gradient, with_hessian, filter, energy, magnitude);
-  m_energy_magnitude = magnitude;
-  m_statistics.assemble_seconds += start.seconds();
-  return energy;
+}
+
+void NewtonSolver::evaluate_bending(const Cloth& cloth, const Positions& x, bool with_gradient,
+                                    bool with_hessian, double& energy, double& magnitude) {
+  // Quadratic bending: ½ κ xᵀ Q x per coordinate, gradient κ Q x, constant Hessian κ Q ⊗ I₃.
+  const QuadraticBendingMatrix& bending = cloth.quadratic_bending();
+  const double modulus = cloth.bending_modulus();
+  double twice_bending = 0.0;
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    Vec3 product = Vec3::Zero();
+    for (std::int32_t k = bending.row_starts[static_cast<std::size_t>(i)];
+         k < bending.row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+      product += bending.values[static_cast<std::size_t>(k)] *
+                 x.row(bending.columns[static_cast<std::size_t>(k)]).transpose();
+    }
+    product *= modulus;
+    twice_bending += x.row(i).dot(product);
+    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(i)];
+    if (with_gradient && a >= 0) m_gradient.segment<3>(a) += product;
+  }
+  energy += 0.5 * twice_bending;
+  magnitude += std::abs(0.5 * twice_bending);
+  if (!with_hessian) return;
+  for (std::size_t k = 0; k < bending.columns.size(); ++k) {
+    const double value = modulus * bending.values[k];
+    for (std::size_t c = 0; c < 3; ++c) {
+      const std::int64_t slot = m_bending_slots[3 * k + c];
+      if (slot >= 0) m_values[static_cast<std::size_t>(slot)] += value;
+    }
+  }
 }
 
 void NewtonSolver::evaluate_membrane(const Cloth& cloth, const Positions& x, bool with_gradient,

@@ -337,105 +337,31 @@ void NewtonSolver::refactor_clamped(const Cloth& cloth, bool& same) {
   m_factor_valid = true;
 }
 
-// over 80 lines: one trust-region Newton–CG loop; the flags that say what the factor and the
-// assembled values are of (assembled, current, same, fresh) and the radius change together
-// within an iteration, and splitting the loop would pass them all by reference.
 void NewtonSolver::steihaug_iterate(const Cloth& cloth, double& energy, double& residual,
                                     int& iterations, int& backtracks, bool& converged) {
   // Trust-region Newton–CG: each accepted iterate assembles the exact and the clamped Hessian
   // and factors the clamped one (SPD: never refused); a step the ratio test refuses is solved
   // again, on the same factor, in a smaller region.
-  bool assembled = false;  // m_exact_values (and the gradient) are of m_iterate
-  bool current = false;    // the factor is of m_iterate's clamped Hessian
-  bool same = false;       // and that equals the exact one
-  double first_residual = -1.0;
-  double last_move = 0.0, rate = 1.0;  // the truncation test's memory within the step
+  SteihaugLoop loop;
   while (true) {
     poll_interrupt();  // max_newton is user-typed
     const IterationVerdict now = verdict(energy, residual, iterations);
-    if (now == IterationVerdict::diverged) break;  // the state is checked after the step
-    if (now == IterationVerdict::converged) {
-      converged = true;
-      break;
-    }
-    if (now == IterationVerdict::at_cap) break;
-    bool fresh = false;          // this subproblem made the factor (else: a reuse)
-    bool first_on_kept = false;  // the first subproblem at this iterate on a kept factor
-    if (!assembled) {
-      energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
-      std::copy(m_values.begin(), m_values.end(), m_exact_values.begin());
-      assembled = true;
-      if (!try_kept_factor()) {
-        refactor_clamped(cloth, same);
-        fresh = current = true;
-      } else {
-        first_on_kept = true;
-      }
-    }
+    // diverged: the state is checked after the step; at the cap: the caller counts it
+    if (now == IterationVerdict::converged) converged = true;
+    if (now != IterationVerdict::go_on) break;
+    const SteihaugStep step = steihaug_subproblem(cloth, loop, energy, residual, iterations);
     ++iterations;
-    if (first_residual < 0.0) first_residual = residual;
-    // Loose far from the solution, tighter as the residual falls (superlinear convergence).
-    const double forcing = std::min(kSteihaugForcing, std::sqrt(residual / first_residual));
-    bool boundary = false, exhausted = false, negative = false;
-    double length = 0.0;
-    const bool first = iterations == 1;
-    double predicted =
-        steihaug_direction(forcing, first, same && current,
-                           current ? kMaxSteihaugIterations : m_options.lag_max_cg_iterations,
-                           boundary, length, exhausted, negative);
-    if (first_on_kept) kept_factor_result(!exhausted);
-    if (exhausted && !current) {
-      // the kept factor no longer preconditions well: factor this iterate's clamped Hessian
-      // and solve the subproblem again
-      refactor_clamped(cloth, same);
-      fresh = current = true;
-      predicted = steihaug_direction(forcing, first, same, kMaxSteihaugIterations, boundary, length,
-                                     exhausted, negative);
-    }
-    if (!fresh) ++m_statistics.lagged_solves;  // solved on a factor made at an earlier iterate
-    const double slope = m_gradient.dot(m_direction);
-    m_trial = m_iterate;
-    for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
-      m_trial.row(m_free_vertices[b]) +=
-          m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
-    }
-    double actual = 0.0, trial_energy = 0.0;
-    if (predicted <= kRoundoff * m_energy_magnitude) {
-      // below the energy's resolution: the trapezoid rule on the directional derivatives
-      // (as in line_search)
-      trial_energy = evaluate(cloth, m_trial, true, false);
-      actual = -0.5 * (slope + m_gradient.dot(m_direction));
-    } else {
-      trial_energy = evaluate(cloth, m_trial, false, false);
-      actual = energy - trial_energy;
-    }
-    const double ratio = predicted > 0.0 ? actual / predicted : -1.0;
+    double actual = 0.0;
+    const double trial_energy = steihaug_trial(cloth, step.predicted, energy, actual);
+    const double ratio = step.predicted > 0.0 ? actual / step.predicted : -1.0;
     const bool finite = std::isfinite(trial_energy) && std::isfinite(actual);
     if (!finite || !(ratio >= kSteihaugShrinkBelow)) {
-      m_radius = kSteihaugShrink * length;
-    } else if (ratio > kSteihaugGrowAbove && boundary) {
+      m_radius = kSteihaugShrink * step.length;
+    } else if (ratio > kSteihaugGrowAbove && step.boundary) {
       m_radius = kSteihaugGrowth * m_radius;
     }
     if (finite && ratio > kSteihaugAccept) {
-      if (m_options.mixed) update_tension(cloth, 1.0);
-      std::swap(m_iterate, m_trial);
-      energy = evaluate(cloth, m_iterate, true, false);
-      residual = scaled_residual(cloth);
-      assembled = current = same = false;
-      // the step and truncation tests trust a Newton step only: CG ended inside the region,
-      // converged, on positive curvature
-      if (truncation_test(cloth, 1.0,
-                          !boundary && !negative && !exhausted && std::isfinite(energy) &&
-                              std::isfinite(residual),
-                          last_move, rate)) {
-        ++m_statistics.truncation_stops;
-        converged = true;
-        break;
-      }
-      if (m_options.step_tol > 0.0 && !boundary && !negative && !exhausted &&
-          std::isfinite(energy) && std::isfinite(residual) &&
-          m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
-        ++m_statistics.step_test_stops;
+      if (steihaug_accept(cloth, loop, step, energy, residual)) {
         converged = true;
         break;
       }
@@ -446,6 +372,84 @@ void NewtonSolver::steihaug_iterate(const Cloth& cloth, double& energy, double& 
       evaluate(cloth, m_iterate, true, false);  // the iterate's gradient again
     }
   }
+}
+
+NewtonSolver::SteihaugStep NewtonSolver::steihaug_subproblem(const Cloth& cloth, SteihaugLoop& loop,
+                                                             double& energy, double residual,
+                                                             int iterations) {
+  bool fresh = false;          // this subproblem made the factor (else: a reuse)
+  bool first_on_kept = false;  // the first subproblem at this iterate on a kept factor
+  if (!loop.assembled) {
+    energy = evaluate(cloth, m_iterate, true, true, HessianProjection::exact);
+    std::copy(m_values.begin(), m_values.end(), m_exact_values.begin());
+    loop.assembled = true;
+    if (!try_kept_factor()) {
+      refactor_clamped(cloth, loop.same);
+      fresh = loop.current = true;
+    } else {
+      first_on_kept = true;
+    }
+  }
+  if (loop.first_residual < 0.0) loop.first_residual = residual;
+  // Loose far from the solution, tighter as the residual falls (superlinear convergence).
+  const double forcing = std::min(kSteihaugForcing, std::sqrt(residual / loop.first_residual));
+  const bool first = iterations == 0;  // this step's first subproblem
+  SteihaugStep step;
+  step.predicted =
+      steihaug_direction(forcing, first, loop.same && loop.current,
+                         loop.current ? kMaxSteihaugIterations : m_options.lag_max_cg_iterations,
+                         step.boundary, step.length, step.exhausted, step.negative);
+  if (first_on_kept) kept_factor_result(!step.exhausted);
+  if (step.exhausted && !loop.current) {
+    // the kept factor no longer preconditions well: factor this iterate's clamped Hessian
+    // and solve the subproblem again
+    refactor_clamped(cloth, loop.same);
+    fresh = loop.current = true;
+    step.predicted = steihaug_direction(forcing, first, loop.same, kMaxSteihaugIterations,
+                                        step.boundary, step.length, step.exhausted, step.negative);
+  }
+  if (!fresh) ++m_statistics.lagged_solves;  // solved on a factor made at an earlier iterate
+  return step;
+}
+
+double NewtonSolver::steihaug_trial(const Cloth& cloth, double predicted, double energy,
+                                    double& actual) {
+  const double slope = m_gradient.dot(m_direction);
+  m_trial = m_iterate;
+  for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
+    m_trial.row(m_free_vertices[b]) +=
+        m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).transpose();
+  }
+  if (predicted <= kRoundoff * m_energy_magnitude) {
+    // below the energy's resolution: the trapezoid rule on the directional derivatives
+    // (as in line_search)
+    const double trial_energy = evaluate(cloth, m_trial, true, false);
+    actual = -0.5 * (slope + m_gradient.dot(m_direction));
+    return trial_energy;
+  }
+  const double trial_energy = evaluate(cloth, m_trial, false, false);
+  actual = energy - trial_energy;
+  return trial_energy;
+}
+
+bool NewtonSolver::steihaug_accept(const Cloth& cloth, SteihaugLoop& loop, const SteihaugStep& step,
+                                   double& energy, double& residual) {
+  if (m_options.mixed) update_tension(cloth, 1.0);
+  std::swap(m_iterate, m_trial);
+  energy = evaluate(cloth, m_iterate, true, false);
+  residual = scaled_residual(cloth);
+  loop.assembled = loop.current = loop.same = false;
+  const bool trusted = step.newton() && std::isfinite(energy) && std::isfinite(residual);
+  if (truncation_test(cloth, 1.0, trusted, loop.last_move, loop.rate)) {
+    ++m_statistics.truncation_stops;
+    return true;
+  }
+  if (m_options.step_tol > 0.0 && trusted &&
+      m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
+    ++m_statistics.step_test_stops;
+    return true;
+  }
+  return false;
 }
 
 }  // namespace yore

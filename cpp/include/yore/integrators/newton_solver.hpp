@@ -134,6 +134,17 @@ class NewtonSolver final : public StageSolver {
   void membrane_ranks(const MembraneElements* elements,
                       const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
                       const std::vector<std::int32_t>& first_neighbour);
+  // evaluate's terms, each adding to energy, magnitude, m_gradient and m_values in turn:
+  // inertia, drag and gravity of the free vertices; the springs (elastic and damping); the
+  // quadratic bending matrix.
+  void evaluate_inertia(const Cloth& cloth, const Positions& x, bool with_gradient,
+                        bool with_hessian, double& energy, double& magnitude);
+  void evaluate_springs(const Cloth& cloth, const Positions& x, bool with_gradient,
+                        bool with_hessian, TransverseFilter filter, double& energy,
+                        double& magnitude);
+  void add_spring_block(std::size_t k, std::int32_t a, std::int32_t b, const Mat3& block);
+  void evaluate_bending(const Cloth& cloth, const Positions& x, bool with_gradient,
+                        bool with_hessian, double& energy, double& magnitude);
   // The membrane's share of evaluate: adds to energy, magnitude, m_gradient and m_values.
   void evaluate_membrane(const Cloth& cloth, const Positions& x, bool with_gradient,
                          bool with_hessian, TransverseFilter filter, double& energy,
@@ -189,6 +200,31 @@ class NewtonSolver final : public StageSolver {
   /// `exhausted`: CG stopped at max_iterations; `negative`: it met curvature ≤ 0.
   double steihaug_direction(double forcing, bool first, bool same, int max_iterations,
                             bool& boundary, double& length, bool& exhausted, bool& negative);
+  /// What one trust-region Newton–CG step keeps across its iterations.
+  struct SteihaugLoop {
+    bool assembled = false;  // m_exact_values (and the gradient) are of m_iterate
+    bool current = false;    // the factor is of m_iterate's clamped Hessian
+    bool same = false;       // and that equals the exact one
+    double first_residual = -1.0;
+    double last_move = 0.0, rate = 1.0;  // the truncation test's memory within the step
+  };
+  /// One subproblem's solution (steihaug_direction's results).
+  struct SteihaugStep {
+    double predicted = 0.0, length = 0.0;
+    bool boundary = false, exhausted = false, negative = false;
+    /// CG ended inside the region, converged, on positive curvature: a Newton step, which
+    /// the step and truncation tests may trust.
+    bool newton() const { return !boundary && !negative && !exhausted; }
+  };
+  /// Assembles (once per iterate) and solves the subproblem at m_iterate, refactoring when
+  /// the kept factor no longer preconditions; energy becomes the iterate's when assembled.
+  SteihaugStep steihaug_subproblem(const Cloth& cloth, SteihaugLoop& loop, double& energy,
+                                   double residual, int iterations);
+  /// Evaluates m_trial = m_iterate + m_direction; returns its energy and the actual decrease.
+  double steihaug_trial(const Cloth& cloth, double predicted, double energy, double& actual);
+  /// Moves to the accepted trial; true when the truncation or the step test stops Newton.
+  bool steihaug_accept(const Cloth& cloth, SteihaugLoop& loop, const SteihaugStep& step,
+                       double& energy, double& residual);
   /// projection steihaug: assembles the clamped Hessian at m_iterate into m_values and factors
   /// it; `same` tells whether it equals the exact one in m_exact_values.
   void refactor_clamped(const Cloth& cloth, bool& same);
