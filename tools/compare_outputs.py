@@ -231,6 +231,29 @@ def _schemes(work):
     return out
 
 
+#: Cloths whose stable explicit steps (Lanczos at the state and for every state, and
+#: Gershgorin's bound) are digested: springs, quadratic bending, the membrane.
+STABLE_STEP_SCENES = (
+    {},
+    {"bending": "quadratic", "bending_modulus": 1e-4, "damping": 0.05},
+    {"stretch": "membrane", "young_modulus": 1e3, "poisson_ratio": 0.3},
+)
+
+
+def _stable_steps():
+    import yore
+
+    out = {}
+    for options in STABLE_STEP_SCENES:
+        sim = yore.scenes.hanging_cloth(resolution=9, integrator="implicit", **options)
+        sim.advance(0.1)  # a stretched state: the Hessian differs from the bound's
+        cloth = sim.cloth
+        out["stable steps " + json.dumps(options, sort_keys=True)] = _strip(
+            [cloth.stable_time_step(), cloth.stable_time_step_bound(), cloth.gershgorin_time_step()]
+        )
+    return out
+
+
 def _benchmarks(root, work):
     out = {}
     for name in BENCHMARKS:
@@ -253,6 +276,7 @@ def digest(out):
             **_scenes(root, work),
             **_scripted(),
             **_schemes(work),
+            **_stable_steps(),
             **_benchmarks(root, work),
         }
         found = _without_root(_without_root(found, root), work)

@@ -154,6 +154,39 @@ void spring_blocks(const SpringSet& springs, const Positions& positions, bool ev
   }
 }
 
+// Gershgorin's membrane rows: Σ_elements c |L_kl| √(wₖ wₗ) per vertex, with the subcells'
+// differences (see membrane_bound_constant); w the inverse masses.
+Eigen::VectorXd membrane_gershgorin_rows(const MembraneElements& elements,
+                                         const MembraneMaterial& material,
+                                         const Eigen::VectorXd& inverse_masses) {
+  Eigen::VectorXd rows = Eigen::VectorXd::Zero(inverse_masses.size());
+  const double c = membrane_bound_constant(material);
+  for (std::size_t e = 0; e < elements.size(); ++e) {
+    const auto begin = static_cast<std::size_t>(elements.starts[e]);
+    const auto end = static_cast<std::size_t>(elements.starts[e + 1]);
+    for (std::size_t k = begin; k < end; ++k) {
+      for (std::size_t l = begin; l < end; ++l) {
+        const double laplacian =
+            elements.area[e] * (elements.gradient_u[k] * elements.gradient_u[l] +
+                                elements.gradient_v[k] * elements.gradient_v[l]);
+        const std::int32_t i = elements.corners[k], j = elements.corners[l];
+        rows[i] += c * std::abs(laplacian) * std::sqrt(inverse_masses[i] * inverse_masses[j]);
+      }
+    }
+    for_each_subcell_difference(
+        elements, e, [&](double a, const std::vector<Eigen::Vector2d>& delta) {
+          for (std::size_t k = begin; k < end; ++k) {
+            for (std::size_t l = begin; l < end; ++l) {
+              const std::int32_t i = elements.corners[k], j = elements.corners[l];
+              rows[i] += c * a * std::abs(delta[k - begin].dot(delta[l - begin])) *
+                         std::sqrt(inverse_masses[i] * inverse_masses[j]);
+            }
+          }
+        });
+  }
+  return rows;
+}
+
 }  // namespace
 
 double Cloth::gershgorin_time_step() const {
@@ -164,36 +197,9 @@ double Cloth::gershgorin_time_step() const {
   double gamma = 0.0;
   const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
   // The membrane's rows: Σ_elements c |L_kl| √(wₖ wₗ) (see membrane_bound_constant).
-  Eigen::VectorXd membrane_rows;
-  if (has_membrane()) {
-    membrane_rows.setZero(vertex_count());
-    const double c = membrane_bound_constant(m_membrane);
-    const MembraneElements& elements = membrane_elements();
-    for (std::size_t e = 0; e < elements.size(); ++e) {
-      const auto begin = static_cast<std::size_t>(elements.starts[e]);
-      const auto end = static_cast<std::size_t>(elements.starts[e + 1]);
-      for (std::size_t k = begin; k < end; ++k) {
-        for (std::size_t l = begin; l < end; ++l) {
-          const double laplacian =
-              elements.area[e] * (elements.gradient_u[k] * elements.gradient_u[l] +
-                                  elements.gradient_v[k] * elements.gradient_v[l]);
-          const std::int32_t i = elements.corners[k], j = elements.corners[l];
-          membrane_rows[i] +=
-              c * std::abs(laplacian) * std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
-        }
-      }
-      for_each_subcell_difference(
-          elements, e, [&](double a, const std::vector<Eigen::Vector2d>& delta) {
-            for (std::size_t k = begin; k < end; ++k) {
-              for (std::size_t l = begin; l < end; ++l) {
-                const std::int32_t i = elements.corners[k], j = elements.corners[l];
-                membrane_rows[i] += c * a * std::abs(delta[k - begin].dot(delta[l - begin])) *
-                                    std::sqrt(m_inverse_masses[i] * m_inverse_masses[j]);
-              }
-            }
-          });
-    }
-  }
+  const Eigen::VectorXd membrane_rows =
+      has_membrane() ? membrane_gershgorin_rows(membrane_elements(), m_membrane, m_inverse_masses)
+                     : Eigen::VectorXd();
   for (Eigen::Index i = 0; i < vertex_count(); ++i) {
     if (m_inverse_masses[i] == 0.0) continue;
     double stiffness_row = membrane_rows.size() > 0 ? membrane_rows[i] : 0.0, damping_row = 0.0;
@@ -227,8 +233,133 @@ double Cloth::stable_time_step() const { return lanczos_time_step(false); }
 
 double Cloth::stable_time_step_bound() const { return lanczos_time_step(true); }
 
-// over 80 lines: the Lanczos iteration and the operator it applies (springs, bending, membrane)
-// read as one algorithm; its stages (blocks, iteration, damping of the mode) share every local.
+namespace {
+
+// x ↦ S A S x, S = M^{-1/2}, for per-spring 3×3 blocks A (stiffness or damping); with the
+// stiffness, quadratic bending's constant κ Q ⊗ I₃ and the membrane's product are added.
+struct ScaledOperator {
+  const SpringSet& springs;
+  const Eigen::VectorXd& scale;
+  const QuadraticBendingMatrix* bending;  // null: no quadratic bending
+  double bending_modulus;
+  const MembraneElements* membrane;  // null: no membrane
+  const MembraneMaterial& material;
+  const Positions& positions;
+  bool every_state;
+
+  void apply(const std::vector<Mat3>& blocks, bool stiffness, const Eigen::VectorXd& x,
+             Eigen::VectorXd& y) const {
+    const Eigen::Index n = scale.size();
+    y.setZero(3 * n);
+    for (std::size_t s = 0; s < springs.size(); ++s) {
+      const std::int32_t i = springs.first[s], j = springs.second[s];
+      const Vec3 f = blocks[s] * (scale[i] * x.segment<3>(3 * i) - scale[j] * x.segment<3>(3 * j));
+      y.segment<3>(3 * i) += scale[i] * f;
+      y.segment<3>(3 * j) -= scale[j] * f;
+    }
+    if (!stiffness) return;
+    if (bending != nullptr) add_bending(x, y);
+    if (membrane != nullptr) {
+      add_membrane_product(*membrane, material, positions, every_state, scale, x, y);
+    }
+  }
+
+  void add_bending(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    for (Eigen::Index i = 0; i < scale.size(); ++i) {
+      if (scale[i] == 0.0) continue;
+      Vec3 sum = Vec3::Zero();
+      for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
+           k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
+        const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
+        sum += bending->values[static_cast<std::size_t>(k)] * scale[j] * x.segment<3>(3 * j);
+      }
+      y.segment<3>(3 * i) += bending_modulus * scale[i] * sum;
+    }
+  }
+};
+
+// Lanczos' deterministic start: xorshift64* values in [−1, 1) on the free vertices'
+// coordinates (zero on constrained ones), normalized, so the estimate is reproducible.
+Eigen::VectorXd lanczos_start(const Eigen::VectorXd& scale) {
+  const Eigen::Index dim = 3 * scale.size();
+  Eigen::VectorXd q(dim);
+  std::uint64_t seed = 0x9E3779B97F4A7C15ULL;
+  for (Eigen::Index r = 0; r < dim; ++r) {
+    seed ^= seed >> 12;
+    seed ^= seed << 25;
+    seed ^= seed >> 27;  // xorshift64*
+    const double u = static_cast<double>((seed * 0x2545F4914F6CDD1DULL) >> 11) * 0x1.0p-53;
+    q[r] = scale[r / 3] > 0.0 ? 2.0 * u - 1.0 : 0.0;
+  }
+  q.normalize();
+  return q;
+}
+
+// The top Ritz pair of Lanczos' tridiagonal matrix (α on the diagonal, β beside it) of the
+// given size; false when the eigensolver fails.
+bool top_ritz_pair(const std::vector<double>& alpha, const std::vector<double>& beta, int steps,
+                   double& top, Eigen::VectorXd& coefficients) {
+  Eigen::MatrixXd tridiagonal = Eigen::MatrixXd::Zero(steps, steps);
+  for (int r = 0; r < steps; ++r) {
+    tridiagonal(r, r) = alpha[static_cast<std::size_t>(r)];
+    if (r + 1 < steps) {
+      tridiagonal(r, r + 1) = tridiagonal(r + 1, r) = beta[static_cast<std::size_t>(r)];
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(tridiagonal);
+  if (eigen.info() != Eigen::Success) return false;
+  top = eigen.eigenvalues()[steps - 1];
+  coefficients = eigen.eigenvectors().col(steps - 1);
+  return true;
+}
+
+// Lanczos with full reorthogonalization on S K S: its top Ritz value, the mode's coefficients
+// in basis' first `steps` columns. Ritz values approach λ_max from below; the top one usually
+// converges in a few dozen iterations (the top of the spectrum is where Krylov methods are
+// fastest). Its estimate is checked every 5 iterations, and stops changing by more than the
+// relative tolerance. top is NaN when not finite.
+struct LanczosTop {
+  double top = 0.0;
+  Eigen::VectorXd coefficients;
+  int steps = 0;
+};
+LanczosTop lanczos_top(const ScaledOperator& op, const std::vector<Mat3>& stiffness_blocks,
+                       double tolerance, Eigen::MatrixXd& basis) {
+  const auto max_iterations = static_cast<int>(basis.cols());
+  Eigen::VectorXd q = lanczos_start(op.scale), w(q.size());
+  std::vector<double> alpha, beta;
+  LanczosTop result;
+  double previous_top = -1.0;
+  for (int it = 0; it < max_iterations; ++it) {
+    basis.col(it) = q;
+    op.apply(stiffness_blocks, true, q, w);
+    alpha.push_back(q.dot(w));
+    // Two passes of classical Gram–Schmidt against the whole basis.
+    for (int pass = 0; pass < 2; ++pass) {
+      w -= basis.leftCols(it + 1) * (basis.leftCols(it + 1).transpose() * w);
+    }
+    result.steps = it + 1;
+    const double b = w.norm();
+    const bool last = it + 1 == max_iterations || !(b > 1e-12 * std::abs(alpha.front()) + 1e-300);
+    if ((it + 1) % 5 == 0 || last) {
+      if (!top_ritz_pair(alpha, beta, result.steps, result.top, result.coefficients)) break;
+      if (!std::isfinite(result.top)) {
+        result.top = std::numeric_limits<double>::quiet_NaN();
+        return result;
+      }
+      if (last || std::abs(result.top - previous_top) <= tolerance * result.top) {
+        break;
+      }
+      previous_top = result.top;
+    }
+    beta.push_back(b);
+    q = w / b;
+  }
+  return result;
+}
+
+}  // namespace
+
 double Cloth::lanczos_time_step(bool every_state) const {
   const double gershgorin = gershgorin_time_step();
   // Overflowing k / m (no step is stable) or nothing elastic moving (only damping limits the
@@ -246,93 +377,26 @@ double Cloth::lanczos_time_step(bool every_state) const {
   // Constrained (fixed or driven) vertices have zero inverse mass, so S = M^{-1/2} eliminates
   // their rows and columns.
   const Eigen::VectorXd scale = m_inverse_masses.cwiseSqrt();
-  const Eigen::Index n = vertex_count();
-  // Quadratic bending's κ Q ⊗ I₃ is constant: the same in both modes, added to the stiffness.
-  const QuadraticBendingMatrix* bending = has_quadratic_bending() ? &quadratic_bending() : nullptr;
-  const MembraneElements* membrane = has_membrane() ? &membrane_elements() : nullptr;
-  auto apply = [&](const std::vector<Mat3>& blocks, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
-    y.setZero(3 * n);
-    for (std::size_t s = 0; s < spring_count; ++s) {
-      const std::int32_t i = m_springs.first[s], j = m_springs.second[s];
-      const Vec3 f = blocks[s] * (scale[i] * x.segment<3>(3 * i) - scale[j] * x.segment<3>(3 * j));
-      y.segment<3>(3 * i) += scale[i] * f;
-      y.segment<3>(3 * j) -= scale[j] * f;
-    }
-    if (bending != nullptr && &blocks == &stiffness_blocks) {
-      for (Eigen::Index i = 0; i < n; ++i) {
-        if (scale[i] == 0.0) continue;
-        Vec3 sum = Vec3::Zero();
-        for (std::int32_t k = bending->row_starts[static_cast<std::size_t>(i)];
-             k < bending->row_starts[static_cast<std::size_t>(i) + 1]; ++k) {
-          const std::int32_t j = bending->columns[static_cast<std::size_t>(k)];
-          sum += bending->values[static_cast<std::size_t>(k)] * scale[j] * x.segment<3>(3 * j);
-        }
-        y.segment<3>(3 * i) += m_bending_modulus * scale[i] * sum;
-      }
-    }
-    if (membrane != nullptr && &blocks == &stiffness_blocks) {
-      add_membrane_product(*membrane, m_membrane, m_positions, every_state, scale, x, y);
-    }
-  };
-
-  // Lanczos with full reorthogonalization on S K S. Ritz values approach λ_max from below; the
-  // top one usually converges in a few dozen iterations (the top of the spectrum is where
-  // Krylov methods are fastest). A fixed deterministic start vector keeps the estimate
-  // reproducible.
-  const Eigen::Index dim = 3 * n;
-  const int max_iterations = static_cast<int>(std::min<Eigen::Index>(dim, kLanczosMaxIterations));
-  Eigen::MatrixXd basis(dim, max_iterations);
-  Eigen::VectorXd q(dim), w(dim);
-  std::uint64_t seed = 0x9E3779B97F4A7C15ULL;
-  for (Eigen::Index r = 0; r < dim; ++r) {
-    seed ^= seed >> 12;
-    seed ^= seed << 25;
-    seed ^= seed >> 27;  // xorshift64*
-    const double u = static_cast<double>((seed * 0x2545F4914F6CDD1DULL) >> 11) * 0x1.0p-53;
-    q[r] = scale[r / 3] > 0.0 ? 2.0 * u - 1.0 : 0.0;
-  }
-  q.normalize();
-  std::vector<double> alpha, beta;
-  double top = 0.0, previous_top = -1.0;
-  Eigen::VectorXd ritz_coefficients;
-  int steps = 0;
-  for (int it = 0; it < max_iterations; ++it) {
-    basis.col(it) = q;
-    apply(stiffness_blocks, q, w);
-    alpha.push_back(q.dot(w));
-    // Two passes of classical Gram–Schmidt against the whole basis.
-    for (int pass = 0; pass < 2; ++pass) {
-      w -= basis.leftCols(it + 1) * (basis.leftCols(it + 1).transpose() * w);
-    }
-    steps = it + 1;
-    const double b = w.norm();
-    const bool last = it + 1 == max_iterations || !(b > 1e-12 * std::abs(alpha.front()) + 1e-300);
-    if ((it + 1) % 5 == 0 || last) {
-      Eigen::MatrixXd tridiagonal = Eigen::MatrixXd::Zero(steps, steps);
-      for (int r = 0; r < steps; ++r) {
-        tridiagonal(r, r) = alpha[static_cast<std::size_t>(r)];
-        if (r + 1 < steps) {
-          tridiagonal(r, r + 1) = tridiagonal(r + 1, r) = beta[static_cast<std::size_t>(r)];
-        }
-      }
-      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(tridiagonal);
-      if (eigen.info() != Eigen::Success) break;
-      top = eigen.eigenvalues()[steps - 1];
-      ritz_coefficients = eigen.eigenvectors().col(steps - 1);
-      if (!std::isfinite(top)) return 0.0;
-      if (last || std::abs(top - previous_top) <= kLanczosRelativeTolerance * top) break;
-      previous_top = top;
-    }
-    beta.push_back(b);
-    q = w / b;
-  }
-  if (!(top > 0.0) || ritz_coefficients.size() != steps) return gershgorin;
+  const ScaledOperator op{m_springs,
+                          scale,
+                          has_quadratic_bending() ? &quadratic_bending() : nullptr,
+                          m_bending_modulus,
+                          has_membrane() ? &membrane_elements() : nullptr,
+                          m_membrane,
+                          m_positions,
+                          every_state};
+  const Eigen::Index dim = 3 * vertex_count();
+  Eigen::MatrixXd basis(dim, std::min<Eigen::Index>(dim, kLanczosMaxIterations));
+  const LanczosTop lanczos = lanczos_top(op, stiffness_blocks, kLanczosRelativeTolerance, basis);
+  if (std::isnan(lanczos.top)) return 0.0;
+  if (!(lanczos.top > 0.0) || lanczos.coefficients.size() != lanczos.steps) return gershgorin;
   // Damping of the top mode: the Rayleigh quotient of S C S at its Ritz vector (exact when the
   // damping is proportional to the stiffness, as with the scenes' uniform springs), plus drag.
-  const Eigen::VectorXd mode = (basis.leftCols(steps) * ritz_coefficients).normalized();
-  apply(damping_blocks, mode, w);
+  const Eigen::VectorXd mode = (basis.leftCols(lanczos.steps) * lanczos.coefficients).normalized();
+  Eigen::VectorXd w;
+  op.apply(damping_blocks, false, mode, w);
   const double gamma = std::max(0.0, mode.dot(w)) + m_drag;
-  return symplectic_euler_step_limit(top, gamma);
+  return symplectic_euler_step_limit(lanczos.top, gamma);
 }
 
 double symplectic_euler_step_limit(double omega_squared, double gamma) {

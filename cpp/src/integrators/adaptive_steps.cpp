@@ -14,9 +14,25 @@
 
 namespace yore {
 
-// over 80 lines: the error-controlled loop of one output interval (propose, take, estimate,
-// accept or restore state, clock and history) shares the proposal and the saved state across
-// its stages; the controller reads best as the one loop it is.
+namespace {
+// An output interval that needs more than max_steps steps, or a step below 1e-12 dt: the
+// error naming the tolerance and what to change.
+[[noreturn]] void throw_interval_failure(const Cloth& cloth, const ImplicitOptions& options,
+                                         const char* name, double dt, double step_size,
+                                         bool over_budget, std::int64_t steps_done) {
+  std::ostringstream msg;
+  msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
+      << " s, " << name << " with dt = \"auto\"): "
+      << (over_budget ? "more than max_steps = " + std::to_string(options.max_steps) +
+                            " steps in one output interval"
+                      : std::string("the step fell below 1e-12 dt"))
+      << "; the last step tried was " << step_size << " s, tolerance rtol = " << options.rtol
+      << ", atol = " << options.atol
+      << ". Loosen the tolerance, raise max_steps, or check the forces.";
+  throw SimulationDiverged(msg.str(), steps_done, cloth.time(), dt, step_size);
+}
+}  // namespace
+
 void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt) {
   // The interval's end on the clock the fixed-step integrators keep (origin + k dt): the
   // substeps move the clock by their own sizes, and it is set to this at the end, so frames
@@ -31,13 +47,6 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
   const bool multistep = m_scheme->multistep();
   const double carried = multistep ? m_history.proposal : m_history.dt;
   double h = m_history.matches(cloth) && carried > 0.0 ? carried : 0.1 * dt;
-  const Eigen::Index n = cloth.vertex_count();
-  if (m_step_positions.rows() != n) {
-    m_step_positions.resize(n, 3);
-    m_step_velocities.resize(n, 3);
-  }
-  m_step_history.resize(m_history_arrays.size());
-  const char* name = time_scheme(options().method).integrator;
   const double most = m_scheme->max_step_growth();
   int taken = 0;
   while (true) {
@@ -47,32 +56,15 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     const double pieces = std::ceil(remaining / h * (1.0 - 1e-12));
     const double step_size = remaining / std::max(pieces, 1.0);
     if (++taken > options().max_steps || !(step_size > 1e-12 * dt)) {
-      std::ostringstream msg;
-      msg << "simulation diverged at t = " << cloth.time() << " s (output interval dt = " << dt
-          << " s, " << name << " with dt = \"auto\"): "
-          << (taken > options().max_steps
-                  ? "more than max_steps = " + std::to_string(options().max_steps) +
-                        " steps in one output interval"
-                  : std::string("the step fell below 1e-12 dt"))
-          << "; the last step tried was " << step_size << " s, tolerance rtol = " << options().rtol
-          << ", atol = " << options().atol
-          << ". Loosen the tolerance, raise max_steps, or check the forces.";
-      throw SimulationDiverged(msg.str(), m_newton.statistics().steps, cloth.time(), dt, step_size);
+      throw_interval_failure(cloth, options(), time_scheme(options().method).integrator, dt,
+                             step_size, taken > options().max_steps, m_newton.statistics().steps);
     }
     poll_interrupt();
     // What a rejected step must give back: the state, the clock and the history.
-    m_step_positions = cloth.positions();
-    m_step_velocities = cloth.velocities();
-    for (std::size_t a = 0; a < m_history_arrays.size(); ++a) {
-      m_step_history[a] = *m_history_arrays[a].second;  // same shape: no allocation
-    }
+    keep_step_state(cloth);
     const SimulationClock clock = cloth.clock();
     const HistoryKey key = m_history;
-    double largest = 0.0;
-    for (const std::int32_t i : m_newton.free_vertices()) {
-      largest = std::max(largest, cloth.positions().row(i).cwiseAbs().maxCoeff());
-    }
-    const double tolerance = options().atol + options().rtol * largest;
+    const double tolerance = step_tolerance(cloth);
 
     step(cloth, gravity, step_size);
     const double error = m_newton.statistics().last_truncation_error;
@@ -86,12 +78,8 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
       continue;
     }
     ++m_newton.statistics().rejected_steps;
-    cloth.integrator_positions() = m_step_positions;
-    cloth.integrator_velocities() = m_step_velocities;
+    restore_step_state(cloth);
     cloth.set_clock(clock);
-    for (std::size_t a = 0; a < m_history_arrays.size(); ++a) {
-      *m_history_arrays[a].second = m_step_history[a];
-    }
     m_history = key;
     h = step_size * std::min(factor, 0.9);
   }
@@ -101,6 +89,37 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
   // stays the last step, which its next blend needs), else the history's dt.
   (multistep ? m_history.proposal : m_history.dt) = h;
   ++m_newton.statistics().intervals;
+}
+
+void ImplicitIntegrator::keep_step_state(const Cloth& cloth) {
+  const Eigen::Index n = cloth.vertex_count();
+  if (m_step_positions.rows() != n) {
+    m_step_positions.resize(n, 3);
+    m_step_velocities.resize(n, 3);
+  }
+  m_step_history.resize(m_history_arrays.size());
+  m_step_positions = cloth.positions();
+  m_step_velocities = cloth.velocities();
+  for (std::size_t a = 0; a < m_history_arrays.size(); ++a) {
+    m_step_history[a] = *m_history_arrays[a].second;  // same shape: no allocation
+  }
+}
+
+void ImplicitIntegrator::restore_step_state(Cloth& cloth) {
+  cloth.integrator_positions() = m_step_positions;
+  cloth.integrator_velocities() = m_step_velocities;
+  for (std::size_t a = 0; a < m_history_arrays.size(); ++a) {
+    *m_history_arrays[a].second = m_step_history[a];
+  }
+}
+
+double ImplicitIntegrator::step_tolerance(const Cloth& cloth) const {
+  // atol + rtol × the largest |coordinate| of a free vertex
+  double largest = 0.0;
+  for (const std::int32_t i : m_newton.free_vertices()) {
+    largest = std::max(largest, cloth.positions().row(i).cwiseAbs().maxCoeff());
+  }
+  return options().atol + options().rtol * largest;
 }
 
 }  // namespace yore

@@ -200,9 +200,6 @@ void ExplicitIntegrator::limit_strain(Cloth& cloth) {
   m_statistics.strain_corrections += corrections;
 }
 
-// over 80 lines: the per-step kernel loop (forces, update, strain limit, the energy check with
-// its OpenMP reduction) reads as one step; its stages share the raw pointers, the checkpoint
-// and the stopwatch, and splitting it would scatter the rollback on divergence or interrupt.
 void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, std::int64_t steps) {
   check_advance_arguments(dt, gravity, steps);
   if (steps == 0) return;
@@ -217,42 +214,17 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, s
   m_lowest_at_start = m_monitor.lowest();
   m_statistics.checks_seconds += start.seconds();
 
-  const bool limiting = m_options.strain_limit > 0.0;
-  const double* m = cloth.masses().data();
-  const double* inverse_mass = cloth.inverse_masses().data();
   const auto spring_count = static_cast<std::int64_t>(cloth.springs().size());
   // Small cloths never fork: nothing to choose, nothing to re-time.
   const bool parallel_pays =
       spring_count >= kParallelSprings || n >= kParallelVertices || n >= kParallelCheckVertices;
   const int configured = parallel_pays ? max_threads() : 1;
-  const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
   for (std::int64_t step = 0; step < steps; ++step) {
-    try {
-      poll_interrupt();  // a long multi-step call answers Ctrl-C between steps
-    } catch (...) {
-      cloth.integrator_positions() = m_checkpoint_positions;  // undo the call, as on divergence
-      cloth.integrator_velocities() = m_checkpoint_velocities;
-      cloth.set_clock(checkpoint_clock);
-      throw;
-    }
+    poll_interrupt_or_undo(cloth, checkpoint_clock);
     const Stopwatch step_start;
     const int threads = m_thread_chooser.threads_for_next_step(configured);
     start = step_start;
-    double spring_energy_before = compute_spring_forces(cloth, threads);
-    if (m_with_potentials) {                // their energies are monitored too
-      if (cloth.has_quadratic_bending()) {  // a sparse product with the constant Q
-        spring_energy_before +=
-            quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(),
-                                       cloth.positions(), m_potential_gradient);
-      } else {
-        m_potential_gradient.setZero();
-      }
-      if (cloth.has_membrane()) {
-        spring_energy_before +=
-            membrane_add_gradient(cloth.membrane_elements(), cloth.membrane(), cloth.positions(),
-                                  m_potential_gradient, m_membrane_work);
-      }
-    }
+    const double energy_before = forces_and_energy(cloth, threads);
     m_statistics.forces_seconds += start.seconds();
 
     start.restart();
@@ -261,34 +233,17 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, s
     cloth.apply_drivers(new_time);
     m_statistics.update_seconds += start.seconds();
 
-    double* x = cloth.integrator_positions().data();
-    double* v = cloth.integrator_velocities().data();
-    if (limiting) {
+    if (m_options.strain_limit > 0.0) {
       start.restart();
       limit_strain(cloth);
-      const double* previous = m_previous_positions.data();
-      for (Eigen::Index i = 0; i < n; ++i) {
-        if (inverse_mass[i] == 0.0) continue;
-        for (int c = 0; c < 3; ++c) v[3 * i + c] = (x[3 * i + c] - previous[3 * i + c]) / dt;
-      }
+      strain_limited_velocities(cloth, dt);
       m_statistics.constraints_seconds += start.seconds();
     }
 
     start.restart();
-    double monitored = 0.0;
     double position_sum = 0.0;
-    const std::int64_t chunk = chunk_size(n, threads);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) \
-    reduction(+ : monitored, position_sum) if (threads > 1 && n >= kParallelCheckVertices)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      position_sum += x[3 * i] + x[3 * i + 1] + x[3 * i + 2];
-      if (inverse_mass[i] == 0.0) continue;
-      const double speed_squared =
-          v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
-      monitored += 0.5 * m[i] * speed_squared -
-                   m[i] * (x[3 * i] * gx + x[3 * i + 1] * gy + x[3 * i + 2] * gz);
-    }
-    monitored += spring_energy_before;
+    const double monitored =
+        energy_before + kinetic_and_gravity(cloth, gravity, threads, position_sum);
     const bool finite = std::isfinite(monitored) && std::isfinite(position_sum);
     // The elastic energy above is the step's start's (the forces' by-product): a blow-up shows
     // one step late, so the call's last step is judged again on its own state below.
@@ -304,6 +259,75 @@ void ExplicitIntegrator::advance(Cloth& cloth, const Vec3& gravity, double dt, s
     m_statistics.last_step_threads = threads;
     if (threads > 1) ++m_statistics.parallel_steps;
   }
+}
+
+void ExplicitIntegrator::poll_interrupt_or_undo(Cloth& cloth, const SimulationClock& clock) {
+  // A long multi-step call answers Ctrl-C between steps, and undoes the call, as on divergence.
+  try {
+    poll_interrupt();
+  } catch (...) {
+    cloth.integrator_positions() = m_checkpoint_positions;
+    cloth.integrator_velocities() = m_checkpoint_velocities;
+    cloth.set_clock(clock);
+    throw;
+  }
+}
+
+double ExplicitIntegrator::forces_and_energy(Cloth& cloth, int threads) {
+  // The springs' forces, and the potentials' gradient when the cloth has any; returns their
+  // energy at the step's start (the forces' by-product), which the divergence check monitors.
+  double energy = compute_spring_forces(cloth, threads);
+  if (!m_with_potentials) return energy;
+  if (cloth.has_quadratic_bending()) {  // a sparse product with the constant Q
+    energy += quadratic_bending_gradient(cloth.quadratic_bending(), cloth.bending_modulus(),
+                                         cloth.positions(), m_potential_gradient);
+  } else {
+    m_potential_gradient.setZero();
+  }
+  if (cloth.has_membrane()) {
+    energy += membrane_add_gradient(cloth.membrane_elements(), cloth.membrane(), cloth.positions(),
+                                    m_potential_gradient, m_membrane_work);
+  }
+  return energy;
+}
+
+void ExplicitIntegrator::strain_limited_velocities(Cloth& cloth, double dt) {
+  // After the strain limit moved positions: each free vertex's velocity is its displacement
+  // over the step (the limit's corrections included).
+  const double* x = cloth.integrator_positions().data();
+  double* v = cloth.integrator_velocities().data();
+  const double* inverse_mass = cloth.inverse_masses().data();
+  const double* previous = m_previous_positions.data();
+  for (Eigen::Index i = 0; i < cloth.vertex_count(); ++i) {
+    if (inverse_mass[i] == 0.0) continue;
+    for (int c = 0; c < 3; ++c) v[3 * i + c] = (x[3 * i + c] - previous[3 * i + c]) / dt;
+  }
+}
+
+double ExplicitIntegrator::kinetic_and_gravity(const Cloth& cloth, const Vec3& gravity, int threads,
+                                               double& position_sum) const {
+  // Kinetic minus gravity's work over the free vertices, and the sum of every coordinate (a
+  // non-finite position shows in it), reduced over the threads.
+  const Eigen::Index n = cloth.vertex_count();
+  const double* x = cloth.positions().data();
+  const double* v = cloth.velocities().data();
+  const double* m = cloth.masses().data();
+  const double* inverse_mass = cloth.inverse_masses().data();
+  const double gx = gravity.x(), gy = gravity.y(), gz = gravity.z();
+  double monitored = 0.0, sum = 0.0;
+  const std::int64_t chunk = chunk_size(n, threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) \
+    reduction(+ : monitored, sum) if (threads > 1 && n >= kParallelCheckVertices)
+  for (Eigen::Index i = 0; i < n; ++i) {
+    sum += x[3 * i] + x[3 * i + 1] + x[3 * i + 2];
+    if (inverse_mass[i] == 0.0) continue;
+    const double speed_squared =
+        v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
+    monitored +=
+        0.5 * m[i] * speed_squared - m[i] * (x[3 * i] * gx + x[3 * i + 1] * gy + x[3 * i + 2] * gz);
+  }
+  position_sum = sum;
+  return monitored;
 }
 
 void ExplicitIntegrator::judge_or_restore(Cloth& cloth, bool finite, double energy,

@@ -109,6 +109,14 @@ class ExplicitIntegrator : public Integrator {
   double compute_spring_forces(const Cloth& cloth, int threads);
   void update_velocities_and_positions(Cloth& cloth, const Vec3& gravity, double dt, int threads);
   void limit_strain(Cloth& cloth);
+  // advance's stages: Ctrl-C between steps (undoing the call); the forces and the
+  // potentials' energy at the step's start; the velocities after the strain limit; kinetic
+  // energy minus gravity's work (and the positions' sum) for the divergence check.
+  void poll_interrupt_or_undo(Cloth& cloth, const SimulationClock& clock);
+  double forces_and_energy(Cloth& cloth, int threads);
+  void strain_limited_velocities(Cloth& cloth, double dt);
+  double kinetic_and_gravity(const Cloth& cloth, const Vec3& gravity, int threads,
+                             double& position_sum) const;
 
   ExplicitOptions m_options;
   ExplicitStatistics m_statistics;

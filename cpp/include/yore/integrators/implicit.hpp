@@ -110,6 +110,11 @@ class ImplicitIntegrator : public Integrator {
   /// adaptive: one output interval of dt in error-controlled steps of a scheme with an error
   /// estimate (adaptive_steps.cpp).
   void adaptive_interval(Cloth& cloth, const Vec3& gravity, double dt);
+  // adaptive_interval's parts: a step's state and history kept for a rejection, and given
+  // back; the step's tolerance atol + rtol × the largest |coordinate| of a free vertex.
+  void keep_step_state(const Cloth& cloth);
+  void restore_step_state(Cloth& cloth);
+  double step_tolerance(const Cloth& cloth) const;
 
   std::unique_ptr<TimeScheme> m_scheme;
   NewtonSolver m_newton;
