@@ -127,6 +127,47 @@ void check_material(const ClothMaterial& material) {
   }
 }
 
+// The faces' other corners of every vertex from `known` on (vertices added since the last
+// bending build), with repeats.
+std::vector<std::vector<std::int32_t>> new_vertex_neighbours(const Faces& faces, Eigen::Index known,
+                                                             Eigen::Index n) {
+  std::vector<std::vector<std::int32_t>> neighbours(static_cast<std::size_t>(n));
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const std::int32_t v = faces(f, c);
+      if (v < known) continue;
+      for (int d = 1; d < 3; ++d) {
+        neighbours[static_cast<std::size_t>(v)].push_back(faces(f, (c + d) % 3));
+      }
+    }
+  }
+  return neighbours;
+}
+
+// Vertex v's rest point: its current position under the affine map that best takes its placed
+// neighbours' current positions to their rest positions (least squares, minimum norm).
+Vec3 fitted_rest_point(const Positions& positions, const Positions& rest_positions,
+                       const std::vector<std::int32_t>& placed, Eigen::Index v) {
+  const auto m = static_cast<Eigen::Index>(placed.size());
+  Eigen::Matrix3Xd current(3, m), rest(3, m);
+  for (Eigen::Index k = 0; k < m; ++k) {
+    current.col(k) = positions.row(placed[static_cast<std::size_t>(k)]).transpose();
+    rest.col(k) = rest_positions.row(placed[static_cast<std::size_t>(k)]).transpose();
+  }
+  const Vec3 current_center = current.rowwise().mean();
+  const Vec3 rest_center = rest.rowwise().mean();
+  current.colwise() -= current_center;
+  rest.colwise() -= rest_center;
+  // The centred neighbours are rank deficient by construction (rank 2 for a face's three
+  // corners); a threshold far above round-off keeps the solve from inverting noise.
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fit;
+  fit.setThreshold(1e-9);
+  fit.compute(current);
+  const Vec3 offset = positions.row(v).transpose() - current_center;
+  const Eigen::VectorXd weights = fit.solve(Eigen::VectorXd(offset));
+  return rest_center + rest * weights;
+}
+
 }  // namespace
 
 void Cloth::initialise_state(const Positions& positions, const Eigen::VectorXd& masses,
@@ -285,16 +326,8 @@ void Cloth::update_quadratic_bending() const {
   const Eigen::Index n = vertex_count();
   Eigen::Index known = m_bending_rest.rows();
   if (known < n) {
-    std::vector<std::vector<std::int32_t>> neighbours(static_cast<std::size_t>(n));
-    for (Eigen::Index f = 0; f < m_faces.rows(); ++f) {
-      for (int c = 0; c < 3; ++c) {
-        const std::int32_t v = m_faces(f, c);
-        if (v < known) continue;
-        for (int d = 1; d < 3; ++d) {
-          neighbours[static_cast<std::size_t>(v)].push_back(m_faces(f, (c + d) % 3));
-        }
-      }
-    }
+    const std::vector<std::vector<std::int32_t>> neighbours =
+        new_vertex_neighbours(m_faces, known, n);
     m_bending_rest.conservativeResize(n, 3);
     std::vector<char> has_rest(static_cast<std::size_t>(n), 0);
     std::fill(has_rest.begin(), has_rest.begin() + known, 1);
@@ -316,24 +349,8 @@ void Cloth::update_quadratic_bending() const {
           waiting = true;
           continue;
         }
-        const auto m = static_cast<Eigen::Index>(placed.size());
-        Eigen::Matrix3Xd current(3, m), rest(3, m);
-        for (Eigen::Index k = 0; k < m; ++k) {
-          current.col(k) = m_positions.row(placed[static_cast<std::size_t>(k)]).transpose();
-          rest.col(k) = m_bending_rest.row(placed[static_cast<std::size_t>(k)]).transpose();
-        }
-        const Vec3 current_center = current.rowwise().mean();
-        const Vec3 rest_center = rest.rowwise().mean();
-        current.colwise() -= current_center;
-        rest.colwise() -= rest_center;
-        // The centred neighbours are rank deficient by construction (rank 2 for a face's three
-        // corners); a threshold far above round-off keeps the solve from inverting noise.
-        Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> fit;
-        fit.setThreshold(1e-9);
-        fit.compute(current);
-        const Vec3 offset = m_positions.row(v).transpose() - current_center;
-        const Eigen::VectorXd weights = fit.solve(Eigen::VectorXd(offset));
-        m_bending_rest.row(v) = (rest_center + rest * weights).transpose();
+        m_bending_rest.row(v) =
+            fitted_rest_point(m_positions, m_bending_rest, placed, v).transpose();
         has_rest[static_cast<std::size_t>(v)] = 1;
         progress = true;
       }

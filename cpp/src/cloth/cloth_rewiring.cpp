@@ -107,6 +107,73 @@ class SpringRewiring {
   std::int64_t m_added = 0;
 };
 
+/// The cosine of the dihedral angle at hinge (u, v) between the arms to p and to q (−1, flat,
+/// when an arm has no length across the axis).
+double hinge_cos_dihedral(const Positions& positions, std::int32_t u, std::int32_t v,
+                          std::int32_t p, std::int32_t q) {
+  const Vec3 xu = positions.row(u), xv = positions.row(v);
+  const Vec3 axis = (xv - xu).normalized();
+  Vec3 arm_p = Vec3(positions.row(p)) - xu, arm_q = Vec3(positions.row(q)) - xu;
+  arm_p -= arm_p.dot(axis) * axis;
+  arm_q -= arm_q.dot(axis) * axis;
+  const double norms = arm_p.norm() * arm_q.norm();
+  return norms > 0.0 ? std::clamp(arm_p.dot(arm_q) / norms, -1.0, 1.0) : -1.0;
+}
+
+[[noreturn]] void fail_zero_bending_rest(std::int32_t p, std::int32_t q) {
+  std::ostringstream msg;
+  msg << "refinement gives the bending pair (" << p << ", " << q
+      << ") a zero rest length: degenerate rest triangles";
+  fail(msg.str());
+}
+
+/// The split faces, their new vertices (appended in order) and the region's faces (each split
+/// face and its two children, appended in order) into the report.
+void record_split(const std::vector<std::int32_t>& split_faces, Eigen::Index old_vertices,
+                  Eigen::Index old_faces, SplitReport& report) {
+  for (std::size_t k = 0; k < split_faces.size(); ++k) {
+    const std::int32_t face = split_faces[k];
+    const auto second_child =
+        static_cast<std::int32_t>(old_faces + 2 * static_cast<Eigen::Index>(k));
+    report.split_faces.push_back(face);
+    report.new_vertices.push_back(
+        static_cast<std::int32_t>(old_vertices + static_cast<Eigen::Index>(k)));
+    report.region_faces.insert(report.region_faces.end(), {face, second_child, second_child + 1});
+  }
+}
+
+/// The springs' stiffness and damping the paper's split gives its new springs.
+struct SplitMaterial {
+  double stretch_stiffness = 0.0;
+  double bend_stiffness = 0.0;  // 0: no bending springs
+  double damping = 0.0;
+};
+
+/// The springs after a 1→3 split: every spring whose pair is still wired is kept, the rest
+/// dropped, and the new pairs get eq. (1) rest lengths (expansion × their current length);
+/// new structural rest lengths go into structural_rest, the counts into the report.
+void rewire_split(SpringSet& springs, const Faces& faces, const Positions& positions,
+                  double expansion, const SplitMaterial& material,
+                  std::unordered_map<std::uint64_t, double>& structural_rest, SplitReport& report) {
+  const MeshConnectivity connectivity = mesh_connectivity(faces);
+  SpringRewiring rewiring(springs, connectivity);
+  auto eq1 = [&](const VertexPair& pair) {
+    const double length = (positions.row(pair[0]) - positions.row(pair[1])).norm();
+    return SpringRewiring::Lengths{expansion * length, length};
+  };
+  rewiring.add_missing(SpringKind::structural, material.stretch_stiffness, material.damping,
+                       [&](const VertexPair& pair) {
+                         const SpringRewiring::Lengths lengths = eq1(pair);
+                         structural_rest[pair_key(pair[0], pair[1])] = lengths.rest;
+                         return lengths;
+                       });
+  if (material.bend_stiffness > 0.0) {
+    rewiring.add_missing(SpringKind::bending, material.bend_stiffness, material.damping, eq1);
+  }
+  report.springs_removed = rewiring.removed();
+  report.springs_added = rewiring.added();
+}
+
 /// Bad split options (the ones split_faces uses; the rest are split_faces_1to3's).
 void check_split_options(const SplitOptions& options) {
   if (!std::isfinite(options.expansion) || options.expansion <= 0.0) {
@@ -284,35 +351,15 @@ SplitReport Cloth::split_faces(const std::vector<FaceSplit>& splits, const Split
     append_split_masses(surgery.split_faces, options.mass_scale);
   }
   adopt_subdivision(surgery.mesh);
-  for (Eigen::Index k = 0; k < added; ++k) {
-    const std::int32_t face = surgery.split_faces[static_cast<std::size_t>(k)];
-    const auto second_child = static_cast<std::int32_t>(old_faces + 2 * k);
-    report.split_faces.push_back(face);
-    report.new_vertices.push_back(static_cast<std::int32_t>(old_vertices + k));
-    report.region_faces.insert(report.region_faces.end(), {face, second_child, second_child + 1});
-  }
+  record_split(surgery.split_faces, old_vertices, old_faces, report);
   update_inverse_masses();
   report.mass_added = m_masses.sum() - mass_before;
 
   // Springs: keep every spring whose pair is still wired, drop the rest, add the new pairs with
   // eq. (1) rest lengths.
-  const MeshConnectivity connectivity = mesh_connectivity(m_faces);
-  SpringRewiring rewiring(m_springs, connectivity);
-  auto eq1 = [&](const VertexPair& pair) {
-    const double length = (m_positions.row(pair[0]) - m_positions.row(pair[1])).norm();
-    return SpringRewiring::Lengths{options.expansion * length, length};
-  };
-  rewiring.add_missing(SpringKind::structural, m_stretch_stiffness, m_spring_damping,
-                       [&](const VertexPair& pair) {
-                         const SpringRewiring::Lengths lengths = eq1(pair);
-                         structural_rest[pair_key(pair[0], pair[1])] = lengths.rest;
-                         return lengths;
-                       });
-  if (m_bend_stiffness > 0.0) {
-    rewiring.add_missing(SpringKind::bending, m_bend_stiffness, m_spring_damping, eq1);
-  }
-  report.springs_removed = rewiring.removed();
-  report.springs_added = rewiring.added();
+  const SplitMaterial material{m_stretch_stiffness, m_bend_stiffness, m_spring_damping};
+  rewire_split(m_springs, m_faces, m_positions, options.expansion, material, structural_rest,
+               report);
   for (const std::int32_t f : report.region_faces) {
     const std::int32_t a = m_faces(f, 0), b = m_faces(f, 1), c = m_faces(f, 2);
     report.rest_area_after += area_from_sides(rest_of(a, b), rest_of(b, c), rest_of(c, a));
@@ -497,25 +544,13 @@ SpringSet Cloth::refined_springs(const Refinement& surgery, RestMetric& rest_met
         SpringKind::bending, m_bend_stiffness, m_spring_damping, [&](const VertexPair& pair) {
           const VertexPair hinge = hinge_of.at(pair_key(pair[0], pair[1]));
           const std::int32_t u = hinge[0], v = hinge[1], p = pair[0], q = pair[1];
-          const Vec3 xu = mesh.positions.row(u), xv = mesh.positions.row(v);
-          const Vec3 axis = (xv - xu).normalized();
-          Vec3 arm_p = Vec3(mesh.positions.row(p)) - xu, arm_q = Vec3(mesh.positions.row(q)) - xu;
-          arm_p -= arm_p.dot(axis) * axis;
-          arm_q -= arm_q.dot(axis) * axis;
-          const double norms = arm_p.norm() * arm_q.norm();
-          const double cos_dihedral =
-              norms > 0.0 ? std::clamp(arm_p.dot(arm_q) / norms, -1.0, 1.0) : -1.0;
+          const double cos_dihedral = hinge_cos_dihedral(mesh.positions, u, v, p, q);
           auto hinged = [&](const std::unordered_map<std::uint64_t, double>& metric) {
             return hinge_distance(side(metric, u, v), side(metric, u, p), side(metric, v, p),
                                   side(metric, u, q), side(metric, v, q), cos_dihedral);
           };
           const double rest_length = hinged(rest);
-          if (!(rest_length > 0.0)) {
-            std::ostringstream msg;
-            msg << "refinement gives the bending pair (" << p << ", " << q
-                << ") a zero rest length: degenerate rest triangles";
-            fail(msg.str());
-          }
+          if (!(rest_length > 0.0)) fail_zero_bending_rest(p, q);
           return SpringRewiring::Lengths{rest_length, hinged(reference)};
         });
   }

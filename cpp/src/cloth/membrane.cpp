@@ -255,16 +255,41 @@ void add_fallback_elements(const Faces& faces, const MembraneFaces& map, const S
   }
 }
 
+// The slot of vertex among a vertex's sorted corners reference.corners[first, last).
+std::size_t corner_slot(const MembraneReference& reference, std::size_t first, std::size_t last,
+                        std::int32_t vertex) {
+  const auto begin = reference.corners.begin() + static_cast<std::ptrdiff_t>(first);
+  const auto end = reference.corners.begin() + static_cast<std::ptrdiff_t>(last);
+  return static_cast<std::size_t>(std::lower_bound(begin, end, vertex) - begin);
+}
+
+// An element's corner gradients from start on, and its subcells' from first_subcell_corner
+// on, into the rest frame: d = L⁻¹ c / A_p for the element (lower_inverse = L⁻¹ / A_p), L⁻¹ c
+// for the subcells' face gradients (no mean's 1/A_p).
+void to_rest_frame(const Eigen::Matrix2d& lower_inverse, double area, std::size_t start,
+                   std::size_t first_subcell_corner, MembraneElements& out) {
+  for (std::size_t k = start; k < out.corners.size(); ++k) {
+    const Eigen::Vector2d d = lower_inverse * Eigen::Vector2d(out.gradient_u[k], out.gradient_v[k]);
+    out.gradient_u[k] = d.x();
+    out.gradient_v[k] = d.y();
+  }
+  for (std::size_t k = first_subcell_corner; k < out.subcell_corner.size(); ++k) {
+    const Eigen::Vector2d d = area * lower_inverse *
+                              Eigen::Vector2d(out.subcell_gradient_u[k], out.subcell_gradient_v[k]);
+    out.subcell_gradient_u[k] = d.x();
+    out.subcell_gradient_v[k] = d.y();
+  }
+}
+
 // Appends one smoothed element per vertex (see membrane.hpp). A vertex with no usable metric
 // (every face edge-on to its plane, or a metric that is not positive definite) gives its share
 // to its faces instead: elements of three corners with (1 − kMembraneFaceShare)/3 of each
 // face's area, after the smoothed ones.
 void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const SpringSet& springs,
                          const MembraneReference& reference, MembraneElements& out) {
-  const std::size_t n = reference.face_starts.size() - 1;
   const bool stabilised = !out.subcell_starts.empty();
   std::vector<std::size_t> fallback;
-  for (std::size_t p = 0; p < n; ++p) {
+  for (std::size_t p = 0; p + 1 < reference.face_starts.size(); ++p) {
     const auto first_face = static_cast<std::size_t>(reference.face_starts[p]);
     const auto last_face = static_cast<std::size_t>(reference.face_starts[p + 1]);
     if (first_face == last_face) continue;  // on no face
@@ -292,10 +317,7 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
       const std::array<Eigen::Vector2d, 3> d{-(d1 + d2), d1, d2};
       for (int k = 0; k < 3; ++k) {
         const std::int32_t vertex = faces(static_cast<Eigen::Index>(f), k);
-        const auto at = static_cast<std::size_t>(
-            std::lower_bound(reference.corners.begin() + first_corner,
-                             reference.corners.begin() + last_corner, vertex) -
-            (reference.corners.begin() + first_corner));
+        const std::size_t at = corner_slot(reference, first_corner, last_corner, vertex);
         out.gradient_u[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].x();
         out.gradient_v[start + at] += rest.area / 3.0 * d[static_cast<std::size_t>(k)].y();
         if (stabilised) {
@@ -313,21 +335,8 @@ void add_vertex_elements(const Faces& faces, const MembraneFaces& map, const Spr
       continue;
     }
     // G_p = Σ_f (A_f/3) G_f / A_p in the tangent axes; F_p = G_p L⁻ᵀ, so d = L⁻¹ c / A_p
-    const Eigen::Matrix2d lower_inverse = Eigen::Matrix2d(cholesky.matrixL()).inverse() / area;
-    for (std::size_t k = start; k < out.corners.size(); ++k) {
-      const Eigen::Vector2d d =
-          lower_inverse * Eigen::Vector2d(out.gradient_u[k], out.gradient_v[k]);
-      out.gradient_u[k] = d.x();
-      out.gradient_v[k] = d.y();
-    }
-    // the subcells' face gradients in the same rest frame: L⁻¹ c (no mean's 1/A_p)
-    for (std::size_t k = 3 * first_subcell; k < out.subcell_corner.size(); ++k) {
-      const Eigen::Vector2d d =
-          area * lower_inverse *
-          Eigen::Vector2d(out.subcell_gradient_u[k], out.subcell_gradient_v[k]);
-      out.subcell_gradient_u[k] = d.x();
-      out.subcell_gradient_v[k] = d.y();
-    }
+    to_rest_frame(Eigen::Matrix2d(cholesky.matrixL()).inverse() / area, area, start,
+                  3 * first_subcell, out);
     out.area.push_back((1.0 - kMembraneFaceShare) * area);
     out.starts.push_back(static_cast<std::int32_t>(out.corners.size()));
     if (stabilised) {
@@ -376,10 +385,71 @@ double stvk_density(const Eigen::Matrix2d& E, double mu, double lambda) {
   return mu * E.squaredNorm() + 0.5 * lambda * trace * trace;
 }
 
+// One subcell's face: its area, its corners' slots in the element, their face gradients, and
+// the deformation gradient F on the face.
+struct SubcellFace {
+  double area = 0.0;
+  std::array<std::size_t, 3> at{};
+  std::array<Eigen::Vector2d, 3> d;
+  Mat32 F = Mat32::Zero();
+};
+
+SubcellFace subcell_face(const MembraneElements& elements, std::size_t begin, std::size_t c,
+                         const Positions& x) {
+  SubcellFace face;
+  face.area = elements.subcell_area[c];
+  for (std::size_t j = 0; j < 3; ++j) {
+    face.at[j] = static_cast<std::size_t>(elements.subcell_corner[3 * c + j]);
+    face.d[j] = Eigen::Vector2d(elements.subcell_gradient_u[3 * c + j],
+                                elements.subcell_gradient_v[3 * c + j]);
+    face.F += x.row(elements.corners[begin + face.at[j]]).transpose() * face.d[j].transpose();
+  }
+  return face;
+}
+
+// A subcell's 𝒞 between (face − mean) strain changes: face–face, minus the two cross terms
+// (here), plus mean–mean (the caller); the stress term S on the face's gradients only for the
+// exact Hessian (the filtered ones keep this penalty's Gauss–Newton part, which is positive
+// semidefinite). d(l): the element's mean gradients of its m corners.
+template <class MeanGradient>
+void add_subcell_blocks(const SubcellFace& face, std::size_t m, MeanGradient&& d, const Mat32& F,
+                        const Eigen::Matrix2d& S, double mu, double lambda, bool exact,
+                        MembraneElementWork& work) {
+  // the block (p, q), p ≥ q, of the lower triangle, given the full block (k, l)
+  auto add = [&](std::size_t k, std::size_t l, const Mat3& block) {
+    if (k >= l) {
+      work.blocks[k * (k + 1) / 2 + l] += block;
+    } else {
+      work.blocks[l * (l + 1) / 2 + k] += block.transpose();
+    }
+  };
+  const double a = face.area;
+  const auto& at = face.at;
+  for (std::size_t u = 0; u < 3; ++u) {
+    for (std::size_t l = 0; l < m; ++l) {
+      // −a M(c, mean) at the full block (at[u], l); M(mean, c) is its mirror, which the
+      // symmetric storage implies — except on the diagonal block, which holds both
+      const Mat3 cross = a * material_block(face.F, face.d[u], F, d(l), mu, lambda);
+      if (l == at[u]) {
+        work.blocks[l * (l + 1) / 2 + l] -= cross + cross.transpose();
+      } else {
+        add(at[u], l, -cross);
+      }
+    }
+    for (std::size_t v = 0; v < 3; ++v) {
+      if (at[v] > at[u]) continue;  // each lower pair once (the diagonal too)
+      Mat3 block = material_block(face.F, face.d[u], face.F, face.d[v], mu, lambda);
+      if (exact) block.diagonal().array() += face.d[u].dot(S * face.d[v]);
+      work.blocks[at[u] * (at[u] + 1) / 2 + at[v]] += a * block;
+    }
+  }
+}
+
 // The subcells' share of membrane_element (see MembraneElements): adds their energy, and
 // to the gradient and the blocks; F, E of the element's mean. The mean–mean part of each
 // subcell's 𝒞 form is the same for every subcell up to its area, so the caller adds it once
-// (mean_material, the subcells' total area); here only the pairs that touch a subcell's face.
+// (mean_material, the subcells' total area, and mean_stress, −Σ a S for the exact Hessian);
+// here only the pairs that touch a subcell's face.
 double add_subcells(const MembraneElements& elements, std::size_t e, const Positions& x,
                     const Mat32& F, const Eigen::Matrix2d& E, double mu, double lambda,
                     TransverseFilter filter, MembraneElementWork& work, bool with_gradient,
@@ -390,65 +460,28 @@ double add_subcells(const MembraneElements& elements, std::size_t e, const Posit
     return Eigen::Vector2d(elements.gradient_u[begin + k], elements.gradient_v[begin + k]);
   };
   const bool exact = filter == TransverseFilter::exact;
-  // the block (p, q), p ≥ q, of the lower triangle, given the full block (k, l)
-  auto add = [&](std::size_t k, std::size_t l, const Mat3& block) {
-    if (k >= l) {
-      work.blocks[k * (k + 1) / 2 + l] += block;
-    } else {
-      work.blocks[l * (l + 1) / 2 + k] += block.transpose();
-    }
-  };
   double energy = 0.0;
   mean_material = 0.0;
   mean_stress.setZero();
   for (auto c = static_cast<std::size_t>(elements.subcell_starts[e]);
        c < static_cast<std::size_t>(elements.subcell_starts[e + 1]); ++c) {
-    const double a = elements.subcell_area[c];
-    std::array<std::size_t, 3> at{};
-    std::array<Eigen::Vector2d, 3> dc;
-    Mat32 Fc = Mat32::Zero();
-    for (std::size_t j = 0; j < 3; ++j) {
-      at[j] = static_cast<std::size_t>(elements.subcell_corner[3 * c + j]);
-      dc[j] = Eigen::Vector2d(elements.subcell_gradient_u[3 * c + j],
-                              elements.subcell_gradient_v[3 * c + j]);
-      Fc += x.row(elements.corners[begin + at[j]]).transpose() * dc[j].transpose();
-    }
+    const SubcellFace face = subcell_face(elements, begin, c, x);
+    const double a = face.area;
     const Eigen::Matrix2d difference =
-        0.5 * (Fc.transpose() * Fc - Eigen::Matrix2d::Identity()) - E;
+        0.5 * (face.F.transpose() * face.F - Eigen::Matrix2d::Identity()) - E;
     energy += a * stvk_density(difference, mu, lambda);
     if (!with_gradient && !with_hessian) continue;
     const Eigen::Matrix2d S =
         2.0 * mu * difference + lambda * difference.trace() * Eigen::Matrix2d::Identity();
     if (with_gradient) {
-      const Mat32 mean = a * F * S, face = a * Fc * S;
+      const Mat32 mean = a * F * S, face_stress = a * face.F * S;
       for (std::size_t k = 0; k < m; ++k) work.gradient[k] -= mean * d(k);
-      for (std::size_t j = 0; j < 3; ++j) work.gradient[at[j]] += face * dc[j];
+      for (std::size_t j = 0; j < 3; ++j) work.gradient[face.at[j]] += face_stress * face.d[j];
     }
     if (!with_hessian) continue;
-    // 𝒞 between (face − mean) strain changes: face–face, minus the two cross terms (here),
-    // plus mean–mean (the caller); the stress terms (S on the face's gradients, −S on the
-    // mean's) only for the exact Hessian (the filtered ones keep this penalty's Gauss–Newton
-    // part, which is positive semidefinite)
     mean_material += a;
     if (exact) mean_stress -= a * S;
-    for (std::size_t u = 0; u < 3; ++u) {
-      for (std::size_t l = 0; l < m; ++l) {
-        // −a M(c, mean) at the full block (at[u], l); M(mean, c) is its mirror, which the
-        // symmetric storage implies — except on the diagonal block, which holds both
-        const Mat3 cross = a * material_block(Fc, dc[u], F, d(l), mu, lambda);
-        if (l == at[u]) {
-          work.blocks[l * (l + 1) / 2 + l] -= cross + cross.transpose();
-        } else {
-          add(at[u], l, -cross);
-        }
-      }
-      for (std::size_t v = 0; v < 3; ++v) {
-        if (at[v] > at[u]) continue;  // each lower pair once (the diagonal too)
-        Mat3 block = material_block(Fc, dc[u], Fc, dc[v], mu, lambda);
-        if (exact) block.diagonal().array() += dc[u].dot(S * dc[v]);
-        work.blocks[at[u] * (at[u] + 1) / 2 + at[v]] += a * block;
-      }
-    }
+    add_subcell_blocks(face, m, d, F, S, mu, lambda, exact, work);
   }
   return energy;
 }

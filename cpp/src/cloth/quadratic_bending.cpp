@@ -57,17 +57,9 @@ void fill_rows(std::vector<std::tuple<std::int32_t, std::int32_t, double>>& trip
 
 namespace {
 
-// over 80 lines: the hinge stencil (Bergou et al. 2006: cotangent weights, the normalisation
-// by the two faces' rest areas, the outer product into Q) is one formula per hinge, read best
-// in one piece beside the edge sort that finds the hinges. With values false it only checks
-// the mesh and counts the hinges and their fold energy (the fitted builder's scales).
-QuadraticBendingMatrix hinge_matrix(const Positions& rest_positions, const Faces& faces,
-                                    bool values) {
-  const Eigen::Index n = rest_positions.rows();
-  QuadraticBendingMatrix out;
-  out.size = n;
-  // Every face's three edges as (lower end, upper end, opposite vertex, face); sorted, the two
-  // sides of an interior edge are neighbours.
+// Every face's three edges as (lower end, upper end, opposite vertex, face), sorted: the two
+// sides of an interior edge are neighbours. Checks the faces' vertex indices against n.
+std::vector<std::array<std::int32_t, 4>> sorted_sides(const Faces& faces, Eigen::Index n) {
   std::vector<std::array<std::int32_t, 4>> sides;
   sides.reserve(static_cast<std::size_t>(3 * faces.rows()));
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
@@ -82,16 +74,35 @@ QuadraticBendingMatrix hinge_matrix(const Positions& rest_positions, const Faces
     }
   }
   std::sort(sides.begin(), sides.end());
+  return sides;
+}
+
+// A face's rest area, m²; refuses a degenerate or non-finite one.
+double rest_face_area(const Positions& rest_positions, std::int32_t a, std::int32_t b,
+                      std::int32_t c, std::int32_t face) {
+  const Point xa = rest_positions.row(a), xb = rest_positions.row(b), xc = rest_positions.row(c);
+  const double area = 0.5 * (xb - xa).cross(xc - xa).norm();
+  if (!(area > 0.0) || !std::isfinite(area)) {
+    std::ostringstream msg;
+    msg << "quadratic bending: face " << face << " has rest area " << area
+        << " m²; it must be finite and > 0";
+    throw std::invalid_argument(msg.str());
+  }
+  return area;
+}
+
+// The hinge stencil (Bergou et al. 2006: cotangent weights, the normalisation by the two
+// faces' rest areas, the outer product into Q), one hinge per interior edge. With values
+// false it only checks the mesh and counts the hinges and their fold energy (the fitted
+// builder's scales).
+QuadraticBendingMatrix hinge_matrix(const Positions& rest_positions, const Faces& faces,
+                                    bool values) {
+  const Eigen::Index n = rest_positions.rows();
+  QuadraticBendingMatrix out;
+  out.size = n;
+  const std::vector<std::array<std::int32_t, 4>> sides = sorted_sides(faces, n);
   auto face_area = [&](std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t face) {
-    const Point xa = rest_positions.row(a), xb = rest_positions.row(b), xc = rest_positions.row(c);
-    const double area = 0.5 * (xb - xa).cross(xc - xa).norm();
-    if (!(area > 0.0) || !std::isfinite(area)) {
-      std::ostringstream msg;
-      msg << "quadratic bending: face " << face << " has rest area " << area
-          << " m²; it must be finite and > 0";
-      throw std::invalid_argument(msg.str());
-    }
-    return area;
+    return rest_face_area(rest_positions, a, b, c, face);
   };
 
   std::vector<std::tuple<std::int32_t, std::int32_t, double>> triplets;  // (row, column, value)

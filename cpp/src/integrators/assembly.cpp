@@ -120,15 +120,36 @@ std::vector<std::pair<std::int32_t, std::int32_t>> coupled_blocks(
   return coupled;
 }
 
+// Where each spring's off-diagonal block starts in the pattern's values, per column (−1 for a
+// spring with a constrained end): the block (max, min) of its unknowns, ranked among its
+// column block's coupled blocks.
+void spring_slots(const SpringSet& springs, const std::vector<std::int32_t>& dof_of_vertex,
+                  const std::vector<std::pair<std::int32_t, std::int32_t>>& coupled,
+                  const std::vector<std::int32_t>& first_neighbour, const SymmetricPattern& pattern,
+                  std::vector<std::int64_t>& slots) {
+  slots.assign(3 * springs.size(), -1);
+  for (std::size_t k = 0; k < springs.size(); ++k) {
+    const std::int32_t a = dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
+    const std::int32_t b = dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
+    if (a < 0 || b < 0) continue;
+    const std::int32_t column_block = std::min(a, b) / 3, row_block = std::max(a, b) / 3;
+    const auto begin = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
+    const auto end = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
+    const auto rank = std::lower_bound(begin, end, std::make_pair(column_block, row_block)) - begin;
+    for (int c = 0; c < 3; ++c) {
+      slots[3 * k + static_cast<std::size_t>(c)] =
+          pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)] + (3 - c) +
+          3 * rank;
+    }
+  }
+}
+
 }  // namespace
 
 bool NewtonSolver::ensure_structure(const Cloth& cloth) {
   if (cloth.topology_version() == m_topology) return false;
   const Stopwatch start;
   const Eigen::Index n = cloth.vertex_count();
-  const SpringSet& springs = cloth.springs();
-  const std::size_t s = springs.size();
-
   m_dof_of_vertex.assign(static_cast<std::size_t>(n), -1);
   m_free_vertices.clear();
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -154,21 +175,7 @@ bool NewtonSolver::ensure_structure(const Cloth& cloth) {
   SymmetricPattern& pattern = m_pattern;
   fill_block_pattern(blocks, coupled, first_neighbour, pattern);
 
-  m_spring_slots.assign(3 * s, -1);
-  for (std::size_t k = 0; k < s; ++k) {
-    const std::int32_t a = m_dof_of_vertex[static_cast<std::size_t>(springs.first[k])];
-    const std::int32_t b = m_dof_of_vertex[static_cast<std::size_t>(springs.second[k])];
-    if (a < 0 || b < 0) continue;
-    const std::int32_t column_block = std::min(a, b) / 3, row_block = std::max(a, b) / 3;
-    const auto begin = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block)];
-    const auto end = coupled.begin() + first_neighbour[static_cast<std::size_t>(column_block) + 1];
-    const auto rank = std::lower_bound(begin, end, std::make_pair(column_block, row_block)) - begin;
-    for (int c = 0; c < 3; ++c) {
-      m_spring_slots[3 * k + static_cast<std::size_t>(c)] =
-          pattern.column_starts[static_cast<std::size_t>(3 * column_block + c)] + (3 - c) +
-          3 * rank;
-    }
-  }
+  spring_slots(cloth.springs(), m_dof_of_vertex, coupled, first_neighbour, pattern, m_spring_slots);
   m_bending_slots.clear();
   if (bending != nullptr) {
     bending_slots(*bending, m_dof_of_vertex, coupled, first_neighbour, pattern, m_bending_slots);

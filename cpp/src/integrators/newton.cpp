@@ -77,20 +77,7 @@ double NewtonSolver::newton_direction(const Cloth& cloth, ProjectionChoice& choi
       ++m_statistics.abs_projections;
     }
     energy = evaluate(cloth, m_iterate, true, true, projection);
-    if (try_kept_factor()) {
-      // CG on the current matrix, preconditioned by the lagged factor.
-      ScopedTimer timer(m_statistics.solve_seconds);
-      m_rhs = -m_gradient;
-      m_direction.setZero();
-      m_statistics.lagged_cg_iterations += preconditioned_cg(
-          m_pattern, m_values.data(), m_rhs, m_direction,
-          [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
-            m_solver->solve(r.data(), z.data());
-          },
-          m_options.lag_cg_tol, m_options.lag_max_cg_iterations, m_cg, solved);
-      kept_factor_result(solved);
-      if (solved) ++m_statistics.lagged_solves;  // a failed CG is followed by a factorization
-    }
+    if (try_kept_factor()) solved = lagged_cg_solve();
     if (!solved) {
       ScopedTimer timer(m_statistics.factorize_seconds);
       m_solver->factorize(m_values.data());
@@ -103,6 +90,22 @@ double NewtonSolver::newton_direction(const Cloth& cloth, ProjectionChoice& choi
     m_solver->solve(m_rhs.data(), m_direction.data());
   }
   return energy;
+}
+
+bool NewtonSolver::lagged_cg_solve() {
+  // CG on the current matrix, preconditioned by the lagged factor; a failed CG is followed by
+  // a factorization (the caller's).
+  ScopedTimer timer(m_statistics.solve_seconds);
+  m_rhs = -m_gradient;
+  m_direction.setZero();
+  bool solved = false;
+  m_statistics.lagged_cg_iterations += preconditioned_cg(
+      m_pattern, m_values.data(), m_rhs, m_direction,
+      [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_solver->solve(r.data(), z.data()); },
+      m_options.lag_cg_tol, m_options.lag_max_cg_iterations, m_cg, solved);
+  kept_factor_result(solved);
+  if (solved) ++m_statistics.lagged_solves;
+  return solved;
 }
 
 bool NewtonSolver::try_kept_factor() {
@@ -264,23 +267,13 @@ double NewtonSolver::steihaug_direction(double forcing, bool first, bool same, i
   exhausted = negative = false;
   m_direction.setZero();
   w.residual = -m_gradient;
-  {
-    ScopedTimer timer(m_statistics.solve_seconds);
-    m_solver->solve(w.residual.data(), w.preconditioned.data());
-  }
+  precondition_residual();
   double rz = w.residual.dot(w.preconditioned);
   // A step starts from at least the clamped Newton step's length (the radius a step ends with
   // is that of its last, tiny corrections).
   if (first || !(m_radius > 0.0)) m_radius = std::max(m_radius, std::sqrt(rz));
   const double radius2 = m_radius * m_radius;
-  if (same) {
-    // No spring is compressed: H = P, and the first CG step is Newton's step.
-    boundary = rz > radius2;
-    const double scale = boundary ? m_radius / std::sqrt(rz) : 1.0;
-    m_direction = scale * w.preconditioned;
-    length = scale * std::sqrt(rz);
-    return scale * rz - 0.5 * scale * scale * rz;  // −(g·d + ½ dᵀHd) with Hz = −g
-  }
+  if (same) return newton_step_in_region(rz, boundary, length);
   w.direction = w.preconditioned;
   const double target = forcing * std::sqrt(rz);
   double dpd = 0.0, dpp = 0.0, ppp = rz;  // ‖d‖²_P, dᵀPp, ‖p‖²_P
@@ -310,10 +303,7 @@ double NewtonSolver::steihaug_direction(double forcing, bool first, bool same, i
     m_direction += alpha * w.direction;
     dpd = next_dpd;
     w.residual -= alpha * w.product;
-    {
-      ScopedTimer timer(m_statistics.solve_seconds);
-      m_solver->solve(w.residual.data(), w.preconditioned.data());
-    }
+    precondition_residual();
     ++m_statistics.trust_region_cg_iterations;
     const double next = w.residual.dot(w.preconditioned);
     if (!(next > target * target)) break;
@@ -326,6 +316,21 @@ double NewtonSolver::steihaug_direction(double forcing, bool first, bool same, i
   length = boundary ? m_radius : std::sqrt(std::max(0.0, dpd));
   symmetric_multiply(m_pattern, m_exact_values.data(), m_direction, w.product);
   return -(m_gradient.dot(m_direction) + 0.5 * m_direction.dot(w.product));
+}
+
+void NewtonSolver::precondition_residual() {
+  ScopedTimer timer(m_statistics.solve_seconds);
+  m_solver->solve(m_cg.residual.data(), m_cg.preconditioned.data());
+}
+
+double NewtonSolver::newton_step_in_region(double rz, bool& boundary, double& length) {
+  // No spring is compressed: H = P, and the first CG step (P⁻¹(−g) in m_cg.preconditioned, rz
+  // its P-norm squared) is Newton's step, cut back to the region's boundary.
+  boundary = rz > m_radius * m_radius;
+  const double scale = boundary ? m_radius / std::sqrt(rz) : 1.0;
+  m_direction = scale * m_cg.preconditioned;
+  length = scale * std::sqrt(rz);
+  return scale * rz - 0.5 * scale * scale * rz;  // −(g·d + ½ dᵀHd) with Hz = −g
 }
 
 void NewtonSolver::refactor_clamped(const Cloth& cloth, bool& same) {

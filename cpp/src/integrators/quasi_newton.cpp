@@ -47,11 +47,40 @@ void NewtonSolver::ensure_scalar_matrix(const Cloth& cloth) {
   m_scalar_factored = true;
 }
 
+void NewtonSolver::lbfgs_direction(int stored, int newest) {
+  // Two-loop recursion: d = −H g with H the L-BFGS inverse Hessian built on Q⁻¹ (the newest
+  // of the `stored` pairs in slot `newest`). Q's unknowns are the free vertices in increasing
+  // order, as the blocks of the gradient.
+  ScopedTimer timer(m_statistics.solve_seconds);
+  const auto unknowns = static_cast<Eigen::Index>(m_free_vertices.size());
+  const int capacity = m_options.lbfgs_history;
+  m_rhs = m_gradient;
+  for (int k = 0; k < stored; ++k) {
+    const int slot = (newest - k + capacity) % capacity;
+    const double a = m_pairs_rho[slot] * m_pairs_s.col(slot).dot(m_rhs);
+    m_pairs_alpha[slot] = a;
+    m_rhs -= a * m_pairs_y.col(slot);
+  }
+  for (Eigen::Index b = 0; b < unknowns; ++b) {
+    for (int c = 0; c < 3; ++c) m_scalar_rhs(b, c) = m_rhs[3 * b + c];
+  }
+  if (unknowns > 0) {
+    m_scalar_solver->solve_columns(m_scalar_rhs.data(), m_scalar_solution.data(), 3);
+  }
+  for (Eigen::Index b = 0; b < unknowns; ++b) {
+    for (int c = 0; c < 3; ++c) m_direction[3 * b + c] = m_scalar_solution(b, c);
+  }
+  for (int k = stored - 1; k >= 0; --k) {
+    const int slot = (newest - k + capacity) % capacity;
+    const double beta = m_pairs_rho[slot] * m_pairs_y.col(slot).dot(m_direction);
+    m_direction += (m_pairs_alpha[slot] - beta) * m_pairs_s.col(slot);
+  }
+  m_direction = -m_direction;
+}
+
 void NewtonSolver::quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual,
                                         int& iterations, int& backtracks, bool& converged) {
   ensure_scalar_matrix(cloth);
-  // Q's unknowns are the free vertices in increasing order, as the blocks of the gradient.
-  const auto unknowns = static_cast<Eigen::Index>(m_free_vertices.size());
   const int capacity = m_options.lbfgs_history;
   int stored = 0, newest = -1;  // the history starts empty every step
   while (true) {
@@ -59,32 +88,7 @@ void NewtonSolver::quasi_newton_iterate(const Cloth& cloth, double& energy, doub
     const IterationVerdict now = verdict(energy, residual, iterations);
     if (now == IterationVerdict::converged) converged = true;
     if (now != IterationVerdict::go_on) return;  // diverged: the state is checked after the step
-    {
-      // Two-loop recursion: d = −H g with H the L-BFGS inverse Hessian built on Q⁻¹.
-      ScopedTimer timer(m_statistics.solve_seconds);
-      m_rhs = m_gradient;
-      for (int k = 0; k < stored; ++k) {
-        const int slot = (newest - k + capacity) % capacity;
-        const double a = m_pairs_rho[slot] * m_pairs_s.col(slot).dot(m_rhs);
-        m_pairs_alpha[slot] = a;
-        m_rhs -= a * m_pairs_y.col(slot);
-      }
-      for (Eigen::Index b = 0; b < unknowns; ++b) {
-        for (int c = 0; c < 3; ++c) m_scalar_rhs(b, c) = m_rhs[3 * b + c];
-      }
-      if (unknowns > 0) {
-        m_scalar_solver->solve_columns(m_scalar_rhs.data(), m_scalar_solution.data(), 3);
-      }
-      for (Eigen::Index b = 0; b < unknowns; ++b) {
-        for (int c = 0; c < 3; ++c) m_direction[3 * b + c] = m_scalar_solution(b, c);
-      }
-      for (int k = stored - 1; k >= 0; --k) {
-        const int slot = (newest - k + capacity) % capacity;
-        const double beta = m_pairs_rho[slot] * m_pairs_y.col(slot).dot(m_direction);
-        m_direction += (m_pairs_alpha[slot] - beta) * m_pairs_s.col(slot);
-      }
-      m_direction = -m_direction;
-    }
+    lbfgs_direction(stored, newest);
     ++iterations;
     const double slope = m_gradient.dot(m_direction);
     m_previous_gradient = m_gradient;  // (the line search may overwrite m_gradient)

@@ -158,6 +158,8 @@ class NewtonSolver final : public StageSolver {
                      double& trial_energy, bool trial_gradient = false);
   /// lbfgs: refactors Q if the topology, h̃ or the material changed since the last factor.
   void ensure_scalar_matrix(const Cloth& cloth);
+  /// lbfgs: m_direction ← −H ∇E by the two-loop recursion over the stored pairs.
+  void lbfgs_direction(int stored, int newest);
   /// lbfgs: minimises from m_iterate until the residual test or max_newton (quasi_newton.cpp).
   void quasi_newton_iterate(const Cloth& cloth, double& energy, double& residual, int& iterations,
                             int& backtracks, bool& converged);
@@ -225,6 +227,10 @@ class NewtonSolver final : public StageSolver {
   /// Moves to the accepted trial; true when the truncation or the step test stops Newton.
   bool steihaug_accept(const Cloth& cloth, SteihaugLoop& loop, const SteihaugStep& step,
                        double& energy, double& residual);
+  /// steihaug_direction's parts: m_cg.preconditioned ← P⁻¹ m_cg.residual (the clamped
+  /// factor); the subproblem when both Hessians are equal (Newton's step, within the region).
+  void precondition_residual();
+  double newton_step_in_region(double rz, bool& boundary, double& length);
   /// projection steihaug: assembles the clamped Hessian at m_iterate into m_values and factors
   /// it; `same` tells whether it equals the exact one in m_exact_values.
   void refactor_clamped(const Cloth& cloth, bool& same);
@@ -274,6 +280,9 @@ class NewtonSolver final : public StageSolver {
   int m_lag_skip = 0, m_lag_backoff = 1;
   /// lagged mode: whether this iteration may try CG on the kept factor (counts a skip down)
   bool try_kept_factor();
+  /// The Newton system solved by CG preconditioned by the kept factor (lagged_factorization);
+  /// whether CG converged.
+  bool lagged_cg_solve();
   /// lagged mode: a CG on the kept factor succeeded (true) or missed its bound (false)
   void kept_factor_result(bool solved);
   // projection exact: steps still to take projected after a rejection, and the next back-off
