@@ -126,39 +126,44 @@ class Rule:
         """(ok, the value in canonical form)."""
         if value is None and self.optional:
             return True, None
-        kind = self.kind
+        kind_test = _KIND_TESTS.get(self.kind)
         try:
-            if kind == "flag":
-                types = bool if self._python_types else (bool, np.bool_)
-                return isinstance(value, types), bool(value) if isinstance(value, types) else None
-            if kind == "count":
-                ok = (
-                    (not isinstance(value, bool) and isinstance(value, int))
-                    if self._python_types
-                    else is_integer(value)
-                )
-                return ok and self._within(value), int(value) if ok else None
-            if kind == "real":
-                ok = (
-                    (
-                        not isinstance(value, bool)
-                        and isinstance(value, (int, float))
-                        and math.isfinite(value)
-                    )
-                    if self._python_types
-                    else is_real(value)
-                )
-                return ok and self._within(float(value)), float(value) if ok else None
-            if kind == "choice":
-                ok = isinstance(value, str) and value in self.choices
-                return ok, value if ok else None
-            if kind == "text":
-                return isinstance(value, str), value
-            return self._custom(value)
+            return kind_test(self, value) if kind_test is not None else self._custom(value)
         except Invalid:
             raise  # a custom test's own account of the problem
         except (TypeError, ValueError, OverflowError):
             return False, None
+
+    def _test_flag(self, value):
+        types = bool if self._python_types else (bool, np.bool_)
+        return isinstance(value, types), bool(value) if isinstance(value, types) else None
+
+    def _test_count(self, value):
+        ok = (
+            (not isinstance(value, bool) and isinstance(value, int))
+            if self._python_types
+            else is_integer(value)
+        )
+        return ok and self._within(value), int(value) if ok else None
+
+    def _test_real(self, value):
+        ok = (
+            (
+                not isinstance(value, bool)
+                and isinstance(value, (int, float))
+                and math.isfinite(value)
+            )
+            if self._python_types
+            else is_real(value)
+        )
+        return ok and self._within(float(value)), float(value) if ok else None
+
+    def _test_choice(self, value):
+        ok = isinstance(value, str) and value in self.choices
+        return ok, value if ok else None
+
+    def _test_text(self, value):
+        return isinstance(value, str), value
 
     def __call__(self, value):
         """The value in canonical form, or `Invalid`."""
@@ -251,3 +256,13 @@ def from_core(spec) -> Rule:
             spec["low"], spec["high"], low_open=spec["low_open"], high_open=spec["high_open"]
         )
     return choice(*spec["choices"])
+
+
+#: Rule.test's test for each built-in kind (a "custom" rule has its own).
+_KIND_TESTS = {
+    "flag": Rule._test_flag,
+    "count": Rule._test_count,
+    "real": Rule._test_real,
+    "choice": Rule._test_choice,
+    "text": Rule._test_text,
+}

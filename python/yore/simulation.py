@@ -27,6 +27,7 @@ from .options import (
 )
 from . import progress as progress_bars, rules, settling, smoothing
 from .results import Energy, Statistics
+from .simulation_checks import check_integrator_and_options, checked_gravity, output_interval
 from .simulation_state import (
     as_saved,
     check_history,
@@ -160,45 +161,18 @@ class Simulation:
     def _build(self, cloth, integrator, dt, gravity, options, given):
         """The constructor's work; ``given`` names the options a user chose (`check_modes`
         refuses those that act only in a mode not in use), not those a state file holds."""
-        if not isinstance(cloth, Cloth):
-            raise TypeError(f"cloth must be a yore.Cloth, got {type(cloth).__name__}")
-        if not isinstance(integrator, str) or integrator not in INTEGRATORS:
-            raise ValueError(f"unknown integrator {integrator!r}; valid: {', '.join(INTEGRATORS)}")
-        valid = INTEGRATOR_OPTIONS[integrator]
-        unknown = sorted(set(options) - set(valid))
-        if unknown:
-            raise ValueError(
-                f"unknown option(s) {', '.join(map(repr, unknown))} for integrator "
-                f"{integrator!r}; valid: {', '.join(sorted(valid)) or 'none'}"
-            )
+        check_integrator_and_options(cloth, integrator, options)
         # the defaults filled in; dt="auto" selects error control (checked below)
         self._options = options_in_force(
             integrator,
             {name: check_option(integrator, name, value) for name, value in options.items()},
             dt,
         )
-        gravity = np.asarray(gravity, dtype=np.float64)
-        if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
-            raise ValueError(f"gravity must be 3 finite numbers (m/s²), got {gravity!r}")
-        self._gravity = gravity
+        self._gravity = checked_gravity(gravity)
         self._cloth = cloth
         self._integrator_name = integrator
         self._spec = INTEGRATOR_SPECS[integrator]
-        if isinstance(dt, str):
-            if dt != "auto":
-                raise ValueError(f"dt must be a number of seconds or 'auto', got {dt!r}")
-            if not (self._spec.error_controlled or "adaptive" in self._options):
-                adaptive = [
-                    name
-                    for name, spec in INTEGRATOR_SPECS.items()
-                    if spec.error_controlled or "adaptive" in spec.options
-                ]
-                raise ValueError(
-                    f"dt='auto' chooses the steps by error control, which "
-                    f"integrator {integrator!r} does not have; use one of "
-                    f"{', '.join(adaptive)}"
-                )
-            dt = FIXED_DT  # the output interval
+        dt = output_interval(dt, integrator, self._options)
         check_modes(integrator, given, self._options)
         # Error-controlled: dt is an output interval, inside which the steps are chosen.
         self._error_controlled = self._spec.error_controlled or bool(self._options.get("adaptive"))

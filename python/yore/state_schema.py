@@ -111,18 +111,21 @@ class FieldChecker:
             raise self.error(field, f"got {show_value(value)}", expected)
         if value.size == 0:
             return value
+        self._check_entries(value, field, low, high, low_open, allowed)
+        return value
+
+    def _check_entries(self, value, field, low, high, low_open, allowed):
+        """array's value checks: finite floats, values in ``allowed``, within the bounds."""
+        bounds = []  # (entries out of range, what was expected)
         if value.dtype.kind == "f":
-            bad = ~np.isfinite(value)
-            if bad.any():
-                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}", "finite numbers")
+            bounds.append((~np.isfinite(value), "finite numbers"))
         if allowed is not None:
-            bad = ~np.isin(value, allowed)
+            bounds.append(
+                (~np.isin(value, allowed), "values in {" + ", ".join(map(str, allowed)) + "}")
+            )
+        for bad, expected in bounds:
             if bad.any():
-                raise self.error(
-                    field,
-                    f"entry {_index(bad)} is {value[bad][0]}",
-                    "values in {" + ", ".join(map(str, allowed)) + "}",
-                )
+                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}", expected)
         if low is not None:
             bad = (value <= low) if low_open else (value < low)
             if bad.any():
@@ -137,7 +140,6 @@ class FieldChecker:
                 raise self.error(
                     field, f"entry {_index(bad)} is {value[bad][0]}", f"values <= {high}"
                 )
-        return value
 
 
 def _index(mask):
@@ -249,6 +251,12 @@ def _check_cloth(field, cloth):
 
 def _check_cloth_models(field, cloth, n):
     """Quadratic bending's fields (or none with bending springs) and the membrane's."""
+    bending = _check_bending_fields(field, cloth, n)
+    _check_membrane_fields(field, cloth, bending)
+
+
+def _check_bending_fields(field, cloth, n):
+    """The bending model, its operator and its fields; returns the model."""
     where = "simulation.cloth."
     bending = cloth.get("bending", "springs")
     if bending not in ("springs", "quadratic", "hinge"):
@@ -267,16 +275,22 @@ def _check_cloth_models(field, cloth, n):
     if bending in ("quadratic", "hinge"):
         field.real(cloth.get("bending_modulus"), where + "bending_modulus", 0.0)
         field.array(cloth.get("bending_rest"), where + "bending_rest", np.float64, (n, 3))
-    else:
-        for name in ("bending_modulus", "bending_rest"):
-            value = cloth.get(name)
-            zero = isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0
-            if value is not None and not zero:
-                raise field.error(
-                    where + name,
-                    f"got {show_value(value)}",
-                    "none (0 or null) with bending springs",
-                )
+        return bending
+    for name in ("bending_modulus", "bending_rest"):
+        value = cloth.get(name)
+        zero = isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0
+        if value is not None and not zero:
+            raise field.error(
+                where + name,
+                f"got {show_value(value)}",
+                "none (0 or null) with bending springs",
+            )
+    return bending
+
+
+def _check_membrane_fields(field, cloth, bending):
+    """The membrane's moduli and its strain (which needs bending's rest state)."""
+    where = "simulation.cloth."
     if "young_modulus" in cloth:
         young = field.real(cloth["young_modulus"], where + "young_modulus", 0.0)
         if "poisson_ratio" in cloth:

@@ -60,44 +60,51 @@ def _check_tables(scene, raw):
         )
     data = SceneData()
     for name, (keys, kind) in SCHEMA.items():
-        value = raw.get(name)
         if name == "integrator":
             continue
+        value = raw.get(name)
         if kind == "array":
-            if value is None:
-                value = []
-            if not isinstance(value, list) or any(not isinstance(v, dict) for v in value):
-                raise scene.error(
-                    name, f"got {describe_value(value)}", f"[[{name}]] tables (an array of tables)"
-                )
-            setattr(
-                data,
-                name,
-                [
-                    _check_table(scene, f"{name}[{k}]", entry, keys, TABLES[name])
-                    for k, entry in enumerate(value)
-                ],
-            )
-        else:
-            if value is None:
-                if name in ("mesh", "simulation"):
-                    raise scene.error(name, "missing", f"a [{name}] table")
-                value = {}
-            if not isinstance(value, dict):
-                raise scene.error(name, f"got {describe_value(value)}", f"a [{name}] table")
-            if name == "mesh":
-                generator = value.get("generator")
-                if generator is None:
-                    raise scene.error("mesh.generator", "missing", SCHEMA_GENERATOR_EXPECTED)
-                keys = dict(keys)
-                if isinstance(generator, str) and generator in GENERATOR_KEYS:
-                    keys.update(GENERATOR_KEYS[generator])
-            setattr(data, name, _check_table(scene, name, value, keys, TABLES[name]))
-            if name == "mesh":
-                _check_mesh_size(scene, data.mesh)
-            if name == "camera":
-                _check_camera_size(scene, data.camera)
+            setattr(data, name, _check_array_of_tables(scene, name, value, keys))
+            continue
+        setattr(data, name, _check_single_table(scene, name, value, keys))
+        if name == "mesh":
+            _check_mesh_size(scene, data.mesh)
+        if name == "camera":
+            _check_camera_size(scene, data.camera)
     return data
+
+
+def _check_array_of_tables(scene, name, value, keys):
+    """[[name]] tables (none: an empty list), each checked key by key."""
+    if value is None:
+        value = []
+    if not isinstance(value, list) or any(not isinstance(v, dict) for v in value):
+        raise scene.error(
+            name, f"got {describe_value(value)}", f"[[{name}]] tables (an array of tables)"
+        )
+    return [
+        _check_table(scene, f"{name}[{k}]", entry, keys, TABLES[name])
+        for k, entry in enumerate(value)
+    ]
+
+
+def _check_single_table(scene, name, value, keys):
+    """A [name] table checked key by key ([mesh] and [simulation] are required; the mesh's
+    keys include its generator's)."""
+    if value is None:
+        if name in ("mesh", "simulation"):
+            raise scene.error(name, "missing", f"a [{name}] table")
+        value = {}
+    if not isinstance(value, dict):
+        raise scene.error(name, f"got {describe_value(value)}", f"a [{name}] table")
+    if name == "mesh":
+        generator = value.get("generator")
+        if generator is None:
+            raise scene.error("mesh.generator", "missing", SCHEMA_GENERATOR_EXPECTED)
+        keys = dict(keys)
+        if isinstance(generator, str) and generator in GENERATOR_KEYS:
+            keys.update(GENERATOR_KEYS[generator])
+    return _check_table(scene, name, value, keys, TABLES[name])
 
 
 def _check_material(scene, material, raw):

@@ -105,36 +105,28 @@ def _number(value):
     return None
 
 
+def _add_numbers(values, pairs, prefix=""):
+    """values[prefix + name] = each value of (name, value) pairs that is a finite number."""
+    for name, value in pairs:
+        number = _number(value)
+        if number is not None:
+            values[prefix + name] = number
+
+
 def _summary_values(summary) -> dict:
     values = {}
-    for name in ("time", "steps", "dt", "wall_seconds", "vertices", "springs"):
-        number = _number(summary.get(name))
-        if number is not None:
-            values[name] = number
-    for name, value in (summary.get("counters") or {}).items():
-        number = _number(value)
-        if number is not None:
-            values[name] = number
-    for name, value in (summary.get("phases") or {}).items():
-        number = _number(value)
-        if number is not None:
-            values[name] = number
+    _add_numbers(
+        values,
+        (
+            (n, summary.get(n))
+            for n in ("time", "steps", "dt", "wall_seconds", "vertices", "springs")
+        ),
+    )
+    _add_numbers(values, (summary.get("counters") or {}).items())
+    _add_numbers(values, (summary.get("phases") or {}).items())
     records = summary.get("records") or []
     if records:
-        for name in _ENERGIES:
-            number = _number(records[-1].get(name))
-            if number is not None:
-                values[f"final_{name}"] = number
-        first, last = _number(records[0].get("total")), _number(records[-1].get("total"))
-        if first is not None and last is not None:
-            values["energy_gain"] = last - first
-            totals = [_number(r.get("total")) for r in records]
-            gravity = [_number(r.get("gravity")) for r in records]
-            if None not in totals and None not in gravity:
-                # over the recorded frames: the largest rise of the total energy, and the
-                # gravitational energy released (what the stability map compares)
-                values["max_energy_gain"] = max(totals) - first
-                values["gravity_released"] = max(gravity[0] - g for g in gravity)
+        _add_energy_values(values, records)
     if values.get("time"):
         values["wall_seconds_per_simulated_second"] = (
             values.get("wall_seconds", math.nan) / values["time"]
@@ -142,20 +134,37 @@ def _summary_values(summary) -> dict:
     strokes = summary.get("strokes") or []
     values["strokes"] = float(len(strokes))
     if strokes:
-        stroke = strokes[0]
-        for name in (
-            "faces_split",
-            "vertices_added",
-            "springs_grown",
-            "rest_length_added",
-            "mass_added",
-            "rest_area_before",
-            "rest_area_after",
-        ):
-            number = _number(stroke.get(name))
-            if number is not None:
-                values[f"stroke_{name}"] = number
+        _add_numbers(values, ((n, strokes[0].get(n)) for n in _STROKE_VALUES), prefix="stroke_")
     return values
+
+
+#: The first stroke's figures a cell records (as stroke_<name>).
+_STROKE_VALUES = (
+    "faces_split",
+    "vertices_added",
+    "springs_grown",
+    "rest_length_added",
+    "mass_added",
+    "rest_area_before",
+    "rest_area_after",
+)
+
+
+def _add_energy_values(values, records):
+    """The last frame's energies (final_<name>), and over the recorded frames the total
+    energy's change, its largest rise and the gravitational energy released."""
+    _add_numbers(values, ((n, records[-1].get(n)) for n in _ENERGIES), prefix="final_")
+    first, last = _number(records[0].get("total")), _number(records[-1].get("total"))
+    if first is None or last is None:
+        return
+    values["energy_gain"] = last - first
+    totals = [_number(r.get("total")) for r in records]
+    gravity = [_number(r.get("gravity")) for r in records]
+    if None not in totals and None not in gravity:
+        # over the recorded frames: the largest rise of the total energy, and the
+        # gravitational energy released (what the stability map compares)
+        values["max_energy_gain"] = max(totals) - first
+        values["gravity_released"] = max(gravity[0] - g for g in gravity)
 
 
 def _state_values(sim, summary) -> dict:

@@ -21,19 +21,7 @@ def _selection(dataset, dims, x, y, select):
                 f"--select {name}: not one of the other dimensions "
                 f"({', '.join(d for d in dims if d not in (x, y)) or 'none'})"
             )
-        coordinate = dataset[name].values
-        matches = [
-            k
-            for k, c in enumerate(coordinate)
-            if str(c) == str(wanted)
-            or (_is_number(wanted) and _is_number(c) and float(c) == float(wanted))
-        ]
-        if not matches:
-            raise ValueError(
-                f"--select {name}={wanted}: not one of its values "
-                f"({', '.join(map(str, coordinate))})"
-            )
-        selection[name] = matches[0]
+        selection[name] = _index_of(dataset[name].values, name, wanted)
     rest = [d for d in dims if d not in (x, y) and d not in selection]
     for name in rest:
         if dataset.sizes[name] != 1:
@@ -43,6 +31,21 @@ def _selection(dataset, dims, x, y, select):
             )
         selection[name] = 0
     return selection
+
+
+def _index_of(coordinate, name, wanted):
+    """The first index of ``wanted`` along a coordinate (as text, or as a number)."""
+    matches = [
+        k
+        for k, c in enumerate(coordinate)
+        if str(c) == str(wanted)
+        or (_is_number(wanted) and _is_number(c) and float(c) == float(wanted))
+    ]
+    if not matches:
+        raise ValueError(
+            f"--select {name}={wanted}: not one of its values ({', '.join(map(str, coordinate))})"
+        )
+    return matches[0]
 
 
 def _label_cells(ax, grid, status):

@@ -194,30 +194,44 @@ def read_record(path, cell) -> dict:
             "(remove the file to run the cell again)"
         )
 
+    record, problem = _read_record_file(path)
+    if problem is None:
+        problem = _record_problem(record, cell)
+    if problem is not None:
+        refuse(problem)
+    return record
+
+
+def _read_record_file(path):
+    """(the record file's JSON, None), or (None, what is wrong with the file)."""
     try:
         info = path.stat()
     except OSError as error:
-        refuse(f"cannot be read ({error.strerror})")
+        return None, f"cannot be read ({error.strerror})"
     if not path.is_file():
-        refuse("not a regular file")
+        return None, "not a regular file"
     if info.st_size > MAX_RECORD_BYTES:
-        refuse(f"{info.st_size} bytes, more than a record's {MAX_RECORD_BYTES}")
+        return None, f"{info.st_size} bytes, more than a record's {MAX_RECORD_BYTES}"
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        return json.loads(path.read_text(encoding="utf-8")), None
     except (OSError, UnicodeDecodeError, ValueError) as error:
-        refuse(f"not valid JSON ({' '.join(str(error).split())[:120]})")
+        return None, f"not valid JSON ({' '.join(str(error).split())[:120]})"
     except RecursionError:
-        refuse("nested too deeply")
+        return None, "nested too deeply"
+
+
+def _record_problem(record, cell):
+    """What is wrong with a record's contents for this cell, or None."""
     if not isinstance(record, dict) or set(record) != {"status", "message", "overrides", "values"}:
-        refuse("not a table with status, message, overrides and values")
+        return "not a table with status, message, overrides and values"
     status = record["status"]
     if not isinstance(status, str) or not 0 < len(status) <= 64 or any(ord(c) < 32 for c in status):
-        refuse(f"status {status!r} is not a short text (e.g. {', '.join(STATUSES)})")
+        return f"status {status!r} is not a short text (e.g. {', '.join(STATUSES)})"
     if not isinstance(record["message"], str):
-        refuse("message is not a string")
+        return "message is not a string"
     expected = json.loads(json.dumps(cell.overrides, default=str))
     if record["overrides"] != expected:
-        refuse(
+        return (
             f"it was written for other settings ({record['overrides']!r}; this cell's are "
             f"{expected!r}): the sweep file was changed since"
         )
@@ -229,8 +243,8 @@ def read_record(path, cell) -> dict:
         and math.isfinite(value)
         for name, value in values.items()
     ):
-        refuse("values is not a table of finite numbers")
-    return record
+        return "values is not a table of finite numbers"
+    return None
 
 
 def _column(values):

@@ -121,28 +121,46 @@ def _dimensions(source, raw, sets, repeats):
         _check_values(source, f"axes.{key}", values)
         dimensions.append(Dimension(key, (key,), tuple((v,) for v in values)))
     for name, members in _table(source, raw, "zip").items():
-        if isinstance(members, list):
-            dimensions.append(_variants(source, name, members))
-            continue
-        if not isinstance(members, dict) or not members:
-            raise _error(
-                source,
-                f"zip.{name}",
-                "is not a table of keys",
-                'a table like [zip.method] with "simulation.dt" = [...] lines',
-            )
-        lengths = set()
-        for key, values in members.items():
-            _check_values(source, f"zip.{name}.{key}", values)
-            lengths.add(len(values))
-        if len(lengths) != 1:
-            raise _error(
-                source,
-                f"zip.{name}",
-                f"its lists have lengths {sorted(lengths)}",
-                "lists of one length (the keys vary together)",
-            )
-        dimensions.append(Dimension(name, tuple(members), tuple(zip(*members.values()))))
+        dimensions.append(_zip_dimension(source, name, members))
+    _check_distinct(source, dimensions, sets)
+    # Dimension names and the keys along zips become names in results.nc: refuse now what the
+    # file cannot hold, before any cell runs
+    for dimension in dimensions:
+        _check_dimension_names(source, dimension)
+    if repeats > 1:
+        dimensions.append(Dimension("repeat", ("repeat",), tuple((k,) for k in range(repeats))))
+    if not dimensions:
+        raise _error(source, "axes", "no axis, zip or repeat", "at least one axis to sweep")
+    return dimensions
+
+
+def _zip_dimension(source, name, members):
+    """[zip.name]: a list of variants, or a table of keys whose lists vary together."""
+    if isinstance(members, list):
+        return _variants(source, name, members)
+    if not isinstance(members, dict) or not members:
+        raise _error(
+            source,
+            f"zip.{name}",
+            "is not a table of keys",
+            'a table like [zip.method] with "simulation.dt" = [...] lines',
+        )
+    lengths = set()
+    for key, values in members.items():
+        _check_values(source, f"zip.{name}.{key}", values)
+        lengths.add(len(values))
+    if len(lengths) != 1:
+        raise _error(
+            source,
+            f"zip.{name}",
+            f"its lists have lengths {sorted(lengths)}",
+            "lists of one length (the keys vary together)",
+        )
+    return Dimension(name, tuple(members), tuple(zip(*members.values())))
+
+
+def _check_distinct(source, dimensions, sets):
+    """Each key swept in one place and not also set; distinct dimension names."""
     keys = [key for d in dimensions for key in d.keys]
     names = [d.name for d in dimensions]
     for duplicate in {k for k in keys if keys.count(k) > 1}:
@@ -156,23 +174,19 @@ def _dimensions(source, raw, sets, repeats):
         raise _error(source, duplicate, "names two dimensions", "distinct names")
     for key in set(sets) & set(keys):
         raise _error(source, f"sweep.set.{key}", "is also swept", "a key set or swept, not both")
-    # Dimension names and the keys along zips become names in results.nc: refuse now what the
-    # file cannot hold, before any cell runs
-    for dimension in dimensions:
-        where = (
-            f"zip.{dimension.name}"
-            if dimension.name not in dimension.keys or len(dimension.keys) > 1 or dimension.labels
-            else f"axes.{dimension.name}"
-        )
-        _check_result_name(source, where, dimension.name)
-        if len(dimension.keys) > 1 and not dimension.labels:
-            for key in dimension.keys:
-                _check_result_name(source, f"{where}.{key}", key)
-    if repeats > 1:
-        dimensions.append(Dimension("repeat", ("repeat",), tuple((k,) for k in range(repeats))))
-    if not dimensions:
-        raise _error(source, "axes", "no axis, zip or repeat", "at least one axis to sweep")
-    return dimensions
+
+
+def _check_dimension_names(source, dimension):
+    """A dimension's name, and a zip's keys, as names results.nc can hold."""
+    where = (
+        f"zip.{dimension.name}"
+        if dimension.name not in dimension.keys or len(dimension.keys) > 1 or dimension.labels
+        else f"axes.{dimension.name}"
+    )
+    _check_result_name(source, where, dimension.name)
+    if len(dimension.keys) > 1 and not dimension.labels:
+        for key in dimension.keys:
+            _check_result_name(source, f"{where}.{key}", key)
 
 
 def _record_table(source, raw, dimensions):
@@ -198,37 +212,43 @@ def _record_table(source, raw, dimensions):
             'a table of swept keys and values, e.g. { "simulation.dt" = 1e-4 }',
         )
     for key, value in reference.items():
-        variants = next((d for d in dimensions if d.labels and d.name == key), None)
-        if variants is not None:
-            if value not in variants.labels:
-                raise _error(
-                    source,
-                    f"record.reference.{key}",
-                    f"{value!r} is not one of its labels",
-                    ", ".join(repr(label) for label in variants.labels),
-                )
-            continue
-        dimension = next((d for d in dimensions if key in d.keys and not d.labels), None)
-        if dimension is None:
-            raise _error(
-                source,
-                f"record.reference.{key}",
-                "is not a swept key",
-                "one of "
-                + ", ".join(
-                    [k for d in dimensions if not d.labels for k in d.keys]
-                    + [d.name for d in dimensions if d.labels]
-                ),
-            )
-        column = dimension.keys.index(key)
-        if not any(same_value(value, values[column]) for values in dimension.values):
-            raise _error(
-                source,
-                f"record.reference.{key}",
-                f"{value!r} is not one of its values",
-                ", ".join(repr(v[column]) for v in dimension.values),
-            )
+        _check_reference_value(source, dimensions, key, value)
     return frames, reference
+
+
+def _swept_names(dimensions):
+    """ "one of" the swept keys and the variants' names."""
+    return "one of " + ", ".join(
+        [k for d in dimensions if not d.labels for k in d.keys]
+        + [d.name for d in dimensions if d.labels]
+    )
+
+
+def _check_reference_value(source, dimensions, key, value):
+    """One key of [record.reference]: a variant's label, or one of a swept key's values."""
+    variants = next((d for d in dimensions if d.labels and d.name == key), None)
+    if variants is not None:
+        if value not in variants.labels:
+            raise _error(
+                source,
+                f"record.reference.{key}",
+                f"{value!r} is not one of its labels",
+                ", ".join(repr(label) for label in variants.labels),
+            )
+        return
+    dimension = next((d for d in dimensions if key in d.keys and not d.labels), None)
+    if dimension is None:
+        raise _error(
+            source, f"record.reference.{key}", "is not a swept key", _swept_names(dimensions)
+        )
+    column = dimension.keys.index(key)
+    if not any(same_value(value, values[column]) for values in dimension.values):
+        raise _error(
+            source,
+            f"record.reference.{key}",
+            f"{value!r} is not one of its values",
+            ", ".join(repr(v[column]) for v in dimension.values),
+        )
 
 
 def _try_set_and_values(sweep, source, dimensions):

@@ -258,33 +258,41 @@ class Viewer(ViewerModel):
         if not self.draw_mode or captured:
             return None
         if down:
-            pixel = np.asarray(position, dtype=np.float64) - 0.5
-            previous = self._drag_pixel
-            if previous is not None and np.array_equal(previous, pixel):
-                return None
-            samples = densify([previous, pixel])[1:] if previous is not None else pixel[None]
-            self._drag_pixel = pixel
-            if previous is None:
-                self.message = "drawing a stroke (release to apply it)"
-            hits, faces, weights = self.pick_surface(samples)
-            self._draft.extend(zip(hits, faces, weights))
-            self._show_draft()
+            self._drag_to(np.asarray(position, dtype=np.float64) - 0.5)
             return None
         if released and self._drag_pixel is not None and not self._draft:
             self._drag_pixel = None
             self.message = "the stroke missed the cloth (no sample on it)"
         if released and self._draft:
-            self._drag_pixel = None
-            pixels = np.asarray([d[0] for d in self._draft])
-            faces = np.asarray([d[1] for d in self._draft])
-            weights = np.asarray([d[2] for d in self._draft])
-            self._draft = []
-            if self._ps.has_curve_network(DRAFT):
-                self._ps.remove_curve_network(DRAFT)
-            try:
-                return self.apply_picked(pixels, faces, weights)
-            except ValueError as error:  # StrokeMissed, a bad option
-                self.message = " ".join(str(error).split())
+            return self._apply_draft()
+        return None
+
+    def _drag_to(self, pixel):
+        """The drag reached ``pixel`` (centre coordinates): picks the samples since the last."""
+        previous = self._drag_pixel
+        if previous is not None and np.array_equal(previous, pixel):
+            return
+        samples = densify([previous, pixel])[1:] if previous is not None else pixel[None]
+        self._drag_pixel = pixel
+        if previous is None:
+            self.message = "drawing a stroke (release to apply it)"
+        hits, faces, weights = self.pick_surface(samples)
+        self._draft.extend(zip(hits, faces, weights))
+        self._show_draft()
+
+    def _apply_draft(self):
+        """The button was released over a drawn stroke: apply it, and clear the draft."""
+        self._drag_pixel = None
+        pixels = np.asarray([d[0] for d in self._draft])
+        faces = np.asarray([d[1] for d in self._draft])
+        weights = np.asarray([d[2] for d in self._draft])
+        self._draft = []
+        if self._ps.has_curve_network(DRAFT):
+            self._ps.remove_curve_network(DRAFT)
+        try:
+            return self.apply_picked(pixels, faces, weights)
+        except ValueError as error:  # StrokeMissed, a bad option
+            self.message = " ".join(str(error).split())
         return None
 
     def _show_draft(self):
@@ -347,35 +355,12 @@ class Viewer(ViewerModel):
 
     def _panel(self, psim):
         psim.PushItemWidth(120)
-        if psim.Button("pause" if self.playing else "play"):
-            self.playing = not self.playing
-        psim.SameLine()
-        if psim.Button("step"):
-            self.step_frame()
-        psim.SameLine()
-        if psim.Button("reset"):
-            self.reset()
-        psim.SameLine()
-        if psim.Button("undo stroke"):
-            self.undo()
+        self._run_buttons(psim)
         changed, draw = psim.Checkbox("draw mode (D)", self.draw_mode)
         if changed:
             self.set_draw_mode(draw)
         _, self.speed = psim.SliderFloat("speed (x real time)", self.speed, 0.01, 4.0)
-        names = list(INTEGRATORS)
-        index = names.index(self.sim.integrator)
-        changed, index = psim.Combo("integrator", index, names)
-        if changed:
-            self._safely(self.set_integrator, names[index])
-        # applied on Enter, not at every keystroke of a number being typed
-        changed, dt = psim.InputFloat(
-            "dt (s)",
-            float(self.sim.dt),
-            format="%.3g",
-            flags=psim.ImGuiInputTextFlags_EnterReturnsTrue,
-        )
-        if changed and dt > 0 and math.isfinite(dt):
-            self._safely(self.set_integrator, self.sim.integrator, float(dt))
+        self._integrator_panel(psim)
         coloring = COLORINGS.index(self.coloring)
         changed, coloring = psim.Combo("colour by", coloring, list(COLORINGS))
         if changed:
@@ -402,6 +387,37 @@ class Viewer(ViewerModel):
             psim.TextUnformatted(f"{key:>6}  {action}")
         psim.TextUnformatted("  drag  draw (in draw mode), else turn the view")
         psim.PopItemWidth()
+
+    def _run_buttons(self, psim):
+        """play/pause, step, reset and undo stroke, on one line."""
+        if psim.Button("pause" if self.playing else "play"):
+            self.playing = not self.playing
+        psim.SameLine()
+        if psim.Button("step"):
+            self.step_frame()
+        psim.SameLine()
+        if psim.Button("reset"):
+            self.reset()
+        psim.SameLine()
+        if psim.Button("undo stroke"):
+            self.undo()
+
+    def _integrator_panel(self, psim):
+        """The integrator's choice, and dt (applied on Enter, not at every keystroke of a
+        number being typed)."""
+        names = list(INTEGRATORS)
+        index = names.index(self.sim.integrator)
+        changed, index = psim.Combo("integrator", index, names)
+        if changed:
+            self._safely(self.set_integrator, names[index])
+        changed, dt = psim.InputFloat(
+            "dt (s)",
+            float(self.sim.dt),
+            format="%.3g",
+            flags=psim.ImGuiInputTextFlags_EnterReturnsTrue,
+        )
+        if changed and dt > 0 and math.isfinite(dt):
+            self._safely(self.set_integrator, self.sim.integrator, float(dt))
 
     def _stroke_panel(self, psim):
         """The panel's stroke options: expansion, width, growth, refinement, smoothing."""
