@@ -349,7 +349,8 @@ def history(
     """Runs from the start (moved by epsilon) with steps of stride / (GRID_RATE · per_sample) s,
     sampling every `stride` grid points: {"snapshots": [positions at the samples up to
     keep_until (k×n×3), the sample table (COLUMNS)], "cpu_seconds": of the stepping alone,
-    "counters"}. Diverged (or not finite) → {"diverged": True}; CPU spent, or extrapolated from
+    "counters"}. Diverged (or not finite) → {"diverged": True, "message" when the simulation
+    said why}; CPU spent, or extrapolated from
     the steps done once a sixteenth of them ran, beyond cap_seconds → {"aborted": ...}."""
     samples = round(duration * GRID_RATE) // stride
     steps = samples * per_sample
@@ -371,8 +372,9 @@ def history(
         start = time.thread_time()
         try:
             sim.step(per_sample, progress=False)
-        except yore.SimulationDiverged:
-            return {"diverged": True, "steps_done": (k - 1) * per_sample}
+        except yore.SimulationDiverged as error:
+            message = " ".join(str(error).split())
+            return {"diverged": True, "steps_done": (k - 1) * per_sample, "message": message}
         cpu += time.thread_time() - start
         sample(k)
         predicted = cpu * samples / k

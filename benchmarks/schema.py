@@ -338,6 +338,19 @@ SCHEMAS = {
             "kinetic_energy",
         },
     ),
+    "truncation_fraction": (
+        {
+            "benchmark",
+            "machine",
+            "rows",
+            "quick",
+            "size",
+            "duration",
+            "default_fraction",
+            "references",
+        },
+        {"cell", "dt", "truncation_fraction"},
+    ),
     "sensitivity": (
         {
             "benchmark",

@@ -1435,3 +1435,36 @@ def test_the_artificial_bending_of_the_interpolation_grows_as_the_edge_squared()
     assert (
         wrinkles.artificial_bending(V[:, :2], F, stress, wavelength, np.ones(len(F), bool)) == 0.0
     )
+
+
+def test_truncation_fraction_smoke(tmp_path):
+    import numpy as np
+
+    import yore
+    from benchmarks.long_horizon import relative_l2
+
+    data = run_benchmark("truncation_fraction", tmp_path, "--quick", "--fractions", "0.01", "0.1")
+    assert data["default_fraction"] == yore.options.defaults("tr-bdf2")["truncation_fraction"]
+    cells = set(data["references"])
+    assert {(r["cell"], r["dt"], r["truncation_fraction"]) for r in data["rows"]} == {
+        (c, dt, f) for c in cells for dt in (1 / 32, 1 / 64) for f in (0.01, 0.1)
+    }
+    for r in data["rows"]:
+        if r.get("diverged"):
+            assert r["message"]
+            continue
+        reference = data["references"][r["cell"]]
+        # explicit's cost is its median step CPU over the 2 s the runs cover
+        explicit = reference["explicit_cpu_per_step"] * data["duration"] / reference["explicit_dt"]
+        assert reference["explicit_cpu_seconds"] == pytest.approx(explicit)
+        assert r["cost_over_explicit"] == pytest.approx(r["cpu_seconds"] / explicit)
+        # the measure is the long horizon's, against the reference at the run's sample points
+        stride = round(r["dt"] * 64)
+        ke = np.asarray(reference["kinetic_energy"])[::stride]
+        assert len(r["kinetic_energy"]) == len(ke)
+        assert r["kinetic_energy_history"] == pytest.approx(relative_l2(r["kinetic_energy"], ke))
+        # every TR-BDF2 step is two stages but the first (backward Euler: no history yet)
+        assert r["stages"] == 2 * r["steps"] - 1
+        assert r["iterations_per_stage"] == pytest.approx(r["newton_iterations"] / r["stages"])
+        assert r["trapezoid_newton_iterations"] < r["newton_iterations"]
+        assert r["energy_gain"] >= 0.0 and r["thrown_away"] == 0
