@@ -1,6 +1,7 @@
-// Tests of cpp/src/cloth/membrane.cpp (cpp/include/yore/cloth/membrane.hpp): St. Venant–Kirchhoff
-// constant-strain triangles — rest layout, closed-form energies, derivatives against finite
-// differences, the filtered Hessian's definiteness, and the cloth's membrane wiring.
+// Tests of cpp/src/cloth/membrane.cpp and cpp/src/cloth/membrane_elements.cpp
+// (cpp/include/yore/cloth/membrane.hpp): St. Venant–Kirchhoff constant-strain triangles and the
+// smoothed strain's per-vertex elements — rest layout, closed-form energies, derivatives against
+// finite differences, the filtered Hessian's definiteness, and the cloth's membrane wiring.
 #include <doctest/doctest.h>
 
 #include <Eigen/Eigenvalues>
