@@ -399,3 +399,26 @@ def test_the_complexity_counters_count_decisions():
     )
     ((name, text),) = _cpp_function_bodies(body)
     assert name == "f" and _cpp_complexity(text) == 1 + 2 + 2 + 2 + 2
+
+
+#: Issue 54's size targets: the largest Python module of the package and the largest C++
+#: source or header.
+MAX_MODULE_LINES = 500
+MAX_CPP_FILE_LINES = 600
+
+
+def test_no_module_or_cpp_file_is_over_its_size():
+    too_long = [
+        f"{name} ({n} lines)"
+        for name, (path, _) in SOURCES.items()
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES
+    ]
+    cpp = PACKAGE.parents[1] / "cpp"
+    files = [p for p in cpp.rglob("*") if p.suffix in (".cpp", ".hpp")]
+    assert len(files) > 60
+    too_long += [
+        f"{p.relative_to(cpp)} ({n} lines)"
+        for p in files
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_CPP_FILE_LINES
+    ]
+    assert too_long == []

@@ -584,11 +584,11 @@ def test_render_colours_by_the_scene_unless_told_otherwise(tmp_path, monkeypatch
 
 def test_no_progress_bar_reaches_a_log_file(monkeypatch, capsys):
     import yore.progress
-    import yore.simulation
+    import yore.step_runner
 
     # a bar is due at once (every batch is "slow"); stderr here is not a terminal
     monkeypatch.setattr(yore.progress, "AFTER_SECONDS", 0.0)
-    monkeypatch.setattr(yore.simulation, "_BATCH_SECONDS", 0.0)
+    monkeypatch.setattr(yore.step_runner, "BATCH_SECONDS", 0.0)
     sim = yore.scenes.hanging_cloth(resolution=7)
     sim.step(40)
     assert capsys.readouterr().err == ""

@@ -600,7 +600,7 @@ def test_a_frame_interval_longer_than_one_call_may_step_is_run_in_pieces(
     # class 15: with --allow-long, a frame interval over MAX_STEPS failed after starting
     # ("call step repeatedly"); the limit is lowered here to keep the run short
     monkeypatch.setattr(yore.runs.stepping, "MAX_STEPS", 5)
-    monkeypatch.setattr(yore.simulation, "MAX_STEPS", 5)
+    monkeypatch.setattr(yore.simulation_checks, "MAX_STEPS", 5)
     scene = [
         "run",
         str(EXAMPLES / "hanging_paper.toml"),

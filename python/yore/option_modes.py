@@ -78,7 +78,7 @@ _CHEBYSHEV_MODE = Mode(
 #: factorization and amalgamation only with solver "cholmod" (linear_solver.cpp: eigen-ldlt and
 #: pcg take neither); strain_limit_passes only with a strain limit (explicit.cpp); local-global's
 #: stale CG only with rebuild "stale-pcg" (local_global.cpp) and chebyshev_rho only with
-#: Chebyshev acceleration (`_make_local_global` passes 0 without it). `check_modes` refuses an
+#: Chebyshev acceleration (`make_local_global` passes 0 without it). `check_modes` refuses an
 #: option given outside its mode: it would do nothing, silently. Not here, though equally idle:
 #: newton_tol, max_newton, step_tol and truncation_fraction with linearized=True (one Newton
 #: step, newton.cpp) — benchmarks.crossover names truncation_fraction on its linearized rows so

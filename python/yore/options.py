@@ -24,9 +24,6 @@ serve (`yore.option_modes`), and the stroke, scene and picture defaults (`yore.d
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
-
 from . import _core, rules
 from .core_tables import (  # noqa: F401  (re-exported: the registry reads from them)
     ACCELERATIONS,
@@ -60,6 +57,12 @@ from .defaults import (  # noqa: F401  (re-exported: one place to read every def
     SMOOTHING_RULES,
     STIFFNESS,
     STROKE_DEFAULTS,
+)
+from .integrator_spec import (  # noqa: F401  (IntegratorSpec re-exported with the registry)
+    IntegratorSpec,
+    error_controlled_factory,
+    make_explicit,
+    make_local_global,
 )
 from .option_modes import MODE_ONLY, Mode  # noqa: F401  (re-exported with check_modes)
 from .rules import Invalid, show
@@ -378,45 +381,6 @@ FIXED_DT = 1.0 / 60.0
 DEFAULT_INTEGRATOR = REFERENCE_INTEGRATOR = "explicit"
 
 
-@dataclass(frozen=True)
-class IntegratorSpec:
-    """Everything the Python side knows of one integrator; `INTEGRATOR_SPECS` holds them.
-
-    name: the public name (``yore.Simulation(integrator=name)``, scene and state files).
-    summary: one line for help texts. options: its options table (name → default, None where
-    `resolve_options` decides). make: its core integrator from its options as given (the
-    factory resolves them). conditionally_stable: dt defaults to the explicit stable-step bound
-    and follows the cloth through strokes, and a diverged run's advice is that bound; otherwise
-    dt defaults to `FIXED_DT`. newton: Newton's integrator, whose options `resolve_options`
-    decides and whose projection memory a state file keeps. history: the fields (n×3 arrays)
-    of the history a state file keeps besides its dt, given the options; () when none.
-    cap: the options that name its iteration cap and its tolerance (the warning for steps
-    that reach the cap quotes them). error_controlled: SUNDIALS chooses the internal steps by
-    a tolerance; dt is the output interval, and since SUNDIALS' memory cannot be saved, a
-    resumed state restarts the integrator at the saved time (the state says so).
-    """
-
-    name: str
-    summary: str
-    options: dict
-    make: Callable[[dict], object]
-    conditionally_stable: bool = False
-    newton: bool = False
-    history: Callable[[dict], tuple] = lambda options: ()
-    cap: tuple = ("max_newton", "newton_tol")
-    error_controlled: bool = False
-
-
-def _make_explicit(options):
-    limit = options["strain_limit"]
-    return _core.ExplicitIntegrator(
-        strain_limit=0.0 if limit is None else float(limit),
-        strain_limit_passes=int(options["strain_limit_passes"]),
-        divergence_energy_factor=float(options["divergence_energy_factor"]),
-        energy_growth_tolerance=float(options["energy_growth_tolerance"]),
-    )
-
-
 def _newton_factory(integrator, method):
     def make(options):
         options = resolve_options(integrator, options)
@@ -427,27 +391,10 @@ def _newton_factory(integrator, method):
     return make
 
 
-def _make_local_global(options):
-    core = {name: options[name] for name in CORE_LOCAL_GLOBAL}
-    if options["acceleration"] == "none":
-        core["chebyshev_rho"] = 0.0
-    return _core.LocalGlobalIntegrator(**core)
-
-
 def _make_quasi_newton(options):
     options = resolve_options("quasi-newton", options)  # predictor None: the inertial guess
     core = {name: options[name] for name in CORE_IMPLICIT if name in options}
     return _core.ImplicitIntegrator(minimizer="lbfgs", **core)
-
-
-def _error_controlled_factory(method):
-    def make(options):
-        core = {name: options[name] for name in CORE_ERROR_CONTROLLED if name in options}
-        if core.get("atol_velocity") is None:
-            core["atol_velocity"] = 0.0  # the core's "same as atol"
-        return _core.ErrorControlledIntegrator(method=method, **core)
-
-    return make
 
 
 _BDF2_HISTORY = ("positions", "velocities")
@@ -472,7 +419,7 @@ INTEGRATOR_SPECS = {
             "explicit",
             "symplectic Euler, the reference (stable below the explicit limit)",
             INTEGRATOR_OPTIONS["explicit"],
-            _make_explicit,
+            make_explicit,
             conditionally_stable=True,
         ),
         _newton_spec(
@@ -509,7 +456,7 @@ INTEGRATOR_SPECS = {
             "local-global",
             "prefactored local/global backward Euler (Liu et al. 2013)",
             INTEGRATOR_OPTIONS["local-global"],
-            _make_local_global,
+            make_local_global,
             cap=("iterations", "tolerance"),
         ),
         IntegratorSpec(
@@ -524,7 +471,7 @@ INTEGRATOR_SPECS = {
             "CVODE's variable-order BDF with error control (SUNDIALS; rtol/atol "
             "in, internal steps out; dt is the output interval)",
             INTEGRATOR_OPTIONS["cvode"],
-            _error_controlled_factory("cvode"),
+            error_controlled_factory("cvode"),
             cap=("max_steps", "rtol"),
             error_controlled=True,
         ),
@@ -533,7 +480,7 @@ INTEGRATOR_SPECS = {
             "ARKODE's stiffly accurate ESDIRK with error control (SUNDIALS; "
             "order 2-4; dt is the output interval)",
             INTEGRATOR_OPTIONS["arkode"],
-            _error_controlled_factory("arkode"),
+            error_controlled_factory("arkode"),
             cap=("max_steps", "rtol"),
             error_controlled=True,
         ),

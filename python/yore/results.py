@@ -6,6 +6,9 @@ each frame (`FrameMeasure`) and of each stroke (`StrokeEntry`), and a stroke's m
 
 from __future__ import annotations
 
+import numpy as np
+
+from . import _core
 from ._core import Cloth
 from .documents import result_type
 
@@ -111,3 +114,58 @@ StrokeEffect = result_type(
     """A stroke's effect (`yore.metrics.stroke_effect`): the region's wrinkle measure with and
     without the stroke, m, their ratio, and the spike index with and without it.""",
 )
+
+
+def active_terms(cloth, gravity, options) -> dict:
+    """The model terms a simulation's cloth uses (`Statistics.active_terms`): gravity, spring
+    damping, drag, bending springs, strain limiting (an integrator option), fixed and driven
+    vertices, and, for cloths that chose them, quadratic bending's hinges and the membrane's
+    faces (with those whose rest triangle was clamped or that are collapsed now)."""
+    kinds = cloth.springs.kind
+    active = {
+        "gravity": bool(np.any(np.asarray(gravity) != 0.0)),
+        "spring_damping": bool(np.any(cloth.springs.damping > 0.0)),
+        "drag": cloth.drag > 0.0,
+        "bending_springs": int(np.count_nonzero(kinds == 1)),
+        "strain_limiting": options.get("strain_limit") is not None,
+        "fixed_vertices": int(cloth.fixed_vertices.size),
+        "driven_vertices": int(cloth.driven_vertices.size),
+    }
+    if cloth.bending in ("quadratic", "hinge"):
+        # the number of interior edges (hinges) of its mesh, 0 when the modulus is 0 (no term)
+        active["quadratic_bending"] = (
+            int(cloth.bending_hinges) if cloth.bending_modulus > 0.0 else 0
+        )
+    if cloth.stretch == "membrane":
+        status = cloth.membrane_status()
+        active["membrane_faces"] = int(cloth.face_count)
+        active["membrane_clamped_rest_faces"] = int(status["clamped_rest_faces"])
+        active["membrane_collapsed_faces"] = int(status["collapsed_faces"])
+    return active
+
+
+def simulation_statistics(
+    cloth, *, integrator, dt, steps, wall_seconds, phases, counters, active_terms, thread_usage
+) -> Statistics:
+    """`yore.Simulation.stats`: the integrator's counters and phases with the run's figures."""
+    return Statistics(
+        {
+            "integrator": integrator,
+            "dt": dt,
+            "time": cloth.time,
+            "steps": steps,
+            "wall_seconds": wall_seconds,
+            "steps_per_second": steps / wall_seconds if wall_seconds > 0 else 0.0,
+            "phases": phases,
+            "counters": counters,
+            "active_terms": active_terms,
+            "vertices": cloth.vertex_count,
+            "springs": cloth.spring_count,
+            "topology_version": cloth.topology_version,
+            "threads": {
+                "configured": _core.max_threads(),
+                "blas": _core.blas_threads(),
+                **thread_usage,
+            },
+        }
+    )

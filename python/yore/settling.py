@@ -1,6 +1,15 @@
 """Settling a cloth to a static equilibrium before an experiment (`yore.Simulation.settle`):
 proximal-point descent by backward-Euler steps from rest, with a stability test that tells a
-minimum from a saddle and pushes the cloth off saddles."""
+minimum from a saddle and pushes the cloth off saddles.
+
+Each step of `SETTLE_DT` starts from rest and its velocities are zeroed after it, so it
+minimises the potential plus ½‖x − xₖ‖²_M / h² and the sequence descends to a local minimum of
+the potential (gravity, springs, bending) whatever the stiffness. Each step is solved by Newton
+(Levenberg–Marquardt shifted, tight tolerance) in an integrator of its own. A small residual
+alone cannot tell a minimum from a saddle, so a state that meets the tolerance is accepted
+only if the true Hessian of the potential plus M/h² is positive definite (a Cholesky
+factorization succeeds); otherwise the free vertices are moved by random displacements of
+`SETTLE_PERTURBATION` mean rest lengths (RMS, a fixed seed) and the relaxation goes on."""
 
 from __future__ import annotations
 

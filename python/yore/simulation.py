@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import math
-import time as _time
 import warnings
 
 import numpy as np
 
-from . import _core
-from ._core import Cloth, NotPositiveDefinite, SimulationDiverged
-from .checks import MAX_STEPS, MIN_DT
+from ._core import Cloth
+from .checks import MIN_DT
 from .options import (
     DEFAULT_INTEGRATOR,
     FIXED_DT,
@@ -25,50 +22,37 @@ from .options import (
     resolve_options,
     show_value,
 )
-from . import progress as progress_bars, rules, settling, smoothing
-from .results import Energy, Statistics
-from .simulation_checks import check_integrator_and_options, checked_gravity, output_interval
+from . import rules, settling, smoothing
+from .results import Energy, Statistics, active_terms, simulation_statistics
+from .step_runner import StepRunner, warn_unconverged
+from .simulation_checks import (
+    EXPLICIT_DT_SAFETY,
+    check_integrator_and_options,
+    checked_gravity,
+    checked_step_count,
+    default_explicit_dt,
+    output_interval,
+    steps_to,
+)
 from .simulation_state import (
     as_saved,
     check_history,
     check_projection_memory,
     check_state_keys,
 )
-from .stroke import StrokeOptions, StrokePath, StrokeReport, apply_stroke, check_factor
+from .stroke import StrokeOptions, StrokePath, StrokeReport, check_factor, trace_and_apply
 
-__all__ = ["Simulation", "INTEGRATORS", "INTEGRATOR_OPTIONS"]
+__all__ = [
+    "Simulation",
+    "INTEGRATORS",
+    "INTEGRATOR_OPTIONS",
+    "EXPLICIT_DT_SAFETY",
+    "default_explicit_dt",
+]
 
 
 #: Default time step of the implicit integrators, s (`yore.options.FIXED_DT`).
 IMPLICIT_DT = FIXED_DT
-
-# Wall time of one batch of steps: short enough for Ctrl-C and a live progress bar.
-_BATCH_SECONDS = 0.1
-
-
-#: Safety factor of the default explicit time step on ``Cloth.stable_time_step_bound()`` (the
-#: state-independent Lanczos bound, which holds whatever shape the cloth takes; 0.98 covers the
-#: Lanczos iteration's approach from below). The tighter current-state estimate
-#: ``Cloth.stable_time_step()`` is not safe as a default: a heavy grid hung from two corners
-#: stretches until its limit is 0.84× that estimate at its start (benchmarks/stable_dt.py and
-#: tests/test_threads.py), while the bound stayed below every limit found by trying.
-EXPLICIT_DT_SAFETY = 0.98
-
-
-def default_explicit_dt(cloth: Cloth, safety: float = EXPLICIT_DT_SAFETY) -> float:
-    """The default explicit time step (s): ``safety`` × ``cloth.stable_time_step_bound()`` (the
-    state-independent estimate), rounded down to 1/N s; 1/60 s when nothing elastic limits the
-    step. ``cloth.stable_time_step()`` is the tight estimate at the current state, and
-    ``cloth.gershgorin_time_step()`` the cheapest, most conservative one."""
-    stable = cloth.stable_time_step_bound()
-    if not math.isfinite(stable):
-        return 1.0 / 60.0
-    if not safety * stable >= 1e-300:
-        raise ValueError(
-            f"no explicit time step is stable for this cloth (the bound is "
-            f"{stable:.3g} s): its stiffnesses or masses are out of range"
-        )
-    return 1.0 / math.ceil(1.0 / (safety * stable))
 
 
 class Simulation:
@@ -94,51 +78,15 @@ class Simulation:
     gravity : (3,) array_like
         Gravitational acceleration, m/s².
     **options
-        Integrator options. explicit: ``strain_limit`` (e.g. 1.1, default None = off),
-        ``strain_limit_passes`` (4), ``divergence_energy_factor`` (10). implicit, bdf2,
-        generalized-alpha and tr-bdf2 (generalized-alpha also takes ``rho_infinity``, in [0, 1]):
-        ``linearized`` (False), ``newton_tol`` (1e-5: Newton stops when ``max |∇ᵢE|·h̃²/mᵢ``, the
-        gradient as a displacement, is below newton_tol × the mean rest length; the step's
-        start passes only if no vertex's net force exceeds newton_tol × its weight),
-        ``step_tol`` (0 = off: Newton also stops after a full step that moved no vertex by
-        more than step_tol × the mean rest length, the model's distance to the solution;
-        counted in ``step_test_stops``), ``truncation_fraction`` (0.1: Newton also stops
-        once its estimated distance to the solution is below this fraction of the step's
-        estimated local truncation error, as stiff integrators do; 0 = off; counted in
-        ``truncation_stops``); a step that
-        reaches ``max_newton`` (1000) is accepted, counted in ``unconverged_steps`` and warned
-        about with a RuntimeWarning once per call), ``projection`` (None | "clamp" | "abs" |
-        "exact" | "trust-region" | "shifted" | "steihaug", see `yore.options`; None: "clamp"),
-        ``predictor`` (None | "start" | "inertial" | "extrapolated"; None: "start" when
-        linearized, else "inertial"), ``mixed`` (None = on with the clamp, off otherwise: Newton's matrices
-        take the springs' forces from the step's linearization, the mixed formulation, which
-        saves ~40 % of the clamp's iterations on stiff sheets), ``solver`` ("cholmod" | "eigen-ldlt" | "pcg"), ``ordering``
-        ("amd" | "metis" | "natural"), ``factorization`` ("supernodal" | "simplicial"),
-        ``pcg_tol`` (1e-12), ``pcg_max_iterations`` (20000), ``divergence_energy_factor`` (10),
-        ``adaptive_projection`` (the older name of two projections: True = "exact", try the
-        exact Hessian first and project spring Hessians to PSD only when the factorization
-        finds it indefinite; False = "clamp", always project; None = as ``projection`` says).
-        Every system solved is SPD either way.
-        ``lagged_factorization`` (False: keep the factor over iterations and steps, solve by CG
-        preconditioned with it, refactor when CG needs more than ``lag_max_cg_iterations`` (20)
-        to reach ``lag_cg_tol`` (1e-10); CG runs on the projected Hessian, or with "steihaug"
-        on the exact one at the trust-region solver's own tolerance; after the k-th failed CG
-        in a row the next min(2^(k-1), 32) iterations refactor without trying).
-
-        local-global: ``iterations`` (300: the cap per step), ``tolerance`` (1e-3: a step
-        stops once its estimated distance to the backward-Euler solution is below this × the
-        mean rest length; 0 = no test; a step at the cap is counted in ``unconverged_steps``
-        and a call with any warns once), ``acceleration`` ("chebyshev" | "none"),
-        ``chebyshev_rho`` (0.997), ``ordering``, ``factorization``, ``rebuild`` ("fresh" |
-        "reuse-ordering" | "stale-pcg"), ``stale_pcg_max_iterations`` (30), ``stale_pcg_tol``,
-        ``record_objective``, ``divergence_energy_factor``.
-
-        quasi-newton: ``method`` ("backward-euler" | "bdf2"), ``lbfgs_history`` (8 pairs, kept
-        within a step), ``newton_tol`` (1e-5, Newton's residual test), ``max_newton`` (1000:
-        the iteration cap, counted and warned about as for Newton), ``predictor`` ("inertial"
-        | "start" | "extrapolated"), ``ordering``, ``factorization`` ("simplicial": it solves
-        faster),
-        ``divergence_energy_factor``.
+        Integrator options, checked by name, type and range. Their names and defaults, per
+        integrator, are ``yore.options.defaults(integrator)`` (None: decided from the others;
+        `resolved_options` shows the decision); what each does is on the Integrators page of
+        the documentation (its Options tables). The main ones: Newton's ``newton_tol``,
+        ``max_newton``, ``truncation_fraction`` and ``projection``, the linear ``solver``,
+        error control's ``rtol`` and ``atol`` (with dt="auto"), explicit's ``strain_limit``.
+        A step that reaches the iteration cap is accepted, counted in
+        ``stats["counters"]["unconverged_steps"]`` and warned about (a RuntimeWarning, once
+        per call).
 
     Raises
     ------
@@ -185,7 +133,7 @@ class Simulation:
         self._dt = check_factor(dt, "dt", "s")
         if self._dt < MIN_DT:
             raise ValueError(f"dt must be at least {MIN_DT:g} s, got {self._dt:g}")
-        self._wall_seconds = 0.0
+        self._runner = StepRunner()  # the steps' loop, and the wall time they took
         self._target_time = None  # the time the last advance() aimed at
         self._pending_reports = []  # stroke reports waiting for the next step's re-analysis time
         self._last_stroke = None
@@ -310,14 +258,7 @@ class Simulation:
         ``progress``: True/False forces a progress bar
         on/off; None shows one when the run takes longer than a few seconds.
         """
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ValueError(f"n must be a non-negative integer, got {n!r}")
-        if n > MAX_STEPS:
-            raise ValueError(
-                f"n: {n} steps in one call is more than the limit of {MAX_STEPS}; "
-                "call step repeatedly for longer runs"
-            )
-        self._run(int(n), progress)
+        self._run(checked_step_count(n), progress)
 
     def advance(self, seconds: float, progress=None) -> int:
         """Advances by ``seconds`` of simulated time in whole steps; returns the number of steps.
@@ -334,22 +275,7 @@ class Simulation:
         if self._target_time is not None and abs(self._target_time - start) <= 0.5 * self._dt:
             start = self._target_time
         target = start + seconds
-        ratio = (target - self.time) / self._dt
-        if not ratio <= MAX_STEPS + 1:  # (1e308 s overflowed the step count: OverflowError)
-            raise ValueError(
-                f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {ratio:.4g} "
-                f"steps, more than the limit of {MAX_STEPS} per call"
-            )
-        if self._error_controlled:
-            # dt is an output interval: whole intervals, then one to the target itself
-            steps = max(0, int(np.floor(ratio * (1 + 1e-12))))
-        else:
-            steps = max(0, int(round(ratio)))
-        if steps > MAX_STEPS:
-            raise ValueError(
-                f"advance: {seconds:g} s at dt = {self._dt:.6g} s is {steps} steps, "
-                f"more than the limit of {MAX_STEPS} per call"
-            )
+        steps = steps_to(target, self.time, self._dt, self._error_controlled, seconds)
         self._run(steps, progress)
         if self._error_controlled:
             rest = target - self.time
@@ -366,129 +292,50 @@ class Simulation:
         progress=None,
         check_stability: bool = True,
     ) -> dict:
-        """Brings the cloth to rest at a static equilibrium before an experiment, by proximal
-        point iteration (pseudo-time stepping): backward-Euler steps of `yore.settling.SETTLE_DT` from rest,
-        the velocities zeroed after each, so every step minimises the potential plus
-        ½‖x − xₖ‖²_M / h² and the sequence descends to a local minimum of the potential
-        (gravity, springs, bending) — whatever the stiffness, and without simulating the
-        swings. Each step is solved by Newton (Levenberg–Marquardt shifted, tight tolerance)
-        in an integrator of its own: this simulation's integrator, options and dt are not
-        used or changed. It stops when the residual acceleration of the cloth at rest, the
-        mass-weighted RMS of M⁻¹ f (m/s², f the net force at zero velocity), is at most
-        ``tolerance`` (0.02 is 0.2 % of gravity) and the state is stable, or after
-        ``max_seconds`` of pseudo-time. A small residual alone cannot tell a minimum from a
-        saddle: a flat stretched sheet is in balance before it wrinkles. So, with
-        ``check_stability`` (the default), a state that meets the tolerance is accepted only if
-        the true Hessian of the potential plus M/h² is positive definite (a Cholesky
-        factorization succeeds); otherwise it is a saddle, the free vertices are moved by
-        random displacements of ``yore.settling.SETTLE_PERTURBATION`` mean rest lengths (RMS; a fixed seed)
-        and the relaxation goes on, at most ``yore.settling.SETTLE_MAX_ESCAPES`` times. Afterwards the
-        velocities are zero and the clock is where it was, so strokes and outputs keep their
-        times; BDF2 starts afresh (the velocities were edited).
+        """Brings the cloth to rest at a static equilibrium before an experiment: backward-Euler
+        steps of `yore.settling.SETTLE_DT` from rest, the velocities zeroed after each, descend
+        to a local minimum of the potential without simulating the swings (`yore.settling` says
+        how). This simulation's integrator, options and dt are not used or changed. It stops
+        when the residual acceleration at rest (the mass-weighted RMS of M⁻¹ f, m/s²) is at
+        most ``tolerance`` (0.02: 0.2 % of gravity) and, with ``check_stability``, the state is
+        a minimum, not a saddle (a flat stretched sheet is in balance before it wrinkles: a
+        saddle is pushed off by a small random displacement, at most
+        `yore.settling.SETTLE_MAX_ESCAPES` times); or after ``max_seconds`` of pseudo-time.
+        Afterwards the velocities are zero and the clock is where it was; BDF2 starts afresh.
 
-        Returns {"seconds": pseudo-time spent, "steps": steps taken, "converged": bool,
-        "residual_acceleration": the last step's, m/s², "saddles_escaped": saddles pushed off,
-        "stable": whether the last state passed the stability test (None when it was not
-        tested)}. Raises ValueError for bad arguments or a cloth with driven vertices (a driven
-        cloth has no rest to settle to), SimulationDiverged if a step does."""
-        started = _time.perf_counter()
-        try:
-            result = settling.settle(
+        Returns {"seconds", "steps", "converged", "residual_acceleration" (m/s²),
+        "saddles_escaped", "stable" (None when not tested)}. Raises ValueError for bad
+        arguments or a cloth with driven vertices, SimulationDiverged if a step does."""
+        result = self._runner.timed(
+            lambda: settling.settle(
                 self._cloth, self._gravity, max_seconds, tolerance, progress, check_stability
             )
-        finally:
-            self._wall_seconds += _time.perf_counter() - started
+        )
         self._target_time = None
         return result
 
     def _run(self, steps: int, progress, dt=None) -> None:
         if steps == 0:
             return
-        dt = self._dt if dt is None else dt
-        cloth = self._cloth
-        saved = (cloth.positions, cloth.velocities, cloth.time)  # copies
-        before = self._integrator.statistics
-        analyzed_before = before.phases.get("analyze_seconds", 0.0)
-        unconverged_before = before.counters.get("unconverged_steps", 0)
-        done, batch, bar = 0, 1, None
-        started = _time.perf_counter()
-        try:
-            while done < steps:
-                count = min(batch, steps - done)
-                self._integrator.advance(self._cloth, self._gravity, dt, count)
-                if self._pending_reports:
-                    analyzed = self._integrator.statistics.phases.get("analyze_seconds", 0.0)
-                    for report in self._pending_reports:
-                        report.reanalyze_seconds = analyzed - analyzed_before
-                    self._pending_reports = []
-                done += count
-                elapsed = _time.perf_counter() - started
-                rate = done / max(elapsed, 1e-9)
-                batch = max(1, int(rate * _BATCH_SECONDS))
-                if bar is None and progress is not False and done < steps:
-                    remaining = (steps - done) / rate
-                    # The rate is trusted only after a few batches (the first step also prepares).
-                    if progress or (
-                        elapsed > 2.5 * _BATCH_SECONDS
-                        and elapsed + remaining > progress_bars.AFTER_SECONDS
-                    ):
-                        bar = progress_bars.open_bar(steps, done, "yore", progress)
-                elif bar is not None:
-                    bar.update(count)
-                    bar.set_postfix_str(f"t={self.time:.3f} s")
-        except SimulationDiverged as error:
-            # Batches before the failing one may already hold a growing instability: go back to
-            # the state before this call, which the caller knows to be good.
-            self._restore(saved)
-            error.args = (
-                f"{error.args[0]} The cloth was restored to t = {saved[2]:.6g} s, "
-                "its state before this call.",
-            )
-            raise
-        except NotPositiveDefinite as error:
-            # A step's matrix (M/dt² + the projected stiffness) failed to factor: with a dt far
-            # beyond the cloth's time scales the mass term sinks below the stiffness's round-off
-            self._restore(saved)
-            error.args = (
-                f"{error.args[0]} (a step of dt = {dt:g} s from t = {saved[2]:.6g} s; a smaller "
-                "dt keeps the mass term M/dt² above the stiffness's round-off). The cloth was "
-                f"restored to t = {saved[2]:.6g} s.",
-            )
-            raise
-        finally:
-            self._wall_seconds += _time.perf_counter() - started
-            if bar is not None:
-                bar.close()
-        self._warn_unconverged(steps, unconverged_before)
-
-    def _restore(self, saved) -> None:
-        """Puts the cloth back to ``saved`` (positions, velocities, time)."""
-        cloth = self._cloth
-        cloth.positions, cloth.velocities = saved[0], saved[1]
-        cloth.time = saved[2]
-
-    def _warn_unconverged(self, steps, unconverged_before) -> None:
-        """One RuntimeWarning per call for the steps it accepted unconverged, if any."""
-        after = self._integrator.statistics.counters
-        unconverged = after.get("unconverged_steps", 0) - unconverged_before
-        if unconverged:
-            # once per call: the steps were taken at their last iterate, never silently
-            cap, tolerance = self._spec.cap
-            detail = (
-                f"reached the iteration cap ({cap} = {self._options[cap]}) before the "
-                f"tolerance ({tolerance} = {self._options[tolerance]:g})"
-            )
-            if "last_error_estimate" in after:
-                detail += (
-                    f" (last error estimate {after['last_error_estimate']:.3g} mean rest lengths)"
-                )
-            warnings.warn(
-                f"{self._integrator_name}: {unconverged} of {steps} steps {detail}; "
-                "they were accepted unconverged "
-                "(stats['counters']['unconverged_steps'])",
-                RuntimeWarning,
-                stacklevel=4,
-            )
+        unconverged_before = self._integrator.statistics.counters.get("unconverged_steps", 0)
+        self._runner.run(
+            self._integrator,
+            self._cloth,
+            self._gravity,
+            self._dt if dt is None else dt,
+            steps,
+            progress,
+            self._pending_reports,
+            lambda: self.time,
+        )
+        warn_unconverged(
+            self._integrator_name,
+            self._spec,
+            self._options,
+            self._integrator.statistics.counters,
+            steps,
+            unconverged_before,
+        )
 
     # -- strokes ----------------------------------------------------------------------------
     def stroke(self, path, options=None, **changes) -> StrokeReport:
@@ -512,12 +359,7 @@ class Simulation:
             raise ValueError("a spring network has no faces to stroke")
         path = StrokePath.of(path)
         options = StrokeOptions.of(options, **changes)
-        if options.max_distance is not None and path.space != "world":
-            raise ValueError(
-                f"max_distance is for 3-D (world) paths, not a {path.space} path "
-                "(its samples are found by rays or in the rest pattern)"
-            )
-        report = self._trace_and_apply(path, options)
+        report = self._record_stroke(trace_and_apply(self._cloth, path, options))
         if options.smooth is not None:
             smooth = options.smooth
             report.extra["smoothing"] = self.smooth_rest_lengths(
@@ -527,34 +369,6 @@ class Simulation:
                 conserve=smooth["conserve"],
             )
         return report
-
-    def _trace_and_apply(self, path, options) -> StrokeReport:
-        """The stroke traced in its path's space (closest points, rays or the rest pattern)
-        and applied."""
-        if path.space == "world":
-            max_distance = options.max_distance
-            if max_distance is None:
-                X = self._cloth.positions
-                max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
-            return self._apply_stroke("closest", path, options, max_distance=max_distance)
-        if path.space == "screen":
-            d0, dx, dy = path.camera.pixel_rays()
-            return self._apply_stroke(
-                "rays",
-                path,
-                options,
-                eye=np.asarray(path.camera.eye, float),
-                base_direction=d0,
-                direction_per_pixel_x=dx,
-                direction_per_pixel_y=dy,
-            )
-        uv = self._cloth.material_coordinates
-        if uv is None:
-            raise ValueError(
-                "the cloth has no material coordinates; set cloth.material_coordinates (n×2) first"
-            )
-        tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
-        return self._apply_stroke("material", path, options, max_distance=tolerance)
 
     def stroke_screen(self, points_px, camera, **options) -> StrokeReport:
         """Deprecated: ``stroke(StrokePath.screen(points_px, camera), **options)``."""
@@ -576,14 +390,13 @@ class Simulation:
         )
         return self.stroke(StrokePath.material(points_uv), **options)
 
-    def _apply_stroke(self, trace, path, options, **trace_options):
-        """Applies the stroke in one call of the core, which traces it (again after each
-        refinement pass) the way ``trace`` names ("closest", "rays" or "material")."""
-        report = apply_stroke(self._cloth, trace, path.points, options, **trace_options)
+    def _record_stroke(self, report):
+        """A stroke just applied: its report waits for the next step's re-analysis time, is
+        the last stroke (smoothing's default region), and lowers a default explicit dt that
+        follows the cloth when the stroke lowered the bound (never raises it)."""
         self._pending_reports.append(report)
         self._last_stroke = report
         if self._dt_follows_cloth:
-            # never raised (the run keeps its step), lowered when the stroke lowered the bound
             lowered = default_explicit_dt(self._cloth)
             if lowered < self._dt:
                 report.extra["dt_before"] = self._dt
@@ -660,53 +473,17 @@ class Simulation:
         ``stable_dt()`` estimates it (an eigenvalue run that costs about half an implicit step,
         36 ms at 64², 0.3 s at 128²).
         """
-        cloth = self._cloth
         statistics = self._integrator.statistics
-        steps, phases, counters = statistics.steps, statistics.phases, statistics.counters
-        kinds = cloth.springs.kind
-        damping = cloth.springs.damping
-        active = {
-            "gravity": bool(np.any(self._gravity != 0.0)),
-            "spring_damping": bool(np.any(damping > 0.0)),
-            "drag": cloth.drag > 0.0,
-            "bending_springs": int(np.count_nonzero(kinds == 1)),
-            "strain_limiting": self._options.get("strain_limit") is not None,
-            "fixed_vertices": int(cloth.fixed_vertices.size),
-            "driven_vertices": int(cloth.driven_vertices.size),
-        }
-        if cloth.bending in ("quadratic", "hinge"):
-            # the constant-matrix bending term, reported for cloths that chose it: the number
-            # of interior edges (hinges) of its mesh, 0 when the modulus is 0 (no term at all)
-            active["quadratic_bending"] = (
-                int(cloth.bending_hinges) if cloth.bending_modulus > 0.0 else 0
-            )
-        if cloth.stretch == "membrane":
-            # the continuum membrane, reported for cloths that chose it: its faces, and those
-            # whose rest triangle was clamped or that are collapsed now
-            status = cloth.membrane_status()
-            active["membrane_faces"] = int(cloth.face_count)
-            active["membrane_clamped_rest_faces"] = int(status["clamped_rest_faces"])
-            active["membrane_collapsed_faces"] = int(status["collapsed_faces"])
-        return Statistics(
-            {
-                "integrator": self._integrator_name,
-                "dt": self._dt,
-                "time": self.time,
-                "steps": steps,
-                "wall_seconds": self._wall_seconds,
-                "steps_per_second": steps / self._wall_seconds if self._wall_seconds > 0 else 0.0,
-                "phases": phases,
-                "counters": counters,
-                "active_terms": active,
-                "vertices": cloth.vertex_count,
-                "springs": cloth.spring_count,
-                "topology_version": cloth.topology_version,
-                "threads": {
-                    "configured": _core.max_threads(),
-                    "blas": _core.blas_threads(),
-                    **getattr(self._integrator, "thread_usage", {}),
-                },
-            }
+        return simulation_statistics(
+            self._cloth,
+            integrator=self._integrator_name,
+            dt=self._dt,
+            steps=statistics.steps,
+            wall_seconds=self._runner.wall_seconds,
+            phases=statistics.phases,
+            counters=statistics.counters,
+            active_terms=active_terms(self._cloth, self._gravity, self._options),
+            thread_usage=getattr(self._integrator, "thread_usage", {}),
         )
 
     def __repr__(self) -> str:

@@ -431,3 +431,43 @@ def apply_stroke(cloth, trace, points, options, **trace_options) -> StrokeReport
         **trace_options,
     )
     return StrokeReport(result, options, cloth.topology_version)
+
+
+def trace_and_apply(cloth, path, options) -> StrokeReport:
+    """One stroke on ``cloth`` along a `StrokePath`, traced in its space and applied
+    (`apply_stroke`): a world path by closest points within ``options.max_distance`` (default
+    5 % of the cloth's bounding-box diagonal), a screen path by the camera's rays through the
+    current surface, a material path in the rest pattern (the cloth's material coordinates,
+    to a tolerance of 1e-9 of their extent). ValueError for a max_distance on a path that is
+    not a world one, and a material path on a cloth without material coordinates (the caller
+    refuses a cloth without faces first)."""
+    if options.max_distance is not None and path.space != "world":
+        raise ValueError(
+            f"max_distance is for 3-D (world) paths, not a {path.space} path "
+            "(its samples are found by rays or in the rest pattern)"
+        )
+    if path.space == "world":
+        max_distance = options.max_distance
+        if max_distance is None:
+            X = cloth.positions
+            max_distance = 0.05 * float(np.linalg.norm(X.max(axis=0) - X.min(axis=0)))
+        return apply_stroke(cloth, "closest", path.points, options, max_distance=max_distance)
+    if path.space == "screen":
+        d0, dx, dy = path.camera.pixel_rays()
+        return apply_stroke(
+            cloth,
+            "rays",
+            path.points,
+            options,
+            eye=np.asarray(path.camera.eye, float),
+            base_direction=d0,
+            direction_per_pixel_x=dx,
+            direction_per_pixel_y=dy,
+        )
+    uv = cloth.material_coordinates
+    if uv is None:
+        raise ValueError(
+            "the cloth has no material coordinates; set cloth.material_coordinates (n×2) first"
+        )
+    tolerance = 1e-9 * float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
+    return apply_stroke(cloth, "material", path.points, options, max_distance=tolerance)
