@@ -35,6 +35,7 @@ from .simulation_checks import (
     steps_to,
 )
 from .simulation_state import (
+    SimulationState,
     as_saved,
     check_history,
     check_projection_memory,
@@ -189,7 +190,7 @@ class Simulation:
         return self._cloth.time
 
     # -- saving and restoring -----------------------------------------------------------------
-    def state(self) -> dict:
+    def state(self) -> SimulationState:
         """Everything needed to continue this simulation exactly: the cloth's state
         (`yore.Cloth.state`), integrator name and options, dt, gravity, BDF2's history and
         Newton's projection memory (which steps try the exact Hessian).
@@ -200,19 +201,19 @@ class Simulation:
         if self._spec.newton:
             memory = self._integrator.projection_memory()
         # the options as resolved: a state continues with what ran, whatever later defaults
-        return {
-            "cloth": self._cloth.state(),
-            "integrator": self._integrator_name,
-            "options": dict(self.resolved_options),
-            "dt": self._dt,
-            "gravity": self._gravity.copy(),
-            "history": history,
-            "projection_memory": memory,
-            "target_time": self._target_time,
-            "dt_follows_cloth": self._dt_follows_cloth,
+        return SimulationState(
+            cloth=self._cloth.state(),
+            integrator=self._integrator_name,
+            options=dict(self.resolved_options),
+            dt=self._dt,
+            gravity=self._gravity.copy(),
+            history=history,
+            projection_memory=memory,
+            target_time=self._target_time,
+            dt_follows_cloth=self._dt_follows_cloth,
             # SUNDIALS' memory cannot be saved: the resumed run restarts its integrator
-            "integrator_restarts": self._spec.error_controlled,
-        }
+            integrator_restarts=self._spec.error_controlled,
+        )
 
     @classmethod
     def from_state(cls, state) -> Simulation:

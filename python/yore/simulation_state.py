@@ -5,9 +5,11 @@ that names the part; and the options of states saved before today's defaults, as
 
 from __future__ import annotations
 
+from .documents import result_type
 from .options import INTEGRATOR_SPECS
 
 __all__ = [
+    "SimulationState",
     "STATE_KEYS",
     "OPTIONAL_STATE_KEYS",
     "check_state_keys",
@@ -23,6 +25,30 @@ STATE_KEYS = frozenset(
 #: Keys absent from states saved before they existed: projection_memory (then: none yet),
 #: dt_follows_cloth (then: False), integrator_restarts (then: False).
 OPTIONAL_STATE_KEYS = frozenset({"projection_memory", "dt_follows_cloth", "integrator_restarts"})
+
+
+#: `Simulation.state()`: the cloth's state, the integrator's name and options as they ran, dt,
+#: gravity, the scheme's history, Newton's projection memory, the time `advance` aims at,
+#: whether dt follows the cloth, and whether a resumed run restarts its integrator.
+SimulationState = result_type(
+    "SimulationState",
+    (
+        "cloth",
+        "integrator",
+        "options",
+        "dt",
+        "gravity",
+        "history",
+        "projection_memory",
+        "target_time",
+        "dt_follows_cloth",
+        "integrator_restarts",
+    ),
+    """A simulation's state (`yore.Simulation.state`), a dict whose keys are also attributes:
+    ``cloth`` (`yore.Cloth.state`), ``integrator``, ``options`` (as resolved), ``dt``,
+    ``gravity``, ``history`` (None without one), ``projection_memory``, ``target_time``,
+    ``dt_follows_cloth`` and ``integrator_restarts``.""",
+)
 
 
 def check_state_keys(state) -> None:

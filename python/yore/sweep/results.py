@@ -27,10 +27,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..documents import result_type
 from ..limits import LIMITS
 from ..io import write_atomically
 
-__all__ = ["Results", "open_results", "read_record", "RESULTS_NAME", "CELLS_DIR", "STATUSES"]
+__all__ = [
+    "Results",
+    "CellRecord",
+    "open_results",
+    "read_record",
+    "RESULTS_NAME",
+    "CELLS_DIR",
+    "STATUSES",
+]
 
 RESULTS_NAME = "results.nc"
 CELLS_DIR = "cells"
@@ -73,16 +82,16 @@ class Results:
                 from ..io import save_mesh
 
                 save_mesh(self.cells / f"{cell.key}.vtu", result["positions"], result["faces"])
-        record = {
-            "status": result["status"],
-            "message": result["message"],
-            "overrides": {k: v for k, v in cell.overrides.items()},
-            "values": {
+        record = CellRecord(
+            status=result["status"],
+            message=result["message"],
+            overrides=dict(cell.overrides),
+            values={
                 k: v
                 for k, v in result["values"].items()
                 if isinstance(v, float) and math.isfinite(v)
             },
-        }
+        )
         text = json.dumps(record, indent=1, default=str)
         write_atomically(
             self.cells / f"{cell.key}.json", lambda p: p.write_text(text + "\n", encoding="utf-8")
@@ -90,9 +99,9 @@ class Results:
         self._store(cell, record)
 
     def _store(self, cell, record):
-        self.status[cell.position] = record.get("status", "failed")
-        self.message[cell.position] = record.get("message", "")
-        for name, value in (record.get("values") or {}).items():
+        self.status[cell.position] = record.status
+        self.message[cell.position] = record.message
+        for name, value in record.values.items():
             if name not in self.values:
                 self.values[name] = np.full(self.sweep.shape, np.nan)
             self.values[name][cell.position] = value
@@ -179,13 +188,23 @@ class Results:
         return path
 
 
+#: A cell's record, the cells/<key>.json a sweep writes once the cell is done: its status, a
+#: message, the overrides that made the cell (checked against the sweep's on reading) and its
+#: values (finite numbers by name).
+CellRecord = result_type(
+    "CellRecord",
+    ("status", "message", "overrides", "values"),
+    """A sweep cell's record: status (e.g. "done", "diverged"), message, the cell's overrides
+    and its values (finite numbers by name).""",
+)
+
 #: The statuses `run_cell` records (a cell function may add its own, short texts), and the
 #: largest record file read, bytes.
 STATUSES = ("done", "diverged", "stroke missed", "failed")
 MAX_RECORD_BYTES = LIMITS.max_record_bytes
 
 
-def read_record(path, cell) -> dict:
+def read_record(path, cell) -> CellRecord:
     """The record of ``cell`` in ``path``, checked; ValueError naming the file otherwise."""
 
     def refuse(problem):
@@ -199,7 +218,7 @@ def read_record(path, cell) -> dict:
         problem = _record_problem(record, cell)
     if problem is not None:
         refuse(problem)
-    return record
+    return CellRecord(record)
 
 
 def _read_record_file(path):
