@@ -167,6 +167,7 @@ Statistics implicit_statistics(const ImplicitIntegrator& integrator) {
   out.count("trapezoid_newton_iterations", s.trapezoid_newton_iterations);
   out.count("extrapolated_stages", s.extrapolated_stages);
   out.count("history_restarts", s.history_restarts);
+  out.count("energy_retries", s.energy_retries);
   out.count("rejected_steps", s.rejected_steps);
   out.count("intervals", s.intervals);
   out.count("last_newton_iterations", s.last_newton_iterations);

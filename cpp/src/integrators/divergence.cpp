@@ -198,9 +198,9 @@ SimulationDiverged energy_gain_error(const Cloth& cloth, const DivergenceMonitor
       msg << "Lower its tolerance or dt (try dt <= " << dt / 4 << " s).";
       break;
     case Remedy::newton:
-      msg << "Newton stopped short of the step's solution or the step is too long: lower "
-             "truncation_fraction (e.g. 0.01) or newton_tol, or try dt <= "
-          << dt / 4 << " s.";
+      msg << "The step gained energy even when redone to Newton's residual test (its early "
+             "stops off), so the step is too long or that test too loose: try dt <= "
+          << dt / 4 << " s, or lower newton_tol.";
       break;
   }
   return SimulationDiverged(msg.str(), step, time, dt, cloth.stable_time_step());

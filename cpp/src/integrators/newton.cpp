@@ -207,7 +207,7 @@ void NewtonSolver::newton_iterate(const Cloth& cloth, double& energy, double& re
       converged = true;
       break;
     }
-    if (m_options.step_tol > 0.0 && alpha == 1.0 && std::isfinite(energy) &&
+    if (m_early_stops && m_options.step_tol > 0.0 && alpha == 1.0 && std::isfinite(energy) &&
         std::isfinite(residual) &&
         m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
       ++m_statistics.step_test_stops;
@@ -449,7 +449,7 @@ bool NewtonSolver::steihaug_accept(const Cloth& cloth, SteihaugLoop& loop, const
     ++m_statistics.truncation_stops;
     return true;
   }
-  if (m_options.step_tol > 0.0 && trusted &&
+  if (m_early_stops && m_options.step_tol > 0.0 && trusted &&
       m_direction.lpNorm<Eigen::Infinity>() <= m_options.step_tol * m_mean_rest_length) {
     ++m_statistics.step_test_stops;
     return true;

@@ -286,7 +286,7 @@ NewtonSolver::IterationVerdict NewtonSolver::verdict(double energy, double resid
 
 bool NewtonSolver::truncation_test(const Cloth& cloth, double alpha, bool trusted,
                                    double& last_move, double& rate) const {
-  if (!(m_options.truncation_fraction > 0.0)) return false;
+  if (!m_early_stops || !(m_options.truncation_fraction > 0.0)) return false;
   double move = 0.0;
   for (std::size_t b = 0; b < m_free_vertices.size(); ++b) {
     move = std::max(move, m_direction.segment<3>(static_cast<Eigen::Index>(3 * b)).norm());

@@ -2,6 +2,7 @@
 /// @file divergence.hpp
 /// The blow-up check shared by all integrators: a finite state whose energy stays below a bound.
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -43,6 +44,11 @@ class DivergenceMonitor {
   /// Judges a state's monitored energy (finite) against the bound and the growth allowance;
   /// keeps the lowest energy and the largest rise above it.
   Verdict judge(double energy);
+  /// Whether judge(energy) would say "gained" now (nothing kept): the implicit integrators
+  /// redo such a step with Newton's early stops off before the call fails.
+  bool would_gain(double energy) const {
+    return energy <= m_limit && energy - std::min(m_lowest, energy) > m_allowance;
+  }
 
   /// Monitored energy, J, above which the run counts as diverged.
   double limit() const { return m_limit; }

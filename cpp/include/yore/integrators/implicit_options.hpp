@@ -178,11 +178,14 @@ struct ImplicitStatistics {
   std::int64_t extrapolated_stages = 0;  ///< stages Newton started from x̂ + h̃² ã (predictor
                                          ///< extrapolated with a history to extrapolate from)
   std::int64_t history_restarts = 0;     ///< bdf2, generalized_alpha: steps that began afresh
-                                         ///< (first step, after a stroke, an edit or a restore)
-  std::int64_t rejected_steps = 0;       ///< adaptive: steps retaken shorter (counted in steps too)
-  std::int64_t intervals = 0;            ///< adaptive: output intervals completed
-  double assemble_seconds = 0.0;  ///< energy, gradient and Hessian values (incl. line search)
-  double analyze_seconds = 0.0;   ///< pattern build + symbolic analysis
+  /// Steps redone with Newton's early stops (truncation and step tests) off because their
+  /// energy rose above the growth check's allowance.
+  std::int64_t energy_retries = 0;
+  ///< (first step, after a stroke, an edit or a restore)
+  std::int64_t rejected_steps = 0;  ///< adaptive: steps retaken shorter (counted in steps too)
+  std::int64_t intervals = 0;       ///< adaptive: output intervals completed
+  double assemble_seconds = 0.0;    ///< energy, gradient and Hessian values (incl. line search)
+  double analyze_seconds = 0.0;     ///< pattern build + symbolic analysis
   double factorize_seconds = 0.0;
   double solve_seconds = 0.0;
   int last_newton_iterations = 0;

@@ -62,6 +62,13 @@ class NewtonSolver final : public StageSolver {
   /// This step's Newton iterations and line-search halvings, over its stages.
   int step_iterations() const { return m_step_iterations; }
   int step_backtracks() const { return m_step_backtracks; }
+  /// Whether Newton may stop before the residual test (the truncation test or the step test
+  /// is on), and switching them off and on again (a step redone to the residual test).
+  bool has_early_stops() const {
+    return !m_options.linearized &&
+           (m_options.truncation_fraction > 0.0 || m_options.step_tol > 0.0);
+  }
+  void set_early_stops(bool on) { m_early_stops = on; }
 
   // -- StageSolver: what the time scheme asks of Newton (time_scheme.hpp) --
   const std::vector<std::int32_t>& free_vertices() const override { return m_free_vertices; }
@@ -287,8 +294,9 @@ class NewtonSolver final : public StageSolver {
   void kept_factor_result(bool solved);
   // projection exact: steps still to take projected after a rejection, and the next back-off
   int m_exact_skip = 0, m_exact_backoff = 1;
-  double m_shift = 0.0;   // projection shifted: μ, in units of the inertia M/h̃²
-  double m_radius = 0.0;  // projection steihaug: trust radius in the clamped factor's norm
+  double m_shift = 0.0;       // projection shifted: μ, in units of the inertia M/h̃²
+  bool m_early_stops = true;  // the truncation and step tests may stop Newton
+  double m_radius = 0.0;      // projection steihaug: trust radius in the clamped factor's norm
   std::vector<double> m_exact_values;  // projection steihaug: the exact Hessian's values
   // mixed: per spring, the force λ (N) the Newton matrices' transverse terms use
   std::vector<double> m_tension;
