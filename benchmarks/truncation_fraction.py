@@ -23,8 +23,10 @@ explicit dt (median of 3 runs of EXPLICIT_PROBE_STEPS steps) times the steps of 
 Per row: Newton iterations per stage and per step, the trapezoid stages' share, thrown-away
 factorizations, the largest energy rise above the lowest energy reached (`energy_gain`, J; a
 damped scene should show none), the error, CPU seconds (time.thread_time around the stepping,
-one thread) and that over explicit's. --quick: a 12² sheet over 0.25 s against an explicit
-reference computed here at half the stable step. Writes truncation_fraction.json and .png.
+one thread) and that over explicit's, and the steps redone to Newton's residual test because
+their energy rose past the growth check's allowance (`energy_retries`). --quick: a 12² sheet
+over 0.25 s against an explicit reference computed here at half the stable step. Writes
+truncation_fraction.json and .png.
 """
 
 from __future__ import annotations
@@ -142,6 +144,7 @@ def tr_bdf2_row(make, reference, fraction, rate, duration):
         "thrown_away": c["factorizations_thrown_away"],
         "unconverged_steps": c["unconverged_steps"],
         "energy_gain": c["energy_gain"],
+        "energy_retries": c.get("energy_retries", 0.0),
         "kinetic_energy_history": lh.relative_l2(
             kinetic, np.asarray(reference["kinetic_energy"])[points]
         ),
@@ -195,7 +198,7 @@ def main(argv=None):
                         if row.get("diverged")
                         else f"{row['iterations_per_stage']:5.2f} it/stage, "
                         f"KE error {row['kinetic_energy_history']:.4f}, "
-                        f"gain {row['energy_gain']:.3g} J, "
+                        f"gain {row['energy_gain']:.3g} J, redone {row['energy_retries']:g}, "
                         f"{row['cost_over_explicit']:.3f}× explicit"
                     ),
                     flush=True,

@@ -213,34 +213,15 @@ def _long_python_functions():
 
 def _long_cpp_functions(text):
     """(name, lines) of every function definition in C++ source text longer than the limit
-    without an "over N lines:" comment in the three lines above it. A definition starts at a
-    line at column 0 that holds '(' and is not a declaration, and ends at the next line that is
-    a lone '}' at column 0."""
+    without an "over N lines:" comment in the three lines above it (definitions as
+    `_cpp_function_bodies` finds them)."""
     lines = text.splitlines()
-    found, i = [], 0
-    skip = ("//", "#", "namespace", "}", "using", "template", "struct", "class", "static_assert")
-    while i < len(lines):
-        line = lines[i]
-        if line and not line[0].isspace() and "(" in line and not line.startswith(skip):
-            j = i
-            # (a one-line definition ends with its closing brace: nothing to count)
-            while j < len(lines) and not lines[j].rstrip().endswith(("{", ";", "}")):
-                j += 1
-            if (
-                j < len(lines)
-                and lines[j].rstrip().endswith("{")
-                and not lines[j].rstrip().endswith("{}")
-            ):
-                k = j + 1
-                while k < len(lines) and lines[k] != "}":
-                    k += 1
-                length = k - i + 1
-                above = " ".join(lines[max(0, i - 3) : i])
-                if length > MAX_CPP_FUNCTION_LINES and not _REASON.search(above):
-                    found.append((line.split("(")[0].split()[-1], length))
-                i = k
-        i += 1
-    return found
+    return [
+        (name, len(body.splitlines()))
+        for name, start, body in _cpp_function_bodies(text)
+        if len(body.splitlines()) > MAX_CPP_FUNCTION_LINES
+        and not _REASON.search(" ".join(lines[max(0, start - 3) : start]))
+    ]
 
 
 def test_no_python_function_is_over_60_lines_without_a_reason():
@@ -328,8 +309,10 @@ def _cpp_complexity(body):
 
 
 def _cpp_function_bodies(text):
-    """(name, text) of each function definition that starts at column 0 and ends at the next
-    lone '}' there (as `_long_cpp_functions` finds them)."""
+    """(name, first line's index, text) of each function definition in C++ source text: a
+    definition starts at a line at column 0 that holds '(' and is not a declaration, and ends
+    at the next line that is a lone '}' at column 0 (a one-line definition has nothing to
+    count)."""
     lines = text.splitlines()
     found, i = [], 0
     skip = ("//", "#", "namespace", "}", "using", "template", "struct", "class", "static_assert")
@@ -343,7 +326,7 @@ def _cpp_function_bodies(text):
                 k = j + 1
                 while k < len(lines) and lines[k] != "}":
                     k += 1
-                found.append((line.split("(")[0].split()[-1], "\n".join(lines[i : k + 1])))
+                found.append((line.split("(")[0].split()[-1], i, "\n".join(lines[i : k + 1])))
                 i = k
         i += 1
     return found
@@ -355,7 +338,7 @@ def _complex_cpp_functions():
     return sorted(
         (_cpp_complexity(body), f"{path.name}: {name}")
         for path in paths
-        for name, body in _cpp_function_bodies(path.read_text(encoding="utf-8"))
+        for name, _, body in _cpp_function_bodies(path.read_text(encoding="utf-8"))
         if _cpp_complexity(body) > MAX_COMPLEXITY
     )
 
@@ -397,7 +380,7 @@ def test_the_complexity_counters_count_decisions():
         "  return a > 0 ? 1 : (a < 0 || a == 5);\n"  # ?, ||
         "}\n"
     )
-    ((name, text),) = _cpp_function_bodies(body)
+    ((name, _, text),) = _cpp_function_bodies(body)
     assert name == "f" and _cpp_complexity(text) == 1 + 2 + 2 + 2 + 2
 
 
