@@ -106,6 +106,22 @@ void ImplicitIntegrator::prepare(const Cloth& cloth) {
   m_sized_topology = cloth.topology_version();
 }
 
+namespace {
+// Newton's early stops (truncation and step tests) off for a scope.
+class EarlyStopsOff {
+ public:
+  explicit EarlyStopsOff(NewtonSolver& newton) : m_newton(newton) {
+    m_newton.set_early_stops(false);
+  }
+  ~EarlyStopsOff() { m_newton.set_early_stops(true); }
+  EarlyStopsOff(const EarlyStopsOff&) = delete;
+  EarlyStopsOff& operator=(const EarlyStopsOff&) = delete;
+
+ private:
+  NewtonSolver& m_newton;
+};
+}  // namespace
+
 void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
   prepare(cloth);
   // A step whose energy rises past the growth check's allowance is redone once with Newton's
@@ -125,10 +141,9 @@ void ImplicitIntegrator::step(Cloth& cloth, const Vec3& gravity, double dt) {
     m_history = key;
     m_newton.restore_decisions(decisions);
     ++m_newton.statistics().energy_retries;
-    m_newton.set_early_stops(false);
+    const EarlyStopsOff tight(m_newton);  // on again however the redo ends (Ctrl-C included)
     m_newton.begin_step(cloth, gravity);
     history_valid = m_scheme->step(m_newton, cloth, dt, m_history);
-    m_newton.set_early_stops(true);
   }
   finish_step(cloth, dt, history_valid);
 }
