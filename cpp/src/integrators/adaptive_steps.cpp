@@ -66,7 +66,7 @@ void ImplicitIntegrator::adaptive_interval(Cloth& cloth, const Vec3& gravity, do
     const HistoryKey key = m_history;
     const double tolerance = step_tolerance(cloth);
 
-    step(cloth, gravity, step_size);
+    step(cloth, gravity, step_size, /*state_kept=*/true);
     const double error = m_newton.statistics().last_truncation_error;
     const double ratio =
         std::isfinite(error) ? error / tolerance : std::numeric_limits<double>::infinity();

@@ -102,8 +102,10 @@ class ImplicitIntegrator : public Integrator {
   /// The solver's structure for `cloth`, and the scheme's arrays sized for it (its history
   /// cleared, unless set_history restored one for this very topology).
   void prepare(const Cloth& cloth);
-  /// One step of dt by the time scheme (its stages solved by m_newton), then finish_step.
-  void step(Cloth& cloth, const Vec3& gravity, double dt);
+  /// One step of dt by the time scheme (its stages solved by m_newton), then finish_step; a
+  /// step that gains energy is redone with Newton's early stops off. state_kept: the caller
+  /// (adaptive_interval) already kept the step's start (keep_step_state).
+  void step(Cloth& cloth, const Vec3& gravity, double dt, bool state_kept = false);
   /// The end of every step: whether the scheme's history is now valid (keyed to the cloth as
   /// it is, and to dt), and the step's counters.
   void finish_step(const Cloth& cloth, double dt, bool history_valid);
