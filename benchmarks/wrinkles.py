@@ -25,7 +25,8 @@ continuum's energy subtracted) on the same mesh under a uniform tension along u 
 run's (`tension_artificial_bending`; the flat state's probe, which also charges the
 compression deficit, is kept beside it for the membrane as built and for the faces' constant
 strain), the tension, points per wavelength, the wrinkled zone's length along u, and whether
-the row is judged (wrinkled, not a zigzag, ≥ 8 points per wavelength, |B_art| ≤ 0.1 B). The membrane runs
+the row is judged (wrinkled, at least three wrinkles across the width, not a zigzag, ≥ 8 points
+per wavelength, |B_art| ≤ 0.1 B). The membrane runs
 on pattern meshes and on grids aligned with the sheet (`stretched_sheet(mesh="grid")`, no
 spurious slope), each base also from a second seed, and on Delaunay meshes (the base and the
 mesh sizes). The prediction is Cerda & Mahadevan's
@@ -448,11 +449,17 @@ def tension_artificial_bending(model, parameters, tension, wavelength):
     return float(probe * tension / S[:, 0, 0].mean())
 
 
+#: The fewest wrinkles across the width a judged row has (see `judge`).
+MIN_JUDGED_WRINKLES = 3
+
+
 def judge(row):
     """Set the row's tension B_art (`tension_artificial_bending`; a row journaled before it
     keeps its flat-state probe under `flat_state_probe_bending`) and whether it is judged for
-    the exponents and the targets: wrinkled, resolved (8 points a wavelength), not a zigzag,
-    and the interpolation adds at most a tenth of B under the tension."""
+    the exponents and the targets: wrinkled, at least three wrinkles across the width (on
+    fewer the spectrum's peak is the width's own lowest mode, not a length the material sets),
+    resolved (8 points a wavelength), not a zigzag, and the interpolation adds at most a tenth
+    of B under the tension."""
     if "flat_state_probe_bending" not in row:
         row["flat_state_probe_bending"] = row.pop("artificial_bending", None)
     if row.get("artificial_bending") is None and row["model"] == "membrane":
@@ -472,6 +479,7 @@ def judge(row):
     b_art, wavelength = row["artificial_bending"], row["wavelength"]
     row["judged"] = bool(
         wavelength is not None
+        and (row["wrinkles"] or 0) >= MIN_JUDGED_WRINKLES
         and not row["zigzag"]
         and wavelength / row["mean_edge"] >= 8
         and (b_art is None or abs(b_art) <= 0.1 * row["bending_modulus"])
@@ -1025,8 +1033,11 @@ def main(argv=None):
         )
         if row is None:
             continue
-        if "flat_state_probe_bending" not in row:  # journaled before the tension B_art
-            write_journal(args.out, run_name(model, parameters), judge(row))
+        # judged by today's criteria (cheap once B_art is measured); journaled again when that
+        # changed the row or it was journaled before the tension B_art
+        before = (row.get("judged"), "flat_state_probe_bending" in row)
+        if before != (judge(row)["judged"], True):
+            write_journal(args.out, run_name(model, parameters), row)
         row["label"] = label
         rows.append(row)
         print(

@@ -1350,6 +1350,29 @@ def test_wrinkles_smoke(tmp_path):
     assert not journal[0].exists()
 
 
+def test_a_row_of_fewer_than_three_wrinkles_is_not_judged():
+    # the spectrum's peak over one or two wrinkles across the width is the width's own lowest
+    # mode (the spring lattice's 0.5 m sheet: 309 mm against C–M's 43), not a wavelength the
+    # material sets; every other criterion is met here, so only the count can refuse the row
+    from benchmarks import wrinkles
+
+    def row(count):
+        return {
+            "model": "springs",
+            "wavelength": 0.309,
+            "wrinkles": count,
+            "zigzag": False,
+            "mean_edge": 0.0097,
+            "bending_modulus": 1e-4,
+            "artificial_bending": None,
+            "flat_state_probe_bending": None,
+        }
+
+    assert not wrinkles.judge(row(2.0))["judged"]
+    assert wrinkles.judge(row(wrinkles.MIN_JUDGED_WRINKLES))["judged"]
+    assert not wrinkles.judge(row(None))["judged"]
+
+
 def test_the_judged_artificial_bending_is_the_interpolations_slope_under_the_tension():
     # tension_artificial_bending probes the library's membrane on the run's mesh under a
     # uniform tension (no compression); for the faces' constant strain its second variation is
