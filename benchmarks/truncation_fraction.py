@@ -7,7 +7,8 @@ the kinetic-energy history's error at several truncation fractions, against expl
 Newton stops a TR-BDF2 stage once its estimated distance to the stage's solution is at most
 `truncation_fraction` × the step's estimated truncation error. The default was lowered from 0.1
 to 0.01 after an energy gain on the 64² sheet at 2e6 N/m (issue 53); that roughly tripled the
-iterations. This benchmark measures what each fraction buys on the long horizon's own cells:
+iterations. From this benchmark's figures (with the redo of a gaining step) it is 0.03 since
+issue 51. This benchmark measures what each fraction buys on the long horizon's own cells:
 the crossover's 64² sheet (`benchmarks.crossover.sheet`, bending springs as stiff as the
 stretch springs), k = 2e5 and 2e6 N/m, with the scene's damping alone ("equal") and with
 material damping 1 N·s/m ("equal, damped"), 2 s from the flat start, at 1/32 s and 1/64 s.
