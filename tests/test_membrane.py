@@ -685,3 +685,69 @@ def test_growth_modes_grow_the_membranes_rest_metric(growth):
     assert report.rest_area_after > report.rest_area_before
     sim.step(3)
     assert np.isfinite(sim.energy()["membrane"])
+
+
+STROKED_SCENE = """
+[mesh]
+generator = "grid"
+nx = 9
+ny = 9
+gather = 0.8
+[material]
+mass = 0.1
+stretch = "membrane"
+young_modulus = 300.0
+bending = "quadratic"
+bending_modulus = 3e-4
+[[fixed]]
+set = "bottom corners"
+[simulation]
+integrator = "explicit"
+duration = 0.3
+{dt}
+[[strokes]]
+time = 0.05
+material = [[0.15, 0.1], [0.85, 0.1]]
+growth = "along"
+expansion = 1.2
+width = 0.3
+refine = 2
+[output]
+format = "none"
+"""
+
+
+def test_an_explicit_run_left_to_its_default_dt_takes_the_step_its_strokes_leave(tmp_path):
+    # Issue 53, R09: a run counts time in steps and keeps its dt after strokes, so an explicit
+    # membrane scene at the default step (the unstroked cloth's) diverged right after a
+    # refining stroke. check_scene now tries the stroke first and builds the run at the
+    # default step of the stroked cloth: the step the API takes after the same stroke.
+    from yore.runs import run_scene
+    from yore.runs.runner import check_scene
+    from yore.stroke import StrokePath
+
+    scene = load_scene(text=STROKED_SCENE.format(dt=""))
+    plain, _ = scene.build()
+    # the same cloth through the API, dt left out: it follows the cloth after strokes
+    api = yore.Simulation(yore.Cloth.from_state(plain.cloth.state()), integrator="explicit")
+    assert api.dt_follows_cloth and api.dt == plain.dt
+    api.stroke(
+        StrokePath.material([[0.15, 0.1], [0.85, 0.1]]),
+        growth="along",
+        expansion=1.2,
+        width=0.3,
+        refine=2,
+    )
+    sim, _ = check_scene(scene)
+    assert api.dt < 0.5 * plain.dt
+    # lowered to the next step that divides the frame interval: frames land on their times
+    per_frame = 1.0 / scene.data.output.fps / sim.dt
+    assert per_frame == pytest.approx(round(per_frame), abs=1e-9)
+    assert api.dt * (1.0 - 1.0 / per_frame) <= sim.dt <= api.dt
+    summary = run_scene(scene, tmp_path / "default", quiet=True, render=False)
+    assert summary["status"] == "finished" and summary["dt"] == sim.dt
+    # the unstroked cloth's step, given, is kept: that run blows up after the stroke
+    given = load_scene(text=STROKED_SCENE.format(dt=f"dt = {plain.dt!r}"))
+    assert check_scene(given)[0].dt == plain.dt
+    with pytest.raises(yore.runs.RunError, match="diverged"):
+        run_scene(given, tmp_path / "given", quiet=True, render=False)

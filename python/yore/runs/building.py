@@ -46,7 +46,10 @@ MATERIAL_ARGUMENTS = (
 )
 
 
-def build_simulation(scene):
+def build_simulation(scene, dt=None):
+    """The scene's simulation at t = 0 and its named vertex sets; ``dt`` (s), when given,
+    replaces the explicit default step of a scene that leaves [simulation] dt out (see
+    `yore.runs.runner.check_scene`)."""
     data = scene.data
     pattern, F, uv, sets = _build_mesh(scene)
     cloth = _build_cloth(scene, pattern, F, uv)
@@ -57,7 +60,7 @@ def build_simulation(scene):
         sim = Simulation(
             cloth,
             integrator=simulation.integrator,
-            dt=simulation.dt,
+            dt=simulation.dt if dt is None else dt,
             gravity=GRAVITY if gravity is None else gravity,
             **data.integrator,
         )

@@ -24,9 +24,11 @@ except ModuleNotFoundError:  # pragma: no cover - older Pythons use the backport
 
 from .._core import Cloth
 from ..options import (
+    INTEGRATOR_SPECS,
     REFERENCE_INTEGRATOR,
 )
 from ..simulation import Simulation
+from ..simulation_checks import default_explicit_dt
 from .building import build_simulation, apply_scene_stroke
 from .scene_checks import checked_data
 from .scene_tables import SceneData
@@ -78,19 +80,26 @@ class Scene:
         source = self.source + (" (set on the command line)" if overridden else "")
         return SceneError(source, key, problem, expected, line)
 
-    def build(self) -> tuple[Simulation, dict]:
-        """The simulation the scene describes at t = 0, and the named vertex sets of its mesh.
+    def build(self, dt=None) -> tuple[Simulation, dict]:
+        """The simulation the scene describes at t = 0, and the named vertex sets of its mesh;
+        ``dt`` replaces an explicit scene's default step (see `check_strokes`).
 
         Raises SceneError for anything the static checks could not see: vertex indices out
         of range, a selection that selects nothing, a vertex both fixed and driven, integrator
         options the integrator rejects, a mesh file that cannot be read."""
-        return build_simulation(self)
+        return build_simulation(self, dt)
 
-    def check_strokes(self, sim=None) -> None:
+    def check_strokes(self, sim=None) -> float | None:
         """Tries the strokes that can be tried before the run on a copy of the cloth (of
         ``sim``, a simulation this scene built, or of a new one): material strokes at any time,
         3-D and screen strokes at time 0 (later ones depend on the motion, which only the run
-        knows). Raises SceneError naming the stroke that misses."""
+        knows). Raises SceneError naming the stroke that misses.
+
+        A run keeps its dt after strokes (it counts time in steps). For a scene whose step is
+        the explicit default (no [simulation] dt), returns the default step of the cloth
+        after those strokes when they lower it below ``sim.dt`` (a refined band's small faces
+        and grown springs have a smaller stable step), else None: the run should take that
+        step from the start (`yore.runs.runner.check_scene` does)."""
         if sim is None:
             sim, _ = self.build()
         # A stroke is drawn before the step it rounds to; one that rounds to the run's last step
@@ -112,9 +121,17 @@ class Scene:
             dt=sim.dt,
             gravity=sim.gravity,
         )
+        follows = (
+            self.data.simulation.dt is None
+            and INTEGRATOR_SPECS[sim.integrator].conditionally_stable
+        )
+        lowest = sim.dt
         for index, stroke in sorted(enumerate(self.data.strokes), key=lambda s: s[1].time):
             if stroke.material is not None or stroke.time == 0.0:
                 apply_scene_stroke(self, probe, index)
+                if follows:
+                    lowest = min(lowest, default_explicit_dt(probe.cloth))
+        return lowest if lowest < sim.dt else None
 
     def frame_interval(self, dt: float) -> int:
         """Steps between frames."""

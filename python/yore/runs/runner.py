@@ -17,6 +17,7 @@ So a run split by ``until`` and resumed takes exactly the steps a straight run t
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -79,12 +80,30 @@ def check_scene(scene, until=None, allow_long=False):
     """What a run checks of its scene before anything runs, in one place (`run_scene`, `yore
     check` and a sweep's check of its cells all call it): the cloth and simulation build,
     every stroke lies on the cloth, and the run's length is within the limit (see
-    `check_length`). Returns ``(simulation, steps)``; raises SceneError or ValueError naming
-    the problem."""
+    `check_length`). An explicit scene that leaves its dt to the default runs at the default
+    step of its cloth after the strokes tried here (`Scene.check_strokes`): a run keeps its
+    step, and a refining stroke lowers the stable one (issue 53, R09). Returns
+    ``(simulation, steps)``; raises SceneError or ValueError naming the problem."""
     sim, _ = scene.build()
     steps = check_length(scene, sim, until, allow_long)
-    scene.check_strokes(sim)
+    lowered = scene.check_strokes(sim)
+    if lowered is not None:
+        sim, _ = scene.build(dt=_on_frame_grid(scene, lowered))
+        steps = check_length(scene, sim, until, allow_long)
     return sim, steps
+
+
+def _on_frame_grid(scene, dt):
+    """``dt`` lowered to the next step that divides the frame interval 1/fps a whole number of
+    times, so the frames of a run whose step the strokes chose fall on their times (a step
+    at most a fraction 1/k smaller, k the steps a frame); as it is when frames are counted in
+    steps or there are none."""
+    output = scene.data.output
+    if output.every_steps is not None or not output.fps > 0.0:
+        return dt
+    interval = 1.0 / output.fps
+    steps = math.ceil(interval / dt * (1.0 - 1e-12))
+    return interval / steps if steps < 2**52 else dt
 
 
 def _check_pictures(scene, render):
