@@ -51,9 +51,9 @@ def test_stroke_defaults_come_from_the_core_structs():
     assert {
         name: getattr(fields, name) for name in options.STROKE_DEFAULTS
     } == options.STROKE_DEFAULTS
-    strokes = schema.SCHEMA["strokes"][0]
+    strokes = schema.SCHEMA["strokes"].keys
     for name in ("expansion", "mass_scale", "growth", "refine"):
-        assert strokes[name][1] == options.STROKE_DEFAULTS[name], name
+        assert strokes[name].default == options.STROKE_DEFAULTS[name], name
 
 
 def test_smoothing_defaults_are_read_by_every_consumer():
@@ -62,11 +62,14 @@ def test_smoothing_defaults_are_read_by_every_consumer():
         name: signature[name].default for name in options.SMOOTHING_DEFAULTS
     } == options.SMOOTHING_DEFAULTS
     assert {
-        name: schema.SMOOTH[name][1] for name in options.SMOOTHING_DEFAULTS
+        name: schema.SMOOTH[name].default for name in options.SMOOTHING_DEFAULTS
     } == options.SMOOTHING_DEFAULTS
     for name, rule in options.SMOOTHING_RULES.items():
-        assert schema.SMOOTH[name][0].kind == rule.kind, name
-        assert (schema.SMOOTH[name][0].low, schema.SMOOTH[name][0].high) == (rule.low, rule.high)
+        assert schema.SMOOTH[name].rule.kind == rule.kind, name
+        assert (schema.SMOOTH[name].rule.low, schema.SMOOTH[name].rule.high) == (
+            rule.low,
+            rule.high,
+        )
     assert options.SMOOTHING_RULES["iterations"].high == options.MAX_SMOOTHING_ITERATIONS
     # a stroke's smoothing stage fills in the same defaults
     assert yore.stroke.check_smoothing(3) == {
@@ -97,9 +100,9 @@ def test_a_bare_cloth_and_the_scenes_take_their_materials_from_the_tables():
     assert sim.cloth.drag == material["drag"]
     springs = sim.cloth.springs
     assert np.all(springs.stiffness[springs.kind == 0] == material["stretch_stiffness"])
-    table = schema.SCHEMA["material"][0]
+    table = schema.SCHEMA["material"].keys
     for name in ("stretch_stiffness", "damping", "drag"):
-        assert table[name][1] == material[name], name
+        assert table[name].default == material[name], name
 
 
 #: The options whose defaults the tables hold, with those defaults.

@@ -105,7 +105,7 @@ def test_the_layers_phrase_one_rule_in_their_own_words():
     ):
         check_option("implicit", "max_newton", 2.5)
     with pytest.raises(rules.Invalid) as error:
-        schema.SMOOTH["iterations"][0](2.5)
+        schema.SMOOTH["iterations"].rule(2.5)
     assert error.value.problem == "got float 2.5"
     assert error.value.expected.startswith("an integer in [0, ")
     with pytest.raises(
@@ -148,11 +148,11 @@ def test_scene_file_checkers_are_rules():
     # every scalar key of the scene schema is checked by a yore.rules.Rule (lists of points,
     # vectors and tables have checkers of their own shape, which raise rules.Invalid)
     tables = (
-        [table for table, _ in schema.SCHEMA.values() if table]
+        [table.keys for table in schema.SCHEMA.values() if table.keys]
         + list(schema.GENERATOR_KEYS.values())
         + [schema.SMOOTH, schema.BOX]
     )
-    checkers = [checker for table in tables for checker, _, _ in table.values()]
+    checkers = [key.rule for table in tables for key in table.values()]
     # "box" and "smooth" name nested tables, checked by their own schema (BOX, SMOOTH)
     assert {c for c in checkers if not isinstance(c, rules.Rule)} == {"box", "smooth"}
     kinds = {c.kind for c in checkers if isinstance(c, rules.Rule)}

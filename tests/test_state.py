@@ -2,6 +2,7 @@
 
 import os
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -599,3 +600,35 @@ def test_the_cloth_state_fields_are_the_cores_one_list():
     np.testing.assert_array_equal(older.positions, cloth.positions)
     with pytest.raises(ValueError, match="masses"):  # a required key is required
         yore.Cloth.from_state({k: v for k, v in state.items() if k != "masses"})
+
+
+def test_every_field_of_the_schema_tables_is_checked_by_its_rule(state_file):
+    # issue 54, item 3: the state's fields are declared once, in the tables of
+    # yore.state_schema; each declared field refuses a value of the wrong kind with its name
+    from yore import state_schema as schema
+
+    tables = {
+        ("simulation",): schema.SIMULATION,
+        ("simulation", "cloth"): schema.CLOTH,
+        ("simulation", "projection_memory"): schema.PROJECTION_MEMORY,
+    }
+    checked = 0
+    for where, table in tables.items():
+        for name, spec in table.items():
+            if spec is None:  # a table of its own, or checked against the integrator
+                continue
+            path = state_file.with_name(f"{'.'.join(where)}.{name}.npz")
+            path.write_bytes(state_file.read_bytes())
+
+            def change(arrays, document, where=where, name=name):
+                node = document
+                for part in where:
+                    node = node[part]
+                node[name] = "x"
+                arrays.pop("/".join((*where, name)), None)
+
+            tampered(path, change)
+            dotted = re.escape(".".join((*where, name)))
+            one_line_error(path, rf"field {dotted}: got str 'x'; expected ")
+            checked += 1
+    assert checked >= 20

@@ -136,3 +136,70 @@ def test_contradicting_choices_are_refused_and_quasi_newton_decides_only_its_pre
     assert resolved["predictor"] == "inertial" and "projection" not in resolved
     explicit = yore.options.INTEGRATOR_OPTIONS["explicit"]
     assert yore.options.resolve_options("explicit", explicit) == explicit
+
+
+def _same_fields(result, kind):
+    """``result`` is the typed result ``kind``: it holds exactly the declared fields, and each
+    reads the same by attribute and by key."""
+    assert type(result) is kind
+    assert set(result) == set(kind.fields_), set(result) ^ set(kind.fields_)
+    for name in kind.fields_:
+        assert getattr(result, name) is result[name], name
+
+
+def test_the_cloths_reports_are_typed_results():
+    from yore.results import ClothState, Energy, MembraneStatus, QuadraticBending
+
+    sim = yore.scenes.hanging_cloth(
+        resolution=6,
+        stretch="membrane",
+        young_modulus=1e3,
+        bending="quadratic",
+        bending_modulus=1e-4,
+    )
+    cloth = sim.cloth
+    state = cloth.state()
+    _same_fields(state, ClothState)
+    assert yore.Cloth.from_state(state).state().positions.tobytes() == state.positions.tobytes()
+    energy = cloth.energy([0.0, 0.0, -9.81])
+    _same_fields(energy, Energy)
+    parts = energy.kinetic + energy.spring + energy.gravity + energy.bending + energy.membrane
+    assert energy.total == pytest.approx(parts, rel=1e-15)
+    status = cloth.membrane_status()
+    _same_fields(status, MembraneStatus)
+    assert status.rest_area == pytest.approx(1.0, rel=1e-12)  # the 1 m square at rest
+    bending = cloth.quadratic_bending
+    _same_fields(bending, QuadraticBending)
+    # a 6×6 grid of two triangles per cell has 3·25 + 10 - 20 = 65 interior edges
+    assert bending.hinges == 65 and bending.size == cloth.vertex_count
+    from yore.results import NewtonSystem
+
+    system = _core.ImplicitIntegrator().newton_system(
+        cloth, [0.0, -9.81, 0.0], 1 / 60, cloth.positions
+    )
+    _same_fields(system, NewtonSystem)
+    assert len(system.gradient) == 3 * len(system.free_vertices) == system.size
+
+
+def test_the_mesh_queries_return_typed_results():
+    from yore.results import FaceRefinement, FaceSplit, RayHits
+    from yore.subdivision import refine_faces_1to4, split_faces_1to3
+
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    F = np.array([[0, 1, 2], [1, 3, 2]], dtype=np.int32)
+    split = split_faces_1to3(V, F, [0])
+    _same_fields(split, FaceSplit)
+    assert len(split.faces) == 4 and len(split.vertices) == 5
+    refined = refine_faces_1to4(V, F, [0])
+    _same_fields(refined, FaceRefinement)
+    assert len(refined.split_edges) == 3  # face 0's edges; face 1 is bisected on the shared one
+    sim = yore.scenes.hanging_cloth(resolution=5)
+    hits = _core.pick_rays(
+        sim.cloth,
+        np.array([[0.0, 0.0, 0.0]]),
+        np.array([0.5, 0.5, 5.0]),  # above the hanging square's middle, looking down -z
+        np.array([0.0, 0.0, -1.0]),
+        np.zeros(3),
+        np.zeros(3),
+    )
+    _same_fields(hits, RayHits)

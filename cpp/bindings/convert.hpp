@@ -97,6 +97,13 @@ void check_idle(const void* object, const char* what);
 /// Whether a BusyGuard holds `object`.
 bool is_busy(const void* object);
 
+/// `values` as the typed result `type_name` of yore.results (a dict whose declared fields are
+/// also attributes: ``cloth.state().positions`` and ``cloth.state()["positions"]`` both read).
+/// The module is looked up when the call returns, so the extension loads without it.
+inline py::object typed_result(const char* type_name, const py::dict& values) {
+  return py::module_::import("yore.results").attr(type_name)(values);
+}
+
 /// `cloth` after check_idle (for bindings that read or change it).
 inline const Cloth& idle(const Cloth& cloth) {
   check_idle(&cloth, "the Cloth");

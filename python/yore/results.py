@@ -1,8 +1,12 @@
-"""What a `yore.Simulation` reports, as typed results (`yore.documents.Result`: dicts whose
-fields are also attributes): `Statistics` (``Simulation.stats``), `Energy`
-(``Simulation.energy()``), `ClothState` (``Cloth.state()``'s fields), what a run records at
-each frame (`FrameMeasure`) and of each stroke (`StrokeEntry`), and a stroke's measured effect
-(`StrokeEffect`)."""
+"""What yore reports, as typed results (`yore.documents.Result`: dicts whose fields are also
+attributes): `Statistics` (``Simulation.stats``), `Energy` (``Simulation.energy()``,
+``Cloth.energy()``), `ClothState` (``Cloth.state()``), `MembraneStatus`
+(``Cloth.membrane_status()``), `QuadraticBending` (``Cloth.quadratic_bending``),
+`NewtonSystem` (``ImplicitIntegrator.newton_system``), what a run
+records at each frame (`FrameMeasure`) and of each stroke (`StrokeEntry`), a stroke's measured
+effect (`StrokeEffect`), and the core's mesh queries: `RayHits` (``pick_rays``), `FaceSplit`
+(``split_faces_1to3``) and `FaceRefinement` (``refine_faces_1to4``). The core's bindings build
+the ones they return by name from this module."""
 
 from __future__ import annotations
 
@@ -12,7 +16,20 @@ from . import _core
 from ._core import Cloth
 from .documents import result_type
 
-__all__ = ["Statistics", "Energy", "ClothState", "FrameMeasure", "StrokeEntry", "StrokeEffect"]
+__all__ = [
+    "Statistics",
+    "Energy",
+    "ClothState",
+    "MembraneStatus",
+    "QuadraticBending",
+    "NewtonSystem",
+    "FrameMeasure",
+    "StrokeEntry",
+    "StrokeEffect",
+    "RayHits",
+    "FaceSplit",
+    "FaceRefinement",
+]
 
 Statistics = result_type(
     "Statistics",
@@ -50,6 +67,40 @@ ClothState = result_type(
     """A cloth's state as ``Cloth.state()`` gives it (the fields of ``Cloth.state_fields``):
     positions, velocities, masses, faces, the springs' arrays, the material's constants, the
     vertices' states and drivers, the clock.""",
+)
+
+MembraneStatus = result_type(
+    "MembraneStatus",
+    ("clamped_rest_faces", "collapsed_faces", "rest_area", "current_area"),
+    """The membrane's faces now (``Cloth.membrane_status()``): rest triangles clamped because
+    their edge lengths (nearly) no longer close a triangle, faces collapsed below 1e-3 of their
+    rest area, and the rest and current areas, m² (all zero with springs).""",
+)
+
+QuadraticBending = result_type(
+    "QuadraticBending",
+    ("size", "hinges", "indptr", "indices", "data", "rest_positions"),
+    """Quadratic bending's matrix Q (``Cloth.quadratic_bending``): its size n, the interior
+    edges (hinges), the symmetric n×n scalar matrix per unit modulus in CSR (indptr, indices,
+    data; both triangles) and the rest positions (n×3, m) it was built from.""",
+)
+
+NewtonSystem = result_type(
+    "NewtonSystem",
+    (
+        "energy",
+        "gradient",
+        "hessian_data",
+        "hessian_indices",
+        "hessian_indptr",
+        "size",
+        "direction",
+        "free_vertices",
+    ),
+    """The backward-Euler incremental potential at given positions
+    (``ImplicitIntegrator.newton_system``): its energy, J, gradient, N, the Hessian's lower
+    triangle in CSC (data, indices, indptr, size), the solver's Newton direction and the free
+    vertices (the unknowns).""",
 )
 
 FrameMeasure = result_type(
@@ -169,3 +220,29 @@ def simulation_statistics(
             },
         }
     )
+
+
+RayHits = result_type(
+    "RayHits",
+    ("faces", "barycentric"),
+    """Each ray's first hit on a cloth (``pick_rays``): the face it hit (-1 where it missed)
+    and the barycentric coordinates of the hit (k×3, zero where it missed).""",
+)
+
+_SUBDIVISION = ("vertices", "faces", "parents", "new_vertex_corners", "new_vertex_weights")
+
+FaceSplit = result_type(
+    "FaceSplit",
+    (*_SUBDIVISION, "split_faces", "faces_skipped", "moved_inward"),
+    """The paper's 1→3 split of a mesh (``split_faces_1to3``): the new mesh (vertices, faces,
+    each face's parent, each new vertex's corners and weights), the faces split and skipped,
+    and how many split points the min_barycentric rule moved inward.""",
+)
+
+FaceRefinement = result_type(
+    "FaceRefinement",
+    (*_SUBDIVISION, "refined_faces", "bisected_faces", "split_edges"),
+    """A 1→4 refinement with its conforming closure (``refine_faces_1to4``): the new mesh
+    (vertices, faces, each face's parent, each new vertex's corners and weights), the faces
+    refined 1→4 and bisected, and the edges split.""",
+)

@@ -1,6 +1,8 @@
 """yore.rules: the one rule type every layer checks values with.
 
-A `Rule` is shaped like the C++ ``OptionRule`` (cpp/include/yore/integrators/integrator.hpp): a kind
+A `Rule` is shaped like the C++ ``OptionRule`` of the integrators' option tables
+(cpp/bindings/options.hpp, which the bindings publish as ``option_rules`` and `from_core`
+turns into Rules: the C++ table is where an option's rule is written): a kind
 ("flag", "count", "real", "choice", "text" or "custom"), bounds with open or closed ends,
 choices, and whether None is allowed. ``rule(value)`` returns the value in its canonical form
 (bool, int, float, str or None) or raises `Invalid` with the problem ("got float 3.5") and what

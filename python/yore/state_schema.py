@@ -1,10 +1,14 @@
 """The state file's schema (`yore.state` reads and writes the files): every field of a
-simulation's state checked by name, type, dtype, shape, range and finiteness, with sizes
-consistent across the cloth, its constraints, drivers and the integrator's history. Every
+simulation's state declared once, in tables of `yore.rules` rules (`SIMULATION`, `CLOTH`,
+`DRIVER`, `PROJECTION_MEMORY`), each checked by name, type, dtype, shape, range and finiteness,
+with sizes consistent across the cloth, its constraints, drivers and the integrator's history;
+what no single field can say (a spring joining a vertex to itself, the bending and membrane
+fields that go together, the history the integrator keeps) is checked after the tables. Every
 error names the file and the dotted field."""
 
 from __future__ import annotations
 
+from typing import NamedTuple
 
 import numpy as np
 
@@ -13,6 +17,18 @@ from ._core import Cloth
 from .checks import MAX_TIME, MIN_DT
 from .options import INTEGRATOR_OPTIONS, INTEGRATOR_SPECS, INTEGRATORS, check_option
 
+__all__ = [
+    "FieldChecker",
+    "Array",
+    "Maybe",
+    "SIMULATION",
+    "CLOTH",
+    "DRIVER",
+    "PROJECTION_MEMORY",
+    "check_simulation",
+    "show_value",
+]
+
 
 def show_value(value):
     return rules.describe(value)
@@ -20,6 +36,172 @@ def show_value(value):
 
 def _got(value):
     return f"got {rules.describe(value)}"
+
+
+def _index(mask):
+    where = np.argwhere(mask)[0]
+    return int(where[0]) if len(where) == 1 else tuple(int(i) for i in where)
+
+
+# -- the rules of a state's values --------------------------------------------------------------
+
+
+def _real(low=None, low_open=False, high=None):
+    """A JSON number (Python's int or float, finite) within the bounds."""
+    bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
+    bounds += "" if high is None else f"{' and' if bounds else ''} <= {high:g}"
+    return rules.real(
+        low,
+        high,
+        low_open=low_open,
+        expected=f"a finite number{bounds}",
+        problem=_got,
+        python_types=True,
+    )
+
+
+def _count(low, high):
+    return rules.count(low, high, problem=_got, python_types=True)
+
+
+#: A flag of a state file (JSON's true or false).
+_FLAG = rules.flag("true or false", problem=_got, python_types=True)
+#: Smallest positive normal double: a mass below it is refused (1/m would overflow).
+_TINY = float(np.finfo(np.float64).tiny)
+
+
+class Array(NamedTuple):
+    """An array field: exactly ``dtype``; ``shape`` of lengths, each a number, None (any) or
+    the name of a size the state sets ("n" vertices, "s" springs, "k" a driver's vertices);
+    float arrays finite; entries in [low, high] ((low, high] with ``low_open``) or in
+    ``allowed``. ``high`` may name a size too ("last": the largest vertex index)."""
+
+    dtype: type
+    shape: tuple
+    low: object = None
+    high: object = None
+    low_open: bool = False
+    allowed: tuple | None = None
+
+    def rule(self, sizes) -> rules.Rule:
+        """The `yore.rules.Rule` of this field in a state of these sizes."""
+        shape = tuple(sizes[d] if isinstance(d, str) else d for d in self.shape)
+        high = sizes[self.high] if isinstance(self.high, str) else self.high
+        expected = (
+            f"an array of dtype {np.dtype(self.dtype)} and shape ("
+            + ", ".join("k" if d is None else str(d) for d in shape)
+            + ("," if len(shape) == 1 else "")
+            + ")"
+        )
+
+        def test(value):
+            if (
+                not isinstance(value, np.ndarray)
+                or value.dtype != np.dtype(self.dtype)
+                or value.ndim != len(shape)
+                or any(d is not None and d != got for d, got in zip(shape, value.shape))
+            ):
+                return False, None
+            if value.size:
+                self._check_entries(value, high)
+            return True, value
+
+        return rules.custom(test, expected, problem=_got)
+
+    def _check_entries(self, value, high):
+        """`Invalid` naming the first entry out of the field's range."""
+        tests = []  # (entries out of range, what was expected)
+        if value.dtype.kind == "f":
+            tests.append((~np.isfinite(value), "finite numbers"))
+        if self.allowed is not None:
+            phrase = "values in {" + ", ".join(map(str, self.allowed)) + "}"
+            tests.append((~np.isin(value, self.allowed), phrase))
+        if self.low is not None:
+            below = (value <= self.low) if self.low_open else (value < self.low)
+            tests.append((below, f"values {'>' if self.low_open else '>='} {self.low}"))
+        if high is not None:
+            tests.append((value > high, f"values <= {high}"))
+        for bad, expected in tests:
+            if bad.any():
+                raise rules.Invalid(f"entry {_index(bad)} is {value[bad][0]}", expected)
+
+
+class Maybe(NamedTuple):
+    """A field that may be null (None): its value, when given, follows ``spec``."""
+
+    spec: object
+
+
+#: `yore.Simulation.state`'s fields (the cloth's are `CLOTH`; the options, the history and
+#: the projection memory depend on the integrator and are checked after).
+SIMULATION = {
+    "cloth": None,
+    "integrator": rules.choice(
+        *INTEGRATORS, expected="one of " + ", ".join(INTEGRATORS), problem=_got
+    ),
+    "options": None,
+    "dt": _real(MIN_DT),
+    "gravity": Array(np.float64, (3,)),
+    "history": None,
+    "target_time": Maybe(_real()),
+}
+#: Fields absent from states saved before they existed.
+SIMULATION_OPTIONAL = {
+    "projection_memory": None,
+    "dt_follows_cloth": _FLAG,
+    "integrator_restarts": _FLAG,
+}
+
+_SPRING = Array(np.float64, ("s",), low=0.0)
+_NONNEGATIVE = _real(0.0)
+#: `yore.Cloth.state`'s fields that every state has, in the order they are checked. The
+#: bending and membrane fields (`Cloth.state_fields["optional"]`, absent from states saved
+#: before those models) go together and are checked after, by `_check_cloth_models`.
+CLOTH = {
+    "positions": Array(np.float64, (None, 3)),
+    "velocities": Array(np.float64, ("n", 3)),
+    "masses": Array(np.float64, ("n",), low=_TINY),
+    "faces": Array(np.int32, (None, 3), low=0, high="last"),
+    "spring_ends": Array(np.int32, (None, 2), low=0, high="last"),
+    "spring_rest": _SPRING,
+    "spring_reference": _SPRING,
+    "spring_stiffness": _SPRING,
+    "spring_damping": _SPRING,
+    "spring_kind": Array(np.int8, ("s",), allowed=(0, 1)),
+    "drag": _NONNEGATIVE,
+    "stretch_stiffness": _NONNEGATIVE,
+    "bend_stiffness": _NONNEGATIVE,
+    "damping": _NONNEGATIVE,
+    "material_coordinates": Maybe(Array(np.float64, ("n", 2))),
+    "vertex_states": Array(np.uint8, ("n",), allowed=(0, 1, 2)),
+    "drivers": None,
+    "clock_origin": _real(-MAX_TIME, high=MAX_TIME),
+    "clock_steps": _count(0, 2**62),
+    "clock_dt": _NONNEGATIVE,
+}
+#: One driver of ``cloth.drivers``.
+DRIVER = {
+    "vertices": Array(np.int32, (None,), low=0, high="last"),
+    "reference": Array(np.float64, ("k", 3)),
+    "center": Array(np.float64, (3,)),
+    "axis": Array(np.float64, (3,)),
+    "omega": _real(),
+    "start_time": _real(),
+}
+#: Newton's projection memory; shift and radius are absent from states saved before the
+#: shifted and Steihaug projections existed (then: 0).
+PROJECTION_MEMORY = {
+    "exact_skip": _count(0, 32),
+    "exact_backoff": _count(1, 32),
+}
+PROJECTION_MEMORY_OPTIONAL = {"shift": _real(0.0, high=1e12), "radius": _real(0.0)}
+
+# The cloth's keys are the binding's one list (``Cloth.state_fields``), which its writer and
+# reader use; the table above must name each required one.
+assert set(CLOTH) == set(Cloth.state_fields["required"]), "CLOTH and Cloth.state_fields differ"
+
+
+# -- checking -----------------------------------------------------------------------------------
 
 
 class FieldChecker:
@@ -73,91 +255,22 @@ class FieldChecker:
         except rules.Invalid as invalid:
             raise self.error(field, invalid.problem, invalid.expected) from None
 
-    def real(self, value, field, low=None, low_open=False, high=None):
-        bounds = "" if low is None else f" {'>' if low_open else '>='} {low:g}"
-        bounds += "" if high is None else f"{' and' if bounds else ''} <= {high:g}"
-        return self.check(
-            rules.real(
-                low,
-                high,
-                low_open=low_open,
-                expected=f"a finite number{bounds}",
-                problem=_got,
-                python_types=True,
-            ),
-            value,
-            field,
-        )
-
-    def integer(self, value, field, low, high):
-        return self.check(rules.count(low, high, problem=_got, python_types=True), value, field)
-
-    def array(self, value, field, dtype, shape, low=None, high=None, low_open=False, allowed=None):
-        """An ndarray of exactly ``dtype``; ``shape`` with None for any length; float arrays
-        finite; values in [low, high] (or (low, high] with low_open) or in ``allowed``."""
-        expected = (
-            f"an array of dtype {np.dtype(dtype)} and shape "
-            + "("
-            + ", ".join("k" if d is None else str(d) for d in shape)
-            + ("," if len(shape) == 1 else "")
-            + ")"
-        )
-        if (
-            not isinstance(value, np.ndarray)
-            or value.dtype != np.dtype(dtype)
-            or value.ndim != len(shape)
-            or any(d is not None and d != got for d, got in zip(shape, value.shape))
-        ):
-            raise self.error(field, f"got {show_value(value)}", expected)
-        if value.size == 0:
-            return value
-        self._check_entries(value, field, low, high, low_open, allowed)
-        return value
-
-    def _check_entries(self, value, field, low, high, low_open, allowed):
-        """array's value checks: finite floats, values in ``allowed``, within the bounds."""
-        bounds = []  # (entries out of range, what was expected)
-        if value.dtype.kind == "f":
-            bounds.append((~np.isfinite(value), "finite numbers"))
-        if allowed is not None:
-            bounds.append(
-                (~np.isin(value, allowed), "values in {" + ", ".join(map(str, allowed)) + "}")
-            )
-        for bad, expected in bounds:
-            if bad.any():
-                raise self.error(field, f"entry {_index(bad)} is {value[bad][0]}", expected)
-        if low is not None:
-            bad = (value <= low) if low_open else (value < low)
-            if bad.any():
-                raise self.error(
-                    field,
-                    f"entry {_index(bad)} is {value[bad][0]}",
-                    f"values {'>' if low_open else '>='} {low}",
-                )
-        if high is not None:
-            bad = value > high
-            if bad.any():
-                raise self.error(
-                    field, f"entry {_index(bad)} is {value[bad][0]}", f"values <= {high}"
-                )
-
-
-def _index(mask):
-    where = np.argwhere(mask)[0]
-    return int(where[0]) if len(where) == 1 else tuple(int(i) for i in where)
-
-
-#: The keys of a cloth's state (`yore.Cloth.state`): those every state has, and those a state
-#: saved before quadratic bending, the membrane, the fitted operator or the smoothed strain
-#: lacks — the binding's one list (``Cloth.state_fields``), which its writer and reader use.
-_CLOTH_FIELDS = Cloth.state_fields["required"]
-_CLOTH_OPTIONAL_FIELDS = Cloth.state_fields["optional"]
-_SIMULATION_FIELDS = ("cloth", "integrator", "options", "dt", "gravity", "history", "target_time")
-_DRIVER_FIELDS = ("vertices", "reference", "center", "axis", "omega", "start_time")
-#: A flag of a state file (JSON's true or false).
-_FLAG = rules.flag("true or false", problem=_got, python_types=True)
-#: Smallest positive normal double: a mass below it is refused (1/m would overflow).
-_TINY = float(np.finfo(np.float64).tiny)
+    def table(self, values, where, schema, sizes=None):
+        """The fields of ``schema`` that ``values`` holds, each checked by its rule (an `Array`
+        made for ``sizes``; a `Maybe` passes None; a None rule is checked by the caller)."""
+        for name, spec in schema.items():
+            if name not in values:
+                continue
+            value = values[name]
+            if isinstance(spec, Maybe):
+                if value is None:
+                    continue
+                spec = spec.spec
+            if isinstance(spec, Array):
+                spec = spec.rule(sizes or {})
+            if spec is not None:
+                self.check(spec, value, f"{where}.{name}")
+        return values
 
 
 def check_simulation(field, simulation):
@@ -170,19 +283,9 @@ def check_simulation(field, simulation):
 
 def _check_stepping(field, simulation):
     """The integrator, its options, dt, gravity and the clock's target; the integrator."""
-    field.keys(
-        simulation,
-        "simulation",
-        _SIMULATION_FIELDS,
-        optional=("projection_memory", "dt_follows_cloth", "integrator_restarts"),
-    )
+    field.keys(simulation, "simulation", tuple(SIMULATION), optional=tuple(SIMULATION_OPTIONAL))
+    field.table(simulation, "simulation", {"integrator": SIMULATION["integrator"]})
     integrator = simulation["integrator"]
-    if not isinstance(integrator, str) or integrator not in INTEGRATORS:
-        raise field.error(
-            "simulation.integrator",
-            f"got {show_value(integrator)}",
-            "one of " + ", ".join(INTEGRATORS),
-        )
     options = field.keys(
         simulation["options"], "simulation.options", (), tuple(INTEGRATOR_OPTIONS[integrator])
     )
@@ -191,14 +294,7 @@ def _check_stepping(field, simulation):
             check_option(integrator, name, value)
         except ValueError as error:
             raise field.error(f"simulation.options.{name}", str(error)) from None
-    field.real(simulation["dt"], "simulation.dt", MIN_DT)
-    field.array(simulation["gravity"], "simulation.gravity", np.float64, (3,))
-    if simulation["target_time"] is not None:
-        field.real(simulation["target_time"], "simulation.target_time")
-    for name in ("dt_follows_cloth", "integrator_restarts"):
-        if name in simulation:
-            field.check(_FLAG, simulation[name], f"simulation.{name}")
-
+    field.table(simulation, "simulation", {**SIMULATION, **SIMULATION_OPTIONAL})
     return integrator
 
 
@@ -206,46 +302,25 @@ def _check_cloth(field, cloth):
     """The cloth's arrays, material, bending, membrane, drivers and clock; its vertex count."""
     # The bending fields came with quadratic bending: a file without them is bending springs;
     # the membrane's with the membrane: a file without them has springs that resist stretching.
-    cloth = field.keys(
-        cloth,
-        "simulation.cloth",
-        _CLOTH_FIELDS,
-        optional=_CLOTH_OPTIONAL_FIELDS,
-    )
-    where = "simulation.cloth."
-    positions = field.array(cloth["positions"], where + "positions", np.float64, (None, 3))
+    where = "simulation.cloth"
+    field.keys(cloth, where, tuple(CLOTH), optional=Cloth.state_fields["optional"])
+    positions = field.check(CLOTH["positions"].rule({}), cloth["positions"], where + ".positions")
     n = len(positions)
     if n == 0:
-        raise field.error(where + "positions", "holds no vertex", "at least one vertex")
-    field.array(cloth["velocities"], where + "velocities", np.float64, (n, 3))
-    field.array(cloth["masses"], where + "masses", np.float64, (n,), low=_TINY)
-    field.array(cloth["faces"], where + "faces", np.int32, (None, 3), low=0, high=n - 1)
-    ends = field.array(
-        cloth["spring_ends"], where + "spring_ends", np.int32, (None, 2), low=0, high=n - 1
+        raise field.error(where + ".positions", "holds no vertex", "at least one vertex")
+    ends = field.check(
+        CLOTH["spring_ends"].rule({"last": n - 1}), cloth["spring_ends"], where + ".spring_ends"
     )
-    s = len(ends)
-    if s and (ends[:, 0] == ends[:, 1]).any():
+    if len(ends) and (ends[:, 0] == ends[:, 1]).any():
         k = int(np.flatnonzero(ends[:, 0] == ends[:, 1])[0])
         raise field.error(
-            where + "spring_ends",
+            where + ".spring_ends",
             f"spring {k} joins vertex {ends[k, 0]} to itself",
             "two different vertices per spring",
         )
-    for name in ("spring_rest", "spring_reference", "spring_stiffness", "spring_damping"):
-        field.array(cloth[name], where + name, np.float64, (s,), low=0.0)
-    field.array(cloth["spring_kind"], where + "spring_kind", np.int8, (s,), allowed=(0, 1))
-    for name in ("drag", "stretch_stiffness", "bend_stiffness", "damping"):
-        field.real(cloth[name], where + name, 0.0)
-    if cloth["material_coordinates"] is not None:
-        field.array(
-            cloth["material_coordinates"], where + "material_coordinates", np.float64, (n, 2)
-        )
-    field.array(cloth["vertex_states"], where + "vertex_states", np.uint8, (n,), allowed=(0, 1, 2))
+    field.table(cloth, where, CLOTH, {"n": n, "last": n - 1, "s": len(ends)})
     _check_cloth_models(field, cloth, n)
     _check_drivers(field, cloth["drivers"], n)
-    field.real(cloth["clock_origin"], where + "clock_origin", -MAX_TIME, high=MAX_TIME)
-    field.integer(cloth["clock_steps"], where + "clock_steps", 0, 2**62)
-    field.real(cloth["clock_dt"], where + "clock_dt", 0.0)
     return n
 
 
@@ -273,8 +348,9 @@ def _check_bending_fields(field, cloth, n):
             '"fitted" with bending "quadratic", else null',
         )
     if bending in ("quadratic", "hinge"):
-        field.real(cloth.get("bending_modulus"), where + "bending_modulus", 0.0)
-        field.array(cloth.get("bending_rest"), where + "bending_rest", np.float64, (n, 3))
+        field.check(_NONNEGATIVE, cloth.get("bending_modulus"), where + "bending_modulus")
+        rest = Array(np.float64, ("n", 3)).rule({"n": n})
+        field.check(rest, cloth.get("bending_rest"), where + "bending_rest")
         return bending
     for name in ("bending_modulus", "bending_rest"):
         value = cloth.get(name)
@@ -292,9 +368,9 @@ def _check_membrane_fields(field, cloth, bending):
     """The membrane's moduli and its strain (which needs bending's rest state)."""
     where = "simulation.cloth."
     if "young_modulus" in cloth:
-        young = field.real(cloth["young_modulus"], where + "young_modulus", 0.0)
+        young = field.check(_NONNEGATIVE, cloth["young_modulus"], where + "young_modulus")
         if "poisson_ratio" in cloth:
-            ratio = field.real(cloth["poisson_ratio"], where + "poisson_ratio")
+            ratio = field.check(_real(), cloth["poisson_ratio"], where + "poisson_ratio")
             if not -1.0 < ratio < 1.0 or (young == 0.0 and ratio != 0.0):
                 raise field.error(
                     where + "poisson_ratio",
@@ -321,42 +397,27 @@ def _check_drivers(field, drivers, n):
     if not isinstance(drivers, list):
         raise field.error(where + "drivers", f"got {show_value(drivers)}", "a list of drivers")
     for k, driver in enumerate(drivers):
-        at = f"{where}drivers[{k}]."
-        field.keys(driver, at[:-1], _DRIVER_FIELDS)
-        vertices = field.array(
-            driver["vertices"], at + "vertices", np.int32, (None,), low=0, high=n - 1
+        at = f"{where}drivers[{k}]"
+        field.keys(driver, at, tuple(DRIVER))
+        vertices = field.check(
+            DRIVER["vertices"].rule({"last": n - 1}), driver["vertices"], at + ".vertices"
         )
-        field.array(driver["reference"], at + "reference", np.float64, (len(vertices), 3))
-        field.array(driver["center"], at + "center", np.float64, (3,))
-        axis = field.array(driver["axis"], at + "axis", np.float64, (3,))
-        if not axis.any():
-            raise field.error(at + "axis", "is zero", "a direction")
-        field.real(driver["omega"], at + "omega")
-        field.real(driver["start_time"], at + "start_time")
+        field.table(driver, at, DRIVER, {"last": n - 1, "k": len(vertices)})
+        if not driver["axis"].any():
+            raise field.error(at + ".axis", "is zero", "a direction")
 
 
 def _check_projection_memory(field, memory, integrator):
     if memory is not None:
+        where = "simulation.projection_memory"
         if not INTEGRATOR_SPECS[integrator].newton:
             raise field.error(
-                "simulation.projection_memory",
-                f"given for integrator {integrator!r}",
-                "null (only Newton keeps one)",
+                where, f"given for integrator {integrator!r}", "null (only Newton keeps one)"
             )
-        # shift, radius: absent from states saved before the shifted and steihaug projections
-        # existed (then: 0)
         field.keys(
-            memory,
-            "simulation.projection_memory",
-            ("exact_skip", "exact_backoff"),
-            optional=("shift", "radius"),
+            memory, where, tuple(PROJECTION_MEMORY), optional=tuple(PROJECTION_MEMORY_OPTIONAL)
         )
-        field.integer(memory["exact_skip"], "simulation.projection_memory.exact_skip", 0, 32)
-        field.integer(memory["exact_backoff"], "simulation.projection_memory.exact_backoff", 1, 32)
-        if "shift" in memory:
-            field.real(memory["shift"], "simulation.projection_memory.shift", 0.0, high=1e12)
-        if "radius" in memory:
-            field.real(memory["radius"], "simulation.projection_memory.radius", 0.0)
+        field.table(memory, where, {**PROJECTION_MEMORY, **PROJECTION_MEMORY_OPTIONAL})
 
 
 def _check_history(field, simulation, integrator, n):
@@ -375,9 +436,10 @@ def _check_history(field, simulation, integrator, n):
                 f"null (only {keeping} and quasi-newton with method bdf2 keep a history)",
             )
         # next_dt: error-controlled BDF2's proposed step (absent elsewhere, and before it)
+        schema = {
+            **dict.fromkeys(fields, Array(np.float64, ("n", 3))),
+            "dt": _real(MIN_DT),
+            "next_dt": _real(MIN_DT),
+        }
         field.keys(history, "simulation.history", (*fields, "dt"), optional=("next_dt",))
-        for name in fields:
-            field.array(history[name], f"simulation.history.{name}", np.float64, (n, 3))
-        field.real(history["dt"], "simulation.history.dt", MIN_DT)
-        if "next_dt" in history:
-            field.real(history["next_dt"], "simulation.history.next_dt", MIN_DT)
+        field.table(history, "simulation.history", schema, {"n": n})

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
+from .results import FaceRefinement, FaceSplit
 from .stroke import MIN_ANGLE_DEGREES, MIN_BARYCENTRIC
 
 __all__ = ["split_faces_1to3", "refine_faces_1to4"]
@@ -29,11 +30,12 @@ def split_faces_1to3(
     barycentric=None,
     min_barycentric=MIN_BARYCENTRIC,
     min_angle_degrees=MIN_ANGLE_DEGREES,
-) -> dict:
+) -> FaceSplit:
     """The paper's 1→3 split of ``faces`` of the mesh (V n×3 m, F f×3) at barycentric points
     (k×3, default the centroids), with its degenerate-case rules (`yore.stroke`).
 
-    Returns a dict: ``vertices`` (n+k')×3, ``faces``, ``parents`` (per output face, its input
+    Returns a `yore.results.FaceSplit` (a dict whose fields are also attributes):
+    ``vertices`` (n+k')×3, ``faces``, ``parents`` (per output face, its input
     face), ``new_vertex_corners`` / ``new_vertex_weights`` (k'×3: each new vertex as weights of
     input vertices), ``split_faces``, ``faces_skipped`` and ``moved_inward``. Raises ValueError
     on a bad mesh, faces out of range or repeated, or bad weights.
@@ -51,11 +53,12 @@ def split_faces_1to3(
     )
 
 
-def refine_faces_1to4(V, F, faces) -> dict:
+def refine_faces_1to4(V, F, faces) -> FaceRefinement:
     """1→4 midpoint refinement of ``faces`` of the mesh (V n×3 m, F f×3) with the conforming
     closure described in the module docstring.
 
-    Returns a dict: ``vertices``, ``faces``, ``parents``, ``new_vertex_corners`` /
+    Returns a `yore.results.FaceRefinement` (a dict whose fields are also attributes):
+    ``vertices``, ``faces``, ``parents``, ``new_vertex_corners`` /
     ``new_vertex_weights`` (as for `split_faces_1to3`), ``refined_faces`` (requested plus
     closure), ``bisected_faces`` and ``split_edges`` (k×2; new vertex n + i is the midpoint of
     split_edges[i]). Raises ValueError on a bad mesh or faces out of range.

@@ -395,9 +395,9 @@ void def_bending(py::class_<Cloth>& cloth_class) {
             out["collapsed_faces"] = status.collapsed_faces;
             out["rest_area"] = status.rest_area;
             out["current_area"] = status.current_area;
-            return out;
+            return typed_result("MembraneStatus", out);
           },
-          R"doc(The membrane's faces now: clamped_rest_faces (rest triangles whose edge lengths
+          R"doc(The membrane's faces now, as a yore.results.MembraneStatus: clamped_rest_faces (rest triangles whose edge lengths
 nearly or no longer close a triangle, laid out with a height of 1 % of their longest side),
 collapsed_faces (current area below 1e-3 of the rest area), rest_area and current_area (m²).
 All zero with springs.)doc")
@@ -426,10 +426,10 @@ All zero with springs.)doc")
             out["indices"] = read_only_copy(q.columns);
             out["data"] = read_only_copy(q.values);
             out["rest_positions"] = read_only_copy(cloth.bending_rest_positions());
-            return out;
+            return typed_result("QuadraticBending", out);
           },
           R"doc(Quadratic bending's matrix Q for the current faces (None with bending springs):
-a dict with the symmetric n×n scalar matrix in CSR (indptr, indices, data; both triangles; per
+a yore.results.QuadraticBending with the symmetric n×n scalar matrix in CSR (indptr, indices, data; both triangles; per
 unit modulus, the energy is ½ κ Σ_c x_cᵀ Q x_c), size n, hinges (interior edges) and
 rest_positions (n×3, m, the rest state Q is built from).)doc");
 }
@@ -487,19 +487,21 @@ through `center` (m) along `axis` at `omega` rad/s (right-handed), exactly.)doc"
           "energy",
           [](const Cloth& cloth, const py::handle& gravity) {
             idle(cloth);
-            return energy_dict(cloth.energy(to_vec3(gravity, "gravity")));
+            return typed_result("Energy", energy_dict(cloth.energy(to_vec3(gravity, "gravity"))));
           },
           py::arg("gravity"),
-          "Kinetic, spring, gravitational and (quadratic) bending energy and their total (J) "
-          "as a dict.");
+          "Kinetic, spring, gravitational, bending and membrane energy and their total (J), "
+          "as a yore.results.Energy.");
 }
 
 // Cloth's the state dict, pickling, stable steps, busy, repr.
 void def_state_and_steps(py::class_<Cloth>& cloth_class) {
   cloth_class
-      .def("state", &state_dict,
-           R"doc(Everything that defines the cloth, as a dict of numbers and numpy arrays: state,
-springs in their order, masses, constraints, drivers, material coordinates and the clock.
+      .def(
+          "state", [](const Cloth& cloth) { return typed_result("ClothState", state_dict(cloth)); },
+          R"doc(Everything that defines the cloth, as a yore.results.ClothState (a dict of numbers
+and numpy arrays whose fields are also attributes): state, springs in their order, masses,
+constraints, drivers, material coordinates, bending, membrane and the clock.
 Cloth.from_state(cloth.state()) is the same cloth, bit for bit (pickle uses this pair).)doc")
       .def_static("from_state", &cloth_from_state, py::arg("state"),
                   R"doc(Rebuilds a cloth from Cloth.state()'s dict. Raises ValueError naming an

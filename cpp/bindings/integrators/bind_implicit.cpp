@@ -104,10 +104,11 @@ py::dict resolve_choices_dict(const py::dict& given) {
   return out;
 }
 
-// ImplicitIntegrator.newton_system: the incremental potential at `positions`, as a dict.
-py::dict newton_system_dict(ImplicitIntegrator& integrator, const Cloth& cloth,
-                            const py::handle& gravity, double dt, const py::handle& positions,
-                            const std::string& projection) {
+// ImplicitIntegrator.newton_system: the incremental potential at `positions`, as a
+// yore.results.NewtonSystem.
+py::object newton_system_result(ImplicitIntegrator& integrator, const Cloth& cloth,
+                                const py::handle& gravity, double dt, const py::handle& positions,
+                                const std::string& projection) {
   check_idle(&integrator, "the integrator");
   idle(cloth);
   if (projection != "clamp" && projection != "abs" && projection != "exact") {
@@ -129,7 +130,7 @@ py::dict newton_system_dict(ImplicitIntegrator& integrator, const Cloth& cloth,
   out["size"] = system.pattern.size;
   out["direction"] = read_only_copy(system.direction);
   out["free_vertices"] = read_only_copy(system.free_vertices);
-  return out;
+  return typed_result("NewtonSystem", out);
 }
 
 // The integrator's counters and phases, and its solver's.
@@ -247,10 +248,11 @@ void bind_implicit(py::module_& m) {
                  options_from_kwargs(implicit_table(), kwargs));
            }),
            "Keyword options as in `defaults`.")
-      .def("newton_system", &newton_system_dict, py::arg("cloth"), py::arg("gravity"),
+      .def("newton_system", &newton_system_result, py::arg("cloth"), py::arg("gravity"),
            py::arg("dt"), py::arg("positions"), py::arg("projection") = "clamp",
            R"doc(The backward-Euler incremental potential of the next step from the cloth's state,
-at `positions` (n×3; only free vertices are unknowns): energy (J), gradient (N), the Hessian's
+at `positions` (n×3; only free vertices are unknowns), as a yore.results.NewtonSystem: energy
+(J), gradient (N), the Hessian's
 lower triangle in CSC (hessian_data, hessian_indices, hessian_indptr, size) and the solver's
 Newton direction. projection: "clamp" (default) or "abs" filter the compressed springs' and
 faces' negative terms; "exact" keeps them and raises NotPositiveDefinite when the solver

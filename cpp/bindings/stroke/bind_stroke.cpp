@@ -34,12 +34,13 @@ void bind_stroke(py::module_& m) {
         py::dict out;
         out["faces"] = read_only_copy(faces);
         out["barycentric"] = read_only_copy(barycentric);
-        return out;
+        return typed_result("RayHits", out);
       },
       py::arg("cloth"), py::arg("pixels"), py::arg("eye"), py::arg("base_direction"),
       py::arg("direction_per_pixel_x"), py::arg("direction_per_pixel_y"),
       "Each pixel's (k×3, z = 0) first hit on the cloth's current surface, by the rays "
-      "trace_rays casts: {faces (k, -1 where the ray misses), barycentric (k×3)}.");
+      "trace_rays casts, as a yore.results.RayHits: faces (k, -1 where the ray misses), "
+      "barycentric (k×3).");
   // The split's options by their Python names, read from a default SplitOptions: the one
   // source of the stroke defaults (yore.options.STROKE_DEFAULTS reads `split_defaults`).
   using S = SplitOptions;

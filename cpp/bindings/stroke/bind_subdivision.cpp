@@ -48,11 +48,13 @@ void bind_subdivision(py::module_& m) {
         out["split_faces"] = read_only_copy(result.split_faces);
         out["faces_skipped"] = read_only_copy(result.faces_skipped);
         out["moved_inward"] = result.moved_inward;
-        return out;
+        return typed_result("FaceSplit", out);
       },
       py::arg("vertices"), py::arg("faces"), py::arg("split"), py::arg("barycentric"),
       py::kw_only(), py::arg("min_barycentric") = 0.1, py::arg("min_angle_degrees") = 5.0,
-      "The paper's 1→3 split of a mesh (n×3 m, f×3), no springs: vertices, faces, parents.");
+      "The paper's 1→3 split of a mesh (n×3 m, f×3), no springs, as a yore.results.FaceSplit: "
+      "vertices, faces, parents, the new vertices' corners and weights, split_faces, "
+      "faces_skipped, moved_inward.");
   m.def(
       "refine_faces_1to4",
       [](const py::handle& vertices, const py::handle& faces, const py::handle& refine) {
@@ -65,10 +67,12 @@ void bind_subdivision(py::module_& m) {
         out["refined_faces"] = read_only_copy(result.refined_faces);
         out["bisected_faces"] = read_only_copy(result.bisected_faces);
         out["split_edges"] = read_only_copy(to_edge_rows(result.split_edges));
-        return out;
+        return typed_result("FaceRefinement", out);
       },
       py::arg("vertices"), py::arg("faces"), py::arg("refine"),
-      "1→4 midpoint refinement of faces with a conforming closure, no springs.");
+      "1→4 midpoint refinement of faces with a conforming closure, no springs, as a "
+      "yore.results.FaceRefinement: vertices, faces, parents, the new vertices' corners and "
+      "weights, refined_faces, bisected_faces, split_edges.");
 }
 
 }  // namespace yore::bindings

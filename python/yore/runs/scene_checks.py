@@ -59,11 +59,11 @@ def _check_tables(scene, raw):
             "one of the tables " + ", ".join(f"[{k}]" for k in SCHEMA),
         )
     data = SceneData()
-    for name, (keys, kind) in SCHEMA.items():
+    for name, table in SCHEMA.items():
         if name == "integrator":
             continue
-        value = raw.get(name)
-        if kind == "array":
+        value, keys = raw.get(name), table.keys
+        if table.kind == "array":
             setattr(data, name, _check_array_of_tables(scene, name, value, keys))
             continue
         setattr(data, name, _check_single_table(scene, name, value, keys))
@@ -254,7 +254,7 @@ def _check_table(scene, where, table, keys, kind):
                 f"unknown key{did_you_mean(key, keys)}",
                 "one of " + ", ".join(keys),
             )
-        checker = keys[key][0]
+        checker = keys[key].rule
         if checker in ("box", "smooth"):
             subtable = {"box": (BOX, BoxTable), "smooth": (SMOOTH, SmoothTable)}[checker]
             value = _check_table(
@@ -266,7 +266,8 @@ def _check_table(scene, where, table, keys, kind):
             setattr(checked, key, checker(value))
         except Invalid as invalid:
             raise scene.error(f"{where}.{key}", invalid.problem, invalid.expected) from None
-    for key, (checker, default, _) in keys.items():
+    for key, spec in keys.items():
+        checker, default = spec.rule, spec.default
         if getattr(checked, key) is not None:
             continue
         if default is REQUIRED:

@@ -25,7 +25,7 @@ __all__ = [
 
 
 def _keys(name):
-    return SCHEMA[name][0]
+    return SCHEMA[name].keys
 
 
 SceneTable = table_type("SceneTable", _keys("scene"))
