@@ -591,6 +591,9 @@ def test_the_cloth_state_fields_are_the_cores_one_list():
     fields = yore.Cloth.state_fields
     required, optional = set(fields["required"]), set(fields["optional"])
     assert required and optional and not required & optional
+    from yore.state_schema import CLOTH
+
+    assert set(CLOTH) == required  # the state file's table declares each required field
     assert {"bending", "young_modulus", "membrane_strain"} <= optional
     cloth = yore.Cloth(*yore.grid_mesh(4, 4), masses=0.01)
     state = cloth.state()
