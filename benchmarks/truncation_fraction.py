@@ -2,7 +2,7 @@
 the kinetic-energy history's error at several truncation fractions, against explicit's cost.
 
     python -m benchmarks.truncation_fraction [--out bench-results] [--quick]
-        [--fractions 0.01 0.03 0.1] [--rates 32 64]
+        [--fractions 0.01 0.03 0.1] [--rates 32 64] [--auto RTOL ...] [--cells LABEL ...]
 
 Newton stops a TR-BDF2 stage once its estimated distance to the stage's solution is at most
 `truncation_fraction` × the step's estimated truncation error. The default was lowered from 0.1
@@ -26,8 +26,11 @@ factorizations, the largest energy rise above the lowest energy reached (`energy
 damped scene should show none), the error, CPU seconds (time.thread_time around the stepping,
 one thread) and that over explicit's, and the steps redone to Newton's residual test because
 their energy rose past the growth check's allowance (`energy_retries`). --quick: a 12² sheet
-over 0.25 s against an explicit reference computed here at half the stable step. Writes
-truncation_fraction.json and .png.
+over 0.25 s against an explicit reference computed here at half the stable step. --auto:
+also TR-BDF2 with ``dt="auto"`` at each of these rtol (atol rtol/10, as the long horizon's
+families), output every 1/64 s, at the default fraction (rows with ``rtol``; ``steps`` are the
+steps taken, retaken ones included); --rates with no value leaves the fixed-step rows out;
+--cells: only these cells (labels of CELLS). Writes truncation_fraction.json and .png.
 """
 
 from __future__ import annotations
@@ -117,10 +120,13 @@ def explicit_cpu_per_step(make, dt):
     return statistics.median(seconds)
 
 
-def tr_bdf2_row(make, reference, fraction, rate, duration):
-    """One TR-BDF2 run at 1/rate s with this truncation fraction, measured."""
+def tr_bdf2_row(make, reference, fraction, rate, duration, rtol=None):
+    """One TR-BDF2 run at 1/rate s with this truncation fraction, measured; with ``rtol``,
+    error-controlled (dt="auto", output every 1/rate s)."""
     stride = lh.GRID_RATE // rate
     options = {"integrator": "tr-bdf2", "truncation_fraction": fraction}
+    if rtol is not None:
+        options.update(adaptive=True, rtol=rtol, atol=rtol / 10)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # capped steps are counted
         run = lh.history(make, options, 1, stride, duration, 0.0)
@@ -134,6 +140,8 @@ def tr_bdf2_row(make, reference, fraction, rate, duration):
     points = table[:, 0].astype(int)
     kinetic = table[:, 1]
     steps, stages = round(duration * rate), c["stages"]
+    if rtol is not None:
+        steps = run["internal_steps"]
     return {
         "steps": steps,
         "stages": stages,
@@ -157,7 +165,9 @@ def tr_bdf2_row(make, reference, fraction, rate, duration):
 def main(argv=None):
     def extra(parser):
         parser.add_argument("--fractions", type=float, nargs="+", default=list(FRACTIONS))
-        parser.add_argument("--rates", type=int, nargs="+", default=list(RATES))
+        parser.add_argument("--rates", type=int, nargs="*", default=list(RATES))
+        parser.add_argument("--auto", type=float, nargs="+", default=[], metavar="RTOL")
+        parser.add_argument("--cells", nargs="+", choices=list(CELLS), default=list(CELLS))
 
     args = arguments(__doc__, argv, extra)
     for f in args.fractions:
@@ -166,8 +176,13 @@ def main(argv=None):
     for r in args.rates:
         if r <= 0 or lh.GRID_RATE % r:
             raise SystemExit(f"truncation_fraction: error: rate {r} does not divide {lh.GRID_RATE}")
+    for r in args.auto:
+        if not 1e-12 <= r < 1.0:
+            raise SystemExit(f"truncation_fraction: error: rtol {r} is not in [1e-12, 1)")
     size, duration = (QUICK_SIZE, QUICK_DURATION) if args.quick else (SIZE, DURATION)
     cells = dict(list(CELLS.items())[:2]) if args.quick else CELLS
+    cells = {label: cell for label, cell in cells.items() if label in args.cells}
+    default = yore.options.defaults("tr-bdf2")["truncation_fraction"]
     yore.set_num_threads(1)
     rows, references = [], {}
     for label, (stiffness, bending, folder) in cells.items():
@@ -185,32 +200,36 @@ def main(argv=None):
             "explicit_cpu_per_step": per_step,
             "explicit_cpu_seconds": explicit_cost,
         }
-        for rate in args.rates:
-            for fraction in args.fractions:
-                row = tr_bdf2_row(make, reference, fraction, rate, duration)
-                row.update(cell=label, dt=1.0 / rate, truncation_fraction=fraction)
-                if not row.get("diverged"):
-                    row["cost_over_explicit"] = row["cpu_seconds"] / explicit_cost
-                rows.append(row)
-                print(
-                    f"{size}², {label:24s} 1/{rate} s fraction {fraction:<5g} "
-                    + (
-                        "diverged"
-                        if row.get("diverged")
-                        else f"{row['iterations_per_stage']:5.2f} it/stage, "
-                        f"KE error {row['kinetic_energy_history']:.4f}, "
-                        f"gain {row['energy_gain']:.3g} J, redone {row['energy_retries']:g}, "
-                        f"{row['cost_over_explicit']:.3f}× explicit"
-                    ),
-                    flush=True,
-                )
+        runs = [(rate, fraction, None) for rate in args.rates for fraction in args.fractions]
+        runs += [(lh.GRID_RATE, default, rtol) for rtol in args.auto]
+        for rate, fraction, rtol in runs:
+            row = tr_bdf2_row(make, reference, fraction, rate, duration, rtol)
+            row.update(cell=label, dt=1.0 / rate, truncation_fraction=fraction)
+            if rtol is not None:
+                row["rtol"] = rtol
+            if not row.get("diverged"):
+                row["cost_over_explicit"] = row["cpu_seconds"] / explicit_cost
+            rows.append(row)
+            print(
+                f"{size}², {label:24s} 1/{rate} s fraction {fraction:<5g} "
+                + (f"rtol {rtol:g} " if rtol is not None else "")
+                + (
+                    "diverged"
+                    if row.get("diverged")
+                    else f"{row['iterations_per_stage']:5.2f} it/stage, "
+                    f"KE error {row['kinetic_energy_history']:.4f}, "
+                    f"gain {row['energy_gain']:.3g} J, redone {row['energy_retries']:g}, "
+                    f"{row['cost_over_explicit']:.3f}× explicit"
+                ),
+                flush=True,
+            )
     payload = {
         "benchmark": "truncation_fraction",
         "machine": machine_info(),
         "quick": args.quick,
         "size": size,
         "duration": duration,
-        "default_fraction": yore.options.defaults("tr-bdf2")["truncation_fraction"],
+        "default_fraction": default,
         "references": references,
         "rows": rows,
     }
@@ -230,7 +249,10 @@ def plot(payload, path):
             rows = [
                 r
                 for r in payload["rows"]
-                if r["cell"] == label and r["dt"] == dt and not r.get("diverged")
+                if r["cell"] == label
+                and r["dt"] == dt
+                and not r.get("diverged")
+                and r.get("rtol") is None  # (error-controlled rows: the table's)
             ]
             if not rows:
                 continue
@@ -239,7 +261,12 @@ def plot(payload, path):
             (line,) = left.plot(f, [r["iterations_per_stage"] for r in rows], "o-", label=name)
             right.plot(f, [r["kinetic_energy_history"] for r in rows], "o-", color=line.get_color())
             for r in payload["rows"]:  # a run that diverged: × at the top of the error axis
-                if r["cell"] == label and r["dt"] == dt and r.get("diverged"):
+                if (
+                    r["cell"] == label
+                    and r["dt"] == dt
+                    and r.get("diverged")
+                    and r.get("rtol") is None
+                ):
                     right.plot([r["truncation_fraction"]], [0.3], "x", ms=9, color=line.get_color())
     for ax, what in (
         (left, "Newton iterations per stage"),
@@ -250,7 +277,8 @@ def plot(payload, path):
         ax.set_ylabel(what)
         ax.grid(alpha=0.3)
     right.set_yscale("log")
-    left.legend(fontsize=6)
+    if left.get_lines():
+        left.legend(fontsize=6)
     right.set_title("× at 0.3: diverged (the energy-growth check)", fontsize=8)
     fig.suptitle(f"TR-BDF2's Newton stop, {payload['size']}² sheets, {payload['duration']} s")
     fig.tight_layout()

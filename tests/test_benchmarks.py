@@ -1492,3 +1492,30 @@ def test_truncation_fraction_smoke(tmp_path):
         assert r["iterations_per_stage"] == pytest.approx(r["newton_iterations"] / r["stages"])
         assert r["trapezoid_newton_iterations"] < r["newton_iterations"]
         assert r["energy_gain"] >= 0.0 and r["thrown_away"] == 0
+
+
+def test_truncation_fraction_error_controlled_rows(tmp_path):
+    import numpy as np
+
+    from benchmarks.long_horizon import relative_l2
+
+    data = run_benchmark(
+        "truncation_fraction",
+        tmp_path,
+        "--quick",
+        "--rates",
+        "--auto",
+        "1e-2",
+        "--cells",
+        "k = 2e5, equal",
+    )
+    assert set(data["references"]) == {"k = 2e5, equal"}
+    (row,) = data["rows"]  # no fixed-step row: --rates was given no rate
+    assert row["rtol"] == 1e-2 and row["truncation_fraction"] == data["default_fraction"]
+    assert row["dt"] == 1 / 64  # the output interval the error is sampled at
+    ke = np.asarray(data["references"]["k = 2e5, equal"]["kinetic_energy"])
+    assert len(row["kinetic_energy"]) == len(ke)
+    assert row["kinetic_energy_history"] == pytest.approx(relative_l2(row["kinetic_energy"], ke))
+    # error control's steps end on the output times: at least one a sample interval
+    assert row["steps"] >= round(data["duration"] * 64)
+    assert row["iterations_per_step"] == pytest.approx(row["newton_iterations"] / row["steps"])
