@@ -23,6 +23,7 @@ Statistics local_global_statistics(const LocalGlobalIntegrator& integrator) {
   out.phase("rebuild_seconds", s.rebuild_seconds);
   out.count("iterations", s.iterations);
   out.count("unconverged_steps", s.unconverged_steps);
+  out.count("energy_retries", s.energy_retries);
   out.count("last_iterations", s.last_iterations);
   out.count("last_residual", s.last_residual);
   out.count("last_error_estimate", s.last_error_estimate);

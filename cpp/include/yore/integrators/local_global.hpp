@@ -60,6 +60,9 @@ struct LocalGlobalStatistics {
   std::int64_t iterations = 0;         ///< global solves, over all steps
   std::int64_t unconverged_steps = 0;  ///< steps that reached the iteration cap (tolerance > 0)
   std::int64_t last_iterations = 0;    ///< global solves of the last step
+  /// Steps redone without Chebyshev acceleration because their energy rose past the growth
+  /// check's allowance.
+  std::int64_t energy_retries = 0;
   /// ‖h² M⁻¹ ∇E‖∞ / mean rest length at the end of the last step (dimensionless; the
   /// objective's gradient in displacement units, the Newton integrator's measure).
   double last_residual = std::numeric_limits<double>::quiet_NaN();
@@ -118,7 +121,7 @@ class LocalGlobalIntegrator : public Integrator {
   // One step, in its parts.
   double begin_step(Cloth& cloth, const Vec3& gravity, double dt);
   double local_step(const Cloth& cloth, bool with_gradient);
-  double global_step(int iteration, double& omega);
+  double global_step(int iteration, double& omega, double rho);
   /// The convergence test's estimate of the error left after an iteration, from the plain
   /// global step and the contraction of the iteration (see local_global.cpp).
   struct ErrorEstimate {
@@ -128,6 +131,9 @@ class LocalGlobalIntegrator : public Integrator {
     double update(double change, int iteration, double rho);
   };
   void step(Cloth& cloth, const Vec3& gravity, double dt);
+  /// One attempt at the step with Chebyshev's spectral radius rho (0: the plain iteration);
+  /// whether the tolerance was met.
+  bool solve_step(Cloth& cloth, const Vec3& gravity, double dt, double rho);
 
   LocalGlobalOptions m_options;
   LocalGlobalStatistics m_statistics;
@@ -166,6 +172,7 @@ class LocalGlobalIntegrator : public Integrator {
   CgWorkspace m_cg;
   std::vector<double> m_objective_history;
   Positions m_checkpoint_positions, m_checkpoint_velocities;
+  Positions m_step_positions, m_step_velocities;  // the step's start, for a redo
 };
 
 }  // namespace yore
