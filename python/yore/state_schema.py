@@ -253,11 +253,12 @@ class FieldChecker:
         except rules.Invalid as invalid:
             raise self.error(field, invalid.problem, invalid.expected) from None
 
-    def table(self, values, where, schema, sizes=None):
+    def table(self, values, where, schema, sizes=None, done=()):
         """The fields of ``schema`` that ``values`` holds, each checked by its rule (an `Array`
-        made for ``sizes``; a `Maybe` passes None; a None rule is checked by the caller)."""
+        made for ``sizes``; a `Maybe` passes None; a None rule is checked by the caller), but
+        those in ``done``, which the caller checked first (the ones that set the sizes)."""
         for name, spec in schema.items():
-            if name not in values:
+            if name not in values or name in done:
                 continue
             value = values[name]
             if isinstance(spec, Maybe):
@@ -292,7 +293,9 @@ def _check_stepping(field, simulation):
             check_option(integrator, name, value)
         except ValueError as error:
             raise field.error(f"simulation.options.{name}", str(error)) from None
-    field.table(simulation, "simulation", {**SIMULATION, **SIMULATION_OPTIONAL})
+    field.table(
+        simulation, "simulation", {**SIMULATION, **SIMULATION_OPTIONAL}, done=("integrator",)
+    )
     return integrator
 
 
@@ -316,7 +319,8 @@ def _check_cloth(field, cloth):
             f"spring {k} joins vertex {ends[k, 0]} to itself",
             "two different vertices per spring",
         )
-    field.table(cloth, where, CLOTH, {"n": n, "last": n - 1, "s": len(ends)})
+    sizes = {"n": n, "last": n - 1, "s": len(ends)}
+    field.table(cloth, where, CLOTH, sizes, done=("positions", "spring_ends"))
     _check_cloth_models(field, cloth, n)
     _check_drivers(field, cloth["drivers"], n)
     return n
@@ -400,7 +404,7 @@ def _check_drivers(field, drivers, n):
         vertices = field.check(
             DRIVER["vertices"].rule({"last": n - 1}), driver["vertices"], at + ".vertices"
         )
-        field.table(driver, at, DRIVER, {"last": n - 1, "k": len(vertices)})
+        field.table(driver, at, DRIVER, {"last": n - 1, "k": len(vertices)}, done=("vertices",))
         if not driver["axis"].any():
             raise field.error(at + ".axis", "is zero", "a direction")
 
