@@ -264,6 +264,9 @@ def test_statistics_report_phases_and_the_factor():
     assert dofs * 2 <= counters["factor_nonzeros"] <= dofs * (dofs + 1) / 2
     assert counters["factor_flops"] > counters["factor_nonzeros"]
     assert counters["last_newton_iterations"] >= 1 and counters["last_residual"] >= 0
+    # CHOLMOD's OpenMP regions ran on the calling thread, not in libgomp teams of one (a system
+    # call each): this module's GOMP_parallel is the one CHOLMOD is bound to
+    assert counters["openmp_regions_inlined"] >= counters["factorizations"]
 
 
 def test_linearized_takes_exactly_one_newton_step_per_time_step():

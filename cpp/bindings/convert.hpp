@@ -272,6 +272,7 @@ inline void add_factor_statistics(py::dict& out, const SolverStatistics& solver)
   out["supernode_median_columns"] = solver.supernode_median_columns;
   out["supernode_median_rows"] = solver.supernode_median_rows;
   out["ordering"] = solver.ordering;
+  out["openmp_regions_inlined"] = solver.openmp_regions_inlined;
 }
 
 }  // namespace yore::bindings

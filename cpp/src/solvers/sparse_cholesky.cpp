@@ -1,6 +1,7 @@
 #include "yore/solvers/sparse_cholesky.hpp"
 
 #include <cholmod.h>
+#include <dlfcn.h>
 
 #include "yore/platform/errors.hpp"
 
@@ -65,23 +66,43 @@ const char* ordering_name(int code) {
 // run; OMP_MAX_ACTIVE_LEVELS=0). The dense kernels' parallelism is BLAS's (its own threads), so
 // CHOLMOD's calls run with no active OpenMP level. The level is process-wide in libgomp: for the
 // length of a CHOLMOD call, OpenMP loops on other threads run serial too (only slower).
+//
+// A team of one still costs a futex_wake system call per region in libgomp (its team barrier
+// wakes unconditionally), and CHOLMOD opens several regions per supernode: ~9 200 system calls
+// per factorization of the 64² sheet. So within a CHOLMOD call (t_serial_depth > 0) yore's
+// GOMP_parallel below, which the dynamic linker binds CHOLMOD's calls to ahead of libgomp's
+// (this module is first in the scope it loads CHOLMOD in), runs the region's body on the
+// calling thread: outside any parallel region that is exactly a team of one (omp_get_thread_num
+// 0 of omp_get_num_threads 1, the only OpenMP calls CHOLMOD makes). Everything else goes to
+// libgomp's own. Where libgomp is bound first (loaded into the global scope before yore), the
+// levels setting alone keeps CHOLMOD serial.
+thread_local int t_serial_depth = 0;
+thread_local std::int64_t t_inlined_regions = 0;  // regions GOMP_parallel below ran inline
+
 class SerialOpenMP {
  public:
-  SerialOpenMP() {
+  /// `inlined` (optional) gains the CHOLMOD regions run inline during this scope.
+  explicit SerialOpenMP(std::int64_t* inlined = nullptr)
+      : m_inlined(inlined), m_start(t_inlined_regions) {
 #ifdef _OPENMP
     m_saved = omp_get_max_active_levels();
     omp_set_max_active_levels(0);
 #endif
+    ++t_serial_depth;
   }
   ~SerialOpenMP() {
+    --t_serial_depth;
 #ifdef _OPENMP
     omp_set_max_active_levels(m_saved);
 #endif
+    if (m_inlined) *m_inlined += t_inlined_regions - m_start;
   }
   SerialOpenMP(const SerialOpenMP&) = delete;
   SerialOpenMP& operator=(const SerialOpenMP&) = delete;
 
  private:
+  std::int64_t* m_inlined;
+  std::int64_t m_start;
   int m_saved = 1;
 };
 
@@ -148,6 +169,11 @@ struct SparseCholesky::Impl {
   SolverStatistics statistics;
   bool factored = false;
   Ordering ordering = Ordering::automatic;
+  // A supernodal factor of a permuted matrix is refactored from the matrix stored already
+  // permuted (see prepermute): `permutation` is the analysis's P (empty when the matrix is not
+  // permuted), `gather[k]` the caller's value that goes to the permuted matrix's k-th entry.
+  std::vector<std::int32_t> permutation;
+  std::vector<std::int32_t> gather;
 
   Impl(FactorKind kind, Ordering requested, double relaxation) : ordering(requested) {
     cholmod_start(&common);
@@ -179,8 +205,12 @@ struct SparseCholesky::Impl {
     for (cholmod_dense** dense : {&block_rhs, &block_solution, &block_y, &block_e}) {
       if (*dense) cholmod_free_dense(dense, &common);
     }
+    permutation.clear();
+    gather.clear();
     factored = false;
   }
+
+  void prepermute();
 
   void check(const char* what) const {
     // Out of memory is std::bad_alloc (Python's MemoryError): a run can tell it from a solver
@@ -243,7 +273,121 @@ cholmod_sparse* block_graph(const SymmetricPattern& pattern, cholmod_common& com
   return graph;
 }
 
+// out[i] = in[p[i]] for each of `columns` columns of n (a copy when p is empty).
+void permute_columns(const std::vector<std::int32_t>& p, const double* in, double* out,
+                     std::size_t n, int columns) {
+  for (std::size_t c = 0; c < static_cast<std::size_t>(columns); ++c) {
+    const double* from = in + c * n;
+    double* to = out + c * n;
+    if (p.empty()) {
+      std::memcpy(to, from, n * sizeof(double));
+    } else {
+      for (std::size_t i = 0; i < n; ++i) to[i] = from[p[i]];
+    }
+  }
+}
+
+// out[p[i]] = in[i], the inverse of permute_columns.
+void unpermute_columns(const std::vector<std::int32_t>& p, const double* in, double* out,
+                       std::size_t n, int columns) {
+  for (std::size_t c = 0; c < static_cast<std::size_t>(columns); ++c) {
+    const double* from = in + c * n;
+    double* to = out + c * n;
+    if (p.empty()) {
+      std::memcpy(to, from, n * sizeof(double));
+    } else {
+      for (std::size_t i = 0; i < n; ++i) to[p[i]] = from[i];
+    }
+  }
+}
+
 }  // namespace
+
+// CHOLMOD's supernodal factorization of PAPᵀ (cholmod_factorize with a permuted factor) first
+// forms tril(PAPᵀ) by two transposes of A, allocated afresh on every call: 11.5 % of a TR-BDF2
+// step on the 64² sheet (perf, one thread), with page faults on the fresh memory besides. Stored
+// already permuted, in the lower triangle, and analysed again in its natural order (no
+// postorder: P is CHOLMOD's postordered permutation already), the same matrix reaches the
+// supernodal factorization with no transpose, in the same supernodes; the values are gathered
+// into it at each factorization and right-hand sides permuted at each solve. Checked: the same
+// factor (nonzeros, supernodes) or the permuted factor is kept.
+void SparseCholesky::Impl::prepermute() {
+  if (!factor || !factor->is_super || factor->ordering == CHOLMOD_NATURAL || !factor->Perm) return;
+  const auto n = static_cast<std::int32_t>(matrix->nrow);
+  const auto* perm = static_cast<const std::int32_t*>(factor->Perm);
+  std::vector<std::int32_t> inverse(static_cast<std::size_t>(n));
+  for (std::int32_t i = 0; i < n; ++i) inverse[static_cast<std::size_t>(perm[i])] = i;
+  const auto* starts = static_cast<const std::int32_t*>(matrix->p);
+  const auto* rows = static_cast<const std::int32_t*>(matrix->i);
+  const std::size_t nnz = static_cast<std::size_t>(starts[n]);
+  // entry k of A (row r ≥ column c) → (max, min) of (P⁻¹r, P⁻¹c) in PAPᵀ's lower triangle
+  std::vector<std::int32_t> counts(static_cast<std::size_t>(n) + 1, 0);
+  for (std::int32_t c = 0; c < n; ++c) {
+    for (std::int32_t k = starts[c]; k < starts[c + 1]; ++k) {
+      const std::int32_t i = inverse[static_cast<std::size_t>(rows[k])];
+      const std::int32_t j = inverse[static_cast<std::size_t>(c)];
+      ++counts[static_cast<std::size_t>(std::min(i, j)) + 1];
+    }
+  }
+  for (std::int32_t c = 0; c < n; ++c) counts[c + 1] += counts[c];
+  std::vector<std::int32_t> next(counts.begin(), counts.end() - 1);
+  std::vector<std::pair<std::int32_t, std::int32_t>> entries(nnz);  // (row, source)
+  for (std::int32_t c = 0; c < n; ++c) {
+    for (std::int32_t k = starts[c]; k < starts[c + 1]; ++k) {
+      const std::int32_t i = inverse[static_cast<std::size_t>(rows[k])];
+      const std::int32_t j = inverse[static_cast<std::size_t>(c)];
+      entries[static_cast<std::size_t>(next[std::min(i, j)]++)] = {std::max(i, j), k};
+    }
+  }
+  for (std::int32_t c = 0; c < n; ++c)
+    std::sort(entries.begin() + counts[c], entries.begin() + counts[c + 1]);
+
+  cholmod_sparse* permuted =
+      cholmod_allocate_sparse(matrix->nrow, matrix->ncol, nnz, 1, 1, -1, CHOLMOD_REAL, &common);
+  if (permuted == nullptr) {  // keep the permuted factor; it works, only slower
+    common.status = CHOLMOD_OK;
+    return;
+  }
+  std::memcpy(permuted->p, counts.data(), counts.size() * sizeof(std::int32_t));
+  auto* permuted_rows = static_cast<std::int32_t*>(permuted->i);
+  std::vector<std::int32_t> source(nnz);
+  for (std::size_t k = 0; k < nnz; ++k) {
+    permuted_rows[k] = entries[k].first;
+    source[k] = entries[k].second;
+  }
+  std::memset(permuted->x, 0, nnz * sizeof(double));
+  const int saved_ordering = common.method[0].ordering;
+  const int saved_postorder = common.postorder;
+  const int saved_methods = common.nmethods;
+  const double lnz = common.lnz, fl = common.fl;
+  common.nmethods = 1;
+  common.method[0].ordering = CHOLMOD_NATURAL;
+  common.postorder = 0;
+  cholmod_factor* natural = nullptr;
+  {
+    const SerialOpenMP serial;
+    natural = cholmod_analyze(permuted, &common);
+  }
+  common.method[0].ordering = saved_ordering;
+  common.postorder = saved_postorder;
+  common.nmethods = saved_methods;
+  const bool same = natural != nullptr && natural->is_super && natural->nsuper == factor->nsuper &&
+                    common.lnz == lnz && common.fl == fl;
+  common.lnz = lnz;
+  common.fl = fl;
+  if (!same) {
+    if (natural) cholmod_free_factor(&natural, &common);
+    cholmod_free_sparse(&permuted, &common);
+    common.status = CHOLMOD_OK;
+    return;
+  }
+  permutation.assign(perm, perm + n);
+  gather = std::move(source);
+  cholmod_free_factor(&factor, &common);
+  cholmod_free_sparse(&matrix, &common);
+  factor = natural;
+  matrix = permuted;
+}
 
 void SparseCholesky::analyze(const SymmetricPattern& pattern) {
   Impl& d = *m_impl;
@@ -322,16 +466,25 @@ void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
   ++d.statistics.analyses;
   d.statistics.factor_nonzeros = d.common.lnz;
   d.statistics.factor_flops = d.common.fl;
-  supernode_sizes(d.factor, d.statistics);
   d.statistics.ordering = ordering_name(d.factor->ordering);
+  d.prepermute();
+  supernode_sizes(d.factor, d.statistics);
 }
 
 void SparseCholesky::factorize(const double* values) {
   Impl& d = *m_impl;
   if (!d.factor) throw std::logic_error("SparseCholesky::factorize before analyze");
-  std::memcpy(d.matrix->x, values, d.matrix->nzmax * sizeof(double));
-  const SerialOpenMP serial;
-  cholmod_factorize(d.matrix, d.factor, &d.common);
+  auto* x = static_cast<double*>(d.matrix->x);
+  if (d.gather.empty()) {
+    std::memcpy(x, values, d.matrix->nzmax * sizeof(double));
+  } else {
+    const std::size_t count = d.gather.size();
+    for (std::size_t k = 0; k < count; ++k) x[k] = values[d.gather[k]];
+  }
+  {
+    const SerialOpenMP serial(&d.statistics.openmp_regions_inlined);
+    cholmod_factorize(d.matrix, d.factor, &d.common);
+  }
   d.check("factorize");
   ++d.statistics.factorizations;
   if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n) {
@@ -359,14 +512,17 @@ void SparseCholesky::set_simplicial_solves(bool on) { m_impl->simplicial_solves 
 void SparseCholesky::solve(const double* rhs, double* solution) {
   Impl& d = *m_impl;
   if (!d.factored) throw std::logic_error("SparseCholesky::solve without a valid factor");
-  std::memcpy(d.rhs->x, rhs, d.rhs->nrow * sizeof(double));
+  const std::size_t n = d.rhs->nrow;
+  permute_columns(d.permutation, rhs, static_cast<double*>(d.rhs->x), n, 1);
   // cholmod_solve2 reuses solution and workspace: no allocation after the first call.
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
-  const SerialOpenMP serial;
-  cholmod_solve2(CHOLMOD_A, factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
-                 &d.common);
+  {
+    const SerialOpenMP serial;
+    cholmod_solve2(CHOLMOD_A, factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
+                   &d.common);
+  }
   d.check("solve");
-  std::memcpy(solution, d.solution->x, d.rhs->nrow * sizeof(double));
+  unpermute_columns(d.permutation, static_cast<const double*>(d.solution->x), solution, n, 1);
   ++d.statistics.solves;
 }
 
@@ -379,20 +535,23 @@ void SparseCholesky::solve_columns(const double* rhs, double* solution, int colu
     d.block_rhs = cholmod_zeros(n, static_cast<std::size_t>(columns), CHOLMOD_REAL, &d.common);
     d.check("zeros");
   }
-  std::memcpy(d.block_rhs->x, rhs, n * static_cast<std::size_t>(columns) * sizeof(double));
+  permute_columns(d.permutation, rhs, static_cast<double*>(d.block_rhs->x), n, columns);
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
-  const SerialOpenMP serial;
-  cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr, &d.block_y,
-                 &d.block_e, &d.common);
+  {
+    const SerialOpenMP serial;
+    cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr, &d.block_y,
+                   &d.block_e, &d.common);
+  }
   d.check("solve");
-  std::memcpy(solution, d.block_solution->x,
-              n * static_cast<std::size_t>(columns) * sizeof(double));
+  unpermute_columns(d.permutation, static_cast<const double*>(d.block_solution->x), solution, n,
+                    columns);
   d.statistics.solves += columns;
 }
 
 const SolverStatistics& SparseCholesky::statistics() const { return m_impl->statistics; }
 
 std::vector<std::int32_t> SparseCholesky::permutation() const {
+  if (!m_impl->permutation.empty()) return m_impl->permutation;
   const cholmod_factor* factor = m_impl->factor;
   if (!factor || !factor->Perm) return {};
   const auto* perm = static_cast<const std::int32_t*>(factor->Perm);
@@ -400,3 +559,19 @@ std::vector<std::int32_t> SparseCholesky::permutation() const {
 }
 
 }  // namespace yore
+
+#if defined(_OPENMP) && defined(__GLIBC__)
+extern "C" __attribute__((visibility("default"))) void GOMP_parallel(void (*body)(void*),
+                                                                     void* data,
+                                                                     unsigned num_threads,
+                                                                     unsigned flags) {
+  if (yore::t_serial_depth > 0 && omp_get_level() == 0) {
+    ++yore::t_inlined_regions;
+    body(data);
+    return;
+  }
+  using Parallel = void (*)(void (*)(void*), void*, unsigned, unsigned);
+  static const auto libgomp = reinterpret_cast<Parallel>(dlsym(RTLD_NEXT, "GOMP_parallel"));
+  libgomp(body, data, num_threads, flags);
+}
+#endif

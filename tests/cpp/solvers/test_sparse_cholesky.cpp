@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <stdexcept>
 
@@ -241,4 +242,67 @@ TEST_CASE("supernode relaxation: a wider amalgamation stores more zeros and solv
                        doctest::Contains("supernode_relaxation"), std::invalid_argument);
   CHECK_THROWS_AS(SparseCholesky(FactorKind::supernodal, Ordering::amd, 17.0),
                   std::invalid_argument);
+}
+
+namespace {
+
+// A symmetric, strictly diagonally dominant (so SPD) matrix on the block Laplacian's pattern
+// whose entries all differ: an entry that lands in another's place changes the solution.
+Eigen::MatrixXd distinct_entries(const Eigen::MatrixXd& pattern, double phase) {
+  const Eigen::Index n = pattern.rows();
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (i == j || pattern(i, j) == 0.0) continue;
+      a(i, j) = 0.5 + 0.4 * std::sin(phase + static_cast<double>(i * j + i + j));
+    }
+  for (Eigen::Index i = 0; i < n; ++i)
+    a(i, i) = a.row(i).cwiseAbs().sum() + 0.1 + 0.01 * static_cast<double>(i);
+  return a;
+}
+
+}  // namespace
+
+TEST_CASE("a permuted supernodal factor is refactored from the matrix stored permuted") {
+  // sparse_cholesky.cpp keeps P A Pᵀ's lower triangle and gathers each factorization's values
+  // into it (no transposes per factorization): entries that all differ, two matrices on one
+  // analysis, against dense Cholesky.
+  const Eigen::MatrixXd shape = block_laplacian(10, 9, 0.1);
+  const Eigen::MatrixXd first = distinct_entries(shape, 0.0), second = distinct_entries(shape, 1.3);
+  std::vector<double> values_first, values_second;
+  yore::SymmetricPattern pattern = yore_test::lower_pattern(first, values_first);
+  const yore::SymmetricPattern same = yore_test::lower_pattern(second, values_second);
+  REQUIRE(same.row_indices == pattern.row_indices);
+  const Eigen::VectorXd b = rhs(270);
+  for (const Ordering ordering : {Ordering::amd, Ordering::nesdis, Ordering::natural}) {
+    for (const int block_size : {1, 3}) {
+      CAPTURE(static_cast<int>(ordering));
+      CAPTURE(block_size);
+      pattern.block_size = block_size;
+      SparseCholesky solver(FactorKind::supernodal, ordering);
+      solver.analyze(pattern);
+      for (int round = 0; round < 2; ++round) {
+        const Eigen::MatrixXd& a = round == 0 ? first : second;
+        solver.factorize((round == 0 ? values_first : values_second).data());
+        Eigen::VectorXd x(270);
+        solver.solve(b.data(), x.data());
+        const Eigen::VectorXd expected = a.llt().solve(b);
+        CHECK((x - expected).norm() < 1e-12 * expected.norm());
+        Eigen::MatrixXd columns(270, 2), solved(270, 2);
+        columns << b, b.reverse();
+        solver.solve_columns(columns.data(), solved.data(), 2);
+        CHECK((solved - a.llt().solve(columns)).norm() < 1e-12 * solved.norm());
+      }
+      // the permutation reported is the analysis's, not the stored matrix's identity
+      const std::vector<std::int32_t> permutation = solver.permutation();
+      std::vector<std::int32_t> identity(270);
+      std::iota(identity.begin(), identity.end(), 0);
+      std::vector<std::int32_t> sorted = permutation;
+      std::sort(sorted.begin(), sorted.end());
+      CHECK(sorted == identity);
+      CHECK((permutation == identity) == (ordering == Ordering::natural));
+      // CHOLMOD's OpenMP regions ran on this thread, without a libgomp team
+      CHECK(solver.statistics().openmp_regions_inlined > 0);
+    }
+  }
 }

@@ -72,6 +72,10 @@ struct SolverStatistics {
   std::string ordering;          ///< ordering used by the last analysis ("" if none)
   std::int64_t iterations = 0;   ///< iterations of an iterative solver, cumulative
   std::int64_t unconverged = 0;  ///< solves of an iterative solver that hit its iteration limit
+  /// CHOLMOD's OpenMP regions its factorizations ran on the calling thread without a libgomp
+  /// team (sparse_cholesky.cpp: a team of one costs a system call per region), cumulative; 0
+  /// where libgomp's own GOMP_parallel was bound ahead of yore's.
+  std::int64_t openmp_regions_inlined = 0;
 };
 
 /// Solves H x = b for a symmetric positive-definite H given by its lower triangle.
