@@ -13,7 +13,10 @@ then the default ordering with two BLAS threads, beside DGEMM with two.
 Part 2, one fresh process per OpenBLAS kernel the CPU runs (``OPENBLAS_CORETYPE`` = SkylakeX,
 Haswell, Sandybridge, Prescott: the last is what Debian's OpenBLAS 0.3.21 picks on an Emerald
 Rapids Xeon): DGEMM, and the CPU time of one Newton iteration over one explicit step (the same
-process, one thread), with the old default ordering (AMD) and the new one (auto).
+process, one thread), with the old default ordering (AMD) and the new one (auto). With
+``--baseline PATH``, also Prescott and AMD on another build of yore (a folder holding its
+installed package, e.g. a copy made before a change to the factorization): this build's default
+over that one, each a Newton iteration in explicit steps of its own process.
 
 Writes factorization.json and factorization.png.
 """
@@ -190,6 +193,30 @@ def kernel_worker(sizes, repeats) -> dict:
     return out
 
 
+def kernel_process(kernel, sizes, quick, package_path=None) -> dict:
+    """One kernel worker in a fresh process on that OpenBLAS kernel; with package_path, the
+    yore installed there (another build) instead of this one."""
+    env = {
+        **os.environ,
+        "OPENBLAS_CORETYPE": kernel,
+        "OPENBLAS_NUM_THREADS": "1",
+        "OMP_NUM_THREADS": "1",
+    }
+    root = Path(__file__).resolve().parents[1]
+    if package_path is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(Path(package_path).resolve()), str(root)])
+    command = [
+        sys.executable,
+        "-m",
+        "benchmarks.factorization",
+        "--kernel-worker",
+        "--sizes",
+        *map(str, sizes),
+    ] + (["--quick"] if quick else [])
+    done = subprocess.run(command, env=env, capture_output=True, text=True, check=True, cwd=root)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
 def run_kernels(sizes, repeats, quick) -> list:
     """Part 2: one fresh process per kernel the CPU runs."""
     from yore import _cpu
@@ -199,29 +226,7 @@ def run_kernels(sizes, repeats, quick) -> list:
     for kernel in KERNELS:
         if not yore.blas.KERNEL_NEEDS[kernel.lower()] <= extensions:
             continue
-        env = {
-            **os.environ,
-            "OPENBLAS_CORETYPE": kernel,
-            "OPENBLAS_NUM_THREADS": "1",
-            "OMP_NUM_THREADS": "1",
-        }
-        command = [
-            sys.executable,
-            "-m",
-            "benchmarks.factorization",
-            "--kernel-worker",
-            "--sizes",
-            *map(str, sizes),
-        ] + (["--quick"] if quick else [])
-        done = subprocess.run(
-            command,
-            env=env,
-            capture_output=True,
-            text=True,
-            check=True,
-            cwd=Path(__file__).resolve().parents[1],
-        )
-        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+        runs.append(kernel_process(kernel, sizes, quick))
         print(
             f"{kernel:>12}: DGEMM {runs[-1]['dgemm_gflops']:.1f} GFlop/s; "
             + ", ".join(
@@ -253,6 +258,31 @@ def kernel_summary(runs) -> list:
                 "new_over_old": new["iteration_over_explicit"] / old["iteration_over_explicit"],
             }
         )
+    return out
+
+
+def baseline_summary(runs, baseline) -> list:
+    """Per grid: this build's default (widest kernel, auto ordering) over another build's
+    Prescott and AMD, each a Newton iteration over an explicit step of its own process."""
+    if not runs or not baseline:
+        return []
+    out = []
+    for old in baseline["run"]["rows"]:
+        if old["ordering"] != "amd":
+            continue
+        new = next(
+            (r for r in runs[0]["rows"] if r["grid"] == old["grid"] and r["ordering"] == "auto"),
+            None,
+        )
+        if new is not None:
+            out.append(
+                {
+                    "grid": old["grid"],
+                    "new_kernel": runs[0]["kernel"],
+                    "new_over_baseline": new["iteration_over_explicit"]
+                    / old["iteration_over_explicit"],
+                }
+            )
     return out
 
 
@@ -325,7 +355,8 @@ def plot(payload, path: Path) -> None:
 
 
 def factorization_rows(sizes, repeats, dense_by_threads) -> list:
-    """Part 1's rows: every ordering and relaxation on one thread, the default on two."""
+    """Part 1's rows: every ordering and relaxation on one thread, the default on two (unless
+    dense_by_threads has no two-thread rate)."""
     rows = []
     for n in sizes:
         for ordering in ORDERINGS:
@@ -333,6 +364,8 @@ def factorization_rows(sizes, repeats, dense_by_threads) -> list:
                 rows.append(
                     measure_factorization(n, ordering, relaxation, repeats) | {"blas_threads": 1}
                 )
+        if 2 not in dense_by_threads:
+            continue
         yore.set_num_threads(2)
         try:
             rows.append(measure_factorization(n, "auto", 1.0, repeats) | {"blas_threads": 2})
@@ -354,6 +387,21 @@ def main(argv=None) -> dict:
             action="store_true",
             help="leave out part 2 (the kernels, in fresh processes)",
         )
+        parser.add_argument(
+            "--baseline",
+            metavar="PATH",
+            help="part 2 also runs Prescott and AMD on the yore installed in PATH (a folder "
+            "holding another build's package): this build's default over that one",
+        )
+        parser.add_argument(
+            "--one-thread",
+            action="store_true",
+            help="leave out the two-thread rows (for a run that has one core to itself while "
+            "the other is busy)",
+        )
+        parser.add_argument(
+            "--baseline-label", default="", help="what the --baseline build is (for the report)"
+        )
 
     args = arguments(__doc__, argv, extra)
     sizes = args.sizes or ([12, 16] if args.quick else [32, 64, 128, 256])
@@ -363,21 +411,31 @@ def main(argv=None) -> dict:
         return {}
     yore.set_num_threads(1)
     dense = {1: blas_dgemm_gflops(300 if args.quick else 2000, repeats)}
-    yore.set_num_threads(2)
-    dense[2] = blas_dgemm_gflops(300 if args.quick else 2000, repeats)
-    yore.set_num_threads(1)
+    if not args.one_thread:
+        yore.set_num_threads(2)
+        dense[2] = blas_dgemm_gflops(300 if args.quick else 2000, repeats)
+        yore.set_num_threads(1)
     rows = factorization_rows(sizes, repeats, dense)
     kernel_sizes = [n for n in sizes if n in (64, 128)] or sizes[:1]
     kernels = [] if args.no_kernels else run_kernels(kernel_sizes, repeats, args.quick)
+    baseline = None
+    if args.baseline and not args.no_kernels:
+        baseline = {
+            "label": args.baseline_label or str(args.baseline),
+            "kernel": "Prescott",
+            "run": kernel_process("Prescott", kernel_sizes, args.quick, args.baseline),
+        }
     payload = {
         "benchmark": "factorization",
         "machine": machine_info(),
         "quick": args.quick,
         "dgemm_gflops": dense[1],
-        "dgemm_gflops_two_threads": dense[2],
+        "dgemm_gflops_two_threads": dense.get(2),
         "rows": rows,
         "kernels": kernels,
         "kernel_summary": kernel_summary(kernels),
+        "baseline": baseline,
+        "baseline_summary": baseline_summary(kernels, baseline),
         "targets": {
             "factorize_fraction_of_dgemm_at_least": 0.4,
             "at_grids": [128, 256],
@@ -387,7 +445,7 @@ def main(argv=None) -> dict:
     save(args.out, "factorization", payload, lambda path: plot(payload, path))
     print(
         f"DGEMM of the BLAS CHOLMOD calls ({payload['machine']['yore']['blas_kernel']}): "
-        f"{dense[1]:.1f} GFlop/s, two threads {dense[2]:.1f}"
+        f"{dense[1]:.1f} GFlop/s, two threads " + (f"{dense[2]:.1f}" if 2 in dense else "not run")
     )
     print(
         f"{'grid':>5} {'order':>7} {'relax':>5} {'thr':>3} {'nnz(L)':>9} {'GFlop':>7} "
@@ -404,6 +462,11 @@ def main(argv=None) -> dict:
         print(
             f"{s['grid']}²: a Newton iteration (in explicit steps), {s['new_kernel']} + auto "
             f"over Prescott + AMD: {s['new_over_old']:.2f}"
+        )
+    for s in payload["baseline_summary"]:
+        print(
+            f"{s['grid']}²: a Newton iteration (in explicit steps), {s['new_kernel']} + auto "
+            f"over Prescott + AMD of {baseline['label']}: {s['new_over_baseline']:.2f}"
         )
     return payload
 

@@ -953,6 +953,15 @@ def factorization_section(payload: dict, images: str) -> list:
             for s in payload["kernel_summary"]
             if str(s["grid"]) in goals
         ]
+        baseline = payload.get("baseline")
+        out += [""] + [
+            f"{s['grid']}²: against Prescott and AMD on {baseline['label']}, a Newton "
+            f"iteration of this build with {s['new_kernel']} and the automatic ordering costs "
+            f"{s['new_over_baseline']:.2f} (target ≤ {goals[str(s['grid'])]}: "
+            f"{verdict(s['new_over_baseline'] <= goals[str(s['grid'])])})."
+            for s in payload.get("baseline_summary") or []
+            if str(s["grid"]) in goals
+        ]
     return out
 
 

@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yore
 
 from benchmarks import report, schema
 
@@ -59,7 +60,10 @@ def test_explicit_step_benchmark_smoke(tmp_path):
 
 
 def test_factorization_benchmark_smoke(tmp_path):
-    data = run_benchmark("factorization", tmp_path, "--quick", "--sizes", "8", "12")
+    installed = Path(yore.__file__).resolve().parents[1]  # this build, as its own baseline
+    data = run_benchmark(
+        "factorization", tmp_path, "--quick", "--sizes", "8", "12", "--baseline", str(installed)
+    )
     rows = data["rows"]
     assert {
         (r["ordering_requested"], r["supernode_relaxation"]) for r in rows if r["grid"] == 8
@@ -99,6 +103,20 @@ def test_factorization_benchmark_smoke(tmp_path):
             "Prescott",
         )
         assert {(r["grid"], r["ordering"]) for r in run["rows"]} == {(8, "amd"), (8, "auto")}
+    # the baseline: Prescott and AMD in a process importing the package from the given folder
+    baseline = data["baseline"]
+    assert baseline["kernel"] == "Prescott" and baseline["run"]["kernel"] == "Prescott"
+    assert {(r["grid"], r["ordering"]) for r in baseline["run"]["rows"]} == {
+        (8, "amd"),
+        (8, "auto"),
+    }
+    if data["kernels"]:
+        (summary,) = data["baseline_summary"]
+        new = next(r for r in data["kernels"][0]["rows"] if r["ordering"] == "auto")
+        old = next(r for r in baseline["run"]["rows"] if r["ordering"] == "amd")
+        assert summary["new_over_baseline"] == pytest.approx(
+            new["iteration_over_explicit"] / old["iteration_over_explicit"]
+        )
 
 
 def test_implicit_step_benchmark_smoke(tmp_path):
