@@ -14,9 +14,10 @@ Part 2, one fresh process per OpenBLAS kernel the CPU runs (``OPENBLAS_CORETYPE`
 Haswell, Sandybridge, Prescott: the last is what Debian's OpenBLAS 0.3.21 picks on an Emerald
 Rapids Xeon): DGEMM, and the CPU time of one Newton iteration over one explicit step (the same
 process, one thread), with the old default ordering (AMD) and the new one (auto). With
-``--baseline PATH``, also Prescott and AMD on another build of yore (a folder holding its
-installed package, e.g. a copy made before a change to the factorization): this build's default
-over that one, each a Newton iteration in explicit steps of its own process.
+``--baseline PATH``, every kernel again on another build of yore (a folder holding its installed
+package, e.g. a copy made before a change to the factorization): this build's default over that
+build's Prescott and AMD, and this build over that one kernel by kernel, each a Newton iteration
+in explicit steps of its own process.
 
 Writes factorization.json and factorization.png.
 """
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -263,26 +265,38 @@ def kernel_summary(runs) -> list:
 
 def baseline_summary(runs, baseline) -> list:
     """Per grid: this build's default (widest kernel, auto ordering) over another build's
-    Prescott and AMD, each a Newton iteration over an explicit step of its own process."""
+    Prescott and AMD (the issue's default), and this build over that one on each kernel with
+    the automatic ordering; each a Newton iteration over an explicit step of its own process."""
     if not runs or not baseline:
         return []
+    by_kernel = {run["kernel"]: run for run in baseline["kernels"]}
     out = []
-    for old in baseline["run"]["rows"]:
-        if old["ordering"] != "amd":
+    for new in runs[0]["rows"]:
+        if new["ordering"] != "auto":
             continue
-        new = next(
-            (r for r in runs[0]["rows"] if r["grid"] == old["grid"] and r["ordering"] == "auto"),
-            None,
-        )
-        if new is not None:
-            out.append(
-                {
-                    "grid": old["grid"],
-                    "new_kernel": runs[0]["kernel"],
-                    "new_over_baseline": new["iteration_over_explicit"]
-                    / old["iteration_over_explicit"],
-                }
+        row = {"grid": new["grid"], "new_kernel": runs[0]["kernel"]}
+        prescott = by_kernel.get("Prescott")
+        if prescott is not None:
+            old = next(
+                r for r in prescott["rows"] if r["grid"] == new["grid"] and r["ordering"] == "amd"
             )
+            row["new_over_baseline"] = (
+                new["iteration_over_explicit"] / old["iteration_over_explicit"]
+            )
+        row["same_kernel"] = {}
+        for run in runs:
+            this = next(
+                r for r in run["rows"] if r["grid"] == new["grid"] and r["ordering"] == "auto"
+            )
+            that = next(
+                r
+                for r in by_kernel[run["kernel"]]["rows"]
+                if r["grid"] == new["grid"] and r["ordering"] == "auto"
+            )
+            row["same_kernel"][run["kernel"]] = (
+                this["iteration_over_explicit"] / that["iteration_over_explicit"]
+            )
+        out.append(row)
     return out
 
 
@@ -422,8 +436,10 @@ def main(argv=None) -> dict:
     if args.baseline and not args.no_kernels:
         baseline = {
             "label": args.baseline_label or str(args.baseline),
-            "kernel": "Prescott",
-            "run": kernel_process("Prescott", kernel_sizes, args.quick, args.baseline),
+            "kernels": [
+                kernel_process(run["kernel"], kernel_sizes, args.quick, args.baseline)
+                for run in kernels
+            ],
         }
     payload = {
         "benchmark": "factorization",
@@ -466,7 +482,8 @@ def main(argv=None) -> dict:
     for s in payload["baseline_summary"]:
         print(
             f"{s['grid']}²: a Newton iteration (in explicit steps), {s['new_kernel']} + auto "
-            f"over Prescott + AMD of {baseline['label']}: {s['new_over_baseline']:.2f}"
+            f"over Prescott + AMD of {baseline['label']}: {s.get('new_over_baseline', math.nan):.2f}; "
+            "on the same kernels: " + ", ".join(f"{k} {v:.2f}" for k, v in s["same_kernel"].items())
         )
     return payload
 

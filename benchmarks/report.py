@@ -958,9 +958,12 @@ def factorization_section(payload: dict, images: str) -> list:
             f"{s['grid']}²: against Prescott and AMD on {baseline['label']}, a Newton "
             f"iteration of this build with {s['new_kernel']} and the automatic ordering costs "
             f"{s['new_over_baseline']:.2f} (target ≤ {goals[str(s['grid'])]}: "
-            f"{verdict(s['new_over_baseline'] <= goals[str(s['grid'])])})."
+            f"{verdict(s['new_over_baseline'] <= goals[str(s['grid'])])}); on the same kernels, "
+            "this build over that one: "
+            + ", ".join(f"{k} {v:.2f}" for k, v in s["same_kernel"].items())
+            + "."
             for s in payload.get("baseline_summary") or []
-            if str(s["grid"]) in goals
+            if str(s["grid"]) in goals and "new_over_baseline" in s
         ]
     return out
 
