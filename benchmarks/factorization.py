@@ -219,25 +219,65 @@ def kernel_process(kernel, sizes, quick, package_path=None) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def run_kernels(sizes, repeats, quick) -> list:
-    """Part 2: one fresh process per kernel the CPU runs."""
+def merge_rounds(runs) -> dict:
+    """One kernel's runs (fresh processes) as one: medians of DGEMM and of each row's times and
+    ratio; the runs themselves under "rounds"."""
+    first = runs[0]
+    rows = []
+    for k, row in enumerate(first["rows"]):
+        samples = [run["rows"][k] for run in runs]
+        rows.append(
+            row
+            | {
+                key: statistics.median(sample[key] for sample in samples)
+                for key in (
+                    "explicit_cpu_seconds",
+                    "newton_iteration_cpu_seconds",
+                    "iteration_over_explicit",
+                )
+            }
+        )
+    return {
+        "kernel": first["kernel"],
+        "chosen_by": first["chosen_by"],
+        "dgemm_gflops": statistics.median(run["dgemm_gflops"] for run in runs),
+        "rows": rows,
+        "rounds": runs,
+    }
+
+
+def run_kernels(sizes, quick, rounds=1, baseline=None) -> tuple:
+    """Part 2: one fresh process per kernel the CPU runs, `rounds` times (the kernels forward,
+    then backward, ...), each followed by the same kernel on the baseline build (a folder
+    holding its package) when given: the two builds meet the same conditions. Returns this
+    build's runs and the baseline's (None without one), medians over the rounds."""
     from yore import _cpu
 
     extensions = set(_cpu.cpu_features().extensions)
-    runs = []
-    for kernel in KERNELS:
-        if not yore.blas.KERNEL_NEEDS[kernel.lower()] <= extensions:
-            continue
-        runs.append(kernel_process(kernel, sizes, quick))
-        print(
-            f"{kernel:>12}: DGEMM {runs[-1]['dgemm_gflops']:.1f} GFlop/s; "
-            + ", ".join(
-                f"{r['grid']}² {r['ordering']} iteration/explicit {r['iteration_over_explicit']:.0f}"
-                for r in runs[-1]["rows"]
-            ),
-            flush=True,
-        )
-    return runs
+    kernels = [k for k in KERNELS if yore.blas.KERNEL_NEEDS[k.lower()] <= extensions]
+    raw = {k: [] for k in kernels}
+    raw_baseline = {k: [] for k in kernels}
+    for round_number in range(rounds):
+        for kernel in kernels if round_number % 2 == 0 else kernels[::-1]:
+            builds = [(raw, None), (raw_baseline, baseline)] if baseline else [(raw, None)]
+            if round_number % 2 == 1:
+                builds.reverse()
+            for store, path in builds:
+                run = kernel_process(kernel, sizes, quick, path)
+                store[kernel].append(run)
+                print(
+                    f"{kernel:>12}{' (baseline)' if path else ''}: DGEMM "
+                    f"{run['dgemm_gflops']:.1f} GFlop/s; "
+                    + ", ".join(
+                        f"{r['grid']}² {r['ordering']} iteration/explicit "
+                        f"{r['iteration_over_explicit']:.0f}"
+                        for r in run["rows"]
+                    ),
+                    flush=True,
+                )
+    runs = [merge_rounds(raw[k]) for k in kernels]
+    baseline_runs = [merge_rounds(raw_baseline[k]) for k in kernels] if baseline else None
+    return runs, baseline_runs
 
 
 def kernel_summary(runs) -> list:
@@ -408,6 +448,12 @@ def main(argv=None) -> dict:
             "holding another build's package): this build's default over that one",
         )
         parser.add_argument(
+            "--kernel-rounds",
+            type=int,
+            default=1,
+            help="part 2's processes per kernel (and build), alternating in order; medians",
+        )
+        parser.add_argument(
             "--one-thread",
             action="store_true",
             help="leave out the two-thread rows (for a run that has one core to itself while "
@@ -431,16 +477,16 @@ def main(argv=None) -> dict:
         yore.set_num_threads(1)
     rows = factorization_rows(sizes, repeats, dense)
     kernel_sizes = [n for n in sizes if n in (64, 128)] or sizes[:1]
-    kernels = [] if args.no_kernels else run_kernels(kernel_sizes, repeats, args.quick)
-    baseline = None
-    if args.baseline and not args.no_kernels:
-        baseline = {
-            "label": args.baseline_label or str(args.baseline),
-            "kernels": [
-                kernel_process(run["kernel"], kernel_sizes, args.quick, args.baseline)
-                for run in kernels
-            ],
-        }
+    kernels, baseline_runs = (
+        ([], None)
+        if args.no_kernels
+        else run_kernels(kernel_sizes, args.quick, args.kernel_rounds, args.baseline)
+    )
+    baseline = (
+        {"label": args.baseline_label or str(args.baseline), "kernels": baseline_runs}
+        if baseline_runs
+        else None
+    )
     payload = {
         "benchmark": "factorization",
         "machine": machine_info(),

@@ -62,7 +62,16 @@ def test_explicit_step_benchmark_smoke(tmp_path):
 def test_factorization_benchmark_smoke(tmp_path):
     installed = Path(yore.__file__).resolve().parents[1]  # this build, as its own baseline
     data = run_benchmark(
-        "factorization", tmp_path, "--quick", "--sizes", "8", "12", "--baseline", str(installed)
+        "factorization",
+        tmp_path,
+        "--quick",
+        "--sizes",
+        "8",
+        "12",
+        "--baseline",
+        str(installed),
+        "--kernel-rounds",
+        "2",
     )
     rows = data["rows"]
     assert {
@@ -124,6 +133,12 @@ def test_factorization_benchmark_smoke(tmp_path):
         new["iteration_over_explicit"] / old["iteration_over_explicit"]
     )
     assert set(summary["same_kernel"]) == {run["kernel"] for run in data["kernels"]}
+    # two rounds of fresh processes per kernel and build; the rows are their medians
+    for run in data["kernels"] + baseline["kernels"]:
+        assert len(run["rounds"]) == 2
+        for k, row in enumerate(run["rows"]):
+            ratios = [r["rows"][k]["iteration_over_explicit"] for r in run["rounds"]]
+            assert row["iteration_over_explicit"] == pytest.approx(statistics.median(ratios))
 
 
 def test_implicit_step_benchmark_smoke(tmp_path):
