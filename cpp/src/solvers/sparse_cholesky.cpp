@@ -301,6 +301,67 @@ void unpermute_columns(const std::vector<std::int32_t>& p, const double* in, dou
   }
 }
 
+// P A Pᵀ's lower triangle from A's (compressed columns, n of them): its column starts, its rows
+// (sorted within each column), and for each of its entries the index of A's entry it holds.
+struct PermutedLower {
+  std::vector<std::int32_t> starts, rows, source;
+};
+
+PermutedLower permuted_lower(const std::int32_t* starts, const std::int32_t* rows,
+                             const std::int32_t* perm, std::int32_t n) {
+  std::vector<std::int32_t> inverse(static_cast<std::size_t>(n));
+  for (std::int32_t i = 0; i < n; ++i) inverse[static_cast<std::size_t>(perm[i])] = i;
+  const auto nnz = static_cast<std::size_t>(starts[n]);
+  // entry k of A (row r ≥ column c) goes to (max, min) of (P⁻¹r, P⁻¹c)
+  const auto place = [&](std::int32_t c, std::int32_t k) {
+    const std::int32_t i = inverse[static_cast<std::size_t>(rows[k])];
+    const std::int32_t j = inverse[static_cast<std::size_t>(c)];
+    return std::pair<std::int32_t, std::int32_t>{std::max(i, j), std::min(i, j)};
+  };
+  PermutedLower out;
+  out.starts.assign(static_cast<std::size_t>(n) + 1, 0);
+  for (std::int32_t c = 0; c < n; ++c)
+    for (std::int32_t k = starts[c]; k < starts[c + 1]; ++k) ++out.starts[place(c, k).second + 1];
+  for (std::int32_t c = 0; c < n; ++c) out.starts[c + 1] += out.starts[c];
+  std::vector<std::int32_t> next(out.starts.begin(), out.starts.end() - 1);
+  std::vector<std::pair<std::int32_t, std::int32_t>> entries(nnz);  // (row, source)
+  for (std::int32_t c = 0; c < n; ++c) {
+    for (std::int32_t k = starts[c]; k < starts[c + 1]; ++k) {
+      const auto [row, column] = place(c, k);
+      entries[static_cast<std::size_t>(next[column]++)] = {row, k};
+    }
+  }
+  for (std::int32_t c = 0; c < n; ++c)
+    std::sort(entries.begin() + out.starts[c], entries.begin() + out.starts[c + 1]);
+  out.rows.resize(nnz);
+  out.source.resize(nnz);
+  for (std::size_t k = 0; k < nnz; ++k) {
+    out.rows[k] = entries[k].first;
+    out.source[k] = entries[k].second;
+  }
+  return out;
+}
+
+// cholmod_analyze in the matrix's own order, without postorder; the common's ordering settings
+// are restored afterwards.
+cholmod_factor* analyze_natural(cholmod_sparse* matrix, cholmod_common& common) {
+  const int saved_ordering = common.method[0].ordering;
+  const int saved_postorder = common.postorder;
+  const int saved_methods = common.nmethods;
+  common.nmethods = 1;
+  common.method[0].ordering = CHOLMOD_NATURAL;
+  common.postorder = 0;
+  cholmod_factor* factor = nullptr;
+  {
+    const SerialOpenMP serial;
+    factor = cholmod_analyze(matrix, &common);
+  }
+  common.method[0].ordering = saved_ordering;
+  common.postorder = saved_postorder;
+  common.nmethods = saved_methods;
+  return factor;
+}
+
 }  // namespace
 
 // CHOLMOD's supernodal factorization of PAPᵀ (cholmod_factorize with a permuted factor) first
@@ -315,62 +376,20 @@ void SparseCholesky::Impl::prepermute() {
   if (!factor || !factor->is_super || factor->ordering == CHOLMOD_NATURAL || !factor->Perm) return;
   const auto n = static_cast<std::int32_t>(matrix->nrow);
   const auto* perm = static_cast<const std::int32_t*>(factor->Perm);
-  std::vector<std::int32_t> inverse(static_cast<std::size_t>(n));
-  for (std::int32_t i = 0; i < n; ++i) inverse[static_cast<std::size_t>(perm[i])] = i;
-  const auto* starts = static_cast<const std::int32_t*>(matrix->p);
-  const auto* rows = static_cast<const std::int32_t*>(matrix->i);
-  const std::size_t nnz = static_cast<std::size_t>(starts[n]);
-  // entry k of A (row r ≥ column c) → (max, min) of (P⁻¹r, P⁻¹c) in PAPᵀ's lower triangle
-  std::vector<std::int32_t> counts(static_cast<std::size_t>(n) + 1, 0);
-  for (std::int32_t c = 0; c < n; ++c) {
-    for (std::int32_t k = starts[c]; k < starts[c + 1]; ++k) {
-      const std::int32_t i = inverse[static_cast<std::size_t>(rows[k])];
-      const std::int32_t j = inverse[static_cast<std::size_t>(c)];
-      ++counts[static_cast<std::size_t>(std::min(i, j)) + 1];
-    }
-  }
-  for (std::int32_t c = 0; c < n; ++c) counts[c + 1] += counts[c];
-  std::vector<std::int32_t> next(counts.begin(), counts.end() - 1);
-  std::vector<std::pair<std::int32_t, std::int32_t>> entries(nnz);  // (row, source)
-  for (std::int32_t c = 0; c < n; ++c) {
-    for (std::int32_t k = starts[c]; k < starts[c + 1]; ++k) {
-      const std::int32_t i = inverse[static_cast<std::size_t>(rows[k])];
-      const std::int32_t j = inverse[static_cast<std::size_t>(c)];
-      entries[static_cast<std::size_t>(next[std::min(i, j)]++)] = {std::max(i, j), k};
-    }
-  }
-  for (std::int32_t c = 0; c < n; ++c)
-    std::sort(entries.begin() + counts[c], entries.begin() + counts[c + 1]);
-
+  PermutedLower lower = permuted_lower(static_cast<const std::int32_t*>(matrix->p),
+                                       static_cast<const std::int32_t*>(matrix->i), perm, n);
+  const std::size_t nnz = lower.rows.size();
   cholmod_sparse* permuted =
       cholmod_allocate_sparse(matrix->nrow, matrix->ncol, nnz, 1, 1, -1, CHOLMOD_REAL, &common);
   if (permuted == nullptr) {  // keep the permuted factor; it works, only slower
     common.status = CHOLMOD_OK;
     return;
   }
-  std::memcpy(permuted->p, counts.data(), counts.size() * sizeof(std::int32_t));
-  auto* permuted_rows = static_cast<std::int32_t*>(permuted->i);
-  std::vector<std::int32_t> source(nnz);
-  for (std::size_t k = 0; k < nnz; ++k) {
-    permuted_rows[k] = entries[k].first;
-    source[k] = entries[k].second;
-  }
+  std::memcpy(permuted->p, lower.starts.data(), lower.starts.size() * sizeof(std::int32_t));
+  std::memcpy(permuted->i, lower.rows.data(), nnz * sizeof(std::int32_t));
   std::memset(permuted->x, 0, nnz * sizeof(double));
-  const int saved_ordering = common.method[0].ordering;
-  const int saved_postorder = common.postorder;
-  const int saved_methods = common.nmethods;
   const double lnz = common.lnz, fl = common.fl;
-  common.nmethods = 1;
-  common.method[0].ordering = CHOLMOD_NATURAL;
-  common.postorder = 0;
-  cholmod_factor* natural = nullptr;
-  {
-    const SerialOpenMP serial;
-    natural = cholmod_analyze(permuted, &common);
-  }
-  common.method[0].ordering = saved_ordering;
-  common.postorder = saved_postorder;
-  common.nmethods = saved_methods;
+  cholmod_factor* natural = analyze_natural(permuted, common);
   const bool same = natural != nullptr && natural->is_super && natural->nsuper == factor->nsuper &&
                     common.lnz == lnz && common.fl == fl;
   common.lnz = lnz;
@@ -382,7 +401,7 @@ void SparseCholesky::Impl::prepermute() {
     return;
   }
   permutation.assign(perm, perm + n);
-  gather = std::move(source);
+  gather = std::move(lower.source);
   cholmod_free_factor(&factor, &common);
   cholmod_free_sparse(&matrix, &common);
   factor = natural;
