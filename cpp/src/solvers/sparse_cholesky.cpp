@@ -1,13 +1,6 @@
 #include "yore/solvers/sparse_cholesky.hpp"
 
 #include <cholmod.h>
-#include <dlfcn.h>
-
-#include "yore/platform/errors.hpp"
-
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +11,9 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "yore/platform/errors.hpp"
+#include "yore/platform/openmp_regions.hpp"
 
 namespace yore {
 namespace {
@@ -64,47 +60,11 @@ const char* ordering_name(int code) {
 // project's 2-core machines, 3 extra threads that spin and hand off through futexes. A 64²
 // linearized step took 3.1 CPU s per 20 steps with them and 0.96 without (one thread, same
 // run; OMP_MAX_ACTIVE_LEVELS=0). The dense kernels' parallelism is BLAS's (its own threads), so
-// CHOLMOD's calls run with no active OpenMP level. The level is process-wide in libgomp: for the
-// length of a CHOLMOD call, OpenMP loops on other threads run serial too (only slower).
-//
-// A team of one still costs a futex_wake system call per region in libgomp (its team barrier
-// wakes unconditionally), and CHOLMOD opens several regions per supernode: ~9 200 system calls
-// per factorization of the 64² sheet. So within a CHOLMOD call (t_serial_depth > 0) yore's
-// GOMP_parallel below, which the dynamic linker binds CHOLMOD's calls to ahead of libgomp's
-// (this module is first in the scope it loads CHOLMOD in), runs the region's body on the
-// calling thread: outside any parallel region that is exactly a team of one (omp_get_thread_num
-// 0 of omp_get_num_threads 1, the only OpenMP calls CHOLMOD makes). Everything else goes to
-// libgomp's own. Where libgomp is bound first (loaded into the global scope before yore), the
-// levels setting alone keeps CHOLMOD serial.
-thread_local int t_serial_depth = 0;
-thread_local std::int64_t t_inlined_regions = 0;  // regions GOMP_parallel below ran inline
-
-class SerialOpenMP {
- public:
-  /// `inlined` (optional) gains the CHOLMOD regions run inline during this scope.
-  explicit SerialOpenMP(std::int64_t* inlined = nullptr)
-      : m_inlined(inlined), m_start(t_inlined_regions) {
-#ifdef _OPENMP
-    m_saved = omp_get_max_active_levels();
-    omp_set_max_active_levels(0);
-#endif
-    ++t_serial_depth;
-  }
-  ~SerialOpenMP() {
-    --t_serial_depth;
-#ifdef _OPENMP
-    omp_set_max_active_levels(m_saved);
-#endif
-    if (m_inlined) *m_inlined += t_inlined_regions - m_start;
-  }
-  SerialOpenMP(const SerialOpenMP&) = delete;
-  SerialOpenMP& operator=(const SerialOpenMP&) = delete;
-
- private:
-  std::int64_t* m_inlined;
-  std::int64_t m_start;
-  int m_saved = 1;
-};
+// CHOLMOD's calls run in a SerialRegions scope (openmp_regions.hpp): no active OpenMP level, and
+// its regions inline on the calling thread rather than in libgomp teams of one (a system call
+// each, ~9 200 per factorization of the 64² sheet). The level is process-wide in libgomp: for
+// the length of a CHOLMOD call, OpenMP loops on other threads run serial too (only slower).
+using SerialOpenMP = SerialRegions;
 
 // Flop-weighted medians of the supernodes' widths (columns) and of the rows below them: a
 // supernode of k columns with m rows below costs about k³/3 + k²m + km² flops (its dense
@@ -578,19 +538,3 @@ std::vector<std::int32_t> SparseCholesky::permutation() const {
 }
 
 }  // namespace yore
-
-#if defined(_OPENMP) && defined(__GLIBC__)
-extern "C" __attribute__((visibility("default"))) void GOMP_parallel(void (*body)(void*),
-                                                                     void* data,
-                                                                     unsigned num_threads,
-                                                                     unsigned flags) {
-  if (yore::t_serial_depth > 0 && omp_get_level() == 0) {
-    ++yore::t_inlined_regions;
-    body(data);
-    return;
-  }
-  using Parallel = void (*)(void (*)(void*), void*, unsigned, unsigned);
-  static const auto libgomp = reinterpret_cast<Parallel>(dlsym(RTLD_NEXT, "GOMP_parallel"));
-  libgomp(body, data, num_threads, flags);
-}
-#endif
