@@ -1567,11 +1567,46 @@ def _at_tolerance_page(data, images, results):
     )
 
 
+def build_ab_section(payload: dict, images: str) -> list:
+    """This build against another, fresh processes alternating (build_ab.json)."""
+    out = [
+        "",
+        "## Before and after: this build against another",
+        "",
+        f"![build_ab]({images}/build_ab.png)",
+        "",
+        f"From `build_ab`: against {payload['baseline_label']}, {payload['rounds']} fresh "
+        "processes of each build in alternating order, one thread, the automatic ordering; "
+        "medians, and this build's over the baseline's:",
+        "",
+        "| grid | factorization | analysis | Newton iteration | explicit step |",
+        "|---|---|---|---|---|",
+    ]
+    keys = (
+        "factorize_seconds",
+        "analyze_seconds",
+        "newton_iteration_cpu_seconds",
+        "explicit_cpu_seconds",
+    )
+    for r in payload["rows"]:
+        out.append(
+            f"| {r['grid']}² | "
+            + " | ".join(
+                f"{duration(r[k]['this'])} / {duration(r[k]['baseline'])} = {r[k]['ratio']:.2f}"
+                for k in keys
+            )
+            + " |"
+        )
+    return out
+
+
 def _rebuild_page(data, images, results):
     return (
         rebuild_cost_section(data, images)
         + [""]
         + factorization_section(data["factorization"], images)
+        + [""]
+        + build_ab_section(data["build_ab"], images)
     )
 
 

@@ -6,6 +6,16 @@ from __future__ import annotations
 MACHINE = {"cpu", "logical_cores", "python", "yore", "blas_loaded", "thread_environment"}
 
 SCHEMAS = {
+    "build_ab": (
+        {"benchmark", "machine", "quick", "baseline_label", "rounds", "rows", "this_runs"},
+        {
+            "grid",
+            "factorize_seconds",
+            "analyze_seconds",
+            "newton_iteration_cpu_seconds",
+            "explicit_cpu_seconds",
+        },
+    ),
     "explicit_step": (
         {
             "benchmark",

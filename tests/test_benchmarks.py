@@ -141,6 +141,34 @@ def test_factorization_benchmark_smoke(tmp_path):
             assert row["iteration_over_explicit"] == pytest.approx(statistics.median(ratios))
 
 
+def test_build_ab_benchmark_smoke(tmp_path):
+    installed = Path(yore.__file__).resolve().parents[1]  # this build against itself
+    data = run_benchmark(
+        "build_ab",
+        tmp_path,
+        "--quick",
+        "--sizes",
+        "8",
+        "--rounds",
+        "2",
+        "--baseline",
+        str(installed),
+    )
+    assert data["rounds"] == 2 and len(data["this_runs"]) == len(data["baseline_runs"]) == 2
+    (row,) = data["rows"]
+    assert row["grid"] == 8
+    for measure in (
+        "factorize_seconds",
+        "analyze_seconds",
+        "newton_iteration_cpu_seconds",
+        "explicit_cpu_seconds",
+    ):
+        this = statistics.median(run["rows"][0][measure] for run in data["this_runs"])
+        base = statistics.median(run["rows"][0][measure] for run in data["baseline_runs"])
+        assert row[measure]["this"] == pytest.approx(this) and is_timing(this)
+        assert row[measure]["ratio"] == pytest.approx(this / base)
+
+
 def test_implicit_step_benchmark_smoke(tmp_path):
     data = run_benchmark("implicit_step", tmp_path, "--quick", "--sizes", "6", "8")
     assert data["dense_matmul_gflops"] > 0
@@ -672,10 +700,13 @@ def test_threads_benchmark_smoke(tmp_path):
 
 def test_report_refuses_quick_results_and_writes_full_ones(tmp_path):
     results = tmp_path / "results"
+    installed = str(Path(yore.__file__).resolve().parents[1])
+    extra = {
+        "implicit_step": ["--sizes", "6", "8"],
+        "build_ab": ["--baseline", installed, "--rounds", "1", "--sizes", "6"],
+    }
     for name in schema.SCHEMAS:
-        run_benchmark(
-            name, results, "--quick", *(["--sizes", "6", "8"] if name == "implicit_step" else [])
-        )
+        run_benchmark(name, results, "--quick", *extra.get(name, []))
     page = tmp_path / "docs" / "results.md"
     page.parent.mkdir()
     page.write_text(f"intro\n{report.START}\nstale block\n{report.END}\nrest\n")

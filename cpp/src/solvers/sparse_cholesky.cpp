@@ -233,30 +233,19 @@ cholmod_sparse* block_graph(const SymmetricPattern& pattern, cholmod_common& com
   return graph;
 }
 
-// out[i] = in[p[i]] for each of `columns` columns of n (a copy when p is empty).
+// For each of `columns` columns of n: out[i] = in[p[i]], or with `inverse` out[p[i]] = in[i]
+// (a copy when p is empty).
 void permute_columns(const std::vector<std::int32_t>& p, const double* in, double* out,
-                     std::size_t n, int columns) {
+                     std::size_t n, int columns, bool inverse = false) {
   for (std::size_t c = 0; c < static_cast<std::size_t>(columns); ++c) {
     const double* from = in + c * n;
     double* to = out + c * n;
     if (p.empty()) {
       std::memcpy(to, from, n * sizeof(double));
+    } else if (inverse) {
+      for (std::size_t i = 0; i < n; ++i) to[p[i]] = from[i];
     } else {
       for (std::size_t i = 0; i < n; ++i) to[i] = from[p[i]];
-    }
-  }
-}
-
-// out[p[i]] = in[i], the inverse of permute_columns.
-void unpermute_columns(const std::vector<std::int32_t>& p, const double* in, double* out,
-                       std::size_t n, int columns) {
-  for (std::size_t c = 0; c < static_cast<std::size_t>(columns); ++c) {
-    const double* from = in + c * n;
-    double* to = out + c * n;
-    if (p.empty()) {
-      std::memcpy(to, from, n * sizeof(double));
-    } else {
-      for (std::size_t i = 0; i < n; ++i) to[p[i]] = from[i];
     }
   }
 }
@@ -501,7 +490,7 @@ void SparseCholesky::solve(const double* rhs, double* solution) {
                    &d.common);
   }
   d.check("solve");
-  unpermute_columns(d.permutation, static_cast<const double*>(d.solution->x), solution, n, 1);
+  permute_columns(d.permutation, static_cast<const double*>(d.solution->x), solution, n, 1, true);
   ++d.statistics.solves;
 }
 
@@ -522,8 +511,8 @@ void SparseCholesky::solve_columns(const double* rhs, double* solution, int colu
                    &d.block_e, &d.common);
   }
   d.check("solve");
-  unpermute_columns(d.permutation, static_cast<const double*>(d.block_solution->x), solution, n,
-                    columns);
+  permute_columns(d.permutation, static_cast<const double*>(d.block_solution->x), solution, n,
+                  columns, true);
   d.statistics.solves += columns;
 }
 
