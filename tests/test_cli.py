@@ -823,3 +823,38 @@ def test_a_runs_report_says_its_largest_energy_rise(tmp_path, capsys):
     gain = json.loads((tmp_path / "summary.json").read_text())["counters"]["energy_gain"]
     assert code == 0 and gain > 0
     assert f"largest energy rise above its lowest: {gain:.3g} J" in out
+
+
+def test_the_commands_own_import_of_yore_guards_ctrl_c_from_its_first_line(monkeypatch):
+    """A Ctrl-C landing while ``python -m yore`` imported the package (in ``import signal``)
+    printed Python's traceback: the package's first lines now guard the command's own import,
+    and only it (`yore._start_guard`); `start_command` takes the guard over."""
+    import signal
+
+    from yore import _start_guard, runtime
+
+    for argv, orig, command in (
+        (["/usr/local/bin/yore", "run"], ["python3", "/usr/local/bin/yore", "run"], True),
+        (["-m"], ["python3", "-m", "yore", "run", "x.toml"], True),
+        (["-m"], ["python3", "-X", "dev", "-m", "yore"], True),
+        (["-c"], ["python3", "-c", "import yore", "-m", "yore"], False),
+        (["-m"], ["python3", "-m", "pytest", "-m", "yore"], False),
+        (["prog.py"], ["python3", "prog.py"], False),
+    ):
+        monkeypatch.setattr(sys, "argv", argv)
+        monkeypatch.setattr(sys, "orig_argv", orig, raising=False)
+        assert _start_guard.is_command_import() is command, orig
+    before = signal.getsignal(signal.SIGINT)
+    if before is not signal.default_int_handler:
+        pytest.skip("SIGINT is not Python's default handler in this process")
+    monkeypatch.setattr(runtime, "_command", [False])
+    monkeypatch.setattr(runtime, "_guarding", [False])
+    try:
+        _start_guard.guard()
+        assert signal.getsignal(signal.SIGINT) is _start_guard.interrupted
+        runtime.start_command()  # takes over from the early guard
+        assert signal.getsignal(signal.SIGINT) is runtime._interrupted_while_starting
+        runtime.end_command_start()
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)

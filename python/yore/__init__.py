@@ -6,14 +6,21 @@ Cloth") with an explicit reference integrator; see README.md and the documentati
 Importing yore changes nothing in the process: no signal handler, no thread count, no
 environment variable. Its names load on first use (the C++ core through `yore._core`, after
 the BLAS kernels are chosen). The `yore` command sets its own Ctrl-C handling and thread
-defaults; a program sets threads with `set_num_threads` or `use_thread_defaults`.
+defaults; a program sets threads with `set_num_threads` or `use_thread_defaults`. (The one
+exception is the command's own import of this package: its script's or ``python -m yore``'s,
+which makes a Ctrl-C one line from here on, `yore._start_guard`.)
 """
 
 from __future__ import annotations
 
-import importlib as _importlib
+from . import _start_guard
 
-from .runtime import VERSION as __version__  # noqa: F401  (the package's version)
+if _start_guard.is_command_import():
+    _start_guard.guard()
+
+import importlib as _importlib  # noqa: E402
+
+from .runtime import VERSION as __version__  # noqa: E402,F401  (the package's version)
 
 #: Where each public name lives: {name: module}, loaded on first use.
 _WHERE = {

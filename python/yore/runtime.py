@@ -163,10 +163,11 @@ def start_command() -> None:
     """This process is the `yore` command: in its main thread, while Python's own Ctrl-C
     handling is in place, a Ctrl-C ends the process with one line and exit 130 until
     `end_command_start`."""
-    if (
-        threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    ):
+    from . import _start_guard
+
+    if threading.current_thread() is threading.main_thread() and signal.getsignal(
+        signal.SIGINT
+    ) in (signal.default_int_handler, _start_guard.interrupted):
         signal.signal(signal.SIGINT, _interrupted_while_starting)
         _guarding[0] = True
     _command[0] = True

@@ -58,13 +58,14 @@ extern "C" __attribute__((visibility("default"))) void GOMP_parallel(void (*body
                                                                      void* data,
                                                                      unsigned num_threads,
                                                                      unsigned flags) {
-  if (yore::runs_inline(num_threads)) {
+  using Parallel = void (*)(void (*)(void*), void*, unsigned, unsigned);
+  static const auto libgomp = reinterpret_cast<Parallel>(dlsym(RTLD_NEXT, "GOMP_parallel"));
+  // no libgomp after this definition (not seen: it is a dependency of this module): serial
+  if (libgomp == nullptr || yore::runs_inline(num_threads)) {
     ++yore::t_inlined;
     body(data);
     return;
   }
-  using Parallel = void (*)(void (*)(void*), void*, unsigned, unsigned);
-  static const auto libgomp = reinterpret_cast<Parallel>(dlsym(RTLD_NEXT, "GOMP_parallel"));
   libgomp(body, data, num_threads, flags);
 }
 #endif
