@@ -17,16 +17,14 @@ Writes build_ab.json and build_ab.png.
 
 from __future__ import annotations
 
+import argparse
 import json
-import os
 import statistics
-import subprocess
-import sys
 from pathlib import Path
 
 import yore
 
-from .common import arguments, machine_info, save
+from .common import arguments, fresh_process, machine_info, save
 from .factorization import cpu_per_explicit_step, cpu_per_newton_iteration, measure_factorization
 
 MEASURES = (
@@ -56,14 +54,8 @@ def worker(sizes, repeats) -> dict:
 
 
 def run_process(sizes, quick, package_path=None) -> dict:
-    root = Path(__file__).resolve().parents[1]
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    if package_path is not None:
-        env["PYTHONPATH"] = os.pathsep.join([str(Path(package_path).resolve()), str(root)])
-    command = [sys.executable, "-m", "benchmarks.build_ab", "--worker", "--sizes"]
-    command += [str(n) for n in sizes] + (["--quick"] if quick else [])
-    done = subprocess.run(command, env=env, capture_output=True, text=True, check=True, cwd=root)
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    args = ["--worker", "--sizes", *sizes] + (["--quick"] if quick else [])
+    return fresh_process("benchmarks.build_ab", args, package_path=package_path)
 
 
 def summary(this_runs, baseline_runs) -> list:
@@ -112,7 +104,7 @@ def main(argv=None) -> dict:
         parser.add_argument("--label", default="", help="what the baseline build is")
         parser.add_argument("--rounds", type=int, default=5, help="processes per build")
         parser.add_argument("--sizes", type=int, nargs="*", help="grid sizes (vertices per side)")
-        parser.add_argument("--worker", action="store_true", help=argparse_hidden())
+        parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
 
     args = arguments(__doc__, argv, extra)
     sizes = args.sizes or ([8, 12] if args.quick else [32, 64, 128, 256])
@@ -148,12 +140,6 @@ def main(argv=None) -> dict:
             )
         )
     return payload
-
-
-def argparse_hidden():
-    import argparse
-
-    return argparse.SUPPRESS
 
 
 if __name__ == "__main__":

@@ -70,6 +70,28 @@ def median_seconds(run, repeats: int, warmup: int = 1) -> dict:
     }
 
 
+def fresh_process(module: str, args, env=None, package_path=None):
+    """Runs ``python -m module *args`` from the repository in a fresh process on one BLAS and one
+    OpenMP thread (plus `env`), importing yore from `package_path` (a folder holding another
+    build's package) when given; returns the JSON its last line of output prints."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    environment = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", **(env or {})}
+    if package_path is not None:
+        environment["PYTHONPATH"] = os.pathsep.join([str(Path(package_path).resolve()), str(root)])
+    done = subprocess.run(
+        [sys.executable, "-m", module, *map(str, args)],
+        env=environment,
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=root,
+    )
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
 def arguments(doc: str, argv=None, extra=None):
     """The benchmarks' command line: --out DIR (default bench-results) and --quick, plus
     whatever `extra(parser)` adds."""

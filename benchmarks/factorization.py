@@ -24,13 +24,11 @@ Writes factorization.json and factorization.png.
 
 from __future__ import annotations
 
+import argparse
 import ctypes
 import json
 import math
-import os
 import statistics
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -38,7 +36,7 @@ import numpy as np
 
 import yore
 
-from .common import arguments, grid_cloth, machine_info, save
+from .common import arguments, fresh_process, grid_cloth, machine_info, save
 from .implicit_step import phase_deltas
 
 ORDERINGS = ("amd", "metis", "nesdis")
@@ -198,25 +196,10 @@ def kernel_worker(sizes, repeats) -> dict:
 def kernel_process(kernel, sizes, quick, package_path=None) -> dict:
     """One kernel worker in a fresh process on that OpenBLAS kernel; with package_path, the
     yore installed there (another build) instead of this one."""
-    env = {
-        **os.environ,
-        "OPENBLAS_CORETYPE": kernel,
-        "OPENBLAS_NUM_THREADS": "1",
-        "OMP_NUM_THREADS": "1",
-    }
-    root = Path(__file__).resolve().parents[1]
-    if package_path is not None:
-        env["PYTHONPATH"] = os.pathsep.join([str(Path(package_path).resolve()), str(root)])
-    command = [
-        sys.executable,
-        "-m",
-        "benchmarks.factorization",
-        "--kernel-worker",
-        "--sizes",
-        *map(str, sizes),
-    ] + (["--quick"] if quick else [])
-    done = subprocess.run(command, env=env, capture_output=True, text=True, check=True, cwd=root)
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    args = ["--kernel-worker", "--sizes", *sizes] + (["--quick"] if quick else [])
+    return fresh_process(
+        "benchmarks.factorization", args, {"OPENBLAS_CORETYPE": kernel}, package_path
+    )
 
 
 def merge_rounds(runs) -> dict:
@@ -435,7 +418,7 @@ def factorization_rows(sizes, repeats, dense_by_threads) -> list:
 def main(argv=None) -> dict:
     def extra(parser):
         parser.add_argument("--sizes", type=int, nargs="*", help="grid sizes (vertices per side)")
-        parser.add_argument("--kernel-worker", action="store_true", help=argparse_hidden())
+        parser.add_argument("--kernel-worker", action="store_true", help=argparse.SUPPRESS)
         parser.add_argument(
             "--no-kernels",
             action="store_true",
@@ -532,12 +515,6 @@ def main(argv=None) -> dict:
             "on the same kernels: " + ", ".join(f"{k} {v:.2f}" for k, v in s["same_kernel"].items())
         )
     return payload
-
-
-def argparse_hidden():
-    import argparse
-
-    return argparse.SUPPRESS
 
 
 if __name__ == "__main__":

@@ -64,7 +64,6 @@ const char* ordering_name(int code) {
 // its regions inline on the calling thread rather than in libgomp teams of one (a system call
 // each, ~9 200 per factorization of the 64² sheet). The level is process-wide in libgomp: for
 // the length of a CHOLMOD call, OpenMP loops on other threads run serial too (only slower).
-using SerialOpenMP = SerialRegions;
 
 // Flop-weighted medians of the supernodes' widths (columns) and of the rows below them: a
 // supernode of k columns with m rows below costs about k³/3 + k²m + km² flops (its dense
@@ -302,7 +301,7 @@ cholmod_factor* analyze_natural(cholmod_sparse* matrix, cholmod_common& common) 
   common.postorder = 0;
   cholmod_factor* factor = nullptr;
   {
-    const SerialOpenMP serial;
+    const SerialRegions serial;
     factor = cholmod_analyze(matrix, &common);
   }
   common.method[0].ordering = saved_ordering;
@@ -371,7 +370,7 @@ void SparseCholesky::analyze(const SymmetricPattern& pattern) {
   const auto blocks = static_cast<std::size_t>(pattern.size / b);
   std::vector<std::int32_t> order(blocks), parents(blocks), members(blocks);
   {
-    const SerialOpenMP serial;
+    const SerialRegions serial;
     switch (ordering) {
       case Ordering::metis:
         cholmod_metis(graph, nullptr, 0, 1, order.data(), &d.common);
@@ -417,11 +416,11 @@ void SparseCholesky::analyze_with_permutation(const SymmetricPattern& pattern,
   std::memcpy(d.matrix->i, pattern.row_indices.data(), nnz * sizeof(std::int32_t));
   std::memset(d.matrix->x, 0, nnz * sizeof(double));
   if (permutation.empty()) {
-    const SerialOpenMP serial;
+    const SerialRegions serial;
     d.factor = cholmod_analyze(d.matrix, &d.common);
   } else {
     // One method, the given permutation (postordered by CHOLMOD as usual); restore afterwards.
-    const SerialOpenMP serial;
+    const SerialRegions serial;
     const int saved = d.common.method[0].ordering;
     d.common.method[0].ordering = CHOLMOD_GIVEN;
     d.factor = cholmod_analyze_p(d.matrix, const_cast<std::int32_t*>(permutation.data()), nullptr,
@@ -450,7 +449,7 @@ void SparseCholesky::factorize(const double* values) {
     for (std::size_t k = 0; k < count; ++k) x[k] = values[d.gather[k]];
   }
   {
-    const SerialOpenMP serial(&d.statistics.openmp_regions_inlined);
+    const SerialRegions serial(&d.statistics.openmp_regions_inlined);
     cholmod_factorize(d.matrix, d.factor, &d.common);
   }
   d.check("factorize");
@@ -485,7 +484,7 @@ void SparseCholesky::solve(const double* rhs, double* solution) {
   // cholmod_solve2 reuses solution and workspace: no allocation after the first call.
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
   {
-    const SerialOpenMP serial;
+    const SerialRegions serial;
     cholmod_solve2(CHOLMOD_A, factor, d.rhs, nullptr, &d.solution, nullptr, &d.work_y, &d.work_e,
                    &d.common);
   }
@@ -506,7 +505,7 @@ void SparseCholesky::solve_columns(const double* rhs, double* solution, int colu
   permute_columns(d.permutation, rhs, static_cast<double*>(d.block_rhs->x), n, columns);
   cholmod_factor* factor = d.solve_factor ? d.solve_factor : d.factor;
   {
-    const SerialOpenMP serial;
+    const SerialRegions serial;
     cholmod_solve2(CHOLMOD_A, factor, d.block_rhs, nullptr, &d.block_solution, nullptr, &d.block_y,
                    &d.block_e, &d.common);
   }
