@@ -836,48 +836,69 @@ def wrinkles_section(payload: dict, images: str) -> list:
 
 
 def band_lines(payload: dict) -> list:
-    """The band strokes in physical units (issue 52) against the mesh."""
-    bands = payload.get("band_strokes") or []
-    if not bands:
+    """The band strokes in physical units (issue 52) against the mesh: the seeds' means."""
+    means = payload.get("band_means") or []
+    if not means:
         return []
     settings = payload["band_settings"]
+    start = settings["start"]
+    bands = payload["band_strokes"]
+
+    def shown(m, key, scale=1e3):
+        error = m.get(key + "_error")
+        value = f"{scale * m[key]:.2f}"
+        return value if error is None else f"{value} ± {scale * error:.2f}"
+
     out = [
         "",
-        f"The band stroke in physical units (issue 52): the hanging cloth (membrane, "
-        f"fitted bending B), settled, stroked along v = {settings['v']:g} from u = "
-        f"{settings['u'][0]:g} to {settings['u'][1]:g} with a band {settings['width']:g} m "
-        f"wide grown {settings['growth']} × {settings['expansion']:g} (spring weights: "
-        f"{settings.get('weights', 'the smaller end')}), settled again. Over the band: the "
-        "fold depth and RMS (the range, and the RMS about its mean, of the stroke's "
-        "displacement along the settled surface's normals), "
-        f"the wrinkle measure (RMS height over the surface smoothed over "
-        f"{settings['reach']:g} m) and the wrinkles' wavelength along the band in mean "
-        "edges, and the rest area the stroke added:",
+        f"The band stroke in physical units (issue 52): the hanging cloth (membrane, fitted "
+        f"bending B) settled on a {start['resolution']}² {start['mesh']}, that shape carried "
+        "to each mesh by its material coordinates and settled there; stroked along v = "
+        f"{settings['v']:g} from u = {settings['u'][0]:g} to {settings['u'][1]:g} with a band "
+        f"{settings['width']:g} m wide grown {settings['growth']} × {settings['expansion']:g} "
+        f"(spring weights: {settings['weights']}), the band refined (1→4 passes) to edges of "
+        f"at most {1e3 * settings['edge']:g} mm; displaced by {settings['noise']:g} m of "
+        f"seeded noise ({len(settings['seeds'])} seeds) and settled again. Measured on the "
+        f"same material points every {1e3 * settings['sample']:g} mm on every mesh, over the "
+        "band: the fold depth and RMS (the range, and the RMS about its mean, of the stroke's "
+        "displacement along the settled surface's normals), the wrinkle measure (RMS height "
+        f"over the surface Gaussian-smoothed with σ = {settings['reach'] / 3:g} m) and the "
+        "wrinkles' wavelength along the band's centre line; the seeds' mean ± its standard "
+        "error:",
         "",
-        "| B (N·m) | mesh | vertices a side | fold depth (mm) | fold RMS (mm) | "
-        "wrinkle measure (mm) | wrinkles (edges) | rest area added (cm²) | CPU s |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| B (N·m) | mesh | vertices a side | passes | band edge (mm) | vertices | "
+        "fold depth (mm) | fold RMS (mm) | wrinkle measure (mm) | wavelength (mm) | "
+        "rest area added (cm²) | CPU s a seed |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for b in sorted(bands, key=lambda b: (b.get("bending_modulus", 0), b["mesh"], b["resolution"])):
-        edges = b.get("wrinkle_wavelength_edges")
+    for m in means:
+        mine = [
+            b
+            for b in bands
+            if (b["bending_modulus"], b["mesh"], b["resolution"])
+            == (m["bending_modulus"], m["mesh"], m["resolution"])
+        ]
         out.append(
-            f"| {b.get('bending_modulus', '–')} | {b['mesh']} | {b['resolution']} | "
-            f"{1e3 * b['fold_depth']:.2f} | {1e3 * b.get('fold_rms', float('nan')):.2f} | "
-            f"{1e3 * b['wrinkle_measure']:.2f} | "
-            f"{'–' if edges is None else f'{edges:.1f}'} | "
-            f"{1e4 * b.get('rest_area_added', float('nan')):.1f} | "
-            f"{b['cpu_seconds']:.0f} |"
+            f"| {m['bending_modulus']:g} | {m['mesh']} | {m['resolution']} | "
+            f"{mine[0]['refine']} | {1e3 * mine[0]['band_edge']:.2f} | {m['vertices']:.0f} | "
+            f"{shown(m, 'fold_depth')} | {shown(m, 'fold_rms')} | "
+            f"{shown(m, 'wrinkle_measure')} | {1e3 * m['wrinkle_wavelength']:.0f} | "
+            f"{1e4 * m['rest_area_added']:.1f} | {m['cpu_seconds']:.0f} |"
         )
     for key, change in payload["summary"].get("band_strokes", {}).items():
         out.append("")
-        out.append(
-            f"{key}, {change['resolutions'][0]} → {change['resolutions'][1]} a side: "
-            + ", ".join(
+        parts = []
+        for name in ("fold_depth", "fold_rms", "wrinkle_measure", "rest_area_added"):
+            if name + "_change" not in change:
+                continue
+            error = change.get(name + "_change_error")
+            parts.append(
                 f"{name.replace('_', ' ')} {100 * change[name + '_change']:.1f} %"
-                for name in ("fold_depth", "fold_rms", "wrinkle_measure", "rest_area_added")
-                if name + "_change" in change
+                + ("" if error is None else f" (± {100 * error:.1f})")
             )
-            + " (target: < 5 %)."
+        out.append(
+            f"{key}, {change['resolutions'][0]} → {change['resolutions'][1]} a side, seed "
+            "means: " + ", ".join(parts) + " (target: < 5 %)."
         )
     return out
 

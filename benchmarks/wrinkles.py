@@ -118,6 +118,29 @@ BAND_REACH = 0.15  # m
 BAND_RESOLUTIONS = [41, 81, 161]
 QUICK_BAND_RESOLUTIONS = [9, 13]
 BAND_SETTLE_SECONDS = 120.0  # pseudo-time cap; the 41² cloth settles in ~55 s
+#: How a band row was run (journaled rows of another protocol are redone). Every mesh starts
+#: from one shape: the hanging cloth settled on the BAND_START grid, carried to the mesh by its
+#: material coordinates and settled there. Settled freely from the flat start, each mesh found
+#: its own folds (the settled shapes of the grid at 41, 81 and 161 and the pattern mesh at 41
+#: a side are 40–65 mm RMS apart: the hanging cloth's equilibrium is not unique), so the
+#: stroke met a different cloth on every mesh. The band is refined (`refine`) until its edges
+#: are at most BAND_EDGE, and the stroke's buckling, which has many near-equal outcomes (two
+#: settles 0.03 mm apart ended 5 mm RMS apart in the band, their fold RMS 3–8 % apart), is run
+#: from BAND_SEEDS seeded 1e-5 m displacements and measured as their mean.
+BAND_PROTOCOL = "common start, refined zone, seeds"
+BAND_START = {"mesh": "grid", "resolution": 161}
+QUICK_BAND_START = {"mesh": "grid", "resolution": 13}
+BAND_SAMPLE = 0.002  # m: the material grid the start is kept on and the band is measured on
+BAND_EDGE = 0.004  # m: ~15 edges across the band, ≥ 8 a wrinkle of the band's (7–11 cm)
+QUICK_BAND_EDGE = 0.05
+#: The refined zone: the band and a band's width on each side, where its wrinkles reach (the
+#: wrinkles of the same outcome on 81² and 161² meshes refined over the band alone differed by
+#: 11–14 % in fold depth and RMS, the band's neighbours left at the base mesh's edges).
+BAND_REFINE_WIDTH = 3 * BAND["width"]
+BAND_SEEDS = tuple(range(8))
+QUICK_BAND_SEEDS = (0, 1)
+#: What `--parts` may name.
+PARTS = ("sheets", "strokes", "bands")
 #: The inside of each mesh kind's pattern mesh (`pattern_mesh`'s interior); rows journaled
 #: before the lattice (issue 52) have none and are redone.
 INTERIORS = {"pattern": "lattice", "delaunay": "delaunay"}
@@ -644,20 +667,12 @@ def mean_edge(points, F):
     return float(np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1).mean())
 
 
-def band_run(mesh, resolution, quick, bending=BAND_BENDING):
-    """The hanging cloth (membrane of the 41² grid lattice's affine Y and ν, fitted bending
-    `bending`) on `mesh` at `resolution`, settled, stroked along BAND in material coordinates,
-    settled again. Over the vertices of the faces whose material centroid lies in the band:
-    the fold depth (range of the displacement the stroke caused, along the settled surface's
-    normals before it: the fold's own size, no filter) and its RMS about its mean (fold_rms);
-    the wrinkle measure (RMS of the wrinkle height over the surface smoothed with a reach of
-    BAND_REACH metres, `metrics.smoothing_iterations`) and the wavelength of that height along the band's centre
-    line in mean edges (the same number of edges on every mesh: the mesh sets the wrinkles);
-    the rest area the stroke added (m²) and the band faces' area gain."""
-    start = time.process_time()
+def band_scene(mesh, resolution, bending):
+    """The band strokes' hanging cloth: the membrane of the 41² grid lattice's affine Y and ν,
+    fitted (quadratic) bending `bending`, on `mesh` at `resolution`."""
     V, F = yore.grid_mesh(41, 41)
     young, nu = lattice_moduli(V, F, yore.scenes.STIFFNESS)
-    sim = yore.scenes.hanging_cloth(
+    return yore.scenes.hanging_cloth(
         resolution=resolution,
         mesh=mesh,
         stretch="membrane",
@@ -667,22 +682,170 @@ def band_run(mesh, resolution, quick, bending=BAND_BENDING):
         bending_modulus=bending,
         integrator="implicit",
     )
+
+
+def sample_grid(sample=BAND_SAMPLE):
+    """The material points (u, v) of the unit square every `sample` m, n×n×2 ([iu, iv])."""
+    s = np.linspace(0.0, 1.0, int(round(1.0 / sample)) + 1)
+    return np.stack(np.meshgrid(s, s, indexing="ij"), axis=-1)
+
+
+def resample(uv, F, points, *fields):
+    """Each piecewise-linear field of `fields` (per vertex, n×k) of the mesh (uv, F) in
+    material coordinates at `points` (…×2), NaN outside the mesh: a list, one per field."""
+    import matplotlib.tri as mtri
+
+    flat = points.reshape(-1, 2)
+    face = mtri.Triangulation(uv[:, 0], uv[:, 1], F).get_trifinder()(flat[:, 0], flat[:, 1])
+    inside = face >= 0
+    corners = np.asarray(F)[face[inside]]
+    a, b, c = uv[corners[:, 0]], uv[corners[:, 1]], uv[corners[:, 2]]
+    e1, e2, p = b - a, c - a, flat[inside] - a
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    w1 = (p[:, 0] * e2[:, 1] - p[:, 1] * e2[:, 0]) / det
+    w2 = (e1[:, 0] * p[:, 1] - e1[:, 1] * p[:, 0]) / det
+    out = []
+    for values in fields:
+        values = np.asarray(values, dtype=float)
+        at = np.full((len(flat), values.shape[1]), np.nan)
+        at[inside] = (
+            (1 - w1 - w2)[:, None] * values[corners[:, 0]]
+            + w1[:, None] * values[corners[:, 1]]
+            + w2[:, None] * values[corners[:, 2]]
+        )
+        out.append(at.reshape(*points.shape[:-1], values.shape[1]))
+    return out
+
+
+def bilinear(field, uv):
+    """The field given on `sample_grid` (m×m×k) at material points uv (n×2, clipped to the
+    square)."""
+    m = field.shape[0]
+    x = np.clip(uv, 0.0, 1.0) * (m - 1)
+    i = np.minimum(np.floor(x).astype(int), m - 2)
+    a, b = (x - i)[:, :1], (x - i)[:, 1:]
+    i0, i1 = i[:, 0], i[:, 1]
+    return (
+        field[i0, i1] * (1 - a) * (1 - b)
+        + field[i0 + 1, i1] * a * (1 - b)
+        + field[i0, i1 + 1] * (1 - a) * b
+        + field[i0 + 1, i1 + 1] * a * b
+    )
+
+
+def gaussian_smooth(grid, sigma):
+    """A Gaussian filter of standard deviation `sigma` (grid cells) over the first two axes of
+    `grid` (m×m×k), the edges reflected."""
+    pad = int(math.ceil(4 * sigma))
+    g = np.pad(grid, ((pad, pad), (pad, pad), (0, 0)), mode="reflect")
+    ku = np.fft.fftfreq(g.shape[0])[:, None]
+    kv = np.fft.fftfreq(g.shape[1])[None, :]
+    kernel = np.exp(-2.0 * (np.pi * sigma) ** 2 * (ku**2 + kv**2))
+    out = np.real(np.fft.ifft2(np.fft.fft2(g, axes=(0, 1)) * kernel[:, :, None], axes=(0, 1)))
+    return out[pad:-pad, pad:-pad]
+
+
+def band_start_path(out, bending, quick):
+    suffix = "" if bending == BAND_BENDING else f"-B{bending:g}"
+    return Path(out) / "wrinkles-runs" / f"band-start{suffix}{'-quick' if quick else ''}.npz"
+
+
+def band_start(out, bending, quick, resume):
+    """The band strokes' common starting shape: the hanging cloth on the BAND_START mesh,
+    settled, its positions sampled on `sample_grid` (float32, m) and kept (atomically) in the
+    journal; reused when resuming or collecting."""
+    path = band_start_path(out, bending, quick)
+    if resume and path.exists():
+        with np.load(path) as data:
+            return data["positions"].astype(float)
+    start = QUICK_BAND_START if quick else BAND_START
+    sim = band_scene(start["mesh"], start["resolution"], bending)
+    settled = sim.settle(max_seconds=2.0 if quick else BAND_SETTLE_SECONDS)
+    uv = np.asarray(sim.cloth.material_coordinates)
+    (field,) = resample(uv, sim.cloth.faces, sample_grid(), sim.cloth.positions)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(path.stem + ".tmp.npz")
+    np.savez_compressed(
+        temporary,
+        positions=field.astype(np.float32),
+        settled_seconds=settled["seconds"],
+        converged=settled["converged"],
+    )
+    os.replace(temporary, path)
+    return field.astype(np.float32).astype(float)
+
+
+def refine_passes(uv, F, edge):
+    """1→4 passes that bring the mesh's mean material edge to at most `edge` (each halves it)."""
+    return max(0, math.ceil(math.log2(mean_edge(uv, F) / edge)))
+
+
+def band_measures(uv, F, settled, normals, X):
+    """The band's fold and wrinkles on `sample_grid` in material coordinates (the same points
+    on every mesh, refined or not): the stroke's displacement along the settled normals (its
+    range and RMS about its mean over the band), the wrinkle height (the surface minus its
+    Gaussian smoothing of σ = BAND_REACH / 3 in material coordinates, along the smoothed
+    normal; its RMS over the band) and the wavelength of that height along the band's centre
+    line (from its sign changes), m."""
+    points = sample_grid()
+    Xs, Ss, Ns = resample(uv, F, points, X, settled, normals)
+    Ns /= np.linalg.norm(Ns, axis=-1, keepdims=True)
+    moved = np.einsum("ijk,ijk->ij", Xs - Ss, Ns)
+    smooth = gaussian_smooth(Xs, BAND_REACH / 3.0 / BAND_SAMPLE)
+    normal = np.cross(np.gradient(smooth, axis=0), np.gradient(smooth, axis=1))
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    height = np.einsum("ijk,ijk->ij", Xs - smooth, normal)
+    u, v = points[..., 0], points[..., 1]
+    u0, u1 = BAND["u"]
+    band = (np.abs(v - BAND["v"]) < 0.5 * BAND["width"]) & (u > u0) & (u < u1)
+    along = points[:, 0, 0]
+    line = height[(along > u0) & (along < u1), int(round(BAND["v"] / BAND_SAMPLE))]
+    crossings = int(np.count_nonzero(np.diff(np.sign(line - line.mean()))))
+    return {
+        "fold_depth": float(np.ptp(moved[band])),
+        "fold_rms": float(np.std(moved[band])),
+        "wrinkle_measure": float(np.sqrt(np.mean(height[band] ** 2))),
+        "wrinkle_wavelength": float(2.0 * (u1 - u0) / max(crossings, 1)),
+    }
+
+
+def band_run(mesh, resolution, quick, bending, seed, start):
+    """One band stroke (BAND_PROTOCOL): `band_scene` on `mesh` at `resolution`, its positions
+    set from the common `start` (`band_start`) and settled; stroked along BAND in material
+    coordinates with the band refined to edges of at most BAND_EDGE; displaced by NOISE
+    (seeded by `seed`) and settled again. `band_measures` over the material band, and (for
+    comparison with earlier rows) the fold depth and RMS over the band faces' corners and the
+    mesh's own wrinkle measure (Taubin smoothing, `metrics.smoothing_iterations`: its reach
+    in edges shrinks where the band is refined, so it is not comparable across meshes here);
+    the rest area the stroke added (m²) and the band faces' area gain."""
+    started = time.process_time()
+    sim = band_scene(mesh, resolution, bending)
+    uv0 = np.asarray(sim.cloth.material_coordinates)
+    sim.cloth.positions = bilinear(start, uv0)
     seconds = 2.0 if quick else BAND_SETTLE_SECONDS
     before = sim.settle(max_seconds=seconds)
-    settled, normals = (
-        np.array(sim.cloth.positions),
-        metrics.vertex_normals(sim.cloth.positions, sim.cloth.faces),
-    )
     u0, u1 = BAND["u"]
-    report = sim.stroke(
-        yore.StrokePath.material([[u0, BAND["v"]], [u1, BAND["v"]]]),
-        width=BAND["width"],
-        growth=BAND["growth"],
-        expansion=BAND["expansion"],
+    F0 = np.asarray(sim.cloth.faces)
+    passes = refine_passes(uv0, F0, QUICK_BAND_EDGE if quick else BAND_EDGE)
+    path = yore.StrokePath.material([[u0, BAND["v"]], [u1, BAND["v"]]])
+    # the zone refined first by a stroke that grows nothing (expansion 1), settled again (its
+    # new vertices sat on chords), then the band grown
+    refined = sim.stroke(
+        path, width=BAND_REFINE_WIDTH, growth=BAND["growth"], expansion=1.0, refine=passes
     )
+    if passes:
+        sim.settle(max_seconds=seconds)
+    report = sim.stroke(
+        path, width=BAND["width"], growth=BAND["growth"], expansion=BAND["expansion"]
+    )
+    settled = np.array(sim.cloth.positions)
+    F = np.asarray(sim.cloth.faces)
+    normals = metrics.vertex_normals(settled, F)
+    rng = np.random.default_rng(seed)
+    sim.cloth.positions = settled + NOISE * rng.standard_normal(settled.shape)
     after = sim.settle(max_seconds=seconds)
-    X, F = sim.cloth.positions, sim.cloth.faces
-    uv = sim.cloth.material_coordinates
+    X = np.asarray(sim.cloth.positions)
+    uv = np.asarray(sim.cloth.material_coordinates)
     centre = uv[F].mean(axis=1)
     band = np.flatnonzero(
         (np.abs(centre[:, 1] - BAND["v"]) < 0.5 * BAND["width"])
@@ -690,80 +853,98 @@ def band_run(mesh, resolution, quick, bending=BAND_BENDING):
         & (centre[:, 0] < u1)
     )
     corners = np.unique(F[band])
-    iterations = metrics.smoothing_iterations(X, F, BAND_REACH)
-    height = metrics.wrinkle_height(X, F, iterations)
     moved = np.einsum("ij,ij->i", X - settled, normals)[corners]
-    h = mean_edge(uv, F)
-    line = np.flatnonzero(
-        (np.abs(uv[:, 1] - BAND["v"]) < 0.51 * h) & (uv[:, 0] > u0) & (uv[:, 0] < u1)
-    )
-    line = line[np.argsort(uv[line, 0])]
-    crossings = int(np.count_nonzero(np.diff(np.sign(height[line] - height[line].mean()))))
+    height = metrics.wrinkle_height(X, F, metrics.smoothing_iterations(X, F, BAND_REACH))
     return {
         "mesh": mesh,
         "resolution": resolution,
         "bending_modulus": bending,
+        "seed": seed,
+        "protocol": BAND_PROTOCOL,
         "vertices": int(sim.cloth.vertex_count),
         "membrane_strain": sim.cloth.membrane_strain,
         "pattern_interior": INTERIORS.get(mesh),
         "band_weights": BAND_WEIGHTS,
-        "faces_split": len(report.new_vertices),
+        "refine": passes,
+        "faces_refined": int(refined.faces_refined),
+        "refine_width": BAND_REFINE_WIDTH,
         "band_faces": int(len(band)),
-        "smoothing_iterations": iterations,
-        "mean_edge": h,
-        "fold_depth": float(np.ptp(moved)),
-        "fold_rms": float(np.std(moved)),
-        "wrinkle_measure": float(np.sqrt(np.mean(height[corners] ** 2))),
-        "wrinkle_height_range": float(np.ptp(height[corners])),
-        "wrinkle_wavelength_edges": (
-            float(2 * (uv[line[-1], 0] - uv[line[0], 0]) / (max(crossings, 1) * h))
-            if len(line) > 1
-            else None
-        ),
+        "mean_edge": mean_edge(uv0, F0),
+        "band_edge": mean_edge(uv, F[band]),
+        **band_measures(uv, F, settled, normals, X),
+        "corner_fold_depth": float(np.ptp(moved)),
+        "corner_fold_rms": float(np.std(moved)),
+        "taubin_wrinkle_measure": float(np.sqrt(np.mean(height[corners] ** 2))),
         "rest_area_added": float(report.rest_area_after - report.rest_area_before),
         "area_gain": float(report.rest_area_after / report.rest_area_before),
         "settled_before": bool(before["converged"]),
         "settled_after": bool(after["converged"]),
-        "cpu_seconds": time.process_time() - start,
+        "cpu_seconds": time.process_time() - started,
     }
 
 
 def band_runs(quick):
-    """(bending, mesh, resolution) of the band strokes."""
+    """(bending, mesh, resolution, seed) of the band strokes."""
     resolutions = QUICK_BAND_RESOLUTIONS if quick else BAND_RESOLUTIONS
     return [
-        (bending, mesh, n)
+        (bending, mesh, n, seed)
         for bending in BAND_BENDINGS
         for mesh in ("grid", "pattern")
         for n in resolutions
+        for seed in (QUICK_BAND_SEEDS if quick else BAND_SEEDS)
     ]
 
 
-def band_name(mesh, resolution, bending):
+def band_name(mesh, resolution, bending, seed):
     suffix = "" if bending == BAND_BENDING else f"-B{bending:g}"
-    return f"band-{mesh}-{resolution}{suffix}"
+    return f"band-{mesh}-{resolution}{suffix}-seed{seed}"
+
+
+BAND_MEASURES = ("fold_depth", "fold_rms", "wrinkle_measure", "rest_area_added")
+
+
+def band_means(bands):
+    """Per (bending, mesh, resolution): the seeds' mean and standard error of each of
+    BAND_MEASURES (and the wavelength's mean)."""
+    groups = {}
+    for b in bands:
+        groups.setdefault((b["bending_modulus"], b["mesh"], b["resolution"]), []).append(b)
+    out = []
+    for (bending, mesh, n), mine in sorted(groups.items()):
+        entry = {"bending_modulus": bending, "mesh": mesh, "resolution": n, "seeds": len(mine)}
+        for key in (*BAND_MEASURES, "wrinkle_wavelength", "vertices", "cpu_seconds"):
+            values = np.array([b[key] for b in mine], dtype=float)
+            entry[key] = float(values.mean())
+            entry[key + "_error"] = (
+                float(values.std(ddof=1) / math.sqrt(len(values))) if len(values) > 1 else None
+            )
+        out.append(entry)
+    return out
 
 
 def band_summary(bands):
-    """Per bending modulus and mesh kind, the change of each measure between its two finest
-    resolutions (issue 52's target: < 5 % between 81 and 161)."""
+    """Per bending modulus and mesh kind, the change of each measure's seed mean between its
+    two finest resolutions, and that change's standard error (issue 52's target: < 5 %
+    between 81 and 161)."""
     out = {}
+    means = band_means(bands)
     for bending in BAND_BENDINGS:
         for mesh in ("grid", "pattern"):
             mine = sorted(
-                (
-                    b
-                    for b in bands
-                    if b["mesh"] == mesh and b.get("bending_modulus", BAND_BENDING) == bending
-                ),
-                key=lambda b: b["resolution"],
+                (m for m in means if m["mesh"] == mesh and m["bending_modulus"] == bending),
+                key=lambda m: m["resolution"],
             )
             if len(mine) < 2:
                 continue
             a, b = mine[-2], mine[-1]
-            entry = {"resolutions": [a["resolution"], b["resolution"]]}
-            for key in ("fold_depth", "fold_rms", "wrinkle_measure", "rest_area_added"):
-                entry[f"{key}_change"] = abs(b[key] - a[key]) / max(abs(b[key]), 1e-300)
+            entry = {"resolutions": [a["resolution"], b["resolution"]], "seeds": b["seeds"]}
+            for key in BAND_MEASURES:
+                scale = max(abs(b[key]), 1e-300)
+                entry[f"{key}_change"] = abs(b[key] - a[key]) / scale
+                errors = [e for e in (a[key + "_error"], b[key + "_error"]) if e is not None]
+                entry[f"{key}_change_error"] = (
+                    math.sqrt(sum(e * e for e in errors)) / scale if errors else None
+                )
             out[f"{mesh}, B = {bending:g}"] = entry
     return out
 
@@ -939,13 +1120,13 @@ def run_name(model, parameters):
     return model + "-" + "-".join(f"{k}={shown(parameters[k])}" for k in sorted(parameters))
 
 
-def draw(rows, strokes, path):
+def draw(rows, strokes, path, means=()):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.4))
+    fig, axes = plt.subplots(1, 4, figsize=(21, 4.4))
     colours = {"membrane": "tab:blue", "springs": "tab:red"}
     ax = axes[0]
     for r in rows:
@@ -995,6 +1176,32 @@ def draw(rows, strokes, path):
     ax.set_ylabel("mm")
     ax.set_title("the hanging-cloth stroke against the mesh")
     ax.legend(fontsize=7)
+    ax = axes[3]
+    styles = {"grid": ("tab:green", "o"), "pattern": ("tab:purple", "s")}
+    for m_kind, (colour, marker) in styles.items():
+        for key, line in (("fold_rms", "-"), ("wrinkle_measure", "--")):
+            mine = sorted(
+                (m for m in means if m["mesh"] == m_kind and m["bending_modulus"] == BAND_BENDING),
+                key=lambda m: m["resolution"],
+            )
+            if mine:
+                ax.errorbar(
+                    [m["resolution"] for m in mine],
+                    [1e3 * m[key] for m in mine],
+                    yerr=[1e3 * (m[key + "_error"] or 0.0) for m in mine],
+                    fmt=marker + line,
+                    color=colour,
+                    capsize=3,
+                    label=f"{m_kind}: {key.replace('_', ' ')}",
+                )
+    ax.set_xscale("log")
+    sides = sorted({m["resolution"] for m in means})
+    ax.set_xticks(sides, [str(n) for n in sides])
+    ax.minorticks_off()
+    ax.set_xlabel("vertices per side (band refined to the same edge)")
+    ax.set_ylabel("mm (seeds' mean ± standard error)")
+    ax.set_title(f"the band stroke against the mesh, B = {BAND_BENDING:g} N·m")
+    ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -1011,9 +1218,32 @@ def main(argv=None):
             help="run nothing: write the results of the runs journaled so far "
             "(today's models only)",
         )
+        parser.add_argument(
+            "--band-bendings",
+            nargs="+",
+            type=float,
+            default=list(BAND_BENDINGS),
+            help="the band strokes' bending moduli to run (the others are collected)",
+        )
+        parser.add_argument(
+            "--band-meshes",
+            nargs="+",
+            choices=("grid", "pattern"),
+            default=["grid", "pattern"],
+            help="the band strokes' mesh kinds to run (the others are collected)",
+        )
+        parser.add_argument(
+            "--parts",
+            nargs="+",
+            choices=PARTS,
+            default=list(PARTS),
+            help="the parts to run (the others' journaled runs are collected): the stretched "
+            "sheets, the paper's strokes, the band strokes",
+        )
 
     args = common.arguments(__doc__, argv, extra=extra)
     yore.set_num_threads(1)
+    parts = set(args.parts)
     rows = []
     for label, model, parameters in sheet_runs(args.quick):
         # a run journaled when flat meant under 10× the noise is redone if it was not flat
@@ -1031,7 +1261,7 @@ def main(argv=None):
                     r, model, parameters["mesh"], parameters.get("membrane_strain", "faces")
                 )
             ),
-            args.collect,
+            args.collect or "sheets" not in parts,
         )
         if row is None:
             continue
@@ -1062,7 +1292,7 @@ def main(argv=None):
                 f"stroke-{model}-{resolution}",
                 args.resume,
                 lambda: stroke_run(model, resolution, args.quick),
-                collect=args.collect,
+                collect=args.collect or "strokes" not in parts,
             )
             if s is None:
                 continue
@@ -1072,26 +1302,42 @@ def main(argv=None):
                 f"depth {s['fold_depth']:.3e}",
                 flush=True,
             )
-    bands = []
-    for bending, mesh, resolution in band_runs(args.quick):
-        # a band journaled before the smoothed strain, the lattice or the Simpson weights
-        # is redone (its membrane, mesh or growth is not today's)
+    bands, starts = [], {}
+
+    def start_of(bending):
+        if bending not in starts:
+            starts[bending] = band_start(args.out, bending, args.quick, resume=args.resume)
+        return starts[bending]
+
+    collect_bands = args.collect or "bands" not in parts
+    for bending, mesh, resolution, seed in band_runs(args.quick):
+        # a part of the bands (two processes may share them: --band-bendings, --band-meshes)
+        # collects the others from the journal
+        mine = bending in args.band_bendings and mesh in args.band_meshes
+        # a band journaled by another protocol (before the common start, the refined band and
+        # the seeds), or before the smoothed strain, the lattice or the Simpson weights, is
+        # redone (its start, membrane, mesh or growth is not today's)
         b = journaled(
             args.out,
-            band_name(mesh, resolution, bending),
+            band_name(mesh, resolution, bending, seed),
             args.resume,
-            lambda: band_run(mesh, resolution, args.quick, bending),
-            lambda b: current(b, "membrane", mesh) and b.get("band_weights") == BAND_WEIGHTS,
-            args.collect,
+            lambda: band_run(mesh, resolution, args.quick, bending, seed, start_of(bending)),
+            lambda b: (
+                current(b, "membrane", mesh)
+                and b.get("band_weights") == BAND_WEIGHTS
+                and b.get("protocol") == BAND_PROTOCOL
+            ),
+            collect_bands or not mine,
         )
         if b is None:
             continue
         bands.append(b)
         print(
-            f"  band stroke {mesh} {resolution} B={bending:g}: fold depth "
-            f"{b['fold_depth']:.3e}, measure {b['wrinkle_measure']:.3e}, wrinkles of "
-            f"{b['wrinkle_wavelength_edges']} edges, rest area + {b['rest_area_added']:.3e} "
-            f"m², {b['cpu_seconds']:.0f} s",
+            f"  band stroke {mesh} {resolution} B={bending:g} seed {seed}: fold depth "
+            f"{b['fold_depth']:.3e}, RMS {b['fold_rms']:.3e}, measure "
+            f"{b['wrinkle_measure']:.3e}, wrinkles of {b['wrinkle_wavelength']:.3f} m, "
+            f"{b['refine']} passes to {b['band_edge']:.4f} m, rest area + "
+            f"{b['rest_area_added']:.3e} m², {b['cpu_seconds']:.0f} s",
             flush=True,
         )
     payload = {
@@ -1109,15 +1355,24 @@ def main(argv=None):
         "rows": rows,
         "strokes": strokes,
         "band_strokes": bands,
+        "band_means": band_means(bands),
         "band_settings": {
             **BAND,
             "bending_moduli": list(BAND_BENDINGS),
             "reach": BAND_REACH,
             "weights": BAND_WEIGHTS,
+            "protocol": BAND_PROTOCOL,
+            "start": QUICK_BAND_START if args.quick else BAND_START,
+            "sample": BAND_SAMPLE,
+            "edge": QUICK_BAND_EDGE if args.quick else BAND_EDGE,
+            "seeds": list(QUICK_BAND_SEEDS if args.quick else BAND_SEEDS),
+            "noise": NOISE,
         },
         "summary": {**summarize(rows, strokes, args.quick), "band_strokes": band_summary(bands)},
     }
-    common.save(args.out, "wrinkles", payload, lambda path: draw(rows, strokes, path))
+    common.save(
+        args.out, "wrinkles", payload, lambda path: draw(rows, strokes, path, payload["band_means"])
+    )
     print(json.dumps(payload["summary"], indent=1))
 
 

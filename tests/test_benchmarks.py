@@ -14,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yore
 
@@ -1389,20 +1390,49 @@ def test_wrinkles_smoke(tmp_path):
     }
     assert all(s["faces_split"] > 0 and s["fold_depth"] > 0 for s in data["strokes"])
     # the stroke in physical units (issue 52): both bending moduli and mesh kinds at both
-    # resolutions, a band of the same material width on each, grown (its rest area rises),
-    # measured over the band: the fold (the stroke's displacement) and the wrinkles
+    # resolutions and two seeds, each from the common start (kept in the journal), the band
+    # refined towards the same edge on every mesh, grown (its rest area rises), measured over
+    # the band on the same material points: the fold (the stroke's displacement) and wrinkles
     bands = data["band_strokes"]
-    assert {(b["bending_modulus"], b["mesh"], b["resolution"]) for b in bands} == {
-        (B, m, n) for B in (1e-4, 1e-2) for m in ("grid", "pattern") for n in (9, 13)
+    assert {(b["bending_modulus"], b["mesh"], b["resolution"], b["seed"]) for b in bands} == {
+        (B, m, n, s)
+        for B in (1e-4, 1e-2)
+        for m in ("grid", "pattern")
+        for n in (9, 13)
+        for s in (0, 1)
     }
+    from benchmarks import wrinkles
+
+    assert (tmp_path / "wrinkles-runs" / "band-start-quick.npz").exists()
     assert all(
-        b["band_faces"] > 0
+        b["protocol"] == wrinkles.BAND_PROTOCOL
+        and b["band_faces"] > 0
         and b["area_gain"] > 1.0
         and b["fold_depth"] > 0
+        and b["fold_depth"] >= b["fold_rms"] > 0
+        and b["wrinkle_measure"] > 0
         and b["rest_area_added"] > 0
         and b["band_weights"] == "simpson"
+        # 1→4 passes halve the edge: the band's ends within one halving of the target
+        and b["refine"] >= 1
+        and b["band_edge"] < b["mean_edge"] / 2 ** (b["refine"] - 1)
+        and b["band_edge"] < 2 * wrinkles.QUICK_BAND_EDGE
         for b in bands
     )
+    # the seeds' means and standard errors per mesh, and their change with the mesh
+    means = data["band_means"]
+    assert len(means) == 8 and all(m["seeds"] == 2 for m in means)
+    for m in means:
+        mine = [
+            b["fold_rms"]
+            for b in bands
+            if (b["bending_modulus"], b["mesh"], b["resolution"])
+            == (m["bending_modulus"], m["mesh"], m["resolution"])
+        ]
+        assert m["fold_rms"] == pytest.approx(statistics.mean(mine), rel=1e-12)
+        assert m["fold_rms_error"] == pytest.approx(
+            statistics.stdev(mine) / math.sqrt(2), abs=1e-15
+        )
     assert set(data["summary"]["band_strokes"]) == {
         f"{m}, B = {B:g}" for B in (1e-4, 1e-2) for m in ("grid", "pattern")
     }
@@ -1419,6 +1449,66 @@ def test_wrinkles_smoke(tmp_path):
     collected = run_benchmark("wrinkles", tmp_path, "--quick", "--collect")
     assert len(collected["rows"]) == len(rows) - 2
     assert not journal[0].exists()
+
+
+def test_band_measures_read_a_known_wrinkle_and_are_the_same_on_any_mesh():
+    # a sheet in the plane z = 0 given the wrinkle z = A sin(2π (u − 0.225) / λ): over the band
+    # (6 whole wavelengths along u) the fold's range is 2A and its RMS A/√2, the Gaussian
+    # smoothing (σ = 5 cm) keeps exp(−2π²σ²/λ²) < 1 % of it, so the wrinkle measure is A/√2
+    # too, and the centre line changes sign 12 times: λ. The measures are taken on the same
+    # material points, so a grid and a pattern mesh, one of them refined, read the same.
+    from benchmarks import wrinkles
+
+    A, wavelength = 0.005, 0.1
+
+    def measures(V, F):
+        uv = V[:, :2]
+        settled = np.column_stack([uv, np.zeros(len(uv))])
+        normals = np.tile([0.0, 0.0, 1.0], (len(uv), 1))
+        X = settled.copy()
+        X[:, 2] = A * np.sin(2 * np.pi * (uv[:, 0] - 0.225) / wavelength)
+        return wrinkles.band_measures(uv, F, settled, normals, X)
+
+    grid = measures(*yore.grid_mesh(201, 201))  # its vertices hit the crests
+    assert grid["fold_depth"] == pytest.approx(2 * A, rel=0.01)
+    assert grid["fold_rms"] == pytest.approx(A / np.sqrt(2), rel=0.01)
+    assert grid["wrinkle_measure"] == pytest.approx(A / np.sqrt(2), rel=0.02)
+    assert grid["wrinkle_wavelength"] == pytest.approx(wavelength, rel=0.05)
+    # a pattern mesh of 6 mm edges, and the same refined 1→4 over a zone about the band: a
+    # linear interpolant misses a crest by at most (kh)²/8 ≈ 1.8 % of A
+    V, F = yore.pattern_mesh([[0, 0], [1, 0], [1, 1], [0, 1]], edge_length=0.006)
+    zone = np.flatnonzero(np.abs(V[F][:, :, 1].mean(axis=1) - 0.8) < 0.1)
+    refined = yore.subdivision.refine_faces_1to4(V, F, zone)
+    for other in (measures(V, F), measures(refined.vertices, refined.faces)):
+        assert other["fold_depth"] == pytest.approx(grid["fold_depth"], rel=0.02)
+        for key in ("fold_rms", "wrinkle_measure"):
+            assert other[key] == pytest.approx(grid[key], rel=0.01), key
+
+
+def test_band_start_is_carried_by_material_coordinates():
+    # `bilinear` is exact for a bilinear field, and `resample` for a linear one on any mesh
+    from benchmarks import wrinkles
+
+    points = wrinkles.sample_grid(0.05)
+    u, v = points[..., 0], points[..., 1]
+    field = np.stack([1 + u, 2 * v, u * v], axis=-1)
+    rng = np.random.default_rng(3)
+    uv = rng.uniform(0, 1, (200, 2))
+    assert np.allclose(
+        wrinkles.bilinear(field, uv),
+        np.column_stack([1 + uv[:, 0], 2 * uv[:, 1], uv[:, 0] * uv[:, 1]]),
+        atol=1e-12,
+    )
+    V, F = yore.pattern_mesh([[0, 0], [1, 0], [1, 1], [0, 1]], edge_length=0.1)
+    linear = np.column_stack([3 * V[:, 0] - V[:, 1], V[:, 0] + 0.5])
+    (sampled,) = wrinkles.resample(V[:, :2], F, points, linear)
+    assert np.allclose(sampled[..., 0], 3 * u - v, atol=1e-9)
+    assert np.allclose(sampled[..., 1], u + 0.5, atol=1e-9)
+    # passes that halve the mean edge to at most the target
+    Vg, Fg = yore.grid_mesh(41, 41)
+    h = wrinkles.mean_edge(Vg[:, :2], Fg)
+    assert wrinkles.refine_passes(Vg[:, :2], Fg, h / 3) == 2
+    assert wrinkles.refine_passes(Vg[:, :2], Fg, h) == 0
 
 
 def test_a_row_of_fewer_than_three_wrinkles_is_not_judged():
