@@ -868,9 +868,13 @@ def band_lines(payload: dict) -> list:
         "",
         "| B (N·m) | mesh | vertices a side | passes | band edge (mm) | vertices | "
         "fold depth (mm) | fold RMS (mm) | wrinkle measure (mm) | wavelength (mm) | "
-        "rest area added (cm²) | CPU s a seed |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "rest area added (cm²) | CPU s a seed | states: fold RMS (mm) × seeds |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    outcomes = {
+        (o["bending_modulus"], o["mesh"], o["resolution"]): o["states"]
+        for o in payload.get("band_outcomes") or []
+    }
     for m in means:
         mine = [
             b
@@ -883,7 +887,12 @@ def band_lines(payload: dict) -> list:
             f"{mine[0]['refine']} | {1e3 * mine[0]['band_edge']:.2f} | {m['vertices']:.0f} | "
             f"{shown(m, 'fold_depth')} | {shown(m, 'fold_rms')} | "
             f"{shown(m, 'wrinkle_measure')} | {1e3 * m['wrinkle_wavelength']:.0f} | "
-            f"{1e4 * m['rest_area_added']:.1f} | {m['cpu_seconds']:.0f} |"
+            f"{1e4 * m['rest_area_added']:.1f} | {m['cpu_seconds']:.0f} | "
+            + ", ".join(
+                f"{1e3 * c['fold_rms']:.2f} × {len(c['seeds'])}"
+                for c in outcomes.get((m["bending_modulus"], m["mesh"], m["resolution"]), [])
+            )
+            + " |"
         )
     for key, change in payload["summary"].get("band_strokes", {}).items():
         out.append("")
@@ -896,10 +905,21 @@ def band_lines(payload: dict) -> list:
                 f"{name.replace('_', ' ')} {100 * change[name + '_change']:.1f} %"
                 + ("" if error is None else f" (± {100 * error:.1f})")
             )
-        out.append(
+        line = (
             f"{key}, {change['resolutions'][0]} → {change['resolutions'][1]} a side, seed "
-            "means: " + ", ".join(parts) + " (target: < 5 %)."
+            "means: " + ", ".join(parts) + " (target: < 5 %)"
         )
+        if "states" in change:
+            line += (
+                f"; states found {change['states'][0]} and {change['states'][1]}, the finer "
+                f"mesh's commonest ({change['commonest_state_seeds'][1]} seeds) against the "
+                "coarser's nearest: "
+                + ", ".join(
+                    f"{name.replace('_', ' ')} {100 * change[name + '_state_change']:.1f} %"
+                    for name in ("fold_depth", "fold_rms", "wrinkle_measure")
+                )
+            )
+        out.append(line + ".")
     return out
 
 

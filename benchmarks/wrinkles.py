@@ -3,6 +3,7 @@
 stroke at three resolutions.
 
     python -m benchmarks.wrinkles [--out bench-results] [--quick] [--resume | --collect]
+        [--parts sheets strokes bands] [--band-bendings B ...] [--band-meshes grid pattern]
 
 One thread. `yore.scenes.stretched_sheet`: a length × width sheet on a pattern mesh (the
 default `pattern_mesh`: an equilateral lattice with rows along the length inside, CGAL along the
@@ -39,9 +40,14 @@ v = 0.8 from u = 0.2 to 0.8 (the paper's stroke across the folds near the top), 
 more: the wrinkle measure of the stroke's region and its fold depth (range of the wrinkle
 height over the region). Since issue 52 also the stroke in physical units: `hanging_cloth` on a
 grid and on a CGAL pattern mesh at 41, 81 and 161 vertices a side (membrane, fitted bending
-1e-4 N·m), settled, stroked with a band 6 cm wide along v = 0.8 (isotropic growth 1.1),
-settled again; fold depth and wrinkle measure over the same material band on every mesh, with
-the smoothing's reach in metres (15 cm).
+1e-4 and 1e-2 N·m), every mesh started from one shape (the 161² grid's settled cloth, carried
+by material coordinates) and settled; the zone about the band refined to 4 mm edges; stroked
+with a band 6 cm wide along v = 0.8 (isotropic growth 1.1), displaced by 1e-5 m of seeded
+noise (eight seeds) and settled again; fold depth, fold RMS, wrinkle measure (Gaussian
+smoothing, σ = 5 cm) and wavelength over the same material band, sampled at the same material
+points every 2 mm on every mesh; the seeds' means and standard errors (BAND_PROTOCOL says why).
+With `--parts` a run does only some of sheets, strokes and bands and collects the others from
+the journal; `--band-bendings` and `--band-meshes` split the bands between two processes.
 
 Every finished run is journaled (one JSON per run under <out>/wrinkles-runs/, written
 atomically): --resume skips them. Writes wrinkles.json and wrinkles.png.
@@ -108,8 +114,9 @@ QUICK_STROKE_RESOLUTIONS = [9, 13]
 #: same region on every mesh) with a smoothing reach of 15 cm.
 BAND = {"v": 0.8, "u": (0.2, 0.8), "width": 0.06, "growth": "isotropic", "expansion": 1.1}
 BAND_BENDING = 1e-4  # N·m: a bending length (B / ρg)^⅓ ≈ 5 cm at 0.1 kg/m²
-#: The band strokes' bending moduli (N·m): BAND_BENDING, whose band wrinkles finer than these
-#: meshes resolve, and a stiff cloth's (bending length ≈ 21 cm), whose band bulges
+#: The band strokes' bending moduli (N·m): BAND_BENDING, whose band buckles into wrinkles of
+#: 75–100 mm in one of a few states, and a stiff cloth's (bending length ≈ 21 cm), whose band
+#: bulges as a whole
 BAND_BENDINGS = (BAND_BENDING, 1e-2)
 #: How a journaled band row's growth was weighted: a spring's weight the falloff's Simpson mean
 #: along it (issue 52); rows without it took the smaller weight of its ends and are redone
@@ -922,6 +929,41 @@ def band_means(bands):
     return out
 
 
+#: Two seeds' outcomes are the same state when their fold RMS are this close (relative): the
+#: outcomes measured so far are ≥ 8 % apart, the seeds of one outcome ≤ 0.5 %.
+BAND_OUTCOME_GAP = 0.02
+
+
+def band_outcomes(bands):
+    """Per (bending, mesh, resolution), the distinct states its seeds settled into (seeds whose
+    fold RMS lie within BAND_OUTCOME_GAP of the next, in order), each with its seeds and
+    their mean measures, commonest first."""
+    groups = {}
+    for b in bands:
+        groups.setdefault((b["bending_modulus"], b["mesh"], b["resolution"]), []).append(b)
+    out = []
+    for (bending, mesh, n), mine in sorted(groups.items()):
+        mine = sorted(mine, key=lambda b: b["fold_rms"])
+        clusters = [[mine[0]]]
+        for b in mine[1:]:
+            if b["fold_rms"] - clusters[-1][-1]["fold_rms"] > BAND_OUTCOME_GAP * b["fold_rms"]:
+                clusters.append([])
+            clusters[-1].append(b)
+        states = [
+            {
+                "seeds": sorted(b["seed"] for b in c),
+                **{
+                    key: float(np.mean([b[key] for b in c]))
+                    for key in (*BAND_MEASURES, "wrinkle_wavelength")
+                },
+            }
+            for c in clusters
+        ]
+        states.sort(key=lambda c: -len(c["seeds"]))
+        out.append({"bending_modulus": bending, "mesh": mesh, "resolution": n, "states": states})
+    return out
+
+
 def band_summary(bands):
     """Per bending modulus and mesh kind, the change of each measure's seed mean between its
     two finest resolutions, and that change's standard error (issue 52's target: < 5 %
@@ -944,6 +986,28 @@ def band_summary(bands):
                 errors = [e for e in (a[key + "_error"], b[key + "_error"]) if e is not None]
                 entry[f"{key}_change_error"] = (
                     math.sqrt(sum(e * e for e in errors)) / scale if errors else None
+                )
+            # the finer mesh's commonest state against the coarser's state nearest to it (in
+            # fold RMS): the same buckled state, when both meshes found it
+            finer = next(
+                o["states"]
+                for o in band_outcomes(bands)
+                if (o["bending_modulus"], o["mesh"], o["resolution"])
+                == (bending, mesh, b["resolution"])
+            )
+            coarser = next(
+                o["states"]
+                for o in band_outcomes(bands)
+                if (o["bending_modulus"], o["mesh"], o["resolution"])
+                == (bending, mesh, a["resolution"])
+            )
+            state = finer[0]
+            match = min(coarser, key=lambda c: abs(c["fold_rms"] - state["fold_rms"]))
+            entry["states"] = [len(coarser), len(finer)]
+            entry["commonest_state_seeds"] = [len(match["seeds"]), len(state["seeds"])]
+            for key in BAND_MEASURES:
+                entry[f"{key}_state_change"] = abs(state[key] - match[key]) / max(
+                    abs(state[key]), 1e-300
                 )
             out[f"{mesh}, B = {bending:g}"] = entry
     return out
@@ -1201,7 +1265,8 @@ def draw(rows, strokes, path, means=()):
     ax.set_xlabel("vertices per side (band refined to the same edge)")
     ax.set_ylabel("mm (seeds' mean ± standard error)")
     ax.set_title(f"the band stroke against the mesh, B = {BAND_BENDING:g} N·m")
-    ax.legend(fontsize=7)
+    if means:
+        ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -1356,6 +1421,7 @@ def main(argv=None):
         "strokes": strokes,
         "band_strokes": bands,
         "band_means": band_means(bands),
+        "band_outcomes": band_outcomes(bands),
         "band_settings": {
             **BAND,
             "bending_moduli": list(BAND_BENDINGS),

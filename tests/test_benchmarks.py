@@ -1433,6 +1433,16 @@ def test_wrinkles_smoke(tmp_path):
         assert m["fold_rms_error"] == pytest.approx(
             statistics.stdev(mine) / math.sqrt(2), abs=1e-15
         )
+    # the distinct states the seeds settled into: a partition of the seeds, commonest first,
+    # two states' fold RMS more than the gap apart
+    for o in data["band_outcomes"]:
+        states = o["states"]
+        assert sorted(s for c in states for s in c["seeds"]) == [0, 1]
+        assert [len(c["seeds"]) for c in states] == sorted(
+            (len(c["seeds"]) for c in states), reverse=True
+        )
+        rms = sorted(c["fold_rms"] for c in states)
+        assert all(b - a > wrinkles.BAND_OUTCOME_GAP * b for a, b in zip(rms, rms[1:]))
     assert set(data["summary"]["band_strokes"]) == {
         f"{m}, B = {B:g}" for B in (1e-4, 1e-2) for m in ("grid", "pattern")
     }
