@@ -796,6 +796,8 @@ def band_measures(uv, F, settled, normals, X):
     line (from its sign changes), m."""
     points = sample_grid()
     Xs, Ss, Ns = resample(uv, F, points, X, settled, normals)
+    if np.isnan(Xs).any():  # the FFT smoothing would spread it everywhere
+        raise ValueError("some material sample points lie outside the mesh's pattern")
     Ns /= np.linalg.norm(Ns, axis=-1, keepdims=True)
     moved = np.einsum("ijk,ijk->ij", Xs - Ss, Ns)
     smooth = gaussian_smooth(Xs, BAND_REACH / 3.0 / BAND_SAMPLE)
@@ -818,8 +820,9 @@ def band_measures(uv, F, settled, normals, X):
 
 def band_run(mesh, resolution, quick, bending, seed, start):
     """One band stroke (BAND_PROTOCOL): `band_scene` on `mesh` at `resolution`, its positions
-    set from the common `start` (`band_start`) and settled; stroked along BAND in material
-    coordinates with the band refined to edges of at most BAND_EDGE; displaced by NOISE
+    set from the common `start` (`band_start`) and settled; the zone BAND_REFINE_WIDTH wide
+    about the band refined to edges of at most BAND_EDGE (a stroke that grows nothing) and
+    settled; stroked along BAND in material coordinates; displaced by NOISE
     (seeded by `seed`) and settled again. `band_measures` over the material band, and (for
     comparison with earlier rows) the fold depth and RMS over the band faces' corners and the
     mesh's own wrinkle measure (Taubin smoothing, `metrics.smoothing_iterations`: its reach
